@@ -1,0 +1,86 @@
+//! Module families: one folder each, with register map, driver and simulator, and the catalog
+//! that names them for project files and `softplc sim`.
+
+pub mod minimod;
+
+use std::time::Duration;
+
+use crate::driver::Driver;
+use crate::point::PointSpec;
+use crate::sim::SimDevice;
+
+/// How a driver talks to its module.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Protocol {
+    /// Modbus RTU.
+    Modbus,
+    /// The module's own text protocol (MiniMod text, RESI ASCII, DCON).
+    Text,
+}
+
+impl Protocol {
+    /// The project-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Protocol::Modbus => "modbus",
+            Protocol::Text => "text",
+        }
+    }
+}
+
+/// What a driver is built from: the validated module entry of a project file.
+#[derive(Debug, Clone)]
+pub struct DeviceConfig {
+    /// The module's name in the project (`mm1`).
+    pub name: String,
+    /// Unit / text address.
+    pub address: u8,
+    /// Protocol chosen for this module.
+    pub protocol: Protocol,
+    /// Model-specific settings from the project file, as `(key, value)` text, checked by
+    /// [`ModelSpec::check_setting`] before the first scan.
+    pub settings: Vec<(String, String)>,
+}
+
+/// A module model in the catalog.
+#[derive(Debug)]
+pub struct ModelSpec {
+    /// The name in project files and `softplc sim` (`minimod`).
+    pub name: &'static str,
+    /// One-line description.
+    pub summary: &'static str,
+    /// Every point, by the manual's names.
+    pub points: &'static [PointSpec],
+    /// Protocols the model speaks; the first is the default.
+    pub protocols: &'static [Protocol],
+    /// Valid unit addresses.
+    pub addresses: std::ops::RangeInclusive<u8>,
+    /// Highest baud rate the module accepts.
+    pub max_baud: u32,
+    /// The module's power-on reply delay.
+    pub default_reply_delay: Duration,
+    /// Builds a driver.
+    pub driver: fn(&DeviceConfig) -> Box<dyn Driver>,
+    /// Builds a simulator at a unit address.
+    pub simulator: fn(u8) -> Box<dyn SimDevice>,
+    /// Checks one model-specific setting; the error says what is accepted.
+    pub check_setting: fn(&str, &str) -> Result<(), String>,
+}
+
+impl ModelSpec {
+    /// Index of a point by name (case-sensitive, the manual's spelling).
+    pub fn point_index(&self, name: &str) -> Option<usize> {
+        self.points.iter().position(|p| p.name == name)
+    }
+}
+
+/// Every model softplc knows.
+pub fn catalog() -> &'static [&'static ModelSpec] {
+    static CATALOG: [&ModelSpec; 1] = [&minimod::MODEL];
+    &CATALOG
+}
+
+/// A model by its project-file name.
+pub fn model(name: &str) -> Option<&'static ModelSpec> {
+    catalog().iter().copied().find(|m| m.name == name)
+}

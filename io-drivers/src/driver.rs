@@ -1,0 +1,108 @@
+//! The sans-IO device driver: plans transactions, decodes replies into points.
+//!
+//! A driver never touches a port. The bus owner of its line ([`crate::line::bus`]) executes
+//! the transactions the driver plans and hands each reply back. One driver instance serves one
+//! module; its point table is the model's ([`crate::devices::ModelSpec::points`]).
+
+use std::fmt::Debug;
+use std::time::Duration;
+
+use crate::modbus::{ExceptionCode, Request, Response, UnitId};
+use crate::point::Value;
+
+/// One exchange on the line, as a driver plans it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Transaction {
+    /// What goes on the wire.
+    pub frame: Outgoing,
+    /// The driver's own label, handed back with the reply.
+    pub tag: u32,
+}
+
+/// The request of a transaction.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outgoing {
+    /// A Modbus RTU request to one unit.
+    Modbus {
+        /// The addressed unit.
+        unit: UnitId,
+        /// The request PDU.
+        request: Request,
+    },
+    /// A line of a module's text protocol, sent as given; the reply ends with `terminator`.
+    Text {
+        /// The bytes to send, terminator included.
+        line: Vec<u8>,
+        /// The byte that ends the reply (CR for MiniMod and RESI ASCII).
+        terminator: u8,
+    },
+}
+
+/// A reply to a transaction, as the bus owner hands it to the driver.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Reply {
+    /// A verified Modbus response (exceptions included: the device answered).
+    Modbus(Response),
+    /// A text reply, terminator stripped.
+    Text(Vec<u8>),
+}
+
+/// Why a driver could not use a reply.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DecodeError {
+    /// The device refused the request.
+    #[error("device answered with exception {0}")]
+    Exception(ExceptionCode),
+    /// The reply does not fit the request (other function, count, or value out of range).
+    #[error("unexpected reply to transaction {tag}")]
+    Unexpected {
+        /// The transaction's tag.
+        tag: u32,
+    },
+    /// A start-up setting read back differs from what was written.
+    #[error("register {register} reads back {found}, expected {expected}")]
+    Mismatch {
+        /// The manual's register name.
+        register: &'static str,
+        /// What was written.
+        expected: u32,
+        /// What the module holds.
+        found: u32,
+    },
+}
+
+/// A module driver. All methods are cheap and never block.
+pub trait Driver: Send + Debug {
+    /// The unit (or text-protocol) address of the module.
+    fn address(&self) -> u8;
+
+    /// Transactions that configure the module at start-up and verify it by reading back; sent
+    /// once before the first scan. A [`DecodeError`] from their replies stops the start.
+    fn plan_startup(&mut self, out: &mut Vec<Transaction>) {
+        let _ = out;
+    }
+
+    /// Transactions that read this cycle's inputs (and read back outputs), in the fewest
+    /// exchanges the map allows.
+    fn plan_read(&mut self, out: &mut Vec<Transaction>);
+
+    /// Transactions that bring the module's outputs to `desired`, indexed like the model's
+    /// points (`None`: not an output, or not owned by the program). Drivers write on change and,
+    /// when `refresh` is set, everything again.
+    fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>);
+
+    /// Applies a reply to one of this driver's transactions.
+    fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError>;
+
+    /// Tells the driver a transaction got no usable reply (timeout, CRC, ...): a write must be
+    /// planned again next cycle.
+    fn on_failure(&mut self, tag: u32) {
+        let _ = tag;
+    }
+
+    /// Current values, indexed like the model's points; `None` until first read.
+    fn values(&self) -> &[Option<Value>];
+
+    /// The device's reply delay as configured (used for the line's budget).
+    fn reply_delay(&self) -> Duration;
+}

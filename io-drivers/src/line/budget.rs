@@ -1,0 +1,119 @@
+//! A line's time budget: the wire-time floor of its poll plan (DESIGN.md "Timing model").
+//!
+//! Each planned transaction costs request characters + the device's reply delay + reply
+//! characters + t3.5. The floor of a cycle is the sum over its transactions; no master on this
+//! line can be faster.
+
+use std::time::Duration;
+
+use crate::driver::{Driver, Outgoing, Transaction};
+use crate::line::settings::LineSettings;
+use crate::modbus::master::encode_request;
+use crate::modbus::Request;
+use crate::point::Access;
+
+/// One module's share of a line's budget.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModuleBudget {
+    /// The module's name.
+    pub name: String,
+    /// Transactions to read its inputs each cycle.
+    pub read_transactions: usize,
+    /// Wire time of those reads.
+    pub read_time: Duration,
+    /// Transactions for a full output write.
+    pub write_transactions: usize,
+    /// Wire time of a full output write.
+    pub write_time: Duration,
+}
+
+/// A line's budget.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LineBudget {
+    /// Per module.
+    pub modules: Vec<ModuleBudget>,
+    /// Sum of every module's reads: the input phase can be no shorter.
+    pub read_floor: Duration,
+    /// Sum of every module's full writes (a refresh cycle).
+    pub write_floor: Duration,
+}
+
+impl LineBudget {
+    /// Floor of a cycle that reads everything and writes everything.
+    pub fn cycle_floor(&self) -> Duration {
+        self.read_floor + self.write_floor
+    }
+}
+
+/// Length on the wire of a Modbus reply to `req` (ADU with address and CRC), when it succeeds.
+pub fn modbus_reply_len(req: &Request) -> usize {
+    let pdu = match req {
+        Request::ReadCoils { count, .. } | Request::ReadDiscreteInputs { count, .. } => {
+            2 + usize::from(*count).div_ceil(8)
+        }
+        Request::ReadHoldingRegisters { count, .. } | Request::ReadInputRegisters { count, .. } => {
+            2 + 2 * usize::from(*count)
+        }
+        Request::WriteSingleCoil { .. }
+        | Request::WriteSingleRegister { .. }
+        | Request::WriteMultipleCoils { .. }
+        | Request::WriteMultipleRegisters { .. } => 5,
+        Request::MaskWriteRegister { .. } => 7,
+        Request::Collect { .. } => 7,
+    };
+    1 + pdu + 2
+}
+
+/// Wire time of one planned transaction.
+pub fn transaction_time(settings: LineSettings, tx: &Transaction, reply_delay: Duration) -> Duration {
+    match &tx.frame {
+        Outgoing::Modbus { unit, request } => {
+            let mut frame = Vec::new();
+            let request_len = match encode_request(unit.get(), request, &mut frame) {
+                Ok(()) => frame.len(),
+                Err(_) => 0,
+            };
+            settings.transaction(request_len, reply_delay, modbus_reply_len(request))
+        }
+        // A text reply's length depends on the value; count the echo-sized reply as a floor.
+        Outgoing::Text { line, .. } => settings.transaction(line.len(), reply_delay, line.len()),
+    }
+}
+
+/// The budget of a line whose modules are `drivers` (name, driver, the model's point access).
+pub fn line_budget(settings: LineSettings, drivers: &mut [(String, Box<dyn Driver>, Vec<Access>)]) -> LineBudget {
+    let mut modules = Vec::with_capacity(drivers.len());
+    let mut plan = Vec::new();
+    for (name, driver, access) in drivers.iter_mut() {
+        let delay = driver.reply_delay();
+        plan.clear();
+        driver.plan_read(&mut plan);
+        let read_transactions = plan.len();
+        let read_time = plan.iter().map(|tx| transaction_time(settings, tx, delay)).sum();
+        let desired: Vec<_> = access
+            .iter()
+            .map(|a| (*a == Access::Output).then_some(crate::point::Value::Bool(false)))
+            .collect();
+        plan.clear();
+        driver.plan_write(&desired, true, &mut plan);
+        let write_transactions = plan.len();
+        let write_time = plan.iter().map(|tx| transaction_time(settings, tx, delay)).sum();
+        modules.push(ModuleBudget { name: name.clone(), read_transactions, read_time, write_transactions, write_time });
+    }
+    let read_floor = modules.iter().map(|m| m.read_time).sum();
+    let write_floor = modules.iter().map(|m| m.write_time).sum();
+    LineBudget { modules, read_floor, write_floor }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reply_lengths_follow_the_function_code() {
+        assert_eq!(modbus_reply_len(&Request::ReadDiscreteInputs { addr: 0, count: 10 }), 7);
+        assert_eq!(modbus_reply_len(&Request::ReadHoldingRegisters { addr: 0, count: 3 }), 11);
+        assert_eq!(modbus_reply_len(&Request::WriteSingleRegister { addr: 0, value: 1 }), 8);
+        assert_eq!(modbus_reply_len(&Request::MaskWriteRegister { addr: 0, and_mask: 0, or_mask: 0 }), 10);
+    }
+}

@@ -1,0 +1,502 @@
+//! The bus owner: the one thing that touches a line (DESIGN.md principle 3).
+//!
+//! It runs the transactions its drivers plan, one at a time, with the line's discipline:
+//! - a t3.5 silence before every request (measured from the end of the last traffic);
+//! - a response timeout for the first byte, then an inter-character timeout;
+//! - after a timeout or a bad reply, a guard time and an input flush, so a late reply can
+//!   never be read as the answer to the next request;
+//! - verification of every reply (address, function, length, CRC) by the RTU codec;
+//! - retries, and per-module counters (requests, timeouts, CRC errors, exceptions, ...).
+//!
+//! [`BusOwner`] is synchronous; [`BusThread`] runs one on its own OS thread and talks to the
+//! scan over crossbeam channels. On a virtual clock the scan calls the owner directly instead,
+//! so lines replay deterministically (each line's time starts at the cycle's start: lines are
+//! parallel in virtual time too).
+
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, Sender};
+
+use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
+use crate::line::settings::LineSettings;
+use crate::line::transport::{LineError, Transport};
+use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError};
+use crate::modbus::Response;
+use crate::point::{Quality, Value};
+
+/// Settings of a bus owner's discipline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Discipline {
+    /// Wait for the first reply byte.
+    pub response_timeout: Duration,
+    /// Attempts after a failed one.
+    pub retries: u8,
+    /// Full output refresh period.
+    pub output_refresh: Duration,
+    /// Consecutive failed cycles after which a module's points turn bad.
+    pub fail_limit: u32,
+}
+
+impl Default for Discipline {
+    fn default() -> Self {
+        Self {
+            response_timeout: Duration::from_millis(100),
+            retries: 1,
+            output_refresh: Duration::from_secs(1),
+            fail_limit: 3,
+        }
+    }
+}
+
+/// Per-module counters.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Requests sent (retries included).
+    pub requests: u64,
+    /// Requests that got no reply in time.
+    pub timeouts: u64,
+    /// Replies with a bad CRC.
+    pub crc_errors: u64,
+    /// Replies that were not the answer to the request (address, function, length, echo).
+    pub bad_replies: u64,
+    /// Exception replies (the device said no).
+    pub exceptions: u64,
+    /// Replies the driver could not use.
+    pub decode_errors: u64,
+    /// Bytes dropped by a flush or after a complete reply.
+    pub dropped_bytes: u64,
+    /// Round trip of the last good transaction: end of request to end of reply.
+    pub last_round_trip: Duration,
+}
+
+impl Counters {
+    /// All failures.
+    pub fn errors(&self) -> u64 {
+        self.timeouts + self.crc_errors + self.bad_replies + self.exceptions + self.decode_errors
+    }
+}
+
+/// Why one transaction failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TxError {
+    /// No reply before the response timeout.
+    #[error("no reply within {0:?}")]
+    Timeout(Duration),
+    /// A reply arrived but failed verification.
+    #[error("bad reply: {0}")]
+    BadReply(ReplyError),
+    /// The driver refused the reply (includes exceptions).
+    #[error(transparent)]
+    Decode(#[from] DecodeError),
+    /// The request could not be encoded (a driver bug, reported rather than sent).
+    #[error("request cannot be encoded")]
+    Encode,
+    /// The line failed.
+    #[error("line failed: {0}")]
+    Line(String),
+}
+
+/// A module's state as one cycle left it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModuleSnapshot {
+    /// Values by point index (the model's order); `None` until first read.
+    pub values: Vec<Option<Value>>,
+    /// Quality of this cycle's read.
+    pub quality: Quality,
+    /// Counters so far.
+    pub counters: Counters,
+    /// The last failure, if the last cycle had one.
+    pub last_error: Option<TxError>,
+}
+
+/// The result of a read cycle on one line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputFrame {
+    /// One snapshot per module, in the order the owner was given them.
+    pub modules: Vec<ModuleSnapshot>,
+    /// When the cycle started and ended on the line's time.
+    pub started: Duration,
+    /// End of the last transaction.
+    pub finished: Duration,
+}
+
+/// Desired outputs for one line: per module, per point (`None`: not driven).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct OutputFrame {
+    /// Per module, per point.
+    pub modules: Vec<Vec<Option<Value>>>,
+}
+
+/// The result of a write cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WriteReport {
+    /// Transactions sent.
+    pub transactions: u32,
+    /// Transactions that failed.
+    pub failures: u32,
+    /// End of the last transaction on the line's time.
+    pub finished: Duration,
+}
+
+/// A module on the line.
+#[derive(Debug)]
+pub struct Module {
+    /// Its name, for logs.
+    pub name: String,
+    /// Its driver.
+    pub driver: Box<dyn Driver>,
+    counters: Counters,
+    failed_cycles: u32,
+    last_error: Option<TxError>,
+}
+
+impl Module {
+    /// A module with fresh counters.
+    pub fn new(name: impl Into<String>, driver: Box<dyn Driver>) -> Self {
+        Self { name: name.into(), driver, counters: Counters::default(), failed_cycles: 0, last_error: None }
+    }
+}
+
+/// The owner of one line.
+#[derive(Debug)]
+pub struct BusOwner {
+    name: String,
+    transport: Box<dyn Transport>,
+    settings: LineSettings,
+    discipline: Discipline,
+    modules: Vec<Module>,
+    line_free_at: Duration,
+    last_refresh: Option<Duration>,
+    plan: Vec<Transaction>,
+    tx_buf: Vec<u8>,
+    rx_buf: Vec<u8>,
+}
+
+/// A start-up check that failed.
+#[derive(Debug, thiserror::Error)]
+#[error("module {module}: {error}")]
+pub struct StartupError {
+    /// The module.
+    pub module: String,
+    /// What failed.
+    pub error: TxError,
+}
+
+impl BusOwner {
+    /// An owner for `transport` and its modules.
+    pub fn new(name: impl Into<String>, transport: Box<dyn Transport>, discipline: Discipline, modules: Vec<Module>) -> Self {
+        let settings = transport.settings();
+        Self {
+            name: name.into(),
+            transport,
+            settings,
+            discipline,
+            modules,
+            line_free_at: Duration::ZERO,
+            last_refresh: None,
+            plan: Vec::new(),
+            tx_buf: Vec::with_capacity(256),
+            rx_buf: Vec::with_capacity(256),
+        }
+    }
+
+    /// The line's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The modules.
+    pub fn modules(&self) -> &[Module] {
+        &self.modules
+    }
+
+    /// Aligns the line's time with the scan (virtual clocks only).
+    pub fn sync(&mut self, t: Duration) {
+        self.transport.sync(t);
+    }
+
+    /// Sends every module's start-up transactions and checks the replies.
+    pub fn startup(&mut self) -> Result<(), StartupError> {
+        for m in 0..self.modules.len() {
+            let mut plan = std::mem::take(&mut self.plan);
+            plan.clear();
+            self.modules[m].driver.plan_startup(&mut plan);
+            for tx in &plan {
+                if let Err(error) = self.execute(m, tx) {
+                    self.plan = plan;
+                    return Err(StartupError { module: self.modules[m].name.clone(), error });
+                }
+            }
+            self.plan = plan;
+        }
+        Ok(())
+    }
+
+    /// Reads every module's inputs.
+    pub fn read_inputs(&mut self) -> InputFrame {
+        let started = self.transport.now();
+        let mut plan = std::mem::take(&mut self.plan);
+        let mut snapshots = Vec::with_capacity(self.modules.len());
+        for m in 0..self.modules.len() {
+            plan.clear();
+            self.modules[m].driver.plan_read(&mut plan);
+            let mut error = None;
+            for tx in &plan {
+                if let Err(e) = self.execute(m, tx) {
+                    error = Some(e);
+                    break;
+                }
+            }
+            let module = &mut self.modules[m];
+            let quality = match &error {
+                None => {
+                    module.failed_cycles = 0;
+                    Quality::Good
+                }
+                Some(_) => {
+                    module.failed_cycles = module.failed_cycles.saturating_add(1);
+                    if module.failed_cycles >= self.discipline.fail_limit {
+                        Quality::Bad
+                    } else {
+                        Quality::Stale
+                    }
+                }
+            };
+            module.last_error = error;
+            snapshots.push(ModuleSnapshot {
+                values: module.driver.values().to_vec(),
+                quality,
+                counters: module.counters,
+                last_error: module.last_error.clone(),
+            });
+        }
+        self.plan = plan;
+        InputFrame { modules: snapshots, started, finished: self.transport.now() }
+    }
+
+    /// Writes outputs that changed (and all of them when the refresh period has passed).
+    pub fn write_outputs(&mut self, frame: &OutputFrame) -> WriteReport {
+        let now = self.transport.now();
+        let refresh = match self.last_refresh {
+            Some(t) => now.saturating_sub(t) >= self.discipline.output_refresh,
+            None => true,
+        };
+        if refresh {
+            self.last_refresh = Some(now);
+        }
+        let mut report = WriteReport { transactions: 0, failures: 0, finished: now };
+        let mut plan = std::mem::take(&mut self.plan);
+        for (m, desired) in frame.modules.iter().enumerate().take(self.modules.len()) {
+            plan.clear();
+            self.modules[m].driver.plan_write(desired, refresh, &mut plan);
+            for tx in &plan {
+                report.transactions += 1;
+                if self.execute(m, tx).is_err() {
+                    report.failures += 1;
+                    self.modules[m].driver.on_failure(tx.tag);
+                }
+            }
+        }
+        self.plan = plan;
+        report.finished = self.transport.now();
+        report
+    }
+
+    /// Runs one transaction with retries; the reply goes to the module's driver.
+    fn execute(&mut self, m: usize, tx: &Transaction) -> Result<(), TxError> {
+        let mut last = TxError::Timeout(self.discipline.response_timeout);
+        for _attempt in 0..=self.discipline.retries {
+            match self.attempt(m, tx) {
+                Ok(None) => return Ok(()),
+                Ok(Some(reply)) => {
+                    let module = &mut self.modules[m];
+                    if let Reply::Modbus(Response::Exception { code, .. }) = &reply {
+                        module.counters.exceptions += 1;
+                        // The device answered: retrying the same request gets the same "no".
+                        let e = TxError::Decode(DecodeError::Exception(*code));
+                        let _ = module.driver.on_reply(tx.tag, &reply);
+                        return Err(e);
+                    }
+                    return match module.driver.on_reply(tx.tag, &reply) {
+                        Ok(()) => Ok(()),
+                        Err(e) => {
+                            module.counters.decode_errors += 1;
+                            Err(TxError::Decode(e))
+                        }
+                    };
+                }
+                Err(e @ TxError::Line(_)) => return Err(e),
+                Err(e) => last = e,
+            }
+        }
+        Err(last)
+    }
+
+    /// One attempt: `Ok(None)` for a broadcast (no reply expected).
+    fn attempt(&mut self, m: usize, tx: &Transaction) -> Result<Option<Reply>, TxError> {
+        self.tx_buf.clear();
+        let (mut assembler, terminator) = match &tx.frame {
+            Outgoing::Modbus { unit, request } => {
+                encode_request(unit.get(), request, &mut self.tx_buf).map_err(|_| TxError::Encode)?;
+                (Some(ReplyAssembler::new(unit.get(), request)), None)
+            }
+            Outgoing::Text { line, terminator } => {
+                self.tx_buf.extend_from_slice(line);
+                (None, Some(*terminator))
+            }
+        };
+        self.transport.wait_until(self.line_free_at);
+        // Whatever arrived while the line was idle belongs to nobody.
+        let stray = self.transport.flush_input();
+        self.modules[m].counters.dropped_bytes += stray as u64;
+        self.transport.write_frame(&self.tx_buf).map_err(line_err)?;
+        self.modules[m].counters.requests += 1;
+        let sent = self.transport.now();
+
+        self.rx_buf.clear();
+        let mut deadline = sent + self.discipline.response_timeout;
+        let inter_char = self.inter_char_timeout();
+        loop {
+            let before = self.rx_buf.len();
+            let n = self.transport.read_until(&mut self.rx_buf, deadline).map_err(line_err)?;
+            let now = self.transport.now();
+            if n == 0 {
+                self.modules[m].counters.timeouts += 1;
+                self.recover(m, now);
+                return Err(TxError::Timeout(self.discipline.response_timeout));
+            }
+            deadline = now + inter_char;
+            if let Some(term) = terminator {
+                if let Some(end) = self.rx_buf.iter().position(|b| *b == term) {
+                    let reply = self.rx_buf[..end].to_vec();
+                    self.finish(m, sent, now);
+                    return Ok(Some(Reply::Text(reply)));
+                }
+                continue;
+            }
+            let Some(asm) = assembler.as_mut() else { continue };
+            match asm.push(&self.rx_buf[before..]) {
+                Progress::NeedMore => {}
+                Progress::Complete { response, extra } => {
+                    self.modules[m].counters.dropped_bytes += extra as u64;
+                    self.finish(m, sent, now);
+                    return Ok(Some(Reply::Modbus(response)));
+                }
+                Progress::Failed(e) => {
+                    let counters = &mut self.modules[m].counters;
+                    if matches!(e, ReplyError::Crc { .. }) {
+                        counters.crc_errors += 1;
+                    } else {
+                        counters.bad_replies += 1;
+                    }
+                    self.recover(m, now);
+                    return Err(TxError::BadReply(e));
+                }
+            }
+        }
+    }
+
+    /// After a good reply: record the round trip and keep t3.5 of silence before the next.
+    fn finish(&mut self, m: usize, sent: Duration, now: Duration) {
+        self.modules[m].counters.last_round_trip = now.saturating_sub(sent);
+        self.line_free_at = now + self.settings.t3_5();
+    }
+
+    /// After a timeout or a bad reply: wait out a guard time so a late or babbling reply ends,
+    /// then drop whatever came.
+    fn recover(&mut self, m: usize, now: Duration) {
+        let guard = (self.discipline.response_timeout / 2).max(self.settings.t3_5() * 2);
+        self.transport.wait_until(now + guard);
+        let dropped = self.transport.flush_input();
+        self.modules[m].counters.dropped_bytes += dropped as u64;
+        self.line_free_at = self.transport.now() + self.settings.t3_5();
+    }
+
+    /// Silence inside a reply after which it is taken as ended. Modbus says t1.5; USB adapters
+    /// and ptys deliver in chunks, so allow some milliseconds.
+    fn inter_char_timeout(&self) -> Duration {
+        (self.settings.t1_5() * 10).max(Duration::from_millis(5))
+    }
+}
+
+fn line_err(e: LineError) -> TxError {
+    TxError::Line(e.to_string())
+}
+
+/// A command to a bus thread.
+#[derive(Debug)]
+pub enum BusCommand {
+    /// Read every module; answer with [`BusEvent::Inputs`].
+    Read,
+    /// Write outputs; answer with [`BusEvent::Written`].
+    Write(OutputFrame),
+    /// Stop the thread after writing this last frame (the safe state).
+    Stop(Option<OutputFrame>),
+}
+
+/// What a bus thread answers.
+#[derive(Debug)]
+pub enum BusEvent {
+    /// A read cycle's result.
+    Inputs(InputFrame),
+    /// A write cycle's result.
+    Written(WriteReport),
+}
+
+/// A bus owner on its own OS thread.
+#[derive(Debug)]
+pub struct BusThread {
+    commands: Sender<BusCommand>,
+    events: Receiver<BusEvent>,
+    handle: Option<JoinHandle<BusOwner>>,
+}
+
+impl BusThread {
+    /// Starts a thread that owns `owner`.
+    pub fn spawn(mut owner: BusOwner) -> std::io::Result<Self> {
+        let (commands, cmd_rx) = crossbeam_channel::bounded::<BusCommand>(4);
+        let (ev_tx, events) = crossbeam_channel::bounded::<BusEvent>(4);
+        let handle = std::thread::Builder::new().name(format!("bus-{}", owner.name)).spawn(move || {
+            for cmd in cmd_rx {
+                let event = match cmd {
+                    BusCommand::Read => BusEvent::Inputs(owner.read_inputs()),
+                    BusCommand::Write(frame) => BusEvent::Written(owner.write_outputs(&frame)),
+                    BusCommand::Stop(last) => {
+                        if let Some(frame) = last {
+                            owner.last_refresh = None;
+                            let report = owner.write_outputs(&frame);
+                            let _ = ev_tx.send(BusEvent::Written(report));
+                        }
+                        break;
+                    }
+                };
+                if ev_tx.send(event).is_err() {
+                    break;
+                }
+            }
+            owner
+        })?;
+        Ok(Self { commands, events, handle: Some(handle) })
+    }
+
+    /// Sends a command without waiting.
+    pub fn send(&self, cmd: BusCommand) -> bool {
+        self.commands.send(cmd).is_ok()
+    }
+
+    /// Waits for the thread's next answer, at most `timeout`.
+    pub fn recv(&self, timeout: Duration) -> Option<BusEvent> {
+        self.events.recv_timeout(timeout).ok()
+    }
+
+    /// Stops the thread, writing `last` first; returns the owner back.
+    pub fn stop(mut self, last: Option<OutputFrame>, timeout: Duration) -> Option<BusOwner> {
+        let had_frame = last.is_some();
+        let _ = self.commands.send(BusCommand::Stop(last));
+        if had_frame {
+            let _ = self.events.recv_timeout(timeout);
+        }
+        self.handle.take().and_then(|h| h.join().ok())
+    }
+}

@@ -1,0 +1,13 @@
+//! RS-485 lines: serial settings and the wire-time model, transports, and the bus owner.
+//!
+//! - [`settings`]: baud and character format, and DESIGN.md's timing model.
+//! - [`transport`]: the byte pipe a bus owner drives: a real serial port or the virtual line.
+//! - [`bus`]: the bus owner: runs drivers' transactions on one line with its discipline
+//!   (response timeout, t3.5 gap, guard + flush after a timeout, retries, counters).
+
+pub mod budget;
+pub mod bus;
+pub mod settings;
+pub mod transport;
+
+pub use settings::{LineSettings, Parity, SerialFormat};

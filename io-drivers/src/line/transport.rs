@@ -1,0 +1,174 @@
+//! The byte pipe a bus owner drives, and the real serial port.
+//!
+//! A transport knows the time on its line: a serial port follows the PLC's monotonic clock; the
+//! virtual line ([`crate::sim::line::VirtualPort`]) can also run on its own virtual cursor so
+//! a whole project replays deterministically.
+
+use std::fmt::Debug;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use serialport::SerialPort;
+
+use crate::line::settings::{LineSettings, Parity};
+use crate::time::Clock;
+
+/// A failure of the line itself (not of a device).
+#[derive(Debug, thiserror::Error)]
+pub enum LineError {
+    /// The port could not be opened or configured.
+    #[error("cannot open {path}: {source}")]
+    Open {
+        /// The device path.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// Reading or writing failed (the port went away).
+    #[error("serial I/O failed: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// A half-duplex byte pipe with a notion of time.
+pub trait Transport: Send + Debug {
+    /// Baud and format.
+    fn settings(&self) -> LineSettings;
+
+    /// Time on this line.
+    fn now(&self) -> Duration;
+
+    /// Aligns a virtual cursor with the scan's time at the start of a cycle (no-op in real
+    /// time).
+    fn sync(&mut self, t: Duration) {
+        let _ = t;
+    }
+
+    /// Sends a whole frame; returns once its last character has left.
+    fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError>;
+
+    /// Waits until at least one byte has arrived or `deadline` passes; appends what arrived to
+    /// `buf` and returns how many bytes (0: the deadline passed in silence).
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError>;
+
+    /// Keeps the line quiet until `t` (the t3.5 gap, the guard after a timeout).
+    fn wait_until(&mut self, t: Duration);
+
+    /// Drops every byte that has arrived and not been read; returns how many.
+    fn flush_input(&mut self) -> usize;
+}
+
+/// A real serial device (a USB RS-485 adapter, or one end of a pty).
+#[derive(Debug)]
+pub struct SerialTransport {
+    port: serialport::TTYPort,
+    settings: LineSettings,
+    clock: Arc<dyn Clock>,
+}
+
+/// The serial port type softplc uses (a tty: a real adapter or a pty).
+pub use serialport::TTYPort;
+
+/// Opens the serial device `path` with `settings` (raw mode, no flow control).
+pub fn open_tty(path: &Path, settings: LineSettings) -> Result<TTYPort, LineError> {
+        let open_err = |e: serialport::Error| LineError::Open {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e.description),
+        };
+        let builder = serialport::new(path.to_string_lossy(), settings.baud)
+            .data_bits(match settings.format.data_bits {
+                7 => serialport::DataBits::Seven,
+                _ => serialport::DataBits::Eight,
+            })
+            .parity(match settings.format.parity {
+                Parity::None => serialport::Parity::None,
+                Parity::Even => serialport::Parity::Even,
+                Parity::Odd => serialport::Parity::Odd,
+            })
+            .stop_bits(match settings.format.stop_bits {
+                2 => serialport::StopBits::Two,
+                _ => serialport::StopBits::One,
+            })
+            .flow_control(serialport::FlowControl::None)
+            .timeout(Duration::from_millis(1));
+        serialport::TTYPort::open(&builder).map_err(open_err)
+}
+
+/// Creates a pty pair in-process: `(master, slave, slave path)`. Whatever is written to one
+/// end is read at the other; the slave's path can be handed to any serial program.
+pub fn pty_pair() -> Result<(TTYPort, TTYPort, String), LineError> {
+    let (master, slave) = TTYPort::pair().map_err(|e| LineError::Open {
+        path: PathBuf::from("/dev/ptmx"),
+        source: std::io::Error::other(e.description),
+    })?;
+    let name = slave.name().unwrap_or_else(|| "(unnamed pty)".to_string());
+    Ok((master, slave, name))
+}
+
+impl SerialTransport {
+    /// Opens `path` with `settings`; time is read from `clock`.
+    pub fn open(path: &Path, settings: LineSettings, clock: Arc<dyn Clock>) -> Result<Self, LineError> {
+        let port = open_tty(path, settings)?;
+        Ok(Self::from_port(port, settings, clock))
+    }
+
+    /// Wraps an already open port (one end of an in-process pty pair, in tests).
+    pub fn from_port(mut port: serialport::TTYPort, settings: LineSettings, clock: Arc<dyn Clock>) -> Self {
+        // A pty refuses exclusive mode on some kernels; the port works the same without it.
+        let _ = port.set_exclusive(false);
+        Self { port, settings, clock }
+    }
+}
+
+impl Transport for SerialTransport {
+    fn settings(&self) -> LineSettings {
+        self.settings
+    }
+
+    fn now(&self) -> Duration {
+        self.clock.now()
+    }
+
+    fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
+        self.port.write_all(frame)?;
+        self.port.flush()?;
+        // The UART is still shifting the frame out after the write returns; the line is not
+        // free before its last character has left.
+        let done = self.clock.now() + self.settings.chars(frame.len());
+        self.clock.sleep_until(done);
+        Ok(())
+    }
+
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+        let mut chunk = [0u8; 256];
+        loop {
+            let now = self.clock.now();
+            if now >= deadline {
+                return Ok(0);
+            }
+            let wait = (deadline - now).max(Duration::from_micros(100));
+            self.port.set_timeout(wait).map_err(|e| std::io::Error::other(e.description))?;
+            match self.port.read(&mut chunk) {
+                Ok(0) => continue,
+                Ok(n) => {
+                    buf.extend_from_slice(&chunk[..n]);
+                    return Ok(n);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e.into()),
+            }
+        }
+    }
+
+    fn wait_until(&mut self, t: Duration) {
+        self.clock.sleep_until(t);
+    }
+
+    fn flush_input(&mut self) -> usize {
+        let pending = self.port.bytes_to_read().unwrap_or(0) as usize;
+        let _ = self.port.clear(serialport::ClearBuffer::Input);
+        pending
+    }
+}

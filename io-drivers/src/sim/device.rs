@@ -1,0 +1,79 @@
+//! The simulator side of a module.
+
+use std::fmt::Debug;
+use std::time::Duration;
+
+use crate::point::{PointSpec, Value};
+
+/// A reply a simulator puts on the line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SimReply {
+    /// The bytes, as they go on the wire.
+    pub bytes: Vec<u8>,
+    /// Silence between the end of the request and the first reply byte (the module's reply
+    /// delay, `RDELAYT` on MiniMod).
+    pub delay: Duration,
+}
+
+/// A failed command from a person or a test to a simulator.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SimError {
+    /// No point of that name on this model.
+    #[error("{model} has no point {point}")]
+    UnknownPoint {
+        /// The model.
+        model: &'static str,
+        /// The name asked for.
+        point: String,
+    },
+    /// The value does not fit the point.
+    #[error("{point} does not take {value}")]
+    BadValue {
+        /// The point.
+        point: String,
+        /// The value given.
+        value: String,
+    },
+    /// A model-specific command was not understood.
+    #[error("unknown command {0:?}; try `help`")]
+    UnknownCommand(String),
+}
+
+/// A simulated module.
+pub trait SimDevice: Send + Debug {
+    /// The model name (`minimod`).
+    fn model(&self) -> &'static str;
+
+    /// The address the module answers at now.
+    fn address(&self) -> u8;
+
+    /// Runs the module's own behaviour up to time `t` (its sampling tick, timers, pulsers).
+    /// Times before the module's current time are ignored.
+    fn advance_to(&mut self, t: Duration);
+
+    /// A complete frame seen on the line, ending at time `t` (the device was advanced to `t`).
+    /// Every device on the line sees every frame; it answers only if addressed, and never to a
+    /// broadcast.
+    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply>;
+
+    /// The model's points (for `get`/`set` and plant models).
+    fn points(&self) -> &'static [PointSpec];
+
+    /// Reads a point by the manual's name (`X1`, `Y2`, `XCOUNT1`).
+    fn get(&self, point: &str) -> Result<Value, SimError>;
+
+    /// Sets a point as the machine would: inputs are the terminals' levels, outputs and
+    /// settings are written as if through the protocol.
+    fn set(&mut self, point: &str, value: Value) -> Result<(), SimError>;
+
+    /// A model-specific command from `softplc sim`'s standard input (inject a fault,
+    /// power-cycle, flip a dip switch). Returns the text to print.
+    fn command(&mut self, words: &[&str]) -> Result<String, SimError> {
+        Err(SimError::UnknownCommand(words.join(" ")))
+    }
+
+    /// Help text for [`SimDevice::command`].
+    fn command_help(&self) -> &'static str {
+        ""
+    }
+}

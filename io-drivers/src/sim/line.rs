@@ -1,0 +1,334 @@
+//! The simulated world and the virtual multidrop RS-485 line.
+//!
+//! [`SimWorld`] holds every simulated module of a project (grouped by line) and the plant, and
+//! advances them together on a 1 ms tick. A [`VirtualPort`] is a master's end of one line: a
+//! frame it writes occupies the wire for its character time, reaches every device on the line,
+//! and each addressed device's reply arrives byte by byte after its reply delay. Replies that
+//! overlap in time garble each other, as on a real bus.
+//!
+//! The world's time only moves forward: when several lines are replayed one after another on a
+//! virtual clock, a line that asks about an earlier time sees the world as it is now.
+
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use crate::line::settings::LineSettings;
+use crate::line::transport::{LineError, Transport};
+use crate::point::Value;
+use crate::sim::device::{SimDevice, SimError};
+use crate::sim::plant::{Plant, PlantIo};
+use crate::time::Clock;
+
+const TICK: Duration = Duration::from_millis(1);
+
+/// A device in the world, on a line.
+#[derive(Debug)]
+struct Placed {
+    line: usize,
+    name: String,
+    device: Box<dyn SimDevice>,
+}
+
+/// The plant and its wiring: per role, the device index and point name.
+#[derive(Debug)]
+struct WiredPlant {
+    plant: Box<dyn Plant>,
+    wires: Vec<(usize, String)>,
+}
+
+/// Bytes on their way from the devices to a line's master, with arrival times.
+#[derive(Debug, Default)]
+struct Inbound {
+    bytes: VecDeque<(Duration, u8)>,
+}
+
+/// Every simulated module of a project and its plant.
+#[derive(Debug)]
+pub struct SimWorld {
+    now: Duration,
+    devices: Vec<Placed>,
+    plant: Option<WiredPlant>,
+    inbound: Vec<Inbound>,
+    line_settings: Vec<LineSettings>,
+}
+
+/// The shared handle the ports and `softplc sim` hold.
+pub type SharedWorld = Arc<Mutex<SimWorld>>;
+
+impl SimWorld {
+    /// An empty world with one entry per line.
+    pub fn new(lines: Vec<LineSettings>) -> Self {
+        Self {
+            now: Duration::ZERO,
+            devices: Vec::new(),
+            plant: None,
+            inbound: lines.iter().map(|_| Inbound::default()).collect(),
+            line_settings: lines,
+        }
+    }
+
+    /// Puts a simulated device on `line` under `name`; returns its index.
+    pub fn add_device(&mut self, line: usize, name: &str, device: Box<dyn SimDevice>) -> usize {
+        self.devices.push(Placed { line, name: name.to_string(), device });
+        self.devices.len() - 1
+    }
+
+    /// Attaches a plant; `wires[i]` is `(device index, point)` for the plant's role `i`.
+    pub fn set_plant(&mut self, plant: Box<dyn Plant>, wires: Vec<(usize, String)>) {
+        self.plant = Some(WiredPlant { plant, wires });
+    }
+
+    /// Wraps the world for sharing between ports.
+    pub fn shared(self) -> SharedWorld {
+        Arc::new(Mutex::new(self))
+    }
+
+    /// The world's time.
+    pub fn now(&self) -> Duration {
+        self.now
+    }
+
+    /// Runs the plant and every device up to `t`, tick by tick while a plant is attached.
+    pub fn advance_to(&mut self, t: Duration) {
+        if t <= self.now {
+            return;
+        }
+        match self.plant.as_mut() {
+            None => {
+                for d in &mut self.devices {
+                    d.device.advance_to(t);
+                }
+            }
+            Some(wired) => {
+                let mut tick = self.now;
+                while tick < t {
+                    tick = (tick + TICK).min(t);
+                    for d in &mut self.devices {
+                        d.device.advance_to(tick);
+                    }
+                    let mut io = Wiring { devices: &mut self.devices, wires: &wired.wires };
+                    wired.plant.step(tick, &mut io);
+                }
+            }
+        }
+        self.now = t;
+    }
+
+    /// A device's index by its name (`mm1`) or by `model@address` (`minimod@5`).
+    pub fn find(&self, name: &str) -> Option<usize> {
+        self.devices.iter().position(|d| {
+            d.name == name || format!("{}@{}", d.device.model(), d.device.address()) == name
+        })
+    }
+
+    /// Names of all devices, in order.
+    pub fn names(&self) -> Vec<String> {
+        self.devices.iter().map(|d| d.name.clone()).collect()
+    }
+
+    /// A device, for commands and tests.
+    pub fn device_mut(&mut self, index: usize) -> Option<&mut dyn SimDevice> {
+        match self.devices.get_mut(index) {
+            Some(d) => Some(d.device.as_mut()),
+            None => None,
+        }
+    }
+
+    /// Reads a point of a device.
+    pub fn get(&self, index: usize, point: &str) -> Result<Value, SimError> {
+        match self.devices.get(index) {
+            Some(d) => d.device.get(point),
+            None => Err(SimError::UnknownCommand(format!("no device {index}"))),
+        }
+    }
+
+    /// Sets a point of a device.
+    pub fn set(&mut self, index: usize, point: &str, value: Value) -> Result<(), SimError> {
+        match self.devices.get_mut(index) {
+            Some(d) => d.device.set(point, value),
+            None => Err(SimError::UnknownCommand(format!("no device {index}"))),
+        }
+    }
+
+    /// A frame from the master of `line` has ended on the wire at `t`: every device on the line
+    /// sees it; the replies are queued to arrive at the master byte by byte.
+    pub fn deliver(&mut self, line: usize, frame: &[u8], t: Duration) {
+        self.advance_to(t);
+        let Some(settings) = self.line_settings.get(line).copied() else { return };
+        let char_time = settings.char_time();
+        let mut replies = Vec::new();
+        for d in self.devices.iter_mut().filter(|d| d.line == line) {
+            if let Some(reply) = d.device.on_frame(frame, t) {
+                replies.push(reply);
+            }
+        }
+        let Some(inbound) = self.inbound.get_mut(line) else { return };
+        for reply in replies {
+            let start = t + reply.delay;
+            for (i, b) in reply.bytes.iter().enumerate() {
+                let at = start + char_time * (i as u32 + 1);
+                inbound.bytes.push_back((at, *b));
+            }
+        }
+        // Overlapping replies interleave on the wire; keep arrival order and let bytes that
+        // land in the same character slot garble each other.
+        let mut v: Vec<(Duration, u8)> = inbound.bytes.drain(..).collect();
+        v.sort_by_key(|(at, _)| *at);
+        let mut merged: VecDeque<(Duration, u8)> = VecDeque::with_capacity(v.len());
+        for (at, b) in v {
+            match merged.back_mut() {
+                Some((last_at, last_b)) if at.abs_diff(*last_at) < char_time => *last_b |= b,
+                _ => merged.push_back((at, b)),
+            }
+        }
+        inbound.bytes = merged;
+    }
+
+    /// Time of the next byte due to the master of `line`, if any.
+    pub fn next_arrival(&self, line: usize) -> Option<Duration> {
+        self.inbound.get(line).and_then(|i| i.bytes.front().map(|(at, _)| *at))
+    }
+
+    /// Moves every byte of `line` that has arrived by `t` into `buf`; returns how many.
+    pub fn take_arrived(&mut self, line: usize, t: Duration, buf: &mut Vec<u8>) -> usize {
+        let Some(inbound) = self.inbound.get_mut(line) else { return 0 };
+        let mut n = 0;
+        while let Some((at, b)) = inbound.bytes.front().copied() {
+            if at > t {
+                break;
+            }
+            inbound.bytes.pop_front();
+            buf.push(b);
+            n += 1;
+        }
+        n
+    }
+
+    /// Drops the bytes of `line` that have arrived by `t`; returns how many.
+    pub fn drop_arrived(&mut self, line: usize, t: Duration) -> usize {
+        let mut sink = Vec::new();
+        self.take_arrived(line, t, &mut sink)
+    }
+}
+
+struct Wiring<'a> {
+    devices: &'a mut [Placed],
+    wires: &'a [(usize, String)],
+}
+
+impl PlantIo for Wiring<'_> {
+    fn read(&self, role: usize) -> bool {
+        self.wires
+            .get(role)
+            .and_then(|(dev, point)| self.devices.get(*dev).map(|d| d.device.get(point)))
+            .and_then(Result::ok)
+            .is_some_and(Value::as_bool)
+    }
+
+    fn write(&mut self, role: usize, value: bool) {
+        if let Some((dev, point)) = self.wires.get(role) {
+            if let Some(d) = self.devices.get_mut(*dev) {
+                // Wiring was checked against the model when the world was built.
+                let _ = d.device.set(point, Value::Bool(value));
+            }
+        }
+    }
+}
+
+/// How a virtual port keeps time.
+#[derive(Debug)]
+enum PortTime {
+    /// Follows a real clock and sleeps for wire time.
+    Real(Arc<dyn Clock>),
+    /// Its own cursor, moved by the traffic and synced to the scan at each cycle start.
+    Virtual(Duration),
+}
+
+/// The master's end of a virtual line.
+#[derive(Debug)]
+pub struct VirtualPort {
+    world: SharedWorld,
+    line: usize,
+    settings: LineSettings,
+    time: PortTime,
+}
+
+impl VirtualPort {
+    /// A port on `line` of `world` that runs in real time on `clock` (or on its own virtual
+    /// cursor when `clock` is virtual, so lines replay deterministically).
+    pub fn new(world: SharedWorld, line: usize, settings: LineSettings, clock: Arc<dyn Clock>) -> Self {
+        let time = if clock.is_virtual() {
+            PortTime::Virtual(clock.now())
+        } else {
+            PortTime::Real(clock)
+        };
+        Self { world, line, settings, time }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, SimWorld> {
+        // A panic while holding the lock leaves a world that is still consistent tick-wise; keep
+        // serving rather than poisoning every later access.
+        self.world.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn sleep_until(&mut self, t: Duration) {
+        match &mut self.time {
+            PortTime::Real(clock) => clock.sleep_until(t),
+            PortTime::Virtual(cursor) => *cursor = (*cursor).max(t),
+        }
+    }
+}
+
+impl Transport for VirtualPort {
+    fn settings(&self) -> LineSettings {
+        self.settings
+    }
+
+    fn now(&self) -> Duration {
+        match &self.time {
+            PortTime::Real(clock) => clock.now(),
+            PortTime::Virtual(cursor) => *cursor,
+        }
+    }
+
+    fn sync(&mut self, t: Duration) {
+        if let PortTime::Virtual(cursor) = &mut self.time {
+            *cursor = (*cursor).max(t);
+        }
+    }
+
+    fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
+        let end = self.now() + self.settings.chars(frame.len());
+        self.sleep_until(end);
+        let line = self.line;
+        self.lock().deliver(line, frame, end);
+        Ok(())
+    }
+
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+        let line = self.line;
+        let first = self.lock().next_arrival(line);
+        match first {
+            Some(at) if at <= deadline => {
+                let at = at.max(self.now());
+                self.sleep_until(at);
+                let now = self.now();
+                Ok(self.lock().take_arrived(line, now, buf))
+            }
+            _ => {
+                self.sleep_until(deadline);
+                Ok(0)
+            }
+        }
+    }
+
+    fn wait_until(&mut self, t: Duration) {
+        self.sleep_until(t);
+    }
+
+    fn flush_input(&mut self) -> usize {
+        let (line, now) = (self.line, self.now());
+        self.lock().drop_arrived(line, now)
+    }
+}

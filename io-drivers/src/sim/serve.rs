@@ -1,0 +1,131 @@
+//! Serving simulated modules on a real serial device, so any Modbus master or a terminal can
+//! talk to them (`softplc sim --port /dev/pts/N ...`).
+//!
+//! Framing follows the devices' own rule, silence on the line, with a fast path: bytes that
+//! already form a complete RTU request with a good CRC, or a text line ended by CR or LF, are
+//! handled at once. A pty does not enforce baud, so replies are written as a whole after the
+//! device's reply delay and the server then keeps quiet for the reply's wire time.
+
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use serialport::SerialPort;
+
+use crate::line::settings::LineSettings;
+use crate::line::transport::LineError;
+use crate::modbus::crc::check_crc;
+use crate::modbus::server::{request_frame_len, FrameLen};
+use crate::sim::line::SharedWorld;
+use crate::time::Clock;
+
+/// The line index the served world uses.
+pub const SERVED_LINE: usize = 0;
+
+/// Counters of a serving session.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ServeStats {
+    /// Frames handed to the devices.
+    pub frames: u64,
+    /// Replies written.
+    pub replies: u64,
+    /// Bytes dropped as noise (no frame could be made of them).
+    pub noise_bytes: u64,
+}
+
+/// Splits the head of `buf` into a frame if one is complete: an RTU request of known length
+/// with a good CRC, or a text line.
+pub fn complete_frame(buf: &[u8]) -> Option<usize> {
+    if let FrameLen::Complete(n) = request_frame_len(buf) {
+        if buf.len() >= n && check_crc(&buf[..n]) {
+            return Some(n);
+        }
+    }
+    let is_text = buf.first().is_some_and(|b| b.is_ascii_graphic() || *b == b' ');
+    if is_text {
+        if let Some(end) = buf.iter().position(|b| *b == b'\r' || *b == b'\n') {
+            return Some(end + 1);
+        }
+    }
+    None
+}
+
+/// Serves `world` on `port` until `stop` is set.
+pub fn serve(
+    mut port: serialport::TTYPort,
+    world: SharedWorld,
+    settings: LineSettings,
+    clock: Arc<dyn Clock>,
+    stop: &AtomicBool,
+) -> Result<ServeStats, LineError> {
+    let mut stats = ServeStats::default();
+    let mut buf: Vec<u8> = Vec::with_capacity(512);
+    let mut chunk = [0u8; 256];
+    let mut last_byte = clock.now();
+    // Silence that ends a frame: t3.5, but a pty's scheduling jitter is larger than that.
+    let silence = settings.t3_5().max(Duration::from_millis(5));
+    port.set_timeout(Duration::from_millis(1)).map_err(|e| std::io::Error::other(e.description))?;
+    while !stop.load(Ordering::Relaxed) {
+        match port.read(&mut chunk) {
+            Ok(n) if n > 0 => {
+                buf.extend_from_slice(&chunk[..n]);
+                last_byte = clock.now();
+            }
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e.into()),
+        }
+        let now = clock.now();
+        lock(&world).advance_to(now);
+        while let Some(n) = complete_frame(&buf) {
+            let frame: Vec<u8> = buf.drain(..n).collect();
+            stats.frames += 1;
+            if answer(&mut port, &world, &frame, settings, clock.as_ref())? {
+                stats.replies += 1;
+            }
+        }
+        if !buf.is_empty() && now.saturating_sub(last_byte) >= silence {
+            // A silence ended an incomplete frame: give it to the devices as the real ones
+            // would get it (they drop it on a bad CRC), and start afresh.
+            let frame: Vec<u8> = std::mem::take(&mut buf);
+            stats.frames += 1;
+            if answer(&mut port, &world, &frame, settings, clock.as_ref())? {
+                stats.replies += 1;
+            } else {
+                stats.noise_bytes += frame.len() as u64;
+            }
+        }
+    }
+    Ok(stats)
+}
+
+fn lock(world: &SharedWorld) -> std::sync::MutexGuard<'_, crate::sim::line::SimWorld> {
+    world.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Hands a frame to the devices and writes the reply when it is due. True if one was written.
+fn answer(
+    port: &mut serialport::TTYPort,
+    world: &SharedWorld,
+    frame: &[u8],
+    settings: LineSettings,
+    clock: &dyn Clock,
+) -> Result<bool, LineError> {
+    let now = clock.now();
+    let (first, bytes) = {
+        let mut w = lock(world);
+        w.deliver(SERVED_LINE, frame, now);
+        let Some(first) = w.next_arrival(SERVED_LINE) else { return Ok(false) };
+        let mut bytes = Vec::new();
+        w.take_arrived(SERVED_LINE, Duration::MAX, &mut bytes);
+        (first, bytes)
+    };
+    let start = first.saturating_sub(settings.char_time());
+    clock.sleep_until(start);
+    port.write_all(&bytes)?;
+    port.flush()?;
+    clock.sleep_until(start + settings.chars(bytes.len()));
+    Ok(true)
+}

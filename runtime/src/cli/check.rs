@@ -1,0 +1,179 @@
+//! `softplc check PROJECT`: validate, print the I/O map and each line's budget.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use softplc_io::line::budget::line_budget;
+use softplc_io::point::Access;
+
+use crate::image::ProcessImage;
+use crate::logic::load;
+use crate::project::{self, Binding, PortConfig, Project};
+use crate::scan::fmt_duration;
+
+/// Arguments of `softplc check`.
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// The project file.
+    project: PathBuf,
+}
+
+pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
+    let project = match project::load(&args.project) {
+        Ok(p) => p,
+        Err(errors) => {
+            eprintln!("{errors}");
+            return Ok(ExitCode::FAILURE);
+        }
+    };
+    let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
+    if let Err(e) = load::load_program(&project, &image) {
+        eprintln!("{e}");
+        return Ok(ExitCode::FAILURE);
+    }
+    print!("{}", report(&project));
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The text `check` prints for a valid project: I/O map, budgets, warnings.
+pub fn report(project: &Project) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let scan = &project.scan;
+    let _ = writeln!(
+        out,
+        "project {}: scan period {}, watchdog {} × {}",
+        project.name,
+        fmt_duration(scan.period),
+        fmt_duration(scan.watchdog.time),
+        scan.watchdog.sensitivity
+    );
+    let _ = writeln!(
+        out,
+        "program {} ({:?})",
+        project.program.path.display(),
+        project.program.kind
+    );
+    let mut worst = std::time::Duration::ZERO;
+    let mut warnings = Vec::new();
+    for (b, bus) in project.buses.iter().enumerate() {
+        let port = match &bus.port {
+            PortConfig::Sim => "sim (simulated modules)".to_string(),
+            PortConfig::Serial(p) => p.display().to_string(),
+        };
+        let _ = writeln!(
+            out,
+            "\nbus {}: {port}, {}, response timeout {}, retries {}",
+            bus.name,
+            bus.settings,
+            fmt_duration(bus.response_timeout),
+            bus.retries
+        );
+        let mut drivers = Vec::new();
+        for (m, module) in project
+            .modules
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.bus == b)
+        {
+            let _ = writeln!(
+                out,
+                "  module {} = {} @{} ({})",
+                module.name,
+                module.model.name,
+                module.device.address,
+                module.device.protocol.name()
+            );
+            for (i, tag) in project.tags.iter().enumerate() {
+                if let Binding::Point { module: tm, point } = tag.binding {
+                    if tm == m {
+                        let p = &module.model.points[point];
+                        let dir = match p.access {
+                            Access::Input => "in ",
+                            Access::Output => "out",
+                            Access::ReadWrite => "r/w",
+                        };
+                        let safe = tag.safe.map(|v| format!(" safe={v}")).unwrap_or_default();
+                        let _ = writeln!(
+                            out,
+                            "    {dir} {:<8} {:<4} → tag #{i} {}{safe}",
+                            p.name,
+                            p.ty.name(),
+                            tag.name
+                        );
+                    }
+                }
+            }
+            drivers.push((
+                module.name.clone(),
+                (module.model.driver)(&module.device),
+                module
+                    .model
+                    .points
+                    .iter()
+                    .map(|p| p.access)
+                    .collect::<Vec<_>>(),
+            ));
+        }
+        let budget = line_budget(bus.settings, &mut drivers);
+        let _ = writeln!(
+            out,
+            "  budget: inputs {} ({} transactions), full output write {}, cycle floor {}",
+            fmt_duration(budget.read_floor),
+            budget
+                .modules
+                .iter()
+                .map(|m| m.read_transactions)
+                .sum::<usize>(),
+            fmt_duration(budget.write_floor),
+            fmt_duration(budget.cycle_floor())
+        );
+        for m in &budget.modules {
+            let _ = writeln!(
+                out,
+                "    {}: read {} in {} tx, write {} in {} tx",
+                m.name,
+                fmt_duration(m.read_time),
+                m.read_transactions,
+                fmt_duration(m.write_time),
+                m.write_transactions
+            );
+        }
+        worst = worst.max(budget.read_floor);
+        if budget.read_floor > scan.period {
+            warnings.push(format!(
+                "warning: bus {}: reading the inputs takes at least {} on the wire, longer than the scan period {}: every cycle will overrun",
+                bus.name,
+                fmt_duration(budget.read_floor),
+                fmt_duration(scan.period)
+            ));
+        } else if budget.cycle_floor() > scan.period {
+            warnings.push(format!(
+                "warning: bus {}: a cycle that also refreshes every output takes at least {}, longer than the scan period {}: refresh cycles will overrun",
+                bus.name,
+                fmt_duration(budget.cycle_floor()),
+                fmt_duration(scan.period)
+            ));
+        }
+    }
+    let memory: Vec<_> = project
+        .tags
+        .iter()
+        .filter(|t| t.binding == Binding::Memory)
+        .collect();
+    if !memory.is_empty() {
+        let _ = writeln!(out, "\nmemory tags:");
+        for t in memory {
+            let _ = writeln!(out, "  {} {} = {}", t.name, t.ty.name(), t.initial);
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\nlines are polled in parallel: the input phase can be no shorter than {}",
+        fmt_duration(worst)
+    );
+    for w in warnings {
+        let _ = writeln!(out, "{w}");
+    }
+    out
+}

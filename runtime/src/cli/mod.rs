@@ -1,0 +1,59 @@
+//! The `softplc` subcommands.
+
+mod args;
+mod check;
+mod run;
+mod sim;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+pub use args::parse_duration;
+
+/// softplc: a deterministic soft-PLC for RS-485 I/O modules.
+#[derive(Debug, Parser)]
+#[command(name = "softplc", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run a project until SIGINT/SIGTERM (or for --for), then write every output's safe value.
+    Run(run::RunArgs),
+    /// Validate a project, print its I/O map and each line's time budget.
+    Check(check::CheckArgs),
+    /// Serve simulated modules on a serial device (one end of a pty pair) for any Modbus master.
+    #[command(long_about = sim::LONG_HELP)]
+    Sim(sim::SimArgs),
+}
+
+/// Entry point of the binary.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging();
+    let result = match cli.command {
+        Command::Run(a) => run::run(a),
+        Command::Check(a) => check::check(a),
+        Command::Sim(a) => sim::sim(a),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_env("SOFTPLC_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .try_init();
+}

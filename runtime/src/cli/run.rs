@@ -1,0 +1,159 @@
+//! `softplc run PROJECT`.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+
+use crate::clock::{Clock, MonotonicClock, VirtualClock};
+use crate::plc::Plc;
+use crate::project;
+use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
+
+/// Arguments of `softplc run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// The project file.
+    project: PathBuf,
+    /// Stop by itself after this long (e.g. 10s, 2m); the safe state is written as on SIGINT.
+    #[arg(long = "for", value_parser = super::parse_duration)]
+    run_for: Option<Duration>,
+    /// Run on a virtual clock, as fast as the machine allows (needs --for). Deterministic:
+    /// two runs give the same trace.
+    #[arg(long = "virtual", requires = "run_for")]
+    virtual_clock: bool,
+    /// No live status line.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    let project = match project::load(&args.project) {
+        Ok(p) => p,
+        Err(errors) => {
+            eprintln!("{errors}");
+            return Ok(ExitCode::FAILURE);
+        }
+    };
+    let clock: Arc<dyn Clock> = if args.virtual_clock {
+        Arc::new(VirtualClock::new())
+    } else {
+        Arc::new(MonotonicClock::new())
+    };
+    let realtime = project.scan.realtime;
+    let name = project.name.clone();
+    let period = project.scan.period;
+    let plc = Plc::build(project, clock).context("cannot start the PLC")?;
+    let mut engine = ScanEngine::new(plc);
+    if let Some(d) = args.run_for {
+        engine = engine.run_for(d);
+    }
+    let stop = engine.stop_flag();
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
+    }
+    let status = engine.status();
+    tracing::info!(
+        "{name}: scanning every {}{}",
+        fmt_duration(period),
+        args.run_for
+            .map(|d| format!(" for {}", fmt_duration(d)))
+            .unwrap_or_default()
+    );
+    let scan = std::thread::Builder::new()
+        .name("scan".into())
+        .spawn(move || {
+            for note in rt::apply(&realtime).notes {
+                tracing::info!("{note}");
+            }
+            engine.run()
+        })
+        .context("cannot start the scan thread")?;
+
+    let live = !args.quiet && !args.virtual_clock;
+    let tty = std::io::stderr().is_terminal();
+    let mut last_print = std::time::Instant::now();
+    while !scan.is_finished() {
+        std::thread::sleep(Duration::from_millis(100));
+        if live && last_print.elapsed() >= Duration::from_millis(if tty { 500 } else { 2000 }) {
+            last_print = std::time::Instant::now();
+            if let Ok(s) = status.lock() {
+                let line = format!(
+                    "t={:>7} scans {:>6}  cycle p50 {} p99 {} max {}  overruns {}  bus errors {}",
+                    fmt_duration(s.now),
+                    s.cycles,
+                    fmt_duration(s.cycle.p50),
+                    fmt_duration(s.cycle.p99),
+                    fmt_duration(s.cycle.max),
+                    s.overruns,
+                    s.bus_errors
+                );
+                if tty {
+                    eprint!("\r\x1b[2K{line}");
+                } else {
+                    eprintln!("{line}");
+                }
+            }
+        }
+    }
+    if live && tty {
+        eprintln!();
+    }
+    let outcome = scan
+        .join()
+        .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
+    print!("{}", summary(&outcome, period));
+    Ok(match outcome.reason {
+        StopReason::Requested => ExitCode::SUCCESS,
+        _ => ExitCode::from(3),
+    })
+}
+
+/// The end-of-run summary.
+pub fn summary(outcome: &RunOutcome, period: Duration) -> String {
+    use std::fmt::Write;
+    let s = &outcome.stats;
+    let mut out = String::new();
+    let reason = match &outcome.reason {
+        StopReason::Requested => "stopped on request; outputs set to their safe values".to_string(),
+        StopReason::LogicFault(f) => {
+            format!("FAULT: program error: {f}; outputs set to their safe values")
+        }
+        StopReason::Watchdog(w) => {
+            format!("FAULT: task watchdog: {w}; outputs set to their safe values")
+        }
+    };
+    let _ = writeln!(out, "{reason}");
+    let _ = writeln!(
+        out,
+        "scans {}  overruns {}  period {}",
+        s.cycles,
+        s.overruns,
+        fmt_duration(period)
+    );
+    let _ = writeln!(out, "  cycle     {}", s.cycle.percentiles());
+    let _ = writeln!(out, "  inputs    {}", s.read.percentiles());
+    let _ = writeln!(out, "  logic     {}", s.logic.percentiles());
+    let _ = writeln!(out, "  outputs   {}", s.write.percentiles());
+    let _ = writeln!(out, "  lateness  {}", s.lateness.percentiles());
+    for m in &outcome.modules {
+        let c = &m.counters;
+        let _ = writeln!(
+            out,
+            "  module {} ({}): {}  requests {} timeouts {} crc {} bad replies {} exceptions {} last round trip {}",
+            m.name,
+            m.bus,
+            m.quality,
+            c.requests,
+            c.timeouts,
+            c.crc_errors,
+            c.bad_replies,
+            c.exceptions,
+            fmt_duration(c.last_round_trip)
+        );
+    }
+    out
+}

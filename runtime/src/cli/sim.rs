@@ -1,0 +1,265 @@
+//! `softplc sim`: simulated modules on a serial device, played from standard input.
+
+use std::io::BufRead;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use anyhow::{bail, Context};
+use softplc_io::devices;
+use softplc_io::line::transport::{open_tty, pty_pair};
+use softplc_io::line::{LineSettings, Parity, SerialFormat};
+use softplc_io::point::Value;
+use softplc_io::sim::line::{SharedWorld, SimWorld};
+use softplc_io::sim::serve::{serve, SERVED_LINE};
+use softplc_io::time::{Clock, MonotonicClock};
+
+pub(super) const LONG_HELP: &str = "\
+Serves simulated modules on a serial device so that any Modbus master (mbpoll, pymodbus, a
+SCADA) or a terminal can talk to them. Each MODEL@ADDR is one module at that unit address,
+e.g. minimod@5. With --pty, softplc creates a pseudo-terminal pair itself and prints the path
+to give to the master.
+
+Commands on standard input (one per line):
+  set DEVICE.POINT VALUE   set a simulated input (the terminal's level) or any point
+                           e.g.  set minimod@5.X1 1
+  get DEVICE.POINT         print a point's value, e.g.  get minimod@5.Y1
+  list                     every device and the value of each of its points
+  DEVICE COMMAND ...       a model's own command (fault injection, power cycle, ...);
+                           `help DEVICE` lists them
+  help                     this text
+  quit                     stop serving
+DEVICE is MODEL@ADDR as given on the command line. Values: 1/0, true/false, or numbers
+(0x.. for hex). Standard input closing (EOF) does not stop the server; SIGINT/SIGTERM does.";
+
+/// Arguments of `softplc sim`.
+#[derive(Debug, clap::Args)]
+pub struct SimArgs {
+    /// The serial device to serve on (e.g. one end of a pty pair).
+    #[arg(long, required_unless_present = "pty", conflicts_with = "pty")]
+    port: Option<PathBuf>,
+    /// Create a pty pair and serve on it; the path for the master is printed on stdout.
+    #[arg(long)]
+    pty: bool,
+    /// Baud rate (the wire-time model uses it; a pty does not enforce it).
+    #[arg(long, default_value_t = 19200)]
+    baud: u32,
+    /// Parity.
+    #[arg(long, value_enum, default_value_t = ParityArg::Even)]
+    parity: ParityArg,
+    /// Stop bits.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    stop_bits: u8,
+    /// Modules to simulate, as MODEL@ADDR (e.g. minimod@5).
+    #[arg(required = true)]
+    devices: Vec<String>,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum ParityArg {
+    None,
+    Even,
+    Odd,
+}
+
+/// Parses `minimod@5` into the model and the address.
+fn parse_device(spec: &str) -> anyhow::Result<(&'static devices::ModelSpec, u8)> {
+    let Some((model, addr)) = spec.split_once('@') else {
+        bail!("{spec:?}: expected MODEL@ADDR, e.g. minimod@5");
+    };
+    let Some(m) = devices::model(model) else {
+        let known: Vec<_> = devices::catalog().iter().map(|m| m.name).collect();
+        bail!(
+            "{spec:?}: unknown model {model:?} (known: {})",
+            known.join(", ")
+        );
+    };
+    let a: u8 = addr
+        .parse()
+        .with_context(|| format!("{spec:?}: address {addr:?} is not a number"))?;
+    if !m.addresses.contains(&a) {
+        bail!(
+            "{spec:?}: address {a} is outside {}..={} for {}",
+            m.addresses.start(),
+            m.addresses.end(),
+            m.name
+        );
+    }
+    Ok((m, a))
+}
+
+pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
+    let parity = match args.parity {
+        ParityArg::None => Parity::None,
+        ParityArg::Even => Parity::Even,
+        ParityArg::Odd => Parity::Odd,
+    };
+    let settings = LineSettings {
+        baud: args.baud,
+        format: SerialFormat {
+            data_bits: 8,
+            parity,
+            stop_bits: args.stop_bits,
+        },
+    };
+    if settings.baud == 0 {
+        bail!("--baud must be above 0");
+    }
+    let mut world = SimWorld::new(vec![settings]);
+    let mut seen = Vec::new();
+    for spec in &args.devices {
+        let (model, addr) = parse_device(spec)?;
+        if seen.contains(&addr) {
+            bail!("{spec:?}: address {addr} is given twice");
+        }
+        seen.push(addr);
+        world.add_device(
+            SERVED_LINE,
+            &format!("{}@{addr}", model.name),
+            (model.simulator)(addr),
+        );
+    }
+    let world = world.shared();
+    let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
+
+    // With --pty the slave end stays open here, so the pty lives while no master is connected.
+    let (port, _slave, path) = if args.pty {
+        let (master, slave, name) = pty_pair().context("cannot create a pty pair")?;
+        (master, Some(slave), name)
+    } else {
+        let path = args.port.clone().unwrap_or_default();
+        (open_tty(&path, settings)?, None, path.display().to_string())
+    };
+    println!(
+        "serving {} on {path} at {settings}",
+        args.devices.join(", ")
+    );
+
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
+    }
+    {
+        let world = world.clone();
+        let stop = stop.clone();
+        let clock = clock.clone();
+        std::thread::Builder::new()
+            .name("sim-stdin".into())
+            .spawn(move || {
+                let stdin = std::io::stdin();
+                for line in stdin.lock().lines() {
+                    let Ok(line) = line else { break };
+                    match execute(&world, clock.as_ref(), &line) {
+                        Ok(Reply::Quit) => {
+                            stop.store(true, Ordering::Relaxed);
+                            break;
+                        }
+                        Ok(Reply::Text(t)) if !t.is_empty() => println!("{t}"),
+                        Ok(Reply::Text(_)) => {}
+                        Err(e) => println!("error: {e}"),
+                    }
+                }
+            })?;
+    }
+    let stats = serve(port, world, settings, clock, &stop).context("serial line failed")?;
+    println!(
+        "served {} frames, {} replies, {} noise bytes",
+        stats.frames, stats.replies, stats.noise_bytes
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// What a command line produced.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Reply {
+    /// Text to print.
+    Text(String),
+    /// Stop serving.
+    Quit,
+}
+
+/// Executes one command line against `world` (see [`LONG_HELP`]).
+pub fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Result<Reply> {
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
+    w.advance_to(clock.now());
+    let text = match words.as_slice() {
+        [] => String::new(),
+        ["help"] => LONG_HELP
+            .lines()
+            .skip_while(|l| !l.starts_with("Commands"))
+            .collect::<Vec<_>>()
+            .join("\n"),
+        ["help", dev] => {
+            let i = find(&w, dev)?;
+            let d = w.device_mut(i).context("device vanished")?;
+            let help = d.command_help();
+            if help.is_empty() {
+                format!("{dev} has no commands of its own")
+            } else {
+                help.to_string()
+            }
+        }
+        ["quit"] | ["exit"] => return Ok(Reply::Quit),
+        ["list"] => {
+            let mut out = Vec::new();
+            for (i, name) in w.names().into_iter().enumerate() {
+                let Some(d) = w.device_mut(i) else { continue };
+                let values: Vec<String> = d
+                    .points()
+                    .iter()
+                    .map(|p| {
+                        format!(
+                            "{}={}",
+                            p.name,
+                            d.get(p.name)
+                                .map(|v| v.to_string())
+                                .unwrap_or_else(|_| "?".into())
+                        )
+                    })
+                    .collect();
+                out.push(format!("{name}: {}", values.join(" ")));
+            }
+            out.join("\n")
+        }
+        ["get", target] => {
+            let (dev, point) = split_target(target)?;
+            let i = find(&w, dev)?;
+            let v = w.get(i, point)?;
+            format!("{dev}.{point}={v}")
+        }
+        ["set", target, value] => {
+            let (dev, point) = split_target(target)?;
+            let i = find(&w, dev)?;
+            let d = w.device_mut(i).context("device vanished")?;
+            let Some(spec) = d.points().iter().find(|p| p.name == point) else {
+                bail!("{dev} has no point {point}");
+            };
+            let Some(v) = Value::parse(spec.ty, value) else {
+                bail!("{point} is {}, {value:?} is not", spec.ty);
+            };
+            w.set(i, point, v)?;
+            format!("{dev}.{point}={v}")
+        }
+        [dev, rest @ ..] if dev.contains('@') => {
+            let i = find(&w, dev)?;
+            let d = w.device_mut(i).context("device vanished")?;
+            d.command(rest)?
+        }
+        _ => bail!("unknown command {line:?}; try `help`"),
+    };
+    Ok(Reply::Text(text))
+}
+
+fn split_target(target: &str) -> anyhow::Result<(&str, &str)> {
+    target
+        .rsplit_once('.')
+        .ok_or_else(|| anyhow::anyhow!("{target:?}: expected DEVICE.POINT, e.g. minimod@5.X1"))
+}
+
+fn find(world: &SimWorld, dev: &str) -> anyhow::Result<usize> {
+    world
+        .find(dev)
+        .ok_or_else(|| anyhow::anyhow!("no device {dev:?} (devices: {})", world.names().join(", ")))
+}

@@ -1,0 +1,16 @@
+//! softplc: a deterministic soft-PLC runtime for RS-485 I/O modules.
+//!
+//! - [`project`]: the project file, validated before the first scan.
+//! - [`image`], [`clock`]: the process image and time.
+//! - [`logic`]: the `LogicEngine` trait and the engines.
+//! - [`scan`]: the scan thread: deadlines, phases, overruns, the task watchdog, statistics.
+//! - [`plc`]: a project wired into a runnable PLC (lines, drivers, image, program).
+//! - [`cli`]: the `softplc` subcommands.
+
+pub mod cli;
+pub mod clock;
+pub mod image;
+pub mod logic;
+pub mod plc;
+pub mod project;
+pub mod scan;

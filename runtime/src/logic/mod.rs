@@ -1,0 +1,57 @@
+//! Logic engines: what runs between the input read and the output write.
+//!
+//! An engine sees only the [`ProcessImage`] and the scan's time ([`ScanContext`]): no I/O, no
+//! wall clock. Same image + same times ⇒ same outputs (DESIGN.md principle 2).
+
+pub mod expr;
+pub mod load;
+
+use std::fmt::Debug;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use crate::image::ProcessImage;
+
+/// The scan's view of time, handed to logic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScanContext {
+    /// The cycle's start (its deadline), on the PLC's clock.
+    pub now: Duration,
+    /// Time since the previous cycle's start (the period on the first cycle).
+    pub delta: Duration,
+    /// Cycle number, from 0.
+    pub cycle: u64,
+}
+
+/// A place in a program file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SourcePos {
+    /// The file.
+    pub file: PathBuf,
+    /// 1-based line.
+    pub line: u32,
+    /// 1-based column.
+    pub column: u32,
+}
+
+impl std::fmt::Display for SourcePos {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}:{}", self.file.display(), self.line, self.column)
+    }
+}
+
+/// A fault raised by logic during a scan; the PLC goes to its safe state.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{message} at {pos}")]
+pub struct LogicFault {
+    /// What went wrong.
+    pub message: String,
+    /// Where in the program.
+    pub pos: SourcePos,
+}
+
+/// A control program ready to scan.
+pub trait LogicEngine: Send + Debug {
+    /// Runs the program once: reads and writes the image.
+    fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault>;
+}

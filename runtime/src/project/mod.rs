@@ -1,0 +1,118 @@
+//! The project file: YAML → [`raw`] serde structs → validated [`Project`].
+//!
+//! Everything is checked before the first scan, and every error found is reported with its
+//! `file:line:col`, like rustc:
+//!
+//! ```text
+//! plant.yaml:12:14: error: unknown model "minimodd" (known: minimod)
+//! plant.yaml:19:14: error: address 1 is already used by module mm1 on bus line1 (line 13)
+//! ```
+//!
+//! The schema is documented in [`raw`]. Errors of the YAML reader (syntax, an unknown key, a
+//! value of the wrong type) stop the reading, so they come alone; semantic errors (names,
+//! references, ranges, owners) are all collected. Positions of semantic errors come from
+//! re-reading the text along the error's path (see `span.rs`): they point at the offending
+//! value (or key, for an unknown plant role; or at the enclosing entry when the value is
+//! missing).
+
+pub mod error;
+pub mod model;
+pub mod raw;
+mod span;
+mod validate;
+
+use std::path::Path;
+
+pub use error::{ErrorKind, Item, ProjectError, ProjectErrors};
+pub use model::*;
+pub use raw::{parse_duration, DurationError};
+
+/// Reads and validates the project file at `path`. The program file is resolved against the
+/// file's folder and must exist.
+pub fn load(path: &Path) -> Result<Project, ProjectErrors> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => parse_str(&text, path),
+        Err(e) => Err(ProjectErrors {
+            errors: vec![ProjectError {
+                file: path.to_path_buf(),
+                line: 0,
+                column: 0,
+                kind: ErrorKind::Io {
+                    message: e.to_string(),
+                },
+            }],
+        }),
+    }
+}
+
+/// Validates project text as if read from `file`: errors name `file`, and the program file is
+/// resolved against `file`'s folder and must exist (as for [`load`]).
+pub fn parse_str(text: &str, file: &Path) -> Result<Project, ProjectErrors> {
+    let raw: raw::RawProject = yaml_serde::from_str(text).map_err(|e| ProjectErrors {
+        errors: vec![yaml_error(&e, file)],
+    })?;
+    validate::validate(&raw, text, file).map_err(|errors| ProjectErrors { errors })
+}
+
+/// Converts an error of the YAML reader, keeping its position and classifying its message.
+fn yaml_error(err: &yaml_serde::Error, file: &Path) -> ProjectError {
+    let (line, column) = err.location().map_or((1, 1), |l| (l.line(), l.column()));
+    let mut message = err.to_string();
+    let suffix = format!(" at line {line} column {column}");
+    if let Some(at) = message.find(&suffix) {
+        message.replace_range(at..at + suffix.len(), "");
+    }
+    ProjectError {
+        file: file.to_path_buf(),
+        line,
+        column,
+        kind: classify(message),
+    }
+}
+
+/// Splits `path: message` as yaml_serde writes it and recognises serde's standard messages.
+fn classify(message: String) -> ErrorKind {
+    let split = |at: usize| -> String {
+        message
+            .get(..at)
+            .unwrap_or("")
+            .trim_end()
+            .trim_end_matches(':')
+            .to_owned()
+    };
+    let quoted = |rest: &str| -> Option<(String, String)> {
+        let (name, after) = rest.split_once('`')?;
+        Some((name.to_owned(), after.to_owned()))
+    };
+    for (phrase, which) in [
+        ("unknown field `", 0),
+        ("missing field `", 1),
+        ("duplicate field `", 2),
+        ("invalid type: ", 3),
+        ("invalid value: ", 3),
+        ("invalid length ", 3),
+    ] {
+        let Some(at) = message.find(phrase) else {
+            continue;
+        };
+        let section = split(at);
+        let rest = message.get(at + phrase.len()..).unwrap_or("");
+        let kind = match which {
+            0 => quoted(rest).map(|(key, after)| ErrorKind::UnknownKey {
+                section,
+                key,
+                expected: after.trim_start_matches(", expected ").to_owned(),
+            }),
+            1 => quoted(rest).map(|(key, _)| ErrorKind::MissingKey { section, key }),
+            2 => quoted(rest).map(|(key, _)| ErrorKind::DuplicateKey { section, key }),
+            _ => Some(ErrorKind::WrongType {
+                key: section,
+                message: message.get(at..).unwrap_or("").to_owned(),
+            }),
+        };
+        if let Some(kind) = kind {
+            return kind;
+        }
+    }
+    ErrorKind::Yaml { message }
+}

@@ -1,0 +1,156 @@
+//! The validated project: what the runtime builds from. Every index in it is valid and every
+//! reference resolved; nothing here can fail later because of the file.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use softplc_io::devices::{DeviceConfig, ModelSpec};
+use softplc_io::line::LineSettings;
+use softplc_io::point::{Value, ValueType};
+
+/// A validated project.
+#[derive(Debug, Clone)]
+pub struct Project {
+    /// The project's name.
+    pub name: String,
+    /// The project file it came from.
+    pub source: PathBuf,
+    /// The scan task.
+    pub scan: ScanConfig,
+    /// RS-485 lines, in file order.
+    pub buses: Vec<BusConfig>,
+    /// Modules, in file order.
+    pub modules: Vec<ModuleConfig>,
+    /// Tags, in file order.
+    pub tags: Vec<TagConfig>,
+    /// The control program.
+    pub program: ProgramConfig,
+    /// The simulated plant, when the project has one.
+    pub plant: Option<PlantConfig>,
+}
+
+/// The scan task.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanConfig {
+    /// Cycle period (non-zero).
+    pub period: Duration,
+    /// Task watchdog.
+    pub watchdog: WatchdogConfig,
+    /// Best-effort real-time options.
+    pub realtime: RealtimeConfig,
+}
+
+/// Task watchdog, as CODESYS defines it: a cycle longer than `time` is an overrun; the watchdog
+/// fires after `sensitivity` consecutive overruns, or at once when one cycle takes longer than
+/// `time × sensitivity`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WatchdogConfig {
+    /// Longest acceptable cycle.
+    pub time: Duration,
+    /// Consecutive overruns tolerated (≥ 1).
+    pub sensitivity: u32,
+}
+
+/// Real-time options; each is best effort and logged when the OS refuses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RealtimeConfig {
+    /// SCHED_FIFO priority 1..=99 for the scan thread.
+    pub priority: Option<u8>,
+    /// CPU to pin the scan thread to.
+    pub cpu: Option<usize>,
+    /// `mlockall(MCL_CURRENT | MCL_FUTURE)`.
+    pub lock_memory: bool,
+}
+
+/// Where a line's bytes go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PortConfig {
+    /// The simulated line, with a simulator for each module on it.
+    Sim,
+    /// A serial device path (`/dev/ttyUSB0`, or one end of a pty).
+    Serial(PathBuf),
+}
+
+/// One RS-485 line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BusConfig {
+    /// The line's name.
+    pub name: String,
+    /// Its port.
+    pub port: PortConfig,
+    /// Baud and format.
+    pub settings: LineSettings,
+    /// How long to wait for the first byte of a reply.
+    pub response_timeout: Duration,
+    /// Attempts after a failed one, per transaction (0 = no retry).
+    pub retries: u8,
+    /// Period of the full output refresh (outputs are otherwise written on change).
+    pub output_refresh: Duration,
+}
+
+/// One module.
+#[derive(Debug, Clone)]
+pub struct ModuleConfig {
+    /// The module's name (`mm1`).
+    pub name: String,
+    /// Index into [`Project::buses`].
+    pub bus: usize,
+    /// Its model.
+    pub model: &'static ModelSpec,
+    /// What its driver is built from.
+    pub device: DeviceConfig,
+}
+
+/// One tag.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TagConfig {
+    /// The tag's name, as programs use it.
+    pub name: String,
+    /// Its type.
+    pub ty: ValueType,
+    /// What it is bound to.
+    pub binding: Binding,
+    /// The value written when the PLC goes to its safe state (outputs only; `None`: leave).
+    pub safe: Option<Value>,
+    /// Initial value of a memory tag (zero of its type unless given).
+    pub initial: Value,
+}
+
+/// What a tag is bound to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Binding {
+    /// A module point: indexes into [`Project::modules`] and the model's points.
+    Point {
+        /// The module.
+        module: usize,
+        /// The point.
+        point: usize,
+    },
+    /// A memory variable.
+    Memory,
+}
+
+/// The control program.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ProgramConfig {
+    /// The program file, resolved against the project file's folder.
+    pub path: PathBuf,
+    /// Its language.
+    pub kind: ProgramKind,
+}
+
+/// Program languages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProgramKind {
+    /// Boolean coil assignments, one per line: `motor = (start | motor) & !stop`.
+    Expr,
+}
+
+/// The simulated plant that closes the loop from outputs to inputs on `port: sim` lines.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlantConfig {
+    /// The plant model's name (`conveyor`).
+    pub model: String,
+    /// Plant role → `(module index, point name)`.
+    pub wiring: Vec<(String, usize, String)>,
+}

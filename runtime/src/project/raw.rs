@@ -1,0 +1,479 @@
+//! The project file as written: serde structs that mirror the YAML, before validation.
+//!
+//! # Schema
+//!
+//! ```yaml
+//! project: quickstart          # free text, not empty
+//! scan:
+//!   period: 20ms               # cycle period, > 0
+//!   watchdog: { time: 100ms, sensitivity: 3 }   # optional; default time 5 × period, sensitivity 3
+//!   realtime: { priority: 50, cpu: 1, lock_memory: true }   # optional, best effort
+//! buses:
+//!   - name: line1
+//!     port: sim                # `sim`, or a device path: /dev/ttyUSB0, /dev/pts/3
+//!     baud: 19200              # default 19200
+//!     format: 8E1              # data bits 7|8, parity N|E|O, stop bits 1|2; default 8E1
+//!     response_timeout: 50ms   # default 100ms
+//!     retries: 1               # attempts after a failed one, 0..=255; default 1
+//!     output_refresh: 1s       # period of the full output rewrite; default 1s
+//! modules:
+//!   - name: mm1
+//!     bus: line1
+//!     model: minimod           # a model of the catalog (`softplc_io::devices::catalog`)
+//!     address: 1               # unit address, within the model's range
+//!     protocol: modbus         # modbus | text; default: the model's first protocol
+//!     settings: { RDELAYT: 5 } # optional, model-specific, checked by the model
+//! tags:
+//!   - { name: start, point: mm1.X2 }           # bound to a point; its type is the point's
+//!   - { name: motor, point: mm1.Y1, safe: false }   # `safe`: written in the safe state
+//!   - { name: count, type: u16, initial: 0 }   # a memory variable
+//! program:
+//!   file: conveyor.expr        # relative to the project file's folder; must exist
+//!   kind: expr                 # the program language
+//! plant:                       # optional; only on `port: sim` buses
+//!   model: conveyor
+//!   wiring: { motor: mm1.Y1, sensor_entry: mm1.X1, sensor_exit: mm1.X2 }
+//! ```
+//!
+//! Rules the validation enforces (see [`super::parse_str`]):
+//! - Bus, module and tag names are identifiers (`[A-Za-z_][A-Za-z0-9_]*`), unique among their
+//!   kind. Unknown keys are errors everywhere except in a module's `settings`.
+//! - **Durations** are strings with a unit: a decimal number (`20`, `1.5`, `.5`) followed by
+//!   `ns`, `us` (or `µs`), `ms`, `s`, `m` (minutes) or `h`, optionally separated by one space
+//!   (`20ms`, `1.5s`, `250us`, `2m`, `10 ms`). A bare number (`period: 20`) is refused: whether
+//!   it means milliseconds or seconds is a guess a PLC should not make. Durations must be a
+//!   whole number of nanoseconds.
+//! - A tag has `point` (`module.POINT`, the manual's spelling) or `type` (`bool`, `u16`, `i32`,
+//!   `f32`), not neither; a point-bound tag may repeat `type` only if it is the point's.
+//!   `safe` is allowed only on tags bound to an output point, `initial` only on memory tags;
+//!   both must be values of the tag's type (`true`/`false`/`1`/`0` for bools; integers may be
+//!   written in hex, `0x1F`). An output point may be bound to one tag only.
+//! - A bus's baud rate may not exceed the `max_baud` of a model on it (reported at the
+//!   module's `bus`). Unit addresses are unique per bus.
+//! - Program kinds: `expr` (others will come). The program file must exist.
+//! - A plant must wire every one of its roles, each to a point of the right direction (a role
+//!   the plant drives → a module input; a role it reads → a module output), on `port: sim`
+//!   buses only; an input is driven by one role at most.
+
+use std::fmt;
+use std::time::Duration;
+
+use serde::de::{self, Deserializer, MapAccess, Unexpected, Visitor};
+use serde::Deserialize;
+
+/// The whole file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a project: a mapping with project, scan, buses, modules, tags, program and plant"
+)]
+pub struct RawProject {
+    /// The project's name.
+    pub project: String,
+    /// The scan task.
+    pub scan: RawScan,
+    /// RS-485 lines.
+    #[serde(default)]
+    pub buses: Vec<RawBus>,
+    /// I/O modules.
+    #[serde(default)]
+    pub modules: Vec<RawModule>,
+    /// Tags.
+    #[serde(default)]
+    pub tags: Vec<RawTag>,
+    /// The control program.
+    pub program: RawProgram,
+    /// The simulated plant.
+    #[serde(default)]
+    pub plant: Option<RawPlant>,
+}
+
+/// `scan:`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "scan settings: a mapping with period, watchdog and realtime"
+)]
+pub struct RawScan {
+    /// Cycle period.
+    pub period: DurationText,
+    /// Task watchdog.
+    #[serde(default)]
+    pub watchdog: Option<RawWatchdog>,
+    /// Real-time options.
+    #[serde(default)]
+    pub realtime: Option<RawRealtime>,
+}
+
+/// `scan.watchdog:`.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "watchdog settings: a mapping with time and sensitivity"
+)]
+pub struct RawWatchdog {
+    /// Longest acceptable cycle (default 5 × period).
+    #[serde(default)]
+    pub time: Option<DurationText>,
+    /// Consecutive overruns tolerated (default 3).
+    #[serde(default)]
+    pub sensitivity: Option<Int>,
+}
+
+/// `scan.realtime:`.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "real-time settings: a mapping with priority, cpu and lock_memory"
+)]
+pub struct RawRealtime {
+    /// SCHED_FIFO priority 1..=99.
+    #[serde(default)]
+    pub priority: Option<Int>,
+    /// CPU to pin the scan thread to.
+    #[serde(default)]
+    pub cpu: Option<Int>,
+    /// Lock the process's memory.
+    #[serde(default)]
+    pub lock_memory: Option<bool>,
+}
+
+/// One `buses:` entry.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh"
+)]
+pub struct RawBus {
+    /// The line's name.
+    pub name: String,
+    /// `sim` or a device path.
+    pub port: String,
+    /// Baud rate (default 19200).
+    #[serde(default)]
+    pub baud: Option<Int>,
+    /// Character format (default `8E1`).
+    #[serde(default)]
+    pub format: Option<String>,
+    /// Response timeout (default 100 ms).
+    #[serde(default)]
+    pub response_timeout: Option<DurationText>,
+    /// Retries per transaction (default 1).
+    #[serde(default)]
+    pub retries: Option<Int>,
+    /// Full output refresh period (default 1 s).
+    #[serde(default)]
+    pub output_refresh: Option<DurationText>,
+}
+
+/// One `modules:` entry.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a module: a mapping with name, bus, model, address, protocol and settings"
+)]
+pub struct RawModule {
+    /// The module's name.
+    pub name: String,
+    /// The bus it is on.
+    pub bus: String,
+    /// Its model.
+    pub model: String,
+    /// Its unit address.
+    pub address: Int,
+    /// Protocol (default: the model's first).
+    #[serde(default)]
+    pub protocol: Option<String>,
+    /// Model-specific settings.
+    #[serde(default)]
+    pub settings: Option<Settings>,
+}
+
+/// One `tags:` entry.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a tag: a mapping with name and point or type, safe, initial"
+)]
+pub struct RawTag {
+    /// The tag's name.
+    pub name: String,
+    /// `module.POINT`.
+    #[serde(default)]
+    pub point: Option<String>,
+    /// The type of a memory tag.
+    #[serde(default, rename = "type")]
+    pub ty: Option<String>,
+    /// Safe-state value (outputs).
+    #[serde(default)]
+    pub safe: Option<ScalarText>,
+    /// Initial value (memory tags).
+    #[serde(default)]
+    pub initial: Option<ScalarText>,
+}
+
+/// `program:`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a program: a mapping with file and kind"
+)]
+pub struct RawProgram {
+    /// The program file, relative to the project file's folder.
+    pub file: String,
+    /// Its language.
+    pub kind: String,
+}
+
+/// `plant:`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a plant: a mapping with model and wiring"
+)]
+pub struct RawPlant {
+    /// The plant model.
+    pub model: String,
+    /// Role → `module.POINT`.
+    #[serde(default)]
+    pub wiring: Settings,
+}
+
+/// A duration written with a unit (`20ms`, `1.5s`); see the module docs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DurationText(pub Duration);
+
+/// The duration syntax the module docs describe.
+const DURATION_EXPECTED: &str =
+    "a duration with a unit, like 20ms, 1.5s, 250us or 2m (a bare number is ambiguous)";
+
+impl<'de> Deserialize<'de> for DurationText {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = DurationText;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(DURATION_EXPECTED)
+            }
+
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<DurationText, E> {
+                parse_duration(v).map(DurationText).map_err(|why| {
+                    E::custom(format_args!(
+                        "invalid value: duration \"{v}\": {why}; expected {DURATION_EXPECTED}"
+                    ))
+                })
+            }
+        }
+        d.deserialize_str(V)
+    }
+}
+
+/// Why a duration text was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DurationError {
+    /// No number before the unit.
+    #[error("no number")]
+    NoNumber,
+    /// No unit after the number.
+    #[error("no unit (ns, us, ms, s, m or h)")]
+    NoUnit,
+    /// A unit that is not known.
+    #[error("unknown unit \"{0}\" (ns, us, ms, s, m or h)")]
+    UnknownUnit(String),
+    /// Not a whole number of nanoseconds.
+    #[error("finer than a nanosecond")]
+    TooFine,
+    /// Longer than a `Duration` holds.
+    #[error("too long")]
+    TooLong,
+}
+
+/// Parses a duration with a unit: `20ms`, `1.5s`, `250us`, `2m`, `10 ms` (see the module
+/// docs). Exact: no floating point is involved.
+pub fn parse_duration(text: &str) -> Result<Duration, DurationError> {
+    let t = text.trim();
+    let num_end = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(num_end);
+    let unit = unit.strip_prefix(' ').unwrap_or(unit);
+    let (int_part, frac_part) = match num.split_once('.') {
+        Some((i, f)) => (i, f),
+        None => (num, ""),
+    };
+    if int_part.is_empty() && frac_part.is_empty() {
+        return Err(DurationError::NoNumber);
+    }
+    if frac_part.contains('.') {
+        return Err(DurationError::NoNumber);
+    }
+    let scale: u128 = match unit {
+        "" => return Err(DurationError::NoUnit),
+        "ns" => 1,
+        "us" | "µs" => 1_000,
+        "ms" => 1_000_000,
+        "s" => 1_000_000_000,
+        "m" => 60_000_000_000,
+        "h" => 3_600_000_000_000,
+        other => return Err(DurationError::UnknownUnit(other.to_owned())),
+    };
+    // value = (int_part.frac_part) × scale, computed as digits / 10^len(frac) × scale.
+    let digits = format!("{int_part}{frac_part}");
+    if digits.len() > 30 {
+        return Err(DurationError::TooLong);
+    }
+    let mantissa: u128 = digits.parse().map_err(|_| DurationError::NoNumber)?;
+    let exp = u32::try_from(frac_part.len()).map_err(|_| DurationError::TooFine)?;
+    let divisor = 10u128.checked_pow(exp).ok_or(DurationError::TooFine)?;
+    let scaled = mantissa.checked_mul(scale).ok_or(DurationError::TooLong)?;
+    if scaled % divisor != 0 {
+        return Err(DurationError::TooFine);
+    }
+    let nanos = u64::try_from(scaled / divisor).map_err(|_| DurationError::TooLong)?;
+    Ok(Duration::from_nanos(nanos))
+}
+
+/// A whole number; range checks are the validation's, so they can name the key's meaning.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Int(pub i64);
+
+impl<'de> Deserialize<'de> for Int {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Int;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a whole number")
+            }
+
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Int, E> {
+                Ok(Int(v))
+            }
+
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Int, E> {
+                i64::try_from(v)
+                    .map(Int)
+                    .map_err(|_| E::invalid_value(Unexpected::Unsigned(v), &"a smaller number"))
+            }
+        }
+        d.deserialize_i64(V)
+    }
+}
+
+/// Any scalar (string, number, bool), as its text; for values typed later (`safe`, settings).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ScalarText(pub String);
+
+impl<'de> Deserialize<'de> for ScalarText {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = ScalarText;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a single value (a number, true/false or text)")
+            }
+
+            fn visit_bool<E: de::Error>(self, v: bool) -> Result<ScalarText, E> {
+                Ok(ScalarText(v.to_string()))
+            }
+
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<ScalarText, E> {
+                Ok(ScalarText(v.to_string()))
+            }
+
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<ScalarText, E> {
+                Ok(ScalarText(v.to_string()))
+            }
+
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<ScalarText, E> {
+                Ok(ScalarText(v.to_string()))
+            }
+
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<ScalarText, E> {
+                Ok(ScalarText(v.to_owned()))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A mapping of text keys to scalar values, in file order; a key given twice is an error.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Settings(pub Vec<(String, String)>);
+
+impl<'de> Deserialize<'de> for Settings {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Settings;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a mapping of key: value")
+            }
+
+            fn visit_unit<E: de::Error>(self) -> Result<Settings, E> {
+                Ok(Settings::default())
+            }
+
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Settings, A::Error> {
+                let mut out: Vec<(String, String)> = Vec::new();
+                while let Some(key) = map.next_key::<ScalarText>()? {
+                    if out.iter().any(|(k, _)| *k == key.0) {
+                        return Err(de::Error::custom(format_args!(
+                            "duplicate field `{}`",
+                            key.0
+                        )));
+                    }
+                    let value = map.next_value::<ScalarText>()?;
+                    out.push((key.0, value.0));
+                }
+                Ok(Settings(out))
+            }
+        }
+        d.deserialize_map(V)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_with_units() {
+        let ms = Duration::from_millis;
+        assert_eq!(parse_duration("20ms"), Ok(ms(20)));
+        assert_eq!(parse_duration("1.5s"), Ok(ms(1500)));
+        assert_eq!(parse_duration("250us"), Ok(Duration::from_micros(250)));
+        assert_eq!(parse_duration("250µs"), Ok(Duration::from_micros(250)));
+        assert_eq!(parse_duration("2m"), Ok(Duration::from_secs(120)));
+        assert_eq!(parse_duration("1h"), Ok(Duration::from_secs(3600)));
+        assert_eq!(parse_duration("10 ms"), Ok(ms(10)));
+        assert_eq!(parse_duration(".5s"), Ok(ms(500)));
+        assert_eq!(parse_duration("0ms"), Ok(Duration::ZERO));
+        assert_eq!(parse_duration("7ns"), Ok(Duration::from_nanos(7)));
+    }
+
+    #[test]
+    fn bad_durations() {
+        assert_eq!(parse_duration("20"), Err(DurationError::NoUnit));
+        assert_eq!(parse_duration("ms"), Err(DurationError::NoNumber));
+        assert_eq!(parse_duration("-5ms"), Err(DurationError::NoNumber));
+        assert_eq!(parse_duration("1.2.3s"), Err(DurationError::NoNumber));
+        assert_eq!(
+            parse_duration("5 parsecs"),
+            Err(DurationError::UnknownUnit("parsecs".into()))
+        );
+        assert_eq!(parse_duration("1.5ns"), Err(DurationError::TooFine));
+        assert_eq!(
+            parse_duration("99999999999999h"),
+            Err(DurationError::TooLong)
+        );
+        assert_eq!(
+            parse_duration("1234567890123456789012345678901s"),
+            Err(DurationError::TooLong)
+        );
+    }
+}

@@ -1,0 +1,981 @@
+//! Raw project → validated [`Project`], collecting every error with its position.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use softplc_io::devices::{self, ModelSpec, Protocol};
+use softplc_io::line::{LineSettings, SerialFormat};
+use softplc_io::point::{Access, Value, ValueType};
+use softplc_io::sim::plant;
+
+use super::error::{ErrorKind, Item, ProjectError};
+use super::model::{
+    Binding, BusConfig, ModuleConfig, PlantConfig, PortConfig, ProgramConfig, ProgramKind, Project,
+    RealtimeConfig, ScanConfig, TagConfig, WatchdogConfig,
+};
+use super::raw::{Int, RawBus, RawModule, RawPlant, RawProject, RawScan, RawTag};
+use super::span::{Locator, YPath};
+use softplc_io::devices::DeviceConfig;
+
+/// Default watchdog time, in periods.
+const WATCHDOG_PERIODS: u32 = 5;
+/// Default watchdog sensitivity.
+const DEFAULT_SENSITIVITY: u32 = 3;
+/// Default response timeout.
+const DEFAULT_RESPONSE_TIMEOUT: Duration = Duration::from_millis(100);
+/// Default retries.
+const DEFAULT_RETRIES: u8 = 1;
+/// Default output refresh.
+const DEFAULT_OUTPUT_REFRESH: Duration = Duration::from_secs(1);
+/// Every protocol, for names.
+const PROTOCOLS: [Protocol; 2] = [Protocol::Modbus, Protocol::Text];
+/// Program kinds, by project-file name.
+const PROGRAM_KINDS: [(&str, ProgramKind); 1] = [("expr", ProgramKind::Expr)];
+/// At most this many "did you mean" suggestions.
+const MAX_SUGGESTIONS: usize = 5;
+
+/// Validates `raw` (read from `text`, the file `file`); every error found, sorted by position.
+pub(crate) fn validate(
+    raw: &RawProject,
+    text: &str,
+    file: &Path,
+) -> Result<Project, Vec<ProjectError>> {
+    let mut v = Validator {
+        loc: Locator::new(text),
+        file,
+        errors: Vec::new(),
+    };
+    let root = YPath::root();
+
+    if raw.project.trim().is_empty() {
+        v.error(root.key("project"), ErrorKind::EmptyProjectName);
+    }
+    let scan = v.scan(&raw.scan, &root.key("scan"));
+    let buses: Vec<Option<BusConfig>> = raw
+        .buses
+        .iter()
+        .enumerate()
+        .map(|(i, b)| v.bus(b, &root.key("buses").index(i)))
+        .collect();
+    let bus_index = v.names(
+        Item::Bus,
+        raw.buses.iter().map(|b| b.name.as_str()),
+        "buses",
+    );
+    let modules = v.modules(raw, &buses, &bus_index);
+    let module_index = v.names(
+        Item::Module,
+        raw.modules.iter().map(|m| m.name.as_str()),
+        "modules",
+    );
+    let tags = v.tags(raw, &modules, &module_index);
+    let program = v.program(raw, file);
+    let plant = match &raw.plant {
+        Some(p) => v.plant(p, raw, &buses, &modules, &module_index).map(Some),
+        None => Some(None),
+    };
+
+    let mut errors = v.errors;
+    let built = (|| {
+        Some(Project {
+            name: raw.project.clone(),
+            source: file.to_path_buf(),
+            scan: scan?,
+            buses: buses.into_iter().collect::<Option<Vec<_>>>()?,
+            modules: modules
+                .into_iter()
+                .map(|(_, c)| c)
+                .collect::<Option<Vec<_>>>()?,
+            tags: tags.into_iter().collect::<Option<Vec<_>>>()?,
+            program: program?,
+            plant: plant?,
+        })
+    })();
+    match built {
+        Some(project) if errors.is_empty() => Ok(project),
+        _ => {
+            if errors.is_empty() {
+                // Every refusal above records an error; this is a guard, not a path.
+                errors.push(ProjectError {
+                    file: file.to_path_buf(),
+                    line: 1,
+                    column: 1,
+                    kind: ErrorKind::Yaml {
+                        message: "internal error: incomplete project".into(),
+                    },
+                });
+            }
+            errors.sort_by_key(|e| (e.line, e.column));
+            Err(errors)
+        }
+    }
+}
+
+/// Is `name` an identifier (`[A-Za-z_][A-Za-z0-9_]*`)?
+pub(crate) fn is_identifier(name: &str) -> bool {
+    let mut chars = name.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// A module as far as it could be resolved (for tags and the plant, even when the module
+/// itself has errors elsewhere).
+#[derive(Debug, Clone, Copy)]
+struct Resolved {
+    /// Its bus, if known.
+    bus: Option<usize>,
+    /// Its model, if known.
+    model: Option<&'static ModelSpec>,
+}
+
+/// A resolved point reference.
+#[derive(Debug, Clone, Copy)]
+struct PointRef {
+    module: usize,
+    point: usize,
+    spec: &'static softplc_io::point::PointSpec,
+}
+
+struct Validator<'a> {
+    loc: Locator<'a>,
+    file: &'a Path,
+    errors: Vec<ProjectError>,
+}
+
+impl Validator<'_> {
+    fn error(&mut self, path: YPath, kind: ErrorKind) {
+        let (line, column) = self.loc.position(&path);
+        self.errors.push(ProjectError {
+            file: self.file.to_path_buf(),
+            line,
+            column,
+            kind,
+        });
+    }
+
+    /// Checks that names are identifiers and unique; returns name → first index.
+    fn names<'n>(
+        &mut self,
+        item: Item,
+        names: impl Iterator<Item = &'n str>,
+        list: &str,
+    ) -> HashMap<String, usize> {
+        let mut index: HashMap<String, usize> = HashMap::new();
+        for (i, name) in names.enumerate() {
+            let path = YPath::root().key(list).index(i).key("name");
+            if !is_identifier(name) {
+                // Still indexed, so references to it do not add "unknown" errors.
+                self.error(
+                    path.clone(),
+                    ErrorKind::InvalidName {
+                        item,
+                        name: name.to_owned(),
+                    },
+                );
+            }
+            match index.get(name) {
+                Some(&first) => {
+                    let first_line = self
+                        .loc
+                        .line(&YPath::root().key(list).index(first).key("name"));
+                    self.error(
+                        path,
+                        ErrorKind::DuplicateName {
+                            item,
+                            name: name.to_owned(),
+                            first_line,
+                        },
+                    );
+                }
+                None => {
+                    index.insert(name.to_owned(), i);
+                }
+            }
+        }
+        index
+    }
+
+    fn positive(&mut self, d: Duration, path: YPath, key: &'static str) -> Option<Duration> {
+        if d.is_zero() {
+            self.error(path, ErrorKind::ZeroDuration { key });
+            None
+        } else {
+            Some(d)
+        }
+    }
+
+    fn scan(&mut self, raw: &RawScan, path: &YPath) -> Option<ScanConfig> {
+        let period = self.positive(raw.period.0, path.key("period"), "scan.period");
+
+        let wd = raw.watchdog.clone().unwrap_or_default();
+        let wd_path = path.key("watchdog");
+        let time = match wd.time {
+            Some(t) => self.positive(t.0, wd_path.key("time"), "watchdog time"),
+            None => period.map(|p| p.saturating_mul(WATCHDOG_PERIODS)),
+        };
+        let sensitivity = match wd.sensitivity {
+            None => Some(DEFAULT_SENSITIVITY),
+            Some(Int(s)) => match u32::try_from(s) {
+                Ok(s) if s >= 1 => Some(s),
+                _ => {
+                    self.error(
+                        wd_path.key("sensitivity"),
+                        ErrorKind::BadSensitivity { value: s },
+                    );
+                    None
+                }
+            },
+        };
+
+        let rt = raw.realtime.clone().unwrap_or_default();
+        let rt_path = path.key("realtime");
+        let priority = match rt.priority {
+            None => Some(None),
+            Some(Int(p)) => match u8::try_from(p) {
+                Ok(p @ 1..=99) => Some(Some(p)),
+                _ => {
+                    self.error(rt_path.key("priority"), ErrorKind::BadPriority { value: p });
+                    None
+                }
+            },
+        };
+        let cpu = match rt.cpu {
+            None => Some(None),
+            Some(Int(c)) => match usize::try_from(c) {
+                Ok(c) => Some(Some(c)),
+                Err(_) => {
+                    self.error(rt_path.key("cpu"), ErrorKind::BadCpu { value: c });
+                    None
+                }
+            },
+        };
+
+        Some(ScanConfig {
+            period: period?,
+            watchdog: WatchdogConfig {
+                time: time?,
+                sensitivity: sensitivity?,
+            },
+            realtime: RealtimeConfig {
+                priority: priority?,
+                cpu: cpu?,
+                lock_memory: rt.lock_memory.unwrap_or(false),
+            },
+        })
+    }
+
+    fn bus(&mut self, raw: &RawBus, path: &YPath) -> Option<BusConfig> {
+        let port = if raw.port == "sim" {
+            Some(PortConfig::Sim)
+        } else if raw.port.contains('/') {
+            Some(PortConfig::Serial(PathBuf::from(&raw.port)))
+        } else {
+            self.error(
+                path.key("port"),
+                ErrorKind::BadPort {
+                    port: raw.port.clone(),
+                },
+            );
+            None
+        };
+        let baud = match raw.baud {
+            None => Some(LineSettings::DEFAULT.baud),
+            Some(Int(b)) => match u32::try_from(b) {
+                Ok(b) if b > 0 => Some(b),
+                _ => {
+                    self.error(path.key("baud"), ErrorKind::BadBaud { value: b });
+                    None
+                }
+            },
+        };
+        let format = match &raw.format {
+            None => Some(LineSettings::DEFAULT.format),
+            Some(f) => match f.parse::<SerialFormat>() {
+                Ok(f) => Some(f),
+                Err(_) => {
+                    self.error(
+                        path.key("format"),
+                        ErrorKind::BadFormat { format: f.clone() },
+                    );
+                    None
+                }
+            },
+        };
+        let response_timeout = match raw.response_timeout {
+            None => Some(DEFAULT_RESPONSE_TIMEOUT),
+            Some(t) => self.positive(t.0, path.key("response_timeout"), "response_timeout"),
+        };
+        let retries = match raw.retries {
+            None => Some(DEFAULT_RETRIES),
+            Some(Int(r)) => match u8::try_from(r) {
+                Ok(r) => Some(r),
+                Err(_) => {
+                    self.error(path.key("retries"), ErrorKind::BadRetries { value: r });
+                    None
+                }
+            },
+        };
+        let output_refresh = match raw.output_refresh {
+            None => Some(DEFAULT_OUTPUT_REFRESH),
+            Some(t) => self.positive(t.0, path.key("output_refresh"), "output_refresh"),
+        };
+        Some(BusConfig {
+            name: raw.name.clone(),
+            port: port?,
+            settings: LineSettings {
+                baud: baud?,
+                format: format?,
+            },
+            response_timeout: response_timeout?,
+            retries: retries?,
+            output_refresh: output_refresh?,
+        })
+    }
+
+    /// Validates every module; returns, per module, what could be resolved and the config.
+    fn modules(
+        &mut self,
+        raw: &RawProject,
+        buses: &[Option<BusConfig>],
+        bus_index: &HashMap<String, usize>,
+    ) -> Vec<(Resolved, Option<ModuleConfig>)> {
+        let mut addresses: HashMap<(usize, u8), usize> = HashMap::new();
+        let mut out = Vec::with_capacity(raw.modules.len());
+        for (i, m) in raw.modules.iter().enumerate() {
+            let path = YPath::root().key("modules").index(i);
+            let r = self.module(raw, i, m, &path, buses, bus_index, &mut addresses);
+            out.push(r);
+        }
+        out
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn module(
+        &mut self,
+        raw: &RawProject,
+        i: usize,
+        m: &RawModule,
+        path: &YPath,
+        buses: &[Option<BusConfig>],
+        bus_index: &HashMap<String, usize>,
+        addresses: &mut HashMap<(usize, u8), usize>,
+    ) -> (Resolved, Option<ModuleConfig>) {
+        let bus = bus_index.get(&m.bus).copied();
+        if bus.is_none() {
+            let known = raw.buses.iter().map(|b| b.name.clone()).collect();
+            self.error(
+                path.key("bus"),
+                ErrorKind::UnknownBus {
+                    name: m.bus.clone(),
+                    known,
+                },
+            );
+        }
+        let model = devices::model(&m.model);
+        if model.is_none() {
+            let known = devices::catalog().iter().map(|s| s.name).collect();
+            self.error(
+                path.key("model"),
+                ErrorKind::UnknownModel {
+                    name: m.model.clone(),
+                    known,
+                },
+            );
+        }
+        let resolved = Resolved { bus, model };
+        let Some(model) = model else {
+            return (resolved, None);
+        };
+
+        // Address: in the model's range, unique on its bus.
+        let address = match u8::try_from(m.address.0) {
+            Ok(a) if model.addresses.contains(&a) => Some(a),
+            _ => {
+                self.error(
+                    path.key("address"),
+                    ErrorKind::AddressOutOfRange {
+                        address: m.address.0,
+                        model: model.name,
+                        min: *model.addresses.start(),
+                        max: *model.addresses.end(),
+                    },
+                );
+                None
+            }
+        };
+        if let (Some(b), Some(a)) = (bus, address) {
+            match addresses.get(&(b, a)) {
+                Some(&other) => {
+                    let other_line = self
+                        .loc
+                        .line(&YPath::root().key("modules").index(other).key("address"));
+                    let kind = ErrorKind::DuplicateAddress {
+                        address: a,
+                        bus: m.bus.clone(),
+                        other: raw
+                            .modules
+                            .get(other)
+                            .map(|o| o.name.clone())
+                            .unwrap_or_default(),
+                        other_line,
+                    };
+                    self.error(path.key("address"), kind);
+                }
+                None => {
+                    addresses.insert((b, a), i);
+                }
+            }
+        }
+
+        // Baud rate of its bus.
+        if let Some(Some(bus_cfg)) = bus.and_then(|b| buses.get(b)) {
+            let baud = bus_cfg.settings.baud;
+            if baud > model.max_baud {
+                let bus_path = YPath::root().key("buses").index(bus.unwrap_or(0));
+                let baud_line = self.loc.line(&bus_path.key("baud"));
+                let kind = ErrorKind::BaudTooHigh {
+                    module: m.name.clone(),
+                    model: model.name,
+                    max: model.max_baud,
+                    bus: m.bus.clone(),
+                    baud,
+                    baud_line,
+                };
+                self.error(path.key("bus"), kind);
+            }
+        }
+
+        // Protocol.
+        let supported: Vec<&'static str> = model.protocols.iter().map(|p| p.name()).collect();
+        let protocol = match &m.protocol {
+            None => match model.protocols.first() {
+                Some(&p) => Some(p),
+                None => {
+                    let kind = ErrorKind::ProtocolNotSupported {
+                        protocol: Protocol::Modbus.name(),
+                        model: model.name,
+                        supported,
+                    };
+                    self.error(path.key("model"), kind);
+                    None
+                }
+            },
+            Some(name) => match PROTOCOLS.iter().find(|p| p.name() == name) {
+                None => {
+                    let known = PROTOCOLS.iter().map(|p| p.name()).collect();
+                    self.error(
+                        path.key("protocol"),
+                        ErrorKind::UnknownProtocol {
+                            name: name.clone(),
+                            known,
+                        },
+                    );
+                    None
+                }
+                Some(&p) if model.protocols.contains(&p) => Some(p),
+                Some(&p) => {
+                    let kind = ErrorKind::ProtocolNotSupported {
+                        protocol: p.name(),
+                        model: model.name,
+                        supported,
+                    };
+                    self.error(path.key("protocol"), kind);
+                    None
+                }
+            },
+        };
+
+        // Settings.
+        let settings = m.settings.clone().unwrap_or_default().0;
+        let mut settings_ok = true;
+        for (key, value) in &settings {
+            if let Err(message) = (model.check_setting)(key, value) {
+                settings_ok = false;
+                let kind = ErrorKind::BadSetting {
+                    module: m.name.clone(),
+                    key: key.clone(),
+                    message,
+                };
+                self.error(path.key("settings").key(key), kind);
+            }
+        }
+
+        let config = match (bus, address, protocol, settings_ok) {
+            (Some(bus), Some(address), Some(protocol), true) => Some(ModuleConfig {
+                name: m.name.clone(),
+                bus,
+                model,
+                device: DeviceConfig {
+                    name: m.name.clone(),
+                    address,
+                    protocol,
+                    settings,
+                },
+            }),
+            _ => None,
+        };
+        (resolved, config)
+    }
+
+    /// Resolves `module.POINT`, reporting at `path`. `None` (no error recorded) when the
+    /// module exists but its model is unknown: that error is already reported.
+    fn point_ref(
+        &mut self,
+        text: &str,
+        path: &YPath,
+        raw: &RawProject,
+        modules: &[(Resolved, Option<ModuleConfig>)],
+        module_index: &HashMap<String, usize>,
+    ) -> Result<PointRef, bool> {
+        let Some((module_name, point_name)) = text
+            .split_once('.')
+            .filter(|(m, p)| !m.is_empty() && !p.is_empty())
+        else {
+            self.error(
+                path.clone(),
+                ErrorKind::BadPointRef {
+                    text: text.to_owned(),
+                },
+            );
+            return Err(true);
+        };
+        let Some(&module) = module_index.get(module_name) else {
+            let known = raw.modules.iter().map(|m| m.name.clone()).collect();
+            self.error(
+                path.clone(),
+                ErrorKind::UnknownModule {
+                    name: module_name.to_owned(),
+                    known,
+                },
+            );
+            return Err(true);
+        };
+        let Some(model) = modules.get(module).and_then(|(r, _)| r.model) else {
+            return Err(false);
+        };
+        match model.point_index(point_name) {
+            Some(point) => match model.points.get(point) {
+                Some(spec) => Ok(PointRef {
+                    module,
+                    point,
+                    spec,
+                }),
+                None => Err(false),
+            },
+            None => {
+                let all: Vec<&'static str> = model.points.iter().map(|p| p.name).collect();
+                let close = close_matches(point_name, &all);
+                let kind = ErrorKind::UnknownPoint {
+                    module: module_name.to_owned(),
+                    model: model.name,
+                    point: point_name.to_owned(),
+                    close,
+                    all,
+                };
+                self.error(path.clone(), kind);
+                Err(true)
+            }
+        }
+    }
+
+    fn tags(
+        &mut self,
+        raw: &RawProject,
+        modules: &[(Resolved, Option<ModuleConfig>)],
+        module_index: &HashMap<String, usize>,
+    ) -> Vec<Option<TagConfig>> {
+        // Validate names first so duplicate-name errors do not depend on tag order.
+        self.names(Item::Tag, raw.tags.iter().map(|t| t.name.as_str()), "tags");
+        let mut owners: HashMap<(usize, usize), usize> = HashMap::new();
+        let mut out = Vec::with_capacity(raw.tags.len());
+        for (i, t) in raw.tags.iter().enumerate() {
+            let path = YPath::root().key("tags").index(i);
+            out.push(self.tag(raw, i, t, &path, modules, module_index, &mut owners));
+        }
+        out
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn tag(
+        &mut self,
+        raw: &RawProject,
+        i: usize,
+        t: &RawTag,
+        path: &YPath,
+        modules: &[(Resolved, Option<ModuleConfig>)],
+        module_index: &HashMap<String, usize>,
+        owners: &mut HashMap<(usize, usize), usize>,
+    ) -> Option<TagConfig> {
+        let declared = match &t.ty {
+            None => Some(None),
+            Some(name) => match ValueType::parse(name) {
+                Some(ty) => Some(Some(ty)),
+                None => {
+                    self.error(
+                        path.key("type"),
+                        ErrorKind::UnknownType { name: name.clone() },
+                    );
+                    None
+                }
+            },
+        };
+
+        // Binding and type.
+        let (binding, ty, point) = match (&t.point, declared) {
+            (Some(text), declared) => {
+                let r = self
+                    .point_ref(text, &path.key("point"), raw, modules, module_index)
+                    .ok()?;
+                if let Some(Some(d)) = declared {
+                    if d != r.spec.ty {
+                        let kind = ErrorKind::TypeMismatch {
+                            tag: t.name.clone(),
+                            declared: d,
+                            point: text.clone(),
+                            actual: r.spec.ty,
+                        };
+                        self.error(path.key("type"), kind);
+                    }
+                }
+                (
+                    Binding::Point {
+                        module: r.module,
+                        point: r.point,
+                    },
+                    r.spec.ty,
+                    Some((text, r)),
+                )
+            }
+            (None, Some(Some(ty))) => (Binding::Memory, ty, None),
+            (None, Some(None)) => {
+                self.error(
+                    path.clone(),
+                    ErrorKind::TagNeedsPointOrType {
+                        tag: t.name.clone(),
+                    },
+                );
+                return None;
+            }
+            (None, None) => return None,
+        };
+
+        // One owner per output.
+        if let Some((text, r)) = point {
+            if r.spec.access == Access::Output {
+                match owners.get(&(r.module, r.point)) {
+                    Some(&other) => {
+                        let other_line = self
+                            .loc
+                            .line(&YPath::root().key("tags").index(other).key("point"));
+                        let kind = ErrorKind::OutputTwoOwners {
+                            point: text.clone(),
+                            tag: t.name.clone(),
+                            other: raw
+                                .tags
+                                .get(other)
+                                .map(|o| o.name.clone())
+                                .unwrap_or_default(),
+                            other_line,
+                        };
+                        self.error(path.key("point"), kind);
+                    }
+                    None => {
+                        owners.insert((r.module, r.point), i);
+                    }
+                }
+            }
+        }
+
+        // Safe value: outputs only. `None` here: refused (and reported).
+        let safe = match &t.safe {
+            None => Some(None),
+            Some(v) => match point {
+                Some((_, r)) if r.spec.access == Access::Output => self
+                    .value(&t.name, "safe", &v.0, ty, path.key("safe"))
+                    .map(Some),
+                _ => {
+                    let kind = ErrorKind::SafeNotOnOutput {
+                        tag: t.name.clone(),
+                        point: point.map(|(text, _)| text.clone()),
+                        access: point.map(|(_, r)| r.spec.access),
+                    };
+                    self.error(path.key("safe"), kind);
+                    None
+                }
+            },
+        };
+
+        // Initial value: memory tags only.
+        let initial = match (&t.initial, point) {
+            (None, _) => Some(ty.zero()),
+            (Some(v), None) => self.value(&t.name, "initial", &v.0, ty, path.key("initial")),
+            (Some(_), Some((text, _))) => {
+                let kind = ErrorKind::InitialOnPointTag {
+                    tag: t.name.clone(),
+                    point: text.clone(),
+                };
+                self.error(path.key("initial"), kind);
+                None
+            }
+        };
+
+        Some(TagConfig {
+            name: t.name.clone(),
+            ty,
+            binding,
+            safe: safe?,
+            initial: initial?,
+        })
+    }
+
+    fn value(
+        &mut self,
+        tag: &str,
+        key: &'static str,
+        text: &str,
+        ty: ValueType,
+        path: YPath,
+    ) -> Option<Value> {
+        let v = Value::parse(ty, text);
+        if v.is_none() {
+            let kind = ErrorKind::BadValue {
+                tag: tag.to_owned(),
+                key,
+                value: text.to_owned(),
+                ty,
+            };
+            self.error(path, kind);
+        }
+        v
+    }
+
+    fn program(&mut self, raw: &RawProject, file: &Path) -> Option<ProgramConfig> {
+        let path = YPath::root().key("program");
+        let kind = match PROGRAM_KINDS
+            .iter()
+            .find(|(name, _)| *name == raw.program.kind)
+        {
+            Some(&(_, k)) => Some(k),
+            None => {
+                let known = PROGRAM_KINDS.iter().map(|(n, _)| *n).collect();
+                let kind = ErrorKind::UnknownProgramKind {
+                    kind: raw.program.kind.clone(),
+                    known,
+                };
+                self.error(path.key("kind"), kind);
+                None
+            }
+        };
+        let folder = file.parent().unwrap_or(Path::new(""));
+        let program_path = folder.join(&raw.program.file);
+        let found = match std::fs::metadata(&program_path) {
+            Ok(meta) if meta.is_file() && !raw.program.file.is_empty() => true,
+            Ok(_) => {
+                let kind = ErrorKind::ProgramNotFound {
+                    path: program_path.clone(),
+                    message: "not a file".into(),
+                };
+                self.error(path.key("file"), kind);
+                false
+            }
+            Err(e) => {
+                let kind = ErrorKind::ProgramNotFound {
+                    path: program_path.clone(),
+                    message: e.to_string(),
+                };
+                self.error(path.key("file"), kind);
+                false
+            }
+        };
+        if !found {
+            return None;
+        }
+        Some(ProgramConfig {
+            path: program_path,
+            kind: kind?,
+        })
+    }
+
+    fn plant(
+        &mut self,
+        p: &RawPlant,
+        raw: &RawProject,
+        buses: &[Option<BusConfig>],
+        modules: &[(Resolved, Option<ModuleConfig>)],
+        module_index: &HashMap<String, usize>,
+    ) -> Option<PlantConfig> {
+        let path = YPath::root().key("plant");
+        let Some(spec) = plant::spec(&p.model) else {
+            let known = plant::catalog().iter().map(|s| s.name).collect();
+            self.error(
+                path.key("model"),
+                ErrorKind::UnknownPlant {
+                    name: p.model.clone(),
+                    known,
+                },
+            );
+            return None;
+        };
+        let wiring_path = path.key("wiring");
+        let mut ok = true;
+        let mut wired: Vec<Option<(usize, String)>> = vec![None; spec.roles.len()];
+        let mut driven: HashMap<(usize, usize), String> = HashMap::new();
+        for (role_name, text) in &p.wiring.0 {
+            let Some(role_i) = spec.roles.iter().position(|r| r.name == role_name) else {
+                let roles = spec.roles.iter().map(|r| r.name).collect();
+                let kind = ErrorKind::UnknownPlantRole {
+                    plant: spec.name,
+                    role: role_name.clone(),
+                    roles,
+                };
+                self.error(wiring_path.key_itself(role_name), kind);
+                ok = false;
+                continue;
+            };
+            let Some(role) = spec.roles.get(role_i) else {
+                continue;
+            };
+            let point_path = wiring_path.key(role_name);
+            let r = match self.point_ref(text, &point_path, raw, modules, module_index) {
+                Ok(r) => r,
+                Err(_) => {
+                    ok = false;
+                    continue;
+                }
+            };
+            let wanted = if role.drives_input {
+                Access::Input
+            } else {
+                Access::Output
+            };
+            if r.spec.access != wanted {
+                let kind = ErrorKind::PlantWrongDirection {
+                    role: role_name.clone(),
+                    drives_input: role.drives_input,
+                    point: text.clone(),
+                    access: r.spec.access,
+                };
+                self.error(point_path.clone(), kind);
+                ok = false;
+            }
+            let bus = modules.get(r.module).and_then(|(res, _)| res.bus);
+            if let Some(Some(bus_cfg)) = bus.and_then(|b| buses.get(b)) {
+                if bus_cfg.port != PortConfig::Sim {
+                    let kind = ErrorKind::PlantNeedsSim {
+                        role: role_name.clone(),
+                        point: text.clone(),
+                        bus: bus_cfg.name.clone(),
+                    };
+                    self.error(point_path.clone(), kind);
+                    ok = false;
+                }
+            }
+            if role.drives_input {
+                if let Some(other) = driven.get(&(r.module, r.point)) {
+                    let kind = ErrorKind::PlantInputDrivenTwice {
+                        point: text.clone(),
+                        role: role_name.clone(),
+                        other: other.clone(),
+                    };
+                    self.error(point_path.clone(), kind);
+                    ok = false;
+                } else {
+                    driven.insert((r.module, r.point), role_name.clone());
+                }
+            }
+            if let Some(slot) = wired.get_mut(role_i) {
+                *slot = Some((r.module, r.spec.name.to_owned()));
+            }
+        }
+        let mut wiring = Vec::with_capacity(spec.roles.len());
+        for (role, slot) in spec.roles.iter().zip(wired) {
+            match slot {
+                Some((module, point)) => wiring.push((role.name.to_owned(), module, point)),
+                None => {
+                    // A role that failed to resolve is reported already; only unwired ones here.
+                    if !p.wiring.0.iter().any(|(k, _)| k == role.name) {
+                        let kind = ErrorKind::MissingPlantRole {
+                            plant: spec.name,
+                            role: role.name,
+                            drives_input: role.drives_input,
+                        };
+                        self.error(path.key_itself("wiring"), kind);
+                    }
+                    ok = false;
+                }
+            }
+        }
+        ok.then(|| PlantConfig {
+            model: spec.name.to_owned(),
+            wiring,
+        })
+    }
+}
+
+/// Names in `all` that look like `wanted`: same letters ignoring case, or within an edit
+/// distance of 1 (2 for names longer than 4), best first.
+fn close_matches(wanted: &str, all: &[&'static str]) -> Vec<&'static str> {
+    if let Some(&same) = all.iter().find(|n| n.eq_ignore_ascii_case(wanted)) {
+        return vec![same];
+    }
+    let limit = if wanted.chars().count() > 4 { 2 } else { 1 };
+    let upper = wanted.to_ascii_uppercase();
+    let mut scored: Vec<(usize, &'static str)> = all
+        .iter()
+        .filter_map(|&name| {
+            let d = edit_distance(&upper, &name.to_ascii_uppercase());
+            (d <= limit).then_some((d, name))
+        })
+        .collect();
+    scored.sort_by_key(|&(d, _)| d);
+    scored
+        .into_iter()
+        .take(MAX_SUGGESTIONS)
+        .map(|(_, n)| n)
+        .collect()
+}
+
+/// Levenshtein distance over chars.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = Vec::with_capacity(b.len() + 1);
+        cur.push(i + 1);
+        for (j, &cb) in b.iter().enumerate() {
+            let sub = prev.get(j).copied().unwrap_or(0) + usize::from(ca != cb);
+            let del = prev.get(j + 1).copied().unwrap_or(0) + 1;
+            let ins = cur.get(j).copied().unwrap_or(0) + 1;
+            cur.push(sub.min(del).min(ins));
+        }
+        prev = cur;
+    }
+    prev.last().copied().unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identifiers() {
+        for ok in ["a", "_x", "mm1", "line_1", "Motor"] {
+            assert!(is_identifier(ok), "{ok}");
+        }
+        for bad in ["", "1mm", "a-b", "a.b", "é", "a b"] {
+            assert!(!is_identifier(bad), "{bad}");
+        }
+    }
+
+    #[test]
+    fn suggestions() {
+        let all = ["X1", "X2", "Y1", "Y2", "XCOUNT1", "YLAMP"];
+        assert_eq!(close_matches("Y9", &all), vec!["Y1", "Y2"]);
+        assert_eq!(close_matches("y1", &all), vec!["Y1"]);
+        assert_eq!(close_matches("XCOUNT", &all), vec!["XCOUNT1"]);
+        assert!(close_matches("ZZZZZZZZ", &all).is_empty());
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("", "abc"), 3);
+    }
+}

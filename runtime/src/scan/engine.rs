@@ -1,0 +1,212 @@
+//! The scan loop.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use crate::logic::{LogicFault, ScanContext};
+use crate::plc::{ModuleStatus, Plc};
+use crate::scan::stats::{Percentiles, ScanStats};
+use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
+
+/// Why a run ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StopReason {
+    /// Asked to stop (signal, `--for` elapsed, cycle limit).
+    Requested,
+    /// The program faulted; outputs went to their safe values.
+    LogicFault(LogicFault),
+    /// The task watchdog fired; outputs went to their safe values.
+    Watchdog(WatchdogTrip),
+}
+
+/// What a run leaves behind.
+#[derive(Debug, Clone)]
+pub struct RunOutcome {
+    /// Why it ended.
+    pub reason: StopReason,
+    /// Everything measured.
+    pub stats: ScanStats,
+    /// Modules as last seen.
+    pub modules: Vec<ModuleStatus>,
+}
+
+/// A copy of the figures for the live status line, refreshed by the scan without blocking.
+#[derive(Debug, Clone, Default)]
+pub struct StatusSnapshot {
+    /// Completed cycles.
+    pub cycles: u64,
+    /// Overruns.
+    pub overruns: u64,
+    /// Cycle time percentiles.
+    pub cycle: Percentiles,
+    /// Wake-up lateness percentiles.
+    pub lateness: Percentiles,
+    /// Bus errors.
+    pub bus_errors: u64,
+    /// Scan time.
+    pub now: Duration,
+}
+
+/// The scan engine: owns the PLC for the duration of a run.
+pub struct ScanEngine {
+    plc: Plc,
+    stop: Arc<AtomicBool>,
+    status: Arc<Mutex<StatusSnapshot>>,
+    /// Stop after this much scan time (on the PLC's clock).
+    run_for: Option<Duration>,
+    /// Stop after this many cycles.
+    max_cycles: Option<u64>,
+    /// A hook called after every cycle (tests record traces with it).
+    on_cycle: Option<CycleHook>,
+}
+
+impl std::fmt::Debug for ScanEngine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ScanEngine")
+            .field("plc", &self.plc)
+            .field("run_for", &self.run_for)
+            .field("max_cycles", &self.max_cycles)
+            .field("on_cycle", &self.on_cycle.is_some())
+            .finish()
+    }
+}
+
+/// Called after each cycle with the PLC and the cycle's context.
+pub type CycleHook = Box<dyn FnMut(&Plc, &ScanContext) + Send>;
+
+impl ScanEngine {
+    /// An engine for `plc`.
+    pub fn new(plc: Plc) -> Self {
+        Self {
+            plc,
+            stop: Arc::new(AtomicBool::new(false)),
+            status: Arc::new(Mutex::new(StatusSnapshot::default())),
+            run_for: None,
+            max_cycles: None,
+            on_cycle: None,
+        }
+    }
+
+    /// The flag that stops the run at the next cycle boundary (give it to signal handlers).
+    pub fn stop_flag(&self) -> Arc<AtomicBool> {
+        self.stop.clone()
+    }
+
+    /// The live status the scan refreshes.
+    pub fn status(&self) -> Arc<Mutex<StatusSnapshot>> {
+        self.status.clone()
+    }
+
+    /// Stops after `d` of scan time.
+    pub fn run_for(mut self, d: Duration) -> Self {
+        self.run_for = Some(d);
+        self
+    }
+
+    /// Stops after `n` cycles.
+    pub fn max_cycles(mut self, n: u64) -> Self {
+        self.max_cycles = Some(n);
+        self
+    }
+
+    /// Calls `hook` after every cycle.
+    pub fn on_cycle(mut self, hook: CycleHook) -> Self {
+        self.on_cycle = Some(hook);
+        self
+    }
+
+    /// The PLC (between runs).
+    pub fn plc(&self) -> &Plc {
+        &self.plc
+    }
+
+    /// Runs cycles until stopped, then drives the outputs to their safe state.
+    pub fn run(&mut self) -> RunOutcome {
+        let clock = self.plc.clock().clone();
+        let period = self.plc.project().scan.period;
+        let mut watchdog = TaskWatchdog::new(self.plc.project().scan.watchdog);
+        let mut stats = ScanStats::default();
+        let begin = clock.now();
+        let end_at = self.run_for.map(|d| begin + d);
+        let mut deadline = begin;
+        let mut previous: Option<Duration> = None;
+        let mut last_published = begin;
+        let reason = loop {
+            if self.stop.load(Ordering::Relaxed) {
+                break StopReason::Requested;
+            }
+            if end_at.is_some_and(|end| deadline >= end)
+                || self.max_cycles.is_some_and(|n| stats.cycles >= n)
+            {
+                break StopReason::Requested;
+            }
+            clock.sleep_until(deadline);
+            let start = clock.now();
+            stats.lateness.record(start.saturating_sub(deadline));
+
+            self.plc.read_inputs();
+            let read_end = clock.now();
+            let ctx = ScanContext {
+                now: deadline,
+                delta: previous.map_or(period, |p| deadline - p),
+                cycle: stats.cycles,
+            };
+            let logic = self.plc.run_logic(&ctx);
+            let logic_end = clock.now();
+            if let Err(fault) = logic {
+                break StopReason::LogicFault(fault);
+            }
+            self.plc.write_outputs();
+            let end = clock.now();
+
+            stats.read.record(read_end - start);
+            stats.logic.record(logic_end - read_end);
+            stats.write.record(end - logic_end);
+            let cycle = end - start;
+            stats.cycle.record(cycle);
+            stats.cycles += 1;
+            stats.bus_errors = self.plc.bus_errors();
+            if let Some(hook) = self.on_cycle.as_mut() {
+                hook(&self.plc, &ctx);
+            }
+            if let Err(trip) = watchdog.check(cycle) {
+                break StopReason::Watchdog(trip);
+            }
+
+            previous = Some(deadline);
+            deadline += period;
+            if end > deadline {
+                // Skip every deadline already passed; the next cycle starts on the grid.
+                let behind = (end - deadline).as_nanos() / period.as_nanos().max(1) + 1;
+                stats.overruns += behind as u64;
+                deadline += period * behind as u32;
+            }
+            if end.saturating_sub(last_published) >= Duration::from_millis(200) {
+                last_published = end;
+                self.publish(&stats, end);
+            }
+        };
+        self.plc.shutdown();
+        self.publish(&stats, clock.now());
+        RunOutcome {
+            reason,
+            stats,
+            modules: self.plc.module_status().to_vec(),
+        }
+    }
+
+    fn publish(&self, stats: &ScanStats, now: Duration) {
+        // Never block the scan on a reader: skip this refresh if the lock is busy.
+        if let Ok(mut s) = self.status.try_lock() {
+            *s = StatusSnapshot {
+                cycles: stats.cycles,
+                overruns: stats.overruns,
+                cycle: stats.cycle.percentiles(),
+                lateness: stats.lateness.percentiles(),
+                bus_errors: stats.bus_errors,
+                now,
+            };
+        }
+    }
+}
