@@ -42,11 +42,11 @@ pub fn complete_frame(buf: &[u8]) -> Option<usize> {
             return Some(n);
         }
     }
-    let is_text = buf.first().is_some_and(|b| b.is_ascii_graphic() || *b == b' ');
-    if is_text {
-        if let Some(end) = buf.iter().position(|b| *b == b'\r' || *b == b'\n') {
-            return Some(end + 1);
-        }
+    // A text command (MiniMod `?X1`, RESI `#...`, DCON `$01M`) is printable ASCII up to its
+    // CR or LF; an RTU frame nearly always holds a zero or control byte before any 0x0D.
+    let end = buf.iter().position(|b| *b == b'\r' || *b == b'\n')?;
+    if end > 0 && buf[..end].iter().all(|b| b.is_ascii_graphic() || *b == b' ') {
+        return Some(end + 1);
     }
     None
 }
@@ -128,4 +128,21 @@ fn answer(
     port.flush()?;
     clock.sleep_until(start + settings.chars(bytes.len()));
     Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn splits_rtu_requests_and_text_lines() {
+        // FC2 read of unit 5, then the next frame's first byte.
+        let rtu = [0x05, 0x02, 0x00, 0x00, 0x00, 0x0A, 0xF9, 0x89, 0x01];
+        assert_eq!(complete_frame(&rtu), Some(8));
+        assert_eq!(complete_frame(&rtu[..5]), None);
+        assert_eq!(complete_frame(b"?X1\r>Y1=1\r"), Some(4));
+        assert_eq!(complete_frame(b"@25?DEVICE"), None);
+        // A '$' address byte followed by binary data is not a text line even with a CR in it.
+        assert_eq!(complete_frame(&[b'$', 0x03, 0x00, 0x0D, 0x00]), None);
+    }
 }
