@@ -17,6 +17,7 @@ use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, Transport};
 use crate::point::Value;
 use crate::sim::device::{SimDevice, SimError};
+use crate::sim::fault::LineFaults;
 use crate::sim::plant::{Plant, PlantIo};
 use crate::time::Clock;
 
@@ -51,6 +52,7 @@ pub struct SimWorld {
     plant: Option<WiredPlant>,
     inbound: Vec<Inbound>,
     line_settings: Vec<LineSettings>,
+    faults: LineFaults,
 }
 
 /// The shared handle the ports and `softplc sim` hold.
@@ -65,18 +67,33 @@ impl SimWorld {
             plant: None,
             inbound: lines.iter().map(|_| Inbound::default()).collect(),
             line_settings: lines,
+            faults: LineFaults::new(0x5eed),
         }
     }
 
     /// Puts a simulated device on `line` under `name`; returns its index.
     pub fn add_device(&mut self, line: usize, name: &str, device: Box<dyn SimDevice>) -> usize {
-        self.devices.push(Placed { line, name: name.to_string(), device });
+        self.devices.push(Placed {
+            line,
+            name: name.to_string(),
+            device,
+        });
         self.devices.len() - 1
     }
 
     /// Attaches a plant; `wires[i]` is `(device index, point)` for the plant's role `i`.
     pub fn set_plant(&mut self, plant: Box<dyn Plant>, wires: Vec<(usize, String)>) {
         self.plant = Some(WiredPlant { plant, wires });
+    }
+
+    /// The injected faults (tests and `softplc sim` add and clear rules here).
+    pub fn faults_mut(&mut self) -> &mut LineFaults {
+        &mut self.faults
+    }
+
+    /// The injected faults.
+    pub fn faults(&self) -> &LineFaults {
+        &self.faults
     }
 
     /// Wraps the world for sharing between ports.
@@ -107,7 +124,10 @@ impl SimWorld {
                     for d in &mut self.devices {
                         d.device.advance_to(tick);
                     }
-                    let mut io = Wiring { devices: &mut self.devices, wires: &wired.wires };
+                    let mut io = Wiring {
+                        devices: &mut self.devices,
+                        wires: &wired.wires,
+                    };
                     wired.plant.step(tick, &mut io);
                 }
             }
@@ -155,20 +175,36 @@ impl SimWorld {
     /// sees it; the replies are queued to arrive at the master byte by byte.
     pub fn deliver(&mut self, line: usize, frame: &[u8], t: Duration) {
         self.advance_to(t);
-        let Some(settings) = self.line_settings.get(line).copied() else { return };
+        let Some(settings) = self.line_settings.get(line).copied() else {
+            return;
+        };
         let char_time = settings.char_time();
+        if self.faults.is_dead(line) {
+            return;
+        }
         let mut replies = Vec::new();
-        for d in self.devices.iter_mut().filter(|d| d.line == line) {
+        for (i, d) in self
+            .devices
+            .iter_mut()
+            .enumerate()
+            .filter(|(_, d)| d.line == line)
+        {
             if let Some(reply) = d.device.on_frame(frame, t) {
-                replies.push(reply);
+                replies.push((i, reply));
             }
         }
-        let Some(inbound) = self.inbound.get_mut(line) else { return };
-        for reply in replies {
-            let start = t + reply.delay;
-            for (i, b) in reply.bytes.iter().enumerate() {
-                let at = start + char_time * (i as u32 + 1);
-                inbound.bytes.push_back((at, *b));
+        let Some(inbound) = self.inbound.get_mut(line) else {
+            return;
+        };
+        for (device, reply) in replies {
+            let wire = self
+                .faults
+                .apply(device, reply.bytes, reply.delay, char_time);
+            for (offset, bytes) in wire.bursts {
+                for (i, b) in bytes.iter().enumerate() {
+                    let at = t + offset + char_time * (i as u32 + 1);
+                    inbound.bytes.push_back((at, *b));
+                }
             }
         }
         // Overlapping replies interleave on the wire; keep arrival order and let bytes that
@@ -187,12 +223,16 @@ impl SimWorld {
 
     /// Time of the next byte due to the master of `line`, if any.
     pub fn next_arrival(&self, line: usize) -> Option<Duration> {
-        self.inbound.get(line).and_then(|i| i.bytes.front().map(|(at, _)| *at))
+        self.inbound
+            .get(line)
+            .and_then(|i| i.bytes.front().map(|(at, _)| *at))
     }
 
     /// Moves every byte of `line` that has arrived by `t` into `buf`; returns how many.
     pub fn take_arrived(&mut self, line: usize, t: Duration, buf: &mut Vec<u8>) -> usize {
-        let Some(inbound) = self.inbound.get_mut(line) else { return 0 };
+        let Some(inbound) = self.inbound.get_mut(line) else {
+            return 0;
+        };
         let mut n = 0;
         while let Some((at, b)) = inbound.bytes.front().copied() {
             if at > t {
@@ -257,13 +297,23 @@ pub struct VirtualPort {
 impl VirtualPort {
     /// A port on `line` of `world` that runs in real time on `clock` (or on its own virtual
     /// cursor when `clock` is virtual, so lines replay deterministically).
-    pub fn new(world: SharedWorld, line: usize, settings: LineSettings, clock: Arc<dyn Clock>) -> Self {
+    pub fn new(
+        world: SharedWorld,
+        line: usize,
+        settings: LineSettings,
+        clock: Arc<dyn Clock>,
+    ) -> Self {
         let time = if clock.is_virtual() {
             PortTime::Virtual(clock.now())
         } else {
             PortTime::Real(clock)
         };
-        Self { world, line, settings, time }
+        Self {
+            world,
+            line,
+            settings,
+            time,
+        }
     }
 
     fn lock(&self) -> MutexGuard<'_, SimWorld> {

@@ -6,6 +6,7 @@
 //! clock as in real time.
 
 pub mod device;
+pub mod fault;
 pub mod line;
 pub mod plant;
 pub mod serve;

@@ -4,7 +4,8 @@ use std::time::Duration;
 
 /// Parses a duration argument (`10s`, `500ms`, `1.5s`, `2m`) with the project file's syntax.
 pub fn parse_duration(text: &str) -> Result<Duration, String> {
-    crate::project::parse_duration(text).map_err(|e| format!("{text:?}: {e} (examples: 500ms, 10s, 2m)"))
+    crate::project::parse_duration(text)
+        .map_err(|e| format!("{text:?}: {e} (examples: 500ms, 10s, 2m)"))
 }
 
 #[cfg(test)]

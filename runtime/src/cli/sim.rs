@@ -11,6 +11,7 @@ use softplc_io::devices;
 use softplc_io::line::transport::{open_tty, pty_pair};
 use softplc_io::line::{LineSettings, Parity, SerialFormat};
 use softplc_io::point::Value;
+use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
 use softplc_io::sim::line::{SharedWorld, SimWorld};
 use softplc_io::sim::serve::{serve, SERVED_LINE};
 use softplc_io::time::{Clock, MonotonicClock};
@@ -26,6 +27,14 @@ Commands on standard input (one per line):
                            e.g.  set minimod@5.X1 1
   get DEVICE.POINT         print a point's value, e.g.  get minimod@5.Y1
   list                     every device and the value of each of its points
+  fault DEVICE|all FAULT [xN | rate P | always]
+                           inject a line fault into the device's replies: FAULT is one of
+                           garbage N | crc | truncate N | late 80ms | duplicate |
+                           wrong-address N | babble N | silent; applies to the next reply
+                           unless xN (next N), rate P (probability 0..1) or always is given
+  fault DEVICE|all clear   remove the injected faults
+  faults                   list the injected faults
+  line dead | line alive   cut the line (nothing in, nothing out) or restore it
   DEVICE COMMAND ...       a model's own command (fault injection, power cycle, ...);
                            `help DEVICE` lists them
   help                     this text
@@ -242,6 +251,54 @@ pub fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Re
             w.set(i, point, v)?;
             format!("{dev}.{point}={v}")
         }
+        ["fault", target, "clear"] => {
+            let device = if *target == "all" {
+                None
+            } else {
+                Some(find(&w, target)?)
+            };
+            w.faults_mut().clear(device);
+            format!("faults cleared for {target}")
+        }
+        ["fault", target, spec @ ..] => {
+            let device = if *target == "all" {
+                None
+            } else {
+                Some(find(&w, target)?)
+            };
+            let (fault_words, frequency) = split_frequency(spec)?;
+            let fault = Fault::parse(fault_words).map_err(|e| anyhow::anyhow!(e))?;
+            w.faults_mut().add(FaultRule {
+                device,
+                fault,
+                frequency,
+            });
+            format!("fault {fault} on {target} ({frequency:?})")
+        }
+        ["faults"] => {
+            let names = w.names();
+            let rules: Vec<String> = w
+                .faults()
+                .rules()
+                .iter()
+                .map(|r| {
+                    let who = r
+                        .device
+                        .and_then(|d| names.get(d).cloned())
+                        .unwrap_or_else(|| "all".into());
+                    format!("{who}: {} ({:?})", r.fault, r.frequency)
+                })
+                .collect();
+            if rules.is_empty() {
+                "no faults".to_string()
+            } else {
+                rules.join("\n")
+            }
+        }
+        ["line", state @ ("dead" | "alive")] => {
+            w.faults_mut().set_dead(SERVED_LINE, *state == "dead");
+            format!("line {state}")
+        }
         [dev, rest @ ..] if dev.contains('@') => {
             let i = find(&w, dev)?;
             let d = w.device_mut(i).context("device vanished")?;
@@ -250,6 +307,29 @@ pub fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Re
         _ => bail!("unknown command {line:?}; try `help`"),
     };
     Ok(Reply::Text(text))
+}
+
+/// Splits a trailing `xN`, `rate P` or `always` off a fault spec.
+fn split_frequency<'a, 'b>(spec: &'a [&'b str]) -> anyhow::Result<(&'a [&'b str], Frequency)> {
+    match spec {
+        [head @ .., "always"] => Ok((head, Frequency::Always)),
+        [head @ .., "rate", p] => {
+            let p: f64 = p
+                .parse()
+                .map_err(|_| anyhow::anyhow!("rate {p:?}: expected a probability 0..1"))?;
+            if !(0.0..=1.0).contains(&p) {
+                bail!("rate {p}: expected a probability 0..1");
+            }
+            Ok((head, Frequency::Rate(p)))
+        }
+        [head @ .., n] if n.starts_with('x') && n.len() > 1 => {
+            let n: u32 = n[1..]
+                .parse()
+                .map_err(|_| anyhow::anyhow!("{n:?}: expected xN, e.g. x5"))?;
+            Ok((head, Frequency::Next(n.max(1))))
+        }
+        _ => Ok((spec, Frequency::Next(1))),
+    }
 }
 
 fn split_target(target: &str) -> anyhow::Result<(&str, &str)> {
