@@ -34,13 +34,16 @@ pub struct Slot {
 pub struct ProcessImage {
     names: Vec<String>,
     slots: Vec<Slot>,
+    /// Forced values by tag: applied after the input read and again before the output write,
+    /// so neither a module nor the program can change a forced tag.
+    forces: Vec<Option<Value>>,
 }
 
 impl ProcessImage {
     /// An image with one slot per `(name, initial value)`, all of quality `Bad` until read,
     /// except memory tags which the caller marks good.
     pub fn new(tags: impl IntoIterator<Item = (String, Value)>) -> Self {
-        let (names, slots) = tags
+        let (names, slots): (Vec<String>, Vec<Slot>) = tags
             .into_iter()
             .map(|(n, v)| {
                 (
@@ -53,7 +56,12 @@ impl ProcessImage {
                 )
             })
             .unzip();
-        Self { names, slots }
+        let forces = vec![None; names.len()];
+        Self {
+            names,
+            slots,
+            forces,
+        }
     }
 
     /// Number of tags.
@@ -129,6 +137,43 @@ impl ProcessImage {
     }
 }
 
+impl ProcessImage {
+    /// Forces a tag to `value` (converted to the tag's type) until [`ProcessImage::unforce`].
+    pub fn force(&mut self, id: TagId, value: Value) {
+        let ty = self.slots[id.index()].value.value_type();
+        self.forces[id.index()] = Some(convert(value, ty));
+    }
+
+    /// Removes a tag's force; returns whether it was forced.
+    pub fn unforce(&mut self, id: TagId) -> bool {
+        self.forces[id.index()].take().is_some()
+    }
+
+    /// Removes every force; returns how many there were.
+    pub fn unforce_all(&mut self) -> usize {
+        let n = self.forces.iter().filter(|f| f.is_some()).count();
+        self.forces.iter_mut().for_each(|f| *f = None);
+        n
+    }
+
+    /// A tag's forced value, if forced.
+    pub fn forced(&self, id: TagId) -> Option<Value> {
+        self.forces[id.index()]
+    }
+
+    /// Writes every forced value into its slot (the scan calls this after the input read and
+    /// after the logic).
+    pub fn apply_forces(&mut self, now: Duration) {
+        for (slot, force) in self.slots.iter_mut().zip(&self.forces) {
+            if let Some(v) = force {
+                slot.value = *v;
+                slot.quality = Quality::Good;
+                slot.timestamp = now;
+            }
+        }
+    }
+}
+
 /// Converts `v` to type `ty` as an assignment does.
 pub fn convert(v: Value, ty: ValueType) -> Value {
     if v.value_type() == ty {
@@ -175,6 +220,23 @@ mod tests {
         assert_eq!(img.get(id), Value::Bool(true));
         assert_eq!(img.slot(id).quality, Quality::Stale);
         assert_eq!(img.slot(id).timestamp, Duration::from_millis(10));
+    }
+
+    #[test]
+    fn forces_win_over_reads_and_logic_until_removed() {
+        let mut img = ProcessImage::new([("x".to_string(), Value::U16(0))]);
+        let id = img.id("x").unwrap();
+        img.force(id, Value::Bool(true));
+        img.update(id, Some(Value::U16(7)), Quality::Good, Duration::ZERO);
+        img.apply_forces(Duration::ZERO);
+        assert_eq!(img.get(id), Value::U16(1));
+        img.set(id, Value::U16(9), Duration::ZERO);
+        img.apply_forces(Duration::ZERO);
+        assert_eq!(img.get(id), Value::U16(1));
+        assert!(img.unforce(id));
+        img.set(id, Value::U16(9), Duration::ZERO);
+        img.apply_forces(Duration::ZERO);
+        assert_eq!(img.get(id), Value::U16(9));
     }
 
     #[test]

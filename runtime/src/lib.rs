@@ -14,3 +14,4 @@ pub mod logic;
 pub mod plc;
 pub mod project;
 pub mod scan;
+pub mod service;

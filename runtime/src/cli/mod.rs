@@ -2,6 +2,7 @@
 
 mod args;
 mod check;
+mod control;
 mod run;
 mod sim;
 
@@ -28,6 +29,14 @@ enum Command {
     /// Serve simulated modules on a serial device (one end of a pty pair) for any Modbus master.
     #[command(long_about = sim::LONG_HELP)]
     Sim(sim::SimArgs),
+    /// Show a running instance's scan figures, modules, tags and forces.
+    Status(control::StatusArgs),
+    /// Force a tag of a running instance (applied after the input read and before the write).
+    Force(control::ForceArgs),
+    /// Remove a force (or every force with --all).
+    Unforce(control::UnforceArgs),
+    /// Reload the program of a running instance at a cycle boundary (like SIGHUP).
+    Reload(control::ReloadArgs),
 }
 
 /// Entry point of the binary.
@@ -38,6 +47,10 @@ pub fn main() -> ExitCode {
         Command::Run(a) => run::run(a),
         Command::Check(a) => check::check(a),
         Command::Sim(a) => sim::sim(a),
+        Command::Status(a) => control::status(a),
+        Command::Force(a) => control::force(a),
+        Command::Unforce(a) => control::unforce(a),
+        Command::Reload(a) => control::reload(a),
     };
     match result {
         Ok(code) => code,

@@ -12,6 +12,8 @@ use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
 use crate::project;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
+use crate::service::control::{default_socket_path, ControlServer};
+use crate::service::notify::Notifier;
 
 /// Arguments of `softplc run`.
 #[derive(Debug, clap::Args)]
@@ -28,6 +30,13 @@ pub struct RunArgs {
     /// No live status line.
     #[arg(long)]
     quiet: bool,
+    /// The control socket (status, force, reload); default: from the project name, under
+    /// $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR/softplc or /tmp/softplc-UID.
+    #[arg(long)]
+    control: Option<PathBuf>,
+    /// Do not open a control socket.
+    #[arg(long, conflicts_with = "control")]
+    no_control: bool,
 }
 
 pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
@@ -54,6 +63,26 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let stop = engine.stop_flag();
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
+    }
+    signal_hook::flag::register(signal_hook::consts::SIGHUP, engine.reload_flag())
+        .context("cannot install the SIGHUP handler")?;
+    let _control = if args.no_control {
+        None
+    } else {
+        let path = args
+            .control
+            .clone()
+            .unwrap_or_else(|| default_socket_path(&name));
+        let (tx, rx) = crossbeam_channel::bounded(16);
+        let server = ControlServer::start(&path, tx)
+            .with_context(|| format!("cannot open the control socket {}", path.display()))?;
+        tracing::info!("control socket {}", server.path().display());
+        engine = engine.with_control(rx);
+        Some(server)
+    };
+    let notifier = Notifier::from_env();
+    if notifier.enabled() {
+        engine = engine.with_notifier(notifier);
     }
     let status = engine.status();
     tracing::info!(

@@ -4,10 +4,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use crossbeam_channel::Receiver;
+
 use crate::logic::{LogicFault, ScanContext};
 use crate::plc::{ModuleStatus, Plc};
 use crate::scan::stats::{Percentiles, ScanStats};
 use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
+use crate::service::control::{Envelope, Request, Response};
+use crate::service::notify::Notifier;
 
 /// Why a run ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,6 +63,12 @@ pub struct ScanEngine {
     max_cycles: Option<u64>,
     /// A hook called after every cycle (tests record traces with it).
     on_cycle: Option<CycleHook>,
+    /// Requests from the control interface, applied at cycle boundaries.
+    control: Option<Receiver<Envelope>>,
+    /// Set by SIGHUP: reload the program at the next cycle boundary.
+    reload: Arc<AtomicBool>,
+    /// systemd's notification socket.
+    notifier: Option<Notifier>,
 }
 
 impl std::fmt::Debug for ScanEngine {
@@ -85,7 +95,27 @@ impl ScanEngine {
             run_for: None,
             max_cycles: None,
             on_cycle: None,
+            control: None,
+            reload: Arc::new(AtomicBool::new(false)),
+            notifier: None,
         }
+    }
+
+    /// Takes control requests from `requests` (see [`crate::service::control`]).
+    pub fn with_control(mut self, requests: Receiver<Envelope>) -> Self {
+        self.control = Some(requests);
+        self
+    }
+
+    /// Reports to systemd through `notifier`.
+    pub fn with_notifier(mut self, notifier: Notifier) -> Self {
+        self.notifier = Some(notifier);
+        self
+    }
+
+    /// The flag that reloads the program at the next cycle boundary (give it to SIGHUP).
+    pub fn reload_flag(&self) -> Arc<AtomicBool> {
+        self.reload.clone()
     }
 
     /// The flag that stops the run at the next cycle boundary (give it to signal handlers).
@@ -173,6 +203,7 @@ impl ScanEngine {
             if let Err(trip) = watchdog.check(cycle) {
                 break StopReason::Watchdog(trip);
             }
+            self.between_cycles(&stats, end);
 
             previous = Some(deadline);
             deadline += period;
@@ -187,12 +218,67 @@ impl ScanEngine {
                 self.publish(&stats, end);
             }
         };
+        if let Some(n) = &self.notifier {
+            n.notify("STOPPING=1");
+        }
         self.plc.shutdown();
         self.publish(&stats, clock.now());
         RunOutcome {
             reason,
             stats,
             modules: self.plc.module_status().to_vec(),
+        }
+    }
+
+    /// Work done at a cycle boundary, never inside a scan: control requests, reload, systemd.
+    fn between_cycles(&mut self, stats: &ScanStats, now: Duration) {
+        if let Some(requests) = &self.control {
+            while let Ok(env) = requests.try_recv() {
+                let response = match env.request {
+                    Request::Status => Response {
+                        ok: true,
+                        status: Some(self.plc.status_report(stats)),
+                        ..Response::default()
+                    },
+                    Request::Force { tag, value } => match self.plc.force(&tag, &value) {
+                        Ok(v) => Response::done(format!("{tag} forced to {v}")),
+                        Err(e) => Response::refused(e),
+                    },
+                    Request::Unforce { tag } => match self.plc.unforce(tag.as_deref()) {
+                        Ok(n) => Response::done(format!("{n} force(s) removed")),
+                        Err(e) => Response::refused(e),
+                    },
+                    Request::Reload => match self.plc.reload_program() {
+                        Ok(m) => Response::done(m),
+                        Err(e) => Response::refused(e),
+                    },
+                };
+                let _ = env.reply.send(response);
+            }
+        }
+        if self.reload.swap(false, Ordering::Relaxed) {
+            if let Err(e) = self.plc.reload_program() {
+                tracing::error!("{e}");
+            }
+        }
+        if let Some(n) = &self.notifier {
+            // Only a completed scan feeds systemd's watchdog: a hung scan gets restarted.
+            if stats.cycles == 1 {
+                n.notify("READY=1");
+            }
+            n.notify("WATCHDOG=1");
+            if stats.cycles % 50 == 1 {
+                let c = stats.cycle.percentiles();
+                n.notify(&format!(
+                    "STATUS=scans {} overruns {} cycle p50 {}us p99 {}us bus errors {} at {}s",
+                    stats.cycles,
+                    stats.overruns,
+                    c.p50.as_micros(),
+                    c.p99.as_micros(),
+                    stats.bus_errors,
+                    now.as_secs()
+                ));
+            }
         }
     }
 

@@ -1,0 +1,290 @@
+//! The local control interface of a running instance: a Unix socket (mode 0660, in a 0700
+//! folder unless systemd's RuntimeDirectory= provides one), one JSON request per line, one JSON
+//! response per line. Local only by construction: nothing listens on a network.
+//!
+//! ```text
+//! {"cmd":"status"}
+//! {"cmd":"force","tag":"motor","value":"1"}
+//! {"cmd":"unforce","tag":"motor"}        {"cmd":"unforce"}   (every tag)
+//! {"cmd":"reload"}
+//! ```
+//!
+//! The socket thread only parses and forwards: the scan thread applies each request at a
+//! cycle boundary and answers, so a request never races a scan.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::os::unix::fs::PermissionsExt;
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, Sender};
+use serde::{Deserialize, Serialize};
+
+use crate::service::status::StatusReport;
+
+/// A request.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "cmd", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Request {
+    /// The instance's status.
+    Status,
+    /// Force a tag to a value until unforced (or the instance restarts).
+    Force {
+        /// The tag.
+        tag: String,
+        /// The value, as text (`1`, `true`, `42`, `0x10`, `1.5`).
+        value: String,
+    },
+    /// Remove a tag's force, or every force when `tag` is absent.
+    Unforce {
+        /// The tag; absent: all.
+        #[serde(default)]
+        tag: Option<String>,
+    },
+    /// Re-read the program and swap it in at the next cycle boundary if it passes `check`.
+    Reload,
+}
+
+/// A response.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Response {
+    /// Whether the request was carried out.
+    pub ok: bool,
+    /// What was done, for people.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub message: Option<String>,
+    /// Why not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// The status, for `status`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub status: Option<StatusReport>,
+}
+
+impl Response {
+    /// A success with a message.
+    pub fn done(message: impl Into<String>) -> Self {
+        Self {
+            ok: true,
+            message: Some(message.into()),
+            ..Self::default()
+        }
+    }
+
+    /// A refusal.
+    pub fn refused(error: impl Into<String>) -> Self {
+        Self {
+            ok: false,
+            error: Some(error.into()),
+            ..Self::default()
+        }
+    }
+}
+
+/// A request on its way to the scan thread, with the way back.
+#[derive(Debug)]
+pub struct Envelope {
+    /// The request.
+    pub request: Request,
+    /// Where the scan sends the response.
+    pub reply: Sender<Response>,
+}
+
+/// Longest request line accepted; a longer one is refused, not buffered.
+const MAX_LINE: u64 = 64 * 1024;
+/// How long a client waits for the scan to answer.
+const SCAN_ANSWER: Duration = Duration::from_secs(5);
+
+/// Parses one request line.
+pub fn parse_request(line: &str) -> Result<Request, String> {
+    serde_json::from_str(line.trim()).map_err(|e| format!("bad request: {e}"))
+}
+
+/// Where an instance of `project` puts its socket: `$SOFTPLC_RUNTIME_DIR`, systemd's
+/// `$RUNTIME_DIRECTORY`, `$XDG_RUNTIME_DIR/softplc`, or `/tmp/softplc-UID`.
+pub fn default_socket_path(project: &str) -> PathBuf {
+    let dir = std::env::var_os("SOFTPLC_RUNTIME_DIR")
+        .or_else(|| std::env::var_os("RUNTIME_DIRECTORY"))
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("XDG_RUNTIME_DIR").map(|d| PathBuf::from(d).join("softplc")))
+        .unwrap_or_else(|| {
+            // SAFETY: getuid has no preconditions and cannot fail.
+            let uid = unsafe { libc::getuid() };
+            PathBuf::from(format!("/tmp/softplc-{uid}"))
+        });
+    dir.join(format!("{project}.sock"))
+}
+
+/// The listening side; dropping it removes the socket file.
+#[derive(Debug)]
+pub struct ControlServer {
+    path: PathBuf,
+}
+
+impl ControlServer {
+    /// Binds `path` and serves it on a thread, forwarding requests to `scan`.
+    pub fn start(path: &Path, scan: Sender<Envelope>) -> std::io::Result<Self> {
+        if let Some(dir) = path.parent() {
+            if !dir.exists() {
+                std::fs::create_dir_all(dir)?;
+                std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
+            }
+        }
+        if path.exists() {
+            if UnixStream::connect(path).is_ok() {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::AddrInUse,
+                    format!("{} is in use: another instance is running", path.display()),
+                ));
+            }
+            // A socket left by an instance that died: nobody answers it.
+            std::fs::remove_file(path)?;
+        }
+        let listener = UnixListener::bind(path)?;
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))?;
+        std::thread::Builder::new()
+            .name("control".into())
+            .spawn(move || {
+                for stream in listener.incoming() {
+                    let Ok(stream) = stream else { continue };
+                    let scan = scan.clone();
+                    let _ = std::thread::Builder::new()
+                        .name("control-client".into())
+                        .spawn(move || serve_client(stream, &scan));
+                }
+            })?;
+        Ok(Self {
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// The socket's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ControlServer {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+fn serve_client(stream: UnixStream, scan: &Sender<Envelope>) {
+    let Ok(mut out) = stream.try_clone() else {
+        return;
+    };
+    let mut reader = BufReader::new(stream.take(u64::MAX));
+    loop {
+        let mut line = String::new();
+        let n = match (&mut reader).take(MAX_LINE).read_line(&mut line) {
+            Ok(n) => n,
+            Err(_) => return,
+        };
+        if n == 0 {
+            return;
+        }
+        let response = if !line.ends_with('\n') && n as u64 >= MAX_LINE {
+            let _ = write_response(&mut out, &Response::refused("request longer than 64 KiB"));
+            return;
+        } else if line.trim().is_empty() {
+            continue;
+        } else {
+            match parse_request(&line) {
+                Ok(request) => forward(scan, request),
+                Err(e) => Response::refused(e),
+            }
+        };
+        if write_response(&mut out, &response).is_err() {
+            return;
+        }
+    }
+}
+
+fn forward(scan: &Sender<Envelope>, request: Request) -> Response {
+    let (reply, answer): (Sender<Response>, Receiver<Response>) = crossbeam_channel::bounded(1);
+    if scan.send(Envelope { request, reply }).is_err() {
+        return Response::refused("the scan has stopped");
+    }
+    answer
+        .recv_timeout(SCAN_ANSWER)
+        .unwrap_or_else(|_| Response::refused("the scan did not answer within 5 s"))
+}
+
+fn write_response(out: &mut UnixStream, response: &Response) -> std::io::Result<()> {
+    let mut text = serde_json::to_string(response).map_err(std::io::Error::other)?;
+    text.push('\n');
+    out.write_all(text.as_bytes())
+}
+
+/// Sends one request to the instance listening at `path` and waits for its response.
+pub fn request(path: &Path, request: &Request) -> std::io::Result<Response> {
+    let mut stream = UnixStream::connect(path).map_err(|e| {
+        std::io::Error::new(
+            e.kind(),
+            format!("cannot reach a running instance at {}: {e}", path.display()),
+        )
+    })?;
+    stream.set_read_timeout(Some(SCAN_ANSWER + Duration::from_secs(1)))?;
+    let mut text = serde_json::to_string(request).map_err(std::io::Error::other)?;
+    text.push('\n');
+    stream.write_all(text.as_bytes())?;
+    let mut line = String::new();
+    BufReader::new(stream).read_line(&mut line)?;
+    serde_json::from_str(&line).map_err(|e| std::io::Error::other(format!("bad response: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_every_request_form() {
+        assert_eq!(parse_request(r#"{"cmd":"status"}"#), Ok(Request::Status));
+        assert_eq!(
+            parse_request(r#"{"cmd":"force","tag":"motor","value":"1"}"#),
+            Ok(Request::Force {
+                tag: "motor".into(),
+                value: "1".into()
+            })
+        );
+        assert_eq!(
+            parse_request(r#"{"cmd":"unforce"}"#),
+            Ok(Request::Unforce { tag: None })
+        );
+        assert_eq!(parse_request(r#"{"cmd":"reload"}"#), Ok(Request::Reload));
+        assert!(parse_request(r#"{"cmd":"format-disk"}"#).is_err());
+        // A misspelt field must not turn "unforce motor" into "unforce everything".
+        assert!(parse_request(r#"{"cmd":"unforce","tagg":"motor"}"#).is_err());
+        assert!(parse_request("not json").is_err());
+    }
+
+    #[test]
+    fn a_client_talks_to_the_server_through_the_socket() {
+        let dir = std::env::temp_dir().join(format!("softplc-ctl-{}", std::process::id()));
+        let path = dir.join("t.sock");
+        let (tx, rx) = crossbeam_channel::unbounded::<Envelope>();
+        let server = ControlServer::start(&path, tx).unwrap();
+        std::thread::spawn(move || {
+            for env in rx {
+                let _ = env.reply.send(Response::done(format!("{:?}", env.request)));
+            }
+        });
+        let r = request(server.path(), &Request::Reload).unwrap();
+        assert_eq!(r, Response::done("Reload"));
+        let mode = std::fs::metadata(server.path())
+            .unwrap()
+            .permissions()
+            .mode()
+            & 0o777;
+        assert_eq!(mode, 0o660);
+        assert!(
+            ControlServer::start(&path, crossbeam_channel::unbounded().0).is_err(),
+            "in use"
+        );
+        drop(server);
+        assert!(!path.exists());
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}

@@ -1,0 +1,133 @@
+//! The status of a running instance, as `softplc status` prints it and the control socket
+//! sends it (JSON).
+
+use serde::{Deserialize, Serialize};
+
+/// Percentiles in microseconds, for JSON.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub struct MicrosPercentiles {
+    /// Samples.
+    pub count: u64,
+    /// Median.
+    pub p50_us: u64,
+    /// 99th percentile.
+    pub p99_us: u64,
+    /// 99.9th percentile.
+    pub p999_us: u64,
+    /// Largest.
+    pub max_us: u64,
+}
+
+impl From<crate::scan::Percentiles> for MicrosPercentiles {
+    fn from(p: crate::scan::Percentiles) -> Self {
+        Self {
+            count: p.count,
+            p50_us: p.p50.as_micros() as u64,
+            p99_us: p.p99.as_micros() as u64,
+            p999_us: p.p999.as_micros() as u64,
+            max_us: p.max.as_micros() as u64,
+        }
+    }
+}
+
+/// One module's state.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ModuleReport {
+    /// Name.
+    pub name: String,
+    /// Bus.
+    pub bus: String,
+    /// `good`, `stale` or `bad`.
+    pub quality: String,
+    /// Requests sent.
+    pub requests: u64,
+    /// Timeouts.
+    pub timeouts: u64,
+    /// CRC errors.
+    pub crc_errors: u64,
+    /// Replies that were not the answer.
+    pub bad_replies: u64,
+    /// Exception replies.
+    pub exceptions: u64,
+    /// Last round trip, µs.
+    pub last_round_trip_us: u64,
+    /// The last failure, if the last read failed.
+    pub last_error: Option<String>,
+}
+
+/// One tag's state.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TagReport {
+    /// Name.
+    pub name: String,
+    /// Value as text.
+    pub value: String,
+    /// `good`, `stale` or `bad`.
+    pub quality: String,
+    /// The forced value, if forced.
+    pub forced: Option<String>,
+}
+
+/// Everything `softplc status` shows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StatusReport {
+    /// Project name.
+    pub project: String,
+    /// Completed scans.
+    pub scans: u64,
+    /// Overruns.
+    pub overruns: u64,
+    /// Scan period, µs.
+    pub period_us: u64,
+    /// Cycle time.
+    pub cycle: MicrosPercentiles,
+    /// Wake-up lateness.
+    pub lateness: MicrosPercentiles,
+    /// Modules.
+    pub modules: Vec<ModuleReport>,
+    /// Tags.
+    pub tags: Vec<TagReport>,
+}
+
+impl std::fmt::Display for StatusReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{}: {} scans, {} overruns, period {} µs; cycle p50 {} µs p99 {} µs max {} µs",
+            self.project,
+            self.scans,
+            self.overruns,
+            self.period_us,
+            self.cycle.p50_us,
+            self.cycle.p99_us,
+            self.cycle.max_us
+        )?;
+        for m in &self.modules {
+            writeln!(
+                f,
+                "  module {} ({}): {}  requests {} timeouts {} crc {} bad {} exceptions {}{}",
+                m.name,
+                m.bus,
+                m.quality,
+                m.requests,
+                m.timeouts,
+                m.crc_errors,
+                m.bad_replies,
+                m.exceptions,
+                m.last_error
+                    .as_ref()
+                    .map(|e| format!("  last error: {e}"))
+                    .unwrap_or_default()
+            )?;
+        }
+        for t in &self.tags {
+            let forced = t
+                .forced
+                .as_ref()
+                .map(|v| format!("  FORCED {v}"))
+                .unwrap_or_default();
+            writeln!(f, "  {:<16} {:>8} {}{forced}", t.name, t.value, t.quality)?;
+        }
+        Ok(())
+    }
+}

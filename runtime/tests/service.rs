@@ -1,0 +1,178 @@
+//! The service as systemd runs it: the unit file's checks, the sd_notify protocol, and the
+//! control interface (status, force, unforce, reload) against a running instance on the
+//! simulated default.
+
+use std::os::unix::net::UnixDatagram;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-service-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The unit as installed, with ExecStart pointing at the binary under test.
+fn installed_unit(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("deploy/softplc@.service")).unwrap();
+    let path = dir.join("softplc@quickstart.service");
+    std::fs::write(&path, text.replace("/usr/local/bin/softplc", BIN)).unwrap();
+    path
+}
+
+fn systemd_analyze(args: &[&str]) -> (bool, String) {
+    let out = Command::new("systemd-analyze")
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!(
+                "systemd-analyze is needed for the unit file checks (Debian package systemd): {e}"
+            )
+        });
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.success(), text)
+}
+
+#[test]
+fn the_unit_file_verifies_clean_and_rates_ok() {
+    let dir = scratch("unit");
+    let unit = installed_unit(&dir);
+    let (ok, text) = systemd_analyze(&["verify", unit.to_str().unwrap()]);
+    assert!(
+        ok && text.trim().is_empty(),
+        "systemd-analyze verify printed:\n{text}"
+    );
+    let (_, text) = systemd_analyze(&["security", "--offline=true", unit.to_str().unwrap()]);
+    let overall = text
+        .lines()
+        .find(|l| l.contains("Overall exposure level"))
+        .unwrap_or("");
+    assert!(
+        ["OK", "SAFE", "PERFECT"]
+            .iter()
+            .any(|w| overall.contains(w)),
+        "rating must be OK or better: {overall}"
+    );
+}
+
+/// Reads datagrams until `want` is seen or the deadline passes; returns all received.
+fn wait_for(sock: &UnixDatagram, want: &str, within: Duration, seen: &mut Vec<String>) -> bool {
+    let end = Instant::now() + within;
+    let mut buf = [0u8; 512];
+    while Instant::now() < end {
+        if let Ok(n) = sock.recv(&mut buf) {
+            let msg = String::from_utf8_lossy(&buf[..n]).to_string();
+            seen.push(msg.clone());
+            if msg.starts_with(want) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+fn ctl(socket: &Path, args: &[&str]) -> (bool, String) {
+    let out = Command::new(BIN)
+        .args(args)
+        .arg("--socket")
+        .arg(socket)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.success(), text)
+}
+
+#[test]
+fn a_running_instance_notifies_systemd_and_obeys_its_control_socket() {
+    let dir = scratch("run");
+    // A copy of the quick start whose program can be broken and mended for reload.
+    let program = dir.join("conveyor.expr");
+    std::fs::copy(repo().join("programs/conveyor.expr"), &program).unwrap();
+    let project = std::fs::read_to_string(repo().join("examples/quickstart/project.yaml"))
+        .unwrap()
+        .replace("../../programs/conveyor.expr", "conveyor.expr");
+    let project_path = dir.join("project.yaml");
+    std::fs::write(&project_path, project).unwrap();
+
+    let notify_path = dir.join("notify");
+    let notify = UnixDatagram::bind(&notify_path).unwrap();
+    notify
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    let socket = dir.join("ctl.sock");
+    let mut child = Command::new(BIN)
+        .args(["run", "--quiet", "--for", "20s", "--control"])
+        .arg(&socket)
+        .arg(&project_path)
+        .env("NOTIFY_SOCKET", &notify_path)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+
+    let mut seen = Vec::new();
+    assert!(
+        wait_for(&notify, "READY=1", Duration::from_secs(10), &mut seen),
+        "READY: {seen:?}"
+    );
+    assert!(
+        wait_for(&notify, "WATCHDOG=1", Duration::from_secs(5), &mut seen),
+        "{seen:?}"
+    );
+
+    let (ok, text) = ctl(&socket, &["status"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("module mm1 (line1): good"), "{text}");
+
+    let (ok, text) = ctl(&socket, &["force", "stop", "1"]);
+    assert!(ok && text.contains("stop forced to 1"), "{text}");
+    let (_, text) = ctl(&socket, &["status"]);
+    assert!(
+        text.lines()
+            .any(|l| l.contains("stop") && l.contains("FORCED 1")),
+        "{text}"
+    );
+    let (ok, text) = ctl(&socket, &["force", "motor", "maybe"]);
+    assert!(!ok && text.contains("motor is bool"), "{text}");
+    let (ok, text) = ctl(&socket, &["force", "nosuchtag", "1"]);
+    assert!(!ok && text.contains("no tag \"nosuchtag\""), "{text}");
+
+    // A broken program is refused and the running one keeps scanning.
+    std::fs::write(&program, "motor = start &\n").unwrap();
+    let (ok, text) = ctl(&socket, &["reload"]);
+    assert!(
+        !ok && text.contains("reload refused") && text.contains("conveyor.expr:1:"),
+        "{text}"
+    );
+    std::fs::copy(repo().join("programs/conveyor.expr"), &program).unwrap();
+    let (ok, text) = ctl(&socket, &["reload"]);
+    assert!(ok && text.contains("reloaded"), "{text}");
+
+    let (ok, text) = ctl(&socket, &["unforce", "--all"]);
+    assert!(ok && text.contains("1 force(s) removed"), "{text}");
+
+    // SIGTERM: STOPPING, then a clean exit after the safe state.
+    // SAFETY: kill with a valid pid and signal.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    assert!(
+        wait_for(&notify, "STOPPING=1", Duration::from_secs(5), &mut seen),
+        "{seen:?}"
+    );
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+    assert!(!socket.exists(), "the control socket is removed on exit");
+    let _ = std::fs::remove_dir_all(dir);
+}
