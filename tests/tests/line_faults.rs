@@ -41,6 +41,7 @@ fn rig(retries: u8) -> Rig {
         retries,
         output_refresh: Duration::from_secs(1),
         fail_limit: 3,
+        ..Discipline::default()
     };
     let owner = BusOwner::new(
         "line",
@@ -193,8 +194,9 @@ fn a_duplicated_reply_is_dropped_before_the_next_request() {
     assert!(c.dropped_bytes >= 7, "the copy was flushed: {c:?}");
 }
 
-/// A dead line: the module goes stale, then bad after the fail limit, and comes back good when
-/// the line does, with no restart.
+/// A dead line: the module goes stale, then is lost (bad) after the fail limit and polled only
+/// at its reconnect backoff, so it costs the line no timeouts meanwhile; it comes back good
+/// when the line does, with no restart.
 #[test]
 fn a_dead_line_turns_points_bad_then_recovers() {
     let mut rig = rig(0);
@@ -206,8 +208,15 @@ fn a_dead_line_turns_points_bad_then_recovers() {
         qualities,
         [Quality::Stale, Quality::Stale, Quality::Bad, Quality::Bad]
     );
+    let (_, _, c) = rig.read();
+    assert_eq!(
+        c.timeouts, 3,
+        "a lost module is not polled before its backoff: {c:?}"
+    );
     rig.world.lock().unwrap().faults_mut().set_dead(0, false);
+    rig.clock
+        .advance_to(rig.clock.now() + Duration::from_secs(1));
     let (v, q, c) = rig.read();
     assert_eq!((v, q), (Some(Value::Bool(true)), Quality::Good));
-    assert_eq!(c.timeouts, 4);
+    assert_eq!(c.timeouts, 3);
 }

@@ -65,7 +65,11 @@ pub fn modbus_reply_len(req: &Request) -> usize {
 }
 
 /// Wire time of one planned transaction.
-pub fn transaction_time(settings: LineSettings, tx: &Transaction, reply_delay: Duration) -> Duration {
+pub fn transaction_time(
+    settings: LineSettings,
+    tx: &Transaction,
+    reply_delay: Duration,
+) -> Duration {
     match &tx.frame {
         Outgoing::Modbus { unit, request } => {
             let mut frame = Vec::new();
@@ -81,7 +85,10 @@ pub fn transaction_time(settings: LineSettings, tx: &Transaction, reply_delay: D
 }
 
 /// The budget of a line whose modules are `drivers` (name, driver, the model's point access).
-pub fn line_budget(settings: LineSettings, drivers: &mut [(String, Box<dyn Driver>, Vec<Access>)]) -> LineBudget {
+pub fn line_budget(
+    settings: LineSettings,
+    drivers: &mut [(String, Box<dyn Driver>, Vec<Access>)],
+) -> LineBudget {
     let mut modules = Vec::with_capacity(drivers.len());
     let mut plan = Vec::new();
     for (name, driver, access) in drivers.iter_mut() {
@@ -89,7 +96,10 @@ pub fn line_budget(settings: LineSettings, drivers: &mut [(String, Box<dyn Drive
         plan.clear();
         driver.plan_read(&mut plan);
         let read_transactions = plan.len();
-        let read_time = plan.iter().map(|tx| transaction_time(settings, tx, delay)).sum();
+        let read_time = plan
+            .iter()
+            .map(|tx| transaction_time(settings, tx, delay))
+            .sum();
         let desired: Vec<_> = access
             .iter()
             .map(|a| (*a == Access::Output).then_some(crate::point::Value::Bool(false)))
@@ -97,12 +107,25 @@ pub fn line_budget(settings: LineSettings, drivers: &mut [(String, Box<dyn Drive
         plan.clear();
         driver.plan_write(&desired, true, &mut plan);
         let write_transactions = plan.len();
-        let write_time = plan.iter().map(|tx| transaction_time(settings, tx, delay)).sum();
-        modules.push(ModuleBudget { name: name.clone(), read_transactions, read_time, write_transactions, write_time });
+        let write_time = plan
+            .iter()
+            .map(|tx| transaction_time(settings, tx, delay))
+            .sum();
+        modules.push(ModuleBudget {
+            name: name.clone(),
+            read_transactions,
+            read_time,
+            write_transactions,
+            write_time,
+        });
     }
     let read_floor = modules.iter().map(|m| m.read_time).sum();
     let write_floor = modules.iter().map(|m| m.write_time).sum();
-    LineBudget { modules, read_floor, write_floor }
+    LineBudget {
+        modules,
+        read_floor,
+        write_floor,
+    }
 }
 
 #[cfg(test)]
@@ -111,9 +134,25 @@ mod tests {
 
     #[test]
     fn reply_lengths_follow_the_function_code() {
-        assert_eq!(modbus_reply_len(&Request::ReadDiscreteInputs { addr: 0, count: 10 }), 7);
-        assert_eq!(modbus_reply_len(&Request::ReadHoldingRegisters { addr: 0, count: 3 }), 11);
-        assert_eq!(modbus_reply_len(&Request::WriteSingleRegister { addr: 0, value: 1 }), 8);
-        assert_eq!(modbus_reply_len(&Request::MaskWriteRegister { addr: 0, and_mask: 0, or_mask: 0 }), 10);
+        assert_eq!(
+            modbus_reply_len(&Request::ReadDiscreteInputs { addr: 0, count: 10 }),
+            7
+        );
+        assert_eq!(
+            modbus_reply_len(&Request::ReadHoldingRegisters { addr: 0, count: 3 }),
+            11
+        );
+        assert_eq!(
+            modbus_reply_len(&Request::WriteSingleRegister { addr: 0, value: 1 }),
+            8
+        );
+        assert_eq!(
+            modbus_reply_len(&Request::MaskWriteRegister {
+                addr: 0,
+                and_mask: 0,
+                or_mask: 0
+            }),
+            10
+        );
     }
 }

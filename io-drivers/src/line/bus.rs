@@ -19,6 +19,7 @@ use std::time::Duration;
 use crossbeam_channel::{Receiver, Sender};
 
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
+use crate::line::health::{Health, HealthEvent, HealthLimits};
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, Transport};
 use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError};
@@ -34,8 +35,23 @@ pub struct Discipline {
     pub retries: u8,
     /// Full output refresh period.
     pub output_refresh: Duration,
-    /// Consecutive failed cycles after which a module's points turn bad.
+    /// Consecutive failed cycles after which a module is lost (its points turn bad) and is
+    /// retried with a backoff from `reconnect_min` doubling to `reconnect_max`.
     pub fail_limit: u32,
+    /// First retry interval of a lost module (and of a failed port).
+    pub reconnect_min: Duration,
+    /// Longest retry interval.
+    pub reconnect_max: Duration,
+}
+
+impl Discipline {
+    fn health_limits(&self) -> HealthLimits {
+        HealthLimits {
+            fail_limit: self.fail_limit,
+            reconnect_min: self.reconnect_min,
+            reconnect_max: self.reconnect_max,
+        }
+    }
 }
 
 impl Default for Discipline {
@@ -45,6 +61,8 @@ impl Default for Discipline {
             retries: 1,
             output_refresh: Duration::from_secs(1),
             fail_limit: 3,
+            reconnect_min: Duration::from_secs(1),
+            reconnect_max: Duration::from_secs(30),
         }
     }
 }
@@ -147,14 +165,23 @@ pub struct Module {
     /// Its driver.
     pub driver: Box<dyn Driver>,
     counters: Counters,
-    failed_cycles: u32,
+    health: Health,
+    /// Came back after being lost: write every output again.
+    refresh_pending: bool,
     last_error: Option<TxError>,
 }
 
 impl Module {
     /// A module with fresh counters.
     pub fn new(name: impl Into<String>, driver: Box<dyn Driver>) -> Self {
-        Self { name: name.into(), driver, counters: Counters::default(), failed_cycles: 0, last_error: None }
+        Self {
+            name: name.into(),
+            driver,
+            counters: Counters::default(),
+            health: Health::default(),
+            refresh_pending: false,
+            last_error: None,
+        }
     }
 }
 
@@ -167,6 +194,8 @@ pub struct BusOwner {
     discipline: Discipline,
     modules: Vec<Module>,
     line_free_at: Duration,
+    /// The port's own health: a failed port is reopened with a backoff.
+    port_health: Health,
     last_refresh: Option<Duration>,
     plan: Vec<Transaction>,
     tx_buf: Vec<u8>,
@@ -185,7 +214,12 @@ pub struct StartupError {
 
 impl BusOwner {
     /// An owner for `transport` and its modules.
-    pub fn new(name: impl Into<String>, transport: Box<dyn Transport>, discipline: Discipline, modules: Vec<Module>) -> Self {
+    pub fn new(
+        name: impl Into<String>,
+        transport: Box<dyn Transport>,
+        discipline: Discipline,
+        modules: Vec<Module>,
+    ) -> Self {
         let settings = transport.settings();
         Self {
             name: name.into(),
@@ -194,6 +228,7 @@ impl BusOwner {
             discipline,
             modules,
             line_free_at: Duration::ZERO,
+            port_health: Health::default(),
             last_refresh: None,
             plan: Vec::new(),
             tx_buf: Vec::with_capacity(256),
@@ -225,7 +260,10 @@ impl BusOwner {
             for tx in &plan {
                 if let Err(error) = self.execute(m, tx) {
                     self.plan = plan;
-                    return Err(StartupError { module: self.modules[m].name.clone(), error });
+                    return Err(StartupError {
+                        module: self.modules[m].name.clone(),
+                        error,
+                    });
                 }
             }
             self.plan = plan;
@@ -233,37 +271,58 @@ impl BusOwner {
         Ok(())
     }
 
-    /// Reads every module's inputs.
+    /// Reads every module's inputs. Lost modules are polled only when their backoff allows;
+    /// a failed port is reopened first.
     pub fn read_inputs(&mut self) -> InputFrame {
         let started = self.transport.now();
+        let port_up = self.port_ready(started);
         let mut plan = std::mem::take(&mut self.plan);
         let mut snapshots = Vec::with_capacity(self.modules.len());
         for m in 0..self.modules.len() {
-            plan.clear();
-            self.modules[m].driver.plan_read(&mut plan);
+            let now = self.transport.now();
+            let polled = port_up && self.modules[m].health.due(now);
             let mut error = None;
-            for tx in &plan {
-                if let Err(e) = self.execute(m, tx) {
-                    error = Some(e);
-                    break;
-                }
-            }
-            let module = &mut self.modules[m];
-            let quality = match &error {
-                None => {
-                    module.failed_cycles = 0;
-                    Quality::Good
-                }
-                Some(_) => {
-                    module.failed_cycles = module.failed_cycles.saturating_add(1);
-                    if module.failed_cycles >= self.discipline.fail_limit {
-                        Quality::Bad
-                    } else {
-                        Quality::Stale
+            if polled {
+                plan.clear();
+                self.modules[m].driver.plan_read(&mut plan);
+                for tx in &plan {
+                    if let Err(e) = self.execute(m, tx) {
+                        if matches!(e, TxError::Line(_)) {
+                            self.port_failed(&e);
+                        }
+                        error = Some(e);
+                        break;
                     }
                 }
+            } else if !port_up {
+                error = Some(TxError::Line("the port is down".into()));
+            }
+            let limits = self.discipline.health_limits();
+            let line = &self.name;
+            let module = &mut self.modules[m];
+            let quality = if polled || !port_up {
+                let (quality, event) = module.health.record(error.is_none(), now, &limits);
+                match event {
+                    Some(HealthEvent::Lost) => tracing::warn!(
+                        "line {line}: module {} lost ({}); retrying every {:?} at first",
+                        module.name,
+                        error.as_ref().map(ToString::to_string).unwrap_or_default(),
+                        limits.reconnect_min
+                    ),
+                    Some(HealthEvent::Back(after)) => {
+                        module.refresh_pending = true;
+                        tracing::info!(
+                            "line {line}: module {} is back after {after:.1?}",
+                            module.name
+                        );
+                    }
+                    None => {}
+                }
+                module.last_error = error;
+                quality
+            } else {
+                module.health.skipped_quality()
             };
-            module.last_error = error;
             snapshots.push(ModuleSnapshot {
                 values: module.driver.values().to_vec(),
                 quality,
@@ -272,7 +331,55 @@ impl BusOwner {
             });
         }
         self.plan = plan;
-        InputFrame { modules: snapshots, started, finished: self.transport.now() }
+        InputFrame {
+            modules: snapshots,
+            started,
+            finished: self.transport.now(),
+        }
+    }
+
+    /// Whether the port can be used this cycle; reopens a failed one when its backoff allows.
+    fn port_ready(&mut self, now: Duration) -> bool {
+        if !self.port_health.is_lost() {
+            return true;
+        }
+        if !self.port_health.due(now) {
+            return false;
+        }
+        let limits = HealthLimits {
+            fail_limit: 1,
+            ..self.discipline.health_limits()
+        };
+        match self.transport.reopen() {
+            Ok(()) => {
+                if let (_, Some(HealthEvent::Back(after))) =
+                    self.port_health.record(true, now, &limits)
+                {
+                    tracing::info!("line {}: port reopened after {after:.1?}", self.name);
+                }
+                true
+            }
+            Err(e) => {
+                self.port_health.record(false, now, &limits);
+                tracing::debug!("line {}: port still unavailable: {e}", self.name);
+                false
+            }
+        }
+    }
+
+    fn port_failed(&mut self, error: &TxError) {
+        let limits = HealthLimits {
+            fail_limit: 1,
+            ..self.discipline.health_limits()
+        };
+        let now = self.transport.now();
+        if let (_, Some(HealthEvent::Lost)) = self.port_health.record(false, now, &limits) {
+            tracing::error!(
+                "line {}: {error}; reopening the port every {:?} at first",
+                self.name,
+                limits.reconnect_min
+            );
+        }
     }
 
     /// Writes outputs that changed (and all of them when the refresh period has passed).
@@ -285,14 +392,27 @@ impl BusOwner {
         if refresh {
             self.last_refresh = Some(now);
         }
-        let mut report = WriteReport { transactions: 0, failures: 0, finished: now };
+        let mut report = WriteReport {
+            transactions: 0,
+            failures: 0,
+            finished: now,
+        };
         let mut plan = std::mem::take(&mut self.plan);
         for (m, desired) in frame.modules.iter().enumerate().take(self.modules.len()) {
+            let module = &mut self.modules[m];
+            // A lost module gets no bus time; when it comes back, everything is written again.
+            if module.health.is_lost() || self.port_health.is_lost() {
+                continue;
+            }
+            let refresh_module = refresh || std::mem::take(&mut module.refresh_pending);
             plan.clear();
-            self.modules[m].driver.plan_write(desired, refresh, &mut plan);
+            module.driver.plan_write(desired, refresh_module, &mut plan);
             for tx in &plan {
                 report.transactions += 1;
-                if self.execute(m, tx).is_err() {
+                if let Err(e) = self.execute(m, tx) {
+                    if matches!(e, TxError::Line(_)) {
+                        self.port_failed(&e);
+                    }
                     report.failures += 1;
                     self.modules[m].driver.on_failure(tx.tag);
                 }
@@ -338,7 +458,8 @@ impl BusOwner {
         self.tx_buf.clear();
         let (mut assembler, terminator) = match &tx.frame {
             Outgoing::Modbus { unit, request } => {
-                encode_request(unit.get(), request, &mut self.tx_buf).map_err(|_| TxError::Encode)?;
+                encode_request(unit.get(), request, &mut self.tx_buf)
+                    .map_err(|_| TxError::Encode)?;
                 (Some(ReplyAssembler::new(unit.get(), request)), None)
             }
             Outgoing::Text { line, terminator } => {
@@ -359,7 +480,10 @@ impl BusOwner {
         let inter_char = self.inter_char_timeout();
         loop {
             let before = self.rx_buf.len();
-            let n = self.transport.read_until(&mut self.rx_buf, deadline).map_err(line_err)?;
+            let n = self
+                .transport
+                .read_until(&mut self.rx_buf, deadline)
+                .map_err(line_err)?;
             let now = self.transport.now();
             if n == 0 {
                 self.modules[m].counters.timeouts += 1;
@@ -375,7 +499,9 @@ impl BusOwner {
                 }
                 continue;
             }
-            let Some(asm) = assembler.as_mut() else { continue };
+            let Some(asm) = assembler.as_mut() else {
+                continue;
+            };
             match asm.push(&self.rx_buf[before..]) {
                 Progress::NeedMore => {}
                 Progress::Complete { response, extra } => {
@@ -457,27 +583,33 @@ impl BusThread {
     pub fn spawn(mut owner: BusOwner) -> std::io::Result<Self> {
         let (commands, cmd_rx) = crossbeam_channel::bounded::<BusCommand>(4);
         let (ev_tx, events) = crossbeam_channel::bounded::<BusEvent>(4);
-        let handle = std::thread::Builder::new().name(format!("bus-{}", owner.name)).spawn(move || {
-            for cmd in cmd_rx {
-                let event = match cmd {
-                    BusCommand::Read => BusEvent::Inputs(owner.read_inputs()),
-                    BusCommand::Write(frame) => BusEvent::Written(owner.write_outputs(&frame)),
-                    BusCommand::Stop(last) => {
-                        if let Some(frame) = last {
-                            owner.last_refresh = None;
-                            let report = owner.write_outputs(&frame);
-                            let _ = ev_tx.send(BusEvent::Written(report));
+        let handle = std::thread::Builder::new()
+            .name(format!("bus-{}", owner.name))
+            .spawn(move || {
+                for cmd in cmd_rx {
+                    let event = match cmd {
+                        BusCommand::Read => BusEvent::Inputs(owner.read_inputs()),
+                        BusCommand::Write(frame) => BusEvent::Written(owner.write_outputs(&frame)),
+                        BusCommand::Stop(last) => {
+                            if let Some(frame) = last {
+                                owner.last_refresh = None;
+                                let report = owner.write_outputs(&frame);
+                                let _ = ev_tx.send(BusEvent::Written(report));
+                            }
+                            break;
                         }
+                    };
+                    if ev_tx.send(event).is_err() {
                         break;
                     }
-                };
-                if ev_tx.send(event).is_err() {
-                    break;
                 }
-            }
-            owner
-        })?;
-        Ok(Self { commands, events, handle: Some(handle) })
+                owner
+            })?;
+        Ok(Self {
+            commands,
+            events,
+            handle: Some(handle),
+        })
     }
 
     /// Sends a command without waiting.

@@ -7,6 +7,7 @@
 
 pub mod budget;
 pub mod bus;
+pub mod health;
 pub mod settings;
 pub mod transport;
 

@@ -28,7 +28,11 @@ pub struct SerialFormat {
 
 impl SerialFormat {
     /// 8 data bits, even parity, 1 stop bit: the Modbus recommendation and MiniMod's default.
-    pub const EVEN_8E1: Self = Self { data_bits: 8, parity: Parity::Even, stop_bits: 1 };
+    pub const EVEN_8E1: Self = Self {
+        data_bits: 8,
+        parity: Parity::Even,
+        stop_bits: 1,
+    };
 
     /// Bits per character on the wire: start + data + parity + stop.
     pub fn bits_per_char(self) -> u32 {
@@ -67,7 +71,11 @@ impl FromStr for SerialFormat {
             b'2' => 2,
             _ => return Err(BadFormat),
         };
-        Ok(Self { data_bits, parity, stop_bits })
+        Ok(Self {
+            data_bits,
+            parity,
+            stop_bits,
+        })
     }
 }
 
@@ -93,7 +101,10 @@ pub struct LineSettings {
 
 impl LineSettings {
     /// 19200 8E1.
-    pub const DEFAULT: Self = Self { baud: 19200, format: SerialFormat::EVEN_8E1 };
+    pub const DEFAULT: Self = Self {
+        baud: 19200,
+        format: SerialFormat::EVEN_8E1,
+    };
 
     /// Time of one character on the wire.
     pub fn char_time(self) -> Duration {
@@ -131,7 +142,12 @@ impl LineSettings {
 
     /// One transaction: request + device reply delay + reply + t3.5 (DESIGN.md). With no reply
     /// (a broadcast) the master still keeps the line quiet for the device's turnaround.
-    pub fn transaction(self, request_len: usize, reply_delay: Duration, reply_len: usize) -> Duration {
+    pub fn transaction(
+        self,
+        request_len: usize,
+        reply_delay: Duration,
+        reply_len: usize,
+    ) -> Duration {
         self.chars(request_len) + reply_delay + self.chars(reply_len) + self.t3_5()
     }
 }
@@ -156,7 +172,10 @@ mod tests {
 
     #[test]
     fn t3_5_is_fixed_above_19200() {
-        let s = LineSettings { baud: 57600, format: SerialFormat::EVEN_8E1 };
+        let s = LineSettings {
+            baud: 57600,
+            format: SerialFormat::EVEN_8E1,
+        };
         assert_eq!(s.t3_5(), Duration::from_micros(1750));
         assert_eq!(s.t1_5(), Duration::from_micros(750));
     }

@@ -57,12 +57,19 @@ pub trait Transport: Send + Debug {
 
     /// Drops every byte that has arrived and not been read; returns how many.
     fn flush_input(&mut self) -> usize;
+
+    /// Opens the port again after it failed (an unplugged adapter plugged back in).
+    fn reopen(&mut self) -> Result<(), LineError> {
+        Ok(())
+    }
 }
 
 /// A real serial device (a USB RS-485 adapter, or one end of a pty).
 #[derive(Debug)]
 pub struct SerialTransport {
     port: serialport::TTYPort,
+    /// Where it was opened from, to reopen it; `None` for a port handed over already open.
+    path: Option<PathBuf>,
     settings: LineSettings,
     clock: Arc<dyn Clock>,
 }
@@ -72,27 +79,27 @@ pub use serialport::TTYPort;
 
 /// Opens the serial device `path` with `settings` (raw mode, no flow control).
 pub fn open_tty(path: &Path, settings: LineSettings) -> Result<TTYPort, LineError> {
-        let open_err = |e: serialport::Error| LineError::Open {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(e.description),
-        };
-        let builder = serialport::new(path.to_string_lossy(), settings.baud)
-            .data_bits(match settings.format.data_bits {
-                7 => serialport::DataBits::Seven,
-                _ => serialport::DataBits::Eight,
-            })
-            .parity(match settings.format.parity {
-                Parity::None => serialport::Parity::None,
-                Parity::Even => serialport::Parity::Even,
-                Parity::Odd => serialport::Parity::Odd,
-            })
-            .stop_bits(match settings.format.stop_bits {
-                2 => serialport::StopBits::Two,
-                _ => serialport::StopBits::One,
-            })
-            .flow_control(serialport::FlowControl::None)
-            .timeout(Duration::from_millis(1));
-        serialport::TTYPort::open(&builder).map_err(open_err)
+    let open_err = |e: serialport::Error| LineError::Open {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.description),
+    };
+    let builder = serialport::new(path.to_string_lossy(), settings.baud)
+        .data_bits(match settings.format.data_bits {
+            7 => serialport::DataBits::Seven,
+            _ => serialport::DataBits::Eight,
+        })
+        .parity(match settings.format.parity {
+            Parity::None => serialport::Parity::None,
+            Parity::Even => serialport::Parity::Even,
+            Parity::Odd => serialport::Parity::Odd,
+        })
+        .stop_bits(match settings.format.stop_bits {
+            2 => serialport::StopBits::Two,
+            _ => serialport::StopBits::One,
+        })
+        .flow_control(serialport::FlowControl::None)
+        .timeout(Duration::from_millis(1));
+    serialport::TTYPort::open(&builder).map_err(open_err)
 }
 
 /// Creates a pty pair in-process: `(master, slave, slave path)`. Whatever is written to one
@@ -108,20 +115,42 @@ pub fn pty_pair() -> Result<(TTYPort, TTYPort, String), LineError> {
 
 impl SerialTransport {
     /// Opens `path` with `settings`; time is read from `clock`.
-    pub fn open(path: &Path, settings: LineSettings, clock: Arc<dyn Clock>) -> Result<Self, LineError> {
+    pub fn open(
+        path: &Path,
+        settings: LineSettings,
+        clock: Arc<dyn Clock>,
+    ) -> Result<Self, LineError> {
         let port = open_tty(path, settings)?;
-        Ok(Self::from_port(port, settings, clock))
+        let mut t = Self::from_port(port, settings, clock);
+        t.path = Some(path.to_path_buf());
+        Ok(t)
     }
 
     /// Wraps an already open port (one end of an in-process pty pair, in tests).
-    pub fn from_port(mut port: serialport::TTYPort, settings: LineSettings, clock: Arc<dyn Clock>) -> Self {
+    pub fn from_port(
+        mut port: serialport::TTYPort,
+        settings: LineSettings,
+        clock: Arc<dyn Clock>,
+    ) -> Self {
         // A pty refuses exclusive mode on some kernels; the port works the same without it.
         let _ = port.set_exclusive(false);
-        Self { port, settings, clock }
+        Self {
+            port,
+            path: None,
+            settings,
+            clock,
+        }
     }
 }
 
 impl Transport for SerialTransport {
+    fn reopen(&mut self) -> Result<(), LineError> {
+        if let Some(path) = &self.path {
+            self.port = open_tty(path, self.settings)?;
+        }
+        Ok(())
+    }
+
     fn settings(&self) -> LineSettings {
         self.settings
     }
@@ -148,7 +177,9 @@ impl Transport for SerialTransport {
                 return Ok(0);
             }
             let wait = (deadline - now).max(Duration::from_micros(100));
-            self.port.set_timeout(wait).map_err(|e| std::io::Error::other(e.description))?;
+            self.port
+                .set_timeout(wait)
+                .map_err(|e| std::io::Error::other(e.description))?;
             match self.port.read(&mut chunk) {
                 Ok(0) => continue,
                 Ok(n) => {

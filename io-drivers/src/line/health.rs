@@ -1,0 +1,135 @@
+//! Communication health of a module (or a whole line): when to call it lost, when to try it
+//! again, and what to log, once per change of state rather than once per scan.
+//!
+//! A module that fails `fail_limit` cycles in a row is *lost*: its points turn bad, and it is
+//! polled again only after a backoff (doubling from `reconnect_min` to `reconnect_max`), so a
+//! dead module does not cost the rest of the line a response timeout every cycle.
+
+use std::time::Duration;
+
+use crate::point::Quality;
+
+/// Limits of the health state machine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HealthLimits {
+    /// Consecutive failed cycles after which the module is lost.
+    pub fail_limit: u32,
+    /// First retry interval once lost.
+    pub reconnect_min: Duration,
+    /// Longest retry interval.
+    pub reconnect_max: Duration,
+}
+
+/// A change worth one log line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HealthEvent {
+    /// The module just became lost.
+    Lost,
+    /// A lost module answered again after being lost for this long.
+    Back(Duration),
+}
+
+/// One module's health.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Health {
+    failed_cycles: u32,
+    lost_since: Option<Duration>,
+    backoff: Duration,
+    next_attempt: Duration,
+}
+
+impl Health {
+    /// Whether the module should be polled at `now` (always, unless lost and backing off).
+    pub fn due(&self, now: Duration) -> bool {
+        self.lost_since.is_none() || now >= self.next_attempt
+    }
+
+    /// Whether the module is lost.
+    pub fn is_lost(&self) -> bool {
+        self.lost_since.is_some()
+    }
+
+    /// The quality of a module that was not polled this cycle.
+    pub fn skipped_quality(&self) -> Quality {
+        if self.is_lost() {
+            Quality::Bad
+        } else {
+            Quality::Stale
+        }
+    }
+
+    /// Records a polled cycle's outcome at `now`; returns the quality to report and an event
+    /// when the state changed.
+    pub fn record(
+        &mut self,
+        ok: bool,
+        now: Duration,
+        limits: &HealthLimits,
+    ) -> (Quality, Option<HealthEvent>) {
+        if ok {
+            self.failed_cycles = 0;
+            self.backoff = Duration::ZERO;
+            let event = self
+                .lost_since
+                .take()
+                .map(|since| HealthEvent::Back(now.saturating_sub(since)));
+            return (Quality::Good, event);
+        }
+        self.failed_cycles = self.failed_cycles.saturating_add(1);
+        if self.failed_cycles < limits.fail_limit {
+            return (Quality::Stale, None);
+        }
+        let event = if self.lost_since.is_none() {
+            self.lost_since = Some(now);
+            self.backoff = limits.reconnect_min;
+            Some(HealthEvent::Lost)
+        } else {
+            self.backoff = (self.backoff * 2).clamp(limits.reconnect_min, limits.reconnect_max);
+            None
+        };
+        self.next_attempt = now + self.backoff;
+        (Quality::Bad, event)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LIMITS: HealthLimits = HealthLimits {
+        fail_limit: 3,
+        reconnect_min: Duration::from_secs(1),
+        reconnect_max: Duration::from_secs(4),
+    };
+
+    fn s(secs: u64) -> Duration {
+        Duration::from_secs(secs)
+    }
+
+    #[test]
+    fn lost_after_the_limit_then_backs_off_and_comes_back_once() {
+        let mut h = Health::default();
+        assert_eq!(h.record(false, s(0), &LIMITS), (Quality::Stale, None));
+        assert_eq!(h.record(false, s(0), &LIMITS), (Quality::Stale, None));
+        assert_eq!(
+            h.record(false, s(10), &LIMITS),
+            (Quality::Bad, Some(HealthEvent::Lost))
+        );
+        assert!(!h.due(s(10)) && h.due(s(11)), "1 s backoff");
+        assert_eq!(
+            h.record(false, s(11), &LIMITS),
+            (Quality::Bad, None),
+            "logged once"
+        );
+        assert!(!h.due(s(12)) && h.due(s(13)), "doubled to 2 s");
+        h.record(false, s(13), &LIMITS);
+        h.record(false, s(17), &LIMITS);
+        assert!(!h.due(s(20)) && h.due(s(21)), "capped at 4 s");
+        assert_eq!(
+            h.record(true, s(21), &LIMITS),
+            (Quality::Good, Some(HealthEvent::Back(s(11))))
+        );
+        assert!(h.due(s(21)));
+        assert_eq!(h.record(true, s(22), &LIMITS), (Quality::Good, None));
+    }
+}
