@@ -36,6 +36,13 @@ pub enum Outgoing {
         /// The byte that ends the reply (CR for MiniMod and RESI ASCII).
         terminator: u8,
     },
+    /// Bytes sent as given that nothing answers: a DCON broadcast (`#**`, `~**`) or the
+    /// EX-9053D-M's Modbus "host OK". The bus owner keeps t3.5 of silence after them and
+    /// goes on; the driver gets no [`Driver::on_reply`] for them.
+    NoReply {
+        /// The whole frame (terminator or CRC included).
+        bytes: Vec<u8>,
+    },
 }
 
 /// A reply to a transaction, as the bus owner hands it to the driver.

@@ -439,6 +439,32 @@ impl Plc {
         Ok(n)
     }
 
+    /// Sets tags to values (text, parsed as each tag's type) all at once, as an assignment
+    /// does: the program sees them in its next scan and may overwrite them. Nothing is set
+    /// unless every tag exists, every value parses and no tag is forced (a force wins).
+    pub fn write_tags(
+        &mut self,
+        values: &[crate::service::control::TagValue],
+    ) -> Result<String, String> {
+        let mut parsed = Vec::with_capacity(values.len());
+        for tv in values {
+            let id = self.tag_id(&tv.tag)?;
+            let ty = self.project.tags[id.index()].ty;
+            let value = Value::parse(ty, &tv.value)
+                .ok_or_else(|| format!("{} is {ty}: {:?} is not a {ty}", tv.tag, tv.value))?;
+            if self.image.forced(id).is_some() {
+                return Err(format!("{} is forced; unforce it to write it", tv.tag));
+            }
+            parsed.push((id, value));
+        }
+        let now = self.clock.now();
+        for &(id, value) in &parsed {
+            self.image.set(id, value, now);
+            tracing::debug!("tag {} written: {value}", self.image.name(id));
+        }
+        Ok(format!("{} tag(s) written", parsed.len()))
+    }
+
     fn tag_id(&self, tag: &str) -> Result<TagId, String> {
         self.image
             .id(tag)
@@ -453,7 +479,8 @@ impl Plc {
             .map_err(|e| format!("reload refused:\n{e}"))?;
         if !same_io(&fresh, &self.project) {
             return Err(
-                "reload refused: buses, modules or tags changed; restart to apply them".into(),
+                "reload refused: buses, modules, tags or service changed; restart to apply them"
+                    .into(),
             );
         }
         let logic =
@@ -530,6 +557,7 @@ fn same_io(a: &Project, b: &Project) -> bool {
     a.buses == b.buses
         && a.tags == b.tags
         && a.plant == b.plant
+        && a.service == b.service
         && a.modules.len() == b.modules.len()
         && a.modules.iter().zip(&b.modules).all(|(x, y)| {
             x.name == y.name
@@ -550,7 +578,11 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
     let mut index = vec![None; project.modules.len()];
     for (m, module) in project.modules.iter().enumerate() {
         if project.buses[module.bus].port == PortConfig::Sim {
-            let sim = (module.model.simulator)(module.device.address);
+            let mut sim = (module.model.simulator)(module.device.address);
+            if module.device.protocol != module.model.protocols[0] {
+                // Validation checked the model speaks it, so this cannot be refused.
+                let _ = sim.set_protocol(module.device.protocol);
+            }
             index[m] = Some(world.add_device(module.bus, &module.name, sim));
         }
     }

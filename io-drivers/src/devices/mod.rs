@@ -1,7 +1,9 @@
 //! Module families: one folder each, with register map, driver and simulator, and the catalog
 //! that names them for project files and `softplc sim`.
 
+pub mod ex9053;
 pub mod minimod;
+pub mod resi;
 
 use std::time::Duration;
 
@@ -76,7 +78,20 @@ impl ModelSpec {
 
 /// Every model softplc knows.
 pub fn catalog() -> &'static [&'static ModelSpec] {
-    static CATALOG: [&ModelSpec; 1] = [&minimod::MODEL];
+    static CATALOG: [&ModelSpec; 12] = [
+        &minimod::MODEL,
+        &ex9053::MODEL_D,
+        &ex9053::MODEL_M,
+        &resi::models::m16di8ro::SPEC,
+        &resi::models::m32di::SPEC,
+        &resi::models::m14ri::SPEC,
+        &resi::models::m8co::SPEC,
+        &resi::models::m2ri::SPEC,
+        &resi::models::m1ro::SPEC,
+        &resi::models::m2rtd::SPEC,
+        &resi::models::m1led::SPEC,
+        &resi::models::m4led::SPEC,
+    ];
     &CATALOG
 }
 

@@ -81,6 +81,8 @@ pub fn transaction_time(
         }
         // A text reply's length depends on the value; count the echo-sized reply as a floor.
         Outgoing::Text { line, .. } => settings.transaction(line.len(), reply_delay, line.len()),
+        // Nothing answers: the frame and the t3.5 after it.
+        Outgoing::NoReply { bytes } => settings.transaction(bytes.len(), Duration::ZERO, 0),
     }
 }
 

@@ -19,6 +19,7 @@ use std::time::Duration;
 use crossbeam_channel::{Receiver, Sender};
 
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
+use crate::line::collect::CollectState;
 use crate::line::health::{Health, HealthEvent, HealthLimits};
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, Transport};
@@ -165,10 +166,10 @@ pub struct Module {
     /// Its driver.
     pub driver: Box<dyn Driver>,
     counters: Counters,
-    health: Health,
+    pub(crate) health: Health,
     /// Came back after being lost: write every output again.
     refresh_pending: bool,
-    last_error: Option<TxError>,
+    pub(crate) last_error: Option<TxError>,
 }
 
 impl Module {
@@ -189,11 +190,13 @@ impl Module {
 #[derive(Debug)]
 pub struct BusOwner {
     name: String,
-    transport: Box<dyn Transport>,
-    settings: LineSettings,
+    pub(crate) transport: Box<dyn Transport>,
+    pub(crate) settings: LineSettings,
     discipline: Discipline,
-    modules: Vec<Module>,
-    line_free_at: Duration,
+    pub(crate) modules: Vec<Module>,
+    pub(crate) line_free_at: Duration,
+    /// FC 70 Collect rounds for the modules in event mode (line/collect.rs).
+    pub(crate) collect: CollectState,
     /// The port's own health: a failed port is reopened with a backoff.
     port_health: Health,
     last_refresh: Option<Duration>,
@@ -228,6 +231,7 @@ impl BusOwner {
             discipline,
             modules,
             line_free_at: Duration::ZERO,
+            collect: CollectState::default(),
             port_health: Health::default(),
             last_refresh: None,
             plan: Vec::new(),
@@ -276,6 +280,10 @@ impl BusOwner {
     pub fn read_inputs(&mut self) -> InputFrame {
         let started = self.transport.now();
         let port_up = self.port_ready(started);
+        if port_up {
+            // One FC 70 Collect round for the modules in event mode, before any poll.
+            self.collect_pass(started);
+        }
         let mut plan = std::mem::take(&mut self.plan);
         let mut snapshots = Vec::with_capacity(self.modules.len());
         for m in 0..self.modules.len() {
@@ -284,7 +292,7 @@ impl BusOwner {
             let mut error = None;
             if polled {
                 plan.clear();
-                self.modules[m].driver.plan_read(&mut plan);
+                self.read_plan(m, &mut plan);
                 for tx in &plan {
                     if let Err(e) = self.execute(m, tx) {
                         if matches!(e, TxError::Line(_)) {
@@ -466,6 +474,10 @@ impl BusOwner {
                 self.tx_buf.extend_from_slice(line);
                 (None, Some(*terminator))
             }
+            Outgoing::NoReply { bytes } => {
+                self.tx_buf.extend_from_slice(bytes);
+                (None, None)
+            }
         };
         self.transport.wait_until(self.line_free_at);
         // Whatever arrived while the line was idle belongs to nobody.
@@ -474,6 +486,10 @@ impl BusOwner {
         self.transport.write_frame(&self.tx_buf).map_err(line_err)?;
         self.modules[m].counters.requests += 1;
         let sent = self.transport.now();
+        if matches!(tx.frame, Outgoing::NoReply { .. }) {
+            self.line_free_at = sent + self.settings.t3_5();
+            return Ok(None);
+        }
 
         self.rx_buf.clear();
         let mut deadline = sent + self.discipline.response_timeout;
@@ -541,7 +557,7 @@ impl BusOwner {
 
     /// Silence inside a reply after which it is taken as ended. Modbus says t1.5; USB adapters
     /// and ptys deliver in chunks, so allow some milliseconds.
-    fn inter_char_timeout(&self) -> Duration {
+    pub(crate) fn inter_char_timeout(&self) -> Duration {
         (self.settings.t1_5() * 10).max(Duration::from_millis(5))
     }
 }

@@ -3,6 +3,7 @@
 use std::fmt::Debug;
 use std::time::Duration;
 
+use crate::devices::Protocol;
 use crate::point::{PointSpec, Value};
 
 /// A reply a simulator puts on the line.
@@ -70,6 +71,14 @@ pub trait SimDevice: Send + Debug {
     /// power-cycle, flip a dip switch). Returns the text to print.
     fn command(&mut self, words: &[&str]) -> Result<String, SimError> {
         Err(SimError::UnknownCommand(words.join(" ")))
+    }
+
+    /// Brings the module up speaking `protocol`, as its installer would have configured it
+    /// (a project's `protocol:` for a module that speaks one protocol at a time). Modules that
+    /// answer every protocol at once need nothing.
+    fn set_protocol(&mut self, protocol: Protocol) -> Result<(), SimError> {
+        let _ = protocol;
+        Ok(())
     }
 
     /// Help text for [`SimDevice::command`].
