@@ -202,7 +202,7 @@ impl SimWorld {
                 .apply(device, reply.bytes, reply.delay, char_time);
             for (offset, bytes) in wire.bursts {
                 for (i, b) in bytes.iter().enumerate() {
-                    let at = t + offset + char_time * (i as u32 + 1);
+                    let at = t + offset + settings.chars(i + 1);
                     inbound.bytes.push_back((at, *b));
                 }
             }

@@ -135,7 +135,7 @@ impl Plant for Conveyor {
                     self.box_mm = Some(pos + 1);
                 }
             }
-            if self.box_mm == Some(BELT_MM - SENSOR_MM / 2) && self.arrived_at.is_none() {
+            if self.box_mm >= Some(BELT_MM - SENSOR_MM) && self.arrived_at.is_none() {
                 self.arrived_at = Some(t);
             }
             if let Some(at) = self.arrived_at {

@@ -1,0 +1,571 @@
+//! The `softplc` binary as a user runs it: `check`, `run`, and `sim` with a third-party Modbus
+//! master (mbpoll) on the other end of its pty.
+//!
+//! mbpoll is a Debian package that `scripts/test` installs; without it the master tests fail
+//! (they do not skip) and say so. Processes run in real time here: every wait is generous and
+//! no test asserts how long something took, except that the virtual clock does not wait.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
+use std::sync::mpsc::{self, Receiver};
+use std::time::{Duration, Instant};
+
+/// Far longer than any of these commands takes, even on a loaded machine.
+const PATIENCE: Duration = Duration::from_secs(60);
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the workspace root")
+        .to_path_buf()
+}
+
+fn quickstart() -> PathBuf {
+    root().join("examples/quickstart/project.yaml")
+}
+
+/// What a finished command left.
+#[derive(Debug)]
+struct Finished {
+    status: ExitStatus,
+    stdout: String,
+    stderr: String,
+}
+
+impl Finished {
+    fn code(&self) -> Option<i32> {
+        self.status.code()
+    }
+}
+
+/// Reads a child's pipe to the end on a thread.
+fn drain(mut pipe: impl Read + Send + 'static) -> Receiver<String> {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = pipe.read_to_string(&mut text);
+        let _ = tx.send(text);
+    });
+    rx
+}
+
+/// Runs `program args`, killing it after [`PATIENCE`].
+fn run(program: &str, args: &[&str]) -> Finished {
+    let mut child = Command::new(program)
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run {program}: {e}"));
+    let stdout = drain(child.stdout.take().expect("piped stdout"));
+    let stderr = drain(child.stderr.take().expect("piped stderr"));
+    let deadline = Instant::now() + PATIENCE;
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for the child") {
+            break status;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{program} {args:?} did not finish within {PATIENCE:?}");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    Finished {
+        status,
+        stdout: stdout.recv().unwrap_or_default(),
+        stderr: stderr.recv().unwrap_or_default(),
+    }
+}
+
+fn softplc(args: &[&str]) -> Finished {
+    run(env!("CARGO_BIN_EXE_softplc"), args)
+}
+
+fn path_str(p: &Path) -> &str {
+    p.to_str().expect("a UTF-8 path")
+}
+
+// --- check ---
+
+#[test]
+fn check_accepts_the_quick_start_and_prints_its_budget() {
+    let out = softplc(&["check", path_str(&quickstart())]);
+    assert_eq!(out.code(), Some(0), "{out:?}");
+    let text = &out.stdout;
+    assert!(text.contains("module mm1 = minimod @1 (modbus)"), "{text}");
+    assert!(
+        text.contains("out Y1       bool → tag #3 motor safe=0"),
+        "{text}"
+    );
+    // Two FC 2 reads of 8 + 7 bytes at 19200 8E1, each with the MiniMod's 10 ms reply delay
+    // and t3.5: 2 × (8.594 + 10 + 2.005) ms.
+    assert!(
+        text.contains(
+            "budget: inputs 41.20ms (2 transactions), full output write 42.34ms, cycle floor \
+             83.54ms"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("the input phase can be no shorter than 41.20ms"),
+        "{text}"
+    );
+    assert!(!text.contains("warning"), "{text}");
+}
+
+/// A broken project in its own folder, with the quick start's program beside it.
+struct Scratch {
+    dir: PathBuf,
+}
+
+impl Scratch {
+    fn new(case: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("softplc-cli-{}-{case}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a scratch folder");
+        let program = std::fs::read_to_string(root().join("programs/conveyor.expr"))
+            .expect("programs/conveyor.expr");
+        std::fs::write(dir.join("conveyor.expr"), program).expect("write the program");
+        Self { dir }
+    }
+
+    fn write(&self, name: &str, text: &str) -> PathBuf {
+        let path = self.dir.join(name);
+        std::fs::write(&path, text).expect("write a scratch file");
+        path
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// A valid project; the cases below break one line of it. Line numbers matter.
+const PROJECT: &str = "\
+project: broken
+scan:
+  period: 100ms
+buses:
+  - name: line1
+    port: sim
+    baud: 19200
+modules:
+  - { name: mm1, bus: line1, model: minimod, address: 1 }
+  - { name: mm2, bus: line1, model: minimod, address: 2 }
+tags:
+  - { name: start, point: mm1.X2 }
+  - { name: stop, point: mm1.X3 }
+  - { name: box_at_entry, point: mm1.X1 }
+  - { name: motor, point: mm1.Y1, safe: false }
+  - { name: box_at_exit, point: mm2.X1 }
+  - { name: lamp, point: mm2.Y1 }
+program:
+  file: conveyor.expr
+  kind: expr
+";
+
+/// Runs `check` on `PROJECT` with `from` replaced by `to`; it must fail with exactly
+/// `expected` errors (`line:col: error: message`) on stderr, in order, naming the file.
+fn check_fails<S: AsRef<str>>(case: &str, from: &str, to: &str, expected: &[S]) {
+    let scratch = Scratch::new(case);
+    assert!(
+        PROJECT.contains(from),
+        "{case}: {from:?} is not in the project"
+    );
+    let path = scratch.write("project.yaml", &PROJECT.replacen(from, to, 1));
+    let out = softplc(&["check", path_str(&path)]);
+    assert_eq!(out.code(), Some(1), "{case}: {out:?}");
+    let lines: Vec<&str> = out.stderr.lines().collect();
+    let want: Vec<String> = expected
+        .iter()
+        .map(|e| format!("{}:{}", path.display(), e.as_ref()))
+        .collect();
+    assert_eq!(lines, want, "{case}");
+    assert!(!out.stdout.contains("budget"), "{case}: {}", out.stdout);
+}
+
+#[test]
+fn check_names_file_line_column_and_fault() {
+    let base = Scratch::new("valid");
+    let valid = base.write("project.yaml", PROJECT);
+    let out = softplc(&["check", path_str(&valid)]);
+    assert_eq!(
+        out.code(),
+        Some(0),
+        "the unbroken project is valid: {out:?}"
+    );
+
+    check_fails(
+        "unknown-model",
+        "model: minimod, address: 2",
+        "model: minimodd, address: 2",
+        &[format!(
+            "10:37: error: unknown model \"minimodd\" (known: {})",
+            softplc_io::devices::catalog()
+                .iter()
+                .map(|m| m.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )],
+    );
+    check_fails(
+        "duplicate-address",
+        "address: 2",
+        "address: 1",
+        &["10:55: error: address 1 is already used by module mm1 on bus line1 (line 9)"],
+    );
+    check_fails(
+        "bad-point",
+        "mm2.Y1",
+        "mm2.Y9",
+        &[
+            "17:26: error: module mm2 (minimod) has no point \"Y9\"; did you mean X9, Y1, Y2, \
+           Y3, Y4?",
+        ],
+    );
+    check_fails(
+        "zero-period",
+        "period: 100ms",
+        "period: 0ms",
+        &["3:11: error: scan.period must be greater than zero"],
+    );
+    check_fails(
+        "unknown-key",
+        "    baud: 19200",
+        "    baudrate: 19200",
+        &[
+            "7:5: error: unknown key `baudrate` in buses[0]; expected one of `name`, `port`, \
+           `baud`, `format`, `response_timeout`, `retries`, `output_refresh`",
+        ],
+    );
+    check_fails(
+        "wrong-type",
+        "baud: 19200",
+        "baud: fast",
+        &["7:11: error: buses[0].baud: invalid type: string \"fast\", expected a whole number"],
+    );
+    // Semantic errors are all reported at once, in file order.
+    check_fails(
+        "several",
+        "  - { name: mm2, bus: line1, model: minimod, address: 2 }\n",
+        "  - { name: mm2, bus: line2, model: minimod, address: 300 }\n",
+        &[
+            "10:23: error: unknown bus \"line2\" (known: line1)",
+            "10:55: error: address 300 is outside the range 1..=247 of model minimod",
+        ],
+    );
+}
+
+#[test]
+fn check_names_the_program_line_and_fault() {
+    let scratch = Scratch::new("program");
+    // Line 11 of conveyor.expr is the motor rung; `stop` misspelt.
+    let program = std::fs::read_to_string(scratch.dir.join("conveyor.expr")).unwrap();
+    let rung = "motor = (rising(start) | motor) & !stop & !box_at_exit";
+    assert_eq!(program.lines().nth(10), Some(rung));
+    let typo = scratch.write("typo.expr", &program.replace("!stop", "!stpo"));
+    let cut = scratch.write(
+        "cut.expr",
+        "motor = (rising(start) | motor) & \nlamp = box_at_exit\n",
+    );
+    for (program, expected) in [
+        (
+            &typo,
+            "11:36: error: unknown tag `stpo`; did you mean `stop`?",
+        ),
+        (
+            &cut,
+            "1:35: error: expected a tag, 0, 1, true, false, `!`, `(` or a function call, \
+             found end of line",
+        ),
+    ] {
+        let name = program.file_name().unwrap().to_str().unwrap();
+        let project = scratch.write(
+            "project.yaml",
+            &PROJECT.replace("file: conveyor.expr", &format!("file: {name}")),
+        );
+        let out = softplc(&["check", path_str(&project)]);
+        assert_eq!(out.code(), Some(1), "{name}: {out:?}");
+        assert_eq!(
+            out.stderr.trim_end(),
+            format!("{}:{expected}", program.display()),
+            "{name}"
+        );
+    }
+}
+
+// --- run ---
+
+/// `softplc run` opens a control socket named after the project; two runs of the quick start
+/// at once would refuse each other ("another instance is running"), so these tests take
+/// turns.
+static ONE_RUN_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// `softplc run QUICKSTART extra...`, and how long it took once its turn came.
+fn run_quickstart(extra: &[&str]) -> (Finished, Duration) {
+    let _turn = ONE_RUN_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let project = quickstart();
+    let mut args = vec!["run", path_str(&project)];
+    args.extend_from_slice(extra);
+    let begin = Instant::now();
+    let out = softplc(&args);
+    (out, begin.elapsed())
+}
+
+/// The summary line `scans N  overruns N  period 100.00ms` and the cycle line.
+fn summary_lines(stdout: &str) -> (String, String) {
+    let scans = stdout
+        .lines()
+        .find(|l| l.starts_with("scans "))
+        .unwrap_or_else(|| panic!("no `scans` line in:\n{stdout}"));
+    let cycle = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("cycle "))
+        .unwrap_or_else(|| panic!("no `cycle` line in:\n{stdout}"));
+    (scans.to_string(), cycle.trim().to_string())
+}
+
+#[test]
+fn run_for_two_seconds_reports_cycle_statistics() {
+    let (out, _) = run_quickstart(&["--for", "2s", "--quiet"]);
+    assert_eq!(out.code(), Some(0), "{out:?}");
+    let text = &out.stdout;
+    assert!(
+        text.starts_with("stopped on request; outputs set to their safe values\n"),
+        "{text}"
+    );
+    let (scans, cycle) = summary_lines(text);
+    let count: u64 = scans
+        .split_whitespace()
+        .nth(1)
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{scans}"));
+    assert!((1..=20).contains(&count), "2 s at 100 ms: {scans}");
+    assert!(scans.ends_with("period 100.00ms"), "{scans}");
+    for p in ["p50 ", " p99 ", " p99.9 ", " max "] {
+        assert!(cycle.contains(p), "{cycle}");
+    }
+    for phase in ["inputs ", "logic ", "outputs ", "lateness "] {
+        assert!(
+            text.lines().any(|l| l.trim_start().starts_with(phase)),
+            "no {phase} line:\n{text}"
+        );
+    }
+    for m in ["module mm1 (line1): good", "module mm2 (line1): good"] {
+        assert!(text.contains(m), "{text}");
+    }
+}
+
+#[test]
+fn run_on_the_virtual_clock_is_fast_and_deterministic() {
+    let args = ["--virtual", "--for", "30s"];
+    let (first, elapsed) = run_quickstart(&args);
+    let (second, _) = run_quickstart(&args);
+    assert_eq!(first.code(), Some(0), "{first:?}");
+    assert_eq!(second.code(), Some(0), "{second:?}");
+    // 30 s of scan time; the virtual clock jumps instead of waiting.
+    assert!(
+        elapsed < Duration::from_secs(20),
+        "30 s virtual took {elapsed:?}"
+    );
+    let (scans, cycle) = summary_lines(&first.stdout);
+    assert_eq!(scans, "scans 300  overruns 0  period 100.00ms");
+    // The longest cycle reads both modules and refreshes both outputs: the cycle floor of
+    // `check` (83.54 ms) without the last t3.5, to the histogram's 3 significant digits.
+    assert!(cycle.ends_with("max 81.59ms"), "{cycle}");
+    // Everything, the statistics included, is the same twice.
+    assert_eq!(first.stdout, second.stdout);
+}
+
+// --- sim + a third-party master ---
+
+fn require_mbpoll() {
+    match Command::new("mbpoll").arg("-V").output() {
+        Ok(_) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => panic!(
+            "mbpoll is not installed: run scripts/test, which installs it (Debian package \
+             mbpoll) and then runs the tests"
+        ),
+        Err(e) => panic!("cannot run mbpoll: {e}"),
+    }
+}
+
+/// `softplc sim --pty minimod@5`, its standard input and its standard output by lines.
+struct Sim {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    lines: Receiver<String>,
+    /// The pty's slave path for the master.
+    path: String,
+}
+
+impl Sim {
+    fn start() -> Self {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
+            .args(["sim", "--pty", "minimod@5"])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("softplc sim starts");
+        let stdin = child.stdin.take();
+        let stdout = child.stdout.take().expect("piped stdout");
+        let (tx, lines) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let mut sim = Self {
+            child,
+            stdin,
+            lines,
+            path: String::new(),
+        };
+        let first = sim.line();
+        let path = first
+            .strip_prefix("serving minimod@5 on ")
+            .and_then(|rest| rest.strip_suffix(" at 19200 8E1"))
+            .unwrap_or_else(|| panic!("unexpected first line {first:?}"));
+        assert!(path.starts_with("/dev/pts/"), "{first}");
+        sim.path = path.to_string();
+        sim
+    }
+
+    /// The next line on its standard output.
+    fn line(&self) -> String {
+        self.lines
+            .recv_timeout(PATIENCE)
+            .expect("softplc sim printed a line")
+    }
+
+    /// Types `command` on its standard input; returns the line it prints in answer.
+    fn command(&mut self, command: &str) -> String {
+        let stdin = self.stdin.as_mut().expect("stdin open");
+        writeln!(stdin, "{command}").expect("write to softplc sim");
+        stdin.flush().expect("flush");
+        self.line()
+    }
+
+    /// Runs mbpoll once on the pty as unit 5's master at 19200 8E1, with `args` (`-t 0` coils,
+    /// `-t 1` discrete inputs, `-t 3` input registers, `-t 4` holding registers; `-r` is a
+    /// 1-based reference as in the manual unless `-0` is given) and `values` to write; returns
+    /// the `[reference]: value` lines it printed.
+    fn mbpoll(&self, args: &[&str], values: &[&str]) -> Vec<(u32, String)> {
+        let mut all = vec![
+            "-m", "rtu", "-a", "5", "-b", "19200", "-P", "even", "-o", "5", "-1",
+        ];
+        all.extend_from_slice(args);
+        all.push(&self.path);
+        all.extend_from_slice(values);
+        let out = run("mbpoll", &all);
+        assert_eq!(out.code(), Some(0), "mbpoll {all:?}: {out:?}");
+        out.stdout
+            .lines()
+            .filter_map(|l| {
+                let (reference, value) = l.strip_prefix('[')?.split_once("]:")?;
+                Some((reference.parse().ok()?, value.trim().to_string()))
+            })
+            .collect()
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        if let Some(mut stdin) = self.stdin.take() {
+            let _ = writeln!(stdin, "quit");
+        }
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn values(refs: std::ops::RangeInclusive<u32>, v: &[&str]) -> Vec<(u32, String)> {
+    refs.zip(v).map(|(r, v)| (r, v.to_string())).collect()
+}
+
+#[test]
+fn a_third_party_master_reads_the_manuals_addresses_and_sees_stdin_inputs() {
+    require_mbpoll();
+    let mut sim = Sim::start();
+
+    // Discrete inputs 10001..10010: X1..X3, holes, FB1, FB2 (10009, 10010).
+    let zeros = ["0"; 10];
+    assert_eq!(
+        sim.mbpoll(&["-t", "1", "-r", "1", "-c", "10"], &[]),
+        values(1..=10, &zeros)
+    );
+    // Coils 00001..00004: Y1..Y4.
+    assert_eq!(
+        sim.mbpoll(&["-t", "0", "-r", "1", "-c", "4"], &[]),
+        values(1..=4, &zeros)
+    );
+    // Holding registers 40020..40022 (protocol 19..21): XLATUP1..3, 20 ms at power-on.
+    assert_eq!(
+        sim.mbpoll(&["-t", "4", "-0", "-r", "19", "-c", "3"], &[]),
+        values(19..=21, &["20", "20", "20"])
+    );
+    // 40036..40038: XLATDN1..3, 20 ms too; 40001: YWORD.
+    assert_eq!(
+        sim.mbpoll(&["-t", "4", "-r", "36", "-c", "3"], &[]),
+        values(36..=38, &["20", "20", "20"])
+    );
+    assert_eq!(
+        sim.mbpoll(&["-t", "4", "-r", "1"], &[]),
+        values(1..=1, &["0"])
+    );
+    // Input register 30010: ROTSW, the selector at 5 for unit 5.
+    assert_eq!(
+        sim.mbpoll(&["-t", "3", "-r", "10"], &[]),
+        values(10..=10, &["5"])
+    );
+
+    // An input set on the simulator's standard input shows in the next reads, once the
+    // module's 20 ms input latency has passed.
+    assert_eq!(sim.command("set minimod@5.X1 1"), "minimod@5.X1=1");
+    std::thread::sleep(Duration::from_millis(100));
+    assert_eq!(
+        sim.mbpoll(&["-t", "1", "-r", "1", "-c", "3"], &[]),
+        values(1..=3, &["1", "0", "0"])
+    );
+    // The same with 0-based references, and as input register 30001 (XWORD, bit 0 = X1).
+    assert_eq!(
+        sim.mbpoll(&["-t", "1", "-0", "-r", "0", "-c", "3"], &[]),
+        values(0..=2, &["1", "0", "0"])
+    );
+    assert_eq!(
+        sim.mbpoll(&["-t", "3", "-r", "1"], &[]),
+        values(1..=1, &["1"])
+    );
+}
+
+#[test]
+fn a_coil_written_by_a_third_party_master_shows_on_stdin_get() {
+    require_mbpoll();
+    let mut sim = Sim::start();
+    assert_eq!(sim.command("get minimod@5.Y1"), "minimod@5.Y1=0");
+    // Write coil 00001 (Y1) to 1.
+    let written = sim.mbpoll(&["-t", "0", "-r", "1"], &["1"]);
+    assert!(written.is_empty(), "a write prints no values: {written:?}");
+    assert_eq!(sim.command("get minimod@5.Y1"), "minimod@5.Y1=1");
+    assert_eq!(sim.command("get minimod@5.YWORD"), "minimod@5.YWORD=1");
+    assert_eq!(
+        sim.mbpoll(&["-t", "0", "-r", "1", "-c", "4"], &[]),
+        values(1..=4, &["1", "0", "0", "0"])
+    );
+}
