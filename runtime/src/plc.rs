@@ -117,6 +117,8 @@ pub struct Plc {
     world: Option<SharedWorld>,
     /// The longest time the scan waits for a line's answer.
     line_wait: Duration,
+    /// Retained tags and their writer, when the project retains any.
+    retain: Option<crate::retain::Retainer>,
 }
 
 impl Plc {
@@ -129,6 +131,14 @@ impl Plc {
         for (i, t) in project.tags.iter().enumerate() {
             if t.binding == Binding::Memory {
                 image.set(TagId(i as u32), t.initial, Duration::ZERO);
+            }
+        }
+        let (retain, notes) = crate::retain::Retainer::open(&project, &mut image);
+        for note in notes {
+            match note {
+                n if n.is_warning() => tracing::warn!("{n}"),
+                n @ crate::retain::LoadNote::Missing(_) => tracing::debug!("{n}"),
+                n => tracing::info!("{n}"),
             }
         }
 
@@ -254,6 +264,7 @@ impl Plc {
             status,
             world,
             line_wait,
+            retain,
         })
     }
 
@@ -265,6 +276,11 @@ impl Plc {
     /// The clock.
     pub fn clock(&self) -> &Arc<dyn Clock> {
         &self.clock
+    }
+
+    /// The retained tags' store, when the project retains any.
+    pub fn retainer(&self) -> Option<&crate::retain::Retainer> {
+        self.retain.as_ref()
     }
 
     /// The process image.
@@ -369,6 +385,10 @@ impl Plc {
             self.frames[bind.bus].modules[bind.module][bind.point] = Some(v);
         }
         self.dispatch_writes();
+        // Between cycles: hand changed retained values to their writer (never waits).
+        if let Some(r) = self.retain.as_mut() {
+            r.tick(&self.image, self.clock.now());
+        }
     }
 
     /// Drives every output to its safe value (stop, fault, watchdog).
@@ -408,6 +428,9 @@ impl Plc {
     /// Writes the safe state and stops every line thread.
     pub fn shutdown(&mut self) {
         self.write_safe_state();
+        if let Some(r) = self.retain.as_mut() {
+            r.finish(&self.image);
+        }
         for line in &mut self.lines {
             if let Line::Thread(t) = std::mem::replace(line, Line::Stopped) {
                 let _ = t.stop(None, self.line_wait);

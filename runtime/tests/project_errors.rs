@@ -321,7 +321,7 @@ fn unknown_key_points_at_the_key() {
 fn unknown_key_at_the_top_level() {
     let e = one(&format!("{HEAD}modles: []\n"));
     assert_eq!(at(&e), (7, 1));
-    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `buses`, `modules`, `tags`, `program`, `plant`"), "{e}");
+    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `buses`, `modules`, `tags`, `program`, `plant`, `service`, `retain`, `offload`"), "{e}");
 }
 
 #[test]

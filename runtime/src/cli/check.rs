@@ -172,6 +172,7 @@ pub fn report(project: &Project) -> String {
         "\nlines are polled in parallel: the input phase can be no shorter than {}",
         fmt_duration(worst)
     );
+    out.push_str(&crate::service::network::report(project));
     for w in warnings {
         let _ = writeln!(out, "{w}");
     }

@@ -14,6 +14,7 @@ use crate::project;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::control::{default_socket_path, ControlServer};
 use crate::service::notify::Notifier;
+use crate::service::{network, snapshot};
 
 /// Arguments of `softplc run`.
 #[derive(Debug, clap::Args)]
@@ -66,6 +67,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     signal_hook::flag::register(signal_hook::consts::SIGHUP, engine.reload_flag())
         .context("cannot install the SIGHUP handler")?;
+    // Requests to the scan: from the control socket and from the Modbus TCP server's writes.
+    let (requests, requests_rx) = crossbeam_channel::bounded(16);
+    engine = engine.with_control(requests_rx);
     let _control = if args.no_control {
         None
     } else {
@@ -73,13 +77,16 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             .control
             .clone()
             .unwrap_or_else(|| default_socket_path(&name));
-        let (tx, rx) = crossbeam_channel::bounded(16);
-        let server = ControlServer::start(&path, tx)
+        let server = ControlServer::start(&path, requests.clone())
             .with_context(|| format!("cannot open the control socket {}", path.display()))?;
         tracing::info!("control socket {}", server.path().display());
-        engine = engine.with_control(rx);
         Some(server)
     };
+    let published = snapshot::SnapshotCell::new();
+    let services = network::start(engine.plc().project(), &published, &requests)?;
+    if services.any() {
+        engine = engine.with_publisher(snapshot::Publisher::new(published));
+    }
     let notifier = Notifier::from_env();
     if notifier.enabled() {
         engine = engine.with_notifier(notifier);

@@ -521,6 +521,26 @@ pub enum ErrorKind {
         /// The role that drives it first.
         other: String,
     },
+    /// The `service:` section or a tag's `scada:`.
+    #[error("{0}")]
+    Service(#[from] super::scada::ServiceError),
+    /// `retain: true` on a tag bound to a module point.
+    #[error(
+        "tag {tag} is bound to {point}: only memory tags are retained (a module input is read \
+         every scan, an output is driven by the program); keep the value in a memory tag"
+    )]
+    RetainOnPoint {
+        /// The tag.
+        tag: String,
+        /// Its point.
+        point: String,
+    },
+    /// The `offload:` section or a tag's push-down options.
+    #[error("{0}")]
+    Offload(#[from] super::offload::OffloadError),
+    /// `retain.file` is empty.
+    #[error("retain.file is empty; give a file name (relative to the project file) or leave it out")]
+    EmptyRetainFile,
 }
 
 fn within(section: &str) -> String {

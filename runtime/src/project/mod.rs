@@ -17,15 +17,25 @@
 
 pub mod error;
 pub mod model;
+pub mod offload;
 pub mod raw;
-mod span;
+mod scada;
+pub mod service;
+pub mod retain;
+pub(crate) mod span;
 mod validate;
 
 use std::path::Path;
 
 pub use error::{ErrorKind, Item, ProjectError, ProjectErrors};
 pub use model::*;
+pub use offload::{OffloadConfig, OffloadMode, OnStop, TagOffload};
 pub use raw::{parse_duration, DurationError};
+pub use retain::RetainConfig;
+pub use scada::ServiceError;
+pub use service::{
+    ModbusTcpConfig, ScadaAccess, ScadaEntry, ScadaMap, ServiceConfig, Space, DEFAULT_MODBUS_BIND,
+};
 
 /// Reads and validates the project file at `path`. The program file is resolved against the
 /// file's folder and must exist.

@@ -27,6 +27,12 @@ pub struct Project {
     pub program: ProgramConfig,
     /// The simulated plant, when the project has one.
     pub plant: Option<PlantConfig>,
+    /// Metrics endpoint, Modbus TCP server and the SCADA map.
+    pub service: super::service::ServiceConfig,
+    /// Where retained tags are saved (used when a tag has `retain: true`).
+    pub retain: super::retain::RetainConfig,
+    /// Push-down of rungs into the modules.
+    pub offload: super::offload::OffloadConfig,
 }
 
 /// The scan task.
@@ -114,6 +120,8 @@ pub struct TagConfig {
     pub safe: Option<Value>,
     /// Initial value of a memory tag (zero of its type unless given).
     pub initial: Value,
+    /// Kept across a restart and a program reload (memory tags only; see `retain.rs`).
+    pub retain: bool,
 }
 
 /// What a tag is bound to.
@@ -144,6 +152,10 @@ pub struct ProgramConfig {
 pub enum ProgramKind {
     /// Boolean coil assignments, one per line: `motor = (start | motor) & !stop`.
     Expr,
+    /// Ladder rungs in YAML: `(start | motor) /stop -> motor` (see `logic::ladder`).
+    Ladder,
+    /// A Rhai script run once per scan (see `logic::rhai`).
+    Rhai,
 }
 
 /// The simulated plant that closes the loop from outputs to inputs on `port: sim` lines.

@@ -27,12 +27,22 @@
 //!   - { name: start, point: mm1.X2 }           # bound to a point; its type is the point's
 //!   - { name: motor, point: mm1.Y1, safe: false }   # `safe`: written in the safe state
 //!   - { name: count, type: u16, initial: 0 }   # a memory variable
+//!   - { name: hours, type: i32, retain: true } # kept across restarts (memory tags only)
+//!   - { name: lamp, point: mm2.Y1, offload: require }   # push-down of its rung: never|auto|require
+//!   - { name: button, point: mm1.X1, debounce: 20ms }   # MiniMod input conditioning (also stretch)
+//!   - { name: speed, type: u16, scada: write } # SCADA access: read (default) | write | none,
+//!                                              # or { access: write, address: 12 } (pinned)
 //! program:
 //!   file: conveyor.expr        # relative to the project file's folder; must exist
-//!   kind: expr                 # the program language
+//!   kind: expr                 # the program language: expr | ladder | rhai
+//! retain: { file: p.retain.json, period: 10s }   # optional; see `retain.rs`
 //! plant:                       # optional; only on `port: sim` buses
 //!   model: conveyor
 //!   wiring: { motor: mm1.Y1, sensor_entry: mm1.X1, sensor_exit: mm1.X2 }
+//! offload: auto                # optional; never (default) | auto | require; see `offload.rs`
+//! service:                     # optional; see `service.rs` (schema) and `scada.rs` (the map)
+//!   metrics: 127.0.0.1:9464    # Prometheus text endpoint; off when absent
+//!   modbus_tcp: { bind: 127.0.0.1:5020, unit: 1, writes: false, allow_remote_writes: false }
 //! ```
 //!
 //! Rules the validation enforces (see [`super::parse_str`]):
@@ -50,10 +60,15 @@
 //!   written in hex, `0x1F`). An output point may be bound to one tag only.
 //! - A bus's baud rate may not exceed the `max_baud` of a model on it (reported at the
 //!   module's `bus`). Unit addresses are unique per bus.
-//! - Program kinds: `expr` (others will come). The program file must exist.
+//! - Program kinds: `expr`, `ladder`, `rhai`. The program file must exist.
+//! - `retain: true` only on memory tags; `retain.period` > 0, `retain.file` not empty.
 //! - A plant must wire every one of its roles, each to a point of the right direction (a role
 //!   the plant drives → a module input; a role it reads → a module output), on `port: sim`
 //!   buses only; an input is driven by one role at most.
+//! - `service`: addresses are `IP:PORT`; Modbus unit 1..=247; writes on a non-loopback bind
+//!   need `allow_remote_writes: true`. `scada: write` only on memory tags and outputs; pinned
+//!   addresses must not overlap within their space (bits: bool tags; registers: u16 = 1,
+//!   i32/f32 = 2).
 
 use std::fmt;
 use std::time::Duration;
@@ -86,6 +101,15 @@ pub struct RawProject {
     /// The simulated plant.
     #[serde(default)]
     pub plant: Option<RawPlant>,
+    /// Metrics and SCADA access (see [`super::service`]).
+    #[serde(default)]
+    pub service: Option<super::service::RawService>,
+    /// Where and how often retained tags are saved (see [`super::retain`]).
+    #[serde(default)]
+    pub retain: Option<super::retain::RawRetain>,
+    /// Push-down of rungs into the modules (see [`super::offload`]).
+    #[serde(default)]
+    pub offload: Option<super::offload::RawOffload>,
 }
 
 /// `scan:`.
@@ -210,6 +234,21 @@ pub struct RawTag {
     /// Initial value (memory tags).
     #[serde(default)]
     pub initial: Option<ScalarText>,
+    /// SCADA access and address (see [`super::service`]).
+    #[serde(default)]
+    pub scada: Option<super::service::RawScada>,
+    /// Keep the value across a restart (memory tags; see [`super::retain`]).
+    #[serde(default)]
+    pub retain: Option<bool>,
+    /// Push-down of the rung writing this output (see [`super::offload`]).
+    #[serde(default)]
+    pub offload: Option<ScalarText>,
+    /// MiniMod input debounce in the module (see [`super::offload`]).
+    #[serde(default)]
+    pub debounce: Option<DurationText>,
+    /// MiniMod input pulse stretching in the module (see [`super::offload`]).
+    #[serde(default)]
+    pub stretch: Option<DurationText>,
 }
 
 /// `program:`.

@@ -31,7 +31,11 @@ const DEFAULT_OUTPUT_REFRESH: Duration = Duration::from_secs(1);
 /// Every protocol, for names.
 const PROTOCOLS: [Protocol; 2] = [Protocol::Modbus, Protocol::Text];
 /// Program kinds, by project-file name.
-const PROGRAM_KINDS: [(&str, ProgramKind); 1] = [("expr", ProgramKind::Expr)];
+const PROGRAM_KINDS: [(&str, ProgramKind); 3] = [
+    ("expr", ProgramKind::Expr),
+    ("ladder", ProgramKind::Ladder),
+    ("rhai", ProgramKind::Rhai),
+];
 /// At most this many "did you mean" suggestions.
 const MAX_SUGGESTIONS: usize = 5;
 
@@ -70,7 +74,33 @@ pub(crate) fn validate(
         "modules",
     );
     let tags = v.tags(raw, &modules, &module_index);
+    let service = {
+        let facts = super::scada::facts(raw, &tags, |m, p| {
+            let model = modules.get(m).and_then(|(r, _)| r.model)?;
+            model.points.get(p).map(|s| s.access)
+        });
+        let (config, errors) = super::scada::validate(raw, &facts, &v.loc);
+        for (path, e) in errors {
+            v.error(path, e.into());
+        }
+        config
+    };
     let program = v.program(raw, file);
+    let retain = {
+        let (config, errors) = super::retain::validate(raw.retain.as_ref(), file);
+        for (path, e) in errors {
+            v.error(path, e);
+        }
+        config
+    };
+    let offload = {
+        let module = |m: usize| modules.get(m).and_then(|(_, c)| c.as_ref());
+        let (config, errors) = super::offload::validate(raw, &tags, module);
+        for (path, e) in errors {
+            v.error(path, e);
+        }
+        config
+    };
     let plant = match &raw.plant {
         Some(p) => v.plant(p, raw, &buses, &modules, &module_index).map(Some),
         None => Some(None),
@@ -90,6 +120,9 @@ pub(crate) fn validate(
             tags: tags.into_iter().collect::<Option<Vec<_>>>()?,
             program: program?,
             plant: plant?,
+            service: service?,
+            retain: retain?,
+            offload: offload?,
         })
     })();
     match built {
@@ -720,12 +753,27 @@ impl Validator<'_> {
             }
         };
 
+        // Retain: memory tags only (an input is re-read, an output is the program's to drive).
+        let retain = match (t.retain, point) {
+            (None | Some(false), _) => Some(false),
+            (Some(true), None) => Some(true),
+            (Some(true), Some((text, _))) => {
+                let kind = ErrorKind::RetainOnPoint {
+                    tag: t.name.clone(),
+                    point: text.clone(),
+                };
+                self.error(path.key("retain"), kind);
+                None
+            }
+        };
+
         Some(TagConfig {
             name: t.name.clone(),
             ty,
             binding,
             safe: safe?,
             initial: initial?,
+            retain: retain?,
         })
     }
 

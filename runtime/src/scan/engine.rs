@@ -12,6 +12,7 @@ use crate::scan::stats::{Percentiles, ScanStats};
 use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
 use crate::service::control::{Envelope, Request, Response};
 use crate::service::notify::Notifier;
+use crate::service::snapshot::Publisher;
 
 /// Why a run ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,6 +70,8 @@ pub struct ScanEngine {
     reload: Arc<AtomicBool>,
     /// systemd's notification socket.
     notifier: Option<Notifier>,
+    /// The snapshot for the metrics endpoint and the Modbus TCP server.
+    publisher: Option<Publisher>,
 }
 
 impl std::fmt::Debug for ScanEngine {
@@ -98,12 +101,20 @@ impl ScanEngine {
             control: None,
             reload: Arc::new(AtomicBool::new(false)),
             notifier: None,
+            publisher: None,
         }
     }
 
     /// Takes control requests from `requests` (see [`crate::service::control`]).
     pub fn with_control(mut self, requests: Receiver<Envelope>) -> Self {
         self.control = Some(requests);
+        self
+    }
+
+    /// Publishes a snapshot for the services at every cycle boundary (see
+    /// [`crate::service::snapshot`]).
+    pub fn with_publisher(mut self, publisher: Publisher) -> Self {
+        self.publisher = Some(publisher);
         self
     }
 
@@ -222,6 +233,9 @@ impl ScanEngine {
             n.notify("STOPPING=1");
         }
         self.plc.shutdown();
+        if let Some(p) = &mut self.publisher {
+            p.publish(&self.plc, &stats, clock.now(), true);
+        }
         self.publish(&stats, clock.now());
         RunOutcome {
             reason,
@@ -252,6 +266,10 @@ impl ScanEngine {
                         Ok(m) => Response::done(m),
                         Err(e) => Response::refused(e),
                     },
+                    Request::Write { values } => match self.plc.write_tags(&values) {
+                        Ok(m) => Response::done(m),
+                        Err(e) => Response::refused(e),
+                    },
                 };
                 let _ = env.reply.send(response);
             }
@@ -260,6 +278,9 @@ impl ScanEngine {
             if let Err(e) = self.plc.reload_program() {
                 tracing::error!("{e}");
             }
+        }
+        if let Some(p) = &mut self.publisher {
+            p.publish(&self.plc, stats, now, false);
         }
         if let Some(n) = &self.notifier {
             // Only a completed scan feeds systemd's watchdog: a hung scan gets restarted.

@@ -7,6 +7,7 @@
 //! {"cmd":"force","tag":"motor","value":"1"}
 //! {"cmd":"unforce","tag":"motor"}        {"cmd":"unforce"}   (every tag)
 //! {"cmd":"reload"}
+//! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary)
 //! ```
 //!
 //! The socket thread only parses and forwards: the scan thread applies each request at a
@@ -44,6 +45,22 @@ pub enum Request {
     },
     /// Re-read the program and swap it in at the next cycle boundary if it passes `check`.
     Reload,
+    /// Set tags at the next cycle boundary, all at once (the SCADA server's writes): like an
+    /// assignment, so the program may overwrite them in its next scan; a forced tag refuses.
+    Write {
+        /// The tags and their values.
+        values: Vec<TagValue>,
+    },
+}
+
+/// A tag and a value, as text (parsed as the tag's type).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TagValue {
+    /// The tag.
+    pub tag: String,
+    /// The value (`1`, `true`, `42`, `0x10`, `1.5`).
+    pub value: String,
 }
 
 /// A response.
@@ -254,6 +271,15 @@ mod tests {
             Ok(Request::Unforce { tag: None })
         );
         assert_eq!(parse_request(r#"{"cmd":"reload"}"#), Ok(Request::Reload));
+        assert_eq!(
+            parse_request(r#"{"cmd":"write","values":[{"tag":"speed","value":"42"}]}"#),
+            Ok(Request::Write {
+                values: vec![TagValue {
+                    tag: "speed".into(),
+                    value: "42".into()
+                }]
+            })
+        );
         assert!(parse_request(r#"{"cmd":"format-disk"}"#).is_err());
         // A misspelt field must not turn "unforce motor" into "unforce everything".
         assert!(parse_request(r#"{"cmd":"unforce","tagg":"motor"}"#).is_err());

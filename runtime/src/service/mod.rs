@@ -6,7 +6,17 @@
 //! - [`notify`]: `sd_notify` (READY after the first complete scan, WATCHDOG after each
 //!   completed scan, STATUS, STOPPING).
 //! - [`status`]: the status a running instance reports.
+//! - [`snapshot`]: what the scan publishes, without blocking, for the two network services:
+//!   [`metrics`] (a Prometheus text endpoint) and [`modbus_tcp`] (a Modbus TCP server for
+//!   SCADA/HMI, with its address map in [`modbus_map`] and its input checks in
+//!   [`modbus_guard`]); [`network`] starts them.
 
 pub mod control;
+pub mod metrics;
+pub mod modbus_guard;
+pub mod modbus_map;
+pub mod modbus_tcp;
+pub mod network;
 pub mod notify;
+pub mod snapshot;
 pub mod status;

@@ -1,0 +1,231 @@
+//! The `service:` section and each tag's `scada:` key: how a running instance is seen from
+//! outside (a Prometheus text endpoint, a Modbus TCP server for SCADA/HMI), as written and as
+//! validated. The validation and the address map are in `scada.rs`.
+//!
+//! ```yaml
+//! service:                          # optional; nothing listens on a network without it
+//!   metrics: 127.0.0.1:9464         # Prometheus text endpoint, GET /metrics; off when absent
+//!   modbus_tcp:                     # Modbus TCP server; off when absent
+//!     bind: 127.0.0.1:5020          # default 127.0.0.1:5020 (502 needs root)
+//!     unit: 1                       # unit identifier it answers (and 255), 1..=247; default 1
+//!     writes: false                 # project-wide switch for writes; default false
+//!     allow_remote_writes: false    # needed for writes on a non-loopback bind
+//! tags:
+//!   - { name: speed, type: u16, scada: write }                        # writable, next free address
+//!   - { name: motor, point: mm1.Y1, scada: { access: read, address: 8 } }   # pinned address
+//!   - { name: debug, type: u16, scada: none }                        # not exposed
+//! ```
+//!
+//! Addresses are socket addresses with an IP literal (`127.0.0.1:9464`; IPv6 quoted:
+//! `"[::1]:9464"`). A tag without `scada:` is exposed read-only at the next free address.
+
+use std::fmt;
+use std::net::SocketAddr;
+
+use serde::de::{self, value::MapAccessDeserializer, Deserializer, MapAccess, Visitor};
+use serde::Deserialize;
+use softplc_io::point::ValueType;
+
+use super::raw::Int;
+
+/// `service:` as written.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "service settings: a mapping with metrics and modbus_tcp"
+)]
+pub struct RawService {
+    /// Address of the Prometheus text endpoint.
+    #[serde(default)]
+    pub metrics: Option<String>,
+    /// The Modbus TCP server.
+    #[serde(default)]
+    pub modbus_tcp: Option<RawModbusTcp>,
+}
+
+/// `service.modbus_tcp:` as written.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "Modbus TCP settings: a mapping with bind, unit, writes and allow_remote_writes"
+)]
+pub struct RawModbusTcp {
+    /// Listening address (default [`DEFAULT_MODBUS_BIND`]).
+    #[serde(default)]
+    pub bind: Option<String>,
+    /// Unit identifier (default 1).
+    #[serde(default)]
+    pub unit: Option<Int>,
+    /// Whether any write is accepted (default false).
+    #[serde(default)]
+    pub writes: Option<bool>,
+    /// Whether writes may come from beyond the loopback interface (default false).
+    #[serde(default)]
+    pub allow_remote_writes: Option<bool>,
+}
+
+/// What SCADA may do with a tag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ScadaAccess {
+    /// Readable (the default).
+    #[default]
+    Read,
+    /// Readable and writable (memory tags and outputs only).
+    Write,
+    /// Not exposed.
+    None,
+}
+
+impl ScadaAccess {
+    /// The project-file spellings.
+    pub const NAMES: &'static [&'static str] = &["read", "write", "none"];
+
+    fn parse(text: &str) -> Option<Self> {
+        match text {
+            "read" => Some(Self::Read),
+            "write" => Some(Self::Write),
+            "none" => Some(Self::None),
+            _ => None,
+        }
+    }
+}
+
+/// A tag's `scada:` as written: `read` | `write` | `none`, or `{ access, address }`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RawScada {
+    /// Access (default read).
+    pub access: Option<ScadaAccess>,
+    /// Pinned protocol address (0-based), checked by the validation.
+    pub address: Option<Int>,
+}
+
+/// The mapping form of `scada:`.
+#[derive(Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "SCADA settings: read, write, none, or a mapping with access and address"
+)]
+struct RawScadaMap {
+    #[serde(default)]
+    access: Option<String>,
+    #[serde(default)]
+    address: Option<Int>,
+}
+
+fn access<E: de::Error>(text: &str) -> Result<ScadaAccess, E> {
+    ScadaAccess::parse(text).ok_or_else(|| E::unknown_variant(text, ScadaAccess::NAMES))
+}
+
+impl<'de> Deserialize<'de> for RawScada {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RawScada;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("read, write, none, or a mapping with access and address")
+            }
+
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<RawScada, E> {
+                Ok(RawScada {
+                    access: Some(access(v)?),
+                    address: None,
+                })
+            }
+
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<RawScada, A::Error> {
+                let m = RawScadaMap::deserialize(MapAccessDeserializer::new(map))?;
+                Ok(RawScada {
+                    access: m.access.as_deref().map(access).transpose()?,
+                    address: m.address,
+                })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Where the Modbus TCP server listens unless told: loopback, and a port above 1023 so an
+/// unprivileged service can bind it (502, the registered port, needs root or
+/// CAP_NET_BIND_SERVICE).
+pub const DEFAULT_MODBUS_BIND: &str = "127.0.0.1:5020";
+/// The unit identifier answered unless told.
+pub const DEFAULT_UNIT: u8 = 1;
+
+/// The validated `service:` section and SCADA map.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ServiceConfig {
+    /// Prometheus text endpoint (`None`: off).
+    pub metrics: Option<SocketAddr>,
+    /// Modbus TCP server (`None`: off).
+    pub modbus_tcp: Option<ModbusTcpConfig>,
+    /// Every exposed tag's Modbus addresses.
+    pub scada: ScadaMap,
+}
+
+/// The Modbus TCP server's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ModbusTcpConfig {
+    /// Listening address.
+    pub bind: SocketAddr,
+    /// Unit identifier answered (255, "this server" in Modbus TCP, is answered too).
+    pub unit: u8,
+    /// Whether writes are accepted at all (each tag must also be `scada: write`).
+    pub writes: bool,
+}
+
+/// The two Modbus address spaces of the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Space {
+    /// Bool tags: coils (FC 1, 5, 15) and discrete inputs (FC 2) at the same address.
+    Bits,
+    /// Numeric tags: holding registers (FC 3, 6, 16) and input registers (FC 4) at the same
+    /// address.
+    Registers,
+}
+
+impl Space {
+    /// The space of a tag of type `ty`, and how many addresses it takes there.
+    pub fn of(ty: ValueType) -> (Self, u16) {
+        match ty {
+            ValueType::Bool => (Space::Bits, 1),
+            ValueType::U16 => (Space::Registers, 1),
+            ValueType::I32 | ValueType::F32 => (Space::Registers, 2),
+        }
+    }
+}
+
+impl fmt::Display for Space {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Space::Bits => "coil/discrete input",
+            Space::Registers => "register",
+        })
+    }
+}
+
+/// One exposed tag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScadaEntry {
+    /// Index into [`super::Project::tags`].
+    pub tag: usize,
+    /// Its type.
+    pub ty: ValueType,
+    /// Its address space.
+    pub space: Space,
+    /// Its first protocol address (0-based).
+    pub address: u16,
+    /// Addresses it takes (1, or 2 for i32/f32).
+    pub width: u16,
+    /// Whether SCADA may write it (when `writes: true`).
+    pub writable: bool,
+    /// Whether the address was given in the file (else: the next free one).
+    pub pinned: bool,
+}
+
+/// Every exposed tag, in tag order.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ScadaMap {
+    /// The entries.
+    pub entries: Vec<ScadaEntry>,
+}

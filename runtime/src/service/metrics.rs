@@ -1,0 +1,564 @@
+//! The Prometheus text endpoint: `GET /metrics` on a tiny HTTP/1.1 server (std only, one
+//! thread, one client at a time, each with a 2 s deadline and an 8 KiB request head), rendering
+//! the snapshot the scan publishes ([`super::snapshot`]). It never touches the scan.
+//!
+//! Metrics (text exposition format 0.0.4):
+//!
+//! | name | type | what |
+//! |---|---|---|
+//! | `softplc_info{project}` | gauge | always 1 |
+//! | `softplc_scan_period_seconds` | gauge | the configured period |
+//! | `softplc_scans_total`, `softplc_overruns_total` | counter | completed cycles, skipped deadlines |
+//! | `softplc_{cycle,read,logic,write,lateness}_seconds` | summary | quantiles 0.5, 0.99, 0.999, `_sum`, `_count` |
+//! | `softplc_phase_max_seconds{phase}` | gauge | the longest sample of each phase |
+//! | `softplc_module_{requests,timeouts,crc_errors,bad_replies,exceptions}_total{module,bus}` | counter | bus counters |
+//! | `softplc_module_quality{module,bus}` | gauge | 0 good, 1 stale, 2 bad |
+//! | `softplc_module_round_trip_seconds{module,bus}` | gauge | last good transaction |
+//! | `softplc_tag_value{tag}` | gauge | value (bools 0/1) |
+//! | `softplc_tag_quality{tag}` | gauge | 0 good, 1 stale, 2 bad |
+//! | `softplc_tag_forced{tag}` | gauge | 1 when forced |
+//!
+//! Statistics are refreshed every 250 ms of scan time, tag values every cycle.
+
+use std::fmt::Write as _;
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::time::{Duration, Instant};
+
+use softplc_io::line::bus::Counters;
+use softplc_io::point::{Quality, Value};
+
+use super::snapshot::{Phase, ServiceSnapshot, SnapshotCell};
+
+/// Longest request head (request line and headers) read.
+const MAX_HEAD: usize = 8 * 1024;
+/// How long one client may take, from accept to the end of the response.
+const CLIENT_DEADLINE: Duration = Duration::from_secs(2);
+
+/// The names the metrics carry; fixed for the life of the process.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct MetricsInfo {
+    /// Project name.
+    pub project: String,
+    /// Scan period.
+    pub period: Duration,
+    /// Tag names, in tag order.
+    pub tags: Vec<String>,
+    /// Modules: (name, bus), in project order.
+    pub modules: Vec<(String, String)>,
+}
+
+/// What a request asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Route {
+    /// `GET /metrics`.
+    Metrics,
+    /// `GET /`.
+    Index,
+}
+
+/// A request this server does not serve, as an HTTP status.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum HttpError {
+    /// 400: not an HTTP/1.x request line.
+    #[error("400 Bad Request")]
+    BadRequest,
+    /// 404: another path.
+    #[error("404 Not Found")]
+    NotFound,
+    /// 405: a method other than GET or HEAD.
+    #[error("405 Method Not Allowed")]
+    MethodNotAllowed,
+    /// 431: the head is longer than 8 KiB.
+    #[error("431 Request Header Fields Too Large")]
+    TooLarge,
+}
+
+/// A parsed request: the route and whether the body is wanted (GET) or not (HEAD).
+pub fn parse_head(head: &[u8]) -> Result<(Route, bool), HttpError> {
+    let line_end = head
+        .windows(2)
+        .position(|w| w == b"\r\n")
+        .unwrap_or(head.len());
+    let line = std::str::from_utf8(&head[..line_end]).map_err(|_| HttpError::BadRequest)?;
+    let mut parts = line.split(' ');
+    let (Some(method), Some(target), Some(version), None) =
+        (parts.next(), parts.next(), parts.next(), parts.next())
+    else {
+        return Err(HttpError::BadRequest);
+    };
+    if !version.starts_with("HTTP/1.") || !target.starts_with('/') {
+        return Err(HttpError::BadRequest);
+    }
+    let body = match method {
+        "GET" => true,
+        "HEAD" => false,
+        _ => return Err(HttpError::MethodNotAllowed),
+    };
+    let path = target.split('?').next().unwrap_or("");
+    match path {
+        "/metrics" => Ok((Route::Metrics, body)),
+        "/" => Ok((Route::Index, body)),
+        _ => Err(HttpError::NotFound),
+    }
+}
+
+/// A float as the exposition format writes it.
+fn num(x: f64) -> String {
+    if x.is_nan() {
+        "NaN".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "+Inf" } else { "-Inf" }.into()
+    } else {
+        format!("{x}")
+    }
+}
+
+/// A label value, escaped (`\`, `"`, newline).
+fn label(v: &str) -> String {
+    v.replace('\\', r"\\")
+        .replace('"', r#"\""#)
+        .replace('\n', r"\n")
+}
+
+fn quality_code(q: Quality) -> u8 {
+    match q {
+        Quality::Good => 0,
+        Quality::Stale => 1,
+        Quality::Bad => 2,
+    }
+}
+
+fn value_number(v: Value) -> f64 {
+    match v {
+        Value::Bool(b) => f64::from(u8::from(b)),
+        Value::U16(x) => f64::from(x),
+        Value::I32(x) => f64::from(x),
+        Value::F32(x) => f64::from(x),
+    }
+}
+
+fn family(out: &mut String, name: &str, kind: &str, help: &str) {
+    let _ = writeln!(out, "# HELP {name} {help}");
+    let _ = writeln!(out, "# TYPE {name} {kind}");
+}
+
+/// The exposition text for `snapshot`.
+pub fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
+    let mut out = String::with_capacity(4096 + 160 * info.tags.len());
+    family(&mut out, "softplc_info", "gauge", "The running project.");
+    let _ = writeln!(
+        out,
+        "softplc_info{{project=\"{}\"}} 1",
+        label(&info.project)
+    );
+    family(
+        &mut out,
+        "softplc_scan_period_seconds",
+        "gauge",
+        "The configured scan period.",
+    );
+    let _ = writeln!(
+        out,
+        "softplc_scan_period_seconds {}",
+        num(info.period.as_secs_f64())
+    );
+    family(
+        &mut out,
+        "softplc_scans_total",
+        "counter",
+        "Completed scan cycles.",
+    );
+    let _ = writeln!(out, "softplc_scans_total {}", s.cycles);
+    family(
+        &mut out,
+        "softplc_overruns_total",
+        "counter",
+        "Deadlines skipped because a cycle ran past them.",
+    );
+    let _ = writeln!(out, "softplc_overruns_total {}", s.overruns);
+
+    for (phase, p) in Phase::ALL.iter().zip(&s.phases) {
+        let name = format!("softplc_{}_seconds", phase.name());
+        family(
+            &mut out,
+            &name,
+            "summary",
+            &format!("Duration of the scan's {} phase.", phase.name()),
+        );
+        for (q, d) in [("0.5", p.p50), ("0.99", p.p99), ("0.999", p.p999)] {
+            let _ = writeln!(out, "{name}{{quantile=\"{q}\"}} {}", num(d.as_secs_f64()));
+        }
+        let _ = writeln!(out, "{name}_sum {}", num(p.sum.as_secs_f64()));
+        let _ = writeln!(out, "{name}_count {}", p.count);
+    }
+    family(
+        &mut out,
+        "softplc_phase_max_seconds",
+        "gauge",
+        "The longest sample of each scan phase.",
+    );
+    for (phase, p) in Phase::ALL.iter().zip(&s.phases) {
+        let _ = writeln!(
+            out,
+            "softplc_phase_max_seconds{{phase=\"{}\"}} {}",
+            phase.name(),
+            num(p.max.as_secs_f64())
+        );
+    }
+
+    type Counter = fn(&Counters) -> u64;
+    let counters: [(&str, &str, Counter); 5] = [
+        ("requests", "Requests sent, retries included.", |c| {
+            c.requests
+        }),
+        ("timeouts", "Requests with no reply in time.", |c| {
+            c.timeouts
+        }),
+        ("crc_errors", "Replies with a bad CRC.", |c| c.crc_errors),
+        ("bad_replies", "Replies that were not the answer.", |c| {
+            c.bad_replies
+        }),
+        (
+            "exceptions",
+            "Exception replies (the device said no).",
+            |c| c.exceptions,
+        ),
+    ];
+    let module = |i: usize| s.modules.get(i).copied().unwrap_or_default();
+    let labels = |(name, bus): &(String, String)| {
+        format!("module=\"{}\",bus=\"{}\"", label(name), label(bus))
+    };
+    for (key, help, get) in counters {
+        let name = format!("softplc_module_{key}_total");
+        family(&mut out, &name, "counter", help);
+        for (i, m) in info.modules.iter().enumerate() {
+            let _ = writeln!(out, "{name}{{{}}} {}", labels(m), get(&module(i).counters));
+        }
+    }
+    family(
+        &mut out,
+        "softplc_module_quality",
+        "gauge",
+        "Quality of the module's last read: 0 good, 1 stale, 2 bad.",
+    );
+    for (i, m) in info.modules.iter().enumerate() {
+        let q = quality_code(module(i).quality);
+        let _ = writeln!(out, "softplc_module_quality{{{}}} {q}", labels(m));
+    }
+    family(
+        &mut out,
+        "softplc_module_round_trip_seconds",
+        "gauge",
+        "Round trip of the module's last good transaction.",
+    );
+    for (i, m) in info.modules.iter().enumerate() {
+        let rt = module(i).counters.last_round_trip.as_secs_f64();
+        let _ = writeln!(
+            out,
+            "softplc_module_round_trip_seconds{{{}}} {}",
+            labels(m),
+            num(rt)
+        );
+    }
+
+    type TagGauge = fn(&ServiceSnapshot, usize) -> Option<f64>;
+    let tag_gauges: [(&str, &str, TagGauge); 3] = [
+        ("value", "The tag's value (bools 0/1).", |s, i| {
+            s.values.get(i).map(|v| value_number(*v))
+        }),
+        (
+            "quality",
+            "The tag's quality: 0 good, 1 stale, 2 bad.",
+            |s, i| s.qualities.get(i).map(|q| f64::from(quality_code(*q))),
+        ),
+        ("forced", "1 when the tag is forced.", |s, i| {
+            s.forced.get(i).map(|f| f64::from(u8::from(*f)))
+        }),
+    ];
+    for (key, help, get) in tag_gauges {
+        let name = format!("softplc_tag_{key}");
+        family(&mut out, &name, "gauge", help);
+        for (i, tag) in info.tags.iter().enumerate() {
+            if let Some(x) = get(s, i) {
+                let _ = writeln!(out, "{name}{{tag=\"{}\"}} {}", label(tag), num(x));
+            }
+        }
+    }
+    out
+}
+
+/// A running endpoint; it lives as long as the process.
+#[derive(Debug)]
+pub struct MetricsServer {
+    addr: SocketAddr,
+}
+
+impl MetricsServer {
+    /// Binds `addr` and serves on a thread.
+    pub fn start(
+        addr: SocketAddr,
+        info: MetricsInfo,
+        snapshot: SnapshotCell,
+    ) -> std::io::Result<Self> {
+        let listener = TcpListener::bind(addr)?;
+        let addr = listener.local_addr()?;
+        std::thread::Builder::new()
+            .name("metrics".into())
+            .spawn(move || {
+                for stream in listener.incoming() {
+                    match stream {
+                        Ok(s) => {
+                            if let Err(e) = serve_client(s, &info, &snapshot) {
+                                tracing::debug!("metrics client: {e}");
+                            }
+                        }
+                        // Out of file descriptors and the like: do not spin.
+                        Err(_) => std::thread::sleep(Duration::from_millis(10)),
+                    }
+                }
+            })?;
+        Ok(Self { addr })
+    }
+
+    /// The address it listens on (the bound port when the configured one was 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+}
+
+/// Reads the request head within the client's deadline: `Ok(None)` when the client closed
+/// first.
+fn read_head(stream: &mut TcpStream, deadline: Instant) -> std::io::Result<Option<Vec<u8>>> {
+    let mut head = Vec::with_capacity(512);
+    let mut chunk = [0u8; 1024];
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(std::io::ErrorKind::TimedOut.into());
+        }
+        stream.set_read_timeout(Some(left))?;
+        let n = stream.read(&mut chunk)?;
+        if n == 0 {
+            return Ok(None);
+        }
+        head.extend_from_slice(&chunk[..n]);
+        if head.windows(4).any(|w| w == b"\r\n\r\n") || head.len() >= MAX_HEAD {
+            return Ok(Some(head));
+        }
+    }
+}
+
+fn serve_client(
+    mut stream: TcpStream,
+    info: &MetricsInfo,
+    snapshot: &SnapshotCell,
+) -> std::io::Result<()> {
+    let deadline = Instant::now() + CLIENT_DEADLINE;
+    stream.set_write_timeout(Some(CLIENT_DEADLINE))?;
+    let Some(head) = read_head(&mut stream, deadline)? else {
+        return Ok(());
+    };
+    let complete = head.windows(4).any(|w| w == b"\r\n\r\n");
+    let parsed = if complete {
+        parse_head(&head)
+    } else {
+        Err(HttpError::TooLarge)
+    };
+    let (status, content_type, body, with_body) = match parsed {
+        Ok((Route::Metrics, with_body)) => (
+            "200 OK".to_string(),
+            "text/plain; version=0.0.4; charset=utf-8",
+            render(info, &snapshot.get()),
+            with_body,
+        ),
+        Ok((Route::Index, with_body)) => (
+            "200 OK".to_string(),
+            "text/plain; charset=utf-8",
+            format!("softplc {}: metrics at /metrics\n", info.project),
+            with_body,
+        ),
+        Err(e) => (
+            e.to_string(),
+            "text/plain; charset=utf-8",
+            format!("{e}\n"),
+            true,
+        ),
+    };
+    let allow = if matches!(parsed, Err(HttpError::MethodNotAllowed)) {
+        "Allow: GET, HEAD\r\n"
+    } else {
+        ""
+    };
+    let mut response = format!(
+        "HTTP/1.1 {status}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\n{allow}Connection: close\r\n\r\n",
+        body.len()
+    );
+    if with_body {
+        response.push_str(&body);
+    }
+    stream.write_all(response.as_bytes())?;
+    stream.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::snapshot::{ModuleSnapshot, PhaseSummary};
+
+    #[test]
+    fn request_lines() {
+        assert_eq!(
+            parse_head(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n"),
+            Ok((Route::Metrics, true))
+        );
+        assert_eq!(
+            parse_head(b"HEAD /metrics?x=1 HTTP/1.0\r\n\r\n"),
+            Ok((Route::Metrics, false))
+        );
+        assert_eq!(
+            parse_head(b"GET / HTTP/1.1\r\n\r\n"),
+            Ok((Route::Index, true))
+        );
+        assert_eq!(
+            parse_head(b"POST /metrics HTTP/1.1\r\n\r\n"),
+            Err(HttpError::MethodNotAllowed)
+        );
+        assert_eq!(
+            parse_head(b"GET /etc/passwd HTTP/1.1\r\n\r\n"),
+            Err(HttpError::NotFound)
+        );
+        for bad in [
+            &b""[..],
+            b"\xff\xfe",
+            b"GET /metrics\r\n\r\n",
+            b"GET  /metrics HTTP/1.1\r\n",
+            b"GET metrics HTTP/1.1\r\n",
+            b"GET /metrics SPDY/3\r\n",
+        ] {
+            assert_eq!(parse_head(bad), Err(HttpError::BadRequest), "{bad:?}");
+        }
+    }
+
+    fn sample() -> (MetricsInfo, ServiceSnapshot) {
+        let info = MetricsInfo {
+            project: "demo".into(),
+            period: Duration::from_millis(100),
+            tags: vec!["motor".into(), "level".into(), "we\"ird".into()],
+            modules: vec![("mm1".into(), "line1".into())],
+        };
+        let mut s = ServiceSnapshot {
+            published: true,
+            cycles: 42,
+            overruns: 1,
+            values: vec![Value::Bool(true), Value::F32(f32::NAN), Value::I32(-5)],
+            qualities: vec![Quality::Good, Quality::Stale, Quality::Bad],
+            forced: vec![true, false, false],
+            modules: vec![ModuleSnapshot {
+                quality: Quality::Good,
+                ..ModuleSnapshot::default()
+            }],
+            ..ServiceSnapshot::default()
+        };
+        s.modules[0].counters.requests = 114;
+        s.phases[0] = PhaseSummary {
+            count: 42,
+            sum: Duration::from_millis(420),
+            p50: Duration::from_millis(10),
+            p99: Duration::from_millis(20),
+            p999: Duration::from_millis(30),
+            max: Duration::from_millis(31),
+        };
+        (info, s)
+    }
+
+    #[test]
+    fn renders_the_exposition_format() {
+        let (info, s) = sample();
+        let text = render(&info, &s);
+        for line in [
+            "softplc_info{project=\"demo\"} 1",
+            "softplc_scan_period_seconds 0.1",
+            "# TYPE softplc_scans_total counter",
+            "softplc_scans_total 42",
+            "softplc_overruns_total 1",
+            "# TYPE softplc_cycle_seconds summary",
+            "softplc_cycle_seconds{quantile=\"0.5\"} 0.01",
+            "softplc_cycle_seconds{quantile=\"0.999\"} 0.03",
+            "softplc_cycle_seconds_sum 0.42",
+            "softplc_cycle_seconds_count 42",
+            "softplc_lateness_seconds_count 0",
+            "softplc_phase_max_seconds{phase=\"cycle\"} 0.031",
+            "softplc_module_requests_total{module=\"mm1\",bus=\"line1\"} 114",
+            "softplc_module_crc_errors_total{module=\"mm1\",bus=\"line1\"} 0",
+            "softplc_module_quality{module=\"mm1\",bus=\"line1\"} 0",
+            "softplc_tag_value{tag=\"motor\"} 1",
+            "softplc_tag_value{tag=\"level\"} NaN",
+            "softplc_tag_value{tag=\"we\\\"ird\"} -5",
+            "softplc_tag_quality{tag=\"level\"} 1",
+            "softplc_tag_forced{tag=\"motor\"} 1",
+        ] {
+            assert!(
+                text.lines().any(|l| l == line),
+                "missing {line:?} in\n{text}"
+            );
+        }
+        // Every sample line is `name{labels} value` or `name value`; every family is typed
+        // once, before its samples.
+        let mut typed = std::collections::HashSet::new();
+        for l in text.lines() {
+            if let Some(rest) = l.strip_prefix("# TYPE ") {
+                let name = rest.split(' ').next().unwrap();
+                assert!(typed.insert(name.to_string()), "typed twice: {name}");
+            } else if !l.starts_with("# HELP ") {
+                let name = l.split(['{', ' ']).next().unwrap();
+                let base = name
+                    .strip_suffix("_sum")
+                    .or_else(|| name.strip_suffix("_count"))
+                    .filter(|b| typed.contains(*b))
+                    .unwrap_or(name);
+                assert!(typed.contains(base), "untyped sample {l}");
+                let value = l.rsplit(' ').next().unwrap();
+                assert!(
+                    value.parse::<f64>().is_ok() || ["NaN", "+Inf", "-Inf"].contains(&value),
+                    "{l}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn numbers_and_labels() {
+        assert_eq!(num(f64::INFINITY), "+Inf");
+        assert_eq!(num(f64::NEG_INFINITY), "-Inf");
+        assert_eq!(num(0.000_001), "0.000001");
+        assert_eq!(label("a\\b\"c\nd"), "a\\\\b\\\"c\\nd");
+    }
+
+    #[test]
+    fn serves_over_http_and_refuses_the_rest() {
+        let (info, _) = sample();
+        let cell = SnapshotCell::new();
+        let server = MetricsServer::start("127.0.0.1:0".parse().unwrap(), info, cell).unwrap();
+        let get = |req: &[u8]| {
+            let mut c = TcpStream::connect(server.local_addr()).unwrap();
+            c.write_all(req).unwrap();
+            let mut out = String::new();
+            let _ = c.read_to_string(&mut out);
+            out
+        };
+        let ok = get(b"GET /metrics HTTP/1.1\r\nHost: localhost\r\n\r\n");
+        assert!(ok.starts_with("HTTP/1.1 200 OK\r\n"), "{ok}");
+        assert!(ok.contains("softplc_scans_total 0"), "{ok}");
+        assert!(get(b"DELETE / HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 405"));
+        assert!(get(b"GET /x HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 404"));
+        assert!(get(&vec![b'a'; MAX_HEAD]).starts_with("HTTP/1.1 431"));
+        // A client that says nothing does not hold the server past its deadline.
+        let idle = TcpStream::connect(server.local_addr()).unwrap();
+        let t = Instant::now();
+        let ok = get(b"GET /metrics HTTP/1.0\r\n\r\n");
+        assert!(ok.starts_with("HTTP/1.1 200"), "{ok}");
+        assert!(t.elapsed() < CLIENT_DEADLINE + Duration::from_secs(1));
+        drop(idle);
+    }
+}

@@ -1,0 +1,152 @@
+//! Starting the network services a project asks for (`service:`): the metrics endpoint and the
+//! Modbus TCP server, both fed by the snapshot the scan publishes.
+
+use crossbeam_channel::Sender;
+
+use super::control::Envelope;
+use super::metrics::{MetricsInfo, MetricsServer};
+use super::modbus_map::ModbusMap;
+use super::modbus_tcp::{ModbusTcpServer, StartError};
+use super::snapshot::SnapshotCell;
+use crate::project::Project;
+
+/// Why a service could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum NetworkError {
+    /// The metrics endpoint.
+    #[error("metrics endpoint: cannot listen on {addr}: {source}")]
+    Metrics {
+        /// The configured address.
+        addr: std::net::SocketAddr,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The Modbus TCP server.
+    #[error("Modbus TCP server: {0}")]
+    Modbus(#[from] StartError),
+}
+
+/// The running services; they live as long as the process.
+#[derive(Debug, Default)]
+pub struct NetworkServices {
+    /// The metrics endpoint, when configured.
+    pub metrics: Option<MetricsServer>,
+    /// The Modbus TCP server, when configured.
+    pub modbus: Option<ModbusTcpServer>,
+}
+
+impl NetworkServices {
+    /// Whether any service runs (and so needs the scan to publish).
+    pub fn any(&self) -> bool {
+        self.metrics.is_some() || self.modbus.is_some()
+    }
+}
+
+/// Starts what `project.service` configures, reading `snapshot` and sending Modbus writes to
+/// `scan`. Each started service is logged with its address.
+pub fn start(
+    project: &Project,
+    snapshot: &SnapshotCell,
+    scan: &Sender<Envelope>,
+) -> Result<NetworkServices, NetworkError> {
+    let service = &project.service;
+    let names: Vec<String> = project.tags.iter().map(|t| t.name.clone()).collect();
+    let mut out = NetworkServices::default();
+    if let Some(addr) = service.metrics {
+        let info = MetricsInfo {
+            project: project.name.clone(),
+            period: project.scan.period,
+            tags: names.clone(),
+            modules: project
+                .modules
+                .iter()
+                .map(|m| {
+                    let bus = project.buses.get(m.bus).map(|b| b.name.clone());
+                    (m.name.clone(), bus.unwrap_or_default())
+                })
+                .collect(),
+        };
+        let server = MetricsServer::start(addr, info, snapshot.clone())
+            .map_err(|source| NetworkError::Metrics { addr, source })?;
+        tracing::info!("metrics at http://{}/metrics", server.local_addr());
+        out.metrics = Some(server);
+    }
+    if let Some(cfg) = service.modbus_tcp {
+        let map = ModbusMap::new(&service.scada);
+        let entries = &service.scada.entries;
+        let writable = entries.iter().filter(|e| e.writable).count();
+        let server = ModbusTcpServer::start(cfg, map, names, snapshot.clone(), scan.clone())?;
+        tracing::info!(
+            "Modbus TCP server on {}, unit {}: {} tags mapped, writes {}",
+            server.local_addr(),
+            cfg.unit,
+            entries.len(),
+            if cfg.writes {
+                format!("on ({writable} writable tags)")
+            } else {
+                "off".to_string()
+            }
+        );
+        out.modbus = Some(server);
+    }
+    Ok(out)
+}
+
+/// What `softplc check` prints about the services: their addresses and the SCADA map, in
+/// address order (empty when the project configures none).
+pub fn report(project: &Project) -> String {
+    use std::fmt::Write;
+    let service = &project.service;
+    let mut out = String::new();
+    if let Some(addr) = service.metrics {
+        let _ = writeln!(out, "\nmetrics at http://{addr}/metrics");
+    }
+    let Some(cfg) = service.modbus_tcp else {
+        return out;
+    };
+    let _ = writeln!(
+        out,
+        "\nModbus TCP on {}, unit {}, writes {} (protocol addresses, 0-based):",
+        cfg.bind,
+        cfg.unit,
+        if cfg.writes { "on" } else { "off" }
+    );
+    let map = ModbusMap::new(&service.scada);
+    let mut space = None;
+    for (sp, address, width, tag, writable) in map.describe() {
+        if space != Some(sp) {
+            space = Some(sp);
+            let _ = writeln!(
+                out,
+                "  {}",
+                match sp {
+                    crate::project::Space::Bits => "coil = discrete input:",
+                    crate::project::Space::Registers =>
+                        "holding register = input register (i32/f32: high word first):",
+                }
+            );
+        }
+        let Some(t) = project.tags.get(tag) else {
+            continue;
+        };
+        let at = if width > 1 {
+            format!("{address}-{}", u32::from(address) + u32::from(width) - 1)
+        } else {
+            address.to_string()
+        };
+        let access = if writable && cfg.writes {
+            "read/write"
+        } else if writable {
+            "read (write when writes: true)"
+        } else {
+            "read"
+        };
+        let _ = writeln!(
+            out,
+            "    {at:<11} {:<16} {:<4} {access}",
+            t.name,
+            t.ty.name()
+        );
+    }
+    out
+}

@@ -1,0 +1,292 @@
+//! SCADA access and metrics of a running instance: a third-party Modbus TCP master (Debian's
+//! `mbpoll`) reads the documented addresses of the quick-start project, writes the tags the
+//! project allows and is refused the others with the documented exceptions; `GET /metrics`
+//! answers the Prometheus text format. Everything listens on loopback, on free ports.
+
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// A port nobody listens on now (bound, then released).
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// The quick start with four memory tags for SCADA and `service` (the YAML after
+/// `service:`), in a scratch folder; returns the folder.
+fn project(name: &str, service: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-scada-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo().join("programs/conveyor.expr"),
+        dir.join("conveyor.expr"),
+    )
+    .unwrap();
+    let quickstart =
+        std::fs::read_to_string(repo().join("examples/quickstart/project.yaml")).unwrap();
+    let lamp = "  - { name: lamp,         point: mm2.Y1, safe: false }\n";
+    assert!(
+        quickstart.contains(lamp),
+        "the quick start changed:\n{quickstart}"
+    );
+    let text = quickstart
+        .replace("../../programs/conveyor.expr", "conveyor.expr")
+        .replace(
+            lamp,
+            &[
+                lamp,
+                "  - { name: speed,  type: u16, initial: 120, scada: write }\n",
+                "  - { name: level,  type: f32, initial: 2.5 }\n",
+                "  - { name: total,  type: i32, initial: -7, scada: { access: write, address: 10 } }\n",
+                "  - { name: enable, type: bool, scada: write }\n",
+            ]
+            .concat(),
+        )
+        + "\nservice:\n"
+        + service;
+    std::fs::write(dir.join("project.yaml"), text).unwrap();
+    dir
+}
+
+/// `softplc run --for 10s` on the project in `dir`, with its control socket in `dir`.
+fn start(dir: &Path) -> Child {
+    Command::new(BIN)
+        .args(["run", "--quiet", "--for", "10s", "--control"])
+        .arg(dir.join("ctl.sock"))
+        .arg(dir.join("project.yaml"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Waits for the run to end by itself (`--for`), killing it past a margin.
+fn finish(mut child: Child) -> Output {
+    let end = Instant::now() + Duration::from_secs(20);
+    while Instant::now() < end {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    child.wait_with_output().unwrap()
+}
+
+/// Runs `mbpoll -m tcp -p PORT -0 -1 ARGS 127.0.0.1 VALUES`: (success, stdout + stderr).
+fn mbpoll(port: u16, args: &[&str], values: &[&str]) -> (bool, String) {
+    let out = Command::new("mbpoll")
+        .args(["-m", "tcp", "-p", &port.to_string(), "-0", "-1", "-o", "2"])
+        .args(args)
+        .arg("127.0.0.1")
+        .args(values)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!(
+                "mbpoll, the third-party Modbus master of these tests, cannot run ({e}); \
+                 run scripts/test, which installs it (Debian package mbpoll)"
+            )
+        });
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.success(), text)
+}
+
+/// The `[address]: value` lines of mbpoll's output.
+fn values(text: &str) -> Vec<(u32, String)> {
+    text.lines()
+        .filter_map(|l| {
+            let (addr, value) = l.strip_prefix('[')?.split_once("]:")?;
+            Some((addr.parse().ok()?, value.trim().to_string()))
+        })
+        .collect()
+}
+
+/// Reads until the instance answers (it answers 06 until its first scan is published).
+fn wait_until_serving(child: &mut Child, port: u16) {
+    let end = Instant::now() + Duration::from_secs(15);
+    loop {
+        let (ok, text) = mbpoll(port, &["-t", "1", "-r", "0", "-c", "1"], &[]);
+        if ok {
+            return;
+        }
+        if child.try_wait().unwrap().is_some() {
+            let mut log = String::new();
+            let _ = child.stderr.take().unwrap().read_to_string(&mut log);
+            panic!("softplc run stopped before serving:\n{log}");
+        }
+        assert!(
+            Instant::now() < end,
+            "the Modbus TCP server never answered:\n{text}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+/// A tag's value as `softplc status --json` reports it.
+fn status_value(dir: &Path, tag: &str) -> String {
+    let out = Command::new(BIN)
+        .args(["status", "--json", "--socket"])
+        .arg(dir.join("ctl.sock"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let tags = status["tags"].as_array().unwrap();
+    let t = tags.iter().find(|t| t["name"] == tag).unwrap();
+    t["value"].as_str().unwrap().to_string()
+}
+
+fn http_get(port: u16, path: &str) -> String {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    write!(s, "GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n").unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    out
+}
+
+#[test]
+fn a_third_party_master_reads_the_map_and_writes_only_writable_tags() {
+    let (modbus, metrics) = (free_port(), free_port());
+    let dir = project(
+        "rw",
+        &format!(
+            "  metrics: 127.0.0.1:{metrics}\n  modbus_tcp: {{ bind: 127.0.0.1:{modbus}, writes: true }}\n"
+        ),
+    );
+    let mut child = start(&dir);
+    wait_until_serving(&mut child, modbus);
+
+    // The map: bools in file order at bits 0..=6 (the quick start's six, then enable);
+    // speed (u16) at register 0, level (f32) at 1-2, total (i32, pinned) at 10-11.
+    let (ok, text) = mbpoll(modbus, &["-t", "1", "-r", "0", "-c", "7"], &[]);
+    assert!(ok, "{text}");
+    let bits = values(&text);
+    assert_eq!(bits.len(), 7, "{text}");
+    assert!(bits.iter().all(|(_, v)| v == "0" || v == "1"), "{text}");
+    assert_eq!(bits[6], (6, "0".to_string()), "enable starts false: {text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "3", "-r", "0", "-c", "1"], &[]);
+    assert!(ok && values(&text) == [(0, "120".into())], "{text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "3:float", "-B", "-r", "1", "-c", "1"], &[]);
+    assert!(ok && values(&text) == [(1, "2.5".into())], "{text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "4:int", "-B", "-r", "10", "-c", "1"], &[]);
+    assert!(ok && values(&text) == [(10, "-7".into())], "{text}");
+    // Past the last bool, and the gap before the pinned register: no tag there.
+    let (ok, text) = mbpoll(modbus, &["-t", "1", "-r", "0", "-c", "8"], &[]);
+    assert!(!ok && text.contains("Illegal data address"), "{text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "3", "-r", "3", "-c", "1"], &[]);
+    assert!(!ok && text.contains("Illegal data address"), "{text}");
+    // Another unit: exception 0B.
+    let (ok, text) = mbpoll(modbus, &["-a", "7", "-t", "1", "-r", "0", "-c", "1"], &[]);
+    assert!(
+        !ok && text.contains("Target device failed to respond"),
+        "{text}"
+    );
+
+    // Writes to writable tags take effect, read back and in `softplc status`.
+    let (ok, text) = mbpoll(modbus, &["-t", "4", "-r", "0"], &["555"]);
+    assert!(ok, "{text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "3", "-r", "0", "-c", "1"], &[]);
+    assert!(ok && values(&text) == [(0, "555".into())], "{text}");
+    let (ok, text) = mbpoll(
+        modbus,
+        &["-t", "4:int", "-B", "-r", "10"],
+        &["--", "-123456"],
+    );
+    assert!(ok, "{text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "0", "-r", "6"], &["1"]);
+    assert!(ok, "{text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "1", "-r", "6", "-c", "1"], &[]);
+    assert!(ok && values(&text) == [(6, "1".into())], "{text}");
+    assert_eq!(status_value(&dir, "speed"), "555");
+    assert_eq!(status_value(&dir, "total"), "-123456");
+    assert_eq!(status_value(&dir, "enable"), "1");
+
+    // Read-only tags, half of a two-register tag and unmapped addresses: exception 02.
+    for (args, vals) in [
+        (&["-t", "4:float", "-B", "-r", "1"][..], &["9.5"][..]),
+        (&["-t", "0", "-r", "0"], &["1"]),
+        (&["-t", "4", "-r", "11"], &["1"]),
+        (&["-t", "4", "-r", "3"], &["1"]),
+    ] {
+        let (ok, text) = mbpoll(modbus, args, vals);
+        assert!(
+            !ok && text.contains("Illegal data address"),
+            "{args:?}: {text}"
+        );
+    }
+    assert_eq!(status_value(&dir, "level"), "2.5");
+
+    // The metrics endpoint.
+    let m = http_get(metrics, "/metrics");
+    assert!(m.starts_with("HTTP/1.1 200 OK\r\n"), "{m}");
+    assert!(m.contains("Content-Type: text/plain; version=0.0.4"), "{m}");
+    for needle in [
+        "\nsoftplc_scans_total ",
+        "\nsoftplc_overruns_total 0\n",
+        "\nsoftplc_cycle_seconds{quantile=\"0.99\"} ",
+        "\nsoftplc_read_seconds_count ",
+        "\nsoftplc_lateness_seconds_sum ",
+        "\nsoftplc_module_requests_total{module=\"mm1\",bus=\"line1\"} ",
+        "\nsoftplc_module_timeouts_total{module=\"mm2\",bus=\"line1\"} ",
+        "\nsoftplc_module_quality{module=\"mm1\",bus=\"line1\"} 0\n",
+        "\nsoftplc_tag_value{tag=\"speed\"} 555\n",
+        "\nsoftplc_tag_forced{tag=\"motor\"} 0\n",
+    ] {
+        assert!(m.contains(needle), "no {needle:?} in\n{m}");
+    }
+    assert!(http_get(metrics, "/nothing").starts_with("HTTP/1.1 404"));
+
+    let out = finish(child);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        log.contains(&format!("Modbus TCP server on 127.0.0.1:{modbus}"))
+            && log.contains(&format!("metrics at http://127.0.0.1:{metrics}/metrics")),
+        "{log}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn writes_are_refused_unless_the_project_allows_them() {
+    let modbus = free_port();
+    let dir = project(
+        "ro",
+        &format!("  modbus_tcp: {{ bind: 127.0.0.1:{modbus} }}\n"),
+    );
+    let mut child = start(&dir);
+    wait_until_serving(&mut child, modbus);
+    // `speed` is `scada: write`, but the project-wide switch is off: exception 01.
+    let (ok, text) = mbpoll(modbus, &["-t", "4", "-r", "0"], &["555"]);
+    assert!(!ok && text.contains("Illegal function"), "{text}");
+    let (ok, text) = mbpoll(modbus, &["-t", "0", "-r", "6"], &["1"]);
+    assert!(!ok && text.contains("Illegal function"), "{text}");
+    assert_eq!(status_value(&dir, "speed"), "120");
+    let (ok, text) = mbpoll(modbus, &["-t", "4", "-r", "0", "-c", "1"], &[]);
+    assert!(ok && values(&text) == [(0, "120".into())], "{text}");
+    let out = finish(child);
+    assert!(out.status.success(), "{out:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}
