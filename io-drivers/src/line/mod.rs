@@ -4,9 +4,11 @@
 //! - [`transport`]: the byte pipe a bus owner drives: a real serial port or the virtual line.
 //! - [`bus`]: the bus owner: runs drivers' transactions on one line with its discipline
 //!   (response timeout, t3.5 gap, guard + flush after a timeout, retries, counters).
+//! - [`collect`]: FC 70 Collect rounds for the modules in event mode (MiniMod).
 
 pub mod budget;
 pub mod bus;
+pub mod collect;
 pub mod health;
 pub mod settings;
 pub mod transport;

@@ -1,177 +1,79 @@
-//! The MiniMod driver (Modbus RTU, sans-IO).
+//! The MiniMod driver (sans-IO), Modbus RTU or text protocol, polled or in event mode.
 //!
-//! ## Per cycle
+//! ## Per cycle, Modbus (`protocol: modbus`, the default)
 //!
 //! - **Inputs**: one FC 2 read of discrete inputs 0..=9 (10001..10010): X1..X3 and X9/X10
 //!   (= FB1/FB2). Request `uu 02 00 00 00 0A` + CRC, 8 bytes; reply `uu 02 02 b0 b1` + CRC,
 //!   7 bytes. The alternative, FC 4 input register 0 (all 16 inputs as one word), is 8 + 7
 //!   bytes too: an FC 2 reply is 6 bytes only when at most 8 bits are read, and X9/X10 are
 //!   bits 8/9. With equal wire time, FC 2 is chosen because it reads exactly the points, by
-//!   the manual's register table.
+//!   the manual's register table. XWORD is built from the same bits.
 //! - **Outputs**: written on change, in one transaction per cycle at most, and never touching
 //!   an output the program does not own (so its level stays what the module's AON/AOFF
 //!   conditions make of it): FC 6 YWORD (holding register 0, 40001) when the program owns all
 //!   of Y1..Y4; FC 5 on the coil (00001..00004) when one owned output is to be written; FC 22
 //!   Mask Write on YWORD for two or three (10 + 10 bytes instead of 8 + 8). With `refresh`
 //!   every owned output is written again. The echo is taken as the module's output state (the
-//!   values of Y1..Y4 and YWORD). A failed write is planned again (all owned outputs) next
-//!   cycle.
-//! - **Read-back** of Y1..Y4 (setting `readback`, default `off`): FC 1 coils 0..=3 (reply 6
-//!   bytes, one shorter than FC 3 YWORD), in a second transaction after the inputs, every
-//!   cycle or every Nth. It shows what the module's own logic (AON/AOFF) did to the outputs;
-//!   for an output the program owns, a difference is then written back at the next write
-//!   phase (leave an output unowned to let the module's logic own it). YWORD is the commanded
-//!   state: pulsers and blinkers do not show in it.
+//!   values of Y1..Y4 and YWORD). A failed write (an exception 04 while the module's watchdog
+//!   fires included) is planned again (all owned outputs) next cycle.
+//! - **Read-back** of Y1..Y4 (setting `readback`): FC 1 coils 0..=3. It shows what the
+//!   module's own logic (AON/AOFF) did to the outputs; for an output the program owns, a
+//!   difference is then written back at the next write phase. YWORD is the commanded state:
+//!   pulsers and blinkers do not show in it.
+//! - **Counters** (setting `counters`): FC 3 holding registers 11..=13 (XCOUNT1..3).
+//! - **Status** (setting `status`): FC 2 discrete inputs 17..=129 (EVENTSPRS, GENERICFAIL,
+//!   FLASHFAIL, WDTFB, WDTCOMM, SW3, SW4 in one 20-byte reply) and FC 1 coil 160 (WDTFIRED).
 //!
-//! ## Start-up settings (project file `settings`)
+//! ## Text protocol (`protocol: text`)
 //!
-//! - `readback`: `off` | `every` | N (every Nth cycle, 1..=65535).
-//! - `RDELAYT`: the module's configured reply delay in 1/100 s (0..=200, default 1), for the
-//!   line budget only: it is set with the text protocol ("Setting the reply delay"), not
-//!   written by this driver.
-//! - Registers written at start-up and read back (a difference stops the start):
-//!   `XLATUP1..3`, `XLATDN1..3` (ms), `Y1AON1..Y4AON3`, `Y1AOFF1..Y4AOFF3` (a number, or the
-//!   text protocol's form such as `X1-X2`), `YLAMP1..4`. Numbers are decimal, `0x` hex or
-//!   `0b` binary. Contiguous registers are written with one FC 16 and read back with one FC 3.
+//! The same points through the text protocol ("Text commands protocol"), always addressed
+//! (`@5?XWORD` + CR, reply `XWORD=00003` + CR): inputs `?XWORD` (X1..X3 in bits 0..2, X9/X10 in
+//! bits 8/9, as input register 0); outputs `>YWORD=n` when the program owns all four, else one
+//! `>Yn=0|1` per changed output (the text protocol has no masked write), each answered `OK`;
+//! read-back `?YWORD`; counters `?XCOUNT1..3`; status `?WFLAGS` (WDTFIRED only: bit 1 is the
+//! only flag the manual documents). Start-up settings use text where the write table has the
+//! identifier (and a condition can be written with input names), and are read back where the
+//! read table has it (latencies, blinkers, WDTTIME, WDTMASK, FBENABLE); conditions are
+//! write-only in text and counters count while read back, so their `OK` is their check. The
+//! rest (XEVMASK, YEVMASK, EVFB1..2, a single WDTFB coil, conditions that need a raw mask) go
+//! through Modbus, which the manual allows on the same line at the same time.
 //!
-//! Watchdog (WDTTIME, WDTYMASK) and event (XEVMASK, YEVMASK) settings come with the watchdog
-//! and Collect issues.
+//! ## Event mode (`events: true`)
+//!
+//! The inputs come from FC 70 Collect ("The Modbus function Collect"): after the status and
+//! counter reads, the read plan holds a membership transaction
+//! ([`crate::line::collect::membership`]) the bus owner turns into one broadcast Collect round
+//! for every event-mode module of the line, and every event of this module comes back through
+//! [`Driver::on_reply`] as a [`Response::Collect`]: TYPE 2 is the input
+//! word (X1..X3, X9/X10), TYPE 1 the output levels (Y1..Y4 point values only: they include
+//! pulsers and blinkers, so they never feed the write phase's comparison). After the
+//! membership comes the full input read (FC 2, or `?XWORD`) and the read-back: the owner runs
+//! them on the first cycle, every `event_refresh` (default 1 s), after a lost event, a failed
+//! round or a failed cycle, so a lost event cannot leave the image wrong for long. At start-up
+//! event mode writes XEVMASK = 7 and EVFB1 = EVFB2 = 1 unless the project sets them.
+//!
+//! ## Start-up settings
+//!
+//! See [`super::settings`]. Contiguous holding registers are written with one FC 16 and read
+//! back with one FC 3; contiguous coils with FC 15 and FC 1; `RDELAYT` / `RDELAYM` are sent last
+//! as text (`@5>RDELAYT=5`), whatever the protocol, since no register holds them. A read-back
+//! difference is [`DecodeError::Mismatch`] with the register's name. When the project sets the
+//! watchdog (WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2), start-up also resets it (WDTFIRED = 0,
+//! read back): a watchdog that fired when the last run stopped would otherwise keep the outputs
+//! locked, and a feedback that fires it again at once stops the start, by name.
 
 use std::time::Duration;
 
-use super::map::{self, parse_condition, Item, Space, POINTS};
-use crate::devices::DeviceConfig;
+use super::map::{self, Item, Space, POINTS};
+use super::settings::{Readback, Setting, DEFAULT_EVENT_REFRESH};
+use super::text::{self, TextId, TextReply, WriteValue};
+use crate::devices::{DeviceConfig, Protocol};
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
-use crate::modbus::{Request, Response, UnitId};
+use crate::line::collect;
+use crate::modbus::{ExceptionCode, Request, Response, UnitId};
 use crate::point::Value;
 
-/// How often Y1..Y4 are read back.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Readback {
-    /// Never: the outputs' values are the last write's echo.
-    #[default]
-    Off,
-    /// Every Nth cycle (1 = every cycle).
-    Every(u16),
-}
-
-/// Why a setting was refused.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum SettingError {
-    /// Not a MiniMod setting.
-    #[error(
-        "not a minimod setting; accepted: readback, RDELAYT, XLATUP1..3, XLATDN1..3, \
-         Y1AON1..Y4AON3, Y1AOFF1..Y4AOFF3, YLAMP1..4"
-    )]
-    UnknownKey,
-    /// The value does not fit the setting.
-    #[error("{key} takes {expected}")]
-    BadValue {
-        /// The setting, as the manual names it.
-        key: &'static str,
-        /// What it accepts.
-        expected: &'static str,
-    },
-}
-
-/// One validated setting.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Setting {
-    /// `readback`.
-    Readback(Readback),
-    /// `RDELAYT`, hundredths of a second.
-    ReplyDelay(u8),
-    /// A holding register written at start-up.
-    Register {
-        /// The manual's name.
-        name: &'static str,
-        /// Protocol address (0-based).
-        addr: u16,
-        /// The value.
-        value: u16,
-    },
-}
-
-fn parse_number(text: &str) -> Option<u64> {
-    let t = text.trim();
-    if let Some(hex) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
-        u64::from_str_radix(hex, 16).ok()
-    } else if let Some(bin) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
-        u64::from_str_radix(&bin.replace(['.', '_', '-'], ""), 2).ok()
-    } else {
-        t.parse().ok()
-    }
-}
-
-impl Setting {
-    /// Parses a `key: value` pair of the project file. Keys are case-insensitive.
-    pub fn parse(key: &str, value: &str) -> Result<Self, SettingError> {
-        if key.eq_ignore_ascii_case("readback") {
-            let bad = SettingError::BadValue {
-                key: "readback",
-                expected: "off, every or 1..=65535",
-            };
-            return match value.trim() {
-                "off" => Ok(Setting::Readback(Readback::Off)),
-                "every" => Ok(Setting::Readback(Readback::Every(1))),
-                n => parse_number(n)
-                    .and_then(|n| u16::try_from(n).ok())
-                    .filter(|&n| n > 0)
-                    .map(|n| Setting::Readback(Readback::Every(n)))
-                    .ok_or(bad),
-            };
-        }
-        if key.eq_ignore_ascii_case("RDELAYT") {
-            return parse_number(value)
-                .and_then(|n| u8::try_from(n).ok())
-                .filter(|&n| n <= 200)
-                .map(Setting::ReplyDelay)
-                .ok_or(SettingError::BadValue {
-                    key: "RDELAYT",
-                    expected: "0..=200 (1/100 s)",
-                });
-        }
-        let upper = key.to_ascii_uppercase();
-        let entry = map::entry(&upper)
-            .filter(|e| e.space == Space::HoldingRegister)
-            .ok_or(SettingError::UnknownKey)?;
-        let word = |expected| {
-            parse_number(value)
-                .and_then(|n| u16::try_from(n).ok())
-                .ok_or(SettingError::BadValue {
-                    key: entry.name,
-                    expected,
-                })
-        };
-        let value = match entry.item {
-            Item::XlatUp(_) | Item::XlatDn(_) => word("0..=65535 (ms)")?,
-            Item::Lamp(_) => word("a 16-bit mask")?,
-            Item::AutoOn(..) | Item::AutoOff(..) => match parse_number(value) {
-                Some(n) => u16::try_from(n).map_err(|_| SettingError::BadValue {
-                    key: entry.name,
-                    expected: "a 16-bit mask or a condition such as X1-X2",
-                })?,
-                None => parse_condition(value).map_err(|_| SettingError::BadValue {
-                    key: entry.name,
-                    expected: "a 16-bit mask or a condition such as X1-X2",
-                })?,
-            },
-            _ => return Err(SettingError::UnknownKey),
-        };
-        Ok(Setting::Register {
-            name: entry.name,
-            addr: entry.addr,
-            value,
-        })
-    }
-}
-
-/// Checks one setting (the catalog's `check_setting`).
-pub fn check_setting(key: &str, value: &str) -> Result<(), String> {
-    Setting::parse(key, value)
-        .map(|_| ())
-        .map_err(|e| e.to_string())
-}
+pub use super::settings::{check_setting, SettingError};
 
 /// Builds a driver from a validated module entry (the catalog's constructor). Settings were
 /// checked before; one that still fails is logged and ignored. An address outside 1..=247
@@ -188,10 +90,14 @@ pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
     if unit.is_none() {
         tracing::error!(module = %config.name, address = config.address, "not a unit address");
     }
-    Box::new(MiniModDriver::new(unit, &settings))
+    Box::new(MiniModDriver::with_protocol(
+        unit,
+        config.protocol,
+        &settings,
+    ))
 }
 
-/// Indexes in [`POINTS`] of what the driver reads.
+/// Indexes in [`POINTS`] of what the driver reads every cycle.
 const IDX_X: [usize; 3] = [0, 1, 2];
 const IDX_X9: usize = 3;
 const IDX_X10: usize = 4;
@@ -200,7 +106,20 @@ const IDX_FB2: usize = 6;
 const IDX_Y: [usize; 4] = [7, 8, 9, 10];
 const IDX_YWORD: usize = 11;
 
-/// What a transaction was for, carried in its tag.
+/// Discrete inputs of the status read: EVENTSPRS (10018) ..= SW4 (10130).
+const DI_STATUS_FIRST: u16 = 17;
+const DI_STATUS_COUNT: u16 = 113;
+/// Coil WDTFIRED (00161).
+const COIL_WDTFIRED: u16 = 160;
+/// Holding register XCOUNT1 (40012).
+const HR_XCOUNT1: u16 = 11;
+/// Coils EVFB1..2 (00089).
+const COIL_EVFB1: u16 = 88;
+/// Holding register XEVMASK (40006).
+const HR_XEVMASK: u16 = 5;
+
+/// What a transaction was for, carried in its tag: a kind in the high half, an index in the
+/// low half.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Tag {
     Inputs,
@@ -208,17 +127,32 @@ enum Tag {
     WriteOutputs,
     SetupWrite(u16),
     SetupVerify(u16),
+    Counters,
+    Counter(u16),
+    Status,
+    StatusFired,
+    /// Text `>Yn=v`: index = y << 1 | v.
+    WriteY(u16),
+    /// Text `>YWORD=w`: index = w.
+    WriteYword(u16),
 }
 
 impl Tag {
     fn encode(self) -> u32 {
-        match self {
-            Tag::Inputs => 1 << 16,
-            Tag::Readback => 2 << 16,
-            Tag::WriteOutputs => 3 << 16,
-            Tag::SetupWrite(i) => (4 << 16) | u32::from(i),
-            Tag::SetupVerify(i) => (5 << 16) | u32::from(i),
-        }
+        let (kind, index) = match self {
+            Tag::Inputs => (1, 0),
+            Tag::Readback => (2, 0),
+            Tag::WriteOutputs => (3, 0),
+            Tag::SetupWrite(i) => (4, i),
+            Tag::SetupVerify(i) => (5, i),
+            Tag::Counters => (6, 0),
+            Tag::Counter(i) => (7, i),
+            Tag::Status => (8, 0),
+            Tag::StatusFired => (9, 0),
+            Tag::WriteY(i) => (10, i),
+            Tag::WriteYword(w) => (11, w),
+        };
+        (kind << 16) | u32::from(index)
     }
 
     fn decode(tag: u32) -> Option<Self> {
@@ -229,53 +163,221 @@ impl Tag {
             3 => Tag::WriteOutputs,
             4 => Tag::SetupWrite(index),
             5 => Tag::SetupVerify(index),
+            6 => Tag::Counters,
+            7 => Tag::Counter(index),
+            8 => Tag::Status,
+            9 => Tag::StatusFired,
+            10 => Tag::WriteY(index),
+            11 => Tag::WriteYword(index),
             _ => return None,
         })
     }
-}
 
-/// Contiguous start-up registers: one FC 16 and one FC 3.
-#[derive(Debug, Clone, PartialEq, Eq)]
-struct Run {
-    addr: u16,
-    values: Vec<u16>,
-    names: Vec<&'static str>,
-}
-
-/// Groups register settings by address (the last of duplicates wins) into contiguous runs.
-fn runs(settings: &[Setting]) -> Vec<Run> {
-    let mut regs: Vec<(u16, u16, &'static str)> = Vec::new();
-    for s in settings {
-        if let Setting::Register { name, addr, value } = *s {
-            regs.retain(|r| r.0 != addr);
-            regs.push((addr, value, name));
-        }
+    fn is_write(self) -> bool {
+        matches!(
+            self,
+            Tag::WriteOutputs | Tag::WriteY(_) | Tag::WriteYword(_)
+        )
     }
-    regs.sort_by_key(|r| r.0);
-    let mut out: Vec<Run> = Vec::new();
-    for (addr, value, name) in regs {
+}
+
+/// One start-up step: a write and, where possible, its read-back.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum SetupStep {
+    /// Contiguous holding registers: FC 16, then FC 3.
+    Registers {
+        addr: u16,
+        values: Vec<u16>,
+        names: Vec<&'static str>,
+    },
+    /// Contiguous coils: FC 15, then FC 1.
+    Coils {
+        addr: u16,
+        values: Vec<bool>,
+        names: Vec<&'static str>,
+    },
+    /// A text write; read back with `?ID` when `verify`.
+    Text {
+        id: TextId,
+        /// The register table's name (for errors and point values).
+        name: &'static str,
+        value: WriteValue,
+        number: u16,
+        verify: bool,
+    },
+}
+
+/// The text identifier a start-up register has, if the text write table has one.
+fn text_id(item: Item) -> Option<TextId> {
+    Some(match item {
+        Item::XlatUp(i) => TextId::XlatUp(i),
+        Item::XlatDn(i) => TextId::XlatDn(i),
+        Item::Xcount(i) => TextId::Xcount(i),
+        Item::Lamp(i) => TextId::Lamp(i),
+        Item::AutoOn(y, c) => TextId::AutoOn(y, c),
+        Item::AutoOff(y, c) => TextId::AutoOff(y, c),
+        Item::WdtTime => TextId::WdtTime,
+        Item::WdtYMask => TextId::WdtMask,
+        _ => return None,
+    })
+}
+
+/// `(addr, value, name)` by address, the last of duplicates winning.
+fn dedup<T: Copy>(items: Vec<(u16, T, &'static str)>) -> Vec<(u16, T, &'static str)> {
+    let mut unique: Vec<(u16, T, &'static str)> = Vec::with_capacity(items.len());
+    for item in items {
+        unique.retain(|u| u.0 != item.0);
+        unique.push(item);
+    }
+    unique.sort_by_key(|u| u.0);
+    unique
+}
+
+/// Groups `(addr, value, name)` by address (the last of duplicates wins) into runs of
+/// consecutive addresses.
+fn runs<T: Copy>(items: Vec<(u16, T, &'static str)>) -> Vec<(u16, Vec<T>, Vec<&'static str>)> {
+    let mut out: Vec<(u16, Vec<T>, Vec<&'static str>)> = Vec::new();
+    for (addr, value, name) in dedup(items) {
         match out.last_mut() {
-            Some(run) if usize::from(run.addr) + run.values.len() == usize::from(addr) => {
-                run.values.push(value);
-                run.names.push(name);
+            Some((start, values, names))
+                if usize::from(*start) + values.len() == usize::from(addr) =>
+            {
+                values.push(value);
+                names.push(name);
             }
-            _ => out.push(Run {
-                addr,
-                values: vec![value],
-                names: vec![name],
-            }),
+            _ => out.push((addr, vec![value], vec![name])),
         }
     }
     out
+}
+
+/// The name of a coil in the map.
+fn coil_name(addr: u16) -> &'static str {
+    map::MAP
+        .iter()
+        .find(|e| e.space == Space::Coil && e.addr == addr)
+        .map_or("coil", |e| e.name)
+}
+
+/// Builds the start-up steps from the settings.
+fn setup_steps(settings: &[Setting], protocol: Protocol, events: bool) -> Vec<SetupStep> {
+    let mut registers: Vec<(u16, u16, &'static str)> = Vec::new();
+    let mut coils: Vec<(u16, bool, &'static str)> = Vec::new();
+    let mut delays: Vec<(TextId, u8)> = Vec::new();
+    for s in settings {
+        match *s {
+            Setting::Register { name, addr, value } => registers.push((addr, value, name)),
+            Setting::Coils {
+                addr, count, bits, ..
+            } => {
+                for i in 0..u16::from(count) {
+                    let a = addr + i;
+                    coils.push((a, bits & (1 << i) != 0, coil_name(a)));
+                }
+            }
+            Setting::ReplyDelay(n) => delays.push((TextId::RdelayT, n)),
+            Setting::FrameTimeout(n) => delays.push((TextId::RdelayM, n)),
+            _ => {}
+        }
+    }
+    let watchdog = registers
+        .iter()
+        .any(|r| matches!(r.2, "WDTTIME" | "WDTYMASK"))
+        || coils.iter().any(|c| (112..=113).contains(&c.0));
+    if watchdog {
+        // The project owns the watchdog: a fired one left by the last run is reset once the
+        // new settings are in, so the timeout starts from this start-up.
+        coils.push((COIL_WDTFIRED, false, "WDTFIRED"));
+    }
+    if events {
+        // Event mode needs the module to record input variations: X1..X3 and FB1/FB2.
+        if !registers.iter().any(|r| r.0 == HR_XEVMASK) {
+            registers.insert(0, (HR_XEVMASK, 0b111, "XEVMASK"));
+        }
+        for a in [COIL_EVFB1, COIL_EVFB1 + 1] {
+            if !coils.iter().any(|c| c.0 == a) {
+                coils.insert(0, (a, true, coil_name(a)));
+            }
+        }
+    }
+    let mut steps = Vec::new();
+    if protocol == Protocol::Text {
+        let mut modbus_registers = Vec::new();
+        for (addr, value, name) in dedup(registers) {
+            let id = map::entry(name).and_then(|e| text_id(e.item));
+            let wv = match id {
+                Some(TextId::AutoOn(..) | TextId::AutoOff(..)) => WriteValue::Condition(value),
+                _ => WriteValue::Number(value),
+            };
+            match id {
+                Some(id) if text::write_command(1, id, wv).is_ok() => steps.push(SetupStep::Text {
+                    id,
+                    name,
+                    value: wv,
+                    number: value,
+                    verify: id.readable() && !matches!(id, TextId::Xcount(_)),
+                }),
+                _ => modbus_registers.push((addr, value, name)),
+            }
+        }
+        registers = modbus_registers;
+        let wdtfb = |a: u16| coils.iter().rev().find(|c| c.0 == a).map(|c| c.1);
+        if let (Some(fb1), Some(fb2)) = (wdtfb(112), wdtfb(113)) {
+            coils.retain(|c| c.0 != 112 && c.0 != 113);
+            let bits = u16::from(fb1) | (u16::from(fb2) << 1);
+            steps.push(SetupStep::Text {
+                id: TextId::FbEnable,
+                name: "FBENABLE",
+                value: WriteValue::Number(bits),
+                number: bits,
+                verify: true,
+            });
+        }
+    }
+    for (addr, values, names) in runs(registers) {
+        steps.push(SetupStep::Registers {
+            addr,
+            values,
+            names,
+        });
+    }
+    for (addr, values, names) in runs(coils) {
+        steps.push(SetupStep::Coils {
+            addr,
+            values,
+            names,
+        });
+    }
+    for (id, n) in delays {
+        let name = if id == TextId::RdelayT {
+            "RDELAYT"
+        } else {
+            "RDELAYM"
+        };
+        steps.push(SetupStep::Text {
+            id,
+            name,
+            value: WriteValue::Number(u16::from(n)),
+            number: u16::from(n),
+            verify: false,
+        });
+    }
+    steps
 }
 
 /// The MiniMod driver.
 #[derive(Debug, Clone)]
 pub struct MiniModDriver {
     unit: Option<UnitId>,
+    protocol: Protocol,
     readback: Readback,
+    counters: Readback,
+    status: Readback,
+    events: bool,
+    event_refresh: Duration,
     rdelayt: u8,
-    setup: Vec<Run>,
+    rdelaym: u8,
+    setup: Vec<SetupStep>,
     values: Vec<Option<Value>>,
     /// The module's commanded outputs as far as known (echo or read-back).
     y: [Option<bool>; 4],
@@ -285,39 +387,81 @@ pub struct MiniModDriver {
 }
 
 impl MiniModDriver {
-    /// A driver for the module at `unit` (`None`: plans nothing) with validated settings.
+    /// A Modbus driver for the module at `unit` (`None`: plans nothing) with validated
+    /// settings.
     pub fn new(unit: Option<UnitId>, settings: &[Setting]) -> Self {
-        let mut readback = Readback::Off;
-        let mut rdelayt = super::state::POWER_ON_RDELAYT;
-        for s in settings {
-            match *s {
-                Setting::Readback(r) => readback = r,
-                Setting::ReplyDelay(d) => rdelayt = d,
-                Setting::Register { .. } => {}
-            }
-        }
-        Self {
+        Self::with_protocol(unit, Protocol::Modbus, settings)
+    }
+
+    /// A driver speaking `protocol`.
+    pub fn with_protocol(unit: Option<UnitId>, protocol: Protocol, settings: &[Setting]) -> Self {
+        let mut d = Self {
             unit,
-            readback,
-            rdelayt,
-            setup: runs(settings),
+            protocol,
+            readback: Readback::Off,
+            counters: Readback::Off,
+            status: Readback::Off,
+            events: false,
+            event_refresh: DEFAULT_EVENT_REFRESH,
+            rdelayt: super::state::POWER_ON_RDELAYT,
+            rdelaym: 0,
+            setup: Vec::new(),
             values: vec![None; POINTS.len()],
             y: [None; 4],
             rewrite: false,
             cycle: 0,
+        };
+        for s in settings {
+            match *s {
+                Setting::Readback(r) => d.readback = r,
+                Setting::Counters(r) => d.counters = r,
+                Setting::Status(r) => d.status = r,
+                Setting::Events(on) => d.events = on,
+                Setting::EventRefresh(t) => d.event_refresh = t,
+                Setting::ReplyDelay(n) => d.rdelayt = n,
+                Setting::FrameTimeout(n) => d.rdelaym = n,
+                Setting::Register { .. } | Setting::Coils { .. } => {}
+            }
         }
+        d.setup = setup_steps(settings, protocol, d.events);
+        d
     }
 
-    fn tx(&self, unit: UnitId, request: Request, tag: Tag) -> Transaction {
+    /// Whether the driver runs in event mode.
+    pub fn event_mode(&self) -> bool {
+        self.events
+    }
+
+    fn modbus(&self, unit: UnitId, request: Request, tag: Tag) -> Transaction {
         Transaction {
             frame: Outgoing::Modbus { unit, request },
             tag: tag.encode(),
         }
     }
 
+    fn text_tx(line: Vec<u8>, tag: Tag) -> Transaction {
+        Transaction {
+            frame: Outgoing::Text {
+                line,
+                terminator: text::TERMINATOR,
+            },
+            tag: tag.encode(),
+        }
+    }
+
+    fn read_tx(&self, unit: UnitId, id: TextId, tag: Tag) -> Transaction {
+        Self::text_tx(text::read_command(unit.get(), id), tag)
+    }
+
     fn set_value(&mut self, index: usize, value: Value) {
         if let Some(slot) = self.values.get_mut(index) {
             *slot = Some(value);
+        }
+    }
+
+    fn set_named(&mut self, name: &str, value: Value) {
+        if let Some(i) = map::point_index(name) {
+            self.set_value(i, value);
         }
     }
 
@@ -338,110 +482,148 @@ impl MiniModDriver {
         }
     }
 
-    fn apply_inputs(&mut self, tag: u32, bits: &[bool]) -> Result<(), DecodeError> {
-        if bits.len() != usize::from(map::DI_READ_COUNT) {
-            return Err(DecodeError::Unexpected { tag });
+    fn set_yword(&mut self, word: u16) {
+        for y in 0..4 {
+            self.set_y(y, word & (1 << y) != 0);
         }
-        let bit = |addr: u16| bits.get(usize::from(addr)).copied().unwrap_or(false);
+    }
+
+    /// The inputs as input register 0 / XWORD / a TYPE 2 event carry them.
+    fn apply_input_word(&mut self, word: u16) {
         for (x, &i) in IDX_X.iter().enumerate() {
-            self.set_value(i, Value::Bool(bit(map::DI_X1 + x as u16)));
+            self.set_value(i, Value::Bool(word & (1 << x) != 0));
         }
-        let (x9, x10) = (bit(map::DI_X9), bit(map::DI_X10));
+        let (x9, x10) = (word & (1 << 8) != 0, word & (1 << 9) != 0);
         self.set_value(IDX_X9, Value::Bool(x9));
         self.set_value(IDX_FB1, Value::Bool(x9));
         self.set_value(IDX_X10, Value::Bool(x10));
         self.set_value(IDX_FB2, Value::Bool(x10));
+        self.set_named("XWORD", Value::U16(word & 0x0307));
+    }
+
+    fn apply_inputs(&mut self, tag: u32, bits: &[bool]) -> Result<(), DecodeError> {
+        if bits.len() != usize::from(map::DI_READ_COUNT) {
+            return Err(DecodeError::Unexpected { tag });
+        }
+        let word = bits
+            .iter()
+            .enumerate()
+            .fold(0u16, |acc, (i, &b)| acc | (u16::from(b) << i));
+        self.apply_input_word(word);
         Ok(())
     }
-}
 
-impl Driver for MiniModDriver {
-    fn address(&self) -> u8 {
-        self.unit.map_or(0, UnitId::get)
-    }
-
-    fn plan_startup(&mut self, out: &mut Vec<Transaction>) {
-        let Some(unit) = self.unit else { return };
-        for (i, run) in self.setup.iter().enumerate() {
-            let Ok(i) = u16::try_from(i) else { break };
-            let request = Request::WriteMultipleRegisters {
-                addr: run.addr,
-                values: run.values.clone(),
-            };
-            out.push(self.tx(unit, request, Tag::SetupWrite(i)));
-            let count = u16::try_from(run.values.len()).unwrap_or(u16::MAX);
-            let request = Request::ReadHoldingRegisters {
-                addr: run.addr,
-                count,
-            };
-            out.push(self.tx(unit, request, Tag::SetupVerify(i)));
+    fn apply_status(&mut self, tag: u32, bits: &[bool]) -> Result<(), DecodeError> {
+        if bits.len() != usize::from(DI_STATUS_COUNT) {
+            return Err(DecodeError::Unexpected { tag });
         }
+        for (name, addr) in [
+            ("EVENTSPRS", 17u16),
+            ("GENERICFAIL", 19),
+            ("FLASHFAIL", 22),
+            ("WDTFB", 24),
+            ("WDTCOMM", 25),
+            ("SW3", 128),
+            ("SW4", 129),
+        ] {
+            let bit = bits
+                .get(usize::from(addr - DI_STATUS_FIRST))
+                .copied()
+                .unwrap_or(false);
+            self.set_named(name, Value::Bool(bit));
+        }
+        Ok(())
     }
 
-    fn plan_read(&mut self, out: &mut Vec<Transaction>) {
-        let Some(unit) = self.unit else { return };
-        let request = Request::ReadDiscreteInputs {
-            addr: map::DI_X1,
-            count: map::DI_READ_COUNT,
-        };
-        out.push(self.tx(unit, request, Tag::Inputs));
-        if let Readback::Every(n) = self.readback {
-            if self.cycle % u64::from(n.max(1)) == 0 {
-                let request = Request::ReadCoils {
-                    addr: map::COIL_Y1,
-                    count: 4,
-                };
-                out.push(self.tx(unit, request, Tag::Readback));
+    /// An event from the Collect round.
+    fn apply_event(&mut self, tag: u32, kind: u8, data: u16) -> Result<(), DecodeError> {
+        match kind {
+            super::events::KIND_INPUTS => self.apply_input_word(data),
+            super::events::KIND_OUTPUTS => {
+                for (y, &i) in IDX_Y.iter().enumerate() {
+                    self.set_value(i, Value::Bool(data & (1 << y) != 0));
+                }
             }
+            _ => return Err(DecodeError::Unexpected { tag }),
         }
-        self.cycle = self.cycle.wrapping_add(1);
+        Ok(())
     }
 
-    fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>) {
-        let Some(unit) = self.unit else { return };
-        let all = refresh || self.rewrite;
-        let (mut owned, mut write, mut word) = (0u16, 0u16, 0u16);
-        for (y, &i) in IDX_Y.iter().enumerate() {
-            if let Some(Some(v)) = desired.get(i) {
-                let on = v.as_bool();
-                owned |= 1 << y;
-                word |= u16::from(on) << y;
-                if all || self.y.get(y).copied().flatten() != Some(on) {
-                    write |= 1 << y;
+    /// Values of start-up registers once verified.
+    fn record_setup(&mut self, step: usize) {
+        let Some(step) = self.setup.get(step).cloned() else {
+            return;
+        };
+        match step {
+            SetupStep::Registers { values, names, .. } => {
+                for (v, n) in values.into_iter().zip(names) {
+                    self.set_named(n, Value::U16(v));
+                }
+            }
+            SetupStep::Coils { values, names, .. } => {
+                for (v, n) in values.into_iter().zip(names) {
+                    self.set_named(n, Value::Bool(v));
+                }
+            }
+            SetupStep::Text { name, number, .. } => {
+                if let Some(i) = map::point_index(name) {
+                    let value = match POINTS[i].ty {
+                        crate::point::ValueType::Bool => Value::Bool(number != 0),
+                        _ => Value::U16(number),
+                    };
+                    self.set_value(i, value);
+                } else if name == "FBENABLE" {
+                    self.set_named("WDTFB1", Value::Bool(number & 1 != 0));
+                    self.set_named("WDTFB2", Value::Bool(number & 2 != 0));
                 }
             }
         }
-        let request = if write == 0 {
-            return;
-        } else if owned == 0x0F {
-            Request::WriteSingleRegister {
-                addr: map::HR_YWORD,
-                value: word,
-            }
-        } else if write.count_ones() == 1 {
-            let y = write.trailing_zeros() as u16;
-            Request::WriteSingleCoil {
-                addr: map::COIL_Y1 + y,
-                value: word & write != 0,
-            }
-        } else {
-            Request::MaskWriteRegister {
-                addr: map::HR_YWORD,
-                and_mask: !write,
-                or_mask: word & write,
-            }
-        };
-        out.push(self.tx(unit, request, Tag::WriteOutputs));
     }
 
-    fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError> {
-        let unexpected = DecodeError::Unexpected { tag };
-        let Reply::Modbus(response) = reply else {
-            return Err(unexpected);
-        };
-        if let Response::Exception { code, .. } = response {
-            return Err(DecodeError::Exception(*code));
+    fn plan_startup_step(
+        &self,
+        unit: UnitId,
+        i: u16,
+        step: &SetupStep,
+        out: &mut Vec<Transaction>,
+    ) {
+        match step {
+            SetupStep::Registers { addr, values, .. } => {
+                let request = Request::WriteMultipleRegisters {
+                    addr: *addr,
+                    values: values.clone(),
+                };
+                out.push(self.modbus(unit, request, Tag::SetupWrite(i)));
+                let count = u16::try_from(values.len()).unwrap_or(u16::MAX);
+                let request = Request::ReadHoldingRegisters { addr: *addr, count };
+                out.push(self.modbus(unit, request, Tag::SetupVerify(i)));
+            }
+            SetupStep::Coils { addr, values, .. } => {
+                let request = Request::WriteMultipleCoils {
+                    addr: *addr,
+                    values: values.clone(),
+                };
+                out.push(self.modbus(unit, request, Tag::SetupWrite(i)));
+                let count = u16::try_from(values.len()).unwrap_or(u16::MAX);
+                let request = Request::ReadCoils { addr: *addr, count };
+                out.push(self.modbus(unit, request, Tag::SetupVerify(i)));
+            }
+            SetupStep::Text {
+                id, value, verify, ..
+            } => {
+                // Steps are built only from values the text protocol can carry.
+                if let Ok(line) = text::write_command(unit.get(), *id, *value) {
+                    out.push(Self::text_tx(line, Tag::SetupWrite(i)));
+                }
+                if *verify {
+                    out.push(self.read_tx(unit, *id, Tag::SetupVerify(i)));
+                }
+            }
         }
+    }
+
+    fn on_modbus(&mut self, tag: u32, response: &Response) -> Result<(), DecodeError> {
+        let unexpected = DecodeError::Unexpected { tag };
         match (Tag::decode(tag), response) {
             (Some(Tag::Inputs), Response::ReadDiscreteInputs(bits)) => self.apply_inputs(tag, bits),
             (Some(Tag::Readback), Response::ReadCoils(bits)) if bits.len() == 4 => {
@@ -450,12 +632,21 @@ impl Driver for MiniModDriver {
                 }
                 Ok(())
             }
+            (Some(Tag::Counters), Response::ReadHoldingRegisters(regs)) if regs.len() == 3 => {
+                for (i, &v) in regs.iter().enumerate() {
+                    self.set_named(["XCOUNT1", "XCOUNT2", "XCOUNT3"][i], Value::U16(v));
+                }
+                Ok(())
+            }
+            (Some(Tag::Status), Response::ReadDiscreteInputs(bits)) => self.apply_status(tag, bits),
+            (Some(Tag::StatusFired), Response::ReadCoils(bits)) if bits.len() == 1 => {
+                self.set_named("WDTFIRED", Value::Bool(bits[0]));
+                Ok(())
+            }
             (Some(Tag::WriteOutputs), Response::WriteSingleRegister { addr, value })
                 if *addr == map::HR_YWORD =>
             {
-                for y in 0..4 {
-                    self.set_y(y, value & (1 << y) != 0);
-                }
+                self.set_yword(*value);
                 self.rewrite = false;
                 Ok(())
             }
@@ -483,36 +674,305 @@ impl Driver for MiniModDriver {
                 Ok(())
             }
             (Some(Tag::SetupWrite(i)), Response::WriteMultipleRegisters { addr, count }) => {
-                let run = self.setup.get(usize::from(i)).ok_or(unexpected.clone())?;
-                let ok = *addr == run.addr && usize::from(*count) == run.values.len();
-                ok.then_some(()).ok_or(unexpected)
+                match self.setup.get(usize::from(i)) {
+                    Some(SetupStep::Registers {
+                        addr: a, values, ..
+                    }) if a == addr && usize::from(*count) == values.len() => Ok(()),
+                    _ => Err(unexpected),
+                }
+            }
+            (Some(Tag::SetupWrite(i)), Response::WriteMultipleCoils { addr, count }) => {
+                match self.setup.get(usize::from(i)) {
+                    Some(SetupStep::Coils {
+                        addr: a, values, ..
+                    }) if a == addr && usize::from(*count) == values.len() => Ok(()),
+                    _ => Err(unexpected),
+                }
             }
             (Some(Tag::SetupVerify(i)), Response::ReadHoldingRegisters(found)) => {
-                let run = self.setup.get(usize::from(i)).ok_or(unexpected.clone())?;
-                if found.len() != run.values.len() {
+                let Some(SetupStep::Registers { values, names, .. }) =
+                    self.setup.get(usize::from(i))
+                else {
+                    return Err(unexpected);
+                };
+                if found.len() != values.len() {
                     return Err(unexpected);
                 }
-                let mismatch = run
-                    .values
+                let mismatch = values
                     .iter()
                     .zip(found)
-                    .zip(&run.names)
+                    .zip(names)
+                    // A counter counts while it is read back: its write echo is its check.
+                    .filter(|(_, name)| !name.starts_with("XCOUNT"))
                     .find(|((want, got), _)| want != got);
-                match mismatch {
-                    Some(((&expected, &found), &register)) => Err(DecodeError::Mismatch {
+                if let Some(((&expected, &found), &register)) = mismatch {
+                    return Err(DecodeError::Mismatch {
                         register,
                         expected: u32::from(expected),
                         found: u32::from(found),
-                    }),
-                    None => Ok(()),
+                    });
                 }
+                self.record_setup(usize::from(i));
+                Ok(())
+            }
+            (Some(Tag::SetupVerify(i)), Response::ReadCoils(found)) => {
+                let Some(SetupStep::Coils { values, names, .. }) = self.setup.get(usize::from(i))
+                else {
+                    return Err(unexpected);
+                };
+                if found.len() != values.len() {
+                    return Err(unexpected);
+                }
+                let mismatch = values
+                    .iter()
+                    .zip(found)
+                    .zip(names)
+                    .find(|((want, got), _)| want != got);
+                if let Some(((&expected, &found), &register)) = mismatch {
+                    return Err(DecodeError::Mismatch {
+                        register,
+                        expected: u32::from(expected),
+                        found: u32::from(found),
+                    });
+                }
+                self.record_setup(usize::from(i));
+                Ok(())
             }
             _ => Err(unexpected),
         }
     }
 
+    fn on_text(&mut self, tag: u32, bytes: &[u8]) -> Result<(), DecodeError> {
+        let unexpected = DecodeError::Unexpected { tag };
+        let reply = text::parse_reply(bytes).map_err(|_| unexpected.clone())?;
+        match (Tag::decode(tag), reply) {
+            (Some(Tag::Inputs), TextReply::Value(TextId::Xword, w)) => {
+                self.apply_input_word(w);
+                Ok(())
+            }
+            (Some(Tag::Readback), TextReply::Value(TextId::Yword, w)) => {
+                self.set_yword(w);
+                Ok(())
+            }
+            (Some(Tag::Counter(i)), TextReply::Value(TextId::Xcount(c), v))
+                if u16::from(c) == i =>
+            {
+                self.set_named(
+                    ["XCOUNT1", "XCOUNT2", "XCOUNT3"][usize::from(c.min(2))],
+                    Value::U16(v),
+                );
+                Ok(())
+            }
+            (Some(Tag::Status), TextReply::Value(TextId::Wflags, v)) => {
+                self.set_named(
+                    "WDTFIRED",
+                    Value::Bool(v & super::watchdog::WFLAGS_FIRED != 0),
+                );
+                Ok(())
+            }
+            (Some(Tag::WriteY(i)), TextReply::Ok) => {
+                self.set_y(usize::from(i >> 1), i & 1 != 0);
+                self.rewrite = false;
+                Ok(())
+            }
+            (Some(Tag::WriteYword(w)), TextReply::Ok) => {
+                self.set_yword(w);
+                self.rewrite = false;
+                Ok(())
+            }
+            (Some(Tag::SetupWrite(i)), answer) => {
+                let Some(SetupStep::Text { name, verify, .. }) = self.setup.get(usize::from(i))
+                else {
+                    return Err(unexpected);
+                };
+                match answer {
+                    TextReply::Ok => {
+                        if !verify {
+                            self.record_setup(usize::from(i));
+                        }
+                        Ok(())
+                    }
+                    // A refused write that is read back shows as a mismatch there, by name.
+                    TextReply::Error if *verify => Ok(()),
+                    TextReply::Error => {
+                        tracing::error!(register = *name, "the module refused the setting");
+                        Err(DecodeError::Exception(ExceptionCode::IllegalDataValue))
+                    }
+                    _ => Err(unexpected),
+                }
+            }
+            (Some(Tag::SetupVerify(i)), TextReply::Value(id, found)) => {
+                let Some(SetupStep::Text {
+                    id: want_id,
+                    name,
+                    number,
+                    ..
+                }) = self.setup.get(usize::from(i))
+                else {
+                    return Err(unexpected);
+                };
+                if id != *want_id {
+                    return Err(unexpected);
+                }
+                if found != *number {
+                    return Err(DecodeError::Mismatch {
+                        register: name,
+                        expected: u32::from(*number),
+                        found: u32::from(found),
+                    });
+                }
+                self.record_setup(usize::from(i));
+                Ok(())
+            }
+            _ => Err(unexpected),
+        }
+    }
+}
+
+impl Driver for MiniModDriver {
+    fn address(&self) -> u8 {
+        self.unit.map_or(0, UnitId::get)
+    }
+
+    fn plan_startup(&mut self, out: &mut Vec<Transaction>) {
+        let Some(unit) = self.unit else { return };
+        for (i, step) in self.setup.iter().enumerate() {
+            let Ok(i) = u16::try_from(i) else { break };
+            self.plan_startup_step(unit, i, step, out);
+        }
+    }
+
+    fn plan_read(&mut self, out: &mut Vec<Transaction>) {
+        let Some(unit) = self.unit else { return };
+        let cycle = self.cycle;
+        self.cycle = self.cycle.wrapping_add(1);
+        let text = self.protocol == Protocol::Text;
+        if self.status.due(cycle) {
+            if text {
+                out.push(self.read_tx(unit, TextId::Wflags, Tag::Status));
+            } else {
+                let request = Request::ReadDiscreteInputs {
+                    addr: DI_STATUS_FIRST,
+                    count: DI_STATUS_COUNT,
+                };
+                out.push(self.modbus(unit, request, Tag::Status));
+                let request = Request::ReadCoils {
+                    addr: COIL_WDTFIRED,
+                    count: 1,
+                };
+                out.push(self.modbus(unit, request, Tag::StatusFired));
+            }
+        }
+        if self.counters.due(cycle) {
+            if text {
+                for c in 0..3u8 {
+                    out.push(self.read_tx(unit, TextId::Xcount(c), Tag::Counter(u16::from(c))));
+                }
+            } else {
+                let request = Request::ReadHoldingRegisters {
+                    addr: HR_XCOUNT1,
+                    count: 3,
+                };
+                out.push(self.modbus(unit, request, Tag::Counters));
+            }
+        }
+        // Event mode: what follows the membership is the full refresh, run when the bus
+        // owner's Collect round says so.
+        if self.events {
+            out.push(collect::membership(unit, self.event_refresh));
+        }
+        if text {
+            out.push(self.read_tx(unit, TextId::Xword, Tag::Inputs));
+        } else {
+            let request = Request::ReadDiscreteInputs {
+                addr: map::DI_X1,
+                count: map::DI_READ_COUNT,
+            };
+            out.push(self.modbus(unit, request, Tag::Inputs));
+        }
+        if self.readback.due(cycle) {
+            if text {
+                out.push(self.read_tx(unit, TextId::Yword, Tag::Readback));
+            } else {
+                let request = Request::ReadCoils {
+                    addr: map::COIL_Y1,
+                    count: 4,
+                };
+                out.push(self.modbus(unit, request, Tag::Readback));
+            }
+        }
+    }
+
+    fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>) {
+        let Some(unit) = self.unit else { return };
+        let all = refresh || self.rewrite;
+        let (mut owned, mut write, mut word) = (0u16, 0u16, 0u16);
+        for (y, &i) in IDX_Y.iter().enumerate() {
+            if let Some(Some(v)) = desired.get(i) {
+                let on = v.as_bool();
+                owned |= 1 << y;
+                word |= u16::from(on) << y;
+                if all || self.y.get(y).copied().flatten() != Some(on) {
+                    write |= 1 << y;
+                }
+            }
+        }
+        if write == 0 {
+            return;
+        }
+        if self.protocol == Protocol::Text {
+            if owned == 0x0F {
+                let value = WriteValue::Number(word);
+                if let Ok(line) = text::write_command(unit.get(), TextId::Yword, value) {
+                    out.push(Self::text_tx(line, Tag::WriteYword(word)));
+                }
+                return;
+            }
+            for y in (0..4u8).filter(|y| write & (1 << y) != 0) {
+                let on = word & (1 << y) != 0;
+                let value = WriteValue::Number(u16::from(on));
+                if let Ok(line) = text::write_command(unit.get(), TextId::Y(y), value) {
+                    let index = (u16::from(y) << 1) | u16::from(on);
+                    out.push(Self::text_tx(line, Tag::WriteY(index)));
+                }
+            }
+            return;
+        }
+        let request = if owned == 0x0F {
+            Request::WriteSingleRegister {
+                addr: map::HR_YWORD,
+                value: word,
+            }
+        } else if write.count_ones() == 1 {
+            let y = write.trailing_zeros() as u16;
+            Request::WriteSingleCoil {
+                addr: map::COIL_Y1 + y,
+                value: word & write != 0,
+            }
+        } else {
+            Request::MaskWriteRegister {
+                addr: map::HR_YWORD,
+                and_mask: !write,
+                or_mask: word & write,
+            }
+        };
+        out.push(self.modbus(unit, request, Tag::WriteOutputs));
+    }
+
+    fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError> {
+        match reply {
+            Reply::Modbus(Response::Exception { code, .. }) => Err(DecodeError::Exception(*code)),
+            // Events come back under the membership's tag.
+            Reply::Modbus(Response::Collect { kind, data, .. }) => {
+                self.apply_event(tag, *kind, *data)
+            }
+            Reply::Modbus(response) => self.on_modbus(tag, response),
+            Reply::Text(bytes) => self.on_text(tag, bytes),
+        }
+    }
+
     fn on_failure(&mut self, tag: u32) {
-        if Tag::decode(tag) == Some(Tag::WriteOutputs) {
+        if Tag::decode(tag).is_some_and(Tag::is_write) {
             self.rewrite = true;
         }
     }
@@ -523,16 +983,15 @@ impl Driver for MiniModDriver {
 
     fn reply_delay(&self) -> Duration {
         Duration::from_millis(10 * u64::from(self.rdelayt))
+            + Duration::from_micros(100 * u64::from(self.rdelaym))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::devices::Protocol;
     use crate::modbus::crc::append_crc;
     use crate::modbus::master::{encode_request, Progress, ReplyAssembler};
-    use crate::modbus::ExceptionCode;
     use crate::sim::SimDevice;
 
     use super::super::sim::MiniModSim;
@@ -573,8 +1032,14 @@ mod tests {
         tx: &Transaction,
         t: Duration,
     ) -> Result<(), DecodeError> {
-        let Outgoing::Modbus { unit, request } = &tx.frame else {
-            panic!("not modbus")
+        let (unit, request) = match &tx.frame {
+            Outgoing::Modbus { unit, request } => (unit, request),
+            Outgoing::Text { line, terminator } => {
+                let reply = sim.on_frame(line, t).expect("a text reply");
+                let end = reply.bytes.iter().position(|b| b == terminator).unwrap();
+                return d.on_reply(tx.tag, &Reply::Text(reply.bytes[..end].to_vec()));
+            }
+            Outgoing::NoReply { .. } => panic!("the MiniMod driver plans no unanswered frame"),
         };
         let reply = sim.on_frame(&wire(tx), t).expect("a reply");
         let mut asm = ReplyAssembler::new(unit.get(), request);
@@ -811,24 +1276,14 @@ mod tests {
     }
 
     #[test]
-    fn settings_are_checked() {
-        assert_eq!(check_setting("readback", "every"), Ok(()));
-        assert_eq!(check_setting("xlatup3", "65535"), Ok(()));
-        assert_eq!(check_setting("Y4AOFF3", "-X3"), Ok(()));
-        assert_eq!(check_setting("YLAMP2", "0b0000.0000.1111.1111"), Ok(()));
-        assert_eq!(check_setting("RDELAYT", "200"), Ok(()));
-        assert!(check_setting("RDELAYT", "201").is_err());
-        assert!(check_setting("XLATUP1", "65536").is_err());
-        assert!(check_setting("Y1AON1", "X7").is_err());
-        assert!(check_setting("readback", "0").is_err());
-        assert!(check_setting("YWORD", "1")
-            .unwrap_err()
-            .contains("not a minimod setting"));
-        assert!(check_setting("YPULSE1", "1").is_err());
-        assert!(check_setting("baud", "1").is_err());
+    fn reply_delay_follows_the_settings() {
         assert_eq!(
             driver(&[("RDELAYT", "5")]).reply_delay(),
             Duration::from_millis(50)
+        );
+        assert_eq!(
+            driver(&[("RDELAYT", "0"), ("RDELAYM", "15")]).reply_delay(),
+            Duration::from_micros(1500)
         );
         assert_eq!(driver(&[]).reply_delay(), Duration::from_millis(10));
     }
@@ -836,7 +1291,7 @@ mod tests {
     #[test]
     fn catalog_entry() {
         let m = crate::devices::model("minimod").unwrap();
-        assert_eq!(m.protocols, [Protocol::Modbus]);
+        assert_eq!(m.protocols, [Protocol::Modbus, Protocol::Text]);
         assert_eq!(m.max_baud, 57600);
         assert_eq!(m.default_reply_delay, Duration::from_millis(10));
         let config = DeviceConfig {
@@ -851,5 +1306,368 @@ mod tests {
         d.plan_read(&mut plan);
         assert_eq!(plan.len(), 2);
         assert_eq!((m.simulator)(UNIT).address(), UNIT);
+    }
+
+    /// Polls X1 every 100 ms around a 30 ms pulse at 130..160 ms; returns the polls that saw
+    /// it.
+    fn polls_seeing_a_30_ms_pulse(settings: &[(&str, &str)]) -> Vec<u64> {
+        let mut d = driver(settings);
+        let mut sim = MiniModSim::new(UNIT);
+        let mut setup = Vec::new();
+        d.plan_startup(&mut setup);
+        for tx in &setup {
+            exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
+        }
+        let mut seen = Vec::new();
+        for t in (100..=900).step_by(100) {
+            if t == 200 {
+                sim.advance_to(Duration::from_millis(130));
+                sim.set("X1", Value::Bool(true)).unwrap();
+                sim.advance_to(Duration::from_millis(160));
+                sim.set("X1", Value::Bool(false)).unwrap();
+            }
+            let mut plan = Vec::new();
+            d.plan_read(&mut plan);
+            exchange(&mut d, &mut sim, &plan[0], Duration::from_millis(t)).unwrap();
+            if value(&d, "X1") == Some(Value::Bool(true)) {
+                seen.push(t);
+            }
+        }
+        seen
+    }
+
+    #[test]
+    fn a_500_ms_falling_latency_lets_a_100_ms_scan_see_a_30_ms_pulse() {
+        assert_eq!(
+            polls_seeing_a_30_ms_pulse(&[]),
+            Vec::<u64>::new(),
+            "20 ms latencies: the pulse falls between two polls"
+        );
+        assert_eq!(
+            polls_seeing_a_30_ms_pulse(&[("XLATDN1", "500")]),
+            [200, 300, 400, 500, 600],
+            "cooked from 150 ms to 659 ms"
+        );
+    }
+
+    fn text_driver(settings: &[(&str, &str)]) -> MiniModDriver {
+        let settings: Vec<Setting> = settings
+            .iter()
+            .map(|(k, v)| Setting::parse(k, v).unwrap())
+            .collect();
+        MiniModDriver::with_protocol(Some(unit()), Protocol::Text, &settings)
+    }
+
+    fn line(tx: &Transaction) -> &[u8] {
+        match &tx.frame {
+            Outgoing::Text { line, terminator } => {
+                assert_eq!(*terminator, b'\r');
+                line
+            }
+            _ => panic!("not text"),
+        }
+    }
+
+    #[test]
+    fn text_protocol_reads_and_writes_the_same_points() {
+        let mut d = text_driver(&[("readback", "every")]);
+        let mut sim = MiniModSim::new(UNIT);
+        sim.set("X2", Value::Bool(true)).unwrap();
+        sim.command(&["fault", "Y1", "open"]).unwrap();
+        let mut plan = Vec::new();
+        d.plan_read(&mut plan);
+        assert_eq!(line(&plan[0]), b"@5?XWORD\r");
+        assert_eq!(line(&plan[1]), b"@5?YWORD\r");
+        for tx in &plan {
+            exchange(&mut d, &mut sim, tx, Duration::from_millis(20)).unwrap();
+        }
+        assert_eq!(value(&d, "X1"), Some(Value::Bool(false)));
+        assert_eq!(value(&d, "X2"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "X9"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "FB1"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "XWORD"), Some(Value::U16(0x0102)));
+        assert_eq!(value(&d, "YWORD"), Some(Value::U16(0)));
+        // All four owned: one >YWORD=.
+        let want = desired(&[("Y1", true), ("Y2", false), ("Y3", true), ("Y4", false)]);
+        plan.clear();
+        d.plan_write(&want, false, &mut plan);
+        assert_eq!(plan.len(), 1);
+        assert_eq!(line(&plan[0]), b"@5>YWORD=5\r");
+        exchange(&mut d, &mut sim, &plan[0], Duration::from_millis(30)).unwrap();
+        assert_eq!(sim.get("YWORD"), Ok(Value::U16(5)));
+        assert_eq!(value(&d, "Y3"), Some(Value::Bool(true)));
+        // Two owned, both changed: one >Yn= each.
+        let mut d = text_driver(&[]);
+        let want = desired(&[("Y2", true), ("Y4", false)]);
+        plan.clear();
+        d.plan_write(&want, false, &mut plan);
+        let lines: Vec<&[u8]> = plan.iter().map(line).collect();
+        assert_eq!(lines, [&b"@5>Y2=1\r"[..], b"@5>Y4=0\r"]);
+        for tx in &plan {
+            exchange(&mut d, &mut sim, tx, Duration::from_millis(40)).unwrap();
+        }
+        assert_eq!(sim.get("YWORD"), Ok(Value::U16(0b0111)), "Y1, Y3 untouched");
+        assert_eq!(value(&d, "Y2"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "Y1"), None);
+    }
+
+    #[test]
+    fn text_write_refused_while_the_watchdog_fires_is_planned_again() {
+        let mut d = text_driver(&[]);
+        let mut sim = MiniModSim::new(UNIT);
+        sim.set("WDTFIRED", Value::Bool(true)).unwrap();
+        let want = desired(&[("Y1", true)]);
+        let mut plan = Vec::new();
+        d.plan_write(&want, false, &mut plan);
+        let r = exchange(&mut d, &mut sim, &plan[0], Duration::ZERO);
+        assert_eq!(
+            r,
+            Err(DecodeError::Unexpected { tag: plan[0].tag }),
+            "Error"
+        );
+        d.on_failure(plan[0].tag);
+        plan.clear();
+        d.plan_write(&want, false, &mut plan);
+        assert_eq!(plan.len(), 1);
+    }
+
+    #[test]
+    fn modbus_write_refused_while_the_watchdog_fires() {
+        let mut d = driver(&[]);
+        let mut sim = MiniModSim::new(UNIT);
+        sim.set("WDTFIRED", Value::Bool(true)).unwrap();
+        let mut plan = Vec::new();
+        d.plan_write(&desired(&[("Y1", true)]), false, &mut plan);
+        assert_eq!(
+            exchange(&mut d, &mut sim, &plan[0], Duration::ZERO),
+            Err(DecodeError::Exception(ExceptionCode::ServerDeviceFailure))
+        );
+    }
+
+    #[test]
+    fn watchdog_and_event_masks_at_start_up() {
+        let mut d = driver(&[
+            ("WDTTIME", "50"),
+            ("WDTMASK", "0b1000"),
+            ("FBENABLE", "3"),
+            ("XEVMASK", "7"),
+            ("YEVMASK", "0xF"),
+            ("RDELAYT", "2"),
+        ]);
+        let mut sim = MiniModSim::new(UNIT);
+        sim.set("WDTFIRED", Value::Bool(true)).unwrap(); // left by the last run
+        let mut plan = Vec::new();
+        d.plan_startup(&mut plan);
+        let wires: Vec<Vec<u8>> = plan
+            .iter()
+            .map(|tx| match &tx.frame {
+                Outgoing::Text { line, .. } => line.clone(),
+                _ => wire(tx),
+            })
+            .collect();
+        assert_eq!(
+            wires,
+            [
+                frame(&[0x05, 0x10, 0x00, 0x05, 0x00, 0x02, 0x04, 0x00, 0x07, 0x00, 0x0F]),
+                frame(&[0x05, 0x03, 0x00, 0x05, 0x00, 0x02]),
+                frame(&[0x05, 0x10, 0x00, 0x80, 0x00, 0x01, 0x02, 0x00, 0x32]),
+                frame(&[0x05, 0x03, 0x00, 0x80, 0x00, 0x01]),
+                frame(&[0x05, 0x10, 0x00, 0x90, 0x00, 0x01, 0x02, 0x00, 0x08]),
+                frame(&[0x05, 0x03, 0x00, 0x90, 0x00, 0x01]),
+                frame(&[0x05, 0x0F, 0x00, 0x70, 0x00, 0x02, 0x01, 0x03]),
+                frame(&[0x05, 0x01, 0x00, 0x70, 0x00, 0x02]),
+                frame(&[0x05, 0x0F, 0x00, 0xA0, 0x00, 0x01, 0x01, 0x00]),
+                frame(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]),
+                b"@5>RDELAYT=2\r".to_vec(),
+            ]
+        );
+        for tx in &plan {
+            exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
+        }
+        assert_eq!(sim.get("WDTTIME"), Ok(Value::U16(50)));
+        assert_eq!(sim.get("WDTFB2"), Ok(Value::Bool(true)));
+        assert_eq!(sim.get("WDTFIRED"), Ok(Value::Bool(false)), "reset");
+        assert_eq!(sim.state().rdelayt(), 2);
+        assert_eq!(value(&d, "WDTTIME"), Some(Value::U16(50)));
+        assert_eq!(value(&d, "WDTFB1"), Some(Value::Bool(true)));
+        // A module that holds something else names the register.
+        sim.set("WDTFB1", Value::Bool(false)).unwrap();
+        assert_eq!(
+            exchange(&mut d, &mut sim, &plan[7], Duration::ZERO),
+            Err(DecodeError::Mismatch {
+                register: "WDTFB1",
+                expected: 1,
+                found: 0
+            })
+        );
+        // An enabled feedback that holds fires it again at once: the start stops, by name.
+        sim.set("WDTFB1", Value::Bool(true)).unwrap();
+        sim.command(&["fault", "Y1", "open"]).unwrap();
+        exchange(&mut d, &mut sim, &plan[8], Duration::from_millis(10)).unwrap();
+        assert_eq!(
+            exchange(&mut d, &mut sim, &plan[9], Duration::from_millis(11)),
+            Err(DecodeError::Mismatch {
+                register: "WDTFIRED",
+                expected: 0,
+                found: 1
+            })
+        );
+    }
+
+    #[test]
+    fn text_start_up_uses_text_where_the_tables_allow() {
+        let mut d = text_driver(&[
+            ("X1LATUP", "5"),
+            ("Y3AON2", "X2-X3"),
+            ("Y1AON1", "0x0100"), // not expressible with input names: Modbus
+            ("FBENABLE", "2"),
+            ("XCOUNT1", "100"),
+            ("XEVMASK", "1"), // no text identifier: Modbus
+        ]);
+        let mut sim = MiniModSim::new(UNIT);
+        let mut plan = Vec::new();
+        d.plan_startup(&mut plan);
+        let texts: Vec<&[u8]> = plan
+            .iter()
+            .filter_map(|tx| match &tx.frame {
+                Outgoing::Text { line, .. } => Some(line.as_slice()),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            texts,
+            [
+                &b"@5>XCOUNT1=100\r"[..],
+                b"@5>X1LATUP=5\r",
+                b"@5?X1LATUP\r",
+                b"@5>Y3AON2=X2-X3\r",
+                b"@5>FBENABLE=2\r",
+                b"@5?FBENABLE\r",
+            ]
+        );
+        assert_eq!(
+            plan.len(),
+            texts.len() + 6,
+            "three Modbus runs: XEVMASK, Y1AON1, WDTFIRED (the watchdog reset)"
+        );
+        for tx in &plan {
+            exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
+        }
+        assert_eq!(sim.get("Y3AON2"), Ok(Value::U16(0x0406)));
+        assert_eq!(sim.get("Y1AON1"), Ok(Value::U16(0x0100)));
+        assert_eq!(sim.get("XEVMASK"), Ok(Value::U16(1)));
+        assert_eq!(sim.get("WDTFB2"), Ok(Value::Bool(true)));
+        assert_eq!(value(&d, "XLATUP1"), Some(Value::U16(5)));
+        sim.set("XLATUP1", Value::U16(9)).unwrap();
+        let verify = plan
+            .iter()
+            .find(|tx| matches!(&tx.frame, Outgoing::Text { line, .. } if line == b"@5?X1LATUP\r"))
+            .unwrap();
+        assert_eq!(
+            exchange(&mut d, &mut sim, verify, Duration::ZERO),
+            Err(DecodeError::Mismatch {
+                register: "XLATUP1",
+                expected: 5,
+                found: 9
+            })
+        );
+    }
+
+    #[test]
+    fn counters_and_status_every_nth_cycle() {
+        let mut d = driver(&[("counters", "2"), ("status", "every")]);
+        let mut sim = MiniModSim::new(UNIT);
+        sim.set("XLATUP1", Value::U16(0)).unwrap();
+        sim.set("XLATDN1", Value::U16(0)).unwrap();
+        for k in 0..3u64 {
+            sim.set("X1", Value::Bool(true)).unwrap();
+            sim.advance_to(Duration::from_millis(10 * k + 5));
+            sim.set("X1", Value::Bool(false)).unwrap();
+            sim.advance_to(Duration::from_millis(10 * k + 10));
+        }
+        sim.set("SW4", Value::Bool(true)).unwrap();
+        sim.command(&["flash", "broken"]).unwrap();
+        let mut plan = Vec::new();
+        d.plan_read(&mut plan);
+        assert_eq!(plan.len(), 4, "status (2), counters, inputs");
+        assert_eq!(wire(&plan[0]), frame(&[0x05, 0x02, 0x00, 0x11, 0x00, 0x71]));
+        for tx in &plan {
+            exchange(&mut d, &mut sim, tx, Duration::from_millis(40)).unwrap();
+        }
+        assert_eq!(value(&d, "XCOUNT1"), Some(Value::U16(3)));
+        assert_eq!(value(&d, "SW4"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "FLASHFAIL"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "WDTFIRED"), Some(Value::Bool(false)));
+        plan.clear();
+        d.plan_read(&mut plan);
+        assert_eq!(plan.len(), 3, "no counters in the second cycle");
+        // Text: ?WFLAGS and ?XCOUNTn.
+        let mut t = text_driver(&[("counters", "every"), ("status", "every")]);
+        sim.set("WDTFIRED", Value::Bool(true)).unwrap();
+        plan.clear();
+        t.plan_read(&mut plan);
+        assert_eq!(line(&plan[0]), b"@5?WFLAGS\r");
+        assert_eq!(line(&plan[3]), b"@5?XCOUNT3\r");
+        for tx in &plan {
+            exchange(&mut t, &mut sim, tx, Duration::from_millis(50)).unwrap();
+        }
+        assert_eq!(value(&t, "WDTFIRED"), Some(Value::Bool(true)));
+        assert_eq!(value(&t, "XCOUNT1"), Some(Value::U16(3)));
+    }
+
+    #[test]
+    fn event_mode_plans_a_membership_then_the_refresh() {
+        let mut d = driver(&[("events", "true"), ("event_refresh", "250ms")]);
+        assert!(d.event_mode());
+        let mut plan = Vec::new();
+        d.plan_read(&mut plan);
+        assert_eq!(plan.len(), 2);
+        assert_eq!(
+            collect::membership_of(&plan[0]),
+            Some((unit(), Duration::from_millis(250)))
+        );
+        assert_eq!(wire(&plan[1]), frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]));
+        // Start-up enables the input events.
+        let mut setup = Vec::new();
+        d.plan_startup(&mut setup);
+        let mut sim = MiniModSim::new(UNIT);
+        for tx in &setup {
+            exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
+        }
+        assert_eq!(sim.get("XEVMASK"), Ok(Value::U16(7)));
+        assert_eq!(sim.get("EVFB1"), Ok(Value::Bool(true)));
+        assert_eq!(sim.get("EVFB2"), Ok(Value::Bool(true)));
+        // Events arrive under the membership's tag.
+        let event = Reply::Modbus(Response::Collect {
+            slave: UNIT,
+            seq: 1,
+            kind: 2,
+            data: 0x0205,
+        });
+        d.on_reply(plan[0].tag, &event).unwrap();
+        assert_eq!(value(&d, "X1"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "X2"), Some(Value::Bool(false)));
+        assert_eq!(value(&d, "X3"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "X10"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "FB2"), Some(Value::Bool(true)));
+        let outputs = Reply::Modbus(Response::Collect {
+            slave: UNIT,
+            seq: 2,
+            kind: 1,
+            data: 0b0010,
+        });
+        d.on_reply(plan[0].tag, &outputs).unwrap();
+        assert_eq!(value(&d, "Y2"), Some(Value::Bool(true)));
+        let bad = Reply::Modbus(Response::Collect {
+            slave: UNIT,
+            seq: 3,
+            kind: 9,
+            data: 0,
+        });
+        assert!(d.on_reply(plan[0].tag, &bad).is_err());
+        // A write is still planned from the program's desire: output events never feed it.
+        let mut w = Vec::new();
+        d.plan_write(&desired(&[("Y2", true)]), false, &mut w);
+        assert_eq!(w.len(), 1);
     }
 }

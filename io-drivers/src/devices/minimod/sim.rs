@@ -1,23 +1,39 @@
 //! The MiniMod simulator: the module's state on its 1 ms tick, answering on the line.
 //!
-//! - Frames are told apart first ([`FrameKind`]): the manual ("RS-485 serial interface") allows
-//!   Modbus RTU and the text protocol on the same line. Modbus frames are served from the
-//!   register map through [`RegisterBank`]; text lines are the text protocol's (a later issue:
-//!   until then the simulator stays silent on them, as a module that does not understand).
+//! - Frames are told apart first: the manual ("RS-485 serial interface") allows Modbus RTU
+//!   and the text protocol on the same line. A frame with a good Modbus CRC is Modbus and is
+//!   served from the register map through [`RegisterBank`]; every other byte goes to the text
+//!   receiver ([`PacketReceiver`]), which collects packets up to their CR as the module does
+//!   (so a terminal typing one character at a time works), and each packet is executed by
+//!   [`super::sim_text`].
 //! - Modbus ("Process control and data acquisition by a PC/PLC", Modbus over Serial Line): a
 //!   frame with a bad CRC gets no reply; a frame for another address is ignored; a broadcast
 //!   (address 0) is executed and never answered; a request the module refuses gets an
-//!   exception. FC 70 Collect gets no reply: this cut keeps no event queue, and a MiniMod with
-//!   no events stays silent.
+//!   exception (04 for an output write while the watchdog fires).
+//! - FC 70 Collect ([`super::events`]): a Collect for this module (broadcast or its address)
+//!   applies its acknowledgement; if the module is in the window and has an event, it replies
+//!   `SLAVE 70 SLVSEQ TYPE DATH DATL 0` in its 3 ms slot. On this virtual line a module cannot
+//!   hear another slave's reply, so the "blocked" rule of the manual (only the first slave with
+//!   events replies) is up to the line: two modules with events in one window both answer, in
+//!   their own slots.
 //! - Addresses: see [`super::map::Space::extent`]: holes inside the implemented range read 0
 //!   and ignore writes, addresses beyond it answer `IllegalDataAddress`; a pulser value above
 //!   65000 answers `IllegalDataValue`.
-//! - Every reply waits the module's reply delay, RDELAYT × 10 ms (power-on 10 ms).
+//! - Every reply but Collect's waits the module's reply delay, RDELAYT × 10 ms (power-on
+//!   10 ms) + RDELAYM × 0.1 ms; `>WCONF=1` takes 100 ms more.
+//! - Every frame the module acts on (Modbus for its address or broadcast, a well-formed text
+//!   packet for it) is a valid command for the watchdog.
+//! - While the module's serial settings (SERLINE, dip-switch 3) differ from the master's
+//!   ([`MiniModState::line`], changed with the `line` command), it hears only garbage: no
+//!   action, no reply.
 
 use std::time::Duration;
 
 use super::map::{lookup, point_item, Item, Slot, Space, POINTS};
+use super::serial_config::{LineMode, SerialParams};
+use super::sim_text;
 use super::state::{Fault, MiniModState, WriteError};
+use super::text::{PacketReceiver, TERMINATOR};
 use crate::modbus::crc::check_crc;
 use crate::modbus::server::{decode_request, encode_response, serve, RegisterBank};
 use crate::modbus::{ExceptionCode, Request, Response};
@@ -69,6 +85,7 @@ impl FrameKind {
 #[derive(Debug, Clone)]
 pub struct MiniModSim {
     state: MiniModState,
+    text: PacketReceiver,
 }
 
 impl MiniModSim {
@@ -77,6 +94,7 @@ impl MiniModSim {
     pub fn new(address: u8) -> Self {
         Self {
             state: MiniModState::new(address),
+            text: PacketReceiver::new(),
         }
     }
 
@@ -90,9 +108,10 @@ impl MiniModSim {
         &mut self.state
     }
 
-    /// The reply delay now: RDELAYT hundredths of a second ("Setting the reply delay").
+    /// The reply delay now: RDELAYT hundredths of a second ("Setting the reply delay") plus
+    /// RDELAYM tenths of a millisecond.
     pub fn reply_delay(&self) -> Duration {
-        Duration::from_millis(10 * u64::from(self.state.rdelayt()))
+        self.state.reply_delay()
     }
 
     fn reply(&self, unit: u8, resp: &Response) -> SimReply {
@@ -112,18 +131,61 @@ impl MiniModSim {
             Err(e) => {
                 // Malformed requests to this unit get their exception; the rest, silence.
                 let (unit, resp) = e.exception_reply()?;
-                return (unit == me).then(|| self.reply(unit, &resp));
+                if unit != me {
+                    return None;
+                }
+                self.state.on_valid_command();
+                return Some(self.reply(unit, &resp));
             }
         };
         if unit != 0 && unit != me {
             return None;
         }
-        if matches!(req, Request::Collect { .. }) {
-            // No event queue yet: a module with no events does not answer a Collect.
-            return None;
+        self.state.on_valid_command();
+        if let Request::Collect {
+            first,
+            last,
+            slave_ack,
+            slave_seq,
+        } = req
+        {
+            let (event, delay_ms) = self.state.collect(first, last, slave_ack, slave_seq)?;
+            let resp = Response::Collect {
+                slave: me,
+                seq: event.seq,
+                kind: event.kind,
+                data: event.data,
+            };
+            let mut bytes = Vec::with_capacity(9);
+            encode_response(me, &resp, &mut bytes);
+            return Some(SimReply {
+                bytes,
+                delay: Duration::from_millis(delay_ms),
+            });
         }
         let resp = serve(&mut self.state, &req);
         (unit != 0).then(|| self.reply(unit, &resp))
+    }
+
+    /// Bytes that are not a Modbus frame: the text receiver's. Every packet they complete is
+    /// executed; the replies of several go out back to back.
+    fn on_text(&mut self, frame: &[u8]) -> Option<SimReply> {
+        let mut reply: Option<SimReply> = None;
+        for &b in frame {
+            let Some(packet) = self.text.push(b) else {
+                continue;
+            };
+            let Some(answer) = sim_text::execute(&mut self.state, &packet) else {
+                continue;
+            };
+            let r = reply.get_or_insert_with(|| SimReply {
+                bytes: Vec::new(),
+                delay: self.state.reply_delay() + answer.extra_delay,
+            });
+            r.bytes.extend_from_slice(answer.text.as_bytes());
+            r.bytes.push(TERMINATOR);
+        }
+        reply
     }
 
     fn spec(point: &str) -> Result<&'static PointSpec, SimError> {
@@ -140,18 +202,68 @@ impl MiniModSim {
         let s = &self.state;
         let bits = |w: u8, n: usize| (0..n).map(move |i| if w & (1 << i) != 0 { '1' } else { '0' });
         let terminals: u8 = (0..3).fold(0, |acc, i| acc | (u8::from(s.terminal(i)) << i));
-        let fb = u8::from(s.feedback(0)) | (u8::from(s.feedback(1)) << 1);
+        let wd = s.watchdog();
+        let prefs = s.serial().active();
+        let watchdog = if wd.fired() {
+            let why = if wd.fired_by_comm() {
+                "WDTCOMM"
+            } else if wd.fired_by_feedback() {
+                "WDTFB"
+            } else {
+                "by hand"
+            };
+            format!("FIRED ({why})")
+        } else {
+            "armed".to_string()
+        };
         format!(
             "t={} ms address={} terminals X1..X3={} cooked X1..X3={} Y1..Y4={} YWORD={:#06x} \
-             FB1,FB2={}",
+             FB1,FB2={}\nwatchdog {watchdog}: WDTTIME={} FBENABLE={} WDTYMASK={:#06x}\n\
+             events: {} queued, {} dropped, XEVMASK={:#06x} EVFB={} YEVMASK={:#06x}\n\
+             serial: module {} (flash {}), master {}{}; RDELAYT={} RDELAYM={} MBADD={} \
+             SW3={} SW4={} flash {}",
             s.time_ms(),
             s.address(),
             bits(terminals, 3).collect::<String>(),
             bits(s.inputs(), 3).collect::<String>(),
             bits(s.outputs(), 4).collect::<String>(),
             s.read(Item::Yword),
-            bits(fb, 2).collect::<String>(),
+            bits(s.feedbacks(), 2).collect::<String>(),
+            wd.time(),
+            wd.fb_enable(),
+            wd.mask(),
+            s.events().queued().count(),
+            s.events().dropped(),
+            s.events().xevmask(),
+            s.events().evfb(),
+            s.events().yevmask(),
+            prefs.serial,
+            s.serial().stored().serial,
+            s.line(),
+            if s.listening() {
+                ""
+            } else {
+                " (mismatch: deaf)"
+            },
+            prefs.rdelayt,
+            prefs.rdelaym,
+            prefs.mbadd,
+            s.read(Item::Sw3),
+            s.read(Item::Sw4),
+            if s.serial().flash_broken() {
+                "broken"
+            } else {
+                "ok"
+            },
         )
+    }
+}
+
+fn on_off(word: &str) -> Option<bool> {
+    match word {
+        "on" | "1" => Some(true),
+        "off" | "0" => Some(false),
+        _ => None,
     }
 }
 
@@ -172,6 +284,7 @@ fn exception(e: WriteError) -> ExceptionCode {
     match e {
         WriteError::ReadOnly => ExceptionCode::IllegalDataAddress,
         WriteError::OutOfRange(_) => ExceptionCode::IllegalDataValue,
+        WriteError::WatchdogFired => ExceptionCode::ServerDeviceFailure,
     }
 }
 
@@ -229,14 +342,22 @@ const HELP: &str = "\
 minimod commands:
   fault Yn open|overload|none   inject a load fault on output Yn (n = 1..4): an open load is
                                 seen while the output is off, an overload while it is on;
-                                FB1 (Y1/Y2) and FB2 (Y3/Y4) follow, mirrored as X9/X10
-  power-cycle                   switch the module off and on (power-on values; terminals,
-                                faults, switches and address stay)
-  status                        terminals, cooked inputs, outputs, YWORD, feedbacks
+                                FB1 (Y1/Y2) and FB2 (Y3/Y4) follow, mirrored as X9/X10, and
+                                fire the watchdog where FBENABLE says
+  power-cycle                   switch the module off and on: power-on values, preferences
+                                from flash (what >WCONF=1 saved); terminals, faults, switches,
+                                selector stay
+  switch 3|4 on|off             flip a dip switch; 3 going on restores 19200 8E1 until the
+                                next power-up
+  line BAUD[E|O|N|X]            the master now talks at these settings (e.g. `line 9600N`);
+                                the module hears it only while its SERLINE matches
+  flash ok|broken               break the flash: >WCONF=1 answers \"Error 1\", FLASHFAIL = 1
+  events                        the Collect event queue
+  status                        terminals, inputs, outputs, feedbacks, watchdog, events, serial
 points: `set X1 1` sets the level at a terminal (cooked after XLATUP/XLATDN); `set SW3 1`
 flips dip switch 3; `set ROTSW n` turns the address selector (0..15; 0 counts as 16);
-`get Y1` is the level at the output terminal (pulser, blinker, watchdog included); other
-points read and write as through Modbus.";
+`set WDTFIRED 0` resets the watchdog; `get Y1` is the level at the output terminal (pulser,
+blinker, watchdog included); other points read and write as through Modbus.";
 
 impl SimDevice for MiniModSim {
     fn model(&self) -> &'static str {
@@ -254,10 +375,17 @@ impl SimDevice for MiniModSim {
 
     fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
         self.advance_to(t);
+        if !self.state.listening() {
+            // Wrong baud or parity: framing errors, nothing the module can act on.
+            self.text.clear();
+            return None;
+        }
         match FrameKind::of(frame) {
-            FrameKind::Modbus => self.on_modbus(frame),
-            // The text protocol ("Text commands protocol") comes in a later issue.
-            FrameKind::Text | FrameKind::Noise => None,
+            FrameKind::Modbus => {
+                self.text.clear();
+                self.on_modbus(frame)
+            }
+            FrameKind::Text | FrameKind::Noise => self.on_text(frame),
         }
     }
 
@@ -336,7 +464,67 @@ impl SimDevice for MiniModSim {
             }
             ["power-cycle"] => {
                 self.state.power_cycle();
-                Ok("power cycled".to_string())
+                self.text.clear();
+                Ok(format!(
+                    "power cycled: address {}, serial {}",
+                    self.state.address(),
+                    self.state.serial().active().serial
+                ))
+            }
+            ["switch", n @ ("3" | "4"), position] => {
+                let on = on_off(position).ok_or_else(|| SimError::BadValue {
+                    point: format!("SW{n}"),
+                    value: (*position).to_string(),
+                })?;
+                let n: u8 = if *n == "3" { 3 } else { 4 };
+                self.state.set_switch(n, on);
+                Ok(format!(
+                    "SW{n} {}; serial {}",
+                    if on { "on" } else { "off" },
+                    self.state.serial().active().serial
+                ))
+            }
+            ["line", settings] => {
+                let params = SerialParams::parse(settings, LineMode::Even).map_err(|e| {
+                    SimError::BadValue {
+                        point: "line".into(),
+                        value: format!("{settings} ({e})"),
+                    }
+                })?;
+                self.state.set_line(params);
+                Ok(format!(
+                    "master at {params}; module at {}{}",
+                    self.state.serial().active().serial,
+                    if self.state.listening() {
+                        ""
+                    } else {
+                        " (mismatch: the module hears garbage)"
+                    }
+                ))
+            }
+            ["flash", state @ ("ok" | "broken")] => {
+                self.state.set_flash_broken(*state == "broken");
+                Ok(format!("flash {state}"))
+            }
+            ["events"] => {
+                let lines: Vec<String> = self
+                    .state
+                    .events()
+                    .queued()
+                    .map(|e| {
+                        let kind = if e.kind == super::events::KIND_INPUTS {
+                            "inputs"
+                        } else {
+                            "outputs"
+                        };
+                        format!("SLVSEQ {} {kind} {:#06x}", e.seq, e.data)
+                    })
+                    .collect();
+                Ok(if lines.is_empty() {
+                    "no events".to_string()
+                } else {
+                    lines.join("\n")
+                })
             }
             ["status"] => Ok(self.status()),
             ["help"] => Ok(HELP.to_string()),
@@ -623,7 +811,481 @@ mod tests {
         );
         assert_eq!(FrameKind::of(&[0x3F, 0x03, 0x00]), FrameKind::Noise);
         let mut sim = MiniModSim::new(UNIT);
-        assert_eq!(sim.on_frame(b"?X1\r", ms(0)), None);
+        assert_eq!(text(&mut sim, "?X1\r", 0).as_deref(), Some("X1=0\r"));
+    }
+
+    /// Sends a text packet at `t` ms and returns the reply as text.
+    fn text(sim: &mut MiniModSim, packet: &str, t: u64) -> Option<String> {
+        sim.on_frame(packet.as_bytes(), ms(t))
+            .map(|r| String::from_utf8(r.bytes).unwrap())
+    }
+
+    #[test]
+    fn manual_text_examples() {
+        let mut sim = MiniModSim::new(UNIT);
+        // "?X1<CR>(<LF>)" → "X1=0<CR>"; ">Y1=1" → "OK".
+        assert_eq!(text(&mut sim, "?X1\r\n", 0).as_deref(), Some("X1=0\r"));
+        assert_eq!(text(&mut sim, ">Y1=1\r", 1).as_deref(), Some("OK\r"));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
+        assert_eq!(text(&mut sim, "?Y1\r", 2).as_deref(), Some("Y1=1\r"));
+        // ">YWORD=1" activates Y1 and turns off all the others.
+        text(&mut sim, ">Y3=1\r", 3);
+        assert_eq!(text(&mut sim, ">YWORD=1\r", 4).as_deref(), Some("OK\r"));
+        assert_eq!(
+            text(&mut sim, "?YWORD\r", 5).as_deref(),
+            Some("YWORD=00001\r")
+        );
+        // "XWORD=00003" means X1 and X2 on.
+        sim.set("X1", Value::Bool(true)).unwrap();
+        sim.set("X2", Value::Bool(true)).unwrap();
+        assert_eq!(
+            text(&mut sim, "?XWORD\r", 30).as_deref(),
+            Some("XWORD=00003\r")
+        );
+        // "FBACKS=00003": both feedbacks on.
+        sim.command(&["fault", "Y2", "open"]).unwrap();
+        sim.command(&["fault", "Y4", "open"]).unwrap();
+        assert_eq!(
+            text(&mut sim, "?FBACKS\r", 31).as_deref(),
+            Some("FBACKS=00003\r")
+        );
+        assert_eq!(text(&mut sim, "?X9\r", 31).as_deref(), Some("X9=1\r"));
+        assert_eq!(text(&mut sim, "?X10\r", 31).as_deref(), Some("X10=1\r"));
+        // "FBENABLE=3".
+        assert_eq!(text(&mut sim, ">FBENABLE=3\r", 32).as_deref(), Some("OK\r"));
+        assert_eq!(
+            text(&mut sim, "?FBENABLE\r", 33).as_deref(),
+            Some("FBENABLE=3\r")
+        );
+        // The feedbacks now fire the watchdog at the next millisecond.
+        assert_eq!(
+            text(&mut sim, "?WFLAGS\r", 35).as_deref(),
+            Some("WFLAGS=006\r")
+        );
+        assert_eq!(text(&mut sim, ">WFLAGS=0\r", 36).as_deref(), Some("OK\r"));
+        assert_eq!(text(&mut sim, ">FBENABLE=0\r", 36).as_deref(), Some("OK\r"));
+        assert_eq!(
+            text(&mut sim, "?WFLAGS\r", 40).as_deref(),
+            Some("WFLAGS=000\r")
+        );
+        // ">XCOUNT1=0" presets; "?SW3".
+        assert_eq!(
+            text(&mut sim, "?XCOUNT1\r", 41).as_deref(),
+            Some("XCOUNT1=00001\r")
+        );
+        assert_eq!(text(&mut sim, ">XCOUNT1=0\r", 42).as_deref(), Some("OK\r"));
+        assert_eq!(
+            text(&mut sim, "?XCOUNT1\r", 43).as_deref(),
+            Some("XCOUNT1=00000\r")
+        );
+        assert_eq!(text(&mut sim, "?SW3\r", 44).as_deref(), Some("SW3=0\r"));
+        assert_eq!(text(&mut sim, "?SW4\r", 44).as_deref(), Some("SW4=0\r"));
+        assert_eq!(
+            text(&mut sim, "?X1LATUP\r", 44).as_deref(),
+            Some("X1LATUP=00020\r")
+        );
+        // ">WDTMASK=0": all off when it fires.
+        assert_eq!(text(&mut sim, ">WDTMASK=0\r", 45).as_deref(), Some("OK\r"));
+        assert_eq!(
+            text(&mut sim, "?WDTMASK\r", 45).as_deref(),
+            Some("WDTMASK=00000\r")
+        );
+        assert_eq!(
+            text(&mut sim, ">WDTTIME=65535\r", 46).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(
+            text(&mut sim, "?WDTTIME\r", 46).as_deref(),
+            Some("WDTTIME=65535\r")
+        );
+    }
+
+    #[test]
+    fn more_manual_text_examples() {
+        // "ADDRESS=034".
+        let mut sim = MiniModSim::new(34);
+        assert_eq!(
+            text(&mut sim, "?ADDRESS\r", 0).as_deref(),
+            Some("ADDRESS=034\r")
+        );
+        // ">Y2=1" turns on Y2, ">Y2=0" turns it off.
+        assert_eq!(text(&mut sim, ">Y2=1\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(sim.get("Y2"), Ok(Value::Bool(true)));
+        assert_eq!(text(&mut sim, ">Y2=0\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(sim.get("Y2"), Ok(Value::Bool(false)));
+        // ">FBENABLE=0|1|2|3".
+        for n in 0..=3u16 {
+            assert_eq!(
+                text(&mut sim, &format!(">FBENABLE={n}\r"), 1).as_deref(),
+                Some("OK\r")
+            );
+            assert_eq!(sim.get("WDTFB1"), Ok(Value::Bool(n & 1 != 0)));
+            assert_eq!(sim.get("WDTFB2"), Ok(Value::Bool(n & 2 != 0)));
+        }
+        text(&mut sim, ">FBENABLE=0\r", 1);
+        // ">Y1PULSE=100": Y1 on, off after 100 ms.
+        assert_eq!(
+            text(&mut sim, ">Y1PULSE=100\r", 10).as_deref(),
+            Some("OK\r")
+        );
+        sim.advance_to(ms(109));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
+        sim.advance_to(ms(110));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
+        // ">Y1LAMP=1": a brief flash (one step of 100 ms) every 1.6 s.
+        assert_eq!(text(&mut sim, ">Y1LAMP=1\r", 1600).as_deref(), Some("OK\r"));
+        let on: Vec<u64> = (1600..4800)
+            .step_by(50)
+            .filter(|&t| {
+                sim.advance_to(ms(t));
+                sim.get("Y1") == Ok(Value::Bool(true))
+            })
+            .collect();
+        assert_eq!(on, [1600, 1650, 3200, 3250]);
+        // "Y1AON1=X1X2" and "Y1AON2=X1-X3": on when X1 is high and (X2 high or X3 low).
+        let mut sim = MiniModSim::new(UNIT);
+        for x in 1..=3 {
+            text(&mut sim, &format!(">X{x}LATUP=0\r"), 0);
+            text(&mut sim, &format!(">X{x}LATDN=0\r"), 0);
+        }
+        text(&mut sim, ">Y1AON1=X1X2\r", 0);
+        text(&mut sim, ">Y1AON2=X1-X3\r", 0);
+        text(&mut sim, ">Y1AOFF1=-X1\r", 0);
+        let mut t = 1;
+        for inputs in 0u8..8 {
+            for x in 0..3 {
+                let point = ["X1", "X2", "X3"][x];
+                sim.set(point, Value::Bool(inputs & (1 << x) != 0)).unwrap();
+            }
+            t += 1;
+            sim.advance_to(ms(t));
+            let (x1, x2, x3) = (inputs & 1 != 0, inputs & 2 != 0, inputs & 4 != 0);
+            let expected = x1 && (x2 || !x3);
+            if expected || !x1 {
+                assert_eq!(
+                    sim.get("Y1"),
+                    Ok(Value::Bool(expected)),
+                    "inputs {inputs:03b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn slave_addressing_and_device() {
+        let mut sim = MiniModSim::new(25);
+        assert_eq!(
+            text(&mut sim, "@25?DEVICE\r", 0).as_deref(),
+            Some("DEVICE=MINIMOD 1.1\r")
+        );
+        assert_eq!(text(&mut sim, "@24?DEVICE\r", 0), None, "another slave");
+        assert_eq!(text(&mut sim, "@0?DEVICE\r", 0), None, "@0 is malformed");
+        assert_eq!(
+            text(&mut sim, "?ADDRESS\r", 0).as_deref(),
+            Some("ADDRESS=025\r")
+        );
+        assert_eq!(
+            text(&mut sim, "@25 ? device \r", 0).as_deref(),
+            Some("DEVICE=MINIMOD 1.1\r")
+        );
+    }
+
+    #[test]
+    fn malformed_packets_get_no_reply_and_errors_get_error() {
+        let mut sim = MiniModSim::new(UNIT);
+        assert_eq!(text(&mut sim, "X1\r", 0), None);
+        assert_eq!(text(&mut sim, "\r", 0), None);
+        assert_eq!(text(&mut sim, "?X4\r", 0).as_deref(), Some("Error\r"));
+        assert_eq!(text(&mut sim, ">X1=1\r", 0).as_deref(), Some("Error\r"));
+        assert_eq!(text(&mut sim, ">Y1=2\r", 0).as_deref(), Some("Error\r"));
+        assert_eq!(text(&mut sim, ">Y2=\r", 0).as_deref(), Some("Error\r"));
+        assert_eq!(
+            text(&mut sim, ">Y1PULSE=65001\r", 0).as_deref(),
+            Some("Error\r")
+        );
+        assert_eq!(text(&mut sim, "?Y1AON1\r", 0).as_deref(), Some("Error\r"));
+        assert_eq!(
+            text(&mut sim, "@6?X4\r", 0),
+            None,
+            "an error for another slave"
+        );
+    }
+
+    #[test]
+    fn a_terminal_typing_one_character_at_a_time() {
+        let mut sim = MiniModSim::new(UNIT);
+        for (i, c) in "?x".chars().enumerate() {
+            assert_eq!(text(&mut sim, &c.to_string(), i as u64), None);
+        }
+        assert_eq!(text(&mut sim, "1", 2), None);
+        assert_eq!(text(&mut sim, "\r", 3).as_deref(), Some("X1=0\r"));
+        // Two packets in one frame: both answered, back to back.
+        assert_eq!(
+            text(&mut sim, "?X1\r?X2\r", 4).as_deref(),
+            Some("X1=0\rX2=0\r")
+        );
+    }
+
+    #[test]
+    fn modbus_and_text_concurrently() {
+        let mut sim = MiniModSim::new(UNIT);
+        text(&mut sim, "?X", 0);
+        // A Modbus frame in between throws the partial text packet away.
+        let req = frame(&[0x05, 0x06, 0x00, 0x00, 0x00, 0x05]);
+        assert_eq!(
+            sim.on_frame(&req, ms(1)).map(|r| r.bytes),
+            Some(req.clone())
+        );
+        assert_eq!(text(&mut sim, "1\r", 2), None, "\"1\" alone is malformed");
+        assert_eq!(
+            text(&mut sim, "?YWORD\r", 3).as_deref(),
+            Some("YWORD=00005\r")
+        );
+        assert_eq!(text(&mut sim, ">YWORD=2\r", 4).as_deref(), Some("OK\r"));
+        let yword = ask(
+            &mut sim,
+            &Request::ReadHoldingRegisters { addr: 0, count: 1 },
+            ms(5),
+        );
+        assert_eq!(yword, Some(frame(&[0x05, 0x03, 0x02, 0x00, 0x02])));
+    }
+
+    #[test]
+    fn automatic_conditions_by_text() {
+        let mut sim = MiniModSim::new(UNIT);
+        for x in 1..=3 {
+            text(&mut sim, &format!(">X{x}LATUP=0\r"), 0);
+            text(&mut sim, &format!(">X{x}LATDN=0\r"), 0);
+        }
+        // "Y1AON1=X1X2": Y1 on when X1 and X2 are both high.
+        assert_eq!(text(&mut sim, ">Y1AON1=X1X2\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(sim.get("Y1AON1"), Ok(Value::U16(0x0003)));
+        // "Y3AON2=X2-X3": Y3 on when X2 is on and X3 is off.
+        assert_eq!(
+            text(&mut sim, ">Y3AON2=X2-X3\r", 0).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(sim.get("Y3AON2"), Ok(Value::U16(0x0406)));
+        // "Y1AOFF1=-X1": Y1 off when X1 goes down.
+        assert_eq!(text(&mut sim, ">Y1AOFF1=-X1\r", 0).as_deref(), Some("OK\r"));
+        sim.set("X1", Value::Bool(true)).unwrap();
+        sim.advance_to(ms(2));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
+        sim.set("X2", Value::Bool(true)).unwrap();
+        sim.advance_to(ms(3));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
+        assert_eq!(sim.get("Y3"), Ok(Value::Bool(true)));
+        sim.set("X1", Value::Bool(false)).unwrap();
+        sim.advance_to(ms(4));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)), "OFF has precedence");
+        // An empty value clears a condition.
+        assert_eq!(text(&mut sim, ">Y3AON2=\r", 5).as_deref(), Some("OK\r"));
+        assert_eq!(sim.get("Y3AON2"), Ok(Value::U16(0)));
+    }
+
+    #[test]
+    fn y1pulse_50_by_text_is_a_50_ms_pulse() {
+        let mut sim = MiniModSim::new(UNIT);
+        assert_eq!(
+            text(&mut sim, ">Y1PULSE=50\r", 100).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
+        assert_eq!(
+            text(&mut sim, "?Y1PULSE\r", 120).as_deref(),
+            Some("Y1PULSE=00030\r")
+        );
+        sim.advance_to(ms(149));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
+        sim.advance_to(ms(150));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
+    }
+
+    #[test]
+    fn ylamp_255_blinks_with_a_1600_ms_period() {
+        let mut sim = MiniModSim::new(UNIT);
+        assert_eq!(text(&mut sim, ">Y2LAMP=255\r", 0).as_deref(), Some("OK\r"));
+        let level = |sim: &mut MiniModSim, t: u64| {
+            sim.advance_to(ms(t));
+            sim.get("Y2") == Ok(Value::Bool(true))
+        };
+        for period in 0..3 {
+            let base = 1600 * period;
+            assert!(level(&mut sim, base + 1), "on for 8 steps");
+            assert!(level(&mut sim, base + 799));
+            assert!(!level(&mut sim, base + 800), "off for 8 steps");
+            assert!(!level(&mut sim, base + 1599));
+        }
+        assert_eq!(
+            text(&mut sim, "?Y2LAMP\r", 5000).as_deref(),
+            Some("Y2LAMP=00255\r")
+        );
+    }
+
+    #[test]
+    fn collect_exchange_of_the_manual() {
+        // Window 1–16: slave 4 has an event and replies in its slot; then window 5–16
+        // acknowledges it.
+        let mut sim = MiniModSim::new(4);
+        sim.set("XLATUP1", Value::U16(0)).unwrap();
+        sim.set("XEVMASK", Value::U16(0b111)).unwrap();
+        sim.set("X1", Value::Bool(true)).unwrap();
+        sim.advance_to(ms(1));
+        assert_eq!(sim.get("EVENTSPRS"), Ok(Value::Bool(true)));
+        let collect = frame(&[0x00, 0x46, 0x01, 0x10, 0x00, 0x00]);
+        let reply = sim.on_frame(&collect, ms(10)).unwrap();
+        assert_eq!(
+            reply.bytes,
+            frame(&[0x04, 0x46, 0x01, 0x02, 0x00, 0x01, 0x00])
+        );
+        assert_eq!(reply.delay, ms(3 * 3 + 1), "the fourth 3 ms slot");
+        // Not acknowledged: the same event again.
+        let again = sim.on_frame(&collect, ms(40)).unwrap();
+        assert_eq!(again.bytes, reply.bytes);
+        let ack = frame(&[0x00, 0x46, 0x05, 0x10, 0x04, 0x01]);
+        assert_eq!(sim.on_frame(&ack, ms(60)), None, "4 is outside 5–16");
+        assert_eq!(sim.get("EVENTSPRS"), Ok(Value::Bool(false)));
+        assert_eq!(sim.on_frame(&collect, ms(80)), None, "nothing queued");
+        // Directed to another slave: ignored, acknowledgement included.
+        sim.set("X1", Value::Bool(false)).unwrap();
+        sim.advance_to(ms(120));
+        let other = frame(&[0x07, 0x46, 0x01, 0x10, 0x04, 0x02]);
+        assert_eq!(sim.on_frame(&other, ms(121)), None);
+        assert_eq!(sim.get("EVENTSPRS"), Ok(Value::Bool(true)));
+        let mine = frame(&[0x04, 0x46, 0x04, 0x04, 0x00, 0x00]);
+        let reply = sim.on_frame(&mine, ms(122)).unwrap();
+        assert_eq!(
+            reply.bytes,
+            frame(&[0x04, 0x46, 0x02, 0x02, 0x00, 0x00, 0x00])
+        );
+        assert_eq!(reply.delay, ms(1), "first slot");
+    }
+
+    #[test]
+    fn watchdog_over_the_line() {
+        let mut sim = MiniModSim::new(UNIT);
+        assert_eq!(text(&mut sim, ">WDTMASK=8\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(text(&mut sim, ">YWORD=3\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(text(&mut sim, ">WDTTIME=10\r", 0).as_deref(), Some("OK\r"));
+        // Polls for another slave do not feed it; polls for this one (any protocol) do.
+        let poll = frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]);
+        let other = frame(&[0x06, 0x02, 0x00, 0x00, 0x00, 0x0A]);
+        assert!(sim.on_frame(&poll, ms(90)).is_some());
+        assert!(sim.on_frame(&other, ms(150)).is_none());
+        sim.advance_to(ms(189));
+        assert_eq!(sim.get("WDTFIRED"), Ok(Value::Bool(false)));
+        sim.advance_to(ms(190));
+        assert_eq!(
+            sim.get("WDTFIRED"),
+            Ok(Value::Bool(true)),
+            "100 ms after 90 ms"
+        );
+        assert_eq!(sim.get("WDTCOMM"), Ok(Value::Bool(true)));
+        assert_eq!(sim.get("Y4"), Ok(Value::Bool(true)));
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
+        // Outputs are locked: exception 04 on Modbus, Error in text.
+        let write = frame(&[0x05, 0x06, 0x00, 0x00, 0x00, 0x01]);
+        let refused = sim.on_frame(&write, ms(200)).map(|r| r.bytes);
+        assert_eq!(refused, Some(frame(&[0x05, 0x86, 0x04])));
+        assert_eq!(text(&mut sim, ">Y1=1\r", 201).as_deref(), Some("Error\r"));
+        // WDTCOMM and WDTFB at discrete inputs 24/25.
+        let why = ask(
+            &mut sim,
+            &Request::ReadDiscreteInputs { addr: 24, count: 2 },
+            ms(202),
+        );
+        assert_eq!(why, Some(frame(&[0x05, 0x02, 0x01, 0x02])));
+        // Reset through the coil WDTFIRED (00161).
+        let reset = frame(&[0x05, 0x05, 0x00, 0xA0, 0x00, 0x00]);
+        assert!(sim.on_frame(&reset, ms(203)).is_some());
+        assert_eq!(sim.get("WDTFIRED"), Ok(Value::Bool(false)));
+        assert_eq!(
+            sim.on_frame(&write, ms(204)).map(|r| r.bytes),
+            Some(write.clone())
+        );
+    }
+
+    #[test]
+    fn serial_configuration() {
+        let mut sim = MiniModSim::new(UNIT);
+        // The OK goes out with the old settings, then the module is at 9600 8N2.
+        assert_eq!(
+            text(&mut sim, ">SERLINE=9600N\r", 0).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(
+            text(&mut sim, "?X1\r", 1),
+            None,
+            "the master still talks 19200E"
+        );
+        sim.command(&["line", "9600N"]).unwrap();
+        assert_eq!(text(&mut sim, "?X1\r", 2).as_deref(), Some("X1=0\r"));
+        // No letter: parity and stop bits stay.
+        assert_eq!(
+            text(&mut sim, ">SERLINE=57600\r", 3).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(sim.state().serial().active().serial.to_string(), "57600N");
+        assert_eq!(text(&mut sim, ">SERLINE=1200E\r", 4), None, "deaf at 9600");
+        // Dip-switch 3 to on: 19200 8E1 until the next power-up.
+        sim.command(&["line", "19200E"]).unwrap();
+        sim.command(&["switch", "3", "on"]).unwrap();
+        assert_eq!(
+            text(&mut sim, ">SERLINE=1200E\r", 5).as_deref(),
+            Some("Error\r")
+        );
+        // Never saved: the power cycle brings the flash's 19200E back.
+        sim.command(&["power-cycle"]).unwrap();
+        assert_eq!(text(&mut sim, "?SW3\r", 6).as_deref(), Some("SW3=1\r"));
+        // Saved with WCONF: slow OK, and kept across a power cycle.
+        assert_eq!(text(&mut sim, ">RDELAYT=3\r", 7).as_deref(), Some("OK\r"));
+        let wconf = sim.on_frame(b">WCONF=1\r", ms(8)).unwrap();
+        assert_eq!(wconf.bytes, b"OK\r");
+        assert_eq!(wconf.delay, ms(30 + 100));
+        sim.command(&["power-cycle"]).unwrap();
+        let reply = sim.on_frame(b"?X1\r", ms(9)).unwrap();
+        assert_eq!(reply.delay, ms(30), "RDELAYT 3 survived");
+        assert_eq!(text(&mut sim, ">RDELAYM=25\r", 10).as_deref(), Some("OK\r"));
+        assert_eq!(
+            sim.on_frame(b"?X1\r", ms(11)).unwrap().delay,
+            Duration::from_micros(32_500)
+        );
+        sim.command(&["flash", "broken"]).unwrap();
+        assert_eq!(
+            text(&mut sim, ">WCONF=1\r", 12).as_deref(),
+            Some("Error 1\r")
+        );
+        assert_eq!(sim.get("FLASHFAIL"), Ok(Value::Bool(true)));
+        assert_eq!(text(&mut sim, ">WCONF=0\r", 13).as_deref(), Some("Error\r"));
+    }
+
+    #[test]
+    fn address_through_mbadd() {
+        let mut sim = MiniModSim::new(UNIT);
+        sim.set("ROTSW", Value::U16(0)).unwrap();
+        assert_eq!(sim.address(), 16);
+        assert_eq!(
+            text(&mut sim, "@16>ADDRESS=180\r", 0).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(sim.address(), 180);
+        assert_eq!(
+            text(&mut sim, "@180?ADDRESS\r", 1).as_deref(),
+            Some("ADDRESS=180\r")
+        );
+        assert_eq!(text(&mut sim, "@16?ADDRESS\r", 1), None);
+        let poll = frame(&[180, 0x04, 0x00, 0x09, 0x00, 0x01]);
+        assert_eq!(
+            sim.on_frame(&poll, ms(2)).map(|r| r.bytes),
+            Some(frame(&[180, 0x04, 0x02, 0x00, 0x00])),
+            "ROTSW is still 0"
+        );
+        sim.set("ROTSW", Value::U16(1)).unwrap();
+        assert_eq!(sim.address(), 165, "the selector still moves it");
+        assert_eq!(
+            text(&mut sim, ">ADDRESS=248\r", 3).as_deref(),
+            Some("Error\r")
+        );
     }
 
     #[test]
@@ -689,8 +1351,28 @@ mod tests {
         sim.command(&["power-cycle"]).unwrap();
         assert_eq!(sim.get("XLATUP1"), Ok(Value::U16(20)));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
-        assert!(sim.command(&["status"]).unwrap().contains("address=5"));
+        let status = sim.command(&["status"]).unwrap();
+        assert!(status.contains("address=5"), "{status}");
+        assert!(status.contains("watchdog armed"), "{status}");
+        assert!(status.contains("module 19200E"), "{status}");
         assert!(sim.command_help().contains("fault Yn"));
+        assert!(sim
+            .command(&["switch", "3", "on"])
+            .unwrap()
+            .contains("SW3 on"));
+        assert_eq!(sim.get("SW3"), Ok(Value::Bool(true)));
+        assert!(sim.command(&["switch", "3", "sideways"]).is_err());
+        assert!(sim.command(&["line", "9600Q"]).is_err());
+        assert!(sim
+            .command(&["line", "9600N"])
+            .unwrap()
+            .contains("mismatch"));
+        assert!(sim.command(&["flash", "broken"]).is_ok());
+        assert_eq!(sim.command(&["events"]).unwrap(), "no events");
+        sim.set("XEVMASK", Value::U16(1)).unwrap();
+        sim.set("X1", Value::Bool(true)).unwrap();
+        sim.advance_to(ms(100));
+        assert_eq!(sim.command(&["events"]).unwrap(), "SLVSEQ 1 inputs 0x0001");
     }
 
     #[test]

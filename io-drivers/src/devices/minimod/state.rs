@@ -1,9 +1,11 @@
 //! The MiniMod's inside: inputs with latencies and counters, outputs with pulsers, blinkers
-//! and automatic conditions, feedbacks, and the register values, on the module's own 1 ms tick.
+//! and automatic conditions, feedbacks, the watchdog, the Collect event queue, the
+//! preferences, and the register values, on the module's own 1 ms tick.
 //!
-//! Protocol-free: the Modbus side ([`super::sim`]) and, later, the text protocol both read and
-//! write through [`MiniModState::read`] and [`MiniModState::write`], addressed by
-//! [`Item`]. Time is counted in whole ticks of 1 ms since power-on.
+//! Protocol-free: the Modbus side ([`super::sim`]) and the text protocol
+//! ([`super::sim_text`]) both read and write through [`MiniModState::read`] and
+//! [`MiniModState::write`], addressed by [`Item`], plus a few text-only accessors. Time is
+//! counted in whole ticks of 1 ms since power-on.
 //!
 //! Behaviour, after the manual:
 //! - "Input conditioning": inputs are sampled once a millisecond; a new level must persist for
@@ -26,10 +28,20 @@
 //!   a master write against a holding condition is undone at the next tick.
 //! - "Outputs feedback": a feedback bit is 1 while one of its two outputs shows its injected
 //!   fault: an open load while the output is off, an overload while it is on.
-//! - "Internal watch-dog": while WDTFIRED is set the outputs show WDTYMASK. What fires it
-//!   (WDTTIME, feedbacks) is not simulated yet.
+//! - "Internal watch-dog": see [`super::watchdog`]; checked at every tick after the outputs
+//!   settle. While fired the outputs show WDTYMASK.
+//! - "Modbus function Collect": see [`super::events`]; variations are looked for at every tick,
+//!   after everything else.
+//! - "Configuration of Minimod": see [`super::serial_config`]. The simulator also keeps the
+//!   serial settings the master uses ([`MiniModState::line`]): while they differ from the
+//!   module's own, the module hears only garbage and neither acts nor answers.
 
+use std::time::Duration;
+
+use super::events::{Event, Events};
 use super::map::{condition_holds, Item};
+use super::serial_config::{FlashError, Preferences, SerialConfig, SerialParams};
+use super::watchdog::{Cause, Watchdog, WFLAGS_FIRED};
 
 /// Length of one tick of the module's sampling clock, in ms.
 pub const TICK_MS: u64 = 1;
@@ -40,7 +52,7 @@ pub const POWER_ON_LATENCY_MS: u16 = 20;
 /// Highest pulser value the manual allows ("Pulse generation": 1 to 65000 ms).
 pub const MAX_PULSE_MS: u16 = 65000;
 /// Power-on reply delay, hundredths of a second ("Setting the reply delay": RDELAYT).
-pub const POWER_ON_RDELAYT: u8 = 1;
+pub const POWER_ON_RDELAYT: u8 = super::serial_config::FACTORY_RDELAYT;
 
 /// A fault injected on an output's load, seen by the module's output monitoring.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -63,6 +75,9 @@ pub enum WriteError {
     /// The value is outside the item's range (pulsers: 0..=65000).
     #[error("value {0} out of range")]
     OutOfRange(u16),
+    /// The watchdog fires: the outputs cannot be changed until it is reset.
+    #[error("the watchdog has fired; outputs are locked until it is reset")]
+    WatchdogFired,
 }
 
 /// The module's complete state.
@@ -85,33 +100,28 @@ pub struct MiniModState {
     lamp: [u16; 4],
     aon: [[u16; 3]; 4],
     aoff: [[u16; 3]; 4],
-    xevmask: u16,
-    yevmask: u16,
-    /// EVFB1..2, bits 0..1.
-    evfb: u8,
-    /// WDTFB1..2 (text FBENABLE), bits 0..1.
-    fbenable: u8,
-    wdt_fired: bool,
-    wdttime: u16,
-    wdtymask: u16,
+    watchdog: Watchdog,
+    events: Events,
+    serial: SerialConfig,
     faults: [Fault; 4],
     sw3: bool,
     sw4: bool,
     /// Rotary selector position, 0..=15.
     rotary: u8,
-    /// Address offset (MBADD, "Setting the slave address").
-    mbadd: u8,
-    /// Reply delay in hundredths of a second.
-    rdelayt: u8,
+    /// The serial settings the master talks with (the simulator's view of the line).
+    line: SerialParams,
     /// The automatic conditions must be evaluated at the next tick (inputs, outputs or
     /// conditions changed since the last evaluation).
     auto_dirty: bool,
+    /// Something changed from outside since the last tick (a write, a terminal, a fault): the
+    /// next tick must run in full so the watchdog and the event queue see it.
+    touched: bool,
 }
 
 impl MiniModState {
     /// A module just powered on, with its selector and MBADD set so that it answers at
     /// `address` (1..=15: that selector position; 16: position 0; above: position 0 and
-    /// MBADD = address − 16).
+    /// MBADD = address − 16), factory serial settings, and a master on the same settings.
     pub fn new(address: u8) -> Self {
         let (rotary, mbadd) = match address {
             1..=15 => (address, 0),
@@ -130,26 +140,22 @@ impl MiniModState {
             lamp: [0; 4],
             aon: [[0; 3]; 4],
             aoff: [[0; 3]; 4],
-            xevmask: 0,
-            yevmask: 0,
-            evfb: 0,
-            fbenable: 0,
-            wdt_fired: false,
-            wdttime: 0,
-            wdtymask: 0,
+            watchdog: Watchdog::new(0),
+            events: Events::new(0, 0),
+            serial: SerialConfig::new(Preferences::factory(mbadd)),
             faults: [Fault::None; 4],
             sw3: false,
             sw4: false,
             rotary,
-            mbadd,
-            rdelayt: POWER_ON_RDELAYT,
+            line: SerialParams::FACTORY,
             auto_dirty: false,
+            touched: false,
         }
     }
 
     /// Switches the module off and on again at the current time: volatile state returns to
-    /// its power-on values; the terminals, injected faults, switches and stored preferences
-    /// (selector, MBADD, RDELAYT) stay.
+    /// its power-on values and the preferences to what the flash holds; the terminals,
+    /// injected faults, switches, selector, flash and the master's line settings stay.
     pub fn power_cycle(&mut self) {
         let keep = self.clone();
         *self = Self::new(0);
@@ -159,8 +165,11 @@ impl MiniModState {
         self.sw3 = keep.sw3;
         self.sw4 = keep.sw4;
         self.rotary = keep.rotary;
-        self.mbadd = keep.mbadd;
-        self.rdelayt = keep.rdelayt;
+        self.line = keep.line;
+        self.serial = keep.serial;
+        self.serial.power_up();
+        self.watchdog = Watchdog::new(self.ms);
+        self.events = Events::new(self.input_word(), u16::from(self.outputs()));
     }
 
     /// The module's time: ticks run since power-on, in ms.
@@ -170,8 +179,7 @@ impl MiniModState {
 
     /// The slave address: the selector's value (position 0 counts as 16) plus MBADD.
     pub fn address(&self) -> u8 {
-        let selector = if self.rotary == 0 { 16 } else { self.rotary };
-        selector.wrapping_add(self.mbadd)
+        self.serial.address(self.rotary)
     }
 
     /// The rotary selector position, 0..=15.
@@ -186,12 +194,66 @@ impl MiniModState {
 
     /// The reply delay setting, in hundredths of a second.
     pub fn rdelayt(&self) -> u8 {
-        self.rdelayt
+        self.serial.active().rdelayt
     }
 
     /// Sets the reply delay (0..=200 hundredths; higher values are clamped to 200).
     pub fn set_rdelayt(&mut self, hundredths: u8) {
-        self.rdelayt = hundredths.min(200);
+        self.serial.set_rdelayt(hundredths);
+    }
+
+    /// The silence before a reply: RDELAYT hundredths of a second ("Setting the reply delay")
+    /// plus RDELAYM tenths of a millisecond, by which the module waits longer for the end of
+    /// the request ("Setting the Modbus communication timeout").
+    pub fn reply_delay(&self) -> Duration {
+        let p = self.serial.active();
+        Duration::from_millis(10 * u64::from(p.rdelayt))
+            + Duration::from_micros(100 * u64::from(p.rdelaym))
+    }
+
+    /// The preferences and the flash.
+    pub fn serial(&self) -> &SerialConfig {
+        &self.serial
+    }
+
+    /// `>ADDRESS=N`: MBADD becomes N − selector.
+    pub fn set_address(&mut self, address: u8) {
+        self.serial.set_address(self.rotary, address);
+    }
+
+    /// `>SERLINE=`: the module's serial settings (in effect for the next frame).
+    pub fn set_serial(&mut self, params: SerialParams) {
+        self.serial.set_serial(params);
+    }
+
+    /// `>RDELAYM=n`.
+    pub fn set_rdelaym(&mut self, tenths_ms: u8) {
+        self.serial.set_rdelaym(tenths_ms);
+    }
+
+    /// `>WCONF=1`.
+    pub fn save_preferences(&mut self) -> Result<(), FlashError> {
+        self.serial.save()
+    }
+
+    /// Breaks (or repairs) the flash memory (FLASHFAIL, `Error 1`).
+    pub fn set_flash_broken(&mut self, broken: bool) {
+        self.serial.set_flash_broken(broken);
+    }
+
+    /// The serial settings the master uses on the line.
+    pub fn line(&self) -> SerialParams {
+        self.line
+    }
+
+    /// The master now talks with `params`.
+    pub fn set_line(&mut self, params: SerialParams) {
+        self.line = params;
+    }
+
+    /// Whether the module understands the line: its serial settings are the master's.
+    pub fn listening(&self) -> bool {
+        self.serial.active().serial == self.line
     }
 
     /// Sets the level at input terminal `x` (0 = X1); other indexes are ignored. The cooked
@@ -211,6 +273,7 @@ impl MiniModState {
     pub fn set_fault(&mut self, y: usize, fault: Fault) {
         if let Some(f) = self.faults.get_mut(y) {
             *f = fault;
+            self.touched = true;
         }
     }
 
@@ -219,10 +282,16 @@ impl MiniModState {
         self.faults.get(y).copied().unwrap_or_default()
     }
 
-    /// Sets dip switch 3 or 4 (`n`); other numbers are ignored.
+    /// Sets dip switch 3 or 4 (`n`); other numbers are ignored. Moving switch 3 from off to
+    /// on restores 19200 8E1 until the next power-up ("RS-485 port reset").
     pub fn set_switch(&mut self, n: u8, on: bool) {
         match n {
-            3 => self.sw3 = on,
+            3 => {
+                if on && !self.sw3 {
+                    self.serial.restore_default_serial();
+                }
+                self.sw3 = on;
+            }
             4 => self.sw4 = on,
             _ => {}
         }
@@ -246,8 +315,8 @@ impl MiniModState {
     /// pulser while it runs, else the blinker when its mask is non-zero, else YWORD.
     pub fn output_level(&self, y: usize) -> bool {
         let bit = |word: u16| y < 16 && word & (1 << y) != 0;
-        if self.wdt_fired {
-            return bit(self.wdtymask);
+        if self.watchdog.fired() {
+            return bit(self.watchdog.mask());
         }
         if self.pulse.get(y).is_some_and(|&p| p > 0) {
             return true;
@@ -273,18 +342,88 @@ impl MiniModState {
         i < 2 && (shows(2 * i) || shows(2 * i + 1))
     }
 
-    /// Discrete inputs 0..15 as one word (input register 0): X1..X3 in bits 0..2, FB1/FB2
-    /// (X9/X10) in bits 8/9, the rest 0 ("Digital inputs, latencies and counters").
+    /// FBACKS: FB1 in bit 0, FB2 in bit 1.
+    pub fn feedbacks(&self) -> u8 {
+        u8::from(self.feedback(0)) | (u8::from(self.feedback(1)) << 1)
+    }
+
+    /// Discrete inputs 0..15 as one word (input register 0, text XWORD): X1..X3 in bits 0..2,
+    /// FB1/FB2 (X9/X10) in bits 8/9, the rest 0 ("Digital inputs, latencies and counters").
     pub fn input_word(&self) -> u16 {
         u16::from(self.inputs())
             | (u16::from(self.feedback(0)) << 8)
             | (u16::from(self.feedback(1)) << 9)
     }
 
+    /// The watchdog.
+    pub fn watchdog(&self) -> &Watchdog {
+        &self.watchdog
+    }
+
+    /// FBENABLE (text protocol): WDTFB1..2 as bits 0..1.
+    pub fn fb_enable(&self) -> u8 {
+        self.watchdog.fb_enable()
+    }
+
+    /// Writes FBENABLE.
+    pub fn set_fb_enable(&mut self, bits: u8) {
+        self.watchdog.set_fb_enable(bits);
+        self.touched = true;
+    }
+
+    /// WFLAGS (text protocol; see [`super::watchdog`]).
+    pub fn wflags(&self) -> u16 {
+        self.watchdog.wflags()
+    }
+
+    /// Writes WFLAGS: bit 1 clear resets the watchdog (`>WFLAGS=0`), set fires it by hand.
+    pub fn write_wflags(&mut self, value: u16) {
+        if value & WFLAGS_FIRED != 0 {
+            self.fire(Cause::Manual);
+        } else {
+            self.reset_watchdog();
+        }
+    }
+
+    /// The event queue.
+    pub fn events(&self) -> &Events {
+        &self.events
+    }
+
+    /// A valid command for this module arrived now: the communication watchdog starts again.
+    pub fn on_valid_command(&mut self) {
+        self.watchdog.feed(self.ms);
+    }
+
+    /// A Collect this module must look at (broadcast or its address): applies the
+    /// acknowledgement and returns the event to reply with and the reply's delay in ms.
+    pub fn collect(&mut self, first: u8, last: u8, ack: u8, seq: u8) -> Option<(Event, u64)> {
+        let me = self.address();
+        self.events.collect(me, first, last, ack, seq)
+    }
+
+    fn fire(&mut self, cause: Cause) {
+        if self.watchdog.fired() {
+            return;
+        }
+        self.watchdog.fire(cause);
+        // The outputs stay in the safe state after a reset too, until the master writes them.
+        self.yword = self.watchdog.mask() & 0x0F;
+        self.pulse = [0; 4];
+        self.touched = true;
+    }
+
+    fn reset_watchdog(&mut self) {
+        self.watchdog.reset(self.ms);
+        self.auto_dirty = true;
+        self.touched = true;
+    }
+
     /// Reads an item: bits as 0/1, words as they are.
     pub fn read(&self, item: Item) -> u16 {
         let bit = |word: u16, i: u8| u16::from(i < 16 && word & (1 << i) != 0);
         let idx = |i: u8| usize::from(i);
+        let wd = &self.watchdog;
         match item {
             Item::Input(i) => u16::from(self.cooked.get(idx(i)).copied().unwrap_or(false)),
             Item::Feedback(i) => u16::from(self.feedback(idx(i))),
@@ -298,22 +437,22 @@ impl MiniModState {
             Item::AutoOff(y, c) => cond(&self.aoff, y, c).copied().unwrap_or(0),
             Item::Lamp(i) => self.lamp.get(idx(i)).copied().unwrap_or(0),
             Item::Pulse(i) => self.pulse.get(idx(i)).copied().unwrap_or(0),
-            Item::XevMask => self.xevmask,
-            Item::YevMask => self.yevmask,
-            Item::EvX(i) => bit(self.xevmask, i),
-            Item::EvFb(i) => bit(u16::from(self.evfb), i),
-            Item::EvY(i) => bit(self.yevmask, i),
-            Item::WdtFbEnable(i) => bit(u16::from(self.fbenable), i),
-            Item::WdtY(i) => bit(self.wdtymask, i),
-            Item::WdtFired => u16::from(self.wdt_fired),
-            Item::WdtTime => self.wdttime,
-            Item::WdtYMask => self.wdtymask,
-            // No Collect event queue, no hardware errors, no watchdog firing cause yet.
-            Item::EventsPresent
-            | Item::GenericFail
-            | Item::FlashFail
-            | Item::WdtFb
-            | Item::WdtComm => 0,
+            Item::XevMask => self.events.xevmask(),
+            Item::YevMask => self.events.yevmask(),
+            Item::EvX(i) => bit(self.events.xevmask(), i),
+            Item::EvFb(i) => bit(u16::from(self.events.evfb()), i),
+            Item::EvY(i) => bit(self.events.yevmask(), i),
+            Item::WdtFbEnable(i) => bit(u16::from(wd.fb_enable()), i),
+            Item::WdtY(i) => bit(wd.mask(), i),
+            Item::WdtFired => u16::from(wd.fired()),
+            Item::WdtTime => wd.time(),
+            Item::WdtYMask => wd.mask(),
+            Item::EventsPresent => u16::from(self.events.present()),
+            // The simulated hardware never fails on its own.
+            Item::GenericFail => 0,
+            Item::FlashFail => u16::from(self.serial.flash_broken()),
+            Item::WdtFb => u16::from(wd.fired_by_feedback()),
+            Item::WdtComm => u16::from(wd.fired_by_comm()),
             Item::Sw3 => u16::from(self.sw3),
             Item::Sw4 => u16::from(self.sw4),
             Item::RotSw => u16::from(self.rotary),
@@ -323,21 +462,20 @@ impl MiniModState {
     /// Writes an item as the master does (a bit item takes 0 or non-zero).
     pub fn write(&mut self, item: Item, value: u16) -> Result<(), WriteError> {
         let on = value != 0;
-        let set_bit = |word: &mut u16, i: u8| {
-            if i < 16 {
-                if on {
-                    *word |= 1 << i;
-                } else {
-                    *word &= !(1 << i);
-                }
+        let with_bit = |word: u16, i: u8| -> u16 {
+            match (i < 16, on) {
+                (false, _) => word,
+                (true, true) => word | (1 << i),
+                (true, false) => word & !(1 << i),
             }
         };
         let idx = |i: u8| usize::from(i);
+        let locked = self.watchdog.fired();
         match item {
-            Item::Output(i) => {
-                set_bit(&mut self.yword, i);
-                self.yword &= 0x0F;
+            Item::Output(_) | Item::Yword | Item::Pulse(_) if locked => {
+                return Err(WriteError::WatchdogFired)
             }
+            Item::Output(i) => self.yword = with_bit(self.yword, i) & 0x0F,
             Item::Yword => self.yword = value & 0x0F,
             Item::Xcount(i) => store(&mut self.xcount, idx(i), value),
             Item::XlatUp(i) => store(&mut self.xlatup, idx(i), value),
@@ -359,24 +497,28 @@ impl MiniModState {
                 }
                 store(&mut self.pulse, idx(i), value);
             }
-            Item::XevMask => self.xevmask = value,
-            Item::YevMask => self.yevmask = value,
-            Item::EvX(i) => set_bit(&mut self.xevmask, i),
-            Item::EvY(i) => set_bit(&mut self.yevmask, i),
+            Item::XevMask => self.events.set_xevmask(value),
+            Item::YevMask => self.events.set_yevmask(value),
+            Item::EvX(i) => self.events.set_xevmask(with_bit(self.events.xevmask(), i)),
+            Item::EvY(i) => self.events.set_yevmask(with_bit(self.events.yevmask(), i)),
             Item::EvFb(i) => {
-                let mut w = u16::from(self.evfb);
-                set_bit(&mut w, i);
-                self.evfb = (w & 0x03) as u8;
+                let w = with_bit(u16::from(self.events.evfb()), i);
+                self.events.set_evfb((w & 0x03) as u8);
             }
             Item::WdtFbEnable(i) => {
-                let mut w = u16::from(self.fbenable);
-                set_bit(&mut w, i);
-                self.fbenable = (w & 0x03) as u8;
+                let w = with_bit(u16::from(self.watchdog.fb_enable()), i);
+                self.watchdog.set_fb_enable((w & 0x03) as u8);
             }
-            Item::WdtY(i) => set_bit(&mut self.wdtymask, i),
-            Item::WdtFired => self.wdt_fired = on,
-            Item::WdtTime => self.wdttime = value,
-            Item::WdtYMask => self.wdtymask = value,
+            Item::WdtY(i) => self.watchdog.set_mask(with_bit(self.watchdog.mask(), i)),
+            Item::WdtFired => {
+                if on {
+                    self.fire(Cause::Manual);
+                } else {
+                    self.reset_watchdog();
+                }
+            }
+            Item::WdtTime => self.watchdog.set_time(value),
+            Item::WdtYMask => self.watchdog.set_mask(value),
             Item::Input(_)
             | Item::Feedback(_)
             | Item::InputWord
@@ -391,18 +533,19 @@ impl MiniModState {
         }
         // Any write may change what the automatic conditions decide.
         self.auto_dirty = true;
+        self.touched = true;
         Ok(())
     }
 
     /// Runs every tick up to and including tick `target_ms` (the module's time becomes
     /// `target_ms`); earlier targets are ignored. Stretches where nothing can change (no
-    /// latency counting, no pulser running, conditions settled) are jumped over, and pending
-    /// timers are advanced arithmetically to the tick where they act, so the cost is per
-    /// event, not per millisecond.
+    /// latency counting, no pulser running, no blinker step, no watchdog deadline, conditions
+    /// settled) are jumped over, and pending timers are advanced arithmetically to the tick
+    /// where they act, so the cost is per event, not per millisecond.
     pub fn advance_to_ms(&mut self, target_ms: u64) {
         while self.ms < target_ms {
             let remaining = target_ms - self.ms;
-            if self.auto_dirty {
+            if self.auto_dirty || self.touched {
                 self.tick();
                 continue;
             }
@@ -417,7 +560,7 @@ impl MiniModState {
     }
 
     /// One full tick of 1 ms: sample the inputs, apply latencies and counters, evaluate the
-    /// automatic conditions, count the pulsers down.
+    /// automatic conditions, count the pulsers down, run the watchdog, record events.
     pub fn tick(&mut self) {
         self.ms += TICK_MS;
         for i in 0..3 {
@@ -438,16 +581,26 @@ impl MiniModState {
             }
         }
         if self.auto_dirty {
-            self.apply_conditions();
+            // While fired the outputs are locked, conditions included; a reset re-evaluates.
+            if !self.watchdog.fired() {
+                self.apply_conditions();
+            }
             self.auto_dirty = false;
         }
         for p in &mut self.pulse {
             *p = p.saturating_sub(1);
         }
+        if let Some(cause) = self.watchdog.due(self.ms, self.feedbacks()) {
+            self.fire(cause);
+        }
+        self.events
+            .observe(self.input_word(), u16::from(self.outputs()));
+        self.touched = false;
     }
 
     /// Ticks until the next one that changes something other than counters (an input's
-    /// latency expires, a pulser reaches 0); `None` when nothing is pending.
+    /// latency expires, a pulser reaches 0, a blinker steps, the watchdog's deadline comes);
+    /// `None` when nothing is pending.
     fn ticks_to_next_event(&self) -> Option<u64> {
         let inputs = (0..3).filter(|&i| self.raw[i] != self.cooked[i]).map(|i| {
             let latency = if self.raw[i] {
@@ -458,7 +611,13 @@ impl MiniModState {
             u64::from(u32::from(latency).saturating_sub(self.pending[i]).max(1))
         });
         let pulses = self.pulse.iter().filter(|&&p| p > 0).map(|&p| u64::from(p));
-        inputs.chain(pulses).min()
+        let blink = (!self.watchdog.fired() && self.lamp.iter().any(|&m| m != 0))
+            .then(|| BLINK_STEP_MS - self.ms % BLINK_STEP_MS);
+        let watchdog = self
+            .watchdog
+            .deadline_ms()
+            .map(|d| d.saturating_sub(self.ms).max(1));
+        inputs.chain(pulses).chain(blink).chain(watchdog).min()
     }
 
     /// `n` ticks in which no event happens (see [`Self::ticks_to_next_event`]).
@@ -771,8 +930,201 @@ mod tests {
         s.write(Item::WdtFired, 1).unwrap();
         assert_eq!(s.outputs(), 0b0100);
         assert_eq!(s.read(Item::WdtY(2)), 1);
+        assert_eq!(
+            s.read(Item::WdtComm) + s.read(Item::WdtFb),
+            0,
+            "fired by hand"
+        );
         s.write(Item::WdtFired, 0).unwrap();
+        assert_eq!(
+            s.outputs(),
+            0b0100,
+            "still safe after the reset, until written"
+        );
+        s.write(Item::Yword, 0b0011).unwrap();
         assert_eq!(s.outputs(), 0b0011);
+    }
+
+    #[test]
+    fn watchdog_is_disabled_at_power_up() {
+        let mut s = state();
+        s.set_fault(0, Fault::OpenLoad);
+        s.advance_to_ms(3_600_000);
+        assert_eq!(s.read(Item::WdtFired), 0);
+        assert_eq!(s.read(Item::WdtTime), 0);
+    }
+
+    #[test]
+    fn watchdog_fires_wdttime_after_the_last_valid_command_and_holds_the_mask() {
+        let mut s = state();
+        s.write(Item::Yword, 0b1111).unwrap();
+        s.write(Item::Pulse(1), 5000).unwrap();
+        s.write(Item::WdtYMask, 0b1000).unwrap();
+        s.write(Item::WdtTime, 25).unwrap(); // 250 ms
+        s.on_valid_command();
+        s.advance_to_ms(100);
+        s.on_valid_command(); // a poll at 100 ms
+        s.advance_to_ms(349);
+        assert_eq!(s.read(Item::WdtFired), 0, "249 ms of silence");
+        s.advance_to_ms(350);
+        assert_eq!(
+            s.read(Item::WdtFired),
+            1,
+            "250 ms after the last valid command"
+        );
+        assert_eq!(s.read(Item::WdtComm), 1);
+        assert_eq!(s.read(Item::WdtFb), 0);
+        assert_eq!(s.outputs(), 0b1000);
+        assert_eq!(s.read(Item::Pulse(1)), 0, "pulsers stop");
+        // Locked: outputs cannot be changed until reset.
+        assert_eq!(s.write(Item::Yword, 1), Err(WriteError::WatchdogFired));
+        assert_eq!(s.write(Item::Output(0), 1), Err(WriteError::WatchdogFired));
+        assert_eq!(s.write(Item::Pulse(0), 50), Err(WriteError::WatchdogFired));
+        s.on_valid_command();
+        s.advance_to_ms(10_000);
+        assert_eq!(s.outputs(), 0b1000, "a valid command does not reset it");
+        assert_eq!(
+            s.wflags(),
+            0b1010,
+            "WFLAGS: fired (bit 1) by WDTCOMM (bit 3)"
+        );
+        // ">WFLAGS=0" resets it; the timeout starts again from there.
+        s.write_wflags(0);
+        assert_eq!(s.read(Item::WdtFired), 0);
+        assert_eq!(s.read(Item::WdtComm), 0);
+        s.write(Item::Yword, 0b0001).unwrap();
+        s.advance_to_ms(10_249);
+        assert_eq!(s.outputs(), 0b0001);
+        s.advance_to_ms(10_250);
+        assert_eq!(s.outputs(), 0b1000, "fires again without commands");
+    }
+
+    #[test]
+    fn watchdog_fires_from_an_enabled_feedback() {
+        let mut s = state();
+        s.write(Item::WdtYMask, 0).unwrap();
+        s.write(Item::WdtFbEnable(1), 1).unwrap(); // WDTFB2: Y3 + Y4
+        s.set_fault(0, Fault::OpenLoad); // FB1: not enabled
+        s.advance_to_ms(10);
+        assert_eq!(s.read(Item::WdtFired), 0);
+        s.write(Item::Yword, 0b0100).unwrap();
+        s.set_fault(2, Fault::Overload); // Y3 on and overloaded: FB2
+        s.advance_to_ms(11);
+        assert_eq!(s.read(Item::WdtFired), 1);
+        assert_eq!(s.read(Item::WdtFb), 1);
+        assert_eq!(s.outputs(), 0, "WDTYMASK = 0: all off");
+        assert_eq!(
+            s.feedbacks(),
+            0b01,
+            "Y3 off: the overload is not seen any more"
+        );
+        s.write(Item::WdtFired, 0).unwrap();
+        s.advance_to_ms(12);
+        assert_eq!(s.read(Item::WdtFired), 0, "FB2 is 0 now: stays reset");
+    }
+
+    #[test]
+    fn automatic_outputs_wait_while_fired() {
+        let mut s = state();
+        s.write(Item::XlatUp(0), 0).unwrap();
+        s.write(Item::AutoOn(0, 0), 0x0001).unwrap();
+        s.write(Item::WdtFired, 1).unwrap();
+        s.set_terminal(0, true);
+        s.advance_to_ms(5);
+        assert_eq!(s.read(Item::Yword), 0);
+        s.write(Item::WdtFired, 0).unwrap();
+        s.advance_to_ms(6);
+        assert_eq!(s.read(Item::Yword), 1, "re-evaluated after the reset");
+    }
+
+    #[test]
+    fn events_record_variations_for_collect() {
+        let mut s = state();
+        s.write(Item::XlatUp(0), 0).unwrap();
+        s.write(Item::XlatDn(0), 0).unwrap();
+        s.write(Item::XevMask, 0b001).unwrap();
+        s.write(Item::YevMask, 0b0001).unwrap();
+        s.write(Item::EvFb(0), 1).unwrap();
+        s.set_terminal(0, true);
+        s.advance_to_ms(1);
+        assert_eq!(s.read(Item::EventsPresent), 1);
+        s.write(Item::Pulse(0), 10).unwrap();
+        s.advance_to_ms(20);
+        s.set_fault(1, Fault::OpenLoad);
+        s.advance_to_ms(30);
+        let seen: Vec<_> = s
+            .events()
+            .queued()
+            .map(|e| (e.seq, e.kind, e.data))
+            .collect();
+        assert_eq!(
+            seen,
+            [
+                (1, 2, 0x0001),
+                (2, 1, 0b0001),
+                (3, 1, 0b0000),
+                (4, 2, 0x0101)
+            ],
+            "X1 up, Y1 pulse on and off, FB1"
+        );
+        let (event, delay) = s.collect(1, 16, 0, 0).unwrap();
+        assert_eq!(
+            (event.seq, delay),
+            (1, 4 * 3 + 1),
+            "slave 5 in window 1..16"
+        );
+        assert_eq!(
+            s.collect(6, 16, 5, 1),
+            None,
+            "acknowledged, not in window 6..16"
+        );
+        assert_eq!(s.events().queued().count(), 3);
+    }
+
+    #[test]
+    fn dip_switch_3_restores_the_serial_line_until_power_up() {
+        use super::super::serial_config::{LineMode, SerialParams};
+        let mut s = state();
+        let slow = SerialParams {
+            baud: 9600,
+            mode: LineMode::NoneTwoStops,
+        };
+        s.set_serial(slow);
+        s.save_preferences().unwrap();
+        assert!(!s.listening(), "the master still talks 19200E");
+        s.set_switch(3, true);
+        assert!(s.listening(), "19200 8E1 again");
+        s.set_switch(3, false);
+        s.set_switch(3, true);
+        assert!(s.listening());
+        s.power_cycle();
+        assert_eq!(
+            s.serial().active().serial,
+            slow,
+            "the flash wins at power-up"
+        );
+        assert!(!s.listening());
+        s.set_line(slow);
+        assert!(s.listening());
+    }
+
+    #[test]
+    fn power_cycle_keeps_only_what_wconf_saved() {
+        let mut s = MiniModState::new(16);
+        s.set_address(180);
+        s.set_rdelayt(3);
+        assert_eq!((s.address(), s.rdelayt()), (180, 3));
+        s.power_cycle();
+        assert_eq!((s.address(), s.rdelayt()), (16, 1), "not saved");
+        s.set_address(180);
+        s.set_rdelaym(20);
+        s.save_preferences().unwrap();
+        s.power_cycle();
+        assert_eq!(s.address(), 180);
+        assert_eq!(s.reply_delay(), Duration::from_millis(12));
+        s.set_flash_broken(true);
+        assert!(s.save_preferences().is_err());
+        assert_eq!(s.read(Item::FlashFail), 1);
     }
 
     #[test]
@@ -813,19 +1165,41 @@ mod tests {
         let mut ticked = state();
         let mut jumped = state();
         let mut t = 0u64;
-        for _ in 0..400 {
+        for s in [&mut ticked, &mut jumped] {
+            s.write(Item::XevMask, 0b111).unwrap();
+            s.write(Item::YevMask, 0b1111).unwrap();
+            s.write(Item::EvFb(0), 1).unwrap();
+            s.write(Item::EvFb(1), 1).unwrap();
+        }
+        for _ in 0..600 {
             // A random action, applied to both at the same time.
             let x = rand(3) as usize;
-            let action = rand(6);
+            let action = rand(11);
             let value = rand(80) as u16;
             for s in [&mut ticked, &mut jumped] {
-                match action {
-                    0 | 1 => s.set_terminal(x, !s.terminal(x)),
-                    2 => s.write(Item::XlatUp(x as u8), value).unwrap(),
-                    3 => s.write(Item::XlatDn(x as u8), value).unwrap(),
-                    4 => s.write(Item::Pulse(x as u8), value).unwrap(),
-                    _ => s.write(Item::AutoOn(x as u8, 0), value & 0x0707).unwrap(),
-                }
+                // A write refused while the watchdog fires is refused by both.
+                let _ = match action {
+                    0 | 1 => {
+                        s.set_terminal(x, !s.terminal(x));
+                        Ok(())
+                    }
+                    2 => s.write(Item::XlatUp(x as u8), value),
+                    3 => s.write(Item::XlatDn(x as u8), value),
+                    4 => s.write(Item::Pulse(x as u8), value),
+                    5 => s.write(Item::AutoOn(x as u8, 0), value & 0x0707),
+                    6 => s.write(Item::Lamp(x as u8), value * 811),
+                    7 => {
+                        let fault = [Fault::None, Fault::OpenLoad, Fault::Overload][x];
+                        s.set_fault(usize::from(value as u8 % 4), fault);
+                        Ok(())
+                    }
+                    8 => s.write(Item::WdtTime, value / 4),
+                    9 => s.write(Item::WdtFbEnable(x as u8 % 2), value % 2),
+                    _ => {
+                        s.on_valid_command();
+                        s.write(Item::WdtFired, 0)
+                    }
+                };
             }
             t += u64::from(rand(120));
             while ticked.time_ms() < t {
@@ -840,6 +1214,8 @@ mod tests {
             for i in 0..4 {
                 assert_eq!(ticked.read(Item::Pulse(i)), jumped.read(Item::Pulse(i)));
             }
+            assert_eq!(ticked.wflags(), jumped.wflags(), "watchdog at {t}");
+            assert_eq!(ticked.events(), jumped.events(), "events at {t}");
         }
     }
 }

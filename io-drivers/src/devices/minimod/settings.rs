@@ -1,0 +1,393 @@
+//! The MiniMod's project-file `settings`: what the driver reads besides the inputs, event mode,
+//! and the registers it configures at start-up.
+//!
+//! Keys are case-insensitive; numbers are decimal, `0x` hex or `0b` binary (`.`, `_` and `-`
+//! may group binary digits, as the manual writes masks: `0b0000.0010-0000.0011`).
+//!
+//! | key | value | meaning |
+//! |---|---|---|
+//! | `readback` | `off` \| `every` \| N | read Y1..Y4 back every Nth cycle (default off) |
+//! | `counters` | `off` \| `every` \| N | read XCOUNT1..3 every Nth cycle (default off) |
+//! | `status` | `off` \| `every` \| N | read the module status (WDTFIRED, WDTFB, WDTCOMM, EVENTSPRS, GENERICFAIL, FLASHFAIL, SW3, SW4) every Nth cycle (default off) |
+//! | `events` | `true` \| `false` | event mode: inputs from FC 70 Collect (default false) |
+//! | `event_refresh` | `500ms`, `2s`, or ms | full input read in event mode at least this often (default 1 s) |
+//! | `RDELAYT` | 0..=200 | reply delay in 1/100 s, set at start-up with `>RDELAYT=` |
+//! | `RDELAYM` | 0..=200 | extra end-of-frame silence in 1/10 ms, set with `>RDELAYM=` |
+//! | `XLATUP1..3` / `X1LATUP..X3LATUP` | ms | rising-edge latency |
+//! | `XLATDN1..3` / `X1LATDN..X3LATDN` | ms | falling-edge latency |
+//! | `XCOUNT1..3` | 0..=65535 | counter preset |
+//! | `Y1AON1..Y4AON3`, `Y1AOFF1..Y4AOFF3` | mask or `X1-X2` | automatic output conditions |
+//! | `YLAMP1..4` / `Y1LAMP..Y4LAMP` | mask | blinkers |
+//! | `WDTTIME` | 1/100 s | watchdog communication timeout |
+//! | `WDTYMASK` / `WDTMASK` | mask | outputs while the watchdog fires |
+//! | `FBENABLE` | 0..=3 | feedbacks that fire the watchdog (= `WDTFB1`, `WDTFB2`) |
+//! | `WDTFB1`, `WDTFB2`, `EVFB1`, `EVFB2` | 0/1 | the coils |
+//! | `XEVMASK`, `YEVMASK` | mask | event recording masks |
+//!
+//! Every register setting is written at start-up and read back; a difference stops the start
+//! with the module's and the register's names (counters are not compared: they count while
+//! being read back). Reply delays have no register: they are verified by the module's `OK`.
+
+use std::time::Duration;
+
+use super::map::{self, parse_condition, Item, Space};
+
+/// How often an optional read runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Readback {
+    /// Never.
+    #[default]
+    Off,
+    /// Every Nth cycle (1 = every cycle).
+    Every(u16),
+}
+
+impl Readback {
+    /// Whether the read runs in cycle `cycle` (counted from 0).
+    pub fn due(self, cycle: u64) -> bool {
+        match self {
+            Readback::Off => false,
+            Readback::Every(n) => cycle % u64::from(n.max(1)) == 0,
+        }
+    }
+}
+
+/// Default full-read period in event mode.
+pub const DEFAULT_EVENT_REFRESH: Duration = Duration::from_secs(1);
+
+/// Why a setting was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SettingError {
+    /// Not a MiniMod setting.
+    #[error(
+        "not a minimod setting; accepted: readback, counters, status, events, event_refresh, \
+         RDELAYT, RDELAYM, XLATUP1..3, XLATDN1..3, XCOUNT1..3, Y1AON1..Y4AON3, \
+         Y1AOFF1..Y4AOFF3, YLAMP1..4, WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2, EVFB1..2, \
+         XEVMASK, YEVMASK"
+    )]
+    UnknownKey,
+    /// The value does not fit the setting.
+    #[error("{key} takes {expected}")]
+    BadValue {
+        /// The setting, as the manual names it.
+        key: &'static str,
+        /// What it accepts.
+        expected: &'static str,
+    },
+}
+
+/// One validated setting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Setting {
+    /// `readback`.
+    Readback(Readback),
+    /// `counters`.
+    Counters(Readback),
+    /// `status`.
+    Status(Readback),
+    /// `events`.
+    Events(bool),
+    /// `event_refresh`.
+    EventRefresh(Duration),
+    /// `RDELAYT`, hundredths of a second.
+    ReplyDelay(u8),
+    /// `RDELAYM`, tenths of a millisecond.
+    FrameTimeout(u8),
+    /// A holding register written at start-up.
+    Register {
+        /// The register table's name.
+        name: &'static str,
+        /// Protocol address (0-based).
+        addr: u16,
+        /// The value.
+        value: u16,
+    },
+    /// Consecutive coils written at start-up (`FBENABLE` is WDTFB1..2).
+    Coils {
+        /// The name as given (`FBENABLE`, `WDTFB1`).
+        name: &'static str,
+        /// Protocol address of the first coil (0-based).
+        addr: u16,
+        /// How many coils (1 or 2).
+        count: u8,
+        /// Their values, bit 0 first.
+        bits: u8,
+    },
+}
+
+/// Parses a number: decimal, `0x` hex, `0b` binary.
+pub fn parse_number(text: &str) -> Option<u64> {
+    let t = text.trim();
+    if let Some(hex) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        u64::from_str_radix(hex, 16).ok()
+    } else if let Some(bin) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
+        u64::from_str_radix(&bin.replace(['.', '_', '-'], ""), 2).ok()
+    } else {
+        t.parse().ok()
+    }
+}
+
+fn parse_every(key: &'static str, value: &str) -> Result<Readback, SettingError> {
+    let bad = SettingError::BadValue {
+        key,
+        expected: "off, every or 1..=65535",
+    };
+    match value.trim() {
+        "off" | "false" => Ok(Readback::Off),
+        "every" | "true" => Ok(Readback::Every(1)),
+        n => parse_number(n)
+            .and_then(|n| u16::try_from(n).ok())
+            .filter(|&n| n > 0)
+            .map(Readback::Every)
+            .ok_or(bad),
+    }
+}
+
+/// `500ms`, `2s`, `1.5s`, or a bare number of milliseconds; 10 ms..=1 h.
+fn parse_duration(text: &str) -> Option<Duration> {
+    let t = text.trim();
+    let d = if let Some(ms) = t.strip_suffix("ms") {
+        Duration::from_millis(ms.trim().parse().ok()?)
+    } else if let Some(s) = t.strip_suffix('s') {
+        let secs: f64 = s.trim().parse().ok()?;
+        if !secs.is_finite() || secs < 0.0 {
+            return None;
+        }
+        Duration::try_from_secs_f64(secs).ok()?
+    } else {
+        Duration::from_millis(t.parse().ok()?)
+    };
+    (Duration::from_millis(10)..=Duration::from_secs(3600))
+        .contains(&d)
+        .then_some(d)
+}
+
+/// The register-table name of a text-protocol spelling (`X1LATUP` → `XLATUP1`, `Y2LAMP` →
+/// `YLAMP2`, `WDTMASK` → `WDTYMASK`); other names unchanged.
+fn canonical(upper: &str) -> String {
+    if upper == "WDTMASK" {
+        return "WDTYMASK".into();
+    }
+    let b = upper.as_bytes();
+    match b {
+        [b'X', d @ b'1'..=b'3', rest @ ..] if rest == b"LATUP" || rest == b"LATDN" => {
+            format!("X{}{}", upper.get(2..).unwrap_or_default(), char::from(*d))
+        }
+        [b'Y', d @ b'1'..=b'4', rest @ ..] if rest == b"LAMP" => format!("YLAMP{}", char::from(*d)),
+        _ => upper.to_string(),
+    }
+}
+
+impl Setting {
+    /// Parses a `key: value` pair of the project file.
+    pub fn parse(key: &str, value: &str) -> Result<Self, SettingError> {
+        let lower = key.to_ascii_lowercase();
+        match lower.as_str() {
+            "readback" => return parse_every("readback", value).map(Setting::Readback),
+            "counters" => return parse_every("counters", value).map(Setting::Counters),
+            "status" => return parse_every("status", value).map(Setting::Status),
+            "events" => {
+                return match value.trim() {
+                    "true" | "on" | "yes" => Ok(Setting::Events(true)),
+                    "false" | "off" | "no" => Ok(Setting::Events(false)),
+                    _ => Err(SettingError::BadValue {
+                        key: "events",
+                        expected: "true or false",
+                    }),
+                }
+            }
+            "event_refresh" => {
+                return parse_duration(value).map(Setting::EventRefresh).ok_or(
+                    SettingError::BadValue {
+                        key: "event_refresh",
+                        expected: "a duration from 10ms to 3600s (500ms, 2s, or ms)",
+                    },
+                )
+            }
+            "rdelayt" | "rdelaym" => {
+                let n = parse_number(value)
+                    .and_then(|n| u8::try_from(n).ok())
+                    .filter(|&n| n <= 200);
+                return if lower == "rdelayt" {
+                    n.map(Setting::ReplyDelay).ok_or(SettingError::BadValue {
+                        key: "RDELAYT",
+                        expected: "0..=200 (1/100 s)",
+                    })
+                } else {
+                    n.map(Setting::FrameTimeout).ok_or(SettingError::BadValue {
+                        key: "RDELAYM",
+                        expected: "0..=200 (1/10 ms)",
+                    })
+                };
+            }
+            "fbenable" => {
+                return parse_number(value)
+                    .filter(|&n| n <= 3)
+                    .map(|n| Setting::Coils {
+                        name: "FBENABLE",
+                        addr: WDTFB1_COIL,
+                        count: 2,
+                        bits: n as u8,
+                    })
+                    .ok_or(SettingError::BadValue {
+                        key: "FBENABLE",
+                        expected: "0..=3 (bit 0 = FB1, bit 1 = FB2)",
+                    })
+            }
+            _ => {}
+        }
+        let name = canonical(&key.to_ascii_uppercase());
+        let entry = map::entry(&name).ok_or(SettingError::UnknownKey)?;
+        match (entry.space, entry.item) {
+            (Space::Coil, Item::WdtFbEnable(_) | Item::EvFb(_)) => {
+                let bit =
+                    parse_number(value)
+                        .filter(|&n| n <= 1)
+                        .ok_or(SettingError::BadValue {
+                            key: entry.name,
+                            expected: "0 or 1",
+                        })?;
+                return Ok(Setting::Coils {
+                    name: entry.name,
+                    addr: entry.addr,
+                    count: 1,
+                    bits: bit as u8,
+                });
+            }
+            (Space::HoldingRegister, _) => {}
+            _ => return Err(SettingError::UnknownKey),
+        }
+        let word = |expected| {
+            parse_number(value)
+                .and_then(|n| u16::try_from(n).ok())
+                .ok_or(SettingError::BadValue {
+                    key: entry.name,
+                    expected,
+                })
+        };
+        let value = match entry.item {
+            Item::XlatUp(_) | Item::XlatDn(_) => word("0..=65535 (ms)")?,
+            Item::Xcount(_) => word("0..=65535")?,
+            Item::Lamp(_) => word("a 16-bit mask")?,
+            Item::WdtTime => word("0..=65535 (1/100 s; 0 = off)")?,
+            Item::WdtYMask | Item::XevMask | Item::YevMask => word("a 16-bit mask")?,
+            Item::AutoOn(..) | Item::AutoOff(..) => {
+                let bad = SettingError::BadValue {
+                    key: entry.name,
+                    expected: "a 16-bit mask or a condition such as X1-X2",
+                };
+                match parse_number(value) {
+                    Some(n) => u16::try_from(n).map_err(|_| bad)?,
+                    None => parse_condition(value).map_err(|_| bad)?,
+                }
+            }
+            _ => return Err(SettingError::UnknownKey),
+        };
+        Ok(Setting::Register {
+            name: entry.name,
+            addr: entry.addr,
+            value,
+        })
+    }
+}
+
+/// Coil of WDTFB1 (00113).
+pub const WDTFB1_COIL: u16 = 112;
+
+/// Checks one setting (the catalog's `check_setting`).
+pub fn check_setting(key: &str, value: &str) -> Result<(), String> {
+    Setting::parse(key, value)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_are_checked() {
+        assert_eq!(check_setting("readback", "every"), Ok(()));
+        assert_eq!(check_setting("xlatup3", "65535"), Ok(()));
+        assert_eq!(check_setting("Y4AOFF3", "-X3"), Ok(()));
+        assert_eq!(check_setting("YLAMP2", "0b0000.0000.1111.1111"), Ok(()));
+        assert_eq!(check_setting("RDELAYT", "200"), Ok(()));
+        assert!(check_setting("RDELAYT", "201").is_err());
+        assert!(check_setting("XLATUP1", "65536").is_err());
+        assert!(check_setting("Y1AON1", "X7").is_err());
+        assert!(check_setting("readback", "0").is_err());
+        assert!(check_setting("YWORD", "1")
+            .unwrap_err()
+            .contains("not a minimod setting"));
+        assert!(check_setting("YPULSE1", "1").is_err());
+        assert!(check_setting("baud", "1").is_err());
+        assert!(check_setting("EVX1", "1").is_err(), "use XEVMASK");
+    }
+
+    #[test]
+    fn every_key_of_the_table() {
+        let reg = |k: &str, v: &str| match Setting::parse(k, v) {
+            Ok(Setting::Register { name, addr, value }) => (name, addr, value),
+            other => panic!("{k}: {other:?}"),
+        };
+        assert_eq!(reg("X2LATUP", "5"), ("XLATUP2", 20, 5));
+        assert_eq!(reg("x3latdn", "500"), ("XLATDN3", 37, 500));
+        assert_eq!(reg("Y4LAMP", "255"), ("YLAMP4", 78, 255));
+        assert_eq!(reg("WDTMASK", "0b1000"), ("WDTYMASK", 144, 8));
+        assert_eq!(reg("WDTTIME", "50"), ("WDTTIME", 128, 50));
+        assert_eq!(reg("XEVMASK", "7"), ("XEVMASK", 5, 7));
+        assert_eq!(reg("YEVMASK", "0xF"), ("YEVMASK", 6, 15));
+        assert_eq!(reg("XCOUNT2", "100"), ("XCOUNT2", 12, 100));
+        assert_eq!(
+            reg("Y1AON1", "0b0000.0010-0000.0011"),
+            ("Y1AON1", 51, 0x0203)
+        );
+        assert_eq!(
+            Setting::parse("FBENABLE", "3"),
+            Ok(Setting::Coils {
+                name: "FBENABLE",
+                addr: 112,
+                count: 2,
+                bits: 3
+            })
+        );
+        assert_eq!(
+            Setting::parse("EVFB2", "1"),
+            Ok(Setting::Coils {
+                name: "EVFB2",
+                addr: 89,
+                count: 1,
+                bits: 1
+            })
+        );
+        assert!(Setting::parse("FBENABLE", "4").is_err());
+        assert_eq!(Setting::parse("events", "true"), Ok(Setting::Events(true)));
+        assert_eq!(
+            Setting::parse("event_refresh", "500ms"),
+            Ok(Setting::EventRefresh(Duration::from_millis(500)))
+        );
+        assert_eq!(
+            Setting::parse("event_refresh", "2s"),
+            Ok(Setting::EventRefresh(Duration::from_secs(2)))
+        );
+        assert_eq!(
+            Setting::parse("event_refresh", "1.5s"),
+            Ok(Setting::EventRefresh(Duration::from_millis(1500)))
+        );
+        for bad in ["0", "5ms", "-1s", "NaNs", "infs", "2h", "99999s"] {
+            assert!(Setting::parse("event_refresh", bad).is_err(), "{bad}");
+        }
+        assert_eq!(
+            Setting::parse("counters", "10"),
+            Ok(Setting::Counters(Readback::Every(10)))
+        );
+        assert_eq!(
+            Setting::parse("status", "every"),
+            Ok(Setting::Status(Readback::Every(1)))
+        );
+        assert_eq!(
+            Setting::parse("RDELAYM", "20"),
+            Ok(Setting::FrameTimeout(20))
+        );
+    }
+}

@@ -1,0 +1,515 @@
+//! FC 70 Collect on the master side: one broadcast round per read cycle for the modules of a
+//! line that run in event mode (MiniMod manual, "Modbus function “Collect” (event
+//! management)" and "The Modbus function Collect").
+//!
+//! The protocol: the master broadcasts `00 46 FIRST LAST SLVACK SLVSEQ`; the slaves in the
+//! window FIRST..=LAST may reply, in ascending address order, 3 ms each, and only one of them
+//! (the first that has events) does: `SLAVE 46 SLVSEQ TYPE DATH DATL 00`. The master then
+//! acknowledges it in the next Collect (SLVACK = SLAVE, SLVSEQ as received) whose window starts
+//! after that slave, and so on until a Collect goes by in silence. The manual's example: window
+//! 1–16, slave 4 replies, then window 5–16 acknowledging slave 4.
+//!
+//! - [`CollectRound`] is the sans-IO planner of one round: the next request, and what a reply,
+//!   a silence or a failure does to the window and the acknowledgement.
+//! - [`membership`] is how a driver asks to be in the round: a transaction of its read plan
+//!   (never sent as such); the transactions before it run every cycle, those after it are the
+//!   module's full refresh. The owner hands the module's events back to the driver under the
+//!   membership's tag, as [`Response::Collect`] replies.
+//! - `BusOwner::collect_pass` runs the round at the start of a read cycle, on the bus owner's
+//!   line, and decides for each member whether its refresh runs this cycle: on its first
+//!   cycle, every refresh period (carried in the membership), after a gap in its SLVSEQ (lost
+//!   events), after a failed round, and after a cycle of its own that failed. A member that
+//!   delivered an event this round has its periodic refresh put off to a later cycle, so the
+//!   program sees the event before the refresh overwrites it with the present state.
+//!
+//! Choices where the manual is silent:
+//! - The window is the lowest to the highest member address; a round gives each slave at
+//!   most one event, so every variation is seen by the program for one cycle at least.
+//! - A reply from the window's last address leaves no window to acknowledge it in; the
+//!   acknowledgement goes with the first Collect of the next round. The owner then keeps the
+//!   line until that slave's slot and a reply's length have passed, so nothing is still on its
+//!   way when the ordinary polls start (on the virtual line a slave cannot hear another one's
+//!   reply, so a slave that a real line would have blocked may answer an earlier Collect too).
+//! - The wait for a reply is the window's slots (3 ms each) plus 1 ms, the manual's "nominal
+//!   timeout", plus the owner's inter-character allowance, since USB adapters and ptys
+//!   deliver late.
+//! - A reply from a slave in the window that is not a member (a MiniMod polled normally with
+//!   events enabled) is acknowledged and dropped. A reply that repeats the SLVSEQ last seen from
+//!   that slave (our acknowledgement was lost) is acknowledged again and not delivered twice.
+
+use std::time::Duration;
+
+use crate::driver::{Outgoing, Reply, Transaction};
+use crate::line::bus::BusOwner;
+use crate::modbus::master::{encode_request, Progress, ReplyAssembler};
+use crate::modbus::{Request, Response, UnitId};
+
+/// Reply slot of one address ("Each slave has 3 ms of time for replying").
+pub const SLOT: Duration = Duration::from_millis(3);
+/// Margin after the last slot ("plus 1 for safety").
+pub const SAFETY: Duration = Duration::from_millis(1);
+
+/// Tag bit of a membership transaction; the low 31 bits carry the refresh period in ms.
+const MEMBERSHIP: u32 = 1 << 31;
+
+/// The transaction by which a driver joins its line's Collect round: a Collect addressed to
+/// `unit` (never sent: the owner sends one broadcast for every member), tagged with the period
+/// of the module's full refresh (at most about 24 days).
+pub fn membership(unit: UnitId, refresh: Duration) -> Transaction {
+    let ms = u32::try_from(refresh.as_millis())
+        .unwrap_or(u32::MAX)
+        .min(MEMBERSHIP - 1);
+    Transaction {
+        frame: Outgoing::Modbus {
+            unit,
+            request: Request::Collect {
+                first: unit.get(),
+                last: unit.get(),
+                slave_ack: 0,
+                slave_seq: 0,
+            },
+        },
+        tag: MEMBERSHIP | ms,
+    }
+}
+
+/// The unit and refresh period of a membership transaction; `None` for anything else.
+pub fn membership_of(tx: &Transaction) -> Option<(UnitId, Duration)> {
+    match &tx.frame {
+        Outgoing::Modbus {
+            unit,
+            request: Request::Collect { .. },
+        } if tx.tag & MEMBERSHIP != 0 => Some((
+            *unit,
+            Duration::from_millis(u64::from(tx.tag & !MEMBERSHIP)),
+        )),
+        _ => None,
+    }
+}
+
+/// The SLVSEQ that follows `seq` (a MiniMod counts 1..=255 and skips 0).
+pub fn next_seq(seq: u8) -> u8 {
+    if seq == u8::MAX {
+        1
+    } else {
+        seq + 1
+    }
+}
+
+/// One Collect round, sans IO.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CollectRound {
+    /// FIRST of the next request.
+    next: u8,
+    /// LAST of every request.
+    last: u8,
+    /// SLVACK, SLVSEQ for the next request.
+    ack: Option<(u8, u8)>,
+    done: bool,
+    failed: bool,
+}
+
+impl CollectRound {
+    /// A round over the window `first..=last` (1..=247), carrying the acknowledgement the last
+    /// round could not send. `None` for an empty window.
+    pub fn new(first: u8, last: u8, pending_ack: Option<(u8, u8)>) -> Option<Self> {
+        (1..=last).contains(&first).then_some(Self {
+            next: first,
+            last,
+            ack: pending_ack,
+            done: false,
+            failed: false,
+        })
+    }
+
+    /// A round over every address in `members`; `None` when there is none.
+    pub fn over(members: &[u8], pending_ack: Option<(u8, u8)>) -> Option<Self> {
+        let first = members.iter().copied().filter(|&a| a != 0).min()?;
+        let last = members.iter().copied().max()?;
+        Self::new(first, last, pending_ack)
+    }
+
+    /// The next Collect to broadcast; `None` when the round is over.
+    pub fn request(&self) -> Option<Request> {
+        if self.done {
+            return None;
+        }
+        let (slave_ack, slave_seq) = self.ack.unwrap_or((0, 0));
+        Some(Request::Collect {
+            first: self.next,
+            last: self.last,
+            slave_ack,
+            slave_seq,
+        })
+    }
+
+    /// How long the slaves of the next request's window have to start a reply, from the end
+    /// of the request: 3 ms per address plus 1 ms.
+    pub fn reply_window(&self) -> Duration {
+        let slots = u32::from(self.last.saturating_sub(self.next)) + 1;
+        SLOT * slots + SAFETY
+    }
+
+    /// The time from the end of the next request to the end of `slave`'s slot in it.
+    pub fn slot_end(&self, slave: u8) -> Duration {
+        SLOT * (u32::from(slave.saturating_sub(self.next)) + 1)
+    }
+
+    /// Slave `slave` answered the last request with SLVSEQ `seq`: it is acknowledged by the
+    /// next request, whose window starts after it; after the window's last address the round
+    /// is over and the next round acknowledges it.
+    pub fn on_reply(&mut self, slave: u8, seq: u8) {
+        self.ack = Some((slave, seq));
+        if slave >= self.last {
+            self.done = true;
+        } else {
+            self.next = self.next.max(slave + 1);
+        }
+    }
+
+    /// The last request's window passed in silence: no slave left with events.
+    pub fn on_silence(&mut self) {
+        self.ack = None;
+        self.done = true;
+    }
+
+    /// The last request got a reply that could not be read (a collision, noise): the round
+    /// ends and the members must be read in full.
+    pub fn on_failure(&mut self) {
+        self.ack = None;
+        self.done = true;
+        self.failed = true;
+    }
+
+    /// Whether the round is over.
+    pub fn is_done(&self) -> bool {
+        self.done
+    }
+
+    /// Whether the round ended on a failure.
+    pub fn failed(&self) -> bool {
+        self.failed
+    }
+
+    /// The acknowledgement no request of this round carried (the reply came from the window's
+    /// last address); the next round sends it.
+    pub fn pending_ack(&self) -> Option<(u8, u8)> {
+        if self.done && !self.failed {
+            self.ack
+        } else {
+            None
+        }
+    }
+}
+
+/// Counters of a line's Collect rounds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CollectStats {
+    /// Rounds run.
+    pub rounds: u64,
+    /// Collect requests sent.
+    pub requests: u64,
+    /// Events delivered to drivers.
+    pub events: u64,
+    /// Replies that repeated an event already delivered.
+    pub duplicates: u64,
+    /// Gaps in a slave's SLVSEQ (events lost in the module).
+    pub gaps: u64,
+    /// Replies from slaves that are not members.
+    pub foreign: u64,
+    /// Rounds that ended on an unreadable reply or a line failure.
+    pub failures: u64,
+    /// Full refreshes of members.
+    pub refreshes: u64,
+    /// Events a driver could not use.
+    pub decode_errors: u64,
+    /// Bytes dropped (stray bytes before a request, extra bytes after a reply).
+    pub dropped_bytes: u64,
+}
+
+/// What a bus owner keeps between Collect rounds.
+#[derive(Debug, Clone, Default)]
+pub struct CollectState {
+    /// Per module: the read plan made before the round, and whether it is there.
+    stash: Vec<Vec<Transaction>>,
+    planned: Vec<bool>,
+    /// Per module: when its last full refresh was decided.
+    last_refresh: Vec<Option<Duration>>,
+    /// Per slave address: the last SLVSEQ seen.
+    last_seq: Vec<Option<u8>>,
+    /// The acknowledgement the last round could not send.
+    pending_ack: Option<(u8, u8)>,
+    stats: CollectStats,
+    tx: Vec<u8>,
+    rx: Vec<u8>,
+    /// End of the last Collect request on the line.
+    last_sent: Duration,
+}
+
+/// Length of a Collect reply: `SLAVE 46 SLVSEQ TYPE DATH DATL 00` + CRC.
+const COLLECT_REPLY_LEN: usize = 9;
+
+impl CollectState {
+    fn prepare(&mut self, modules: usize) {
+        self.stash.resize_with(modules, Vec::new);
+        self.planned.resize(modules, false);
+        self.last_refresh.resize(modules, None);
+        self.last_seq.resize(256, None);
+    }
+}
+
+/// A module in this cycle's round.
+#[derive(Debug, Clone, Copy)]
+struct Member {
+    module: usize,
+    unit: u8,
+    refresh: Duration,
+    tag: u32,
+    /// Position of the membership in the module's plan.
+    at: usize,
+    delivered: bool,
+    gap: bool,
+}
+
+/// Why one Collect exchange ended without an event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Exchange {
+    /// The window passed in silence.
+    Silence,
+    /// An unreadable reply, an exception, or the line failed.
+    Failure,
+}
+
+/// An event as it came off the line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Heard {
+    slave: u8,
+    seq: u8,
+    kind: u8,
+    data: u16,
+}
+
+impl BusOwner {
+    /// Counters of this line's Collect rounds.
+    pub fn collect_stats(&self) -> CollectStats {
+        self.collect.stats
+    }
+
+    /// Plans every module that is due at `now` and runs one Collect round for the members.
+    /// [`Self::read_plan`] then hands each module the rest of its plan.
+    pub(crate) fn collect_pass(&mut self, now: Duration) {
+        let n = self.modules.len();
+        self.collect.prepare(n);
+        let mut members: Vec<Member> = Vec::new();
+        for m in 0..n {
+            self.collect.planned[m] = false;
+            if !self.modules[m].health.due(now) {
+                continue;
+            }
+            let plan = &mut self.collect.stash[m];
+            plan.clear();
+            self.modules[m].driver.plan_read(plan);
+            self.collect.planned[m] = true;
+            let found = plan.iter().enumerate().find_map(|(at, tx)| {
+                membership_of(tx).map(|(unit, refresh)| (at, unit, refresh, tx.tag))
+            });
+            if let Some((at, unit, refresh, tag)) = found {
+                members.push(Member {
+                    module: m,
+                    unit: unit.get(),
+                    refresh,
+                    tag,
+                    at,
+                    delivered: false,
+                    gap: false,
+                });
+            }
+        }
+        let units: Vec<u8> = members.iter().map(|m| m.unit).collect();
+        let Some(mut round) = CollectRound::over(&units, self.collect.pending_ack.take()) else {
+            return;
+        };
+        self.collect.stats.rounds += 1;
+        while let Some(request) = round.request() {
+            match self.collect_exchange(&request, round.reply_window()) {
+                Ok(heard) => {
+                    let slot_end = round.slot_end(heard.slave);
+                    round.on_reply(heard.slave, heard.seq);
+                    self.deliver(heard, &mut members);
+                    if round.is_done() {
+                        self.quiet_after_last_slot(slot_end);
+                    }
+                }
+                Err(Exchange::Silence) => round.on_silence(),
+                Err(Exchange::Failure) => {
+                    self.collect.stats.failures += 1;
+                    round.on_failure();
+                }
+            }
+        }
+        self.collect.pending_ack = round.pending_ack();
+        let after = self.transport.now();
+        for member in &members {
+            let m = member.module;
+            let periodic = match self.collect.last_refresh[m] {
+                None => true,
+                Some(t) => after.saturating_sub(t) >= member.refresh && !member.delivered,
+            };
+            let due =
+                periodic || round.failed() || member.gap || self.modules[m].last_error.is_some();
+            let plan = &mut self.collect.stash[m];
+            if due {
+                plan.remove(member.at);
+                self.collect.last_refresh[m] = Some(after);
+                self.collect.stats.refreshes += 1;
+            } else {
+                plan.truncate(member.at);
+            }
+        }
+    }
+
+    /// Module `m`'s read plan for this cycle: what [`Self::collect_pass`] left of it, or, for a
+    /// module that became due after the pass, a fresh plan with its full refresh.
+    pub(crate) fn read_plan(&mut self, m: usize, plan: &mut Vec<Transaction>) {
+        if self.collect.planned.get(m).copied().unwrap_or(false) {
+            self.collect.planned[m] = false;
+            plan.append(&mut self.collect.stash[m]);
+            return;
+        }
+        self.modules[m].driver.plan_read(plan);
+        plan.retain(|tx| membership_of(tx).is_none());
+    }
+
+    /// Routes one event: acknowledged in any case, delivered once to the member it is from.
+    fn deliver(&mut self, heard: Heard, members: &mut [Member]) {
+        let slot = usize::from(heard.slave);
+        let last = self.collect.last_seq.get(slot).copied().flatten();
+        if let Some(s) = self.collect.last_seq.get_mut(slot) {
+            *s = Some(heard.seq);
+        }
+        let Some(member) = members.iter_mut().find(|m| m.unit == heard.slave) else {
+            self.collect.stats.foreign += 1;
+            return;
+        };
+        if last == Some(heard.seq) {
+            self.collect.stats.duplicates += 1;
+            return;
+        }
+        if last.is_some_and(|prev| next_seq(prev) != heard.seq) {
+            self.collect.stats.gaps += 1;
+            member.gap = true;
+        }
+        member.delivered = true;
+        self.collect.stats.events += 1;
+        let reply = Reply::Modbus(Response::Collect {
+            slave: heard.slave,
+            seq: heard.seq,
+            kind: heard.kind,
+            data: heard.data,
+        });
+        if self.modules[member.module]
+            .driver
+            .on_reply(member.tag, &reply)
+            .is_err()
+        {
+            self.collect.stats.decode_errors += 1;
+        }
+    }
+
+    /// After a reply from the window's last address ends the round: keeps the line until that
+    /// slave's slot (from the end of the last request) and a reply's length have passed, then
+    /// drops whatever came, so no late or repeated reply meets the next poll.
+    fn quiet_after_last_slot(&mut self, slot_end: Duration) {
+        let end = self.collect.last_sent + slot_end + self.settings.chars(COLLECT_REPLY_LEN);
+        self.transport.wait_until(end);
+        self.collect.stats.dropped_bytes += self.transport.flush_input() as u64;
+        self.line_free_at = self
+            .line_free_at
+            .max(self.transport.now() + self.settings.t3_5());
+    }
+
+    /// Broadcasts one Collect and listens through its reply window.
+    fn collect_exchange(&mut self, request: &Request, window: Duration) -> Result<Heard, Exchange> {
+        let mut tx = std::mem::take(&mut self.collect.tx);
+        tx.clear();
+        let encoded = encode_request(0, request, &mut tx);
+        let result = match encoded {
+            Ok(()) => self.collect_on_line(&tx, request, window),
+            Err(_) => Err(Exchange::Failure),
+        };
+        self.collect.tx = tx;
+        result
+    }
+
+    fn collect_on_line(
+        &mut self,
+        frame: &[u8],
+        request: &Request,
+        window: Duration,
+    ) -> Result<Heard, Exchange> {
+        self.transport.wait_until(self.line_free_at);
+        // Whatever arrived while the line was idle belongs to nobody.
+        self.collect.stats.dropped_bytes += self.transport.flush_input() as u64;
+        if self.transport.write_frame(frame).is_err() {
+            return Err(Exchange::Failure);
+        }
+        self.collect.stats.requests += 1;
+        let sent = self.transport.now();
+        self.collect.last_sent = sent;
+        let inter_char = self.inter_char_timeout();
+        let mut deadline = sent + window + inter_char;
+        let mut assembler = ReplyAssembler::new(0, request);
+        let mut rx = std::mem::take(&mut self.collect.rx);
+        rx.clear();
+        let outcome = loop {
+            let before = rx.len();
+            let Ok(n) = self.transport.read_until(&mut rx, deadline) else {
+                break Err(Exchange::Failure);
+            };
+            let now = self.transport.now();
+            if n == 0 {
+                break if rx.is_empty() {
+                    Err(Exchange::Silence)
+                } else {
+                    Err(Exchange::Failure)
+                };
+            }
+            deadline = now + inter_char;
+            match assembler.push(&rx[before..]) {
+                Progress::NeedMore => {}
+                Progress::Complete {
+                    response:
+                        Response::Collect {
+                            slave,
+                            seq,
+                            kind,
+                            data,
+                        },
+                    extra,
+                } => {
+                    self.collect.stats.dropped_bytes += extra as u64;
+                    break Ok(Heard {
+                        slave,
+                        seq,
+                        kind,
+                        data,
+                    });
+                }
+                Progress::Complete { .. } | Progress::Failed(_) => break Err(Exchange::Failure),
+            }
+        };
+        self.collect.rx = rx;
+        let now = self.transport.now();
+        if matches!(outcome, Err(Exchange::Failure)) {
+            // Let a babbling or late reply end, then drop it, as after any bad reply.
+            let guard = (self.settings.t3_5() * 2).max(inter_char);
+            self.transport.wait_until(now + guard);
+            self.collect.stats.dropped_bytes += self.transport.flush_input() as u64;
+        }
+        self.line_free_at = self.transport.now() + self.settings.t3_5();
+        outcome
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,430 @@
+//! The Collect planner alone, then Collect rounds through the real bus owner on the virtual
+//! line with simulated MiniMods (virtual clock).
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use super::*;
+use crate::devices::{self, DeviceConfig, Protocol};
+use crate::line::bus::{BusOwner, Discipline, InputFrame, Module};
+use crate::line::settings::LineSettings;
+use crate::line::transport::{LineError, Transport};
+use crate::modbus::crc::append_crc;
+use crate::point::{Quality, Value};
+use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use crate::time::{Clock, VirtualClock};
+
+fn frame(bytes: &[u8]) -> Vec<u8> {
+    let mut f = bytes.to_vec();
+    append_crc(&mut f);
+    f
+}
+
+fn wire(req: &Request) -> Vec<u8> {
+    let mut out = Vec::new();
+    encode_request(0, req, &mut out).unwrap();
+    out
+}
+
+#[test]
+fn the_manual_exchange_window_1_16_slave_4_then_5_16() {
+    let mut round = CollectRound::new(1, 16, None).unwrap();
+    let first = round.request().unwrap();
+    assert_eq!(wire(&first), frame(&[0x00, 0x46, 0x01, 0x10, 0x00, 0x00]));
+    assert_eq!(
+        round.reply_window(),
+        Duration::from_millis(16 * 3 + 1),
+        "16 slots + 1 ms"
+    );
+    round.on_reply(4, 0x21);
+    let second = round.request().unwrap();
+    assert_eq!(
+        second,
+        Request::Collect {
+            first: 5,
+            last: 16,
+            slave_ack: 4,
+            slave_seq: 0x21
+        }
+    );
+    assert_eq!(wire(&second), frame(&[0x00, 0x46, 0x05, 0x10, 0x04, 0x21]));
+    assert_eq!(round.reply_window(), Duration::from_millis(12 * 3 + 1));
+    round.on_silence();
+    assert!(round.is_done() && !round.failed());
+    assert_eq!(round.request(), None);
+    assert_eq!(round.pending_ack(), None, "sent with 5–16");
+}
+
+#[test]
+fn the_last_address_is_acknowledged_by_the_next_round() {
+    let mut round = CollectRound::new(3, 9, None).unwrap();
+    assert_eq!(
+        round.slot_end(9),
+        Duration::from_millis(21),
+        "the seventh slot"
+    );
+    round.on_reply(9, 7);
+    assert!(round.is_done());
+    assert_eq!(round.request(), None);
+    assert_eq!(round.pending_ack(), Some((9, 7)));
+    let next = CollectRound::new(3, 9, round.pending_ack()).unwrap();
+    assert_eq!(
+        next.request(),
+        Some(Request::Collect {
+            first: 3,
+            last: 9,
+            slave_ack: 9,
+            slave_seq: 7
+        })
+    );
+    let mut garbled = CollectRound::new(1, 1, Some((1, 1))).unwrap();
+    garbled.on_failure();
+    assert!(garbled.failed() && garbled.request().is_none());
+    assert_eq!(garbled.pending_ack(), None, "the acknowledgement went out");
+}
+
+#[test]
+fn windows_from_members() {
+    assert_eq!(CollectRound::over(&[], None), None);
+    assert_eq!(CollectRound::new(0, 4, None), None);
+    assert_eq!(CollectRound::new(5, 4, None), None);
+    let r = CollectRound::over(&[12, 3, 7], None).unwrap();
+    assert_eq!(
+        r.request(),
+        Some(Request::Collect {
+            first: 3,
+            last: 12,
+            slave_ack: 0,
+            slave_seq: 0
+        })
+    );
+}
+
+#[test]
+fn membership_round_trip() {
+    let unit = UnitId::new(9).unwrap();
+    let tx = membership(unit, Duration::from_millis(1500));
+    assert_eq!(
+        membership_of(&tx),
+        Some((unit, Duration::from_millis(1500)))
+    );
+    let plain = Transaction {
+        frame: tx.frame.clone(),
+        tag: 7,
+    };
+    assert_eq!(
+        membership_of(&plain),
+        None,
+        "a driver's own Collect is not a membership"
+    );
+    assert_eq!(next_seq(1), 2);
+    assert_eq!(next_seq(255), 1, "0 is skipped");
+}
+
+/// A transport that keeps every frame the master writes.
+#[derive(Debug)]
+struct Recorder {
+    inner: VirtualPort,
+    log: Arc<Mutex<Vec<Vec<u8>>>>,
+}
+
+impl Transport for Recorder {
+    fn settings(&self) -> LineSettings {
+        self.inner.settings()
+    }
+    fn now(&self) -> Duration {
+        self.inner.now()
+    }
+    fn sync(&mut self, t: Duration) {
+        self.inner.sync(t);
+    }
+    fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
+        self.log.lock().unwrap().push(frame.to_vec());
+        self.inner.write_frame(frame)
+    }
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+        self.inner.read_until(buf, deadline)
+    }
+    fn wait_until(&mut self, t: Duration) {
+        self.inner.wait_until(t);
+    }
+    fn flush_input(&mut self) -> usize {
+        self.inner.flush_input()
+    }
+}
+
+struct Rig {
+    clock: Arc<VirtualClock>,
+    world: SharedWorld,
+    owner: BusOwner,
+    log: Arc<Mutex<Vec<Vec<u8>>>>,
+}
+
+/// One MiniMod of a rig: address, protocol, settings.
+type Spec<'a> = (u8, Protocol, &'a [(&'a str, &'a str)]);
+
+/// MiniMods on one line at 19200 8E1.
+fn rig(specs: &[Spec<'_>]) -> Rig {
+    let line = LineSettings::DEFAULT;
+    let model = devices::model("minimod").unwrap();
+    let mut world = SimWorld::new(vec![line]);
+    let mut modules = Vec::new();
+    for (address, protocol, settings) in specs {
+        let name = format!("mm{address}");
+        world.add_device(0, &name, (model.simulator)(*address));
+        let driver = (model.driver)(&DeviceConfig {
+            name: name.clone(),
+            address: *address,
+            protocol: *protocol,
+            settings: settings
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect(),
+        });
+        modules.push(Module::new(name, driver));
+    }
+    let world = world.shared();
+    let clock = Arc::new(VirtualClock::new());
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let port = Recorder {
+        inner: VirtualPort::new(world.clone(), 0, line, clock.clone()),
+        log: log.clone(),
+    };
+    let discipline = Discipline {
+        response_timeout: Duration::from_millis(50),
+        retries: 0,
+        ..Discipline::default()
+    };
+    let owner = BusOwner::new("line", Box::new(port), discipline, modules);
+    Rig {
+        clock,
+        world,
+        owner,
+        log,
+    }
+}
+
+impl Rig {
+    /// Start-up at 0; returns when it ended, in ms.
+    fn startup(&mut self) -> u64 {
+        self.owner.sync(self.clock.now());
+        self.owner.startup().unwrap();
+        self.clock.now().as_millis() as u64
+    }
+
+    /// One read cycle starting at `ms` (the line keeps its own time if still busy); returns
+    /// the frame and what went on the wire.
+    fn read_at(&mut self, ms: u64) -> (InputFrame, Vec<Vec<u8>>) {
+        self.at(ms);
+        self.log.lock().unwrap().clear();
+        self.owner.sync(self.clock.now());
+        let frame = self.owner.read_inputs();
+        self.clock.advance_to(frame.finished);
+        let sent = std::mem::take(&mut *self.log.lock().unwrap());
+        (frame, sent)
+    }
+
+    /// Sets a simulated terminal now.
+    fn set(&self, device: usize, point: &str, on: bool) {
+        let mut w = self.world.lock().unwrap();
+        w.advance_to(self.clock.now());
+        w.set(device, point, Value::Bool(on)).unwrap();
+    }
+
+    fn at(&self, ms: u64) {
+        self.clock.advance_to(Duration::from_millis(ms));
+    }
+}
+
+fn value(frame: &InputFrame, module: usize, point: &str) -> Option<Value> {
+    let i = devices::model("minimod")
+        .unwrap()
+        .point_index(point)
+        .unwrap();
+    frame.modules[module].values[i]
+}
+
+fn collect(first: u8, last: u8, ack: u8, seq: u8) -> Vec<u8> {
+    frame(&[0x00, 0x46, first, last, ack, seq])
+}
+
+fn fc2(unit: u8) -> Vec<u8> {
+    frame(&[unit, 0x02, 0x00, 0x00, 0x00, 0x0A])
+}
+
+const EVENTS: &[(&str, &str)] = &[
+    ("events", "true"),
+    ("XLATUP1", "0"),
+    ("XLATDN1", "0"),
+    ("XLATUP2", "0"),
+    ("XLATDN2", "0"),
+];
+
+#[test]
+fn event_mode_through_the_bus_owner() {
+    // mm2 polled, mm4 and mm9 in event mode.
+    let mut r = rig(&[
+        (2, Protocol::Modbus, &[]),
+        (4, Protocol::Modbus, EVENTS),
+        (9, Protocol::Modbus, EVENTS),
+    ]);
+    assert!(r.startup() < 900);
+
+    // First cycle: a silent round over 4..=9, then everyone read in full.
+    let (f, sent) = r.read_at(1000);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2), fc2(4), fc2(9)]);
+    assert!(f.modules.iter().all(|m| m.quality == Quality::Good));
+    assert_eq!(value(&f, 1, "X1"), Some(Value::Bool(false)));
+
+    // X1 of slave 4 goes on: slave 4 answers in its slot, window 5..=9 acknowledges it, no
+    // full read of 4 or 9.
+    r.at(1050);
+    r.set(1, "X1", true);
+    let (f, sent) = r.read_at(1100);
+    assert_eq!(sent, [collect(4, 9, 0, 0), collect(5, 9, 4, 1), fc2(2)]);
+    assert_eq!(
+        value(&f, 1, "X1"),
+        Some(Value::Bool(true)),
+        "from the event"
+    );
+    assert_eq!(f.modules[1].quality, Quality::Good);
+
+    // Nothing happens: one silent Collect and the polled module.
+    let (_, sent) = r.read_at(1200);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2)]);
+
+    // Slave 9, the window's last address: acknowledged by the next round.
+    r.at(1250);
+    r.set(2, "X2", true);
+    let (f, sent) = r.read_at(1300);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2)]);
+    assert_eq!(value(&f, 2, "X2"), Some(Value::Bool(true)));
+    let (_, sent) = r.read_at(1400);
+    assert_eq!(sent, [collect(4, 9, 9, 1), fc2(2)]);
+    assert!(!r
+        .world
+        .lock()
+        .unwrap()
+        .get(2, "EVENTSPRS")
+        .unwrap()
+        .as_bool());
+
+    // A pulse shorter than a cycle: on in one cycle, off in the next (one event per round).
+    r.at(1450);
+    r.set(1, "X2", true);
+    r.at(1460);
+    r.set(1, "X2", false);
+    let (f, _) = r.read_at(1500);
+    assert_eq!(
+        value(&f, 1, "X2"),
+        Some(Value::Bool(true)),
+        "the pulse is seen"
+    );
+    let (f, _) = r.read_at(1600);
+    assert_eq!(value(&f, 1, "X2"), Some(Value::Bool(false)));
+
+    // After a second, the periodic full read, unless an event came in the same round.
+    let (_, sent) = r.read_at(2000);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2), fc2(4), fc2(9)]);
+
+    let stats = r.owner.collect_stats();
+    assert_eq!(stats.events, 4);
+    assert_eq!(stats.failures, 0);
+    assert_eq!(stats.gaps, 0);
+    assert_eq!(stats.refreshes, 4);
+}
+
+#[test]
+fn periodic_refresh_repairs_a_lost_event() {
+    let settings = [
+        ("events", "true"),
+        ("event_refresh", "300ms"),
+        ("XLATUP1", "0"),
+    ];
+    let mut r = rig(&[(4, Protocol::Modbus, &settings)]);
+    r.startup();
+    let (_, sent) = r.read_at(1000);
+    assert_eq!(sent, [collect(4, 4, 0, 0), fc2(4)]);
+    // The module stops recording events (as after a power cycle): X1 changes silently.
+    r.at(1050);
+    {
+        let mut w = r.world.lock().unwrap();
+        w.set(0, "XEVMASK", Value::U16(0)).unwrap();
+        w.set(0, "X1", Value::Bool(true)).unwrap();
+    }
+    for t in [1100, 1200] {
+        let (f, sent) = r.read_at(t);
+        assert_eq!(sent, [collect(4, 4, 0, 0)]);
+        assert_eq!(value(&f, 0, "X1"), Some(Value::Bool(false)), "not seen yet");
+    }
+    let (f, sent) = r.read_at(1300);
+    assert_eq!(sent, [collect(4, 4, 0, 0), fc2(4)]);
+    assert_eq!(
+        value(&f, 0, "X1"),
+        Some(Value::Bool(true)),
+        "the full read every 300 ms"
+    );
+}
+
+#[test]
+fn a_gap_in_slvseq_triggers_a_full_read() {
+    let mut r = rig(&[(4, Protocol::Modbus, EVENTS)]);
+    r.startup();
+    r.read_at(1000);
+    r.at(1010);
+    r.set(0, "X1", true);
+    let (_, sent) = r.read_at(1100);
+    assert_eq!(sent, [collect(4, 4, 0, 0)], "event 1");
+    // 20 variations in one cycle overflow the 16-event queue: the oldest are dropped.
+    for k in 0..20u64 {
+        r.at(1110 + 2 * k);
+        r.set(0, "X1", k % 2 == 1);
+    }
+    let (f, sent) = r.read_at(1200);
+    assert_eq!(
+        sent,
+        [collect(4, 4, 4, 1), fc2(4)],
+        "a full read after the gap"
+    );
+    assert_eq!(
+        value(&f, 0, "X1"),
+        Some(Value::Bool(true)),
+        "the present state"
+    );
+    assert_eq!(r.owner.collect_stats().gaps, 1);
+}
+
+#[test]
+fn event_mode_with_the_text_protocol_and_two_slaves_with_events() {
+    // Slaves 3 and 12 both have an event for the same round: on the virtual line they cannot
+    // hear each other, so slave 12 answers the first Collect too; the round still ends clean.
+    let mut r = rig(&[
+        (3, Protocol::Text, EVENTS),
+        (12, Protocol::Modbus, EVENTS),
+        (7, Protocol::Text, &[]),
+    ]);
+    r.startup();
+    let (f, sent) = r.read_at(1000);
+    assert_eq!(sent[0], collect(3, 12, 0, 0));
+    assert!(sent.contains(&b"@3?XWORD\r".to_vec()), "text refresh");
+    assert!(sent.contains(&b"@7?XWORD\r".to_vec()), "text poll");
+    assert!(f.modules.iter().all(|m| m.quality == Quality::Good));
+    r.at(1150);
+    r.set(0, "X1", true);
+    r.set(1, "X2", true);
+    let (f, _) = r.read_at(1200);
+    assert_eq!(value(&f, 0, "X1"), Some(Value::Bool(true)));
+    assert_eq!(value(&f, 1, "X2"), Some(Value::Bool(true)));
+    assert!(f
+        .modules
+        .iter()
+        .all(|m| m.quality == Quality::Good && m.last_error.is_none()));
+    let (f, sent) = r.read_at(1400);
+    assert_eq!(
+        sent,
+        [collect(3, 12, 12, 1), b"@7?XWORD\r".to_vec()],
+        "the line is clean"
+    );
+    assert!(f.modules.iter().all(|m| m.last_error.is_none()));
+    assert_eq!(r.owner.collect_stats().failures, 0);
+}
