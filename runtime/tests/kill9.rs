@@ -1,0 +1,159 @@
+//! `kill -9` of a running PLC: the modules' own watchdogs, armed from the project file, take
+//! the outputs to their safe mask with no help from the dead process. Simulated MiniMods are
+//! served on a pty by `softplc sim`, exactly as a real line would be.
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::PathBuf;
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{channel, Receiver};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+
+struct Sim {
+    child: Child,
+    stdin: ChildStdin,
+    lines: Receiver<String>,
+}
+
+impl Sim {
+    fn start(devices: &[&str]) -> (Self, String) {
+        let mut child = Command::new(BIN)
+            .arg("sim")
+            .arg("--pty")
+            .args(devices)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let stdin = child.stdin.take().unwrap();
+        let stdout = child.stdout.take().unwrap();
+        let (tx, lines) = channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let banner = lines
+            .recv_timeout(Duration::from_secs(10))
+            .expect("softplc sim prints its pty");
+        let pty = banner
+            .split_whitespace()
+            .find(|w| w.starts_with("/dev/"))
+            .unwrap_or_else(|| panic!("no pty path in {banner:?}"))
+            .to_string();
+        (
+            Self {
+                child,
+                stdin,
+                lines,
+            },
+            pty,
+        )
+    }
+
+    fn get(&mut self, target: &str) -> String {
+        writeln!(self.stdin, "get {target}").unwrap();
+        self.stdin.flush().unwrap();
+        loop {
+            let line = self
+                .lines
+                .recv_timeout(Duration::from_secs(5))
+                .expect("sim answers");
+            if line.starts_with(target) || line.starts_with("error") {
+                return line;
+            }
+        }
+    }
+
+    /// Polls `target` until it reads `want`; returns how long that took.
+    fn wait_for(&mut self, target: &str, want: &str, within: Duration) -> Option<Duration> {
+        let start = Instant::now();
+        while start.elapsed() < within {
+            if self.get(target) == format!("{target}={want}") {
+                return Some(start.elapsed());
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        None
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn kill_9_leaves_the_outputs_to_the_module_watchdog() {
+    let (mut sim, pty) = Sim::start(&["minimod@1"]);
+    let dir = std::env::temp_dir().join(format!("softplc-kill9-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("run.expr"),
+        "# run the motor whenever the PLC is alive\nmotor = 1\n",
+    )
+    .unwrap();
+    let project = format!(
+        "project: kill9\n\
+         scan: {{ period: 50ms }}\n\
+         buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 200ms }}\n\
+         modules:\n  - name: mm1\n    bus: line1\n    model: minimod\n    address: 1\n    settings:\n      WDTTIME: 50      # 0.5 s without a valid command fires the module watchdog\n      WDTYMASK: 0      # and then every output is off\n\
+         tags:\n  - {{ name: motor, point: mm1.Y1, safe: false }}\n\
+         program: {{ file: run.expr, kind: expr }}\n"
+    );
+    let project_path: PathBuf = dir.join("project.yaml");
+    std::fs::write(&project_path, project).unwrap();
+
+    let mut plc = Command::new(BIN)
+        .args(["run", "--quiet", "--no-control"])
+        .arg(&project_path)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let on = sim.wait_for("minimod@1.Y1", "1", Duration::from_secs(20));
+    if on.is_none() {
+        let _ = plc.kill();
+        let out = plc.wait_with_output().unwrap();
+        panic!(
+            "the PLC never turned Y1 on: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    assert_eq!(
+        sim.get("minimod@1.WDTTIME"),
+        "minimod@1.WDTTIME=50",
+        "armed from the project"
+    );
+
+    // SAFETY: kill with a valid pid and signal.
+    unsafe { libc::kill(plc.id() as i32, libc::SIGKILL) };
+    let _ = plc.wait();
+    let killed = Instant::now();
+    let off = sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(10));
+    assert!(
+        off.is_some(),
+        "the module watchdog must switch Y1 off after WDTTIME"
+    );
+    assert_eq!(sim.get("minimod@1.WDTFIRED"), "minimod@1.WDTFIRED=1");
+    assert_eq!(
+        sim.get("minimod@1.WDTCOMM"),
+        "minimod@1.WDTCOMM=1",
+        "fired for lost communication"
+    );
+    // The module, not the dead process, did it: no sooner than WDTTIME after the kill (minus
+    // the time since the PLC's last command, at most one 50 ms cycle plus the bus).
+    assert!(
+        killed.elapsed() >= Duration::from_millis(300),
+        "{:?}",
+        killed.elapsed()
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
