@@ -73,6 +73,14 @@ pub trait SimDevice: Send + Debug {
         Err(SimError::UnknownCommand(words.join(" ")))
     }
 
+    /// Whether this device's reply to `frame` gives way to an earlier reply to the same frame
+    /// (it listens before talking: MiniMod Collect slots, where a slave that hears an earlier
+    /// slave answer stays silent until the next Collect).
+    fn yields_to_earlier_reply(&self, frame: &[u8]) -> bool {
+        let _ = frame;
+        false
+    }
+
     /// Brings the module up speaking `protocol`, as its installer would have configured it
     /// (a project's `protocol:` for a module that speaks one protocol at a time). Modules that
     /// answer every protocol at once need nothing.

@@ -193,6 +193,24 @@ impl SimWorld {
                 replies.push((i, reply));
             }
         }
+        // Devices that listen before talking drop out when an earlier one answers.
+        let earliest_polite = replies
+            .iter()
+            .filter(|(i, _)| self.devices[*i].device.yields_to_earlier_reply(frame))
+            .map(|(_, r)| r.delay)
+            .min();
+        if let Some(first) = earliest_polite {
+            let devices = &self.devices;
+            let mut kept_first = false;
+            replies.retain(|(i, r)| {
+                if !devices[*i].device.yields_to_earlier_reply(frame) {
+                    return true;
+                }
+                let keep = r.delay == first && !kept_first;
+                kept_first |= keep;
+                keep
+            });
+        }
         let Some(inbound) = self.inbound.get_mut(line) else {
             return;
         };
@@ -380,5 +398,33 @@ impl Transport for VirtualPort {
     fn flush_input(&mut self) -> usize {
         let (line, now) = (self.line, self.now());
         self.lock().drop_arrived(line, now)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::modbus::crc::append_crc;
+
+    /// Two MiniMods with queued input events hear one broadcast Collect: slave 4 answers in its
+    /// slot and slave 6, hearing it, stays silent (the master then polls the window 5–16).
+    #[test]
+    fn a_collect_slot_reply_silences_the_later_slaves() {
+        let model = crate::devices::model("minimod").unwrap();
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        for addr in [4, 6] {
+            let d = world.add_device(0, &format!("mm{addr}"), (model.simulator)(addr));
+            world.set(d, "EVX1", Value::Bool(true)).unwrap();
+            world.set(d, "X1", Value::Bool(true)).unwrap();
+        }
+        world.advance_to(Duration::from_millis(100));
+        let mut collect = vec![0x00, 70, 1, 16, 0, 0];
+        append_crc(&mut collect);
+        world.deliver(0, &collect, Duration::from_millis(100));
+        let mut reply = Vec::new();
+        world.take_arrived(0, Duration::from_secs(1), &mut reply);
+        assert_eq!(reply.len(), 9, "one reply, not two garbled: {reply:02X?}");
+        assert_eq!(&reply[..2], &[4, 70]);
+        assert!(crate::modbus::crc::check_crc(&reply));
     }
 }

@@ -373,6 +373,13 @@ impl SimDevice for MiniModSim {
         self.state.advance_to_ms(ms);
     }
 
+    /// Collect slots are taken in ascending address order, and a slave that hears an earlier
+    /// slave's reply stays silent: the master goes on with a narrower window (manual, "The
+    /// Modbus function Collect").
+    fn yields_to_earlier_reply(&self, frame: &[u8]) -> bool {
+        frame.len() == 8 && frame.get(1) == Some(&70)
+    }
+
     fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
         self.advance_to(t);
         if !self.state.listening() {
