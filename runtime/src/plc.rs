@@ -21,6 +21,7 @@ use softplc_io::sim::plant;
 use crate::clock::Clock;
 use crate::image::{convert, ProcessImage, TagId};
 use crate::logic::{load, LogicEngine, LogicFault, ScanContext};
+use crate::offload::{self, runtime::Offloaded, Plan, RequireFailure};
 use crate::project::{Binding, PortConfig, Project};
 
 /// Why a PLC could not be built or started.
@@ -29,6 +30,9 @@ pub enum BuildError {
     /// The program did not compile.
     #[error("{0}")]
     Program(#[from] load::ProgramError),
+    /// Rungs with `offload: require` cannot be pushed down (one line each).
+    #[error("{}", offload::runtime::lines(.0))]
+    Offload(Vec<RequireFailure>),
     /// A port could not be opened.
     #[error("bus {bus}: {source}")]
     Port {
@@ -119,6 +123,10 @@ pub struct Plc {
     line_wait: Duration,
     /// Retained tags and their writer, when the project retains any.
     retain: Option<crate::retain::Retainer>,
+    /// Where every rung runs (see [`crate::offload`]).
+    plan: Plan,
+    /// The outputs the modules drive.
+    offload: Offloaded,
 }
 
 impl Plc {
@@ -126,7 +134,18 @@ impl Plc {
     /// simulated world for `port: sim`), and runs every module's start-up configuration.
     pub fn build(project: Project, clock: Arc<dyn Clock>) -> Result<Self, BuildError> {
         let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
-        let logic = load::load_program(&project, &image)?;
+        let mut logic = load::load_program(&project, &image)?;
+        // Push-down: the modules run the rungs the plan places there; their drivers get the
+        // tables as start-up settings (written and verified before the first scan).
+        let plan = offload::plan_program(&project, logic.as_ref());
+        let failures = plan.require_failures();
+        if !failures.is_empty() {
+            return Err(BuildError::Offload(failures));
+        }
+        for (r, _) in plan.pushed() {
+            logic.release(r.rung.coil);
+        }
+        let devices = plan.device_configs(&project);
         let mut image = image;
         for (i, t) in project.tags.iter().enumerate() {
             if t.binding == Binding::Memory {
@@ -173,7 +192,7 @@ impl Plc {
                 .iter()
                 .map(|&m| {
                     let cfg = &project.modules[m];
-                    Module::new(cfg.name.clone(), (cfg.model.driver)(&cfg.device))
+                    Module::new(cfg.name.clone(), (cfg.model.driver)(&devices[m]))
                 })
                 .collect();
             let discipline = Discipline {
@@ -214,6 +233,8 @@ impl Plc {
                 .unwrap_or(0);
             let id = TagId(i as u32);
             match cfg.model.points[point].access {
+                // The module drives it (see `offload`).
+                Access::Output if plan.is_pushed(id) => {}
                 Access::Output => outputs.push(OutputBinding {
                     tag: id,
                     bus,
@@ -251,6 +272,7 @@ impl Plc {
             .collect();
         let line_wait = project.scan.watchdog.time * project.scan.watchdog.sensitivity.max(1)
             + project.scan.period;
+        let offload = Offloaded::new(&plan, &project, &bus_modules);
         Ok(Self {
             project,
             clock,
@@ -265,7 +287,14 @@ impl Plc {
             world,
             line_wait,
             retain,
+            plan,
+            offload,
         })
+    }
+
+    /// Where every rung runs: in a module or in the scan.
+    pub fn plan(&self) -> &Plan {
+        &self.plan
     }
 
     /// The project.
@@ -366,12 +395,15 @@ impl Plc {
                 self.image.update(bind.tag, value, quality, now);
             }
         }
+        self.offload.read_back(&mut self.image, &frames, now);
         self.image.apply_forces(now);
     }
 
     /// Logic phase.
     pub fn run_logic(&mut self, ctx: &ScanContext) -> Result<(), LogicFault> {
-        self.logic.scan(&mut self.image, ctx)
+        let result = self.logic.scan(&mut self.image, ctx);
+        self.offload.after_logic(&mut self.image, ctx.now);
+        result
     }
 
     /// Output phase: every line writes what changed (in parallel).
@@ -384,7 +416,9 @@ impl Plc {
             );
             self.frames[bind.bus].modules[bind.module][bind.point] = Some(v);
         }
+        self.offload.commands(&mut self.frames);
         self.dispatch_writes();
+        self.offload.clear_commands(&mut self.frames);
         // Between cycles: hand changed retained values to their writer (never waits).
         if let Some(r) = self.retain.as_mut() {
             r.tick(&self.image, self.clock.now());
@@ -397,7 +431,10 @@ impl Plc {
             self.frames[bind.bus].modules[bind.module][bind.point] = Some(bind.safe);
             self.image.set(bind.tag, bind.safe, self.clock.now());
         }
+        self.offload
+            .stop(&mut self.frames, &mut self.image, self.clock.now());
         self.dispatch_writes();
+        self.offload.clear_commands(&mut self.frames);
     }
 
     fn dispatch_writes(&mut self) {
@@ -441,6 +478,7 @@ impl Plc {
     /// Forces `tag` to the value `text` (parsed as the tag's type); returns the value.
     pub fn force(&mut self, tag: &str, text: &str) -> Result<Value, String> {
         let id = self.tag_id(tag)?;
+        self.refuse_pushed(id, tag)?;
         let ty = self.project.tags[id.index()].ty;
         let value = Value::parse(ty, text)
             .ok_or_else(|| format!("{tag} is {ty}: {text:?} is not a {ty}"))?;
@@ -478,6 +516,7 @@ impl Plc {
             if self.image.forced(id).is_some() {
                 return Err(format!("{} is forced; unforce it to write it", tv.tag));
             }
+            self.refuse_pushed(id, &tv.tag)?;
             parsed.push((id, value));
         }
         let now = self.clock.now();
@@ -486,6 +525,17 @@ impl Plc {
             tracing::debug!("tag {} written: {value}", self.image.name(id));
         }
         Ok(format!("{} tag(s) written", parsed.len()))
+    }
+
+    /// A pushed-down output is its module's: the scan cannot set it.
+    fn refuse_pushed(&self, id: TagId, tag: &str) -> Result<(), String> {
+        if self.offload.owns(id) {
+            return Err(format!(
+                "{tag} is driven by its module's own logic (push-down); set offload: never on \
+                 the tag to drive it from the scan"
+            ));
+        }
+        Ok(())
     }
 
     fn tag_id(&self, tag: &str) -> Result<TagId, String> {
@@ -506,8 +556,21 @@ impl Plc {
                     .into(),
             );
         }
-        let logic =
+        let mut logic =
             load::load_program(&fresh, &self.image).map_err(|e| format!("reload refused:\n{e}"))?;
+        // The module tables were written at start-up: the new program must place its rungs
+        // where the running one did.
+        let plan = offload::plan_program(&fresh, logic.as_ref());
+        if !offload::runtime::same_placement(&plan, &self.plan) {
+            return Err(
+                "reload refused: the new program moves rungs into or out of modules; restart \
+                 to write the module tables"
+                    .into(),
+            );
+        }
+        for (r, _) in plan.pushed() {
+            logic.release(r.rung.coil);
+        }
         self.logic = logic;
         self.project.program = fresh.program;
         let msg = format!("program {} reloaded", self.project.program.path.display());

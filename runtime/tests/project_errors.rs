@@ -831,7 +831,7 @@ project: t
 scan: { period: 20ms }
 program:
   file: missing.expr
-  kind: ladder
+  kind: sfc
 ";
     let got = errors(text);
     assert_eq!(got.len(), 2, "{got:#?}");
@@ -842,7 +842,7 @@ program:
     assert_eq!(at(&got[1]), (5, 9));
     assert_eq!(
         got[1].kind.to_string(),
-        "unknown program kind \"ladder\" (known: expr)"
+        "unknown program kind \"sfc\" (known: expr, ladder, rhai)"
     );
 }
 

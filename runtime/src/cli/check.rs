@@ -27,11 +27,27 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
-    if let Err(e) = load::load_program(&project, &image) {
-        eprintln!("{e}");
+    let engine = match load::load_program(&project, &image) {
+        Ok(engine) => engine,
+        Err(e) => {
+            eprintln!("{e}");
+            return Ok(ExitCode::FAILURE);
+        }
+    };
+    // The I/O map and budgets as the drivers will run: with the push-down plan's settings
+    // (tables, read-back).
+    let plan = crate::offload::plan_program(&project, engine.as_ref());
+    let mut planned = project.clone();
+    for (module, device) in planned.modules.iter_mut().zip(plan.device_configs(&project)) {
+        module.device = device;
+    }
+    print!("{}", report(&planned));
+    print!("{}", crate::offload::report::report(&project, &plan));
+    let failures = plan.require_failures();
+    if !failures.is_empty() {
+        eprintln!("{}", crate::offload::runtime::lines(&failures));
         return Ok(ExitCode::FAILURE);
     }
-    print!("{}", report(&project));
     Ok(ExitCode::SUCCESS)
 }
 

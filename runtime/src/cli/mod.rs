@@ -5,6 +5,7 @@ mod check;
 mod control;
 mod run;
 mod sim;
+pub mod test;
 
 use std::process::ExitCode;
 
@@ -37,6 +38,8 @@ enum Command {
     Unforce(control::UnforceArgs),
     /// Reload the program of a running instance at a cycle boundary (like SIGHUP).
     Reload(control::ReloadArgs),
+    /// Run scenario files (inputs over virtual time, expected outputs) on the simulator.
+    Test(test::TestArgs),
 }
 
 /// Entry point of the binary.
@@ -51,6 +54,7 @@ pub fn main() -> ExitCode {
         Command::Force(a) => control::force(a),
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
+        Command::Test(a) => test::test(a),
     };
     match result {
         Ok(code) => code,

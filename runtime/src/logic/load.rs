@@ -2,12 +2,13 @@
 
 use std::fmt;
 use std::path::PathBuf;
+use std::time::Duration;
 
 use softplc_io::point::Access;
 
 use crate::image::{ProcessImage, TagId};
-use crate::logic::expr;
 use crate::logic::LogicEngine;
+use crate::logic::{expr, ladder, rhai};
 use crate::project::{Binding, ProgramKind, Project};
 
 /// Why a program could not be loaded.
@@ -21,14 +22,21 @@ pub enum ProgramError {
         /// The OS error.
         source: std::io::Error,
     },
-    /// The program has errors; every one is listed.
-    #[error("{}", CompileErrors(.0))]
+    /// The `expr` program has errors; every one is listed.
+    #[error("{}", Lines(.0))]
     Compile(Vec<expr::CompileError>),
+    /// The ladder program has errors; every one is listed.
+    #[error("{}", Lines(.0))]
+    Ladder(Vec<ladder::CompileError>),
+    /// The Rhai script has errors.
+    #[error("{}", Lines(.0))]
+    Rhai(Vec<rhai::CompileError>),
 }
 
-struct CompileErrors<'a>(&'a [expr::CompileError]);
+/// One error per line.
+struct Lines<'a, T>(&'a [T]);
 
-impl fmt::Display for CompileErrors<'_> {
+impl<T: fmt::Display> fmt::Display for Lines<'_, T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for (i, e) in self.0.iter().enumerate() {
             if i > 0 {
@@ -50,6 +58,21 @@ pub fn writable(project: &Project, tag: usize) -> bool {
     }
 }
 
+/// The project's tags as programs see them (ids as in `image`).
+pub fn tag_table(project: &Project, image: &ProcessImage) -> expr::TagTable {
+    expr::TagTable::new(project.tags.iter().enumerate().map(|(i, t)| {
+        let id = TagId(i as u32);
+        debug_assert_eq!(image.name(id), t.name);
+        (t.name.clone(), id, t.ty, writable(project, i))
+    }))
+}
+
+/// The time one scan of a script may take before it is stopped: half the scan period, so a
+/// runaway script faults the PLC within the cycle instead of stalling it until the watchdog.
+pub fn script_budget(project: &Project) -> Duration {
+    (project.scan.period / 2).min(project.scan.watchdog.time)
+}
+
 /// Compiles the project's program against its tags (ids as in `image`).
 pub fn load_program(
     project: &Project,
@@ -60,15 +83,17 @@ pub fn load_program(
         path: path.clone(),
         source,
     })?;
-    match project.program.kind {
+    let table = tag_table(project, image);
+    Ok(match project.program.kind {
         ProgramKind::Expr => {
-            let table = expr::TagTable::new(project.tags.iter().enumerate().map(|(i, t)| {
-                let id = TagId(i as u32);
-                debug_assert_eq!(image.name(id), t.name);
-                (t.name.clone(), id, t.ty, writable(project, i))
-            }));
-            let program = expr::compile(&source, path, &table).map_err(ProgramError::Compile)?;
-            Ok(Box::new(program))
+            Box::new(expr::compile(&source, path, &table).map_err(ProgramError::Compile)?)
         }
-    }
+        ProgramKind::Ladder => {
+            Box::new(ladder::compile(&source, path, &table).map_err(ProgramError::Ladder)?)
+        }
+        ProgramKind::Rhai => Box::new(
+            rhai::compile(&source, path, &table, script_budget(project))
+                .map_err(ProgramError::Rhai)?,
+        ),
+    })
 }

@@ -3,8 +3,12 @@
 //! An engine sees only the [`ProcessImage`] and the scan's time ([`ScanContext`]): no I/O, no
 //! wall clock. Same image + same times ⇒ same outputs (DESIGN.md principle 2).
 
+pub mod blocks;
 pub mod expr;
+pub mod ladder;
 pub mod load;
+pub mod rhai;
+pub mod synthetic;
 
 use std::fmt::Debug;
 use std::path::PathBuf;
@@ -54,4 +58,17 @@ pub struct LogicFault {
 pub trait LogicEngine: Send + Debug {
     /// Runs the program once: reads and writes the image.
     fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault>;
+
+    /// Every coil the program writes, described for the push-down planner
+    /// ([`crate::offload`]), in program order; `None` when the engine does not describe its
+    /// rungs (then nothing is pushed down, and `check` says so).
+    fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
+        None
+    }
+
+    /// The module now runs the rung writing `coil`: stop writing it (the PLC reads the
+    /// module's value into the image instead). Engines that describe rungs must honour it.
+    fn release(&mut self, coil: crate::image::TagId) {
+        let _ = coil;
+    }
 }

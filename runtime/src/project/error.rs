@@ -539,7 +539,9 @@ pub enum ErrorKind {
     #[error("{0}")]
     Offload(#[from] super::offload::OffloadError),
     /// `retain.file` is empty.
-    #[error("retain.file is empty; give a file name (relative to the project file) or leave it out")]
+    #[error(
+        "retain.file is empty; give a file name (relative to the project file) or leave it out"
+    )]
     EmptyRetainFile,
 }
 

@@ -19,9 +19,9 @@ pub mod error;
 pub mod model;
 pub mod offload;
 pub mod raw;
+pub mod retain;
 mod scada;
 pub mod service;
-pub mod retain;
 pub(crate) mod span;
 mod validate;
 

@@ -135,6 +135,8 @@ enum Tag {
     WriteY(u16),
     /// Text `>YWORD=w`: index = w.
     WriteYword(u16),
+    /// FC 6 command to a read-write holding register: index = its protocol address.
+    WriteRegister(u16),
 }
 
 impl Tag {
@@ -151,6 +153,7 @@ impl Tag {
             Tag::StatusFired => (9, 0),
             Tag::WriteY(i) => (10, i),
             Tag::WriteYword(w) => (11, w),
+            Tag::WriteRegister(a) => (12, a),
         };
         (kind << 16) | u32::from(index)
     }
@@ -169,6 +172,7 @@ impl Tag {
             9 => Tag::StatusFired,
             10 => Tag::WriteY(index),
             11 => Tag::WriteYword(index),
+            12 => Tag::WriteRegister(index),
             _ => return None,
         })
     }
@@ -643,6 +647,17 @@ impl MiniModDriver {
                 self.set_named("WDTFIRED", Value::Bool(bits[0]));
                 Ok(())
             }
+            (Some(Tag::WriteRegister(a)), Response::WriteSingleRegister { addr, value })
+                if *addr == a =>
+            {
+                if let Some(e) = map::MAP
+                    .iter()
+                    .find(|e| e.space == Space::HoldingRegister && e.addr == a)
+                {
+                    self.set_named(e.name, Value::U16(*value));
+                }
+                Ok(())
+            }
             (Some(Tag::WriteOutputs), Response::WriteSingleRegister { addr, value })
                 if *addr == map::HR_YWORD =>
             {
@@ -905,6 +920,30 @@ impl Driver for MiniModDriver {
 
     fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>) {
         let Some(unit) = self.unit else { return };
+        // Read-write holding registers (pulsers YPULSEn, blinkers, conditions, ...): a `Some`
+        // is a command, written once with FC 6 whatever the protocol (the manual allows Modbus
+        // beside the text protocol), before the outputs. The scan sets it for one cycle (a
+        // pulser started by a push-down trigger, tables cleared at stop).
+        for (i, spec) in POINTS.iter().enumerate() {
+            let Some(Some(v)) = desired.get(i) else {
+                continue;
+            };
+            let Some(e) = map::entry(spec.name).filter(|e| {
+                e.space == Space::HoldingRegister && spec.access == crate::point::Access::ReadWrite
+            }) else {
+                continue;
+            };
+            let value = match *v {
+                Value::U16(n) => n,
+                Value::I32(n) => u16::try_from(n).unwrap_or(0),
+                other => u16::from(other.as_bool()),
+            };
+            let request = Request::WriteSingleRegister {
+                addr: e.addr,
+                value,
+            };
+            out.push(self.modbus(unit, request, Tag::WriteRegister(e.addr)));
+        }
         let all = refresh || self.rewrite;
         let (mut owned, mut write, mut word) = (0u16, 0u16, 0u16);
         for (y, &i) in IDX_Y.iter().enumerate() {
@@ -1131,6 +1170,25 @@ mod tests {
         assert!(plan.is_empty(), "no change, no write");
         d.plan_write(&want, true, &mut plan);
         assert_eq!(plan.len(), 1, "refresh writes again");
+    }
+
+    #[test]
+    fn a_read_write_register_is_a_command_written_once() {
+        let mut d = driver(&[]);
+        let mut sim = MiniModSim::new(UNIT);
+        let mut want = vec![None; POINTS.len()];
+        want[map::point_index("YPULSE2").unwrap()] = Some(Value::U16(50));
+        let mut plan = Vec::new();
+        d.plan_write(&want, false, &mut plan);
+        // FC 6 on holding register 84 (40085, YPULSE2) = 50.
+        assert_eq!(plan.len(), 1);
+        assert_eq!(wire(&plan[0]), frame(&[0x05, 0x06, 0x00, 0x54, 0x00, 0x32]));
+        exchange(&mut d, &mut sim, &plan[0], Duration::ZERO).unwrap();
+        assert_eq!(sim.get("Y2"), Ok(Value::Bool(true)), "the pulser runs");
+        assert_eq!(value(&d, "YPULSE2"), Some(Value::U16(50)));
+        plan.clear();
+        d.plan_write(&vec![None; POINTS.len()], false, &mut plan);
+        assert!(plan.is_empty(), "written only while the scan asks");
     }
 
     #[test]

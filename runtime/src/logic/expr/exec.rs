@@ -10,6 +10,7 @@ use super::lower::Lowered;
 use super::CmpOp;
 use crate::image::{ProcessImage, TagId};
 use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
+use crate::offload::ir::Rung;
 
 /// One instruction of the stack machine. Every instruction is executed every scan (there are
 /// no jumps), so each edge and timer call site sees every scan.
@@ -99,6 +100,10 @@ pub struct ExprProgram {
     /// Number of tags the image must hold, and the statement that needs the last one.
     needs_tags: usize,
     needs_pos: SourcePos,
+    /// The statements as rungs, for the push-down planner.
+    rungs: Vec<Rung>,
+    /// Per tag index: coils a module now drives, which `Store` skips.
+    released: Vec<bool>,
 }
 
 impl ExprProgram {
@@ -119,7 +124,15 @@ impl ExprProgram {
                 line: pos.line,
                 column: pos.col,
             },
+            rungs: Vec::new(),
+            released: vec![false; needs_tags],
         }
+    }
+
+    /// The program with its statements described as rungs.
+    pub(crate) fn with_rungs(mut self, rungs: Vec<Rung>) -> Self {
+        self.rungs = rungs;
+        self
     }
 
     /// The coils the program writes (the outputs and memory tags it owns), in file order.
@@ -157,6 +170,7 @@ impl LogicEngine for ExprProgram {
             stack,
             edges,
             timers,
+            released,
             ..
         } = self;
         stack.clear();
@@ -207,11 +221,25 @@ impl LogicEngine for ExprProgram {
                 }
                 Instr::Store(id) => {
                     let x = pop(stack);
-                    image.set(id, Value::Bool(x), now);
+                    // A released coil is the module's: the statement still runs (its timers
+                    // and edges see every scan) but its result is not written.
+                    if !released.get(id.index()).copied().unwrap_or(false) {
+                        image.set(id, Value::Bool(x), now);
+                    }
                 }
             }
         }
         Ok(())
+    }
+
+    fn rungs(&self) -> Option<Vec<Rung>> {
+        Some(self.rungs.clone())
+    }
+
+    fn release(&mut self, coil: TagId) {
+        if let Some(r) = self.released.get_mut(coil.index()) {
+            *r = true;
+        }
     }
 }
 

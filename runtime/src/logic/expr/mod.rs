@@ -72,6 +72,7 @@ mod exec;
 mod lexer;
 mod lower;
 mod parser;
+mod rungs;
 #[cfg(test)]
 mod tests;
 
@@ -83,6 +84,9 @@ use softplc_io::point::ValueType;
 pub use error::{CompileError, CompileErrorKind, DurationError, Expected, TypeError};
 pub use exec::{ExprProgram, Instr, Operand};
 pub use parser::CmpOp;
+
+/// The closest name within two edits, for "did you mean" (shared with the ladder engine).
+pub(crate) use check::closest as closest_name;
 
 use crate::image::TagId;
 use crate::logic::SourcePos;
@@ -224,5 +228,6 @@ pub fn compile(
         lower::max_depth(&lowered.code).is_some(),
         "unbalanced lowered code"
     );
-    Ok(ExprProgram::new(lowered, file.to_path_buf()))
+    let rungs = rungs::describe(&checked, file);
+    Ok(ExprProgram::new(lowered, file.to_path_buf()).with_rungs(rungs))
 }

@@ -1,0 +1,106 @@
+//! The machine-readable results (`latest.json`): every row with its percentiles in
+//! microseconds, its bounds and ratios, and the run's machine, date and command.
+
+use std::time::Duration;
+
+use serde_json::{json, Map, Value};
+
+use crate::machine::Machine;
+use crate::report::{Figure, Row};
+use crate::scenarios::ScenarioResult;
+
+/// Version of this file's layout.
+pub const SCHEMA: u64 = 1;
+
+/// Microseconds with nanosecond digits.
+fn us(d: Duration) -> f64 {
+    d.as_nanos() as f64 / 1e3
+}
+
+fn round(x: f64, digits: i32) -> f64 {
+    let k = 10f64.powi(digits);
+    (x * k).round() / k
+}
+
+fn row_json(row: &Row) -> Value {
+    let mut m = Map::new();
+    m.insert("case".into(), json!(row.case));
+    m.insert("metric".into(), json!(row.metric));
+    match &row.figure {
+        Figure::Measured(p) => {
+            m.insert("status".into(), json!("measured"));
+            m.insert("count".into(), json!(p.count));
+            m.insert("p50_us".into(), json!(us(p.p50)));
+            m.insert("p99_us".into(), json!(us(p.p99)));
+            m.insert("p999_us".into(), json!(us(p.p999)));
+            m.insert("max_us".into(), json!(us(p.max)));
+            let bounds: Vec<Value> = row
+                .bounds
+                .iter()
+                .map(|b| {
+                    let (r50, r99) = b.ratios(p);
+                    json!({
+                        "name": b.name,
+                        "p50_us": us(b.p50),
+                        "p99_us": us(b.p99),
+                        "ratio_p50": r50.map(|r| round(r, 4)),
+                        "ratio_p99": r99.map(|r| round(r, 4)),
+                    })
+                })
+                .collect();
+            m.insert("bounds".into(), Value::Array(bounds));
+        }
+        Figure::NotYet { feature, issue } => {
+            m.insert("status".into(), json!("not_yet_available"));
+            m.insert("feature".into(), json!(feature));
+            m.insert("issue".into(), json!(issue));
+        }
+        Figure::Unavailable(why) => {
+            m.insert("status".into(), json!("not_measured"));
+            m.insert("reason".into(), json!(why));
+        }
+    }
+    let values: Map<String, Value> = row
+        .values
+        .iter()
+        .map(|(k, v)| (k.clone(), json!(round(*v, 4))))
+        .collect();
+    m.insert("values".into(), Value::Object(values));
+    m.insert("note".into(), json!(row.note));
+    Value::Object(m)
+}
+
+/// The whole results document.
+pub fn document(
+    machine: &Machine,
+    command: &str,
+    quick: bool,
+    results: &[ScenarioResult],
+) -> Value {
+    let scenarios: Vec<Value> = results
+        .iter()
+        .map(|r| {
+            json!({
+                "number": r.number,
+                "name": r.name,
+                "title": r.title,
+                "took_s": round(r.took.as_secs_f64(), 1),
+                "rows": r.rows.iter().map(row_json).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    json!({
+        "harness": "softplc-bench",
+        "schema": SCHEMA,
+        "date": machine.date,
+        "command": command,
+        "quick": quick,
+        "revision": machine.revision,
+        "machine": {
+            "cpus": machine.cpus,
+            "cpu_model": machine.cpu_model,
+            "kernel": machine.kernel,
+        },
+        "scenarios": scenarios,
+    })
+}

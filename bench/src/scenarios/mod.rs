@@ -1,0 +1,82 @@
+//! The scenarios, one file each. Adding one: write `NAME.rs` with a `pub fn run(&Ctx) ->
+//! anyhow::Result<Outcome>` and list it in [`all`].
+
+pub mod bus_cycle;
+pub mod collect;
+pub mod logic_cost;
+pub mod pulse;
+pub mod reaction;
+pub mod scale;
+pub mod scheduler;
+pub mod serial_path;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use crate::report::{Outcome, Row};
+
+/// What every scenario gets.
+#[derive(Debug, Clone)]
+pub struct Ctx {
+    /// Short runs (`--quick`): the whole harness under a minute.
+    pub quick: bool,
+    /// A scratch folder for generated project and program files.
+    pub scratch: PathBuf,
+}
+
+impl Ctx {
+    /// `full` normally, `quick` with `--quick`.
+    pub fn pick(&self, full: Duration, quick: Duration) -> Duration {
+        if self.quick {
+            quick
+        } else {
+            full
+        }
+    }
+}
+
+/// A scenario of issue #8.
+#[derive(Debug, Clone, Copy)]
+pub struct Scenario {
+    /// Its number in the issue.
+    pub number: u8,
+    /// Name for `--only`.
+    pub name: &'static str,
+    /// Title in the table.
+    pub title: &'static str,
+    /// What it answers, printed under the title.
+    pub summary: &'static str,
+    /// Runs it.
+    pub run: fn(&Ctx) -> anyhow::Result<Outcome>,
+}
+
+/// A scenario's results.
+#[derive(Debug)]
+pub struct ScenarioResult {
+    /// Its number.
+    pub number: u8,
+    /// Its name.
+    pub name: &'static str,
+    /// Its title.
+    pub title: &'static str,
+    /// Its summary.
+    pub summary: &'static str,
+    /// Rows.
+    pub rows: Vec<Row>,
+    /// Wall time it took.
+    pub took: Duration,
+}
+
+/// Every scenario, in the issue's order.
+pub fn all() -> Vec<Scenario> {
+    vec![
+        scheduler::SCENARIO,
+        logic_cost::SCENARIO,
+        bus_cycle::SCENARIO,
+        collect::SCENARIO,
+        reaction::SCENARIO,
+        pulse::SCENARIO,
+        serial_path::SCENARIO,
+        scale::SCENARIO,
+    ]
+}

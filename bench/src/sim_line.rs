@@ -1,0 +1,130 @@
+//! A simulated RS-485 line of MiniMods driven by the runtime's bus owner in real time, with the
+//! wire-time floor of its poll plan computed by the same code `softplc check` uses.
+//!
+//! Drivers are built from the catalog with the project file's textual settings (`RDELAYT`,
+//! `events`, ...), and the owner runs their start-up exchange, as `Plc::build` does.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use softplc_io::devices::minimod::{self, map, MiniModSim};
+use softplc_io::devices::{DeviceConfig, Protocol};
+use softplc_io::driver::{Driver, Outgoing, Transaction};
+use softplc_io::line::budget::{line_budget, modbus_reply_len, transaction_time, LineBudget};
+use softplc_io::line::bus::{BusOwner, Discipline, Module, OutputFrame};
+use softplc_io::line::LineSettings;
+use softplc_io::point::{Access, Value};
+use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use softplc_io::time::Clock;
+
+/// A line ready to run.
+#[derive(Debug)]
+pub struct MiniModLine {
+    /// The bus owner, start-up done (not yet on its thread).
+    pub owner: BusOwner,
+    /// The simulated world behind the line: device `i` is the module at address `i + 1`.
+    pub world: SharedWorld,
+    /// The line's budget: the floor of a read cycle and of a full write.
+    pub budget: LineBudget,
+    /// Floor of the writes of one cycle in which Y1 of every module changes.
+    pub toggle_write_floor: Duration,
+}
+
+/// A MiniMod driver at `address` with the project file's `settings`.
+pub fn driver(address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
+    let config = DeviceConfig {
+        name: format!("mm{address}"),
+        address,
+        protocol: Protocol::Modbus,
+        settings: settings
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect(),
+    };
+    (minimod::MODEL.driver)(&config)
+}
+
+/// `n` MiniMods at addresses 1..=n with the same `settings` (project-file keys and values, e.g.
+/// `RDELAYT`, `events`) on one virtual line at `line`, in real time on `clock`.
+pub fn minimods(
+    n: u8,
+    line: LineSettings,
+    settings: &[(&str, &str)],
+    clock: Arc<dyn Clock>,
+) -> anyhow::Result<MiniModLine> {
+    for (k, v) in settings {
+        (minimod::MODEL.check_setting)(k, v).map_err(|e| anyhow::anyhow!("{k}: {e}"))?;
+    }
+    let mut world = SimWorld::new(vec![line]);
+    let mut modules = Vec::with_capacity(usize::from(n));
+    let mut budget_drivers: Vec<(String, Box<dyn Driver>, Vec<Access>)> = Vec::new();
+    let mut toggle_write_floor = Duration::ZERO;
+    for address in 1..=n {
+        let name = format!("mm{address}");
+        world.add_device(0, &name, Box::new(MiniModSim::new(address)));
+        modules.push(Module::new(name.clone(), driver(address, settings)));
+        let access = map::POINTS.iter().map(|p| p.access).collect();
+        budget_drivers.push((name, driver(address, settings), access));
+        // What a changed Y1 costs: plan it on a scratch driver and price it on the wire.
+        let mut scratch = driver(address, settings);
+        let mut plan: Vec<Transaction> = Vec::new();
+        scratch.plan_write(&y1_frame(true), false, &mut plan);
+        let delay = scratch.reply_delay();
+        toggle_write_floor += plan
+            .iter()
+            .map(|tx| transaction_time(line, tx, delay))
+            .sum();
+    }
+    let budget = line_budget(line, &mut budget_drivers);
+    let world = world.shared();
+    let port = VirtualPort::new(world.clone(), 0, line, clock);
+    let mut owner = BusOwner::new("bench", Box::new(port), Discipline::default(), modules);
+    owner
+        .startup()
+        .context("module start-up on the bench line")?;
+    Ok(MiniModLine {
+        owner,
+        world,
+        budget,
+        toggle_write_floor,
+    })
+}
+
+/// One module's desired outputs with only Y1 driven, at `on`.
+pub fn y1_frame(on: bool) -> Vec<Option<Value>> {
+    let mut desired = vec![None; map::POINTS.len()];
+    if let Some(i) = map::point_index("Y1") {
+        desired[i] = Some(Value::Bool(on));
+    }
+    desired
+}
+
+/// The output frame of a line of `n` modules with every Y1 at `on`.
+pub fn all_y1(n: usize, on: bool) -> OutputFrame {
+    OutputFrame {
+        modules: vec![y1_frame(on); n],
+    }
+}
+
+/// The floor of one read cycle of a single MiniMod at `line` with `settings`, and the part of
+/// it from the end of the request to the end of the reply (reply delay + reply characters).
+pub fn single_read_floor(line: LineSettings, settings: &[(&str, &str)]) -> (Duration, Duration) {
+    let mut driver = driver(1, settings);
+    let delay = driver.reply_delay();
+    let mut plan = Vec::new();
+    driver.plan_read(&mut plan);
+    let floor = plan
+        .iter()
+        .map(|tx| transaction_time(line, tx, delay))
+        .sum();
+    let round_trip = plan
+        .iter()
+        .map(|tx| match &tx.frame {
+            Outgoing::Modbus { request, .. } => delay + line.chars(modbus_reply_len(request)),
+            // Text replies and broadcasts: their length is not known here.
+            _ => delay,
+        })
+        .sum();
+    (floor, round_trip)
+}

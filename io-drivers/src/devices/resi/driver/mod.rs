@@ -1,0 +1,447 @@
+//! The RESI driver, one for every model, over Modbus RTU or the RESI ASCII protocol (sans-IO).
+//!
+//! - **Start-up** ([`settings`]): command registers first (CLEAR ALL LOGIC FUNCTIONS, RESET
+//!   COUNTER), then every read-write setting, in address order (so ENABLE LOGIC FUNCTIONS,
+//!   4x21001, comes after the masks and PULSE TIMEs it enables). Modbus: contiguous registers
+//!   with one FC 16 (32-bit values in the block listed first, high word first for the
+//!   16DI8RO), then one FC 3 to read them back. ASCII: the set command (`SSON1:15`), then its
+//!   get command (`GSON1`). A read-back that differs stops the start ([`DecodeError::Mismatch`]).
+//! - **Each cycle** ([`plan`]): the `poll` points in the fewest exchanges (16DI8RO by default:
+//!   one FC 1 of DI1..DI16 and RO1..RO8, 8 + 8 bytes; ASCII `GDIS` and `GROS`).
+//! - **Outputs**: written when the program's value differs from the last one written, and
+//!   every output again when the bus asks for a refresh (except the model's one-shot outputs,
+//!   8CO `PULSE_ROn`, which would restart their pulse). Modbus: runs of adjacent owned coils
+//!   with one FC 5 / FC 15, registers with FC 6 / FC 16. ASCII: `SROS` when every relay is
+//!   owned and written, otherwise one `SROx` each. A relay the module's own logic switches
+//!   (16DI8RO) is best left unowned: an owned one is set back at the next change or refresh.
+//! - 1RO with `SOFFDLY`: see [`settings`].
+//!
+//! Errors: an exception is [`DecodeError::Exception`]; an answer that does not fit the request
+//! (other function, count, ASCII keyword or address) is [`DecodeError::Unexpected`]; silence is
+//! the bus owner's timeout (the modules answer nothing to what they do not understand).
+//!
+//! Where the manual is silent the driver assumes as little as it can (the simulator's choices
+//! are listed in [`super`]):
+//! - it never polls or writes to address 0, and always sends its address, so an answer to a
+//!   broadcast never happens (resi-spec §2.2, §7);
+//! - ASCII: short command names only, decimal numbers, its address in decimal; `OK` is taken
+//!   with or without the address; an unknown or malformed answer is an error, not a value;
+//! - 32-bit values are written with one FC 16 over both words (the manual: "Writing a 32 bit
+//!   value on both registers stores the new time", L21478), never half by half;
+//! - FC 16 carries at most 123 registers (the manual allows 125, L1991; the standard 123);
+//! - a module whose logic drives a relay should not have that relay bound to a program output:
+//!   the driver would set it back at the next change or refresh, and the manual leaves open
+//!   which of the two the module keeps (resi-spec §4.4).
+
+pub mod ascii;
+pub mod plan;
+pub mod settings;
+mod startup;
+mod write;
+
+use std::time::Duration;
+
+use plan::Read;
+use settings::Setting;
+
+use super::map::Entry;
+use super::model::Model;
+use super::value::Num;
+use crate::devices::{DeviceConfig, Protocol};
+use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
+use crate::modbus::{Request, Response, UnitId};
+use crate::point::Value;
+
+/// Builds a driver for `model` from a validated module entry. Settings were checked before; one
+/// that still fails is logged and ignored. A Modbus address outside 1..=247 gives a driver that
+/// plans nothing (and says so).
+pub fn build(model: &'static Model, config: &DeviceConfig) -> Box<dyn Driver> {
+    let mut parsed = Vec::new();
+    for (key, value) in &config.settings {
+        match settings::parse(model, key, value) {
+            Ok(s) => parsed.push(s),
+            Err(e) => tracing::error!(module = %config.name, key = %key, "ignored setting: {e}"),
+        }
+    }
+    let d = ResiDriver::new(model, config.protocol, config.address, &parsed);
+    if config.protocol == Protocol::Modbus && d.unit.is_none() {
+        let address = config.address;
+        tracing::error!(module = %config.name, address, "not a Modbus unit address");
+    }
+    for p in &d.unreadable {
+        if let Some(spec) = model.points.get(*p) {
+            let point = spec.name;
+            tracing::error!(module = %config.name, point, "no ASCII command reads this point");
+        }
+    }
+    Box::new(d)
+}
+
+/// What a transaction was for, carried in its tag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Tag {
+    Read(usize),
+    Write(usize),
+    Setup(usize),
+}
+
+impl Tag {
+    fn encode(self) -> u32 {
+        let (kind, i) = match self {
+            Tag::Read(i) => (1u32, i),
+            Tag::Write(i) => (2, i),
+            Tag::Setup(i) => (3, i),
+        };
+        (kind << 24) | (u32::try_from(i).unwrap_or(0xFF_FFFF) & 0xFF_FFFF)
+    }
+
+    fn decode(tag: u32) -> Option<Self> {
+        let i = (tag & 0xFF_FFFF) as usize;
+        Some(match tag >> 24 {
+            1 => Tag::Read(i),
+            2 => Tag::Write(i),
+            3 => Tag::Setup(i),
+            _ => return None,
+        })
+    }
+}
+
+/// How a start-up or write exchange is checked.
+#[derive(Debug, Clone, PartialEq)]
+enum Check {
+    /// The write's echo (Modbus).
+    Echo(Request),
+    /// `OK` (ASCII).
+    Ok,
+    /// The registers read back hold these values at these offsets.
+    Registers(Vec<(usize, Entry, Num)>),
+    /// The coil read back holds this value.
+    Bit(Entry, bool),
+    /// The ASCII get answer holds this value at this position.
+    Answer {
+        command: &'static super::ascii::command::Command,
+        x: u8,
+        at: usize,
+        entry: Entry,
+        expected: Num,
+    },
+}
+
+/// One exchange of the start-up or of a write phase.
+#[derive(Debug, Clone, PartialEq)]
+struct Step {
+    frame: Outgoing,
+    check: Check,
+    /// Points whose value the exchange sets when it succeeds.
+    sets: Vec<(usize, Value)>,
+}
+
+/// The RESI driver.
+#[derive(Debug, Clone)]
+pub struct ResiDriver {
+    model: &'static Model,
+    protocol: Protocol,
+    address: u8,
+    unit: Option<UnitId>,
+    reads: Vec<Read>,
+    unreadable: Vec<usize>,
+    setup: Vec<Step>,
+    writes: Vec<Step>,
+    watchdog: Option<u16>,
+    reply_delay: Duration,
+    values: Vec<Option<Value>>,
+    /// The last value written to each output.
+    written: Vec<Option<Value>>,
+}
+
+impl ResiDriver {
+    /// A driver for the module of `model` at `address`, speaking `protocol`.
+    pub fn new(
+        model: &'static Model,
+        protocol: Protocol,
+        address: u8,
+        settings: &[Setting],
+    ) -> Self {
+        let mut poll = None;
+        let mut reply_delay = Duration::from_millis(2);
+        let mut watchdog = None;
+        let mut writes = Vec::new();
+        for s in settings {
+            match s {
+                Setting::Poll(points) => poll = Some(points.clone()),
+                Setting::ReplyDelay(d) => reply_delay = *d,
+                Setting::Watchdog(ms) => watchdog = Some(*ms),
+                Setting::Write { entry, value } => {
+                    writes.retain(|(e, _): &(Entry, Num)| e.name != entry.name);
+                    writes.push((*entry, *value));
+                }
+            }
+        }
+        let poll = poll.unwrap_or_else(|| settings::select(model, model.poll).unwrap_or_default());
+        let (reads, unreadable) = match protocol {
+            Protocol::Modbus => (plan::modbus(model, &poll), Vec::new()),
+            Protocol::Text => plan::ascii(model, &poll),
+        };
+        let unit = UnitId::new(address);
+        let mut d = Self {
+            model,
+            protocol,
+            address,
+            unit,
+            reads,
+            unreadable,
+            setup: Vec::new(),
+            writes: Vec::new(),
+            watchdog,
+            reply_delay,
+            values: vec![None; model.points.len()],
+            written: vec![None; model.points.len()],
+        };
+        d.setup = startup::steps(&d, &writes);
+        d
+    }
+
+    /// Whether the driver can talk at all (a Modbus driver needs a unit address 1..=247).
+    fn can_talk(&self) -> bool {
+        self.protocol == Protocol::Text || self.unit.is_some()
+    }
+
+    fn modbus(&self, request: Request) -> Option<Outgoing> {
+        self.unit.map(|unit| Outgoing::Modbus { unit, request })
+    }
+
+    fn set_value(&mut self, point: usize, n: Num) {
+        let ty = self.model.points.get(point).map(|p| p.ty);
+        if let (Some(slot), Some(ty)) = (self.values.get_mut(point), ty) {
+            *slot = Some(n.to_value(ty));
+        }
+    }
+
+    fn apply_read(&mut self, i: usize, reply: &Reply, tag: u32) -> Result<(), DecodeError> {
+        let unexpected = DecodeError::Unexpected { tag };
+        let read = self.reads.get(i).cloned().ok_or(unexpected.clone())?;
+        match (&read, reply) {
+            (
+                Read::Bits { count, targets, .. },
+                Reply::Modbus(Response::ReadCoils(bits) | Response::ReadDiscreteInputs(bits)),
+            ) if bits.len() == usize::from(*count) => {
+                for t in targets {
+                    let b = bits.get(t.at).copied().unwrap_or(false);
+                    self.set_value(t.point, Num::Int(b.into()));
+                }
+                Ok(())
+            }
+            (
+                Read::Regs { count, targets, .. },
+                Reply::Modbus(Response::ReadHoldingRegisters(words)),
+            ) if words.len() == usize::from(*count) => {
+                for t in targets {
+                    let w = words.get(t.at..t.at + usize::from(t.enc.words()));
+                    if let Some(n) = w.and_then(|w| t.enc.decode(w)) {
+                        self.set_value(t.point, n);
+                    }
+                }
+                Ok(())
+            }
+            (
+                Read::Ascii {
+                    command,
+                    x,
+                    targets,
+                },
+                Reply::Text(text),
+            ) => {
+                let values = ascii::answer_values(text, self.address, command, *x)
+                    .map_err(|_| unexpected.clone())?;
+                let decoded: Vec<(usize, Num)> = targets
+                    .iter()
+                    .map(|t| ascii::value(&values, t.at, t.part).map(|n| (t.point, n)))
+                    .collect::<Option<_>>()
+                    .ok_or(unexpected)?;
+                for (p, n) in decoded {
+                    self.set_value(p, n);
+                }
+                Ok(())
+            }
+            (_, Reply::Modbus(Response::Exception { code, .. })) => {
+                Err(DecodeError::Exception(*code))
+            }
+            _ => Err(unexpected),
+        }
+    }
+
+    fn check(&self, step: &Step, reply: &Reply, tag: u32) -> Result<(), DecodeError> {
+        let unexpected = DecodeError::Unexpected { tag };
+        let mismatch = |entry: &Entry, expected: Num, found: Num| DecodeError::Mismatch {
+            register: entry.name,
+            expected: u32::try_from(expected.int()).unwrap_or(u32::MAX),
+            found: u32::try_from(found.int()).unwrap_or(u32::MAX),
+        };
+        if let Reply::Modbus(Response::Exception { code, .. }) = reply {
+            return Err(DecodeError::Exception(*code));
+        }
+        match (&step.check, reply) {
+            (Check::Echo(req), Reply::Modbus(resp)) => {
+                write::echoes(req, resp).then_some(()).ok_or(unexpected)
+            }
+            (Check::Ok, Reply::Text(text)) => ascii::is_ok(text, self.address)
+                .then_some(())
+                .ok_or(unexpected),
+            (Check::Registers(expected), Reply::Modbus(Response::ReadHoldingRegisters(words))) => {
+                for (at, entry, want) in expected {
+                    let got = words
+                        .get(*at..*at + usize::from(entry.words()))
+                        .and_then(|w| entry.enc.decode(w))
+                        .ok_or(unexpected.clone())?;
+                    if entry.enc.encode(got) != entry.enc.encode(*want) {
+                        return Err(mismatch(entry, *want, got));
+                    }
+                }
+                Ok(())
+            }
+            (Check::Bit(entry, want), Reply::Modbus(Response::ReadCoils(bits))) => {
+                let got = *bits.first().ok_or(unexpected)?;
+                if got == *want {
+                    Ok(())
+                } else {
+                    Err(mismatch(
+                        entry,
+                        Num::Int((*want).into()),
+                        Num::Int(got.into()),
+                    ))
+                }
+            }
+            (
+                Check::Answer {
+                    command,
+                    x,
+                    at,
+                    entry,
+                    expected,
+                },
+                Reply::Text(text),
+            ) => {
+                let values = ascii::answer_values(text, self.address, command, *x)
+                    .map_err(|_| unexpected.clone())?;
+                let got = ascii::value(&values, *at, None).ok_or(unexpected)?;
+                if entry.enc.encode(got) == entry.enc.encode(*expected) {
+                    Ok(())
+                } else {
+                    Err(mismatch(entry, *expected, got))
+                }
+            }
+            _ => Err(unexpected),
+        }
+    }
+}
+
+impl Driver for ResiDriver {
+    fn address(&self) -> u8 {
+        self.address
+    }
+
+    fn plan_startup(&mut self, out: &mut Vec<Transaction>) {
+        if !self.can_talk() {
+            return;
+        }
+        for (i, step) in self.setup.iter().enumerate() {
+            out.push(Transaction {
+                frame: step.frame.clone(),
+                tag: Tag::Setup(i).encode(),
+            });
+        }
+    }
+
+    fn plan_read(&mut self, out: &mut Vec<Transaction>) {
+        if !self.can_talk() {
+            return;
+        }
+        for (i, read) in self.reads.iter().enumerate() {
+            let frame = match read {
+                Read::Bits {
+                    addr,
+                    count,
+                    coils: true,
+                    ..
+                } => self.modbus(Request::ReadCoils {
+                    addr: *addr,
+                    count: *count,
+                }),
+                Read::Bits { addr, count, .. } => self.modbus(Request::ReadDiscreteInputs {
+                    addr: *addr,
+                    count: *count,
+                }),
+                Read::Regs { addr, count, .. } => self.modbus(Request::ReadHoldingRegisters {
+                    addr: *addr,
+                    count: *count,
+                }),
+                Read::Ascii { command, x, .. } => {
+                    Some(ascii::request(self.address, command, *x, &[]))
+                }
+            };
+            if let Some(frame) = frame {
+                out.push(Transaction {
+                    frame,
+                    tag: Tag::Read(i).encode(),
+                });
+            }
+        }
+    }
+
+    fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>) {
+        self.writes.clear();
+        if !self.can_talk() {
+            return;
+        }
+        self.writes = write::plan(self, desired, refresh);
+        for (i, step) in self.writes.iter().enumerate() {
+            out.push(Transaction {
+                frame: step.frame.clone(),
+                tag: Tag::Write(i).encode(),
+            });
+        }
+    }
+
+    fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError> {
+        match Tag::decode(tag) {
+            Some(Tag::Read(i)) => self.apply_read(i, reply, tag),
+            Some(Tag::Setup(i)) => {
+                let step = self
+                    .setup
+                    .get(i)
+                    .cloned()
+                    .ok_or(DecodeError::Unexpected { tag })?;
+                self.check(&step, reply, tag)
+            }
+            Some(Tag::Write(i)) => {
+                let step = self
+                    .writes
+                    .get(i)
+                    .cloned()
+                    .ok_or(DecodeError::Unexpected { tag })?;
+                self.check(&step, reply, tag)?;
+                for (p, v) in step.sets {
+                    if let Some(slot) = self.written.get_mut(p) {
+                        *slot = Some(v);
+                    }
+                    if let Some(slot) = self.values.get_mut(p) {
+                        *slot = Some(v);
+                    }
+                }
+                Ok(())
+            }
+            None => Err(DecodeError::Unexpected { tag }),
+        }
+    }
+
+    fn values(&self) -> &[Option<Value>] {
+        &self.values
+    }
+
+    fn reply_delay(&self) -> Duration {
+        self.reply_delay
+    }
+}
+
+#[cfg(test)]
+mod tests;

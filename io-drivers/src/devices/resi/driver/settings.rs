@@ -1,0 +1,270 @@
+//! The project-file `settings` of a RESI module, checked before the first scan.
+//!
+//! - `poll`: the points read every cycle, as a comma-separated list of point names; `NAME*`
+//!   stands for a numbered run (`RISE_DI*` = RISE_DI1..RISE_DI16; `DI*` does not match `DIS`).
+//!   Default: the model's inputs and outputs (16DI8RO: `DI*, RO*`).
+//! - `reply_delay`: the module's answer delay for the line budget, ms (`5` or `5ms`; default
+//!   2 ms — the manual gives no figure).
+//! - every **read-write point** of the model (16DI8RO: `SWITCH_RO1`, `TOGGLE_RO4`,
+//!   `PULSE_TIME_RO1`, `ENABLE_LOGIC_FUNCTIONS`, ...): written at start-up and verified by
+//!   reading it back; a difference stops the start. Names are case-insensitive and may be
+//!   written with spaces as in the manual (`SWITCH ON RO1`). Values: decimal, `0x` hex, `0b`
+//!   binary (`.`/`_` separators allowed), reals for 2RTD offsets.
+//! - the **command registers** `CLEAR_ALL_LOGIC_FUNCTIONS` (16DI8RO) and `RESET_COUNTER`:
+//!   written first at start-up, not read back (they read 0).
+//! - 1RO `SOFFDLY` (1..=65535 ms): drive DO1 through the off-delay, which the manual offers as
+//!   a watchdog (L4102–L4110): while the program wants DO1 on, every cycle retriggers the
+//!   off-delay instead of setting DO1, so the relay drops within that time when the host stops.
+
+use std::time::Duration;
+
+use crate::devices::resi::item::Kind;
+use crate::devices::resi::map::{Acc, Entry};
+use crate::devices::resi::model::Model;
+use crate::devices::resi::value::Num;
+use crate::point::Access;
+
+/// Why a setting was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SettingError {
+    /// Not a setting of this model.
+    #[error(
+        "not a {model} setting; accepted: poll, reply_delay, its read-write points ({example}, \
+         ...), the command registers it has (CLEAR_ALL_LOGIC_FUNCTIONS, RESET_COUNTER) and, on \
+         resi-1ro, SOFFDLY"
+    )]
+    UnknownKey {
+        /// The model.
+        model: &'static str,
+        /// One of its read-write points.
+        example: &'static str,
+    },
+    /// The value does not fit.
+    #[error("{key} takes {expected}")]
+    BadValue {
+        /// The setting.
+        key: &'static str,
+        /// What it takes.
+        expected: &'static str,
+    },
+    /// A `poll` pattern that names no point.
+    #[error("poll: {pattern:?} names no point of {model}")]
+    NoSuchPoint {
+        /// The model.
+        model: &'static str,
+        /// The pattern.
+        pattern: String,
+    },
+}
+
+/// One validated setting.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Setting {
+    /// Points read every cycle (indexes into the model's points).
+    Poll(Vec<usize>),
+    /// The answer delay for the budget.
+    ReplyDelay(Duration),
+    /// A value written at start-up (verified unless it is a command register).
+    Write {
+        /// The map entry.
+        entry: Entry,
+        /// The value.
+        value: Num,
+    },
+    /// 1RO `SOFFDLY`, ms.
+    Watchdog(u16),
+}
+
+/// Whether `name` matches `pattern` (`NAME` or `NAME*`, `*` = one or more digits).
+pub fn matches(pattern: &str, name: &str) -> bool {
+    match pattern.strip_suffix('*') {
+        Some(prefix) => name
+            .strip_prefix(prefix)
+            .is_some_and(|rest| !rest.is_empty() && rest.bytes().all(|b| b.is_ascii_digit())),
+        None => pattern == name,
+    }
+}
+
+/// Indexes of the points `patterns` name.
+pub fn select(model: &'static Model, patterns: &[&str]) -> Result<Vec<usize>, SettingError> {
+    let mut out = Vec::new();
+    for pattern in patterns {
+        let p = pattern.trim().to_ascii_uppercase().replace(' ', "_");
+        let before = out.len();
+        for (i, spec) in model.points.iter().enumerate() {
+            if matches(&p, spec.name) && !out.contains(&i) {
+                out.push(i);
+            }
+        }
+        if out.len() == before && !model.points.iter().any(|s| matches(&p, s.name)) {
+            return Err(SettingError::NoSuchPoint {
+                model: model.name,
+                pattern: pattern.trim().to_string(),
+            });
+        }
+    }
+    Ok(out)
+}
+
+fn number(text: &str) -> Option<Num> {
+    let t = text.trim();
+    if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        return i64::from_str_radix(h, 16).ok().map(Num::Int);
+    }
+    if let Some(b) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
+        return i64::from_str_radix(&b.replace(['.', '_'], ""), 2)
+            .ok()
+            .map(Num::Int);
+    }
+    if let Ok(v) = t.parse::<i64>() {
+        return Some(Num::Int(v));
+    }
+    t.parse::<f64>()
+        .ok()
+        .filter(|f| f.is_finite())
+        .map(Num::Real)
+}
+
+/// The entry a start-up write of `key` reaches: a read-write point, or a command register.
+fn writable(model: &'static Model, key: &str) -> Option<Entry> {
+    let name = key.trim().to_ascii_uppercase().replace(' ', "_");
+    let entry = model.map.by_name(&name)?;
+    let is_rw_point = model
+        .points
+        .iter()
+        .any(|p| p.name == entry.name && p.access == Access::ReadWrite);
+    let is_command = entry.access == Acc::WriteOnly
+        && matches!(entry.item.kind, Kind::ClearLogic | Kind::ResetCounter);
+    (is_rw_point && entry.access == Acc::ReadWrite || is_command).then_some(entry)
+}
+
+/// Parses one `key: value` of a module's `settings`.
+pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, SettingError> {
+    if key.eq_ignore_ascii_case("poll") {
+        let patterns: Vec<&str> = value.split(',').filter(|p| !p.trim().is_empty()).collect();
+        if patterns.is_empty() {
+            return Err(SettingError::BadValue {
+                key: "poll",
+                expected: "a comma-separated list of point names (NAME or NAME*)",
+            });
+        }
+        return select(model, &patterns).map(Setting::Poll);
+    }
+    if key.eq_ignore_ascii_case("reply_delay") {
+        return value
+            .trim()
+            .trim_end_matches("ms")
+            .trim()
+            .parse::<u64>()
+            .ok()
+            .filter(|ms| *ms <= 10_000)
+            .map(|ms| Setting::ReplyDelay(Duration::from_millis(ms)))
+            .ok_or(SettingError::BadValue {
+                key: "reply_delay",
+                expected: "0..=10000 ms",
+            });
+    }
+    if key.eq_ignore_ascii_case("SOFFDLY") && model.hw.one_relay {
+        return match number(value) {
+            Some(Num::Int(ms @ 1..=65535)) => Ok(Setting::Watchdog(ms as u16)),
+            _ => Err(SettingError::BadValue {
+                key: "SOFFDLY",
+                expected: "1..=65535 (ms)",
+            }),
+        };
+    }
+    let entry = writable(model, key).ok_or(SettingError::UnknownKey {
+        model: model.name,
+        example: model
+            .points
+            .iter()
+            .find(|p| p.access == Access::ReadWrite)
+            .map_or("none", |p| p.name),
+    })?;
+    let expected = if entry.item.kind.is_real() {
+        "a number"
+    } else {
+        match entry.enc.words() {
+            1 => "an integer 0..=65535",
+            _ => "an integer 0..=4294967295",
+        }
+    };
+    let bad = SettingError::BadValue {
+        key: entry.name,
+        expected,
+    };
+    let v = number(value).ok_or(bad.clone())?;
+    let v = if entry.item.kind.is_real() {
+        Num::Real(v.real())
+    } else {
+        v
+    };
+    if matches!(v, Num::Real(_)) && !entry.item.kind.is_real() || !entry.enc.fits(v) {
+        return Err(bad);
+    }
+    Ok(Setting::Write { entry, value: v })
+}
+
+/// Checks one setting (the catalog's `check_setting`).
+pub fn check(model: &'static Model, key: &str, value: &str) -> Result<(), String> {
+    parse(model, key, value)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::devices::resi::models::{m16di8ro, m1ro, m2rtd};
+
+    #[test]
+    fn patterns() {
+        assert!(matches("DI*", "DI16"));
+        assert!(!matches("DI*", "DIS"));
+        assert!(!matches("DI*", "DIP1") && !matches("DI*", "DI"));
+        assert!(matches("DIS", "DIS"));
+        let m = &m16di8ro::MODEL;
+        assert_eq!(select(m, &["DI*", "RO*"]).unwrap().len(), 24);
+        assert_eq!(select(m, &["rise di*"]).unwrap().len(), 16);
+        assert!(select(m, &["DI17"]).is_err());
+    }
+
+    #[test]
+    fn keys_and_values() {
+        let m = &m16di8ro::MODEL;
+        let Setting::Write { entry, value } = parse(m, "SWITCH_RO1", "0x0001").unwrap() else {
+            panic!()
+        };
+        assert_eq!((entry.reference, value), (20001, Num::Int(1)));
+        let Setting::Write { entry, .. } = parse(m, "switch on ro1", "15").unwrap() else {
+            panic!()
+        };
+        assert_eq!(entry.name, "SWITCH_ON_RO1");
+        assert!(parse(m, "PULSE_TIME_RO4", "300").is_ok());
+        assert!(parse(m, "PULSE_TIME_RO4", "4294967296").is_err());
+        assert!(parse(m, "SWITCH_RO1", "65536").is_err());
+        assert!(parse(m, "SWITCH_RO1", "1.5").is_err());
+        assert!(parse(m, "TOGGLE_RO4", "0b0000_0011").is_ok());
+        assert!(parse(m, "CLEAR_ALL_LOGIC_FUNCTIONS", "1").is_ok());
+        assert!(
+            parse(m, "RO1", "1").is_err(),
+            "outputs belong to the program"
+        );
+        assert!(parse(m, "DIS", "1").is_err(), "read-only");
+        assert!(parse(m, "SOFFDLY", "5000").is_err(), "1RO only");
+        let e = check(m, "nope", "1").unwrap_err();
+        assert!(e.contains("not a resi-16di8ro setting"), "{e}");
+        assert_eq!(
+            parse(m, "reply_delay", "5ms"),
+            Ok(Setting::ReplyDelay(Duration::from_millis(5)))
+        );
+        assert!(parse(m, "poll", "DI*, RISE_DI1").is_ok());
+        assert!(parse(m, "poll", "").is_err());
+        assert_eq!(
+            parse(&m1ro::MODEL, "SOFFDLY", "5000"),
+            Ok(Setting::Watchdog(5000))
+        );
+        assert!(parse(&m1ro::MODEL, "SOFFDLY", "0").is_err());
+        assert!(parse(&m2rtd::MODEL, "CH1_ZERO_OFFSET", "-0.25").is_ok());
+    }
+}

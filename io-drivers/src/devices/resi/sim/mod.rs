@@ -1,0 +1,215 @@
+//! The RESI simulator, one for every model: Modbus RTU and ASCII on the same port ("MODBUS/RTU
+//! slave and ASCII slave", L746), over the model's tables and the module state.
+//!
+//! - A frame that starts with `#` (after a stray LF) and holds only printable characters up to
+//!   its CR is ASCII (resi-spec §2.9); anything else with a good CRC is Modbus RTU; the rest
+//!   is noise and gets no answer. With the option `ascii off` (the `-MODBUS` variant) ASCII
+//!   frames are ignored.
+//! - Modbus: the module's unit address answers; unit 0 (broadcast, undocumented) is executed
+//!   and never answered; a frame for another unit or with a bad CRC is ignored; exceptions as
+//!   [`bank`] says.
+//! - Every answer waits the reply delay (option `reply-delay`, 2 ms by default; the manual
+//!   gives no figure).
+
+pub mod bank;
+pub mod console;
+
+use std::time::Duration;
+
+use super::ascii;
+use super::item::Kind;
+use super::model::Model;
+use super::state::Module;
+use super::value::Num;
+use crate::modbus::crc::check_crc;
+use crate::modbus::server::{decode_request, encode_response, serve};
+use crate::modbus::{ExceptionCode, Request, Response};
+use crate::point::{PointSpec, Value};
+use crate::sim::{SimDevice, SimError, SimReply};
+
+/// A simulated RESI module.
+#[derive(Debug, Clone)]
+pub struct ResiSim {
+    m: Module,
+}
+
+/// Whether a frame is a RESI ASCII line.
+fn is_ascii(frame: &[u8]) -> bool {
+    let body = frame.strip_suffix(b"\n").unwrap_or(frame);
+    let body = body.strip_prefix(b"\n").unwrap_or(body);
+    body.first() == Some(&b'#')
+        && body.ends_with(b"\r")
+        && body
+            .iter()
+            .all(|&b| b == b'\r' || (0x20..0x7F).contains(&b))
+}
+
+impl ResiSim {
+    /// A module of `model` just powered on, at FLASH address `address` with the address
+    /// switches at 0.
+    pub fn new(model: &'static Model, address: u8) -> Self {
+        Self {
+            m: Module::new(model, address),
+        }
+    }
+
+    /// The module.
+    pub fn module(&self) -> &Module {
+        &self.m
+    }
+
+    /// The module, to change it directly (tests, options).
+    pub fn module_mut(&mut self) -> &mut Module {
+        &mut self.m
+    }
+
+    fn reply(&self, bytes: Vec<u8>) -> SimReply {
+        SimReply {
+            bytes,
+            delay: self.m.opts.reply_delay,
+        }
+    }
+
+    fn on_modbus(&mut self, frame: &[u8]) -> Option<SimReply> {
+        let me = self.m.address();
+        let (unit, req) = match decode_request(frame) {
+            Ok(decoded) => decoded,
+            Err(e) => {
+                let (unit, resp) = e.exception_reply()?;
+                let mut out = Vec::new();
+                encode_response(unit, &resp, &mut out);
+                return (unit == me).then(|| self.reply(out));
+            }
+        };
+        if unit != 0 && unit != me {
+            return None;
+        }
+        // FC 1, 2, 3, 4, 5, 6, 15, 16 only (L1971–L1994).
+        let resp = if matches!(
+            req,
+            Request::MaskWriteRegister { .. } | Request::Collect { .. }
+        ) {
+            Response::Exception {
+                function: req.function().code(),
+                code: ExceptionCode::IllegalFunction,
+            }
+        } else {
+            serve(&mut bank::Bank::new(&mut self.m), &req)
+        };
+        if unit == 0 {
+            return None;
+        }
+        let mut out = Vec::new();
+        encode_response(unit, &resp, &mut out);
+        Some(self.reply(out))
+    }
+
+    fn spec(&self, point: &str) -> Result<&'static PointSpec, SimError> {
+        self.m
+            .model()
+            .points
+            .iter()
+            .find(|p| p.name == point)
+            .ok_or_else(|| SimError::UnknownPoint {
+                model: self.m.model().name,
+                point: point.to_string(),
+            })
+    }
+}
+
+impl SimDevice for ResiSim {
+    fn model(&self) -> &'static str {
+        self.m.model().name
+    }
+
+    fn address(&self) -> u8 {
+        self.m.address()
+    }
+
+    fn advance_to(&mut self, t: Duration) {
+        self.m
+            .advance_to(u64::try_from(t.as_millis()).unwrap_or(u64::MAX));
+    }
+
+    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
+        self.advance_to(t);
+        if is_ascii(frame) {
+            if !self.m.opts.ascii {
+                return None;
+            }
+            let bytes = ascii::serve::answer(&mut self.m, frame)?;
+            return Some(self.reply(bytes));
+        }
+        if check_crc(frame) {
+            return self.on_modbus(frame);
+        }
+        None
+    }
+
+    fn points(&self) -> &'static [PointSpec] {
+        self.m.model().points
+    }
+
+    fn get(&self, point: &str) -> Result<Value, SimError> {
+        let spec = self.spec(point)?;
+        let unknown = || SimError::UnknownPoint {
+            model: self.m.model().name,
+            point: point.to_string(),
+        };
+        let entry = self.m.model().map.by_name(point).ok_or_else(unknown)?;
+        let n = self.m.read(entry.item).map_err(|_| unknown())?;
+        Ok(n.to_value(spec.ty))
+    }
+
+    fn set(&mut self, point: &str, value: Value) -> Result<(), SimError> {
+        let spec = self.spec(point)?;
+        let bad = || SimError::BadValue {
+            point: point.to_string(),
+            value: value.to_string(),
+        };
+        if value.value_type() != spec.ty {
+            return Err(bad());
+        }
+        let entry = self.m.model().map.by_name(point).ok_or_else(bad)?;
+        let item = entry.item;
+        let n = Num::from_value(value);
+        match item.kind {
+            Kind::Di => self.m.set_terminal(item.index, value.as_bool()),
+            Kind::Dip => {
+                let bit = 1u8.checked_shl(u32::from(item.index)).ok_or_else(bad)?;
+                let dip = self.m.system().dip();
+                self.m.set_dip(if value.as_bool() {
+                    dip | bit
+                } else {
+                    dip & !bit
+                });
+            }
+            Kind::DipWord => {
+                let dip = u8::try_from(n.int()).map_err(|_| bad())?;
+                self.m.set_dip(dip);
+            }
+            Kind::Temp(_) => self
+                .m
+                .set_temperature(item.index, n.real())
+                .map_err(|_| bad())?,
+            _ => {
+                if !entry.enc.fits(n) {
+                    return Err(bad());
+                }
+                self.m.write(item, n).map_err(|_| bad())?;
+            }
+        }
+        Ok(())
+    }
+
+    fn command(&mut self, words: &[&str]) -> Result<String, SimError> {
+        console::command(&mut self.m, words)
+    }
+
+    fn command_help(&self) -> &'static str {
+        console::HELP
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,229 @@
+//! Runs a scenario on a virtual clock against the project's simulated modules.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use softplc_io::point::Value;
+use softplc_io::sim::line::SharedWorld;
+
+use super::scenario::{Expect, ProgramSpec, Scenario, SetInput};
+use super::trace::Change;
+use crate::clock::VirtualClock;
+use crate::plc::Plc;
+use crate::project::ProgramConfig;
+use crate::scan::{ScanEngine, StopReason};
+
+/// What one run found.
+#[derive(Debug, Clone, Default)]
+pub struct RunResult {
+    /// The trace of the watched tags.
+    pub trace: Vec<Change>,
+    /// Failed expectations and other failures, one line each.
+    pub failures: Vec<String>,
+    /// Expectations checked.
+    pub checked: usize,
+    /// Scans run.
+    pub scans: u64,
+}
+
+/// Scenario state shared with the cycle hook.
+struct HookState {
+    sets: Vec<(SetInput, Option<usize>)>,
+    next_set: usize,
+    expects: Vec<Expect>,
+    next_expect: usize,
+    watch: Vec<(usize, String)>,
+    last: Vec<Option<Value>>,
+    result: RunResult,
+    world: Option<SharedWorld>,
+    period: Duration,
+}
+
+impl HookState {
+    /// Applies every input due at or before `t`.
+    fn apply_sets(&mut self, t: Duration) {
+        while let Some((s, dev)) = self.sets.get(self.next_set) {
+            if s.at > t {
+                break;
+            }
+            let done = match (self.world.as_ref(), dev) {
+                (Some(w), Some(d)) => {
+                    let mut w = w.lock().unwrap_or_else(|p| p.into_inner());
+                    w.set(*d, &s.point, s.value).map_err(|e| e.to_string())
+                }
+                _ => Err("no simulated module".to_string()),
+            };
+            if let Err(e) = done {
+                let msg = format!("at {}: cannot set {}: {e}", secs(s.at), s.tag);
+                self.result.failures.push(msg);
+            }
+            self.next_set += 1;
+        }
+    }
+
+    fn cycle(&mut self, plc: &Plc, now: Duration) {
+        self.result.scans += 1;
+        let image = plc.image();
+        for (k, (t, name)) in self.watch.iter().enumerate() {
+            let v = image.get(crate::image::TagId(*t as u32));
+            if self.last[k] != Some(v) {
+                self.last[k] = Some(v);
+                self.result.trace.push(Change {
+                    at: now,
+                    tag: name.clone(),
+                    value: v,
+                });
+            }
+        }
+        // The state at time T is the state after the last scan that starts at or before T.
+        let next = now + self.period;
+        while let Some(e) = self.expects.get(self.next_expect) {
+            if e.at >= next {
+                break;
+            }
+            let got = image.get(crate::image::TagId(e.tag as u32));
+            self.result.checked += 1;
+            if got != e.value {
+                let name = image.name(crate::image::TagId(e.tag as u32)).to_string();
+                let since = self
+                    .result
+                    .trace
+                    .iter()
+                    .rev()
+                    .find(|c| c.tag == name)
+                    .map(|c| format!(" (since {})", secs(c.at)))
+                    .unwrap_or_default();
+                self.result.failures.push(format!(
+                    "at {} (line {}): {name} expected {}, got {got}{since}",
+                    secs(e.at),
+                    e.line,
+                    e.value
+                ));
+            }
+            self.next_expect += 1;
+        }
+        self.apply_sets(next);
+    }
+}
+
+/// `12.3s`.
+pub fn secs(d: Duration) -> String {
+    format!("{}s", d.as_secs_f64())
+}
+
+/// A retain file path of our own, so a test never touches the project's file.
+fn temp_retain() -> PathBuf {
+    static N: AtomicU64 = AtomicU64::new(0);
+    std::env::temp_dir().join(format!(
+        "softplc-test-{}-{}.retain.json",
+        std::process::id(),
+        N.fetch_add(1, Ordering::Relaxed)
+    ))
+}
+
+/// Runs `sc` with `program` (or the project's own).
+pub fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
+    let mut project = sc.project.clone();
+    if let Some(p) = program {
+        project.program = ProgramConfig {
+            path: p.path.clone(),
+            kind: p.kind,
+        };
+    }
+    if !sc.plant {
+        project.plant = None;
+    }
+    let retain_file = temp_retain();
+    let _ = std::fs::remove_file(&retain_file);
+    project.retain.file = retain_file.clone();
+    let period = project.scan.period;
+    let watch = sc
+        .watch
+        .iter()
+        .map(|&t| (t, project.tags[t].name.clone()))
+        .collect::<Vec<_>>();
+    let plc = match Plc::build(project, Arc::new(VirtualClock::new())) {
+        Ok(p) => p,
+        Err(e) => {
+            return RunResult {
+                failures: vec![format!("cannot start: {e}")],
+                ..RunResult::default()
+            }
+        }
+    };
+    let world = plc.world().cloned();
+    let sets = sc
+        .sets
+        .iter()
+        .map(|s| {
+            let dev = world
+                .as_ref()
+                .and_then(|w| w.lock().unwrap_or_else(|p| p.into_inner()).find(&s.module));
+            (s.clone(), dev)
+        })
+        .collect();
+    let mut state = HookState {
+        sets,
+        next_set: 0,
+        expects: sc.expects.clone(),
+        next_expect: 0,
+        last: vec![None; watch.len()],
+        watch,
+        result: RunResult::default(),
+        world,
+        period,
+    };
+    state.apply_sets(Duration::ZERO);
+    let state = Arc::new(Mutex::new(state));
+    let hook_state = state.clone();
+    let mut engine = ScanEngine::new(plc)
+        .run_for(sc.until)
+        .on_cycle(Box::new(move |plc, ctx| {
+            hook_state
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .cycle(plc, ctx.now);
+        }));
+    let outcome = engine.run();
+    drop(engine);
+    let mut st = state.lock().unwrap_or_else(|p| p.into_inner());
+    let mut result = std::mem::take(&mut st.result);
+    match outcome.reason {
+        StopReason::Requested => {}
+        other => result.failures.push(format!("the PLC stopped: {other:?}")),
+    }
+    for e in st.expects.iter().skip(st.next_expect) {
+        result.failures.push(format!(
+            "at {} (line {}): not reached (the run ends at {})",
+            secs(e.at),
+            e.line,
+            secs(sc.until)
+        ));
+    }
+    if !sc.retained.is_empty() {
+        check_retained(sc, &retain_file, &mut result);
+    }
+    let _ = std::fs::remove_file(&retain_file);
+    result
+}
+
+/// Compares the retain file written at stop with the expected values.
+fn check_retained(sc: &Scenario, file: &std::path::Path, result: &mut RunResult) {
+    let text = std::fs::read_to_string(file).unwrap_or_default();
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+    for (name, want) in &sc.retained {
+        let got = doc.get("values").and_then(|v| v.get(name));
+        let got_text = got.map_or_else(|| "nothing".to_string(), ToString::to_string);
+        let want_text = match want {
+            Value::Bool(b) => b.to_string(),
+            other => other.to_string(),
+        };
+        if got_text != want_text {
+            result.failures.push(format!(
+                "retained {name}: expected {want_text}, the file holds {got_text}"
+            ));
+        }
+    }
+}

@@ -1,0 +1,327 @@
+//! Scenario files: inputs over virtual time and the outputs expected, against a project.
+//!
+//! ```yaml
+//! name: a press lights the stairs; a second press extends the light
+//! project: ../../examples/stairway/project.yaml   # relative to this file
+//! programs: [stairway.ladder.yaml, stairway.rhai]   # optional: run once per program (same
+//!                                                    # trace required); default: the project's
+//! watch: [light]          # optional: tags in the trace (default: expected tags and outputs)
+//! plant: false            # optional: keep the project's plant model (default: removed)
+//! until: 70s              # optional: run length (default: last step + 1 s)
+//! steps:
+//!   - { at: 0s,    set: { button: 1 } }     # a module input, set on its simulated module
+//!   - { at: 200ms, set: { button: 0 } }
+//!   - { at: 29s,   expect: { light: 1 } }   # checked after the last scan that starts by 29 s
+//!   - { at: 31s,   expect: { light: 0 } }
+//! expect_retained: { presses: 1 }           # optional: values in the retain file after the run
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::Deserialize;
+use softplc_io::point::{Access, Value};
+
+use crate::project::raw::{DurationText, Settings};
+use crate::project::span::{Locator, YPath};
+use crate::project::{self, Binding, PortConfig, ProgramKind, Project};
+
+/// A scenario file as written.
+#[derive(Debug, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a scenario: a mapping with project, steps and optionally name, programs, watch, plant, until, expect_retained"
+)]
+struct RawScenario {
+    #[serde(default)]
+    name: Option<String>,
+    project: String,
+    #[serde(default)]
+    programs: Vec<String>,
+    #[serde(default)]
+    watch: Vec<String>,
+    #[serde(default)]
+    plant: Option<bool>,
+    #[serde(default)]
+    until: Option<DurationText>,
+    steps: Vec<RawStep>,
+    #[serde(default)]
+    expect_retained: Option<Settings>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a step: a mapping with at and set and/or expect"
+)]
+struct RawStep {
+    at: DurationText,
+    #[serde(default)]
+    set: Option<Settings>,
+    #[serde(default)]
+    expect: Option<Settings>,
+}
+
+/// An input set by a step: the tag and the simulated module point that feeds it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SetInput {
+    /// Scenario time.
+    pub at: Duration,
+    /// The tag (for messages).
+    pub tag: String,
+    /// The module's name in the project.
+    pub module: String,
+    /// The point.
+    pub point: String,
+    /// The value.
+    pub value: Value,
+}
+
+/// An expected tag value.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Expect {
+    /// Scenario time.
+    pub at: Duration,
+    /// The tag's index.
+    pub tag: usize,
+    /// The expected value.
+    pub value: Value,
+    /// The line of the expectation in the scenario file.
+    pub line: usize,
+}
+
+/// A program to run the scenario with.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ProgramSpec {
+    /// The file.
+    pub path: PathBuf,
+    /// Its language.
+    pub kind: ProgramKind,
+}
+
+/// A validated scenario.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    /// The file.
+    pub file: PathBuf,
+    /// Its name (the file name when not given).
+    pub name: String,
+    /// The project, as loaded.
+    pub project: Project,
+    /// The programs to run (empty: the project's).
+    pub programs: Vec<ProgramSpec>,
+    /// Tags recorded in the trace.
+    pub watch: Vec<usize>,
+    /// Keep the project's plant.
+    pub plant: bool,
+    /// Run length.
+    pub until: Duration,
+    /// Inputs, by time.
+    pub sets: Vec<SetInput>,
+    /// Expectations, by time.
+    pub expects: Vec<Expect>,
+    /// Retained values expected after the run: tag name and value.
+    pub retained: Vec<(String, Value)>,
+}
+
+/// Errors of a scenario file, each `file:line:col: error: message`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ScenarioErrors(pub Vec<String>);
+
+impl std::fmt::Display for ScenarioErrors {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0.join("\n"))
+    }
+}
+
+/// The language of a program file, by its name.
+pub fn kind_of(path: &Path) -> Option<ProgramKind> {
+    let name = path.file_name()?.to_str()?;
+    if name.ends_with(".rhai") {
+        Some(ProgramKind::Rhai)
+    } else if name.ends_with(".expr") {
+        Some(ProgramKind::Expr)
+    } else if name.ends_with(".yaml") || name.ends_with(".yml") {
+        Some(ProgramKind::Ladder)
+    } else {
+        None
+    }
+}
+
+/// Reads and validates a scenario file; every error found.
+pub fn load(file: &Path) -> Result<Scenario, ScenarioErrors> {
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| ScenarioErrors(vec![format!("{}: error: {e}", file.display())]))?;
+    parse(&text, file)
+}
+
+/// Validates scenario text as read from `file`.
+pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
+    let raw: RawScenario = yaml_serde::from_str(text).map_err(|e| {
+        let (line, col) = e.location().map_or((1, 1), |l| (l.line(), l.column()));
+        let mut msg = e.to_string();
+        if let Some(at) = msg.find(" at line ") {
+            msg.truncate(at);
+        }
+        ScenarioErrors(vec![format!(
+            "{}:{line}:{col}: error: {msg}",
+            file.display()
+        )])
+    })?;
+    let loc = Locator::new(text);
+    let mut errors = Vec::new();
+    let mut error = |path: YPath, msg: String| {
+        let (line, col) = loc.position(&path);
+        errors.push(format!("{}:{line}:{col}: error: {msg}", file.display()));
+    };
+    let root = YPath::root();
+    let folder = file.parent().unwrap_or(Path::new(""));
+    let project = match project::load(&folder.join(&raw.project)) {
+        Ok(p) => p,
+        Err(e) => {
+            error(root.key("project"), format!("the project has errors:\n{e}"));
+            return Err(ScenarioErrors(errors));
+        }
+    };
+    let tag = |name: &str| project.tags.iter().position(|t| t.name == name);
+
+    let mut programs = Vec::new();
+    for (i, p) in raw.programs.iter().enumerate() {
+        let path = folder.join(p);
+        match (kind_of(&path), path.is_file()) {
+            (Some(kind), true) => programs.push(ProgramSpec { path, kind }),
+            (None, _) => error(
+                root.key("programs").index(i),
+                format!(
+                    "{p}: the language is told by the file name: .yaml (ladder), .rhai or .expr"
+                ),
+            ),
+            (_, false) => error(
+                root.key("programs").index(i),
+                format!("no program file {}", path.display()),
+            ),
+        }
+    }
+
+    let mut sets = Vec::new();
+    let mut expects = Vec::new();
+    for (i, step) in raw.steps.iter().enumerate() {
+        let at = step.at.0;
+        let spath = root.key("steps").index(i);
+        if step.set.is_none() && step.expect.is_none() {
+            error(spath.clone(), "a step needs `set:` or `expect:`".into());
+        }
+        for (name, text) in step.set.iter().flat_map(|s| &s.0) {
+            let kpath = spath.key("set").key_itself(name);
+            let Some(t) = tag(name) else {
+                error(kpath, format!("unknown tag `{name}`"));
+                continue;
+            };
+            let cfg = &project.tags[t];
+            let Binding::Point { module, point } = cfg.binding else {
+                error(
+                    kpath,
+                    format!("tag `{name}` is a memory tag; a scenario sets module inputs"),
+                );
+                continue;
+            };
+            let m = &project.modules[module];
+            let spec = &m.model.points[point];
+            if spec.access == Access::Output || project.buses[m.bus].port != PortConfig::Sim {
+                error(
+                    kpath,
+                    format!(
+                        "tag `{name}` is not an input of a simulated module (it is {}.{})",
+                        m.name, spec.name
+                    ),
+                );
+                continue;
+            }
+            match Value::parse(cfg.ty, text) {
+                Some(value) => sets.push(SetInput {
+                    at,
+                    tag: name.clone(),
+                    module: m.name.clone(),
+                    point: spec.name.to_string(),
+                    value,
+                }),
+                None => error(
+                    spath.key("set").key(name),
+                    format!("`{text}` is not a {}", cfg.ty),
+                ),
+            }
+        }
+        for (name, text) in step.expect.iter().flat_map(|s| &s.0) {
+            let kpath = spath.key("expect").key_itself(name);
+            let Some(t) = tag(name) else {
+                error(kpath, format!("unknown tag `{name}`"));
+                continue;
+            };
+            let line = loc.line(&kpath);
+            match Value::parse(project.tags[t].ty, text) {
+                Some(value) => expects.push(Expect {
+                    at,
+                    tag: t,
+                    value,
+                    line,
+                }),
+                None => error(
+                    spath.key("expect").key(name),
+                    format!("`{text}` is not a {}", project.tags[t].ty),
+                ),
+            }
+        }
+    }
+    let mut retained = Vec::new();
+    for (name, text) in raw.expect_retained.iter().flat_map(|s| &s.0) {
+        let kpath = root.key("expect_retained").key_itself(name);
+        match tag(name) {
+            Some(t) if project.tags[t].retain => match Value::parse(project.tags[t].ty, text) {
+                Some(v) => retained.push((name.clone(), v)),
+                None => error(kpath, format!("`{text}` is not a {}", project.tags[t].ty)),
+            },
+            Some(_) => error(
+                kpath,
+                format!("tag `{name}` is not retained (`retain: true`)"),
+            ),
+            None => error(kpath, format!("unknown tag `{name}`")),
+        }
+    }
+    let mut watch = Vec::new();
+    for (i, name) in raw.watch.iter().enumerate() {
+        match tag(name) {
+            Some(t) => watch.push(t),
+            None => error(root.key("watch").index(i), format!("unknown tag `{name}`")),
+        }
+    }
+    if raw.watch.is_empty() {
+        watch = (0..project.tags.len())
+            .filter(|&t| {
+                expects.iter().any(|e| e.tag == t)
+                    || matches!(project.tags[t].binding, Binding::Point { module, point }
+                        if project.modules[module].model.points[point].access == Access::Output)
+            })
+            .collect();
+    }
+    if !errors.is_empty() {
+        return Err(ScenarioErrors(errors));
+    }
+    sets.sort_by_key(|s| s.at);
+    expects.sort_by_key(|e| e.at);
+    let last = raw.steps.iter().map(|s| s.at.0).max().unwrap_or_default();
+    Ok(Scenario {
+        file: file.to_path_buf(),
+        name: raw.name.unwrap_or_else(|| {
+            file.file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+        }),
+        project,
+        programs,
+        watch,
+        plant: raw.plant.unwrap_or(false),
+        until: raw.until.map_or(last + Duration::from_secs(1), |d| d.0),
+        sets,
+        expects,
+        retained,
+    })
+}

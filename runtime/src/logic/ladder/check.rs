@@ -1,0 +1,851 @@
+//! Checker: resolves tags and instances, checks types, arguments and drivers, and turns parsed
+//! rungs into typed ones over [`TagId`]s and instance indexes. Reports every error it finds.
+
+use std::collections::HashMap;
+use std::time::Duration;
+
+use softplc_io::point::ValueType;
+
+use super::error::{CompileErrorKind, Driver, Expected, TypeError};
+use super::parser::{
+    Action, Arg, BoxCall, CmpOp, Coil, CoilKind, Cond, Lit, Name, Output, Ref, Rung,
+};
+use crate::image::TagId;
+use crate::logic::blocks::{millis, Kind, Member, Pattern};
+use crate::logic::expr::TagTable;
+
+/// An error: rung index, character index, kind.
+pub(crate) type Error = (usize, usize, CompileErrorKind);
+
+/// A number: a constant, a tag's value, or an instance's output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Num {
+    /// A literal (a duration is its milliseconds).
+    Const(f64),
+    /// A numeric tag.
+    Tag(TagId),
+    /// An instance's output (`ET` in milliseconds).
+    Out(u32, Member),
+}
+
+/// A checked condition.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum BoolExpr {
+    Load(TagId),
+    Out(u32, Member),
+    Const(bool),
+    Not(Box<BoolExpr>),
+    And(Vec<BoolExpr>),
+    Or(Vec<BoolExpr>),
+    Edge { rising: bool, arg: Box<BoolExpr> },
+    Cmp { lhs: Num, op: CmpOp, rhs: Num },
+}
+
+/// A block call with its checked arguments. The power flow is each block's first input (IN,
+/// CU, CLK, S, EN); the bool arguments are lowered in the order given here.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Call {
+    /// On-delay.
+    Ton {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Off-delay.
+    Tof {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Pulse.
+    Tp {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Staircase timer; bool argument: reset.
+    Stair {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Up counter; bool argument: reset.
+    Ctu {
+        /// Preset.
+        pv: Num,
+    },
+    /// Down counter; bool argument: load.
+    Ctd {
+        /// Preset.
+        pv: Num,
+    },
+    /// Up-down counter; bool arguments: count down, reset, load.
+    Ctud {
+        /// Preset.
+        pv: Num,
+    },
+    /// Rising edge.
+    RTrig,
+    /// Falling edge.
+    FTrig,
+    /// Set-dominant latch; bool argument: reset.
+    Sr,
+    /// Reset-dominant latch; bool argument: reset.
+    Rs,
+    /// Impulse relay; bool argument: reset.
+    Toggle,
+    /// Blinker by times.
+    Blink {
+        /// On time, ms.
+        on: Num,
+        /// Off time, ms.
+        off: Num,
+    },
+    /// Blinker by pattern.
+    BlinkPattern {
+        /// The bits.
+        pattern: Pattern,
+        /// Time per bit, ms.
+        step: Num,
+    },
+}
+
+/// A math box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoxOp {
+    /// `MOVE(a)`
+    Move,
+    /// `ADD(a, b)`
+    Add,
+    /// `SUB(a, b)`
+    Sub,
+    /// `MUL(a, b)`
+    Mul,
+    /// `DIV(a, b)`
+    Div,
+    /// `LIMIT(mn, in, mx)`
+    Limit,
+}
+
+impl BoxOp {
+    const ALL: [(&'static str, BoxOp, usize); 6] = [
+        ("MOVE", BoxOp::Move, 1),
+        ("ADD", BoxOp::Add, 2),
+        ("SUB", BoxOp::Sub, 2),
+        ("MUL", BoxOp::Mul, 2),
+        ("DIV", BoxOp::Div, 2),
+        ("LIMIT", BoxOp::Limit, 3),
+    ];
+}
+
+/// A checked output.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum COut {
+    Coil(CoilKind, TagId),
+    Box {
+        op: BoxOp,
+        args: [Num; 3],
+        dest: TagId,
+    },
+}
+
+/// A checked action.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum CAction {
+    Outputs(Vec<COut>),
+    Block {
+        inst: u32,
+        call: Call,
+        bools: Vec<BoolExpr>,
+        coils: Vec<(CoilKind, TagId)>,
+    },
+}
+
+/// A checked rung.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct CRung {
+    /// Index in the file.
+    pub index: usize,
+    pub cond: BoolExpr,
+    pub action: CAction,
+}
+
+/// The instances a program declares, by call.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Instances {
+    /// Name → (index, kind, rung that calls it).
+    by_name: HashMap<String, (u32, Kind, usize)>,
+    /// Kinds, by index.
+    pub kinds: Vec<Kind>,
+}
+
+/// Checks parsed rungs (`(rung index, rung)`); `line_of` gives a rung's first line.
+pub(crate) fn check(
+    rungs: &[(usize, Rung)],
+    tags: &TagTable,
+    line_of: &dyn Fn(usize) -> u32,
+    errors: &mut Vec<Error>,
+) -> (Vec<CRung>, Instances) {
+    let mut c = Checker {
+        tags,
+        insts: Instances::default(),
+        errors,
+        rung: 0,
+    };
+    c.declare(rungs, line_of);
+    let mut drivers: HashMap<TagId, (Driver, u32)> = HashMap::new();
+    let mut out = Vec::with_capacity(rungs.len());
+    for (index, rung) in rungs {
+        c.rung = *index;
+        let cond = match &rung.cond {
+            Some(cond) => c.boolean(cond),
+            None => Some(BoolExpr::Const(true)),
+        };
+        let action = c.action(&rung.action, &mut drivers, line_of(*index));
+        if let (Some(cond), Some(action)) = (cond, action) {
+            out.push(CRung {
+                index: *index,
+                cond,
+                action,
+            });
+        }
+    }
+    (out, c.insts)
+}
+
+struct Checker<'a> {
+    tags: &'a TagTable,
+    insts: Instances,
+    errors: &'a mut Vec<Error>,
+    rung: usize,
+}
+
+/// One argument a block takes.
+struct Param {
+    name: &'static str,
+    ty: ParamType,
+    positional: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum ParamType {
+    Time,
+    Number,
+    Bool,
+    Pattern,
+}
+
+const fn param(name: &'static str, ty: ParamType, positional: bool) -> Param {
+    Param {
+        name,
+        ty,
+        positional,
+    }
+}
+
+fn params(kind: Kind) -> &'static [Param] {
+    use ParamType::*;
+    const PT: Param = param("pt", Time, true);
+    const R: Param = param("r", Bool, false);
+    const PV: Param = param("pv", Number, true);
+    const LD: Param = param("ld", Bool, false);
+    const CD: Param = param("cd", Bool, false);
+    const ON: Param = param("on", Time, true);
+    const OFF: Param = param("off", Time, true);
+    const PATTERN: Param = param("pattern", Pattern, false);
+    const STEP: Param = param("step", Time, false);
+    match kind {
+        Kind::Ton | Kind::Tof | Kind::Tp => &[PT],
+        Kind::Stair => &[PT, R],
+        Kind::Ctu => &[PV, R],
+        Kind::Ctd => &[PV, LD],
+        Kind::Ctud => &[PV, CD, R, LD],
+        Kind::RTrig | Kind::FTrig => &[],
+        Kind::Sr | Kind::Rs | Kind::Toggle => &[R],
+        Kind::Blink => &[ON, OFF, PATTERN, STEP],
+    }
+}
+
+fn param_names(kind: Kind) -> &'static [&'static str] {
+    match kind {
+        Kind::Ton | Kind::Tof | Kind::Tp => &["pt"],
+        Kind::Stair => &["pt", "r"],
+        Kind::Ctu => &["pv", "r"],
+        Kind::Ctd => &["pv", "ld"],
+        Kind::Ctud => &["pv", "cd", "r", "ld"],
+        Kind::RTrig | Kind::FTrig => &["no arguments"],
+        Kind::Sr | Kind::Rs | Kind::Toggle => &["r"],
+        Kind::Blink => &["on", "off", "pattern", "step"],
+    }
+}
+
+/// A checked argument value.
+#[derive(Debug, Clone)]
+enum Value {
+    Num(Num),
+    Bool(BoolExpr),
+    Pattern(Pattern),
+}
+
+impl Checker<'_> {
+    fn fail<T>(&mut self, pos: usize, kind: impl Into<CompileErrorKind>) -> Option<T> {
+        self.errors.push((self.rung, pos, kind.into()));
+        None
+    }
+
+    /// Pass 1: every block call declares its instance.
+    fn declare(&mut self, rungs: &[(usize, Rung)], line_of: &dyn Fn(usize) -> u32) {
+        for (index, rung) in rungs {
+            self.rung = *index;
+            let Action::Block { call, .. } = &rung.action else {
+                continue;
+            };
+            let Some(kind) = self.kind(&call.kind) else {
+                continue;
+            };
+            let name = &call.instance;
+            if self.tags.get(&name.text).is_some() {
+                let kind = CompileErrorKind::InstanceIsTag {
+                    name: name.text.clone(),
+                };
+                self.fail::<()>(name.pos, kind);
+                continue;
+            }
+            if let Some(&(_, _, first)) = self.insts.by_name.get(&name.text) {
+                let kind = CompileErrorKind::InstanceCalledTwice {
+                    name: name.text.clone(),
+                    first_line: line_of(first),
+                };
+                self.fail::<()>(name.pos, kind);
+                continue;
+            }
+            let i = self.insts.kinds.len() as u32;
+            self.insts.kinds.push(kind);
+            self.insts
+                .by_name
+                .insert(name.text.clone(), (i, kind, *index));
+        }
+    }
+
+    fn kind(&mut self, name: &Name) -> Option<Kind> {
+        if let Some(k) = Kind::parse(&name.text) {
+            return Some(k);
+        }
+        let upper = name.text.to_ascii_uppercase();
+        let suggestion = Kind::parse(&upper)
+            .map(|k| k.name().to_string())
+            .or_else(|| closest(&name.text, Kind::ALL.iter().map(|k| k.name())));
+        self.fail(
+            name.pos,
+            CompileErrorKind::UnknownBlock {
+                name: name.text.clone(),
+                suggestion,
+            },
+        )
+    }
+
+    fn unknown_tag<T>(&mut self, name: &Name) -> Option<T> {
+        let suggestion = if let Some(&(_, kind, _)) = self.insts.by_name.get(&name.text) {
+            Some(format!("{}.{}", name.text, kind.main_output()))
+        } else {
+            closest(&name.text, self.tags.iter().map(|t| t.name.as_str()))
+        };
+        self.fail(
+            name.pos,
+            CompileErrorKind::UnknownTag {
+                name: name.text.clone(),
+                suggestion,
+            },
+        )
+    }
+
+    /// A reference as a typed source: a tag (with its type) or an instance output.
+    fn reference(&mut self, r: &Ref) -> Option<(Num, Option<ValueType>, String)> {
+        match &r.member {
+            None => match self.tags.get(&r.name.text) {
+                Some(e) => Some((Num::Tag(e.id), Some(e.ty), r.name.text.clone())),
+                None => self.unknown_tag(&r.name),
+            },
+            Some(member) => {
+                let Some(&(i, kind, _)) = self.insts.by_name.get(&r.name.text) else {
+                    let suggestion =
+                        closest(&r.name.text, self.insts.by_name.keys().map(String::as_str));
+                    return self.fail(
+                        r.name.pos,
+                        CompileErrorKind::UnknownInstance {
+                            name: r.name.text.clone(),
+                            suggestion,
+                        },
+                    );
+                };
+                match Member::parse(&member.text.to_ascii_uppercase()) {
+                    Some(m) if kind.outputs().contains(&m) => Some((
+                        Num::Out(i, m),
+                        None,
+                        format!("{}.{}", r.name.text, m.name()),
+                    )),
+                    _ => self.fail(
+                        member.pos,
+                        CompileErrorKind::UnknownMember {
+                            instance: r.name.text.clone(),
+                            kind,
+                            member: member.text.clone(),
+                        },
+                    ),
+                }
+            }
+        }
+    }
+
+    /// A condition.
+    fn boolean(&mut self, cond: &Cond) -> Option<BoolExpr> {
+        match cond {
+            Cond::Ref(r) => {
+                let (src, ty, name) = self.reference(r)?;
+                match (src, ty) {
+                    (Num::Tag(id), Some(ValueType::Bool)) => Some(BoolExpr::Load(id)),
+                    (Num::Tag(_), Some(ty)) => self.fail(
+                        r.name.pos,
+                        TypeError::NumberAsContact {
+                            name,
+                            ty: ty.name(),
+                        },
+                    ),
+                    (Num::Out(i, m), _) if m.is_bool() => Some(BoolExpr::Out(i, m)),
+                    _ => self.fail(
+                        r.name.pos,
+                        TypeError::NumberAsContact {
+                            name,
+                            ty: "a number",
+                        },
+                    ),
+                }
+            }
+            Cond::Lit(lit, pos) => match lit {
+                Lit::Bool(b) => Some(BoolExpr::Const(*b)),
+                Lit::Number { text, .. } if text == "0" => Some(BoolExpr::Const(false)),
+                Lit::Number { text, .. } if text == "1" => Some(BoolExpr::Const(true)),
+                Lit::Number { text, .. } | Lit::Duration { text } => {
+                    self.fail(*pos, TypeError::LiteralAsContact { text: text.clone() })
+                }
+            },
+            Cond::Not(inner) => Some(BoolExpr::Not(Box::new(self.boolean(inner)?))),
+            Cond::Series(items) => self.all(items).map(BoolExpr::And),
+            Cond::Parallel(items) => self.all(items).map(BoolExpr::Or),
+            Cond::Edge { rising, arg } => Some(BoolExpr::Edge {
+                rising: *rising,
+                arg: Box::new(self.boolean(arg)?),
+            }),
+            Cond::Cmp { lhs, op, rhs, .. } => {
+                let l = self.number(lhs);
+                let r = self.number(rhs);
+                let ((l, lty), (r, rty)) = (l?, r?);
+                match (l, r) {
+                    (Num::Const(_), Num::Const(_)) => {
+                        self.fail(lhs.pos(), TypeError::ConstantComparison)
+                    }
+                    _ => Some(BoolExpr::Cmp {
+                        lhs: round_for(l, rty),
+                        op: *op,
+                        rhs: round_for(r, lty),
+                    }),
+                }
+            }
+        }
+    }
+
+    fn all(&mut self, items: &[Cond]) -> Option<Vec<BoolExpr>> {
+        let checked: Vec<Option<BoolExpr>> = items.iter().map(|c| self.boolean(c)).collect();
+        checked.into_iter().collect()
+    }
+
+    /// A number: a literal, a duration (ms), a numeric tag or a numeric output; with the tag's
+    /// type, for rounding literals compared with f32 tags.
+    fn number(&mut self, cond: &Cond) -> Option<(Num, Option<ValueType>)> {
+        match cond {
+            Cond::Lit(Lit::Number { value, .. }, _) => Some((Num::Const(*value), None)),
+            Cond::Lit(Lit::Duration { text }, pos) => {
+                let d = self.duration(text, *pos)?;
+                Some((Num::Const(millis(d)), None))
+            }
+            Cond::Ref(r) => {
+                let (src, ty, name) = self.reference(r)?;
+                match (src, ty) {
+                    (Num::Tag(_), Some(ValueType::Bool)) => {
+                        self.fail(r.name.pos, TypeError::BoolAsNumber { name })
+                    }
+                    (Num::Out(_, m), _) if m.is_bool() => {
+                        self.fail(r.name.pos, TypeError::BoolAsNumber { name })
+                    }
+                    _ => Some((src, ty)),
+                }
+            }
+            other => self.fail(other.pos(), TypeError::ConditionAsNumber),
+        }
+    }
+
+    fn duration(&mut self, text: &str, pos: usize) -> Option<Duration> {
+        match crate::project::parse_duration(text) {
+            Ok(d) => Some(d),
+            Err(reason) => self.fail(
+                pos,
+                CompileErrorKind::BadDuration {
+                    text: text.to_string(),
+                    reason,
+                },
+            ),
+        }
+    }
+
+    fn action(
+        &mut self,
+        action: &Action,
+        drivers: &mut HashMap<TagId, (Driver, u32)>,
+        line: u32,
+    ) -> Option<CAction> {
+        match action {
+            Action::Outputs(outputs) => {
+                let checked: Vec<Option<COut>> = outputs
+                    .iter()
+                    .map(|o| match o {
+                        Output::Coil(c) => {
+                            self.coil(c, drivers, line).map(|id| COut::Coil(c.kind, id))
+                        }
+                        Output::Box(b) => self.boxed(b, drivers, line),
+                    })
+                    .collect();
+                checked
+                    .into_iter()
+                    .collect::<Option<Vec<_>>>()
+                    .map(CAction::Outputs)
+            }
+            Action::Block { call, coils } => {
+                let checked_coils: Vec<Option<(CoilKind, TagId)>> = coils
+                    .iter()
+                    .map(|c| self.coil(c, drivers, line).map(|id| (c.kind, id)))
+                    .collect();
+                let kind = Kind::parse(&call.kind.text)?;
+                let &(inst, k, first) = self.insts.by_name.get(&call.instance.text)?;
+                if k != kind || first != self.rung {
+                    // A second call: reported by `declare`.
+                    return None;
+                }
+                let (call, bools) = self.call(kind, &call.args, call.instance.pos)?;
+                let coils = checked_coils.into_iter().collect::<Option<Vec<_>>>()?;
+                Some(CAction::Block {
+                    inst,
+                    call,
+                    bools,
+                    coils,
+                })
+            }
+        }
+    }
+
+    /// A written tag: known, writable, and not driven in a conflicting way before.
+    fn written(
+        &mut self,
+        name: &Name,
+        how: Driver,
+        drivers: &mut HashMap<TagId, (Driver, u32)>,
+        line: u32,
+    ) -> Option<(TagId, ValueType)> {
+        let Some(e) = self.tags.get(&name.text).cloned() else {
+            return self.unknown_tag(name);
+        };
+        if !e.writable {
+            return self.fail(
+                name.pos,
+                CompileErrorKind::WriteToInput {
+                    name: name.text.clone(),
+                },
+            );
+        }
+        match drivers.get(&e.id) {
+            Some(&(first, first_line)) if first == Driver::Coil || first != how => {
+                return self.fail(
+                    name.pos,
+                    CompileErrorKind::DrivenTwice {
+                        name: name.text.clone(),
+                        this: how,
+                        first,
+                        first_line,
+                    },
+                );
+            }
+            Some(_) => {}
+            None => {
+                drivers.insert(e.id, (how, line));
+            }
+        }
+        Some((e.id, e.ty))
+    }
+
+    fn coil(
+        &mut self,
+        coil: &Coil,
+        drivers: &mut HashMap<TagId, (Driver, u32)>,
+        line: u32,
+    ) -> Option<TagId> {
+        let how = match coil.kind {
+            CoilKind::Normal | CoilKind::Negated => Driver::Coil,
+            CoilKind::Set | CoilKind::Reset => Driver::Latch,
+        };
+        let (id, ty) = self.written(&coil.name, how, drivers, line)?;
+        if ty != ValueType::Bool {
+            return self.fail(
+                coil.name.pos,
+                TypeError::NumberCoil {
+                    name: coil.name.text.clone(),
+                    ty,
+                },
+            );
+        }
+        Some(id)
+    }
+
+    fn boxed(
+        &mut self,
+        b: &BoxCall,
+        drivers: &mut HashMap<TagId, (Driver, u32)>,
+        line: u32,
+    ) -> Option<COut> {
+        let Some(&(name, op, arity)) = BoxOp::ALL.iter().find(|(n, _, _)| *n == b.op.text) else {
+            let suggestion = closest(
+                &b.op.text.to_ascii_uppercase(),
+                BoxOp::ALL.iter().map(|(n, _, _)| *n),
+            );
+            let kind = match Kind::parse(&b.op.text) {
+                Some(kind) => CompileErrorKind::MissingInstanceName { kind },
+                None => CompileErrorKind::UnknownBox {
+                    name: b.op.text.clone(),
+                    suggestion,
+                },
+            };
+            return self.fail(b.op.pos, kind);
+        };
+        let dest = self.written(&b.dest, Driver::Math, drivers, line);
+        if b.args.len() != arity {
+            return self.fail(
+                b.op.pos,
+                CompileErrorKind::MathArity {
+                    name,
+                    expected: arity,
+                    found: b.args.len(),
+                },
+            );
+        }
+        let mut args = [Num::Const(0.0); 3];
+        let mut ok = true;
+        for (slot, arg) in args.iter_mut().zip(&b.args) {
+            if let Some(n) = &arg.name {
+                self.fail::<()>(
+                    n.pos,
+                    CompileErrorKind::Syntax {
+                        expected: Expected::Argument,
+                        found: format!("`{} =`", n.text),
+                    },
+                );
+                ok = false;
+            }
+            match self.number(&arg.value) {
+                Some((n, _)) => *slot = n,
+                None => ok = false,
+            }
+        }
+        let (dest, _) = dest?;
+        ok.then_some(COut::Box { op, args, dest })
+    }
+
+    /// Matches a block's arguments to its parameters and checks them.
+    fn call(&mut self, kind: Kind, args: &[Arg], at: usize) -> Option<(Call, Vec<BoolExpr>)> {
+        let spec = params(kind);
+        let mut given: Vec<Option<(&Cond, usize)>> = vec![None; spec.len()];
+        let mut positional = spec.iter().enumerate().filter(|(_, p)| p.positional);
+        let max_positional = spec.iter().filter(|p| p.positional).count();
+        let mut ok = true;
+        for arg in args {
+            let slot = match &arg.name {
+                None => match positional.next() {
+                    Some((i, _)) => Some(i),
+                    None => {
+                        self.fail::<()>(
+                            arg.value.pos(),
+                            CompileErrorKind::TooManyArgs {
+                                name: kind.name(),
+                                max: max_positional,
+                            },
+                        );
+                        None
+                    }
+                },
+                Some(n) => {
+                    let lower = n.text.to_ascii_lowercase();
+                    match spec.iter().position(|p| p.name == lower) {
+                        Some(i) => Some(i),
+                        None => {
+                            self.fail::<()>(
+                                n.pos,
+                                CompileErrorKind::UnknownParam {
+                                    kind,
+                                    param: n.text.clone(),
+                                    known: param_names(kind),
+                                },
+                            );
+                            None
+                        }
+                    }
+                }
+            };
+            let Some(i) = slot else {
+                ok = false;
+                continue;
+            };
+            let pos = arg.name.as_ref().map_or(arg.value.pos(), |n| n.pos);
+            match given.get_mut(i) {
+                Some(Some(_)) => {
+                    let param = spec.get(i).map_or("", |p| p.name);
+                    self.fail::<()>(pos, CompileErrorKind::DuplicateParam { param });
+                    ok = false;
+                }
+                Some(slot) => *slot = Some((&arg.value, pos)),
+                None => ok = false,
+            }
+        }
+        let mut values: Vec<Option<Value>> = Vec::with_capacity(spec.len());
+        for (p, g) in spec.iter().zip(&given) {
+            let v = match g {
+                None => None,
+                Some((cond, _)) => {
+                    let v = self.value(p.ty, cond);
+                    ok &= v.is_some();
+                    v
+                }
+            };
+            values.push(v);
+        }
+        if !ok {
+            return None;
+        }
+        let num = |i: usize| match values.get(i) {
+            Some(Some(Value::Num(n))) => Some(*n),
+            _ => None,
+        };
+        let boolean = |i: usize| match values.get(i) {
+            Some(Some(Value::Bool(b))) => b.clone(),
+            _ => BoolExpr::Const(false),
+        };
+        let required = |me: &mut Self, i: usize, hint: &'static str| match num(i) {
+            Some(n) => Some(n),
+            None => me.fail(
+                at,
+                CompileErrorKind::MissingParam {
+                    kind,
+                    param: spec.get(i).map_or("", |p| p.name),
+                    hint,
+                },
+            ),
+        };
+        let pt_hint = "a preset time, e.g. `TON t(2s)`";
+        let pv_hint = "a preset value, e.g. `CTU c(10)`";
+        Some(match kind {
+            Kind::Ton => (
+                Call::Ton {
+                    pt: required(self, 0, pt_hint)?,
+                },
+                vec![],
+            ),
+            Kind::Tof => (
+                Call::Tof {
+                    pt: required(self, 0, pt_hint)?,
+                },
+                vec![],
+            ),
+            Kind::Tp => (
+                Call::Tp {
+                    pt: required(self, 0, pt_hint)?,
+                },
+                vec![],
+            ),
+            Kind::Stair => (
+                Call::Stair {
+                    pt: required(self, 0, pt_hint)?,
+                },
+                vec![boolean(1)],
+            ),
+            Kind::Ctu => (
+                Call::Ctu {
+                    pv: required(self, 0, pv_hint)?,
+                },
+                vec![boolean(1)],
+            ),
+            Kind::Ctd => (
+                Call::Ctd {
+                    pv: required(self, 0, pv_hint)?,
+                },
+                vec![boolean(1)],
+            ),
+            Kind::Ctud => (
+                Call::Ctud {
+                    pv: required(self, 0, pv_hint)?,
+                },
+                vec![boolean(1), boolean(2), boolean(3)],
+            ),
+            Kind::RTrig => (Call::RTrig, vec![]),
+            Kind::FTrig => (Call::FTrig, vec![]),
+            Kind::Sr => (Call::Sr, vec![boolean(0)]),
+            Kind::Rs => (Call::Rs, vec![boolean(0)]),
+            Kind::Toggle => (Call::Toggle, vec![boolean(0)]),
+            Kind::Blink => {
+                let pattern = match values.get(2) {
+                    Some(Some(Value::Pattern(p))) => Some(*p),
+                    _ => None,
+                };
+                match (num(0), num(1), pattern, num(3)) {
+                    (Some(on), Some(off), None, None) => (Call::Blink { on, off }, vec![]),
+                    (None, None, Some(pattern), Some(step)) => {
+                        (Call::BlinkPattern { pattern, step }, vec![])
+                    }
+                    _ => return self.fail(at, CompileErrorKind::BlinkMode),
+                }
+            }
+        })
+    }
+
+    fn value(&mut self, ty: ParamType, cond: &Cond) -> Option<Value> {
+        match ty {
+            ParamType::Bool => self.boolean(cond).map(Value::Bool),
+            ParamType::Number => self.number(cond).map(|(n, _)| Value::Num(n)),
+            ParamType::Time => match cond {
+                Cond::Lit(Lit::Number { text, .. }, pos) => self.duration(text, *pos).map(|_| {
+                    // A bare number always fails above: a duration needs its unit.
+                    Value::Num(Num::Const(0.0))
+                }),
+                other => self.number(other).map(|(n, _)| Value::Num(n)),
+            },
+            ParamType::Pattern => match cond {
+                Cond::Lit(Lit::Number { text, .. }, pos) => match Pattern::parse(text) {
+                    Ok(p) => Some(Value::Pattern(p)),
+                    Err(e) => self.fail(*pos, e),
+                },
+                other => self.fail(
+                    other.pos(),
+                    CompileErrorKind::Syntax {
+                        expected: Expected::Argument,
+                        found: "not a pattern of 0 and 1".into(),
+                    },
+                ),
+            },
+        }
+    }
+}
+
+/// A literal compared with an `f32` tag is rounded to `f32`, so `temp = 0.1` holds when `temp`
+/// holds `0.1f32`.
+fn round_for(n: Num, other: Option<ValueType>) -> Num {
+    match (n, other) {
+        (Num::Const(v), Some(ValueType::F32)) => Num::Const(f64::from(v as f32)),
+        _ => n,
+    }
+}
+
+/// The closest candidate within two edits (see the expr engine's rule).
+fn closest<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Option<String> {
+    crate::logic::expr::closest_name(name, candidates)
+}

@@ -1,0 +1,167 @@
+//! `ladder`: rungs of contacts, coils and function blocks, one rung per line of a YAML file.
+//!
+//! ```yaml
+//! description: conveyor with jam detection
+//! rungs:
+//!   - (rising(start) | motor) /stop /estop /jam.Q -> motor    # start/stop latch
+//!   - motor /box_at_exit -> TON jam(10s) -> jam_lamp           # running 10 s without a box out
+//!   - rising(box_at_exit) -> CTU boxes(1000, r=reset) -> full
+//!   - rising(box_at_exit) -> ADD(total, 1) => total
+//! ```
+//!
+//! A rung reads left to right like a ladder diagram: contacts in series (written one after the
+//! other), parallel branches (`|`, loosest), parentheses, then `->` and what the power flow
+//! drives. `docs/programming.md` is the user's guide; the grammar is in `parser.rs`.
+//!
+//! - **Contacts**: `x` normally open, `/x` normally closed, `rising(x)` / `falling(x)` edges
+//!   (no edge on the first scan), comparisons `level >= 80`, `t.ET > 1.5s`, `n.CV = 10`
+//!   (`=`/`==`, `<>`/`!=`, `<`, `<=`, `>`, `>=`), constants `true`, `false`, `1`, `0`.
+//!   An empty condition (`-> x`) is always powered.
+//! - **Coils**: `x`, `/x` (negated), `set x`, `reset x`, several separated by `,`.
+//! - **Blocks** (`crate::logic::blocks`): `KIND name(args)`: the power flow is the block's
+//!   first input and its main output (`Q`, `QU`) feeds the coils after a second `->`. Its
+//!   outputs `name.Q`, `name.ET` (ms), `name.CV`, `name.QU`, `name.QD` can be read by any rung
+//!   (a rung before the call reads the previous scan's value). Each instance is called once.
+//! - **Boxes**: `MOVE(a)`, `ADD(a, b)`, `SUB`, `MUL`, `DIV`, `LIMIT(min, x, max)`, then
+//!   `=> tag`; computed when powered, in 64-bit floating point, stored with the tag's type
+//!   (integers truncate toward zero and saturate). Division by zero faults the PLC.
+//!
+//! # Compilation
+//!
+//! YAML → rung texts located in the file → parse → check (unknown tags, instances and blocks,
+//! types, arguments, a tag driven by two coils, a write to an input) → lower to a flat
+//! instruction list → execute. Every error comes before the first scan, with `file:line:col`.
+//!
+//! # Execution
+//!
+//! Rungs run in file order every scan; a rung sees the image as the rungs before it left it.
+//! Every contact is evaluated every scan (no short-circuit), so edges and blocks always see
+//! their inputs. A scan allocates nothing and looks up no names.
+
+mod check;
+mod error;
+mod exec;
+mod lexer;
+mod lower;
+mod parser;
+mod source;
+#[cfg(test)]
+mod tests;
+
+use std::path::Path;
+
+pub use check::{BoxOp, Call, Num};
+pub use error::{CompileError, CompileErrorKind, Driver, Expected, TypeError};
+pub use exec::{CallSite, Instr, LadderProgram};
+pub use parser::{CmpOp, CoilKind};
+
+use crate::logic::blocks::Instance;
+use crate::logic::expr::TagTable;
+use crate::logic::SourcePos;
+
+/// Compiles a ladder program. `file` is used in positions only (the text is `source`).
+///
+/// On failure returns every error found, sorted by position.
+///
+/// ```
+/// use std::path::Path;
+/// use std::time::Duration;
+/// use softplc::image::{ProcessImage, TagId};
+/// use softplc::logic::{expr::TagTable, ladder, LogicEngine, ScanContext};
+/// use softplc_io::point::{Value, ValueType};
+///
+/// let tags = TagTable::new([
+///     ("start".to_string(), TagId(0), ValueType::Bool, false),
+///     ("stop".to_string(), TagId(1), ValueType::Bool, false),
+///     ("motor".to_string(), TagId(2), ValueType::Bool, true),
+/// ]);
+/// let text = "rungs:\n  - (start | motor) /stop -> motor\n";
+/// let mut program = ladder::compile(text, Path::new("m.yaml"), &tags).unwrap();
+/// let mut image = ProcessImage::new(
+///     ["start", "stop", "motor"].map(|n| (n.to_string(), Value::Bool(false))),
+/// );
+/// image.set(TagId(0), Value::Bool(true), Duration::ZERO);
+/// let ctx = ScanContext { now: Duration::ZERO, delta: Duration::from_millis(10), cycle: 0 };
+/// program.scan(&mut image, &ctx).unwrap();
+/// assert_eq!(image.get(TagId(2)), Value::Bool(true));
+///
+/// let err = ladder::compile("rungs:\n  - strat -> motor\n", Path::new("m.yaml"), &tags)
+///     .unwrap_err();
+/// assert_eq!(
+///     err[0].to_string(),
+///     "m.yaml:2:5: error: unknown tag `strat`; did you mean `start`?"
+/// );
+/// ```
+pub fn compile(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+) -> Result<LadderProgram, Vec<CompileError>> {
+    let source = source.strip_prefix('\u{feff}').unwrap_or(source);
+    let at = |line: u32, column: u32| SourcePos {
+        file: file.to_path_buf(),
+        line,
+        column,
+    };
+    let src = match source::LadderSource::read(source) {
+        Ok(s) => s,
+        Err((line, column, message)) => {
+            return Err(vec![CompileError {
+                pos: at(line, column),
+                kind: CompileErrorKind::Yaml { message },
+            }])
+        }
+    };
+    let mut errors: Vec<check::Error> = Vec::new();
+    let mut rungs = Vec::with_capacity(src.rungs.len());
+    for (i, rung) in src.rungs.iter().enumerate() {
+        match parser::parse_rung(&rung.text) {
+            Ok(r) => rungs.push((i, r)),
+            Err((pos, kind)) => errors.push((i, pos, kind)),
+        }
+    }
+    let line_of = |rung: usize| src.position(rung, 0).0;
+    let (checked, instances) = check::check(&rungs, tags, &line_of, &mut errors);
+    if !errors.is_empty() {
+        let mut out: Vec<CompileError> = errors
+            .into_iter()
+            .map(|(rung, index, kind)| {
+                let (line, column) = src.position(rung, index);
+                CompileError {
+                    pos: at(line, column),
+                    kind,
+                }
+            })
+            .collect();
+        out.sort_by_key(|e| (e.pos.line, e.pos.column));
+        return Err(out);
+    }
+    let lowered = lower::lower(&checked);
+    debug_assert!(
+        lower::max_depth(&lowered.code, &lowered.calls).is_some(),
+        "unbalanced lowered code"
+    );
+    let rung_pos = (0..src.rungs.len())
+        .map(|i| {
+            let (line, column) = src.position(i, 0);
+            at(line, column)
+        })
+        .collect();
+    let mut types = vec![softplc_io::point::ValueType::Bool; tags.len()];
+    for t in tags.iter() {
+        if let Some(slot) = types.get_mut(t.id.index()) {
+            *slot = t.ty;
+        } else {
+            types.resize(t.id.index() + 1, softplc_io::point::ValueType::Bool);
+            types[t.id.index()] = t.ty;
+        }
+    }
+    let instances = instances.kinds.iter().map(|&k| Instance::new(k)).collect();
+    Ok(LadderProgram::new(
+        lowered,
+        instances,
+        types,
+        rung_pos,
+        file.to_path_buf(),
+    ))
+}

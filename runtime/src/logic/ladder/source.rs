@@ -1,0 +1,232 @@
+//! The ladder file: a YAML document whose `rungs:` are strings, and where each rung's characters
+//! are in the file, for `line:col` in errors.
+//!
+//! yaml_serde gives positions only with its own errors, so each rung is found in the text: first
+//! verbatim after the previous rung (a one-line rung, plain or quoted without escapes, the usual
+//! case, in one pass), otherwise through the project's path locator (a rung folded over several
+//! lines, or with escapes). Inside a rung, a character is found by walking the rung and the text
+//! side by side, a folded line break in the text matching one space of the rung; where they part
+//! (an escape), the position falls back to the rung's start.
+
+use serde::Deserialize;
+
+use crate::project::span::{Locator, YPath};
+
+/// The document as written.
+#[derive(Debug, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a ladder program: a mapping with `rungs:` (a list of rungs) and an optional `description:`"
+)]
+struct RawLadder {
+    /// Free text.
+    #[serde(default)]
+    #[allow(dead_code)]
+    description: Option<String>,
+    /// The rungs, in execution order.
+    rungs: Vec<String>,
+}
+
+/// One rung's text and where it starts in the file.
+#[derive(Debug, Clone)]
+pub(crate) struct RungText {
+    /// The rung, as YAML delivered it.
+    pub text: String,
+    /// Byte offset in the file of the rung's scalar (its first character, or its opening quote).
+    start: usize,
+}
+
+/// A ladder file, read.
+#[derive(Debug, Clone)]
+pub(crate) struct LadderSource {
+    /// The file's text.
+    text: String,
+    /// Byte offset of each line's start.
+    line_starts: Vec<usize>,
+    /// The rungs, in order.
+    pub rungs: Vec<RungText>,
+}
+
+/// A YAML error: 1-based line and column, and the message.
+pub(crate) type YamlError = (u32, u32, String);
+
+impl LadderSource {
+    /// Reads the document and locates its rungs.
+    pub(crate) fn read(text: &str) -> Result<Self, YamlError> {
+        let raw: RawLadder = yaml_serde::from_str(text).map_err(|e| {
+            let (line, col) = e
+                .location()
+                .map_or((1, 1), |l| (to_u32(l.line()), to_u32(l.column())));
+            let mut message = e.to_string();
+            if let Some(at) = message.find(" at line ") {
+                message.truncate(at);
+            }
+            (line, col, message)
+        })?;
+        let mut line_starts = vec![0];
+        line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        let mut src = Self {
+            text: text.to_string(),
+            line_starts,
+            rungs: Vec::with_capacity(raw.rungs.len()),
+        };
+        let locator = Locator::new(text);
+        let mut cursor = 0;
+        for (i, rung) in raw.rungs.into_iter().enumerate() {
+            let start = match find_verbatim(text, cursor, &rung) {
+                Some(at) => {
+                    cursor = at + rung.len();
+                    at
+                }
+                None => {
+                    let (line, col) = locator.position(&YPath::root().key("rungs").index(i));
+                    let at = src.offset(line, col);
+                    cursor = cursor.max(at);
+                    at
+                }
+            };
+            src.rungs.push(RungText { text: rung, start });
+        }
+        Ok(src)
+    }
+
+    /// 1-based `(line, column)` of character `index` of rung `rung`.
+    pub(crate) fn position(&self, rung: usize, index: usize) -> (u32, u32) {
+        let Some(r) = self.rungs.get(rung) else {
+            return (1, 1);
+        };
+        self.line_col(align(&self.text, r.start, &r.text, index))
+    }
+
+    /// 1-based `(line, column)` of a byte offset (columns count characters).
+    fn line_col(&self, offset: usize) -> (u32, u32) {
+        let line = self.line_starts.partition_point(|&s| s <= offset).max(1) - 1;
+        let start = self.line_starts.get(line).copied().unwrap_or(0);
+        let col = self
+            .text
+            .get(start..offset)
+            .map_or(0, |s| s.chars().count());
+        (to_u32(line + 1), to_u32(col + 1))
+    }
+
+    /// The byte offset of a 1-based `(line, column)`.
+    fn offset(&self, line: usize, col: usize) -> usize {
+        let start = self
+            .line_starts
+            .get(line.saturating_sub(1))
+            .copied()
+            .unwrap_or(0);
+        let rest = self.text.get(start..).unwrap_or("");
+        rest.char_indices()
+            .take_while(|&(_, c)| c != '\n')
+            .nth(col.saturating_sub(1))
+            .map_or(start, |(i, _)| start + i)
+    }
+}
+
+fn to_u32(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+/// The first place at or after `from` where `rung` stands verbatim as a YAML scalar: not in a
+/// comment, after a sequence dash, key or quote, and followed by the end of the line, a
+/// comment, a quote or a flow separator.
+fn find_verbatim(text: &str, from: usize, rung: &str) -> Option<usize> {
+    let first = rung.chars().next()?;
+    let mut at = from;
+    while let Some(k) = text.get(at..).and_then(|t| t.find(rung)) {
+        let m = at + k;
+        let line_start = text[..m].rfind('\n').map_or(0, |i| i + 1);
+        let prefix = &text[line_start..m];
+        let in_comment = prefix
+            .char_indices()
+            .any(|(i, c)| c == '#' && prefix[..i].chars().last().is_none_or(char::is_whitespace));
+        let before = prefix.trim_end();
+        let starts = before.is_empty() || before.ends_with(['-', '"', '\'', ':', '[', ',']);
+        let after = text[m + rung.len()..]
+            .split('\n')
+            .next()
+            .unwrap_or("")
+            .trim_start();
+        let ends = after.is_empty() || after.starts_with(['#', '"', '\'', ',', ']']);
+        if !in_comment && starts && ends {
+            return Some(m);
+        }
+        at = m + first.len_utf8();
+    }
+    None
+}
+
+/// The byte offset in `text` of character `index` of the scalar `rung` that starts at `start`.
+fn align(text: &str, start: usize, rung: &str, index: usize) -> usize {
+    let Some(src) = text.get(start..) else {
+        return start.min(text.len());
+    };
+    let mut src = src.char_indices().peekable();
+    let first = rung.chars().next();
+    if let Some(&(_, q @ ('"' | '\''))) = src.peek() {
+        if first != Some(q) {
+            src.next();
+        }
+    }
+    for (i, c) in rung.chars().enumerate() {
+        // Skip folded line breaks and indentation in the text that stand for one space.
+        let Some(&(at, s)) = src.peek() else {
+            return start;
+        };
+        if i == index {
+            return start + at;
+        }
+        if s == c {
+            src.next();
+        } else if c == ' ' && s.is_whitespace() {
+            while src.peek().is_some_and(|&(_, s)| s.is_whitespace()) {
+                src.next();
+            }
+        } else {
+            return start;
+        }
+    }
+    src.peek().map_or(text.len(), |&(at, _)| start + at)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEXT: &str = "\
+# a -> b in a comment
+rungs:
+  - a -> b            # first
+  - \"c -> d\"
+  - e
+    -> f
+  - a -> b
+";
+
+    #[test]
+    fn finds_rungs_and_characters() {
+        let src = LadderSource::read(TEXT).unwrap();
+        let texts: Vec<&str> = src.rungs.iter().map(|r| r.text.as_str()).collect();
+        assert_eq!(texts, ["a -> b", "c -> d", "e -> f", "a -> b"]);
+        assert_eq!(src.position(0, 0), (3, 5));
+        assert_eq!(src.position(0, 5), (3, 10));
+        assert_eq!(src.position(1, 0), (4, 6));
+        assert_eq!(src.position(2, 0), (5, 5));
+        assert_eq!(src.position(2, 2), (6, 5), "after the folded line break");
+        assert_eq!(src.position(2, 5), (6, 8));
+        assert_eq!(src.position(3, 0), (7, 5));
+        assert_eq!(src.position(3, 99), (7, 11), "after the last character");
+        assert_eq!(src.position(9, 0), (1, 1));
+    }
+
+    #[test]
+    fn yaml_errors_have_positions() {
+        let (line, _, msg) = LadderSource::read("rungs:\n  - a -> b\n  rungz: 1\n").unwrap_err();
+        assert_eq!(line, 3, "{msg}");
+        let (_, _, msg) = LadderSource::read("rung: []\n").unwrap_err();
+        assert!(msg.contains("unknown field"), "{msg}");
+        assert!(LadderSource::read("").is_err());
+        assert!(LadderSource::read("rungs: [1, true]\n").is_ok());
+    }
+}

@@ -1,0 +1,385 @@
+//! Ladder engine tests: programs run over virtual time, and every error with its position.
+
+use std::path::Path;
+use std::time::Duration;
+
+use softplc_io::point::{Value, ValueType};
+
+use super::*;
+use crate::image::{ProcessImage, TagId};
+use crate::logic::{LogicEngine, ScanContext};
+
+/// Tags: name, type, writable.
+const TAGS: &[(&str, ValueType, bool)] = &[
+    ("start", ValueType::Bool, false),
+    ("stop", ValueType::Bool, false),
+    ("sensor", ValueType::Bool, false),
+    ("level", ValueType::U16, false),
+    ("temp", ValueType::F32, false),
+    ("motor", ValueType::Bool, true),
+    ("lamp", ValueType::Bool, true),
+    ("alarm", ValueType::Bool, true),
+    ("count", ValueType::I32, true),
+    ("speed", ValueType::F32, true),
+    ("small", ValueType::U16, true),
+];
+
+fn table() -> TagTable {
+    TagTable::new(
+        TAGS.iter()
+            .enumerate()
+            .map(|(i, &(n, ty, w))| (n.to_string(), TagId(i as u32), ty, w)),
+    )
+}
+
+fn id(name: &str) -> TagId {
+    TagId(TAGS.iter().position(|t| t.0 == name).expect("a tag") as u32)
+}
+
+fn program(rungs: &[&str]) -> String {
+    let mut s = String::from("rungs:\n");
+    for r in rungs {
+        s.push_str("  - ");
+        s.push_str(r);
+        s.push('\n');
+    }
+    s
+}
+
+fn build(rungs: &[&str]) -> LadderProgram {
+    match compile(&program(rungs), Path::new("p.yaml"), &table()) {
+        Ok(p) => p,
+        Err(e) => panic!(
+            "{}",
+            e.iter()
+                .map(|e| e.to_string())
+                .collect::<Vec<_>>()
+                .join("\n")
+        ),
+    }
+}
+
+/// Every error, as `line:col: message`.
+fn errors(rungs: &[&str]) -> Vec<String> {
+    match compile(&program(rungs), Path::new("p.yaml"), &table()) {
+        Ok(_) => panic!("expected errors"),
+        Err(e) => e
+            .iter()
+            .map(|e| format!("{}:{}: {}", e.pos.line, e.pos.column, e.kind))
+            .collect(),
+    }
+}
+
+struct Rig {
+    program: LadderProgram,
+    image: ProcessImage,
+    now: Duration,
+    cycle: u64,
+}
+
+impl Rig {
+    fn new(rungs: &[&str]) -> Self {
+        Self {
+            program: build(rungs),
+            image: ProcessImage::new(TAGS.iter().map(|&(n, ty, _)| (n.to_string(), ty.zero()))),
+            now: Duration::ZERO,
+            cycle: 0,
+        }
+    }
+
+    fn set(&mut self, name: &str, v: Value) {
+        self.image.set(id(name), v, self.now);
+    }
+
+    fn get(&self, name: &str) -> Value {
+        self.image.get(id(name))
+    }
+
+    /// One scan, then time moves on 10 ms.
+    fn scan(&mut self) {
+        let ctx = ScanContext {
+            now: self.now,
+            delta: Duration::from_millis(10),
+            cycle: self.cycle,
+        };
+        self.program.scan(&mut self.image, &ctx).expect("no fault");
+        self.now += Duration::from_millis(10);
+        self.cycle += 1;
+    }
+
+    fn bit(&self, name: &str) -> bool {
+        self.get(name).as_bool()
+    }
+}
+
+#[test]
+fn latch_with_series_and_parallel_contacts() {
+    let mut r = Rig::new(&["(rising(start) | motor) /stop -> motor, /lamp"]);
+    r.scan();
+    assert!(!r.bit("motor") && r.bit("lamp"));
+    r.set("start", Value::Bool(true));
+    r.scan();
+    assert!(r.bit("motor") && !r.bit("lamp"));
+    r.set("start", Value::Bool(false));
+    r.scan();
+    assert!(r.bit("motor"));
+    r.set("stop", Value::Bool(true));
+    r.scan();
+    assert!(!r.bit("motor"));
+}
+
+#[test]
+fn set_reset_coils_and_constants() {
+    let mut r = Rig::new(&["start -> set lamp", "stop -> reset lamp", "-> alarm"]);
+    r.scan();
+    assert!(!r.bit("lamp") && r.bit("alarm"));
+    r.set("start", Value::Bool(true));
+    r.scan();
+    r.set("start", Value::Bool(false));
+    r.scan();
+    assert!(r.bit("lamp"));
+    r.set("stop", Value::Bool(true));
+    r.scan();
+    assert!(!r.bit("lamp"));
+}
+
+#[test]
+fn timer_feeds_coils_and_outputs_are_readable() {
+    let mut r = Rig::new(&["t.ET >= 30ms /t.Q -> lamp", "start -> TON t(50ms) -> motor"]);
+    r.set("start", Value::Bool(true));
+    let mut motor = String::new();
+    let mut lamp = String::new();
+    for _ in 0..8 {
+        r.scan();
+        motor.push(if r.bit("motor") { '1' } else { '0' });
+        lamp.push(if r.bit("lamp") { '1' } else { '0' });
+    }
+    assert_eq!(motor, "00000111");
+    // The lamp rung runs before the timer: it sees the previous scan's ET and Q.
+    assert_eq!(lamp, "00001100");
+}
+
+#[test]
+fn counters_and_math_boxes() {
+    let mut r = Rig::new(&[
+        "rising(sensor) -> ADD(count, 1) => count",
+        "sensor -> CTU boxes(3, r=stop) -> lamp",
+        "-> DIV(boxes.CV, 2) => small, MUL(level, 0.5) => speed",
+        "count >= 2 -> alarm",
+    ]);
+    r.set("level", Value::U16(9));
+    for x in [false, true, false, true, false, true] {
+        r.set("sensor", Value::Bool(x));
+        r.scan();
+    }
+    assert_eq!(r.get("count"), Value::I32(3));
+    assert!(r.bit("lamp") && r.bit("alarm"));
+    assert_eq!(r.get("small"), Value::U16(1));
+    assert_eq!(r.get("speed"), Value::F32(4.5));
+    r.set("stop", Value::Bool(true));
+    r.scan();
+    assert!(!r.bit("lamp"));
+}
+
+#[test]
+fn limit_saturation_and_truncation() {
+    let mut r = Rig::new(&[
+        "-> LIMIT(0, temp, 100) => speed",
+        "-> SUB(0, 5) => small",
+        "-> MUL(temp, 1000000000) => count",
+    ]);
+    r.set("temp", Value::F32(250.0));
+    r.scan();
+    assert_eq!(r.get("speed"), Value::F32(100.0));
+    assert_eq!(r.get("small"), Value::U16(0));
+    assert_eq!(r.get("count"), Value::I32(i32::MAX));
+}
+
+#[test]
+fn division_by_zero_faults_at_the_rung() {
+    let mut p = build(&["start -> lamp", "-> DIV(count, 0) => count"]);
+    let mut image = ProcessImage::new(TAGS.iter().map(|&(n, ty, _)| (n.to_string(), ty.zero())));
+    let ctx = ScanContext {
+        now: Duration::ZERO,
+        delta: Duration::from_millis(10),
+        cycle: 0,
+    };
+    let fault = p.scan(&mut image, &ctx).unwrap_err();
+    assert_eq!(fault.to_string(), "division by zero in DIV at p.yaml:3:5");
+}
+
+#[test]
+fn blink_toggle_stair_and_bistables() {
+    let mut r = Rig::new(&[
+        "start -> BLINK b(20ms, 10ms) -> lamp",
+        "sensor -> TOGGLE tg -> motor",
+        "sensor -> STAIR st(30ms, r=stop) -> alarm",
+        "start -> SR sr(r=stop)",
+        "start -> RS rs(r=stop)",
+        "-> BLINK p(pattern=0110, step=10ms)",
+    ]);
+    r.scan();
+    r.set("start", Value::Bool(true));
+    let mut lamp = String::new();
+    for _ in 0..6 {
+        r.scan();
+        lamp.push(if r.bit("lamp") { '1' } else { '0' });
+    }
+    assert_eq!(lamp, "110110");
+    r.set("sensor", Value::Bool(true));
+    r.scan();
+    assert!(r.bit("motor") && r.bit("alarm"));
+    r.set("sensor", Value::Bool(false));
+    r.scan();
+    r.set("sensor", Value::Bool(true));
+    r.scan();
+    assert!(!r.bit("motor"));
+}
+
+#[test]
+fn comparisons_with_literals_and_durations() {
+    let mut r = Rig::new(&[
+        "temp = 0.1 -> lamp",
+        "level <> 3 level < 10 -> motor",
+        "-> TON t(1s)",
+        "t.ET == 0ms -> alarm",
+    ]);
+    r.set("temp", Value::F32(0.1));
+    r.set("level", Value::U16(4));
+    r.scan();
+    assert!(r.bit("lamp") && r.bit("motor") && r.bit("alarm"));
+}
+
+#[test]
+fn rungs_over_several_lines_and_quoted() {
+    let text = "description: test\nrungs:\n  - \"start -> motor\"\n  - start\n    /stop -> lamp\n";
+    assert!(compile(text, Path::new("p.yaml"), &table()).is_ok());
+    let e = compile(
+        "rungs:\n  - start\n    /stp -> lamp\n",
+        Path::new("p.yaml"),
+        &table(),
+    )
+    .unwrap_err();
+    assert_eq!(
+        e[0].to_string(),
+        "p.yaml:3:6: error: unknown tag `stp`; did you mean `stop`?"
+    );
+}
+
+#[test]
+fn check_errors_point_at_the_offending_token() {
+    assert_eq!(
+        errors(&["start -> motor", "stop -> motor"]),
+        ["3:13: tag `motor` is already driven by a coil at line 2; this rung drives it by a coil"]
+    );
+    assert_eq!(
+        errors(&["start -> stop"]),
+        ["2:14: tag `stop` is read-only (a module input); a program cannot write it"]
+    );
+    assert_eq!(
+        errors(&["level -> lamp"]),
+        ["2:5: `level` is u16, not bool; compare it, e.g. `level > 0`"]
+    );
+    assert_eq!(
+        errors(&["start -> count"]),
+        ["2:14: coil `count` is i32; coils drive bool tags (use `MOVE(…) => count` for numbers)"]
+    );
+    assert_eq!(
+        errors(&["start -> TOM t(1s)"]),
+        ["2:14: unknown block `TOM`; did you mean `TON`?; the blocks are TON, TOF, TP, CTU, CTD, CTUD, R_TRIG, F_TRIG, SR, RS, BLINK, TOGGLE, STAIR"]
+    );
+    assert_eq!(
+        errors(&["start -> TON t(5)"]),
+        ["2:20: bad duration `5`: no unit (ns, us, ms, s, m or h); write e.g. 500ms, 2s, 1.5s, 10m"]
+    );
+    assert_eq!(
+        errors(&["t.CV > 1 -> lamp", "start -> TON t(1s)"]),
+        ["2:7: TON `t` has no output `CV`; it has Q, ET"]
+    );
+    assert_eq!(
+        errors(&["start -> TON t(1s)", "stop -> TON t(2s)"]),
+        ["3:17: instance `t` is already called by the rung at line 2; call each instance once and read its outputs (`t.Q`) elsewhere"]
+    );
+    assert_eq!(
+        errors(&["start -> TON motor(1s)"]),
+        ["2:18: instance `motor` has the name of a tag; give it another name"]
+    );
+    assert_eq!(
+        errors(&["start -> CTU c(pv=1, x=start)"]),
+        ["2:26: CTU has no argument `x`; it takes pv, r"]
+    );
+    assert_eq!(
+        errors(&["start -> CTU c(r=stop)"]),
+        ["2:18: CTU needs `pv`: a preset value, e.g. `CTU c(10)`"]
+    );
+    assert_eq!(
+        errors(&["start -> ADD(count) => count"]),
+        ["2:14: `ADD` takes 2 arguments, found 1"]
+    );
+    assert_eq!(
+        errors(&["start -> set motor", "stop -> motor"]),
+        ["3:13: tag `motor` is already driven by a set/reset coil at line 2; this rung drives it by a coil"]
+    );
+    assert_eq!(
+        errors(&["q.Q -> lamp", "start -> TON t(1s)", "t -> alarm"]),
+        [
+            "2:5: `q` is not a block instance (no rung calls a block named so)",
+            "4:5: unknown tag `t`; did you mean `t.Q`?",
+        ]
+    );
+    assert_eq!(
+        errors(&["start ->", "-> BLINK b(1s)", "-> MOVE(1) => level"]),
+        [
+            "2:13: expected a coil (`tag`, `/tag`, `set tag`, `reset tag`), a block (`TON t(2s)`) or a box (`ADD(a, 1) => a`), found end of rung",
+            "3:14: BLINK takes either on and off times (`BLINK b(1s, 1s)`) or a pattern (`BLINK b(pattern=1101, step=250ms)`)",
+            "4:19: tag `level` is read-only (a module input); a program cannot write it",
+        ]
+        .map(|s| s.replace("b(1s, 1s)", "b(500ms, 500ms)"))
+    );
+}
+
+#[test]
+fn yaml_errors_have_positions() {
+    let e = compile("rungs:\n  - a -> b\n bad", Path::new("p.yaml"), &table()).unwrap_err();
+    assert_eq!(e.len(), 1);
+    assert_eq!(e[0].pos.file, Path::new("p.yaml"));
+    let e = compile("steps: []\n", Path::new("p.yaml"), &table()).unwrap_err();
+    assert!(
+        e[0].to_string().contains("unknown field `steps`"),
+        "{}",
+        e[0]
+    );
+}
+
+#[test]
+fn lowered_code_is_balanced_and_flat() {
+    let p = build(&[
+        "(start | stop) /sensor rising(start) -> motor, set lamp",
+        "start -> CTUD c(5, cd=stop, r=sensor, ld=stop) -> alarm",
+    ]);
+    assert!(lower::max_depth(p.instructions(), &[]).is_none() || !p.instructions().is_empty());
+    assert_eq!(p.outputs().count(), 3);
+}
+
+/// Arbitrary text never panics the compiler (a cheap stand-in for the fuzzer).
+#[test]
+fn garbage_never_panics() {
+    let pieces = [
+        "(", ")", "/", "|", "->", "=>", "=", "<>", "<", "TON", "t", ".", "Q", "1s", ",", "-",
+        "start", "rising", "(", "é", "\"", ":", "#", "\n", " ", "1.5", "CTU", "ADD", "set", "0",
+    ];
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    for _ in 0..3000 {
+        let mut text = String::from("rungs:\n  - ");
+        for _ in 0..(seed % 14) {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            text.push_str(pieces[(seed % pieces.len() as u64) as usize]);
+            if seed % 3 == 0 {
+                text.push(' ');
+            }
+        }
+        let _ = compile(&text, Path::new("f.yaml"), &table());
+    }
+}

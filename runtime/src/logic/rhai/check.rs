@@ -1,0 +1,95 @@
+//! What the compiled script does with tags and blocks, found by walking its AST once: the tags
+//! it names, the first assignment of each (for a fault's position), and its block calls with
+//! literal instance names (one kind and one call site per instance; every output read names a
+//! called instance).
+
+use std::collections::{HashMap, HashSet};
+
+use rhai::{ASTNode, Expr, Position, Stmt, AST};
+
+use super::blocks::{FUNCTIONS, READERS};
+use super::error::CompileErrorKind;
+
+/// What the walk found.
+#[derive(Debug, Default)]
+pub(crate) struct Usage {
+    /// Every variable name read or written (a superset of the tags used).
+    pub names: HashSet<String>,
+    /// First assignment position of each assigned name.
+    pub assigned: HashMap<String, Position>,
+}
+
+/// Walks `ast`; errors (with their Rhai positions) go to `errors`.
+pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) -> Usage {
+    let mut usage = Usage::default();
+    // Instance → (kind name, first call position).
+    let mut calls: HashMap<String, (&'static str, Position)> = HashMap::new();
+    let mut reads: Vec<(String, Position)> = Vec::new();
+    ast.walk(&mut |path: &[ASTNode]| {
+        match path.last() {
+            Some(ASTNode::Expr(Expr::Variable(v, _, _))) => {
+                usage.names.insert(v.1.to_string());
+            }
+            Some(ASTNode::Stmt(Stmt::Assignment(a))) => {
+                if let Expr::Variable(v, _, pos) = &a.1.lhs {
+                    usage.assigned.entry(v.1.to_string()).or_insert(*pos);
+                }
+            }
+            Some(ASTNode::Expr(Expr::FnCall(call, pos))) => {
+                let literal = match call.args.first() {
+                    Some(Expr::StringConstant(s, _)) => Some(s.to_string()),
+                    _ => None,
+                };
+                if let Some(name) = literal {
+                    if let Some(&(fname, _)) = FUNCTIONS.iter().find(|(f, _)| *f == call.name) {
+                        let this = kind_name(fname);
+                        match calls.get(&name) {
+                            Some(&(first, at)) if first != this => errors.push((
+                                *pos,
+                                CompileErrorKind::KindClash {
+                                    name,
+                                    first,
+                                    this,
+                                    first_line: line(at),
+                                },
+                            )),
+                            Some(&(_, at)) => errors.push((
+                                *pos,
+                                CompileErrorKind::CalledTwice {
+                                    name,
+                                    first_line: line(at),
+                                },
+                            )),
+                            None => {
+                                calls.insert(name, (this, *pos));
+                            }
+                        }
+                    } else if READERS.contains(&call.name.as_str()) && call.args.len() == 1 {
+                        reads.push((name, *pos));
+                    }
+                }
+            }
+            _ => {}
+        }
+        true
+    });
+    for (name, pos) in reads {
+        if !calls.contains_key(&name) {
+            errors.push((pos, CompileErrorKind::UnknownInstance { name }));
+        }
+    }
+    usage
+}
+
+/// The kind a function creates, by its block name (`blink_pattern` is a BLINK).
+fn kind_name(function: &str) -> &'static str {
+    FUNCTIONS
+        .iter()
+        .find(|(f, _)| *f == function)
+        .map_or("?", |(_, k)| k.name())
+}
+
+/// The user's line of a Rhai position (the script has one line of declarations on top).
+fn line(pos: Position) -> u32 {
+    u32::try_from(pos.line().unwrap_or(2).saturating_sub(1).max(1)).unwrap_or(u32::MAX)
+}

@@ -1,0 +1,352 @@
+//! `rhai`: control programs as Rhai scripts, run whole once per scan.
+//!
+//! ```rhai
+//! // Conveyor: start/stop latch with a jam timer.
+//! motor = (r_trig("start", start) || motor) && !stop && !q("jam");
+//! ton("jam", motor && !box_at_exit, "10s");
+//! lamp = q("jam");
+//! if r_trig("box", box_at_exit) { boxes += 1; }
+//! ```
+//!
+//! # Tags
+//!
+//! Every project tag is a variable of the script under its own name: module inputs are
+//! constants (assigning one is a compile error), outputs and memory tags are variables.
+//! `bool` tags are Rhai `bool`s, `u16`/`i32` tags integers, `f32` tags floats; a value
+//! assigned is converted to the tag's type at the end of the scan (integers saturate).
+//! Variables declared with `let` live for one scan; what must survive to the next scan is a
+//! memory tag (retained if `retain: true`) or a block instance. Script functions (`fn`) do not
+//! see tags: pass values as arguments.
+//!
+//! # Blocks
+//!
+//! The library of [`crate::logic::blocks`], instance state keyed by name:
+//! `ton/tof/tp(name, in, pt)`, `stair(name, in, pt [, reset])`, `ctu(name, cu, reset, pv)`,
+//! `ctd(name, cd, load, pv)`, `ctud(name, cu, cd, reset, load, pv)`, `r_trig/f_trig(name, x)`,
+//! `sr(name, s1, r)`, `rs(name, s, r1)`, `toggle(name, x [, reset])`,
+//! `blink(name, en, on, off)`, `blink_pattern(name, en, "1101", step)`; each returns its main
+//! output. `q(name)`, `et(name)` (ms), `cv(name)`, `qu(name)`, `qd(name)` read outputs; times
+//! are milliseconds or strings like `"1.5s"`; `limit(min, x, max)` clamps.
+//!
+//! # How tag access stays fast
+//!
+//! Rhai resolves a variable it finds declared in the script to a slot counted from the end of
+//! its scope at compile time, but searches the scope by name (linearly) for any variable it
+//! does not. So the script is compiled behind one extra line that declares every tag
+//! (`let motor; const start = (); ...`), those declarations are cut from the compiled AST, and
+//! each scan runs on a persistent scope holding exactly those variables, in that order, as
+//! shared values whose handles the engine keeps: copying the image in and out is one lock per
+//! tag the script names, and a tag access in the script is an index, whatever the number of
+//! tags. The scope is rewound after each scan, so `let`s do not pile up.
+//!
+//! # Sandbox
+//!
+//! A raw engine with the core language, math, arrays and maps only (no modules, no time, no
+//! `eval`), strict variables, and limits: operations per scan, call depth, expression depth,
+//! string/array/map sizes, and a time budget per scan checked every 1024 operations (the one
+//! place a clock is read: a runaway script is stopped at the same place for the same inputs by
+//! the operations limit, but where the budget stops it depends on the machine's speed). An
+//! error or a limit faults the PLC to its safe state with the script position.
+
+mod blocks;
+mod check;
+mod engine;
+mod error;
+#[cfg(test)]
+mod tests;
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use rhai::{Dynamic, Engine, Position, Scope, AST, INT};
+use softplc_io::point::{Value, ValueType};
+
+pub use blocks::MAX_INSTANCES;
+pub use engine::Limits;
+pub use error::{CompileError, CompileErrorKind};
+
+use crate::image::{convert, ProcessImage, TagId};
+use crate::logic::expr::TagTable;
+use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
+
+/// A tag the script names.
+#[derive(Debug, Clone)]
+struct Handle {
+    id: TagId,
+    ty: ValueType,
+    writable: bool,
+    /// The scope variable's shared value.
+    value: Dynamic,
+    /// The value copied in at the start of the scan.
+    before: Value,
+    /// Where the script first assigns it (for a type fault).
+    assigned: Option<Position>,
+    name: String,
+}
+
+/// A compiled Rhai program, ready to scan. Build it with [`compile`].
+pub struct RhaiProgram {
+    engine: Engine,
+    ast: AST,
+    scope: Scope<'static>,
+    base: usize,
+    handles: Vec<Handle>,
+    blocks: blocks::SharedBlocks,
+    deadline: engine::Deadline,
+    budget: Duration,
+    file: PathBuf,
+}
+
+impl std::fmt::Debug for RhaiProgram {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RhaiProgram")
+            .field("file", &self.file)
+            .field("tags", &self.handles.len())
+            .field("budget", &self.budget)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Compiles a Rhai script against `tags`. `budget` is the most time one scan of the script may
+/// take before it is stopped (and the PLC faults).
+///
+/// ```
+/// use std::path::Path;
+/// use std::time::Duration;
+/// use softplc::image::{ProcessImage, TagId};
+/// use softplc::logic::{expr::TagTable, rhai, LogicEngine, ScanContext};
+/// use softplc_io::point::{Value, ValueType};
+///
+/// let tags = TagTable::new([
+///     ("start".to_string(), TagId(0), ValueType::Bool, false),
+///     ("motor".to_string(), TagId(1), ValueType::Bool, true),
+/// ]);
+/// let script = "motor = start || motor;\n";
+/// let mut program =
+///     rhai::compile(script, Path::new("m.rhai"), &tags, Duration::from_millis(50)).unwrap();
+/// let mut image = ProcessImage::new(["start", "motor"].map(|n| (n.to_string(), Value::Bool(false))));
+/// image.set(TagId(0), Value::Bool(true), Duration::ZERO);
+/// let ctx = ScanContext { now: Duration::ZERO, delta: Duration::from_millis(10), cycle: 0 };
+/// program.scan(&mut image, &ctx).unwrap();
+/// assert_eq!(image.get(TagId(1)), Value::Bool(true));
+///
+/// let err = rhai::compile("start = true;\n", Path::new("m.rhai"), &tags, Duration::from_millis(50))
+///     .unwrap_err();
+/// assert!(err[0].to_string().starts_with("m.rhai:1:1: error:"), "{}", err[0]);
+/// ```
+pub fn compile(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+    budget: Duration,
+) -> Result<RhaiProgram, Vec<CompileError>> {
+    compile_with(source, file, tags, budget, Limits::default())
+}
+
+/// [`compile`] with explicit limits.
+pub fn compile_with(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+    budget: Duration,
+    limits: Limits,
+) -> Result<RhaiProgram, Vec<CompileError>> {
+    let source = source.strip_prefix('\u{feff}').unwrap_or(source);
+    let deadline = engine::Deadline::new();
+    let blocks: blocks::SharedBlocks = Arc::new(Mutex::new(blocks::Blocks::default()));
+    let mut engine = engine::sandboxed(limits, tags.len() + 1024, &deadline);
+    blocks::register(&mut engine, &blocks);
+
+    // Tags whose names Rhai reserves cannot be declared; they stay out of the script.
+    let probe = Engine::new_raw();
+    let usable: Vec<&crate::logic::expr::TagEntry> = tags
+        .iter()
+        .filter(|t| probe.compile(format!("let {} = 0;", t.name)).is_ok())
+        .collect();
+    let mut prelude = String::with_capacity(usable.len() * 16 + source.len() + 1);
+    for t in &usable {
+        if t.writable {
+            prelude.push_str(&format!("let {};", t.name));
+        } else {
+            prelude.push_str(&format!("const {} = ();", t.name));
+        }
+    }
+    prelude.push('\n');
+    prelude.push_str(source);
+
+    let err = |pos: Position, kind: CompileErrorKind| CompileError {
+        pos: error::user_pos(file, pos),
+        kind,
+    };
+    let full = match engine.compile(&prelude) {
+        Ok(ast) => ast,
+        Err(e) => {
+            let pos = e.position();
+            let message = error::message(e.to_string());
+            let mut out = vec![err(pos, CompileErrorKind::Parse { message })];
+            if let Some(bad) = tags.iter().find(|t| {
+                !usable.iter().any(|u| u.name == t.name) && source.contains(t.name.as_str())
+            }) {
+                out.push(err(
+                    Position::new(2, 1),
+                    CompileErrorKind::KeywordTag {
+                        name: bad.name.clone(),
+                    },
+                ));
+            }
+            return Err(out);
+        }
+    };
+    let statements = full.statements();
+    let user = statements.get(usable.len()..).unwrap_or(&[]).to_vec();
+    let ast = AST::new(user, full.shared_lib().clone());
+
+    let mut errors = Vec::new();
+    let usage = check::walk(&ast, &mut errors);
+    if !errors.is_empty() {
+        errors.sort_by_key(|(pos, _)| (pos.line(), pos.position()));
+        return Err(errors.into_iter().map(|(p, k)| err(p, k)).collect());
+    }
+
+    let mut scope = Scope::with_capacity(usable.len() + 16);
+    let mut handles = Vec::new();
+    for t in &usable {
+        let value = to_dynamic(t.ty.zero()).into_shared();
+        if t.writable {
+            scope.push_dynamic(t.name.as_str(), value.clone());
+        } else {
+            scope.push_constant_dynamic(t.name.as_str(), value.clone());
+        }
+        if usage.names.contains(&t.name) {
+            handles.push(Handle {
+                id: t.id,
+                ty: t.ty,
+                writable: t.writable,
+                value,
+                before: t.ty.zero(),
+                assigned: usage.assigned.get(&t.name).copied(),
+                name: t.name.clone(),
+            });
+        }
+    }
+    Ok(RhaiProgram {
+        engine,
+        ast,
+        base: scope.len(),
+        scope,
+        handles,
+        blocks,
+        deadline,
+        budget,
+        file: file.to_path_buf(),
+    })
+}
+
+/// A tag value as Rhai sees it.
+fn to_dynamic(v: Value) -> Dynamic {
+    match v {
+        Value::Bool(b) => Dynamic::from_bool(b),
+        Value::U16(x) => Dynamic::from_int(INT::from(x)),
+        Value::I32(x) => Dynamic::from_int(INT::from(x)),
+        Value::F32(x) => Dynamic::from_float(f64::from(x)),
+    }
+}
+
+/// A script value as a tag value of type `ty`; `None` for a value that is not a bool or a
+/// number.
+fn from_dynamic(d: &Dynamic, ty: ValueType) -> Option<Value> {
+    let v = if let Ok(b) = d.as_bool() {
+        Value::Bool(b)
+    } else if let Ok(i) = d.as_int() {
+        match ty {
+            ValueType::F32 => Value::F32(i as f32),
+            _ => Value::I32(i.clamp(INT::from(i32::MIN), INT::from(i32::MAX)) as i32),
+        }
+    } else if let Ok(f) = d.as_float() {
+        match ty {
+            ValueType::F32 => Value::F32(f as f32),
+            ValueType::Bool => Value::Bool(f != 0.0),
+            _ if f.is_nan() => Value::I32(0),
+            _ => Value::F32(f.clamp(-3.0e9, 3.0e9) as f32),
+        }
+    } else {
+        return None;
+    };
+    Some(convert(v, ty))
+}
+
+impl RhaiProgram {
+    /// The time budget of one scan.
+    pub fn budget(&self) -> Duration {
+        self.budget
+    }
+
+    /// The tags the script names, in project order.
+    pub fn tags(&self) -> impl Iterator<Item = TagId> + '_ {
+        self.handles.iter().map(|h| h.id)
+    }
+
+    fn copy_in(&mut self, image: &ProcessImage) {
+        for h in &mut self.handles {
+            let v = image.get(h.id);
+            h.before = v;
+            if let Some(mut guard) = h.value.write_lock::<Dynamic>() {
+                *guard = to_dynamic(v);
+            }
+        }
+    }
+
+    fn copy_out(&mut self, image: &mut ProcessImage, now: Duration) -> Result<(), LogicFault> {
+        for h in self.handles.iter().filter(|h| h.writable) {
+            let d = h.value.flatten_clone();
+            let Some(v) = from_dynamic(&d, h.ty) else {
+                return Err(LogicFault {
+                    message: format!(
+                        "script error: tag `{}` ({}) was assigned a {}",
+                        h.name,
+                        h.ty,
+                        d.type_name()
+                    ),
+                    pos: error::user_pos(&self.file, h.assigned.unwrap_or(Position::new(2, 1))),
+                });
+            };
+            if v != h.before {
+                image.set(h.id, v, now);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl LogicEngine for RhaiProgram {
+    fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault> {
+        if let Some(h) = self.handles.iter().find(|h| h.id.index() >= image.len()) {
+            return Err(LogicFault {
+                message: format!(
+                    "program uses tag `{}` (#{}) but the process image holds {} tags",
+                    h.name,
+                    h.id.index(),
+                    image.len()
+                ),
+                pos: SourcePos {
+                    file: self.file.clone(),
+                    line: 1,
+                    column: 1,
+                },
+            });
+        }
+        self.copy_in(image);
+        match self.blocks.lock() {
+            Ok(mut b) => b.now = ctx.now,
+            Err(p) => p.into_inner().now = ctx.now,
+        }
+        self.deadline.arm(self.budget);
+        let run = self.engine.run_ast_with_scope(&mut self.scope, &self.ast);
+        self.scope.rewind(self.base);
+        if let Err(e) = run {
+            return Err(error::fault(&e, &self.file, self.budget));
+        }
+        self.copy_out(image, ctx.now)
+    }
+}

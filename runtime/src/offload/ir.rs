@@ -1,0 +1,276 @@
+//! The engine-neutral rung IR: what a logic engine tells the planner about each coil it writes.
+//!
+//! An engine describes a rung by its *shape*: one of the few behaviours a module can run
+//! itself, with the boolean conditions it reads, or [`RungShape::Opaque`] with the reason it is
+//! none of them. Every shape is defined here by its **central** semantics, scan by scan, as the
+//! engines run it (a condition is sampled once per scan; "rising edge" means false on the
+//! previous scan and true on this one, never on the first scan). The module mappings
+//! (`minimod.rs`, `resi.rs`) are proved against these definitions.
+
+use std::collections::BTreeSet;
+use std::fmt;
+use std::time::Duration;
+
+use crate::image::TagId;
+use crate::logic::SourcePos;
+
+/// A boolean condition over bool tags: no memory, no time. Conditions with edges, timers,
+/// comparisons or numbers are not representable and make the rung [`RungShape::Opaque`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum BoolExpr {
+    /// A constant.
+    Const(bool),
+    /// A bool tag's current value.
+    Tag(TagId),
+    /// Negation.
+    Not(Box<BoolExpr>),
+    /// Conjunction (true when empty).
+    And(Vec<BoolExpr>),
+    /// Disjunction (false when empty).
+    Or(Vec<BoolExpr>),
+    /// Exclusive or of all operands (false when empty).
+    Xor(Vec<BoolExpr>),
+}
+
+impl BoolExpr {
+    /// `!e`, folding `!!x` to `x` and `!1` to `0`.
+    pub fn negate(e: BoolExpr) -> Self {
+        match e {
+            BoolExpr::Not(inner) => *inner,
+            BoolExpr::Const(b) => BoolExpr::Const(!b),
+            other => BoolExpr::Not(Box::new(other)),
+        }
+    }
+
+    /// The value, reading tags through `value`.
+    pub fn eval(&self, value: &mut dyn FnMut(TagId) -> bool) -> bool {
+        match self {
+            BoolExpr::Const(b) => *b,
+            BoolExpr::Tag(id) => value(*id),
+            BoolExpr::Not(e) => !e.eval(value),
+            BoolExpr::And(items) => items.iter().fold(true, |acc, e| e.eval(value) & acc),
+            BoolExpr::Or(items) => items.iter().fold(false, |acc, e| e.eval(value) | acc),
+            BoolExpr::Xor(items) => items.iter().fold(false, |acc, e| e.eval(value) ^ acc),
+        }
+    }
+
+    /// Every tag the condition reads.
+    pub fn tags(&self) -> BTreeSet<TagId> {
+        let mut out = BTreeSet::new();
+        self.collect(&mut out);
+        out
+    }
+
+    fn collect(&self, out: &mut BTreeSet<TagId>) {
+        match self {
+            BoolExpr::Const(_) => {}
+            BoolExpr::Tag(id) => {
+                out.insert(*id);
+            }
+            BoolExpr::Not(e) => e.collect(out),
+            BoolExpr::And(items) | BoolExpr::Or(items) | BoolExpr::Xor(items) => {
+                items.iter().for_each(|e| e.collect(out));
+            }
+        }
+    }
+
+    /// Whether the condition reads `id`.
+    pub fn reads(&self, id: TagId) -> bool {
+        match self {
+            BoolExpr::Const(_) => false,
+            BoolExpr::Tag(t) => *t == id,
+            BoolExpr::Not(e) => e.reads(id),
+            BoolExpr::And(items) | BoolExpr::Or(items) | BoolExpr::Xor(items) => {
+                items.iter().any(|e| e.reads(id))
+            }
+        }
+    }
+
+    /// The condition with tag names (`names[id]`), for reports: `a & !b | c`.
+    pub fn display<'a>(&'a self, names: &'a [String]) -> impl fmt::Display + 'a {
+        Shown { expr: self, names }
+    }
+}
+
+struct Shown<'a> {
+    expr: &'a BoolExpr,
+    names: &'a [String],
+}
+
+impl Shown<'_> {
+    fn write(&self, e: &BoolExpr, f: &mut fmt::Formatter<'_>, outer: u8) -> fmt::Result {
+        // Precedence as in the expr language: | loosest (1), ^ (2), & (3), ! and atoms (4).
+        let (prec, op, items) = match e {
+            BoolExpr::Const(b) => return write!(f, "{}", u8::from(*b)),
+            BoolExpr::Tag(id) => {
+                return match self.names.get(id.index()) {
+                    Some(n) => f.write_str(n),
+                    None => write!(f, "#{}", id.0),
+                }
+            }
+            BoolExpr::Not(inner) => {
+                f.write_str("!")?;
+                return self.write(inner, f, 4);
+            }
+            BoolExpr::Or(items) => (1, " | ", items),
+            BoolExpr::Xor(items) => (2, " ^ ", items),
+            BoolExpr::And(items) => (3, " & ", items),
+        };
+        if items.is_empty() {
+            return write!(f, "{}", u8::from(matches!(e, BoolExpr::And(_))));
+        }
+        let paren = prec < outer;
+        if paren {
+            f.write_str("(")?;
+        }
+        for (i, item) in items.iter().enumerate() {
+            if i > 0 {
+                f.write_str(op)?;
+            }
+            self.write(item, f, prec + 1)?;
+        }
+        if paren {
+            f.write_str(")")?;
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Shown<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.write(self.expr, f, 0)
+    }
+}
+
+/// What a rung does to its coil, by its central semantics (one step per scan).
+///
+/// "An edge of `trigger`" below means: a scan on which at least one of the conditions in the
+/// list is true and was false on the previous scan (the first scan sees no edge).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RungShape {
+    /// `coil = expr` every scan.
+    Combinational {
+        /// The condition.
+        expr: BoolExpr,
+    },
+    /// A set/reset latch of levels: `coil = !reset & (set | coil)` when `reset_dominant`,
+    /// else `coil = set | (!reset & coil)`.
+    Latch {
+        /// Sets while true.
+        set: BoolExpr,
+        /// Resets while true.
+        reset: BoolExpr,
+        /// Which wins when both are true.
+        reset_dominant: bool,
+    },
+    /// IEC TP: an edge of `trigger` while no pulse runs starts a pulse; the coil is true on the
+    /// scans with `now − start < width`; edges during a pulse are ignored.
+    Pulse {
+        /// Starts the pulse.
+        trigger: Vec<BoolExpr>,
+        /// Its length.
+        width: Duration,
+    },
+    /// Staircase light: an edge of `trigger` sets the coil and (re)starts its timer; the coil
+    /// falls on the first scan with `now − last edge ≥ time`.
+    StairPulse {
+        /// Starts or restarts the pulse.
+        trigger: Vec<BoolExpr>,
+        /// Time after the last edge.
+        time: Duration,
+    },
+    /// Impulse relay: each edge of `trigger` inverts the coil (once per scan, however many of
+    /// the conditions rise together).
+    Toggle {
+        /// Inverts the coil.
+        trigger: Vec<BoolExpr>,
+    },
+    /// Edge-triggered set/reset: an edge of `set` sets the coil, an edge of `reset` resets it,
+    /// reset winning when both come in the same scan.
+    EdgeSetReset {
+        /// Sets on an edge.
+        set: Vec<BoolExpr>,
+        /// Resets on an edge.
+        reset: Vec<BoolExpr>,
+    },
+    /// Blinker: while `enable`, `on` true then `off` false, repeating, starting with `on` at
+    /// the scan `enable` became true; false while `enable` is false.
+    Blink {
+        /// Runs the blinker.
+        enable: BoolExpr,
+        /// Time on.
+        on: Duration,
+        /// Time off.
+        off: Duration,
+    },
+    /// None of the above: the rung stays central, for this reason (shown in the report, after
+    /// "the rung has …" style: "a timer in the condition").
+    Opaque {
+        /// Why, in words.
+        reason: String,
+    },
+}
+
+impl RungShape {
+    /// A short name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            RungShape::Combinational { .. } => "combinational",
+            RungShape::Latch { .. } => "set/reset latch",
+            RungShape::Pulse { .. } => "pulse (TP)",
+            RungShape::StairPulse { .. } => "staircase pulse",
+            RungShape::Toggle { .. } => "impulse relay (toggle)",
+            RungShape::EdgeSetReset { .. } => "edge set/reset",
+            RungShape::Blink { .. } => "blinker",
+            RungShape::Opaque { .. } => "other",
+        }
+    }
+}
+
+/// One coil as an engine describes it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Rung {
+    /// The coil (the tag the rung writes).
+    pub coil: TagId,
+    /// What the rung does.
+    pub shape: RungShape,
+    /// Where it is written.
+    pub pos: SourcePos,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn t(i: u32) -> BoolExpr {
+        BoolExpr::Tag(TagId(i))
+    }
+
+    #[test]
+    fn eval_and_tags() {
+        let e = BoolExpr::Or(vec![
+            BoolExpr::And(vec![t(0), BoolExpr::negate(t(1))]),
+            BoolExpr::Xor(vec![t(2), t(0)]),
+        ]);
+        let v = [true, true, true];
+        assert!(!e.eval(&mut |id| v[id.index()]));
+        let v = [true, true, false];
+        assert!(e.eval(&mut |id| v[id.index()]));
+        assert_eq!(e.tags().len(), 3);
+        assert!(e.reads(TagId(2)) && !e.reads(TagId(3)));
+        assert!(BoolExpr::And(vec![]).eval(&mut |_| false));
+        assert!(!BoolExpr::Or(vec![]).eval(&mut |_| true));
+    }
+
+    #[test]
+    fn display_uses_names_and_precedence() {
+        let names: Vec<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
+        let e = BoolExpr::And(vec![
+            BoolExpr::Or(vec![t(0), t(1)]),
+            BoolExpr::negate(BoolExpr::And(vec![t(2), t(0)])),
+        ]);
+        assert_eq!(e.display(&names).to_string(), "(a | b) & !(c & a)");
+        let e = BoolExpr::Or(vec![BoolExpr::And(vec![t(0), t(1)]), t(9)]);
+        assert_eq!(e.display(&names).to_string(), "a & b | #9");
+    }
+}

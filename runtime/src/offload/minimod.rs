@@ -1,0 +1,370 @@
+//! MiniMod: which rungs its own logic runs, and the registers that make it do so.
+//!
+//! Manual, "Automatic output management": every millisecond, for each output, if one of its
+//! three OFF conditions holds the output turns off, else if one of its three ON conditions
+//! holds it turns on, else it keeps its state. A condition is a product of the cooked inputs
+//! X1..X3, each checked high or low (the mask's low byte selects inputs, its high byte inverts
+//! them). The scan sees the same cooked inputs (discrete inputs 0..2), so both run the same
+//! function of the same signal, the module within a millisecond of the change.
+//!
+//! A rung whose central step is, for each combination `x` of X1..X3, one of "on", "off" or
+//! "keep" is run exactly when OFF = {x : off} and ON ⊇ {x : on}, ON ∩ {x : keep} = ∅ (ON may
+//! cover "off" combinations, where OFF wins):
+//! - `y = f(x)`: on where f, off elsewhere;
+//! - a latch, reset dominant: off where R, else on where S, else keep;
+//! - a latch, set dominant: on where S, else off where R, else keep.
+//!
+//! Both sets are minimised exactly ([`super::minimize`]); each must fit in three conditions.
+//!
+//! Manual, "Pulse generation": writing N to YPULSEn turns Yn on for exactly N ms (1..=65000).
+//! A TP rung keeps its trigger central: on the trigger's edge the scan writes YPULSEn instead
+//! of the output, so the pulse width is the module's, to the millisecond, instead of a whole
+//! number of scans.
+
+use std::time::Duration;
+
+use softplc_io::devices::Protocol;
+
+use super::ir::{BoolExpr, RungShape};
+use super::minimize::{minimize, Cube};
+use super::planner::{Command, Feature, ModulePlacement, Reason, Site, TableEntry};
+use crate::image::TagId;
+use crate::project::ModuleConfig;
+
+/// The model's catalog name.
+pub const MODEL: &str = "minimod";
+/// The module's sampling tick ("Input conditioning": inputs are sampled once a millisecond).
+pub const TICK: Duration = Duration::from_millis(1);
+/// Longest pulse ("Pulse generation": 1 to 65000 ms).
+pub const MAX_PULSE_MS: u16 = 65000;
+/// Conditions per output and direction.
+pub const CONDITIONS: usize = 3;
+/// What the module's conditions can check.
+const CHECKS: &str = "only X1..X3";
+
+/// What a rung does to its output for one combination of X1..X3.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Action {
+    On,
+    Off,
+    Keep,
+}
+
+/// Maps a rung writing a MiniMod output, or says why it stays central.
+pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Reason> {
+    let y = output_number(site.coil_point().name).ok_or(Reason::Unsupported {
+        why: "the MiniMod's logic drives its outputs Y1..Y4 only",
+    })?;
+    match shape {
+        RungShape::Combinational { expr } => {
+            let bits = bits_of(site, &[expr])?;
+            let table = actions(|m| {
+                if expr.eval(&mut |t| value(&bits, t, m)) {
+                    Action::On
+                } else {
+                    Action::Off
+                }
+            });
+            auto_on_off(site, y, &table)
+        }
+        RungShape::Latch {
+            set,
+            reset,
+            reset_dominant,
+        } => {
+            let bits = bits_of(site, &[set, reset])?;
+            let table = actions(|m| {
+                let s = set.eval(&mut |t| value(&bits, t, m));
+                let r = reset.eval(&mut |t| value(&bits, t, m));
+                match (s, r, reset_dominant) {
+                    (_, true, true) | (false, true, false) => Action::Off,
+                    (true, _, _) => Action::On,
+                    (false, false, _) => Action::Keep,
+                }
+            });
+            auto_on_off(site, y, &table)
+        }
+        RungShape::Pulse { trigger, width } => pulse(site, y, trigger, *width),
+        RungShape::StairPulse { .. } => Err(Reason::Unsupported {
+            why: "the MiniMod's pulser cannot be retriggered by an input (no staircase pulse)",
+        }),
+        RungShape::Toggle { .. } | RungShape::EdgeSetReset { .. } => Err(Reason::Unsupported {
+            why: "the MiniMod's conditions are levels: it has no edge-triggered functions",
+        }),
+        RungShape::Blink { .. } => Err(Reason::Unsupported {
+            why: "a blinker stays central: YLAMP steps run freely from power-on, so the \
+                  module cannot start the pattern when the enable rises",
+        }),
+        RungShape::Opaque { reason } => Err(Reason::Opaque(reason.clone())),
+    }
+}
+
+/// `Y3` → 3.
+fn output_number(name: &str) -> Option<u8> {
+    match name {
+        "Y1" => Some(1),
+        "Y2" => Some(2),
+        "Y3" => Some(3),
+        "Y4" => Some(4),
+        _ => None,
+    }
+}
+
+/// Each condition tag and its input bit (X1 = 0), or why a tag cannot be checked.
+fn bits_of(site: &Site, exprs: &[&BoolExpr]) -> Result<Vec<(TagId, u8)>, Reason> {
+    let mut out = Vec::new();
+    for e in exprs {
+        for tag in e.tags() {
+            let spec = site.input(tag, CHECKS)?;
+            let bit = match spec.name {
+                "X1" => 0,
+                "X2" => 1,
+                "X3" => 2,
+                point => {
+                    return Err(Reason::NotCheckable {
+                        tag: site.name(tag),
+                        point,
+                        checks: CHECKS,
+                    })
+                }
+            };
+            out.push((tag, bit));
+        }
+    }
+    Ok(out)
+}
+
+/// A tag's value in combination `m` (bit i = X(i+1)).
+fn value(bits: &[(TagId, u8)], tag: TagId, m: u8) -> bool {
+    bits.iter()
+        .find(|(t, _)| *t == tag)
+        .is_some_and(|(_, b)| m & (1 << b) != 0)
+}
+
+fn actions(mut f: impl FnMut(u8) -> Action) -> [Action; 8] {
+    let mut out = [Action::Keep; 8];
+    for (m, slot) in (0u8..).zip(out.iter_mut()) {
+        *slot = f(m);
+    }
+    out
+}
+
+/// The condition mask of a product term ("Automatic output management": low byte = inputs
+/// checked, high byte = inputs inverted before the check).
+pub fn mask(cube: Cube) -> u16 {
+    u16::from(cube.care) | (u16::from(cube.care & !cube.value) << 8)
+}
+
+/// The manual's text form of a mask (`X1-X3`).
+pub fn condition_text(mask: u16) -> String {
+    let [check, invert] = mask.to_le_bytes();
+    let mut s = String::new();
+    for i in 0..3 {
+        if check & (1 << i) != 0 {
+            if invert & (1 << i) != 0 {
+                s.push('-');
+            }
+            s.push_str(&format!("X{}", i + 1));
+        }
+    }
+    s
+}
+
+/// The masks of a minimal cover. A mask with no input checked is never true, so the constant
+/// true (the empty product) is written as one literal that covers `on` within `allowed`, or as
+/// `X1` and `-X1`.
+fn masks(cover: &[Cube], on: u8, allowed: u8) -> Vec<u16> {
+    if cover != [Cube { care: 0, value: 0 }] {
+        return cover.iter().map(|&c| mask(c)).collect();
+    }
+    for bit in 0..3u8 {
+        for value in [1u8 << bit, 0] {
+            let c = Cube {
+                care: 1 << bit,
+                value,
+            };
+            let covered = c.minterms(3);
+            if covered & on == on && covered & !allowed == 0 {
+                return vec![mask(c)];
+            }
+        }
+    }
+    vec![
+        mask(Cube { care: 1, value: 1 }),
+        mask(Cube { care: 1, value: 0 }),
+    ]
+}
+
+/// AON/AOFF tables for an action table.
+fn auto_on_off(site: &Site, y: u8, table: &[Action; 8]) -> Result<ModulePlacement, Reason> {
+    if site.config().device.protocol == Protocol::Text {
+        return Err(Reason::NotVerifiable {
+            why: "on protocol text the MiniMod's driver cannot read the conditions back (the \
+                  text read table has no YnAONm), so the tables could not be verified; use \
+                  protocol modbus",
+        });
+    }
+    let set = |a: Action| {
+        (0u8..8)
+            .filter(|&m| table[usize::from(m)] == a)
+            .fold(0u8, |acc, m| acc | (1 << m))
+    };
+    let (on, off) = (set(Action::On), set(Action::Off));
+    // Minimising three variables cannot fail.
+    let on_cover = minimize(on, off, 3).unwrap_or_default();
+    let off_cover = minimize(off, 0, 3).unwrap_or_default();
+    let on_masks = masks(&on_cover, on, on | off);
+    let off_masks = masks(&off_cover, off, off);
+    if on_masks.len() > CONDITIONS || off_masks.len() > CONDITIONS {
+        return Err(Reason::TooManyTerms {
+            on: on_masks.len(),
+            off: off_masks.len(),
+        });
+    }
+    let mut tables = Vec::with_capacity(2 * CONDITIONS);
+    for (kind, list) in [("AON", &on_masks), ("AOFF", &off_masks)] {
+        for k in 0..CONDITIONS {
+            let value = list.get(k).copied().unwrap_or(0);
+            let register = format!("Y{y}{kind}{}", k + 1);
+            if site.setting_taken(&register) {
+                return Err(Reason::SettingTaken { register });
+            }
+            tables.push(TableEntry {
+                register,
+                value: u32::from(value),
+                meaning: if value == 0 {
+                    "unused".into()
+                } else {
+                    condition_text(value)
+                },
+            });
+        }
+    }
+    Ok(ModulePlacement {
+        module: site.module,
+        point: site.point,
+        feature: Feature::AutoOnOff,
+        tables,
+        command: None,
+        tick: TICK,
+    })
+}
+
+/// YPULSEn on the trigger's edge.
+fn pulse(
+    site: &Site,
+    y: u8,
+    trigger: &[BoolExpr],
+    width: Duration,
+) -> Result<ModulePlacement, Reason> {
+    let takes = "whole milliseconds from 1ms to 65000ms (YPULSE)";
+    let ms = (width.subsec_nanos() % 1_000_000 == 0)
+        .then(|| u16::try_from(width.as_millis()).ok())
+        .flatten()
+        .filter(|ms| (1..=MAX_PULSE_MS).contains(ms))
+        .ok_or(Reason::Time {
+            time: width,
+            takes,
+        })?;
+    for e in trigger {
+        if let Some(tag) = e.tags().into_iter().find(|t| site.later.contains(t)) {
+            return Err(Reason::TriggerReadsLater {
+                tag: site.name(tag),
+            });
+        }
+    }
+    let name = format!("YPULSE{y}");
+    let point = site
+        .config()
+        .model
+        .point_index(&name)
+        .ok_or(Reason::Unsupported {
+            why: "the model has no pulser register",
+        })?;
+    Ok(ModulePlacement {
+        module: site.module,
+        point: site.point,
+        feature: Feature::Pulser,
+        tables: Vec::new(),
+        command: Some(Command::Pulse {
+            point,
+            trigger: trigger.to_vec(),
+            width,
+            width_ms: ms,
+        }),
+        tick: TICK,
+    })
+}
+
+/// Settings a MiniMod with pushed-down rungs needs besides the tables: the read-back of
+/// Y1..Y4 every cycle (so the image shows what the conditions did), unless the project set
+/// its own; in event mode, YEVMASK for the outputs the conditions drive.
+pub(crate) fn module_settings(
+    module: &ModuleConfig,
+    placements: &[&ModulePlacement],
+) -> Vec<(String, String)> {
+    let has = |key: &str| {
+        module
+            .device
+            .settings
+            .iter()
+            .any(|(k, _)| k.eq_ignore_ascii_case(key))
+    };
+    let auto: Vec<&&ModulePlacement> = placements
+        .iter()
+        .filter(|p| p.feature == Feature::AutoOnOff)
+        .collect();
+    let mut out = Vec::new();
+    if auto.is_empty() {
+        return out;
+    }
+    if !has("readback") {
+        out.push(("readback".into(), "every".into()));
+    }
+    let events = module
+        .device
+        .settings
+        .iter()
+        .any(|(k, v)| k.eq_ignore_ascii_case("events") && matches!(v.trim(), "true" | "on" | "yes"));
+    if events && !has("YEVMASK") {
+        let ys = auto.iter().fold(0u16, |acc, p| {
+            let name = module.model.points.get(p.point).map_or("", |s| s.name);
+            acc | output_number(name).map_or(0, |n| 1 << (n - 1))
+        });
+        out.push(("YEVMASK".into(), ys.to_string()));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use softplc_io::devices::minimod::map::{condition_holds, parse_condition};
+
+    #[test]
+    fn masks_match_the_manual() {
+        // "X1=1, X2=0 ... can be expressed with the binary mask 0000.0010-0000.0011".
+        let c = Cube {
+            care: 0b011,
+            value: 0b001,
+        };
+        assert_eq!(mask(c), 0x0203);
+        assert_eq!(condition_text(0x0203), "X1-X2");
+        assert_eq!(parse_condition(&condition_text(0x0203)), Ok(0x0203));
+        for m in 0..8u8 {
+            assert_eq!(condition_holds(mask(c), m), c.covers(m), "{m}");
+        }
+    }
+
+    #[test]
+    fn constant_true_needs_a_checked_input() {
+        let always = masks(&[Cube { care: 0, value: 0 }], 0xFF, 0xFF);
+        assert_eq!(always, vec![0x0001, 0x0101]);
+        for m in 0..8u8 {
+            assert!(always.iter().any(|&k| condition_holds(k, m)));
+        }
+        // ON = "not X2" with X2 a don't-care: one literal does.
+        let on = 0b0011_0011;
+        assert_eq!(masks(&[Cube { care: 0, value: 0 }], on, 0xFF), vec![0x0202]);
+    }
+}

@@ -1,0 +1,59 @@
+//! Push-down: fast rungs compiled into the modules' own logic, when it gives the same
+//! behaviour (DESIGN.md principle 6).
+//!
+//! A MiniMod reacts to its inputs within a millisecond and a RESI-16DI8RO within 10 ms; a
+//! central scan over RS-485 reacts within a scan period plus the bus time. The planner moves a
+//! rung into its module only when the module's function is the rung's own, and says why for
+//! every rung it keeps:
+//!
+//! 1. the engine describes each coil it writes as a [`ir::Rung`] (an engine-neutral shape:
+//!    combinational, latch, pulse, staircase, toggle, edge set/reset, blinker, or opaque);
+//! 2. [`planner::plan`] maps each rung with the project's bindings and `offload:` switches to
+//!    module tables ([`minimod`], [`resi`]) or keeps it central with a [`planner::Reason`];
+//!    conditions are minimised exactly ([`minimize`]);
+//! 3. [`runtime::Offloaded`] runs the plan in the PLC: the tables are settings the drivers
+//!    write and verify at start-up, the pushed-down outputs are no longer written by the scan
+//!    but read back into the image, pulse triggers become pulser writes, and at stop the
+//!    tables are cleared (or kept);
+//! 4. [`report`] is what `softplc check` prints: placement, tables, reaction times.
+//!
+//! # Equivalence
+//!
+//! Each form's proof is in its mapping's module docs; the tests
+//! (`tests/tests/offload_equivalence.rs`) run the same program centrally and pushed down
+//! against the simulators with the same random inputs and compare the output traces at the
+//! module terminals: the same edges in the same order, each pushed-down edge no later than the
+//! central one and earlier by at most the central reaction time (scan period + bus time),
+//! provided every input state lasts longer than that (a central scan cannot see shorter ones;
+//! the module can, which is the point).
+
+pub mod ir;
+pub mod minimize;
+pub mod minimod;
+pub mod planner;
+pub mod report;
+pub mod resi;
+pub mod runtime;
+
+pub use planner::{plan, Placement, Plan, Reason, RequireFailure};
+
+use crate::logic::LogicEngine;
+use crate::project::{ProgramKind, Project};
+
+/// The engine's name for reports.
+pub fn engine_name(kind: ProgramKind) -> &'static str {
+    match kind {
+        ProgramKind::Expr => "expr",
+        ProgramKind::Ladder => "ladder",
+        ProgramKind::Rhai => "rhai",
+    }
+}
+
+/// The plan of `project` with its compiled program `engine`.
+pub fn plan_program(project: &Project, engine: &dyn LogicEngine) -> Plan {
+    plan(
+        project,
+        engine.rungs(),
+        engine_name(project.program.kind),
+    )
+}

@@ -1,0 +1,228 @@
+//! The push-down part of `softplc check`: where every rung runs, the tables the modules get,
+//! and each output's expected reaction time.
+//!
+//! Reaction times are bounds from the timing model (DESIGN.md): a central output reacts to an
+//! input within one scan period (the input may change just after its read), plus the input
+//! phase (the slowest line's read floor: the logic waits for every line), plus the write of
+//! its line (its write floor). A module reacts within its tick: 1 ms for a MiniMod, 10 ms for a
+//! RESI-16DI8RO. Input conditioning (XLATUP/XLATDN) delays the input for both alike.
+
+use std::fmt::Write as _;
+use std::time::Duration;
+
+use softplc_io::line::budget::{line_budget, LineBudget};
+
+use super::planner::{Command, Feature, ModulePlacement, Placement, Plan, RungPlan};
+use crate::project::{Binding, OnStop, Project};
+use crate::scan::fmt_duration;
+
+/// The central reaction bound of the outputs of bus `bus`: period + slowest read + the bus's
+/// write floor.
+fn central(project: &Project, budgets: &[LineBudget], bus: usize) -> (Duration, String) {
+    let read = budgets
+        .iter()
+        .map(|b| b.read_floor)
+        .max()
+        .unwrap_or_default();
+    let write = budgets.get(bus).map(|b| b.write_floor).unwrap_or_default();
+    let period = project.scan.period;
+    (
+        period + read + write,
+        format!(
+            "period {} + inputs {} + write {}",
+            fmt_duration(period),
+            fmt_duration(read),
+            fmt_duration(write)
+        ),
+    )
+}
+
+/// The line budgets with the plan's settings (read-back included).
+fn budgets(project: &Project, plan: &Plan) -> Vec<LineBudget> {
+    let devices = plan.device_configs(project);
+    project
+        .buses
+        .iter()
+        .enumerate()
+        .map(|(b, bus)| {
+            let mut drivers: Vec<_> = project
+                .modules
+                .iter()
+                .zip(&devices)
+                .filter(|(m, _)| m.bus == b)
+                .map(|(m, d)| {
+                    (
+                        m.name.clone(),
+                        (m.model.driver)(d),
+                        m.model.points.iter().map(|p| p.access).collect::<Vec<_>>(),
+                    )
+                })
+                .collect();
+            line_budget(bus.settings, &mut drivers)
+        })
+        .collect()
+}
+
+/// The report.
+pub fn report(project: &Project, plan: &Plan) -> String {
+    let mut out = String::new();
+    let on_stop = match project.offload.on_stop {
+        OnStop::Clear => "cleared at stop",
+        OnStop::Keep => "kept running at stop",
+    };
+    let _ = writeln!(
+        out,
+        "\npush-down (offload: {}; module tables {on_stop}):",
+        project.offload.mode
+    );
+    if let Some(engine) = plan.silent_engine {
+        let _ = writeln!(
+            out,
+            "  engine {engine} does not describe its rungs: every output stays central"
+        );
+    }
+    let budgets = budgets(project, plan);
+    let names: Vec<String> = project.tags.iter().map(|t| t.name.clone()).collect();
+    let (mut pushed, mut kept) = (0usize, 0usize);
+    for r in &plan.rungs {
+        match &r.placement {
+            Placement::Module(p) => {
+                pushed += 1;
+                module_rung(&mut out, project, &budgets, r, p, &names);
+            }
+            Placement::Central(reason) => {
+                kept += 1;
+                let _ = writeln!(
+                    out,
+                    "  {} {} ({}): central: {reason}",
+                    r.rung.pos,
+                    r.coil,
+                    r.rung.shape.name()
+                );
+                if let Some(bus) = output_bus(project, r) {
+                    let (bound, parts) = central(project, &budgets, bus);
+                    let _ = writeln!(
+                        out,
+                        "      reaction ≤ {} ({parts})",
+                        fmt_duration(bound)
+                    );
+                }
+            }
+        }
+    }
+    if !plan.rungs.is_empty() {
+        let _ = writeln!(out, "  {pushed} rung(s) in modules, {kept} central");
+    }
+    for c in &plan.conditioning {
+        let regs: Vec<String> = c
+            .entries
+            .iter()
+            .map(|(r, v)| format!("{r} = {v} ms"))
+            .collect();
+        let _ = writeln!(
+            out,
+            "  input conditioning of {} in module {}: {}",
+            c.tag,
+            project.modules[c.module].name,
+            regs.join(", ")
+        );
+    }
+    for (m, extra) in plan.settings.iter().enumerate() {
+        if extra.is_empty() {
+            continue;
+        }
+        let list: Vec<String> = extra.iter().map(|(k, v)| format!("{k}: {v}")).collect();
+        let _ = writeln!(
+            out,
+            "  module {} settings written and verified at start-up: {}",
+            project.modules[m].name,
+            list.join(", ")
+        );
+    }
+    out
+}
+
+/// The bus of the output a rung writes, if it is a module output.
+fn output_bus(project: &Project, r: &RungPlan) -> Option<usize> {
+    match project.tags.get(r.rung.coil.index())?.binding {
+        Binding::Point { module, .. } => Some(project.modules[module].bus),
+        Binding::Memory => None,
+    }
+}
+
+fn module_rung(
+    out: &mut String,
+    project: &Project,
+    budgets: &[LineBudget],
+    r: &RungPlan,
+    p: &ModulePlacement,
+    names: &[String],
+) {
+    let module = &project.modules[p.module];
+    let point = module.model.points.get(p.point).map_or("?", |s| s.name);
+    let _ = writeln!(
+        out,
+        "  {} {} ({}): module {} {point}, {}",
+        r.rung.pos,
+        r.coil,
+        r.rung.shape.name(),
+        module.name,
+        p.feature.name()
+    );
+    for t in &p.tables {
+        let _ = writeln!(
+            out,
+            "      {:<14} = {:<6} {}",
+            t.register, t.value, t.meaning
+        );
+    }
+    let (bound, parts) = central(project, budgets, module.bus);
+    match (&p.command, p.feature) {
+        (
+            Some(Command::Pulse {
+                trigger,
+                width,
+                width_ms,
+                point,
+            }),
+            _,
+        ) => {
+            let reg = module.model.points.get(*point).map_or("?", |s| s.name);
+            let trig: Vec<String> = trigger
+                .iter()
+                .map(|e| e.display(names).to_string())
+                .collect();
+            let period = project.scan.period;
+            let scans = width.as_nanos().div_ceil(period.as_nanos().max(1));
+            let central_width = period.saturating_mul(u32::try_from(scans).unwrap_or(u32::MAX));
+            let _ = writeln!(
+                out,
+                "      on a rising edge of {} the scan writes {reg} = {width_ms}",
+                trig.join(" or ")
+            );
+            let _ = writeln!(
+                out,
+                "      width: module {} exactly vs central {} (whole scans); start ≤ {} ({parts}), the same for both",
+                fmt_duration(*width),
+                fmt_duration(central_width),
+                fmt_duration(bound)
+            );
+        }
+        (None, Feature::Pulse) => {
+            let _ = writeln!(
+                out,
+                "      reaction: module ≤ {} vs central ≤ {} ({parts}); the pulse's end is timed by the module to its tick",
+                fmt_duration(p.tick),
+                fmt_duration(bound)
+            );
+        }
+        (None, _) => {
+            let _ = writeln!(
+                out,
+                "      reaction: module ≤ {} vs central ≤ {} ({parts})",
+                fmt_duration(p.tick),
+                fmt_duration(bound)
+            );
+        }
+    }
+}

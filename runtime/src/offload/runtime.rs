@@ -1,0 +1,315 @@
+//! A plan at run time: the pushed-down outputs belong to their modules.
+//!
+//! - **Ownership.** The scan never writes a pushed-down output (its slot in the output frame
+//!   stays `None`, so the driver leaves it to the module's logic); the engine was told to stop
+//!   writing the coil ([`crate::logic::LogicEngine::release`]), and whatever it may still
+//!   write is overwritten with the module's value after the logic.
+//! - **Read-back.** Each cycle the output's value as the module reports it (the MiniMod's coils
+//!   read back with FC 1, the RESI relays in the poll list) goes into the image, with the
+//!   read's quality, so programs, `status` and SCADA see the true state.
+//! - **Pulses.** A TP rung on a MiniMod keeps its trigger central: after the logic the trigger
+//!   is evaluated on the image; on its edge, when no pulse runs, the scan writes the pulser
+//!   register (`YPULSEn`) for one cycle. The image shows the pulse as the module runs it (on
+//!   from the cycle that wrote it for its exact width): the pulser does not show in the coils
+//!   the driver can read back.
+//! - **Stop.** With `on_stop: clear` the safe state writes zero to every table register the
+//!   plan wrote and the output's safe value; with `keep` the module keeps running its tables
+//!   and the output is left to it.
+
+use std::time::Duration;
+
+use softplc_io::line::bus::{InputFrame, OutputFrame};
+use softplc_io::point::{Quality, Value};
+
+use super::ir::BoolExpr;
+use super::planner::{Command, Placement, Plan, RequireFailure};
+use crate::image::{ProcessImage, TagId};
+use crate::project::{Binding, OnStop, Project};
+
+/// How the image learns a pushed-down output's value.
+#[derive(Debug, Clone)]
+enum Source {
+    /// From the module's read-back of the output.
+    ReadBack,
+    /// A pulser the scan triggers.
+    Pulse {
+        /// The pulser register's point.
+        command: usize,
+        /// The trigger conditions.
+        trigger: Vec<BoolExpr>,
+        /// Last scan's value of each (`None` before the first scan).
+        prev: Vec<Option<bool>>,
+        /// The pulse's length.
+        width: Duration,
+        /// Its register value.
+        width_ms: u16,
+        /// When the running pulse was commanded (scan time).
+        started: Option<Duration>,
+        /// Write the pulser in this cycle's output phase.
+        fire: bool,
+    },
+}
+
+/// One pushed-down output.
+#[derive(Debug, Clone)]
+struct Pushed {
+    tag: TagId,
+    bus: usize,
+    /// Index on its bus.
+    module: usize,
+    point: usize,
+    safe: Value,
+    /// Table registers (point index, zero of its type) zeroed at stop.
+    tables: Vec<(usize, Value)>,
+    /// The module's value as last known (restored after the logic).
+    value: Value,
+    source: Source,
+}
+
+/// The pushed-down outputs of a running PLC.
+#[derive(Debug, Clone, Default)]
+pub struct Offloaded {
+    outputs: Vec<Pushed>,
+    on_stop: OnStop,
+}
+
+impl Offloaded {
+    /// The run-time side of `plan`. `bus_modules[b]` lists the project module indexes of bus
+    /// `b` in the bus owner's order.
+    pub fn new(plan: &Plan, project: &Project, bus_modules: &[Vec<usize>]) -> Self {
+        let mut outputs = Vec::new();
+        for (r, p) in plan.pushed() {
+            let Some(tag) = project.tags.get(r.rung.coil.index()) else {
+                continue;
+            };
+            let Binding::Point { module, .. } = tag.binding else {
+                continue;
+            };
+            let bus = project.modules[module].bus;
+            let Some(in_bus) = bus_modules
+                .get(bus)
+                .and_then(|mods| mods.iter().position(|&m| m == module))
+            else {
+                continue;
+            };
+            let model = project.modules[module].model;
+            let tables = p
+                .tables
+                .iter()
+                .filter_map(|t| model.point_index(&t.register))
+                .map(|i| (i, model.points[i].ty.zero()))
+                .collect();
+            let source = match &p.command {
+                None => Source::ReadBack,
+                Some(Command::Pulse {
+                    point,
+                    trigger,
+                    width,
+                    width_ms,
+                }) => Source::Pulse {
+                    command: *point,
+                    prev: vec![None; trigger.len()],
+                    trigger: trigger.clone(),
+                    width: *width,
+                    width_ms: *width_ms,
+                    started: None,
+                    fire: false,
+                },
+            };
+            outputs.push(Pushed {
+                tag: r.rung.coil,
+                bus,
+                module: in_bus,
+                point: p.point,
+                safe: tag.safe.unwrap_or(tag.ty.zero()),
+                tables,
+                value: tag.initial,
+                source,
+            });
+        }
+        Self {
+            outputs,
+            on_stop: project.offload.on_stop,
+        }
+    }
+
+    /// Whether `tag` is a pushed-down output.
+    pub fn owns(&self, tag: TagId) -> bool {
+        self.outputs.iter().any(|p| p.tag == tag)
+    }
+
+    /// Whether anything is pushed down.
+    pub fn is_empty(&self) -> bool {
+        self.outputs.is_empty()
+    }
+
+    /// Input phase: the modules' values of their outputs into the image (`frames[b]` is bus
+    /// `b`'s read, `None` when the line did not answer).
+    pub fn read_back(
+        &mut self,
+        image: &mut ProcessImage,
+        frames: &[Option<InputFrame>],
+        now: Duration,
+    ) {
+        for p in &mut self.outputs {
+            match &p.source {
+                Source::ReadBack => {
+                    let snap = frames
+                        .get(p.bus)
+                        .and_then(Option::as_ref)
+                        .and_then(|f| f.modules.get(p.module));
+                    match snap {
+                        Some(snap) => {
+                            let value = snap.values.get(p.point).copied().flatten();
+                            let quality = if value.is_none() {
+                                Quality::Bad
+                            } else {
+                                snap.quality
+                            };
+                            if let Some(v) = value {
+                                p.value = v;
+                            }
+                            image.update(p.tag, value, quality, now);
+                        }
+                        None => {
+                            if image.slot(p.tag).quality == Quality::Good {
+                                image.set_quality(p.tag, Quality::Stale);
+                            }
+                        }
+                    }
+                }
+                Source::Pulse { .. } => {}
+            }
+        }
+    }
+
+    /// Logic phase, after the program: pulse triggers, and the image keeps the modules' values
+    /// of their outputs whatever the program wrote. `now` is the scan's time.
+    pub fn after_logic(&mut self, image: &mut ProcessImage, now: Duration) {
+        for p in &mut self.outputs {
+            if let Source::Pulse {
+                trigger,
+                prev,
+                width,
+                started,
+                fire,
+                ..
+            } = &mut p.source
+            {
+                let mut edge = false;
+                for (cond, last) in trigger.iter().zip(prev.iter_mut()) {
+                    let v = cond.eval(&mut |t| image.get(t).as_bool());
+                    edge |= v && *last == Some(false);
+                    *last = Some(v);
+                }
+                // IEC TP: edges while the pulse runs are ignored.
+                let running = started.is_some_and(|s| now.saturating_sub(s) < *width);
+                if edge && !running {
+                    *started = Some(now);
+                    *fire = true;
+                }
+                let on = started.is_some_and(|s| now.saturating_sub(s) < *width);
+                p.value = Value::Bool(on);
+            }
+            if image.get(p.tag) != p.value {
+                image.set(p.tag, p.value, now);
+            }
+        }
+    }
+
+    /// Output phase: this cycle's commands into the output frames (call
+    /// [`Self::clear_commands`] after the write).
+    pub fn commands(&mut self, frames: &mut [OutputFrame]) {
+        for p in &mut self.outputs {
+            if let Source::Pulse {
+                command,
+                width_ms,
+                fire,
+                ..
+            } = &mut p.source
+            {
+                if std::mem::take(fire) {
+                    set(frames, p.bus, p.module, *command, Value::U16(*width_ms));
+                }
+            }
+        }
+    }
+
+    /// Removes the commands (and the safe state's writes) from the frames: they are written
+    /// once, and the outputs stay the modules'.
+    pub fn clear_commands(&self, frames: &mut [OutputFrame]) {
+        for p in &self.outputs {
+            if let Some(slot) = slot(frames, p.bus, p.module, p.point) {
+                *slot = None;
+            }
+            if let Source::Pulse { command, .. } = p.source {
+                if let Some(slot) = slot(frames, p.bus, p.module, command) {
+                    *slot = None;
+                }
+            }
+            for &(t, _) in &p.tables {
+                if let Some(slot) = slot(frames, p.bus, p.module, t) {
+                    *slot = None;
+                }
+            }
+        }
+    }
+
+    /// The safe state: with `on_stop: clear`, zero every table and pulser and write the safe
+    /// values (the image shows them); with `keep`, leave the outputs to the modules.
+    pub fn stop(&self, frames: &mut [OutputFrame], image: &mut ProcessImage, now: Duration) {
+        if self.on_stop == OnStop::Keep {
+            return;
+        }
+        for p in &self.outputs {
+            for &(t, zero) in &p.tables {
+                set(frames, p.bus, p.module, t, zero);
+            }
+            if let Source::Pulse { command, .. } = p.source {
+                set(frames, p.bus, p.module, command, Value::U16(0));
+            }
+            set(frames, p.bus, p.module, p.point, p.safe);
+            image.set(p.tag, p.safe, now);
+        }
+    }
+}
+
+fn slot(
+    frames: &mut [OutputFrame],
+    bus: usize,
+    module: usize,
+    point: usize,
+) -> Option<&mut Option<Value>> {
+    frames
+        .get_mut(bus)
+        .and_then(|f| f.modules.get_mut(module))
+        .and_then(|m| m.get_mut(point))
+}
+
+fn set(frames: &mut [OutputFrame], bus: usize, module: usize, point: usize, v: Value) {
+    if let Some(s) = slot(frames, bus, module, point) {
+        *s = Some(v);
+    }
+}
+
+/// Whether two plans put the same rungs in the same modules with the same tables and
+/// settings (a program reload must not change what the modules were given at start-up).
+pub fn same_placement(a: &Plan, b: &Plan) -> bool {
+    let pushed = |p: &Plan| -> Vec<(TagId, Placement)> {
+        p.rungs
+            .iter()
+            .filter(|r| matches!(r.placement, Placement::Module(_)))
+            .map(|r| (r.rung.coil, r.placement.clone()))
+            .collect()
+    };
+    a.settings == b.settings && pushed(a) == pushed(b)
+}
+
+/// One failure per line.
+pub fn lines(failures: &[RequireFailure]) -> String {
+    failures
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join("\n")
+}
