@@ -37,6 +37,10 @@ pub(crate) enum BoolExpr {
         arg: Box<BoolExpr>,
         preset: Duration,
     },
+    /// `good(tag)`: the tag's quality is Good.
+    Good(TagId),
+    /// `bad(tag)`: the tag's quality is Bad.
+    Bad(TagId),
 }
 
 /// A checked statement.
@@ -176,6 +180,15 @@ impl Checker<'_> {
                     kind: *kind,
                     arg: Box::new(arg?),
                     preset: preset?,
+                })
+            }
+            // Any tag has a quality, whatever its type.
+            Expr::Quality { good, tag } => {
+                let id = self.tag(tag)?.id;
+                Some(if *good {
+                    BoolExpr::Good(id)
+                } else {
+                    BoolExpr::Bad(id)
                 })
             }
         }

@@ -37,7 +37,7 @@ pub enum CompileErrorKind {
     },
     /// A call of a function the language does not have.
     #[error(
-        "unknown function `{name}`{}; the functions are rising, falling, ton, tof and tp",
+        "unknown function `{name}`{}; the functions are rising, falling, ton, tof, tp, good and bad",
         suggest(.suggestion)
     )]
     UnknownFunction {
@@ -45,6 +45,12 @@ pub enum CompileErrorKind {
         name: String,
         /// The closest function name, within edit distance 2.
         suggestion: Option<String>,
+    },
+    /// `good(…)` or `bad(…)` given something other than one tag name.
+    #[error("`{function}` takes a tag name, e.g. `{function}(level)`, not an expression")]
+    QualityArgument {
+        /// `good` or `bad`.
+        function: &'static str,
     },
     /// An assignment to a tag the program may not write (a module input).
     #[error("tag `{name}` is read-only (a module input); a program cannot assign it")]

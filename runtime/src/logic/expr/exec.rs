@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use softplc_io::point::Value;
+use softplc_io::point::{Quality, Value};
 
 use super::lower::Lowered;
 use super::CmpOp;
@@ -20,6 +20,11 @@ pub enum Instr {
     Load(TagId),
     /// Push a constant.
     Const(bool),
+    /// Push whether a tag's quality is Good (read in the last cycle, or a memory or forced
+    /// tag): `good(tag)`.
+    Good(TagId),
+    /// Push whether a tag's quality is Bad (its module lost, or never read): `bad(tag)`.
+    Bad(TagId),
     /// Replace the top with its negation.
     Not,
     /// Pop two, push their conjunction.
@@ -178,6 +183,8 @@ impl LogicEngine for ExprProgram {
             match *instr {
                 Instr::Load(id) => stack.push(image.get(id).as_bool()),
                 Instr::Const(b) => stack.push(b),
+                Instr::Good(id) => stack.push(image.slot(id).quality == Quality::Good),
+                Instr::Bad(id) => stack.push(image.slot(id).quality == Quality::Bad),
                 Instr::Not => {
                     let a = pop(stack);
                     stack.push(!a);

@@ -72,6 +72,14 @@ impl Lowerer {
                 self.out.code.push(Instr::Load(*id));
             }
             BoolExpr::Const(b) => self.out.code.push(Instr::Const(*b)),
+            BoolExpr::Good(id) => {
+                self.use_tag(*id);
+                self.out.code.push(Instr::Good(*id));
+            }
+            BoolExpr::Bad(id) => {
+                self.use_tag(*id);
+                self.out.code.push(Instr::Bad(*id));
+            }
             BoolExpr::Not(inner) => {
                 self.expr(inner);
                 self.out.code.push(Instr::Not);
@@ -129,7 +137,11 @@ pub(crate) fn max_depth(code: &[Instr]) -> Option<usize> {
     let mut max = 0usize;
     for instr in code {
         let (pops, pushes) = match instr {
-            Instr::Load(_) | Instr::Const(_) | Instr::Cmp { .. } => (0, 1),
+            Instr::Load(_)
+            | Instr::Const(_)
+            | Instr::Cmp { .. }
+            | Instr::Good(_)
+            | Instr::Bad(_) => (0, 1),
             Instr::Not
             | Instr::Rising(_)
             | Instr::Falling(_)

@@ -12,6 +12,7 @@
 //! lamp  = box_at_exit                      # a box waits at the exit
 //! alarm = ton(motor & !box_at_entry, 30s)  # running empty for 30 s
 //! hot   = temperature > 80.5 or not cooling_ok
+//! alarm = !good(level_high)                # the level switch's module is lost
 //! ```
 //!
 //! # Language
@@ -47,6 +48,12 @@
 //!
 //!   `PT` is a duration literal: a number with a unit `us`, `ms` or `s` (`100us`, `250ms`,
 //!   `2s`, `1.5s`), greater than zero and at most 2³² − 1 ms (≈ 49.7 days).
+//! - **Quality.** `good(T)` is true while tag `T`'s quality is Good: read from its module in
+//!   the last cycle, or a memory tag, or a forced tag. It is false while `T` is Stale (its
+//!   module missed a cycle) or Bad (its module is lost after its line's fail limit, or was
+//!   never read). `bad(T)` is true only while `T` is Bad. The argument is a tag name of any
+//!   type (`good(level)` for a u16 tag too), not an expression: `good(a & b)` is an error.
+//!   The quality is the image's at the moment the statement runs (set by the input phase).
 //! - **State per call site.** Each `rising`, `falling`, `ton`, `tof`, `tp` written in the
 //!   program has its own memory; two `rising(start)` are two independent one-shots.
 //!
@@ -57,13 +64,15 @@
 //! value, a self-holding contact). Every part of every expression is evaluated every scan — no
 //! short-circuit — so timers and edges inside `&`/`|` always see their input. Tags are read with
 //! [`ProcessImage::get`] whatever their quality: a tag whose quality is Bad or Stale still reads
-//! its current (last good or initial) value; quality handling comes later. Coils are written
+//! its current (last good or initial) value; a program that must act on a lost module tests
+//! `good(T)` (its [`Slot::quality`], looked up by index like a value). Coils are written
 //! with [`ProcessImage::set`] stamped with the scan time. Same inputs and same scan times give
 //! the same outputs. A scan allocates nothing and looks up no names.
 //!
 //! [`LogicEngine`]: crate::logic::LogicEngine
 //! [`ScanContext::now`]: crate::logic::ScanContext::now
 //! [`ProcessImage::get`]: crate::image::ProcessImage::get
+//! [`Slot::quality`]: crate::image::Slot::quality
 //! [`ProcessImage::set`]: crate::image::ProcessImage::set
 
 mod check;

@@ -78,7 +78,7 @@ pub(crate) enum TimerKind {
 }
 
 /// The function names, for "did you mean".
-pub(crate) const FUNCTIONS: [&str; 5] = ["rising", "falling", "ton", "tof", "tp"];
+pub(crate) const FUNCTIONS: [&str; 7] = ["rising", "falling", "ton", "tof", "tp", "good", "bad"];
 
 /// A number literal as written (`-` included) and its value.
 #[derive(Debug, Clone, PartialEq)]
@@ -124,6 +124,11 @@ pub(crate) enum Expr {
         kind: TimerKind,
         arg: Box<Expr>,
         preset: DurLit,
+    },
+    /// `good(tag)` (`good`) or `bad(tag)`: a test of the tag's quality.
+    Quality {
+        good: bool,
+        tag: Ident,
     },
 }
 
@@ -357,9 +362,11 @@ impl<'a> Parser<'a> {
         }
     }
 
-    /// `rising(e)`, `falling(e)`, `ton(e, D)`, `tof(e, D)`, `tp(e, D)`; at the name.
+    /// `rising(e)`, `falling(e)`, `ton(e, D)`, `tof(e, D)`, `tp(e, D)`, `good(tag)`,
+    /// `bad(tag)`; at the name.
     fn call(&mut self, name: &str, pos: Pos) -> Result<Expr, ParseError> {
         let func = match name {
+            "good" | "bad" => return self.quality(name == "good"),
             "rising" => Func::Edge(EdgeKind::Rising),
             "falling" => Func::Edge(EdgeKind::Falling),
             "ton" => Func::Timer(TimerKind::Ton),
@@ -376,6 +383,33 @@ impl<'a> Parser<'a> {
         let call = self.call_args(func);
         self.leave();
         call
+    }
+
+    /// `good(tag)` or `bad(tag)`, at the name: the argument is a tag name, not an expression
+    /// (quality belongs to a tag read from a module).
+    fn quality(&mut self, good: bool) -> Result<Expr, ParseError> {
+        self.bump();
+        self.expect(Tok::LParen, Expected::OpenParen)?;
+        let pos = self.pos();
+        match (self.peek(), self.peek2()) {
+            (Tok::Ident(name), Tok::RParen) => {
+                self.bump();
+                self.bump();
+                Ok(Expr::Quality {
+                    good,
+                    tag: Ident {
+                        name: name.to_string(),
+                        pos,
+                    },
+                })
+            }
+            _ => Err((
+                pos,
+                CompileErrorKind::QualityArgument {
+                    function: if good { "good" } else { "bad" },
+                },
+            )),
+        }
     }
 
     /// `( expr )` or `( expr , duration )`, after the function name.
@@ -450,6 +484,9 @@ mod tests {
                 preset.num,
                 preset.unit.as_deref().unwrap_or("")
             ),
+            Expr::Quality { good, tag } => {
+                format!("({} {})", if *good { "good" } else { "bad" }, tag.name)
+            }
         }
     }
 
@@ -578,7 +615,33 @@ mod tests {
     fn unknown_function_suggests() {
         assert_eq!(
             err("q = rsing(a)"),
-            (5, "unknown function `rsing`; did you mean `rising`?; the functions are rising, falling, ton, tof and tp".into())
+            (5, "unknown function `rsing`; did you mean `rising`?; the functions are rising, falling, ton, tof, tp, good and bad".into())
+        );
+    }
+
+    #[test]
+    fn quality_tests_take_a_tag_name() {
+        assert_eq!(
+            parse("alarm = !good(level_high) | bad(x)"),
+            "alarm = (or (not (good level_high)) (bad x))"
+        );
+        // A tag may still be called `good`.
+        assert_eq!(parse("q = good & bad"), "q = (and good bad)");
+        let msg = "`good` takes a tag name, e.g. `good(level)`, not an expression".to_string();
+        assert_eq!(err("q = good(a & b)"), (10, msg.clone()));
+        assert_eq!(err("q = good(!a)"), (10, msg.clone()));
+        assert_eq!(err("q = good()"), (10, msg));
+        assert_eq!(
+            err("q = bad(1)"),
+            (
+                9,
+                "`bad` takes a tag name, e.g. `bad(level)`, not an expression".into()
+            )
+        );
+        // Without `(` it is a tag named `good`.
+        assert_eq!(
+            err("q = good a"),
+            (10, "expected an operator or end of line, found `a`".into())
         );
     }
 

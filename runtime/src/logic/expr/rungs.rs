@@ -19,9 +19,6 @@ use crate::image::TagId;
 use crate::logic::SourcePos;
 use crate::offload::ir::{BoolExpr, Rung, RungShape};
 
-/// Most tags a self-reading condition may have for its latch check (2^12 evaluations).
-const MAX_ENUMERATED_TAGS: usize = 12;
-
 /// The rungs of checked statements.
 pub(crate) fn describe(stmts: &[CheckedStmt], file: &Path) -> Vec<Rung> {
     stmts
@@ -80,15 +77,34 @@ fn pure(e: &Expr) -> Option<BoolExpr> {
         Expr::And(items) => BoolExpr::And(items.iter().map(pure).collect::<Option<_>>()?),
         Expr::Or(items) => BoolExpr::Or(items.iter().map(pure).collect::<Option<_>>()?),
         Expr::Xor(items) => BoolExpr::Xor(items.iter().map(pure).collect::<Option<_>>()?),
-        Expr::Cmp { .. } | Expr::Edge { .. } | Expr::Timer { .. } => return None,
+        Expr::Cmp { .. }
+        | Expr::Edge { .. }
+        | Expr::Timer { .. }
+        | Expr::Good(_)
+        | Expr::Bad(_) => return None,
     })
+}
+
+/// Whether a condition tests a tag's quality (`good(x)`, `bad(x)`): only the scan knows it.
+fn reads_quality(e: &Expr) -> bool {
+    match e {
+        Expr::Good(_) | Expr::Bad(_) => true,
+        Expr::Load(_) | Expr::Const(_) | Expr::Cmp { .. } => false,
+        Expr::Not(inner) | Expr::Edge { arg: inner, .. } | Expr::Timer { arg: inner, .. } => {
+            reads_quality(inner)
+        }
+        Expr::And(items) | Expr::Or(items) | Expr::Xor(items) => items.iter().any(reads_quality),
+    }
 }
 
 /// Why a condition is none of the forms.
 fn opaque_reason(e: &Expr) -> &'static str {
+    if reads_quality(e) {
+        return "a tag's quality (good/bad) in the condition, which only the scan knows";
+    }
     fn find(e: &Expr, timer: &mut bool, edge: &mut bool, cmp: &mut bool) {
         match e {
-            Expr::Load(_) | Expr::Const(_) => {}
+            Expr::Load(_) | Expr::Const(_) | Expr::Good(_) | Expr::Bad(_) => {}
             Expr::Not(inner) => find(inner, timer, edge, cmp),
             Expr::And(items) | Expr::Or(items) | Expr::Xor(items) => {
                 items.iter().for_each(|i| find(i, timer, edge, cmp));
@@ -128,32 +144,7 @@ fn latch(c: TagId, e: &Expr, ir: &BoolExpr) -> RungShape {
         };
     }
     // Otherwise by substitution, when the step never inverts the coil.
-    let set = substitute(ir, c, false);
-    let reset = BoolExpr::negate(substitute(ir, c, true));
-    let tags: Vec<TagId> = ir.tags().into_iter().filter(|&t| t != c).collect();
-    if tags.len() > MAX_ENUMERATED_TAGS {
-        return RungShape::Opaque {
-            reason: "the condition reads its own coil and too many tags to check it is a latch"
-                .into(),
-        };
-    }
-    for m in 0u32..(1 << tags.len()) {
-        let mut value = |t: TagId| {
-            tags.iter()
-                .position(|&x| x == t)
-                .is_some_and(|i| m & (1 << i) != 0)
-        };
-        if set.eval(&mut value) && reset.eval(&mut value) {
-            return RungShape::Opaque {
-                reason: "the rung inverts its coil for some inputs: no latch".into(),
-            };
-        }
-    }
-    RungShape::Latch {
-        set,
-        reset,
-        reset_dominant: true,
-    }
+    RungShape::self_latch(c, ir)
 }
 
 /// `(S | c) & !R` (reset dominant) or `S | (c & !R)` (set dominant), in any operand order;
@@ -169,7 +160,13 @@ fn written_latch(c: TagId, e: &Expr) -> Option<(BoolExpr, BoolExpr, bool)> {
                 return None;
             };
             let set = or_of(or.iter().filter(|x| !is_c(x)))?;
-            let keep = and_of(items.iter().enumerate().filter(|(i, _)| *i != hold).map(|(_, x)| x))?;
+            let keep = and_of(
+                items
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| *i != hold)
+                    .map(|(_, x)| x),
+            )?;
             (!set.reads(c) && !keep.reads(c)).then(|| (set, BoolExpr::negate(keep), true))
         }
         Expr::Or(items) => {
@@ -180,7 +177,13 @@ fn written_latch(c: TagId, e: &Expr) -> Option<(BoolExpr, BoolExpr, bool)> {
                 return None;
             };
             let keep = and_of(and.iter().filter(|x| !is_c(x)))?;
-            let set = or_of(items.iter().enumerate().filter(|(i, _)| *i != hold).map(|(_, x)| x))?;
+            let set = or_of(
+                items
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| *i != hold)
+                    .map(|(_, x)| x),
+            )?;
             (!set.reads(c) && !keep.reads(c)).then(|| (set, BoolExpr::negate(keep), false))
         }
         _ => None,
@@ -203,22 +206,6 @@ fn single(mut v: Vec<BoolExpr>, make: fn(Vec<BoolExpr>) -> BoolExpr) -> BoolExpr
         v.remove(0)
     } else {
         make(v)
-    }
-}
-
-/// `e` with the tag `c` replaced by a constant.
-fn substitute(e: &BoolExpr, c: TagId, value: bool) -> BoolExpr {
-    match e {
-        BoolExpr::Tag(t) if *t == c => BoolExpr::Const(value),
-        BoolExpr::Const(_) | BoolExpr::Tag(_) => e.clone(),
-        BoolExpr::Not(inner) => BoolExpr::negate(substitute(inner, c, value)),
-        BoolExpr::And(items) => {
-            BoolExpr::And(items.iter().map(|i| substitute(i, c, value)).collect())
-        }
-        BoolExpr::Or(items) => BoolExpr::Or(items.iter().map(|i| substitute(i, c, value)).collect()),
-        BoolExpr::Xor(items) => {
-            BoolExpr::Xor(items.iter().map(|i| substitute(i, c, value)).collect())
-        }
     }
 }
 
@@ -281,19 +268,14 @@ mod tests {
     use crate::logic::LogicEngine;
 
     fn shapes(src: &str) -> Vec<RungShape> {
-        let tags = TagTable::new(
-            ["a", "b", "c", "y", "n"]
-                .iter()
-                .enumerate()
-                .map(|(i, n)| {
-                    let ty = if *n == "n" {
-                        ValueType::U16
-                    } else {
-                        ValueType::Bool
-                    };
-                    (n.to_string(), TagId(i as u32), ty, true)
-                }),
-        );
+        let tags = TagTable::new(["a", "b", "c", "y", "n"].iter().enumerate().map(|(i, n)| {
+            let ty = if *n == "n" {
+                ValueType::U16
+            } else {
+                ValueType::Bool
+            };
+            (n.to_string(), TagId(i as u32), ty, true)
+        }));
         let p = compile(src, Path::new("t.expr"), &tags).unwrap();
         p.rungs().unwrap().into_iter().map(|r| r.shape).collect()
     }

@@ -294,7 +294,7 @@ fn unknown_coil_and_function_and_depth() {
     );
     assert_eq!(
         errors("q = blink(a, 1s)"),
-        ["p.expr:1:5: error: unknown function `blink`; the functions are rising, falling, ton, tof and tp"]
+        ["p.expr:1:5: error: unknown function `blink`; the functions are rising, falling, ton, tof, tp, good and bad"]
     );
     let deep = format!("q = {}a{}", "(".repeat(70), ")".repeat(70));
     assert_eq!(
@@ -504,6 +504,107 @@ fn bad_quality_tags_still_read_their_value() {
     assert!(rig.get("q"));
 }
 
+// ---- quality -------------------------------------------------------------------------------
+
+#[test]
+fn quality_tests_of_unknown_tags_are_errors_at_the_name() {
+    assert_eq!(
+        errors("q = a\nlamp = !good(levl) & bad(tmp)\n"),
+        [
+            "p.expr:2:14: error: unknown tag `levl`; did you mean `level`?",
+            "p.expr:2:26: error: unknown tag `tmp`; did you mean `temp`?",
+        ]
+    );
+    assert_eq!(
+        errors("q = good(a | b)\nq2 = bad(rising(a))\n"),
+        [
+            "p.expr:1:10: error: `good` takes a tag name, e.g. `good(level)`, not an expression",
+            "p.expr:2:10: error: `bad` takes a tag name, e.g. `bad(level)`, not an expression",
+        ]
+    );
+    assert_eq!(
+        error_kinds("q = good(level) > 3\n"),
+        [(1, 5, CompileErrorKind::Type(TypeError::ComparisonOperand))]
+    );
+}
+
+#[test]
+fn good_and_bad_follow_the_slot_quality() {
+    // `level` is u16: any tag has a quality.
+    let mut rig = Rig::new("q = good(a)\nq2 = bad(a)\nq3 = !good(level)\n", 10);
+    let (a, level) = (rig.id("a"), rig.id("level"));
+    let step = |rig: &mut Rig, quality: Quality| {
+        let now = rig.now();
+        rig.image.update(a, None, quality, now);
+        rig.scan();
+        (rig.get("q"), rig.get("q2"))
+    };
+    // Never read: Bad.
+    rig.scan();
+    assert_eq!(
+        (rig.get("q"), rig.get("q2"), rig.get("q3")),
+        (false, true, true)
+    );
+    rig.bit("a", false);
+    rig.set("level", Value::U16(7));
+    rig.scan();
+    assert_eq!(
+        (rig.get("q"), rig.get("q2"), rig.get("q3")),
+        (true, false, false)
+    );
+    assert_eq!(step(&mut rig, Quality::Stale), (false, false));
+    assert_eq!(step(&mut rig, Quality::Bad), (false, true));
+    assert_eq!(step(&mut rig, Quality::Good), (true, false));
+    // The value is kept while not good; the quality test does not read it.
+    rig.image.update(level, None, Quality::Bad, Duration::ZERO);
+    rig.scan();
+    assert!(rig.get("q3"));
+    assert_eq!(rig.image.get(level), Value::U16(7));
+}
+
+#[test]
+fn memory_and_forced_tags_are_good() {
+    let mut rig = Rig::new("q = good(motor)\nq2 = good(b)\n", 10);
+    let (motor, b) = (rig.id("motor"), rig.id("b"));
+    rig.image.set(motor, Value::Bool(false), Duration::ZERO);
+    rig.image.update(b, None, Quality::Bad, Duration::ZERO);
+    rig.scan();
+    assert_eq!((rig.get("q"), rig.get("q2")), (true, false));
+    rig.image.force(b, Value::Bool(true));
+    rig.image.apply_forces(Duration::ZERO);
+    rig.scan();
+    assert!(rig.get("q2"));
+}
+
+#[test]
+fn quality_tests_lower_to_one_instruction() {
+    let rig = Rig::new("q = !good(a) | bad(b)\n", 10);
+    let (a, b, q) = (rig.id("a"), rig.id("b"), rig.id("q"));
+    assert_eq!(
+        rig.program.instructions(),
+        [
+            Instr::Good(a),
+            Instr::Not,
+            Instr::Bad(b),
+            Instr::Or,
+            Instr::Store(q)
+        ]
+    );
+}
+
+#[test]
+fn quality_tests_stay_in_the_scan() {
+    use crate::offload::ir::RungShape;
+    let rig = Rig::new("q = !good(a)\nq2 = (rising(b) | q2) & !bad(b)\n", 10);
+    let rungs = rig.program.rungs().expect("expr describes its rungs");
+    for rung in rungs {
+        let RungShape::Opaque { reason } = rung.shape else {
+            panic!("a module cannot see a tag's quality: {rung:?}")
+        };
+        assert!(reason.contains("quality"), "{reason}");
+    }
+}
+
 #[test]
 fn outputs_list_the_coils_in_file_order() {
     let rig = Rig::new("lamp = a\n# x\nmotor = b\nq = 1\n", 10);
@@ -643,6 +744,9 @@ fn no_program_text_makes_compile_or_scan_panic() {
         "ton",
         "tof",
         "tp",
+        "good",
+        "bad",
+        "good(",
         ",",
         "2s",
         "0ms",

@@ -28,7 +28,8 @@ pub enum Num {
     Out(u32, Member),
 }
 
-/// A checked condition.
+/// A checked condition. `Good(t)` / `Bad(t)`: tag `t`'s quality is Good / Bad (`good(t)`,
+/// `bad(t)`).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum BoolExpr {
     Load(TagId),
@@ -39,6 +40,8 @@ pub(crate) enum BoolExpr {
     Or(Vec<BoolExpr>),
     Edge { rising: bool, arg: Box<BoolExpr> },
     Cmp { lhs: Num, op: CmpOp, rhs: Num },
+    Good(TagId),
+    Bad(TagId),
 }
 
 /// A block call with its checked arguments. The power flow is each block's first input (IN,
@@ -432,6 +435,19 @@ impl Checker<'_> {
                 rising: *rising,
                 arg: Box::new(self.boolean(arg)?),
             }),
+            // Any tag has a quality, whatever its type; block outputs have none.
+            Cond::Quality { good, tag, .. } => {
+                let Some(e) = self.tags.get(&tag.text) else {
+                    let suggestion = closest(&tag.text, self.tags.iter().map(|t| t.name.as_str()));
+                    let name = tag.text.clone();
+                    return self.fail(tag.pos, CompileErrorKind::UnknownTag { name, suggestion });
+                };
+                Some(if *good {
+                    BoolExpr::Good(e.id)
+                } else {
+                    BoolExpr::Bad(e.id)
+                })
+            }
             Cond::Cmp { lhs, op, rhs, .. } => {
                 let l = self.number(lhs);
                 let r = self.number(rhs);

@@ -66,6 +66,12 @@ pub enum CompileErrorKind {
         /// The limit.
         limit: u32,
     },
+    /// `good(…)` or `bad(…)` given something other than one tag name.
+    #[error("`{function}` takes a tag name, e.g. `{function}(level)`, not a condition or a block output")]
+    QualityArgument {
+        /// `good` or `bad`.
+        function: &'static str,
+    },
     /// A name that is neither a tag nor a block instance.
     #[error("unknown tag `{name}`{}", suggest(.suggestion))]
     UnknownTag {
@@ -267,7 +273,7 @@ pub enum Expected {
 impl fmt::Display for Expected {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Expected::Contact => "a contact (`tag`, `/tag`, `rising(tag)`, `(…)`, a comparison)",
+            Expected::Contact => "a contact (`tag`, `/tag`, `rising(tag)`, `good(tag)`, `(…)`, a comparison)",
             Expected::Arrow => "`->`",
             Expected::Action => "a coil (`tag`, `/tag`, `set tag`, `reset tag`), a block (`TON t(2s)`) or a box (`ADD(a, 1) => a`)",
             Expected::CoilName => "a tag name",

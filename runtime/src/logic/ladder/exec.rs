@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use softplc_io::point::{Value, ValueType};
+use softplc_io::point::{Quality, Value, ValueType};
 
 use super::check::{BoxOp, Call, Num};
 use super::lower::Lowered;
@@ -22,6 +22,11 @@ pub enum Instr {
     LoadOut(u32, Member),
     /// Push a constant.
     Const(bool),
+    /// Push whether a tag's quality is Good (read in the last cycle, or a memory or forced
+    /// tag): the contact `good(tag)`.
+    Good(TagId),
+    /// Push whether a tag's quality is Bad (its module lost, or never read): `bad(tag)`.
+    Bad(TagId),
     /// Negate the top.
     Not,
     /// Pop two, push their conjunction (series).
@@ -95,6 +100,10 @@ pub struct LadderProgram {
     needs_tags: usize,
     needs_rung: usize,
     file: PathBuf,
+    /// The coils as rungs, for the push-down planner.
+    rungs: Vec<crate::offload::ir::Rung>,
+    /// Per tag index: coils a module now drives, which the coil instructions skip.
+    released: Vec<bool>,
 }
 
 impl LadderProgram {
@@ -121,7 +130,20 @@ impl LadderProgram {
             needs_tags,
             needs_rung,
             file,
+            rungs: Vec::new(),
+            released: vec![false; needs_tags],
         }
+    }
+
+    /// The program with its coils described as rungs.
+    pub(crate) fn with_rungs(mut self, rungs: Vec<crate::offload::ir::Rung>) -> Self {
+        self.rungs = rungs;
+        self
+    }
+
+    /// Whether a module drives `id` (its coils then compute but do not write).
+    fn released(released: &[bool], id: TagId) -> bool {
+        released.get(id.index()).copied().unwrap_or(false)
     }
 
     /// The lowered instructions, rungs in file order.
@@ -169,6 +191,7 @@ impl LogicEngine for LadderProgram {
             edges,
             instances,
             types,
+            released,
             ..
         } = self;
         stack.clear();
@@ -179,6 +202,8 @@ impl LogicEngine for LadderProgram {
                     stack.push(instances.get(i as usize).is_some_and(|b| b.bool_output(m)))
                 }
                 Instr::Const(b) => stack.push(b),
+                Instr::Good(id) => stack.push(image.slot(id).quality == Quality::Good),
+                Instr::Bad(id) => stack.push(image.slot(id).quality == Quality::Bad),
                 Instr::Not => {
                     let a = pop(stack);
                     stack.push(!a);
@@ -205,6 +230,8 @@ impl LogicEngine for LadderProgram {
                     let q = edges.get_mut(slot as usize).is_some_and(|e| e.falling(x));
                     stack.push(q);
                 }
+                Instr::Coil(id) | Instr::NegCoil(id) | Instr::Set(id) | Instr::Reset(id)
+                    if Self::released(released, id) => {}
                 Instr::Coil(id) => image.set(id, Value::Bool(top(stack)), now),
                 Instr::NegCoil(id) => image.set(id, Value::Bool(!top(stack)), now),
                 Instr::Set(id) => {
@@ -270,6 +297,16 @@ impl LogicEngine for LadderProgram {
             }
         }
         Ok(())
+    }
+
+    fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
+        Some(self.rungs.clone())
+    }
+
+    fn release(&mut self, coil: TagId) {
+        if let Some(r) = self.released.get_mut(coil.index()) {
+            *r = true;
+        }
     }
 }
 

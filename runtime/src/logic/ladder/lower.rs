@@ -135,6 +135,14 @@ impl Lowerer {
             }
             BoolExpr::Out(i, m) => self.out.code.push(Instr::LoadOut(*i, *m)),
             BoolExpr::Const(b) => self.out.code.push(Instr::Const(*b)),
+            BoolExpr::Good(id) => {
+                self.use_tag(*id);
+                self.out.code.push(Instr::Good(*id));
+            }
+            BoolExpr::Bad(id) => {
+                self.use_tag(*id);
+                self.out.code.push(Instr::Bad(*id));
+            }
             BoolExpr::Not(inner) => {
                 self.expr(inner);
                 self.out.code.push(Instr::Not);
@@ -181,7 +189,12 @@ pub(crate) fn max_depth(code: &[Instr], calls: &[CallSite]) -> Option<usize> {
     let mut max = 0usize;
     for instr in code {
         let (pops, pushes) = match instr {
-            Instr::Load(_) | Instr::LoadOut(..) | Instr::Const(_) | Instr::Cmp { .. } => (0, 1),
+            Instr::Load(_)
+            | Instr::LoadOut(..)
+            | Instr::Const(_)
+            | Instr::Cmp { .. }
+            | Instr::Good(_)
+            | Instr::Bad(_) => (0, 1),
             Instr::Not | Instr::Rising(_) | Instr::Falling(_) => (1, 1),
             Instr::And | Instr::Or => (2, 1),
             Instr::Coil(_)

@@ -16,7 +16,10 @@
 //! - **Contacts**: `x` normally open, `/x` normally closed, `rising(x)` / `falling(x)` edges
 //!   (no edge on the first scan), comparisons `level >= 80`, `t.ET > 1.5s`, `n.CV = 10`
 //!   (`=`/`==`, `<>`/`!=`, `<`, `<=`, `>`, `>=`), constants `true`, `false`, `1`, `0`.
-//!   An empty condition (`-> x`) is always powered.
+//!   An empty condition (`-> x`) is always powered. `good(x)` passes while tag `x`'s quality
+//!   is Good (read in the last cycle, or a memory or forced tag), `/good(x)` while it is not
+//!   (Stale: its module missed a cycle; Bad: the module is lost); `bad(x)` passes only while
+//!   it is Bad. The argument is a tag name (of any type), not a condition or a block output.
 //! - **Coils**: `x`, `/x` (negated), `set x`, `reset x`, several separated by `,`.
 //! - **Blocks** (`crate::logic::blocks`): `KIND name(args)`: the power flow is the block's
 //!   first input and its main output (`Q`, `QU`) feeds the coils after a second `->`. Its
@@ -44,6 +47,7 @@ mod exec;
 mod lexer;
 mod lower;
 mod parser;
+mod rungs;
 mod source;
 #[cfg(test)]
 mod tests;
@@ -157,11 +161,16 @@ pub fn compile(
         }
     }
     let instances = instances.kinds.iter().map(|&k| Instance::new(k)).collect();
+    let described = rungs::describe(&checked, |i| {
+        let (line, column) = src.position(i, 0);
+        at(line, column)
+    });
     Ok(LadderProgram::new(
         lowered,
         instances,
         types,
         rung_pos,
         file.to_path_buf(),
-    ))
+    )
+    .with_rungs(described))
 }

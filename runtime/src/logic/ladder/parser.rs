@@ -6,6 +6,7 @@
 //! series    := contact+                             contacts in series, left to right
 //! contact   := "/" contact                          normally closed
 //!            | "rising" "(" condition ")" | "falling" "(" condition ")"
+//!            | "good" "(" name ")" | "bad" "(" name ")"    a tag's quality
 //!            | "(" condition ")"
 //!            | operand [cmp operand]                 a bool contact, or a comparison
 //! operand   := name ["." MEMBER] | number | duration | "-" number | true | false
@@ -86,6 +87,13 @@ pub(crate) enum Cond {
         rhs: Box<Cond>,
         pos: usize,
     },
+    /// `good(tag)` (`good`) or `bad(tag)`: a contact on the tag's quality; `pos` is the
+    /// function name's.
+    Quality {
+        good: bool,
+        tag: Name,
+        pos: usize,
+    },
 }
 
 impl Cond {
@@ -98,6 +106,7 @@ impl Cond {
             Cond::Series(v) | Cond::Parallel(v) => v.first().map_or(0, Cond::pos),
             Cond::Edge { arg, .. } => arg.pos(),
             Cond::Cmp { lhs, .. } => lhs.pos(),
+            Cond::Quality { pos, .. } => *pos,
         }
     }
 }
@@ -331,6 +340,31 @@ impl<'a> Parser<'a> {
                     rising: word == "rising",
                     arg: Box::new(arg),
                 })
+            }
+            Tok::Ident(word @ ("good" | "bad")) if self.peek_at(1) == Tok::LParen => {
+                let at = self.bump().1;
+                self.bump();
+                let pos = self.pos();
+                match (self.peek(), self.peek_at(1)) {
+                    (Tok::Ident(name), Tok::RParen) => {
+                        self.bump();
+                        self.bump();
+                        Ok(Cond::Quality {
+                            good: word == "good",
+                            tag: Name {
+                                text: name.to_string(),
+                                pos,
+                            },
+                            pos: at,
+                        })
+                    }
+                    _ => Err((
+                        pos,
+                        CompileErrorKind::QualityArgument {
+                            function: if word == "good" { "good" } else { "bad" },
+                        },
+                    )),
+                }
             }
             Tok::Ident(_) | Tok::Number(_) | Tok::NumberUnit { .. } | Tok::Minus => {
                 let operand = self.operand(Expected::Contact)?;
@@ -609,6 +643,34 @@ mod tests {
         assert!(
             matches!(&items[2], Cond::Cmp { op: CmpOp::Ne, rhs, .. } if **rhs == Cond::Lit(Lit::Number { value: -3.0, text: "-3".into() }, 32))
         );
+    }
+
+    #[test]
+    fn quality_contacts() {
+        let rung = parse_rung("/good(level) bad(x) good -> alarm").unwrap();
+        let quality = |good, text: &str, pos: usize| Cond::Quality {
+            good,
+            tag: Name {
+                text: text.into(),
+                pos,
+            },
+            pos: pos - if good { 5 } else { 4 },
+        };
+        assert_eq!(
+            rung.cond,
+            Some(Cond::Series(vec![
+                Cond::Not(Box::new(quality(true, "level", 6))),
+                quality(false, "x", 17),
+                // Without `(`, `good` is a tag.
+                r("good", 20),
+            ]))
+        );
+        let err = |t: &str| parse_rung(t).unwrap_err();
+        let arg = |function| CompileErrorKind::QualityArgument { function };
+        assert_eq!(err("good(a b) -> q"), (5, arg("good")));
+        assert_eq!(err("bad(t.Q) -> q"), (4, arg("bad")));
+        assert_eq!(err("good() -> q"), (5, arg("good")));
+        assert_eq!(err("good(/a) -> q"), (5, arg("good")));
     }
 
     #[test]

@@ -339,6 +339,84 @@ fn check_errors_point_at_the_offending_token() {
 }
 
 #[test]
+fn quality_contacts_of_unknown_tags_are_errors_at_the_name() {
+    assert_eq!(
+        errors(&["start -> motor", "/good(sensr) | bad(levl) -> alarm"]),
+        [
+            "3:11: unknown tag `sensr`; did you mean `sensor`?",
+            "3:24: unknown tag `levl`; did you mean `level`?",
+        ]
+    );
+    assert_eq!(
+        errors(&["start -> TON t(1s)", "good(t.Q) -> alarm"]),
+        ["3:10: `good` takes a tag name, e.g. `good(level)`, not a condition or a block output"]
+    );
+    // A block instance is no tag.
+    assert_eq!(
+        errors(&["start -> TON t(1s)", "good(t) -> alarm"]),
+        ["3:10: unknown tag `t`"]
+    );
+    assert_eq!(
+        errors(&["good(level) > 3 -> alarm"]),
+        ["2:17: expected `->`, found `>`"]
+    );
+}
+
+#[test]
+fn quality_contacts_follow_the_slot_quality() {
+    use softplc_io::point::Quality;
+    let mut r = Rig::new(&[
+        "/good(sensor) -> alarm",
+        "bad(level) -> lamp",
+        "good(motor) good(sensor) -> set motor",
+    ]);
+    let (sensor, level) = (id("sensor"), id("level"));
+    let step = |r: &mut Rig, q: Quality| {
+        r.image.update(sensor, None, q, r.now);
+        r.image.update(level, None, q, r.now);
+        r.scan();
+        (r.bit("alarm"), r.bit("lamp"))
+    };
+    // Never read: Bad. `motor` is a memory tag: the PLC marks it good at start-up.
+    r.set("motor", Value::Bool(false));
+    r.scan();
+    assert_eq!((r.bit("alarm"), r.bit("lamp")), (true, true));
+    r.image
+        .update(sensor, Some(Value::Bool(false)), Quality::Good, r.now);
+    r.image
+        .update(level, Some(Value::U16(3)), Quality::Good, r.now);
+    r.scan();
+    assert_eq!((r.bit("alarm"), r.bit("lamp")), (false, false));
+    assert!(r.bit("motor"), "good(motor) good(sensor) passed");
+    assert_eq!(step(&mut r, Quality::Stale), (true, false));
+    assert_eq!(step(&mut r, Quality::Bad), (true, true));
+    assert_eq!(r.get("level"), Value::U16(3), "the last good value is kept");
+    assert_eq!(step(&mut r, Quality::Good), (false, false));
+    // A forced tag is good.
+    r.image.update(sensor, None, Quality::Bad, r.now);
+    r.image.force(sensor, Value::Bool(true));
+    r.image.apply_forces(r.now);
+    r.scan();
+    assert!(!r.bit("alarm"));
+}
+
+#[test]
+fn quality_contacts_lower_to_one_instruction() {
+    let p = build(&["/good(sensor) | bad(level) -> alarm"]);
+    assert_eq!(
+        p.instructions(),
+        [
+            Instr::Good(id("sensor")),
+            Instr::Not,
+            Instr::Bad(id("level")),
+            Instr::Or,
+            Instr::Coil(id("alarm")),
+            Instr::Pop,
+        ]
+    );
+}
+
+#[test]
 fn yaml_errors_have_positions() {
     let e = compile("rungs:\n  - a -> b\n bad", Path::new("p.yaml"), &table()).unwrap_err();
     assert_eq!(e.len(), 1);
@@ -367,6 +445,7 @@ fn garbage_never_panics() {
     let pieces = [
         "(", ")", "/", "|", "->", "=>", "=", "<>", "<", "TON", "t", ".", "Q", "1s", ",", "-",
         "start", "rising", "(", "é", "\"", ":", "#", "\n", " ", "1.5", "CTU", "ADD", "set", "0",
+        "good", "bad",
     ];
     let mut seed = 0x2545_f491_4f6c_dd1du64;
     for _ in 0..3000 {

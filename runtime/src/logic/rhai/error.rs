@@ -51,6 +51,26 @@ pub enum CompileErrorKind {
         /// The instance.
         name: String,
     },
+    /// `good(…)` / `bad(…)` given something other than one tag name.
+    #[error("{function}() takes one tag name, e.g. {function}(level), not an expression")]
+    QualityArgument {
+        /// `good` or `bad`.
+        function: &'static str,
+    },
+    /// `good(x)` / `bad(x)` where `x` is a script variable, not a tag.
+    #[error("`{name}` is not a tag; {function}() reads a tag's quality")]
+    QualityOfNonTag {
+        /// `good` or `bad`.
+        function: &'static str,
+        /// The variable.
+        name: String,
+    },
+    /// `good(…)` / `bad(…)` inside a script function, which does not see tags.
+    #[error("{function}() reads a tag's quality and functions do not see tags; call it in the script's body and pass the result")]
+    QualityInFunction {
+        /// `good` or `bad`.
+        function: &'static str,
+    },
     /// A tag name the script cannot use (a Rhai keyword), used anyway.
     #[error("tag `{name}` has the name of a Rhai keyword and cannot be used in a script; rename it in the project")]
     KeywordTag {

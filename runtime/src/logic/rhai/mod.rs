@@ -28,6 +28,15 @@
 //! output. `q(name)`, `et(name)` (ms), `cv(name)`, `qu(name)`, `qd(name)` read outputs; times
 //! are milliseconds or strings like `"1.5s"`; `limit(min, x, max)` clamps.
 //!
+//! # Quality
+//!
+//! `good(tag)` is true while the tag's quality is Good (read from its module in the last
+//! cycle, or a memory or forced tag), false while it is Stale or Bad; `bad(tag)` is true only
+//! while it is Bad (the module is lost). The argument is the tag's variable itself
+//! (`alarm = !good(level_high);`), resolved when the script is compiled (see `quality.rs`):
+//! anything else, or a call inside a script function, is a compile error. The quality is the
+//! image's at the start of the scan.
+//!
 //! # How tag access stays fast
 //!
 //! Rhai resolves a variable it finds declared in the script to a slot counted from the end of
@@ -52,6 +61,7 @@ mod blocks;
 mod check;
 mod engine;
 mod error;
+mod quality;
 #[cfg(test)]
 mod tests;
 
@@ -93,6 +103,8 @@ pub struct RhaiProgram {
     base: usize,
     handles: Vec<Handle>,
     blocks: blocks::SharedBlocks,
+    /// The `good(tag)` / `bad(tag)` call sites and their tags' qualities.
+    qualities: Arc<quality::Sites>,
     deadline: engine::Deadline,
     budget: Duration,
     file: PathBuf,
@@ -204,6 +216,8 @@ pub fn compile_with(
 
     let mut errors = Vec::new();
     let usage = check::walk(&ast, &mut errors);
+    let qualities = Arc::new(quality::resolve(&ast, tags, &mut errors));
+    quality::register(&mut engine, &qualities);
     if !errors.is_empty() {
         errors.sort_by_key(|(pos, _)| (pos.line(), pos.position()));
         return Err(errors.into_iter().map(|(p, k)| err(p, k)).collect());
@@ -237,6 +251,7 @@ pub fn compile_with(
         scope,
         handles,
         blocks,
+        qualities,
         deadline,
         budget,
         file: file.to_path_buf(),
@@ -288,6 +303,7 @@ impl RhaiProgram {
     }
 
     fn copy_in(&mut self, image: &ProcessImage) {
+        self.qualities.copy_in(image);
         for h in &mut self.handles {
             let v = image.get(h.id);
             h.before = v;

@@ -234,7 +234,7 @@ fn a_runaway_loop_is_stopped() {
 fn garbage_never_panics() {
     let pieces = [
         "(", ")", "{", "}", "motor", "=", ";", "start", "\"", "ton", "let", "fn", "1", "+", "loop",
-        "if", "\n", " ", "[", "]", "#{", "q(\"t\")", ".", "é", "//", "/*", "`",
+        "if", "\n", " ", "[", "]", "#{", "q(\"t\")", ".", "é", "//", "/*", "`", "good(", "bad",
     ];
     let mut seed = 0x9e37_79b9_7f4a_7c15u64;
     for _ in 0..1500 {
@@ -261,4 +261,88 @@ fn garbage_never_panics() {
             let _ = p.scan(&mut image, &ctx);
         }
     }
+}
+
+#[test]
+fn good_and_bad_read_the_quality_at_the_start_of_the_scan() {
+    use softplc_io::point::Quality;
+    // `level` is u16: any tag has a quality. `lamp` is written by the script itself.
+    let mut r = Rig::new(
+        "motor = !good(start);\nsmall = if bad(level) { 1 } else { 0 };\ncount = if good(lamp) { 1 } else { 0 };\nlamp = true;\n",
+    );
+    assert_eq!(r.program.qualities.len(), 3);
+    let step = |r: &mut Rig, q: Quality| {
+        r.image.update(id("start"), None, q, r.now);
+        r.image.update(id("level"), None, q, r.now);
+        r.scan();
+        (r.get("motor"), r.get("small"))
+    };
+    // Never read: Bad; `lamp` is not written yet when the scan starts.
+    r.scan();
+    assert_eq!(
+        (r.get("motor"), r.get("small")),
+        (Value::Bool(true), Value::U16(1))
+    );
+    assert_eq!(r.get("count"), Value::I32(0));
+    r.set("start", Value::Bool(false));
+    r.set("level", Value::U16(4));
+    r.scan();
+    assert_eq!(
+        (r.get("motor"), r.get("small")),
+        (Value::Bool(false), Value::U16(0))
+    );
+    assert_eq!(r.get("count"), Value::I32(1), "written last scan: good");
+    assert_eq!(
+        step(&mut r, Quality::Stale),
+        (Value::Bool(true), Value::U16(0))
+    );
+    assert_eq!(
+        step(&mut r, Quality::Bad),
+        (Value::Bool(true), Value::U16(1))
+    );
+    assert_eq!(
+        step(&mut r, Quality::Good),
+        (Value::Bool(false), Value::U16(0))
+    );
+    // A forced tag is good.
+    r.image.update(id("start"), None, Quality::Bad, r.now);
+    r.image.force(id("start"), Value::Bool(true));
+    r.image.apply_forces(r.now);
+    r.scan();
+    assert_eq!(r.get("motor"), Value::Bool(false));
+}
+
+#[test]
+fn quality_errors_have_user_positions() {
+    // An unknown tag: the strict-variables error, at the name.
+    let e = errors("motor = true;\nlamp = !good(strat);\n");
+    assert_eq!(e.len(), 1, "{e:#?}");
+    assert!(e[0].starts_with("s.rhai:2:14: error: "), "{}", e[0]);
+    assert!(e[0].contains("strat"), "{}", e[0]);
+    let e = errors(
+        "lamp = good(start && stop);\nlamp = bad(\"level\");\nlet x = true;\nmotor = good(x);\nmotor = good(start, stop);\nfn f(a) { good(a) }\nmotor = start.good();\n",
+    );
+    assert_eq!(
+        e,
+        [
+            "s.rhai:1:19: error: good() takes one tag name, e.g. good(level), not an expression",
+            "s.rhai:2:12: error: bad() takes one tag name, e.g. bad(level), not an expression",
+            "s.rhai:4:14: error: `x` is not a tag; good() reads a tag's quality",
+            "s.rhai:5:9: error: good() takes one tag name, e.g. good(level), not an expression",
+            "s.rhai:6:11: error: good() reads a tag's quality and functions do not see tags; call it in the script's body and pass the result",
+            "s.rhai:7:15: error: good() takes one tag name, e.g. good(level), not an expression",
+        ]
+    );
+}
+
+#[test]
+fn a_quality_call_the_compiler_did_not_resolve_faults() {
+    let mut r = Rig::new("let f = Fn(\"good\");\nmotor = f.call(start);\n");
+    let f = r.try_scan().unwrap_err();
+    assert!(
+        f.message
+            .contains("good() must be called directly with a tag name"),
+        "{f}"
+    );
+    assert_eq!((f.pos.line, f.pos.column), (2, 11), "{f}");
 }
