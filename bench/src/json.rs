@@ -73,6 +73,7 @@ fn row_json(row: &Row) -> Value {
 /// The whole results document.
 pub fn document(
     machine: &Machine,
+    load_at_end: f64,
     command: &str,
     quick: bool,
     results: &[ScenarioResult],
@@ -100,6 +101,10 @@ pub fn document(
             "cpus": machine.cpus,
             "cpu_model": machine.cpu_model,
             "kernel": machine.kernel,
+            "load_average_1m_start": machine.load_at_start,
+            "load_average_1m_end": load_at_end,
+            "load_average_1m_start": machine.load_at_start,
+            "load_average_1m_end": load_at_end,
         },
         "scenarios": scenarios,
     })

@@ -16,6 +16,9 @@ pub struct Machine {
     pub date: String,
     /// `git describe`-like revision of the source, with `-dirty` for local changes.
     pub revision: String,
+    /// The 1-minute load average when the run started: other work on the machine shows in
+    /// every real-time figure.
+    pub load_at_start: f64,
 }
 
 impl Machine {
@@ -37,6 +40,7 @@ impl Machine {
             kernel,
             date: utc(secs),
             revision: revision(),
+            load_at_start: load_average(),
         }
     }
 
@@ -47,6 +51,14 @@ impl Machine {
             self.cpus, self.cpu_model, self.kernel
         )
     }
+}
+
+/// The 1-minute load average (0 when /proc/loadavg cannot be read).
+pub fn load_average() -> f64 {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|v| v.parse().ok()))
+        .unwrap_or(0.0)
 }
 
 /// The source revision, or `unknown` outside a git checkout.

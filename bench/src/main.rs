@@ -122,11 +122,14 @@ fn main() -> anyhow::Result<()> {
     }
     let _ = std::fs::remove_dir_all(&scratch);
 
-    let doc = json::document(&machine, &command, args.quick, &results);
+    let load_at_end = machine::load_average();
+    let doc = json::document(&machine, load_at_end, &command, args.quick, &results);
     let text = table::markdown(&results);
     let header = format!(
-        "Machine: {}. Date: {}. Revision: {}. Command: `{command}` ({:.0} s).\n\n",
+        "Machine: {}; load average {:.2} at the start, {load_at_end:.2} at the end. \
+         Date: {}. Revision: {}. Command: `{command}` ({:.0} s).\n\n",
         machine.summary(),
+        machine.load_at_start,
         machine.date,
         machine.revision,
         started.elapsed().as_secs_f64()

@@ -1,11 +1,8 @@
 //! A small SVG writer for the results: cumulative distributions and histograms of durations,
 //! several series per plot, no plotting crate.
 
-use std::fmt::Write;
-use std::time::Duration;
-
 use crate::report::{Plot, PlotKind, Series};
-use crate::table::fmt_time;
+use std::fmt::Write;
 
 const WIDTH: f64 = 900.0;
 const HEIGHT: f64 = 440.0;
@@ -72,12 +69,28 @@ impl Axis {
             }
             t
         } else {
-            let step = nice_step((self.hi - self.lo) / 8.0);
-            (0..=((self.hi - self.lo) / step).round() as usize)
+            let step = nice_step((self.hi - self.lo) / 10.0);
+            (0..=((self.hi - self.lo) / step).floor() as usize)
                 .map(|i| self.lo + i as f64 * step)
                 .collect()
         }
     }
+}
+
+/// A tick's time, short: `500µs`, `1ms`, `2.5ms`, `1s`.
+fn tick_label(ns: f64) -> String {
+    let (v, unit) = if ns >= 1e9 {
+        (ns / 1e9, "s")
+    } else if ns >= 1e6 {
+        (ns / 1e6, "ms")
+    } else if ns >= 1e3 {
+        (ns / 1e3, "µs")
+    } else {
+        (ns, "ns")
+    };
+    let text = format!("{v:.2}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    format!("{text}{unit}")
 }
 
 /// 1, 2 or 5 × a power of ten, at least `raw`.
@@ -132,13 +145,14 @@ pub fn svg(plot: &Plot) -> String {
     let y_max = match plot.kind {
         PlotKind::Cdf { .. } => 1.0,
         PlotKind::Histogram => {
-            curves
+            let top = curves
                 .iter()
                 .flatten()
                 .map(|p| p.1)
                 .fold(0.0, f64::max)
-                .max(1e-9)
-                * 1.05
+                .max(0.01);
+            let step = nice_step(top / 4.0);
+            ((top / step).ceil() * step).min(1.0)
         }
     };
     frame(&mut out, &axis, plot, y_max);
@@ -182,7 +196,7 @@ fn frame(out: &mut String, axis: &Axis, plot: &Plot, y_max: f64) {
             out,
             r##"<line x1="{x:.1}" y1="{y0}" x2="{x:.1}" y2="{y1}" stroke="#ddd"/><text x="{x:.1}" y="{}" text-anchor="middle">{}</text>"##,
             y0 + 16.0,
-            fmt_time(Duration::from_nanos(t as u64))
+            tick_label(t)
         );
     }
     let y_label = match plot.kind {
@@ -254,6 +268,8 @@ fn histogram_points(data: &[(f64, u64)], axis: &Axis) -> Vec<(f64, f64)> {
 
 #[cfg(test)]
 mod tests {
+    use std::time::Duration;
+
     use softplc::scan::DurationHistogram;
 
     use super::*;
@@ -292,6 +308,14 @@ mod tests {
         assert_eq!(text.matches("<polyline").count(), 2);
         assert!(text.contains("A &lt;test&gt;"));
         assert!(text.contains("two (n=2)"));
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(tick_label(500_000.0), "500µs");
+        assert_eq!(tick_label(1e6), "1ms");
+        assert_eq!(tick_label(2.5e6), "2.5ms");
+        assert_eq!(tick_label(1e9), "1s");
     }
 
     #[test]

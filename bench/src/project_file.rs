@@ -44,8 +44,25 @@ pub fn load(
     tags: &[String],
     program: &str,
 ) -> anyhow::Result<Project> {
+    load_offload(scratch, name, period, buses, tags, program, "never")
+}
+
+/// [`load`] with the project's push-down mode (`offload: auto` lets the planner move rungs
+/// into the modules).
+pub fn load_offload(
+    scratch: &Path,
+    name: &str,
+    period: &str,
+    buses: &[SimBus],
+    tags: &[String],
+    program: &str,
+    offload: &str,
+) -> anyhow::Result<Project> {
     let mut yaml = String::new();
-    let _ = writeln!(yaml, "project: {name}\nscan:\n  period: {period}\nbuses:");
+    let _ = writeln!(
+        yaml,
+        "project: {name}\nscan:\n  period: {period}\noffload: {offload}\nbuses:"
+    );
     if buses.is_empty() {
         yaml.truncate(yaml.len() - "buses:\n".len());
         yaml.push_str("buses: []\n");

@@ -97,8 +97,12 @@ impl Value {
                 "0" | "false" | "off" => Some(Value::Bool(false)),
                 _ => None,
             },
-            ValueType::U16 => parse_int(t).and_then(|v| u16::try_from(v).ok()).map(Value::U16),
-            ValueType::I32 => parse_int(t).and_then(|v| i32::try_from(v).ok()).map(Value::I32),
+            ValueType::U16 => parse_int(t)
+                .and_then(|v| u16::try_from(v).ok())
+                .map(Value::U16),
+            ValueType::I32 => parse_int(t)
+                .and_then(|v| i32::try_from(v).ok())
+                .map(Value::I32),
             ValueType::F32 => t.parse::<f32>().ok().map(Value::F32),
         }
     }

@@ -207,6 +207,11 @@ impl Plc {
                 bus: bus.name.clone(),
                 source,
             })?;
+            if clock.is_virtual() {
+                // The first cycle starts after the start-up traffic (tables, settings), as it
+                // does on a real clock.
+                clock.sleep_until(owner.now());
+            }
             lines.push(if clock.is_virtual() {
                 Line::Inline(Box::new(owner))
             } else {
@@ -427,12 +432,18 @@ impl Plc {
 
     /// Drives every output to its safe value (stop, fault, watchdog).
     pub fn write_safe_state(&mut self) {
+        // Pushed-down outputs: their tables are cleared first, in a write of their own, so no
+        // module logic drives them once they are set to their safe values.
+        if self.offload.clear_tables(&mut self.frames) {
+            self.dispatch_writes();
+            self.offload.clear_commands(&mut self.frames);
+        }
         for bind in &self.outputs {
             self.frames[bind.bus].modules[bind.module][bind.point] = Some(bind.safe);
             self.image.set(bind.tag, bind.safe, self.clock.now());
         }
         self.offload
-            .stop(&mut self.frames, &mut self.image, self.clock.now());
+            .safe_outputs(&mut self.frames, &mut self.image, self.clock.now());
         self.dispatch_writes();
         self.offload.clear_commands(&mut self.frames);
     }

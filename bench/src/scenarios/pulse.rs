@@ -4,12 +4,11 @@
 //! - Central: an `expr` program on the virtual line in real time, `pulse = tp(req, 50ms)` with
 //!   `pulse` bound to Y1; `req` is a one-scan request every 7 scans from an on-delay timer. The
 //!   scan can only switch Y1 at its write phases, 80 ms apart.
-//! - YPULSE: YPULSE1 = 50 written to the simulated module (holding register 83, 40084) over
-//!   the virtual line; the module's own pulser times the output.
+//! - YPULSE: the same program with `offload: auto`: the push-down planner keeps the trigger in
+//!   the scan and turns the pulse into a write of YPULSE1 = 50 (holding register 83, 40084) on
+//!   each trigger edge; the module's own pulser times the output.
 //!
-//! Y1 is sampled at the terminal every millisecond (so widths are good to about ±1 ms). The
-//! pushed-down variant (the planner turning `tp` into YPULSE) comes with the push-down issue;
-//! until then the module's pulser is driven directly.
+//! Y1 is sampled at the terminal every millisecond (so widths are good to about ±1 ms).
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -18,13 +17,6 @@ use anyhow::Context;
 use softplc::clock::MonotonicClock;
 use softplc::plc::Plc;
 use softplc::scan::{DurationHistogram, ScanEngine};
-use softplc_io::devices::minimod::MiniModSim;
-use softplc_io::line::transport::Transport;
-use softplc_io::line::LineSettings;
-use softplc_io::modbus::master::encode_request;
-use softplc_io::modbus::Request;
-use softplc_io::sim::line::{SimWorld, VirtualPort};
-use softplc_io::time::Clock;
 
 use super::{Ctx, Scenario};
 use crate::project_file::{self, SimBus};
@@ -43,12 +35,10 @@ pub const SCENARIO: Scenario = Scenario {
 
 const WIDTH: Duration = Duration::from_millis(50);
 const PERIOD: Duration = Duration::from_millis(80);
-/// YPULSE1: holding register 83 (40084), "Modbus register map (read and write registers)".
-const HR_YPULSE1: u16 = 83;
 
 fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
-    let central = central(ctx)?;
-    let pushed = ypulse(ctx)?;
+    let central = program(ctx, "never")?;
+    let pushed = program(ctx, "auto")?;
     let mut out = Outcome::default();
     let row = |case: &str, h: &DurationHistogram| {
         let p = h.percentiles();
@@ -69,8 +59,9 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
             .note("the scan switches Y1 only at its write phases"),
     );
     out.rows.push(
-        row("module: YPULSE1 = 50 (HR 83)", &pushed)
-            .note("written directly; planner push-down not yet available (push-down issue)"),
+        row("pushed down: YPULSE1 = 50 (HR 83)", &pushed).note(
+            "the planner's push-down (offload: auto): trigger in the scan, width in the module",
+        ),
     );
     out.plots.push(Plot {
         file: "pulse-width.svg".into(),
@@ -91,8 +82,9 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
     Ok(out)
 }
 
-/// The program on the scan; widths of Y1's pulses at the terminal.
-fn central(ctx: &Ctx) -> anyhow::Result<DurationHistogram> {
+/// The program, central (`offload: never`) or pushed down (`auto`); widths of Y1's pulses at
+/// the terminal.
+fn program(ctx: &Ctx, offload: &str) -> anyhow::Result<DurationHistogram> {
     let run_for = ctx.pick(Duration::from_secs(12), Duration::from_secs(3));
     let bus = SimBus::new("line1", 19200, [1]);
     let tags = [
@@ -100,13 +92,14 @@ fn central(ctx: &Ctx) -> anyhow::Result<DurationHistogram> {
         "{ name: pulse, point: line1_m1.Y1, safe: false }".to_string(),
     ];
     let program = "req = ton(!req, 400ms)\npulse = tp(req, 50ms)\n";
-    let project = project_file::load(
+    let project = project_file::load_offload(
         &ctx.scratch,
-        "pulse_central",
+        &format!("pulse_{offload}"),
         "80ms",
         &[bus],
         &tags,
         program,
+        offload,
     )?;
     let plc = Plc::build(project, Arc::new(MonotonicClock::new()))?;
     let clock = plc.clock().clone();
@@ -128,30 +121,5 @@ fn central(ctx: &Ctx) -> anyhow::Result<DurationHistogram> {
     watch.run_until(clock.as_ref(), begin + run_for.saturating_sub(PERIOD * 2));
     scan.join()
         .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
-    Ok(watch.widths)
-}
-
-/// YPULSE1 = 50 written over the virtual line every 250 ms; widths of Y1 at the terminal.
-fn ypulse(ctx: &Ctx) -> anyhow::Result<DurationHistogram> {
-    let pulses = if ctx.quick { 4 } else { 20 };
-    let settings = LineSettings::DEFAULT;
-    let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
-    let mut world = SimWorld::new(vec![settings]);
-    let device = world.add_device(0, "mm1", Box::new(MiniModSim::new(1)));
-    let world = world.shared();
-    let mut port = VirtualPort::new(world.clone(), 0, settings, clock.clone());
-    let mut frame = Vec::new();
-    let request = Request::WriteSingleRegister {
-        addr: HR_YPULSE1,
-        value: 50,
-    };
-    encode_request(1, &request, &mut frame).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let mut watch = PulseWatch::new(world, device, "Y1");
-    let spacing = Duration::from_millis(250);
-    for _ in 0..pulses {
-        port.write_frame(&frame)?;
-        watch.run_until(clock.as_ref(), clock.now() + spacing);
-        port.flush_input();
-    }
     Ok(watch.widths)
 }

@@ -4,9 +4,9 @@
 //! - Central: `y = x` (X1 → Y1 of one MiniMod) on the runtime's scan in real time, 19200 8E1,
 //!   reply delay 10 ms, scan period 50 ms: the edge waits for the next input phase, then the
 //!   output phase's write.
-//! - MiniMod AON/AOFF: the same behaviour in the module (Y1AON1 = X1, Y1AOFF1 = -X1, "Automatic
-//!   output management"), written by the driver at start-up; the program does not own Y1.
-//!   Configured by hand here: the push-down planner that would choose it has not landed.
+//! - MiniMod AON/AOFF: the same program with `offload: auto`: the push-down planner moves the
+//!   rung into the module (Y1AON1 = X1, Y1AOFF1 = -X1, "Automatic output management"), the
+//!   driver writes and verifies the tables at start-up, and the scan reads Y1 back.
 //! - RESI-16DI8RO SWITCH and TOGGLE: not yet available (no RESI model yet).
 //!
 //! Both MiniMod cases include the module's power-on input filter (XLATUP/XLATDN = 20 ms).
@@ -67,7 +67,7 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
         .bound(Bound::baseline("central", &central_p))
         .bound(Bound::fixed("scan period", PERIOD))
         .value("missed_edges", module.missed as f64)
-        .note("set by hand in the module's settings; the planner is not there yet"),
+        .note("pushed down by the planner (offload: auto)"),
     );
     out.rows
         .push(Row::not_yet("RESI-16DI8RO SWITCH", RESI, RESI_ISSUE));
@@ -101,24 +101,21 @@ struct Probed {
 /// Runs the project (central: `y = x`; in the module: AON/AOFF settings) and flips X1.
 fn probe(ctx: &Ctx, in_module: bool) -> anyhow::Result<Probed> {
     let run_for = ctx.pick(Duration::from_secs(12), Duration::from_millis(2500));
-    let mut bus = SimBus::new("line1", 19200, [1]);
+    let bus = SimBus::new("line1", 19200, [1]);
     let mut tags = vec![
         "{ name: x, point: line1_m1.X1 }".to_string(),
         "{ name: beat, type: bool }".to_string(),
     ];
-    let program = if in_module {
-        bus.settings = r#"{ Y1AON1: X1, Y1AOFF1: "-X1" }"#.into();
-        "beat = !beat\n"
-    } else {
-        tags.push("{ name: y, point: line1_m1.Y1, safe: false }".into());
-        "beat = !beat\ny = x\n"
-    };
+    tags.push("{ name: y, point: line1_m1.Y1, safe: false }".into());
+    let program = "beat = !beat\ny = x\n";
+    let offload = if in_module { "auto" } else { "never" };
     let name = if in_module {
         "reaction_module"
     } else {
         "reaction_central"
     };
-    let project = project_file::load(&ctx.scratch, name, "50ms", &[bus], &tags, program)?;
+    let project =
+        project_file::load_offload(&ctx.scratch, name, "50ms", &[bus], &tags, program, offload)?;
     let plc = Plc::build(project, Arc::new(MonotonicClock::new()))?;
     let clock = plc.clock().clone();
     let world = plc

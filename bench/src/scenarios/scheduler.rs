@@ -105,7 +105,7 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
                 hist: tokio.hist,
             });
         }
-        let which = if load { "load" } else { "idle" };
+        let which = if load { "load" } else { "no-load" };
         out.plots.push(Plot {
             file: format!("scheduler-lateness-{which}.svg"),
             title: format!(
@@ -113,7 +113,7 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
                 if load {
                     "with a busy thread per CPU"
                 } else {
-                    "idle machine"
+                    "no added load"
                 }
             ),
             x_label: "lateness".into(),

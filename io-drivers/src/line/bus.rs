@@ -255,6 +255,12 @@ impl BusOwner {
         self.transport.sync(t);
     }
 
+    /// The line's time: the end of its last transaction, or later (on a virtual line the
+    /// scan starts once the start-up traffic has ended).
+    pub fn now(&self) -> Duration {
+        self.transport.now()
+    }
+
     /// Sends every module's start-up transactions and checks the replies.
     pub fn startup(&mut self) -> Result<(), StartupError> {
         for m in 0..self.modules.len() {

@@ -70,10 +70,26 @@ pub static CONVEYOR: PlantSpec = PlantSpec {
     summary: "a 1 m belt at 0.5 m/s, an entry and an exit sensor, and an operator who loads a \
               box, presses start, and takes the box away at the exit",
     roles: &[
-        PlantRole { name: "motor", drives_input: false, doc: "belt motor (module output)" },
-        PlantRole { name: "start_button", drives_input: true, doc: "operator's start button" },
-        PlantRole { name: "sensor_entry", drives_input: true, doc: "box at the loading end" },
-        PlantRole { name: "sensor_exit", drives_input: true, doc: "box at the unloading end" },
+        PlantRole {
+            name: "motor",
+            drives_input: false,
+            doc: "belt motor (module output)",
+        },
+        PlantRole {
+            name: "start_button",
+            drives_input: true,
+            doc: "operator's start button",
+        },
+        PlantRole {
+            name: "sensor_entry",
+            drives_input: true,
+            doc: "box at the loading end",
+        },
+        PlantRole {
+            name: "sensor_exit",
+            drives_input: true,
+            doc: "box at the unloading end",
+        },
     ],
     build: || Box::new(Conveyor::default()),
 };

@@ -45,7 +45,11 @@ pub fn complete_frame(buf: &[u8]) -> Option<usize> {
     // A text command (MiniMod `?X1`, RESI `#...`, DCON `$01M`) is printable ASCII up to its
     // CR or LF; an RTU frame nearly always holds a zero or control byte before any 0x0D.
     let end = buf.iter().position(|b| *b == b'\r' || *b == b'\n')?;
-    if end > 0 && buf[..end].iter().all(|b| b.is_ascii_graphic() || *b == b' ') {
+    if end > 0
+        && buf[..end]
+            .iter()
+            .all(|b| b.is_ascii_graphic() || *b == b' ')
+    {
         return Some(end + 1);
     }
     None
@@ -65,7 +69,8 @@ pub fn serve(
     let mut last_byte = clock.now();
     // Silence that ends a frame: t3.5, but a pty's scheduling jitter is larger than that.
     let silence = settings.t3_5().max(Duration::from_millis(5));
-    port.set_timeout(Duration::from_millis(1)).map_err(|e| std::io::Error::other(e.description))?;
+    port.set_timeout(Duration::from_millis(1))
+        .map_err(|e| std::io::Error::other(e.description))?;
     while !stop.load(Ordering::Relaxed) {
         match port.read(&mut chunk) {
             Ok(n) if n > 0 => {
@@ -117,7 +122,9 @@ fn answer(
     let (first, bytes) = {
         let mut w = lock(world);
         w.deliver(SERVED_LINE, frame, now);
-        let Some(first) = w.next_arrival(SERVED_LINE) else { return Ok(false) };
+        let Some(first) = w.next_arrival(SERVED_LINE) else {
+            return Ok(false);
+        };
         let mut bytes = Vec::new();
         w.take_arrived(SERVED_LINE, Duration::MAX, &mut bytes);
         (first, bytes)

@@ -38,7 +38,11 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     // (tables, read-back).
     let plan = crate::offload::plan_program(&project, engine.as_ref());
     let mut planned = project.clone();
-    for (module, device) in planned.modules.iter_mut().zip(plan.device_configs(&project)) {
+    for (module, device) in planned
+        .modules
+        .iter_mut()
+        .zip(plan.device_configs(&project))
+    {
         module.device = device;
     }
     print!("{}", report(&planned));

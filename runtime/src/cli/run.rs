@@ -83,9 +83,20 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         Some(server)
     };
     let published = snapshot::SnapshotCell::new();
-    let services = network::start(engine.plc().project(), &published, &requests)?;
+    let mut services = network::start(engine.plc().project(), &published, &requests)?;
+    if args.virtual_clock {
+        if engine.plc().project().service.web.is_some() {
+            tracing::info!("web page: off on the virtual clock (nobody could watch it)");
+        }
+    } else {
+        services.web = network::start_web(engine.plc(), &published, &requests);
+    }
     if services.any() {
-        engine = engine.with_publisher(snapshot::Publisher::new(published));
+        let mut publisher = snapshot::Publisher::new(published);
+        if services.web.is_some() {
+            publisher = publisher.with_details();
+        }
+        engine = engine.with_publisher(publisher);
     }
     let notifier = Notifier::from_env();
     if notifier.enabled() {

@@ -74,6 +74,19 @@ impl BoolExpr {
         }
     }
 
+    /// The condition with the tag `id` replaced by a constant.
+    pub fn substitute(&self, id: TagId, value: bool) -> BoolExpr {
+        let sub = |items: &[BoolExpr]| items.iter().map(|i| i.substitute(id, value)).collect();
+        match self {
+            BoolExpr::Tag(t) if *t == id => BoolExpr::Const(value),
+            BoolExpr::Const(_) | BoolExpr::Tag(_) => self.clone(),
+            BoolExpr::Not(inner) => BoolExpr::negate(inner.substitute(id, value)),
+            BoolExpr::And(items) => BoolExpr::And(sub(items)),
+            BoolExpr::Or(items) => BoolExpr::Or(sub(items)),
+            BoolExpr::Xor(items) => BoolExpr::Xor(sub(items)),
+        }
+    }
+
     /// Whether the condition reads `id`.
     pub fn reads(&self, id: TagId) -> bool {
         match self {
@@ -211,7 +224,46 @@ pub enum RungShape {
     },
 }
 
+/// Most tags a self-reading condition may read for [`RungShape::self_latch`] to check it
+/// (2^12 evaluations).
+pub const MAX_LATCH_TAGS: usize = 12;
+
 impl RungShape {
+    /// The shape of `coil = expr` where `expr` reads `coil`: each scan the coil is set where
+    /// `expr[coil:=0]` holds and reset where `expr[coil:=1]` does not. That is a latch exactly
+    /// when the two never hold together (then the step never inverts the coil, and which one
+    /// dominates does not matter); checked over every combination of the other tags, when
+    /// there are at most [`MAX_LATCH_TAGS`] of them.
+    pub fn self_latch(coil: TagId, expr: &BoolExpr) -> RungShape {
+        let set = expr.substitute(coil, false);
+        let reset = BoolExpr::negate(expr.substitute(coil, true));
+        let tags: Vec<TagId> = expr.tags().into_iter().filter(|&t| t != coil).collect();
+        if tags.len() > MAX_LATCH_TAGS {
+            return RungShape::Opaque {
+                reason: "the condition reads its own coil and too many tags to check it is a \
+                         latch"
+                    .into(),
+            };
+        }
+        for m in 0u32..(1 << tags.len()) {
+            let mut value = |t: TagId| {
+                tags.iter()
+                    .position(|&x| x == t)
+                    .is_some_and(|i| m & (1 << i) != 0)
+            };
+            if set.eval(&mut value) && reset.eval(&mut value) {
+                return RungShape::Opaque {
+                    reason: "the rung inverts its coil for some inputs: no latch".into(),
+                };
+            }
+        }
+        RungShape::Latch {
+            set,
+            reset,
+            reset_dominant: true,
+        }
+    }
+
     /// A short name for reports.
     pub fn name(&self) -> &'static str {
         match self {

@@ -95,12 +95,7 @@ pub fn minimize(on: u8, dc: u8, vars: u8) -> Result<Vec<Cube>, MinimizeError> {
     let primes: Vec<(Cube, u8)> = implicants
         .iter()
         .copied()
-        .filter(|&(_, c)| {
-            c & on != 0
-                && !implicants
-                    .iter()
-                    .any(|&(_, d)| d != c && d & c == c)
-        })
+        .filter(|&(_, c)| c & on != 0 && !implicants.iter().any(|&(_, d)| d != c && d & c == c))
         .collect();
     let mut best: Option<(u32, u32, Vec<Cube>)> = None;
     // At most 2^|primes| subsets; three variables have few primes (a handful, with don't-cares

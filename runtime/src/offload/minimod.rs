@@ -92,8 +92,9 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
             why: "the MiniMod's conditions are levels: it has no edge-triggered functions",
         }),
         RungShape::Blink { .. } => Err(Reason::Unsupported {
-            why: "a blinker stays central: YLAMP steps run freely from power-on, so the \
-                  module cannot start the pattern when the enable rises",
+            why: "a blinker stays central: YLAMP steps run freely from the module's power-on, \
+                  so the pattern cannot start when the enable rises, and the scan cannot know \
+                  its state (a blinker does not show in the coils the driver reads back)",
         }),
         RungShape::Opaque { reason } => Err(Reason::Opaque(reason.clone())),
     }
@@ -232,6 +233,7 @@ fn auto_on_off(site: &Site, y: u8, table: &[Action; 8]) -> Result<ModulePlacemen
             tables.push(TableEntry {
                 register,
                 value: u32::from(value),
+                mask: true,
                 meaning: if value == 0 {
                     "unused".into()
                 } else {
@@ -262,10 +264,7 @@ fn pulse(
         .then(|| u16::try_from(width.as_millis()).ok())
         .flatten()
         .filter(|ms| (1..=MAX_PULSE_MS).contains(ms))
-        .ok_or(Reason::Time {
-            time: width,
-            takes,
-        })?;
+        .ok_or(Reason::Time { time: width, takes })?;
     for e in trigger {
         if let Some(tag) = e.tags().into_iter().find(|t| site.later.contains(t)) {
             return Err(Reason::TriggerReadsLater {
@@ -321,11 +320,9 @@ pub(crate) fn module_settings(
     if !has("readback") {
         out.push(("readback".into(), "every".into()));
     }
-    let events = module
-        .device
-        .settings
-        .iter()
-        .any(|(k, v)| k.eq_ignore_ascii_case("events") && matches!(v.trim(), "true" | "on" | "yes"));
+    let events = module.device.settings.iter().any(|(k, v)| {
+        k.eq_ignore_ascii_case("events") && matches!(v.trim(), "true" | "on" | "yes")
+    });
     if events && !has("YEVMASK") {
         let ys = auto.iter().fold(0u16, |acc, p| {
             let name = module.model.points.get(p.point).map_or("", |s| s.name);

@@ -17,6 +17,16 @@
 //!    tables are cleared (or kept);
 //! 4. [`report`] is what `softplc check` prints: placement, tables, reaction times.
 //!
+//! # Declarations rather than rungs
+//!
+//! Two module features have no rung to move: input conditioning (`debounce` / `stretch` on a
+//! MiniMod input tag, written as XLATUPn / XLATDNn whatever the mode, since the scan and the
+//! module then see the same cooked input) and edge counting: a tag bound to `mmX.XCOUNTn`
+//! reads the module's own counter of rising edges (with the module's `counters: every`
+//! setting), so a counter of fast pulses needs no CTU at all. A blinker stays central: YLAMP
+//! runs freely from the module's power-on, so its phase can neither follow the enable nor be
+//! read back.
+//!
 //! # Equivalence
 //!
 //! Each form's proof is in its mapping's module docs; the tests
@@ -34,6 +44,8 @@ pub mod planner;
 pub mod report;
 pub mod resi;
 pub mod runtime;
+#[cfg(test)]
+mod tests;
 
 pub use planner::{plan, Placement, Plan, Reason, RequireFailure};
 
@@ -51,9 +63,5 @@ pub fn engine_name(kind: ProgramKind) -> &'static str {
 
 /// The plan of `project` with its compiled program `engine`.
 pub fn plan_program(project: &Project, engine: &dyn LogicEngine) -> Plan {
-    plan(
-        project,
-        engine.rungs(),
-        engine_name(project.program.kind),
-    )
+    plan(project, engine.rungs(), engine_name(project.program.kind))
 }

@@ -23,7 +23,9 @@ pub struct TableEntry {
     pub register: String,
     /// Its value.
     pub value: u32,
-    /// What it means, for the report (`X1 & !X2`).
+    /// A bit mask (shown in hex) rather than a number.
+    pub mask: bool,
+    /// What it means, for the report (`X1-X2`).
     pub meaning: String,
 }
 
@@ -66,7 +68,7 @@ impl Feature {
     /// The manual's name.
     pub fn name(self) -> &'static str {
         match self {
-            Feature::AutoOnOff => "automatic outputs AON/AOFF",
+            Feature::AutoOnOff => "automatic outputs AON/AOFF (an OFF condition wins)",
             Feature::Pulser => "pulser YPULSE",
             Feature::Switch => "SWITCH",
             Feature::SwitchOnOff => "SWITCH ON / SWITCH OFF",
@@ -193,7 +195,11 @@ impl fmt::Display for Reason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Reason::Never { by_tag, would } => {
-                let whose = if *by_tag { "the tag's" } else { "the project's" };
+                let whose = if *by_tag {
+                    "the tag's"
+                } else {
+                    "the project's"
+                };
                 write!(f, "offload: never ({whose} choice)")?;
                 if let Some(p) = would {
                     write!(f, "; auto would push it into {}", p.feature.name())?;
@@ -310,11 +316,13 @@ impl Plan {
         self.pushed().any(|(r, _)| r.rung.coil == tag)
     }
 
-    /// Rungs with `offload: require` that stay central.
+    /// Rungs with `offload: require` that stay central. Rungs writing memory tags are no
+    /// candidates (a project-wide `require` is about the outputs).
     pub fn require_failures(&self) -> Vec<RequireFailure> {
         self.rungs
             .iter()
             .filter_map(|r| match (&r.placement, r.mode) {
+                (Placement::Central(Reason::NotAnOutput { .. }), _) => None,
                 (Placement::Central(reason), OffloadMode::Require) => Some(RequireFailure {
                     pos: r.rung.pos.clone(),
                     coil: r.coil.clone(),

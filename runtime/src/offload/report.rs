@@ -37,6 +37,13 @@ fn central(project: &Project, budgets: &[LineBudget], bus: usize) -> (Duration, 
     )
 }
 
+/// The central reaction bound of an output on bus `bus` under `plan`: the scan period plus
+/// the slowest line's read floor plus the bus's write floor. A module reacts within its tick;
+/// the equivalence tests allow exactly this difference between the two.
+pub fn central_bound(project: &Project, plan: &Plan, bus: usize) -> Duration {
+    central(project, &budgets(project, plan), bus).0
+}
+
 /// The line budgets with the plan's settings (read-back included).
 fn budgets(project: &Project, plan: &Plan) -> Vec<LineBudget> {
     let devices = plan.device_configs(project);
@@ -101,11 +108,7 @@ pub fn report(project: &Project, plan: &Plan) -> String {
                 );
                 if let Some(bus) = output_bus(project, r) {
                     let (bound, parts) = central(project, &budgets, bus);
-                    let _ = writeln!(
-                        out,
-                        "      reaction ≤ {} ({parts})",
-                        fmt_duration(bound)
-                    );
+                    let _ = writeln!(out, "      reaction ≤ {} ({parts})", fmt_duration(bound));
                 }
             }
         }
@@ -134,7 +137,7 @@ pub fn report(project: &Project, plan: &Plan) -> String {
         let list: Vec<String> = extra.iter().map(|(k, v)| format!("{k}: {v}")).collect();
         let _ = writeln!(
             out,
-            "  module {} settings written and verified at start-up: {}",
+            "  module {} settings added by the plan (registers written and verified at start-up): {}",
             project.modules[m].name,
             list.join(", ")
         );
@@ -170,11 +173,12 @@ fn module_rung(
         p.feature.name()
     );
     for t in &p.tables {
-        let _ = writeln!(
-            out,
-            "      {:<14} = {:<6} {}",
-            t.register, t.value, t.meaning
-        );
+        let value = if t.mask {
+            format!("{:#06x}", t.value)
+        } else {
+            t.value.to_string()
+        };
+        let _ = writeln!(out, "      {:<14} = {value:<6} {}", t.register, t.meaning);
     }
     let (bound, parts) = central(project, budgets, module.bus);
     match (&p.command, p.feature) {

@@ -90,6 +90,7 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
         tables.push(TableEntry {
             register: format!("{f}_RO{relay}"),
             value: u32::from(mask),
+            mask: true,
             meaning: if mask == 0 {
                 "unused".into()
             } else {
@@ -101,6 +102,7 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
         tables.push(TableEntry {
             register: format!("PULSE_TIME_RO{relay}"),
             value: t,
+            mask: false,
             meaning: format!("{} s", f64::from(t) / 10.0),
         });
     }

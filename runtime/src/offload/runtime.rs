@@ -229,7 +229,7 @@ impl Offloaded {
             } = &mut p.source
             {
                 if std::mem::take(fire) {
-                    set(frames, p.bus, p.module, *command, Value::U16(*width_ms));
+                    let _ = set(frames, p.bus, p.module, *command, Value::U16(*width_ms));
                 }
             }
         }
@@ -255,20 +255,37 @@ impl Offloaded {
         }
     }
 
-    /// The safe state: with `on_stop: clear`, zero every table and pulser and write the safe
-    /// values (the image shows them); with `keep`, leave the outputs to the modules.
-    pub fn stop(&self, frames: &mut [OutputFrame], image: &mut ProcessImage, now: Duration) {
+    /// The safe state, first step: with `on_stop: clear`, zero every table and pulser of the
+    /// pushed-down outputs. Returns whether there is anything to write.
+    pub fn clear_tables(&self, frames: &mut [OutputFrame]) -> bool {
+        if self.on_stop == OnStop::Keep {
+            return false;
+        }
+        let mut any = false;
+        for p in &self.outputs {
+            for &(t, zero) in &p.tables {
+                any |= set(frames, p.bus, p.module, t, zero);
+            }
+            if let Source::Pulse { command, .. } = p.source {
+                any |= set(frames, p.bus, p.module, command, Value::U16(0));
+            }
+        }
+        any
+    }
+
+    /// The safe state, second step: with `on_stop: clear`, the safe values of the pushed-down
+    /// outputs (the image shows them); with `keep`, the outputs stay the modules'.
+    pub fn safe_outputs(
+        &self,
+        frames: &mut [OutputFrame],
+        image: &mut ProcessImage,
+        now: Duration,
+    ) {
         if self.on_stop == OnStop::Keep {
             return;
         }
         for p in &self.outputs {
-            for &(t, zero) in &p.tables {
-                set(frames, p.bus, p.module, t, zero);
-            }
-            if let Source::Pulse { command, .. } = p.source {
-                set(frames, p.bus, p.module, command, Value::U16(0));
-            }
-            set(frames, p.bus, p.module, p.point, p.safe);
+            let _ = set(frames, p.bus, p.module, p.point, p.safe);
             image.set(p.tag, p.safe, now);
         }
     }
@@ -286,9 +303,14 @@ fn slot(
         .and_then(|m| m.get_mut(point))
 }
 
-fn set(frames: &mut [OutputFrame], bus: usize, module: usize, point: usize, v: Value) {
-    if let Some(s) = slot(frames, bus, module, point) {
-        *s = Some(v);
+/// Puts `v` in a frame slot; whether the slot exists.
+fn set(frames: &mut [OutputFrame], bus: usize, module: usize, point: usize, v: Value) -> bool {
+    match slot(frames, bus, module, point) {
+        Some(s) => {
+            *s = Some(v);
+            true
+        }
+        None => false,
     }
 }
 

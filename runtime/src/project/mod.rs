@@ -24,6 +24,7 @@ mod scada;
 pub mod service;
 pub(crate) mod span;
 mod validate;
+pub mod web;
 
 use std::path::Path;
 
@@ -36,6 +37,7 @@ pub use scada::ServiceError;
 pub use service::{
     ModbusTcpConfig, ScadaAccess, ScadaEntry, ScadaMap, ServiceConfig, Space, DEFAULT_MODBUS_BIND,
 };
+pub use web::{WebConfig, WebError, WebToken, DEFAULT_WEB_BIND};
 
 /// Reads and validates the project file at `path`. The program file is resolved against the
 /// file's folder and must exist.

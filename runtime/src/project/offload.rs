@@ -113,10 +113,7 @@ pub struct OffloadConfig {
 impl OffloadConfig {
     /// The mode of the rung writing tag `tag`: the tag's own, else the project's.
     pub fn mode_of(&self, tag: usize) -> OffloadMode {
-        self.tags
-            .get(tag)
-            .and_then(|t| t.mode)
-            .unwrap_or(self.mode)
+        self.tags.get(tag).and_then(|t| t.mode).unwrap_or(self.mode)
     }
 }
 
@@ -357,8 +354,7 @@ fn tag<'m>(
                 .into(),
             )),
             Some(m) => {
-                if tc.is_some()
-                    && !point.is_some_and(|(_, _, spec)| spec.access == Access::Output)
+                if tc.is_some() && !point.is_some_and(|(_, _, spec)| spec.access == Access::Output)
                 {
                     errors.push((
                         path.key("offload"),

@@ -66,7 +66,7 @@ pub enum ServiceError {
          quotes: \"[::1]:9464\")"
     )]
     BadAddress {
-        /// `service.metrics` or `service.modbus_tcp.bind`.
+        /// `service.metrics`, `service.modbus_tcp.bind` or `service.web.bind`.
         key: &'static str,
         /// The text given.
         text: String,
@@ -152,15 +152,19 @@ pub enum ServiceError {
         /// Its space.
         space: Space,
     },
+    /// The web page's settings.
+    #[error(transparent)]
+    Web(#[from] super::web::WebError),
 }
 
-/// Validates `raw.service` and every tag's `scada:` against the validated tags (`None`: a tag
-/// refused elsewhere, skipped here). Returns the config (when nothing here is wrong) and the
+/// Validates `raw.service` (of the project file `file`) and every tag's `scada:` against the
+/// validated tags (`None`: a tag refused elsewhere, skipped here). Returns the config (when nothing here is wrong) and the
 /// errors with their paths.
 pub(crate) fn validate(
     raw: &RawProject,
     tags: &[Option<TagFacts>],
     loc: &Locator<'_>,
+    file: &std::path::Path,
 ) -> (Option<ServiceConfig>, Vec<(YPath, ServiceError)>) {
     let mut errors = Vec::new();
     let root = YPath::root().key("service");
@@ -181,11 +185,27 @@ pub(crate) fn validate(
             ));
         }
     }
+    let web = service.web.as_ref().map(|w| {
+        let names: Vec<(&str, bool)> = raw
+            .tags
+            .iter()
+            .map(|t| (t.name.as_str(), t.point.is_some()))
+            .collect();
+        let mut taken = Vec::new();
+        if let Some(Some(a)) = metrics {
+            taken.push((a, "service.metrics"));
+        }
+        if let Some(Some(m)) = modbus {
+            taken.push((m.bind, "service.modbus_tcp"));
+        }
+        super::web::validate(w, file, &names, &taken, &mut errors)
+    });
     let map = scada_map(raw, tags, loc, &mut errors);
     let config = (|| {
         Some(ServiceConfig {
             metrics: metrics.map_or(Some(None), |a| a.map(Some))?,
             modbus_tcp: modbus.map_or(Some(None), |m| m.map(Some))?,
+            web: web.map_or(Some(None), |w| w.map(Some))?,
             scada: map,
         })
     })();

@@ -10,6 +10,7 @@
 //!     unit: 1                       # unit identifier it answers (and 255), 1..=247; default 1
 //!     writes: false                 # project-wide switch for writes; default false
 //!     allow_remote_writes: false    # needed for writes on a non-loopback bind
+//!   web: { bind: 127.0.0.1:8080 }   # the web page; off when absent (see `web.rs`)
 //! tags:
 //!   - { name: speed, type: u16, scada: write }                        # writable, next free address
 //!   - { name: motor, point: mm1.Y1, scada: { access: read, address: 8 } }   # pinned address
@@ -32,7 +33,7 @@ use super::raw::Int;
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "service settings: a mapping with metrics and modbus_tcp"
+    expecting = "service settings: a mapping with metrics, modbus_tcp and web"
 )]
 pub struct RawService {
     /// Address of the Prometheus text endpoint.
@@ -41,6 +42,9 @@ pub struct RawService {
     /// The Modbus TCP server.
     #[serde(default)]
     pub modbus_tcp: Option<RawModbusTcp>,
+    /// The web page (see [`super::web`]).
+    #[serde(default)]
+    pub web: Option<super::web::RawWeb>,
 }
 
 /// `service.modbus_tcp:` as written.
@@ -159,6 +163,8 @@ pub struct ServiceConfig {
     pub metrics: Option<SocketAddr>,
     /// Modbus TCP server (`None`: off).
     pub modbus_tcp: Option<ModbusTcpConfig>,
+    /// The web page (`None`: off).
+    pub web: Option<super::web::WebConfig>,
     /// Every exposed tag's Modbus addresses.
     pub scada: ScadaMap,
 }

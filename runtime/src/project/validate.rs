@@ -79,7 +79,7 @@ pub(crate) fn validate(
             let model = modules.get(m).and_then(|(r, _)| r.model)?;
             model.points.get(p).map(|s| s.access)
         });
-        let (config, errors) = super::scada::validate(raw, &facts, &v.loc);
+        let (config, errors) = super::scada::validate(raw, &facts, &v.loc, file);
         for (path, e) in errors {
             v.error(path, e.into());
         }

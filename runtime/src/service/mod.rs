@@ -9,7 +9,8 @@
 //! - [`snapshot`]: what the scan publishes, without blocking, for the two network services:
 //!   [`metrics`] (a Prometheus text endpoint) and [`modbus_tcp`] (a Modbus TCP server for
 //!   SCADA/HMI, with its address map in [`modbus_map`] and its input checks in
-//!   [`modbus_guard`]); [`network`] starts them.
+//!   [`modbus_guard`]) and [`web`] (the web page: live I/O, forcing, the program with live
+//!   values, timing plots); [`network`] starts them.
 
 pub mod control;
 pub mod metrics;
@@ -20,3 +21,4 @@ pub mod network;
 pub mod notify;
 pub mod snapshot;
 pub mod status;
+pub mod web;

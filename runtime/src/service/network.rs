@@ -1,5 +1,5 @@
-//! Starting the network services a project asks for (`service:`): the metrics endpoint and the
-//! Modbus TCP server, both fed by the snapshot the scan publishes.
+//! Starting the network services a project asks for (`service:`): the metrics endpoint, the
+//! Modbus TCP server and the web page, all fed by the snapshot the scan publishes.
 
 use crossbeam_channel::Sender;
 
@@ -8,6 +8,9 @@ use super::metrics::{MetricsInfo, MetricsServer};
 use super::modbus_map::ModbusMap;
 use super::modbus_tcp::{ModbusTcpServer, StartError};
 use super::snapshot::SnapshotCell;
+use super::web::info::WebInfo;
+use super::web::WebServer;
+use crate::plc::Plc;
 use crate::project::Project;
 
 /// Why a service could not start.
@@ -33,12 +36,51 @@ pub struct NetworkServices {
     pub metrics: Option<MetricsServer>,
     /// The Modbus TCP server, when configured.
     pub modbus: Option<ModbusTcpServer>,
+    /// The web page, when configured and started (see [`start_web`]).
+    pub web: Option<WebServer>,
 }
 
 impl NetworkServices {
     /// Whether any service runs (and so needs the scan to publish).
     pub fn any(&self) -> bool {
-        self.metrics.is_some() || self.modbus.is_some()
+        self.metrics.is_some() || self.modbus.is_some() || self.web.is_some()
+    }
+}
+
+/// Starts the web page `plc`'s project configures, reading `snapshot` and sending forces to
+/// `scan`; logs its address. A page that cannot listen is logged and left out: it is for
+/// people to look at, and the machine must not wait for it (the other services are part of
+/// the plant's interface and stop the start-up instead).
+pub fn start_web(plc: &Plc, snapshot: &SnapshotCell, scan: &Sender<Envelope>) -> Option<WebServer> {
+    let project = plc.project();
+    let config = project.service.web.as_ref()?;
+    let info = WebInfo::new(plc, config);
+    match WebServer::start(
+        config,
+        &info,
+        snapshot.clone(),
+        scan.clone(),
+        project.scan.period,
+    ) {
+        Ok(server) => {
+            tracing::info!(
+                "web page: {} ({})",
+                server.url(),
+                if server.writes() {
+                    "forcing with the project's token"
+                } else {
+                    "read-only"
+                }
+            );
+            Some(server)
+        }
+        Err(e) => {
+            tracing::warn!(
+                "web page: cannot listen on {}: {e}; running without it",
+                config.bind
+            );
+            None
+        }
     }
 }
 
@@ -100,6 +142,28 @@ pub fn report(project: &Project) -> String {
     let mut out = String::new();
     if let Some(addr) = service.metrics {
         let _ = writeln!(out, "\nmetrics at http://{addr}/metrics");
+    }
+    if let Some(web) = &service.web {
+        let trend: Vec<&str> = web
+            .trend
+            .iter()
+            .filter_map(|&t| project.tags.get(t).map(|t| t.name.as_str()))
+            .collect();
+        let _ = writeln!(
+            out,
+            "\nweb page at http://{}/ ({}); trend: {}",
+            web.bind,
+            if web.writes {
+                "forcing with the token"
+            } else {
+                "read-only"
+            },
+            if trend.is_empty() {
+                "none".to_string()
+            } else {
+                trend.join(", ")
+            }
+        );
     }
     let Some(cfg) = service.modbus_tcp else {
         return out;

@@ -1,5 +1,6 @@
 //! What the scan publishes for the services that look at it from other threads (the metrics
-//! endpoint, the Modbus TCP server), and the publisher the scan calls at each cycle boundary.
+//! endpoint, the Modbus TCP server, the web page), and the publisher the scan calls at each
+//! cycle boundary.
 //!
 //! The scan never waits for a reader: it publishes with `try_lock` and, when a reader holds the
 //! lock, tries again at the next boundary. Tag values are copied every cycle (a copy into
@@ -51,6 +52,58 @@ impl PhaseSummary {
             p99: p.p99,
             p999: p.p999,
             max: p.max,
+        }
+    }
+}
+
+/// How many bars a published histogram has.
+pub const HISTOGRAM_BUCKETS: usize = 40;
+
+/// A phase's histogram reduced to [`HISTOGRAM_BUCKETS`] bars between its smallest and its
+/// largest sample, for plots: equal widths, or equal ratios when the largest is more than 20
+/// times the smallest (a long tail would otherwise squeeze every other sample into the first
+/// bar).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct HistogramView {
+    /// Lower edge of the first bar.
+    pub lo: Duration,
+    /// Upper edge of the last bar.
+    pub hi: Duration,
+    /// Whether the bars have equal ratios (a log axis) rather than equal widths.
+    pub log: bool,
+    /// Samples per bar (empty when there are none).
+    pub counts: Vec<u64>,
+}
+
+impl HistogramView {
+    /// Fills `self` from `h`, reusing its buffer.
+    fn fill(&mut self, h: &DurationHistogram) {
+        self.counts.clear();
+        let raw = h.raw();
+        if raw.is_empty() {
+            *self = HistogramView {
+                counts: std::mem::take(&mut self.counts),
+                ..HistogramView::default()
+            };
+            return;
+        }
+        let lo = raw.min().max(1);
+        let hi = raw.max().max(lo + 1);
+        let log = hi / lo > 20;
+        self.lo = Duration::from_nanos(lo);
+        self.hi = Duration::from_nanos(hi);
+        self.log = log;
+        self.counts.resize(HISTOGRAM_BUCKETS, 0);
+        let n = HISTOGRAM_BUCKETS as f64;
+        let (lo_f, hi_f) = (lo as f64, hi as f64);
+        let span = if log { (hi_f / lo_f).ln() } else { hi_f - lo_f };
+        for v in raw.iter_recorded() {
+            let x = (raw.median_equivalent(v.value_iterated_to()) as f64).clamp(lo_f, hi_f);
+            let at = if log { (x / lo_f).ln() } else { x - lo_f } / span;
+            let i = ((at * n) as usize).min(HISTOGRAM_BUCKETS - 1);
+            if let Some(c) = self.counts.get_mut(i) {
+                *c += v.count_at_value();
+            }
         }
     }
 }
@@ -127,12 +180,24 @@ pub struct ServiceSnapshot {
     pub values: Vec<Value>,
     /// Tag qualities, in tag order.
     pub qualities: Vec<Quality>,
+    /// Scan time of each tag's last good read (inputs) or write, in tag order.
+    pub timestamps: Vec<Duration>,
     /// Whether each tag is forced, in tag order.
     pub forced: Vec<bool>,
     /// Phase summaries, in [`Phase::ALL`] order (refreshed every [`STATS_EVERY`]).
     pub phases: [PhaseSummary; 5],
     /// Modules, in project order (refreshed with the phases).
     pub modules: Vec<ModuleSnapshot>,
+    /// Each module's last failure, when its last read failed (refreshed with the phases; only
+    /// with [`Publisher::with_details`]).
+    pub module_errors: Vec<Option<String>>,
+    /// Each phase's histogram, in [`Phase::ALL`] order (refreshed with the phases; empty
+    /// unless [`Publisher::with_details`]).
+    pub histograms: Vec<HistogramView>,
+    /// Counts the refreshes of the statistics, so a reader sees when they changed.
+    pub stats_seq: u64,
+    /// Set by the last publication of a run, after the outputs went to their safe values.
+    pub stopped: bool,
 }
 
 /// The shared snapshot.
@@ -173,6 +238,7 @@ impl SnapshotCell {
 pub struct Publisher {
     cell: SnapshotCell,
     stats_at: Option<Duration>,
+    details: bool,
 }
 
 impl Publisher {
@@ -181,7 +247,15 @@ impl Publisher {
         Self {
             cell,
             stats_at: None,
+            details: false,
         }
+    }
+
+    /// Also publishes what only the web page shows: each phase's histogram and each module's
+    /// last failure (a walk over each histogram every [`STATS_EVERY`]).
+    pub fn with_details(mut self) -> Self {
+        self.details = true;
+        self
     }
 
     /// Publishes the PLC's image (every call) and statistics (every [`STATS_EVERY`], or when
@@ -199,6 +273,10 @@ impl Publisher {
         s.values.extend(image.slots().iter().map(|x| x.value));
         s.qualities.clear();
         s.qualities.extend(image.slots().iter().map(|x| x.quality));
+        s.timestamps.clear();
+        s.timestamps
+            .extend(image.slots().iter().map(|x| x.timestamp));
+        s.stopped = final_;
         s.forced.clear();
         s.forced.extend(
             (0..image.len()).map(|i| image.forced(crate::image::TagId(i as u32)).is_some()),
@@ -217,6 +295,20 @@ impl Publisher {
                     quality: m.quality,
                     counters: m.counters,
                 }));
+            s.stats_seq += 1;
+            if self.details {
+                s.module_errors.clear();
+                s.module_errors.extend(
+                    plc.module_status()
+                        .iter()
+                        .map(|m| m.last_error.as_ref().map(ToString::to_string)),
+                );
+                s.histograms
+                    .resize_with(Phase::ALL.len(), HistogramView::default);
+                for (view, phase) in s.histograms.iter_mut().zip(Phase::ALL) {
+                    view.fill(phase.histogram(stats));
+                }
+            }
         }
     }
 }
@@ -238,5 +330,30 @@ mod tests {
             PhaseSummary::of(&DurationHistogram::new()).sum,
             Duration::ZERO
         );
+    }
+
+    #[test]
+    fn a_histogram_view_counts_every_sample_once() {
+        let mut h = DurationHistogram::new();
+        for ms in 10..=50u64 {
+            h.record(Duration::from_millis(ms));
+        }
+        let mut v = HistogramView::default();
+        v.fill(&h);
+        assert!(!v.log);
+        assert_eq!(v.counts.len(), HISTOGRAM_BUCKETS);
+        assert_eq!(v.counts.iter().sum::<u64>(), 41);
+        assert!(v.lo.as_micros().abs_diff(10_000) <= 10, "{v:?}");
+        assert!(v.hi.as_micros().abs_diff(50_000) <= 50, "{v:?}");
+        assert!(v.counts.iter().all(|&c| c <= 2), "{v:?}");
+        // A long tail switches to equal ratios.
+        h.record(Duration::from_secs(5));
+        v.fill(&h);
+        assert!(v.log);
+        assert_eq!(v.counts.iter().sum::<u64>(), 42);
+        assert_eq!(v.counts.last(), Some(&1));
+        // Empty: no bars.
+        v.fill(&DurationHistogram::new());
+        assert!(v.counts.is_empty() && v.lo.is_zero());
     }
 }

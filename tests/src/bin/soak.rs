@@ -24,7 +24,6 @@ use softplc::scan::ScanEngine;
 use softplc_io::point::{Quality, Value};
 use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
 
-const PERIOD: Duration = Duration::from_millis(100);
 const TOGGLE_EVERY: Duration = Duration::from_secs(12);
 /// Longest time an input change may take to show as a good value: the module's 20 ms input
 /// latency plus two cycles (one may fail and be retried next cycle).

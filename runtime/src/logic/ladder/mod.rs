@@ -165,12 +165,8 @@ pub fn compile(
         let (line, column) = src.position(i, 0);
         at(line, column)
     });
-    Ok(LadderProgram::new(
-        lowered,
-        instances,
-        types,
-        rung_pos,
-        file.to_path_buf(),
+    Ok(
+        LadderProgram::new(lowered, instances, types, rung_pos, file.to_path_buf())
+            .with_rungs(described),
     )
-    .with_rungs(described))
 }

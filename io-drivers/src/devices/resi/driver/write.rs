@@ -125,13 +125,24 @@ pub(super) fn plan(d: &ResiDriver, desired: &[Option<Value>], refresh: bool) -> 
     let mut todo = Vec::new();
     let mut steps = Vec::new();
     for (p, spec) in model.points.iter().enumerate() {
-        if spec.access != Access::Output {
+        // A read-write point (a logic table, PULSE TIME, ENABLE LOGIC FUNCTIONS) is a command:
+        // the scan sets it for one cycle (push-down clears its tables at stop), written then.
+        let command = spec.access == Access::ReadWrite;
+        if spec.access != Access::Output && !command {
             continue;
         }
         let (Some(Some(value)), Some(entry)) = (desired.get(p), model.map.by_name(spec.name))
         else {
             continue;
         };
+        if command {
+            todo.push(Todo {
+                point: p,
+                entry,
+                value: *value,
+            });
+            continue;
+        }
         let one_shot = model.one_shot.contains(&spec.name);
         let changed = d.written.get(p).copied().flatten() != Some(*value);
         if let (Some(ms), Kind::Do) = (d.watchdog, entry.item.kind) {

@@ -1,0 +1,787 @@
+// softplc web page: plain JavaScript, no libraries, nothing loaded from elsewhere.
+//
+// Data: GET /api/info once (project, lines, modules, tags, program), GET /api/state and
+// /api/trend to start, then the server-sent events `state` (every cycle) and `stats` (every
+// refresh of the statistics) from /api/events. Writes: POST /api/force and /api/unforce with
+// `Authorization: Bearer TOKEN`; the token stays in this tab's sessionStorage.
+"use strict";
+
+(() => {
+  const $ = (id) => document.getElementById(id);
+  const SVG = "http://www.w3.org/2000/svg";
+  const TREND_WINDOW_MS = 60000;
+  const PALETTE = ["#2f6fde", "#17a34a", "#d98a06", "#a43fd1", "#d33a2c", "#0e9aa7", "#7a5c2e", "#db4fa0"];
+  const PHASE_TITLES = {
+    cycle: ["Cycle time", "start of the input phase to the end of the output phase"],
+    read: ["Input phase", "every line read, in parallel"],
+    logic: ["Logic phase", "the program"],
+    write: ["Output phase", "changed outputs written"],
+    lateness: ["Wake-up lateness", "start of a cycle after its deadline"],
+  };
+  const QUALITY = ["good", "stale", "bad"];
+
+  const app = {
+    info: null,
+    state: null,
+    stats: null,
+    rate: null, // { at, requests: [] } for requests per second
+    trend: { tags: [], t: [], series: [] },
+    token: sessionStorage.getItem("softplc-token") || "",
+    cells: [], // per tag: the I/O table's cells
+    codeTags: [], // per program tag occurrence: { tag, span, val }
+    lastEvent: 0,
+    connected: false,
+  };
+
+  // ---- DOM helpers ----
+
+  function el(tag, attrs, ...children) {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs || {})) {
+      if (v === undefined || v === null || v === false) continue;
+      if (k === "class") e.className = v;
+      else if (k === "text") e.textContent = v;
+      else if (k.startsWith("data-")) e.setAttribute(k, v);
+      else if (k === "for") e.htmlFor = v;
+      else e[k] = v;
+    }
+    for (const c of children) {
+      if (c === null || c === undefined) continue;
+      e.append(c instanceof Node ? c : document.createTextNode(String(c)));
+    }
+    return e;
+  }
+
+  function svg(tag, attrs, text) {
+    const e = document.createElementNS(SVG, tag);
+    for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);
+    if (text !== undefined) e.textContent = text;
+    return e;
+  }
+
+  // ---- Formatting ----
+
+  function fmtMs(ms) {
+    if (ms === null || ms === undefined || !isFinite(ms)) return "–";
+    if (ms < 1) return Math.round(ms * 1000) + " µs";
+    if (ms < 10) return ms.toFixed(2) + " ms";
+    if (ms < 100) return ms.toFixed(1) + " ms";
+    if (ms < 10000) return ms.toFixed(0) + " ms";
+    return (ms / 1000).toFixed(1) + " s";
+  }
+
+  function fmtAge(ms) {
+    if (!isFinite(ms)) return "–";
+    if (ms < 1000) return Math.round(ms) + " ms";
+    if (ms < 60000) return (ms / 1000).toFixed(1) + " s";
+    if (ms < 3600000) return Math.floor(ms / 60000) + " min " + Math.floor((ms % 60000) / 1000) + " s";
+    return (ms / 3600000).toFixed(1) + " h";
+  }
+
+  function fmtUptime(ms) {
+    const s = Math.floor(ms / 1000);
+    const h = Math.floor(s / 3600), m = Math.floor((s % 3600) / 60), r = s % 60;
+    if (h > 0) return h + " h " + String(m).padStart(2, "0") + " min";
+    if (m > 0) return m + " min " + String(r).padStart(2, "0") + " s";
+    return (ms / 1000).toFixed(1) + " s";
+  }
+
+  function fmtValue(v, type) {
+    if (v === null || v === undefined) return "NaN";
+    if (typeof v === "boolean") return v ? "1" : "0";
+    if (type === "f32") {
+      const t = Number(v).toPrecision(6);
+      return t.includes("e") ? t : String(Number(t));
+    }
+    return String(v);
+  }
+
+  function asNumber(v) {
+    if (typeof v === "boolean") return v ? 1 : 0;
+    return typeof v === "number" ? v : null;
+  }
+
+  function toast(text, error) {
+    const t = $("toast");
+    t.textContent = text;
+    t.className = "toast show" + (error ? " error" : "");
+    clearTimeout(toast.timer);
+    toast.timer = setTimeout(() => { t.className = "toast" + (error ? " error" : ""); }, error ? 6000 : 3000);
+  }
+
+  async function getJSON(path) {
+    const r = await fetch(path, { cache: "no-store" });
+    if (!r.ok) throw new Error(path + ": " + r.status);
+    return r.json();
+  }
+
+  // ---- Views ----
+
+  function showView() {
+    let v = (location.hash || "#overview").slice(1);
+    if (!document.querySelector('.view[data-view="' + v + '"]')) v = "overview";
+    for (const s of document.querySelectorAll(".view")) s.classList.toggle("active", s.dataset.view === v);
+    for (const a of document.querySelectorAll(".tabs a")) a.classList.toggle("active", a.dataset.view === v);
+    document.body.dataset.view = v;
+    if (v === "overview") renderTrend();
+  }
+
+  // ---- Writes ----
+
+  function signedIn() {
+    return app.info && app.info.writes && app.token !== "";
+  }
+
+  async function post(path, body, token) {
+    let r;
+    try {
+      r = await fetch(path, {
+        method: "POST",
+        headers: { "Content-Type": "application/json", Authorization: "Bearer " + (token ?? app.token) },
+        body: JSON.stringify(body),
+      });
+    } catch (e) {
+      return { ok: false, error: "the PLC cannot be reached" };
+    }
+    const j = await r.json().catch(() => null);
+    return j || { ok: false, error: r.status + " " + r.statusText };
+  }
+
+  async function force(tag, value) {
+    const r = await post("/api/force", { tag, value });
+    toast(r.ok ? r.message : "Not forced: " + r.error, !r.ok);
+  }
+
+  async function unforce(tag) {
+    const r = await post("/api/unforce", { tag });
+    toast(r.ok ? (tag + " unforced") : "Not unforced: " + r.error, !r.ok);
+  }
+
+  function renderAuth() {
+    const box = $("auth");
+    box.replaceChildren();
+    if (!app.info.writes) {
+      box.append(el("span", { class: "off", text: "read-only", title: "Forcing is off for this project (service.web.writes: false)" }));
+      return;
+    }
+    if (signedIn()) {
+      const out = el("button", { text: "Sign out", type: "button" });
+      out.addEventListener("click", () => {
+        app.token = "";
+        sessionStorage.removeItem("softplc-token");
+        renderAuth();
+        refreshForceControls();
+      });
+      box.append(el("span", { class: "who", text: "forcing enabled" }), out);
+      return;
+    }
+    const form = el("form", { id: "login" });
+    const input = el("input", { type: "password", placeholder: "token", id: "token", autocomplete: "current-password", "aria-label": "token" });
+    const go = el("button", { type: "submit", class: "primary", text: "Sign in" });
+    form.append(input, go);
+    form.addEventListener("submit", async (ev) => {
+      ev.preventDefault();
+      const token = input.value.trim();
+      if (!token) return;
+      const r = await post("/api/auth", {}, token);
+      if (!r.ok) {
+        toast("Sign-in refused: " + r.error, true);
+        return;
+      }
+      app.token = token;
+      sessionStorage.setItem("softplc-token", token);
+      renderAuth();
+      refreshForceControls();
+      toast("Signed in: forcing enabled");
+    });
+    box.append(form);
+  }
+
+  // ---- I/O tables ----
+
+  function forceControls(i) {
+    const t = app.info.tags[i];
+    const box = el("div", { class: "force" });
+    if (t.pushed) {
+      box.append(el("span", { class: "doc", text: "driven by the module's logic" }));
+      return box;
+    }
+    const buttons = [];
+    if (t.type === "bool") {
+      for (const v of ["1", "0"]) {
+        const b = el("button", { type: "button", text: "Force " + v, "data-force": t.name, "data-value": v });
+        b.addEventListener("click", () => force(t.name, v));
+        buttons.push(b);
+      }
+    } else {
+      const input = el("input", { type: "text", placeholder: t.type, "aria-label": "value for " + t.name, "data-input": t.name });
+      const b = el("button", { type: "button", text: "Force", "data-force": t.name });
+      const go = () => { if (input.value.trim() !== "") force(t.name, input.value.trim()); };
+      b.addEventListener("click", go);
+      input.addEventListener("keydown", (e) => { if (e.key === "Enter") go(); });
+      buttons.push(input, b);
+    }
+    const u = el("button", { type: "button", class: "unforce", text: "Unforce", "data-unforce": t.name });
+    u.addEventListener("click", () => unforce(t.name));
+    buttons.push(u);
+    box.append(...buttons);
+    return box;
+  }
+
+  function refreshForceControls() {
+    const on = signedIn();
+    for (const b of document.querySelectorAll(".force button, .force input")) {
+      b.disabled = !on;
+      b.title = on ? "" : (app.info.writes ? "Sign in with the project's token to force" : "Forcing is off for this project");
+    }
+    for (const c of app.cells) {
+      if (c && c.unforce) c.unforce.hidden = !(c.forced);
+    }
+  }
+
+  function buildIo() {
+    const info = app.info;
+    const root = $("io-tables");
+    root.replaceChildren();
+    $("io-note").textContent = info.writes
+      ? (signedIn() ? "" : "Sign in (top right) with the project's token to force tags. A force holds a value until unforced or until the PLC restarts.")
+      : "Forcing is off for this project (service.web.writes: false). Values update live.";
+    const withForce = info.writes;
+    const head = () => el("tr", {},
+      el("th", { text: "Tag" }), el("th", { text: "Point" }), el("th", { text: "Dir" }), el("th", { text: "Type" }),
+      el("th", { text: "Value" }), el("th", { text: "Quality" }), el("th", { class: "num", text: "Age" }),
+      withForce ? el("th", { text: "Force" }) : null);
+    const row = (i) => {
+      const t = info.tags[i];
+      const value = el("td", { id: "value-" + t.name });
+      const q = el("td");
+      const age = el("td", { class: "num", id: "age-" + t.name });
+      const badges = el("span");
+      const name = el("td", {}, el("span", { class: "tag-name", text: t.name }), badges);
+      if (t.pushed) badges.append(el("span", { class: "badge pushed", text: "module logic", title: "pushed down: the module's own logic drives it" }));
+      if (t.retain) badges.append(el("span", { class: "badge retain", text: "retained" }));
+      const forcedBadge = el("span", { class: "badge forced", text: "FORCED", hidden: true });
+      badges.append(forcedBadge);
+      const tr = el("tr", { "data-tag": t.name },
+        name,
+        el("td", {}, t.point ? el("span", { class: "mono", text: t.point, title: t.doc || "" }) : el("span", { class: "doc", text: "memory" })),
+        el("td", {}, el("span", { class: "dir " + t.kind, text: t.kind })),
+        el("td", { class: "mono", text: t.type }),
+        value, q, age);
+      let controls = null;
+      if (withForce) {
+        controls = forceControls(i);
+        tr.append(el("td", {}, controls));
+      }
+      app.cells[i] = { tr, value, q, age, forcedBadge, unforce: controls && controls.querySelector(".unforce"), last: undefined };
+      return tr;
+    };
+    const table = (rows) => el("table", { class: "grid" }, el("thead", {}, head()), el("tbody", {}, ...rows));
+    info.buses.forEach((bus, b) => {
+      info.modules.forEach((m, mi) => {
+        if (m.bus !== b) return;
+        const tags = info.tags.map((t, i) => i).filter((i) => info.tags[i].module === mi);
+        const mq = el("span", { class: "q", id: "module-q-" + m.name, text: "…" });
+        root.append(el("div", { class: "panel" },
+          el("div", { class: "panel-head" },
+            el("h2", { text: m.name }),
+            el("span", { class: "sub", text: m.model + " @" + m.address + " · " + m.protocol + " · line " + bus.name + " (" + bus.port + ", " + bus.settings + ")" }),
+            el("span", { class: "hint" }, mq)),
+          tags.length ? table(tags.map(row)) : el("div", { class: "empty", text: "No tags on this module." })));
+      });
+    });
+    const memory = info.tags.map((t, i) => i).filter((i) => info.tags[i].kind === "memory");
+    if (memory.length) {
+      root.append(el("div", { class: "panel" },
+        el("div", { class: "panel-head" }, el("h2", { text: "Memory" }), el("span", { class: "sub", text: "tags of the program, not on a module" })),
+        table(memory.map(row))));
+    }
+    refreshForceControls();
+  }
+
+  function updateIo(s) {
+    const info = app.info;
+    const forced = new Set(s.forced);
+    info.tags.forEach((t, i) => {
+      const c = app.cells[i];
+      if (!c) return;
+      const v = s.v[i];
+      const key = JSON.stringify(v);
+      if (c.last !== key) {
+        c.last = key;
+        c.value.dataset.value = fmtValue(v, t.type);
+        if (t.type === "bool") {
+          c.value.replaceChildren(el("span", { class: "led" + (v ? " on" : ""), text: v ? "ON" : "OFF" }));
+        } else {
+          c.value.replaceChildren(el("span", { class: "num-value", text: fmtValue(v, t.type) }));
+        }
+      }
+      const q = QUALITY[s.q[i]] || "bad";
+      if (c.q.dataset.q !== q) {
+        c.q.dataset.q = q;
+        c.q.replaceChildren(el("span", { class: "q " + q, text: q }));
+      }
+      c.age.textContent = t.kind === "memory" || t.kind === "output" ? "" : fmtAge(s.age[i]);
+      const f = forced.has(i);
+      if (c.forced !== f) {
+        c.forced = f;
+        c.forcedBadge.hidden = !f;
+        c.tr.classList.toggle("forced", f);
+        if (c.unforce) c.unforce.hidden = !f;
+      }
+    });
+  }
+
+  // ---- Program ----
+
+  function buildProgram() {
+    const p = app.info.program;
+    $("program-title").textContent = p.file;
+    const root = $("program");
+    root.replaceChildren();
+    app.codeTags = [];
+    if (p.error) {
+      root.append(el("div", { class: "empty", text: p.error }));
+      return;
+    }
+    const marks = p.lines.some((l) => l.rungs);
+    let pushed = 0, central = 0;
+    p.lines.forEach((line, n) => {
+      const src = el("span", { class: "src" });
+      for (const part of line.parts) {
+        if (part.k === "tag") {
+          const span = el("span", { class: "tag", text: part.s, "data-tag": part.s });
+          const val = el("span", { class: "val" });
+          src.append(span, val);
+          app.codeTags.push({ tag: part.tag, span, val });
+        } else if (part.k === "comment" || part.k === "string") {
+          src.append(el("span", { class: part.k, text: part.s }));
+        } else {
+          src.append(part.s);
+        }
+      }
+      const ln = el("div", { class: "ln", id: "line-" + (n + 1) }, el("span", { class: "no", text: n + 1 }));
+      if (marks) {
+        const mark = el("span", { class: "mark" });
+        for (const r of line.rungs || []) {
+          const coil = app.info.tags[r.coil] ? app.info.tags[r.coil].name : "?";
+          if (r.module) {
+            pushed++;
+            ln.classList.add("pushed");
+            mark.append(el("span", {
+              class: "rung-pushed", text: "⇣ in " + r.module, "data-pushed": r.module,
+              title: coil + " runs in module " + r.module + " (" + r.feature + "): pushed down, it reacts without the scan",
+            }));
+          } else {
+            central++;
+            mark.append(el("span", { class: "rung-central", text: "scan", title: coil + " runs in the scan: " + r.central }));
+          }
+        }
+        ln.append(mark);
+      }
+      ln.append(src);
+      root.append(ln);
+    });
+    $("program-hint").textContent = p.kind + " · " + (marks
+      ? pushed + " rung" + (pushed === 1 ? "" : "s") + " pushed down into modules, " + central + " in the scan"
+      : "live values beside each tag");
+  }
+
+  function updateProgram(s) {
+    const forced = new Set(s.forced);
+    for (const c of app.codeTags) {
+      const t = app.info.tags[c.tag];
+      const v = s.v[c.tag];
+      const text = fmtValue(v, t.type);
+      if (c.text !== text) {
+        c.text = text;
+        c.val.textContent = text;
+        if (t.type === "bool") {
+          c.span.classList.toggle("on", v === true);
+          c.span.classList.toggle("off", v !== true);
+        }
+      }
+      c.span.classList.toggle("forced", forced.has(c.tag));
+    }
+  }
+
+  // ---- Overview ----
+
+  function card(label, big, small, bar) {
+    const c = el("div", { class: "card" }, el("div", { class: "label", text: label }));
+    if (big !== null) c.append(el("div", { class: "big", text: big }));
+    if (small) c.append(small instanceof Node ? small : el("div", { class: "small", text: small }));
+    if (bar !== undefined) {
+      const fill = el("span");
+      fill.style.width = Math.max(0, Math.min(100, bar * 100)).toFixed(1) + "%";
+      c.append(el("div", { class: "bar" }, fill));
+    }
+    return c;
+  }
+
+  function busTotals() {
+    const t = { requests: 0, errors: 0, timeouts: 0, crc: 0, bad: 0, exceptions: 0 };
+    for (const m of (app.stats && app.stats.modules) || []) {
+      t.requests += m.requests; t.timeouts += m.timeouts; t.crc += m.crc; t.bad += m.bad; t.exceptions += m.exceptions;
+    }
+    t.errors = t.timeouts + t.crc + t.bad + t.exceptions;
+    return t;
+  }
+
+  function renderOverview() {
+    const s = app.state, st = app.stats, info = app.info;
+    if (!s) return;
+    const period = info.period_us / 1000;
+    const cycle = st ? st.phases[0] : null;
+    const cards = [];
+    cards.push(card("Cycle time (p50)", cycle ? fmtMs(cycle.p50) : "–",
+      cycle ? "p99 " + fmtMs(cycle.p99) + " · max " + fmtMs(cycle.max) + " · period " + fmtMs(period) : "",
+      cycle ? cycle.p99 / period : 0));
+    cards.push(card("Scans", s.cycles.toLocaleString("en"), "overruns " + s.overruns + " · up " + fmtUptime(s.now)));
+    const list = el("ul");
+    info.modules.forEach((m, i) => {
+      const q = st && st.modules[i] ? QUALITY[st.modules[i].q] : "bad";
+      list.append(el("li", {}, el("span", { class: "q " + q, text: m.name }), el("span", { class: "doc", text: m.model + " @" + m.address })));
+    });
+    cards.push(card("Modules", null, list));
+    const forcedNames = s.forced.map((i) => info.tags[i].name);
+    cards.push(card("Forces", String(forcedNames.length), forcedNames.length ? forcedNames.join(", ") : "none"));
+    const bus = busTotals();
+    cards.push(card("Bus", bus.requests.toLocaleString("en"), "requests · " + bus.errors + " errors"));
+    $("overview-cards").replaceChildren(...cards);
+    renderFaults();
+  }
+
+  function renderFaults() {
+    const s = app.state, st = app.stats, info = app.info;
+    const items = [];
+    const add = (sev, text) => items.push(el("li", {}, el("span", { class: "sev " + sev, text: sev === "ok" ? "ok" : sev === "bad" ? "fault" : "warning" }), el("span", { text })));
+    if (s.stopped) add("bad", "The run has stopped; the outputs were set to their safe values.");
+    else if (!app.connected) add("bad", "No news from the PLC: it stopped, or this page lost its connection (it retries by itself).");
+    if (st) {
+      info.modules.forEach((m, i) => {
+        const mm = st.modules[i];
+        if (mm && mm.q !== 0) add(mm.q === 2 ? "bad" : "warn", "Module " + m.name + " (line " + info.buses[m.bus].name + ") is " + QUALITY[mm.q] + (mm.error ? ": " + mm.error : ""));
+      });
+      const bus = busTotals();
+      if (bus.errors > 0) add("warn", bus.errors + " bus errors since start: " + bus.timeouts + " timeouts, " + bus.crc + " CRC, " + bus.bad + " bad replies, " + bus.exceptions + " exceptions.");
+    }
+    if (s.overruns > 0) add("warn", s.overruns + " overruns: cycles ran past their deadline (see Timing).");
+    for (const i of s.forced) add("warn", info.tags[i].name + " is forced to " + fmtValue(s.v[i], info.tags[i].type) + ".");
+    const badTags = s.q.filter((q) => q === 2).length;
+    if (badTags > 0 && s.published) add("warn", badTags + " tag" + (badTags === 1 ? " has" : "s have") + " bad quality.");
+    if (!items.length) add("ok", "No faults: every module answers, nothing is forced, no overruns.");
+    $("faults").replaceChildren(...items);
+  }
+
+  function renderTop() {
+    const s = app.state, st = app.stats;
+    const pill = $("state");
+    let state, text;
+    if (!app.connected && app.lastEvent) { state = "lost"; text = "no connection"; }
+    else if (!s || !s.published) { state = "connecting"; text = "starting"; }
+    else if (s.stopped) { state = "stopped"; text = "stopped"; }
+    else if (st && st.modules.some((m) => m.q !== 0)) { state = "faulty"; text = "running · faults"; }
+    else { state = "running"; text = "running"; }
+    pill.dataset.state = state;
+    pill.textContent = text;
+    if (s) {
+      const cycle = st ? st.phases[0] : null;
+      $("scan-figures").replaceChildren(
+        "scan ", el("b", { text: s.cycles.toLocaleString("en") }),
+        cycle ? " · cycle " : "", cycle ? el("b", { text: fmtMs(cycle.p50) }) : "",
+        " · period ", el("b", { text: fmtMs(app.info.period_us / 1000) }));
+    }
+  }
+
+  // ---- Trend ----
+
+  function trendAppend(s) {
+    const tr = app.trend;
+    if (!tr.tags.length) return;
+    if (tr.t.length && s.now <= tr.t[tr.t.length - 1]) return;
+    tr.t.push(s.now);
+    tr.tags.forEach((tag, k) => tr.series[k].push(asNumber(s.v[tag])));
+    const from = s.now - TREND_WINDOW_MS - 1000;
+    while (tr.t.length > 2 && (tr.t[1] < from || tr.t.length > 3000)) {
+      tr.t.shift();
+      for (const ser of tr.series) ser.shift();
+    }
+  }
+
+  function renderTrend() {
+    const box = $("trend");
+    const tr = app.trend;
+    const info = app.info;
+    if (!info || document.body.dataset.view !== "overview") return;
+    if (!tr.tags.length) {
+      box.replaceChildren(el("div", { class: "empty", text: "No trend tags (service.web.trend)." }));
+      return;
+    }
+    $("trend-hint").textContent = "last " + TREND_WINDOW_MS / 1000 + " s of scan time";
+    const W = Math.max(600, box.clientWidth - 24);
+    const labelW = 170, right = 14, axisH = 22;
+    const plotW = W - labelW - right;
+    const lanes = tr.tags.map((tag) => (info.tags[tag].type === "bool" ? 30 : 78));
+    const H = lanes.reduce((a, b) => a + b + 8, 0) + axisH;
+    const g = svg("svg", { viewBox: "0 0 " + W + " " + H, height: H, role: "img", "aria-label": "trend" });
+    const now = tr.t.length ? tr.t[tr.t.length - 1] : 0;
+    const t0 = now - TREND_WINDOW_MS;
+    const xOf = (t) => labelW + ((t - t0) / TREND_WINDOW_MS) * plotW;
+    // Time grid every 10 s.
+    for (let k = 0; k <= 6; k++) {
+      const x = labelW + (k / 6) * plotW;
+      g.append(svg("line", { x1: x, x2: x, y1: 0, y2: H - axisH, class: "gridline" }));
+      g.append(svg("text", { x, y: H - 6, "text-anchor": k === 6 ? "end" : "middle", class: "axis" }, k === 6 ? "now" : "−" + (60 - k * 10) + " s"));
+    }
+    let y = 4;
+    tr.tags.forEach((tag, k) => {
+      const t = info.tags[tag];
+      const h = lanes[k];
+      const color = PALETTE[k % PALETTE.length];
+      const ser = tr.series[k];
+      g.append(svg("rect", { x: labelW, y, width: plotW, height: h, class: "lane" }));
+      const last = ser.length ? ser[ser.length - 1] : null;
+      g.append(svg("text", { x: 8, y: y + Math.min(h / 2, 18) + 4, class: "trace-label", fill: color }, t.name));
+      g.append(svg("text", { x: 8, y: y + Math.min(h / 2, 18) + 19, class: "trace-value" },
+        last === null ? "" : t.type === "bool" ? (last ? "ON" : "OFF") : fmtValue(last, t.type)));
+      let lo = 0, hi = 1;
+      if (t.type !== "bool") {
+        const vis = ser.filter((v, i) => v !== null && tr.t[i] >= t0);
+        lo = vis.length ? Math.min(...vis) : 0;
+        hi = vis.length ? Math.max(...vis) : 1;
+        if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
+        const pad = (hi - lo) * 0.1;
+        lo -= pad; hi += pad;
+        g.append(svg("text", { x: labelW + plotW - 4, y: y + 11, "text-anchor": "end", class: "axis" }, fmtValue(+(hi - pad).toPrecision(4), "f32")));
+        g.append(svg("text", { x: labelW + plotW - 4, y: y + h - 4, "text-anchor": "end", class: "axis" }, fmtValue(+(lo + pad).toPrecision(4), "f32")));
+      }
+      const top = y + 4, bottom = y + h - 4;
+      const yOf = (v) => bottom - ((v - lo) / (hi - lo)) * (bottom - top);
+      let d = "", fill = "", prev = null;
+      for (let i = 0; i < tr.t.length; i++) {
+        const v = ser[i];
+        if (v === null) { prev = null; continue; }
+        if (tr.t[i] < t0 && !(i + 1 < tr.t.length && tr.t[i + 1] >= t0)) continue;
+        const x = Math.max(labelW, xOf(tr.t[i]));
+        const yy = yOf(v);
+        if (prev === null) d += "M" + x.toFixed(1) + " " + yy.toFixed(1);
+        else d += "H" + x.toFixed(1) + "V" + yy.toFixed(1);
+        prev = v;
+      }
+      if (d) {
+        d += "H" + (labelW + plotW).toFixed(1);
+        if (t.type === "bool") {
+          fill = d + "V" + bottom + "H" + labelW + "Z";
+          g.append(svg("path", { d: fill, class: "trace-fill", fill: color }));
+        }
+        g.append(svg("path", { d, class: "trace", stroke: color }));
+      }
+      y += h + 8;
+    });
+    box.replaceChildren(g);
+  }
+
+  // ---- Timing ----
+
+  function niceTicks(lo, hi, log) {
+    const ticks = [];
+    if (log) {
+      for (let e = Math.floor(Math.log10(lo)); e <= Math.ceil(Math.log10(hi)); e++) {
+        for (const m of [1, 2, 5]) {
+          const v = m * Math.pow(10, e);
+          if (v >= lo && v <= hi) ticks.push(v);
+        }
+      }
+      return ticks;
+    }
+    const span = hi - lo;
+    const step0 = span / 5;
+    const mag = Math.pow(10, Math.floor(Math.log10(step0)));
+    const step = [1, 2, 2.5, 5, 10].map((m) => m * mag).find((s) => span / s <= 6) || step0;
+    for (let v = Math.ceil(lo / step) * step; v <= hi + 1e-12; v += step) ticks.push(v);
+    return ticks;
+  }
+
+  function histogram(phase) {
+    const h = phase.hist;
+    if (!h || !h.counts.length) return el("div", { class: "empty", text: "No samples yet." });
+    const W = 560, H = 200, L = 44, R = 14, T = 22, B = 28;
+    const pw = W - L - R, ph = H - T - B;
+    const g = svg("svg", { viewBox: "0 0 " + W + " " + H, role: "img", "aria-label": phase.name + " histogram" });
+    const n = h.counts.length;
+    const maxC = Math.max(...h.counts, 1);
+    const frac = (ms) => (h.log ? Math.log(ms / h.lo) / Math.log(h.hi / h.lo) : (ms - h.lo) / (h.hi - h.lo));
+    const xOf = (ms) => L + Math.max(0, Math.min(1, frac(ms))) * pw;
+    for (let k = 0; k <= 4; k++) {
+      const yy = T + (k / 4) * ph;
+      g.append(svg("line", { x1: L, x2: L + pw, y1: yy, y2: yy, class: "gridline" }));
+    }
+    g.append(svg("text", { x: L - 6, y: T + 4, "text-anchor": "end", class: "axis" }, String(maxC)));
+    g.append(svg("text", { x: L - 6, y: T + ph, "text-anchor": "end", class: "axis" }, "0"));
+    const bw = pw / n;
+    h.counts.forEach((c, i) => {
+      if (!c) return;
+      const bh = Math.max(1.5, (c / maxC) * ph);
+      const edge = h.log ? h.lo * Math.pow(h.hi / h.lo, i / n) : h.lo + ((h.hi - h.lo) * i) / n;
+      g.append(svg("rect", {
+        x: (L + i * bw + 0.5).toFixed(1), y: (T + ph - bh).toFixed(1), width: Math.max(1, bw - 1).toFixed(1), height: bh.toFixed(1),
+        class: "bar" + (edge >= phase.p99 ? " tail" : ""),
+      }, undefined));
+    });
+    g.append(svg("line", { x1: L, x2: L + pw, y1: T + ph, y2: T + ph, class: "axis-line" }));
+    for (const v of niceTicks(h.lo, h.hi, h.log)) {
+      const x = xOf(v);
+      g.append(svg("line", { x1: x, x2: x, y1: T + ph, y2: T + ph + 4, class: "axis-line" }));
+      g.append(svg("text", { x, y: H - 8, "text-anchor": "middle", class: "axis" }, fmtMs(v)));
+    }
+    let lastX = -100;
+    for (const [key, label] of [["p50", "p50"], ["p99", "p99"], ["max", "max"]]) {
+      const x = xOf(phase[key]);
+      g.append(svg("line", { x1: x, x2: x, y1: T - 4, y2: T + ph, class: "pline " + key }));
+      const lx = Math.abs(x - lastX) < 34 ? lastX + 34 : x;
+      g.append(svg("text", { x: Math.min(lx, W - 16), y: T - 8, "text-anchor": "middle", class: "plabel " + key }, label));
+      lastX = lx;
+    }
+    if (h.log) g.append(svg("text", { x: L + pw, y: T - 8, "text-anchor": "end", class: "axis" }, ""));
+    return el("div", { class: "hist" }, g);
+  }
+
+  function renderTiming() {
+    const st = app.stats;
+    if (!st) return;
+    const grid = $("histograms");
+    grid.replaceChildren(...st.phases.map((p) => {
+      const [title, sub] = PHASE_TITLES[p.name] || [p.name, ""];
+      return el("div", { class: "panel", id: "hist-" + p.name },
+        el("div", { class: "panel-head" }, el("h2", { text: title }), el("span", { class: "sub", text: sub }),
+          el("span", { class: "hint", text: p.count.toLocaleString("en") + " samples" + (p.hist && p.hist.log ? " · log scale" : "") })),
+        histogram(p));
+    }));
+    const head = el("tr", {}, ...["Phase", "Samples", "p50", "p99", "p99.9", "Max", "Mean"].map((h, i) => el("th", { class: i ? "num" : "", text: h })));
+    const rows = st.phases.map((p) => el("tr", {},
+      el("td", { text: (PHASE_TITLES[p.name] || [p.name])[0] }),
+      el("td", { class: "num", text: p.count.toLocaleString("en") }),
+      el("td", { class: "num", text: fmtMs(p.p50) }), el("td", { class: "num", text: fmtMs(p.p99) }),
+      el("td", { class: "num", text: fmtMs(p.p999) }), el("td", { class: "num", text: fmtMs(p.max) }),
+      el("td", { class: "num", text: fmtMs(p.mean) })));
+    $("percentiles").replaceChildren(el("thead", {}, head), el("tbody", {}, ...rows));
+  }
+
+  // ---- Bus ----
+
+  function renderBus() {
+    const st = app.stats, info = app.info;
+    if (!st) return;
+    const now = performance.now();
+    const rates = info.modules.map((m, i) => {
+      if (!app.rate || !st.modules[i]) return null;
+      const dt = (now - app.rate.at) / 1000;
+      return dt > 0.1 ? (st.modules[i].requests - app.rate.requests[i]) / dt : null;
+    });
+    if (!app.rate || now - app.rate.at > 2000) app.rate = { at: now, requests: st.modules.map((m) => m.requests), shown: rates };
+    const shown = app.rate.shown || rates;
+    const cols = ["Module", "Line", "Model", "Quality", "Requests", "Req/s", "Timeouts", "CRC", "Bad replies", "Exceptions", "Error rate", "Round trip", "Last error"];
+    const head = el("tr", {}, ...cols.map((c, i) => el("th", { class: i >= 4 && i <= 11 ? "num" : "", text: c })));
+    const rows = info.modules.map((m, i) => {
+      const c = st.modules[i] || { q: 2, requests: 0, timeouts: 0, crc: 0, bad: 0, exceptions: 0, rtt: 0, error: null };
+      const errors = c.timeouts + c.crc + c.bad + c.exceptions;
+      const q = QUALITY[c.q];
+      const r = shown[i];
+      return el("tr", { "data-module": m.name },
+        el("td", {}, el("span", { class: "tag-name", text: m.name })),
+        el("td", { text: info.buses[m.bus].name }),
+        el("td", { class: "mono", text: m.model + " @" + m.address }),
+        el("td", {}, el("span", { class: "q " + q, text: q })),
+        el("td", { class: "num", text: c.requests.toLocaleString("en") }),
+        el("td", { class: "num", text: r === null || r === undefined ? "–" : r.toFixed(1) }),
+        el("td", { class: "num", text: c.timeouts }), el("td", { class: "num", text: c.crc }),
+        el("td", { class: "num", text: c.bad }), el("td", { class: "num", text: c.exceptions }),
+        el("td", { class: "num", text: c.requests ? ((100 * errors) / c.requests).toFixed(2) + " %" : "–" }),
+        el("td", { class: "num", text: fmtMs(c.rtt) }),
+        el("td", { class: "doc", text: c.error || "" }));
+    });
+    $("bus-table").replaceChildren(el("thead", {}, head), el("tbody", {}, ...rows));
+    for (const [i, m] of info.modules.entries()) {
+      const q = $("module-q-" + m.name);
+      if (q && st.modules[i]) {
+        const name = QUALITY[st.modules[i].q];
+        q.className = "q " + name;
+        q.textContent = name + (st.modules[i].error ? ": " + st.modules[i].error : "");
+      }
+    }
+  }
+
+  // ---- Live data ----
+
+  function onState(s) {
+    app.state = s;
+    app.lastEvent = Date.now();
+    app.connected = true;
+    updateIo(s);
+    updateProgram(s);
+    trendAppend(s);
+    renderTop();
+    renderOverview();
+    renderTrend();
+    refreshForceControls();
+  }
+
+  function onStats(st) {
+    app.stats = st;
+    renderTiming();
+    renderBus();
+    renderTop();
+    renderOverview();
+  }
+
+  function connect() {
+    const es = new EventSource("/api/events");
+    es.addEventListener("state", (e) => onState(JSON.parse(e.data)));
+    es.addEventListener("stats", (e) => onStats(JSON.parse(e.data)));
+    es.addEventListener("open", () => { app.connected = true; renderTop(); });
+    es.addEventListener("error", () => { app.connected = false; renderTop(); if (app.state) renderFaults(); });
+  }
+
+  // A quiet stream is a stopped scan or a lost connection, even while the socket looks open.
+  function watchdog() {
+    const period = app.info ? app.info.period_us / 1000 : 1000;
+    const quiet = Date.now() - app.lastEvent > Math.max(3000, 5 * period);
+    if (app.lastEvent && quiet && app.connected && !(app.state && app.state.stopped)) {
+      app.connected = false;
+      renderTop();
+      renderFaults();
+    }
+  }
+
+  async function boot() {
+    window.addEventListener("hashchange", showView);
+    showView();
+    try {
+      app.info = await getJSON("/api/info");
+    } catch (e) {
+      $("state").textContent = "no connection";
+      $("state").dataset.state = "lost";
+      setTimeout(boot, 2000);
+      return;
+    }
+    document.title = app.info.project + " · softplc";
+    $("project").textContent = app.info.project;
+    renderAuth();
+    buildIo();
+    buildProgram();
+    try {
+      app.trend = await getJSON("/api/trend");
+      const both = await getJSON("/api/state");
+      onStats(both.stats);
+      if (both.state.published) onState(both.state);
+    } catch (e) {
+      // The event stream brings the same soon.
+    }
+    connect();
+    setInterval(watchdog, 1000);
+    window.addEventListener("resize", renderTrend);
+  }
+
+  document.addEventListener("DOMContentLoaded", boot);
+})();

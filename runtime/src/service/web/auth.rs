@@ -1,0 +1,224 @@
+//! Who may do what on the page.
+//!
+//! - **Reading** needs nothing but the right `Host`: on a loopback bind only `127.0.0.1:PORT`,
+//!   `localhost:PORT` and `[::1]:PORT` are answered, so a web site that rebinds its own name to
+//!   127.0.0.1 (DNS rebinding) cannot read the plant through a visitor's browser.
+//! - **Writing** (force, unforce) needs `writes: true` in the project, a `POST` with
+//!   `Content-Type: application/json`, and `Authorization: Bearer TOKEN`. There are no cookies:
+//!   a browser sends that header only when the page's own script adds it, and another site's
+//!   script cannot add it to a request here without a CORS preflight this server never
+//!   approves, so a write cannot be forged from another site (CSRF). An `Origin` or
+//!   `Sec-Fetch-Site` saying the request comes from elsewhere is refused too.
+
+use std::net::SocketAddr;
+
+use super::http::Request;
+use crate::project::WebToken;
+
+/// Why a write is refused (each is a 403 with this text).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Refusal {
+    /// The project does not allow writes.
+    #[error("writes are off in this project (service.web.writes: false)")]
+    WritesOff,
+    /// No `Authorization: Bearer` header.
+    #[error("a token is needed: send Authorization: Bearer TOKEN (sign in on the page)")]
+    NoToken,
+    /// A token that is not the project's.
+    #[error("the token is not valid")]
+    BadToken,
+    /// An `Origin` or `Sec-Fetch-Site` from another site.
+    #[error("the request comes from another site")]
+    CrossSite,
+    /// Not `application/json`.
+    #[error("a write must be sent as application/json")]
+    NotJson,
+}
+
+/// The write policy of a running page.
+#[derive(Debug, Clone)]
+pub struct WriteAuth {
+    writes: bool,
+    token: Option<WebToken>,
+}
+
+impl WriteAuth {
+    /// The policy: `writes` from the project, `token` the one it configured.
+    pub fn new(writes: bool, token: Option<WebToken>) -> Self {
+        Self { writes, token }
+    }
+
+    /// Whether writes are possible at all (the page shows its force buttons).
+    pub fn enabled(&self) -> bool {
+        self.writes && self.token.is_some()
+    }
+
+    /// Whether `req` may write.
+    pub fn authorize(&self, req: &Request) -> Result<(), Refusal> {
+        let Some(token) = self.token.as_ref().filter(|_| self.writes) else {
+            return Err(Refusal::WritesOff);
+        };
+        if req
+            .header("sec-fetch-site")
+            .is_some_and(|s| s.eq_ignore_ascii_case("cross-site"))
+        {
+            return Err(Refusal::CrossSite);
+        }
+        if let (Some(origin), Some(host)) = (req.header("origin"), req.header("host")) {
+            let same = origin
+                .strip_prefix("http://")
+                .or_else(|| origin.strip_prefix("https://"))
+                .is_some_and(|o| o.eq_ignore_ascii_case(host));
+            if !same {
+                return Err(Refusal::CrossSite);
+            }
+        }
+        let given = req
+            .header("authorization")
+            .and_then(|a| {
+                let (scheme, rest) = a.split_once(' ')?;
+                scheme.eq_ignore_ascii_case("bearer").then(|| rest.trim())
+            })
+            .ok_or(Refusal::NoToken)?;
+        if !token.matches(given.as_bytes()) {
+            return Err(Refusal::BadToken);
+        }
+        let json = req.header("content-type").is_some_and(|c| {
+            c.split(';')
+                .next()
+                .is_some_and(|m| m.trim().eq_ignore_ascii_case("application/json"))
+        });
+        if !json {
+            return Err(Refusal::NotJson);
+        }
+        Ok(())
+    }
+}
+
+/// Whether a request with this `Host` header is answered by a server bound to `bind` (see the
+/// module docs): any host beyond loopback, only the loopback names on a loopback bind.
+pub fn host_allowed(bind: SocketAddr, port: u16, host: Option<&str>) -> bool {
+    if !bind.ip().is_loopback() {
+        return true;
+    }
+    let Some(host) = host else {
+        // HTTP/1.0 clients may omit it; they are not browsers a site can drive.
+        return true;
+    };
+    let host = host.to_ascii_lowercase();
+    ["127.0.0.1", "localhost", "[::1]"]
+        .iter()
+        .any(|name| host == *name || host == format!("{name}:{port}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn request(headers: &[(&str, &str)]) -> Request {
+        Request {
+            method: super::super::http::Method::Post,
+            path: "/api/force".into(),
+            query: String::new(),
+            headers: headers
+                .iter()
+                .map(|(n, v)| (n.to_string(), v.to_string()))
+                .collect(),
+            body: Vec::new(),
+        }
+    }
+
+    const JSON: (&str, &str) = ("content-type", "application/json");
+
+    #[test]
+    fn writes_need_the_switch_the_token_and_json() {
+        let on = WriteAuth::new(true, Some(WebToken::new("s3cret-token")));
+        let bearer = ("authorization", "Bearer s3cret-token");
+        assert!(on.enabled());
+        assert_eq!(on.authorize(&request(&[JSON, bearer])), Ok(()));
+        assert_eq!(
+            on.authorize(&request(&[
+                ("content-type", "application/json; charset=utf-8"),
+                ("authorization", "bearer  s3cret-token")
+            ])),
+            Ok(())
+        );
+        assert_eq!(on.authorize(&request(&[JSON])), Err(Refusal::NoToken));
+        assert_eq!(
+            on.authorize(&request(&[JSON, ("authorization", "Basic s3cret-token")])),
+            Err(Refusal::NoToken)
+        );
+        assert_eq!(
+            on.authorize(&request(&[JSON, ("authorization", "Bearer wrong")])),
+            Err(Refusal::BadToken)
+        );
+        assert_eq!(
+            on.authorize(&request(&[("content-type", "text/plain"), bearer])),
+            Err(Refusal::NotJson)
+        );
+        let off = WriteAuth::new(false, Some(WebToken::new("s3cret-token")));
+        assert!(!off.enabled());
+        assert_eq!(
+            off.authorize(&request(&[JSON, bearer])),
+            Err(Refusal::WritesOff)
+        );
+        let no_token = WriteAuth::new(true, None);
+        assert_eq!(
+            no_token.authorize(&request(&[JSON, bearer])),
+            Err(Refusal::WritesOff)
+        );
+    }
+
+    #[test]
+    fn writes_from_another_site_are_refused() {
+        let on = WriteAuth::new(true, Some(WebToken::new("s3cret-token")));
+        let bearer = ("authorization", "Bearer s3cret-token");
+        let host = ("host", "127.0.0.1:8080");
+        assert_eq!(
+            on.authorize(&request(&[
+                JSON,
+                bearer,
+                host,
+                ("origin", "http://127.0.0.1:8080")
+            ])),
+            Ok(())
+        );
+        assert_eq!(
+            on.authorize(&request(&[
+                JSON,
+                bearer,
+                host,
+                ("origin", "http://evil.example")
+            ])),
+            Err(Refusal::CrossSite)
+        );
+        assert_eq!(
+            on.authorize(&request(&[JSON, bearer, ("sec-fetch-site", "cross-site")])),
+            Err(Refusal::CrossSite)
+        );
+    }
+
+    #[test]
+    fn loopback_binds_answer_loopback_names_only() {
+        let lo: SocketAddr = "127.0.0.1:8080".parse().unwrap();
+        for ok in [
+            "127.0.0.1:8080",
+            "localhost:8080",
+            "LOCALHOST:8080",
+            "[::1]:8080",
+            "localhost",
+        ] {
+            assert!(host_allowed(lo, 8080, Some(ok)), "{ok}");
+        }
+        for bad in [
+            "evil.example:8080",
+            "127.0.0.1.evil.example:8080",
+            "localhost:9090",
+        ] {
+            assert!(!host_allowed(lo, 8080, Some(bad)), "{bad}");
+        }
+        assert!(host_allowed(lo, 8080, None));
+        let any: SocketAddr = "0.0.0.0:8080".parse().unwrap();
+        assert!(host_allowed(any, 8080, Some("plc.plant.example:8080")));
+    }
+}

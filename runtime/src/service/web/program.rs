@@ -1,0 +1,290 @@
+//! The program as the page shows it: the source, line by line, cut into code, comments,
+//! strings and the names of tags (which the page decorates with their live values), with the
+//! push-down plan's placement of each rung on the rung's first line.
+//!
+//! This reads the text only; no engine internals: a name is a tag when it is spelt like one
+//! outside comments and strings and is not a member (`jam.Q`).
+
+use serde::Serialize;
+
+use crate::offload::{Placement, Plan};
+use crate::project::{ProgramKind, Project};
+
+/// One piece of a line.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Part {
+    /// `code`, `tag`, `comment` or `string`.
+    pub k: &'static str,
+    /// The text.
+    pub s: String,
+    /// For a tag: its index in the project's tags.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tag: Option<usize>,
+}
+
+/// Where the rung starting on a line runs.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct RungMark {
+    /// The coil's tag.
+    pub coil: usize,
+    /// The module that runs it, when pushed down.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub module: Option<String>,
+    /// The module feature that runs it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub feature: Option<String>,
+    /// Why it stays in the scan, when it does.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub central: Option<String>,
+}
+
+/// One source line.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Default)]
+pub struct Line {
+    /// Its pieces, in order.
+    pub parts: Vec<Part>,
+    /// The rungs that start on it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub rungs: Vec<RungMark>,
+}
+
+/// The program page's content.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ProgramView {
+    /// The program file, as the project names it.
+    pub file: String,
+    /// `expr`, `ladder` or `rhai`.
+    pub kind: &'static str,
+    /// Its lines.
+    pub lines: Vec<Line>,
+    /// Why there is no source, when it could not be read.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+/// The program of `project`, read now, with `plan`'s placements.
+pub fn view(project: &Project, plan: &Plan) -> ProgramView {
+    let path = &project.program.path;
+    let kind = crate::offload::engine_name(project.program.kind);
+    let file = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let tags: Vec<&str> = project.tags.iter().map(|t| t.name.as_str()).collect();
+    let (text, error) = match std::fs::read_to_string(path) {
+        Ok(t) => (t, None),
+        Err(e) => (
+            String::new(),
+            Some(format!("cannot read {}: {e}", path.display())),
+        ),
+    };
+    let mut lines = annotate(&text, project.program.kind, &tags);
+    for r in &plan.rungs {
+        let at = (r.rung.pos.line as usize).saturating_sub(1);
+        let Some(line) = lines.get_mut(at) else {
+            continue;
+        };
+        let mark = match &r.placement {
+            Placement::Module(p) => RungMark {
+                coil: r.rung.coil.index(),
+                module: project.modules.get(p.module).map(|m| m.name.clone()),
+                feature: Some(p.feature.name().to_owned()),
+                central: None,
+            },
+            Placement::Central(reason) => RungMark {
+                coil: r.rung.coil.index(),
+                module: None,
+                feature: None,
+                central: Some(reason.to_string()),
+            },
+        };
+        line.rungs.push(mark);
+    }
+    ProgramView {
+        file,
+        kind,
+        lines,
+        error,
+    }
+}
+
+/// Cuts `text` (a program of `kind`) into lines of parts, recognising the names in `tags`.
+pub fn annotate(text: &str, kind: ProgramKind, tags: &[&str]) -> Vec<Line> {
+    let line_comment: &[char] = match kind {
+        ProgramKind::Expr | ProgramKind::Ladder => &['#'],
+        ProgramKind::Rhai => &['/', '/'],
+    };
+    let block_comments = kind == ProgramKind::Rhai;
+    let mut in_block = false;
+    text.lines()
+        .map(|line| {
+            let chars: Vec<char> = line.chars().collect();
+            let mut cut = Cutter::default();
+            let mut i = 0;
+            while i < chars.len() {
+                let at = |pat: &[char]| chars.get(i..i + pat.len()) == Some(pat);
+                let c = chars.get(i).copied().unwrap_or(' ');
+                if in_block {
+                    let mut j = i;
+                    while j < chars.len() && chars.get(j..j + 2) != Some(&['*', '/'][..]) {
+                        j += 1;
+                    }
+                    in_block = j >= chars.len();
+                    let end = (j + 2).min(chars.len());
+                    cut.piece("comment", &chars, i, end);
+                    i = end;
+                } else if at(line_comment) {
+                    cut.piece("comment", &chars, i, chars.len());
+                    i = chars.len();
+                } else if block_comments && at(&['/', '*']) {
+                    in_block = true;
+                    cut.piece("comment", &chars, i, i + 2);
+                    i += 2;
+                } else if c == '"' || (c == '\'' && kind != ProgramKind::Ladder) || c == '`' {
+                    let mut j = i + 1;
+                    while j < chars.len() && chars.get(j) != Some(&c) {
+                        j += if chars.get(j) == Some(&'\\') { 2 } else { 1 };
+                    }
+                    let end = (j + 1).min(chars.len());
+                    cut.piece("string", &chars, i, end);
+                    i = end;
+                } else if c.is_ascii_alphabetic() || c == '_' {
+                    let mut j = i;
+                    while chars
+                        .get(j)
+                        .is_some_and(|c| c.is_ascii_alphanumeric() || *c == '_')
+                    {
+                        j += 1;
+                    }
+                    let word: String = chars.get(i..j).unwrap_or_default().iter().collect();
+                    // `jam.Q`, `x.motor` and `jam(5s)` name blocks and members, not tags.
+                    let member = i > 0 && chars.get(i - 1) == Some(&'.');
+                    let instance = matches!(chars.get(j), Some('(' | '.'));
+                    match tags.iter().position(|t| *t == word) {
+                        Some(t) if !member && !instance => cut.tag(word, t),
+                        _ => cut.code.push_str(&word),
+                    }
+                    i = j;
+                } else {
+                    cut.code.push(c);
+                    i += 1;
+                }
+            }
+            cut.finish()
+        })
+        .collect()
+}
+
+/// Builds one line's parts, gathering plain code between the other pieces.
+#[derive(Debug, Default)]
+struct Cutter {
+    line: Line,
+    code: String,
+}
+
+impl Cutter {
+    fn flush(&mut self) {
+        if !self.code.is_empty() {
+            self.line.parts.push(Part {
+                k: "code",
+                s: std::mem::take(&mut self.code),
+                tag: None,
+            });
+        }
+    }
+
+    fn piece(&mut self, k: &'static str, chars: &[char], from: usize, to: usize) {
+        self.flush();
+        self.line.parts.push(Part {
+            k,
+            s: chars.get(from..to).unwrap_or_default().iter().collect(),
+            tag: None,
+        });
+    }
+
+    fn tag(&mut self, name: String, tag: usize) {
+        self.flush();
+        self.line.parts.push(Part {
+            k: "tag",
+            s: name,
+            tag: Some(tag),
+        });
+    }
+
+    fn finish(mut self) -> Line {
+        self.flush();
+        self.line
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn show(lines: &[Line]) -> Vec<String> {
+        lines
+            .iter()
+            .map(|l| {
+                l.parts
+                    .iter()
+                    .map(|p| match p.k {
+                        "tag" => format!("[{}]", p.s),
+                        "comment" => format!("{{{}}}", p.s),
+                        "string" => format!("<{}>", p.s),
+                        _ => p.s.clone(),
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    const TAGS: &[&str] = &["start", "stop", "motor", "box_at_exit", "jam"];
+
+    #[test]
+    fn expr_lines() {
+        let lines = annotate(
+            "# start the motor\nmotor = (rising(start) | motor) & !stop & !box_at_exit\n",
+            ProgramKind::Expr,
+            TAGS,
+        );
+        assert_eq!(
+            show(&lines),
+            [
+                "{# start the motor}",
+                "[motor] = (rising([start]) | [motor]) & ![stop] & ![box_at_exit]",
+            ]
+        );
+    }
+
+    #[test]
+    fn ladder_members_and_calls_are_not_tags() {
+        let lines = annotate(
+            "rungs:\n  - motor jam.Q -> TON jam(5s) -> stop  # a jam\n",
+            ProgramKind::Ladder,
+            TAGS,
+        );
+        assert_eq!(
+            show(&lines)[1],
+            "  - [motor] jam.Q -> TON jam(5s) -> [stop]  {# a jam}"
+        );
+    }
+
+    #[test]
+    fn rhai_strings_and_comments() {
+        let lines = annotate(
+            "motor = ton(\"motor\", start, \"5s\"); // motor\n/* stop\nstop */ stop = false;\n",
+            ProgramKind::Rhai,
+            TAGS,
+        );
+        assert_eq!(
+            show(&lines),
+            [
+                "[motor] = ton(<\"motor\">, [start], <\"5s\">); {// motor}",
+                "{/*}{ stop}",
+                "{stop */} [stop] = false;",
+            ]
+        );
+        // Unterminated strings and odd characters do not panic.
+        annotate("\"abc\\\nµ'x\n/*", ProgramKind::Rhai, TAGS);
+    }
+}

@@ -1,0 +1,256 @@
+//! The page's routes and what each answers.
+//!
+//! | route | answer |
+//! |---|---|
+//! | `GET /` | the page (`assets/index.html`); its views are `#overview`, `#io`, `#program`, `#timing`, `#bus` |
+//! | `GET /app.js`, `GET /style.css` | its script and style, embedded in the binary |
+//! | `GET /api/info` | what does not change: project, lines, modules, tags, program ([`super::info`]) |
+//! | `GET /api/state` | `{"state": …, "stats": …}` now ([`super::view`]) |
+//! | `GET /api/trend` | the trend's history |
+//! | `GET /api/events` | server-sent events `state` and `stats` ([`super::sse`]) |
+//! | `POST /api/force` | `{"tag": "motor", "value": "1"}` (value: text, number or boolean) |
+//! | `POST /api/unforce` | `{"tag": "motor"}`, or `{}` for every tag |
+//! | `POST /api/auth` | `{}`: whether the token would be accepted (the page's sign-in); changes nothing |
+//!
+//! A write answers 200 `{"ok": true, "message": …}` once the scan applied it at a cycle
+//! boundary, 409 `{"ok": false, "error": …}` when the scan refused it (no such tag, a value
+//! not of the tag's type, a pushed-down output), 403 when [`super::auth`] refuses it, 400 for
+//! a body that is not the JSON above, 503/504 when the scan is gone or does not answer.
+
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, Sender};
+use serde::Deserialize;
+
+use super::auth::WriteAuth;
+use super::http::{Method, Request, Response};
+use crate::service::control::{Envelope, Request as Control, Response as ControlResponse};
+
+/// The page's script.
+pub const APP_JS: &str = include_str!("assets/app.js");
+/// The page's style.
+pub const STYLE_CSS: &str = include_str!("assets/style.css");
+/// The page.
+pub const INDEX_HTML: &str = include_str!("assets/index.html");
+
+/// How long a write waits for room in the scan's request queue.
+const QUEUE_WAIT: Duration = Duration::from_secs(1);
+/// How long a write waits for the scan's answer.
+const SCAN_ANSWER: Duration = Duration::from_secs(3);
+/// The longest tag name or value text a write may carry.
+const MAX_FIELD: usize = 256;
+
+/// What a request asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Route {
+    /// The page.
+    Index,
+    /// Its script.
+    Script,
+    /// Its style.
+    Style,
+    /// `/api/info`.
+    Info,
+    /// `/api/state`.
+    State,
+    /// `/api/trend`.
+    Trend,
+    /// `/api/events`.
+    Events,
+    /// `/api/force`.
+    Force,
+    /// `/api/unforce`.
+    Unforce,
+    /// `/api/auth`.
+    Auth,
+}
+
+/// The route of `method` on `path`: `Err(404)` for an unknown path, `Err(405)` for a known
+/// path with the wrong method.
+pub fn route(method: Method, path: &str) -> Result<Route, u16> {
+    let (route, write) = match path {
+        "/" | "/index.html" => (Route::Index, false),
+        "/app.js" => (Route::Script, false),
+        "/style.css" => (Route::Style, false),
+        "/api/info" => (Route::Info, false),
+        "/api/state" => (Route::State, false),
+        "/api/trend" => (Route::Trend, false),
+        "/api/events" => (Route::Events, false),
+        "/api/force" => (Route::Force, true),
+        "/api/unforce" => (Route::Unforce, true),
+        "/api/auth" => (Route::Auth, true),
+        _ => return Err(404),
+    };
+    match (method, write) {
+        (Method::Post, true) | (Method::Get | Method::Head, false) => Ok(route),
+        _ => Err(405),
+    }
+}
+
+/// The methods `path` answers to (for a 405's `Allow`).
+pub fn allowed(path: &str) -> &'static str {
+    match route(Method::Post, path) {
+        Ok(_) => "POST",
+        Err(_) => "GET, HEAD",
+    }
+}
+
+/// `POST /api/force`'s body.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ForceBody {
+    tag: String,
+    value: serde_json::Value,
+}
+
+/// `POST /api/unforce`'s body.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct UnforceBody {
+    #[serde(default)]
+    tag: Option<String>,
+}
+
+fn refused(status: u16, error: &str) -> Response {
+    Response::json(
+        status,
+        serde_json::json!({ "ok": false, "error": error }).to_string(),
+    )
+}
+
+/// The control request a write body asks for, or the response refusing it.
+pub fn write_request(route: Route, body: &[u8]) -> Result<Control, Response> {
+    let bad = |e: String| refused(400, &format!("bad request body: {e}"));
+    let long = |what: &str| refused(400, &format!("the {what} is longer than {MAX_FIELD}"));
+    match route {
+        Route::Force => {
+            let b: ForceBody = serde_json::from_slice(body).map_err(|e| bad(e.to_string()))?;
+            let value = match b.value {
+                serde_json::Value::Bool(v) => u8::from(v).to_string(),
+                serde_json::Value::Number(n) => n.to_string(),
+                serde_json::Value::String(s) => s,
+                _ => return Err(bad("value must be a string, a number or a boolean".into())),
+            };
+            if b.tag.len() > MAX_FIELD {
+                return Err(long("tag name"));
+            }
+            if value.len() > MAX_FIELD {
+                return Err(long("value"));
+            }
+            Ok(Control::Force { tag: b.tag, value })
+        }
+        Route::Unforce => {
+            let b: UnforceBody = if body.iter().all(u8::is_ascii_whitespace) {
+                UnforceBody { tag: None }
+            } else {
+                serde_json::from_slice(body).map_err(|e| bad(e.to_string()))?
+            };
+            if b.tag.as_ref().is_some_and(|t| t.len() > MAX_FIELD) {
+                return Err(long("tag name"));
+            }
+            Ok(Control::Unforce { tag: b.tag })
+        }
+        _ => Err(refused(400, "not a write")),
+    }
+}
+
+/// Checks and carries out a write: authorisation, body, then the scan.
+pub fn write(auth: &WriteAuth, scan: &Sender<Envelope>, route: Route, req: &Request) -> Response {
+    if let Err(why) = auth.authorize(req) {
+        return refused(403, &why.to_string());
+    }
+    if route == Route::Auth {
+        return Response::json(
+            200,
+            serde_json::json!({ "ok": true, "message": "the token is valid" }).to_string(),
+        );
+    }
+    let request = match write_request(route, &req.body) {
+        Ok(r) => r,
+        Err(response) => return response,
+    };
+    let (reply, answer): (Sender<ControlResponse>, Receiver<ControlResponse>) =
+        crossbeam_channel::bounded(1);
+    if scan
+        .send_timeout(Envelope { request, reply }, QUEUE_WAIT)
+        .is_err()
+    {
+        return refused(503, "the scan is not taking requests (stopped or busy)");
+    }
+    match answer.recv_timeout(SCAN_ANSWER) {
+        Ok(r) if r.ok => Response::json(
+            200,
+            serde_json::json!({ "ok": true, "message": r.message.unwrap_or_default() }).to_string(),
+        ),
+        Ok(r) => refused(409, &r.error.unwrap_or_else(|| "refused".into())),
+        Err(_) => refused(504, "the scan did not answer within 3 s"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn routes_and_methods() {
+        assert_eq!(route(Method::Get, "/"), Ok(Route::Index));
+        assert_eq!(route(Method::Head, "/app.js"), Ok(Route::Script));
+        assert_eq!(route(Method::Get, "/api/events"), Ok(Route::Events));
+        assert_eq!(route(Method::Post, "/api/force"), Ok(Route::Force));
+        assert_eq!(route(Method::Get, "/api/force"), Err(405));
+        assert_eq!(route(Method::Post, "/api/state"), Err(405));
+        assert_eq!(route(Method::Post, "/api/auth"), Ok(Route::Auth));
+        assert_eq!(allowed("/api/unforce"), "POST");
+        assert_eq!(allowed("/api/info"), "GET, HEAD");
+        assert_eq!(route(Method::Get, "/../etc/passwd"), Err(404));
+        assert_eq!(route(Method::Get, "/api/state/"), Err(404));
+    }
+
+    #[test]
+    fn write_bodies() {
+        let force = |b: &str| write_request(Route::Force, b.as_bytes());
+        assert_eq!(
+            force(r#"{"tag":"motor","value":true}"#).unwrap(),
+            Control::Force {
+                tag: "motor".into(),
+                value: "1".into()
+            }
+        );
+        assert_eq!(
+            force(r#"{"tag":"speed","value":42}"#).unwrap(),
+            Control::Force {
+                tag: "speed".into(),
+                value: "42".into()
+            }
+        );
+        assert_eq!(
+            force(r#"{"tag":"speed","value":"0x10"}"#).unwrap(),
+            Control::Force {
+                tag: "speed".into(),
+                value: "0x10".into()
+            }
+        );
+        for bad in [
+            "",
+            "{}",
+            r#"{"tag":"m"}"#,
+            r#"{"tag":"m","value":[1]}"#,
+            r#"{"tag":"m","value":1,"x":2}"#,
+            "\u{0}",
+        ] {
+            assert_eq!(force(bad).unwrap_err().status, 400, "{bad}");
+        }
+        let long = format!(r#"{{"tag":"{}","value":1}}"#, "a".repeat(MAX_FIELD + 1));
+        assert_eq!(force(&long).unwrap_err().status, 400);
+        let unforce = |b: &str| write_request(Route::Unforce, b.as_bytes());
+        assert_eq!(unforce("").unwrap(), Control::Unforce { tag: None });
+        assert_eq!(unforce("{}").unwrap(), Control::Unforce { tag: None });
+        assert_eq!(
+            unforce(r#"{"tag":"motor"}"#).unwrap(),
+            Control::Unforce {
+                tag: Some("motor".into())
+            }
+        );
+        assert_eq!(unforce(r#"{"tagg":"motor"}"#).unwrap_err().status, 400);
+    }
+}

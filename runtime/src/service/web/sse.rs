@@ -1,0 +1,134 @@
+//! Server-sent events: `GET /api/events` streams the live state to the page without reloads.
+//!
+//! Each stream sends `state` after every new cycle (checked every [`TICK`]) and `stats` after
+//! every refresh of the statistics, a comment every [`KEEPALIVE`] while the scan is quiet, and
+//! ends after [`LIFETIME`] (the browser's `EventSource` reconnects by itself after the
+//! announced `retry`), so a thread is never held by a tab that went away without closing.
+
+use std::io::Write;
+use std::time::{Duration, Instant};
+
+use super::view;
+use crate::service::snapshot::SnapshotCell;
+
+/// How often a stream looks for a new cycle.
+pub const TICK: Duration = Duration::from_millis(100);
+/// The longest silence on a stream.
+pub const KEEPALIVE: Duration = Duration::from_secs(15);
+/// How long one stream lasts before the browser is asked to reconnect.
+pub const LIFETIME: Duration = Duration::from_secs(600);
+/// How long the browser waits before reconnecting, in ms.
+pub const RETRY_MS: u32 = 1000;
+
+/// The response head of a stream.
+pub fn head() -> String {
+    format!(
+        "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream; charset=utf-8\r\n{}\
+         X-Accel-Buffering: no\r\nConnection: close\r\n\r\nretry: {RETRY_MS}\n\n",
+        super::http::SECURITY_HEADERS
+    )
+}
+
+/// One event: `event: NAME`, then `data:` lines (a newline in `data` starts another `data:`
+/// line, as the format requires), then a blank line. A name with a line break or a colon
+/// would corrupt the stream, so such characters are dropped from it.
+pub fn event(name: &str, data: &str) -> String {
+    let name: String = name
+        .chars()
+        .filter(|c| !matches!(c, '\r' | '\n' | ':'))
+        .collect();
+    let mut out = String::with_capacity(data.len() + name.len() + 16);
+    out.push_str("event: ");
+    out.push_str(&name);
+    out.push('\n');
+    for line in data.split('\n') {
+        out.push_str("data: ");
+        out.push_str(line.strip_suffix('\r').unwrap_or(line));
+        out.push('\n');
+    }
+    out.push('\n');
+    out
+}
+
+/// A comment line (ignored by the browser; keeps proxies and the connection awake).
+pub fn comment(text: &str) -> String {
+    format!(": {}\n\n", text.replace(['\r', '\n'], " "))
+}
+
+/// Streams `snapshot` to `out` until the client goes away or [`LIFETIME`] passes.
+pub fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::Result<()> {
+    out.write_all(head().as_bytes())?;
+    out.flush()?;
+    let begin = Instant::now();
+    let mut last_sent = Instant::now();
+    let mut cycles = None;
+    let mut stats_seq = None;
+    while begin.elapsed() < LIFETIME {
+        let s = snapshot.get();
+        let mut chunk = String::new();
+        if s.published && cycles != Some(s.cycles) {
+            cycles = Some(s.cycles);
+            chunk.push_str(&event("state", &view::state(&s).to_string()));
+        }
+        if s.published && stats_seq != Some(s.stats_seq) {
+            stats_seq = Some(s.stats_seq);
+            chunk.push_str(&event("stats", &view::stats(&s).to_string()));
+        }
+        if chunk.is_empty() && last_sent.elapsed() >= KEEPALIVE {
+            chunk = comment("waiting for the scan");
+        }
+        if !chunk.is_empty() {
+            out.write_all(chunk.as_bytes())?;
+            out.flush()?;
+            last_sent = Instant::now();
+        }
+        if s.stopped {
+            // The run is over: the last state is out, the process is about to exit.
+            break;
+        }
+        std::thread::sleep(TICK);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::snapshot::ServiceSnapshot;
+
+    #[test]
+    fn events_are_framed_line_by_line() {
+        assert_eq!(event("state", "{}"), "event: state\ndata: {}\n\n");
+        assert_eq!(
+            event("a\nb:c", "one\r\ntwo\nthree"),
+            "event: abc\ndata: one\ndata: two\ndata: three\n\n"
+        );
+        assert_eq!(event("x", ""), "event: x\ndata: \n\n");
+        assert_eq!(comment("a\nb"), ": a b\n\n");
+        let h = head();
+        assert!(h.starts_with("HTTP/1.1 200 OK\r\nContent-Type: text/event-stream"));
+        assert!(h.ends_with("\r\n\r\nretry: 1000\n\n"));
+    }
+
+    #[test]
+    fn a_stream_sends_state_and_stats_then_ends_with_the_run() {
+        let cell = SnapshotCell::new();
+        cell.set(ServiceSnapshot {
+            published: true,
+            cycles: 3,
+            stopped: true,
+            ..ServiceSnapshot::default()
+        });
+        let mut out = Vec::new();
+        stream(&mut out, &cell).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let body = text.split("\r\n\r\n").nth(1).unwrap();
+        assert!(
+            body.starts_with("retry: 1000\n\nevent: state\ndata: {"),
+            "{body}"
+        );
+        assert!(body.contains("\"cycles\":3"), "{body}");
+        assert!(body.contains("\n\nevent: stats\ndata: {"), "{body}");
+        assert!(body.ends_with("}\n\n"), "{body}");
+    }
+}

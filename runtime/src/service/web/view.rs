@@ -1,0 +1,167 @@
+//! The live JSON the page draws: the state (every cycle), the statistics (every refresh of
+//! the snapshot's statistics) and the trend's history. Arrays are in tag (or module, or
+//! phase) order, so the page joins them with [`super::info::WebInfo`] by index. Times are
+//! milliseconds as numbers, values are JSON booleans and numbers (`null` for a float that is
+//! not finite), qualities 0 good, 1 stale, 2 bad.
+
+use serde_json::{json, Value as Json};
+use softplc_io::point::{Quality, Value};
+
+use super::trend::Trend;
+use crate::service::snapshot::{Phase, ServiceSnapshot};
+
+fn ms(d: std::time::Duration) -> f64 {
+    // Microsecond resolution is all a person reads; it also keeps the JSON short.
+    (d.as_micros() as f64) / 1000.0
+}
+
+fn value(v: Value) -> Json {
+    match v {
+        Value::Bool(b) => Json::Bool(b),
+        Value::U16(x) => json!(x),
+        Value::I32(x) => json!(x),
+        Value::F32(x) => {
+            serde_json::Number::from_f64(f64::from(x)).map_or(Json::Null, Json::Number)
+        }
+    }
+}
+
+fn quality(q: Quality) -> u8 {
+    match q {
+        Quality::Good => 0,
+        Quality::Stale => 1,
+        Quality::Bad => 2,
+    }
+}
+
+/// The state: cycle figures and every tag's value, quality, age and force.
+pub fn state(s: &ServiceSnapshot) -> Json {
+    let age: Vec<f64> = s
+        .timestamps
+        .iter()
+        .map(|t| ms(s.now.saturating_sub(*t)))
+        .collect();
+    let forced: Vec<usize> = s
+        .forced
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| f.then_some(i))
+        .collect();
+    json!({
+        "published": s.published,
+        "stopped": s.stopped,
+        "cycles": s.cycles,
+        "overruns": s.overruns,
+        "now": ms(s.now),
+        "v": s.values.iter().map(|v| value(*v)).collect::<Vec<_>>(),
+        "q": s.qualities.iter().map(|q| quality(*q)).collect::<Vec<_>>(),
+        "age": age,
+        "forced": forced,
+    })
+}
+
+/// The statistics: each phase's percentiles and histogram, each module's counters.
+pub fn stats(s: &ServiceSnapshot) -> Json {
+    let phases: Vec<Json> = Phase::ALL
+        .iter()
+        .zip(&s.phases)
+        .enumerate()
+        .map(|(i, (phase, p))| {
+            let h = s.histograms.get(i);
+            json!({
+                "name": phase.name(),
+                "count": p.count,
+                "p50": ms(p.p50),
+                "p99": ms(p.p99),
+                "p999": ms(p.p999),
+                "max": ms(p.max),
+                "mean": if p.count > 0 { ms(p.sum) / p.count as f64 } else { 0.0 },
+                "hist": h.map(|h| json!({
+                    "lo": ms(h.lo),
+                    "hi": ms(h.hi),
+                    "log": h.log,
+                    "counts": h.counts,
+                })),
+            })
+        })
+        .collect();
+    let modules: Vec<Json> = s
+        .modules
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let c = &m.counters;
+            json!({
+                "q": quality(m.quality),
+                "requests": c.requests,
+                "timeouts": c.timeouts,
+                "crc": c.crc_errors,
+                "bad": c.bad_replies,
+                "exceptions": c.exceptions,
+                "rtt": ms(c.last_round_trip),
+                "error": s.module_errors.get(i).cloned().flatten(),
+            })
+        })
+        .collect();
+    json!({ "seq": s.stats_seq, "phases": phases, "modules": modules })
+}
+
+/// The trend's history, column by column: times (ms of scan time) and one series per tag.
+pub fn trend(t: &Trend) -> Json {
+    let times: Vec<f64> = t.samples.iter().map(|(at, _)| ms(*at)).collect();
+    let series: Vec<Vec<Option<f64>>> = (0..t.tags.len())
+        .map(|k| {
+            t.samples
+                .iter()
+                .map(|(_, row)| row.get(k).copied().flatten())
+                .collect()
+        })
+        .collect();
+    json!({ "tags": t.tags, "t": times, "series": series })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::service::snapshot::HistogramView;
+
+    #[test]
+    fn state_and_stats_json() {
+        let s = ServiceSnapshot {
+            published: true,
+            cycles: 7,
+            now: Duration::from_millis(700),
+            values: vec![Value::Bool(true), Value::F32(f32::NAN), Value::I32(-3)],
+            qualities: vec![Quality::Good, Quality::Stale, Quality::Bad],
+            timestamps: vec![Duration::from_millis(650), Duration::ZERO, Duration::ZERO],
+            forced: vec![false, false, true],
+            histograms: vec![HistogramView {
+                lo: Duration::from_micros(1500),
+                hi: Duration::from_millis(3),
+                log: false,
+                counts: vec![1, 2],
+            }],
+            module_errors: vec![Some("timeout".into())],
+            modules: vec![Default::default()],
+            ..ServiceSnapshot::default()
+        };
+        let j = state(&s);
+        assert_eq!(j["v"], json!([true, null, -3]));
+        assert_eq!(j["q"], json!([0, 1, 2]));
+        assert_eq!(j["age"], json!([50.0, 700.0, 700.0]));
+        assert_eq!(j["forced"], json!([2]));
+        let j = stats(&s);
+        assert_eq!(j["phases"][0]["name"], "cycle");
+        assert_eq!(j["phases"][0]["hist"]["lo"], json!(1.5));
+        assert_eq!(j["phases"][1]["hist"], Json::Null);
+        assert_eq!(j["modules"][0]["error"], "timeout");
+        let mut t = Trend::new(vec![0]);
+        t.sample(1, Duration::from_millis(100), &s.values);
+        assert_eq!(
+            trend(&t),
+            json!({"tags": [0], "t": [100.0], "series": [[1.0]]})
+        );
+    }
+}

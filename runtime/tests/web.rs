@@ -1,0 +1,406 @@
+//! The web page end to end, in headless Chromium (Debian's `chromium`, installed by
+//! `scripts/test`), against a running `softplc run` whose two MiniMods are simulated by
+//! `softplc sim` on a pty, exactly as a real line would be:
+//!
+//! - the page loads and shows every tag, the program and the plots;
+//! - an input set in the simulator shows up on the page within a second;
+//! - signing in with the project's token and clicking "Force 1" on the page turns the output on
+//!   in the simulator (and `softplc status` shows the force); "Unforce" gives it back;
+//! - a write without the token, or with a wrong one, is refused with 403 and changes nothing;
+//! - a rung the planner pushed down is marked with its module on the program view.
+//!
+//! Screenshots of each view are left in `target/web-screenshots/` (test artefacts).
+
+#[path = "web/cdp.rs"]
+mod cdp;
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{channel, Receiver};
+use std::time::{Duration, Instant};
+
+use cdp::Browser;
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+const TOKEN: &str = "e2e-token-0123456789";
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// A port nobody listens on now (bound, then released).
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// `softplc sim --pty` serving the given modules, driven through its standard input.
+struct Sim {
+    child: Child,
+    stdin: ChildStdin,
+    lines: Receiver<String>,
+}
+
+impl Sim {
+    fn start(devices: &[&str]) -> (Self, String) {
+        let mut child = Command::new(BIN)
+            .arg("sim")
+            .arg("--pty")
+            .args(devices)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let stdin = child.stdin.take().unwrap();
+        let stdout = child.stdout.take().unwrap();
+        let (tx, lines) = channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let banner = lines
+            .recv_timeout(Duration::from_secs(20))
+            .expect("softplc sim prints its pty");
+        let pty = banner
+            .split_whitespace()
+            .find(|w| w.starts_with("/dev/"))
+            .unwrap_or_else(|| panic!("no pty path in {banner:?}"))
+            .to_string();
+        (
+            Self {
+                child,
+                stdin,
+                lines,
+            },
+            pty,
+        )
+    }
+
+    fn send(&mut self, command: &str) {
+        writeln!(self.stdin, "{command}").unwrap();
+        self.stdin.flush().unwrap();
+    }
+
+    fn get(&mut self, target: &str) -> String {
+        self.send(&format!("get {target}"));
+        loop {
+            let line = self
+                .lines
+                .recv_timeout(Duration::from_secs(10))
+                .expect("sim answers");
+            if line.starts_with(target) || line.starts_with("error") {
+                return line;
+            }
+        }
+    }
+
+    /// Polls `target` until it reads `want`.
+    fn wait_for(&mut self, target: &str, want: &str, within: Duration) -> bool {
+        let start = Instant::now();
+        while start.elapsed() < within {
+            if self.get(target) == format!("{target}={want}") {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        false
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The running PLC; killed when dropped (the test ends it earlier on success).
+struct Plc(Child);
+
+impl Drop for Plc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// One HTTP request to the page: (status, body).
+fn http(port: u16, request: &str) -> (u16, String) {
+    let mut c = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    c.write_all(request.as_bytes()).unwrap();
+    let mut out = String::new();
+    let _ = c.read_to_string(&mut out);
+    let status = out
+        .split(' ')
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let body = out.split("\r\n\r\n").nth(1).unwrap_or("").to_string();
+    (status, body)
+}
+
+fn post(port: u16, path: &str, headers: &str, body: &str) -> (u16, String) {
+    http(
+        port,
+        &format!(
+            "POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n{headers}Content-Length: {}\r\n\r\n{body}",
+            body.len()
+        ),
+    )
+}
+
+fn status(socket: &Path) -> String {
+    let out = Command::new(BIN)
+        .args(["status", "--socket"])
+        .arg(socket)
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// A tag's line in `softplc status`.
+fn status_line(socket: &Path, tag: &str) -> String {
+    status(socket)
+        .lines()
+        .find(|l| l.split_whitespace().next() == Some(tag))
+        .unwrap_or_default()
+        .to_string()
+}
+
+fn chromium_available() {
+    let ok = Command::new("chromium")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        ok,
+        "chromium is not installed: the web page's end-to-end test drives Debian's chromium \
+         package headless; run scripts/test, which installs it"
+    );
+}
+
+fn screenshots() -> PathBuf {
+    let dir = repo().join("target/web-screenshots");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn the_page_shows_the_running_plc_and_forces_its_outputs() {
+    chromium_available();
+    let (mut sim, pty) = Sim::start(&["minimod@1", "minimod@2"]);
+    let dir = std::env::temp_dir().join(format!("softplc-web-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo().join("programs/conveyor.expr"),
+        dir.join("conveyor.expr"),
+    )
+    .unwrap();
+    let port = free_port();
+    // The quick start's machine on the pty; `offload: auto` lets the planner push the lamp's
+    // rung (mm2.X1 → mm2.Y1) into mm2, so the program view has a rung to mark.
+    let project = format!(
+        "project: webtest\n\
+         scan: {{ period: 100ms, watchdog: {{ time: 1s, sensitivity: 3 }} }}\n\
+         offload: auto\n\
+         buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 200ms, retries: 1 }}\n\
+         modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2 }}\n\
+         tags:\n\
+         \x20 - {{ name: box_at_entry, point: mm1.X1 }}\n\
+         \x20 - {{ name: start,        point: mm1.X2 }}\n\
+         \x20 - {{ name: stop,         point: mm1.X3 }}\n\
+         \x20 - {{ name: motor,        point: mm1.Y1, safe: false }}\n\
+         \x20 - {{ name: box_at_exit,  point: mm2.X1 }}\n\
+         \x20 - {{ name: lamp,         point: mm2.Y1, safe: false }}\n\
+         program: {{ file: conveyor.expr, kind: expr }}\n\
+         service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, token: {TOKEN}, trend: [start, stop, motor, box_at_exit, lamp] }}\n"
+    );
+    std::fs::write(dir.join("project.yaml"), project).unwrap();
+    let socket = dir.join("ctl.sock");
+    let mut plc = Plc(Command::new(BIN)
+        .args(["run", "--quiet", "--for", "120s", "--control"])
+        .arg(&socket)
+        .arg(dir.join("project.yaml"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap());
+    let up = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        if up.elapsed() > Duration::from_secs(30) || plc.0.try_wait().unwrap().is_some() {
+            let _ = plc.0.kill();
+            let mut err = String::new();
+            let _ = plc.0.stderr.take().unwrap().read_to_string(&mut err);
+            panic!("the web page never listened on port {port}:\n{err}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+
+    // Without the token, or with a wrong one, a write is refused and changes nothing.
+    let json = "Content-Type: application/json\r\n";
+    let body = r#"{"tag":"motor","value":"1"}"#;
+    let (code, text) = post(port, "/api/force", json, body);
+    assert_eq!(code, 403, "{text}");
+    assert!(text.contains("a token is needed"), "{text}");
+    let wrong = format!("{json}Authorization: Bearer not-{TOKEN}\r\n");
+    assert_eq!(post(port, "/api/force", &wrong, body).0, 403);
+    let forged = format!("{json}Authorization: Bearer {TOKEN}\r\nOrigin: http://evil.example\r\n");
+    assert_eq!(post(port, "/api/force", &forged, body).0, 403);
+
+    let profile = dir.join("chromium");
+    let mut b = Browser::start(&profile);
+    let url = format!("http://127.0.0.1:{port}/");
+    b.open(&format!("{url}#io"));
+    let live = b.wait_for(
+        "document.getElementById('value-stop').dataset.value",
+        Duration::from_secs(30),
+    );
+    assert!(live.is_some(), "no live value on the page within 30 s");
+
+    // The page shows every tag, each with its module's row.
+    let tags = b.eval("[...document.querySelectorAll('#io-tables tr[data-tag]')].map(r => r.dataset.tag).join(',')");
+    assert_eq!(
+        tags.as_str(),
+        Some("box_at_entry,start,stop,motor,box_at_exit,lamp")
+    );
+    let (q, _) = b
+        .wait_for(
+            "document.querySelector('#io-tables tr[data-tag=stop] .q').textContent === 'good'",
+            Duration::from_secs(20),
+        )
+        .expect("stop's quality is good");
+    assert_eq!(q, true);
+
+    // An input set in the simulator shows up on the page within a second, every time.
+    let mut latencies = Vec::new();
+    for want in ["1", "0", "1"] {
+        sim.send(&format!("set minimod@1.X3 {want}"));
+        let start = Instant::now();
+        let seen = b.wait_for(
+            &format!("document.getElementById('value-stop').dataset.value === '{want}'"),
+            Duration::from_secs(10),
+        );
+        assert!(seen.is_some(), "stop={want} never reached the page");
+        latencies.push(start.elapsed());
+    }
+    eprintln!("simulator input → page: {latencies:?}");
+    latencies.sort();
+    assert!(
+        latencies[1] < Duration::from_secs(1),
+        "an input takes more than a second to reach the page: {latencies:?}"
+    );
+    // The program view shows the same value beside the tag.
+    assert_eq!(
+        b.eval("document.querySelector('#program .tag[data-tag=stop] + .val').textContent")
+            .as_str(),
+        Some("1")
+    );
+    // stop is pressed: the program holds the motor off.
+    assert!(sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(5)));
+
+    // Force buttons do nothing before signing in.
+    let disabled =
+        b.eval("document.querySelector('button[data-force=motor][data-value=\"1\"]').disabled");
+    assert_eq!(disabled, true, "the force button is live before signing in");
+    let anonymous = b.eval(
+        "fetch('/api/force', {method: 'POST', headers: {'Content-Type': 'application/json'}, \
+         body: JSON.stringify({tag: 'motor', value: '1'})}).then(r => r.status)",
+    );
+    assert_eq!(anonymous, 403);
+
+    // Sign in with the token, click "Force 1" on motor: the simulator's Y1 turns on.
+    b.eval(&format!(
+        "document.getElementById('token').value = '{TOKEN}'; \
+         document.getElementById('login').requestSubmit(); true"
+    ));
+    b.wait_for(
+        "document.querySelector('#auth .who') !== null",
+        Duration::from_secs(10),
+    )
+    .expect("signed in");
+    b.wait_for(
+        "!document.querySelector('button[data-force=motor][data-value=\"1\"]').disabled",
+        Duration::from_secs(5),
+    )
+    .expect("the force button is live once signed in");
+    b.eval("document.querySelector('button[data-force=motor][data-value=\"1\"]').click(); true");
+    assert!(
+        sim.wait_for("minimod@1.Y1", "1", Duration::from_secs(10)),
+        "forcing from the page did not turn the output on"
+    );
+    let line = status_line(&socket, "motor");
+    assert!(line.contains("FORCED 1"), "softplc status: {line:?}");
+    b.wait_for(
+        "document.querySelector('#io-tables tr[data-tag=motor]').classList.contains('forced')",
+        Duration::from_secs(5),
+    )
+    .expect("the page shows the force");
+    let shots = screenshots();
+    b.screenshot(&shots.join("io-forced.png"));
+
+    // The pushed-down rung is marked with its module; the lamp cannot be forced from the scan.
+    let pushed = b.eval("[...document.querySelectorAll('#program [data-pushed]')].map(e => e.dataset.pushed).join(',')");
+    assert_eq!(pushed.as_str(), Some("mm2"), "the lamp's rung runs in mm2");
+    assert_eq!(
+        b.eval("document.querySelector('button[data-force=lamp]') === null"),
+        true
+    );
+
+    // Unforce from the page: the program takes the motor back (stop is still pressed).
+    b.eval("document.querySelector('button[data-unforce=motor]').click(); true");
+    assert!(
+        sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(10)),
+        "unforcing from the page did not give the output back to the program"
+    );
+    assert!(!status_line(&socket, "motor").contains("FORCED"));
+    sim.send("set minimod@1.X3 0");
+
+    // Each view, with its plots drawn, as a screenshot.
+    for (view, ready) in [
+        ("overview", "document.querySelectorAll('#trend path.trace').length >= 3 && document.querySelector('#faults li') !== null"),
+        ("io", "document.querySelector('#io-tables .led') !== null"),
+        ("program", "document.querySelector('#program .tag.on, #program .tag.off') !== null"),
+        ("timing", "document.querySelectorAll('#histograms svg rect.bar').length >= 5"),
+        ("bus", "document.querySelectorAll('#bus-table tr[data-module]').length === 2"),
+    ] {
+        b.eval(&format!("location.hash = '#{view}'; true"));
+        b.wait_for(
+            &format!("document.getElementById('view-{view}').classList.contains('active') && ({ready})"),
+            Duration::from_secs(15),
+        )
+        .unwrap_or_else(|| panic!("the {view} view did not render"));
+        std::thread::sleep(Duration::from_millis(400));
+        b.screenshot(&shots.join(format!("{view}.png")));
+    }
+    let requests = b.eval("+document.querySelector('#bus-table tr[data-module=mm1] td:nth-child(5)').textContent.replace(/,/g, '')");
+    assert!(
+        requests.as_f64().unwrap_or(0.0) > 10.0,
+        "bus counters: {requests}"
+    );
+    for view in ["overview", "io", "io-forced", "program", "timing", "bus"] {
+        let png = std::fs::read(shots.join(format!("{view}.png"))).unwrap();
+        assert!(
+            png.starts_with(b"\x89PNG") && png.len() > 10_000,
+            "{view}.png"
+        );
+    }
+    drop(b);
+    drop(plc);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,878 @@
+//! Push-down equivalence (DESIGN.md principle 6): for every form a module can run, the same
+//! program is built twice, `offload: never` (every rung in the scan) and `offload: auto` (the
+//! planner's placement), on the virtual clock against the simulated modules. The same seeded
+//! random input sequence is played at the module terminals and the output terminals are
+//! recorded every millisecond. The traces must match up to the documented reaction-time
+//! difference:
+//!
+//! - **Levels** (combinational rungs, latches, edge functions): the same edges, in the same
+//!   order and direction; each pushed-down edge comes no later than the central one (with one
+//!   module tick of tolerance) and earlier by at most the central reaction bound (the scan
+//!   period plus the slowest line's read floor plus the output line's write floor,
+//!   `offload::report::central_bound`). The input sequence holds every input state for at
+//!   least two scan periods, so the scan sees every state the module sees.
+//! - **Pulses** (TP on a MiniMod output): the trigger stays in the scan, so both pulses start
+//!   in the same cycle's write phase (within the write floor of each other); the pushed-down
+//!   pulse lasts exactly the preset (± one module tick at each end: the pulser counts whole
+//!   milliseconds from a write that falls between two), the central one a whole number of
+//!   scans, never shorter.
+//!
+//! Before the first input change the outputs must agree in level (start-up differs: a module
+//! applies its tables before the first scan).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use softplc::clock::{Clock, VirtualClock};
+use softplc::offload::{Placement, Reason};
+use softplc::plc::Plc;
+use softplc::project::{self, Project};
+use softplc::scan::ScanEngine;
+use softplc_io::sim::plant::{Plant, PlantIo};
+
+/// An edge: when, and the new level.
+type Edge = (Duration, bool);
+
+fn ms(n: u64) -> Duration {
+    Duration::from_millis(n)
+}
+
+/// SplitMix64: a small deterministic generator (no dependency, same sequence everywhere).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `lo..=hi`.
+    fn range(&mut self, lo: u64, hi: u64) -> u64 {
+        lo + self.next() % (hi - lo + 1)
+    }
+}
+
+/// Plays input schedules at module terminals and records output terminals, every 1 ms step.
+#[derive(Debug)]
+struct Recorder {
+    /// Per input role: level changes, in time order.
+    schedule: Vec<Vec<Edge>>,
+    next: Vec<usize>,
+    outputs: usize,
+    last: Vec<bool>,
+    trace: Arc<Mutex<Vec<Vec<Edge>>>>,
+}
+
+impl Plant for Recorder {
+    fn step(&mut self, t: Duration, io: &mut dyn PlantIo) {
+        for (i, sched) in self.schedule.iter().enumerate() {
+            while let Some(&(at, level)) = sched.get(self.next[i]) {
+                if at > t {
+                    break;
+                }
+                io.write(i, level);
+                self.next[i] += 1;
+            }
+        }
+        let n_in = self.schedule.len();
+        let mut trace = self.trace.lock().unwrap();
+        for j in 0..self.outputs {
+            let v = io.read(n_in + j);
+            if v != self.last[j] {
+                self.last[j] = v;
+                trace[j].push((t, v));
+            }
+        }
+    }
+}
+
+/// A test case: modules on one simulated line, tags, a program, inputs and outputs to watch.
+struct Case {
+    name: &'static str,
+    period_ms: u64,
+    /// The module's tick: how much later than the scan its edge may come (it samples its
+    /// inputs on its own clock; the scan may read a terminal between two samples).
+    tick_ms: u64,
+    /// `modules:` entries (YAML flow mappings without the bus).
+    modules: &'static [&'static str],
+    /// `tags:` entries.
+    tags: &'static [&'static str],
+    /// The program: `expr` text, or ladder rungs (one per line) when `ladder`.
+    program: &'static str,
+    ladder: bool,
+    /// Terminals driven: `module.point`.
+    inputs: &'static [&'static str],
+    /// Terminals recorded: `module.point`.
+    outputs: &'static [&'static str],
+}
+
+impl Case {
+    fn dir(&self) -> PathBuf {
+        // Cargo's scratch folder for integration tests (under target/), one per case.
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("offload-{}", self.name));
+        std::fs::create_dir_all(&dir).unwrap();
+        let text = if self.ladder {
+            let mut t = String::from("rungs:\n");
+            for rung in self.program.lines() {
+                let _ = writeln!(t, "  - \"{rung}\"");
+            }
+            t
+        } else {
+            self.program.to_string()
+        };
+        std::fs::write(dir.join(self.file()), text).unwrap();
+        dir
+    }
+
+    fn file(&self) -> &'static str {
+        if self.ladder {
+            "program.yaml"
+        } else {
+            "program.expr"
+        }
+    }
+
+    fn text(&self, mode: &str) -> String {
+        let mut t = String::new();
+        let _ = writeln!(
+            t,
+            "project: {}\nscan: {{ period: {}ms }}",
+            self.name, self.period_ms
+        );
+        let _ = writeln!(t, "offload: {mode}");
+        let _ = writeln!(
+            t,
+            "buses:\n  - {{ name: line1, port: sim, baud: 57600, response_timeout: 50ms }}"
+        );
+        let _ = writeln!(t, "modules:");
+        for m in self.modules {
+            let _ = writeln!(t, "  - {{ bus: line1, {m} }}");
+        }
+        let _ = writeln!(t, "tags:");
+        for tag in self.tags {
+            let _ = writeln!(t, "  - {{ {tag} }}");
+        }
+        let kind = if self.ladder { "ladder" } else { "expr" };
+        let _ = writeln!(t, "program: {{ file: {}, kind: {kind} }}", self.file());
+        t
+    }
+
+    fn project(&self, mode: &str) -> Project {
+        let dir = self.dir();
+        let path = dir.join("project.yaml");
+        std::fs::write(&path, self.text(mode)).unwrap();
+        project::parse_str(&self.text(mode), &path)
+            .unwrap_or_else(|e| panic!("{}: the project is valid:\n{e}", self.name))
+    }
+}
+
+/// A random input sequence: from 1 s on, every `gap` (random in `min_gap..=3 × min_gap`) one
+/// or more inputs flip.
+fn schedule(inputs: usize, seed: u64, min_gap: Duration, until: Duration) -> Vec<Vec<Edge>> {
+    let mut rng = Rng(seed);
+    let mut out = vec![Vec::new(); inputs];
+    let mut levels = vec![false; inputs];
+    let mut t = ms(1000);
+    let gap = min_gap.as_millis() as u64;
+    while t < until {
+        let flips = rng.range(1, (1u64 << inputs) - 1);
+        for (i, level) in levels.iter_mut().enumerate() {
+            if flips & (1 << i) != 0 {
+                *level = !*level;
+                out[i].push((t, *level));
+            }
+        }
+        t += ms(rng.range(gap, 3 * gap));
+    }
+    out
+}
+
+/// Runs `project` for `run_for` with the inputs played; the output traces.
+fn run(case: &Case, project: Project, inputs: &[Vec<Edge>], run_for: Duration) -> Vec<Vec<Edge>> {
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let plc = Plc::build(project, clock).unwrap_or_else(|e| panic!("{}: builds: {e}", case.name));
+    let trace = Arc::new(Mutex::new(vec![Vec::new(); case.outputs.len()]));
+    {
+        let world = plc.world().expect("a simulated line");
+        let mut world = world.lock().unwrap();
+        let wires = case
+            .inputs
+            .iter()
+            .chain(case.outputs)
+            .map(|t| {
+                let (module, point) = t.split_once('.').unwrap();
+                (world.find(module).unwrap(), point.to_string())
+            })
+            .collect();
+        world.set_plant(
+            Box::new(Recorder {
+                schedule: inputs.to_vec(),
+                next: vec![0; inputs.len()],
+                outputs: case.outputs.len(),
+                last: vec![false; case.outputs.len()],
+                trace: trace.clone(),
+            }),
+            wires,
+        );
+    }
+    let mut engine = ScanEngine::new(plc).run_for(run_for);
+    let outcome = engine.run();
+    assert_eq!(outcome.stats.overruns, 0, "{}: no overrun", case.name);
+    let trace = trace.lock().unwrap().clone();
+    // The shutdown's safe state is not part of the comparison: the inputs stop changing 1 s
+    // before the end, and every reaction is over within half a second.
+    let end = run_for.saturating_sub(ms(500));
+    trace
+        .into_iter()
+        .map(|t| t.into_iter().filter(|(at, _)| *at < end).collect())
+        .collect()
+}
+
+/// The level of a trace just before `t`.
+fn level_before(trace: &[Edge], t: Duration) -> bool {
+    trace
+        .iter()
+        .take_while(|(at, _)| *at < t)
+        .last()
+        .is_some_and(|(_, v)| *v)
+}
+
+/// The plans of both builds and the central reaction bound of the line.
+fn plans(case: &Case) -> (Project, Project, Duration) {
+    let never = case.project("never");
+    let auto = case.project("auto");
+    let image =
+        softplc::image::ProcessImage::new(never.tags.iter().map(|t| (t.name.clone(), t.initial)));
+    let engine = softplc::logic::load::load_program(&never, &image).unwrap();
+    let plan = softplc::offload::plan_program(&never, engine.as_ref());
+    let bound = softplc::offload::report::central_bound(&never, &plan, 0);
+    (never, auto, bound)
+}
+
+/// Which outputs the auto build pushes down, by coil name.
+fn pushed(project: &Project) -> Vec<(String, bool)> {
+    let image =
+        softplc::image::ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
+    let engine = softplc::logic::load::load_program(project, &image).unwrap();
+    let plan = softplc::offload::plan_program(project, engine.as_ref());
+    plan.rungs
+        .iter()
+        .map(|r| (r.coil.clone(), matches!(r.placement, Placement::Module(_))))
+        .collect()
+}
+
+/// Level equivalence of two traces (see the module docs). When the rung stayed central in the
+/// auto build too (`in_module` false), only the timing of the two scans differs (the auto
+/// build reads its pushed-down outputs back), in either direction.
+fn same_levels(
+    name: &str,
+    central: &[Edge],
+    pushed: &[Edge],
+    from: Duration,
+    bound: Duration,
+    in_module: bool,
+    tick: Duration,
+) {
+    assert_eq!(
+        level_before(central, from),
+        level_before(pushed, from),
+        "{name}: level before the first input change"
+    );
+    let c: Vec<Edge> = central.iter().copied().filter(|e| e.0 >= from).collect();
+    let p: Vec<Edge> = pushed.iter().copied().filter(|e| e.0 >= from).collect();
+    assert_eq!(
+        c.len(),
+        p.len(),
+        "{name}: edge count\ncentral {c:?}\npushed  {p:?}"
+    );
+    assert!(!c.is_empty(), "{name}: the inputs exercise the output");
+    if in_module {
+        // The module really drives it: on average it leads the scan by much more than a tick
+        // (half a period, plus the bus).
+        let lead: Duration = c
+            .iter()
+            .zip(&p)
+            .map(|(ce, pe)| ce.0.saturating_sub(pe.0))
+            .sum();
+        let mean = lead / c.len() as u32;
+        assert!(
+            mean > bound / 4,
+            "{name}: mean lead {mean:?} (bound {bound:?})"
+        );
+    }
+    for (i, (ce, pe)) in c.iter().zip(&p).enumerate() {
+        assert_eq!(ce.1, pe.1, "{name}: edge {i} direction");
+        let early = if in_module { tick } else { bound };
+        assert!(
+            pe.0 <= ce.0 + early && ce.0 <= pe.0 + bound + tick,
+            "{name}: edge {i}: central at {:?}, pushed at {:?}, bound {bound:?}",
+            ce.0,
+            pe.0
+        );
+    }
+}
+
+/// Runs a level case for three seeds; `expect_pushed` lists the coils in the order of
+/// `case.outputs`, with whether the auto build places them in the module.
+fn level_case(case: &Case, expect_pushed: &[(&str, bool)]) {
+    let (never, auto, bound) = plans(case);
+    let placed = pushed(&auto);
+    for (coil, want) in expect_pushed {
+        let got = placed.iter().find(|(c, _)| c == coil).map(|(_, p)| *p);
+        assert_eq!(
+            got,
+            Some(*want),
+            "{}: placement of {coil}: {placed:?}",
+            case.name
+        );
+    }
+    let period = ms(case.period_ms);
+    let run_for = ms(30_000);
+    for seed in [1u64, 2, 3] {
+        let inputs = schedule(
+            case.inputs.len(),
+            seed,
+            period * 2 + bound,
+            run_for - ms(1000),
+        );
+        let central = run(case, never.clone(), &inputs, run_for);
+        let pushed_traces = run(case, auto.clone(), &inputs, run_for);
+        for (j, out) in case.outputs.iter().enumerate() {
+            same_levels(
+                &format!("{} seed {seed} {out}", case.name),
+                &central[j],
+                &pushed_traces[j],
+                ms(1000),
+                bound,
+                expect_pushed[j].1,
+                ms(case.tick_ms),
+            );
+        }
+    }
+}
+
+#[test]
+fn combinational_rungs_run_in_the_minimod() {
+    let case = Case {
+        name: "combinational",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: &[
+            "name: a, point: mm1.X1",
+            "name: b, point: mm1.X2",
+            "name: c, point: mm1.X3",
+            "name: y1, point: mm1.Y1",
+            "name: y2, point: mm1.Y2",
+            "name: y3, point: mm1.Y3",
+            "name: y4, point: mm1.Y4",
+        ],
+        program: "y1 = a & !b | c\ny2 = a ^ b\ny3 = a ^ b ^ c\ny4 = !c & (a | b)\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
+        outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3", "mm1.Y4"],
+    };
+    // Three-input parity needs four terms: it stays central (and must still match).
+    level_case(
+        &case,
+        &[("y1", true), ("y2", true), ("y3", false), ("y4", true)],
+    );
+}
+
+#[test]
+fn latches_run_in_the_minimod() {
+    let case = Case {
+        name: "latches",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: &[
+            "name: s, point: mm1.X1",
+            "name: r, point: mm1.X2",
+            "name: k, point: mm1.X3",
+            "name: reset_wins, point: mm1.Y1",
+            "name: set_wins, point: mm1.Y2",
+            "name: keep_while, point: mm1.Y3",
+        ],
+        program: "reset_wins = (s | reset_wins) & !r\n\
+                  set_wins = s | (set_wins & !r)\n\
+                  keep_while = keep_while & k | s & k & !r\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
+        outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3"],
+    };
+    level_case(
+        &case,
+        &[
+            ("reset_wins", true),
+            ("set_wins", true),
+            ("keep_while", true),
+        ],
+    );
+}
+
+#[test]
+fn debounced_inputs_are_the_same_for_both() {
+    // Input conditioning is a module setting for both builds: the scan and the module see the
+    // same cooked inputs.
+    let case = Case {
+        name: "debounced",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: &[
+            "name: a, point: mm1.X1, debounce: 30ms",
+            "name: b, point: mm1.X2, stretch: 80ms",
+            "name: y, point: mm1.Y1",
+        ],
+        program: "y = a | b\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2"],
+        outputs: &["mm1.Y1"],
+    };
+    level_case(&case, &[("y", true)]);
+}
+
+#[test]
+fn central_rungs_keep_their_reason() {
+    let case = Case {
+        name: "reasons",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &[
+            "name: mm1, model: minimod, address: 1",
+            "name: mm2, model: minimod, address: 2",
+        ],
+        tags: &[
+            "name: a, point: mm1.X1",
+            "name: b, point: mm2.X1",
+            "name: m, type: bool",
+            "name: y1, point: mm1.Y1",
+            "name: y2, point: mm1.Y2",
+            "name: y3, point: mm1.Y3",
+            "name: y4, point: mm1.Y4, offload: never",
+        ],
+        program: "y1 = a & b\ny2 = ton(a, 1s)\ny3 = a | m\ny4 = a\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm2.X1"],
+        outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3", "mm1.Y4"],
+    };
+    let auto = case.project("auto");
+    let image =
+        softplc::image::ProcessImage::new(auto.tags.iter().map(|t| (t.name.clone(), t.initial)));
+    let engine = softplc::logic::load::load_program(&auto, &image).unwrap();
+    let plan = softplc::offload::plan_program(&auto, engine.as_ref());
+    let reasons: Vec<(String, Reason)> = plan
+        .rungs
+        .iter()
+        .filter_map(|r| match &r.placement {
+            Placement::Central(reason) => Some((r.coil.clone(), reason.clone())),
+            Placement::Module(_) => None,
+        })
+        .collect();
+    assert!(matches!(&reasons[0], (c, Reason::OtherModule { .. }) if c == "y1"));
+    assert!(matches!(&reasons[1], (c, Reason::Opaque(why)) if c == "y2" && why.contains("timer")));
+    assert!(matches!(&reasons[2], (c, Reason::Memory { .. }) if c == "y3"));
+    assert!(
+        matches!(&reasons[3], (c, Reason::Never { by_tag: true, would: Some(_) }) if c == "y4")
+    );
+    let report = softplc::offload::report::report(&auto, &plan);
+    assert!(
+        report.contains("an input from another module: b is on mm2"),
+        "{report}"
+    );
+    // Nothing pushed down: the PLC builds and runs as with offload: never.
+    let run_for = ms(5000);
+    let inputs = schedule(2, 7, ms(300), run_for - ms(1000));
+    let traces = run(&case, auto, &inputs, run_for);
+    assert!(!traces[3].is_empty());
+}
+
+/// Pulse pairs (rise, fall) of a trace after `from`.
+fn pulses(trace: &[Edge], from: Duration) -> Vec<(Duration, Duration)> {
+    let mut out = Vec::new();
+    let mut rise = None;
+    for &(t, v) in trace.iter().filter(|e| e.0 >= from) {
+        match (v, rise) {
+            (true, _) => rise = Some(t),
+            (false, Some(r)) => {
+                out.push((r, t));
+                rise = None;
+            }
+            (false, None) => {}
+        }
+    }
+    out
+}
+
+#[test]
+fn pulses_run_in_the_minimod_pulser_exactly() {
+    let case = Case {
+        name: "pulses",
+        period_ms: 100,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: &[
+            "name: a, point: mm1.X1",
+            "name: b, point: mm1.X2",
+            "name: c, point: mm1.X3",
+            "name: short, point: mm1.Y1",
+            "name: long, point: mm1.Y2",
+        ],
+        program: "short = tp(a, 50ms)\nlong = tp(b & !c, 130ms)\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
+        outputs: &["mm1.Y1", "mm1.Y2"],
+    };
+    let (never, auto, bound) = plans(&case);
+    assert_eq!(
+        pushed(&auto),
+        vec![("short".to_string(), true), ("long".to_string(), true)]
+    );
+    let period = ms(case.period_ms);
+    let run_for = ms(30_000);
+    let write_tolerance = bound - period; // the same cycle's write phase, give or take
+    for seed in [11u64, 12] {
+        let inputs = schedule(3, seed, period * 2 + bound, run_for - ms(1000));
+        let central = run(&case, never.clone(), &inputs, run_for);
+        let pushed_traces = run(&case, auto.clone(), &inputs, run_for);
+        for (j, width) in [(0usize, ms(50)), (1, ms(130))] {
+            let name = format!("pulses seed {seed} {}", case.outputs[j]);
+            let c = pulses(&central[j], ms(1000));
+            let p = pulses(&pushed_traces[j], ms(1000));
+            assert_eq!(c.len(), p.len(), "{name}: pulse count\n{c:?}\n{p:?}");
+            assert!(!c.is_empty(), "{name}: the inputs trigger pulses");
+            let scans = width.as_millis().div_ceil(period.as_millis()) as u32;
+            for (i, (cp, pp)) in c.iter().zip(&p).enumerate() {
+                assert!(
+                    cp.0.abs_diff(pp.0) <= write_tolerance,
+                    "{name}: pulse {i} starts at {:?} central, {:?} pushed",
+                    cp.0,
+                    pp.0
+                );
+                let pw = pp.1 - pp.0;
+                assert!(
+                    pw.abs_diff(width) <= ms(2),
+                    "{name}: pulse {i} lasts {pw:?} in the module, preset {width:?}"
+                );
+                let cw = cp.1 - cp.0;
+                assert!(
+                    cw >= width && cw.abs_diff(period * scans) <= write_tolerance,
+                    "{name}: pulse {i} lasts {cw:?} centrally ({scans} scans)"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_example_project_pushes_its_fast_rungs() {
+    let path: PathBuf = softplc_tests::workspace_root().join("examples/pushdown/project.yaml");
+    let project = project::load(Path::new(&path)).unwrap_or_else(|e| panic!("{e}"));
+    let placed = pushed(&project);
+    assert_eq!(
+        placed,
+        vec![
+            ("press_enable".to_string(), true),
+            ("pump".to_string(), true),
+            ("ejector".to_string(), true),
+            ("alarm".to_string(), false),
+            ("beacon".to_string(), false),
+        ]
+    );
+    // The tables are in the modules' registers once the PLC is built (start-up verified them).
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let plc = Plc::build(project, clock).unwrap();
+    let world = plc.world().unwrap().lock().unwrap();
+    let reg = |m: &str, p: &str| world.get(world.find(m).unwrap(), p).unwrap();
+    use softplc_io::point::Value;
+    assert_eq!(reg("mm1", "Y1AON1"), Value::U16(0x0001)); // X1, OFF wins below
+    assert_eq!(reg("mm1", "Y1AOFF1"), Value::U16(0x0101)); // -X1
+    assert_eq!(reg("mm1", "XLATUP2"), Value::U16(20));
+    assert_eq!(reg("mm2", "Y1AON1"), Value::U16(0x0001)); // start
+    assert_eq!(reg("mm2", "Y1AOFF2"), Value::U16(0x0004)); // level_high
+    assert_eq!(reg("mm3", "XLATDN1"), Value::U16(150));
+}
+
+#[test]
+fn the_example_project_behaves_the_same_pushed_down_and_faster() {
+    // The example's own inputs (the guard, the hands, start/stop, the level, parts) played
+    // against both builds: every output matches, and the pushed ones lead.
+    let path: PathBuf = softplc_tests::workspace_root().join("examples/pushdown/project.yaml");
+    let auto = project::load(Path::new(&path)).unwrap_or_else(|e| panic!("{e}"));
+    let mut never = auto.clone();
+    never.offload.mode = softplc::project::OffloadMode::Never;
+    for t in &mut never.offload.tags {
+        t.mode = None; // press_enable says `require`
+    }
+    let case = Case {
+        name: "example",
+        period_ms: 100,
+        tick_ms: 1,
+        modules: &[],
+        tags: &[],
+        program: "",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3", "mm2.X1", "mm2.X2", "mm2.X3"],
+        outputs: &["mm1.Y1", "mm2.Y1", "mm1.Y4", "mm2.Y2"],
+    };
+    let image =
+        softplc::image::ProcessImage::new(never.tags.iter().map(|t| (t.name.clone(), t.initial)));
+    let engine = softplc::logic::load::load_program(&never, &image).unwrap();
+    let plan = softplc::offload::plan_program(&never, engine.as_ref());
+    let bound = softplc::offload::report::central_bound(&never, &plan, 0);
+    let run_for = ms(30_000);
+    let inputs = schedule(6, 5, ms(200) + bound, run_for - ms(1000));
+    let central = run(&case, never, &inputs, run_for);
+    let pushed_traces = run(&case, auto, &inputs, run_for);
+    for (j, in_module) in [(0, true), (1, true), (2, false), (3, false)] {
+        same_levels(
+            &format!("example {}", case.outputs[j]),
+            &central[j],
+            &pushed_traces[j],
+            ms(1000),
+            bound,
+            in_module,
+            ms(1),
+        );
+    }
+}
+
+#[test]
+fn edge_functions_run_in_the_resi_16di8ro() {
+    let case = Case {
+        name: "resi",
+        period_ms: 50,
+        tick_ms: 10,
+        modules: &["name: r1, model: resi-16di8ro, address: 1"],
+        tags: &[
+            "name: on_button, point: r1.DI1",
+            "name: off_button, point: r1.DI2",
+            "name: push, point: r1.DI3",
+            "name: level, point: r1.DI4",
+            "name: hall, point: r1.RO1",
+            "name: stairs, point: r1.RO2",
+            "name: pump, point: r1.RO3",
+            "name: mixed, point: r1.RO4",
+        ],
+        program: "hall = (rising(on_button) | hall) & !rising(off_button)\n\
+                  stairs = stairs ^ (rising(push) | rising(on_button))\n\
+                  pump = level\n\
+                  mixed = level & push\n",
+        ladder: false,
+        inputs: &["r1.DI1", "r1.DI2", "r1.DI3", "r1.DI4"],
+        outputs: &["r1.RO1", "r1.RO2", "r1.RO3", "r1.RO4"],
+    };
+    // SWITCH follows one input: `level & push` stays central.
+    level_case(
+        &case,
+        &[
+            ("hall", true),
+            ("stairs", true),
+            ("pump", true),
+            ("mixed", false),
+        ],
+    );
+}
+
+#[test]
+fn stop_clears_the_tables_or_keeps_them() {
+    use softplc_io::point::Value;
+    let mut case = Case {
+        name: "stop",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &[
+            "name: mm1, model: minimod, address: 1",
+            "name: r1, model: resi-16di8ro, address: 2",
+        ],
+        tags: &[
+            "name: a, point: mm1.X1",
+            "name: y, point: mm1.Y1, safe: false",
+            "name: on_button, point: r1.DI1",
+            "name: off_button, point: r1.DI2",
+            "name: hall, point: r1.RO1, safe: false",
+            "name: level, point: r1.DI3",
+            "name: pump, point: r1.RO2, safe: false",
+        ],
+        // `pump` follows its input (SWITCH, a level): its table must be gone before the relay
+        // is set safe, or the next 10 ms sample would switch it on again.
+        program: "y = a\nhall = (rising(on_button) | hall) & !rising(off_button)\npump = level\n",
+        ladder: false,
+        inputs: &[],
+        outputs: &[],
+    };
+    for (mode, cleared) in [("auto", true), ("{ mode: auto, on_stop: keep }", false)] {
+        case.name = if cleared { "stop-clear" } else { "stop-keep" };
+        let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+        let plc = Plc::build(case.project(mode), clock).unwrap();
+        let world = plc.world().unwrap().clone();
+        {
+            let mut w = world.lock().unwrap();
+            let (mm1, r1) = (w.find("mm1").unwrap(), w.find("r1").unwrap());
+            w.set(mm1, "X1", Value::Bool(true)).unwrap();
+            w.set(r1, "DI1", Value::Bool(true)).unwrap();
+            w.set(r1, "DI3", Value::Bool(true)).unwrap();
+        }
+        let mut engine = ScanEngine::new(plc).max_cycles(10);
+        let outcome = engine.run();
+        assert_eq!(outcome.stats.overruns, 0);
+        let mut w = world.lock().unwrap();
+        let t = w.now() + ms(100);
+        w.advance_to(t);
+        let (mm1, r1) = (w.find("mm1").unwrap(), w.find("r1").unwrap());
+        let get = |d: usize, p: &str| w.get(d, p).unwrap();
+        if cleared {
+            assert_eq!(get(mm1, "Y1AON1"), Value::U16(0), "tables cleared");
+            assert_eq!(
+                get(mm1, "Y1"),
+                Value::Bool(false),
+                "safe value, X1 still on"
+            );
+            assert_eq!(get(r1, "SWITCH_ON_RO1"), Value::U16(0));
+            assert_eq!(get(r1, "RO1"), Value::Bool(false));
+            assert_eq!(get(r1, "SWITCH_RO2"), Value::U16(0));
+            assert_eq!(get(r1, "RO2"), Value::Bool(false), "DI3 still on");
+        } else {
+            assert_eq!(get(mm1, "Y1AON1"), Value::U16(1), "tables kept");
+            assert_eq!(
+                get(mm1, "Y1"),
+                Value::Bool(true),
+                "the module keeps driving"
+            );
+            assert_eq!(get(r1, "SWITCH_ON_RO1"), Value::U16(1));
+            assert_eq!(get(r1, "RO1"), Value::Bool(true));
+            assert_eq!(get(r1, "RO2"), Value::Bool(true));
+        }
+    }
+}
+
+#[test]
+fn ladder_latches_run_in_the_minimod() {
+    let case = Case {
+        name: "ladder-latches",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: &[
+            "name: a, point: mm1.X1",
+            "name: b, point: mm1.X2",
+            "name: c, point: mm1.X3",
+            "name: y1, point: mm1.Y1",
+            "name: y2, point: mm1.Y2",
+            "name: y3, point: mm1.Y3",
+            "name: y4, point: mm1.Y4",
+        ],
+        program: "a -> SR l1(r=b) -> y1\n\
+                  c -> RS l2(r=a) -> y2\n\
+                  b -> set y3\n\
+                  c -> reset y3\n\
+                  a /c -> y4",
+        ladder: true,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
+        outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3", "mm1.Y4"],
+    };
+    level_case(
+        &case,
+        &[("y1", true), ("y2", true), ("y3", true), ("y4", true)],
+    );
+}
+
+#[test]
+fn ladder_blocks_run_in_the_resi_16di8ro() {
+    let case = Case {
+        name: "ladder-resi",
+        period_ms: 50,
+        tick_ms: 10,
+        modules: &["name: r1, model: resi-16di8ro, address: 1"],
+        tags: &[
+            "name: on_button, point: r1.DI1",
+            "name: off_button, point: r1.DI2",
+            "name: push, point: r1.DI3",
+            "name: level, point: r1.DI4",
+            "name: stairs, point: r1.RO1",
+            "name: lamp, point: r1.RO2",
+            "name: hall, point: r1.RO3",
+            "name: pump, point: r1.RO4",
+        ],
+        program: "push -> STAIR s(300ms) -> stairs\n\
+                  on_button -> TOGGLE t -> lamp\n\
+                  rising(on_button) -> set hall\n\
+                  rising(off_button) -> reset hall\n\
+                  level -> pump",
+        ladder: true,
+        inputs: &["r1.DI1", "r1.DI2", "r1.DI3", "r1.DI4"],
+        outputs: &["r1.RO1", "r1.RO2", "r1.RO3", "r1.RO4"],
+    };
+    // A staircase of a whole number of scans: the central pulse ends as the module's does.
+    level_case(
+        &case,
+        &[
+            ("stairs", true),
+            ("lamp", true),
+            ("hall", true),
+            ("pump", true),
+        ],
+    );
+}
+
+#[test]
+fn pushed_outputs_belong_to_their_module() {
+    use softplc::logic::ScanContext;
+    use softplc_io::point::Value;
+    let case = Case {
+        name: "ownership",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: &[
+            "name: a, point: mm1.X1",
+            "name: y, point: mm1.Y1, safe: false",
+            "name: seen, type: bool",
+        ],
+        program: "y = a\nseen = y\n",
+        ladder: false,
+        inputs: &[],
+        outputs: &[],
+    };
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let mut plc = Plc::build(case.project("auto"), clock.clone()).unwrap();
+    assert!(plc.plan().pushed().count() == 1);
+    {
+        let world = plc.world().unwrap().clone();
+        let mut w = world.lock().unwrap();
+        let mm1 = w.find("mm1").unwrap();
+        w.set(mm1, "X1", Value::Bool(true)).unwrap();
+    }
+    let y = plc.image().id("y").unwrap();
+    let seen = plc.image().id("seen").unwrap();
+    for cycle in 0..4 {
+        let now = clock.now();
+        plc.read_inputs();
+        let ctx = ScanContext {
+            now,
+            delta: ms(50),
+            cycle,
+        };
+        plc.run_logic(&ctx).unwrap();
+        plc.write_outputs();
+        clock.sleep_until(now + ms(50));
+    }
+    // The module switched Y1 on; the image shows it, and the program reads it.
+    assert_eq!(plc.image().get(y), Value::Bool(true));
+    assert_eq!(plc.image().get(seen), Value::Bool(true));
+    let refused = plc.force("y", "0").unwrap_err();
+    assert!(refused.contains("driven by its module"), "{refused}");
+    // A reload that keeps the placement is taken; one that moves a rung is refused.
+    if let Err(e) = plc.reload_program() {
+        panic!("the same program reloads: {e}");
+    }
+    std::fs::write(case.dir().join("program.expr"), "y = a & seen\nseen = y\n").unwrap();
+    let refused = plc.reload_program().unwrap_err();
+    assert!(refused.contains("moves rungs"), "{refused}");
+}
