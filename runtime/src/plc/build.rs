@@ -1,0 +1,224 @@
+//! Building a PLC from a validated project.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use softplc_io::line::bus::{BusOwner, BusThread, Counters, Discipline, Module, OutputFrame};
+use softplc_io::line::transport::{SerialTransport, Transport};
+use softplc_io::point::{Access, Quality};
+use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use softplc_io::sim::plant;
+
+use crate::clock::Clock;
+use crate::image::{ProcessImage, TagId};
+use crate::logic::load;
+use crate::offload::{self, runtime::Offloaded};
+use crate::project::{Binding, PortConfig, Project};
+
+use super::*;
+
+impl Plc {
+    /// Builds the PLC for `project` on `clock`: compiles the program, opens every line (and the
+    /// simulated world for `port: sim`), and runs every module's start-up configuration.
+    pub fn build(project: Project, clock: Arc<dyn Clock>) -> Result<Self, BuildError> {
+        let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
+        let mut logic = load::load_program(&project, &image)?;
+        // Push-down: the modules run the rungs the plan places there; their drivers get the
+        // tables as start-up settings (written and verified before the first scan).
+        let plan = offload::plan_program(&project, logic.as_ref());
+        let failures = plan.require_failures();
+        if !failures.is_empty() {
+            return Err(BuildError::Offload(failures));
+        }
+        for (r, _) in plan.pushed() {
+            logic.release(r.rung.coil);
+        }
+        let devices = plan.device_configs(&project);
+        let mut image = image;
+        for (i, t) in project.tags.iter().enumerate() {
+            if t.binding == Binding::Memory {
+                image.set(TagId(i as u32), t.initial, Duration::ZERO);
+            }
+        }
+        let (retain, notes) = crate::retain::Retainer::open(&project, &mut image);
+        for note in notes {
+            match note {
+                n if n.is_warning() => tracing::warn!("{n}"),
+                n @ crate::retain::LoadNote::Missing(_) => tracing::debug!("{n}"),
+                n => tracing::info!("{n}"),
+            }
+        }
+
+        let mut world = build_world(&project);
+        let mut bus_modules: Vec<Vec<usize>> = vec![Vec::new(); project.buses.len()];
+        for (m, module) in project.modules.iter().enumerate() {
+            bus_modules[module.bus].push(m);
+        }
+        let mut lines = Vec::with_capacity(project.buses.len());
+        for (b, bus) in project.buses.iter().enumerate() {
+            let transport: Box<dyn Transport> = match &bus.port {
+                PortConfig::Sim => {
+                    // build_world makes a world whenever a bus is `port: sim`.
+                    let world = world.get_or_insert_with(|| SimWorld::new(Vec::new()).shared());
+                    Box::new(VirtualPort::new(
+                        world.clone(),
+                        b,
+                        bus.settings,
+                        clock.clone(),
+                    ))
+                }
+                PortConfig::Serial(path) => Box::new(
+                    SerialTransport::open(path, bus.settings, clock.clone()).map_err(|source| {
+                        BuildError::Port {
+                            bus: bus.name.clone(),
+                            source,
+                        }
+                    })?,
+                ),
+            };
+            let modules = bus_modules[b]
+                .iter()
+                .map(|&m| {
+                    let cfg = &project.modules[m];
+                    Module::new(cfg.name.clone(), (cfg.model.driver)(&devices[m]))
+                })
+                .collect();
+            let discipline = Discipline {
+                response_timeout: bus.response_timeout,
+                retries: bus.retries,
+                output_refresh: bus.output_refresh,
+                ..Discipline::default()
+            };
+            let mut owner = BusOwner::new(bus.name.clone(), transport, discipline, modules);
+            owner.sync(clock.now());
+            owner.startup().map_err(|source| BuildError::Startup {
+                bus: bus.name.clone(),
+                source,
+            })?;
+            if clock.is_virtual() {
+                // The first cycle starts after the start-up traffic (tables, settings), as it
+                // does on a real clock.
+                clock.sleep_until(owner.now());
+            }
+            lines.push(if clock.is_virtual() {
+                Line::Inline(Box::new(owner))
+            } else {
+                Line::Thread(
+                    BusThread::spawn(owner).map_err(|source| BuildError::Thread {
+                        bus: bus.name.clone(),
+                        source,
+                    })?,
+                )
+            });
+        }
+
+        let mut inputs = Vec::new();
+        let mut outputs = Vec::new();
+        for (i, tag) in project.tags.iter().enumerate() {
+            let Binding::Point { module, point } = tag.binding else {
+                continue;
+            };
+            let cfg = &project.modules[module];
+            let bus = cfg.bus;
+            let in_bus = bus_modules[bus]
+                .iter()
+                .position(|&m| m == module)
+                .unwrap_or(0);
+            let id = TagId(i as u32);
+            match cfg.model.points[point].access {
+                // The module drives it (see `offload`).
+                Access::Output if plan.is_pushed(id) => {}
+                Access::Output => outputs.push(OutputBinding {
+                    tag: id,
+                    bus,
+                    module: in_bus,
+                    point,
+                    safe: tag.safe.unwrap_or(tag.ty.zero()),
+                }),
+                Access::Input | Access::ReadWrite => inputs.push(InputBinding {
+                    tag: id,
+                    bus,
+                    module: in_bus,
+                    point,
+                }),
+            }
+        }
+        let frames = bus_modules
+            .iter()
+            .map(|mods| OutputFrame {
+                modules: mods
+                    .iter()
+                    .map(|&m| vec![None; project.modules[m].model.points.len()])
+                    .collect::<Vec<_>>(),
+            })
+            .collect();
+        let status = project
+            .modules
+            .iter()
+            .map(|m| ModuleStatus {
+                name: m.name.clone(),
+                bus: project.buses[m.bus].name.clone(),
+                quality: Quality::Bad,
+                counters: Counters::default(),
+                last_error: None,
+            })
+            .collect();
+        let line_wait = project.scan.watchdog.time * project.scan.watchdog.sensitivity.max(1)
+            + project.scan.period;
+        let offload = Offloaded::new(&plan, &project, &bus_modules);
+        Ok(Self {
+            project,
+            clock,
+            image,
+            logic,
+            lines,
+            bus_modules,
+            inputs,
+            outputs,
+            frames,
+            status,
+            world,
+            line_wait,
+            retain,
+            plan,
+            offload,
+        })
+    }
+}
+
+/// The simulated world for the project's `port: sim` lines, with its plant.
+fn build_world(project: &Project) -> Option<SharedWorld> {
+    if !project.buses.iter().any(|b| b.port == PortConfig::Sim) {
+        return None;
+    }
+    let mut world = SimWorld::new(project.buses.iter().map(|b| b.settings).collect());
+    let mut index = vec![None; project.modules.len()];
+    for (m, module) in project.modules.iter().enumerate() {
+        if project.buses[module.bus].port == PortConfig::Sim {
+            let mut sim = (module.model.simulator)(module.device.address);
+            if module.device.protocol != module.model.protocols[0] {
+                // Validation checked the model speaks it, so this cannot be refused.
+                let _ = sim.set_protocol(module.device.protocol);
+            }
+            index[m] = Some(world.add_device(module.bus, &module.name, sim));
+        }
+    }
+    if let Some(cfg) = &project.plant {
+        if let Some(spec) = plant::spec(&cfg.model) {
+            let wires = spec
+                .roles
+                .iter()
+                .filter_map(|role| {
+                    cfg.wiring
+                        .iter()
+                        .find(|(r, _, _)| r == role.name)
+                        .and_then(|(_, m, p)| index[*m].map(|d| (d, p.clone())))
+                })
+                .collect::<Vec<_>>();
+            if wires.len() == spec.roles.len() {
+                world.set_plant((spec.build)(), wires);
+            }
+        }
+    }
+    Some(world.shared())
+}

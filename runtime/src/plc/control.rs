@@ -1,0 +1,176 @@
+//! What the control interface asks of a running PLC: force, write, reload, status.
+
+use softplc_io::point::Value;
+
+use crate::image::TagId;
+use crate::logic::load;
+use crate::offload::{self};
+use crate::project::Project;
+
+use super::*;
+
+impl Plc {
+    /// Forces `tag` to the value `text` (parsed as the tag's type); returns the value.
+    pub fn force(&mut self, tag: &str, text: &str) -> Result<Value, String> {
+        let id = self.tag_id(tag)?;
+        self.refuse_pushed(id, tag)?;
+        let ty = self.project.tags[id.index()].ty;
+        let value = Value::parse(ty, text)
+            .ok_or_else(|| format!("{tag} is {ty}: {text:?} is not a {ty}"))?;
+        self.image.force(id, value);
+        self.image.apply_forces(self.clock.now());
+        tracing::warn!("tag {tag} forced to {value}");
+        Ok(value)
+    }
+
+    /// Removes the force of `tag` (or of every tag); returns how many were removed.
+    pub fn unforce(&mut self, tag: Option<&str>) -> Result<usize, String> {
+        let n = match tag {
+            Some(t) => usize::from(self.image.unforce(self.tag_id(t)?)),
+            None => self.image.unforce_all(),
+        };
+        if n > 0 {
+            tracing::info!("{n} force(s) removed");
+        }
+        Ok(n)
+    }
+
+    /// Sets tags to values (text, parsed as each tag's type) all at once, as an assignment
+    /// does: the program sees them in its next scan and may overwrite them. Nothing is set
+    /// unless every tag exists, every value parses and no tag is forced (a force wins).
+    pub fn write_tags(
+        &mut self,
+        values: &[crate::service::control::TagValue],
+    ) -> Result<String, String> {
+        let mut parsed = Vec::with_capacity(values.len());
+        for tv in values {
+            let id = self.tag_id(&tv.tag)?;
+            let ty = self.project.tags[id.index()].ty;
+            let value = Value::parse(ty, &tv.value)
+                .ok_or_else(|| format!("{} is {ty}: {:?} is not a {ty}", tv.tag, tv.value))?;
+            if self.image.forced(id).is_some() {
+                return Err(format!("{} is forced; unforce it to write it", tv.tag));
+            }
+            self.refuse_pushed(id, &tv.tag)?;
+            parsed.push((id, value));
+        }
+        let now = self.clock.now();
+        for &(id, value) in &parsed {
+            self.image.set(id, value, now);
+            tracing::debug!("tag {} written: {value}", self.image.name(id));
+        }
+        Ok(format!("{} tag(s) written", parsed.len()))
+    }
+
+    /// A pushed-down output is its module's: the scan cannot set it.
+    fn refuse_pushed(&self, id: TagId, tag: &str) -> Result<(), String> {
+        if self.offload.owns(id) {
+            return Err(format!(
+                "{tag} is driven by its module's own logic (push-down); set offload: never on \
+                 the tag to drive it from the scan"
+            ));
+        }
+        Ok(())
+    }
+
+    fn tag_id(&self, tag: &str) -> Result<TagId, String> {
+        self.image
+            .id(tag)
+            .ok_or_else(|| format!("no tag {tag:?} in project {}", self.project.name))
+    }
+
+    /// Re-reads the project file and swaps in its program if it compiles against the same I/O
+    /// map. The running program is untouched when anything is refused. Memory tags keep their
+    /// values (the image is not rebuilt).
+    pub fn reload_program(&mut self) -> Result<String, String> {
+        let fresh = crate::project::load(&self.project.source)
+            .map_err(|e| format!("reload refused:\n{e}"))?;
+        if !same_io(&fresh, &self.project) {
+            return Err(
+                "reload refused: buses, modules, tags or service changed; restart to apply them"
+                    .into(),
+            );
+        }
+        let mut logic =
+            load::load_program(&fresh, &self.image).map_err(|e| format!("reload refused:\n{e}"))?;
+        // The module tables were written at start-up: the new program must place its rungs
+        // where the running one did.
+        let plan = offload::plan_program(&fresh, logic.as_ref());
+        if !offload::runtime::same_placement(&plan, &self.plan) {
+            return Err(
+                "reload refused: the new program moves rungs into or out of modules; restart \
+                 to write the module tables"
+                    .into(),
+            );
+        }
+        for (r, _) in plan.pushed() {
+            logic.release(r.rung.coil);
+        }
+        self.logic = logic;
+        self.project.program = fresh.program;
+        let msg = format!("program {} reloaded", self.project.program.path.display());
+        tracing::info!("{msg}");
+        Ok(msg)
+    }
+
+    /// The status report for `softplc status`.
+    pub fn status_report(
+        &self,
+        stats: &crate::scan::ScanStats,
+    ) -> crate::service::status::StatusReport {
+        use crate::service::status::{ModuleReport, StatusReport, TagReport};
+        StatusReport {
+            project: self.project.name.clone(),
+            scans: stats.cycles,
+            overruns: stats.overruns,
+            period_us: self.project.scan.period.as_micros() as u64,
+            cycle: stats.cycle.percentiles().into(),
+            lateness: stats.lateness.percentiles().into(),
+            modules: self
+                .status
+                .iter()
+                .map(|m| ModuleReport {
+                    name: m.name.clone(),
+                    bus: m.bus.clone(),
+                    quality: m.quality.to_string(),
+                    requests: m.counters.requests,
+                    timeouts: m.counters.timeouts,
+                    crc_errors: m.counters.crc_errors,
+                    bad_replies: m.counters.bad_replies,
+                    exceptions: m.counters.exceptions,
+                    last_round_trip_us: m.counters.last_round_trip.as_micros() as u64,
+                    last_error: m.last_error.as_ref().map(ToString::to_string),
+                })
+                .collect(),
+            tags: (0..self.image.len())
+                .map(|i| {
+                    let id = TagId(i as u32);
+                    let slot = self.image.slot(id);
+                    TagReport {
+                        name: self.image.name(id).to_string(),
+                        value: slot.value.to_string(),
+                        quality: slot.quality.to_string(),
+                        forced: self.image.forced(id).map(|v| v.to_string()),
+                    }
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Whether two projects have the same I/O: a reload may only change the program.
+fn same_io(a: &Project, b: &Project) -> bool {
+    a.buses == b.buses
+        && a.tags == b.tags
+        && a.plant == b.plant
+        && a.service == b.service
+        && a.modules.len() == b.modules.len()
+        && a.modules.iter().zip(&b.modules).all(|(x, y)| {
+            x.name == y.name
+                && x.bus == y.bus
+                && x.model.name == y.model.name
+                && x.device.address == y.device.address
+                && x.device.protocol == y.device.protocol
+                && x.device.settings == y.device.settings
+        })
+}

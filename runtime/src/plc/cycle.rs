@@ -1,0 +1,165 @@
+//! The phases the scan calls, and the safe state.
+
+use softplc_io::line::bus::{BusCommand, BusEvent, InputFrame};
+use softplc_io::point::Quality;
+
+use crate::image::convert;
+use crate::logic::{LogicFault, ScanContext};
+
+use super::*;
+
+impl Plc {
+    /// Input phase: every line reads its modules (in parallel), then the image is updated.
+    pub fn read_inputs(&mut self) {
+        let start = self.clock.now();
+        let mut frames: Vec<Option<InputFrame>> = Vec::with_capacity(self.lines.len());
+        for line in &self.lines {
+            if let Line::Thread(t) = line {
+                t.send(BusCommand::Read);
+            }
+        }
+        let mut latest = start;
+        for line in &mut self.lines {
+            let frame = match line {
+                Line::Inline(owner) => {
+                    owner.sync(start);
+                    let f = owner.read_inputs();
+                    latest = latest.max(f.finished);
+                    Some(f)
+                }
+                Line::Thread(t) => match t.recv(self.line_wait) {
+                    Some(BusEvent::Inputs(f)) => Some(f),
+                    _ => None,
+                },
+                Line::Stopped => None,
+            };
+            frames.push(frame);
+        }
+        if self.clock.is_virtual() {
+            self.clock.sleep_until(latest);
+        }
+        let now = self.clock.now();
+        for (b, frame) in frames.iter().enumerate() {
+            for (k, &m) in self.bus_modules[b].iter().enumerate() {
+                let st = &mut self.status[m];
+                match frame.as_ref().and_then(|f| f.modules.get(k)) {
+                    Some(snap) => {
+                        st.quality = snap.quality;
+                        st.counters = snap.counters;
+                        st.last_error = snap.last_error.clone();
+                    }
+                    None => {
+                        // The line did not answer in time: its points keep their values.
+                        st.quality = if st.quality == Quality::Good {
+                            Quality::Stale
+                        } else {
+                            st.quality
+                        };
+                    }
+                }
+            }
+        }
+        for bind in &self.inputs {
+            let Some(frame) = frames.get(bind.bus).and_then(Option::as_ref) else {
+                let q = self.image.slot(bind.tag).quality;
+                if q == Quality::Good {
+                    self.image.set_quality(bind.tag, Quality::Stale);
+                }
+                continue;
+            };
+            if let Some(snap) = frame.modules.get(bind.module) {
+                let value = snap.values.get(bind.point).copied().flatten();
+                let quality = if value.is_none() {
+                    Quality::Bad
+                } else {
+                    snap.quality
+                };
+                self.image.update(bind.tag, value, quality, now);
+            }
+        }
+        self.offload.read_back(&mut self.image, &frames, now);
+        self.image.apply_forces(now);
+    }
+
+    /// Logic phase.
+    pub fn run_logic(&mut self, ctx: &ScanContext) -> Result<(), LogicFault> {
+        let result = self.logic.scan(&mut self.image, ctx);
+        self.offload.after_logic(&mut self.image, ctx.now);
+        result
+    }
+
+    /// Output phase: every line writes what changed (in parallel).
+    pub fn write_outputs(&mut self) {
+        self.image.apply_forces(self.clock.now());
+        for bind in &self.outputs {
+            let v = convert(
+                self.image.get(bind.tag),
+                self.project.tags[bind.tag.index()].ty,
+            );
+            self.frames[bind.bus].modules[bind.module][bind.point] = Some(v);
+        }
+        self.offload.commands(&mut self.frames);
+        self.dispatch_writes();
+        self.offload.clear_commands(&mut self.frames);
+        // Between cycles: hand changed retained values to their writer (never waits).
+        if let Some(r) = self.retain.as_mut() {
+            r.tick(&self.image, self.clock.now());
+        }
+    }
+
+    /// Drives every output to its safe value (stop, fault, watchdog).
+    pub fn write_safe_state(&mut self) {
+        // Pushed-down outputs: their tables are cleared first, in a write of their own, so no
+        // module logic drives them once they are set to their safe values.
+        if self.offload.clear_tables(&mut self.frames) {
+            self.dispatch_writes();
+            self.offload.clear_commands(&mut self.frames);
+        }
+        for bind in &self.outputs {
+            self.frames[bind.bus].modules[bind.module][bind.point] = Some(bind.safe);
+            self.image.set(bind.tag, bind.safe, self.clock.now());
+        }
+        self.offload
+            .safe_outputs(&mut self.frames, &mut self.image, self.clock.now());
+        self.dispatch_writes();
+        self.offload.clear_commands(&mut self.frames);
+    }
+
+    fn dispatch_writes(&mut self) {
+        let start = self.clock.now();
+        for (b, line) in self.lines.iter().enumerate() {
+            if let Line::Thread(t) = line {
+                t.send(BusCommand::Write(self.frames[b].clone()));
+            }
+        }
+        let mut latest = start;
+        for (b, line) in self.lines.iter_mut().enumerate() {
+            match line {
+                Line::Inline(owner) => {
+                    owner.sync(start);
+                    latest = latest.max(owner.write_outputs(&self.frames[b]).finished);
+                }
+                Line::Thread(t) => {
+                    let _ = t.recv(self.line_wait);
+                }
+                Line::Stopped => {}
+            }
+        }
+        if self.clock.is_virtual() {
+            self.clock.sleep_until(latest);
+        }
+    }
+
+    /// Writes the safe state and stops every line thread.
+    pub fn shutdown(&mut self) {
+        self.write_safe_state();
+        if let Some(r) = self.retain.as_mut() {
+            r.finish(&self.image);
+        }
+        for line in &mut self.lines {
+            if let Line::Thread(t) = std::mem::replace(line, Line::Stopped) {
+                let _ = t.stop(None, self.line_wait);
+            }
+        }
+    }
+}

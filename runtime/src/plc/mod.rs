@@ -1,0 +1,186 @@
+//! A project wired into a runnable PLC: one bus owner per line, one driver per module, the
+//! simulated world behind `port: sim` lines, the process image and the program.
+//!
+//! The scan ([`crate::scan`]) calls the three phases in order. On a real clock every line has
+//! its own thread and the phases wait for all lines in parallel; on a virtual clock the scan
+//! runs each line itself, each from the cycle's start, so the whole project replays
+//! deterministically and still models the lines as parallel.
+//!
+//! - [`build`](Plc::build): wiring a validated project (`build.rs`);
+//! - the phases the scan calls and the safe state (`cycle.rs`);
+//! - the control interface's actions: force, write, reload, status (`control.rs`).
+
+mod build;
+mod control;
+mod cycle;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use softplc_io::line::bus::{BusOwner, BusThread, Counters, OutputFrame, StartupError, TxError};
+use softplc_io::line::transport::LineError;
+use softplc_io::point::{Quality, Value};
+use softplc_io::sim::line::SharedWorld;
+
+use crate::clock::Clock;
+use crate::image::{ProcessImage, TagId};
+use crate::logic::{load, LogicEngine};
+use crate::offload::{self, runtime::Offloaded, Plan, RequireFailure};
+use crate::project::Project;
+
+/// Why a PLC could not be built or started.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// The program did not compile.
+    #[error("{0}")]
+    Program(#[from] load::ProgramError),
+    /// Rungs with `offload: require` cannot be pushed down (one line each).
+    #[error("{}", offload::runtime::lines(.0))]
+    Offload(Vec<RequireFailure>),
+    /// A port could not be opened.
+    #[error("bus {bus}: {source}")]
+    Port {
+        /// The bus.
+        bus: String,
+        /// The failure.
+        source: LineError,
+    },
+    /// A bus thread could not be started.
+    #[error("bus {bus}: cannot start its thread: {source}")]
+    Thread {
+        /// The bus.
+        bus: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A module refused its start-up configuration.
+    #[error("bus {bus}: {source}")]
+    Startup {
+        /// The bus.
+        bus: String,
+        /// The failure.
+        source: StartupError,
+    },
+}
+
+/// A tag fed from a module point.
+#[derive(Debug, Clone, Copy)]
+struct InputBinding {
+    tag: TagId,
+    bus: usize,
+    module: usize,
+    point: usize,
+}
+
+/// A tag that drives a module output.
+#[derive(Debug, Clone, Copy)]
+struct OutputBinding {
+    tag: TagId,
+    bus: usize,
+    module: usize,
+    point: usize,
+    safe: Value,
+}
+
+/// How a line is driven.
+#[derive(Debug)]
+enum Line {
+    /// Run by the scan itself (virtual clock).
+    Inline(Box<BusOwner>),
+    /// On its own thread (real time).
+    Thread(BusThread),
+    /// Shut down.
+    Stopped,
+}
+
+/// A module's state as the scan last saw it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModuleStatus {
+    /// Project name of the module.
+    pub name: String,
+    /// Its bus.
+    pub bus: String,
+    /// Quality of the last read.
+    pub quality: Quality,
+    /// Its counters.
+    pub counters: Counters,
+    /// Last failure, if the last read failed.
+    pub last_error: Option<TxError>,
+}
+
+/// A PLC ready to scan.
+#[derive(Debug)]
+pub struct Plc {
+    project: Project,
+    clock: Arc<dyn Clock>,
+    image: ProcessImage,
+    logic: Box<dyn LogicEngine>,
+    lines: Vec<Line>,
+    /// Per bus: project module indexes, in the bus owner's order.
+    bus_modules: Vec<Vec<usize>>,
+    inputs: Vec<InputBinding>,
+    outputs: Vec<OutputBinding>,
+    frames: Vec<OutputFrame>,
+    status: Vec<ModuleStatus>,
+    world: Option<SharedWorld>,
+    /// The longest time the scan waits for a line's answer.
+    line_wait: Duration,
+    /// Retained tags and their writer, when the project retains any.
+    retain: Option<crate::retain::Retainer>,
+    /// Where every rung runs (see [`crate::offload`]).
+    plan: Plan,
+    /// The outputs the modules drive.
+    offload: Offloaded,
+}
+
+impl Plc {
+    /// Where every rung runs: in a module or in the scan.
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// The project.
+    pub fn project(&self) -> &Project {
+        &self.project
+    }
+
+    /// The clock.
+    pub fn clock(&self) -> &Arc<dyn Clock> {
+        &self.clock
+    }
+
+    /// The retained tags' store, when the project retains any.
+    pub fn retainer(&self) -> Option<&crate::retain::Retainer> {
+        self.retain.as_ref()
+    }
+
+    /// The process image.
+    pub fn image(&self) -> &ProcessImage {
+        &self.image
+    }
+
+    /// Per-module status, in project order.
+    pub fn module_status(&self) -> &[ModuleStatus] {
+        &self.status
+    }
+
+    /// The simulated world, when the project has `port: sim` lines.
+    pub fn world(&self) -> Option<&SharedWorld> {
+        self.world.as_ref()
+    }
+
+    /// Total bus errors over all modules.
+    pub fn bus_errors(&self) -> u64 {
+        self.status.iter().map(|s| s.counters.errors()).sum()
+    }
+}
+
+impl Drop for Plc {
+    fn drop(&mut self) {
+        for line in &mut self.lines {
+            if let Line::Thread(t) = std::mem::replace(line, Line::Stopped) {
+                let _ = t.stop(None, Duration::from_millis(100));
+            }
+        }
+    }
+}
