@@ -385,6 +385,8 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
             Duration::from_secs(15),
         )
         .unwrap_or_else(|| panic!("the {view} view did not render"));
+        // The last write's notice would hide part of the view.
+        b.eval("document.getElementById('toast').className = 'toast'; true");
         std::thread::sleep(Duration::from_millis(400));
         b.screenshot(&shots.join(format!("{view}.png")));
     }
@@ -400,6 +402,22 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
             "{view}.png"
         );
     }
+
+    // Stopping the PLC (SIGINT, as Ctrl-C): the page says so rather than "no connection".
+    // SAFETY: a signal to the child this test started.
+    unsafe { libc::kill(plc.0.id() as i32, libc::SIGINT) };
+    b.wait_for(
+        "document.getElementById('state').dataset.state === 'stopped' && \
+         document.getElementById('state').textContent === 'stopped'",
+        Duration::from_secs(15),
+    )
+    .expect("the page shows the PLC stopped");
+    b.eval("location.hash = '#overview'; true");
+    let why = b.wait_for(
+        "document.getElementById('faults').textContent.includes('stopped on request')",
+        Duration::from_secs(5),
+    );
+    assert!(why.is_some(), "the overview says why the run ended");
     drop(b);
     drop(plc);
     let _ = std::fs::remove_dir_all(&dir);

@@ -213,8 +213,12 @@ proptest! {
     #[test]
     fn http_request_heads(bytes in prop_oneof![
         vec(any::<u8>(), 0..200),
-        mutated(vec!["GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n".to_string()]).prop_map(String::into_bytes),
+        mutated(vec![
+            "GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n".to_string(),
+            "POST /api/force HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer abcdefgh\r\nContent-Type: application/json\r\nContent-Length: 29\r\n\r\n{\"tag\":\"motor\",\"value\":\"1\"}".to_string(),
+        ]).prop_map(String::into_bytes),
     ]) {
         let _ = softplc::service::metrics::parse_head(&bytes);
+        let _ = softplc::service::web::http::parse(&bytes);
     }
 }

@@ -152,6 +152,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let outcome = scan
         .join()
         .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
+    if services.web.is_some() {
+        // The page's event streams carry the last state (stopped, outputs safe) before the
+        // process goes away, so an open page says "stopped" rather than "no connection".
+        std::thread::sleep(crate::service::web::sse::TICK * 3);
+    }
     print!("{}", summary(&outcome, period));
     Ok(match outcome.reason {
         StopReason::Requested => ExitCode::SUCCESS,

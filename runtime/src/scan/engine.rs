@@ -234,6 +234,11 @@ impl ScanEngine {
         }
         self.plc.shutdown();
         if let Some(p) = &mut self.publisher {
+            p.set_stop_reason(match &reason {
+                StopReason::Requested => "stopped on request".to_string(),
+                StopReason::LogicFault(f) => format!("program error: {f}"),
+                StopReason::Watchdog(w) => format!("task watchdog: {w}"),
+            });
             p.publish(&self.plc, &stats, clock.now(), true);
         }
         self.publish(&stats, clock.now());

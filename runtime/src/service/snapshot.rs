@@ -198,6 +198,8 @@ pub struct ServiceSnapshot {
     pub stats_seq: u64,
     /// Set by the last publication of a run, after the outputs went to their safe values.
     pub stopped: bool,
+    /// Why the run ended (with [`Self::stopped`]): a request, a program fault, the watchdog.
+    pub stop_reason: Option<String>,
 }
 
 /// The shared snapshot.
@@ -239,6 +241,7 @@ pub struct Publisher {
     cell: SnapshotCell,
     stats_at: Option<Duration>,
     details: bool,
+    stop_reason: Option<String>,
 }
 
 impl Publisher {
@@ -248,6 +251,7 @@ impl Publisher {
             cell,
             stats_at: None,
             details: false,
+            stop_reason: None,
         }
     }
 
@@ -256,6 +260,11 @@ impl Publisher {
     pub fn with_details(mut self) -> Self {
         self.details = true;
         self
+    }
+
+    /// Why the run ends, published with the final publication.
+    pub fn set_stop_reason(&mut self, why: String) {
+        self.stop_reason = Some(why);
     }
 
     /// Publishes the PLC's image (every call) and statistics (every [`STATS_EVERY`], or when
@@ -277,6 +286,9 @@ impl Publisher {
         s.timestamps
             .extend(image.slots().iter().map(|x| x.timestamp));
         s.stopped = final_;
+        if final_ {
+            s.stop_reason = self.stop_reason.clone();
+        }
         s.forced.clear();
         s.forced.extend(
             (0..image.len()).map(|i| image.forced(crate::image::TagId(i as u32)).is_some()),

@@ -144,6 +144,15 @@ fn accept(listener: TcpListener, shared: Arc<Shared>) {
             let _ = stream.set_write_timeout(Some(Duration::from_millis(200)));
             let busy = Response::error(503, "too many connections; try again");
             let _ = stream.write_all(&busy.with("Retry-After", "1").to_bytes(true));
+            // Drop what already arrived (see `close`) without ever waiting in this thread.
+            let _ = stream.set_nonblocking(true);
+            let mut sink = [0u8; 4096];
+            for _ in 0..16 {
+                if !matches!(stream.read(&mut sink), Ok(n) if n > 0) {
+                    break;
+                }
+            }
+            let _ = stream.shutdown(std::net::Shutdown::Write);
             continue;
         }
         let slot = Slot(shared.clone());
@@ -189,9 +198,31 @@ fn read_request(stream: &mut TcpStream) -> std::io::Result<Option<Result<Request
     }
 }
 
+/// Ends a connection after its response: closing a socket with unread input resets it, and a
+/// reset can overtake the response (a refused upload would see no 413). So the sending side is
+/// shut first and what the client still sends is read and dropped, briefly and boundedly.
+fn close(mut stream: TcpStream) {
+    let _ = stream.flush();
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+    let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
+    let mut sink = [0u8; 4096];
+    for _ in 0..16 {
+        match stream.read(&mut sink) {
+            Ok(n) if n > 0 => {}
+            _ => break,
+        }
+    }
+}
+
 fn serve(mut stream: TcpStream, shared: &Shared) -> std::io::Result<()> {
+    let result = answer(&mut stream, shared);
+    close(stream);
+    result
+}
+
+fn answer(stream: &mut TcpStream, shared: &Shared) -> std::io::Result<()> {
     stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
-    let req = match read_request(&mut stream) {
+    let req = match read_request(stream) {
         Ok(Some(Ok(req))) => req,
         Ok(Some(Err(e))) => {
             let mut r = Response::error(e.status(), &e.to_string());
@@ -201,7 +232,13 @@ fn serve(mut stream: TcpStream, shared: &Shared) -> std::io::Result<()> {
             return stream.write_all(&r.to_bytes(true));
         }
         Ok(None) => return Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
+        // A read timeout is WouldBlock on Unix, TimedOut elsewhere.
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+            ) =>
+        {
             let r = Response::error(408, "the request took too long");
             return stream.write_all(&r.to_bytes(true));
         }
@@ -212,7 +249,7 @@ fn serve(mut stream: TcpStream, shared: &Shared) -> std::io::Result<()> {
     match response {
         Reply::Full(r) => stream.write_all(&r.to_bytes(with_body)),
         Reply::Events if !with_body => stream.write_all(sse::head().as_bytes()),
-        Reply::Events => sse::stream(&mut stream, &shared.snapshot),
+        Reply::Events => sse::stream(stream, &shared.snapshot),
     }
 }
 

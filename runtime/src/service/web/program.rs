@@ -3,7 +3,8 @@
 //! push-down plan's placement of each rung on the rung's first line.
 //!
 //! This reads the text only; no engine internals: a name is a tag when it is spelt like one
-//! outside comments and strings and is not a member (`jam.Q`).
+//! outside comments and strings and is not a member (`jam.Q`); in a ladder file, only in the
+//! rungs (a `description:` is prose).
 
 use serde::Serialize;
 
@@ -116,9 +117,19 @@ pub fn annotate(text: &str, kind: ProgramKind, tags: &[&str]) -> Vec<Line> {
     };
     let block_comments = kind == ProgramKind::Rhai;
     let mut in_block = false;
+    // Ladder: the top-level key the line is under (`rungs`, `description`, ...).
+    let mut in_rungs = kind != ProgramKind::Ladder;
     text.lines()
         .map(|line| {
             let chars: Vec<char> = line.chars().collect();
+            let mut tags_here = in_rungs;
+            if kind == ProgramKind::Ladder && chars.first().is_some_and(|c| c.is_ascii_alphabetic())
+            {
+                if let Some((key, _)) = line.split_once(':') {
+                    in_rungs = key.trim() == "rungs";
+                    tags_here = false;
+                }
+            }
             let mut cut = Cutter::default();
             let mut i = 0;
             while i < chars.len() {
@@ -161,7 +172,7 @@ pub fn annotate(text: &str, kind: ProgramKind, tags: &[&str]) -> Vec<Line> {
                     let member = i > 0 && chars.get(i - 1) == Some(&'.');
                     let instance = matches!(chars.get(j), Some('(' | '.'));
                     match tags.iter().position(|t| *t == word) {
-                        Some(t) if !member && !instance => cut.tag(word, t),
+                        Some(t) if tags_here && !member && !instance => cut.tag(word, t),
                         _ => cut.code.push_str(&word),
                     }
                     i = j;
@@ -259,13 +270,18 @@ mod tests {
     #[test]
     fn ladder_members_and_calls_are_not_tags() {
         let lines = annotate(
-            "rungs:\n  - motor jam.Q -> TON jam(5s) -> stop  # a jam\n",
+            "description: >\n  the motor stops\nrungs:\n  - motor jam.Q -> TON jam(5s) -> stop  # a jam\n",
             ProgramKind::Ladder,
             TAGS,
         );
         assert_eq!(
-            show(&lines)[1],
-            "  - [motor] jam.Q -> TON jam(5s) -> [stop]  {# a jam}"
+            show(&lines),
+            [
+                "description: >",
+                "  the motor stops",
+                "rungs:",
+                "  - [motor] jam.Q -> TON jam(5s) -> [stop]  {# a jam}"
+            ]
         );
     }
 

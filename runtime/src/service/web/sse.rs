@@ -66,8 +66,9 @@ pub fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::Result<
     while begin.elapsed() < LIFETIME {
         let s = snapshot.get();
         let mut chunk = String::new();
-        if s.published && cycles != Some(s.cycles) {
-            cycles = Some(s.cycles);
+        // The final publication adds no cycle, only `stopped`: it is news too.
+        if s.published && cycles != Some((s.cycles, s.stopped)) {
+            cycles = Some((s.cycles, s.stopped));
             chunk.push_str(&event("state", &view::state(&s).to_string()));
         }
         if s.published && stats_seq != Some(s.stats_seq) {

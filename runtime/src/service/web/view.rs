@@ -50,6 +50,7 @@ pub fn state(s: &ServiceSnapshot) -> Json {
     json!({
         "published": s.published,
         "stopped": s.stopped,
+        "stop_reason": s.stop_reason,
         "cycles": s.cycles,
         "overruns": s.overruns,
         "now": ms(s.now),

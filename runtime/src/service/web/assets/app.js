@@ -26,6 +26,7 @@
     stats: null,
     rate: null, // { at, requests: [] } for requests per second
     trend: { tags: [], t: [], series: [] },
+    rtt: { t: [], series: [] }, // per module, from the stats events
     token: sessionStorage.getItem("softplc-token") || "",
     cells: [], // per tag: the I/O table's cells
     codeTags: [], // per program tag occurrence: { tag, span, val }
@@ -124,6 +125,7 @@
     for (const a of document.querySelectorAll(".tabs a")) a.classList.toggle("active", a.dataset.view === v);
     document.body.dataset.view = v;
     if (v === "overview") renderTrend();
+    if (v === "bus") renderRtt();
   }
 
   // ---- Writes ----
@@ -228,8 +230,18 @@
     return box;
   }
 
+  function ioNote() {
+    const info = app.info;
+    $("io-note").textContent = !info.writes
+      ? "Forcing is off for this project (service.web.writes: false). Values update live."
+      : signedIn()
+        ? "A force holds a value, whatever the modules or the program say, until it is removed or the PLC restarts."
+        : "Sign in (top right) with the project's token to force tags.";
+  }
+
   function refreshForceControls() {
     const on = signedIn();
+    ioNote();
     for (const b of document.querySelectorAll(".force button, .force input")) {
       b.disabled = !on;
       b.title = on ? "" : (app.info.writes ? "Sign in with the project's token to force" : "Forcing is off for this project");
@@ -243,9 +255,6 @@
     const info = app.info;
     const root = $("io-tables");
     root.replaceChildren();
-    $("io-note").textContent = info.writes
-      ? (signedIn() ? "" : "Sign in (top right) with the project's token to force tags. A force holds a value until unforced or until the PLC restarts.")
-      : "Forcing is off for this project (service.web.writes: false). Values update live.";
     const withForce = info.writes;
     const head = () => el("tr", {},
       el("th", { text: "Tag" }), el("th", { text: "Point" }), el("th", { text: "Dir" }), el("th", { text: "Type" }),
@@ -276,8 +285,13 @@
       app.cells[i] = { tr, value, q, age, forcedBadge, unforce: controls && controls.querySelector(".unforce"), last: undefined };
       return tr;
     };
-    const table = (rows) => el("table", { class: "grid" }, el("thead", {}, head()), el("tbody", {}, ...rows));
+    const widths = withForce ? [20, 8, 8, 7, 10, 10, 9, 28] : [26, 10, 10, 8, 14, 14, 18];
+    const cols = () => el("colgroup", {}, ...widths.map((w) => { const c = el("col"); c.style.width = w + "%"; return c; }));
+    const table = (rows) => el("table", { class: "grid io" }, cols(), el("thead", {}, head()), el("tbody", {}, ...rows));
     info.buses.forEach((bus, b) => {
+      if (info.buses.length > 1) {
+        root.append(el("h3", { class: "line-head", text: "Line " + bus.name + " · " + bus.port + " · " + bus.settings }));
+      }
       info.modules.forEach((m, mi) => {
         if (m.bus !== b) return;
         const tags = info.tags.map((t, i) => i).filter((i) => info.tags[i].module === mi);
@@ -382,6 +396,7 @@
       ln.append(src);
       root.append(ln);
     });
+    root.classList.toggle("narrow", pushed === 0);
     $("program-hint").textContent = p.kind + " · " + (marks
       ? pushed + " rung" + (pushed === 1 ? "" : "s") + " pushed down into modules, " + central + " in the scan"
       : "live values beside each tag");
@@ -434,9 +449,10 @@
     const period = info.period_us / 1000;
     const cycle = st ? st.phases[0] : null;
     const cards = [];
-    cards.push(card("Cycle time (p50)", cycle ? fmtMs(cycle.p50) : "–",
-      cycle ? "p99 " + fmtMs(cycle.p99) + " · max " + fmtMs(cycle.max) + " · period " + fmtMs(period) : "",
-      cycle ? cycle.p99 / period : 0));
+    const load = el("div", { class: "small" },
+      cycle ? "p99 " + fmtMs(cycle.p99) + " · max " + fmtMs(cycle.max) : "",
+      el("br"), cycle ? "p99 is " + Math.round((100 * cycle.p99) / period) + " % of the " + fmtMs(period) + " period" : "");
+    cards.push(card("Cycle time (p50)", cycle ? fmtMs(cycle.p50) : "–", load, cycle ? cycle.p99 / period : 0));
     cards.push(card("Scans", s.cycles.toLocaleString("en"), "overruns " + s.overruns + " · up " + fmtUptime(s.now)));
     const list = el("ul");
     info.modules.forEach((m, i) => {
@@ -456,7 +472,7 @@
     const s = app.state, st = app.stats, info = app.info;
     const items = [];
     const add = (sev, text) => items.push(el("li", {}, el("span", { class: "sev " + sev, text: sev === "ok" ? "ok" : sev === "bad" ? "fault" : "warning" }), el("span", { text })));
-    if (s.stopped) add("bad", "The run has stopped; the outputs were set to their safe values.");
+    if (s.stopped) add(s.stop_reason === "stopped on request" ? "warn" : "bad", "The run has ended (" + (s.stop_reason || "stopped") + "); the outputs were set to their safe values.");
     else if (!app.connected) add("bad", "No news from the PLC: it stopped, or this page lost its connection (it retries by itself).");
     if (st) {
       info.modules.forEach((m, i) => {
@@ -478,9 +494,9 @@
     const s = app.state, st = app.stats;
     const pill = $("state");
     let state, text;
-    if (!app.connected && app.lastEvent) { state = "lost"; text = "no connection"; }
+    if (s && s.stopped) { state = "stopped"; text = s.stop_reason === "stopped on request" ? "stopped" : "faulted"; }
+    else if (!app.connected && app.lastEvent) { state = "lost"; text = "no connection"; }
     else if (!s || !s.published) { state = "connecting"; text = "starting"; }
-    else if (s.stopped) { state = "stopped"; text = "stopped"; }
     else if (st && st.modules.some((m) => m.q !== 0)) { state = "faulty"; text = "running · faults"; }
     else { state = "running"; text = "running"; }
     pill.dataset.state = state;
@@ -603,6 +619,15 @@
     return ticks;
   }
 
+  // A tick label: as few digits as the value needs (`2 ms`, `250 µs`, `1.5 s`).
+  function fmtTick(ms) {
+    if (ms === 0) return "0";
+    const trim = (x, unit) => String(+x.toPrecision(3)) + " " + unit;
+    if (ms < 1) return trim(ms * 1000, "µs");
+    if (ms < 1000) return trim(ms, "ms");
+    return trim(ms / 1000, "s");
+  }
+
   function histogram(phase) {
     const h = phase.hist;
     if (!h || !h.counts.length) return el("div", { class: "empty", text: "No samples yet." });
@@ -630,20 +655,35 @@
       }, undefined));
     });
     g.append(svg("line", { x1: L, x2: L + pw, y1: T + ph, y2: T + ph, class: "axis-line" }));
+    let free = 0; // the first x a next tick label may use
     for (const v of niceTicks(h.lo, h.hi, h.log)) {
       const x = xOf(v);
+      const text = fmtTick(v);
+      const half = text.length * 3.1;
+      const anchor = x + half > W - 2 ? "end" : "middle";
+      const left = anchor === "end" ? x - 2 * half : x - half;
+      if (left < free) continue;
+      free = left + 2 * half + 8;
       g.append(svg("line", { x1: x, x2: x, y1: T + ph, y2: T + ph + 4, class: "axis-line" }));
-      g.append(svg("text", { x, y: H - 8, "text-anchor": "middle", class: "axis" }, fmtMs(v)));
+      g.append(svg("text", { x, y: H - 8, "text-anchor": anchor, class: "axis" }, text));
     }
-    let lastX = -100;
-    for (const [key, label] of [["p50", "p50"], ["p99", "p99"], ["max", "max"]]) {
+    // Percentile markers; labels of markers at the same place are merged, the others kept
+    // apart from right to left.
+    const marks = [];
+    for (const key of ["max", "p99", "p50"]) {
       const x = xOf(phase[key]);
-      g.append(svg("line", { x1: x, x2: x, y1: T - 4, y2: T + ph, class: "pline " + key }));
-      const lx = Math.abs(x - lastX) < 34 ? lastX + 34 : x;
-      g.append(svg("text", { x: Math.min(lx, W - 16), y: T - 8, "text-anchor": "middle", class: "plabel " + key }, label));
-      lastX = lx;
+      const same = marks.find((m) => Math.abs(m.x - x) < 2);
+      if (same) same.label = key + " = " + same.label;
+      else marks.push({ key, x, label: key });
     }
-    if (h.log) g.append(svg("text", { x: L + pw, y: T - 8, "text-anchor": "end", class: "axis" }, ""));
+    let room = W - 4;
+    for (const m of marks) {
+      g.append(svg("line", { x1: m.x, x2: m.x, y1: T - 4, y2: T + ph, class: "pline " + m.key }));
+      const half = m.label.length * 3.2 + 2;
+      const lx = Math.max(L + half, Math.min(m.x, room - half));
+      g.append(svg("text", { x: lx, y: T - 8, "text-anchor": "middle", class: "plabel " + m.key }, m.label));
+      room = lx - half - 6;
+    }
     return el("div", { class: "hist" }, g);
   }
 
@@ -702,6 +742,18 @@
         el("td", { class: "doc", text: c.error || "" }));
     });
     $("bus-table").replaceChildren(el("thead", {}, head), el("tbody", {}, ...rows));
+    $("bus-lines").replaceChildren(...info.buses.map((bus, b) => {
+      const mods = info.modules.map((m, i) => i).filter((i) => info.modules[i].bus === b);
+      const rate = mods.reduce((a, i) => a + (shown[i] || 0), 0);
+      const errors = mods.reduce((a, i) => {
+        const c = st.modules[i];
+        return a + (c ? c.timeouts + c.crc + c.bad + c.exceptions : 0);
+      }, 0);
+      const good = mods.filter((i) => st.modules[i] && st.modules[i].q === 0).length;
+      return card(bus.name + " · " + bus.settings, rate.toFixed(1) + " req/s",
+        bus.port + " · " + good + "/" + mods.length + " modules good · " + errors + " errors");
+    }));
+    renderRtt();
     for (const [i, m] of info.modules.entries()) {
       const q = $("module-q-" + m.name);
       if (q && st.modules[i]) {
@@ -710,6 +762,64 @@
         q.textContent = name + (st.modules[i].error ? ": " + st.modules[i].error : "");
       }
     }
+  }
+
+  function rttAppend(st) {
+    if (!app.state) return;
+    const r = app.rtt;
+    const now = app.state.now;
+    if (r.t.length && now <= r.t[r.t.length - 1]) return;
+    r.t.push(now);
+    app.info.modules.forEach((m, i) => {
+      (r.series[i] = r.series[i] || []).push(st.modules[i] && st.modules[i].q === 0 ? st.modules[i].rtt : null);
+    });
+    while (r.t.length > 2 && r.t[1] < now - TREND_WINDOW_MS - 1000) {
+      r.t.shift();
+      for (const ser of r.series) ser.shift();
+    }
+  }
+
+  function renderRtt() {
+    const box = $("rtt-chart");
+    const r = app.rtt;
+    if (document.body.dataset.view !== "bus") return;
+    const W = Math.max(600, box.clientWidth - 24), H = 190, L = 56, R = 120, T = 10, B = 24;
+    const pw = W - L - R, ph = H - T - B;
+    const g = svg("svg", { viewBox: "0 0 " + W + " " + H, height: H, role: "img", "aria-label": "round trip" });
+    const now = r.t.length ? r.t[r.t.length - 1] : 0;
+    const t0 = now - TREND_WINDOW_MS;
+    const all = r.series.flat().filter((v) => v !== null && v !== undefined);
+    const top = all.length ? Math.max(...all) * 1.1 : 1;
+    const mag = Math.pow(10, Math.floor(Math.log10(top)));
+    const hi = [1, 2, 2.5, 4, 5, 8, 10].map((m) => m * mag).find((m) => m >= top) || top;
+    const xOf = (t) => L + Math.max(0, (t - t0) / TREND_WINDOW_MS) * pw;
+    const yOf = (v) => T + ph - (v / hi) * ph;
+    for (let k = 0; k <= 4; k++) {
+      const v = (hi * k) / 4, y = yOf(v);
+      g.append(svg("line", { x1: L, x2: L + pw, y1: y, y2: y, class: "gridline" }));
+      g.append(svg("text", { x: L - 6, y: y + 4, "text-anchor": "end", class: "axis" }, fmtTick(v)));
+    }
+    for (let k = 0; k <= 6; k++) {
+      const x = L + (k / 6) * pw;
+      g.append(svg("text", { x, y: H - 6, "text-anchor": k === 6 ? "end" : "middle", class: "axis" }, k === 6 ? "now" : "−" + (60 - k * 10) + " s"));
+    }
+    app.info.modules.forEach((m, i) => {
+      const color = PALETTE[i % PALETTE.length];
+      const ser = r.series[i] || [];
+      let d = "";
+      let pen = false;
+      for (let k = 0; k < r.t.length; k++) {
+        const v = ser[k];
+        if (v === null || v === undefined || r.t[k] < t0) { pen = false; continue; }
+        d += (pen ? "L" : "M") + xOf(r.t[k]).toFixed(1) + " " + yOf(v).toFixed(1);
+        pen = true;
+      }
+      if (d) g.append(svg("path", { d, class: "trace", stroke: color }));
+      const last = ser.length ? ser[ser.length - 1] : null;
+      g.append(svg("text", { x: L + pw + 12, y: T + 14 + i * 18, class: "trace-label", fill: color }, m.name));
+      g.append(svg("text", { x: L + pw + 56, y: T + 14 + i * 18, class: "trace-value" }, last === null ? "lost" : fmtMs(last)));
+    });
+    box.replaceChildren(g);
   }
 
   // ---- Live data ----
@@ -729,6 +839,7 @@
 
   function onStats(st) {
     app.stats = st;
+    rttAppend(st);
     renderTiming();
     renderBus();
     renderTop();
