@@ -199,7 +199,13 @@ impl Retainer {
     }
 
     fn flush_pending(&mut self) {
-        let (Some(values), Some((tx, _))) = (self.pending.take(), self.writer.as_ref()) else {
+        let Some(values) = self.pending.take() else {
+            return;
+        };
+        let Some((tx, _)) = self.writer.as_ref() else {
+            // No writer thread (it could not start, or it stopped): save from here rather than
+            // not at all.
+            self.write_now(&values);
             return;
         };
         match tx.try_send(self.snapshot(&values)) {

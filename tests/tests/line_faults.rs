@@ -126,9 +126,10 @@ fn crc_errors_are_counted_and_survived() {
     fault_is_survived(Fault::FlipBit, |c| c.crc_errors + c.bad_replies);
 }
 
+/// Part of a reply, then silence: counted as a bad (cut) reply, not as a missing one.
 #[test]
-fn truncated_replies_time_out() {
-    fault_is_survived(Fault::Truncate { keep: 4 }, |c| c.timeouts);
+fn truncated_replies_are_bad_replies() {
+    fault_is_survived(Fault::Truncate { keep: 4 }, |c| c.bad_replies);
 }
 
 #[test]

@@ -91,7 +91,7 @@ fn measure(
         } else {
             Duration::ZERO
         };
-    let bus = BusThread::spawn(line.owner)?;
+    let mut bus = BusThread::spawn(line.owner)?;
 
     let (min_time, min_cycles) = if ctx.quick {
         (Duration::from_millis(250), 2)

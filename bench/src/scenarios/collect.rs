@@ -108,7 +108,7 @@ fn rounds(ctx: &Ctx, n: u8, settings: &[(&str, &str)], changes: bool) -> anyhow:
     let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
     let line = sim_line::minimods(n, LineSettings::DEFAULT, settings, clock.clone())?;
     let world = line.world.clone();
-    let bus = BusThread::spawn(line.owner)?;
+    let mut bus = BusThread::spawn(line.owner)?;
     let (min_time, min_rounds) = if ctx.quick {
         (Duration::from_millis(300), 2)
     } else {

@@ -27,6 +27,9 @@ use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError
 use crate::modbus::Response;
 use crate::point::{Quality, Value};
 
+/// Longest reply any module sends (an RTU ADU is at most 256 bytes; text replies are shorter).
+const MAX_REPLY: usize = 512;
+
 /// Settings of a bus owner's discipline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Discipline {
@@ -294,6 +297,8 @@ impl BusOwner {
         let mut snapshots = Vec::with_capacity(self.modules.len());
         for m in 0..self.modules.len() {
             let now = self.transport.now();
+            // A port that failed during this cycle is not tried again for the next modules.
+            let port_up = port_up && !self.port_health.is_lost();
             let polled = port_up && self.modules[m].health.due(now);
             let mut error = None;
             if polled {
@@ -314,7 +319,10 @@ impl BusOwner {
             let limits = self.discipline.health_limits();
             let line = &self.name;
             let module = &mut self.modules[m];
-            let quality = if polled || !port_up {
+            // While the port is down a module goes stale, then bad; once lost, its backoff is
+            // left alone (the port's own backoff paces the retries).
+            let record = polled || (!port_up && !module.health.is_lost());
+            let quality = if record {
                 let (quality, event) = module.health.record(error.is_none(), now, &limits);
                 match event {
                     Some(HealthEvent::Lost) => tracing::warn!(
@@ -371,6 +379,9 @@ impl BusOwner {
                 {
                     tracing::info!("line {}: port reopened after {after:.1?}", self.name);
                 }
+                for m in &mut self.modules {
+                    m.health.retry_now();
+                }
                 true
             }
             Err(e) => {
@@ -398,6 +409,17 @@ impl BusOwner {
 
     /// Writes outputs that changed (and all of them when the refresh period has passed).
     pub fn write_outputs(&mut self, frame: &OutputFrame) -> WriteReport {
+        self.write(frame, false)
+    }
+
+    /// Writes the safe state: every output again (not only changes), and to lost modules too,
+    /// once, in case they are back (stop, fault).
+    pub fn write_safe(&mut self, frame: &OutputFrame) -> WriteReport {
+        self.last_refresh = None;
+        self.write(frame, true)
+    }
+
+    fn write(&mut self, frame: &OutputFrame, include_lost: bool) -> WriteReport {
         let now = self.transport.now();
         let refresh = match self.last_refresh {
             Some(t) => now.saturating_sub(t) >= self.discipline.output_refresh,
@@ -415,7 +437,7 @@ impl BusOwner {
         for (m, desired) in frame.modules.iter().enumerate().take(self.modules.len()) {
             let module = &mut self.modules[m];
             // A lost module gets no bus time; when it comes back, everything is written again.
-            if module.health.is_lost() || self.port_health.is_lost() {
+            if !include_lost && (module.health.is_lost() || self.port_health.is_lost()) {
                 continue;
             }
             let refresh_module = refresh || std::mem::take(&mut module.refresh_pending);
@@ -500,6 +522,8 @@ impl BusOwner {
         self.rx_buf.clear();
         let mut deadline = sent + self.discipline.response_timeout;
         let inter_char = self.inter_char_timeout();
+        // However the bytes trickle in, a reply ends by then.
+        let hard_deadline = deadline + self.settings.chars(MAX_REPLY) + inter_char;
         loop {
             let before = self.rx_buf.len();
             let n = self
@@ -508,9 +532,22 @@ impl BusOwner {
                 .map_err(line_err)?;
             let now = self.transport.now();
             if n == 0 {
-                self.modules[m].counters.timeouts += 1;
+                if self.rx_buf.is_empty() {
+                    self.modules[m].counters.timeouts += 1;
+                } else {
+                    // Part of a reply, then silence: it was cut, not missing.
+                    self.modules[m].counters.bad_replies += 1;
+                }
                 self.recover(m, now);
                 return Err(TxError::Timeout(self.discipline.response_timeout));
+            }
+            if self.rx_buf.len() > MAX_REPLY || now > hard_deadline {
+                // A transmitter stuck on, or noise without end: stop listening.
+                self.modules[m].counters.bad_replies += 1;
+                self.recover(m, now);
+                return Err(TxError::BadReply(ReplyError::Malformed {
+                    offset: self.rx_buf.len(),
+                }));
             }
             deadline = now + inter_char;
             if let Some(term) = terminator {
@@ -579,6 +616,8 @@ pub enum BusCommand {
     Read,
     /// Write outputs; answer with [`BusEvent::Written`].
     Write(OutputFrame),
+    /// Write the safe state: every output, lost modules included ([`BusOwner::write_safe`]).
+    WriteSafe(OutputFrame),
     /// Stop the thread after writing this last frame (the safe state).
     Stop(Option<OutputFrame>),
 }
@@ -593,35 +632,43 @@ pub enum BusEvent {
 }
 
 /// A bus owner on its own OS thread.
+///
+/// Every command carries a sequence number and its answer echoes it, so an answer that comes
+/// too late for one cycle is recognised and dropped, never taken for the next cycle's. The scan
+/// never blocks on the thread: commands are queued with `try_send` (a full queue means the
+/// line is far behind, and the cycle goes on with stale inputs), answers queue without bound
+/// (one per command), and stopping waits at most its deadline.
 #[derive(Debug)]
 pub struct BusThread {
-    commands: Sender<BusCommand>,
-    events: Receiver<BusEvent>,
+    commands: Sender<(u64, BusCommand)>,
+    events: Receiver<(u64, BusEvent)>,
     handle: Option<JoinHandle<BusOwner>>,
+    /// Sequence number of the last command sent.
+    last_sent: u64,
 }
 
 impl BusThread {
     /// Starts a thread that owns `owner`.
     pub fn spawn(mut owner: BusOwner) -> std::io::Result<Self> {
-        let (commands, cmd_rx) = crossbeam_channel::bounded::<BusCommand>(4);
-        let (ev_tx, events) = crossbeam_channel::bounded::<BusEvent>(4);
+        let (commands, cmd_rx) = crossbeam_channel::bounded::<(u64, BusCommand)>(8);
+        let (ev_tx, events) = crossbeam_channel::unbounded::<(u64, BusEvent)>();
         let handle = std::thread::Builder::new()
             .name(format!("bus-{}", owner.name))
             .spawn(move || {
-                for cmd in cmd_rx {
+                for (seq, cmd) in cmd_rx {
                     let event = match cmd {
                         BusCommand::Read => BusEvent::Inputs(owner.read_inputs()),
                         BusCommand::Write(frame) => BusEvent::Written(owner.write_outputs(&frame)),
+                        BusCommand::WriteSafe(frame) => BusEvent::Written(owner.write_safe(&frame)),
                         BusCommand::Stop(last) => {
                             if let Some(frame) = last {
-                                owner.last_refresh = None;
-                                let report = owner.write_outputs(&frame);
-                                let _ = ev_tx.send(BusEvent::Written(report));
+                                let report = owner.write_safe(&frame);
+                                let _ = ev_tx.send((seq, BusEvent::Written(report)));
                             }
                             break;
                         }
                     };
-                    if ev_tx.send(event).is_err() {
+                    if ev_tx.send((seq, event)).is_err() {
                         break;
                     }
                 }
@@ -631,26 +678,56 @@ impl BusThread {
             commands,
             events,
             handle: Some(handle),
+            last_sent: 0,
         })
     }
 
-    /// Sends a command without waiting.
-    pub fn send(&self, cmd: BusCommand) -> bool {
-        self.commands.send(cmd).is_ok()
+    /// Whether the thread has ended (a driver panicked, or it was stopped).
+    pub fn is_finished(&self) -> bool {
+        self.handle.as_ref().is_none_or(|h| h.is_finished())
     }
 
-    /// Waits for the thread's next answer, at most `timeout`.
-    pub fn recv(&self, timeout: Duration) -> Option<BusEvent> {
-        self.events.recv_timeout(timeout).ok()
-    }
-
-    /// Stops the thread, writing `last` first; returns the owner back.
-    pub fn stop(mut self, last: Option<OutputFrame>, timeout: Duration) -> Option<BusOwner> {
-        let had_frame = last.is_some();
-        let _ = self.commands.send(BusCommand::Stop(last));
-        if had_frame {
-            let _ = self.events.recv_timeout(timeout);
+    /// Queues a command without waiting; false when the line is too far behind to take it.
+    pub fn send(&mut self, cmd: BusCommand) -> bool {
+        let seq = self.last_sent + 1;
+        match self.commands.try_send((seq, cmd)) {
+            Ok(()) => {
+                self.last_sent = seq;
+                true
+            }
+            Err(_) => false,
         }
-        self.handle.take().and_then(|h| h.join().ok())
+    }
+
+    /// Waits at most `timeout` for the answer to the last command sent; answers to earlier
+    /// commands that arrive meanwhile are dropped.
+    pub fn recv(&self, timeout: Duration) -> Option<BusEvent> {
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            match self.events.recv_deadline(deadline) {
+                Ok((seq, event)) if seq == self.last_sent => return Some(event),
+                Ok(_) => continue,
+                Err(_) => return None,
+            }
+        }
+    }
+
+    /// Stops the thread, writing `last` first; waits at most `timeout` and returns the owner
+    /// back if the thread ended in time.
+    pub fn stop(mut self, last: Option<OutputFrame>, timeout: Duration) -> Option<BusOwner> {
+        let deadline = std::time::Instant::now() + timeout;
+        let seq = self.last_sent + 1;
+        let _ = self
+            .commands
+            .send_deadline((seq, BusCommand::Stop(last)), deadline);
+        let handle = self.handle.take()?;
+        while !handle.is_finished() {
+            if std::time::Instant::now() >= deadline {
+                // The line is stuck (a port that blocks): leave the thread, do not hang the PLC.
+                return None;
+            }
+            let _ = self.events.recv_timeout(Duration::from_millis(5));
+        }
+        handle.join().ok()
     }
 }

@@ -44,6 +44,11 @@ impl Health {
         self.lost_since.is_none() || now >= self.next_attempt
     }
 
+    /// Makes a lost module due now (its line came back: no reason to wait out its backoff).
+    pub fn retry_now(&mut self) {
+        self.next_attempt = Duration::ZERO;
+    }
+
     /// Whether the module is lost.
     pub fn is_lost(&self) -> bool {
         self.lost_since.is_some()

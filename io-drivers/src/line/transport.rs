@@ -67,7 +67,8 @@ pub trait Transport: Send + Debug {
 /// A real serial device (a USB RS-485 adapter, or one end of a pty).
 #[derive(Debug)]
 pub struct SerialTransport {
-    port: serialport::TTYPort,
+    /// `None` only while a reopen is under way (or failed).
+    port: Option<serialport::TTYPort>,
     /// Where it was opened from, to reopen it; `None` for a port handed over already open.
     path: Option<PathBuf>,
     settings: LineSettings,
@@ -135,7 +136,7 @@ impl SerialTransport {
         // A pty refuses exclusive mode on some kernels; the port works the same without it.
         let _ = port.set_exclusive(false);
         Self {
-            port,
+            port: Some(port),
             path: None,
             settings,
             clock,
@@ -143,11 +144,29 @@ impl SerialTransport {
     }
 }
 
+impl SerialTransport {
+    fn port(&mut self) -> Result<&mut TTYPort, LineError> {
+        self.port.as_mut().ok_or_else(|| {
+            LineError::Io(std::io::Error::new(
+                std::io::ErrorKind::NotConnected,
+                "the port is closed",
+            ))
+        })
+    }
+}
+
 impl Transport for SerialTransport {
     fn reopen(&mut self) -> Result<(), LineError> {
-        if let Some(path) = &self.path {
-            self.port = open_tty(path, self.settings)?;
-        }
+        let Some(path) = self.path.clone() else {
+            return Err(LineError::Io(std::io::Error::new(
+                std::io::ErrorKind::Unsupported,
+                "a port handed over open cannot be reopened",
+            )));
+        };
+        // Close first: the old descriptor holds the device's exclusive lock, and a replugged
+        // adapter gets its name back only once every descriptor of the old one is closed.
+        self.port = None;
+        self.port = Some(open_tty(&path, self.settings)?);
         Ok(())
     }
 
@@ -160,12 +179,15 @@ impl Transport for SerialTransport {
     }
 
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
-        self.port.write_all(frame)?;
-        self.port.flush()?;
-        // The UART is still shifting the frame out after the write returns; the line is not
-        // free before its last character has left.
-        let done = self.clock.now() + self.settings.chars(frame.len());
-        self.clock.sleep_until(done);
+        let start = self.clock.now();
+        let port = self.port()?;
+        port.write_all(frame)?;
+        // tcdrain: on a real UART this returns once the last character has left.
+        port.flush()?;
+        // A pty drains at once; keep the line busy for the frame's wire time all the same, so
+        // timing on a pty matches the wire (on a UART this deadline has already passed).
+        self.clock
+            .sleep_until(start + self.settings.chars(frame.len()));
         Ok(())
     }
 
@@ -173,14 +195,36 @@ impl Transport for SerialTransport {
         let mut chunk = [0u8; 256];
         loop {
             let now = self.clock.now();
+            let port = self.port()?;
             if now >= deadline {
-                return Ok(0);
+                // The thread may have been descheduled past the deadline with the reply already
+                // waiting: take what is there before calling it a timeout.
+                let waiting = port.bytes_to_read().unwrap_or(0) as usize;
+                if waiting == 0 {
+                    return Ok(0);
+                }
+                port.set_timeout(Duration::from_micros(100))
+                    .map_err(|e| std::io::Error::other(e.description))?;
+                return match port.read(&mut chunk) {
+                    Ok(n) => {
+                        buf.extend_from_slice(&chunk[..n]);
+                        Ok(n)
+                    }
+                    Err(e)
+                        if matches!(
+                            e.kind(),
+                            std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted
+                        ) =>
+                    {
+                        Ok(0)
+                    }
+                    Err(e) => Err(e.into()),
+                };
             }
             let wait = (deadline - now).max(Duration::from_micros(100));
-            self.port
-                .set_timeout(wait)
+            port.set_timeout(wait)
                 .map_err(|e| std::io::Error::other(e.description))?;
-            match self.port.read(&mut chunk) {
+            match port.read(&mut chunk) {
                 Ok(0) => continue,
                 Ok(n) => {
                     buf.extend_from_slice(&chunk[..n]);
@@ -198,8 +242,9 @@ impl Transport for SerialTransport {
     }
 
     fn flush_input(&mut self) -> usize {
-        let pending = self.port.bytes_to_read().unwrap_or(0) as usize;
-        let _ = self.port.clear(serialport::ClearBuffer::Input);
+        let Ok(port) = self.port() else { return 0 };
+        let pending = port.bytes_to_read().unwrap_or(0) as usize;
+        let _ = port.clear(serialport::ClearBuffer::Input);
         pending
     }
 }

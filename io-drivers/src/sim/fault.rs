@@ -272,7 +272,9 @@ impl LineFaults {
             Fault::Garbage { bytes } => {
                 let noise: Vec<u8> = (0..bytes).map(|_| self.next_random() as u8).collect();
                 let lead = char_time * (u32::from(bytes) + 4);
-                wire.bursts.insert(0, (delay.saturating_sub(lead), noise));
+                // Kept after the reply in the list (the line orders bursts by time), so that rules
+                // applied after this one still act on the reply itself.
+                wire.bursts.push((delay.saturating_sub(lead), noise));
             }
             Fault::Babble { bytes } => {
                 let noise: Vec<u8> = (0..bytes).map(|_| self.next_random() as u8).collect();
@@ -324,7 +326,16 @@ mod tests {
         let wrong = one(Fault::WrongAddress { unit: 9 });
         assert_eq!(wrong.bursts[0].1[0], 9);
         assert!(crate::modbus::crc::check_crc(&wrong.bursts[0].1));
-        assert_eq!(one(Fault::Garbage { bytes: 4 }).bursts[0].1.len(), 4);
+        let garbage = one(Fault::Garbage { bytes: 4 });
+        assert_eq!(
+            garbage.bursts[0].1, REPLY,
+            "the reply stays first for later rules"
+        );
+        assert_eq!(garbage.bursts[1].1.len(), 4);
+        assert!(
+            garbage.bursts[1].0 < garbage.bursts[0].0,
+            "the noise comes before it"
+        );
     }
 
     #[test]

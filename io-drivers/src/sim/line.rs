@@ -370,7 +370,11 @@ impl Transport for VirtualPort {
         let end = self.now() + self.settings.chars(frame.len());
         self.sleep_until(end);
         let line = self.line;
-        self.lock().deliver(line, frame, end);
+        let mut world = self.lock();
+        // A reply still on the wire while the master transmits collides with the request: the
+        // master hears neither, so it cannot later take those bytes for the new reply.
+        world.drop_arrived(line, end);
+        world.deliver(line, frame, end);
         Ok(())
     }
 

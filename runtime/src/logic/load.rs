@@ -67,10 +67,14 @@ pub fn tag_table(project: &Project, image: &ProcessImage) -> expr::TagTable {
     }))
 }
 
-/// The time one scan of a script may take before it is stopped: half the scan period, so a
-/// runaway script faults the PLC within the cycle instead of stalling it until the watchdog.
+/// The time one scan of a script may take before it is stopped: the task watchdog's time (at
+/// least half a period), so a runaway script faults the PLC before the watchdog's limit while a
+/// script that was merely preempted on a busy machine is not a fault. The operation limit stops
+/// runaway loops deterministically on any clock; this wall-clock guard is the backstop.
 pub fn script_budget(project: &Project) -> Duration {
-    (project.scan.period / 2).min(project.scan.watchdog.time)
+    // The guard against a runaway script: the task watchdog's time, not a share of the period,
+    // so a script preempted once on a busy machine is not a fault (the watchdog decides that).
+    project.scan.watchdog.time.max(project.scan.period / 2)
 }
 
 /// Compiles the project's program against its tags (ids as in `image`).

@@ -182,6 +182,7 @@ impl Plc {
             retain,
             plan,
             offload,
+            dead_lines: Vec::new(),
         })
     }
 }

@@ -87,7 +87,7 @@ impl Plc {
             .map_err(|e| format!("reload refused:\n{e}"))?;
         if !same_io(&fresh, &self.project) {
             return Err(
-                "reload refused: buses, modules, tags or service changed; restart to apply them"
+                "reload refused: something besides the program changed (scan, buses, modules, tags, retain, offload or service); restart to apply it"
                     .into(),
             );
         }
@@ -158,9 +158,14 @@ impl Plc {
     }
 }
 
-/// Whether two projects have the same I/O: a reload may only change the program.
+/// Whether two projects differ only in their program: a reload may change nothing else (the
+/// scan, the lines, the retain file, push-down and services are set up at start).
 fn same_io(a: &Project, b: &Project) -> bool {
-    a.buses == b.buses
+    a.name == b.name
+        && a.scan == b.scan
+        && a.retain == b.retain
+        && a.offload == b.offload
+        && a.buses == b.buses
         && a.tags == b.tags
         && a.plant == b.plant
         && a.service == b.service

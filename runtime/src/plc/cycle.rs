@@ -13,13 +13,15 @@ impl Plc {
     pub fn read_inputs(&mut self) {
         let start = self.clock.now();
         let mut frames: Vec<Option<InputFrame>> = Vec::with_capacity(self.lines.len());
-        for line in &self.lines {
+        let mut sent = vec![false; self.lines.len()];
+        for (b, line) in self.lines.iter_mut().enumerate() {
             if let Line::Thread(t) = line {
-                t.send(BusCommand::Read);
+                sent[b] = t.send(BusCommand::Read);
             }
         }
         let mut latest = start;
-        for line in &mut self.lines {
+        let mut dead = vec![false; self.lines.len()];
+        for (b, line) in self.lines.iter_mut().enumerate() {
             let frame = match line {
                 Line::Inline(owner) => {
                     owner.sync(start);
@@ -27,12 +29,25 @@ impl Plc {
                     latest = latest.max(f.finished);
                     Some(f)
                 }
-                Line::Thread(t) => match t.recv(self.line_wait) {
+                Line::Thread(t) if sent[b] => match t.recv(self.line_wait) {
                     Some(BusEvent::Inputs(f)) => Some(f),
                     _ => None,
                 },
+                Line::Thread(_) => None,
                 Line::Stopped => None,
             };
+            if let Line::Thread(t) = line {
+                // A bus thread that ended on its own (a driver bug) must not leave its line's
+                // inputs looking merely stale: they are lost.
+                dead[b] = t.is_finished();
+                if dead[b] && !self.dead_lines.contains(&b) {
+                    self.dead_lines.push(b);
+                    tracing::error!(
+                        "line {}: its bus thread has ended; its points are bad",
+                        self.project.buses[b].name
+                    );
+                }
+            }
             frames.push(frame);
         }
         if self.clock.is_virtual() {
@@ -48,6 +63,7 @@ impl Plc {
                         st.counters = snap.counters;
                         st.last_error = snap.last_error.clone();
                     }
+                    None if dead[b] => st.quality = Quality::Bad,
                     None => {
                         // The line did not answer in time: its points keep their values.
                         st.quality = if st.quality == Quality::Good {
@@ -62,7 +78,9 @@ impl Plc {
         for bind in &self.inputs {
             let Some(frame) = frames.get(bind.bus).and_then(Option::as_ref) else {
                 let q = self.image.slot(bind.tag).quality;
-                if q == Quality::Good {
+                if dead[bind.bus] {
+                    self.image.set_quality(bind.tag, Quality::Bad);
+                } else if q == Quality::Good {
                     self.image.set_quality(bind.tag, Quality::Stale);
                 }
                 continue;
@@ -121,15 +139,27 @@ impl Plc {
         }
         self.offload
             .safe_outputs(&mut self.frames, &mut self.image, self.clock.now());
-        self.dispatch_writes();
+        self.dispatch(true);
         self.offload.clear_commands(&mut self.frames);
     }
 
     fn dispatch_writes(&mut self) {
+        self.dispatch(false);
+    }
+
+    /// Sends the output frames to every line and waits for them; `safe`: the safe state,
+    /// written in full and to lost modules too.
+    fn dispatch(&mut self, safe: bool) {
         let start = self.clock.now();
-        for (b, line) in self.lines.iter().enumerate() {
+        let mut sent = vec![false; self.lines.len()];
+        for (b, line) in self.lines.iter_mut().enumerate() {
             if let Line::Thread(t) = line {
-                t.send(BusCommand::Write(self.frames[b].clone()));
+                let frame = self.frames[b].clone();
+                sent[b] = t.send(if safe {
+                    BusCommand::WriteSafe(frame)
+                } else {
+                    BusCommand::Write(frame)
+                });
             }
         }
         let mut latest = start;
@@ -137,11 +167,17 @@ impl Plc {
             match line {
                 Line::Inline(owner) => {
                     owner.sync(start);
-                    latest = latest.max(owner.write_outputs(&self.frames[b]).finished);
+                    let report = if safe {
+                        owner.write_safe(&self.frames[b])
+                    } else {
+                        owner.write_outputs(&self.frames[b])
+                    };
+                    latest = latest.max(report.finished);
                 }
-                Line::Thread(t) => {
+                Line::Thread(t) if sent[b] => {
                     let _ = t.recv(self.line_wait);
                 }
+                Line::Thread(_) => {}
                 Line::Stopped => {}
             }
         }

@@ -131,6 +131,8 @@ pub struct Plc {
     plan: Plan,
     /// The outputs the modules drive.
     offload: Offloaded,
+    /// Lines whose bus thread has ended (logged once).
+    dead_lines: Vec<usize>,
 }
 
 impl Plc {

@@ -193,7 +193,24 @@ impl ScanEngine {
                 delta: previous.map_or(period, |p| deadline - p),
                 cycle: stats.cycles,
             };
-            let logic = self.plc.run_logic(&ctx);
+            // A panic in a program engine is a bug, but the machine still gets its safe state.
+            let logic =
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.plc.run_logic(&ctx)))
+                    .unwrap_or_else(|panic| {
+                        let what = panic
+                            .downcast_ref::<&str>()
+                            .map(|s| s.to_string())
+                            .or_else(|| panic.downcast_ref::<String>().cloned())
+                            .unwrap_or_else(|| "unknown".into());
+                        Err(LogicFault {
+                            message: format!("the program engine panicked: {what}"),
+                            pos: crate::logic::SourcePos {
+                                file: self.plc.project().program.path.clone(),
+                                line: 0,
+                                column: 0,
+                            },
+                        })
+                    });
             let logic_end = clock.now();
             if let Err(fault) = logic {
                 break StopReason::LogicFault(fault);
@@ -221,8 +238,11 @@ impl ScanEngine {
             if end > deadline {
                 // Skip every deadline already passed; the next cycle starts on the grid.
                 let behind = (end - deadline).as_nanos() / period.as_nanos().max(1) + 1;
-                stats.overruns += behind as u64;
-                deadline += period * behind as u32;
+                stats.overruns = stats
+                    .overruns
+                    .saturating_add(u64::try_from(behind).unwrap_or(u64::MAX));
+                let skip = period.as_nanos().saturating_mul(behind);
+                deadline += Duration::from_nanos(u64::try_from(skip).unwrap_or(u64::MAX));
             }
             if end.saturating_sub(last_published) >= Duration::from_millis(200) {
                 last_published = end;
@@ -287,12 +307,12 @@ impl ScanEngine {
         if let Some(p) = &mut self.publisher {
             p.publish(&self.plc, stats, now, false);
         }
-        if let Some(n) = &self.notifier {
+        if let Some(n) = &mut self.notifier {
             // Only a completed scan feeds systemd's watchdog: a hung scan gets restarted.
             if stats.cycles == 1 {
                 n.notify("READY=1");
             }
-            n.notify("WATCHDOG=1");
+            n.watchdog();
             if stats.cycles % 50 == 1 {
                 let c = stats.cycle.percentiles();
                 n.notify(&format!(

@@ -48,7 +48,7 @@ impl TaskWatchdog {
     /// Checks one completed cycle's duration.
     pub fn check(&mut self, cycle: Duration) -> Result<(), WatchdogTrip> {
         let sensitivity = self.cfg.sensitivity.max(1);
-        let hard = self.cfg.time * sensitivity;
+        let hard = self.cfg.time.saturating_mul(sensitivity);
         if cycle > hard {
             return Err(WatchdogTrip::Single {
                 took: cycle,

@@ -133,6 +133,31 @@ pub fn default_socket_path(project: &str) -> PathBuf {
     dir.join(format!("{project}.sock"))
 }
 
+/// Refuses a socket folder another user owns or may write to: whoever can write there can put
+/// their own socket in its place (a folder under /tmp may have been made by anyone first).
+fn check_folder(dir: &Path) -> std::io::Result<()> {
+    use std::os::unix::fs::MetadataExt;
+    let meta = std::fs::symlink_metadata(dir)?;
+    // SAFETY: getuid has no preconditions and cannot fail.
+    let me = unsafe { libc::getuid() };
+    let others_write = meta.mode() & 0o022 != 0;
+    if !meta.is_dir()
+        || (meta.uid() != me && meta.uid() != 0)
+        || (others_write && meta.mode() & 0o1000 == 0)
+    {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::PermissionDenied,
+            format!(
+                "{} is not a private folder of this user (owner {}, mode {:o}); remove it or pass --control",
+                dir.display(),
+                meta.uid(),
+                meta.mode() & 0o7777
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// The listening side; dropping it removes the socket file.
 #[derive(Debug)]
 pub struct ControlServer {
@@ -147,6 +172,7 @@ impl ControlServer {
                 std::fs::create_dir_all(dir)?;
                 std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
             }
+            check_folder(dir)?;
         }
         if path.exists() {
             if UnixStream::connect(path).is_ok() {
