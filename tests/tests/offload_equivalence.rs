@@ -868,6 +868,12 @@ fn pushed_outputs_belong_to_their_module() {
     assert_eq!(plc.image().get(seen), Value::Bool(true));
     let refused = plc.force("y", "0").unwrap_err();
     assert!(refused.contains("driven by its module"), "{refused}");
+    // Its input is read by the module's own logic, which a force cannot reach: refused too.
+    let refused = plc.force("a", "0").unwrap_err();
+    assert!(
+        refused.contains("read by the module's own logic for y"),
+        "{refused}"
+    );
     // A reload that keeps the placement is taken; one that moves a rung is refused.
     if let Err(e) = plc.reload_program() {
         panic!("the same program reloads: {e}");

@@ -229,6 +229,26 @@ pub enum RungShape {
 pub const MAX_LATCH_TAGS: usize = 12;
 
 impl RungShape {
+    /// The tags the module's own logic reads once this shape is pushed down. A pulse's trigger
+    /// is not among them: the scan keeps it and only the width runs in the module.
+    pub fn module_inputs(&self) -> BTreeSet<TagId> {
+        let all =
+            |exprs: &[&BoolExpr]| exprs.iter().flat_map(|e| e.tags()).collect::<BTreeSet<_>>();
+        match self {
+            RungShape::Combinational { expr } => expr.tags(),
+            RungShape::Latch { set, reset, .. } => all(&[set, reset]),
+            RungShape::StairPulse { trigger, .. } | RungShape::Toggle { trigger } => {
+                all(&trigger.iter().collect::<Vec<_>>())
+            }
+            RungShape::EdgeSetReset { set, reset } => {
+                all(&set.iter().chain(reset).collect::<Vec<_>>())
+            }
+            RungShape::Pulse { .. } | RungShape::Blink { .. } | RungShape::Opaque { .. } => {
+                BTreeSet::new()
+            }
+        }
+    }
+
     /// The shape of `coil = expr` where `expr` reads `coil`: each scan the coil is set where
     /// `expr[coil:=0]` holds and reset where `expr[coil:=1]` does not. That is a latch exactly
     /// when the two never hold together (then the step never inverts the coil, and which one

@@ -311,6 +311,13 @@ impl Plan {
         })
     }
 
+    /// A pushed-down rung whose module reads `tag` itself (a force on `tag` cannot reach it).
+    pub fn pushed_reader(&self, tag: TagId) -> Option<&RungPlan> {
+        self.pushed()
+            .map(|(r, _)| r)
+            .find(|r| r.rung.shape.module_inputs().contains(&tag))
+    }
+
     /// Whether the coil `tag` is owned by a module.
     pub fn is_pushed(&self, tag: TagId) -> bool {
         self.pushed().any(|(r, _)| r.rung.coil == tag)

@@ -70,6 +70,13 @@ impl Plc {
                  the tag to drive it from the scan"
             ));
         }
+        if let Some(rung) = self.plan.pushed_reader(id) {
+            return Err(format!(
+                "{tag} is read by the module's own logic for {} ({}), which sees the real \
+                 terminal, not a force; set offload: never on {} to force it",
+                rung.coil, rung.rung.pos, rung.coil
+            ));
+        }
         Ok(())
     }
 
