@@ -286,10 +286,6 @@ fn temp_path(path: &Path) -> PathBuf {
 
 /// Writes `values` to `path` atomically: temporary file, fsync, rename, fsync of the folder.
 pub fn write_atomic(path: &Path, values: &Snapshot) -> Result<(), RetainError> {
-    let io = |p: &Path| {
-        let p = p.to_path_buf();
-        move |source| RetainError::Io { path: p, source }
-    };
     let mut map = Map::new();
     for (name, v) in values {
         map.insert(name.clone(), to_json(*v));
@@ -297,6 +293,16 @@ pub fn write_atomic(path: &Path, values: &Snapshot) -> Result<(), RetainError> {
     let doc = serde_json::json!({ MARKER: VERSION, "values": Json::Object(map) });
     let mut text = serde_json::to_vec_pretty(&doc).unwrap_or_default();
     text.push(b'\n');
+    write_file_atomic(path, &text)
+}
+
+/// Replaces `path` with `bytes` so that a crash or power cut at any moment leaves either the
+/// old file or the new one, never a mix: temporary file, fsync, rename, fsync of the folder.
+pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<(), RetainError> {
+    let io = |p: &Path| {
+        let p = p.to_path_buf();
+        move |source| RetainError::Io { path: p, source }
+    };
     let tmp = temp_path(path);
     let folder = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -305,7 +311,7 @@ pub fn write_atomic(path: &Path, values: &Snapshot) -> Result<(), RetainError> {
     fs::create_dir_all(&folder).map_err(io(&folder))?;
     {
         let mut f = File::create(&tmp).map_err(io(&tmp))?;
-        f.write_all(&text).map_err(io(&tmp))?;
+        f.write_all(bytes).map_err(io(&tmp))?;
         f.sync_all().map_err(io(&tmp))?;
     }
     fs::rename(&tmp, path).map_err(io(path))?;

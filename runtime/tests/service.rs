@@ -176,3 +176,68 @@ fn a_running_instance_notifies_systemd_and_obeys_its_control_socket() {
     assert!(!socket.exists(), "the control socket is removed on exit");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// Starts the quick start copy in `dir` with extra arguments; returns the child once its
+/// control socket answers.
+fn start(dir: &Path, socket: &Path, extra: &[&str]) -> std::process::Child {
+    let child = Command::new(BIN)
+        .args(["run", "--quiet", "--for", "20s", "--control"])
+        .arg(socket)
+        .args(extra)
+        .arg(dir.join("project.yaml"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let end = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < end && !ctl(socket, &["status"]).0 {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child
+}
+
+fn stop(mut child: std::process::Child) {
+    // SAFETY: kill with a valid pid and signal.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let _ = child.wait();
+}
+
+#[test]
+fn forces_are_lost_on_restart_unless_kept() {
+    let dir = scratch("forces");
+    std::fs::copy(
+        repo().join("programs/conveyor.expr"),
+        dir.join("conveyor.expr"),
+    )
+    .unwrap();
+    let project = std::fs::read_to_string(repo().join("examples/quickstart/project.yaml"))
+        .unwrap()
+        .replace("../../programs/conveyor.expr", "conveyor.expr");
+    // The page is not needed here, and its fixed port may be taken by a parallel test.
+    let project = match project.find("\nservice:") {
+        Some(i) => project[..i + 1].to_string(),
+        None => project,
+    };
+    std::fs::write(dir.join("project.yaml"), project).unwrap();
+    let socket = dir.join("ctl.sock");
+    let forced = |socket: &Path| {
+        ctl(socket, &["status"])
+            .1
+            .lines()
+            .any(|l| l.contains("stop") && l.contains("FORCED 1"))
+    };
+
+    let plc = start(&dir, &socket, &["--keep-forces"]);
+    assert!(ctl(&socket, &["force", "stop", "1"]).0);
+    stop(plc);
+    assert!(dir.join("project.yaml.forces.json").exists());
+
+    let plc = start(&dir, &socket, &["--keep-forces"]);
+    assert!(forced(&socket), "kept across the restart");
+    stop(plc);
+
+    let plc = start(&dir, &socket, &[]);
+    assert!(!forced(&socket), "a plain restart clears forces");
+    stop(plc);
+    let _ = std::fs::remove_dir_all(dir);
+}

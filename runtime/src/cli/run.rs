@@ -35,6 +35,10 @@ pub struct RunArgs {
     /// $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR/softplc or /tmp/softplc-UID.
     #[arg(long)]
     control: Option<PathBuf>,
+    /// Keep forces across restarts, in PROJECT.forces.json beside the project file (by default
+    /// a restart clears every force).
+    #[arg(long)]
+    keep_forces: bool,
     /// Do not open a control socket.
     #[arg(long, conflicts_with = "control")]
     no_control: bool,
@@ -56,7 +60,10 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let realtime = project.scan.realtime;
     let name = project.name.clone();
     let period = project.scan.period;
-    let plc = Plc::build(project, clock).context("cannot start the PLC")?;
+    let mut plc = Plc::build(project, clock).context("cannot start the PLC")?;
+    if args.keep_forces {
+        plc.keep_forces(crate::plc::forces_path(&args.project));
+    }
     let mut engine = ScanEngine::new(plc);
     if let Some(d) = args.run_for {
         engine = engine.run_for(d);

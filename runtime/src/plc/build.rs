@@ -183,6 +183,7 @@ impl Plc {
             plan,
             offload,
             dead_lines: Vec::new(),
+            forces_file: None,
         })
     }
 }

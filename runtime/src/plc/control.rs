@@ -19,6 +19,7 @@ impl Plc {
             .ok_or_else(|| format!("{tag} is {ty}: {text:?} is not a {ty}"))?;
         self.image.force(id, value);
         self.image.apply_forces(self.clock.now());
+        self.save_forces();
         tracing::warn!("tag {tag} forced to {value}");
         Ok(value)
     }
@@ -31,6 +32,7 @@ impl Plc {
         };
         if n > 0 {
             tracing::info!("{n} force(s) removed");
+            self.save_forces();
         }
         Ok(n)
     }

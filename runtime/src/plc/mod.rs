@@ -13,6 +13,9 @@
 mod build;
 mod control;
 mod cycle;
+mod forces;
+
+pub use forces::forces_path;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -133,6 +136,8 @@ pub struct Plc {
     offload: Offloaded,
     /// Lines whose bus thread has ended (logged once).
     dead_lines: Vec<usize>,
+    /// Where forces are kept across restarts, when asked.
+    forces_file: Option<std::path::PathBuf>,
 }
 
 impl Plc {

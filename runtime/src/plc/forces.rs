@@ -1,0 +1,62 @@
+//! Forces that survive a restart, when asked (`softplc run --keep-forces`): every force and
+//! unforce rewrites a small file beside the project atomically, and the next start applies it
+//! before the first scan. Without the option forces are lost on restart, as on most PLCs.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::Plc;
+
+/// The file that keeps `project_file`'s forces: `PROJECT.forces.json` beside it.
+pub fn forces_path(project_file: &Path) -> PathBuf {
+    let mut name = project_file.file_name().unwrap_or_default().to_os_string();
+    name.push(".forces.json");
+    project_file.with_file_name(name)
+}
+
+impl Plc {
+    /// Keeps forces in `path` from now on, and applies the ones it holds. A force that no
+    /// longer fits the project (tag gone, type changed, now pushed down) is skipped with a log
+    /// line, never applied half.
+    pub fn keep_forces(&mut self, path: PathBuf) {
+        match std::fs::read(&path) {
+            Ok(bytes) => match serde_json::from_slice::<BTreeMap<String, String>>(&bytes) {
+                Ok(saved) => {
+                    for (tag, value) in saved {
+                        if let Err(e) = self.force(&tag, &value) {
+                            tracing::warn!("kept force {tag}={value} not applied: {e}");
+                        }
+                    }
+                }
+                Err(e) => tracing::error!(
+                    "{}: not a forces file ({e}); no force applied",
+                    path.display()
+                ),
+            },
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => tracing::error!("{}: cannot read ({e}); no force applied", path.display()),
+        }
+        self.forces_file = Some(path);
+        self.save_forces();
+    }
+
+    /// Writes the current forces to the kept-forces file, if there is one.
+    pub(super) fn save_forces(&self) {
+        let Some(path) = &self.forces_file else {
+            return;
+        };
+        let forces: BTreeMap<String, String> = (0..self.image.len())
+            .filter_map(|i| {
+                let id = crate::image::TagId(i as u32);
+                self.image
+                    .forced(id)
+                    .map(|v| (self.image.name(id).to_string(), v.to_string()))
+            })
+            .collect();
+        let mut text = serde_json::to_vec_pretty(&forces).unwrap_or_default();
+        text.push(b'\n');
+        if let Err(e) = crate::retain::write_file_atomic(path, &text) {
+            tracing::error!("cannot keep forces: {e}");
+        }
+    }
+}
