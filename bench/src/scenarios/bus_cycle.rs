@@ -94,7 +94,7 @@ fn measure(
     let mut bus = BusThread::spawn(line.owner)?;
 
     let (min_time, min_cycles) = if ctx.quick {
-        (Duration::from_millis(250), 2)
+        (Duration::from_millis(200), 1)
     } else {
         (Duration::from_millis(2500), 5)
     };

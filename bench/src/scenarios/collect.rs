@@ -110,7 +110,7 @@ fn rounds(ctx: &Ctx, n: u8, settings: &[(&str, &str)], changes: bool) -> anyhow:
     let world = line.world.clone();
     let mut bus = BusThread::spawn(line.owner)?;
     let (min_time, min_rounds) = if ctx.quick {
-        (Duration::from_millis(300), 2)
+        (Duration::from_millis(200), 1)
     } else {
         (Duration::from_millis(2500), 10)
     };

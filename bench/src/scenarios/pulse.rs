@@ -85,7 +85,7 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
 /// The program, central (`offload: never`) or pushed down (`auto`); widths of Y1's pulses at
 /// the terminal.
 fn program(ctx: &Ctx, offload: &str) -> anyhow::Result<DurationHistogram> {
-    let run_for = ctx.pick(Duration::from_secs(12), Duration::from_secs(3));
+    let run_for = ctx.pick(Duration::from_secs(12), Duration::from_millis(2500));
     let bus = SimBus::new("line1", 19200, [1]);
     let tags = [
         "{ name: req, type: bool }".to_string(),
