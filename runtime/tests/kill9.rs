@@ -2,96 +2,20 @@
 //! the outputs to their safe mask with no help from the dead process. Simulated MiniMods are
 //! served on a pty by `softplc sim`, exactly as a real line would be.
 
-use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{channel, Receiver};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+#[path = "common/sim.rs"]
+mod sim;
+
+use sim::Sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
-struct Sim {
-    child: Child,
-    stdin: ChildStdin,
-    lines: Receiver<String>,
-}
-
-impl Sim {
-    fn start(devices: &[&str]) -> (Self, String) {
-        let mut child = Command::new(BIN)
-            .arg("sim")
-            .arg("--pty")
-            .args(devices)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let stdin = child.stdin.take().unwrap();
-        let stdout = child.stdout.take().unwrap();
-        let (tx, lines) = channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let banner = lines
-            .recv_timeout(Duration::from_secs(10))
-            .expect("softplc sim prints its pty");
-        let pty = banner
-            .split_whitespace()
-            .find(|w| w.starts_with("/dev/"))
-            .unwrap_or_else(|| panic!("no pty path in {banner:?}"))
-            .to_string();
-        (
-            Self {
-                child,
-                stdin,
-                lines,
-            },
-            pty,
-        )
-    }
-
-    fn get(&mut self, target: &str) -> String {
-        writeln!(self.stdin, "get {target}").unwrap();
-        self.stdin.flush().unwrap();
-        loop {
-            let line = self
-                .lines
-                .recv_timeout(Duration::from_secs(5))
-                .expect("sim answers");
-            if line.starts_with(target) || line.starts_with("error") {
-                return line;
-            }
-        }
-    }
-
-    /// Polls `target` until it reads `want`; returns how long that took.
-    fn wait_for(&mut self, target: &str, want: &str, within: Duration) -> Option<Duration> {
-        let start = Instant::now();
-        while start.elapsed() < within {
-            if self.get(target) == format!("{target}={want}") {
-                return Some(start.elapsed());
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        None
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
 #[test]
 fn kill_9_leaves_the_outputs_to_the_module_watchdog() {
-    let (mut sim, pty) = Sim::start(&["minimod@1"]);
+    let (mut sim, pty) = Sim::start(BIN, &["minimod@1"]);
     let dir = std::env::temp_dir().join(format!("softplc-kill9-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();

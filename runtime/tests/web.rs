@@ -13,15 +13,17 @@
 
 #[path = "web/cdp.rs"]
 mod cdp;
+#[path = "common/sim.rs"]
+mod sim;
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{channel, Receiver};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use cdp::Browser;
+use sim::Sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 const TOKEN: &str = "e2e-token-0123456789";
@@ -40,90 +42,6 @@ fn free_port() -> u16 {
         .local_addr()
         .unwrap()
         .port()
-}
-
-/// `softplc sim --pty` serving the given modules, driven through its standard input.
-struct Sim {
-    child: Child,
-    stdin: ChildStdin,
-    lines: Receiver<String>,
-}
-
-impl Sim {
-    fn start(devices: &[&str]) -> (Self, String) {
-        let mut child = Command::new(BIN)
-            .arg("sim")
-            .arg("--pty")
-            .args(devices)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let stdin = child.stdin.take().unwrap();
-        let stdout = child.stdout.take().unwrap();
-        let (tx, lines) = channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let banner = lines
-            .recv_timeout(Duration::from_secs(20))
-            .expect("softplc sim prints its pty");
-        let pty = banner
-            .split_whitespace()
-            .find(|w| w.starts_with("/dev/"))
-            .unwrap_or_else(|| panic!("no pty path in {banner:?}"))
-            .to_string();
-        (
-            Self {
-                child,
-                stdin,
-                lines,
-            },
-            pty,
-        )
-    }
-
-    fn send(&mut self, command: &str) {
-        writeln!(self.stdin, "{command}").unwrap();
-        self.stdin.flush().unwrap();
-    }
-
-    fn get(&mut self, target: &str) -> String {
-        self.send(&format!("get {target}"));
-        loop {
-            let line = self
-                .lines
-                .recv_timeout(Duration::from_secs(10))
-                .expect("sim answers");
-            if line.starts_with(target) || line.starts_with("error") {
-                return line;
-            }
-        }
-    }
-
-    /// Polls `target` until it reads `want`.
-    fn wait_for(&mut self, target: &str, want: &str, within: Duration) -> bool {
-        let start = Instant::now();
-        while start.elapsed() < within {
-            if self.get(target) == format!("{target}={want}") {
-                return true;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        false
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 /// The running PLC; killed when dropped (the test ends it earlier on success).
@@ -203,7 +121,7 @@ fn screenshots() -> PathBuf {
 #[test]
 fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     chromium_available();
-    let (mut sim, pty) = Sim::start(&["minimod@1", "minimod@2"]);
+    let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
     let dir = std::env::temp_dir().join(format!("softplc-web-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -312,7 +230,9 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
         Some("1")
     );
     // stop is pressed: the program holds the motor off.
-    assert!(sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(5)));
+    assert!(sim
+        .wait_for("minimod@1.Y1", "0", Duration::from_secs(5))
+        .is_some());
 
     // Force buttons do nothing before signing in.
     let disabled =
@@ -341,7 +261,8 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     .expect("the force button is live once signed in");
     b.eval("document.querySelector('button[data-force=motor][data-value=\"1\"]').click(); true");
     assert!(
-        sim.wait_for("minimod@1.Y1", "1", Duration::from_secs(10)),
+        sim.wait_for("minimod@1.Y1", "1", Duration::from_secs(10))
+            .is_some(),
         "forcing from the page did not turn the output on"
     );
     let line = status_line(&socket, "motor");
@@ -365,7 +286,8 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     // Unforce from the page: the program takes the motor back (stop is still pressed).
     b.eval("document.querySelector('button[data-unforce=motor]').click(); true");
     assert!(
-        sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(10)),
+        sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(10))
+            .is_some(),
         "unforcing from the page did not give the output back to the program"
     );
     assert!(!status_line(&socket, "motor").contains("FORCED"));
