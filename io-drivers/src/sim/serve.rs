@@ -119,22 +119,38 @@ fn answer(
     clock: &dyn Clock,
 ) -> Result<bool, LineError> {
     let now = clock.now();
-    let (first, bytes) = {
-        let mut w = lock(world);
-        w.deliver(SERVED_LINE, frame, now);
-        let Some(first) = w.next_arrival(SERVED_LINE) else {
-            return Ok(false);
+    lock(world).deliver(SERVED_LINE, frame, now);
+    let char_time = settings.char_time();
+    let mut wrote = false;
+    // Each burst (a reply, a duplicate of it, noise) goes out when it is due, so a master on
+    // the pty sees them as separate frames, as it would on a wire.
+    loop {
+        let burst = {
+            let mut w = lock(world);
+            let Some(first) = w.next_arrival(SERVED_LINE) else {
+                break;
+            };
+            let mut bytes = Vec::new();
+            let mut last = first;
+            // Bytes that follow each other within two character times belong to one burst.
+            while w
+                .next_arrival(SERVED_LINE)
+                .is_some_and(|at| at <= last + char_time * 2)
+            {
+                last = w.next_arrival(SERVED_LINE).unwrap_or(last);
+                w.take_arrived(SERVED_LINE, last, &mut bytes);
+            }
+            (first, bytes)
         };
-        let mut bytes = Vec::new();
-        w.take_arrived(SERVED_LINE, Duration::MAX, &mut bytes);
-        (first, bytes)
-    };
-    let start = first.saturating_sub(settings.char_time());
-    clock.sleep_until(start);
-    port.write_all(&bytes)?;
-    port.flush()?;
-    clock.sleep_until(start + settings.chars(bytes.len()));
-    Ok(true)
+        let (first, bytes) = burst;
+        let start = first.saturating_sub(char_time);
+        clock.sleep_until(start);
+        port.write_all(&bytes)?;
+        port.flush()?;
+        clock.sleep_until(start + settings.chars(bytes.len()));
+        wrote = true;
+    }
+    Ok(wrote)
 }
 
 #[cfg(test)]

@@ -273,6 +273,10 @@ impl ScanEngine {
     fn between_cycles(&mut self, stats: &ScanStats, now: Duration) {
         if let Some(requests) = &self.control {
             while let Ok(env) = requests.try_recv() {
+                if env.expired() {
+                    // Its client was already told it failed; carrying it out now would surprise.
+                    continue;
+                }
                 let response = match env.request {
                     Request::Status => Response {
                         ok: true,

@@ -106,6 +106,24 @@ pub struct Envelope {
     pub request: Request,
     /// Where the scan sends the response.
     pub reply: Sender<Response>,
+    /// After this the client has been told the request failed: the scan must not carry it out.
+    pub expires: std::time::Instant,
+}
+
+impl Envelope {
+    /// A request whose client waits at most `answer_within` for it.
+    pub fn new(request: Request, reply: Sender<Response>, answer_within: Duration) -> Self {
+        Self {
+            request,
+            reply,
+            expires: std::time::Instant::now() + answer_within,
+        }
+    }
+
+    /// Whether the client has given up on it.
+    pub fn expired(&self) -> bool {
+        std::time::Instant::now() >= self.expires
+    }
 }
 
 /// Longest request line accepted; a longer one is refused, not buffered.
@@ -247,8 +265,11 @@ fn serve_client(stream: UnixStream, scan: &Sender<Envelope>) {
 
 fn forward(scan: &Sender<Envelope>, request: Request) -> Response {
     let (reply, answer): (Sender<Response>, Receiver<Response>) = crossbeam_channel::bounded(1);
-    if scan.send(Envelope { request, reply }).is_err() {
-        return Response::refused("the scan has stopped");
+    if scan
+        .send_timeout(Envelope::new(request, reply, SCAN_ANSWER), SCAN_ANSWER)
+        .is_err()
+    {
+        return Response::refused("the scan has stopped, or is not taking requests");
     }
     answer
         .recv_timeout(SCAN_ANSWER)

@@ -148,10 +148,7 @@ impl Shared {
         let before = self.snapshot.with(|s| s.cycles);
         let deadline = Instant::now() + WRITE_WAIT;
         let (reply, answer) = crossbeam_channel::bounded(1);
-        let envelope = Envelope {
-            request: Request::Write { values },
-            reply,
-        };
+        let envelope = Envelope::new(Request::Write { values }, reply, WRITE_WAIT);
         self.scan
             .send_deadline(envelope, deadline)
             .map_err(|_| Exception::ServerDeviceFailure)?;

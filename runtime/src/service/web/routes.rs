@@ -172,7 +172,7 @@ pub fn write(auth: &WriteAuth, scan: &Sender<Envelope>, route: Route, req: &Requ
     let (reply, answer): (Sender<ControlResponse>, Receiver<ControlResponse>) =
         crossbeam_channel::bounded(1);
     if scan
-        .send_timeout(Envelope { request, reply }, QUEUE_WAIT)
+        .send_timeout(Envelope::new(request, reply, SCAN_ANSWER), QUEUE_WAIT)
         .is_err()
     {
         return refused(503, "the scan is not taking requests (stopped or busy)");
