@@ -7,15 +7,18 @@ use std::path::Path;
 use anyhow::Context;
 use softplc::project::{self, Project};
 
-/// One bus of a generated project: its name, baud, and the unit addresses of its MiniMods.
+/// One bus of a generated project: its name, baud, and the unit addresses of its modules
+/// (MiniMods unless [`SimBus::model`] says otherwise).
 #[derive(Debug, Clone)]
 pub struct SimBus {
     /// Bus name.
     pub name: String,
     /// Baud rate (8E1).
     pub baud: u32,
-    /// MiniMod unit addresses on it; modules are named `<bus>_m<address>`.
+    /// Unit addresses on it; modules are named `<bus>_m<address>`.
     pub addresses: Vec<u8>,
+    /// Catalog model of every module on it (`minimod`, `resi-16di8ro`).
+    pub model: &'static str,
     /// Settings of every module on it, a YAML flow mapping (`{ Y1AON1: X1 }`), or empty.
     pub settings: String,
 }
@@ -27,6 +30,7 @@ impl SimBus {
             name: name.into(),
             baud,
             addresses: addresses.into_iter().collect(),
+            model: "minimod",
             settings: String::new(),
         }
     }
@@ -34,7 +38,7 @@ impl SimBus {
 
 /// Writes `<name>.yaml` and `<name>.expr` into `scratch` and loads the project.
 ///
-/// `buses` are simulated (`port: sim`) lines of MiniMods; `tags` are YAML flow mappings
+/// `buses` are simulated (`port: sim`) lines of modules; `tags` are YAML flow mappings
 /// (`{ name: x, type: bool }`), `program` is `expr` source.
 pub fn load(
     scratch: &Path,
@@ -84,8 +88,8 @@ pub fn load_offload(
                     format!(", settings: {}", b.settings)
                 };
                 format!(
-                    "  - {{ name: {}_m{a}, bus: {}, model: minimod, address: {a}{settings} }}",
-                    b.name, b.name
+                    "  - {{ name: {}_m{a}, bus: {}, model: {}, address: {a}{settings} }}",
+                    b.name, b.name, b.model
                 )
             })
         })

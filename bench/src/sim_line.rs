@@ -1,5 +1,6 @@
 //! A simulated RS-485 line of MiniMods driven by the runtime's bus owner in real time, with the
-//! wire-time floor of its poll plan computed by the same code `softplc check` uses.
+//! wire-time floor of its poll plan computed by the same code `softplc check` uses. The floors
+//! of a single module ([`read_floor`], [`write_floor`]) take any catalog model.
 //!
 //! Drivers are built from the catalog with the project file's textual settings (`RDELAYT`,
 //! `events`, ...), and the owner runs their start-up exchange, as `Plc::build` does.
@@ -9,7 +10,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use softplc_io::devices::minimod::{self, map, MiniModSim};
-use softplc_io::devices::{DeviceConfig, Protocol};
+use softplc_io::devices::{DeviceConfig, ModelSpec, Protocol};
 use softplc_io::driver::{Driver, Outgoing, Transaction};
 use softplc_io::line::budget::{line_budget, modbus_reply_len, transaction_time, LineBudget};
 use softplc_io::line::bus::{BusOwner, Discipline, Module, OutputFrame};
@@ -33,8 +34,13 @@ pub struct MiniModLine {
 
 /// A MiniMod driver at `address` with the project file's `settings`.
 pub fn driver(address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
+    model_driver(&minimod::MODEL, address, settings)
+}
+
+/// A Modbus driver of catalog `model` at `address` with the project file's `settings`.
+pub fn model_driver(model: &ModelSpec, address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
     let config = DeviceConfig {
-        name: format!("mm{address}"),
+        name: format!("{}{address}", model.name),
         address,
         protocol: Protocol::Modbus,
         settings: settings
@@ -42,7 +48,7 @@ pub fn driver(address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect(),
     };
-    (minimod::MODEL.driver)(&config)
+    (model.driver)(&config)
 }
 
 /// `n` MiniMods at addresses 1..=n with the same `settings` (project-file keys and values, e.g.
@@ -66,15 +72,7 @@ pub fn minimods(
         modules.push(Module::new(name.clone(), driver(address, settings)));
         let access = map::POINTS.iter().map(|p| p.access).collect();
         budget_drivers.push((name, driver(address, settings), access));
-        // What a changed Y1 costs: plan it on a scratch driver and price it on the wire.
-        let mut scratch = driver(address, settings);
-        let mut plan: Vec<Transaction> = Vec::new();
-        scratch.plan_write(&y1_frame(true), false, &mut plan);
-        let delay = scratch.reply_delay();
-        toggle_write_floor += plan
-            .iter()
-            .map(|tx| transaction_time(line, tx, delay))
-            .sum();
+        toggle_write_floor += write_floor(&minimod::MODEL, line, settings, "Y1");
     }
     let budget = line_budget(line, &mut budget_drivers);
     let world = world.shared();
@@ -91,13 +89,34 @@ pub fn minimods(
     })
 }
 
-/// One module's desired outputs with only Y1 driven, at `on`.
+/// One MiniMod's desired outputs with only Y1 driven, at `on`.
 pub fn y1_frame(on: bool) -> Vec<Option<Value>> {
     let mut desired = vec![None; map::POINTS.len()];
     if let Some(i) = map::point_index("Y1") {
         desired[i] = Some(Value::Bool(on));
     }
     desired
+}
+
+/// The floor of the writes of one cycle in which output `point` of one `model` module at
+/// `line` with `settings` changes: planned on a scratch driver and priced on the wire.
+pub fn write_floor(
+    model: &ModelSpec,
+    line: LineSettings,
+    settings: &[(&str, &str)],
+    point: &str,
+) -> Duration {
+    let mut desired = vec![None; model.points.len()];
+    if let Some(i) = model.point_index(point) {
+        desired[i] = Some(Value::Bool(true));
+    }
+    let mut scratch = model_driver(model, 1, settings);
+    let mut plan: Vec<Transaction> = Vec::new();
+    scratch.plan_write(&desired, false, &mut plan);
+    let delay = scratch.reply_delay();
+    plan.iter()
+        .map(|tx| transaction_time(line, tx, delay))
+        .sum()
 }
 
 /// The output frame of a line of `n` modules with every Y1 at `on`.
@@ -110,7 +129,16 @@ pub fn all_y1(n: usize, on: bool) -> OutputFrame {
 /// The floor of one read cycle of a single MiniMod at `line` with `settings`, and the part of
 /// it from the end of the request to the end of the reply (reply delay + reply characters).
 pub fn single_read_floor(line: LineSettings, settings: &[(&str, &str)]) -> (Duration, Duration) {
-    let mut driver = driver(1, settings);
+    read_floor(&minimod::MODEL, line, settings)
+}
+
+/// [`single_read_floor`] of one module of catalog `model`.
+pub fn read_floor(
+    model: &ModelSpec,
+    line: LineSettings,
+    settings: &[(&str, &str)],
+) -> (Duration, Duration) {
+    let mut driver = model_driver(model, 1, settings);
     let delay = driver.reply_delay();
     let mut plan = Vec::new();
     driver.plan_read(&mut plan);

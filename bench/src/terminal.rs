@@ -67,6 +67,16 @@ impl PulseWatch {
     }
 }
 
+/// How the output answers an input edge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Follow {
+    /// The output takes the input's level (`y = x`): every edge is timed.
+    Level,
+    /// The output flips on a rising edge (`y = y ^ rising(x)`, an impulse relay): rising edges
+    /// are timed, falling edges only played.
+    Toggle,
+}
+
 /// Drives an input terminal of a simulated device and times how long an output terminal takes
 /// to follow it.
 #[derive(Debug)]
@@ -75,6 +85,7 @@ pub struct ReactionProbe {
     device: usize,
     input: &'static str,
     output: &'static str,
+    follow: Follow,
     level: bool,
     /// Input edge → output edge, for every edge the output followed.
     pub latencies: DurationHistogram,
@@ -89,12 +100,14 @@ impl ReactionProbe {
         device: usize,
         input: &'static str,
         output: &'static str,
+        follow: Follow,
     ) -> Self {
         Self {
             world,
             device,
             input,
             output,
+            follow,
             level: false,
             latencies: DurationHistogram::new(),
             missed: 0,
@@ -108,20 +121,27 @@ impl ReactionProbe {
     }
 
     /// Flips the input at the terminal now, then samples the output every [`SAMPLE`] until it
-    /// shows the same level or `timeout` passes.
+    /// shows the expected level or `timeout` passes: the input's level ([`Follow::Level`]), or
+    /// after a rising edge the opposite of the output's level at the edge ([`Follow::Toggle`]).
     pub fn edge(&mut self, clock: &dyn Clock, timeout: Duration) {
         self.level = !self.level;
         let at = clock.now();
-        {
+        let expected = {
             let mut w = self.world.lock().unwrap_or_else(|e| e.into_inner());
             w.advance_to(at);
+            let before = matches!(w.get(self.device, self.output), Ok(Value::Bool(true)));
             let _ = w.set(self.device, self.input, Value::Bool(self.level));
-        }
+            match self.follow {
+                Follow::Level => self.level,
+                Follow::Toggle if self.level => !before,
+                Follow::Toggle => return,
+            }
+        };
         let mut next = at;
         while next < at + timeout {
             next += SAMPLE;
             clock.sleep_until(next);
-            if self.output_is(clock, self.level) {
+            if self.output_is(clock, expected) {
                 self.latencies.record(clock.now() - at);
                 return;
             }

@@ -1,15 +1,19 @@
 //! Scenario 5: reaction latency, input edge → output edge at the simulated module's terminals,
 //! over many edges at pseudo-random times: central logic against the module's own logic.
 //!
-//! - Central: `y = x` (X1 → Y1 of one MiniMod) on the runtime's scan in real time, 19200 8E1,
-//!   reply delay 10 ms, scan period 50 ms: the edge waits for the next input phase, then the
-//!   output phase's write.
-//! - MiniMod AON/AOFF: the same program with `offload: auto`: the push-down planner moves the
-//!   rung into the module (Y1AON1 = X1, Y1AOFF1 = -X1, "Automatic output management"), the
-//!   driver writes and verifies the tables at start-up, and the scan reads Y1 back.
-//! - RESI-16DI8RO SWITCH and TOGGLE: not yet available (no RESI model yet).
+//! Each case runs twice on the runtime's scan in real time, 19200 8E1, scan period 50 ms, with
+//! the same input edges: central (`offload: never`), where the edge waits for the next input
+//! phase, then the output phase's write; and pushed down (`offload: auto`), where the planner
+//! moves the rung into the module, the driver writes and verifies its tables at start-up, and
+//! the scan reads the output back.
 //!
-//! Both MiniMod cases include the module's power-on input filter (XLATUP/XLATDN = 20 ms).
+//! - MiniMod AON/AOFF: `y = x` (X1 → Y1), reply delay 10 ms; pushed down as Y1AON1 = X1,
+//!   Y1AOFF1 = -X1 ("Automatic output management"). Both include the module's power-on input
+//!   filter (XLATUP/XLATDN = 20 ms).
+//! - RESI-16DI8RO SWITCH: `y = x` (DI1 → RO1), reply delay 2 ms; pushed down as SWITCH RO1 =
+//!   DI1. The module samples its inputs every 10 ms.
+//! - RESI-16DI8RO TOGGLE: `y = y ^ rising(x)` (an impulse relay); pushed down as TOGGLE RO1 =
+//!   DI1. Only rising edges are timed (a falling edge leaves the relay alone).
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -24,70 +28,135 @@ use super::{Ctx, Scenario};
 use crate::project_file::{self, SimBus};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 use crate::sim_line;
-use crate::terminal::ReactionProbe;
+use crate::terminal::{Follow, ReactionProbe};
 
 /// The scenario.
 pub const SCENARIO: Scenario = Scenario {
     number: 5,
     name: "reaction",
     title: "Reaction latency: input edge → output edge, central vs in the module",
-    summary: "X1 flipped at the simulated MiniMod's terminal at pseudo-random times, Y1 sampled \
-              every 1 ms. 19200 8E1, reply delay 10 ms, scan period 50 ms; both cases include \
-              the module's 20 ms power-on input filter (XLATUP/XLATDN). Bus cycle floor = one \
-              FC 2 read + one FC 5 write.",
+    summary: "An input flipped at the simulated module's terminal at pseudo-random times, the \
+              output sampled every 1 ms. 19200 8E1, scan period 50 ms. MiniMod (X1 → Y1): \
+              reply delay 10 ms; both cases include the module's 20 ms power-on input filter \
+              (XLATUP/XLATDN). RESI-16DI8RO (DI1 → RO1): reply delay 2 ms, inputs sampled \
+              every 10 ms; TOGGLE rows time rising edges only. Bus cycle floor = one read \
+              cycle + one write of the output (MiniMod FC 2 + FC 5, RESI FC 1 + FC 5).",
     run,
 };
 
 const PERIOD: Duration = Duration::from_millis(50);
-const RESI: &str = "the RESI-16DI8RO driver, simulator and push-down planner";
-const RESI_ISSUE: &str = "RESI and push-down issues";
+
+/// One program on one module, run central and pushed down.
+struct Case {
+    /// Scratch file and thread names.
+    file: &'static str,
+    /// Catalog model of the module.
+    model: &'static str,
+    /// Input and output terminals, bound to tags `x` and `y`.
+    input: &'static str,
+    output: &'static str,
+    /// The `expr` program (`beat` keeps a rung in the scan when `y`'s goes to the module).
+    program: &'static str,
+    follow: Follow,
+    /// Row names, central and pushed down; the metric.
+    central: &'static str,
+    module: &'static str,
+    metric: &'static str,
+    /// The pushed-down row's note.
+    note: &'static str,
+    /// A figure of the module itself that the pushed-down row is also held against.
+    module_bound: Option<(&'static str, Duration)>,
+    /// Plot labels, central and pushed down.
+    labels: [&'static str; 2],
+}
+
+const RESI_SAMPLE: (&str, Duration) = ("RESI input sample", Duration::from_millis(10));
+
+const CASES: [Case; 3] = [
+    Case {
+        file: "reaction_minimod",
+        model: "minimod",
+        input: "X1",
+        output: "Y1",
+        program: "beat = !beat\ny = x\n",
+        follow: Follow::Level,
+        central: "central: y = x, scan 50 ms",
+        module: "MiniMod Y1AON1 = X1, Y1AOFF1 = -X1",
+        metric: "X1 edge → Y1 edge",
+        note: "pushed down by the planner (offload: auto)",
+        module_bound: None,
+        labels: ["central, scan 50 ms", "MiniMod AON/AOFF"],
+    },
+    Case {
+        file: "reaction_resi_switch",
+        model: "resi-16di8ro",
+        input: "DI1",
+        output: "RO1",
+        program: "beat = !beat\ny = x\n",
+        follow: Follow::Level,
+        central: "RESI central: y = x, scan 50 ms",
+        module: "RESI-16DI8RO SWITCH",
+        metric: "DI1 edge → RO1 edge",
+        note: "SWITCH RO1 = DI1, pushed down by the planner (offload: auto)",
+        module_bound: Some(RESI_SAMPLE),
+        labels: ["RESI central y = x", "RESI-16DI8RO SWITCH"],
+    },
+    Case {
+        file: "reaction_resi_toggle",
+        model: "resi-16di8ro",
+        input: "DI1",
+        output: "RO1",
+        program: "beat = !beat\ny = y ^ rising(x)\n",
+        follow: Follow::Toggle,
+        central: "RESI central: y = y ^ rising(x), scan 50 ms",
+        module: "RESI-16DI8RO TOGGLE",
+        metric: "DI1 rising edge → RO1 flip",
+        note: "TOGGLE RO1 = DI1, pushed down by the planner (offload: auto)",
+        module_bound: Some(RESI_SAMPLE),
+        labels: ["RESI central toggle", "RESI-16DI8RO TOGGLE"],
+    },
+];
 
 fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
-    let (read_floor, _) = sim_line::single_read_floor(LineSettings::DEFAULT, &[]);
-    let write_floor = {
-        let clock = Arc::new(MonotonicClock::new());
-        sim_line::minimods(1, LineSettings::DEFAULT, &[], clock)?.toggle_write_floor
-    };
-    let central = probe(ctx, false)?;
-    let module = probe(ctx, true)?;
-    let central_p = central.latencies.percentiles();
     let mut out = Outcome::default();
-    out.rows.push(
-        Row::measured("central: y = x, scan 50 ms", "X1 edge → Y1 edge", central_p)
-            .bound(Bound::fixed("scan period", PERIOD))
-            .bound(Bound::fixed("bus cycle floor", read_floor + write_floor))
-            .value("missed_edges", central.missed as f64),
-    );
-    out.rows.push(
-        Row::measured(
-            "MiniMod Y1AON1 = X1, Y1AOFF1 = -X1",
-            "X1 edge → Y1 edge",
-            module.latencies.percentiles(),
-        )
-        .bound(Bound::baseline("central", &central_p))
-        .bound(Bound::fixed("scan period", PERIOD))
-        .value("missed_edges", module.missed as f64)
-        .note("pushed down by the planner (offload: auto)"),
-    );
-    out.rows
-        .push(Row::not_yet("RESI-16DI8RO SWITCH", RESI, RESI_ISSUE));
-    out.rows
-        .push(Row::not_yet("RESI-16DI8RO TOGGLE", RESI, RESI_ISSUE));
+    let mut series = Vec::new();
+    for case in &CASES {
+        let model = softplc_io::devices::model(case.model)
+            .with_context(|| format!("model {} is not in the catalog", case.model))?;
+        let (read_floor, _) = sim_line::read_floor(model, LineSettings::DEFAULT, &[]);
+        let write_floor = sim_line::write_floor(model, LineSettings::DEFAULT, &[], case.output);
+        let central = probe(ctx, case, false)?;
+        let module = probe(ctx, case, true)?;
+        let central_p = central.latencies.percentiles();
+        out.rows.push(
+            Row::measured(case.central, case.metric, central_p)
+                .bound(Bound::fixed("scan period", PERIOD))
+                .bound(Bound::fixed("bus cycle floor", read_floor + write_floor))
+                .value("missed_edges", central.missed as f64),
+        );
+        let mut row = Row::measured(case.module, case.metric, module.latencies.percentiles())
+            .bound(Bound::baseline("central", &central_p))
+            .bound(Bound::fixed("scan period", PERIOD));
+        if let Some((name, value)) = case.module_bound {
+            row = row.bound(Bound::fixed(name, value));
+        }
+        out.rows.push(
+            row.value("missed_edges", module.missed as f64)
+                .note(case.note),
+        );
+        for (label, probed) in case.labels.into_iter().zip([central, module]) {
+            series.push(Series {
+                label: label.into(),
+                hist: probed.latencies,
+            });
+        }
+    }
     out.plots.push(Plot {
         file: "reaction-latency.svg".into(),
-        title: "Reaction latency, X1 edge → Y1 edge at the terminals".into(),
+        title: "Reaction latency, input edge → output edge at the terminals".into(),
         x_label: "latency".into(),
         kind: PlotKind::Cdf { log_x: false },
-        series: vec![
-            Series {
-                label: "central, scan 50 ms".into(),
-                hist: central.latencies,
-            },
-            Series {
-                label: "MiniMod AON/AOFF".into(),
-                hist: module.latencies,
-            },
-        ],
+        series,
     });
     Ok(out)
 }
@@ -98,24 +167,33 @@ struct Probed {
     missed: u64,
 }
 
-/// Runs the project (central: `y = x`; in the module: AON/AOFF settings) and flips X1.
-fn probe(ctx: &Ctx, in_module: bool) -> anyhow::Result<Probed> {
+/// Runs `case`'s project, central or pushed down (`offload: auto`), and flips its input.
+fn probe(ctx: &Ctx, case: &Case, in_module: bool) -> anyhow::Result<Probed> {
     let run_for = ctx.pick(Duration::from_secs(12), Duration::from_millis(2500));
-    let bus = SimBus::new("line1", 19200, [1]);
-    let mut tags = vec![
-        "{ name: x, point: line1_m1.X1 }".to_string(),
+    let mut bus = SimBus::new("line1", 19200, [1]);
+    bus.model = case.model;
+    let tags = [
+        format!("{{ name: x, point: line1_m1.{} }}", case.input),
         "{ name: beat, type: bool }".to_string(),
+        format!(
+            "{{ name: y, point: line1_m1.{}, safe: false }}",
+            case.output
+        ),
     ];
-    tags.push("{ name: y, point: line1_m1.Y1, safe: false }".into());
-    let program = "beat = !beat\ny = x\n";
-    let offload = if in_module { "auto" } else { "never" };
-    let name = if in_module {
-        "reaction_module"
+    let (offload, name) = if in_module {
+        ("auto", format!("{}_module", case.file))
     } else {
-        "reaction_central"
+        ("never", format!("{}_central", case.file))
     };
-    let project =
-        project_file::load_offload(&ctx.scratch, name, "50ms", &[bus], &tags, program, offload)?;
+    let project = project_file::load_offload(
+        &ctx.scratch,
+        &name,
+        "50ms",
+        &[bus],
+        &tags,
+        case.program,
+        offload,
+    )?;
     let plc = Plc::build(project, Arc::new(MonotonicClock::new()))?;
     let clock = plc.clock().clone();
     let world = plc
@@ -131,7 +209,7 @@ fn probe(ctx: &Ctx, in_module: bool) -> anyhow::Result<Probed> {
     let scan = std::thread::Builder::new()
         .name(format!("scan-{name}"))
         .spawn(move || ScanEngine::new(plc).run_for(run_for).run())?;
-    let mut probe = ReactionProbe::new(world, device, "X1", "Y1");
+    let mut probe = ReactionProbe::new(world, device, case.input, case.output, case.follow);
     let timeout = Duration::from_millis(500);
     // Gaps of 120..320 ms from a fixed LCG: edges fall anywhere in the scan's period.
     let mut seed: u32 = 0x2545_F491;
