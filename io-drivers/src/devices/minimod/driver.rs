@@ -212,6 +212,34 @@ enum SetupStep {
 }
 
 /// The text identifier a start-up register has, if the text write table has one.
+/// Compares a start-up read-back with what was written, register by register (or coil by
+/// coil): `None` when the reply has another length, else the first mismatch as an error.
+/// `skip` names the items whose value moves on its own and is not compared.
+fn read_back<T: Copy + PartialEq + Into<u32>>(
+    written: &[T],
+    found: &[T],
+    names: &[&'static str],
+    skip: impl Fn(&str) -> bool,
+) -> Option<Result<(), DecodeError>> {
+    if found.len() != written.len() {
+        return None;
+    }
+    let mismatch = written
+        .iter()
+        .zip(found)
+        .zip(names)
+        .filter(|(_, name)| !skip(name))
+        .find(|((want, got), _)| want != got);
+    Some(match mismatch {
+        Some(((&expected, &found), &register)) => Err(DecodeError::Mismatch {
+            register,
+            expected: expected.into(),
+            found: found.into(),
+        }),
+        None => Ok(()),
+    })
+}
+
 fn text_id(item: Item) -> Option<TextId> {
     Some(match item {
         Item::XlatUp(i) => TextId::XlatUp(i),
@@ -710,23 +738,9 @@ impl MiniModDriver {
                 else {
                     return Err(unexpected);
                 };
-                if found.len() != values.len() {
-                    return Err(unexpected);
-                }
-                let mismatch = values
-                    .iter()
-                    .zip(found)
-                    .zip(names)
-                    // A counter counts while it is read back: its write echo is its check.
-                    .filter(|(_, name)| !name.starts_with("XCOUNT"))
-                    .find(|((want, got), _)| want != got);
-                if let Some(((&expected, &found), &register)) = mismatch {
-                    return Err(DecodeError::Mismatch {
-                        register,
-                        expected: u32::from(expected),
-                        found: u32::from(found),
-                    });
-                }
+                // A counter counts while it is read back: its write echo is its check.
+                read_back(values, found, names, |name| name.starts_with("XCOUNT"))
+                    .ok_or(unexpected)??;
                 self.record_setup(usize::from(i));
                 Ok(())
             }
@@ -735,21 +749,7 @@ impl MiniModDriver {
                 else {
                     return Err(unexpected);
                 };
-                if found.len() != values.len() {
-                    return Err(unexpected);
-                }
-                let mismatch = values
-                    .iter()
-                    .zip(found)
-                    .zip(names)
-                    .find(|((want, got), _)| want != got);
-                if let Some(((&expected, &found), &register)) = mismatch {
-                    return Err(DecodeError::Mismatch {
-                        register,
-                        expected: u32::from(expected),
-                        found: u32::from(found),
-                    });
-                }
+                read_back(values, found, names, |_| false).ok_or(unexpected)??;
                 self.record_setup(usize::from(i));
                 Ok(())
             }
