@@ -18,8 +18,12 @@
 //!   fires included) is planned again (all owned outputs) next cycle.
 //! - **Read-back** of Y1..Y4 (setting `readback`): FC 1 coils 0..=3. It shows what the
 //!   module's own logic (AON/AOFF) did to the outputs; for an output the program owns, a
-//!   difference is then written back at the next write phase. YWORD is the commanded state:
-//!   pulsers and blinkers do not show in it.
+//!   difference is then written back at the next write phase. Coils 0..=3 and YWORD are the
+//!   outputs' status ("Y1..Y4": "Shows the status of the indicated output"): a running pulse
+//!   (YPULSEn) reads on, and off once it is over, whatever the output was before ("Pulse
+//!   generation"); a blinker does not show in them. Writing back an owned output while its
+//!   pulse runs does not cut the pulse (pulsers have priority, "Power outputs, blinkers,
+//!   pulsers, and feedbacks").
 //! - **Counters** (setting `counters`): FC 3 holding registers 11..=13 (XCOUNT1..3).
 //! - **Status** (setting `status`): FC 2 discrete inputs 17..=129 (EVENTSPRS, GENERICFAIL,
 //!   FLASHFAIL, WDTFB, WDTCOMM, SW3, SW4 in one 20-byte reply) and FC 1 coil 160 (WDTFIRED).
@@ -1189,6 +1193,36 @@ mod tests {
         plan.clear();
         d.plan_write(&vec![None; POINTS.len()], false, &mut plan);
         assert!(plan.is_empty(), "written only while the scan asks");
+    }
+
+    #[test]
+    fn readback_shows_a_pulse_while_it_runs_and_off_after_it() {
+        let mut d = driver(&[("readback", "every")]);
+        let mut sim = MiniModSim::new(UNIT);
+        sim.set("Y2", Value::Bool(true)).unwrap(); // on before the pulse
+        let mut want = vec![None; POINTS.len()];
+        want[map::point_index("YPULSE2").unwrap()] = Some(Value::U16(100));
+        let mut plan = Vec::new();
+        d.plan_write(&want, false, &mut plan);
+        exchange(&mut d, &mut sim, &plan[0], Duration::from_millis(10)).unwrap();
+        let mut read = Vec::new();
+        d.plan_read(&mut read);
+        assert_eq!(wire(&read[1]), frame(&[0x05, 0x01, 0x00, 0x00, 0x00, 0x04]));
+        let coils = |sim: &mut MiniModSim, t: u64| {
+            sim.on_frame(&wire(&read[1]), Duration::from_millis(t))
+                .unwrap()
+                .bytes
+        };
+        // During the pulse the coils read Y2 on; the driver's image agrees.
+        assert_eq!(coils(&mut sim, 60), frame(&[0x05, 0x01, 0x01, 0x02]));
+        exchange(&mut d, &mut sim, &read[1], Duration::from_millis(61)).unwrap();
+        assert_eq!(value(&d, "Y2"), Some(Value::Bool(true)));
+        assert_eq!(value(&d, "YWORD"), Some(Value::U16(0b0010)));
+        // After 100 ms: off, although it was on before.
+        assert_eq!(coils(&mut sim, 110), frame(&[0x05, 0x01, 0x01, 0x00]));
+        exchange(&mut d, &mut sim, &read[1], Duration::from_millis(111)).unwrap();
+        assert_eq!(value(&d, "Y2"), Some(Value::Bool(false)));
+        assert_eq!(value(&d, "YWORD"), Some(Value::U16(0)));
     }
 
     #[test]

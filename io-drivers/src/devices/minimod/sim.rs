@@ -1109,6 +1109,64 @@ mod tests {
     }
 
     #[test]
+    fn a_pulse_shows_in_the_status_over_modbus_and_turns_the_output_off() {
+        let mut sim = MiniModSim::new(UNIT);
+        // Y1 on (FC 5 coil 0), then YPULSE1 = 100 (FC 6 holding register 83, 40084).
+        let on = frame(&[0x05, 0x05, 0x00, 0x00, 0xFF, 0x00]);
+        assert_eq!(sim.on_frame(&on, ms(0)).map(|r| r.bytes), Some(on.clone()));
+        let pulse = frame(&[0x05, 0x06, 0x00, 0x53, 0x00, 0x64]);
+        assert_eq!(sim.on_frame(&pulse, ms(10)).map(|r| r.bytes), Some(pulse));
+        let coils = Request::ReadCoils { addr: 0, count: 4 };
+        let yword = Request::ReadHoldingRegisters { addr: 0, count: 1 };
+        // During the pulse: coil 0 and YWORD read on.
+        assert_eq!(
+            ask(&mut sim, &coils, ms(60)),
+            Some(frame(&[0x05, 0x01, 0x01, 0x01]))
+        );
+        assert_eq!(
+            ask(&mut sim, &yword, ms(61)),
+            Some(frame(&[0x05, 0x03, 0x02, 0x00, 0x01]))
+        );
+        // After 100 ms: off, although it was on before the pulse.
+        assert_eq!(
+            ask(&mut sim, &coils, ms(110)),
+            Some(frame(&[0x05, 0x01, 0x01, 0x00]))
+        );
+        assert_eq!(
+            ask(&mut sim, &yword, ms(111)),
+            Some(frame(&[0x05, 0x03, 0x02, 0x00, 0x00]))
+        );
+        assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
+    }
+
+    #[test]
+    fn y1pulse_by_text_reads_on_while_it_runs() {
+        let mut sim = MiniModSim::new(UNIT);
+        assert_eq!(text(&mut sim, ">Y3=1\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(
+            text(&mut sim, ">Y1PULSE=100\r", 10).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(text(&mut sim, "?Y1\r", 50).as_deref(), Some("Y1=1\r"));
+        assert_eq!(
+            text(&mut sim, "?YWORD\r", 51).as_deref(),
+            Some("YWORD=00005\r")
+        );
+        assert_eq!(text(&mut sim, "?Y1\r", 110).as_deref(), Some("Y1=0\r"));
+        assert_eq!(
+            text(&mut sim, "?YWORD\r", 111).as_deref(),
+            Some("YWORD=00004\r")
+        );
+        // Already on before the pulse: off after it all the same.
+        assert_eq!(
+            text(&mut sim, ">Y3PULSE=50\r", 200).as_deref(),
+            Some("OK\r")
+        );
+        assert_eq!(text(&mut sim, "?Y3\r", 249).as_deref(), Some("Y3=1\r"));
+        assert_eq!(text(&mut sim, "?Y3\r", 250).as_deref(), Some("Y3=0\r"));
+    }
+
+    #[test]
     fn ylamp_255_blinks_with_a_1600_ms_period() {
         let mut sim = MiniModSim::new(UNIT);
         assert_eq!(text(&mut sim, ">Y2LAMP=255\r", 0).as_deref(), Some("OK\r"));

@@ -15,9 +15,19 @@
 //!   at the next sample). Power-on latencies are 20 ms.
 //! - "Digital inputs, latencies and counters": XCOUNT1..3 count rising edges of the cooked
 //!   inputs (wrapping at 65536).
-//! - "Pulse generation" / "Y1pulse": writing N > 0 turns the output on at once; the pulser counts
-//!   down every ms and the output is on while it is non-zero, so it is on for N ms (when written
-//!   on a tick boundary). Pulsers have priority over blinkers.
+//! - "Pulse generation" / "Y1pulse": writing N > 0 turns the output on at once ("will turn on
+//!   Y1 (if not already on)": its YWORD bit is set); the pulser counts down every ms and the
+//!   output is on while it is non-zero, so it is on for N ms (when written on a tick
+//!   boundary); when the pulser reaches 0 the output is turned off ("and, after 100 ms, will
+//!   turn it off"; "set high for 50 ms, and then turned off"): its YWORD bit is cleared, also
+//!   when it was on before the pulse. Pulsers have priority over blinkers ("Power outputs,
+//!   blinkers, pulsers, and feedbacks") and so over the normal usage: a master write to the
+//!   output while the pulse runs changes the YWORD bit but not the terminal, and the pulse's
+//!   end turns the output off all the same (the manual is silent on such writes). Writing 0
+//!   while a pulse runs ends it there, off. While it runs, the output's status (Y1..Y4, coils
+//!   0..3, YWORD, holding register 0: "Shows the status of the indicated output: 1=on, 0=off";
+//!   YWORD "Outputs Y1..Y4 status") reads on. A blinker does not show in the status (the
+//!   manual does not say it does; the status stays the commanded bit).
 //! - "Automatic continuous blinking": a non-zero YLAMP mask overrides the normal output; bit
 //!   *k* is shown during the *k*-th step of about 100 ms. The step index is common to all
 //!   outputs and runs freely from power-on (the manual does not say when a pattern starts);
@@ -419,6 +429,40 @@ impl MiniModState {
         self.touched = true;
     }
 
+    /// The outputs' status (YWORD as read): the commanded bits, and on for every output whose
+    /// pulser runs ("Y1..Y4": "Shows the status of the indicated output").
+    fn status_word(&self) -> u16 {
+        let pulsing = self
+            .pulse
+            .iter()
+            .enumerate()
+            .fold(0u16, |acc, (y, &p)| acc | (u16::from(p > 0) << y));
+        self.yword | pulsing
+    }
+
+    /// A pulse of output `y` is over: the output is turned off ("Pulse generation": "and then
+    /// turned off"); the automatic conditions look again.
+    fn end_pulse(&mut self, y: usize) {
+        if y < 4 {
+            self.yword &= !(1 << y);
+        }
+        self.auto_dirty = true;
+        self.touched = true;
+    }
+
+    /// Counts every running pulser down by `n` ms; a pulse that reaches 0 ends.
+    fn count_pulses(&mut self, n: u16) {
+        for y in 0..self.pulse.len() {
+            let p = self.pulse[y];
+            if p > 0 {
+                self.pulse[y] = p.saturating_sub(n);
+                if self.pulse[y] == 0 {
+                    self.end_pulse(y);
+                }
+            }
+        }
+    }
+
     /// Reads an item: bits as 0/1, words as they are.
     pub fn read(&self, item: Item) -> u16 {
         let bit = |word: u16, i: u8| u16::from(i < 16 && word & (1 << i) != 0);
@@ -427,8 +471,8 @@ impl MiniModState {
         match item {
             Item::Input(i) => u16::from(self.cooked.get(idx(i)).copied().unwrap_or(false)),
             Item::Feedback(i) => u16::from(self.feedback(idx(i))),
-            Item::Output(i) => bit(self.yword, i),
-            Item::Yword => self.yword,
+            Item::Output(i) => bit(self.status_word(), i),
+            Item::Yword => self.status_word(),
             Item::InputWord => self.input_word(),
             Item::Xcount(i) => self.xcount.get(idx(i)).copied().unwrap_or(0),
             Item::XlatUp(i) => self.xlatup.get(idx(i)).copied().unwrap_or(0),
@@ -495,7 +539,16 @@ impl MiniModState {
                 if value > MAX_PULSE_MS {
                     return Err(WriteError::OutOfRange(value));
                 }
-                store(&mut self.pulse, idx(i), value);
+                let y = idx(i);
+                let running = self.pulse.get(y).is_some_and(|&p| p > 0);
+                if value > 0 {
+                    // "will turn on Y1 (if not already on)".
+                    self.yword = with_bit(self.yword, i) & 0x0F;
+                    store(&mut self.pulse, y, value);
+                } else if running {
+                    store(&mut self.pulse, y, 0);
+                    self.end_pulse(y);
+                }
             }
             Item::XevMask => self.events.set_xevmask(value),
             Item::YevMask => self.events.set_yevmask(value),
@@ -580,15 +633,15 @@ impl MiniModState {
                 self.auto_dirty = true;
             }
         }
+        // Pulsers first, so a pulse that ends here and a condition that holds settle in the
+        // same tick.
+        self.count_pulses(1);
         if self.auto_dirty {
             // While fired the outputs are locked, conditions included; a reset re-evaluates.
             if !self.watchdog.fired() {
                 self.apply_conditions();
             }
             self.auto_dirty = false;
-        }
-        for p in &mut self.pulse {
-            *p = p.saturating_sub(1);
         }
         if let Some(cause) = self.watchdog.due(self.ms, self.feedbacks()) {
             self.fire(cause);
@@ -634,10 +687,9 @@ impl MiniModState {
                 self.pending[i] = self.pending[i].saturating_add(step);
             }
         }
-        let step = u16::try_from(n).unwrap_or(u16::MAX);
-        for p in &mut self.pulse {
-            *p = p.saturating_sub(step);
-        }
+        // No pulser reaches 0 here (that tick is an event), but a pulse that ended would end
+        // as in a tick.
+        self.count_pulses(u16::try_from(n).unwrap_or(u16::MAX));
     }
 
     /// "Automatic output management": OFF conditions first, then ON.
@@ -791,7 +843,80 @@ mod tests {
         }
         assert_eq!(off_at, Some(7 + 50), "on from 7 ms to 57 ms");
         assert_eq!(s.read(Item::Pulse(0)), 0);
-        assert_eq!(s.read(Item::Yword), 0, "the pulser does not touch YWORD");
+        assert_eq!(s.read(Item::Yword), 0, "off after the pulse");
+    }
+
+    #[test]
+    fn the_status_reads_on_while_a_pulse_runs() {
+        let mut s = state();
+        s.write(Item::Pulse(1), 30).unwrap();
+        for t in [0, 1, 29] {
+            s.advance_to_ms(t);
+            assert_eq!(s.read(Item::Output(1)), 1, "Y2 status at {t} ms");
+            assert_eq!(s.read(Item::Yword), 0b0010, "YWORD at {t} ms");
+        }
+        s.advance_to_ms(30);
+        assert_eq!(s.read(Item::Output(1)), 0);
+        assert_eq!(s.read(Item::Yword), 0);
+        assert!(!s.output_level(1));
+    }
+
+    #[test]
+    fn a_pulse_on_an_output_already_on_turns_it_off_at_its_end() {
+        // "`>Y1PULSE=100` will turn on Y1 (if not already on) and, after 100 ms, will turn it
+        // off."
+        let mut s = state();
+        s.write(Item::Yword, 0b0101).unwrap();
+        s.write(Item::Pulse(0), 100).unwrap();
+        s.advance_to_ms(99);
+        assert!(s.output_level(0));
+        assert_eq!(s.read(Item::Yword), 0b0101);
+        s.advance_to_ms(100);
+        assert!(!s.output_level(0), "off after 100 ms");
+        assert_eq!(s.read(Item::Yword), 0b0100, "Y3 untouched");
+        s.advance_to_ms(10_000);
+        assert_eq!(s.outputs(), 0b0100, "and it stays off");
+    }
+
+    #[test]
+    fn writes_during_a_pulse() {
+        let mut s = state();
+        s.write(Item::Pulse(0), 50).unwrap();
+        s.advance_to_ms(10);
+        // The pulser has priority over the normal usage: Y1 = 0 does not cut the pulse.
+        s.write(Item::Output(0), 0).unwrap();
+        assert!(s.output_level(0));
+        assert_eq!(s.read(Item::Output(0)), 1, "the status shows the pulse");
+        // Y1 = 1 during the pulse: the end of the pulse turns it off all the same.
+        s.write(Item::Output(0), 1).unwrap();
+        s.advance_to_ms(50);
+        assert!(!s.output_level(0));
+        // YPULSE1 = 0 ends a running pulse at once; with none running it changes nothing.
+        s.write(Item::Pulse(0), 5000).unwrap();
+        s.advance_to_ms(60);
+        s.write(Item::Pulse(0), 0).unwrap();
+        assert!(!s.output_level(0));
+        assert_eq!(s.read(Item::Yword), 0);
+        s.write(Item::Output(2), 1).unwrap();
+        s.write(Item::Pulse(2), 0).unwrap();
+        assert_eq!(s.read(Item::Yword), 0b0100);
+    }
+
+    #[test]
+    fn a_holding_condition_turns_the_output_on_again_in_the_tick_the_pulse_ends() {
+        let mut s = state();
+        s.write(Item::XlatUp(0), 0).unwrap();
+        s.set_terminal(0, true);
+        s.write(Item::AutoOn(0, 0), 0x0001).unwrap(); // Y1 on while X1
+        s.advance_to_ms(5);
+        assert!(s.output_level(0));
+        s.write(Item::Pulse(0), 20).unwrap();
+        let mut levels = Vec::new();
+        for t in 6..40 {
+            s.advance_to_ms(t);
+            levels.push(s.output_level(0));
+        }
+        assert!(levels.iter().all(|&on| on), "no off glitch: {levels:?}");
     }
 
     #[test]
@@ -840,7 +965,11 @@ mod tests {
         assert!(s.output_level(0), "step 1 shows bit 1");
         s.write(Item::Lamp(0), 0).unwrap();
         s.advance_to_ms(150);
-        assert!(s.output_level(0), "mask 0: YWORD again");
+        assert!(
+            !s.output_level(0),
+            "mask 0: YWORD again, where the pulse turned Y1 off"
+        );
+        assert!(s.output_level(1), "Y2 as written");
     }
 
     #[test]
