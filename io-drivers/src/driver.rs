@@ -107,6 +107,20 @@ pub trait Driver: Send + Debug {
         let _ = tag;
     }
 
+    /// The module answers again after it was lost (a pulled cable, a power cycle, a watchdog
+    /// that fired) or after [`Driver::wants_restart`] asked for it: the bus owner then runs
+    /// [`Driver::plan_startup`] again and writes every output. The driver forgets what it
+    /// believed the module held (written outputs, read-back state) and clears its request.
+    fn on_restart(&mut self) {}
+
+    /// Whether the module needs its start-up sequence again now: a write was refused because
+    /// the module holds its own safe state (a fired watchdog refuses writes with exception 04,
+    /// MiniMod manual, "Watchdog"). The bus owner reads it after every exchange; while it is
+    /// set the module's outputs count as not written.
+    fn wants_restart(&self) -> bool {
+        false
+    }
+
     /// Current values, indexed like the model's points; `None` until first read.
     fn values(&self) -> &[Option<Value>];
 

@@ -130,6 +130,10 @@ pub struct ModuleSnapshot {
     pub counters: Counters,
     /// The last failure, if the last cycle had one.
     pub last_error: Option<TxError>,
+    /// Whether the module holds what the program last asked of its outputs: bad while a write
+    /// failed or was refused and has not been made good, while the module waits for its
+    /// start-up sequence (back from a power cycle, a fired watchdog), and while it is lost.
+    pub outputs: Quality,
 }
 
 /// The result of a read cycle on one line.
@@ -172,6 +176,12 @@ pub struct Module {
     pub(crate) health: Health,
     /// Came back after being lost: write every output again.
     refresh_pending: bool,
+    /// Its start-up sequence must run before it is read or written again: it did not answer
+    /// at start-up, it was lost (it may have been power-cycled back to its saved settings), or
+    /// its driver asked ([`Driver::wants_restart`]).
+    pub(crate) startup_pending: bool,
+    /// A write failed or was refused and has not been made good since.
+    output_fault: bool,
     pub(crate) last_error: Option<TxError>,
 }
 
@@ -184,7 +194,29 @@ impl Module {
             counters: Counters::default(),
             health: Health::default(),
             refresh_pending: false,
+            startup_pending: false,
+            output_fault: false,
             last_error: None,
+        }
+    }
+
+    /// Its state now, with `quality` for this cycle's read.
+    fn snapshot(&self, quality: Quality) -> ModuleSnapshot {
+        ModuleSnapshot {
+            values: self.driver.values().to_vec(),
+            quality,
+            counters: self.counters,
+            last_error: self.last_error.clone(),
+            outputs: self.output_quality(),
+        }
+    }
+
+    /// The quality of its outputs (see [`ModuleSnapshot::outputs`]).
+    fn output_quality(&self) -> Quality {
+        if self.output_fault || self.startup_pending || self.health.is_lost() {
+            Quality::Bad
+        } else {
+            Quality::Good
         }
     }
 }
@@ -203,6 +235,8 @@ pub struct BusOwner {
     /// The port's own health: a failed port is reopened with a backoff.
     port_health: Health,
     last_refresh: Option<Duration>,
+    /// Modules the last [`BusOwner::read_answering`] left for [`BusOwner::read_deferred`].
+    deferred: Vec<usize>,
     plan: Vec<Transaction>,
     tx_buf: Vec<u8>,
     rx_buf: Vec<u8>,
@@ -237,6 +271,7 @@ impl BusOwner {
             collect: CollectState::default(),
             port_health: Health::default(),
             last_refresh: None,
+            deferred: Vec::new(),
             plan: Vec::new(),
             tx_buf: Vec::with_capacity(256),
             rx_buf: Vec::with_capacity(256),
@@ -265,28 +300,109 @@ impl BusOwner {
     }
 
     /// Sends every module's start-up transactions and checks the replies.
+    ///
+    /// A module that answers and refuses its configuration (an exception, a setting that reads
+    /// back wrong: most likely another model at that address) fails the start. A module that
+    /// does not answer (absent, powered off, a dead line) does not: it starts lost, its points
+    /// bad, and its start-up runs when it first answers, like a module that comes back.
     pub fn startup(&mut self) -> Result<(), StartupError> {
+        let limits = self.discipline.health_limits();
         for m in 0..self.modules.len() {
-            let mut plan = std::mem::take(&mut self.plan);
-            plan.clear();
-            self.modules[m].driver.plan_startup(&mut plan);
-            for tx in &plan {
-                if let Err(error) = self.execute(m, tx) {
-                    self.plan = plan;
+            match self.run_startup(m, self.discipline.retries) {
+                Ok(()) => {}
+                Err(error @ TxError::Decode(_)) | Err(error @ TxError::Encode) => {
                     return Err(StartupError {
                         module: self.modules[m].name.clone(),
                         error,
                     });
                 }
+                Err(error) => {
+                    let now = self.transport.now();
+                    let module = &mut self.modules[m];
+                    module.health.mark_lost(now, &limits);
+                    module.startup_pending = true;
+                    tracing::warn!(
+                        "line {}: module {} did not answer at start-up ({error}); its points are \
+                         bad until it does, retried every {:?} at first",
+                        self.name,
+                        module.name,
+                        limits.reconnect_min
+                    );
+                    module.last_error = Some(error);
+                }
             }
-            self.plan = plan;
         }
         Ok(())
     }
 
+    /// Runs module `m`'s start-up sequence; the first exchange gets `first_retries` retries
+    /// (none for the probe of a lost module: a dead module costs the line one timeout per
+    /// probe), the others the line's.
+    fn run_startup(&mut self, m: usize, first_retries: u8) -> Result<(), TxError> {
+        let mut plan = std::mem::take(&mut self.plan);
+        plan.clear();
+        self.modules[m].driver.plan_startup(&mut plan);
+        let mut result = Ok(());
+        for (i, tx) in plan.iter().enumerate() {
+            let retries = if i == 0 {
+                first_retries
+            } else {
+                self.discipline.retries
+            };
+            if let Err(e) = self.execute_with(m, tx, retries) {
+                result = Err(e);
+                break;
+            }
+        }
+        self.plan = plan;
+        if result.is_ok() {
+            let module = &mut self.modules[m];
+            module.startup_pending = false;
+            module.refresh_pending = true;
+        }
+        result
+    }
+
+    /// Retries for module `m`'s exchanges: the line's, or none while it is failing.
+    fn retries_for(&self, m: usize) -> u8 {
+        if self.modules[m].health.is_failing() {
+            0
+        } else {
+            self.discipline.retries
+        }
+    }
+
+    /// Brings module `m` back: the driver forgets what it believed the module held, the
+    /// start-up sequence runs again, and every output is written at the next write.
+    fn restart(&mut self, m: usize) -> Result<(), TxError> {
+        self.modules[m].driver.on_restart();
+        let result = self.run_startup(m, self.retries_for(m));
+        if let Err(e @ TxError::Decode(_)) = &result {
+            // It answered and refused: worth a line each time (it stays bad and is retried).
+            tracing::error!(
+                "line {}: module {} refused its start-up configuration: {e}",
+                self.name,
+                self.modules[m].name
+            );
+        }
+        result
+    }
+
     /// Reads every module's inputs. Lost modules are polled only when their backoff allows;
-    /// a failed port is reopened first.
+    /// a failed port is reopened first. The same as [`Self::read_answering`] then
+    /// [`Self::read_deferred`], with the deferred modules' results in the frame.
     pub fn read_inputs(&mut self) -> InputFrame {
+        let mut frame = self.read_answering();
+        self.read_deferred(Some(&mut frame));
+        frame
+    }
+
+    /// Reads the modules that answered their last cycle, in one pass, and returns their
+    /// frame; a module that failed its last cycle (or is lost) keeps its last snapshot, marked
+    /// stale or bad, and is read by [`Self::read_deferred`] after the frame has gone to the
+    /// scan. So a module that stops answering delays its line's inputs once, not every cycle
+    /// until it is lost, and a lost module's probe never delays the others.
+    pub fn read_answering(&mut self) -> InputFrame {
         let started = self.transport.now();
         let port_up = self.port_ready(started);
         if port_up {
@@ -295,62 +411,15 @@ impl BusOwner {
         }
         let mut plan = std::mem::take(&mut self.plan);
         let mut snapshots = Vec::with_capacity(self.modules.len());
+        self.deferred.clear();
         for m in 0..self.modules.len() {
-            let now = self.transport.now();
-            // A port that failed during this cycle is not tried again for the next modules.
-            let port_up = port_up && !self.port_health.is_lost();
-            let polled = port_up && self.modules[m].health.due(now);
-            let mut error = None;
-            if polled {
-                plan.clear();
-                self.read_plan(m, &mut plan);
-                for tx in &plan {
-                    if let Err(e) = self.execute(m, tx) {
-                        if matches!(e, TxError::Line(_)) {
-                            self.port_failed(&e);
-                        }
-                        error = Some(e);
-                        break;
-                    }
-                }
-            } else if !port_up {
-                error = Some(TxError::Line("the port is down".into()));
+            let module = &self.modules[m];
+            if port_up && !self.port_health.is_lost() && module.health.is_failing() {
+                self.deferred.push(m);
+                snapshots.push(module.snapshot(module.health.quality()));
+                continue;
             }
-            let limits = self.discipline.health_limits();
-            let line = &self.name;
-            let module = &mut self.modules[m];
-            // While the port is down a module goes stale, then bad; once lost, its backoff is
-            // left alone (the port's own backoff paces the retries).
-            let record = polled || (!port_up && !module.health.is_lost());
-            let quality = if record {
-                let (quality, event) = module.health.record(error.is_none(), now, &limits);
-                match event {
-                    Some(HealthEvent::Lost) => tracing::warn!(
-                        "line {line}: module {} lost ({}); retrying every {:?} at first",
-                        module.name,
-                        error.as_ref().map(ToString::to_string).unwrap_or_default(),
-                        limits.reconnect_min
-                    ),
-                    Some(HealthEvent::Back(after)) => {
-                        module.refresh_pending = true;
-                        tracing::info!(
-                            "line {line}: module {} is back after {after:.1?}",
-                            module.name
-                        );
-                    }
-                    None => {}
-                }
-                module.last_error = error;
-                quality
-            } else {
-                module.health.skipped_quality()
-            };
-            snapshots.push(ModuleSnapshot {
-                values: module.driver.values().to_vec(),
-                quality,
-                counters: module.counters,
-                last_error: module.last_error.clone(),
-            });
+            snapshots.push(self.read_module(m, port_up, &mut plan));
         }
         self.plan = plan;
         InputFrame {
@@ -358,6 +427,97 @@ impl BusOwner {
             started,
             finished: self.transport.now(),
         }
+    }
+
+    /// Reads the modules [`Self::read_answering`] left for later (failing, lost, restarting);
+    /// their snapshots go into `frame` when given, else into the next frame.
+    pub fn read_deferred(&mut self, mut frame: Option<&mut InputFrame>) {
+        let mut plan = std::mem::take(&mut self.plan);
+        let deferred = std::mem::take(&mut self.deferred);
+        for &m in &deferred {
+            let snapshot = self.read_module(m, true, &mut plan);
+            if let Some(f) = frame.as_deref_mut() {
+                if let Some(slot) = f.modules.get_mut(m) {
+                    *slot = snapshot;
+                }
+                f.finished = self.transport.now();
+            }
+        }
+        self.deferred = deferred;
+        self.plan = plan;
+    }
+
+    /// One module's read (its restart first when it waits for one), recorded in its health.
+    fn read_module(
+        &mut self,
+        m: usize,
+        port_up: bool,
+        plan: &mut Vec<Transaction>,
+    ) -> ModuleSnapshot {
+        let now = self.transport.now();
+        // A port that failed during this cycle is not tried again for the next modules.
+        let port_up = port_up && !self.port_health.is_lost();
+        let polled = port_up && self.modules[m].health.due(now);
+        let mut error = None;
+        if polled {
+            plan.clear();
+            if self.modules[m].startup_pending {
+                error = self.restart(m).err();
+            }
+            if error.is_none() {
+                self.read_plan(m, plan);
+                // A module that failed its last cycle (a lost one's probe included) gets one
+                // attempt per exchange until it answers again: retries are for noise, not for
+                // a module that is gone, and each costs the line a response timeout.
+                let retries = self.retries_for(m);
+                for tx in plan.iter() {
+                    if let Err(e) = self.execute_with(m, tx, retries) {
+                        error = Some(e);
+                        break;
+                    }
+                }
+            }
+            if let Some(e @ TxError::Line(_)) = &error {
+                let e = e.clone();
+                self.port_failed(&e);
+            }
+        } else if !port_up {
+            error = Some(TxError::Line("the port is down".into()));
+        }
+        let limits = self.discipline.health_limits();
+        let line = &self.name;
+        let module = &mut self.modules[m];
+        // While the port is down a module goes stale, then bad; once lost, its backoff is
+        // left alone (the port's own backoff paces the retries).
+        let record = polled || (!port_up && !module.health.is_lost());
+        let quality = if record {
+            let (quality, event) = module.health.record(error.is_none(), now, &limits);
+            match event {
+                Some(HealthEvent::Lost) => {
+                    // It may come back from a power cycle, with its saved settings only.
+                    module.startup_pending = true;
+                    tracing::warn!(
+                        "line {line}: module {} lost ({}); retrying every {:?} at first",
+                        module.name,
+                        error.as_ref().map(ToString::to_string).unwrap_or_default(),
+                        limits.reconnect_min
+                    )
+                }
+                Some(HealthEvent::Back(after)) => {
+                    module.refresh_pending = true;
+                    tracing::info!(
+                        "line {line}: module {} is back after {after:.1?}",
+                        module.name
+                    );
+                }
+                None => {}
+            }
+            module.last_error = error;
+            quality
+        } else {
+            module.health.skipped_quality()
+        };
+        module.snapshot(quality)
     }
 
     /// Whether the port can be used this cycle; reopens a failed one when its backoff allows.
@@ -437,21 +597,46 @@ impl BusOwner {
         for (m, desired) in frame.modules.iter().enumerate().take(self.modules.len()) {
             let module = &mut self.modules[m];
             // A lost module gets no bus time; when it comes back, everything is written again.
-            if !include_lost && (module.health.is_lost() || self.port_health.is_lost()) {
+            // One waiting for its start-up would refuse the writes (a fired watchdog).
+            if !include_lost
+                && (module.health.is_lost() || module.startup_pending || self.port_health.is_lost())
+            {
                 continue;
             }
-            let refresh_module = refresh || std::mem::take(&mut module.refresh_pending);
+            let pending = std::mem::take(&mut module.refresh_pending);
+            let refresh_module = refresh || pending;
             plan.clear();
             module.driver.plan_write(desired, refresh_module, &mut plan);
+            let mut failed = false;
+            let retries = self.retries_for(m);
             for tx in &plan {
                 report.transactions += 1;
-                if let Err(e) = self.execute(m, tx) {
+                if let Err(e) = self.execute_with(m, tx, retries) {
                     if matches!(e, TxError::Line(_)) {
                         self.port_failed(&e);
                     }
                     report.failures += 1;
+                    failed = true;
                     self.modules[m].driver.on_failure(tx.tag);
                 }
+            }
+            let module = &mut self.modules[m];
+            if failed || module.startup_pending {
+                if !module.output_fault {
+                    tracing::warn!(
+                        "line {}: module {}: outputs not written{}",
+                        self.name,
+                        module.name,
+                        if module.startup_pending {
+                            "; restarting it"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+                module.output_fault = true;
+            } else if module.output_fault && (refresh_module || !plan.is_empty()) {
+                module.output_fault = false;
             }
         }
         self.plan = plan;
@@ -459,10 +644,24 @@ impl BusOwner {
         report
     }
 
-    /// Runs one transaction with retries; the reply goes to the module's driver.
-    fn execute(&mut self, m: usize, tx: &Transaction) -> Result<(), TxError> {
+    /// Runs one transaction with `retries` retries; the reply goes to the module's driver.
+    fn execute_with(&mut self, m: usize, tx: &Transaction, retries: u8) -> Result<(), TxError> {
+        let result = self.execute_once(m, tx, retries);
+        let module = &mut self.modules[m];
+        if module.driver.wants_restart() && !module.startup_pending {
+            module.startup_pending = true;
+            tracing::warn!(
+                "line {}: module {} holds its own safe state; running its start-up again",
+                self.name,
+                module.name
+            );
+        }
+        result
+    }
+
+    fn execute_once(&mut self, m: usize, tx: &Transaction, retries: u8) -> Result<(), TxError> {
         let mut last = TxError::Timeout(self.discipline.response_timeout);
-        for _attempt in 0..=self.discipline.retries {
+        for _attempt in 0..=retries {
             match self.attempt(m, tx) {
                 Ok(None) => return Ok(()),
                 Ok(Some(reply)) => {
@@ -657,7 +856,16 @@ impl BusThread {
             .spawn(move || {
                 for (seq, cmd) in cmd_rx {
                     let event = match cmd {
-                        BusCommand::Read => BusEvent::Inputs(owner.read_inputs()),
+                        BusCommand::Read => {
+                            // The answering modules' inputs go to the scan at once; failing
+                            // and lost ones are read after (see `read_answering`).
+                            let frame = owner.read_answering();
+                            if ev_tx.send((seq, BusEvent::Inputs(frame))).is_err() {
+                                break;
+                            }
+                            owner.read_deferred(None);
+                            continue;
+                        }
                         BusCommand::Write(frame) => BusEvent::Written(owner.write_outputs(&frame)),
                         BusCommand::WriteSafe(frame) => BusEvent::Written(owner.write_safe(&frame)),
                         BusCommand::Stop(last) => {
@@ -689,14 +897,35 @@ impl BusThread {
 
     /// Queues a command without waiting; false when the line is too far behind to take it.
     pub fn send(&mut self, cmd: BusCommand) -> bool {
+        self.try_send(cmd).is_ok()
+    }
+
+    /// Queues a command without waiting; its sequence number, or the command back when the
+    /// queue is full (or the thread has ended).
+    pub fn try_send(&mut self, cmd: BusCommand) -> Result<u64, BusCommand> {
         let seq = self.last_sent + 1;
         match self.commands.try_send((seq, cmd)) {
             Ok(()) => {
                 self.last_sent = seq;
-                true
+                Ok(seq)
             }
-            Err(_) => false,
+            Err(e) => Err(e.into_inner().1),
         }
+    }
+
+    /// Sequence number of the last command sent (0 before the first).
+    pub fn last_sent(&self) -> u64 {
+        self.last_sent
+    }
+
+    /// The next answer that has already come, with its command's sequence number.
+    pub fn try_recv(&self) -> Option<(u64, BusEvent)> {
+        self.events.try_recv().ok()
+    }
+
+    /// The next answer, waiting at most until `deadline`.
+    pub fn recv_deadline(&self, deadline: std::time::Instant) -> Option<(u64, BusEvent)> {
+        self.events.recv_deadline(deadline).ok()
     }
 
     /// Waits at most `timeout` for the answer to the last command sent; answers to earlier

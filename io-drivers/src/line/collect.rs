@@ -303,7 +303,8 @@ impl BusOwner {
         let mut members: Vec<Member> = Vec::new();
         for m in 0..n {
             self.collect.planned[m] = false;
-            if !self.modules[m].health.due(now) {
+            // A module waiting for its start-up joins the round once it has run.
+            if !self.modules[m].health.due(now) || self.modules[m].startup_pending {
                 continue;
             }
             let plan = &mut self.collect.stash[m];

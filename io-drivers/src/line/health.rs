@@ -54,6 +54,22 @@ impl Health {
         self.lost_since.is_some()
     }
 
+    /// Whether its last polled cycle failed (it is stale or lost).
+    pub fn is_failing(&self) -> bool {
+        self.failed_cycles > 0 || self.is_lost()
+    }
+
+    /// Its quality as its last polled cycle left it.
+    pub fn quality(&self) -> Quality {
+        if self.is_lost() {
+            Quality::Bad
+        } else if self.failed_cycles > 0 {
+            Quality::Stale
+        } else {
+            Quality::Good
+        }
+    }
+
     /// The quality of a module that was not polled this cycle.
     pub fn skipped_quality(&self) -> Quality {
         if self.is_lost() {
@@ -61,6 +77,15 @@ impl Health {
         } else {
             Quality::Stale
         }
+    }
+
+    /// Makes the module lost at once (it did not answer its start-up), retried after the
+    /// first backoff.
+    pub fn mark_lost(&mut self, now: Duration, limits: &HealthLimits) {
+        self.failed_cycles = limits.fail_limit;
+        self.lost_since.get_or_insert(now);
+        self.backoff = limits.reconnect_min;
+        self.next_attempt = now + self.backoff;
     }
 
     /// Records a polled cycle's outcome at `now`; returns the quality to report and an event

@@ -4,12 +4,14 @@
 //! - [`transport`]: the byte pipe a bus owner drives: a real serial port or the virtual line.
 //! - [`bus`]: the bus owner: runs drivers' transactions on one line with its discipline
 //!   (response timeout, t3.5 gap, guard + flush after a timeout, retries, counters).
+//! - [`link`]: how the scan drives a line on either clock, against one deadline per phase.
 //! - [`collect`]: FC 70 Collect rounds for the modules in event mode (MiniMod).
 
 pub mod budget;
 pub mod bus;
 pub mod collect;
 pub mod health;
+pub mod link;
 pub mod settings;
 pub mod transport;
 

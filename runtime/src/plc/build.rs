@@ -3,7 +3,8 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use softplc_io::line::bus::{BusOwner, BusThread, Counters, Discipline, Module, OutputFrame};
+use softplc_io::line::bus::{BusOwner, Counters, Discipline, Module, OutputFrame};
+use softplc_io::line::link::LineLink;
 use softplc_io::line::transport::{SerialTransport, Transport};
 use softplc_io::point::{Access, Quality};
 use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
@@ -21,6 +22,18 @@ impl Plc {
     /// Builds the PLC for `project` on `clock`: compiles the program, opens every line (and the
     /// simulated world for `port: sim`), and runs every module's start-up configuration.
     pub fn build(project: Project, clock: Arc<dyn Clock>) -> Result<Self, BuildError> {
+        Self::build_on(project, clock, None)
+    }
+
+    /// Builds the PLC on a simulated world that already exists (`None`: a new one, as
+    /// [`Plc::build`] does): the modules keep whatever state an earlier PLC left in them, as
+    /// real modules do across a restart of the host (a `kill -9`, a crash, a reboot). The
+    /// world must hold a device of the project's name for every module on a `port: sim` line.
+    pub fn build_on(
+        project: Project,
+        clock: Arc<dyn Clock>,
+        world: Option<SharedWorld>,
+    ) -> Result<Self, BuildError> {
         let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
         let mut logic = load::load_program(&project, &image)?;
         // Push-down: the modules run the rungs the plan places there; their drivers get the
@@ -49,7 +62,7 @@ impl Plc {
             }
         }
 
-        let mut world = build_world(&project);
+        let mut world = world.or_else(|| build_world(&project));
         let mut bus_modules: Vec<Vec<usize>> = vec![Vec::new(); project.buses.len()];
         for (m, module) in project.modules.iter().enumerate() {
             bus_modules[module.bus].push(m);
@@ -95,20 +108,18 @@ impl Plc {
                 bus: bus.name.clone(),
                 source,
             })?;
-            if clock.is_virtual() {
-                // The first cycle starts after the start-up traffic (tables, settings), as it
-                // does on a real clock.
-                clock.sleep_until(owner.now());
-            }
+            // The first cycle starts after the start-up traffic (tables, settings); on the real
+            // clock that time has passed already.
+            clock.sleep_until(owner.now());
+            // The one place the clock decides how lines run: the scan runs them itself in
+            // virtual time (a project replays bit for bit), each has its thread in real time.
             lines.push(if clock.is_virtual() {
-                Line::Inline(Box::new(owner))
+                LineLink::inline(owner)
             } else {
-                Line::Thread(
-                    BusThread::spawn(owner).map_err(|source| BuildError::Thread {
-                        bus: bus.name.clone(),
-                        source,
-                    })?,
-                )
+                LineLink::thread(owner, clock.clone()).map_err(|source| BuildError::Thread {
+                    bus: bus.name.clone(),
+                    source,
+                })?
             });
         }
 
@@ -159,12 +170,15 @@ impl Plc {
                 name: m.name.clone(),
                 bus: project.buses[m.bus].name.clone(),
                 quality: Quality::Bad,
+                outputs: Quality::Bad,
                 counters: Counters::default(),
                 last_error: None,
             })
             .collect();
         let line_wait = project.scan.watchdog.time * project.scan.watchdog.sensitivity.max(1)
             + project.scan.period;
+        let read_budget = project.scan.period * 9 / 10;
+        let late_logged = vec![None; lines.len()];
         let offload = Offloaded::new(&plan, &project, &bus_modules);
         Ok(Self {
             project,
@@ -179,6 +193,10 @@ impl Plc {
             status,
             world,
             line_wait,
+            read_budget,
+            cycle_start: Duration::ZERO,
+            io_wait: Duration::ZERO,
+            late_logged,
             retain,
             plan,
             offload,

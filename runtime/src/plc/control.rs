@@ -89,37 +89,32 @@ impl Plc {
     }
 
     /// Re-reads the project file and swaps in its program if it compiles against the same I/O
-    /// map. The running program is untouched when anything is refused. Memory tags keep their
-    /// values (the image is not rebuilt).
+    /// map, all at once (tests and tools). A running scan does the same in two steps:
+    /// [`Plc::reload_job`] compiles off the scan thread, [`Plc::apply_reload`] swaps at a
+    /// cycle boundary.
     pub fn reload_program(&mut self) -> Result<String, String> {
-        let fresh = crate::project::load(&self.project.source)
-            .map_err(|e| format!("reload refused:\n{e}"))?;
-        if !same_io(&fresh, &self.project) {
-            return Err(
-                "reload refused: something besides the program changed (scan, buses, modules, tags, retain, offload or service); restart to apply it"
-                    .into(),
-            );
+        let prepared = self.reload_job().prepare()?;
+        Ok(self.apply_reload(prepared))
+    }
+
+    /// What a reload needs, to be compiled on another thread (a large program would otherwise
+    /// overrun the scan's next deadline).
+    pub fn reload_job(&self) -> ReloadJob {
+        ReloadJob {
+            current: self.project.clone(),
+            image: self.image.clone(),
+            plan: self.plan.clone(),
         }
-        let mut logic =
-            load::load_program(&fresh, &self.image).map_err(|e| format!("reload refused:\n{e}"))?;
-        // The module tables were written at start-up: the new program must place its rungs
-        // where the running one did.
-        let plan = offload::plan_program(&fresh, logic.as_ref());
-        if !offload::runtime::same_placement(&plan, &self.plan) {
-            return Err(
-                "reload refused: the new program moves rungs into or out of modules; restart \
-                 to write the module tables"
-                    .into(),
-            );
-        }
-        for (r, _) in plan.pushed() {
-            logic.release(r.rung.coil);
-        }
-        self.logic = logic;
-        self.project.program = fresh.program;
+    }
+
+    /// Swaps in a program [`ReloadJob::prepare`] compiled. The running program is untouched
+    /// until here; memory tags keep their values (the image is not rebuilt).
+    pub fn apply_reload(&mut self, prepared: PreparedReload) -> String {
+        self.logic = prepared.logic;
+        self.project.program = prepared.program;
         let msg = format!("program {} reloaded", self.project.program.path.display());
         tracing::info!("{msg}");
-        Ok(msg)
+        msg
     }
 
     /// The status report for `softplc status`.
@@ -187,4 +182,53 @@ fn same_io(a: &Project, b: &Project) -> bool {
                 && x.device.protocol == y.device.protocol
                 && x.device.settings == y.device.settings
         })
+}
+
+/// A reload to compile away from the scan: a copy of what the running PLC has.
+#[derive(Debug)]
+pub struct ReloadJob {
+    current: Project,
+    image: crate::image::ProcessImage,
+    plan: offload::Plan,
+}
+
+/// A program compiled for the running PLC, ready to swap in at a cycle boundary.
+#[derive(Debug)]
+pub struct PreparedReload {
+    logic: Box<dyn crate::logic::LogicEngine>,
+    program: crate::project::ProgramConfig,
+}
+
+impl ReloadJob {
+    /// Reads the project file again and compiles its program; refused, with the reason, when
+    /// it does not compile or when anything besides the program changed.
+    pub fn prepare(self) -> Result<PreparedReload, String> {
+        let fresh = crate::project::load(&self.current.source)
+            .map_err(|e| format!("reload refused:\n{e}"))?;
+        if !same_io(&fresh, &self.current) {
+            return Err(
+                "reload refused: something besides the program changed (scan, buses, modules, tags, retain, offload or service); restart to apply it"
+                    .into(),
+            );
+        }
+        let mut logic =
+            load::load_program(&fresh, &self.image).map_err(|e| format!("reload refused:\n{e}"))?;
+        // The module tables were written at start-up: the new program must place its rungs
+        // where the running one did.
+        let plan = offload::plan_program(&fresh, logic.as_ref());
+        if !offload::runtime::same_placement(&plan, &self.plan) {
+            return Err(
+                "reload refused: the new program moves rungs into or out of modules; restart \
+                 to write the module tables"
+                    .into(),
+            );
+        }
+        for (r, _) in plan.pushed() {
+            logic.release(r.rung.coil);
+        }
+        Ok(PreparedReload {
+            logic,
+            program: fresh.program,
+        })
+    }
 }

@@ -1,6 +1,8 @@
 //! The phases the scan calls, and the safe state.
 
-use softplc_io::line::bus::{BusCommand, BusEvent, InputFrame};
+use std::time::Duration;
+
+use softplc_io::line::bus::InputFrame;
 use softplc_io::point::Quality;
 
 use crate::image::convert;
@@ -10,60 +12,57 @@ use super::*;
 
 impl Plc {
     /// Input phase: every line reads its modules (in parallel), then the image is updated.
+    ///
+    /// The scan waits for the lines until one deadline, [`Plc::read_budget`] after the cycle's
+    /// start: a line that has not delivered by then keeps its last values, stale, and finishes
+    /// in its own time (see [`softplc_io::line::link`]).
     pub fn read_inputs(&mut self) {
         let start = self.clock.now();
+        self.cycle_start = start;
+        for line in &mut self.lines {
+            line.start_read(start);
+        }
+        let deadline = start + self.read_budget;
         let mut frames: Vec<Option<InputFrame>> = Vec::with_capacity(self.lines.len());
-        let mut sent = vec![false; self.lines.len()];
-        for (b, line) in self.lines.iter_mut().enumerate() {
-            if let Line::Thread(t) = line {
-                sent[b] = t.send(BusCommand::Read);
-            }
-        }
-        let mut latest = start;
         let mut dead = vec![false; self.lines.len()];
+        let mut latest = start;
         for (b, line) in self.lines.iter_mut().enumerate() {
-            let frame = match line {
-                Line::Inline(owner) => {
-                    owner.sync(start);
-                    let f = owner.read_inputs();
-                    latest = latest.max(f.finished);
-                    Some(f)
-                }
-                Line::Thread(t) if sent[b] => match t.recv(self.line_wait) {
-                    Some(BusEvent::Inputs(f)) => Some(f),
-                    _ => None,
-                },
-                Line::Thread(_) => None,
-                Line::Stopped => None,
-            };
-            if let Line::Thread(t) = line {
-                // A bus thread that ended on its own (a driver bug) must not leave its line's
-                // inputs looking merely stale: they are lost.
-                dead[b] = t.is_finished();
-                if dead[b] && !self.dead_lines.contains(&b) {
-                    self.dead_lines.push(b);
-                    tracing::error!(
-                        "line {}: its bus thread has ended; its points are bad",
-                        self.project.buses[b].name
-                    );
-                }
+            let delivery = line.finish_read(deadline);
+            latest = latest.max(delivery.at);
+            // A bus thread that ended on its own (a driver bug) must not leave its line's
+            // inputs looking merely stale: they are lost.
+            dead[b] = line.is_dead();
+            if dead[b] && !self.dead_lines.contains(&b) {
+                self.dead_lines.push(b);
+                tracing::error!(
+                    "line {}: its bus thread has ended; its points are bad",
+                    self.project.buses[b].name
+                );
             }
-            frames.push(frame);
+            frames.push(delivery.answer);
         }
-        if self.clock.is_virtual() {
-            self.clock.sleep_until(latest);
+        for b in 0..frames.len() {
+            if frames[b].is_none() && !dead[b] {
+                self.note_late_line(b);
+            }
         }
+        self.clock.sleep_until(latest);
         let now = self.clock.now();
+        self.io_wait = now.saturating_sub(start);
         for (b, frame) in frames.iter().enumerate() {
             for (k, &m) in self.bus_modules[b].iter().enumerate() {
                 let st = &mut self.status[m];
                 match frame.as_ref().and_then(|f| f.modules.get(k)) {
                     Some(snap) => {
                         st.quality = snap.quality;
+                        st.outputs = snap.outputs;
                         st.counters = snap.counters;
                         st.last_error = snap.last_error.clone();
                     }
-                    None if dead[b] => st.quality = Quality::Bad,
+                    None if dead[b] => {
+                        st.quality = Quality::Bad;
+                        st.outputs = Quality::Bad;
+                    }
                     None => {
                         // The line did not answer in time: its points keep their values.
                         st.quality = if st.quality == Quality::Good {
@@ -118,6 +117,15 @@ impl Plc {
         }
         self.offload.commands(&mut self.frames);
         self.dispatch_writes();
+        // An output its module does not hold (a refused or failed write, a module lost or
+        // restarting) is bad until it is written again.
+        for bind in &self.outputs {
+            let m = self.bus_modules[bind.bus][bind.module];
+            let q = self.status[m].outputs;
+            if q != Quality::Good {
+                self.image.set_quality(bind.tag, q);
+            }
+        }
         self.offload.clear_commands(&mut self.frames);
         // Between cycles: hand changed retained values to their writer (never waits).
         if let Some(r) = self.retain.as_mut() {
@@ -147,43 +155,45 @@ impl Plc {
         self.dispatch(false);
     }
 
-    /// Sends the output frames to every line and waits for them; `safe`: the safe state,
-    /// written in full and to lost modules too.
+    /// Hands the output frames to every line and waits for them: this cycle's writes until
+    /// the next cycle's deadline (a busy or dead line finishes them in its own time); `safe`:
+    /// the safe state, written in full and to lost modules too, waited for longer.
     fn dispatch(&mut self, safe: bool) {
         let start = self.clock.now();
-        let mut sent = vec![false; self.lines.len()];
         for (b, line) in self.lines.iter_mut().enumerate() {
-            if let Line::Thread(t) = line {
-                let frame = self.frames[b].clone();
-                sent[b] = t.send(if safe {
-                    BusCommand::WriteSafe(frame)
-                } else {
-                    BusCommand::Write(frame)
-                });
+            if safe {
+                line.start_safe_write(&self.frames[b], start);
+            } else {
+                line.start_write(&self.frames[b], start);
             }
         }
+        let deadline = if safe {
+            start + self.line_wait
+        } else {
+            (self.cycle_start + self.project.scan.period).max(start)
+        };
         let mut latest = start;
-        for (b, line) in self.lines.iter_mut().enumerate() {
-            match line {
-                Line::Inline(owner) => {
-                    owner.sync(start);
-                    let report = if safe {
-                        owner.write_safe(&self.frames[b])
-                    } else {
-                        owner.write_outputs(&self.frames[b])
-                    };
-                    latest = latest.max(report.finished);
-                }
-                Line::Thread(t) if sent[b] => {
-                    let _ = t.recv(self.line_wait);
-                }
-                Line::Thread(_) => {}
-                Line::Stopped => {}
-            }
+        for line in &mut self.lines {
+            latest = latest.max(line.finish_write(deadline).at);
         }
-        if self.clock.is_virtual() {
-            self.clock.sleep_until(latest);
+        self.clock.sleep_until(latest);
+        self.io_wait += self.clock.now().saturating_sub(start);
+    }
+
+    /// Logs, at most once a minute per line, that a line did not deliver in time.
+    fn note_late_line(&mut self, b: usize) {
+        let now = self.clock.now();
+        let last = &mut self.late_logged[b];
+        if last.is_some_and(|t| now.saturating_sub(t) < Duration::from_secs(60)) {
+            return;
         }
+        *last = Some(now);
+        tracing::warn!(
+            "line {}: no input within {:.1?} of the cycle's start; its values are kept stale \
+             and the scan goes on (logged at most once a minute)",
+            self.project.buses[b].name,
+            self.read_budget
+        );
     }
 
     /// Writes the safe state and stops every line thread.
@@ -193,9 +203,7 @@ impl Plc {
             r.finish(&self.image);
         }
         for line in &mut self.lines {
-            if let Line::Thread(t) = std::mem::replace(line, Line::Stopped) {
-                let _ = t.stop(None, self.line_wait);
-            }
+            line.stop(self.line_wait);
         }
     }
 }

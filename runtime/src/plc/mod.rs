@@ -15,12 +15,14 @@ mod control;
 mod cycle;
 mod forces;
 
+pub use control::{PreparedReload, ReloadJob};
 pub use forces::forces_path;
 
 use std::sync::Arc;
 use std::time::Duration;
 
-use softplc_io::line::bus::{BusOwner, BusThread, Counters, OutputFrame, StartupError, TxError};
+use softplc_io::line::bus::{Counters, OutputFrame, StartupError, TxError};
+use softplc_io::line::link::LineLink;
 use softplc_io::line::transport::LineError;
 use softplc_io::point::{Quality, Value};
 use softplc_io::sim::line::SharedWorld;
@@ -85,17 +87,6 @@ struct OutputBinding {
     safe: Value,
 }
 
-/// How a line is driven.
-#[derive(Debug)]
-enum Line {
-    /// Run by the scan itself (virtual clock).
-    Inline(Box<BusOwner>),
-    /// On its own thread (real time).
-    Thread(BusThread),
-    /// Shut down.
-    Stopped,
-}
-
 /// A module's state as the scan last saw it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModuleStatus {
@@ -105,6 +96,9 @@ pub struct ModuleStatus {
     pub bus: String,
     /// Quality of the last read.
     pub quality: Quality,
+    /// Whether the module holds what the program last asked of its outputs (bad while a
+    /// write is refused or fails, while it restarts, and while it is lost).
+    pub outputs: Quality,
     /// Its counters.
     pub counters: Counters,
     /// Last failure, if the last read failed.
@@ -118,7 +112,7 @@ pub struct Plc {
     clock: Arc<dyn Clock>,
     image: ProcessImage,
     logic: Box<dyn LogicEngine>,
-    lines: Vec<Line>,
+    lines: Vec<LineLink>,
     /// Per bus: project module indexes, in the bus owner's order.
     bus_modules: Vec<Vec<usize>>,
     inputs: Vec<InputBinding>,
@@ -126,8 +120,17 @@ pub struct Plc {
     frames: Vec<OutputFrame>,
     status: Vec<ModuleStatus>,
     world: Option<SharedWorld>,
-    /// The longest time the scan waits for a line's answer.
+    /// The longest time the scan waits for a line to write the safe state (stop, fault).
     line_wait: Duration,
+    /// How long after a cycle's start the scan waits for the lines' inputs (see
+    /// [`Plc::read_budget`]).
+    read_budget: Duration,
+    /// When the current cycle's input phase started.
+    cycle_start: Duration,
+    /// Time the last cycle spent waiting for lines (not counted by the task watchdog).
+    io_wait: Duration,
+    /// Per line: when its lateness was last logged.
+    late_logged: Vec<Option<Duration>>,
     /// Retained tags and their writer, when the project retains any.
     retain: Option<crate::retain::Retainer>,
     /// Where every rung runs (see [`crate::offload`]).
@@ -176,6 +179,19 @@ impl Plc {
         self.world.as_ref()
     }
 
+    /// How long after a cycle's start the scan waits for its lines' inputs: nine tenths of the
+    /// period, so a dead line leaves the logic a tenth of it. Writes are handed to the lines at
+    /// once (behind a read still running) and waited for until the next cycle's deadline.
+    pub fn read_budget(&self) -> Duration {
+        self.read_budget
+    }
+
+    /// Time the last cycle spent waiting for its lines (input and output phases). The task
+    /// watchdog measures the rest: what the scan itself does.
+    pub fn io_wait(&self) -> Duration {
+        self.io_wait
+    }
+
     /// Total bus errors over all modules.
     pub fn bus_errors(&self) -> u64 {
         self.status.iter().map(|s| s.counters.errors()).sum()
@@ -185,9 +201,7 @@ impl Plc {
 impl Drop for Plc {
     fn drop(&mut self) {
         for line in &mut self.lines {
-            if let Line::Thread(t) = std::mem::replace(line, Line::Stopped) {
-                let _ = t.stop(None, Duration::from_millis(100));
-            }
+            line.stop(Duration::from_millis(100));
         }
     }
 }

@@ -4,10 +4,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crossbeam_channel::Receiver;
+use crossbeam_channel::{Receiver, Sender};
 
 use crate::logic::{LogicFault, ScanContext};
-use crate::plc::{ModuleStatus, Plc};
+use crate::plc::{ModuleStatus, Plc, PreparedReload};
+use crate::scan::overrun::OverrunLog;
 use crate::scan::stats::{Percentiles, ScanStats};
 use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
 use crate::service::control::{Envelope, Request, Response};
@@ -72,6 +73,10 @@ pub struct ScanEngine {
     notifier: Option<Notifier>,
     /// The snapshot for the metrics endpoint and the Modbus TCP server.
     publisher: Option<Publisher>,
+    /// A reload being compiled off the scan thread.
+    reload_job: Option<Receiver<Result<PreparedReload, String>>>,
+    /// Control clients waiting for that reload's outcome.
+    reload_waiters: Vec<Sender<Response>>,
 }
 
 impl std::fmt::Debug for ScanEngine {
@@ -102,6 +107,8 @@ impl ScanEngine {
             reload: Arc::new(AtomicBool::new(false)),
             notifier: None,
             publisher: None,
+            reload_job: None,
+            reload_waiters: Vec::new(),
         }
     }
 
@@ -173,7 +180,9 @@ impl ScanEngine {
         let mut deadline = begin;
         let mut previous: Option<Duration> = None;
         let mut last_published = begin;
+        let mut overruns = OverrunLog::new(period);
         let reason = loop {
+            self.poll_reload();
             if self.stop.load(Ordering::Relaxed) {
                 break StopReason::Requested;
             }
@@ -228,7 +237,9 @@ impl ScanEngine {
             if let Some(hook) = self.on_cycle.as_mut() {
                 hook(&self.plc, &ctx);
             }
-            if let Err(trip) = watchdog.check(cycle) {
+            // The scan's own work: waits for lines are bounded by the period and never trip it,
+            // so a dead line cannot stop the PLC.
+            if let Err(trip) = watchdog.check(cycle.saturating_sub(self.plc.io_wait())) {
                 break StopReason::Watchdog(trip);
             }
             self.between_cycles(&stats, end);
@@ -243,6 +254,15 @@ impl ScanEngine {
                     .saturating_add(u64::try_from(behind).unwrap_or(u64::MAX));
                 let skip = period.as_nanos().saturating_mul(behind);
                 deadline += Duration::from_nanos(u64::try_from(skip).unwrap_or(u64::MAX));
+                overruns.note(
+                    end,
+                    behind,
+                    [
+                        ("inputs", read_end - start),
+                        ("logic", logic_end - read_end),
+                        ("outputs", end - logic_end),
+                    ],
+                );
             }
             if end.saturating_sub(last_published) >= Duration::from_millis(200) {
                 last_published = end;
@@ -271,7 +291,7 @@ impl ScanEngine {
 
     /// Work done at a cycle boundary, never inside a scan: control requests, reload, systemd.
     fn between_cycles(&mut self, stats: &ScanStats, now: Duration) {
-        if let Some(requests) = &self.control {
+        if let Some(requests) = self.control.clone() {
             while let Ok(env) = requests.try_recv() {
                 if env.expired() {
                     // Its client was already told it failed; carrying it out now would surprise.
@@ -291,10 +311,11 @@ impl ScanEngine {
                         Ok(n) => Response::done(format!("{n} force(s) removed")),
                         Err(e) => Response::refused(e),
                     },
-                    Request::Reload => match self.plc.reload_program() {
-                        Ok(m) => Response::done(m),
-                        Err(e) => Response::refused(e),
-                    },
+                    Request::Reload => {
+                        // Compiled off the scan thread; answered when it is swapped in.
+                        self.start_reload(Some(env.reply));
+                        continue;
+                    }
                     Request::Write { values } => match self.plc.write_tags(&values) {
                         Ok(m) => Response::done(m),
                         Err(e) => Response::refused(e),
@@ -304,9 +325,7 @@ impl ScanEngine {
             }
         }
         if self.reload.swap(false, Ordering::Relaxed) {
-            if let Err(e) = self.plc.reload_program() {
-                tracing::error!("{e}");
-            }
+            self.start_reload(None);
         }
         if let Some(p) = &mut self.publisher {
             p.publish(&self.plc, stats, now, false);
@@ -329,6 +348,55 @@ impl ScanEngine {
                     now.as_secs()
                 ));
             }
+        }
+    }
+
+    /// Starts compiling the project's program again on a thread of its own; `reply` is told
+    /// the outcome once it is swapped in (or refused). A reload already under way answers for
+    /// this one too.
+    fn start_reload(&mut self, reply: Option<Sender<Response>>) {
+        if let Some(r) = reply {
+            self.reload_waiters.push(r);
+        }
+        if self.reload_job.is_some() {
+            return;
+        }
+        let job = self.plc.reload_job();
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let spawned = std::thread::Builder::new()
+            .name("reload".into())
+            .spawn(move || {
+                let _ = tx.send(job.prepare());
+            });
+        match spawned {
+            Ok(_) => self.reload_job = Some(rx),
+            Err(e) => self.finish_reload(Err(format!("reload refused: no thread for it: {e}"))),
+        }
+    }
+
+    /// At a cycle boundary: swaps in a program whose compilation has finished.
+    fn poll_reload(&mut self) {
+        let Some(rx) = &self.reload_job else { return };
+        let outcome = match rx.try_recv() {
+            Ok(result) => result.map(|prepared| self.plc.apply_reload(prepared)),
+            Err(crossbeam_channel::TryRecvError::Empty) => return,
+            Err(crossbeam_channel::TryRecvError::Disconnected) => {
+                Err("reload refused: its compilation ended without a result".into())
+            }
+        };
+        self.reload_job = None;
+        self.finish_reload(outcome);
+    }
+
+    fn finish_reload(&mut self, outcome: Result<String, String>) {
+        if let Err(e) = &outcome {
+            tracing::error!("{e}");
+        }
+        for reply in self.reload_waiters.drain(..) {
+            let _ = reply.send(match &outcome {
+                Ok(m) => Response::done(m.clone()),
+                Err(e) => Response::refused(e.clone()),
+            });
         }
     }
 

@@ -7,6 +7,7 @@
 //! CODESYS defines it) faults the PLC to its safe state.
 
 pub mod engine;
+mod overrun;
 pub mod rt;
 pub mod stats;
 pub mod watchdog;

@@ -1,0 +1,113 @@
+//! Overruns in the log: one line for the first, then at most one every ten seconds with how
+//! many came in between, each naming the phase that took the longest. A PLC that overruns
+//! every cycle must not fill the journal, and one that overran once must not hide it.
+
+use std::time::Duration;
+
+use crate::scan::stats::fmt_duration;
+
+/// The least time between two overrun lines.
+const EVERY: Duration = Duration::from_secs(10);
+
+/// Rate-limited overrun logging.
+#[derive(Debug)]
+pub(crate) struct OverrunLog {
+    period: Duration,
+    last: Option<Duration>,
+    /// Overruns since the last line.
+    quiet: u64,
+}
+
+impl OverrunLog {
+    pub(crate) fn new(period: Duration) -> Self {
+        Self {
+            period,
+            last: None,
+            quiet: 0,
+        }
+    }
+
+    /// Records an overrun at `now` that skipped `skipped` deadlines, with the cycle's phases;
+    /// returns the line it logged, if any.
+    pub(crate) fn note(
+        &mut self,
+        now: Duration,
+        skipped: u128,
+        phases: [(&str, Duration); 3],
+    ) -> Option<String> {
+        self.quiet += 1;
+        if self.last.is_some_and(|t| now.saturating_sub(t) < EVERY) {
+            return None;
+        }
+        let cycle: Duration = phases.iter().map(|(_, d)| *d).sum();
+        let (worst, took) = phases
+            .iter()
+            .copied()
+            .max_by_key(|(_, d)| *d)
+            .unwrap_or(("inputs", Duration::ZERO));
+        let detail = phases
+            .iter()
+            .map(|(name, d)| format!("{name} {}", fmt_duration(*d)))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let since = if self.last.is_some() && self.quiet > 1 {
+            format!(" ({} overruns since the last line)", self.quiet)
+        } else {
+            String::new()
+        };
+        let line = format!(
+            "overrun: the cycle took {} against a period of {}, {skipped} deadline(s) skipped; \
+             longest phase {worst} {} ({detail}){since}",
+            fmt_duration(cycle),
+            fmt_duration(self.period),
+            fmt_duration(took),
+        );
+        tracing::warn!("{line}");
+        self.last = Some(now);
+        self.quiet = 0;
+        Some(line)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ms(n: u64) -> Duration {
+        Duration::from_millis(n)
+    }
+
+    #[test]
+    fn the_first_overrun_is_logged_with_its_longest_phase() {
+        let mut log = OverrunLog::new(ms(100));
+        let line = log
+            .note(
+                ms(1_000),
+                1,
+                [("inputs", ms(20)), ("logic", ms(130)), ("outputs", ms(5))],
+            )
+            .expect("logged");
+        assert_eq!(
+            line,
+            "overrun: the cycle took 155.00ms against a period of 100.00ms, 1 deadline(s) \
+             skipped; longest phase logic 130.00ms (inputs 20.00ms, logic 130.00ms, outputs \
+             5.00ms)"
+        );
+    }
+
+    #[test]
+    fn later_ones_are_counted_into_one_line_every_ten_seconds() {
+        let mut log = OverrunLog::new(ms(100));
+        let phases = [("inputs", ms(90)), ("logic", ms(1)), ("outputs", ms(20))];
+        assert!(log.note(ms(0), 1, phases).is_some());
+        for t in 1..100 {
+            assert_eq!(log.note(ms(t * 100), 1, phases), None, "at {t}");
+        }
+        let line = log.note(ms(10_000), 2, phases).expect("ten seconds on");
+        assert!(line.contains("longest phase inputs 90.00ms"), "{line}");
+        assert!(
+            line.ends_with("(100 overruns since the last line)"),
+            "{line}"
+        );
+    }
+}
