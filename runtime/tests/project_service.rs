@@ -3,6 +3,7 @@
 //! error at its `line:column`.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use softplc::project::{
     parse_str, ErrorKind, ModbusTcpConfig, Project, ProjectError, ServiceError, Space,
@@ -113,6 +114,8 @@ fn modbus_defaults_are_loopback_unit_1_and_no_writes() {
             bind: "127.0.0.1:5020".parse().unwrap(),
             unit: 1,
             writes: false,
+            idle_timeout: Duration::from_secs(60),
+            send_timeout: Duration::from_secs(10),
         })
     );
     let p = parse(&format!(
@@ -159,6 +162,47 @@ fn addresses_must_be_ip_and_port() {
     ));
     assert_eq!(at, (14, 23));
     assert!(matches!(e, ServiceError::SameAddress { .. }), "{e:?}");
+}
+
+#[test]
+fn modbus_timeouts_are_durations_above_zero() {
+    let p = parse(&format!(
+        "{HEAD}service:\n  modbus_tcp: {{ idle_timeout: 1.5s, send_timeout: 250ms }}\n"
+    ));
+    let m = p.service.modbus_tcp.unwrap();
+    assert_eq!(
+        (m.idle_timeout, m.send_timeout),
+        (Duration::from_millis(1500), Duration::from_millis(250))
+    );
+    let (at, e, shown) = one(&format!(
+        "{HEAD}service:\n  modbus_tcp:\n    send_timeout: 0s\n"
+    ));
+    assert_eq!(at, (14, 19));
+    assert_eq!(
+        e,
+        ServiceError::ZeroTimeout {
+            key: "send_timeout"
+        }
+    );
+    assert!(
+        shown.ends_with("service.modbus_tcp.send_timeout must be longer than zero"),
+        "{shown}"
+    );
+    let (at, e, _) = one(&format!(
+        "{HEAD}service:\n  modbus_tcp: {{ idle_timeout: 0ms }}\n"
+    ));
+    assert_eq!(at, (13, 31));
+    assert_eq!(
+        e,
+        ServiceError::ZeroTimeout {
+            key: "idle_timeout"
+        }
+    );
+    // A bare number is ambiguous, as everywhere in the file.
+    let e = errors(&format!(
+        "{HEAD}service:\n  modbus_tcp: {{ idle_timeout: 60 }}\n"
+    ));
+    assert_eq!((e.len(), e[0].line), (1, 13), "{e:?}");
 }
 
 #[test]

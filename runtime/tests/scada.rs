@@ -30,6 +30,11 @@ fn free_port() -> u16 {
 /// The quick start with four memory tags for SCADA and `service` (the YAML after
 /// `service:`), in a scratch folder; returns the folder.
 fn project(name: &str, service: &str) -> PathBuf {
+    project_with(name, service, "")
+}
+
+/// [`project`] with `extra` (tag lines) after the four SCADA tags.
+fn project_with(name: &str, service: &str, extra: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-scada-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -57,6 +62,7 @@ fn project(name: &str, service: &str) -> PathBuf {
                 "  - { name: level,  type: f32, initial: 2.5 }\n",
                 "  - { name: total,  type: i32, initial: -7, scada: { access: write, address: 10 } }\n",
                 "  - { name: enable, type: bool, scada: write }\n",
+                extra,
             ]
             .concat(),
         )
@@ -290,5 +296,176 @@ fn writes_are_refused_unless_the_project_allows_them() {
     assert!(ok && values(&text) == [(0, "120".into())], "{text}");
     let out = finish(child);
     assert!(out.status.success(), "{out:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A Modbus TCP request for the most registers one reply carries, 125 from 0, transaction
+/// `t`: 12 bytes that ask for 259 (see [`wide`]).
+fn read_registers(t: u16) -> [u8; 12] {
+    let [hi, lo] = t.to_be_bytes();
+    [hi, lo, 0, 0, 0, 6, 1, 0x03, 0, 0, 0, 125]
+}
+
+/// Length of the reply to [`read_registers`].
+const REPLY: usize = 7 + 2 + 2 * 125;
+
+/// 125 more u16 tags, so registers 0..125 are all mapped (with `speed`, `level`, `total`).
+fn wide() -> String {
+    (0..125)
+        .map(|i| format!("  - {{ name: r{i}, type: u16, initial: {i} }}\n"))
+        .collect()
+}
+
+/// Connects, sends one read and waits up to `wait` for its whole reply: whether it came.
+fn served(port: u16, wait: Duration) -> bool {
+    let Ok(mut c) = TcpStream::connect(("127.0.0.1", port)) else {
+        return false;
+    };
+    let _ = c.set_read_timeout(Some(wait));
+    if c.write_all(&read_registers(7)).is_err() {
+        return false;
+    }
+    let mut reply = [0u8; REPLY];
+    c.read_exact(&mut reply).is_ok() && reply[..2] == [0, 7] && reply[7] == 0x03
+}
+
+/// Shrinks the kernel buffers of `c` (the kernel doubles the value), so a client that does
+/// not read fills them, and the server's, within a few thousand requests.
+fn small_buffers(c: &TcpStream) {
+    use std::os::fd::AsRawFd;
+    for option in [libc::SO_SNDBUF, libc::SO_RCVBUF] {
+        let size: libc::c_int = 4096;
+        // SAFETY: the fd is `c`'s open socket; the value is a c_int of the length given.
+        let rc = unsafe {
+            libc::setsockopt(
+                c.as_raw_fd(),
+                libc::SOL_SOCKET,
+                option,
+                std::ptr::from_ref(&size).cast(),
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        assert_eq!(rc, 0, "{}", std::io::Error::last_os_error());
+    }
+}
+
+/// Writes requests on `c` without ever reading, until the server stops taking them (its
+/// receive side is full because it is stuck sending replies nobody reads) or closes the
+/// connection. Returns the bytes written; fails past `cap` bytes.
+fn flood(c: &mut TcpStream, cap: usize) -> usize {
+    c.set_nonblocking(true).unwrap();
+    let frames: Vec<u8> = (0..256u16).flat_map(read_registers).collect();
+    let (mut sent, mut at) = (0usize, 0usize);
+    let mut stuck_since: Option<Instant> = None;
+    loop {
+        match c.write(&frames[at..]) {
+            Ok(n) => {
+                sent += n;
+                at = (at + n) % frames.len();
+                stuck_since = None;
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                let since = *stuck_since.get_or_insert_with(Instant::now);
+                if since.elapsed() > Duration::from_millis(300) {
+                    return sent;
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            // Reset or closed by the server: it is done with this client already.
+            Err(_) => return sent,
+        }
+        assert!(
+            sent < cap,
+            "the server took {sent} bytes and never pushed back"
+        );
+    }
+}
+
+#[test]
+fn clients_that_never_read_their_replies_lose_their_slots() {
+    let modbus = free_port();
+    let dir = project_with(
+        "flood",
+        &format!(
+            "  modbus_tcp: {{ bind: 127.0.0.1:{modbus}, idle_timeout: 1s, send_timeout: 1s }}\n"
+        ),
+        &wide(),
+    );
+    let mut child = start(&dir);
+    wait_until_serving(&mut child, modbus);
+
+    // Sixteen clients, the most the server takes, each sending requests and never reading
+    // the replies until the server stops reading them, then silent (kept open).
+    let floods: Vec<_> = (0..16)
+        .map(|_| {
+            std::thread::spawn(move || {
+                let mut c = TcpStream::connect(("127.0.0.1", modbus)).unwrap();
+                small_buffers(&c);
+                let sent = flood(&mut c, 64 << 20);
+                (c, sent)
+            })
+        })
+        .collect();
+    let clients: Vec<(TcpStream, usize)> = floods.into_iter().map(|t| t.join().unwrap()).collect();
+    assert!(clients.iter().all(|(_, sent)| *sent > 0));
+
+    // A seventeenth client is served once the server has given up on them: within the send
+    // timeout (1 s) and the idle timeout (1 s) of their last request, with a generous margin.
+    let silent = Instant::now();
+    let bound = Duration::from_secs(15);
+    while !served(modbus, Duration::from_secs(1)) {
+        assert!(
+            silent.elapsed() < bound,
+            "no client served {bound:?} after 16 clients fell silent"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    drop(clients);
+
+    // A client that sends its request byte by byte, slower than the idle timeout allows for
+    // a whole one, is disconnected without an answer; bytes that do not complete a request do
+    // not restart the clock.
+    let mut slow = TcpStream::connect(("127.0.0.1", modbus)).unwrap();
+    slow.set_read_timeout(Some(Duration::from_millis(10)))
+        .unwrap();
+    let started = Instant::now();
+    let mut closed = false;
+    for b in read_registers(9) {
+        if slow.write_all(&[b]).is_err() {
+            closed = true;
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(250));
+        let mut one = [0u8; 1];
+        match slow.read(&mut one) {
+            Ok(0) => {
+                closed = true;
+                break;
+            }
+            Ok(_) => panic!("a reply to a request dribbled over 3 s"),
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+            Err(_) => {
+                closed = true;
+                break;
+            }
+        }
+    }
+    if !closed {
+        // All twelve bytes went out (over at least 3 s): the server must not answer them.
+        slow.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let mut rest = Vec::new();
+        let _ = slow.read_to_end(&mut rest);
+        assert!(rest.is_empty(), "answered a dribbled request: {rest:?}");
+    }
+    assert!(started.elapsed() < Duration::from_secs(10));
+    // And the server still serves.
+    assert!(served(modbus, Duration::from_secs(5)));
+
+    let out = finish(child);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let _ = std::fs::remove_dir_all(dir);
 }

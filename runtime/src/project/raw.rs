@@ -42,7 +42,8 @@
 //! offload: auto                # optional; never (default) | auto | require; see `offload.rs`
 //! service:                     # optional; see `service.rs` (schema) and `scada.rs` (the map)
 //!   metrics: 127.0.0.1:9464    # Prometheus text endpoint; off when absent
-//!   modbus_tcp: { bind: 127.0.0.1:5020, unit: 1, writes: false, allow_remote_writes: false }
+//!   modbus_tcp: { bind: 127.0.0.1:5020, unit: 1, writes: false, allow_remote_writes: false,
+//!                 idle_timeout: 60s, send_timeout: 10s }   # disconnect silent / non-reading clients
 //!   web: { bind: 127.0.0.1:8080, writes: false, token_file: web.token, trend: [motor] }
 //! ```
 //!
@@ -67,7 +68,8 @@
 //!   the plant drives → a module input; a role it reads → a module output), on `port: sim`
 //!   buses only; an input is driven by one role at most.
 //! - `service`: addresses are `IP:PORT`; Modbus unit 1..=247; writes on a non-loopback bind
-//!   need `allow_remote_writes: true`. The web page's writes need a token (see `web.rs`).
+//!   need `allow_remote_writes: true`; the Modbus `idle_timeout` and `send_timeout` are
+//!   durations above zero. The web page's writes need a token (see `web.rs`).
 //!   `scada: write` only on memory tags and outputs; pinned
 //!   addresses must not overlap within their space (bits: bool tags; registers: u16 = 1,
 //!   i32/f32 = 2).

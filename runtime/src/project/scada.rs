@@ -16,10 +16,10 @@ use std::net::SocketAddr;
 use softplc_io::point::{Access, ValueType};
 
 use super::model::{Binding, TagConfig};
-use super::raw::{Int, RawProject};
+use super::raw::{DurationText, Int, RawProject};
 use super::service::{
     ModbusTcpConfig, RawModbusTcp, ScadaAccess, ScadaEntry, ScadaMap, ServiceConfig, Space,
-    DEFAULT_MODBUS_BIND, DEFAULT_UNIT,
+    DEFAULT_MODBUS_BIND, DEFAULT_MODBUS_IDLE, DEFAULT_MODBUS_SEND, DEFAULT_UNIT,
 };
 use super::span::{Locator, YPath};
 
@@ -76,6 +76,12 @@ pub enum ServiceError {
     SameAddress {
         /// The address.
         addr: SocketAddr,
+    },
+    /// A Modbus TCP timeout of zero.
+    #[error("service.modbus_tcp.{key} must be longer than zero")]
+    ZeroTimeout {
+        /// `idle_timeout` or `send_timeout`.
+        key: &'static str,
     },
     /// A unit identifier outside 1..=247.
     #[error("Modbus unit {value} is outside 1..=247")]
@@ -253,10 +259,22 @@ fn modbus_tcp(
             errors.push((path.key("writes"), ServiceError::RemoteWrites { bind }));
         }
     }
+    let mut timeout = |raw: Option<DurationText>, key: &'static str, default| match raw {
+        None => Some(default),
+        Some(DurationText(d)) if !d.is_zero() => Some(d),
+        Some(_) => {
+            errors.push((path.key(key), ServiceError::ZeroTimeout { key }));
+            None
+        }
+    };
+    let idle_timeout = timeout(m.idle_timeout, "idle_timeout", DEFAULT_MODBUS_IDLE);
+    let send_timeout = timeout(m.send_timeout, "send_timeout", DEFAULT_MODBUS_SEND);
     Some(ModbusTcpConfig {
         bind: bind?,
         unit: unit?,
         writes,
+        idle_timeout: idle_timeout?,
+        send_timeout: send_timeout?,
     })
 }
 

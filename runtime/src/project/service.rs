@@ -10,6 +10,10 @@
 //!     unit: 1                       # unit identifier it answers (and 255), 1..=247; default 1
 //!     writes: false                 # project-wide switch for writes; default false
 //!     allow_remote_writes: false    # needed for writes on a non-loopback bind
+//!     idle_timeout: 60s             # a client that completes no request for this long is
+//!                                   # disconnected (counted from its last reply); default 60s
+//!     send_timeout: 10s             # a client that does not take a reply within this is
+//!                                   # disconnected (it does not read); default 10s
 //!   web: { bind: 127.0.0.1:8080 }   # the web page; off when absent (see `web.rs`)
 //! tags:
 //!   - { name: speed, type: u16, scada: write }                        # writable, next free address
@@ -22,12 +26,13 @@
 
 use std::fmt;
 use std::net::SocketAddr;
+use std::time::Duration;
 
 use serde::de::{self, value::MapAccessDeserializer, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 use softplc_io::point::ValueType;
 
-use super::raw::Int;
+use super::raw::{DurationText, Int};
 
 /// `service:` as written.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -51,7 +56,8 @@ pub struct RawService {
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "Modbus TCP settings: a mapping with bind, unit, writes and allow_remote_writes"
+    expecting = "Modbus TCP settings: a mapping with bind, unit, writes, allow_remote_writes, \
+                 idle_timeout and send_timeout"
 )]
 pub struct RawModbusTcp {
     /// Listening address (default [`DEFAULT_MODBUS_BIND`]).
@@ -66,6 +72,13 @@ pub struct RawModbusTcp {
     /// Whether writes may come from beyond the loopback interface (default false).
     #[serde(default)]
     pub allow_remote_writes: Option<bool>,
+    /// How long a client may go without completing a request, from its last reply (default
+    /// [`DEFAULT_MODBUS_IDLE`]).
+    #[serde(default)]
+    pub idle_timeout: Option<DurationText>,
+    /// How long a reply may wait for the client to take it (default [`DEFAULT_MODBUS_SEND`]).
+    #[serde(default)]
+    pub send_timeout: Option<DurationText>,
 }
 
 /// What SCADA may do with a tag.
@@ -155,6 +168,10 @@ impl<'de> Deserialize<'de> for RawScada {
 pub const DEFAULT_MODBUS_BIND: &str = "127.0.0.1:5020";
 /// The unit identifier answered unless told.
 pub const DEFAULT_UNIT: u8 = 1;
+/// How long a Modbus TCP client may go without completing a request unless told.
+pub const DEFAULT_MODBUS_IDLE: Duration = Duration::from_secs(60);
+/// How long a Modbus TCP reply may wait for its client to take it unless told.
+pub const DEFAULT_MODBUS_SEND: Duration = Duration::from_secs(10);
 
 /// The validated `service:` section and SCADA map.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -178,6 +195,12 @@ pub struct ModbusTcpConfig {
     pub unit: u8,
     /// Whether writes are accepted at all (each tag must also be `scada: write`).
     pub writes: bool,
+    /// A client that completes no request for this long after its last reply (or after
+    /// connecting) is disconnected; a frame sent byte by byte does not restart the clock.
+    pub idle_timeout: Duration,
+    /// A client that does not take a reply within this (it sends requests and does not read
+    /// the answers) is disconnected.
+    pub send_timeout: Duration,
 }
 
 /// The two Modbus address spaces of the map.

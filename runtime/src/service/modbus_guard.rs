@@ -1,6 +1,7 @@
 //! What stands between a Modbus TCP client and tokio-modbus's frame decoder: a bound on frame
-//! size, a check of the frames its decoder cannot take, an idle timeout, and a limit on the
-//! number of clients.
+//! size, a check of the frames its decoder cannot take, an idle timeout counted from the last
+//! completed exchange, a deadline for each reply to be taken, and a limit on the number of
+//! clients.
 //!
 //! tokio-modbus 0.17 panics on an FC 15 frame whose quantity needs more bytes than its byte
 //! count gives (an index past its buffer), and multiplies an FC 16/23 quantity by two in `u16`
@@ -113,8 +114,27 @@ impl Drop for ClientSlot {
     }
 }
 
+/// How long a client may take: to finish an exchange once the previous one ended (or it
+/// connected), and to take a reply the server is sending.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Patience {
+    /// From the end of the last completed exchange (a reply sent) or the connection, to the
+    /// next request arriving whole; a client that sends nothing, or a frame byte by byte, is
+    /// disconnected once it passes.
+    pub idle: Duration,
+    /// From the first byte of a reply to its last one taken by the socket; a client that does
+    /// not read its replies is disconnected once it passes.
+    pub send: Duration,
+}
+
 /// A client stream that releases only whole, checked frames to the decoder, and fails with
-/// `TimedOut` when the client sends nothing for `idle`.
+/// `TimedOut` when the client does not complete an exchange within [`Patience::idle`] of the
+/// previous one, or does not take a reply within [`Patience::send`].
+///
+/// An exchange is complete when the reply has been flushed to the socket. The idle clock is
+/// not restarted by bytes that do not complete a frame (a client dribbling a frame byte by
+/// byte keeps its slot no longer than a silent one), and it runs only while the server waits
+/// for the client: a write the scan takes seconds to apply does not count against it.
 #[derive(Debug)]
 pub struct FrameGuard<T> {
     inner: T,
@@ -123,24 +143,51 @@ pub struct FrameGuard<T> {
     /// Whole checked frames not yet read by the decoder.
     ready: Vec<u8>,
     ready_at: usize,
-    idle: Duration,
-    sleep: Pin<Box<Sleep>>,
+    patience: Patience,
+    /// Ends the wait for the next request.
+    idle: Pin<Box<Sleep>>,
+    /// Ends the wait for the client to take the reply being sent, once one is.
+    send: Option<Pin<Box<Sleep>>>,
     _slot: ClientSlot,
 }
 
 impl<T> FrameGuard<T> {
     /// Guards `inner`, holding `slot` until dropped.
-    pub fn new(inner: T, slot: ClientSlot, idle: Duration) -> Self {
+    pub fn new(inner: T, slot: ClientSlot, patience: Patience) -> Self {
         Self {
             inner,
             pending: Vec::with_capacity(512),
             ready: Vec::with_capacity(512),
             ready_at: 0,
-            idle,
-            sleep: Box::pin(tokio::time::sleep(idle)),
+            patience,
+            idle: Box::pin(tokio::time::sleep(patience.idle)),
+            send: None,
             _slot: slot,
         }
     }
+
+    /// Fails once the reply being sent has waited longer than [`Patience::send`]; starts
+    /// that clock at the reply's first write. Registers the waker for the deadline.
+    fn poll_send_deadline(&mut self, cx: &mut Context<'_>) -> Poll<io::Error> {
+        let patience = self.patience.send;
+        let sleep = self
+            .send
+            .get_or_insert_with(|| Box::pin(tokio::time::sleep(patience)));
+        match sleep.as_mut().poll(cx) {
+            Poll::Ready(()) => Poll::Ready(io::Error::new(
+                io::ErrorKind::TimedOut,
+                "the client did not take its reply in time",
+            )),
+            Poll::Pending => Poll::Pending,
+        }
+    }
+}
+
+fn idle_error() -> io::Error {
+    io::Error::new(
+        io::ErrorKind::TimedOut,
+        "the client completed no request in time",
+    )
 }
 
 impl<T: AsyncRead + Unpin> AsyncRead for FrameGuard<T> {
@@ -157,6 +204,11 @@ impl<T: AsyncRead + Unpin> AsyncRead for FrameGuard<T> {
                 this.ready_at += n;
                 return Poll::Ready(Ok(()));
             }
+            // Judged before taking more bytes, so a request completed after the deadline is
+            // refused even when this task runs late.
+            if this.idle.deadline() <= Instant::now() {
+                return Poll::Ready(Err(idle_error()));
+            }
             let mut chunk = [0u8; 512];
             let mut rb = ReadBuf::new(&mut chunk);
             match Pin::new(&mut this.inner).poll_read(cx, &mut rb) {
@@ -166,7 +218,6 @@ impl<T: AsyncRead + Unpin> AsyncRead for FrameGuard<T> {
                         // End of stream; an incomplete frame is dropped with the connection.
                         return Poll::Ready(Ok(()));
                     }
-                    this.sleep.as_mut().reset(Instant::now() + this.idle);
                     this.pending.extend_from_slice(got);
                     let n = whole_frames(&this.pending)
                         .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))?;
@@ -176,11 +227,8 @@ impl<T: AsyncRead + Unpin> AsyncRead for FrameGuard<T> {
                 }
                 Poll::Ready(Err(e)) => return Poll::Ready(Err(e)),
                 Poll::Pending => {
-                    if this.sleep.as_mut().poll(cx).is_ready() {
-                        return Poll::Ready(Err(io::Error::new(
-                            io::ErrorKind::TimedOut,
-                            "the client was idle too long",
-                        )));
+                    if this.idle.as_mut().poll(cx).is_ready() {
+                        return Poll::Ready(Err(idle_error()));
                     }
                     return Poll::Pending;
                 }
@@ -195,11 +243,33 @@ impl<T: AsyncWrite + Unpin> AsyncWrite for FrameGuard<T> {
         cx: &mut Context<'_>,
         buf: &[u8],
     ) -> Poll<io::Result<usize>> {
-        Pin::new(&mut self.get_mut().inner).poll_write(cx, buf)
+        let this = self.get_mut();
+        match Pin::new(&mut this.inner).poll_write(cx, buf) {
+            Poll::Pending => this.poll_send_deadline(cx).map(Err),
+            done => {
+                // The reply's clock starts at its first write, blocked or not.
+                let patience = this.patience.send;
+                this.send
+                    .get_or_insert_with(|| Box::pin(tokio::time::sleep(patience)));
+                done
+            }
+        }
     }
 
     fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.get_mut().inner).poll_flush(cx)
+        let this = self.get_mut();
+        match Pin::new(&mut this.inner).poll_flush(cx) {
+            Poll::Ready(Ok(())) => {
+                // The reply is out: the exchange is complete, the wait for the next begins.
+                if this.send.take().is_some() {
+                    let next = Instant::now() + this.patience.idle;
+                    this.idle.as_mut().reset(next);
+                }
+                Poll::Ready(Ok(()))
+            }
+            Poll::Pending => this.poll_send_deadline(cx).map(Err),
+            Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
+        }
     }
 
     fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
@@ -280,6 +350,113 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A guarded server side and a std client of one loopback connection, on `rt`.
+    fn pair(
+        rt: &tokio::runtime::Runtime,
+        patience: Patience,
+    ) -> (FrameGuard<tokio::net::TcpStream>, std::net::TcpStream) {
+        rt.block_on(async {
+            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+            let client = std::net::TcpStream::connect(listener.local_addr().unwrap()).unwrap();
+            let (server, _) = listener.accept().await.unwrap();
+            let count = Arc::new(AtomicUsize::new(0));
+            let slot = ClientSlot::take(&count, 1).unwrap();
+            (FrameGuard::new(server, slot, patience), client)
+        })
+    }
+
+    fn runtime() -> tokio::runtime::Runtime {
+        tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap()
+    }
+
+    #[test]
+    fn a_reply_the_client_does_not_take_times_out() {
+        use tokio::io::AsyncWriteExt;
+        let rt = runtime();
+        let patience = Patience {
+            idle: Duration::from_secs(60),
+            send: Duration::from_millis(200),
+        };
+        let (mut guard, _client) = pair(&rt, patience);
+        // Far more than the socket buffers hold; the client never reads.
+        let reply = vec![0u8; 64 << 20];
+        let started = std::time::Instant::now();
+        let r = rt.block_on(async {
+            tokio::time::timeout(Duration::from_secs(20), async {
+                guard.write_all(&reply).await?;
+                guard.flush().await
+            })
+            .await
+        });
+        let e = r.expect("the write was never given up").unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::TimedOut, "{e}");
+        assert!(started.elapsed() < Duration::from_secs(10));
+    }
+
+    #[test]
+    fn a_frame_dribbled_slower_than_the_idle_timeout_is_refused() {
+        use tokio::io::AsyncReadExt;
+        let rt = runtime();
+        let patience = Patience {
+            idle: Duration::from_millis(300),
+            send: Duration::from_secs(60),
+        };
+        let (mut guard, mut client) = pair(&rt, patience);
+        let dribble = std::thread::spawn(move || {
+            for b in frame(&[0x03, 0, 0, 0, 1]) {
+                if std::io::Write::write_all(&mut client, &[b]).is_err() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(100));
+            }
+            client
+        });
+        let mut got = [0u8; 12];
+        let r = rt.block_on(async {
+            tokio::time::timeout(Duration::from_secs(20), guard.read(&mut got)).await
+        });
+        let e = r.expect("the read never gave up").unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::TimedOut, "{e}");
+        drop(guard);
+        let _ = dribble.join();
+    }
+
+    #[test]
+    fn each_completed_exchange_restarts_the_idle_clock() {
+        use std::io::{Read, Write};
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let rt = runtime();
+        let patience = Patience {
+            idle: Duration::from_secs(2),
+            send: Duration::from_secs(60),
+        };
+        let (mut guard, mut client) = pair(&rt, patience);
+        let request = frame(&[0x03, 0, 0, 0, 1]);
+        let client = std::thread::spawn(move || {
+            // Eight exchanges, 0.4 s apart: 3.2 s in all, more than the idle timeout, each
+            // well within it of the previous reply.
+            for _ in 0..8 {
+                std::thread::sleep(Duration::from_millis(400));
+                client.write_all(&request).unwrap();
+                let mut reply = [0u8; 2];
+                client.read_exact(&mut reply).unwrap();
+                assert_eq!(reply, [0xAB, 0xCD]);
+            }
+        });
+        rt.block_on(async {
+            for _ in 0..8 {
+                let mut got = [0u8; 12];
+                guard.read_exact(&mut got).await.unwrap();
+                guard.write_all(&[0xAB, 0xCD]).await.unwrap();
+                guard.flush().await.unwrap();
+            }
+        });
+        client.join().unwrap();
     }
 
     #[test]

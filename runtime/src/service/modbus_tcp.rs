@@ -9,8 +9,12 @@
 //! [`super::modbus_map::Exception`].
 //!
 //! The server answers its configured unit identifier and 255 (Modbus TCP's "this server");
-//! any other unit gets exception 0B. At most [`MAX_CLIENTS`] clients at once; a client silent
-//! for [`IDLE`] is disconnected.
+//! any other unit gets exception 0B. At most [`MAX_CLIENTS`] clients at once. A client that
+//! completes no request within the project's `idle_timeout` of its last reply (60 s unless
+//! told; a frame dribbled byte by byte does not count as activity) is disconnected, and so is
+//! one that does not take a reply within `send_timeout` (10 s unless told): a client that
+//! sends requests without reading the answers fills the socket's buffers and would otherwise
+//! hold its slot for good. See [`super::modbus_guard`].
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -25,15 +29,13 @@ use tokio_modbus::server::tcp::Server;
 use tokio_modbus::{ExceptionCode, Request as MbRequest, Response as MbResponse, SlaveRequest};
 
 use super::control::{Envelope, Request, TagValue};
-use super::modbus_guard::{ClientSlot, FrameGuard};
+use super::modbus_guard::{ClientSlot, FrameGuard, Patience};
 use super::modbus_map::{Exception, ModbusMap};
 use super::snapshot::{ServiceSnapshot, SnapshotCell};
 use crate::project::ModbusTcpConfig;
 
 /// Most clients connected at once; more are refused (closed at once).
 pub const MAX_CLIENTS: usize = 16;
-/// A client that sends nothing for this long is disconnected.
-pub const IDLE: Duration = Duration::from_secs(60);
 /// The unit identifier Modbus TCP uses for "the server itself".
 pub const UNIT_THIS_SERVER: u8 = 255;
 /// How long a write waits for the scan to apply and publish it.
@@ -276,6 +278,39 @@ impl ModbusTcpServer {
     }
 }
 
+/// Kernel buffer of each direction of a client connection, in bytes: room for dozens of the
+/// largest frames (260 bytes), where the kernel's autotuning would otherwise grow to megabytes
+/// for a client that floods requests or does not read its replies (so such a client is
+/// noticed, by the send timeout, after a few hundred replies rather than a few hundred
+/// thousand).
+const SOCKET_BUFFER: libc::c_int = 16 * 1024;
+
+/// Caps the kernel buffers of `stream` at [`SOCKET_BUFFER`]; best effort.
+fn bound_buffers(stream: &tokio::net::TcpStream) {
+    use std::os::fd::AsRawFd;
+    let fd = stream.as_raw_fd();
+    for option in [libc::SO_SNDBUF, libc::SO_RCVBUF] {
+        let size = SOCKET_BUFFER;
+        // SAFETY: `fd` is the open socket `stream` owns for the duration of the call, and the
+        // option value is a valid `c_int` of the length given.
+        let rc = unsafe {
+            libc::setsockopt(
+                fd,
+                libc::SOL_SOCKET,
+                option,
+                std::ptr::from_ref(&size).cast(),
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        if rc != 0 {
+            tracing::debug!(
+                "Modbus TCP: cannot cap a socket buffer: {}",
+                std::io::Error::last_os_error()
+            );
+        }
+    }
+}
+
 async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
     let listener = match tokio::net::TcpListener::from_std(listener) {
         Ok(l) => l,
@@ -286,6 +321,10 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
     };
     let server = Server::new(listener);
     let clients = Arc::new(AtomicUsize::new(0));
+    let patience = Patience {
+        idle: shared.cfg.idle_timeout,
+        send: shared.cfg.send_timeout,
+    };
     let service = Scada(shared);
     let on_connected = |stream: tokio::net::TcpStream, peer: SocketAddr| {
         let service = service.clone();
@@ -297,8 +336,9 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
             };
             // Small request/response frames: do not wait to coalesce them.
             let _ = stream.set_nodelay(true);
+            bound_buffers(&stream);
             tracing::debug!("Modbus TCP: {peer} connected");
-            Ok(Some((service, FrameGuard::new(stream, slot, IDLE))))
+            Ok(Some((service, FrameGuard::new(stream, slot, patience))))
         }
     };
     let on_process_error = |e: std::io::Error| tracing::debug!("Modbus TCP client: {e}");
@@ -323,6 +363,8 @@ mod tests {
             bind: "127.0.0.1:0".parse().unwrap(),
             unit: 1,
             writes,
+            idle_timeout: Duration::from_secs(60),
+            send_timeout: Duration::from_secs(10),
         };
         let entry = |tag, ty, address, writable| {
             let (space, width) = Space::of(ty);
