@@ -469,3 +469,44 @@ fn clients_that_never_read_their_replies_lose_their_slots() {
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn slow_clients_do_not_hold_up_a_scrape() {
+    let metrics = free_port();
+    let dir = project("slowscrape", &format!("  metrics: 127.0.0.1:{metrics}\n"));
+    let mut child = start(&dir);
+    let end = Instant::now() + Duration::from_secs(15);
+    loop {
+        if TcpStream::connect(("127.0.0.1", metrics)).is_ok() {
+            break;
+        }
+        assert!(child.try_wait().unwrap().is_none(), "softplc run stopped");
+        assert!(Instant::now() < end, "the metrics endpoint never listened");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // Eight clients that start a request and never finish it, and stay connected.
+    let mut slow: Vec<TcpStream> = (0..8)
+        .map(|_| {
+            let mut c = TcpStream::connect(("127.0.0.1", metrics)).unwrap();
+            c.write_all(b"GET /metr").unwrap();
+            c
+        })
+        .collect();
+    // A scrape still answers, well before their request deadline (5 s) frees anything.
+    let t = Instant::now();
+    let m = http_get(metrics, "/metrics");
+    let took = t.elapsed();
+    assert!(m.starts_with("HTTP/1.1 200 OK\r\n"), "{m}");
+    assert!(m.contains("\nsoftplc_scans_total "), "{m}");
+    assert!(took < Duration::from_secs(3), "a scrape took {took:?}");
+    // They were being served all along: each gets its 408 at its own deadline.
+    for c in &mut slow {
+        c.set_read_timeout(Some(Duration::from_secs(15))).unwrap();
+        let mut out = String::new();
+        let _ = c.read_to_string(&mut out);
+        assert!(out.starts_with("HTTP/1.1 408"), "{out}");
+    }
+    let out = finish(child);
+    assert!(out.status.success(), "{out:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -1,6 +1,7 @@
-//! The Prometheus text endpoint: `GET /metrics` on a tiny HTTP/1.1 server (std only, one
-//! thread, one client at a time, each with a 2 s deadline and an 8 KiB request head), rendering
-//! the snapshot the scan publishes ([`super::snapshot`]). It never touches the scan.
+//! The Prometheus text endpoint: `GET /metrics` on the small std HTTP server the web page
+//! uses too ([`super::web::http`]: a thread per connection, at most [`LIMITS`]`.clients` at
+//! once, 5 s to send a request, so slow or silent clients never delay a scrape), rendering the
+//! snapshot the scan publishes ([`super::snapshot`]). It never touches the scan.
 //!
 //! Metrics (text exposition format 0.0.4):
 //!
@@ -21,19 +22,22 @@
 //! Statistics are refreshed every 250 ms of scan time, tag values every cycle.
 
 use std::fmt::Write as _;
-use std::io::{Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::time::{Duration, Instant};
+use std::io::Write;
+use std::net::{SocketAddr, TcpListener};
+use std::time::Duration;
 
 use softplc_io::line::bus::Counters;
 use softplc_io::point::{Quality, Value};
 
 use super::snapshot::{Phase, ServiceSnapshot, SnapshotCell};
+use super::web::http::{self, Limits, Method, Request, Response, ServerConfig};
 
-/// Longest request head (request line and headers) read.
-const MAX_HEAD: usize = 8 * 1024;
-/// How long one client may take, from accept to the end of the response.
-const CLIENT_DEADLINE: Duration = Duration::from_secs(2);
+/// The endpoint's bounds: as the web page's.
+pub const LIMITS: Limits = Limits {
+    clients: 16,
+    request: Duration::from_secs(5),
+    write: Duration::from_secs(5),
+};
 
 /// The names the metrics carry; fixed for the life of the process.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -48,58 +52,28 @@ pub struct MetricsInfo {
     pub modules: Vec<(String, String)>,
 }
 
-/// What a request asks for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Route {
-    /// `GET /metrics`.
-    Metrics,
-    /// `GET /`.
-    Index,
+/// How this endpoint reads a request: the shared parser, [`http::parse`]. Kept under this name
+/// for the fuzz test that already calls it.
+pub fn parse_head(bytes: &[u8]) -> Result<Option<Request>, http::HttpError> {
+    http::parse(bytes)
 }
 
-/// A request this server does not serve, as an HTTP status.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum HttpError {
-    /// 400: not an HTTP/1.x request line.
-    #[error("400 Bad Request")]
-    BadRequest,
-    /// 404: another path.
-    #[error("404 Not Found")]
-    NotFound,
-    /// 405: a method other than GET or HEAD.
-    #[error("405 Method Not Allowed")]
-    MethodNotAllowed,
-    /// 431: the head is longer than 8 KiB.
-    #[error("431 Request Header Fields Too Large")]
-    TooLarge,
-}
-
-/// A parsed request: the route and whether the body is wanted (GET) or not (HEAD).
-pub fn parse_head(head: &[u8]) -> Result<(Route, bool), HttpError> {
-    let line_end = head
-        .windows(2)
-        .position(|w| w == b"\r\n")
-        .unwrap_or(head.len());
-    let line = std::str::from_utf8(&head[..line_end]).map_err(|_| HttpError::BadRequest)?;
-    let mut parts = line.split(' ');
-    let (Some(method), Some(target), Some(version), None) =
-        (parts.next(), parts.next(), parts.next(), parts.next())
-    else {
-        return Err(HttpError::BadRequest);
-    };
-    if !version.starts_with("HTTP/1.") || !target.starts_with('/') {
-        return Err(HttpError::BadRequest);
-    }
-    let body = match method {
-        "GET" => true,
-        "HEAD" => false,
-        _ => return Err(HttpError::MethodNotAllowed),
-    };
-    let path = target.split('?').next().unwrap_or("");
-    match path {
-        "/metrics" => Ok((Route::Metrics, body)),
-        "/" => Ok((Route::Index, body)),
-        _ => Err(HttpError::NotFound),
+/// The answer to `req`: the exposition at `/metrics`, a pointer to it at `/`.
+pub fn respond(info: &MetricsInfo, snapshot: &SnapshotCell, req: &Request) -> Response {
+    let readable = matches!(req.method, Method::Get | Method::Head);
+    match req.path.as_str() {
+        "/metrics" if readable => Response::new(
+            200,
+            "text/plain; version=0.0.4; charset=utf-8",
+            render(info, &snapshot.get()),
+        ),
+        "/" if readable => Response::new(
+            200,
+            "text/plain; charset=utf-8",
+            format!("softplc {}: metrics at /metrics\n", info.project),
+        ),
+        "/metrics" | "/" => Response::error(405, "GET or HEAD").with("Allow", "GET, HEAD"),
+        _ => Response::error(404, "no such page; the metrics are at /metrics"),
     }
 }
 
@@ -295,7 +269,7 @@ pub struct MetricsServer {
 }
 
 impl MetricsServer {
-    /// Binds `addr` and serves on a thread.
+    /// Binds `addr` and serves on threads.
     pub fn start(
         addr: SocketAddr,
         info: MetricsInfo,
@@ -303,21 +277,15 @@ impl MetricsServer {
     ) -> std::io::Result<Self> {
         let listener = TcpListener::bind(addr)?;
         let addr = listener.local_addr()?;
-        std::thread::Builder::new()
-            .name("metrics".into())
-            .spawn(move || {
-                for stream in listener.incoming() {
-                    match stream {
-                        Ok(s) => {
-                            if let Err(e) = serve_client(s, &info, &snapshot) {
-                                tracing::debug!("metrics client: {e}");
-                            }
-                        }
-                        // Out of file descriptors and the like: do not spin.
-                        Err(_) => std::thread::sleep(Duration::from_millis(10)),
-                    }
-                }
-            })?;
+        let config = ServerConfig {
+            name: "metrics",
+            limits: LIMITS,
+            allow: "GET, HEAD",
+        };
+        http::spawn(listener, config, move |req, stream| {
+            let response = respond(&info, &snapshot, req);
+            stream.write_all(&response.to_bytes(req.method != Method::Head))
+        })?;
         Ok(Self { addr })
     }
 
@@ -327,118 +295,10 @@ impl MetricsServer {
     }
 }
 
-/// Reads the request head within the client's deadline: `Ok(None)` when the client closed
-/// first.
-fn read_head(stream: &mut TcpStream, deadline: Instant) -> std::io::Result<Option<Vec<u8>>> {
-    let mut head = Vec::with_capacity(512);
-    let mut chunk = [0u8; 1024];
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        if left.is_zero() {
-            return Err(std::io::ErrorKind::TimedOut.into());
-        }
-        stream.set_read_timeout(Some(left))?;
-        let n = stream.read(&mut chunk)?;
-        if n == 0 {
-            return Ok(None);
-        }
-        head.extend_from_slice(&chunk[..n]);
-        if head.windows(4).any(|w| w == b"\r\n\r\n") || head.len() >= MAX_HEAD {
-            return Ok(Some(head));
-        }
-    }
-}
-
-fn serve_client(
-    mut stream: TcpStream,
-    info: &MetricsInfo,
-    snapshot: &SnapshotCell,
-) -> std::io::Result<()> {
-    let deadline = Instant::now() + CLIENT_DEADLINE;
-    stream.set_write_timeout(Some(CLIENT_DEADLINE))?;
-    let Some(head) = read_head(&mut stream, deadline)? else {
-        return Ok(());
-    };
-    let complete = head.windows(4).any(|w| w == b"\r\n\r\n");
-    let parsed = if complete {
-        parse_head(&head)
-    } else {
-        Err(HttpError::TooLarge)
-    };
-    let (status, content_type, body, with_body) = match parsed {
-        Ok((Route::Metrics, with_body)) => (
-            "200 OK".to_string(),
-            "text/plain; version=0.0.4; charset=utf-8",
-            render(info, &snapshot.get()),
-            with_body,
-        ),
-        Ok((Route::Index, with_body)) => (
-            "200 OK".to_string(),
-            "text/plain; charset=utf-8",
-            format!("softplc {}: metrics at /metrics\n", info.project),
-            with_body,
-        ),
-        Err(e) => (
-            e.to_string(),
-            "text/plain; charset=utf-8",
-            format!("{e}\n"),
-            true,
-        ),
-    };
-    let allow = if matches!(parsed, Err(HttpError::MethodNotAllowed)) {
-        "Allow: GET, HEAD\r\n"
-    } else {
-        ""
-    };
-    let mut response = format!(
-        "HTTP/1.1 {status}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\n{allow}Connection: close\r\n\r\n",
-        body.len()
-    );
-    if with_body {
-        response.push_str(&body);
-    }
-    stream.write_all(response.as_bytes())?;
-    stream.flush()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::service::snapshot::{ModuleSnapshot, PhaseSummary};
-
-    #[test]
-    fn request_lines() {
-        assert_eq!(
-            parse_head(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n"),
-            Ok((Route::Metrics, true))
-        );
-        assert_eq!(
-            parse_head(b"HEAD /metrics?x=1 HTTP/1.0\r\n\r\n"),
-            Ok((Route::Metrics, false))
-        );
-        assert_eq!(
-            parse_head(b"GET / HTTP/1.1\r\n\r\n"),
-            Ok((Route::Index, true))
-        );
-        assert_eq!(
-            parse_head(b"POST /metrics HTTP/1.1\r\n\r\n"),
-            Err(HttpError::MethodNotAllowed)
-        );
-        assert_eq!(
-            parse_head(b"GET /etc/passwd HTTP/1.1\r\n\r\n"),
-            Err(HttpError::NotFound)
-        );
-        for bad in [
-            &b""[..],
-            b"\xff\xfe",
-            b"GET /metrics\r\n\r\n",
-            b"GET  /metrics HTTP/1.1\r\n",
-            b"GET metrics HTTP/1.1\r\n",
-            b"GET /metrics SPDY/3\r\n",
-        ] {
-            assert_eq!(parse_head(bad), Err(HttpError::BadRequest), "{bad:?}");
-        }
-    }
 
     fn sample() -> (MetricsInfo, ServiceSnapshot) {
         let info = MetricsInfo {
@@ -537,11 +397,18 @@ mod tests {
 
     #[test]
     fn serves_over_http_and_refuses_the_rest() {
+        use std::io::Read;
+        use std::net::TcpStream;
         let (info, _) = sample();
         let cell = SnapshotCell::new();
         let server = MetricsServer::start("127.0.0.1:0".parse().unwrap(), info, cell).unwrap();
+        let connect = || {
+            let c = TcpStream::connect(server.local_addr()).unwrap();
+            c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+            c
+        };
         let get = |req: &[u8]| {
-            let mut c = TcpStream::connect(server.local_addr()).unwrap();
+            let mut c = connect();
             c.write_all(req).unwrap();
             let mut out = String::new();
             let _ = c.read_to_string(&mut out);
@@ -549,16 +416,38 @@ mod tests {
         };
         let ok = get(b"GET /metrics HTTP/1.1\r\nHost: localhost\r\n\r\n");
         assert!(ok.starts_with("HTTP/1.1 200 OK\r\n"), "{ok}");
+        assert!(
+            ok.contains("Content-Type: text/plain; version=0.0.4; charset=utf-8\r\n"),
+            "{ok}"
+        );
         assert!(ok.contains("softplc_scans_total 0"), "{ok}");
-        assert!(get(b"DELETE / HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 405"));
+        let head = get(b"HEAD /metrics?x=1 HTTP/1.0\r\n\r\n");
+        assert!(head.starts_with("HTTP/1.1 200 OK\r\n"), "{head}");
+        assert!(head.ends_with("\r\n\r\n"), "{head}");
+        assert!(get(b"GET / HTTP/1.1\r\n\r\n").contains("metrics at /metrics"));
+        let post = get(b"POST /metrics HTTP/1.1\r\n\r\n");
+        assert!(post.starts_with("HTTP/1.1 405"), "{post}");
+        assert!(post.contains("\r\nAllow: GET, HEAD\r\n"), "{post}");
+        let delete = get(b"DELETE / HTTP/1.1\r\n\r\n");
+        assert!(delete.starts_with("HTTP/1.1 405"), "{delete}");
+        assert!(delete.contains("\r\nAllow: GET, HEAD\r\n"), "{delete}");
         assert!(get(b"GET /x HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 404"));
-        assert!(get(&vec![b'a'; MAX_HEAD]).starts_with("HTTP/1.1 431"));
-        // A client that says nothing does not hold the server past its deadline.
-        let idle = TcpStream::connect(server.local_addr()).unwrap();
-        let t = Instant::now();
+        assert!(get(b"GET metrics HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 400"));
+        assert!(get(&vec![b'a'; http::MAX_HEAD + 1]).starts_with("HTTP/1.1 431"));
+        // Clients that say nothing, or dribble, do not hold up a scrape: each has its own
+        // connection and thread, and is answered 408 at its own deadline.
+        let mut idle: Vec<TcpStream> = (0..8).map(|_| connect()).collect();
+        for c in &mut idle {
+            c.write_all(b"GET /met").unwrap();
+        }
+        let t = std::time::Instant::now();
         let ok = get(b"GET /metrics HTTP/1.0\r\n\r\n");
         assert!(ok.starts_with("HTTP/1.1 200"), "{ok}");
-        assert!(t.elapsed() < CLIENT_DEADLINE + Duration::from_secs(1));
-        drop(idle);
+        assert!(t.elapsed() < LIMITS.request / 2, "{:?}", t.elapsed());
+        for mut c in idle {
+            let mut out = String::new();
+            let _ = c.read_to_string(&mut out);
+            assert!(out.starts_with("HTTP/1.1 408"), "{out}");
+        }
     }
 }

@@ -1,11 +1,21 @@
-//! HTTP/1.1 as far as the page needs it: one request per connection, a bounded head and body,
-//! `Connection: close` on every response. Parsing is a total function over bytes
-//! ([`parse`]): it never panics, never allocates beyond [`MAX_HEAD`] + [`MAX_BODY`], and refuses
-//! what it does not understand (chunked bodies, folded headers, bare CR or LF, two different
-//! `Content-Length`s) instead of guessing, so a proxy in front cannot read a request otherwise
-//! than this server does.
+//! HTTP/1.1 as far as the web page and the metrics endpoint need it: one request per
+//! connection, a bounded head and body, `Connection: close` on every response, and the server
+//! that runs them ([`spawn`]): a thread per connection, at most [`Limits::clients`] at once (a
+//! 503 beyond), [`Limits::request`] for a client to send its request (a 408 after), a timeout
+//! on every write to it. A slow or silent client holds one connection and its thread, never
+//! the server.
+//!
+//! Parsing is a total function over bytes ([`parse`]): it never panics, never allocates beyond
+//! [`MAX_HEAD`] + [`MAX_BODY`], and refuses what it does not understand (chunked bodies, folded
+//! headers, bare CR or LF, two different `Content-Length`s) instead of guessing, so a proxy in
+//! front cannot read a request otherwise than this server does.
 
 use std::fmt::Write as _;
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 /// Longest request head (request line and headers), in bytes.
 pub const MAX_HEAD: usize = 8 * 1024;
@@ -308,6 +318,196 @@ pub fn reason(status: u16) -> &'static str {
         503 => "Service Unavailable",
         504 => "Gateway Timeout",
         _ => "Status",
+    }
+}
+
+/// The bounds of a server.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Connections served at once; more are answered 503 at once.
+    pub clients: usize,
+    /// How long a client may take to send its whole request, from its connection.
+    pub request: Duration,
+    /// How long one write to a client may block.
+    pub write: Duration,
+}
+
+/// A server's name (its threads' and its log lines'), bounds and the methods it serves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServerConfig {
+    /// Thread name of the accepting thread; client threads get `-client` appended.
+    pub name: &'static str,
+    /// Its bounds.
+    pub limits: Limits,
+    /// The `Allow` header of a 405 for a method the parser refuses (not GET, HEAD, POST).
+    pub allow: &'static str,
+}
+
+/// Serves `listener` on a thread of its own: every connection gets a thread, its request is
+/// read and parsed within the limits (errors answered here: 400, 405, 408, 413, 414, 431,
+/// 501, 503), and `handler` answers the request on the connection (a whole [`Response`], or a
+/// stream); the connection is then closed.
+pub fn spawn<H>(listener: TcpListener, config: ServerConfig, handler: H) -> std::io::Result<()>
+where
+    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()> + Send + Sync + 'static,
+{
+    let shared = Arc::new(Served {
+        config,
+        handler,
+        clients: AtomicUsize::new(0),
+    });
+    std::thread::Builder::new()
+        .name(config.name.into())
+        .spawn(move || accept(&listener, &shared))?;
+    Ok(())
+}
+
+/// What every connection thread of one server shares.
+struct Served<H> {
+    config: ServerConfig,
+    handler: H,
+    clients: AtomicUsize,
+}
+
+/// Gives a client's slot back when its thread ends, however it ends.
+struct Slot<H>(Arc<Served<H>>);
+
+impl<H> Drop for Slot<H> {
+    fn drop(&mut self) {
+        self.0.clients.fetch_sub(1, Ordering::AcqRel);
+    }
+}
+
+fn accept<H>(listener: &TcpListener, shared: &Arc<Served<H>>)
+where
+    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()> + Send + Sync + 'static,
+{
+    let name = shared.config.name;
+    for stream in listener.incoming() {
+        let Ok(stream) = stream else {
+            // Out of file descriptors and the like: do not spin.
+            std::thread::sleep(Duration::from_millis(10));
+            continue;
+        };
+        if shared.clients.fetch_add(1, Ordering::AcqRel) >= shared.config.limits.clients {
+            shared.clients.fetch_sub(1, Ordering::AcqRel);
+            busy(stream);
+            continue;
+        }
+        let slot = Slot(shared.clone());
+        let spawned = std::thread::Builder::new()
+            .name(format!("{name}-client"))
+            .spawn(move || {
+                let slot = slot;
+                if let Err(e) = serve(stream, &slot.0) {
+                    tracing::debug!("{name} client: {e}");
+                }
+            });
+        // On failure the closure, and with it the slot, is dropped: the count is right.
+        if let Err(e) = spawned {
+            tracing::debug!("{name}: cannot start a client thread: {e}");
+        }
+    }
+}
+
+/// Answers 503 on the accepting thread, without ever waiting there.
+fn busy(mut stream: TcpStream) {
+    let _ = stream.set_write_timeout(Some(Duration::from_millis(200)));
+    let busy = Response::error(503, "too many connections; try again");
+    let _ = stream.write_all(&busy.with("Retry-After", "1").to_bytes(true));
+    // Drop what already arrived (see `close`) without waiting.
+    let _ = stream.set_nonblocking(true);
+    let mut sink = [0u8; 4096];
+    for _ in 0..16 {
+        if !matches!(stream.read(&mut sink), Ok(n) if n > 0) {
+            break;
+        }
+    }
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+}
+
+/// Reads one request within `within`: `Ok(None)` when the client closed first.
+fn read_request(
+    stream: &mut TcpStream,
+    within: Duration,
+) -> std::io::Result<Option<Result<Request, HttpError>>> {
+    let deadline = Instant::now() + within;
+    let mut buf = Vec::with_capacity(1024);
+    let mut chunk = [0u8; 2048];
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(std::io::ErrorKind::TimedOut.into());
+        }
+        stream.set_read_timeout(Some(left))?;
+        let n = stream.read(&mut chunk)?;
+        if n == 0 {
+            return Ok(None);
+        }
+        buf.extend_from_slice(chunk.get(..n).unwrap_or_default());
+        match parse(&buf) {
+            Ok(None) if buf.len() > MAX_HEAD + MAX_BODY => {
+                return Ok(Some(Err(HttpError::BodyTooLarge)))
+            }
+            Ok(None) => {}
+            Ok(Some(req)) => return Ok(Some(Ok(req))),
+            Err(e) => return Ok(Some(Err(e))),
+        }
+    }
+}
+
+/// Ends a connection after its response: closing a socket with unread input resets it, and a
+/// reset can overtake the response (a refused upload would see no 413). So the sending side is
+/// shut first and what the client still sends is read and dropped, briefly and boundedly.
+fn close(mut stream: TcpStream) {
+    let _ = stream.flush();
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+    let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
+    let mut sink = [0u8; 4096];
+    for _ in 0..16 {
+        match stream.read(&mut sink) {
+            Ok(n) if n > 0 => {}
+            _ => break,
+        }
+    }
+}
+
+fn serve<H>(mut stream: TcpStream, shared: &Served<H>) -> std::io::Result<()>
+where
+    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()>,
+{
+    let result = answer(&mut stream, shared);
+    close(stream);
+    result
+}
+
+fn answer<H>(stream: &mut TcpStream, shared: &Served<H>) -> std::io::Result<()>
+where
+    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()>,
+{
+    let limits = shared.config.limits;
+    stream.set_write_timeout(Some(limits.write))?;
+    match read_request(stream, limits.request) {
+        Ok(Some(Ok(req))) => (shared.handler)(&req, stream),
+        Ok(Some(Err(e))) => {
+            let mut r = Response::error(e.status(), &e.to_string());
+            if e == HttpError::MethodNotAllowed {
+                r = r.with("Allow", shared.config.allow);
+            }
+            stream.write_all(&r.to_bytes(true))
+        }
+        Ok(None) => Ok(()),
+        // A read timeout is WouldBlock on Unix, TimedOut elsewhere.
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+            ) =>
+        {
+            let r = Response::error(408, "the request took too long");
+            stream.write_all(&r.to_bytes(true))
+        }
+        Err(e) => Err(e),
     }
 }
 
