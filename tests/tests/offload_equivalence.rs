@@ -58,8 +58,12 @@ impl Rng {
 }
 
 /// Plays input schedules at module terminals and records output terminals, every 1 ms step.
+/// Times are counted from `origin`: the first scan's start, so that the central and the
+/// pushed-down builds, whose start-ups take different times on the line (the pushed-down one
+/// writes its tables), scan on the same grid.
 #[derive(Debug)]
 struct Recorder {
+    origin: Duration,
     /// Per input role: level changes, in time order.
     schedule: Vec<Vec<Edge>>,
     next: Vec<usize>,
@@ -70,6 +74,9 @@ struct Recorder {
 
 impl Plant for Recorder {
     fn step(&mut self, t: Duration, io: &mut dyn PlantIo) {
+        let Some(t) = t.checked_sub(self.origin) else {
+            return;
+        };
         for (i, sched) in self.schedule.iter().enumerate() {
             while let Some(&(at, level)) = sched.get(self.next[i]) {
                 if at > t {
@@ -211,6 +218,7 @@ fn run(case: &Case, project: Project, inputs: &[Vec<Edge>], run_for: Duration) -
             .collect();
         world.set_plant(
             Box::new(Recorder {
+                origin: plc.clock().now(),
                 schedule: inputs.to_vec(),
                 next: vec![0; inputs.len()],
                 outputs: case.outputs.len(),
@@ -881,4 +889,444 @@ fn pushed_outputs_belong_to_their_module() {
     std::fs::write(case.dir().join("program.expr"), "y = a & seen\nseen = y\n").unwrap();
     let refused = plc.reload_program().unwrap_err();
     assert!(refused.contains("moves rungs"), "{refused}");
+}
+
+// --- Beyond steady state: prior module state, kill -9 and restart, bus loss, forcing, stop,
+// inputs shorter than a scan ---
+
+/// Simulated modules that outlive a PLC, as a real machine does: a PLC killed with `kill -9`
+/// and the next one started on the same modules see the same module state (outputs, tables,
+/// FRAM, the module's clock).
+///
+/// `Plc::build` makes its simulated world from the project's model specs, so the test gives
+/// the project a copy of each spec whose simulator constructor hands out a shared handle to
+/// this thread's module at that address (each test runs on its own thread).
+mod machine {
+    use std::cell::RefCell;
+    use std::sync::{Arc, Mutex};
+    use std::time::Duration;
+
+    use softplc::project::Project;
+    use softplc_io::devices::{self, ModelSpec, Protocol};
+    use softplc_io::point::{PointSpec, Value};
+    use softplc_io::sim::{SimDevice, SimError, SimReply};
+
+    type Module = Arc<Mutex<Box<dyn SimDevice>>>;
+
+    thread_local! {
+        static MODULES: RefCell<Vec<(&'static str, u8, Module)>> = const { RefCell::new(Vec::new()) };
+    }
+
+    /// A handle on a module of the machine.
+    #[derive(Debug, Clone)]
+    pub struct Shared(Module);
+
+    impl Shared {
+        fn lock(&self) -> std::sync::MutexGuard<'_, Box<dyn SimDevice>> {
+            self.0.lock().unwrap_or_else(|e| e.into_inner())
+        }
+    }
+
+    impl SimDevice for Shared {
+        fn model(&self) -> &'static str {
+            self.lock().model()
+        }
+        fn address(&self) -> u8 {
+            self.lock().address()
+        }
+        fn advance_to(&mut self, t: Duration) {
+            self.lock().advance_to(t);
+        }
+        fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
+            self.lock().on_frame(frame, t)
+        }
+        fn points(&self) -> &'static [PointSpec] {
+            self.lock().points()
+        }
+        fn get(&self, point: &str) -> Result<Value, SimError> {
+            self.lock().get(point)
+        }
+        fn set(&mut self, point: &str, value: Value) -> Result<(), SimError> {
+            self.lock().set(point, value)
+        }
+        fn command(&mut self, words: &[&str]) -> Result<String, SimError> {
+            self.lock().command(words)
+        }
+        fn yields_to_earlier_reply(&self, frame: &[u8]) -> bool {
+            self.lock().yields_to_earlier_reply(frame)
+        }
+        fn set_protocol(&mut self, protocol: Protocol) -> Result<(), SimError> {
+            self.lock().set_protocol(protocol)
+        }
+        fn command_help(&self) -> &'static str {
+            self.lock().command_help()
+        }
+    }
+
+    /// The machine's module of `model` at `address` (made on first use, powered on).
+    pub fn module(model: &'static str, address: u8) -> Shared {
+        MODULES.with(|m| {
+            let mut m = m.borrow_mut();
+            if let Some((_, _, d)) = m.iter().find(|(n, a, _)| *n == model && *a == address) {
+                return Shared(d.clone());
+            }
+            let spec = devices::model(model).expect("a model of the catalog");
+            let d: Module = Arc::new(Mutex::new((spec.simulator)(address)));
+            m.push((model, address, d.clone()));
+            Shared(d)
+        })
+    }
+
+    /// A new machine: the next PLC gets modules fresh from the factory.
+    pub fn replace() {
+        MODULES.with(|m| m.borrow_mut().clear());
+    }
+
+    fn minimod(address: u8) -> Box<dyn SimDevice> {
+        Box::new(module("minimod", address))
+    }
+
+    fn resi(address: u8) -> Box<dyn SimDevice> {
+        Box::new(module("resi-16di8ro", address))
+    }
+
+    /// `project` on this thread's machine.
+    pub fn on_machine(mut project: Project) -> Project {
+        for m in &mut project.modules {
+            let simulator: fn(u8) -> Box<dyn SimDevice> = match m.model.name {
+                "minimod" => minimod,
+                "resi-16di8ro" => resi,
+                other => panic!("no machine module for {other}"),
+            };
+            let spec = m.model;
+            let shared: &'static ModelSpec = Box::leak(Box::new(ModelSpec {
+                simulator,
+                addresses: spec.addresses.clone(),
+                ..*spec
+            }));
+            m.model = shared;
+        }
+        project
+    }
+}
+
+use machine::{module, on_machine};
+use softplc::logic::ScanContext;
+use softplc_io::point::Value;
+use softplc_io::sim::SimDevice;
+
+/// A PLC on this thread's machine, scanned cycle by cycle: dropping it is a `kill -9` (no
+/// safe state, the tables stay armed); [`Session::stop`] is the clean stop. Input schedules and
+/// the recorded output traces count from the session's first scan.
+struct Session {
+    plc: Plc,
+    origin: Duration,
+    cycle: u64,
+    trace: Arc<Mutex<Vec<Vec<Edge>>>>,
+}
+
+impl Session {
+    fn start(
+        case: &Case,
+        project: Project,
+        clock: &Arc<VirtualClock>,
+        inputs: &[Vec<Edge>],
+    ) -> Self {
+        let dyn_clock: Arc<dyn Clock> = clock.clone();
+        let plc = Plc::build(on_machine(project), dyn_clock)
+            .unwrap_or_else(|e| panic!("{}: builds: {e}", case.name));
+        let origin = clock.now();
+        let trace = Arc::new(Mutex::new(vec![Vec::new(); case.outputs.len()]));
+        {
+            let world = plc.world().expect("a simulated line");
+            let mut world = world.lock().unwrap();
+            let wires = case
+                .inputs
+                .iter()
+                .chain(case.outputs)
+                .map(|t| {
+                    let (m, point) = t.split_once('.').unwrap();
+                    (world.find(m).unwrap(), point.to_string())
+                })
+                .collect();
+            let mut schedule = inputs.to_vec();
+            schedule.resize(case.inputs.len(), Vec::new());
+            world.set_plant(
+                Box::new(Recorder {
+                    origin,
+                    next: vec![0; schedule.len()],
+                    schedule,
+                    outputs: case.outputs.len(),
+                    last: vec![false; case.outputs.len()],
+                    trace: trace.clone(),
+                }),
+                wires,
+            );
+        }
+        Self {
+            plc,
+            origin,
+            cycle: 0,
+            trace,
+        }
+    }
+
+    /// Scans until `t` after the first scan.
+    fn run_until(&mut self, t: Duration) {
+        let clock = self.plc.clock().clone();
+        let period = self.plc.project().scan.period;
+        while clock.now() < self.origin + t {
+            let now = clock.now();
+            self.plc.read_inputs();
+            let ctx = ScanContext {
+                now,
+                delta: period,
+                cycle: self.cycle,
+            };
+            self.plc.run_logic(&ctx).unwrap();
+            self.plc.write_outputs();
+            self.cycle += 1;
+            clock.sleep_until(now + period);
+        }
+        self.world(|_| ());
+    }
+
+    /// The clean stop: the safe state (tables cleared unless kept), the lines stopped.
+    fn stop(mut self) {
+        self.plc.shutdown();
+    }
+
+    /// Runs `f` on the world, brought up to the clock's time.
+    fn world<R>(&self, f: impl FnOnce(&mut softplc_io::sim::line::SimWorld) -> R) -> R {
+        let world = self.plc.world().expect("a simulated line").clone();
+        let mut w = world.lock().unwrap();
+        let now = self.plc.clock().now();
+        w.advance_to(now);
+        f(&mut w)
+    }
+
+    fn trace(&self) -> Vec<Vec<Edge>> {
+        self.trace.lock().unwrap().clone()
+    }
+}
+
+/// A level of `module.point` of the machine.
+fn level(m: &machine::Shared, point: &str) -> bool {
+    m.get(point).unwrap().as_bool()
+}
+
+/// A press of `len` from `at` (a schedule of one input).
+fn press(at: u64, len: u64) -> Vec<Edge> {
+    vec![(ms(at), true), (ms(at + len), false)]
+}
+
+/// The edges of a trace from `from` on.
+fn after(trace: &[Edge], from: Duration) -> Vec<Edge> {
+    trace.iter().copied().filter(|e| e.0 >= from).collect()
+}
+
+/// The logic registers a MiniMod start-up must leave cleared (or set by its plan).
+const MINIMOD_LOGIC: [&str; 28] = [
+    "Y1AON1", "Y1AON2", "Y1AON3", "Y2AON1", "Y2AON2", "Y2AON3", "Y3AON1", "Y3AON2", "Y3AON3",
+    "Y4AON1", "Y4AON2", "Y4AON3", "Y1AOFF1", "Y1AOFF2", "Y1AOFF3", "Y2AOFF1", "Y2AOFF2", "Y2AOFF3",
+    "Y3AOFF1", "Y3AOFF2", "Y3AOFF3", "Y4AOFF1", "Y4AOFF2", "Y4AOFF3", "YPULSE1", "YPULSE2",
+    "YLAMP1", "YLAMP2",
+];
+
+/// Every non-zero logic register of a RESI-16DI8RO.
+fn resi_logic(m: &machine::Shared) -> Vec<String> {
+    let mut names = vec!["ENABLE_LOGIC_FUNCTIONS".to_string()];
+    for f in [
+        "SWITCH",
+        "TOGGLE",
+        "SWITCH_ON",
+        "SWITCH_OFF",
+        "PULSE",
+        "PULSE_TIME",
+    ] {
+        names.extend((1..=8).map(|r| format!("{f}_RO{r}")));
+    }
+    names
+        .into_iter()
+        .filter(|n| m.get(n).unwrap().as_bool())
+        .collect()
+}
+
+const MM_LATCH_TAGS: &[&str] = &[
+    "name: start, point: mm1.X1",
+    "name: stop, point: mm1.X2",
+    "name: x3, point: mm1.X3",
+    "name: motor, point: mm1.Y2, safe: false",
+];
+
+#[test]
+fn tables_a_crashed_run_left_do_not_drive_the_next_program() {
+    // The run that crashes pushes `y2 = (x1 | y2) & !x2` into the MiniMod.
+    let crashed = Case {
+        name: "crash-before",
+        period_ms: 100,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: MM_LATCH_TAGS,
+        program: "motor = (start | motor) & !stop\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
+        outputs: &["mm1.Y2"],
+    };
+    // The next project keeps everything central and drives the output from X3 only.
+    let next = Case {
+        name: "crash-after",
+        program: "motor = x3\n",
+        ..crashed
+    };
+    let mm1 = module("minimod", 1);
+    let clock = Arc::new(VirtualClock::new());
+    let mut a = Session::start(
+        &crashed,
+        crashed.project("auto"),
+        &clock,
+        &[press(300, 300)],
+    );
+    a.run_until(ms(1000));
+    assert!(level(&mm1, "Y2"), "the module latched the start press");
+    assert_eq!(mm1.get("Y2AON1"), Ok(Value::U16(0x0001)));
+    drop(a); // kill -9: no clean stop, the tables stay armed
+    clock.sleep_until(clock.now() + ms(2000));
+
+    // X1 held for a second, then X3 pressed: only X3 may switch the output.
+    let inputs = [press(500, 1000), vec![], press(2000, 500)];
+    let mut b = Session::start(&next, next.project("never"), &clock, &inputs);
+    // Start-up cleared every logic register and read it back before the first scan.
+    for name in MINIMOD_LOGIC {
+        assert_eq!(mm1.get(name), Ok(Value::U16(0)), "{name} after start-up");
+    }
+    b.run_until(ms(3500));
+    let trace = b.trace();
+    let bound = plans(&next).2;
+    let edges = after(&trace[0], ms(200));
+    assert_eq!(
+        edges.len(),
+        2,
+        "X1 held does not switch Y2; X3 does: {edges:?}"
+    );
+    assert!(edges[0].1 && edges[0].0 >= ms(2000) && edges[0].0 <= ms(2000) + bound);
+    assert!(!edges[1].1 && edges[1].0 >= ms(2500) && edges[1].0 <= ms(2500) + bound);
+    // The same program on a module that never saw the crashed run gives the same trace.
+    drop(b);
+    machine::replace();
+    let fresh_clock = Arc::new(VirtualClock::new());
+    let mut fresh = Session::start(&next, next.project("never"), &fresh_clock, &inputs);
+    fresh.run_until(ms(3500));
+    assert_eq!(after(&fresh.trace()[0], ms(200)), edges);
+}
+
+#[test]
+fn resi_tables_in_fram_survive_a_power_cycle_and_are_cleared_at_start_up() {
+    let crashed = Case {
+        name: "fram-before",
+        period_ms: 100,
+        tick_ms: 10,
+        modules: &["name: r1, model: resi-16di8ro, address: 1"],
+        tags: &[
+            "name: button, point: r1.DI1",
+            "name: level, point: r1.DI3",
+            "name: other, point: r1.DI5",
+            "name: lamp, point: r1.RO4, safe: false",
+            "name: pump, point: r1.RO1, safe: false",
+        ],
+        program: "lamp = lamp ^ rising(button)\npump = level\n",
+        ladder: false,
+        inputs: &["r1.DI1", "r1.DI3", "r1.DI5"],
+        outputs: &["r1.RO4", "r1.RO1"],
+    };
+    let next = Case {
+        name: "fram-after",
+        program: "lamp = other\npump = other\n",
+        ..crashed
+    };
+    let r1 = module("resi-16di8ro", 1);
+    let clock = Arc::new(VirtualClock::new());
+    let mut a = Session::start(
+        &crashed,
+        crashed.project("auto"),
+        &clock,
+        &[press(300, 200)],
+    );
+    a.run_until(ms(1000));
+    assert!(level(&r1, "RO4"), "TOGGLE switched the lamp on");
+    drop(a); // kill -9
+             // The module loses power too; its tables are in FRAM (L16434–L16436).
+    r1.clone().command(&["power-cycle"]).unwrap();
+    assert_eq!(
+        resi_logic(&r1),
+        ["ENABLE_LOGIC_FUNCTIONS", "SWITCH_RO1", "TOGGLE_RO4"],
+        "kept across the power cycle"
+    );
+    clock.sleep_until(clock.now() + ms(2000));
+    // The button pressed twice, the level held: neither may touch the relays now.
+    let inputs = [
+        vec![
+            (ms(500), true),
+            (ms(700), false),
+            (ms(900), true),
+            (ms(1100), false),
+        ],
+        press(500, 1500),
+        press(2500, 500),
+    ];
+    let mut b = Session::start(&next, next.project("never"), &clock, &inputs);
+    assert_eq!(resi_logic(&r1), Vec::<String>::new(), "cleared at start-up");
+    b.run_until(ms(3500));
+    let trace = b.trace();
+    let bound = plans(&next).2;
+    for (j, name) in ["RO4", "RO1"].iter().enumerate() {
+        let edges = after(&trace[j], ms(200));
+        assert_eq!(edges.len(), 2, "{name} follows DI5 only: {edges:?}");
+        // The module samples its inputs every 10 ms: the scan may see DI5 that much later.
+        let late = bound + ms(10);
+        assert!(
+            edges[0].1 && edges[0].0 >= ms(2500) && edges[0].0 <= ms(2500) + late,
+            "{name}: {edges:?}"
+        );
+        assert!(
+            !edges[1].1 && edges[1].0 >= ms(3000) && edges[1].0 <= ms(3000) + late,
+            "{name}: {edges:?}"
+        );
+    }
+}
+
+/// The latch of the kill -9 cases, on a MiniMod output.
+fn motor_case(name: &'static str) -> Case {
+    Case {
+        name,
+        period_ms: 100,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: MM_LATCH_TAGS,
+        program: "motor = (start | motor) & !stop\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
+        outputs: &["mm1.Y2"],
+    }
+}
+
+#[test]
+fn a_clean_stop_leaves_the_output_safe_and_the_inputs_without_effect_in_both() {
+    for mode in ["never", "auto"] {
+        machine::replace();
+        let case = motor_case("stop-both");
+        let mm1 = module("minimod", 1);
+        let clock = Arc::new(VirtualClock::new());
+        let mut s = Session::start(&case, case.project(mode), &clock, &[press(300, 300)]);
+        s.run_until(ms(1000));
+        assert!(level(&mm1, "Y2"), "{mode}: running");
+        s.stop();
+        // After the stop a start press changes nothing: no table is left in the module.
+        mm1.clone().set("X1", Value::Bool(true)).unwrap();
+        mm1.clone().advance_to(clock.now() + ms(500));
+        assert!(!level(&mm1, "Y2"), "{mode}: safe value, start pressed");
+        for name in MINIMOD_LOGIC {
+            assert_eq!(mm1.get(name), Ok(Value::U16(0)), "{mode}: {name}");
+        }
+    }
 }

@@ -104,6 +104,9 @@ pub fn report(project: &Project) -> String {
                 module.device.address,
                 module.device.protocol.name()
             );
+            if let Some(line) = crate::offload::report::startup_logic(module) {
+                let _ = writeln!(out, "    {line}");
+            }
             for (i, tag) in project.tags.iter().enumerate() {
                 if let Binding::Point { module: tm, point } = tag.binding {
                     if tm == m {

@@ -249,6 +249,8 @@ fn auto_on_off(site: &Site, y: u8, table: &[Action; 8]) -> Result<ModulePlacemen
         tables,
         command: None,
         tick: TICK,
+        // The planner sets it from the rung's shape (`planner::initial`).
+        initial: None,
     })
 }
 
@@ -292,6 +294,8 @@ fn pulse(
             width_ms: ms,
         }),
         tick: TICK,
+        // The planner sets it from the rung's shape (`planner::initial`).
+        initial: None,
     })
 }
 

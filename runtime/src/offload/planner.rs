@@ -94,6 +94,14 @@ pub struct ModulePlacement {
     /// The module's own reaction: its tick (input conditioning comes on top, for the module
     /// and for the scan alike).
     pub tick: Duration,
+    /// The output's value written at start-up, after the module's old tables are cleared and
+    /// before these are armed, when the rung keeps a state (a latch, a toggle, an edge set /
+    /// reset, a pulse): the module never resets an output when its tables are written, so
+    /// without it a pushed-down output would start from whatever the module held (a latch left
+    /// on by a crashed run would stay on). It is the central rung's start: the tag's initial
+    /// value, no pulse running. `None` for a combinational rung or a SWITCH: the module sets
+    /// those from its inputs at once, as the first scan would.
+    pub initial: Option<bool>,
 }
 
 /// Where a rung runs.
@@ -496,6 +504,12 @@ pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -
                     .iter()
                     .map(|t| (t.register.clone(), t.value.to_string())),
             );
+            if let (Some(on), Some(point)) = (
+                p.initial,
+                project.modules[p.module].model.points.get(p.point),
+            ) {
+                s.push((initial_key(point.name), u8::from(on).to_string()));
+            }
         }
     }
     for (m, module) in project.modules.iter().enumerate() {
@@ -513,6 +527,27 @@ pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -
         }
     }
     plan
+}
+
+/// The setting that carries an output's start value to its driver (`initial_Y2`,
+/// `initial_RO4`): written after the module's old tables are cleared, before the new ones.
+pub fn initial_key(point: &str) -> String {
+    format!("initial_{point}")
+}
+
+/// The start value of a pushed-down output whose rung keeps a state (see
+/// [`ModulePlacement::initial`]).
+fn initial(shape: &RungShape, tag_initial: bool) -> Option<bool> {
+    match shape {
+        RungShape::Latch { .. } | RungShape::Toggle { .. } | RungShape::EdgeSetReset { .. } => {
+            Some(tag_initial)
+        }
+        // No pulse runs before the first trigger.
+        RungShape::Pulse { .. } | RungShape::StairPulse { .. } => Some(false),
+        RungShape::Combinational { .. } | RungShape::Blink { .. } | RungShape::Opaque { .. } => {
+            None
+        }
+    }
 }
 
 /// One rung's module placement, or why it stays central.
@@ -560,14 +595,16 @@ fn place(
         point,
         later,
     };
-    match cfg.model.name {
+    let mut placement = match cfg.model.name {
         minimod::MODEL => minimod::map(&rung.shape, &site),
         resi::MODEL => resi::map(&rung.shape, &site),
         model => Err(Reason::NoTables {
             module: cfg.name.clone(),
             model,
         }),
-    }
+    }?;
+    placement.initial = initial(&rung.shape, tag.initial.as_bool());
+    Ok(placement)
 }
 
 /// The input conditioning the tags declare.

@@ -13,7 +13,7 @@ use std::time::Duration;
 use softplc_io::line::budget::{line_budget, LineBudget};
 
 use super::planner::{Command, Feature, ModulePlacement, Placement, Plan, RungPlan};
-use crate::project::{Binding, OnStop, Project};
+use crate::project::{Binding, ModuleConfig, OnStop, Project};
 use crate::scan::fmt_duration;
 
 /// The central reaction bound of the outputs of bus `bus`: period + slowest read + the bus's
@@ -145,6 +145,39 @@ pub fn report(project: &Project, plan: &Plan) -> String {
     out
 }
 
+/// What the module's start-up does to its logic, in one line (`softplc check` prints it under
+/// the module): the logic registers it clears and reads back before the first scan, whatever
+/// the plan, then the pushed-down outputs' start values, then the tables of its settings.
+/// `None` for a model without logic tables. `module` carries the plan's settings.
+pub fn startup_logic(module: &ModuleConfig) -> Option<String> {
+    use softplc_io::devices::{minimod::driver as mm, resi::driver as r};
+    let (cleared, prefix) = match module.model.name {
+        super::minimod::MODEL => (mm::LOGIC_CLEARED_AT_STARTUP, mm::INITIAL_PREFIX),
+        super::resi::MODEL => (r::LOGIC_CLEARED_AT_STARTUP, r::settings::INITIAL_PREFIX),
+        _ => return None,
+    };
+    let starts: Vec<String> = module
+        .device
+        .settings
+        .iter()
+        .filter_map(|(k, v)| {
+            let point = k.get(prefix.len()..).filter(|_| {
+                k.get(..prefix.len())
+                    .is_some_and(|p| p.eq_ignore_ascii_case(prefix))
+            })?;
+            Some(format!("{point} = {}", v.trim()))
+        })
+        .collect();
+    let starts = if starts.is_empty() {
+        String::new()
+    } else {
+        format!(", then {}", starts.join(", "))
+    };
+    Some(format!(
+        "start-up, before the first scan: clears {cleared} (read back: tables a crashed run left would drive the outputs){starts}, then its settings' tables"
+    ))
+}
+
 /// The bus of the output a rung writes, if it is a module output.
 fn output_bus(project: &Project, r: &RungPlan) -> Option<usize> {
     match project.tags.get(r.rung.coil.index())?.binding {
@@ -179,6 +212,13 @@ fn module_rung(
             t.value.to_string()
         };
         let _ = writeln!(out, "      {:<14} = {value:<6} {}", t.register, t.meaning);
+    }
+    if let Some(on) = p.initial {
+        let _ = writeln!(
+            out,
+            "      start: {point} = {} after the module's old tables are cleared, before these are armed (the central rung's start)",
+            u8::from(on)
+        );
     }
     let (bound, parts) = central(project, budgets, module.bus);
     match (&p.command, p.feature) {

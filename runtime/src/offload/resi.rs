@@ -131,6 +131,8 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
         tables,
         command: None,
         tick: TICK,
+        // The planner sets it from the rung's shape (`planner::initial`).
+        initial: None,
     })
 }
 

@@ -345,3 +345,66 @@ fn resi_functions() {
     assert!(pl.settings[0].contains(&("TOGGLE_RO1".into(), "1".into())));
     assert!(pl.settings[0].contains(&("ENABLE_LOGIC_FUNCTIONS".into(), "1".into())));
 }
+
+#[test]
+fn outputs_that_keep_a_state_get_their_start_value_before_their_tables() {
+    // An output tag starts off (`initial` is for memory tags), as the central rung does.
+    let p = project("auto", &[MM], &MM_TAGS);
+    let latch = RungShape::Latch {
+        set: t(0),
+        reset: t(1),
+        reset_dominant: true,
+    };
+    let pl = plan(
+        &p,
+        Some(vec![
+            rung(3, latch),
+            rung(4, RungShape::Combinational { expr: t(2) }),
+        ]),
+        "expr",
+    );
+    let initial: Vec<Option<bool>> = pl.pushed().map(|(_, m)| m.initial).collect();
+    assert_eq!(
+        initial,
+        [Some(false), None],
+        "a latch, then a combinational rung"
+    );
+    assert!(pl.settings[0].contains(&("initial_Y1".into(), "0".into())));
+    assert!(!pl.settings[0].iter().any(|(k, _)| k == "initial_Y2"));
+    // A pulse starts with no pulse running.
+    let pulse = RungShape::Pulse {
+        trigger: vec![t(0)],
+        width: Duration::from_millis(50),
+    };
+    let pl = plan(&p, Some(vec![rung(3, pulse)]), "expr");
+    assert_eq!(module(&pl.rungs[0].placement).initial, Some(false));
+    assert!(pl.settings[0].contains(&("initial_Y1".into(), "0".into())));
+    // RESI-16DI8RO: a TOGGLE and a SWITCH ON / OFF keep a state, a SWITCH does not.
+    let p = project("auto", &[RESI], &RESI_TAGS);
+    let pl = plan(
+        &p,
+        Some(vec![
+            rung(
+                2,
+                RungShape::Toggle {
+                    trigger: vec![t(0)],
+                },
+            ),
+            rung(
+                3,
+                RungShape::EdgeSetReset {
+                    set: vec![t(0)],
+                    reset: vec![t(1)],
+                },
+            ),
+            rung(4, RungShape::Combinational { expr: t(1) }),
+        ]),
+        "expr",
+    );
+    let initial: Vec<Option<bool>> = pl.pushed().map(|(_, m)| m.initial).collect();
+    assert_eq!(initial, [Some(false), Some(false), None]);
+    for key in ["initial_RO1", "initial_RO2"] {
+        assert!(pl.settings[0].contains(&(key.into(), "0".into())), "{key}");
+    }
+    assert!(!pl.settings[0].iter().any(|(k, _)| k == "initial_RO3"));
+}

@@ -37,6 +37,15 @@
 //! logged, and the next cycle clears the status and re-arms the watchdog (the module disables
 //! it on timeout, §2.21 example); `WDT_TIMEOUT` turns false with the next clean status read.
 //!
+//! A module that comes back after it was lost (a broken line, a power cycle) gets its start-up
+//! again from the bus owner ([`Driver::on_restart`]): the start-up's `~AA0` / 00270 read finds
+//! the timeout status the outage left (§1.8: "set and store into EEPROM while the host watchdog
+//! timeout interval expired and only can be cleared by command ~AA1"), logs it once with the
+//! module's address, clears it and arms the watchdog again. "Host Watchdog Timeout will let all
+//! output goto Safe Value ... and the output command will be ignored" (§1.5): the EX-9053D has
+//! no outputs, so there is no Safe Value to leave and nothing to write again; the driver never
+//! asks for a restart ([`Driver::wants_restart`] stays false).
+//!
 //! The module name is not read through FC 0x46: the master codec's FC 0x46 is MiniMod's
 //! Collect; the name registers 40483..40484 give the same identity with FC 3.
 //!
@@ -161,6 +170,10 @@ pub struct Ex9053Driver {
     values: Vec<Option<Value>>,
     /// A watchdog timeout was seen: clear the status and re-arm at the next cycle.
     recover: bool,
+    /// The bus owner restarted the module (it was lost and answers again).
+    restarted: bool,
+    /// The timeout status has been logged; cleared by a clean status read.
+    logged: bool,
 }
 
 impl Ex9053Driver {
@@ -185,6 +198,8 @@ impl Ex9053Driver {
             settings,
             values: vec![None; POINTS.len()],
             recover: false,
+            restarted: false,
+            logged: false,
         }
     }
 
@@ -358,12 +373,17 @@ impl Ex9053Driver {
     }
 
     fn set_watchdog_status(&mut self, timeout: bool) {
-        if timeout && !self.recover {
+        if timeout && !self.recover && !self.logged {
+            self.logged = true;
             tracing::warn!(
                 module = %self.name,
+                address = self.address,
                 "host watchdog timeout status set: the module saw no host OK in time; \
                  clearing and re-arming"
             );
+        }
+        if !timeout {
+            self.logged = false;
         }
         self.recover = timeout;
         self.set(Point::WdtTimeout, Value::Bool(timeout));
@@ -484,11 +504,34 @@ impl Ex9053Driver {
         Ok(())
     }
 
-    fn log_past_timeout(&self, timeout: bool) {
-        if timeout {
+    fn log_past_timeout(&mut self, timeout: bool) {
+        if !timeout {
+            self.logged = false;
+            return;
+        }
+        if self.logged {
+            return;
+        }
+        self.logged = true;
+        if self.restarted {
             tracing::warn!(
                 module = %self.name,
-                "host watchdog timeout status was set at start-up (the host was away); clearing"
+                address = self.address,
+                "EX-9053D {} at address {} is back with its host watchdog timeout status set: \
+                 it saw no host OK within the host watchdog timeout while it was away (the \
+                 output command is ignored until ~AA1, §1.5); clearing it and arming the host \
+                 watchdog again",
+                self.name,
+                self.address
+            );
+        } else {
+            tracing::warn!(
+                module = %self.name,
+                address = self.address,
+                "EX-9053D {} at address {}: host watchdog timeout status set at start-up (the \
+                 host was away); clearing it and arming the host watchdog again",
+                self.name,
+                self.address
             );
         }
     }
@@ -705,6 +748,15 @@ impl Driver for Ex9053Driver {
     fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>) {
         // Inputs only: nothing to write.
         let _ = (desired, refresh, out);
+    }
+
+    fn on_restart(&mut self) {
+        // The start-up reads the timeout status again, clears it and re-arms (see the docs).
+        self.recover = false;
+        self.restarted = true;
+        if let Some(slot) = self.values.get_mut(Point::WdtTimeout.index()) {
+            *slot = None;
+        }
     }
 
     fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError> {

@@ -15,7 +15,8 @@
 //!   Mask Write on YWORD for two or three (10 + 10 bytes instead of 8 + 8). With `refresh`
 //!   every owned output is written again. The echo is taken as the module's output state (the
 //!   values of Y1..Y4 and YWORD). A failed write (an exception 04 while the module's watchdog
-//!   fires included) is planned again (all owned outputs) next cycle.
+//!   fires included) is planned again (all owned outputs) next cycle; a refused one (exception
+//!   04, text `Error`) also asks the bus owner to run the start-up again ([`restart`]).
 //! - **Read-back** of Y1..Y4 (setting `readback`): FC 1 coils 0..=3. It shows what the
 //!   module's own logic (AON/AOFF) did to the outputs; for an output the program owns, a
 //!   difference is then written back at the next write phase. Coils 0..=3 and YWORD are the
@@ -64,7 +65,10 @@
 //! difference is [`DecodeError::Mismatch`] with the register's name. When the project sets the
 //! watchdog (WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2), start-up also resets it (WDTFIRED = 0,
 //! read back): a watchdog that fired when the last run stopped would otherwise keep the outputs
-//! locked, and a feedback that fires it again at once stops the start, by name.
+//! locked, and a feedback that fires it again at once stops the start, by name. Before any of
+//! it, the start-up reads why the watchdog fired and logs it once ([`restart`]); the same
+//! sequence runs when the module comes back after it was lost or refused a write, and every
+//! output is then written again.
 
 use std::time::Duration;
 
@@ -78,6 +82,8 @@ use crate::modbus::{ExceptionCode, Request, Response, UnitId};
 use crate::point::Value;
 
 pub use super::settings::{check_setting, SettingError};
+
+mod restart;
 
 /// Builds a driver from a validated module entry (the catalog's constructor). Settings were
 /// checked before; one that still fails is logged and ignored. An address outside 1..=247
@@ -420,6 +426,8 @@ pub struct MiniModDriver {
     /// A write failed: write every owned output at the next write phase.
     rewrite: bool,
     cycle: u64,
+    /// Refused writes, restarts and the watchdog's status at start-up (see `restart`).
+    restart: restart::Restart,
 }
 
 impl MiniModDriver {
@@ -446,6 +454,7 @@ impl MiniModDriver {
             y: [None; 4],
             rewrite: false,
             cycle: 0,
+            restart: restart::Restart::default(),
         };
         for s in settings {
             match *s {
@@ -799,6 +808,11 @@ impl MiniModDriver {
                 self.rewrite = false;
                 Ok(())
             }
+            // The text protocol's "no" to an output write: what Modbus says with exception 04
+            // (a fired watchdog, see `restart`).
+            (Some(t), TextReply::Error) if t.is_write() => {
+                Err(DecodeError::Exception(ExceptionCode::ServerDeviceFailure))
+            }
             (Some(Tag::SetupWrite(i)), answer) => {
                 let Some(SetupStep::Text { name, verify, .. }) = self.setup.get(usize::from(i))
                 else {
@@ -855,6 +869,8 @@ impl Driver for MiniModDriver {
 
     fn plan_startup(&mut self, out: &mut Vec<Transaction>) {
         let Some(unit) = self.unit else { return };
+        // Why the watchdog fired, before the settings reset it (see `restart`).
+        self.plan_watchdog_status(unit, out);
         for (i, step) in self.setup.iter().enumerate() {
             let Ok(i) = u16::try_from(i) else { break };
             self.plan_startup_step(unit, i, step, out);
@@ -1003,7 +1019,10 @@ impl Driver for MiniModDriver {
     }
 
     fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError> {
-        match reply {
+        if let Some(result) = self.on_watchdog_reply(tag, reply) {
+            return result;
+        }
+        let result = match reply {
             Reply::Modbus(Response::Exception { code, .. }) => Err(DecodeError::Exception(*code)),
             // Events come back under the membership's tag.
             Reply::Modbus(Response::Collect { kind, data, .. }) => {
@@ -1011,7 +1030,17 @@ impl Driver for MiniModDriver {
             }
             Reply::Modbus(response) => self.on_modbus(tag, response),
             Reply::Text(bytes) => self.on_text(tag, bytes),
-        }
+        };
+        self.after_reply(tag, &result);
+        result
+    }
+
+    fn on_restart(&mut self) {
+        self.restart_now();
+    }
+
+    fn wants_restart(&self) -> bool {
+        self.restart.wants()
     }
 
     fn on_failure(&mut self, tag: u32) {
@@ -1514,8 +1543,12 @@ mod tests {
         let r = exchange(&mut d, &mut sim, &plan[0], Duration::ZERO);
         assert_eq!(
             r,
-            Err(DecodeError::Unexpected { tag: plan[0].tag }),
-            "Error"
+            Err(DecodeError::Exception(ExceptionCode::ServerDeviceFailure)),
+            "Error: the module said no, as exception 04 does"
+        );
+        assert!(
+            d.wants_restart(),
+            "a fired watchdog: the start-up must run again"
         );
         d.on_failure(plan[0].tag);
         plan.clear();
@@ -1560,6 +1593,10 @@ mod tests {
         assert_eq!(
             wires,
             [
+                // Why it fired, before anything resets it (see `restart`): WDTFIRED (coil
+                // 160), WDTFB and WDTCOMM (discrete inputs 24..=25).
+                frame(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]),
+                frame(&[0x05, 0x02, 0x00, 0x18, 0x00, 0x02]),
                 frame(&[0x05, 0x10, 0x00, 0x05, 0x00, 0x02, 0x04, 0x00, 0x07, 0x00, 0x0F]),
                 frame(&[0x05, 0x03, 0x00, 0x05, 0x00, 0x02]),
                 frame(&[0x05, 0x10, 0x00, 0x80, 0x00, 0x01, 0x02, 0x00, 0x32]),
@@ -1585,7 +1622,7 @@ mod tests {
         // A module that holds something else names the register.
         sim.set("WDTFB1", Value::Bool(false)).unwrap();
         assert_eq!(
-            exchange(&mut d, &mut sim, &plan[7], Duration::ZERO),
+            exchange(&mut d, &mut sim, &plan[9], Duration::ZERO),
             Err(DecodeError::Mismatch {
                 register: "WDTFB1",
                 expected: 1,
@@ -1595,9 +1632,9 @@ mod tests {
         // An enabled feedback that holds fires it again at once: the start stops, by name.
         sim.set("WDTFB1", Value::Bool(true)).unwrap();
         sim.command(&["fault", "Y1", "open"]).unwrap();
-        exchange(&mut d, &mut sim, &plan[8], Duration::from_millis(10)).unwrap();
+        exchange(&mut d, &mut sim, &plan[10], Duration::from_millis(10)).unwrap();
         assert_eq!(
-            exchange(&mut d, &mut sim, &plan[9], Duration::from_millis(11)),
+            exchange(&mut d, &mut sim, &plan[11], Duration::from_millis(11)),
             Err(DecodeError::Mismatch {
                 register: "WDTFIRED",
                 expected: 0,
@@ -1629,7 +1666,8 @@ mod tests {
         assert_eq!(
             texts,
             [
-                &b"@5>XCOUNT1=100\r"[..],
+                &b"@5?WFLAGS\r"[..], // why the watchdog fired, before the reset (`restart`)
+                b"@5>XCOUNT1=100\r",
                 b"@5>X1LATUP=5\r",
                 b"@5?X1LATUP\r",
                 b"@5>Y3AON2=X2-X3\r",
@@ -1639,8 +1677,9 @@ mod tests {
         );
         assert_eq!(
             plan.len(),
-            texts.len() + 6,
-            "three Modbus runs: XEVMASK, Y1AON1, WDTFIRED (the watchdog reset)"
+            texts.len() + 7,
+            "Modbus: WDTFB/WDTCOMM (why the watchdog fired), then three runs: XEVMASK, Y1AON1, \
+             WDTFIRED (the watchdog reset)"
         );
         for tx in &plan {
             exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();

@@ -29,6 +29,9 @@ pub mod state;
 pub mod text;
 pub mod watchdog;
 
+#[cfg(test)]
+pub(crate) mod line_tests;
+
 use std::time::Duration;
 
 use super::{ModelSpec, Protocol};

@@ -2,8 +2,10 @@
 //! pulse between two polls caught by the latches and counters, the host watchdog's timeout
 //! and recovery, synchronized sampling, and a line shared with a MiniMod.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
+
+use crate::devices::minimod::line_tests::{Logs, Tap};
 
 use crate::devices::ex9053::points::Point;
 use crate::devices::{self, DeviceConfig, Protocol};
@@ -37,6 +39,8 @@ struct Rig {
     clock: Arc<VirtualClock>,
     world: SharedWorld,
     owner: BusOwner,
+    /// Every frame the master sent.
+    sent: Arc<Mutex<Vec<Vec<u8>>>>,
 }
 
 /// A plant and its wiring: per role, the device index and point.
@@ -71,7 +75,11 @@ fn rig(line: LineSettings, specs: &[Spec<'_>], plant: Option<Wired>) -> Rig {
     }
     let world = world.shared();
     let clock = Arc::new(VirtualClock::new());
-    let port = VirtualPort::new(world.clone(), 0, line, clock.clone());
+    let sent = Arc::new(Mutex::new(Vec::new()));
+    let port = Tap {
+        port: VirtualPort::new(world.clone(), 0, line, clock.clone()),
+        sent: sent.clone(),
+    };
     let discipline = Discipline {
         response_timeout: Duration::from_millis(50),
         retries: 0,
@@ -84,6 +92,7 @@ fn rig(line: LineSettings, specs: &[Spec<'_>], plant: Option<Wired>) -> Rig {
         clock,
         world,
         owner,
+        sent,
     }
 }
 
@@ -249,6 +258,117 @@ fn host_watchdog_timeout_and_recovery_dcon() {
 #[test]
 fn host_watchdog_timeout_and_recovery_modbus() {
     watchdog("ex9053d-m", Protocol::Modbus, LineSettings::DEFAULT);
+}
+
+/// The line dies for 2 s with a 500 ms host watchdog and comes back: returns the frames sent
+/// from the first one the module answered again, and the logs.
+fn outage(model: &str, protocol: Protocol, line: LineSettings) -> (Rig, Vec<Vec<u8>>, Logs) {
+    let settings = [("watchdog", "500ms")];
+    let spec = Spec {
+        model,
+        address: 1,
+        protocol,
+        settings: &settings,
+    };
+    let mut r = rig(line, &[spec], None);
+    let logs = Logs::default();
+    let sent = tracing::subscriber::with_default(logs.clone(), || {
+        r.startup().unwrap();
+        for _ in 0..5 {
+            let f = r.read();
+            assert_eq!(value(&f, 0, Point::WdtTimeout), b(false));
+        }
+        r.world.lock().unwrap().faults_mut().set_dead(0, true);
+        for _ in 0..20 {
+            r.read();
+        }
+        assert_eq!(r.sim_get(0, "WDT_TIMEOUT"), Value::Bool(true), "expired");
+        r.world.lock().unwrap().faults_mut().set_dead(0, false);
+        r.sent.lock().unwrap().clear();
+        let back = (0..60).any(|_| r.read().modules[0].quality == Quality::Good);
+        assert!(back, "the module is back");
+        let sent = std::mem::take(&mut *r.sent.lock().unwrap());
+        for _ in 0..10 {
+            let f = r.read();
+            assert_eq!(value(&f, 0, Point::WdtTimeout), b(false));
+        }
+        sent
+    });
+    assert_eq!(r.sim_get(0, "WDT_TIMEOUT"), Value::Bool(false), "cleared");
+    assert!(r
+        .command(0, &["status"])
+        .contains("host watchdog: enabled=on value=5"));
+    (r, sent, logs)
+}
+
+/// The frames from the last one that starts a start-up (`first`) on.
+fn from(sent: &[Vec<u8>], first: &[u8]) -> Vec<Vec<u8>> {
+    let at = sent.iter().rposition(|f| f == first).expect("a restart");
+    sent[at..].to_vec()
+}
+
+fn assert_back_logged_once(logs: &Logs) {
+    assert_eq!(
+        logs.matching("host watchdog timeout status"),
+        [
+            "WARN EX-9053D m0 at address 1 is back with its host watchdog timeout status set: it \
+          saw no host OK within the host watchdog timeout while it was away (the output command \
+          is ignored until ~AA1, §1.5); clearing it and arming the host watchdog again"
+        ]
+    );
+}
+
+#[test]
+fn dcon_module_back_after_its_host_watchdog_expired_is_cleared_and_armed_again() {
+    let (_r, sent, logs) = outage("ex9053d", Protocol::Text, DCON_LINE);
+    let frames = from(&sent, b"$01M\r");
+    let text: Vec<&str> = frames
+        .iter()
+        .map(|f| std::str::from_utf8(f).unwrap())
+        .collect();
+    assert_eq!(
+        text,
+        [
+            "$01M\r",    // identity (§2.9)
+            "$012\r",    // configuration (§2.4)
+            "$015\r",    // reset status (§2.6)
+            "~010\r",    // module status: 04, the timeout the outage left (§2.18)
+            "~011\r",    // reset module status (§2.19)
+            "~013105\r", // enable, 5 × 0.1 s (§2.21)
+            "~012\r",    // read back (§2.20)
+            "~**\r",     // then the cycle: host OK (§2.17), inputs, status
+            "@01\r",
+            "~010\r",
+        ]
+    );
+    assert_back_logged_once(&logs);
+}
+
+#[test]
+fn modbus_module_back_after_its_host_watchdog_expired_is_cleared_and_armed_again() {
+    let (_r, sent, logs) = outage("ex9053d-m", Protocol::Modbus, LineSettings::DEFAULT);
+    let rtu = |bytes: &[u8]| {
+        let mut f = bytes.to_vec();
+        crate::modbus::crc::append_crc(&mut f);
+        f
+    };
+    let frames = from(&sent, &rtu(&[0x01, 0x03, 0x01, 0xE2, 0x00, 0x02]));
+    assert_eq!(
+        frames,
+        [
+            rtu(&[0x01, 0x03, 0x01, 0xE2, 0x00, 0x02]), // 40483..40484 module name
+            rtu(&[0x01, 0x01, 0x01, 0x0D, 0x00, 0x01]), // 00270 WDT timeout status
+            rtu(&[0x01, 0x05, 0x01, 0x0D, 0xFF, 0x00]), // clear it
+            rtu(&[0x01, 0x06, 0x01, 0xE8, 0x00, 0x05]), // 40489 WDT timeout value = 5
+            rtu(&[0x01, 0x05, 0x01, 0x04, 0xFF, 0x00]), // 00261 WDT enable
+            rtu(&[0x01, 0x03, 0x01, 0xE8, 0x00, 0x01]), // read back
+            rtu(&[0x01, 0x01, 0x01, 0x04, 0x00, 0x01]),
+            rtu(&[0x01, 0x04, 0x30, 0x38, 0x00, 0x00]), // then the cycle: host OK
+            rtu(&[0x01, 0x02, 0x00, 0x00, 0x00, 0x10]), // 10001..10016
+            rtu(&[0x01, 0x01, 0x01, 0x0D, 0x00, 0x01]),
+        ]
+    );
+    assert_back_logged_once(&logs);
 }
 
 #[test]

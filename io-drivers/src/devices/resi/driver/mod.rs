@@ -1,7 +1,9 @@
 //! The RESI driver, one for every model, over Modbus RTU or the RESI ASCII protocol (sans-IO).
 //!
 //! - **Start-up** ([`settings`]): command registers first (CLEAR ALL LOGIC FUNCTIONS, RESET
-//!   COUNTER), then every read-write setting, in address order (so ENABLE LOGIC FUNCTIONS,
+//!   COUNTER); on a module with internal logic (16DI8RO) the logic disarmed and every table
+//!   cleared, then the relays' `initial_ROn` values (see `startup.rs` for the order and why);
+//!   then every read-write setting, in address order (so ENABLE LOGIC FUNCTIONS,
 //!   4x21001, comes after the masks and PULSE TIMEs it enables). Modbus: contiguous registers
 //!   with one FC 16 (32-bit values in the block listed first, high word first for the
 //!   16DI8RO), then one FC 3 to read them back. ASCII: the set command (`SSON1:15`), then its
@@ -38,6 +40,8 @@ pub mod plan;
 pub mod settings;
 mod startup;
 mod write;
+
+pub use startup::CLEARED as LOGIC_CLEARED_AT_STARTUP;
 
 use std::time::Duration;
 
@@ -166,11 +170,16 @@ impl ResiDriver {
         let mut reply_delay = Duration::from_millis(2);
         let mut watchdog = None;
         let mut writes = Vec::new();
+        let mut initial = Vec::new();
         for s in settings {
             match s {
                 Setting::Poll(points) => poll = Some(points.clone()),
                 Setting::ReplyDelay(d) => reply_delay = *d,
                 Setting::Watchdog(ms) => watchdog = Some(*ms),
+                Setting::Initial { entry, on } => {
+                    initial.retain(|(e, _): &(Entry, Num)| e.name != entry.name);
+                    initial.push((*entry, Num::Int(i64::from(*on))));
+                }
                 Setting::Write { entry, value } => {
                     writes.retain(|(e, _): &(Entry, Num)| e.name != entry.name);
                     writes.push((*entry, *value));
@@ -197,7 +206,7 @@ impl ResiDriver {
             values: vec![None; model.points.len()],
             written: vec![None; model.points.len()],
         };
-        d.setup = startup::steps(&d, &writes);
+        d.setup = startup::steps(&d, &writes, &initial);
         d
     }
 

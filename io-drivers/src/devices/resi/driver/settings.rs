@@ -15,6 +15,10 @@
 //! - 1RO `SOFFDLY` (1..=65535 ms): drive DO1 through the off-delay, which the manual offers as
 //!   a watchdog (L4102–L4110): while the program wants DO1 on, every cycle retriggers the
 //!   off-delay instead of setting DO1, so the relay drops within that time when the host stops.
+//! - 16DI8RO `initial_RO1..8` (0 or 1): the relay's value written at start-up after the logic
+//!   is disarmed and before its tables are armed (the push-down planner sets it for a relay
+//!   whose pushed-down rung keeps a state: TOGGLE, SWITCH ON / OFF, PULSE; see
+//!   `startup.rs`).
 
 use std::time::Duration;
 
@@ -30,8 +34,8 @@ pub enum SettingError {
     /// Not a setting of this model.
     #[error(
         "not a {model} setting; accepted: poll, reply_delay, its read-write points ({example}, \
-         ...), the command registers it has (CLEAR_ALL_LOGIC_FUNCTIONS, RESET_COUNTER) and, on \
-         resi-1ro, SOFFDLY"
+         ...), the command registers it has (CLEAR_ALL_LOGIC_FUNCTIONS, RESET_COUNTER), on \
+         resi-1ro SOFFDLY, on resi-16di8ro initial_RO1..8"
     )]
     UnknownKey {
         /// The model.
@@ -73,7 +77,17 @@ pub enum Setting {
     },
     /// 1RO `SOFFDLY`, ms.
     Watchdog(u16),
+    /// 16DI8RO `initial_ROn`: the relay's value before the logic is armed.
+    Initial {
+        /// The relay's coil.
+        entry: Entry,
+        /// Its value.
+        on: bool,
+    },
 }
+
+/// The key prefix of a relay's initial value (`initial_RO4: 0`).
+pub const INITIAL_PREFIX: &str = "initial_";
 
 /// Whether `name` matches `pattern` (`NAME` or `NAME*`, `*` = one or more digits).
 pub fn matches(pattern: &str, name: &str) -> bool {
@@ -173,6 +187,29 @@ pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, S
             }),
         };
     }
+    if let Some(relay) = key
+        .get(..INITIAL_PREFIX.len())
+        .filter(|p| p.eq_ignore_ascii_case(INITIAL_PREFIX))
+        .and_then(|_| key.get(INITIAL_PREFIX.len()..))
+        .filter(|_| model.hw.logic)
+    {
+        let name = relay.trim().to_ascii_uppercase();
+        let entry = model
+            .map
+            .by_name(&name)
+            .filter(|e| e.item.kind == Kind::Ro)
+            .ok_or(SettingError::BadValue {
+                key: "initial_ROn",
+                expected: "a relay RO1..RO8",
+            })?;
+        return match number(value) {
+            Some(Num::Int(v @ 0..=1)) => Ok(Setting::Initial { entry, on: v == 1 }),
+            _ => Err(SettingError::BadValue {
+                key: "initial_ROn",
+                expected: "0 or 1",
+            }),
+        };
+    }
     let entry = writable(model, key).ok_or(SettingError::UnknownKey {
         model: model.name,
         example: model
@@ -266,5 +303,16 @@ mod tests {
         );
         assert!(parse(&m1ro::MODEL, "SOFFDLY", "0").is_err());
         assert!(parse(&m2rtd::MODEL, "CH1_ZERO_OFFSET", "-0.25").is_ok());
+        let Setting::Initial { entry, on } = parse(m, "initial_RO4", "1").unwrap() else {
+            panic!()
+        };
+        assert_eq!((entry.name, entry.addr(), on), ("RO4", 19, true));
+        assert!(parse(m, "initial_RO9", "0").is_err());
+        assert!(parse(m, "initial_DI1", "0").is_err());
+        assert!(parse(m, "initial_RO1", "2").is_err());
+        assert!(
+            parse(&m1ro::MODEL, "initial_DO1", "0").is_err(),
+            "no internal logic"
+        );
     }
 }

@@ -167,10 +167,13 @@ fn modbus_startup_writes_the_logic_tables_and_reads_them_back() {
     let frames: Vec<Vec<u8>> = plan.iter().map(wire).collect();
     assert_eq!(
         frames.len(),
-        1 + 2 * 5,
-        "clear, then five runs written and read back"
+        1 + 2 * 3 + 2 * 5,
+        "CLEAR ALL, the disarm (ENABLE, masks, PULSE TIMEs), then five runs, each read back"
     );
     assert_eq!(frames[0], frame(&[0x05, 0x06, 0x52, 0x09, 0x00, 0x01]));
+    // From here on as before the disarm (frames 1..=6) came in.
+    let frames = &frames[6..];
+    let plan = &plan[6..];
     assert_eq!(
         frames[1],
         frame(&[0x05, 0x10, 0x4E, 0x30, 0x00, 0x02, 0x04, 0x80, 0x00, 0x80, 0x00])
@@ -218,10 +221,24 @@ fn ascii_startup_and_mismatch() {
     let mut d = driver(&m16di8ro::MODEL, Protocol::Text, &settings);
     let mut s = ResiSim::new(&m16di8ro::MODEL, ADDR);
     let plan = startup(&mut d, &mut s);
+    let sent = text(&plan);
+    // The disarm: RESET SPECIAL MODE, GSMODE and the 40 mask gets, 8 × SPTIMEx:0 and GPTIMEx.
     assert_eq!(
-        text(&plan),
+        sent[..4],
         [
             "#5,RSTSPCMODE\r",
+            "#5,RSTSPCMODE\r",
+            "#5,GSMODE\r",
+            "#5,GSWITCH1\r"
+        ]
+    );
+    assert_eq!(
+        sent[42..45],
+        ["#5,GPULSE8\r", "#5,SPTIME1:0\r", "#5,GPTIME1\r"]
+    );
+    assert_eq!(
+        sent[59..],
+        [
             "#5,STOGGLE4:3\r",
             "#5,GTOGGLE4\r",
             "#5,SSMODE:1\r",
@@ -230,7 +247,7 @@ fn ascii_startup_and_mismatch() {
     );
     s.set("ENABLE_LOGIC_FUNCTIONS", Value::U16(0)).unwrap();
     assert_eq!(
-        exchange(&mut d, &mut s, &plan[4], 0),
+        exchange(&mut d, &mut s, &plan[62], 0),
         Err(DecodeError::Mismatch {
             register: "ENABLE_LOGIC_FUNCTIONS",
             expected: 1,
@@ -464,5 +481,135 @@ fn no_answer_makes_it_panic() {
                 }
             }
         }
+    }
+}
+
+/// What a run that pushed a TOGGLE on RO4 (DI1, DI2) and a SWITCH on RO1 (DI3) down and was
+/// killed leaves in the module's FRAM: its tables, the logic on, RO4 on.
+fn crashed_16di8ro() -> ResiSim {
+    let mut s = ResiSim::new(&m16di8ro::MODEL, ADDR);
+    for (point, v) in [
+        ("TOGGLE_RO4", Value::U16(3)),
+        ("SWITCH_RO1", Value::U16(4)),
+        ("PULSE_RO2", Value::U16(1)),
+        ("PULSE_TIME_RO2", Value::I32(50)),
+        ("ENABLE_LOGIC_FUNCTIONS", Value::U16(1)),
+        ("RO4", ON),
+    ] {
+        s.set(point, v).unwrap();
+    }
+    s
+}
+
+/// Every mask and PULSE TIME of the 16DI8RO, and ENABLE LOGIC FUNCTIONS, as the simulator holds
+/// them.
+fn logic_registers(s: &ResiSim) -> Vec<(String, Value)> {
+    let mut names = vec!["ENABLE_LOGIC_FUNCTIONS".to_string()];
+    for f in [
+        "SWITCH",
+        "TOGGLE",
+        "SWITCH_ON",
+        "SWITCH_OFF",
+        "PULSE",
+        "PULSE_TIME",
+    ] {
+        for r in 1..=8 {
+            names.push(format!("{f}_RO{r}"));
+        }
+    }
+    names
+        .into_iter()
+        .map(|n| {
+            let v = s.get(&n).unwrap();
+            (n, v)
+        })
+        .filter(|(_, v)| v.as_bool())
+        .collect()
+}
+
+#[test]
+fn stale_tables_in_fram_are_cleared_and_read_back_on_both_protocols() {
+    for protocol in [Protocol::Modbus, Protocol::Text] {
+        let mut s = crashed_16di8ro();
+        // FRAM keeps them across a power cycle (L16434).
+        s.command(&["power-cycle"]).unwrap();
+        assert_eq!(logic_registers(&s).len(), 5, "{protocol:?}: still there");
+        let mut d = driver(&m16di8ro::MODEL, protocol, &[]);
+        startup(&mut d, &mut s);
+        assert_eq!(logic_registers(&s), [], "{protocol:?}: all cleared");
+        // DI1 no longer toggles RO4, DI3 no longer switches RO1.
+        s.set("DI1", ON).unwrap();
+        s.set("DI3", ON).unwrap();
+        s.advance_to(Duration::from_millis(5_000));
+        assert_eq!(
+            s.get("RO4"),
+            Ok(ON),
+            "{protocol:?}: left as it was, for the program"
+        );
+        assert_eq!(s.get("RO1"), Ok(OFF), "{protocol:?}");
+        // A table that does not read back cleared stops the start, by name.
+        let mut plan = Vec::new();
+        d.plan_startup(&mut plan);
+        s.set("SWITCH_RO1", Value::U16(4)).unwrap();
+        let verify = plan.iter().position(|tx| {
+            let w = wire(tx);
+            match protocol {
+                // FC 3 of the 40 masks at 20000.
+                Protocol::Modbus => w == frame(&[0x05, 0x03, 0x4E, 0x20, 0x00, 0x28]),
+                Protocol::Text => w == b"#5,GSWITCH1\r",
+            }
+        });
+        assert_eq!(
+            exchange(&mut d, &mut s, &plan[verify.unwrap()], 6_000),
+            Err(DecodeError::Mismatch {
+                register: "SWITCH_RO1",
+                expected: 0,
+                found: 4
+            }),
+            "{protocol:?}"
+        );
+    }
+}
+
+#[test]
+fn a_pushed_toggle_starts_from_its_initial_value_then_is_armed() {
+    for protocol in [Protocol::Modbus, Protocol::Text] {
+        let mut s = crashed_16di8ro();
+        let settings = [
+            ("TOGGLE_RO4", "3"),
+            ("ENABLE_LOGIC_FUNCTIONS", "1"),
+            ("initial_RO4", "0"),
+        ];
+        let mut d = driver(&m16di8ro::MODEL, protocol, &settings);
+        let plan = startup(&mut d, &mut s);
+        let sent: Vec<Vec<u8>> = plan.iter().map(wire).collect();
+        let at = |w: &[u8]| sent.iter().position(|s| s == w).unwrap();
+        let (disarm, relay, arm) = match protocol {
+            Protocol::Modbus => (
+                at(&frame(&[
+                    0x05, 0x10, 0x52, 0x08, 0x00, 0x01, 0x02, 0x00, 0x00,
+                ])),
+                at(&frame(&[0x05, 0x05, 0x00, 0x13, 0x00, 0x00])),
+                at(&frame(&[
+                    0x05, 0x10, 0x52, 0x08, 0x00, 0x01, 0x02, 0x00, 0x01,
+                ])),
+            ),
+            Protocol::Text => (
+                at(b"#5,RSTSPCMODE\r"),
+                at(b"#5,SRO4:0\r"),
+                at(b"#5,SSMODE:1\r"),
+            ),
+        };
+        assert!(disarm < relay && relay < arm, "{protocol:?}: {sent:?}");
+        assert_eq!(
+            s.get("RO4"),
+            Ok(OFF),
+            "{protocol:?}: the toggle left on by the crashed run starts off, as the central rung"
+        );
+        assert_eq!(s.get("TOGGLE_RO4"), Ok(Value::U16(3)));
+        // Armed: a press of DI2 toggles it on.
+        s.set("DI2", ON).unwrap();
+        s.advance_to(Duration::from_millis(50));
+        assert_eq!(s.get("RO4"), Ok(ON), "{protocol:?}");
     }
 }
