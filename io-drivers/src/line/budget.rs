@@ -45,6 +45,18 @@ impl LineBudget {
     }
 }
 
+/// The guard time after a timeout or a bad reply: long enough for a late or babbling reply
+/// to end before the input is flushed (half the response timeout, at least two t3.5).
+pub fn guard_time(settings: LineSettings, response_timeout: Duration) -> Duration {
+    (response_timeout / 2).max(settings.t3_5() * 2)
+}
+
+/// What one attempt that gets no answer costs the line: an 8-character request (the longest
+/// a poll sends is about that), the response timeout, the guard time and the t3.5 after it.
+pub fn failed_attempt(settings: LineSettings, response_timeout: Duration) -> Duration {
+    settings.chars(8) + response_timeout + guard_time(settings, response_timeout) + settings.t3_5()
+}
+
 /// Length on the wire of a Modbus reply to `req` (ADU with address and CRC), when it succeeds.
 pub fn modbus_reply_len(req: &Request) -> usize {
     let pdu = match req {

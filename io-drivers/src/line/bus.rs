@@ -790,7 +790,8 @@ impl BusOwner {
     /// After a timeout or a bad reply: wait out a guard time so a late or babbling reply ends,
     /// then drop whatever came.
     fn recover(&mut self, m: usize, now: Duration) {
-        let guard = (self.discipline.response_timeout / 2).max(self.settings.t3_5() * 2);
+        let guard =
+            crate::line::budget::guard_time(self.settings, self.discipline.response_timeout);
         self.transport.wait_until(now + guard);
         let dropped = self.transport.flush_input();
         self.modules[m].counters.dropped_bytes += dropped as u64;

@@ -163,6 +163,38 @@ pub fn report(project: &Project) -> String {
             );
         }
         worst = worst.max(budget.read_floor);
+        // What a module that stops answering costs (bus.rs: its first failed cycle with the
+        // line's retries, then one attempt per cycle until lost, then one probe per backoff),
+        // against how long the scan waits for a line's inputs.
+        let attempt = softplc_io::line::budget::failed_attempt(bus.settings, bus.response_timeout);
+        let first = attempt * (u32::from(bus.retries) + 1);
+        let n = budget.modules.len() as u32;
+        let input_wait = scan.period * 9 / 10;
+        let _ = writeln!(
+            out,
+            "  on failure: a silent module costs the line {} in its first failed cycle, then {} \
+             per cycle until lost (3 cycles), then one probe of {} per backoff (1 s to 30 s); \
+             the scan waits {} for inputs, then goes on with the line's last values (stale)",
+            fmt_duration(first),
+            fmt_duration(attempt),
+            fmt_duration(attempt),
+            fmt_duration(input_wait)
+        );
+        // A note, not a warning: the scan no longer waits for a dead line, so this costs the
+        // line's detection time, not the machine's cycle (a warning would fire on almost
+        // every real project, the quick start included).
+        if first * n > scan.period {
+            let _ = writeln!(
+                out,
+                "  note: bus {}: with every module silent (a dead line) the first failed cycle takes {} ({n} module(s) × {} attempt(s) × {} with response timeout {}), longer than the scan period {}: the scan goes on without it, the line's inputs stale, then bad once its modules are lost; a shorter response_timeout or fewer retries find the fault sooner",
+                bus.name,
+                fmt_duration(first * n),
+                u32::from(bus.retries) + 1,
+                fmt_duration(attempt),
+                fmt_duration(bus.response_timeout),
+                fmt_duration(scan.period)
+            );
+        }
         if budget.read_floor > scan.period {
             warnings.push(format!(
                 "warning: bus {}: reading the inputs takes at least {} on the wire, longer than the scan period {}: every cycle will overrun",

@@ -77,6 +77,8 @@ pub struct ScanEngine {
     reload_job: Option<Receiver<Result<PreparedReload, String>>>,
     /// Control clients waiting for that reload's outcome.
     reload_waiters: Vec<Sender<Response>>,
+    /// End the run as a `kill -9` would: no safe state, module tables left as they are.
+    abandon: bool,
 }
 
 impl std::fmt::Debug for ScanEngine {
@@ -109,6 +111,7 @@ impl ScanEngine {
             publisher: None,
             reload_job: None,
             reload_waiters: Vec::new(),
+            abandon: false,
         }
     }
 
@@ -155,6 +158,14 @@ impl ScanEngine {
     /// Stops after `n` cycles.
     pub fn max_cycles(mut self, n: u64) -> Self {
         self.max_cycles = Some(n);
+        self
+    }
+
+    /// Ends the run the way `kill -9` ends a process: the outputs are not driven to their safe
+    /// values and the module tables stay as they are, so a test can show what the modules'
+    /// own watchdogs and the next start do with what a crash leaves behind.
+    pub fn abandon_at_end(mut self) -> Self {
+        self.abandon = true;
         self
     }
 
@@ -271,6 +282,13 @@ impl ScanEngine {
         };
         if let Some(n) = &self.notifier {
             n.notify("STOPPING=1");
+        }
+        if self.abandon {
+            return RunOutcome {
+                reason,
+                stats,
+                modules: self.plc.module_status().to_vec(),
+            };
         }
         self.plc.shutdown();
         if let Some(p) = &mut self.publisher {

@@ -9,7 +9,10 @@
 //!
 //! Each MiniMod's X1 is toggled by the soak every 12 s; the program copies it to Y1
 //! (`out_k = in_k`). Faults (every kind of `softplc_io::sim::fault`) hit each reply with the
-//! given probability.
+//! given probability. On top of them, the transients a machine meets: the whole line dies for
+//! 3 s every 3 minutes, a module is power-cycled every 47 s, and every 10 minutes the PLC is
+//! killed as `kill -9` would (no safe state) and started again on the same modules 2 s later.
+//! The PLC must never stop on its own.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
@@ -31,6 +34,14 @@ const SETTLE: Duration = Duration::from_millis(20 + 2 * 100 + 100);
 /// Longest time an output change may take to reach the module under faults: a lost module is
 /// retried after at most a few seconds of backoff at these rates.
 const DELIVER: Duration = Duration::from_secs(10);
+/// The line dies for [`LINE_DEAD_FOR`] this often.
+const LINE_DEATH_EVERY: Duration = Duration::from_secs(180);
+const LINE_DEAD_FOR: Duration = Duration::from_secs(3);
+/// One module is power-cycled this often (in turn).
+const POWER_CYCLE_EVERY: Duration = Duration::from_secs(47);
+/// The PLC is killed and restarted this often, after [`RESTART_GAP`] with no host.
+const RESTART_EVERY: Duration = Duration::from_secs(600);
+const RESTART_GAP: Duration = Duration::from_secs(2);
 
 struct Args {
     run_for: Duration,
@@ -115,7 +126,7 @@ fn main() -> anyhow::Result<()> {
     std::fs::write(&file, project_text(args.modules))?;
     let project = project::load(&file).map_err(|e| anyhow::anyhow!("{e}"))?;
     let clock = Arc::new(VirtualClock::new());
-    let plc = Plc::build(project, clock.clone()).context("building the soak PLC")?;
+    let plc = Plc::build(project.clone(), clock.clone()).context("building the soak PLC")?;
     let world = plc.world().context("the soak runs on port: sim")?.clone();
     {
         let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
@@ -153,55 +164,138 @@ fn main() -> anyhow::Result<()> {
         (false, Duration::ZERO, false);
         args.modules
     ]));
-    let due: Arc<Mutex<VecDeque<(usize, bool, Duration)>>> = Arc::new(Mutex::new(VecDeque::new()));
-    let hook_tally = tally.clone();
+    // Output changes to check: module, level, when, and when it was made.
+    let due: Arc<Mutex<VecDeque<(usize, bool, Duration, Duration)>>> =
+        Arc::new(Mutex::new(VecDeque::new()));
+    // Per module: when it was last power-cycled.
+    let cycled = Arc::new(Mutex::new(vec![None::<Duration>; args.modules]));
     let run_for = args.run_for;
-    let hook = Box::new(move |plc: &Plc, ctx: &softplc::logic::ScanContext| {
-        let now = ctx.now;
-        let mut t = hook_tally.lock().unwrap_or_else(|e| e.into_inner());
-        let mut lv = levels.lock().unwrap_or_else(|e| e.into_inner());
-        let mut due = due.lock().unwrap_or_else(|e| e.into_inner());
-        t.cycles += 1;
-        if t.rss_early == 0 && now >= run_for / 10 {
-            t.rss_early = rss_kib();
-        }
-        let Some(world) = plc.world() else { return };
-        let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
-        for (k, (in_id, _)) in ids.iter().enumerate() {
-            let slot = plc.image().slot(*in_id);
-            let (level, since, before) = lv[k];
-            if slot.quality == Quality::Good {
-                t.checked_values += 1;
-                let ok = slot.value == Value::Bool(level)
-                    || (now.saturating_sub(since) < SETTLE && slot.value == Value::Bool(before));
-                if !ok {
-                    t.wrong_values += 1;
+    let modules = args.modules;
+    let transients = Arc::new(Mutex::new((0u64, 0u64)));
+    let make_hook = |tally: Arc<Mutex<Tally>>| {
+        let levels = levels.clone();
+        let due = due.clone();
+        let ids = ids.clone();
+        let transients = transients.clone();
+        let cycled = cycled.clone();
+        Box::new(move |plc: &Plc, ctx: &softplc::logic::ScanContext| {
+            let hook_tally = &tally;
+            let now = ctx.now;
+            let mut t = hook_tally.lock().unwrap_or_else(|e| e.into_inner());
+            let mut lv = levels.lock().unwrap_or_else(|e| e.into_inner());
+            let mut due = due.lock().unwrap_or_else(|e| e.into_inner());
+            t.cycles += 1;
+            if t.rss_early == 0 && now >= run_for / 10 {
+                t.rss_early = rss_kib();
+            }
+            let Some(world) = plc.world() else { return };
+            let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
+            // The transients, for the next cycle.
+            let next = now + Duration::from_millis(100);
+            let in_death = next.as_millis() % LINE_DEATH_EVERY.as_millis() >= 60_000
+                && next.as_millis() % LINE_DEATH_EVERY.as_millis()
+                    < 60_000 + LINE_DEAD_FOR.as_millis();
+            if in_death != w.faults().is_dead(0) {
+                w.faults_mut().set_dead(0, in_death);
+                if in_death {
+                    transients.lock().unwrap_or_else(|e| e.into_inner()).0 += 1;
                 }
             }
-            // Staggered toggles, so the modules do not all change in one cycle.
-            let phase = TOGGLE_EVERY * k as u32 / ids.len().max(1) as u32;
-            if now >= phase && now.saturating_sub(since) >= TOGGLE_EVERY {
-                let new = !level;
-                let _ = w.set(k, "X1", Value::Bool(new));
-                lv[k] = (new, now, level);
-                due.push_back((k, new, now + DELIVER));
-                t.output_changes += 1;
+            if next.as_millis() % POWER_CYCLE_EVERY.as_millis() < 100 {
+                let k = (next.as_millis() / POWER_CYCLE_EVERY.as_millis()) as usize % modules;
+                if let Some(d) = w.device_mut(k) {
+                    let _ = d.command(&["power-cycle"]);
+                    cycled.lock().unwrap_or_else(|e| e.into_inner())[k] = Some(next);
+                    transients.lock().unwrap_or_else(|e| e.into_inner()).1 += 1;
+                }
             }
-        }
-        while let Some(&(k, level, deadline)) = due.front() {
-            if now < deadline {
-                break;
+            for (k, (in_id, _)) in ids.iter().enumerate() {
+                let slot = plc.image().slot(*in_id);
+                let (level, since, before) = lv[k];
+                if slot.quality == Quality::Good {
+                    t.checked_values += 1;
+                    let ok = slot.value == Value::Bool(level)
+                        || (now.saturating_sub(since) < SETTLE
+                            && slot.value == Value::Bool(before));
+                    if !ok {
+                        t.wrong_values += 1;
+                    }
+                }
+                // Staggered toggles, so the modules do not all change in one cycle.
+                let phase = TOGGLE_EVERY * k as u32 / ids.len().max(1) as u32;
+                if now >= phase && now.saturating_sub(since) >= TOGGLE_EVERY {
+                    let new = !level;
+                    let _ = w.set(k, "X1", Value::Bool(new));
+                    lv[k] = (new, now, level);
+                    due.push_back((k, new, now + DELIVER, now));
+                    t.output_changes += 1;
+                }
             }
-            due.pop_front();
-            // By now the program's copy of the input must be on the module's terminal.
-            if w.get(k, "Y1").ok() != Some(Value::Bool(level)) {
-                t.lost_changes += 1;
+            let mut later = Vec::new();
+            while let Some(&(k, level, deadline, made)) = due.front() {
+                if now < deadline {
+                    break;
+                }
+                due.pop_front();
+                // A module that is not good now (lost in an outage, restarting) or was
+                // power-cycled in the last output refresh period cannot hold it yet: check
+                // again later, for at most a minute after the change.
+                let just_cycled = cycled.lock().unwrap_or_else(|e| e.into_inner())[k]
+                    .is_some_and(|t| now.saturating_sub(t) < Duration::from_secs(2));
+                let unsettled = plc.module_status()[k].quality != Quality::Good || just_cycled;
+                if unsettled && now.saturating_sub(made) < Duration::from_secs(60) {
+                    later.push((k, level, now + Duration::from_secs(5), made));
+                    continue;
+                }
+                // By now the program's copy of the input must be on the module's terminal.
+                if w.get(k, "Y1").ok() != Some(Value::Bool(level)) {
+                    t.lost_changes += 1;
+                    eprintln!(
+                        "lost: mm{} Y1 {level} due {deadline:?}, at {now:?}; {:?}",
+                        k + 1,
+                        plc.module_status()[k]
+                    );
+                }
             }
-        }
-    });
+            // A newer change of the same module supersedes a re-checked one.
+            for item in later {
+                if !due.iter().any(|d| d.0 == item.0) {
+                    due.push_back(item);
+                }
+            }
+        }) as softplc::scan::engine::CycleHook
+    };
     let started = Instant::now();
-    let mut engine = ScanEngine::new(plc).run_for(args.run_for).on_cycle(hook);
-    let outcome = engine.run();
+    // Segments between kills: each ends as kill -9 would, the next starts on the same modules.
+    let mut plc = plc;
+    let mut restarts = 0u64;
+    let outcome = loop {
+        let segment = RESTART_EVERY.min(args.run_for.saturating_sub(clock.now()));
+        let last = clock.now() + segment >= args.run_for;
+        let mut engine = ScanEngine::new(plc)
+            .run_for(segment)
+            .on_cycle(make_hook(tally.clone()));
+        if !last {
+            engine = engine.abandon_at_end();
+        }
+        let outcome = engine.run();
+        if outcome.reason != softplc::scan::StopReason::Requested {
+            bail!("the PLC stopped on its own: {:?}", outcome.reason);
+        }
+        if last {
+            break outcome;
+        }
+        drop(engine);
+        restarts += 1;
+        let resume = clock.now() + RESTART_GAP;
+        world
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .advance_to(resume);
+        clock.advance_to(resume);
+        plc = Plc::build_on(project.clone(), clock.clone(), Some(world.clone()))
+            .context("restarting the soak PLC after its kill")?;
+    };
     let rss_end = rss_kib();
     let t = tally.lock().unwrap_or_else(|e| e.into_inner());
     let applied = world
@@ -224,6 +318,11 @@ fn main() -> anyhow::Result<()> {
         t.cycles,
         applied,
         outcome.stats.bus_errors
+    );
+    let (deaths, cycles) = *transients.lock().unwrap_or_else(|e| e.into_inner());
+    println!(
+        "  transients: {deaths} line deaths of {}, {cycles} module power cycles, {restarts} kill -9 and restarts",
+        softplc::scan::fmt_duration(LINE_DEAD_FOR)
     );
     println!(
         "  values checked {}  wrong {}   output changes {}  lost {}   memory {} KiB at 10% → {} KiB at the end ({:+.1}%)",
