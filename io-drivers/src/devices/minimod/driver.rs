@@ -69,6 +69,11 @@
 //! it, the start-up reads why the watchdog fired and logs it once ([`restart`]); the same
 //! sequence runs when the module comes back after it was lost or refused a write, and every
 //! output is then written again.
+//!
+//! The logic registers (AON/AOFF conditions, blinkers, pulsers) come last: all cleared and read
+//! back, then the pushed-down outputs' initial values, then the settings' own tables (the
+//! order and why: [`logic`]), so tables left by a run that crashed never drive the outputs
+//! under this one.
 
 use std::time::Duration;
 
@@ -83,6 +88,8 @@ use crate::point::Value;
 
 pub use super::settings::{check_setting, SettingError};
 
+mod logic;
+pub use logic::{CLEARED as LOGIC_CLEARED_AT_STARTUP, INITIAL_PREFIX};
 mod restart;
 
 /// Builds a driver from a validated module entry (the catalog's constructor). Settings were
@@ -91,6 +98,11 @@ mod restart;
 pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
     let mut settings = Vec::with_capacity(config.settings.len());
     for (key, value) in &config.settings {
+        // The push-down planner's `initial_Yn` (see `logic`).
+        if let Some(s) = logic::initial_output(key, value) {
+            settings.push(s);
+            continue;
+        }
         match Setting::parse(key, value) {
             Ok(s) => settings.push(s),
             Err(e) => tracing::error!(module = %config.name, key = %key, "ignored setting: {e}"),
@@ -342,6 +354,9 @@ fn setup_steps(settings: &[Setting], protocol: Protocol, events: bool) -> Vec<Se
             }
         }
     }
+    // Logic tables and the pushed-down outputs' initial values: a sequence of their own, after
+    // the watchdog reset (see `logic`).
+    let logic = logic::split(&mut registers, &mut coils);
     let mut steps = Vec::new();
     if protocol == Protocol::Text {
         let mut modbus_registers = Vec::new();
@@ -390,6 +405,7 @@ fn setup_steps(settings: &[Setting], protocol: Protocol, events: bool) -> Vec<Se
             names,
         });
     }
+    steps.extend(logic);
     for (id, n) in delays {
         let name = if id == TextId::RdelayT {
             "RDELAYT"
@@ -1373,7 +1389,11 @@ mod tests {
         let mut sim = MiniModSim::new(UNIT);
         let mut plan = Vec::new();
         d.plan_startup(&mut plan);
-        assert_eq!(plan.len(), 6, "three runs: 19..20, 35, 51");
+        assert_eq!(
+            plan.len(),
+            10,
+            "runs 19..20 and 35, the logic clear (51..=78, 83..=86), then 51"
+        );
         assert_eq!(
             wire(&plan[0]),
             frame(&[0x05, 0x10, 0x00, 0x13, 0x00, 0x02, 0x04, 0x00, 0x05, 0x00, 0x10])
@@ -1583,13 +1603,16 @@ mod tests {
         sim.set("WDTFIRED", Value::Bool(true)).unwrap(); // left by the last run
         let mut plan = Vec::new();
         d.plan_startup(&mut plan);
-        let wires: Vec<Vec<u8>> = plan
+        let mut wires: Vec<Vec<u8>> = plan
             .iter()
             .map(|tx| match &tx.frame {
                 Outgoing::Text { line, .. } => line.clone(),
                 _ => wire(tx),
             })
             .collect();
+        // The logic registers are cleared after the watchdog reset (see `logic`).
+        let clear: Vec<Vec<u8>> = wires.drain(12..16).collect();
+        assert_eq!(clear, logic::tests::clear_frames(UNIT));
         assert_eq!(
             wires,
             [
@@ -1648,7 +1671,7 @@ mod tests {
         let mut d = text_driver(&[
             ("X1LATUP", "5"),
             ("Y3AON2", "X2-X3"),
-            ("Y1AON1", "0x0100"), // not expressible with input names: Modbus
+            ("Y1AON1", "0x0100"), // conditions go through Modbus, read back
             ("FBENABLE", "2"),
             ("XCOUNT1", "100"),
             ("XEVMASK", "1"), // no text identifier: Modbus
@@ -1670,16 +1693,16 @@ mod tests {
                 b"@5>XCOUNT1=100\r",
                 b"@5>X1LATUP=5\r",
                 b"@5?X1LATUP\r",
-                b"@5>Y3AON2=X2-X3\r",
                 b"@5>FBENABLE=2\r",
                 b"@5?FBENABLE\r",
             ]
         );
         assert_eq!(
             plan.len(),
-            texts.len() + 7,
-            "Modbus: WDTFB/WDTCOMM (why the watchdog fired), then three runs: XEVMASK, Y1AON1, \
-             WDTFIRED (the watchdog reset)"
+            texts.len() + 13,
+            "Modbus: WDTFB/WDTCOMM (why the watchdog fired), XEVMASK, WDTFIRED (the watchdog \
+             reset), the logic clear (two runs), then Y1AON1 and Y3AON2 (conditions cannot be \
+             read back in text, see `logic`)"
         );
         for tx in &plan {
             exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
