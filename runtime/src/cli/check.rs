@@ -107,6 +107,9 @@ pub fn report(project: &Project) -> String {
             if let Some(line) = crate::offload::report::startup_logic(module) {
                 let _ = writeln!(out, "    {line}");
             }
+            let (watchdog, warning) = crate::project::watchdog::report(module);
+            let _ = writeln!(out, "{watchdog}");
+            warnings.extend(warning);
             for (i, tag) in project.tags.iter().enumerate() {
                 if let Binding::Point { module: tm, point } = tag.binding {
                     if tm == m {

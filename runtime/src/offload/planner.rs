@@ -355,7 +355,7 @@ impl Plan {
             .iter()
             .enumerate()
             .map(|(m, cfg)| {
-                let mut device = cfg.device.clone();
+                let mut device = cfg.device_with_watchdog();
                 if let Some(extra) = self.settings.get(m) {
                     device.settings.extend(extra.iter().cloned());
                 }

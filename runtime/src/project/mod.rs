@@ -24,6 +24,7 @@ mod scada;
 pub mod service;
 pub(crate) mod span;
 mod validate;
+pub mod watchdog;
 pub mod web;
 
 use std::path::Path;

@@ -105,6 +105,10 @@ pub struct ModuleConfig {
     pub model: &'static ModelSpec,
     /// What its driver is built from.
     pub device: DeviceConfig,
+    /// Its own watchdog: the entry's `watchdog:`, what it is armed with and the settings that
+    /// arm it, added to `device`'s by [`ModuleConfig::device_with_watchdog`] (see
+    /// [`super::watchdog`]).
+    pub watchdog: super::watchdog::ModuleWatchdog,
 }
 
 /// One tag.

@@ -23,6 +23,8 @@
 //!     address: 1               # unit address, within the model's range
 //!     protocol: modbus         # modbus | text; default: the model's first protocol
 //!     settings: { RDELAYT: 5 } # optional, model-specific, checked by the model
+//!     watchdog: off            # optional; auto (default) | off: the module's own watchdog
+//!                              # (see `watchdog.rs`)
 //! tags:
 //!   - { name: start, point: mm1.X2 }           # bound to a point; its type is the point's
 //!   - { name: motor, point: mm1.Y1, safe: false }   # `safe`: written in the safe state
@@ -62,6 +64,12 @@
 //!   written in hex, `0x1F`). An output point may be bound to one tag only.
 //! - A bus's baud rate may not exceed the `max_baud` of a model on it (reported at the
 //!   module's `bus`). Unit addresses are unique per bus.
+//! - **Module watchdogs** are armed by default where the model has one that makes outputs
+//!   safe (MiniMod: WDTTIME derived from the scan period and the line, WDTYMASK from the tags'
+//!   safe values; see `watchdog.rs` for the formula and the other models). `watchdog: off` on
+//!   a module entry turns it off (MiniMod: WDTTIME = 0 written at start-up), and `check` warns;
+//!   an explicit `WDTTIME` / `WDTYMASK` in the settings wins; `watchdog: off` together with a
+//!   `WDTTIME` other than 0 is refused.
 //! - Program kinds: `expr`, `ladder`, `rhai`. The program file must exist.
 //! - `retain: true` only on memory tags; `retain.period` > 0, `retain.file` not empty.
 //! - A plant must wire every one of its roles, each to a point of the right direction (a role
@@ -198,7 +206,7 @@ pub struct RawBus {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a module: a mapping with name, bus, model, address, protocol and settings"
+    expecting = "a module: a mapping with name, bus, model, address, protocol, settings and watchdog"
 )]
 pub struct RawModule {
     /// The module's name.
@@ -215,6 +223,9 @@ pub struct RawModule {
     /// Model-specific settings.
     #[serde(default)]
     pub settings: Option<Settings>,
+    /// The module's own watchdog: `auto` (default) or `off` (see [`super::watchdog`]).
+    #[serde(default)]
+    pub watchdog: Option<ScalarText>,
 }
 
 /// One `tags:` entry.

@@ -16,6 +16,7 @@ use super::model::{
 };
 use super::raw::{Int, RawBus, RawModule, RawPlant, RawProject, RawScan, RawTag};
 use super::span::{Locator, YPath};
+use super::watchdog::WatchdogPolicy;
 use softplc_io::devices::DeviceConfig;
 
 /// Default watchdog time, in periods.
@@ -126,7 +127,11 @@ pub(crate) fn validate(
         })
     })();
     match built {
-        Some(project) if errors.is_empty() => Ok(project),
+        Some(mut project) if errors.is_empty() => {
+            // The modules' own watchdogs, now that the scan and the lines are known.
+            super::watchdog::arm(&mut project);
+            Ok(project)
+        }
         _ => {
             if errors.is_empty() {
                 // Every refusal above records an error; this is a guard, not a path.
@@ -534,8 +539,33 @@ impl Validator<'_> {
             }
         }
 
-        let config = match (bus, address, protocol, settings_ok) {
-            (Some(bus), Some(address), Some(protocol), true) => Some(ModuleConfig {
+        // The module's own watchdog (see `watchdog.rs`).
+        let policy = match &m.watchdog {
+            None => Some(WatchdogPolicy::Auto),
+            Some(text) => {
+                let parsed = super::watchdog::parse_policy(&text.0).and_then(|p| {
+                    match super::watchdog::conflict(model.name, &settings) {
+                        Some(why) if p == WatchdogPolicy::Off => Err(why),
+                        _ => Ok(p),
+                    }
+                });
+                match parsed {
+                    Ok(p) => Some(p),
+                    Err(message) => {
+                        let kind = ErrorKind::BadSetting {
+                            module: m.name.clone(),
+                            key: super::watchdog::KEY.into(),
+                            message,
+                        };
+                        self.error(path.key(super::watchdog::KEY), kind);
+                        None
+                    }
+                }
+            }
+        };
+
+        let config = match (bus, address, protocol, settings_ok, policy) {
+            (Some(bus), Some(address), Some(protocol), true, Some(policy)) => Some(ModuleConfig {
                 name: m.name.clone(),
                 bus,
                 model,
@@ -544,6 +574,10 @@ impl Validator<'_> {
                     address,
                     protocol,
                     settings,
+                },
+                watchdog: super::watchdog::ModuleWatchdog {
+                    policy,
+                    ..Default::default()
                 },
             }),
             _ => None,
