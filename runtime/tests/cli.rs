@@ -569,3 +569,127 @@ fn a_coil_written_by_a_third_party_master_shows_on_stdin_get() {
         values(1..=4, &["1", "0", "0", "0"])
     );
 }
+
+// --- closed pipes and pathological input ---
+
+/// A scratch folder for `name` holding the quick start with `n` more memory tags (so `check`
+/// and `status` print far more than a pipe holds) and the project name `name`.
+fn big_quickstart(name: &str, n: usize) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        root().join("programs/conveyor.expr"),
+        dir.join("conveyor.expr"),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(quickstart()).unwrap();
+    let text = text
+        .split("\nservice:\n")
+        .next()
+        .unwrap_or_default()
+        .replace("../../programs/conveyor.expr", "conveyor.expr")
+        .replace("project: quickstart", &format!("project: {name}"));
+    let tags: String = (0..n)
+        .map(|i| format!("  - {{ name: memory_tag_{i}, type: u16, initial: {i} }}\n"))
+        .collect();
+    let text = text.replacen("tags:\n", &format!("tags:\n{tags}"), 1);
+    std::fs::write(dir.join("project.yaml"), text).unwrap();
+    dir
+}
+
+/// Runs `softplc args` with stdout a pipe that the test closes after reading the first bytes,
+/// so the command's later writes find no reader: what it printed to stderr, and its status.
+fn with_stdout_closed_early(args: &[&str]) -> Finished {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("softplc runs");
+    let stderr = drain(child.stderr.take().expect("piped stderr"));
+    let mut stdout = child.stdout.take().expect("piped stdout");
+    let mut first = [0u8; 16];
+    stdout.read_exact(&mut first).expect("the command prints");
+    drop(stdout);
+    let deadline = Instant::now() + PATIENCE;
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for the child") {
+            break status;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("softplc {args:?} did not end after its stdout closed");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    Finished {
+        status,
+        stdout: String::from_utf8_lossy(&first).into_owned(),
+        stderr: stderr.recv().unwrap_or_default(),
+    }
+}
+
+/// What a command whose stdout closed under it must look like: no panic, nothing on stderr,
+/// the status of a program a closed pipe ended (128 + SIGPIPE).
+fn ended_quietly(out: &Finished) {
+    assert!(
+        !out.stderr.contains("panicked") && out.stderr.trim().is_empty(),
+        "stderr: {}",
+        out.stderr
+    );
+    assert_eq!(out.code(), Some(141), "{out:?}");
+}
+
+#[test]
+fn check_into_a_closed_pipe_ends_quietly() {
+    let dir = big_quickstart("pipecheck", 8000);
+    let project = dir.join("project.yaml");
+    // The whole report is far more than a pipe buffers (64 KiB).
+    let full = softplc(&["check", path_str(&project)]);
+    assert_eq!(full.code(), Some(0), "{}", full.stderr);
+    assert!(full.stdout.len() > 128 * 1024, "{}", full.stdout.len());
+    let out = with_stdout_closed_early(&["check", path_str(&project)]);
+    assert!(out.stdout.starts_with("project pipe"), "{out:?}");
+    ended_quietly(&out);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn status_into_a_closed_pipe_ends_quietly() {
+    let dir = big_quickstart("pipestatus", 8000);
+    let socket = dir.join("ctl.sock");
+    let mut plc = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(["run", "--quiet", "--for", "30s", "--control"])
+        .arg(&socket)
+        .arg(dir.join("project.yaml"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("softplc run starts");
+    let status = ["status", "--json", "--socket", path_str(&socket)];
+    let begin = Instant::now();
+    let full = loop {
+        let out = softplc(&status);
+        if out.code() == Some(0) {
+            break out;
+        }
+        assert!(
+            plc.try_wait().unwrap().is_none(),
+            "softplc run stopped: {out:?}"
+        );
+        assert!(begin.elapsed() < PATIENCE, "no status: {out:?}");
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    assert!(full.stdout.len() > 128 * 1024, "{}", full.stdout.len());
+    let out = with_stdout_closed_early(&status);
+    assert!(out.stdout.starts_with('{'), "{out:?}");
+    ended_quietly(&out);
+    // The instance is unharmed and answers the next client.
+    assert_eq!(softplc(&status).code(), Some(0));
+    let _ = plc.kill();
+    let _ = plc.wait();
+    let _ = std::fs::remove_dir_all(dir);
+}

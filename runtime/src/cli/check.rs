@@ -22,7 +22,7 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let project = match project::load(&args.project) {
         Ok(p) => p,
         Err(errors) => {
-            eprintln!("{errors}");
+            super::out::errln(&errors.to_string());
             return Ok(ExitCode::FAILURE);
         }
     };
@@ -30,7 +30,7 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let engine = match load::load_program(&project, &image) {
         Ok(engine) => engine,
         Err(e) => {
-            eprintln!("{e}");
+            super::out::errln(&e.to_string());
             return Ok(ExitCode::FAILURE);
         }
     };
@@ -45,11 +45,11 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     {
         module.device = device;
     }
-    print!("{}", report(&planned));
-    print!("{}", crate::offload::report::report(&project, &plan));
+    super::out::out(&report(&planned))?;
+    super::out::out(&crate::offload::report::report(&project, &plan))?;
     let failures = plan.require_failures();
     if !failures.is_empty() {
-        eprintln!("{}", crate::offload::runtime::lines(&failures));
+        super::out::errln(&crate::offload::runtime::lines(&failures).to_string());
         return Ok(ExitCode::FAILURE);
     }
     Ok(ExitCode::SUCCESS)

@@ -5,6 +5,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
+use super::out::{errln, out, outln};
+
 use crate::project;
 use crate::service::control::{default_socket_path, request, Request};
 
@@ -78,10 +80,10 @@ fn send(target: &Target, req: &Request) -> anyhow::Result<ExitCode> {
     let response =
         request(&path, req).with_context(|| format!("no answer from {}", path.display()))?;
     if let Some(m) = &response.message {
-        println!("{m}");
+        outln(m)?;
     }
     if let Some(e) = &response.error {
-        eprintln!("error: {e}");
+        errln(&format!("error: {e}"));
     }
     Ok(if response.ok {
         ExitCode::SUCCESS
@@ -95,9 +97,9 @@ pub(super) fn status(args: StatusArgs) -> anyhow::Result<ExitCode> {
     let response = request(&path, &Request::Status)
         .with_context(|| format!("no answer from {}", path.display()))?;
     match (&response.status, args.json) {
-        (Some(s), true) => println!("{}", serde_json::to_string_pretty(s)?),
-        (Some(s), false) => print!("{s}"),
-        (None, _) => eprintln!("error: {}", response.error.unwrap_or_default()),
+        (Some(s), true) => outln(&serde_json::to_string_pretty(s)?)?,
+        (Some(s), false) => out(&s.to_string())?,
+        (None, _) => errln(&format!("error: {}", response.error.unwrap_or_default())),
     }
     Ok(if response.ok {
         ExitCode::SUCCESS

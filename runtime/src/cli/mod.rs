@@ -3,6 +3,7 @@
 mod args;
 mod check;
 mod control;
+mod out;
 mod run;
 mod sim;
 pub mod test;
@@ -58,8 +59,10 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
+        // The reader of stdout went away (`softplc check p.yaml | head`): end quietly.
+        Err(e) if out::is_closed(&e) => ExitCode::from(out::CLOSED_STATUS),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            out::errln(&format!("error: {e:#}"));
             ExitCode::from(2)
         }
     }

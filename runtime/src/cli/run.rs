@@ -48,7 +48,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let project = match project::load(&args.project) {
         Ok(p) => p,
         Err(errors) => {
-            eprintln!("{errors}");
+            super::out::errln(&errors.to_string());
             return Ok(ExitCode::FAILURE);
         }
     };
@@ -145,16 +145,17 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
                     s.overruns,
                     s.bus_errors
                 );
+                // Best effort: a closed stderr must not stop the PLC.
                 if tty {
-                    eprint!("\r\x1b[2K{line}");
+                    super::out::err(&format!("\r\x1b[2K{line}"));
                 } else {
-                    eprintln!("{line}");
+                    super::out::errln(&line);
                 }
             }
         }
     }
     if live && tty {
-        eprintln!();
+        super::out::errln("");
     }
     let outcome = scan
         .join()
@@ -164,7 +165,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         // process goes away, so an open page says "stopped" rather than "no connection".
         std::thread::sleep(crate::service::web::sse::TICK * 3);
     }
-    print!("{}", summary(&outcome, period));
+    super::out::out(&summary(&outcome, period))?;
     Ok(match outcome.reason {
         StopReason::Requested => ExitCode::SUCCESS,
         _ => ExitCode::from(3),

@@ -140,10 +140,10 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         let path = args.port.clone().unwrap_or_default();
         (open_tty(&path, settings)?, None, path.display().to_string())
     };
-    println!(
+    super::out::outln(&format!(
         "serving {} on {path} at {settings}",
         args.devices.join(", ")
-    );
+    ))?;
 
     let stop = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
@@ -164,18 +164,23 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                             stop.store(true, Ordering::Relaxed);
                             break;
                         }
-                        Ok(Reply::Text(t)) if !t.is_empty() => println!("{t}"),
+                        // A closed stdout leaves the simulators serving, silently.
+                        Ok(Reply::Text(t)) if !t.is_empty() => {
+                            let _ = super::out::outln(&t);
+                        }
                         Ok(Reply::Text(_)) => {}
-                        Err(e) => println!("error: {e}"),
+                        Err(e) => {
+                            let _ = super::out::outln(&format!("error: {e}"));
+                        }
                     }
                 }
             })?;
     }
     let stats = serve(port, world, settings, clock, &stop).context("serial line failed")?;
-    println!(
+    super::out::outln(&format!(
         "served {} frames, {} replies, {} noise bytes",
         stats.frames, stats.replies, stats.noise_bytes
-    );
+    ))?;
     Ok(ExitCode::SUCCESS)
 }
 

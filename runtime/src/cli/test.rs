@@ -173,7 +173,7 @@ pub fn run_path(path: &Path, verbose: bool) -> (String, bool) {
 
 pub(super) fn test(args: TestArgs) -> anyhow::Result<ExitCode> {
     let (report, ok) = run_path(&args.path, args.verbose);
-    print!("{report}");
+    super::out::out(&report)?;
     Ok(if ok {
         ExitCode::SUCCESS
     } else {
