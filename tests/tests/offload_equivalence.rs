@@ -1330,3 +1330,407 @@ fn a_clean_stop_leaves_the_output_safe_and_the_inputs_without_effect_in_both() {
         }
     }
 }
+
+/// Runs `case` in `mode` on this thread's machine as it is: `before` presses for the run that
+/// is killed, then a restart of the same project with `after`; the restart's traces.
+fn kill_and_restart(
+    case: &Case,
+    mode: &str,
+    before: &[Vec<Edge>],
+    after: &[Vec<Edge>],
+) -> Vec<Vec<Edge>> {
+    let clock = Arc::new(VirtualClock::new());
+    let mut a = Session::start(case, case.project(mode), &clock, before);
+    a.run_until(ms(1500));
+    drop(a); // kill -9
+    clock.sleep_until(clock.now() + ms(2000));
+    let mut b = Session::start(case, case.project(mode), &clock, after);
+    b.run_until(ms(4000));
+    b.trace()
+}
+
+#[test]
+fn a_latch_restarted_after_kill_9_needs_a_new_start_press_in_both() {
+    let case = motor_case("restart-latch");
+    let bound = plans(&case).2;
+    // Started, then killed while running; after the restart start is pressed at 2 s and stop
+    // at 3 s.
+    let before = [press(300, 300)];
+    let after = [press(2000, 200), press(3000, 200)];
+    let mut traces = Vec::new();
+    for mode in ["never", "auto"] {
+        machine::replace();
+        let mm1 = module("minimod", 1);
+        let t = kill_and_restart(&case, mode, &before, &after);
+        assert!(!level(&mm1, "Y2"), "{mode}: stopped at the end");
+        traces.push(t.into_iter().next().unwrap_or_default());
+    }
+    // Central: Y2 is still on when the new run starts and goes off at its first write (the
+    // latch starts reset). Pushed down: the start-up writes it off before arming the tables,
+    // so the new run never sees it on. Then both: on at the start press, off at stop.
+    assert_eq!(
+        traces[0].first().map(|e| e.1),
+        Some(true),
+        "{:?}",
+        traces[0]
+    );
+    assert!(
+        traces[0].get(1).is_some_and(|e| !e.1 && e.0 < bound),
+        "{:?}",
+        traces[0]
+    );
+    assert_eq!(
+        traces[1].first().map(|e| e.0 >= ms(2000)),
+        Some(true),
+        "{:?}",
+        traces[1]
+    );
+    same_levels(
+        "restart-latch",
+        &traces[0],
+        &traces[1],
+        ms(1000),
+        bound,
+        true,
+        ms(1),
+    );
+}
+
+#[test]
+fn a_toggle_restarted_after_kill_9_starts_off_in_both() {
+    let case = Case {
+        name: "restart-toggle",
+        period_ms: 100,
+        tick_ms: 10,
+        modules: &["name: r1, model: resi-16di8ro, address: 1"],
+        tags: &[
+            "name: button, point: r1.DI1",
+            "name: lamp, point: r1.RO4, safe: false",
+        ],
+        program: "lamp = lamp ^ rising(button)\n",
+        ladder: false,
+        inputs: &["r1.DI1"],
+        outputs: &["r1.RO4"],
+    };
+    let bound = plans(&case).2;
+    let mut traces = Vec::new();
+    for mode in ["never", "auto"] {
+        machine::replace();
+        let r1 = module("resi-16di8ro", 1);
+        // Toggled on, killed; after the restart two presses: on at 2 s, off at 3 s.
+        let after = [[press(2000, 300), press(3000, 300)].concat()];
+        let t = kill_and_restart(&case, mode, &[press(300, 300)], &after);
+        assert!(!level(&r1, "RO4"), "{mode}: toggled off at the end");
+        traces.push(t.into_iter().next().unwrap_or_default());
+    }
+    assert_eq!(
+        traces[0].first().map(|e| e.1),
+        Some(true),
+        "central: on until its first write"
+    );
+    assert_eq!(
+        traces[1].first().map(|e| (e.0 >= ms(2000), e.1)),
+        Some((true, true)),
+        "pushed: off from start-up, on at the press"
+    );
+    same_levels(
+        "restart-toggle",
+        &traces[0],
+        &traces[1],
+        ms(1000),
+        bound,
+        true,
+        ms(10),
+    );
+}
+
+#[test]
+fn prior_module_state_does_not_change_the_traces() {
+    // A MiniMod and a RESI-16DI8RO as another controller left them: every output on, tables
+    // on every output, a blinker and a pulse running, the relays' logic enabled.
+    let case = Case {
+        name: "prior",
+        period_ms: 50,
+        tick_ms: 10,
+        modules: &[
+            "name: mm1, model: minimod, address: 1",
+            "name: r1, model: resi-16di8ro, address: 2",
+        ],
+        tags: &[
+            "name: a, point: mm1.X1",
+            "name: b, point: mm1.X2",
+            "name: latch, point: mm1.Y1",
+            "name: both, point: mm1.Y2",
+            "name: on_button, point: r1.DI1",
+            "name: off_button, point: r1.DI2",
+            "name: lamp, point: r1.RO1",
+            "name: hall, point: r1.RO2",
+        ],
+        program: "latch = (a | latch) & !b\nboth = a & b\n\
+                  lamp = lamp ^ rising(on_button)\n\
+                  hall = (rising(on_button) | hall) & !rising(off_button)\n",
+        ladder: false,
+        inputs: &["mm1.X1", "mm1.X2", "r1.DI1", "r1.DI2"],
+        outputs: &["mm1.Y1", "mm1.Y2", "r1.RO1", "r1.RO2"],
+    };
+    let prior = || {
+        let mut mm1 = module("minimod", 1);
+        for (p, v) in [
+            ("Y1AON1", 0x0004), // X3
+            ("Y2AON1", 0x0001),
+            ("Y3AON1", 0x0101), // -X1
+            ("YLAMP4", 0x00FF),
+            ("YPULSE3", 60000),
+            ("YWORD", 0x0F),
+        ] {
+            mm1.set(p, Value::U16(v)).unwrap();
+        }
+        let mut r1 = module("resi-16di8ro", 2);
+        for (p, v) in [
+            ("SWITCH_RO1", 0x0004),
+            ("TOGGLE_RO2", 0x0001),
+            ("SWITCH_ON_RO3", 0x0002),
+            ("ENABLE_LOGIC_FUNCTIONS", 1),
+            ("ROS", 0xFF),
+        ] {
+            r1.set(p, Value::U16(v)).unwrap();
+        }
+    };
+    let (never, auto, bound) = plans(&case);
+    assert_eq!(
+        pushed(&auto).iter().filter(|(_, p)| *p).count(),
+        4,
+        "{:?}",
+        pushed(&auto)
+    );
+    let run_for = ms(20_000);
+    for seed in [4u64, 5] {
+        let inputs = schedule(4, seed, ms(100) * 2 + bound, run_for - ms(1000));
+        let mut traces = Vec::new();
+        for project in [never.clone(), auto.clone()] {
+            machine::replace();
+            prior();
+            let clock = Arc::new(VirtualClock::new());
+            let mut s = Session::start(&case, project, &clock, &inputs);
+            s.run_until(run_for);
+            traces.push(s.trace());
+        }
+        for (j, out) in case.outputs.iter().enumerate() {
+            // Every output was on when each build started; the first scan (central) or the
+            // start-up (pushed down) sets it as the program says.
+            same_levels(
+                &format!("prior seed {seed} {out}"),
+                &traces[0][j],
+                &traces[1][j],
+                ms(1000),
+                bound,
+                true,
+                ms(case.tick_ms),
+            );
+        }
+    }
+}
+
+/// Whether `edges` are `want` (time, level), each no earlier than its time and at most `late`
+/// after it.
+fn edges_near(edges: &[Edge], want: &[(u64, bool)], late: Duration) -> bool {
+    edges.len() == want.len()
+        && edges
+            .iter()
+            .zip(want)
+            .all(|(e, &(t, v))| e.1 == v && e.0 >= ms(t) && e.0 <= ms(t) + late)
+}
+
+#[test]
+fn bus_loss_in_the_middle_of_a_run() {
+    // The module's own watchdog is off here: this is about the line (the watchdog's safe state
+    // is tested with the drivers).
+    let case = Case {
+        name: "bus-loss",
+        modules: &["name: mm1, model: minimod, address: 1, settings: { WDTTIME: 0 }"],
+        ..motor_case("bus-loss")
+    };
+    let bound = plans(&case).2;
+    // Start at 1 s; the line dies from 3 s to 4.5 s and stop is pressed at 3.5 s meanwhile;
+    // start at 7 s, stop at 8 s, start at 9 s; the line dies again from 10 s to 11.5 s with
+    // nobody at the buttons.
+    let inputs = [
+        [press(1000, 200), press(7000, 200), press(9000, 200)].concat(),
+        [press(3500, 300), press(8000, 200)].concat(),
+    ];
+    let mut traces = Vec::new();
+    for mode in ["never", "auto"] {
+        machine::replace();
+        let clock = Arc::new(VirtualClock::new());
+        let mut s = Session::start(&case, case.project(mode), &clock, &inputs);
+        for (until, dead) in [(3000, true), (4500, false), (10_000, true), (11_500, false)] {
+            s.run_until(ms(until));
+            s.world(|w| w.faults_mut().set_dead(0, dead));
+        }
+        s.run_until(ms(16_000));
+        traces.push(s.trace().remove(0));
+    }
+    let (central, pushed) = (&traces[0], &traces[1]);
+    // Central: the stop pressed while the line was dead never reaches the scan, so the motor
+    // runs on until the stop at 8 s; each time the module comes back its outputs are written
+    // again from the latch, which still holds.
+    assert!(
+        edges_near(central, &[(1000, true), (8000, false), (9000, true)], bound),
+        "central {central:?}"
+    );
+    // Pushed down: the module sees the stop at 3.5 s itself and stops the motor within its
+    // tick. When a lost module comes back it gets its whole start-up again (it may have been
+    // power-cycled, the scan cannot tell), which starts the latch reset, as after a restart:
+    // the motor running when the line died at 10 s is stopped when the line is back (within
+    // the reconnect backoff after 11.5 s, grown to 2 s by then) and needs a new start press.
+    // The module's reaction: the inputs' power-on latency (XLATUP/XLATDN 20 ms) and a tick.
+    let tick = ms(22);
+    assert!(
+        edges_near(
+            &pushed[..3],
+            &[(1000, true), (3500, false), (7000, true)],
+            tick
+        ),
+        "pushed {pushed:?}"
+    );
+    assert!(
+        edges_near(&pushed[3..5], &[(8000, false), (9000, true)], tick),
+        "pushed {pushed:?}"
+    );
+    assert_eq!(pushed.len(), 6, "pushed {pushed:?}");
+    assert!(
+        !pushed[5].1 && pushed[5].0 >= ms(11_500) && pushed[5].0 <= ms(14_500),
+        "pushed: reset when the module comes back {pushed:?}"
+    );
+}
+
+#[test]
+fn forcing_beside_a_pushed_down_rung() {
+    // The latch is pushed down; the lamp (Y1) stays central in both builds and is forced on
+    // from 2 s to 4 s.
+    let case = Case {
+        name: "forcing",
+        tags: &[
+            "name: start, point: mm1.X1",
+            "name: stop, point: mm1.X2",
+            "name: x3, point: mm1.X3",
+            "name: motor, point: mm1.Y2, safe: false",
+            "name: lamp, point: mm1.Y1, safe: false, offload: never",
+        ],
+        program: "motor = (start | motor) & !stop\nlamp = x3\n",
+        outputs: &["mm1.Y2", "mm1.Y1"],
+        ..motor_case("forcing")
+    };
+    let (never, auto, bound) = plans(&case);
+    assert_eq!(
+        pushed(&auto),
+        vec![("motor".to_string(), true), ("lamp".to_string(), false)]
+    );
+    let inputs = [
+        [press(1000, 200), press(5000, 200)].concat(),
+        press(3000, 200),
+        press(4500, 200),
+    ];
+    let mut traces = Vec::new();
+    for (mode, project) in [("never", never), ("auto", auto)] {
+        machine::replace();
+        let clock = Arc::new(VirtualClock::new());
+        let mut s = Session::start(&case, project, &clock, &inputs);
+        s.run_until(ms(2000));
+        s.plc.force("lamp", "1").unwrap();
+        // A force on the latch's input: the scan takes it centrally; pushed down, the module
+        // reads its terminal itself, so the force is refused rather than ignored.
+        let start = s.plc.force("start", "1");
+        match mode {
+            "never" => {
+                assert!(start.is_ok(), "{start:?}");
+                s.plc.unforce(Some("start")).unwrap();
+            }
+            _ => assert!(
+                start
+                    .as_ref()
+                    .is_err_and(|e| e.contains("read by the module's own logic for motor")),
+                "{start:?}"
+            ),
+        }
+        s.run_until(ms(4000));
+        s.plc.unforce(Some("lamp")).unwrap();
+        s.run_until(ms(6000));
+        traces.push(s.trace());
+    }
+    // The lamp: forced on, then following X3, the same in both (central in both).
+    for t in &traces {
+        assert!(
+            edges_near(
+                &after(&t[1], ms(100)),
+                &[(2000, true), (4000, false), (4500, true), (4700, false)],
+                bound + ms(20) // X3's power-on latency
+            ),
+            "lamp {:?}",
+            t[1]
+        );
+    }
+    // The motor: the same edges, the module's earlier.
+    same_levels(
+        "forcing motor",
+        &traces[0][0],
+        &traces[1][0],
+        ms(500),
+        bound,
+        true,
+        ms(1),
+    );
+}
+
+#[test]
+fn inputs_shorter_than_a_scan_reach_the_module_only() {
+    // A MiniMod with no input latency samples every millisecond: a 5 ms start pulse in the
+    // middle of a 100 ms cycle latches the pushed-down motor, and the central scan, which reads
+    // the inputs at the start of each cycle, never sees it. The expected result is the
+    // module's: the press happened. (With the power-on latency of 20 ms the module would filter
+    // the pulse out too, "Input conditioning".)
+    let mm = Case {
+        name: "short-minimod",
+        modules: &["name: mm1, model: minimod, address: 1, settings: { XLATUP1: 0, XLATDN1: 0 }"],
+        ..motor_case("short-minimod")
+    };
+    // A RESI-16DI8RO samples every 10 ms: a 15 ms press always spans a sample, so its TOGGLE
+    // sees it; a scan of 100 ms misses it.
+    let resi = Case {
+        name: "short-resi",
+        period_ms: 100,
+        tick_ms: 10,
+        modules: &["name: r1, model: resi-16di8ro, address: 1"],
+        tags: &[
+            "name: button, point: r1.DI1",
+            "name: lamp, point: r1.RO4, safe: false",
+        ],
+        program: "lamp = lamp ^ rising(button)\n",
+        ladder: false,
+        inputs: &["r1.DI1"],
+        outputs: &["r1.RO4"],
+    };
+    for (case, len, react) in [(&mm, 5, 2), (&resi, 15, 10)] {
+        let inputs = [vec![(ms(1050), true), (ms(1050 + len), false)]];
+        let mut traces = Vec::new();
+        for mode in ["never", "auto"] {
+            machine::replace();
+            let clock = Arc::new(VirtualClock::new());
+            let mut s = Session::start(case, case.project(mode), &clock, &inputs);
+            s.run_until(ms(2000));
+            traces.push(after(&s.trace()[0], ms(500)));
+        }
+        assert_eq!(
+            traces[0],
+            [],
+            "{}: the scan misses a {len} ms press",
+            case.name
+        );
+        assert!(
+            edges_near(&traces[1], &[(1050, true)], ms(react)),
+            "{}: the module sees it: {:?}",
+            case.name,
+            traces[1]
+        );
+    }
+}
