@@ -1351,49 +1351,57 @@ fn kill_and_restart(
 
 #[test]
 fn a_latch_restarted_after_kill_9_needs_a_new_start_press_in_both() {
-    let case = motor_case("restart-latch");
-    let bound = plans(&case).2;
-    // Started, then killed while running; after the restart start is pressed at 2 s and stop
-    // at 3 s.
-    let before = [press(300, 300)];
-    let after = [press(2000, 200), press(3000, 200)];
-    let mut traces = Vec::new();
-    for mode in ["never", "auto"] {
-        machine::replace();
-        let mm1 = module("minimod", 1);
-        let t = kill_and_restart(&case, mode, &before, &after);
-        assert!(!level(&mm1, "Y2"), "{mode}: stopped at the end");
-        traces.push(t.into_iter().next().unwrap_or_default());
+    // With the MiniMod's watchdog (armed by default) and without it.
+    for (modules, fires) in [
+        (&["name: mm1, model: minimod, address: 1"], true),
+        (
+            &["name: mm1, model: minimod, address: 1, watchdog: off"],
+            false,
+        ),
+    ] {
+        let case = Case {
+            modules,
+            ..motor_case("restart-latch")
+        };
+        let bound = plans(&case).2;
+        // Started, then killed while running; after the restart start is pressed at 2 s and
+        // stop at 3 s.
+        let before = [press(300, 300)];
+        let after = [press(2000, 200), press(3000, 200)];
+        let mut traces = Vec::new();
+        for mode in ["never", "auto"] {
+            machine::replace();
+            let mm1 = module("minimod", 1);
+            let t = kill_and_restart(&case, mode, &before, &after);
+            assert!(!level(&mm1, "Y2"), "{mode}: stopped at the end");
+            traces.push(t.into_iter().next().unwrap_or_default());
+        }
+        let (central, pushed) = (&traces[0], &traces[1]);
+        let name = format!("restart-latch (watchdog fires: {fires})");
+        if fires {
+            // The dead host fired the watchdog during the 2 s restart: Y2 is off (its safe
+            // value) when the new run starts, in both builds.
+            assert!(
+                central.first().is_some_and(|e| e.0 >= ms(2000)),
+                "{name}: {central:?}"
+            );
+        } else {
+            // Central: Y2 is still on when the new run starts and goes off at its first write
+            // (the latch starts reset).
+            assert!(
+                central.first().is_some_and(|e| e.1)
+                    && central.get(1).is_some_and(|e| !e.1 && e.0 < bound),
+                "{name}: {central:?}"
+            );
+        }
+        // Pushed down: the start-up writes Y2 off before arming the tables, so the new run
+        // never sees it on. Then both: on at the start press, off at stop.
+        assert!(
+            pushed.first().is_some_and(|e| e.0 >= ms(2000)),
+            "{name}: {pushed:?}"
+        );
+        same_levels(&name, central, pushed, ms(1000), bound, true, ms(1));
     }
-    // Central: Y2 is still on when the new run starts and goes off at its first write (the
-    // latch starts reset). Pushed down: the start-up writes it off before arming the tables,
-    // so the new run never sees it on. Then both: on at the start press, off at stop.
-    assert_eq!(
-        traces[0].first().map(|e| e.1),
-        Some(true),
-        "{:?}",
-        traces[0]
-    );
-    assert!(
-        traces[0].get(1).is_some_and(|e| !e.1 && e.0 < bound),
-        "{:?}",
-        traces[0]
-    );
-    assert_eq!(
-        traces[1].first().map(|e| e.0 >= ms(2000)),
-        Some(true),
-        "{:?}",
-        traces[1]
-    );
-    same_levels(
-        "restart-latch",
-        &traces[0],
-        &traces[1],
-        ms(1000),
-        bound,
-        true,
-        ms(1),
-    );
 }
 
 #[test]
