@@ -104,6 +104,9 @@ fn rss_kib() -> u64 {
         .map_or(0, |pages| pages * 4)
 }
 
+/// An output change to check: module, level, when to check, when it was made.
+type Due = (usize, bool, Duration, Duration);
+
 #[derive(Default)]
 struct Tally {
     cycles: u64,
@@ -165,8 +168,7 @@ fn main() -> anyhow::Result<()> {
         args.modules
     ]));
     // Output changes to check: module, level, when, and when it was made.
-    let due: Arc<Mutex<VecDeque<(usize, bool, Duration, Duration)>>> =
-        Arc::new(Mutex::new(VecDeque::new()));
+    let due: Arc<Mutex<VecDeque<Due>>> = Arc::new(Mutex::new(VecDeque::new()));
     // Per module: when it was last power-cycled.
     let cycled = Arc::new(Mutex::new(vec![None::<Duration>; args.modules]));
     let run_for = args.run_for;
