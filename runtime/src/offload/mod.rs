@@ -14,7 +14,11 @@
 //! 3. [`runtime::Offloaded`] runs the plan in the PLC: the tables are settings the drivers
 //!    write and verify at start-up, the pushed-down outputs are no longer written by the scan
 //!    but read back into the image, pulse triggers become pulser writes, and at stop the
-//!    tables are cleared (or kept);
+//!    tables are cleared (or kept). Every start-up (and every restart of a module that comes
+//!    back) first clears all the module's logic registers, whatever the plan, so tables a
+//!    crashed run left behind never drive the outputs; an output whose rung keeps a state then
+//!    gets the central rung's start value ([`planner::ModulePlacement::initial`]) before its
+//!    tables are armed;
 //! 4. [`report`] is what `softplc check` prints: placement, tables, reaction times.
 //!
 //! # Declarations rather than rungs

@@ -12,6 +12,9 @@
 //!   register (`YPULSEn`) for one cycle. The image shows the pulse as the module runs it (on
 //!   from the cycle that wrote it for its exact width): the pulser does not show in the coils
 //!   the driver can read back.
+//! - **Start.** The drivers clear every logic register at start-up and write a stateful
+//!   output's start value before its tables ([`super::planner::ModulePlacement::initial`]),
+//!   so the image's start value (`Pushed::value`, the tag's initial value) is the module's.
 //! - **Stop.** With `on_stop: clear` the safe state writes zero to every table register the
 //!   plan wrote and the output's safe value; with `keep` the module keeps running its tables
 //!   and the output is left to it.
