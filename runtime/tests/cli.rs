@@ -693,3 +693,45 @@ fn status_into_a_closed_pipe_ends_quietly() {
     let _ = plc.wait();
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn check_answers_a_deeply_nested_project_at_once() {
+    let dir = std::env::temp_dir().join(format!("softplc-cli-nested-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, text) in [
+        // 100 000 brackets inside one another, then as many closing: 200 KB.
+        (
+            "brackets.yaml",
+            format!(
+                "project: nested\nplant: {}{}\n",
+                "[".repeat(100_000),
+                "]".repeat(100_000)
+            ),
+        ),
+        // Mappings inside one another, never closed.
+        (
+            "braces.yaml",
+            format!("project: nested\nplant: {}\n", "{a: ".repeat(50_000)),
+        ),
+    ] {
+        assert!(text.len() >= 200_000);
+        let file = dir.join(name);
+        std::fs::write(&file, text).unwrap();
+        let begin = Instant::now();
+        let out = softplc(&["check", path_str(&file)]);
+        let took = begin.elapsed();
+        assert_eq!(out.code(), Some(1), "{out:?}");
+        // The top-level mapping is one level: the 64th collection of line 2 goes past the
+        // limit, at column 8 (after `plant: `) + 63 brackets or 63 × 4 for `{a: `.
+        let column = if name == "brackets.yaml" { 71 } else { 260 };
+        let expected = format!(
+            "{}:2:{column}: error: lists and mappings nested more than 64 deep (a project needs \
+             a handful); this one goes past it",
+            file.display()
+        );
+        assert_eq!(out.stderr.trim(), expected, "{name}");
+        assert!(took < Duration::from_secs(10), "{name}: {took:?}");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -1023,3 +1023,55 @@ fn one_input_driven_by_two_roles() {
         )
     );
 }
+
+#[test]
+fn nesting_deeper_than_the_limit_is_refused_at_the_collection_past_it() {
+    use softplc::project::nesting::MAX_DEPTH;
+    // The top-level mapping is one level; 63 brackets more are accepted, 64 are not.
+    let ok = format!(
+        "{HEAD}plant: {}{}\n",
+        "[".repeat(MAX_DEPTH - 1),
+        "]".repeat(MAX_DEPTH - 1)
+    );
+    assert!(
+        errors(&ok)
+            .iter()
+            .all(|e| e.kind != ErrorKind::TooDeep { limit: MAX_DEPTH }),
+        "{:?}",
+        errors(&ok)
+    );
+    let deep = format!("{HEAD}plant: {}\n", "[{a: ".repeat(MAX_DEPTH));
+    let e = one(&deep);
+    assert_eq!(e.kind, ErrorKind::TooDeep { limit: MAX_DEPTH });
+    // `plant: ` is 7 characters, each `[{a: ` 5: the 32nd `{` is the 64th bracket, a level
+    // too many.
+    assert_eq!(at(&e), (7, 8 + 5 * 31 + 1), "{e}");
+    assert!(
+        e.to_string().ends_with(
+            "inline.yaml:7:164: error: lists and mappings nested more than 64 deep (a project \
+             needs a handful); this one goes past it"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn thousands_of_errors_in_a_large_file_are_located_quickly() {
+    // 4000 tags with a bad name each: 4000 errors, each at its own line, in about 200 KB.
+    let mut text = format!("{HEAD}tags:\n");
+    for i in 0..4000 {
+        text.push_str(&format!(
+            "  - {{ name: \"bad-{i}\", type: u16, initial: {i} }}   # a comment to fill the file\n"
+        ));
+    }
+    assert!(text.len() > 200_000, "{}", text.len());
+    let started = std::time::Instant::now();
+    let e = errors(&text);
+    let took = started.elapsed();
+    assert_eq!(e.len(), 4000);
+    for (i, e) in e.iter().enumerate() {
+        assert_eq!(at(e), (8 + i, 13), "{e}");
+    }
+    // Each error once cost a reading of the whole file (minutes for these); now a few.
+    assert!(took < Duration::from_secs(10), "{took:?}");
+}

@@ -126,6 +126,15 @@ pub enum ErrorKind {
         /// The reader's message.
         message: String,
     },
+    /// Collections nested deeper than the reader accepts (see `nesting.rs`).
+    #[error(
+        "lists and mappings nested more than {limit} deep (a project needs a handful); this \
+         one goes past it"
+    )]
+    TooDeep {
+        /// The deepest nesting accepted.
+        limit: usize,
+    },
     /// A key the schema does not have (a typo?).
     #[error("unknown key `{key}`{}; expected {expected}", within(section))]
     UnknownKey {

@@ -17,6 +17,7 @@
 
 pub mod error;
 pub mod model;
+pub mod nesting;
 pub mod offload;
 pub mod raw;
 pub mod retain;
@@ -61,6 +62,19 @@ pub fn load(path: &Path) -> Result<Project, ProjectErrors> {
 /// Validates project text as if read from `file`: errors name `file`, and the program file is
 /// resolved against `file`'s folder and must exist (as for [`load`]).
 pub fn parse_str(text: &str, file: &Path) -> Result<Project, ProjectErrors> {
+    // Before the reader, whose time grows with the square of the nesting.
+    if let Err(at) = nesting::check(text) {
+        return Err(ProjectErrors {
+            errors: vec![ProjectError {
+                file: file.to_path_buf(),
+                line: at.line,
+                column: at.column,
+                kind: ErrorKind::TooDeep {
+                    limit: nesting::MAX_DEPTH,
+                },
+            }],
+        });
+    }
     let raw: raw::RawProject = yaml_serde::from_str(text).map_err(|e| ProjectErrors {
         errors: vec![yaml_error(&e, file)],
     })?;

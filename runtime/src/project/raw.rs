@@ -50,6 +50,8 @@
 //! ```
 //!
 //! Rules the validation enforces (see [`super::parse_str`]):
+//! - Lists and mappings nest at most 64 deep (checked before the YAML reader, whose time grows
+//!   with the square of the nesting; see `nesting.rs`).
 //! - Bus, module and tag names are identifiers (`[A-Za-z_][A-Za-z0-9_]*`), unique among their
 //!   kind. Unknown keys are errors everywhere except in a module's `settings`.
 //! - **Durations** are strings with a unit: a decimal number (`20`, `1.5`, `.5`) followed by
