@@ -299,6 +299,12 @@ impl BusOwner {
         self.transport.now()
     }
 
+    /// When the line is free for the next request: the end of its last traffic and the t3.5
+    /// of silence after it.
+    pub fn free_at(&self) -> Duration {
+        self.line_free_at.max(self.transport.now())
+    }
+
     /// Sends every module's start-up transactions and checks the replies.
     ///
     /// A module that answers and refuses its configuration (an exception, a setting that reads

@@ -62,6 +62,8 @@ impl Plc {
             }
         }
 
+        // A world that exists keeps its plant running: the machine does not restart with its PLC.
+        let new_world = world.is_none();
         let mut world = world.or_else(|| build_world(&project));
         let mut bus_modules: Vec<Vec<usize>> = vec![Vec::new(); project.buses.len()];
         for (m, module) in project.modules.iter().enumerate() {
@@ -108,9 +110,10 @@ impl Plc {
                 bus: bus.name.clone(),
                 source,
             })?;
-            // The first cycle starts after the start-up traffic (tables, settings); on the real
-            // clock that time has passed already.
-            clock.sleep_until(owner.now());
+            // The first cycle starts once the start-up traffic (tables, settings) and the t3.5
+            // after it are over, so it finds an idle line; on the real clock that time has
+            // passed already.
+            clock.sleep_until(owner.free_at());
             // The one place the clock decides how lines run: the scan runs them itself in
             // virtual time (a project replays bit for bit), each has its thread in real time.
             lines.push(if clock.is_virtual() {
@@ -123,6 +126,9 @@ impl Plc {
             });
         }
 
+        if let (true, Some(world)) = (new_world, &world) {
+            attach_plant(&project, world, clock.now());
+        }
         let mut inputs = Vec::new();
         let mut outputs = Vec::new();
         for (i, tag) in project.tags.iter().enumerate() {
@@ -212,17 +218,26 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
         return None;
     }
     let mut world = SimWorld::new(project.buses.iter().map(|b| b.settings).collect());
-    let mut index = vec![None; project.modules.len()];
-    for (m, module) in project.modules.iter().enumerate() {
+    for module in &project.modules {
         if project.buses[module.bus].port == PortConfig::Sim {
             let mut sim = (module.model.simulator)(module.device.address);
             if module.device.protocol != module.model.protocols[0] {
                 // Validation checked the model speaks it, so this cannot be refused.
                 let _ = sim.set_protocol(module.device.protocol);
             }
-            index[m] = Some(world.add_device(module.bus, &module.name, sim));
+            world.add_device(module.bus, &module.name, sim);
         }
     }
+    Some(world.shared())
+}
+
+/// Attaches the project's plant model to the simulated world, once the modules have started:
+/// the machine's story (an operator loading a box) begins with the first scan, however long
+/// the modules' start-up took, as it does when an operator waits for the PLC to run.
+fn attach_plant(project: &Project, world: &SharedWorld, now: Duration) {
+    let Ok(mut world) = world.lock() else { return };
+    // The modules run up to now on their own; the plant's first step is the first scan's.
+    world.advance_to(now);
     if let Some(cfg) = &project.plant {
         if let Some(spec) = plant::spec(&cfg.model) {
             let wires = spec
@@ -232,7 +247,11 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
                     cfg.wiring
                         .iter()
                         .find(|(r, _, _)| r == role.name)
-                        .and_then(|(_, m, p)| index[*m].map(|d| (d, p.clone())))
+                        .and_then(|(_, m, p)| {
+                            world
+                                .find(&project.modules[*m].name)
+                                .map(|d| (d, p.clone()))
+                        })
                 })
                 .collect::<Vec<_>>();
             if wires.len() == spec.roles.len() {
@@ -240,5 +259,4 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
             }
         }
     }
-    Some(world.shared())
 }

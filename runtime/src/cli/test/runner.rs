@@ -153,6 +153,8 @@ pub fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
             }
         }
     };
+    // Scenario time starts with the first scan, however long the modules' start-up took.
+    let origin = plc.clock().now();
     let world = plc.world().cloned();
     let sets = sc
         .sets
@@ -184,7 +186,7 @@ pub fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
             hook_state
                 .lock()
                 .unwrap_or_else(|p| p.into_inner())
-                .cycle(plc, ctx.now);
+                .cycle(plc, ctx.now.saturating_sub(origin));
         }));
     let outcome = engine.run();
     drop(engine);
