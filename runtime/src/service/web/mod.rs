@@ -31,16 +31,15 @@ pub mod sse;
 pub mod trend;
 pub mod view;
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use crossbeam_channel::Sender;
 
 use self::auth::WriteAuth;
-use self::http::{HttpError, Method, Request, Response};
+use self::http::{Limits, Method, Request, Response, ServerConfig};
 use self::info::WebInfo;
 use self::routes::Route;
 use self::trend::Trend;
@@ -65,7 +64,6 @@ struct Shared {
     trend: Arc<Mutex<Trend>>,
     bind: SocketAddr,
     port: u16,
-    clients: AtomicUsize,
 }
 
 /// A running page; it lives as long as the process.
@@ -99,11 +97,19 @@ impl WebServer {
             trend,
             bind: config.bind,
             port: addr.port(),
-            clients: AtomicUsize::new(0),
         });
-        std::thread::Builder::new()
-            .name("web".into())
-            .spawn(move || accept(listener, shared))?;
+        let server = ServerConfig {
+            name: "web",
+            limits: Limits {
+                clients: MAX_CLIENTS,
+                request: REQUEST_DEADLINE,
+                write: WRITE_TIMEOUT,
+            },
+            allow: "GET, HEAD, POST",
+        };
+        http::spawn(listener, server, move |req, stream| {
+            answer(req, stream, &shared)
+        })?;
         Ok(Self { addr, writes })
     }
 
@@ -123,130 +129,10 @@ impl WebServer {
     }
 }
 
-/// Gives the client's slot back when its thread ends, however it ends.
-struct Slot(Arc<Shared>);
-
-impl Drop for Slot {
-    fn drop(&mut self) {
-        self.0.clients.fetch_sub(1, Ordering::AcqRel);
-    }
-}
-
-fn accept(listener: TcpListener, shared: Arc<Shared>) {
-    for stream in listener.incoming() {
-        let Ok(mut stream) = stream else {
-            // Out of file descriptors and the like: do not spin.
-            std::thread::sleep(Duration::from_millis(10));
-            continue;
-        };
-        if shared.clients.fetch_add(1, Ordering::AcqRel) >= MAX_CLIENTS {
-            shared.clients.fetch_sub(1, Ordering::AcqRel);
-            let _ = stream.set_write_timeout(Some(Duration::from_millis(200)));
-            let busy = Response::error(503, "too many connections; try again");
-            let _ = stream.write_all(&busy.with("Retry-After", "1").to_bytes(true));
-            // Drop what already arrived (see `close`) without ever waiting in this thread.
-            let _ = stream.set_nonblocking(true);
-            let mut sink = [0u8; 4096];
-            for _ in 0..16 {
-                if !matches!(stream.read(&mut sink), Ok(n) if n > 0) {
-                    break;
-                }
-            }
-            let _ = stream.shutdown(std::net::Shutdown::Write);
-            continue;
-        }
-        let slot = Slot(shared.clone());
-        let spawned = std::thread::Builder::new()
-            .name("web-client".into())
-            .spawn(move || {
-                let slot = slot;
-                if let Err(e) = serve(stream, &slot.0) {
-                    tracing::debug!("web client: {e}");
-                }
-            });
-        // On failure the closure, and with it the slot, is dropped: the count is right.
-        if let Err(e) = spawned {
-            tracing::debug!("web: cannot start a client thread: {e}");
-        }
-    }
-}
-
-/// Reads one request within [`REQUEST_DEADLINE`]: `Ok(None)` when the client closed first.
-fn read_request(stream: &mut TcpStream) -> std::io::Result<Option<Result<Request, HttpError>>> {
-    let deadline = Instant::now() + REQUEST_DEADLINE;
-    let mut buf = Vec::with_capacity(1024);
-    let mut chunk = [0u8; 2048];
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        if left.is_zero() {
-            return Err(std::io::ErrorKind::TimedOut.into());
-        }
-        stream.set_read_timeout(Some(left))?;
-        let n = stream.read(&mut chunk)?;
-        if n == 0 {
-            return Ok(None);
-        }
-        buf.extend_from_slice(chunk.get(..n).unwrap_or_default());
-        match http::parse(&buf) {
-            Ok(None) if buf.len() > http::MAX_HEAD + http::MAX_BODY => {
-                return Ok(Some(Err(HttpError::BodyTooLarge)))
-            }
-            Ok(None) => {}
-            Ok(Some(req)) => return Ok(Some(Ok(req))),
-            Err(e) => return Ok(Some(Err(e))),
-        }
-    }
-}
-
-/// Ends a connection after its response: closing a socket with unread input resets it, and a
-/// reset can overtake the response (a refused upload would see no 413). So the sending side is
-/// shut first and what the client still sends is read and dropped, briefly and boundedly.
-fn close(mut stream: TcpStream) {
-    let _ = stream.flush();
-    let _ = stream.shutdown(std::net::Shutdown::Write);
-    let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
-    let mut sink = [0u8; 4096];
-    for _ in 0..16 {
-        match stream.read(&mut sink) {
-            Ok(n) if n > 0 => {}
-            _ => break,
-        }
-    }
-}
-
-fn serve(mut stream: TcpStream, shared: &Shared) -> std::io::Result<()> {
-    let result = answer(&mut stream, shared);
-    close(stream);
-    result
-}
-
-fn answer(stream: &mut TcpStream, shared: &Shared) -> std::io::Result<()> {
-    stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
-    let req = match read_request(stream) {
-        Ok(Some(Ok(req))) => req,
-        Ok(Some(Err(e))) => {
-            let mut r = Response::error(e.status(), &e.to_string());
-            if e == HttpError::MethodNotAllowed {
-                r = r.with("Allow", "GET, HEAD, POST");
-            }
-            return stream.write_all(&r.to_bytes(true));
-        }
-        Ok(None) => return Ok(()),
-        // A read timeout is WouldBlock on Unix, TimedOut elsewhere.
-        Err(e)
-            if matches!(
-                e.kind(),
-                std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
-            ) =>
-        {
-            let r = Response::error(408, "the request took too long");
-            return stream.write_all(&r.to_bytes(true));
-        }
-        Err(e) => return Err(e),
-    };
+/// Answers one request (read and checked by [`http::spawn`]) on its connection.
+fn answer(req: &Request, stream: &mut TcpStream, shared: &Shared) -> std::io::Result<()> {
     let with_body = req.method != Method::Head;
-    let response = respond(&req, shared);
-    match response {
+    match respond(req, shared) {
         Reply::Full(r) => stream.write_all(&r.to_bytes(with_body)),
         Reply::Events if !with_body => stream.write_all(sse::head().as_bytes()),
         Reply::Events => sse::stream(stream, &shared.snapshot),
