@@ -1440,6 +1440,55 @@ mod tests {
         assert_eq!(sim.command(&["events"]).unwrap(), "SLVSEQ 1 inputs 0x0001");
     }
 
+    /// A terminal held on across a power cycle, in a world on the virtual clock: the cooked
+    /// input starts again at 0 and follows the terminal after the power-on XLATUP (20 ms,
+    /// "Digital inputs, latencies and counters"), whether the world jumps from poll to poll
+    /// (idle stretches skipped) or runs tick by tick (as with a plant attached).
+    #[test]
+    fn a_terminal_held_on_reads_on_again_after_a_power_cycle() {
+        use crate::line::settings::LineSettings;
+        use crate::sim::line::SimWorld;
+
+        let fc2 = request(UNIT, &Request::ReadDiscreteInputs { addr: 0, count: 1 });
+        let x1 = |level: u8| frame(&[UNIT, 0x02, 0x01, level]);
+        // The master reads X1 with FC 2 at `t`; the reply it hears.
+        let poll = |w: &mut SimWorld, t: Duration| {
+            w.deliver(0, &fc2, t);
+            let mut reply = Vec::new();
+            w.take_arrived(0, t + ms(50), &mut reply);
+            reply
+        };
+        let mut w = SimWorld::new(vec![LineSettings::DEFAULT]);
+        let d = w.add_device(0, "mm", build(UNIT));
+        w.set(d, "X1", Value::Bool(true)).unwrap();
+        assert_eq!(poll(&mut w, ms(100)), x1(1));
+        assert_eq!(poll(&mut w, ms(5_000)), x1(1), "after a long idle stretch");
+
+        w.device_mut(d).unwrap().command(&["power-cycle"]).unwrap();
+        assert_eq!(w.get(d, "X1"), Ok(Value::Bool(false)), "latency running");
+        assert_eq!(poll(&mut w, ms(5_010)), x1(0), "10 ms after power-up");
+        assert_eq!(poll(&mut w, ms(5_030)), x1(1), "30 ms after power-up");
+        assert_eq!(w.get(d, "X1"), Ok(Value::Bool(true)));
+        for k in 1..=50 {
+            let t = ms(5_030 + 100 * k);
+            assert_eq!(poll(&mut w, t), x1(1), "at {t:?}");
+        }
+
+        // Tick by tick, with no traffic.
+        w.device_mut(d).unwrap().command(&["power-cycle"]).unwrap();
+        let start = w.now();
+        for n in 1..=30 {
+            w.advance_to(start + ms(n));
+            let expected = n >= 20;
+            assert_eq!(w.get(d, "X1"), Ok(Value::Bool(expected)), "{n} ms after");
+        }
+        assert_eq!(
+            w.get(d, "XCOUNT1"),
+            Ok(Value::U16(1)),
+            "counters restart at 0"
+        );
+    }
+
     #[test]
     fn a_long_idle_advance_is_fast() {
         let mut sim = MiniModSim::new(UNIT);

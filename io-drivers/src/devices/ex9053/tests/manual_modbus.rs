@@ -141,6 +141,28 @@ fn di_channels_latches_and_clear() {
     m.expect(&[0x01, 0x05, 0x00, 0x20, 0xFF, 0x00], &[0x01, 0x85, 0x02]);
 }
 
+/// An input held on across a power cycle reads on at once and after (the inputs have no
+/// latency; RAM restarts, the terminals stay).
+#[test]
+fn a_terminal_held_on_reads_on_after_a_power_cycle() {
+    let mut m = Master::new(1);
+    m.cmd(&["inputs", "0001"]);
+    m.at_ms(5_000);
+    m.expect(
+        &[0x01, 0x02, 0x00, 0x00, 0x00, 0x10],
+        &[0x01, 0x02, 0x02, 0x01, 0x00],
+    );
+    m.cmd(&["power-cycle"]);
+    assert_eq!(m.sim.get("DI0"), Ok(crate::point::Value::Bool(true)));
+    for t in [5_000, 5_030, 10_000] {
+        m.at_ms(t);
+        m.expect(
+            &[0x01, 0x02, 0x00, 0x00, 0x00, 0x10],
+            &[0x01, 0x02, 0x02, 0x01, 0x00],
+        );
+    }
+}
+
 #[test]
 fn counters_clear_single_and_multiple_and_count_edge() {
     let mut m = Master::new(1);

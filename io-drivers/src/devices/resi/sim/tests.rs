@@ -425,6 +425,27 @@ fn retention_across_power_cycles_over_the_wire() {
     );
 }
 
+/// An input held on across a power cycle reads on at once (the levels are taken as they are
+/// at power-on, so it is no rising edge) and on every sample after, over Modbus too.
+#[test]
+fn a_terminal_held_on_reads_on_after_a_power_cycle() {
+    let mut s = sim();
+    press(&mut s, 5, "DI1", true);
+    s.advance_to(ms(5_000));
+    assert!(on(&s, "DI1"));
+    s.command(&["power-cycle"]).unwrap();
+    assert!(on(&s, "DI1"), "right after power-up");
+    for t in [5_010, 5_030, 10_000] {
+        let di = rtu(&mut s, t, &[0x01, 0x02, 0x00, 0x00, 0x00, 0x10]).unwrap();
+        assert_eq!(di, with_crc(&[0x01, 0x02, 0x02, 0x01, 0x00]), "at {t} ms");
+    }
+    assert_eq!(
+        ascii(&mut s, 10_000, "#RDI1\r").as_deref(),
+        Some("#RDI1:0,0x0\r"),
+        "no rising edge counted at power-up"
+    );
+}
+
 #[test]
 fn every_16di8ro_command_answers() {
     let mut s = sim();
