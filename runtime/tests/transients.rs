@@ -22,7 +22,10 @@ fn ms(n: u64) -> Duration {
 
 /// Two MiniMods: `x` on mm1.X1 drives `y` on mm2.Y1 (and `y1` on mm1.Y1 follows it too).
 fn project() -> softplc::project::Project {
-    let dir = std::env::temp_dir().join(format!("softplc-transients-{}", std::process::id()));
+    // A folder per call: tests run in parallel and one of them rewrites its program.
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("softplc-transients-{}-{n}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("follow.expr"), "y = x\ny1 = x\n").unwrap();
     let text = "project: transients
@@ -40,6 +43,8 @@ tags:
   - { name: y, point: mm2.Y1, safe: false }
 program: { file: follow.expr, kind: expr }
 ";
+    // On disk too: a reload reads it again.
+    std::fs::write(dir.join("project.yaml"), text).unwrap();
     parse_str(text, &dir.join("project.yaml")).unwrap_or_else(|e| panic!("valid:\n{e}"))
 }
 
@@ -326,4 +331,91 @@ fn a_power_cycled_module_gets_its_start_up_again_and_its_outputs_back() {
         "the output is written again in the cycle the module is back: {back:?}"
     );
     assert!(at(ms(9000)).y_terminal);
+}
+
+#[test]
+fn a_module_power_cycled_between_two_reads_gets_its_outputs_back_within_the_refresh() {
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let plc = Plc::build(project(), clock).expect("builds");
+    let (cycles, reason, _) = run(
+        plc,
+        Duration::from_secs(6),
+        Box::new(|next, world| {
+            set(world, "mm1", "X1", next >= ms(500));
+            if next == ms(2000) {
+                let mut w = world.lock().unwrap();
+                let mm2 = w.find("mm2").unwrap();
+                w.device_mut(mm2)
+                    .unwrap()
+                    .command(&["power-cycle"])
+                    .unwrap();
+            }
+        }),
+    );
+    assert_eq!(reason, StopReason::Requested);
+    let at = |t: Duration| cycles.iter().find(|c| c.now >= t).copied().unwrap();
+    assert!(at(ms(1500)).y_terminal);
+    // The 1 s output refresh writes it again (the module answers throughout: it was never
+    // lost, so nothing else tells the PLC it lost its outputs).
+    assert!(at(ms(3100)).y_terminal, "{cycles:#?}");
+}
+
+#[test]
+fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
+    use softplc::service::control::{Envelope, Request};
+    let project = project();
+    let program = project.program.path.clone();
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let plc = Plc::build(project, clock).expect("builds");
+    let world = plc.world().unwrap().clone();
+    let (requests, rx) = crossbeam_channel::unbounded();
+    let (reply_tx, replies) = crossbeam_channel::unbounded();
+    let sent = Arc::new(Mutex::new(None::<u64>));
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let (sent_in, seen_in) = (sent.clone(), seen.clone());
+    let mut engine = ScanEngine::new(plc)
+        .with_control(rx)
+        .run_for(Duration::from_secs(30))
+        .on_cycle(Box::new(move |plc, ctx| {
+            set(&world, "mm1", "X1", true);
+            let y = {
+                let w = world.lock().unwrap();
+                let d = w.find("mm2").unwrap();
+                w.get(d, "Y1").map(|v| v.as_bool()).unwrap_or(false)
+            };
+            seen_in.lock().unwrap().push((ctx.cycle, y));
+            if ctx.cycle == 20 {
+                // The new program: y follows !x.
+                std::fs::write(&program, "y = !x\ny1 = x\n").unwrap();
+                requests
+                    .send(Envelope::new(
+                        Request::Reload,
+                        reply_tx.clone(),
+                        Duration::from_secs(60),
+                    ))
+                    .unwrap();
+                *sent_in.lock().unwrap() = Some(ctx.cycle);
+            }
+            let _ = plc;
+        }));
+    let outcome = engine.run();
+    assert_eq!(outcome.reason, StopReason::Requested);
+    assert_eq!(outcome.stats.overruns, 0, "the compile never held a cycle");
+    let reply = replies.try_recv().expect("the reload was answered");
+    assert!(reply.ok, "{reply:?}");
+    assert!(
+        reply
+            .message
+            .as_deref()
+            .is_some_and(|m| m.contains("reloaded")),
+        "{reply:?}"
+    );
+    let seen = seen.lock().unwrap().clone();
+    // Before the reload y follows x (on); some cycles after it, !x (off), and it stays so.
+    assert!(seen[10..20].iter().all(|(_, y)| *y), "{seen:?}");
+    let swapped = seen
+        .iter()
+        .position(|(c, y)| *c > 20 && !*y)
+        .expect("the new program runs");
+    assert!(seen[swapped..].iter().all(|(_, y)| !*y), "{seen:?}");
 }

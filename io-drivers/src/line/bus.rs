@@ -404,9 +404,9 @@ impl BusOwner {
     }
 
     /// Reads the modules that answered their last cycle, in one pass, and returns their
-    /// frame; a module that failed its last cycle (or is lost) keeps its last snapshot, marked
-    /// stale or bad, and is read by [`Self::read_deferred`] after the frame has gone to the
-    /// scan. So a module that stops answering delays its line's inputs once, not every cycle
+    /// frame; a module that failed its last cycle (or is lost, or waits for its start-up
+    /// sequence) keeps its last snapshot, marked stale or bad, and is read by
+    /// [`Self::read_deferred`] after the frame has gone to the scan. So a module that stops answering delays its line's inputs once, not every cycle
     /// until it is lost, and a lost module's probe never delays the others.
     pub fn read_answering(&mut self) -> InputFrame {
         let started = self.transport.now();
@@ -420,9 +420,18 @@ impl BusOwner {
         self.deferred.clear();
         for m in 0..self.modules.len() {
             let module = &self.modules[m];
-            if port_up && !self.port_health.is_lost() && module.health.is_failing() {
+            // A restart (a start-up sequence of many exchanges) must not age the others' values.
+            if port_up
+                && !self.port_health.is_lost()
+                && (module.health.is_failing() || module.startup_pending)
+            {
                 self.deferred.push(m);
-                snapshots.push(module.snapshot(module.health.quality()));
+                // Not read in this pass: its values are last cycle's at best.
+                let quality = match module.health.quality() {
+                    Quality::Good => Quality::Stale,
+                    q => q,
+                };
+                snapshots.push(module.snapshot(quality));
                 continue;
             }
             snapshots.push(self.read_module(m, port_up, &mut plan));

@@ -23,6 +23,11 @@
 //!   waits in the link, merged with any later one (the latest value of every point wins;
 //!   one-shot commands of the earlier frame are kept), and goes out when that one is done;
 //! - the safe state is queued behind whatever the line is doing, never merged away.
+//!
+//! One difference the virtual clock cannot hide: a line it runs inline does its work at once,
+//! in its own time, so a busy line (modules restarting after an outage) is ahead of the scan's
+//! clock. A change a test makes to the simulated world at the scan's time then takes effect at
+//! the world's time, which may be later (`SimWorld::now`); the soak counts from there.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};

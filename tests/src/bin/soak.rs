@@ -205,8 +205,16 @@ fn main() -> anyhow::Result<()> {
             }
             if next.as_millis() % POWER_CYCLE_EVERY.as_millis() < 100 {
                 let k = (next.as_millis() / POWER_CYCLE_EVERY.as_millis()) as usize % modules;
+                let before = w.get(k, "X1");
                 if let Some(d) = w.device_mut(k) {
                     let _ = d.command(&["power-cycle"]);
+                    if std::env::var_os("SOAK_DEBUG").is_some() {
+                        eprintln!(
+                            "power-cycle mm{} at {now:?}: X1 {before:?} -> {:?}",
+                            k + 1,
+                            d.get("X1")
+                        );
+                    }
                     cycled.lock().unwrap_or_else(|e| e.into_inner())[k] = Some(next);
                     transients.lock().unwrap_or_else(|e| e.into_inner()).1 += 1;
                 }
@@ -214,13 +222,24 @@ fn main() -> anyhow::Result<()> {
             for (k, (in_id, _)) in ids.iter().enumerate() {
                 let slot = plc.image().slot(*in_id);
                 let (level, since, before) = lv[k];
-                if slot.quality == Quality::Good {
+                // For its input latency after a power cycle the module itself reports its
+                // inputs off ("Digital inputs, latencies and counters": 20 ms at power-on):
+                // what it says then is right, whatever the terminal.
+                let powering_up = cycled.lock().unwrap_or_else(|e| e.into_inner())[k]
+                    .is_some_and(|t| now.saturating_sub(t) < SETTLE);
+                if slot.quality == Quality::Good && !powering_up {
                     t.checked_values += 1;
                     let ok = slot.value == Value::Bool(level)
                         || (now.saturating_sub(since) < SETTLE
                             && slot.value == Value::Bool(before));
                     if !ok {
                         t.wrong_values += 1;
+                        eprintln!(
+                            "wrong: mm{} X1 {:?} at {now:?}, the terminal {level} since {since:?}: {slot:?} {:?}",
+                            k + 1,
+                            slot.value,
+                            plc.module_status()[k]
+                        );
                     }
                 }
                 // Staggered toggles, so the modules do not all change in one cycle.
@@ -228,7 +247,9 @@ fn main() -> anyhow::Result<()> {
                 if now >= phase && now.saturating_sub(since) >= TOGGLE_EVERY {
                     let new = !level;
                     let _ = w.set(k, "X1", Value::Bool(new));
-                    lv[k] = (new, now, level);
+                    // On the virtual clock a busy line (restarting modules after an outage)
+                    // runs ahead of the scan: the terminal changes at the world's time.
+                    lv[k] = (new, now.max(w.now()), level);
                     due.push_back((k, new, now + DELIVER, now));
                     t.output_changes += 1;
                 }
@@ -239,6 +260,11 @@ fn main() -> anyhow::Result<()> {
                     break;
                 }
                 due.pop_front();
+                // A newer change of the module supersedes this one (a check put off by an
+                // outage or a power cycle can come after the next toggle).
+                if made < lv[k].1 {
+                    continue;
+                }
                 // A module that is not good now (lost in an outage, restarting) or was
                 // power-cycled in the last output refresh period cannot hold it yet: check
                 // again later, for at most a minute after the change.
@@ -253,8 +279,12 @@ fn main() -> anyhow::Result<()> {
                 if w.get(k, "Y1").ok() != Some(Value::Bool(level)) {
                     t.lost_changes += 1;
                     eprintln!(
-                        "lost: mm{} Y1 {level} due {deadline:?}, at {now:?}; {:?}",
+                        "lost: mm{} Y1 {level} due {deadline:?}, at {now:?}; in {:?} out {:?} X1 {:?} Y1 {:?}; {:?}",
                         k + 1,
+                        plc.image().slot(ids[k].0),
+                        plc.image().slot(ids[k].1),
+                        w.get(k, "X1"),
+                        w.get(k, "Y1"),
                         plc.module_status()[k]
                     );
                 }
