@@ -280,14 +280,6 @@ impl LineLink {
         }
     }
 
-    /// The line's time once its current work is done (virtual clock), or `now`.
-    pub fn idle_at(&self, now: Duration) -> Duration {
-        match &self.kind {
-            Kind::Inline(l) => l.busy_until.max(now),
-            Kind::Thread(_) | Kind::Stopped => now,
-        }
-    }
-
     /// Stops the line's thread, waiting at most `timeout` (a stuck port leaves it behind).
     pub fn stop(&mut self, timeout: Duration) {
         if let Kind::Thread(t) = std::mem::replace(&mut self.kind, Kind::Stopped) {
