@@ -188,6 +188,28 @@ const fn hr(name: &'static str, reference: u32, item: Item) -> Entry {
     at(name, Space::HoldingRegister, reference, item)
 }
 
+// Entries the driver addresses by themselves (its fixed reads and start-up steps), named once
+// here so that the driver and the table cannot disagree.
+
+/// EVENTSPRS (10018): the first discrete input of the driver's status read.
+pub const EVENTSPRS: Entry = di("EVENTSPRS", 10018, Item::EventsPresent);
+/// WDTFB (10025): the watchdog fired because of a feedback; WDTCOMM (10026) follows it.
+pub const WDTFB: Entry = di("WDTFB", 10025, Item::WdtFb);
+/// SW4 (10130): the last discrete input of the driver's status read.
+pub const SW4: Entry = di("SW4", 10130, Item::Sw4);
+/// EVFB1 (00089): event recording of FB1; EVFB2 (00090) follows it.
+pub const EVFB1: Entry = coil("EVFB1", 89, Item::EvFb(0));
+/// WDTFB1 (00113): FB1 fires the watchdog.
+pub const WDTFB1: Entry = coil("WDTFB1", 113, Item::WdtFbEnable(0));
+/// WDTFB2 (00114): FB2 fires the watchdog.
+pub const WDTFB2: Entry = coil("WDTFB2", 114, Item::WdtFbEnable(1));
+/// WDTFIRED (00161): the watchdog is firing (written 0 to reset it).
+pub const WDTFIRED: Entry = coil("WDTFIRED", 161, Item::WdtFired);
+/// XEVMASK (40006): event recording mask for X1..X3.
+pub const XEVMASK: Entry = hr("XEVMASK", 40006, Item::XevMask);
+/// XCOUNT1 (40012): the first of the three counters.
+pub const XCOUNT1: Entry = hr("XCOUNT1", 40012, Item::Xcount(0));
+
 /// Every address of both manual tables, plus the prose-only ones (input register 0,
 /// discrete inputs 48/49). Written with the manual's 1-based references.
 pub static MAP: &[Entry] = &[
@@ -197,17 +219,17 @@ pub static MAP: &[Entry] = &[
     di("X3", 10003, Item::Input(2)),
     di("FB1", 10009, Item::Feedback(0)), // = X9
     di("FB2", 10010, Item::Feedback(1)), // = X10
-    di("EVENTSPRS", 10018, Item::EventsPresent),
+    EVENTSPRS,
     di("GENERICFAIL", 10020, Item::GenericFail),
     di("FLASHFAIL", 10023, Item::FlashFail),
-    di("WDTFB", 10025, Item::WdtFb),
+    WDTFB,
     di("WDTCOMM", 10026, Item::WdtComm),
     // Prose: "the outputs Y1 and Y2 set the Discrete Input at address 48; Y3 and Y4 set the
     // Discrete Input at address 49" (0-based).
     di("FB1", 10049, Item::Feedback(0)),
     di("FB2", 10050, Item::Feedback(1)),
     di("SW3", 10129, Item::Sw3),
-    di("SW4", 10130, Item::Sw4),
+    SW4,
     // Prose: "The 16 inputs can be read as a single Input Register at physical address 0."
     ir("XWORD", 30001, Item::InputWord),
     ir("ROTSW", 30010, Item::RotSw),
@@ -219,23 +241,23 @@ pub static MAP: &[Entry] = &[
     coil("EVX1", 81, Item::EvX(0)),
     coil("EVX2", 82, Item::EvX(1)),
     coil("EVX3", 83, Item::EvX(2)),
-    coil("EVFB1", 89, Item::EvFb(0)),
+    EVFB1,
     coil("EVFB2", 90, Item::EvFb(1)),
     coil("EVY1", 97, Item::EvY(0)),
     coil("EVY2", 98, Item::EvY(1)),
     coil("EVY3", 99, Item::EvY(2)),
     coil("EVY4", 100, Item::EvY(3)),
-    coil("WDTFB1", 113, Item::WdtFbEnable(0)),
-    coil("WDTFB2", 114, Item::WdtFbEnable(1)),
+    WDTFB1,
+    WDTFB2,
     coil("WDTY1", 145, Item::WdtY(0)),
     coil("WDTY2", 146, Item::WdtY(1)),
     coil("WDTY3", 147, Item::WdtY(2)),
     coil("WDTY4", 148, Item::WdtY(3)),
-    coil("WDTFIRED", 161, Item::WdtFired),
+    WDTFIRED,
     hr("YWORD", 40001, Item::Yword),
-    hr("XEVMASK", 40006, Item::XevMask),
+    XEVMASK,
     hr("YEVMASK", 40007, Item::YevMask),
-    hr("XCOUNT1", 40012, Item::Xcount(0)),
+    XCOUNT1,
     hr("XCOUNT2", 40013, Item::Xcount(1)),
     hr("XCOUNT3", 40014, Item::Xcount(2)),
     hr("XLATUP1", 40020, Item::XlatUp(0)),

@@ -38,13 +38,14 @@ use crate::driver::{DecodeError, Outgoing, Reply, Transaction};
 use crate::modbus::{ExceptionCode, Request, Response, UnitId};
 use crate::point::Value;
 
+use super::super::map;
 use super::super::text::{self, TextId, TextReply};
 use super::super::watchdog::WFLAGS_FIRED;
 
 /// Coil WDTFIRED (00161).
-const COIL_WDTFIRED: u16 = 160;
+const COIL_WDTFIRED: u16 = map::WDTFIRED.addr;
 /// Discrete input WDTFB (10025); WDTCOMM (10026) follows it.
-const DI_WDTFB: u16 = 24;
+const DI_WDTFB: u16 = map::WDTFB.addr;
 
 /// Tag kinds (the tag's high half) of the transactions planned here; the driver's own
 /// [`Tag`] kinds are small numbers.
