@@ -356,6 +356,9 @@ fn run_for_two_seconds_reports_cycle_statistics() {
             "no {phase} line:\n{text}"
         );
     }
+    // Logs piped into a file or a journal carry no colour codes.
+    assert!(out.stderr.contains("INFO"), "{}", out.stderr);
+    assert!(!out.stderr.contains('\x1b'), "{:?}", out.stderr);
     for m in ["module mm1 (line1): good", "module mm2 (line1): good"] {
         assert!(text.contains(m), "{text}");
     }
