@@ -19,3 +19,4 @@ pub mod project;
 pub mod retain;
 pub mod scan;
 pub mod service;
+mod suggest;

@@ -9,6 +9,7 @@ pub mod ladder;
 pub mod load;
 pub mod rhai;
 pub mod synthetic;
+mod vm;
 
 use std::fmt::Debug;
 use std::path::PathBuf;

@@ -17,6 +17,7 @@ use super::model::{
 use super::raw::{Int, RawBus, RawModule, RawPlant, RawProject, RawScan, RawTag};
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
+use crate::suggest::edit_distance;
 use softplc_io::devices::DeviceConfig;
 
 /// Default watchdog time, in periods.
@@ -1016,24 +1017,6 @@ fn close_matches(wanted: &str, all: &[&'static str]) -> Vec<&'static str> {
         .take(MAX_SUGGESTIONS)
         .map(|(_, n)| n)
         .collect()
-}
-
-/// Levenshtein distance over chars.
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = Vec::with_capacity(b.len() + 1);
-        cur.push(i + 1);
-        for (j, &cb) in b.iter().enumerate() {
-            let sub = prev.get(j).copied().unwrap_or(0) + usize::from(ca != cb);
-            let del = prev.get(j + 1).copied().unwrap_or(0) + 1;
-            let ins = cur.get(j).copied().unwrap_or(0) + 1;
-            cur.push(sub.min(del).min(ins));
-        }
-        prev = cur;
-    }
-    prev.last().copied().unwrap_or(0)
 }
 
 #[cfg(test)]

@@ -27,6 +27,7 @@ use serde::Deserialize;
 
 use super::scada::ServiceError;
 use super::span::YPath;
+use crate::suggest::edit_distance;
 
 /// Where the page listens unless told.
 pub const DEFAULT_WEB_BIND: &str = "127.0.0.1:8080";
@@ -418,24 +419,6 @@ fn closest<'a>(name: &str, tags: impl Iterator<Item = &'a str>) -> Option<String
         }
     }
     best.map(|(_, t)| t.to_owned())
-}
-
-/// Levenshtein distance over chars.
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = Vec::with_capacity(b.len() + 1);
-        cur.push(i + 1);
-        for (j, &cb) in b.iter().enumerate() {
-            let sub = prev.get(j).copied().unwrap_or(0) + usize::from(ca != cb);
-            let del = prev.get(j + 1).copied().unwrap_or(0) + 1;
-            let ins = cur.get(j).copied().unwrap_or(0) + 1;
-            cur.push(sub.min(del).min(ins));
-        }
-        prev = cur;
-    }
-    prev.last().copied().unwrap_or(0)
 }
 
 #[cfg(test)]

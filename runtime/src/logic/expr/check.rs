@@ -7,9 +7,11 @@ use std::time::Duration;
 use softplc_io::point::ValueType;
 
 use super::error::{CompileErrorKind, DurationError, TypeError};
-use super::parser::{CmpOp, DurLit, EdgeKind, Expr, Ident, NumLit, Pos, Stmt, TimerKind};
+use super::parser::{DurLit, EdgeKind, Expr, Ident, NumLit, Pos, Stmt, TimerKind};
 use super::{Operand, TagTable};
 use crate::image::TagId;
+use crate::logic::vm::CmpOp;
+use crate::suggest::edit_distance;
 
 /// Longest timer preset: `u32::MAX` milliseconds, the range of an IEC `TIME` on most PLCs.
 pub(crate) const MAX_PRESET_MS: u64 = u32::MAX as u64;
@@ -266,34 +268,19 @@ pub(crate) fn duration(lit: &DurLit) -> Result<Duration, DurationError> {
 /// The candidate closest to `name` by edit distance, if within 2 edits and fewer edits than
 /// `name` has characters (so `x` does not suggest `y`). Ties go to the first candidate.
 pub(crate) fn closest<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Option<String> {
-    let name: Vec<char> = name.chars().collect();
+    let len = name.chars().count();
     let mut best: Option<(usize, &str)> = None;
     for cand in candidates {
-        let cand_chars: Vec<char> = cand.chars().collect();
-        if cand_chars.len().abs_diff(name.len()) > 2 {
+        // Two edits cannot bridge a longer difference in length: skip the distance.
+        if cand.chars().count().abs_diff(len) > 2 {
             continue;
         }
-        let d = edit_distance(&name, &cand_chars);
-        if d <= 2 && d < name.len() && best.is_none_or(|(bd, _)| d < bd) {
+        let d = edit_distance(name, cand);
+        if d <= 2 && d < len && best.is_none_or(|(bd, _)| d < bd) {
             best = Some((d, cand));
         }
     }
     best.map(|(_, c)| c.to_string())
-}
-
-/// Levenshtein distance.
-fn edit_distance(a: &[char], b: &[char]) -> usize {
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    let mut cur = vec![0; b.len() + 1];
-    for (i, ca) in a.iter().enumerate() {
-        cur[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let subst = prev[j] + usize::from(ca != cb);
-            cur[j + 1] = subst.min(prev[j + 1] + 1).min(cur[j] + 1);
-        }
-        std::mem::swap(&mut prev, &mut cur);
-    }
-    prev[b.len()]
 }
 
 #[cfg(test)]
@@ -355,6 +342,5 @@ mod tests {
         assert_eq!(near("Motor"), Some("motor".into()));
         assert_eq!(near("conveyor"), None);
         assert_eq!(near("x"), None);
-        assert_eq!(edit_distance(&['a', 'b'], &[]), 2);
     }
 }

@@ -1,10 +1,13 @@
-//! Lowering: checked statements → one flat stack-machine program ([`Instr`]s over [`TagId`]s),
-//! with a state slot per edge and timer call site and the stack depth the program needs.
+//! Lowering: checked statements → the VM's flat program ([`Instr`]s over [`TagId`]s, see
+//! [`crate::logic::vm`]), with an edge slot and a timer instance per call site and the stack
+//! depth the program needs.
 
 use super::check::{BoolExpr, CheckedStmt};
 use super::parser::{EdgeKind, Pos, TimerKind};
 use super::{Instr, Operand};
 use crate::image::TagId;
+use crate::logic::blocks::{Instance, Kind};
+use crate::logic::vm;
 
 /// A lowered program.
 #[derive(Debug, Clone, PartialEq)]
@@ -17,6 +20,8 @@ pub(crate) struct Lowered {
     pub edges: usize,
     /// Number of timer call sites.
     pub timers: usize,
+    /// A fresh timer instance per call site, indexed by the timer instructions.
+    pub instances: Vec<Instance>,
     /// Deepest stack the code reaches.
     pub max_depth: usize,
     /// The highest tag used and the statement that first uses it.
@@ -31,6 +36,7 @@ pub(crate) fn lower(stmts: &[CheckedStmt]) -> Lowered {
             coils: Vec::with_capacity(stmts.len()),
             edges: 0,
             timers: 0,
+            instances: Vec::new(),
             max_depth: 0,
             highest_tag: None,
         },
@@ -110,11 +116,13 @@ impl Lowerer {
                 let timer = self.out.timers as u32;
                 self.out.timers += 1;
                 let preset = *preset;
-                self.out.code.push(match kind {
-                    TimerKind::Ton => Instr::Ton { timer, preset },
-                    TimerKind::Tof => Instr::Tof { timer, preset },
-                    TimerKind::Tp => Instr::Tp { timer, preset },
-                });
+                let (instr, kind) = match kind {
+                    TimerKind::Ton => (Instr::Ton { timer, preset }, Kind::Ton),
+                    TimerKind::Tof => (Instr::Tof { timer, preset }, Kind::Tof),
+                    TimerKind::Tp => (Instr::Tp { timer, preset }, Kind::Tp),
+                };
+                self.out.code.push(instr);
+                self.out.instances.push(Instance::new(kind));
             }
         }
     }
@@ -130,31 +138,9 @@ impl Lowerer {
     }
 }
 
-/// The deepest stack `code` reaches; `None` if it would pop an empty stack or leave values
-/// behind (never, for lowered code: checked in tests and in debug builds).
+/// The deepest stack `code` reaches (`expr` calls no blocks); see [`vm::max_depth`].
 pub(crate) fn max_depth(code: &[Instr]) -> Option<usize> {
-    let mut depth = 0usize;
-    let mut max = 0usize;
-    for instr in code {
-        let (pops, pushes) = match instr {
-            Instr::Load(_)
-            | Instr::Const(_)
-            | Instr::Cmp { .. }
-            | Instr::Good(_)
-            | Instr::Bad(_) => (0, 1),
-            Instr::Not
-            | Instr::Rising(_)
-            | Instr::Falling(_)
-            | Instr::Ton { .. }
-            | Instr::Tof { .. }
-            | Instr::Tp { .. } => (1, 1),
-            Instr::And | Instr::Xor | Instr::Or => (2, 1),
-            Instr::Store(_) => (1, 0),
-        };
-        depth = depth.checked_sub(pops)? + pushes;
-        max = max.max(depth);
-    }
-    (depth == 0).then_some(max)
+    vm::max_depth(code, &[])
 }
 
 #[cfg(test)]

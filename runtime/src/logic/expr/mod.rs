@@ -1,8 +1,9 @@
 //! `expr`: the minimal logic engine — boolean coil assignments, one per line.
 //!
 //! A program (`.expr` file) is parsed (with line:column positions), checked against the
-//! project's [`TagTable`], lowered to a flat stack-machine program over [`TagId`]s ([`Instr`]),
-//! and executed once per scan by [`ExprProgram`], a [`LogicEngine`].
+//! project's [`TagTable`], lowered to a flat stack-machine program over [`TagId`]s ([`Instr`],
+//! the instruction set of the logic VM that ladder lowers to as well), and executed once per
+//! scan by [`ExprProgram`], a [`LogicEngine`].
 //!
 //! # Example
 //!
@@ -90,9 +91,9 @@ use std::path::Path;
 
 use softplc_io::point::ValueType;
 
+pub use crate::logic::vm::{CmpOp, Instr, Num as Operand};
 pub use error::{CompileError, CompileErrorKind, DurationError, Expected, TypeError};
-pub use exec::{ExprProgram, Instr, Operand};
-pub use parser::CmpOp;
+pub use exec::ExprProgram;
 
 /// The closest name within two edits, for "did you mean" (shared with the ladder engine).
 pub(crate) use check::closest as closest_name;
@@ -238,5 +239,6 @@ pub fn compile(
         "unbalanced lowered code"
     );
     let rungs = rungs::describe(&checked, file);
-    Ok(ExprProgram::new(lowered, file.to_path_buf()).with_rungs(rungs))
+    let types = crate::logic::vm::tag_types(tags);
+    Ok(ExprProgram::new(lowered, types, file.to_path_buf()).with_rungs(rungs))
 }

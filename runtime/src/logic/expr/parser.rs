@@ -6,6 +6,7 @@
 
 use super::error::{CompileErrorKind, Expected};
 use super::lexer::{lex_line, Spanned, Tok};
+use crate::logic::vm::CmpOp;
 
 /// Deepest nesting of parentheses, `!`/`not` and calls.
 pub(crate) const MAX_DEPTH: u32 = 64;
@@ -29,37 +30,6 @@ pub(crate) struct Ident {
 pub(crate) struct Stmt {
     pub coil: Ident,
     pub expr: Expr,
-}
-
-/// A comparison operator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CmpOp {
-    /// `<`
-    Lt,
-    /// `<=`
-    Le,
-    /// `>`
-    Gt,
-    /// `>=`
-    Ge,
-    /// `==`
-    Eq,
-    /// `!=`
-    Ne,
-}
-
-impl CmpOp {
-    /// The operator as written.
-    pub fn symbol(self) -> &'static str {
-        match self {
-            CmpOp::Lt => "<",
-            CmpOp::Le => "<=",
-            CmpOp::Gt => ">",
-            CmpOp::Ge => ">=",
-            CmpOp::Eq => "==",
-            CmpOp::Ne => "!=",
-        }
-    }
 }
 
 /// `rising` or `falling`.

@@ -7,26 +7,14 @@ use std::time::Duration;
 use softplc_io::point::ValueType;
 
 use super::error::{CompileErrorKind, Driver, Expected, TypeError};
-use super::parser::{
-    Action, Arg, BoxCall, CmpOp, Coil, CoilKind, Cond, Lit, Name, Output, Ref, Rung,
-};
+use super::parser::{Action, Arg, BoxCall, Coil, CoilKind, Cond, Lit, Name, Output, Ref, Rung};
 use crate::image::TagId;
 use crate::logic::blocks::{millis, Kind, Member, Pattern};
 use crate::logic::expr::TagTable;
+use crate::logic::vm::{BoxOp, Call, CmpOp, Num};
 
 /// An error: rung index, character index, kind.
 pub(crate) type Error = (usize, usize, CompileErrorKind);
-
-/// A number: a constant, a tag's value, or an instance's output.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Num {
-    /// A literal (a duration is its milliseconds).
-    Const(f64),
-    /// A numeric tag.
-    Tag(TagId),
-    /// An instance's output (`ET` in milliseconds).
-    Out(u32, Member),
-}
 
 /// A checked condition. `Good(t)` / `Bad(t)`: tag `t`'s quality is Good / Bad (`good(t)`,
 /// `bad(t)`).
@@ -42,88 +30,6 @@ pub(crate) enum BoolExpr {
     Cmp { lhs: Num, op: CmpOp, rhs: Num },
     Good(TagId),
     Bad(TagId),
-}
-
-/// A block call with its checked arguments. The power flow is each block's first input (IN,
-/// CU, CLK, S, EN); the bool arguments are lowered in the order given here.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Call {
-    /// On-delay.
-    Ton {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Off-delay.
-    Tof {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Pulse.
-    Tp {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Staircase timer; bool argument: reset.
-    Stair {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Up counter; bool argument: reset.
-    Ctu {
-        /// Preset.
-        pv: Num,
-    },
-    /// Down counter; bool argument: load.
-    Ctd {
-        /// Preset.
-        pv: Num,
-    },
-    /// Up-down counter; bool arguments: count down, reset, load.
-    Ctud {
-        /// Preset.
-        pv: Num,
-    },
-    /// Rising edge.
-    RTrig,
-    /// Falling edge.
-    FTrig,
-    /// Set-dominant latch; bool argument: reset.
-    Sr,
-    /// Reset-dominant latch; bool argument: reset.
-    Rs,
-    /// Impulse relay; bool argument: reset.
-    Toggle,
-    /// Blinker by times.
-    Blink {
-        /// On time, ms.
-        on: Num,
-        /// Off time, ms.
-        off: Num,
-    },
-    /// Blinker by pattern.
-    BlinkPattern {
-        /// The bits.
-        pattern: Pattern,
-        /// Time per bit, ms.
-        step: Num,
-    },
-}
-
-/// A math box.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BoxOp {
-    /// `MOVE(a)`
-    Move,
-    /// `ADD(a, b)`
-    Add,
-    /// `SUB(a, b)`
-    Sub,
-    /// `MUL(a, b)`
-    Mul,
-    /// `DIV(a, b)`
-    Div,
-    /// `LIMIT(mn, in, mx)`
-    Limit,
 }
 
 impl BoxOp {

@@ -1,16 +1,20 @@
-//! Lowering: checked rungs → one flat stack-machine program over [`TagId`]s, instance indexes
-//! and edge slots, with the stack depth it needs.
+//! Lowering: checked rungs → the VM's flat program ([`crate::logic::vm`]) over [`TagId`]s,
+//! instance indexes and edge slots, with the stack depth it needs.
 
-use super::check::{BoolExpr, CAction, COut, CRung, Call, Num};
-use super::exec::{CallSite, Instr};
+use super::check::{BoolExpr, CAction, COut, CRung};
 use super::parser::CoilKind;
 use crate::image::TagId;
+use crate::logic::vm::{BoxSite, Call, CallSite, Instr, Num};
+
+/// The stack-depth proof, for the compiler's debug check and the tests.
+pub(crate) use crate::logic::vm::max_depth;
 
 /// A lowered program.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Lowered {
     pub code: Vec<Instr>,
     pub calls: Vec<CallSite>,
+    pub boxes: Vec<BoxSite>,
     pub edges: usize,
     pub max_depth: usize,
     /// The highest tag used, and the rung that uses it.
@@ -25,6 +29,7 @@ pub(crate) fn lower(rungs: &[CRung]) -> Lowered {
         out: Lowered {
             code: Vec::new(),
             calls: Vec::new(),
+            boxes: Vec::new(),
             edges: 0,
             max_depth: 0,
             highest_tag: None,
@@ -43,12 +48,14 @@ pub(crate) fn lower(rungs: &[CRung]) -> Lowered {
                         COut::Box { op, args, dest } => {
                             args.iter().for_each(|n| l.num(*n));
                             l.write(*dest);
-                            l.out.code.push(Instr::Box {
+                            let site = l.out.boxes.len() as u32;
+                            l.out.boxes.push(BoxSite {
                                 op: *op,
                                 args: *args,
                                 dest: *dest,
                                 rung: rung.index as u32,
                             });
+                            l.out.code.push(Instr::Box(site));
                         }
                     }
                 }
@@ -180,38 +187,4 @@ impl Lowerer {
             }
         }
     }
-}
-
-/// The deepest stack `code` reaches; `None` if it would pop an empty stack or leave values
-/// behind (never for lowered code: checked in debug builds and tests).
-pub(crate) fn max_depth(code: &[Instr], calls: &[CallSite]) -> Option<usize> {
-    let mut depth = 0usize;
-    let mut max = 0usize;
-    for instr in code {
-        let (pops, pushes) = match instr {
-            Instr::Load(_)
-            | Instr::LoadOut(..)
-            | Instr::Const(_)
-            | Instr::Cmp { .. }
-            | Instr::Good(_)
-            | Instr::Bad(_) => (0, 1),
-            Instr::Not | Instr::Rising(_) | Instr::Falling(_) => (1, 1),
-            Instr::And | Instr::Or => (2, 1),
-            Instr::Coil(_)
-            | Instr::NegCoil(_)
-            | Instr::Set(_)
-            | Instr::Reset(_)
-            | Instr::Box { .. } => (1, 1),
-            Instr::Call(site) => {
-                let n = calls
-                    .get(*site as usize)
-                    .map_or(0, |c| usize::from(c.bools));
-                (n + 1, 1)
-            }
-            Instr::Pop => (1, 0),
-        };
-        depth = depth.checked_sub(pops)? + pushes;
-        max = max.max(depth);
-    }
-    (depth == 0).then_some(max)
 }

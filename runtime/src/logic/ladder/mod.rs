@@ -33,7 +33,8 @@
 //!
 //! YAML → rung texts located in the file → parse → check (unknown tags, instances and blocks,
 //! types, arguments, a tag driven by two coils, a write to an input) → lower to a flat
-//! instruction list → execute. Every error comes before the first scan, with `file:line:col`.
+//! instruction list of the logic VM (the one `expr` lowers to) → execute. Every error comes
+//! before the first scan, with `file:line:col`.
 //!
 //! # Execution
 //!
@@ -54,10 +55,10 @@ mod tests;
 
 use std::path::Path;
 
-pub use check::{BoxOp, Call, Num};
+pub use crate::logic::vm::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num};
 pub use error::{CompileError, CompileErrorKind, Driver, Expected, TypeError};
-pub use exec::{CallSite, Instr, LadderProgram};
-pub use parser::{CmpOp, CoilKind};
+pub use exec::LadderProgram;
+pub use parser::CoilKind;
 
 use crate::logic::blocks::Instance;
 use crate::logic::expr::TagTable;
@@ -151,15 +152,7 @@ pub fn compile(
             at(line, column)
         })
         .collect();
-    let mut types = vec![softplc_io::point::ValueType::Bool; tags.len()];
-    for t in tags.iter() {
-        if let Some(slot) = types.get_mut(t.id.index()) {
-            *slot = t.ty;
-        } else {
-            types.resize(t.id.index() + 1, softplc_io::point::ValueType::Bool);
-            types[t.id.index()] = t.ty;
-        }
-    }
+    let types = crate::logic::vm::tag_types(tags);
     let instances = instances.kinds.iter().map(|&k| Instance::new(k)).collect();
     let described = rungs::describe(&checked, |i| {
         let (line, column) = src.position(i, 0);

@@ -20,29 +20,13 @@
 
 use super::error::{CompileErrorKind, Expected};
 use super::lexer::{lex, Spanned, Tok};
+use crate::logic::vm::CmpOp;
 
 /// Deepest nesting of parentheses, negations and edges.
 pub(crate) const MAX_DEPTH: u32 = 64;
 
 /// A parse error: character index and kind.
 pub(crate) type ParseError = (usize, CompileErrorKind);
-
-/// A comparison operator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CmpOp {
-    /// `=`, `==`
-    Eq,
-    /// `<>`, `!=`
-    Ne,
-    /// `<`
-    Lt,
-    /// `<=`
-    Le,
-    /// `>`
-    Gt,
-    /// `>=`
-    Ge,
-}
 
 /// A name with its position.
 #[derive(Debug, Clone, PartialEq)]

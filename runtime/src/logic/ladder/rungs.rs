@@ -18,10 +18,11 @@
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-use super::check::{BoolExpr as Cond, CAction, COut, CRung, Call, Num};
+use super::check::{BoolExpr as Cond, CAction, COut, CRung};
 use super::parser::CoilKind;
 use crate::image::TagId;
 use crate::logic::blocks::from_millis;
+use crate::logic::vm::{Call, Num};
 use crate::logic::SourcePos;
 use crate::offload::ir::{BoolExpr, Rung, RungShape};
 

@@ -1,0 +1,331 @@
+//! The instruction set both compiled languages lower to, and the stack-depth proof over it.
+
+use std::time::Duration;
+
+use crate::image::TagId;
+use crate::logic::blocks::{Member, Pattern};
+
+/// One instruction of the logic VM. Every instruction runs every scan (there are no jumps), so
+/// every edge, timer and block sees every scan.
+///
+/// Two ways to end a rung exist because the languages differ: an `expr` statement has exactly
+/// one coil, so it ends with [`Instr::Store`] (pop and write, one dispatch); a ladder rung may
+/// drive several outputs, which peek at its power flow ([`Instr::Coil`] ... [`Instr::Box`])
+/// before [`Instr::Pop`] drops it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Instr {
+    /// Push a tag's value as a bool (non-zero is true).
+    Load(TagId),
+    /// Push an instance's boolean output (`name.Q`).
+    LoadOut(u32, Member),
+    /// Push a constant.
+    Const(bool),
+    /// Push whether a tag's quality is Good (read in the last cycle, or a memory or forced
+    /// tag): `good(tag)`.
+    Good(TagId),
+    /// Push whether a tag's quality is Bad (its module lost, or never read): `bad(tag)`.
+    Bad(TagId),
+    /// Replace the top with its negation.
+    Not,
+    /// Pop two, push their conjunction (series).
+    And,
+    /// Pop two, push their exclusive or.
+    Xor,
+    /// Pop two, push their disjunction (parallel).
+    Or,
+    /// Push the result of a numeric comparison.
+    Cmp {
+        /// Left side.
+        lhs: Num,
+        /// The operator.
+        op: CmpOp,
+        /// Right side.
+        rhs: Num,
+    },
+    /// Replace the top with "it is true and was false last scan"; edge slot.
+    Rising(u32),
+    /// Replace the top with "it is false and was true last scan"; edge slot.
+    Falling(u32),
+    /// On-delay timer on the top, with a constant preset; instance index (a
+    /// [`Instance::Ton`](crate::logic::blocks::Instance::Ton)).
+    Ton {
+        /// Instance index.
+        timer: u32,
+        /// Preset time.
+        preset: Duration,
+    },
+    /// Off-delay timer on the top (a
+    /// [`Instance::Tof`](crate::logic::blocks::Instance::Tof)).
+    Tof {
+        /// Instance index.
+        timer: u32,
+        /// Preset time.
+        preset: Duration,
+    },
+    /// Pulse timer on the top (a [`Instance::Tp`](crate::logic::blocks::Instance::Tp)).
+    Tp {
+        /// Instance index.
+        timer: u32,
+        /// Preset time.
+        preset: Duration,
+    },
+    /// Pop and write into a bool tag: a rung's only coil and its end.
+    Store(TagId),
+    /// Write the top to a bool tag.
+    Coil(TagId),
+    /// Write the negated top.
+    NegCoil(TagId),
+    /// Set the tag when the top is true.
+    Set(TagId),
+    /// Clear the tag when the top is true.
+    Reset(TagId),
+    /// Call a block (call-site index): pops its bool arguments, then replaces the power flow
+    /// under them with the block's main output.
+    Call(u32),
+    /// When the top is true, compute a math box (box-site index). Kept out of line: its
+    /// operands would double the size of every instruction.
+    Box(u32),
+    /// End of a rung: drop its power flow.
+    Pop,
+}
+
+/// A number: a constant, a tag's value, or an instance's output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Num {
+    /// A literal (a duration is its milliseconds; compared with an `f32` tag, already rounded
+    /// to `f32`).
+    Const(f64),
+    /// A numeric tag's current value.
+    Tag(TagId),
+    /// An instance's output (`ET` in milliseconds).
+    Out(u32, Member),
+}
+
+/// A comparison operator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CmpOp {
+    /// `<`
+    Lt,
+    /// `<=`
+    Le,
+    /// `>`
+    Gt,
+    /// `>=`
+    Ge,
+    /// `==` (ladder also reads `=`)
+    Eq,
+    /// `!=` (ladder also reads `<>`)
+    Ne,
+}
+
+impl CmpOp {
+    /// The operator as written (the spelling both languages read).
+    pub fn symbol(self) -> &'static str {
+        match self {
+            CmpOp::Lt => "<",
+            CmpOp::Le => "<=",
+            CmpOp::Gt => ">",
+            CmpOp::Ge => ">=",
+            CmpOp::Eq => "==",
+            CmpOp::Ne => "!=",
+        }
+    }
+}
+
+/// A block call with its checked arguments. The power flow is each block's first input (IN,
+/// CU, CLK, S, EN); the bool arguments are lowered in the order given here.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Call {
+    /// On-delay.
+    Ton {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Off-delay.
+    Tof {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Pulse.
+    Tp {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Staircase timer; bool argument: reset.
+    Stair {
+        /// Preset, ms.
+        pt: Num,
+    },
+    /// Up counter; bool argument: reset.
+    Ctu {
+        /// Preset.
+        pv: Num,
+    },
+    /// Down counter; bool argument: load.
+    Ctd {
+        /// Preset.
+        pv: Num,
+    },
+    /// Up-down counter; bool arguments: count down, reset, load.
+    Ctud {
+        /// Preset.
+        pv: Num,
+    },
+    /// Rising edge.
+    RTrig,
+    /// Falling edge.
+    FTrig,
+    /// Set-dominant latch; bool argument: reset.
+    Sr,
+    /// Reset-dominant latch; bool argument: reset.
+    Rs,
+    /// Impulse relay; bool argument: reset.
+    Toggle,
+    /// Blinker by times.
+    Blink {
+        /// On time, ms.
+        on: Num,
+        /// Off time, ms.
+        off: Num,
+    },
+    /// Blinker by pattern.
+    BlinkPattern {
+        /// The bits.
+        pattern: Pattern,
+        /// Time per bit, ms.
+        step: Num,
+    },
+}
+
+impl Call {
+    /// The numeric arguments, in the order the executor reads them (unused ones are zero).
+    pub(crate) fn nums(&self) -> [Num; 2] {
+        let zero = Num::Const(0.0);
+        match self {
+            Call::Ton { pt } | Call::Tof { pt } | Call::Tp { pt } | Call::Stair { pt } => {
+                [*pt, zero]
+            }
+            Call::Ctu { pv } | Call::Ctd { pv } | Call::Ctud { pv } => [*pv, zero],
+            Call::Blink { on, off } => [*on, *off],
+            Call::BlinkPattern { step, .. } => [*step, zero],
+            Call::RTrig | Call::FTrig | Call::Sr | Call::Rs | Call::Toggle => [zero, zero],
+        }
+    }
+}
+
+/// A block call site: the instance and its non-boolean arguments.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CallSite {
+    /// Instance index.
+    pub inst: u32,
+    /// Kind and arguments.
+    pub call: Call,
+    /// Number of bool arguments on the stack above the power flow.
+    pub bools: u8,
+}
+
+/// A math box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoxOp {
+    /// `MOVE(a)`
+    Move,
+    /// `ADD(a, b)`
+    Add,
+    /// `SUB(a, b)`
+    Sub,
+    /// `MUL(a, b)`
+    Mul,
+    /// `DIV(a, b)`
+    Div,
+    /// `LIMIT(mn, in, mx)`
+    Limit,
+}
+
+/// A math box site: computed when its rung is powered.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoxSite {
+    /// The operation.
+    pub op: BoxOp,
+    /// Its operands (unused ones are zero).
+    pub args: [Num; 3],
+    /// The result's tag.
+    pub dest: TagId,
+    /// The rung, for a fault's position.
+    pub rung: u32,
+}
+
+/// The deepest stack `code` reaches; `None` if it would pop an empty stack or leave values
+/// behind (never, for lowered code: checked in tests and in debug builds). `calls` gives the
+/// arity of each [`Instr::Call`].
+pub(crate) fn max_depth(code: &[Instr], calls: &[CallSite]) -> Option<usize> {
+    let mut depth = 0usize;
+    let mut max = 0usize;
+    for instr in code {
+        let (pops, pushes) = match instr {
+            Instr::Load(_)
+            | Instr::LoadOut(..)
+            | Instr::Const(_)
+            | Instr::Cmp { .. }
+            | Instr::Good(_)
+            | Instr::Bad(_) => (0, 1),
+            Instr::Not
+            | Instr::Rising(_)
+            | Instr::Falling(_)
+            | Instr::Ton { .. }
+            | Instr::Tof { .. }
+            | Instr::Tp { .. } => (1, 1),
+            Instr::And | Instr::Xor | Instr::Or => (2, 1),
+            Instr::Store(_) | Instr::Pop => (1, 0),
+            // Outputs peek: the power flow stays for the rung's next output.
+            Instr::Coil(_)
+            | Instr::NegCoil(_)
+            | Instr::Set(_)
+            | Instr::Reset(_)
+            | Instr::Box(_) => (1, 1),
+            Instr::Call(site) => {
+                let n = calls
+                    .get(*site as usize)
+                    .map_or(0, |c| usize::from(c.bools));
+                (n + 1, 1)
+            }
+        };
+        depth = depth.checked_sub(pops)? + pushes;
+        max = max.max(depth);
+    }
+    (depth == 0).then_some(max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_counts_peeking_outputs_and_call_arity() {
+        let calls = [CallSite {
+            inst: 0,
+            call: Call::Sr,
+            bools: 1,
+        }];
+        let code = [
+            Instr::Const(true),
+            Instr::Load(TagId(1)),
+            Instr::Call(0),
+            Instr::Coil(TagId(2)),
+            Instr::Box(0),
+            Instr::Pop,
+        ];
+        assert_eq!(max_depth(&code, &calls), Some(2));
+        assert_eq!(max_depth(&code[..2], &calls), None, "left values behind");
+        assert_eq!(
+            max_depth(&[Instr::Pop], &calls),
+            None,
+            "popped an empty stack"
+        );
+    }
+
+    #[test]
+    fn an_instruction_stays_small() {
+        // Box sites are out of line so that the hot loop walks 40-byte instructions.
+        assert!(std::mem::size_of::<Instr>() <= 40);
+    }
+}
