@@ -1,16 +1,17 @@
 //! Scenario 2: logic cost per scan, ladder and Rhai, 10 / 100 / 1000 rungs.
 //!
-//! The programs are the runtime's synthetic ones (`softplc::logic::synthetic`): rung `i` is a
-//! latch through an on-delay timer, `(x{i} | y{i}) /x{i+1} -> TON t{i}(100ms) -> y{i}`, the
-//! same in both engines. The `expr` engine runs the same rungs as the baseline
+//! The programs are the synthetic ones of [`synthetic`]: rung `i` is a latch through an
+//! on-delay timer, `(x{i} | y{i}) /x{i+1} -> TON t{i}(100ms) -> y{i}`, the same in every
+//! engine. The `expr` engine runs the same rungs as the baseline
 //! (`y{i} = ton((x{i} | y{i}) & !x{i+1}, 100ms)`). Each scan is timed alone (the engine's
 //! `scan` on the process image, 10 ms of scan time per cycle, a few inputs changing every
 //! cycle as `synthetic::drive_inputs` moves them), on this thread.
 
-use std::path::Path;
+mod synthetic;
+
 use std::time::{Duration, Instant};
 
-use softplc::logic::{expr, synthetic, LogicEngine, ScanContext};
+use softplc::logic::{LogicEngine, ScanContext};
 use softplc::scan::DurationHistogram;
 
 use super::{Ctx, Scenario};
@@ -29,24 +30,13 @@ pub const SCENARIO: Scenario = Scenario {
 
 const RUNGS: [usize; 3] = [10, 100, 1000];
 
-/// The baseline program: the synthetic rungs in `expr`.
-fn expr_program(n: usize) -> String {
-    (0..n)
-        .map(|i| format!("y{i} = ton((x{i} | y{i}) & !x{j}, 100ms)\n", j = i + 1))
-        .collect()
-}
-
 fn compile(engine: &str, n: usize) -> anyhow::Result<Box<dyn LogicEngine>> {
-    Ok(match engine {
-        "ladder" => synthetic::compile(synthetic::Language::Ladder, n)?,
-        "Rhai" => synthetic::compile(synthetic::Language::Rhai, n)?,
-        _ => {
-            let table = synthetic::tag_table(n);
-            let program = expr::compile(&expr_program(n), Path::new("synthetic.expr"), &table)
-                .map_err(|e| anyhow::anyhow!("{}", e[0]))?;
-            Box::new(program)
-        }
-    })
+    let language = match engine {
+        "ladder" => synthetic::Language::Ladder,
+        "Rhai" => synthetic::Language::Rhai,
+        _ => synthetic::Language::Expr,
+    };
+    synthetic::compile(language, n)
 }
 
 /// Scans `engine`'s `n`-rung program for `run_for` (at least 50 scans); one sample per scan.

@@ -8,7 +8,6 @@ pub mod expr;
 pub mod ladder;
 pub mod load;
 pub mod rhai;
-pub mod synthetic;
 mod vm;
 
 use std::fmt::Debug;

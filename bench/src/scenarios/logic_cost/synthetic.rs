@@ -1,55 +1,38 @@
 //! Synthetic N-rung programs in each engine, with the tags and image to run them on, for the
-//! benchmark harness (per-scan logic cost of 10, 100, 1000 rungs).
+//! logic-cost scenario (per-scan logic cost of 10, 100, 1000 rungs). They live here, with
+//! their only user, and reach the engines through the runtime's public API alone.
 //!
 //! Rung `i` is a start/stop latch through an on-delay timer, the commonest rung shape:
 //!
 //! ```text
+//! expr:   y{i} = ton((x{i} | y{i}) & !x{i+1}, 100ms)
 //! ladder: (x{i} | y{i}) /x{i+1} -> TON t{i}(100ms) -> y{i}
 //! rhai:   y{i} = ton("t{i}", (x{i} || y{i}) && !x{i+1}, 100);
 //! ```
 //!
-//! Tags: inputs `x0..=xN` (read-only), outputs `y0..y(N-1)`; both programs give the same
+//! Tags: inputs `x0..=xN` (read-only), outputs `y0..y(N-1)`; the three programs give the same
 //! outputs for the same inputs and times. [`drive_inputs`] changes a few inputs per cycle,
 //! deterministically, so timers start and stop.
-//!
-//! ```
-//! use std::time::Duration;
-//! use softplc::logic::{synthetic, ScanContext};
-//!
-//! let n = 100;
-//! let mut image = synthetic::image(n);
-//! let mut program = synthetic::compile(synthetic::Language::Rhai, n).unwrap();
-//! for cycle in 0..10 {
-//!     synthetic::drive_inputs(&mut image, n, cycle);
-//!     let now = Duration::from_millis(10 * cycle);
-//!     let ctx = ScanContext { now, delta: Duration::from_millis(10), cycle };
-//!     program.scan(&mut image, &ctx).unwrap();
-//! }
-//! ```
 
 use std::fmt::Write;
 use std::path::Path;
 use std::time::Duration;
 
+use softplc::image::{ProcessImage, TagId};
+use softplc::logic::expr::TagTable;
+use softplc::logic::{expr, ladder, rhai, LogicEngine};
 use softplc_io::point::{Value, ValueType};
-
-use crate::image::{ProcessImage, TagId};
-use crate::logic::expr::TagTable;
-use crate::logic::{ladder, rhai, LogicEngine};
 
 /// The engines a synthetic program exists in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Language {
+    /// The `expr` engine: the baseline.
+    Expr,
     /// Ladder YAML.
     Ladder,
     /// Rhai.
     Rhai,
 }
-
-/// Why a synthetic program did not compile (a bug: they are generated to be valid).
-#[derive(Debug, thiserror::Error)]
-#[error("synthetic program does not compile: {0}")]
-pub struct SyntheticError(String);
 
 /// Tag names in image order: `x0..=xN`, then `y0..y(N-1)`, with their types and whether the
 /// program may write them.
@@ -72,6 +55,13 @@ pub fn tag_table(n: usize) -> TagTable {
 /// A process image with every tag false.
 pub fn image(n: usize) -> ProcessImage {
     ProcessImage::new(tags(n).into_iter().map(|(name, ty, _)| (name, ty.zero())))
+}
+
+/// The `expr` program with `n` rungs.
+pub fn expr_program(n: usize) -> String {
+    (0..n)
+        .map(|i| format!("y{i} = ton((x{i} | y{i}) & !x{j}, 100ms)\n", j = i + 1))
+        .collect()
 }
 
 /// The ladder program with `n` rungs.
@@ -100,11 +90,17 @@ pub fn rhai_program(n: usize) -> String {
     s
 }
 
-/// The `n`-rung program of `language`, compiled against [`tag_table`].
-pub fn compile(language: Language, n: usize) -> Result<Box<dyn LogicEngine>, SyntheticError> {
+/// The `n`-rung program of `language`, compiled against [`tag_table`]. An error is a bug:
+/// the programs are generated to be valid.
+pub fn compile(language: Language, n: usize) -> anyhow::Result<Box<dyn LogicEngine>> {
     let table = tag_table(n);
-    let fail = |e: &dyn std::fmt::Display| SyntheticError(e.to_string());
+    let fail =
+        |e: &dyn std::fmt::Display| anyhow::anyhow!("synthetic program does not compile: {e}");
     Ok(match language {
+        Language::Expr => Box::new(
+            expr::compile(&expr_program(n), Path::new("synthetic.expr"), &table)
+                .map_err(|e| fail(&e[0]))?,
+        ),
         Language::Ladder => Box::new(
             ladder::compile(&ladder_program(n), Path::new("synthetic.yaml"), &table)
                 .map_err(|e| fail(&e[0]))?,
@@ -134,16 +130,17 @@ pub fn drive_inputs(image: &mut ProcessImage, n: usize, cycle: u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::logic::ScanContext;
+    use softplc::logic::ScanContext;
 
     #[test]
-    fn both_engines_give_the_same_outputs() {
+    fn every_engine_gives_the_same_outputs() {
         let n = 30;
         let mut programs = [
             compile(Language::Ladder, n).unwrap(),
             compile(Language::Rhai, n).unwrap(),
+            compile(Language::Expr, n).unwrap(),
         ];
-        let mut images = [image(n), image(n)];
+        let mut images = [image(n), image(n), image(n)];
         let mut lit = 0;
         for cycle in 0..200 {
             let ctx = ScanContext {
@@ -161,6 +158,7 @@ mod tests {
                     .collect()
             };
             assert_eq!(outs(&images[0]), outs(&images[1]), "cycle {cycle}");
+            assert_eq!(outs(&images[0]), outs(&images[2]), "cycle {cycle}");
             lit += outs(&images[0]).iter().filter(|v| v.as_bool()).count();
         }
         assert!(lit > 100, "outputs move: {lit}");
