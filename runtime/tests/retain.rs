@@ -182,3 +182,44 @@ fn project_errors_for_retain_settings() {
     assert!(e[0].to_string().contains("ladder"), "{}", e[0]);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn under_systemd_retained_values_go_to_the_state_directory() {
+    // The unit's dynamic user cannot write beside the project in /etc/softplc/NAME/: with
+    // `StateDirectory=` systemd sets $STATE_DIRECTORY, and the default retain file goes there.
+    let dir = temp("state-directory");
+    let project = project(&dir, "ladder");
+    let text = std::fs::read_to_string(&project).unwrap();
+    let text = text.replace("retain: { file: state/count.json, period: 100ms }\n", "");
+    std::fs::write(&project, text).unwrap();
+    let state = dir.join("var-lib-softplc");
+    let out = softplc(&[
+        "run",
+        project.to_str().unwrap(),
+        "--virtual",
+        "--for",
+        "2s",
+        "--quiet",
+    ])
+    .env("STATE_DIRECTORY", &state)
+    .output()
+    .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let instance = dir.file_name().unwrap();
+    let file = state.join(instance).join("project.retain.json");
+    assert!(
+        saved(&file).is_some_and(|n| n > 0),
+        "{} holds the count; beside the project: {:?}",
+        file.display(),
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name())
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        !dir.join("project.retain.json").exists(),
+        "nothing beside the project"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -23,6 +23,7 @@ pub mod raw;
 pub mod retain;
 mod scada;
 pub mod service;
+pub mod state;
 pub(crate) mod span;
 mod validate;
 pub mod watchdog;

@@ -3,7 +3,8 @@
 //! ```yaml
 //! retain:
 //!   file: pump.retain.json   # relative to the project file's folder;
-//!                            # default: <project file name>.retain.json beside it
+//!                            # default: <project file name>.retain.json beside it,
+//!                            # or in $STATE_DIRECTORY/<project folder>/ under systemd
 //!   period: 10s              # how often changed values are saved; default 10s, > 0
 //! tags:
 //!   - { name: run_seconds, type: i32, retain: true }   # memory tags only
@@ -65,7 +66,8 @@ pub(crate) fn validate(
                 || "project".to_string(),
                 |s| s.to_string_lossy().into_owned(),
             );
-            Some(folder.join(format!("{name}.retain.json")))
+            // Under systemd, in the unit's state directory (see `state`).
+            Some(super::state::default_state_folder(file).join(format!("{name}.retain.json")))
         }
     };
     let period = match raw.period {
