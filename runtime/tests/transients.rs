@@ -362,6 +362,7 @@ fn a_module_power_cycled_between_two_reads_gets_its_outputs_back_within_the_refr
 
 #[test]
 fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
+    use softplc::service::boundary::ServiceBoundary;
     use softplc::service::control::{Envelope, Request};
     let project = project();
     let program = project.program.path.clone();
@@ -374,7 +375,7 @@ fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
     let seen = Arc::new(Mutex::new(Vec::new()));
     let (sent_in, seen_in) = (sent.clone(), seen.clone());
     let mut engine = ScanEngine::new(plc)
-        .with_control(rx)
+        .with_boundary(ServiceBoundary::new().with_control(rx))
         .run_for(Duration::from_secs(30))
         .on_cycle(Box::new(move |plc, ctx| {
             set(&world, "mm1", "X1", true);

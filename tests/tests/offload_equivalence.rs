@@ -874,10 +874,10 @@ fn pushed_outputs_belong_to_their_module() {
     // The module switched Y1 on; the image shows it, and the program reads it.
     assert_eq!(plc.image().get(y), Value::Bool(true));
     assert_eq!(plc.image().get(seen), Value::Bool(true));
-    let refused = plc.force("y", "0").unwrap_err();
+    let refused = plc.force("y", "0").unwrap_err().to_string();
     assert!(refused.contains("driven by its module"), "{refused}");
     // Its input is read by the module's own logic, which a force cannot reach: refused too.
-    let refused = plc.force("a", "0").unwrap_err();
+    let refused = plc.force("a", "0").unwrap_err().to_string();
     assert!(
         refused.contains("read by the module's own logic for y"),
         "{refused}"
@@ -887,7 +887,7 @@ fn pushed_outputs_belong_to_their_module() {
         panic!("the same program reloads: {e}");
     }
     std::fs::write(case.dir().join("program.expr"), "y = a & seen\nseen = y\n").unwrap();
-    let refused = plc.reload_program().unwrap_err();
+    let refused = plc.reload_program().unwrap_err().to_string();
     assert!(refused.contains("moves rungs"), "{refused}");
 }
 
@@ -1655,9 +1655,9 @@ fn forcing_beside_a_pushed_down_rung() {
                 s.plc.unforce(Some("start")).unwrap();
             }
             _ => assert!(
-                start
-                    .as_ref()
-                    .is_err_and(|e| e.contains("read by the module's own logic for motor")),
+                start.as_ref().is_err_and(|e| e
+                    .to_string()
+                    .contains("read by the module's own logic for motor")),
                 "{start:?}"
             ),
         }

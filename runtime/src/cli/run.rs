@@ -12,6 +12,7 @@ use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
 use crate::project;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
+use crate::service::boundary::ServiceBoundary;
 use crate::service::control::{default_socket_path, ControlServer};
 use crate::service::notify::Notifier;
 use crate::service::{network, snapshot};
@@ -72,11 +73,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
     }
-    signal_hook::flag::register(signal_hook::consts::SIGHUP, engine.reload_flag())
-        .context("cannot install the SIGHUP handler")?;
     // Requests to the scan: from the control socket and from the Modbus TCP server's writes.
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
-    engine = engine.with_control(requests_rx);
+    let mut boundary = ServiceBoundary::new().with_control(requests_rx);
+    signal_hook::flag::register(signal_hook::consts::SIGHUP, boundary.reload_flag())
+        .context("cannot install the SIGHUP handler")?;
     let _control = if args.no_control {
         None
     } else {
@@ -103,12 +104,13 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         if services.web.is_some() {
             publisher = publisher.with_details();
         }
-        engine = engine.with_publisher(publisher);
+        boundary = boundary.with_publisher(publisher);
     }
     let notifier = Notifier::from_env();
     if notifier.enabled() {
-        engine = engine.with_notifier(notifier);
+        boundary = boundary.with_notifier(notifier);
     }
+    engine = engine.with_boundary(boundary);
     let status = engine.status();
     tracing::info!(
         "{name}: scanning every {}{}",

@@ -1,4 +1,6 @@
-//! What the control interface asks of a running PLC: force, write, reload, status.
+//! What the control interface asks of a running PLC: force, write, reload. The PLC answers in
+//! its own terms (values, counts, typed refusals); the service above turns them into its
+//! protocol's replies, so nothing here knows how a request arrived.
 
 use softplc_io::point::Value;
 
@@ -7,16 +9,15 @@ use crate::logic::load;
 use crate::offload::{self};
 use crate::project::Project;
 
+use super::error::{ReloadError, TagError};
 use super::*;
 
 impl Plc {
     /// Forces `tag` to the value `text` (parsed as the tag's type); returns the value.
-    pub fn force(&mut self, tag: &str, text: &str) -> Result<Value, String> {
+    pub fn force(&mut self, tag: &str, text: &str) -> Result<Value, TagError> {
         let id = self.tag_id(tag)?;
         self.refuse_pushed(id, tag)?;
-        let ty = self.project.tags[id.index()].ty;
-        let value = Value::parse(ty, text)
-            .ok_or_else(|| format!("{tag} is {ty}: {text:?} is not a {ty}"))?;
+        let value = self.parse_value(id, tag, text)?;
         self.image.force(id, value);
         self.image.apply_forces(self.clock.now());
         self.save_forces();
@@ -25,7 +26,7 @@ impl Plc {
     }
 
     /// Removes the force of `tag` (or of every tag); returns how many were removed.
-    pub fn unforce(&mut self, tag: Option<&str>) -> Result<usize, String> {
+    pub fn unforce(&mut self, tag: Option<&str>) -> Result<usize, TagError> {
         let n = match tag {
             Some(t) => usize::from(self.image.unforce(self.tag_id(t)?)),
             None => self.image.unforce_all(),
@@ -37,23 +38,22 @@ impl Plc {
         Ok(n)
     }
 
-    /// Sets tags to values (text, parsed as each tag's type) all at once, as an assignment
-    /// does: the program sees them in its next scan and may overwrite them. Nothing is set
-    /// unless every tag exists, every value parses and no tag is forced (a force wins).
-    pub fn write_tags(
+    /// Sets tags to values (`(tag, text)`, the text parsed as each tag's type) all at once, as
+    /// an assignment does: the program sees them in its next scan and may overwrite them.
+    /// Nothing is set unless every tag exists, every value parses and no tag is forced (a
+    /// force wins). Returns how many tags were written.
+    pub fn write_tags<'a>(
         &mut self,
-        values: &[crate::service::control::TagValue],
-    ) -> Result<String, String> {
-        let mut parsed = Vec::with_capacity(values.len());
-        for tv in values {
-            let id = self.tag_id(&tv.tag)?;
-            let ty = self.project.tags[id.index()].ty;
-            let value = Value::parse(ty, &tv.value)
-                .ok_or_else(|| format!("{} is {ty}: {:?} is not a {ty}", tv.tag, tv.value))?;
+        values: impl IntoIterator<Item = (&'a str, &'a str)>,
+    ) -> Result<usize, TagError> {
+        let mut parsed = Vec::new();
+        for (tag, text) in values {
+            let id = self.tag_id(tag)?;
+            let value = self.parse_value(id, tag, text)?;
             if self.image.forced(id).is_some() {
-                return Err(format!("{} is forced; unforce it to write it", tv.tag));
+                return Err(TagError::Forced { tag: tag.into() });
             }
-            self.refuse_pushed(id, &tv.tag)?;
+            self.refuse_pushed(id, tag)?;
             parsed.push((id, value));
         }
         let now = self.clock.now();
@@ -61,40 +61,48 @@ impl Plc {
             self.image.set(id, value, now);
             tracing::debug!("tag {} written: {value}", self.image.name(id));
         }
-        Ok(format!("{} tag(s) written", parsed.len()))
+        Ok(parsed.len())
+    }
+
+    fn parse_value(&self, id: TagId, tag: &str, text: &str) -> Result<Value, TagError> {
+        let ty = self.project.tags[id.index()].ty;
+        Value::parse(ty, text).ok_or_else(|| TagError::BadValue {
+            tag: tag.into(),
+            ty,
+            text: text.into(),
+        })
     }
 
     /// A pushed-down output is its module's: the scan cannot set it.
-    fn refuse_pushed(&self, id: TagId, tag: &str) -> Result<(), String> {
+    fn refuse_pushed(&self, id: TagId, tag: &str) -> Result<(), TagError> {
         if self.offload.owns(id) {
-            return Err(format!(
-                "{tag} is driven by its module's own logic (push-down); set offload: never on \
-                 the tag to drive it from the scan"
-            ));
+            return Err(TagError::PushedOutput { tag: tag.into() });
         }
         if let Some(rung) = self.plan.pushed_reader(id) {
-            return Err(format!(
-                "{tag} is read by the module's own logic for {} ({}), which sees the real \
-                 terminal, not a force; set offload: never on {} to force it",
-                rung.coil, rung.rung.pos, rung.coil
-            ));
+            return Err(TagError::PushedInput {
+                tag: tag.into(),
+                coil: rung.coil.clone(),
+                pos: rung.rung.pos.clone(),
+            });
         }
         Ok(())
     }
 
-    fn tag_id(&self, tag: &str) -> Result<TagId, String> {
-        self.image
-            .id(tag)
-            .ok_or_else(|| format!("no tag {tag:?} in project {}", self.project.name))
+    fn tag_id(&self, tag: &str) -> Result<TagId, TagError> {
+        self.image.id(tag).ok_or_else(|| TagError::Unknown {
+            tag: tag.into(),
+            project: self.project.name.clone(),
+        })
     }
 
     /// Re-reads the project file and swaps in its program if it compiles against the same I/O
     /// map, all at once (tests and tools). A running scan does the same in two steps:
     /// [`Plc::reload_job`] compiles off the scan thread, [`Plc::apply_reload`] swaps at a
     /// cycle boundary.
-    pub fn reload_program(&mut self) -> Result<String, String> {
+    pub fn reload_program(&mut self) -> Result<(), ReloadError> {
         let prepared = self.reload_job().prepare()?;
-        Ok(self.apply_reload(prepared))
+        self.apply_reload(prepared);
+        Ok(())
     }
 
     /// What a reload needs, to be compiled on another thread (a large program would otherwise
@@ -108,57 +116,12 @@ impl Plc {
     }
 
     /// Swaps in a program [`ReloadJob::prepare`] compiled. The running program is untouched
-    /// until here; memory tags keep their values (the image is not rebuilt).
-    pub fn apply_reload(&mut self, prepared: PreparedReload) -> String {
+    /// until here; memory tags keep their values (the image is not rebuilt). The new program's
+    /// file is [`Project::program`]'s path.
+    pub fn apply_reload(&mut self, prepared: PreparedReload) {
         self.logic = prepared.logic;
         self.project.program = prepared.program;
-        let msg = format!("program {} reloaded", self.project.program.path.display());
-        tracing::info!("{msg}");
-        msg
-    }
-
-    /// The status report for `softplc status`.
-    pub fn status_report(
-        &self,
-        stats: &crate::scan::ScanStats,
-    ) -> crate::service::status::StatusReport {
-        use crate::service::status::{ModuleReport, StatusReport, TagReport};
-        StatusReport {
-            project: self.project.name.clone(),
-            scans: stats.cycles,
-            overruns: stats.overruns,
-            period_us: self.project.scan.period.as_micros() as u64,
-            cycle: stats.cycle.percentiles().into(),
-            lateness: stats.lateness.percentiles().into(),
-            modules: self
-                .status
-                .iter()
-                .map(|m| ModuleReport {
-                    name: m.name.clone(),
-                    bus: m.bus.clone(),
-                    quality: m.quality.to_string(),
-                    requests: m.counters.requests,
-                    timeouts: m.counters.timeouts,
-                    crc_errors: m.counters.crc_errors,
-                    bad_replies: m.counters.bad_replies,
-                    exceptions: m.counters.exceptions,
-                    last_round_trip_us: m.counters.last_round_trip.as_micros() as u64,
-                    last_error: m.last_error.as_ref().map(ToString::to_string),
-                })
-                .collect(),
-            tags: (0..self.image.len())
-                .map(|i| {
-                    let id = TagId(i as u32);
-                    let slot = self.image.slot(id);
-                    TagReport {
-                        name: self.image.name(id).to_string(),
-                        value: slot.value.to_string(),
-                        quality: slot.quality.to_string(),
-                        forced: self.image.forced(id).map(|v| v.to_string()),
-                    }
-                })
-                .collect(),
-        }
+        tracing::info!("program {} reloaded", self.project.program.path.display());
     }
 }
 
@@ -202,26 +165,17 @@ pub struct PreparedReload {
 impl ReloadJob {
     /// Reads the project file again and compiles its program; refused, with the reason, when
     /// it does not compile or when anything besides the program changed.
-    pub fn prepare(self) -> Result<PreparedReload, String> {
-        let fresh = crate::project::load(&self.current.source)
-            .map_err(|e| format!("reload refused:\n{e}"))?;
+    pub fn prepare(self) -> Result<PreparedReload, ReloadError> {
+        let fresh = crate::project::load(&self.current.source).map_err(ReloadError::Project)?;
         if !same_io(&fresh, &self.current) {
-            return Err(
-                "reload refused: something besides the program changed (scan, buses, modules, tags, retain, offload or service); restart to apply it"
-                    .into(),
-            );
+            return Err(ReloadError::NotOnlyProgram);
         }
-        let mut logic =
-            load::load_program(&fresh, &self.image).map_err(|e| format!("reload refused:\n{e}"))?;
+        let mut logic = load::load_program(&fresh, &self.image).map_err(ReloadError::Program)?;
         // The module tables were written at start-up: the new program must place its rungs
         // where the running one did.
         let plan = offload::plan_program(&fresh, logic.as_ref());
         if !offload::runtime::same_placement(&plan, &self.plan) {
-            return Err(
-                "reload refused: the new program moves rungs into or out of modules; restart \
-                 to write the module tables"
-                    .into(),
-            );
+            return Err(ReloadError::Placement);
         }
         for (r, _) in plan.pushed() {
             logic.release(r.rung.coil);

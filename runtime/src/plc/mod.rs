@@ -8,14 +8,20 @@
 //!
 //! - [`build`](Plc::build): wiring a validated project (`build.rs`);
 //! - the phases the scan calls and the safe state (`cycle.rs`);
-//! - the control interface's actions: force, write, reload, status (`control.rs`).
+//! - the control interface's actions: force, write, reload (`control.rs`), and why they are
+//!   refused (`error.rs`).
+//!
+//! Nothing here depends on the scan or the service: the scan ([`crate::scan`]) drives a `Plc`,
+//! the service ([`crate::service`]) reads it and asks it for changes at cycle boundaries.
 
 mod build;
 mod control;
 mod cycle;
+mod error;
 mod forces;
 
 pub use control::{PreparedReload, ReloadJob};
+pub use error::{ReloadError, TagError};
 pub use forces::forces_path;
 
 use std::sync::Arc;

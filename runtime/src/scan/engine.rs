@@ -4,16 +4,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crossbeam_channel::{Receiver, Sender};
-
 use crate::logic::{LogicFault, ScanContext};
-use crate::plc::{ModuleStatus, Plc, PreparedReload};
+use crate::plc::{ModuleStatus, Plc};
+use crate::scan::boundary::CycleBoundary;
 use crate::scan::overrun::OverrunLog;
 use crate::scan::stats::{Percentiles, ScanStats};
 use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
-use crate::service::control::{Envelope, Request, Response};
-use crate::service::notify::Notifier;
-use crate::service::snapshot::Publisher;
 
 /// Why a run ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -65,18 +61,9 @@ pub struct ScanEngine {
     max_cycles: Option<u64>,
     /// A hook called after every cycle (tests record traces with it).
     on_cycle: Option<CycleHook>,
-    /// Requests from the control interface, applied at cycle boundaries.
-    control: Option<Receiver<Envelope>>,
-    /// Set by SIGHUP: reload the program at the next cycle boundary.
-    reload: Arc<AtomicBool>,
-    /// systemd's notification socket.
-    notifier: Option<Notifier>,
-    /// The snapshot for the metrics endpoint and the Modbus TCP server.
-    publisher: Option<Publisher>,
-    /// A reload being compiled off the scan thread.
-    reload_job: Option<Receiver<Result<PreparedReload, String>>>,
-    /// Control clients waiting for that reload's outcome.
-    reload_waiters: Vec<Sender<Response>>,
+    /// What runs at cycle boundaries (the service: control requests, reload, systemd, the
+    /// snapshot for the network services), in the order given.
+    boundaries: Vec<Box<dyn CycleBoundary>>,
     /// End the run as a `kill -9` would: no safe state, module tables left as they are.
     abandon: bool,
 }
@@ -88,6 +75,7 @@ impl std::fmt::Debug for ScanEngine {
             .field("run_for", &self.run_for)
             .field("max_cycles", &self.max_cycles)
             .field("on_cycle", &self.on_cycle.is_some())
+            .field("boundaries", &self.boundaries.len())
             .finish()
     }
 }
@@ -105,38 +93,16 @@ impl ScanEngine {
             run_for: None,
             max_cycles: None,
             on_cycle: None,
-            control: None,
-            reload: Arc::new(AtomicBool::new(false)),
-            notifier: None,
-            publisher: None,
-            reload_job: None,
-            reload_waiters: Vec::new(),
+            boundaries: Vec::new(),
             abandon: false,
         }
     }
 
-    /// Takes control requests from `requests` (see [`crate::service::control`]).
-    pub fn with_control(mut self, requests: Receiver<Envelope>) -> Self {
-        self.control = Some(requests);
+    /// Runs `boundary` at every cycle boundary, at the start and at the end of the run (after
+    /// the boundaries given before it).
+    pub fn with_boundary(mut self, boundary: impl CycleBoundary + 'static) -> Self {
+        self.boundaries.push(Box::new(boundary));
         self
-    }
-
-    /// Publishes a snapshot for the services at every cycle boundary (see
-    /// [`crate::service::snapshot`]).
-    pub fn with_publisher(mut self, publisher: Publisher) -> Self {
-        self.publisher = Some(publisher);
-        self
-    }
-
-    /// Reports to systemd through `notifier`.
-    pub fn with_notifier(mut self, notifier: Notifier) -> Self {
-        self.notifier = Some(notifier);
-        self
-    }
-
-    /// The flag that reloads the program at the next cycle boundary (give it to SIGHUP).
-    pub fn reload_flag(&self) -> Arc<AtomicBool> {
-        self.reload.clone()
     }
 
     /// The flag that stops the run at the next cycle boundary (give it to signal handlers).
@@ -192,8 +158,10 @@ impl ScanEngine {
         let mut previous: Option<Duration> = None;
         let mut last_published = begin;
         let mut overruns = OverrunLog::new(period);
+        for b in &mut self.boundaries {
+            b.started(&mut self.plc);
+        }
         let reason = loop {
-            self.poll_reload();
             if self.stop.load(Ordering::Relaxed) {
                 break StopReason::Requested;
             }
@@ -253,7 +221,9 @@ impl ScanEngine {
             if let Err(trip) = watchdog.check(cycle.saturating_sub(self.plc.io_wait())) {
                 break StopReason::Watchdog(trip);
             }
-            self.between_cycles(&stats, end);
+            for b in &mut self.boundaries {
+                b.between_cycles(&mut self.plc, &stats, end);
+            }
 
             previous = Some(deadline);
             deadline += period;
@@ -280,8 +250,8 @@ impl ScanEngine {
                 self.publish(&stats, end);
             }
         };
-        if let Some(n) = &self.notifier {
-            n.notify("STOPPING=1");
+        for b in &mut self.boundaries {
+            b.stopping(&reason);
         }
         if self.abandon {
             return RunOutcome {
@@ -291,130 +261,15 @@ impl ScanEngine {
             };
         }
         self.plc.shutdown();
-        if let Some(p) = &mut self.publisher {
-            p.set_stop_reason(match &reason {
-                StopReason::Requested => "stopped on request".to_string(),
-                StopReason::LogicFault(f) => format!("program error: {f}"),
-                StopReason::Watchdog(w) => format!("task watchdog: {w}"),
-            });
-            p.publish(&self.plc, &stats, clock.now(), true);
+        let now = clock.now();
+        for b in &mut self.boundaries {
+            b.stopped(&self.plc, &stats, &reason, now);
         }
-        self.publish(&stats, clock.now());
+        self.publish(&stats, now);
         RunOutcome {
             reason,
             stats,
             modules: self.plc.module_status().to_vec(),
-        }
-    }
-
-    /// Work done at a cycle boundary, never inside a scan: control requests, reload, systemd.
-    fn between_cycles(&mut self, stats: &ScanStats, now: Duration) {
-        if let Some(requests) = self.control.clone() {
-            while let Ok(env) = requests.try_recv() {
-                if env.expired() {
-                    // Its client was already told it failed; carrying it out now would surprise.
-                    continue;
-                }
-                let response = match env.request {
-                    Request::Status => Response {
-                        ok: true,
-                        status: Some(self.plc.status_report(stats)),
-                        ..Response::default()
-                    },
-                    Request::Force { tag, value } => match self.plc.force(&tag, &value) {
-                        Ok(v) => Response::done(format!("{tag} forced to {v}")),
-                        Err(e) => Response::refused(e),
-                    },
-                    Request::Unforce { tag } => match self.plc.unforce(tag.as_deref()) {
-                        Ok(n) => Response::done(format!("{n} force(s) removed")),
-                        Err(e) => Response::refused(e),
-                    },
-                    Request::Reload => {
-                        // Compiled off the scan thread; answered when it is swapped in.
-                        self.start_reload(Some(env.reply));
-                        continue;
-                    }
-                    Request::Write { values } => match self.plc.write_tags(&values) {
-                        Ok(m) => Response::done(m),
-                        Err(e) => Response::refused(e),
-                    },
-                };
-                let _ = env.reply.send(response);
-            }
-        }
-        if self.reload.swap(false, Ordering::Relaxed) {
-            self.start_reload(None);
-        }
-        if let Some(p) = &mut self.publisher {
-            p.publish(&self.plc, stats, now, false);
-        }
-        if let Some(n) = &mut self.notifier {
-            // Only a completed scan feeds systemd's watchdog: a hung scan gets restarted.
-            if stats.cycles == 1 {
-                n.notify("READY=1");
-            }
-            n.watchdog();
-            if stats.cycles % 50 == 1 {
-                let c = stats.cycle.percentiles();
-                n.notify(&format!(
-                    "STATUS=scans {} overruns {} cycle p50 {}us p99 {}us bus errors {} at {}s",
-                    stats.cycles,
-                    stats.overruns,
-                    c.p50.as_micros(),
-                    c.p99.as_micros(),
-                    stats.bus_errors,
-                    now.as_secs()
-                ));
-            }
-        }
-    }
-
-    /// Starts compiling the project's program again on a thread of its own; `reply` is told
-    /// the outcome once it is swapped in (or refused). A reload already under way answers for
-    /// this one too.
-    fn start_reload(&mut self, reply: Option<Sender<Response>>) {
-        if let Some(r) = reply {
-            self.reload_waiters.push(r);
-        }
-        if self.reload_job.is_some() {
-            return;
-        }
-        let job = self.plc.reload_job();
-        let (tx, rx) = crossbeam_channel::bounded(1);
-        let spawned = std::thread::Builder::new()
-            .name("reload".into())
-            .spawn(move || {
-                let _ = tx.send(job.prepare());
-            });
-        match spawned {
-            Ok(_) => self.reload_job = Some(rx),
-            Err(e) => self.finish_reload(Err(format!("reload refused: no thread for it: {e}"))),
-        }
-    }
-
-    /// At a cycle boundary: swaps in a program whose compilation has finished.
-    fn poll_reload(&mut self) {
-        let Some(rx) = &self.reload_job else { return };
-        let outcome = match rx.try_recv() {
-            Ok(result) => result.map(|prepared| self.plc.apply_reload(prepared)),
-            Err(crossbeam_channel::TryRecvError::Empty) => return,
-            Err(crossbeam_channel::TryRecvError::Disconnected) => {
-                Err("reload refused: its compilation ended without a result".into())
-            }
-        };
-        self.reload_job = None;
-        self.finish_reload(outcome);
-    }
-
-    fn finish_reload(&mut self, outcome: Result<String, String>) {
-        if let Err(e) = &outcome {
-            tracing::error!("{e}");
-        }
-        for reply in self.reload_waiters.drain(..) {
-            let _ = reply.send(match &outcome {
-                Ok(m) => Response::done(m.clone()),
-                Err(e) => Response::refused(e.clone()),
-            });
         }
     }
 

@@ -1,5 +1,11 @@
 //! Running a machine: the control interface of a running instance, systemd integration.
 //!
+//! The service sits above the scan: the scan calls it between cycles through
+//! [`crate::scan::CycleBoundary`], which [`boundary::ServiceBoundary`] implements, and knows
+//! nothing of what it does there.
+//!
+//! - [`boundary`]: what runs at each cycle boundary: control requests, reloads, sd_notify, the
+//!   snapshot.
 //! - [`control`]: the local control interface (a Unix socket, one JSON request per line):
 //!   status, force, unforce, reload. Requests are applied by the scan thread at a cycle
 //!   boundary, so they never race a scan.
@@ -12,6 +18,7 @@
 //!   [`modbus_guard`]) and [`web`] (the web page: live I/O, forcing, the program with live
 //!   values, timing plots); [`network`] starts them.
 
+pub mod boundary;
 pub mod control;
 pub mod metrics;
 pub mod modbus_guard;

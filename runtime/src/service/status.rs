@@ -3,6 +3,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::image::TagId;
+use crate::plc::Plc;
+use crate::scan::ScanStats;
+
 /// Percentiles in microseconds, for JSON.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub struct MicrosPercentiles {
@@ -87,6 +91,50 @@ pub struct StatusReport {
     pub modules: Vec<ModuleReport>,
     /// Tags.
     pub tags: Vec<TagReport>,
+}
+
+impl StatusReport {
+    /// The report of `plc` after the cycles `stats` counted.
+    pub fn of(plc: &Plc, stats: &ScanStats) -> Self {
+        let project = plc.project();
+        let image = plc.image();
+        Self {
+            project: project.name.clone(),
+            scans: stats.cycles,
+            overruns: stats.overruns,
+            period_us: project.scan.period.as_micros() as u64,
+            cycle: stats.cycle.percentiles().into(),
+            lateness: stats.lateness.percentiles().into(),
+            modules: plc
+                .module_status()
+                .iter()
+                .map(|m| ModuleReport {
+                    name: m.name.clone(),
+                    bus: m.bus.clone(),
+                    quality: m.quality.to_string(),
+                    requests: m.counters.requests,
+                    timeouts: m.counters.timeouts,
+                    crc_errors: m.counters.crc_errors,
+                    bad_replies: m.counters.bad_replies,
+                    exceptions: m.counters.exceptions,
+                    last_round_trip_us: m.counters.last_round_trip.as_micros() as u64,
+                    last_error: m.last_error.as_ref().map(ToString::to_string),
+                })
+                .collect(),
+            tags: (0..image.len())
+                .map(|i| {
+                    let id = TagId(i as u32);
+                    let slot = image.slot(id);
+                    TagReport {
+                        name: image.name(id).to_string(),
+                        value: slot.value.to_string(),
+                        quality: slot.quality.to_string(),
+                        forced: image.forced(id).map(|v| v.to_string()),
+                    }
+                })
+                .collect(),
+        }
+    }
 }
 
 impl std::fmt::Display for StatusReport {

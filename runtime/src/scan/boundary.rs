@@ -1,0 +1,105 @@
+//! The cycle boundary: the one place where anything outside the scan touches the PLC.
+//!
+//! The scan knows nothing of who asks for what (a control socket, systemd, a web page): it
+//! calls a [`CycleBoundary`] between two cycles, after the outputs are written and before it
+//! sleeps to the next deadline, and hands it the PLC and the statistics. Whatever the boundary
+//! does there never races a scan; whatever it takes is time the next cycle does not have, so
+//! it must not block (long work, such as compiling a reload, belongs on a thread of its own
+//! and comes back at a later boundary).
+
+use std::time::Duration;
+
+use crate::plc::Plc;
+use crate::scan::{ScanStats, StopReason};
+
+/// What runs at the scan's cycle boundaries. Every method is called on the scan thread.
+pub trait CycleBoundary: Send {
+    /// Before the first cycle, with the PLC as built.
+    fn started(&mut self, _plc: &mut Plc) {}
+
+    /// After each completed cycle (its watchdog check passed), before the sleep to the next
+    /// deadline. `now` is the end of the cycle on the PLC's clock.
+    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration);
+
+    /// The run ends for `reason`; the outputs have not been driven to their safe values yet
+    /// (and will not be if the run is abandoned).
+    fn stopping(&mut self, _reason: &StopReason) {}
+
+    /// The run has ended and the outputs hold their safe values; `now` is the PLC's clock.
+    /// Not called when the run is abandoned (as `kill -9` would leave it).
+    fn stopped(&mut self, _plc: &Plc, _stats: &ScanStats, _reason: &StopReason, _now: Duration) {}
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use super::*;
+    use crate::clock::VirtualClock;
+    use crate::scan::ScanEngine;
+
+    /// Writes down what the scan called, and when.
+    struct Recorder(Arc<Mutex<Vec<String>>>);
+
+    impl CycleBoundary for Recorder {
+        fn started(&mut self, plc: &mut Plc) {
+            self.0
+                .lock()
+                .unwrap()
+                .push(format!("started {}", plc.project().name));
+        }
+        fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
+            self.0.lock().unwrap().push(format!(
+                "between {} at {}ms",
+                stats.cycles,
+                now.as_millis()
+            ));
+            // The boundary may change the PLC: the next cycle sees it.
+            if stats.cycles == 1 {
+                let _ = plc.write_tags([("flag", "1")]);
+            }
+        }
+        fn stopping(&mut self, reason: &StopReason) {
+            self.0.lock().unwrap().push(format!("stopping {reason:?}"));
+        }
+        fn stopped(&mut self, plc: &Plc, stats: &ScanStats, _: &StopReason, _: Duration) {
+            let seen = plc.image().get(plc.image().id("seen").unwrap());
+            self.0
+                .lock()
+                .unwrap()
+                .push(format!("stopped after {} with seen={seen}", stats.cycles));
+        }
+    }
+
+    fn plc() -> Plc {
+        let dir = std::env::temp_dir().join(format!("softplc-boundary-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // seen follows what the boundary wrote into flag.
+        std::fs::write(dir.join("b.expr"), "seen = flag\n").unwrap();
+        let yaml = "project: b\nscan:\n  period: 10ms\nbuses: []\nmodules: []\ntags:\n  - { name: flag, type: bool }\n  - { name: seen, type: bool }\nprogram: { file: b.expr, kind: expr }\n";
+        std::fs::write(dir.join("b.yaml"), yaml).unwrap();
+        let project = crate::project::load(&dir.join("b.yaml")).unwrap();
+        Plc::build(project, Arc::new(VirtualClock::new())).unwrap()
+    }
+
+    #[test]
+    fn the_boundary_runs_between_cycles_and_around_the_run() {
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let outcome = ScanEngine::new(plc())
+            .max_cycles(3)
+            .with_boundary(Recorder(log.clone()))
+            .run();
+        assert_eq!(outcome.reason, StopReason::Requested);
+        assert_eq!(
+            *log.lock().unwrap(),
+            [
+                "started b",
+                "between 1 at 0ms",
+                "between 2 at 10ms",
+                "between 3 at 20ms",
+                "stopping Requested",
+                "stopped after 3 with seen=1",
+            ]
+        );
+    }
+}

@@ -1,0 +1,220 @@
+//! What the service does at the scan's cycle boundaries: it answers control requests, runs
+//! reloads (compiled off the scan thread, swapped in at a boundary), reports to systemd and
+//! publishes the snapshot the network services read.
+//!
+//! The scan calls this through [`CycleBoundary`] and knows none of it: the JSON protocol, the
+//! reload's thread and systemd's states are the service's.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, Sender, TryRecvError};
+
+use crate::plc::{Plc, PreparedReload, ReloadError};
+use crate::scan::{CycleBoundary, ScanStats, StopReason};
+use crate::service::control::{Envelope, Request, Response};
+use crate::service::notify::Notifier;
+use crate::service::snapshot::Publisher;
+use crate::service::status::StatusReport;
+
+/// The service's side of the scan's cycle boundary (see the module docs).
+#[derive(Debug, Default)]
+pub struct ServiceBoundary {
+    /// Requests from the control interface and the network services.
+    control: Option<Receiver<Envelope>>,
+    /// Set by SIGHUP: reload the program at the next cycle boundary.
+    reload: Arc<AtomicBool>,
+    /// systemd's notification socket.
+    notifier: Option<Notifier>,
+    /// The snapshot for the metrics endpoint, the Modbus TCP server and the web page.
+    publisher: Option<Publisher>,
+    /// A reload being compiled off the scan thread.
+    reload_job: Option<Receiver<Result<PreparedReload, ReloadError>>>,
+    /// Control clients waiting for that reload's outcome.
+    reload_waiters: Vec<Sender<Response>>,
+}
+
+impl ServiceBoundary {
+    /// A boundary that does nothing until given its parts.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Takes control requests from `requests` (see [`crate::service::control`]).
+    pub fn with_control(mut self, requests: Receiver<Envelope>) -> Self {
+        self.control = Some(requests);
+        self
+    }
+
+    /// Publishes a snapshot for the services at every cycle boundary (see
+    /// [`crate::service::snapshot`]).
+    pub fn with_publisher(mut self, publisher: Publisher) -> Self {
+        self.publisher = Some(publisher);
+        self
+    }
+
+    /// Reports to systemd through `notifier`.
+    pub fn with_notifier(mut self, notifier: Notifier) -> Self {
+        self.notifier = Some(notifier);
+        self
+    }
+
+    /// The flag that reloads the program at the next cycle boundary (give it to SIGHUP).
+    pub fn reload_flag(&self) -> Arc<AtomicBool> {
+        self.reload.clone()
+    }
+
+    fn answer(&mut self, plc: &mut Plc, stats: &ScanStats) {
+        let Some(requests) = self.control.clone() else {
+            return;
+        };
+        while let Ok(env) = requests.try_recv() {
+            if env.expired() {
+                // Its client was already told it failed; carrying it out now would surprise.
+                continue;
+            }
+            let response = match env.request {
+                Request::Status => Response {
+                    ok: true,
+                    status: Some(StatusReport::of(plc, stats)),
+                    ..Response::default()
+                },
+                Request::Force { tag, value } => match plc.force(&tag, &value) {
+                    Ok(v) => Response::done(format!("{tag} forced to {v}")),
+                    Err(e) => Response::refused(e.to_string()),
+                },
+                Request::Unforce { tag } => match plc.unforce(tag.as_deref()) {
+                    Ok(n) => Response::done(format!("{n} force(s) removed")),
+                    Err(e) => Response::refused(e.to_string()),
+                },
+                Request::Reload => {
+                    // Compiled off the scan thread; answered when it is swapped in.
+                    self.start_reload(plc, Some(env.reply));
+                    continue;
+                }
+                Request::Write { values } => {
+                    match plc.write_tags(values.iter().map(|v| (v.tag.as_str(), v.value.as_str())))
+                    {
+                        Ok(n) => Response::done(format!("{n} tag(s) written")),
+                        Err(e) => Response::refused(e.to_string()),
+                    }
+                }
+            };
+            // A client that gave up meanwhile has nobody left to tell.
+            let _ = env.reply.send(response);
+        }
+    }
+
+    /// Starts compiling the project's program again on a thread of its own; `reply` is told
+    /// the outcome once it is swapped in (or refused). A reload already under way answers for
+    /// this one too.
+    fn start_reload(&mut self, plc: &Plc, reply: Option<Sender<Response>>) {
+        if let Some(r) = reply {
+            self.reload_waiters.push(r);
+        }
+        if self.reload_job.is_some() {
+            return;
+        }
+        let job = plc.reload_job();
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let spawned = std::thread::Builder::new()
+            .name("reload".into())
+            .spawn(move || {
+                // The scan may have ended meanwhile: then nobody waits for the result.
+                let _ = tx.send(job.prepare());
+            });
+        match spawned {
+            Ok(_) => self.reload_job = Some(rx),
+            Err(e) => self.finish_reload(Err(format!("reload refused: no thread for it: {e}"))),
+        }
+    }
+
+    /// At a cycle boundary: swaps in a program whose compilation has finished.
+    fn poll_reload(&mut self, plc: &mut Plc) {
+        let Some(rx) = &self.reload_job else { return };
+        let outcome = match rx.try_recv() {
+            Ok(Ok(prepared)) => {
+                plc.apply_reload(prepared);
+                Ok(format!(
+                    "program {} reloaded",
+                    plc.project().program.path.display()
+                ))
+            }
+            Ok(Err(e)) => Err(e.to_string()),
+            Err(TryRecvError::Empty) => return,
+            Err(TryRecvError::Disconnected) => {
+                Err("reload refused: its compilation ended without a result".into())
+            }
+        };
+        self.reload_job = None;
+        self.finish_reload(outcome);
+    }
+
+    fn finish_reload(&mut self, outcome: Result<String, String>) {
+        if let Err(e) = &outcome {
+            tracing::error!("{e}");
+        }
+        for reply in self.reload_waiters.drain(..) {
+            // A client that gave up meanwhile has nobody left to tell.
+            let _ = reply.send(match &outcome {
+                Ok(m) => Response::done(m.clone()),
+                Err(e) => Response::refused(e.clone()),
+            });
+        }
+    }
+
+    fn notify(&mut self, stats: &ScanStats, now: Duration) {
+        let Some(n) = &mut self.notifier else { return };
+        // Only a completed scan feeds systemd's watchdog: a hung scan gets restarted.
+        if stats.cycles == 1 {
+            n.notify("READY=1");
+        }
+        n.watchdog();
+        if stats.cycles % 50 == 1 {
+            let c = stats.cycle.percentiles();
+            n.notify(&format!(
+                "STATUS=scans {} overruns {} cycle p50 {}us p99 {}us bus errors {} at {}s",
+                stats.cycles,
+                stats.overruns,
+                c.p50.as_micros(),
+                c.p99.as_micros(),
+                stats.bus_errors,
+                now.as_secs()
+            ));
+        }
+    }
+}
+
+impl CycleBoundary for ServiceBoundary {
+    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
+        self.answer(plc, stats);
+        if self.reload.swap(false, Ordering::Relaxed) {
+            self.start_reload(plc, None);
+        }
+        if let Some(p) = &mut self.publisher {
+            p.publish(plc, stats, now, false);
+        }
+        self.notify(stats, now);
+        // Last, as the scan did before its next cycle: a compilation finished by now is
+        // swapped in before that cycle runs.
+        self.poll_reload(plc);
+    }
+
+    fn stopping(&mut self, _reason: &StopReason) {
+        if let Some(n) = &self.notifier {
+            n.notify("STOPPING=1");
+        }
+    }
+
+    fn stopped(&mut self, plc: &Plc, stats: &ScanStats, reason: &StopReason, now: Duration) {
+        if let Some(p) = &mut self.publisher {
+            p.set_stop_reason(match reason {
+                StopReason::Requested => "stopped on request".to_string(),
+                StopReason::LogicFault(f) => format!("program error: {f}"),
+                StopReason::Watchdog(w) => format!("task watchdog: {w}"),
+            });
+            p.publish(plc, stats, now, true);
+        }
+    }
+}
