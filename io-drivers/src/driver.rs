@@ -121,6 +121,23 @@ pub trait Driver: Send + Debug {
         false
     }
 
+    /// Whether the module takes part in its line's FC 70 Collect round, and as which unit,
+    /// with the period of its full refresh ([`crate::line::collect`]). A member's
+    /// [`Driver::plan_read`] then holds only what it reads every cycle; the bus owner asks
+    /// [`Driver::plan_refresh`] for the rest when a refresh is due, and hands every event of
+    /// the module to [`Driver::on_reply`] as a [`Response::Collect`] under
+    /// [`crate::line::collect::EVENT_TAG`].
+    fn collect_membership(&self) -> Option<(UnitId, Duration)> {
+        None
+    }
+
+    /// A Collect member's full refresh (its inputs and read-back, whatever the events said),
+    /// planned after this cycle's [`Driver::plan_read`]; run on the first cycle, every refresh
+    /// period and after anything that may have lost an event. Never asked of a non-member.
+    fn plan_refresh(&mut self, out: &mut Vec<Transaction>) {
+        let _ = out;
+    }
+
     /// Current values, indexed like the model's points; `None` until first read.
     fn values(&self) -> &[Option<Value>];
 

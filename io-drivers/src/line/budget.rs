@@ -109,6 +109,21 @@ pub fn line_budget(
         let delay = driver.reply_delay();
         plan.clear();
         driver.plan_read(&mut plan);
+        if let Some((unit, _)) = driver.collect_membership() {
+            // A member's share of its line's Collect round, counted as one Collect exchange
+            // with the module, and its full refresh (a cycle that refreshes is the longest).
+            let request = Request::Collect {
+                first: unit.get(),
+                last: unit.get(),
+                slave_ack: 0,
+                slave_seq: 0,
+            };
+            plan.push(Transaction {
+                frame: Outgoing::Modbus { unit, request },
+                tag: crate::line::collect::EVENT_TAG,
+            });
+            driver.plan_refresh(&mut plan);
+        }
         let read_transactions = plan.len();
         let read_time = plan
             .iter()

@@ -24,7 +24,7 @@ use crate::line::health::{Health, HealthEvent, HealthLimits};
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, Transport};
 use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError};
-use crate::modbus::Response;
+use crate::modbus::{Request, Response};
 use crate::point::{Quality, Value};
 
 /// Longest reply any module sends (an RTU ADU is at most 256 bytes; text replies are shorter).
@@ -117,6 +117,64 @@ pub enum TxError {
     /// The line failed.
     #[error("line failed: {0}")]
     Line(String),
+}
+
+/// A request as [`BusOwner::exchange`] sends it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Frame<'a> {
+    /// A Modbus request to `address` (0: a broadcast; a Collect broadcast is answered).
+    Modbus {
+        /// The unit address, 0 for a broadcast.
+        address: u8,
+        /// The request PDU.
+        request: &'a Request,
+    },
+    /// A text-protocol line; the reply ends with `terminator`.
+    Text {
+        /// The bytes to send.
+        line: &'a [u8],
+        /// The byte that ends the reply.
+        terminator: u8,
+    },
+    /// Bytes nothing answers.
+    NoReply(&'a [u8]),
+}
+
+/// What silence through an exchange's wait means.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Silence {
+    /// A timeout: the guard and a flush follow.
+    Timeout,
+    /// An answer in itself (a Collect window nobody replied in): the line is free after t3.5.
+    Answer,
+}
+
+/// Why an exchange brought no reply.
+#[derive(Debug)]
+pub(crate) enum Miss {
+    /// The request could not be encoded; nothing was sent.
+    Encode,
+    /// The line failed.
+    Line(LineError),
+    /// Nothing came.
+    Silence,
+    /// Part of a reply, then silence.
+    Cut,
+    /// A reply that failed verification, or one without end.
+    Bad(ReplyError),
+}
+
+/// How one exchange went, for the caller's counters.
+#[derive(Debug)]
+pub(crate) struct Exchanged {
+    /// When the request's last character left; `None` if it was not sent.
+    pub(crate) sent: Option<Duration>,
+    /// End of request to end of a good reply.
+    pub(crate) round_trip: Option<Duration>,
+    /// Bytes dropped: stray ones before the request, extra after the reply, the guard's flush.
+    pub(crate) dropped: usize,
+    /// The reply (`None`: nothing answers the frame), or why none.
+    pub(crate) outcome: Result<Option<Reply>, Miss>,
 }
 
 /// A module's state as one cycle left it.
@@ -705,70 +763,141 @@ impl BusOwner {
 
     /// One attempt: `Ok(None)` for a broadcast (no reply expected).
     fn attempt(&mut self, m: usize, tx: &Transaction) -> Result<Option<Reply>, TxError> {
+        let frame = match &tx.frame {
+            Outgoing::Modbus { unit, request } => Frame::Modbus {
+                address: unit.get(),
+                request,
+            },
+            Outgoing::Text { line, terminator } => Frame::Text {
+                line,
+                terminator: *terminator,
+            },
+            Outgoing::NoReply { bytes } => Frame::NoReply(bytes),
+        };
+        let timeout = self.discipline.response_timeout;
+        let done = self.exchange(frame, timeout, Silence::Timeout);
+        let counters = &mut self.modules[m].counters;
+        counters.dropped_bytes += done.dropped as u64;
+        if done.sent.is_some() {
+            counters.requests += 1;
+        }
+        match done.outcome {
+            Ok(reply) => {
+                if let Some(round_trip) = done.round_trip {
+                    counters.last_round_trip = round_trip;
+                }
+                Ok(reply)
+            }
+            Err(Miss::Encode) => Err(TxError::Encode),
+            Err(Miss::Line(e)) => Err(line_err(e)),
+            Err(Miss::Silence) => {
+                counters.timeouts += 1;
+                Err(TxError::Timeout(timeout))
+            }
+            Err(Miss::Cut) => {
+                // Part of a reply, then silence: it was cut, not missing.
+                counters.bad_replies += 1;
+                Err(TxError::Timeout(timeout))
+            }
+            Err(Miss::Bad(e)) => {
+                if matches!(e, ReplyError::Crc { .. }) {
+                    counters.crc_errors += 1;
+                } else {
+                    counters.bad_replies += 1;
+                }
+                Err(TxError::BadReply(e))
+            }
+        }
+    }
+
+    /// One exchange on the line, the only way anything is sent: waits for the line to be free,
+    /// drops what arrived meanwhile, sends `frame`, waits `wait` for the first byte, then
+    /// takes bytes until the reply is complete, verified, or given up on. A good reply leaves
+    /// t3.5 of silence before the next request; a bad one, a cut one or (unless
+    /// [`Silence::Answer`]) silence, the guard time for `wait` and a flush, so a late or
+    /// babbling reply is never read as the answer to the next request.
+    pub(crate) fn exchange(
+        &mut self,
+        frame: Frame<'_>,
+        wait: Duration,
+        silence: Silence,
+    ) -> Exchanged {
+        let mut done = Exchanged {
+            sent: None,
+            round_trip: None,
+            dropped: 0,
+            outcome: Ok(None),
+        };
         self.tx_buf.clear();
-        let (mut assembler, terminator) = match &tx.frame {
-            Outgoing::Modbus { unit, request } => {
-                encode_request(unit.get(), request, &mut self.tx_buf)
-                    .map_err(|_| TxError::Encode)?;
-                (Some(ReplyAssembler::new(unit.get(), request)), None)
+        let (mut assembler, terminator) = match frame {
+            Frame::Modbus { address, request } => {
+                if encode_request(address, request, &mut self.tx_buf).is_err() {
+                    done.outcome = Err(Miss::Encode);
+                    return done;
+                }
+                (Some(ReplyAssembler::new(address, request)), None)
             }
-            Outgoing::Text { line, terminator } => {
+            Frame::Text { line, terminator } => {
                 self.tx_buf.extend_from_slice(line);
-                (None, Some(*terminator))
+                (None, Some(terminator))
             }
-            Outgoing::NoReply { bytes } => {
+            Frame::NoReply(bytes) => {
                 self.tx_buf.extend_from_slice(bytes);
                 (None, None)
             }
         };
         self.transport.wait_until(self.line_free_at);
         // Whatever arrived while the line was idle belongs to nobody.
-        let stray = self.transport.flush_input();
-        self.modules[m].counters.dropped_bytes += stray as u64;
-        self.transport.write_frame(&self.tx_buf).map_err(line_err)?;
-        self.modules[m].counters.requests += 1;
+        done.dropped += self.transport.flush_input();
+        if let Err(e) = self.transport.write_frame(&self.tx_buf) {
+            done.outcome = Err(Miss::Line(e));
+            return done;
+        }
         let sent = self.transport.now();
-        if matches!(tx.frame, Outgoing::NoReply { .. }) {
+        done.sent = Some(sent);
+        if assembler.is_none() && terminator.is_none() {
             self.line_free_at = sent + self.settings.t3_5();
-            return Ok(None);
+            return done;
         }
 
         self.rx_buf.clear();
-        let mut deadline = sent + self.discipline.response_timeout;
+        let mut deadline = sent + wait;
         let inter_char = self.inter_char_timeout();
         // However the bytes trickle in, a reply ends by then.
         let hard_deadline = deadline + self.settings.chars(MAX_REPLY) + inter_char;
-        loop {
+        let miss = loop {
             let before = self.rx_buf.len();
-            let n = self
-                .transport
-                .read_until(&mut self.rx_buf, deadline)
-                .map_err(line_err)?;
+            let n = match self.transport.read_until(&mut self.rx_buf, deadline) {
+                Ok(n) => n,
+                Err(e) => {
+                    done.outcome = Err(Miss::Line(e));
+                    return done;
+                }
+            };
             let now = self.transport.now();
             if n == 0 {
                 if self.rx_buf.is_empty() {
-                    self.modules[m].counters.timeouts += 1;
-                } else {
-                    // Part of a reply, then silence: it was cut, not missing.
-                    self.modules[m].counters.bad_replies += 1;
+                    if silence == Silence::Answer {
+                        self.line_free_at = now + self.settings.t3_5();
+                        done.outcome = Err(Miss::Silence);
+                        return done;
+                    }
+                    break Miss::Silence;
                 }
-                self.recover(m, now);
-                return Err(TxError::Timeout(self.discipline.response_timeout));
+                break Miss::Cut;
             }
             if self.rx_buf.len() > MAX_REPLY || now > hard_deadline {
                 // A transmitter stuck on, or noise without end: stop listening.
-                self.modules[m].counters.bad_replies += 1;
-                self.recover(m, now);
-                return Err(TxError::BadReply(ReplyError::Malformed {
+                break Miss::Bad(ReplyError::Malformed {
                     offset: self.rx_buf.len(),
-                }));
+                });
             }
             deadline = now + inter_char;
             if let Some(term) = terminator {
                 if let Some(end) = self.rx_buf.iter().position(|b| *b == term) {
                     let reply = self.rx_buf[..end].to_vec();
-                    self.finish(m, sent, now);
-                    return Ok(Some(Reply::Text(reply)));
+                    self.finish(&mut done, sent, now, Reply::Text(reply));
+                    return done;
                 }
                 continue;
             }
@@ -778,39 +907,35 @@ impl BusOwner {
             match asm.push(&self.rx_buf[before..]) {
                 Progress::NeedMore => {}
                 Progress::Complete { response, extra } => {
-                    self.modules[m].counters.dropped_bytes += extra as u64;
-                    self.finish(m, sent, now);
-                    return Ok(Some(Reply::Modbus(response)));
+                    done.dropped += extra;
+                    self.finish(&mut done, sent, now, Reply::Modbus(response));
+                    return done;
                 }
-                Progress::Failed(e) => {
-                    let counters = &mut self.modules[m].counters;
-                    if matches!(e, ReplyError::Crc { .. }) {
-                        counters.crc_errors += 1;
-                    } else {
-                        counters.bad_replies += 1;
-                    }
-                    self.recover(m, now);
-                    return Err(TxError::BadReply(e));
-                }
+                Progress::Failed(e) => break Miss::Bad(e),
             }
-        }
+        };
+        let now = self.transport.now();
+        done.dropped += self.recover(now, wait);
+        done.outcome = Err(miss);
+        done
     }
 
     /// After a good reply: record the round trip and keep t3.5 of silence before the next.
-    fn finish(&mut self, m: usize, sent: Duration, now: Duration) {
-        self.modules[m].counters.last_round_trip = now.saturating_sub(sent);
+    fn finish(&mut self, done: &mut Exchanged, sent: Duration, now: Duration, reply: Reply) {
+        done.round_trip = Some(now.saturating_sub(sent));
+        done.outcome = Ok(Some(reply));
         self.line_free_at = now + self.settings.t3_5();
     }
 
-    /// After a timeout or a bad reply: wait out a guard time so a late or babbling reply ends,
-    /// then drop whatever came.
-    fn recover(&mut self, m: usize, now: Duration) {
-        let guard =
-            crate::line::budget::guard_time(self.settings, self.discipline.response_timeout);
+    /// After a timeout or a bad reply to an exchange that waited `wait` for its first byte:
+    /// wait out the guard time so a late or babbling reply ends, then drop whatever came;
+    /// returns how many bytes.
+    fn recover(&mut self, now: Duration, wait: Duration) -> usize {
+        let guard = crate::line::budget::guard_time(self.settings, wait);
         self.transport.wait_until(now + guard);
         let dropped = self.transport.flush_input();
-        self.modules[m].counters.dropped_bytes += dropped as u64;
         self.line_free_at = self.transport.now() + self.settings.t3_5();
+        dropped
     }
 
     /// Silence inside a reply after which it is taken as ended. Modbus says t1.5; USB adapters

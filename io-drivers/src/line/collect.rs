@@ -11,13 +11,13 @@
 //!
 //! - [`CollectRound`] is the sans-IO planner of one round: the next request, and what a reply,
 //!   a silence or a failure does to the window and the acknowledgement.
-//! - [`membership`] is how a driver asks to be in the round: a transaction of its read plan
-//!   (never sent as such); the transactions before it run every cycle, those after it are the
-//!   module's full refresh. The owner hands the module's events back to the driver under the
-//!   membership's tag, as [`Response::Collect`] replies.
+//! - A driver asks to be in the round with [`Driver::collect_membership`]: its read plan then
+//!   runs every cycle, and its full refresh ([`Driver::plan_refresh`]) when the owner decides.
+//!   The owner hands the module's events back to the driver under [`EVENT_TAG`], as
+//!   [`Response::Collect`] replies.
 //! - `BusOwner::collect_pass` runs the round at the start of a read cycle, on the bus owner's
 //!   line, and decides for each member whether its refresh runs this cycle: on its first
-//!   cycle, every refresh period (carried in the membership), after a gap in its SLVSEQ (lost
+//!   cycle, every refresh period (the membership's), after a gap in its SLVSEQ (lost
 //!   events), after a failed round, and after a cycle of its own that failed. A member that
 //!   delivered an event this round has its periodic refresh put off to a later cycle, so the
 //!   program sees the event before the refresh overwrites it with the present state.
@@ -32,60 +32,30 @@
 //!   reply, so a slave that a real line would have blocked may answer an earlier Collect too).
 //! - The wait for a reply is the window's slots (3 ms each) plus 1 ms, the manual's "nominal
 //!   timeout", plus the owner's inter-character allowance, since USB adapters and ptys
-//!   deliver late.
+//!   deliver late. Each Collect is one exchange of the owner's (`BusOwner::exchange`), with
+//!   the discipline of every other: t3.5 before it, the input flushed, and after a bad reply
+//!   the guard time for that wait, then a flush. Silence is the round's normal end, not a
+//!   timeout: no guard follows it.
 //! - A reply from a slave in the window that is not a member (a MiniMod polled normally with
 //!   events enabled) is acknowledged and dropped. A reply that repeats the SLVSEQ last seen from
 //!   that slave (our acknowledgement was lost) is acknowledged again and not delivered twice.
 
 use std::time::Duration;
 
-use crate::driver::{Outgoing, Reply, Transaction};
-use crate::line::bus::BusOwner;
-use crate::modbus::master::{encode_request, Progress, ReplyAssembler};
-use crate::modbus::{Request, Response, UnitId};
+#[cfg(doc)]
+use crate::driver::Driver;
+use crate::driver::{Reply, Transaction};
+use crate::line::bus::{BusOwner, Frame, Miss, Silence};
+use crate::modbus::{Request, Response};
 
 /// Reply slot of one address ("Each slave has 3 ms of time for replying").
 pub const SLOT: Duration = Duration::from_millis(3);
 /// Margin after the last slot ("plus 1 for safety").
 pub const SAFETY: Duration = Duration::from_millis(1);
 
-/// Tag bit of a membership transaction; the low 31 bits carry the refresh period in ms.
-const MEMBERSHIP: u32 = 1 << 31;
-
-/// The transaction by which a driver joins its line's Collect round: a Collect addressed to
-/// `unit` (never sent: the owner sends one broadcast for every member), tagged with the period
-/// of the module's full refresh (at most about 24 days).
-pub fn membership(unit: UnitId, refresh: Duration) -> Transaction {
-    let ms = u32::try_from(refresh.as_millis())
-        .unwrap_or(u32::MAX)
-        .min(MEMBERSHIP - 1);
-    Transaction {
-        frame: Outgoing::Modbus {
-            unit,
-            request: Request::Collect {
-                first: unit.get(),
-                last: unit.get(),
-                slave_ack: 0,
-                slave_seq: 0,
-            },
-        },
-        tag: MEMBERSHIP | ms,
-    }
-}
-
-/// The unit and refresh period of a membership transaction; `None` for anything else.
-pub fn membership_of(tx: &Transaction) -> Option<(UnitId, Duration)> {
-    match &tx.frame {
-        Outgoing::Modbus {
-            unit,
-            request: Request::Collect { .. },
-        } if tx.tag & MEMBERSHIP != 0 => Some((
-            *unit,
-            Duration::from_millis(u64::from(tx.tag & !MEMBERSHIP)),
-        )),
-        _ => None,
-    }
-}
+/// The tag under which a member's events are handed to its driver: no transaction a driver
+/// plans carries it, so an event is never taken for the answer to one.
+pub const EVENT_TAG: u32 = u32::MAX;
 
 /// The SLVSEQ that follows `seq` (a MiniMod counts 1..=255 and skips 0).
 pub fn next_seq(seq: u8) -> u8 {
@@ -230,7 +200,8 @@ pub struct CollectStats {
 /// What a bus owner keeps between Collect rounds.
 #[derive(Debug, Clone, Default)]
 pub struct CollectState {
-    /// Per module: the read plan made before the round, and whether it is there.
+    /// Per module: the read plan made before the round (the refresh appended when due), and
+    /// whether it is there.
     stash: Vec<Vec<Transaction>>,
     planned: Vec<bool>,
     /// Per module: when its last full refresh was decided.
@@ -240,8 +211,6 @@ pub struct CollectState {
     /// The acknowledgement the last round could not send.
     pending_ack: Option<(u8, u8)>,
     stats: CollectStats,
-    tx: Vec<u8>,
-    rx: Vec<u8>,
     /// End of the last Collect request on the line.
     last_sent: Duration,
 }
@@ -264,9 +233,6 @@ struct Member {
     module: usize,
     unit: u8,
     refresh: Duration,
-    tag: u32,
-    /// Position of the membership in the module's plan.
-    at: usize,
     delivered: bool,
     gap: bool,
 }
@@ -311,16 +277,11 @@ impl BusOwner {
             plan.clear();
             self.modules[m].driver.plan_read(plan);
             self.collect.planned[m] = true;
-            let found = plan.iter().enumerate().find_map(|(at, tx)| {
-                membership_of(tx).map(|(unit, refresh)| (at, unit, refresh, tx.tag))
-            });
-            if let Some((at, unit, refresh, tag)) = found {
+            if let Some((unit, refresh)) = self.modules[m].driver.collect_membership() {
                 members.push(Member {
                     module: m,
                     unit: unit.get(),
                     refresh,
-                    tag,
-                    at,
                     delivered: false,
                     gap: false,
                 });
@@ -358,13 +319,11 @@ impl BusOwner {
             };
             let due =
                 periodic || round.failed() || member.gap || self.modules[m].last_error.is_some();
-            let plan = &mut self.collect.stash[m];
             if due {
-                plan.remove(member.at);
+                let plan = &mut self.collect.stash[m];
+                self.modules[m].driver.plan_refresh(plan);
                 self.collect.last_refresh[m] = Some(after);
                 self.collect.stats.refreshes += 1;
-            } else {
-                plan.truncate(member.at);
             }
         }
     }
@@ -377,8 +336,11 @@ impl BusOwner {
             plan.append(&mut self.collect.stash[m]);
             return;
         }
-        self.modules[m].driver.plan_read(plan);
-        plan.retain(|tx| membership_of(tx).is_none());
+        let driver = &mut self.modules[m].driver;
+        driver.plan_read(plan);
+        if driver.collect_membership().is_some() {
+            driver.plan_refresh(plan);
+        }
     }
 
     /// Routes one event: acknowledged in any case, delivered once to the member it is from.
@@ -410,7 +372,7 @@ impl BusOwner {
         });
         if self.modules[member.module]
             .driver
-            .on_reply(member.tag, &reply)
+            .on_reply(EVENT_TAG, &reply)
             .is_err()
         {
             self.collect.stats.decode_errors += 1;
@@ -429,86 +391,38 @@ impl BusOwner {
             .max(self.transport.now() + self.settings.t3_5());
     }
 
-    /// Broadcasts one Collect and listens through its reply window.
+    /// Broadcasts one Collect and listens through its reply window, as one exchange of the
+    /// owner's.
     fn collect_exchange(&mut self, request: &Request, window: Duration) -> Result<Heard, Exchange> {
-        let mut tx = std::mem::take(&mut self.collect.tx);
-        tx.clear();
-        let encoded = encode_request(0, request, &mut tx);
-        let result = match encoded {
-            Ok(()) => self.collect_on_line(&tx, request, window),
-            Err(_) => Err(Exchange::Failure),
+        let wait = window + self.inter_char_timeout();
+        // A Collect round ends when a window passes in silence: that is no timeout.
+        let frame = Frame::Modbus {
+            address: 0,
+            request,
         };
-        self.collect.tx = tx;
-        result
-    }
-
-    fn collect_on_line(
-        &mut self,
-        frame: &[u8],
-        request: &Request,
-        window: Duration,
-    ) -> Result<Heard, Exchange> {
-        self.transport.wait_until(self.line_free_at);
-        // Whatever arrived while the line was idle belongs to nobody.
-        self.collect.stats.dropped_bytes += self.transport.flush_input() as u64;
-        if self.transport.write_frame(frame).is_err() {
-            return Err(Exchange::Failure);
+        let done = self.exchange(frame, wait, Silence::Answer);
+        let stats = &mut self.collect.stats;
+        stats.dropped_bytes += done.dropped as u64;
+        if let Some(sent) = done.sent {
+            stats.requests += 1;
+            self.collect.last_sent = sent;
         }
-        self.collect.stats.requests += 1;
-        let sent = self.transport.now();
-        self.collect.last_sent = sent;
-        let inter_char = self.inter_char_timeout();
-        let mut deadline = sent + window + inter_char;
-        let mut assembler = ReplyAssembler::new(0, request);
-        let mut rx = std::mem::take(&mut self.collect.rx);
-        rx.clear();
-        let outcome = loop {
-            let before = rx.len();
-            let Ok(n) = self.transport.read_until(&mut rx, deadline) else {
-                break Err(Exchange::Failure);
-            };
-            let now = self.transport.now();
-            if n == 0 {
-                break if rx.is_empty() {
-                    Err(Exchange::Silence)
-                } else {
-                    Err(Exchange::Failure)
-                };
-            }
-            deadline = now + inter_char;
-            match assembler.push(&rx[before..]) {
-                Progress::NeedMore => {}
-                Progress::Complete {
-                    response:
-                        Response::Collect {
-                            slave,
-                            seq,
-                            kind,
-                            data,
-                        },
-                    extra,
-                } => {
-                    self.collect.stats.dropped_bytes += extra as u64;
-                    break Ok(Heard {
-                        slave,
-                        seq,
-                        kind,
-                        data,
-                    });
-                }
-                Progress::Complete { .. } | Progress::Failed(_) => break Err(Exchange::Failure),
-            }
-        };
-        self.collect.rx = rx;
-        let now = self.transport.now();
-        if matches!(outcome, Err(Exchange::Failure)) {
-            // Let a babbling or late reply end, then drop it, as after any bad reply.
-            let guard = (self.settings.t3_5() * 2).max(inter_char);
-            self.transport.wait_until(now + guard);
-            self.collect.stats.dropped_bytes += self.transport.flush_input() as u64;
+        match done.outcome {
+            Ok(Some(Reply::Modbus(Response::Collect {
+                slave,
+                seq,
+                kind,
+                data,
+            }))) => Ok(Heard {
+                slave,
+                seq,
+                kind,
+                data,
+            }),
+            Err(Miss::Silence) => Err(Exchange::Silence),
+            // Another answer, an unreadable one, or the line failed: the round ends.
+            Ok(_) | Err(_) => Err(Exchange::Failure),
         }
-        self.line_free_at = self.transport.now() + self.settings.t3_5();
-        outcome
     }
 }
 

@@ -5,11 +5,15 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use super::*;
+use crate::devices::minimod::settings::Setting;
+use crate::devices::minimod::MiniModDriver;
 use crate::devices::{self, DeviceConfig, Protocol};
+use crate::driver::Driver;
 use crate::line::bus::{BusOwner, Discipline, InputFrame, Module};
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, Transport};
 use crate::modbus::crc::append_crc;
+use crate::modbus::master::encode_request;
 use crate::point::{Quality, Value};
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
 use crate::time::{Clock, VirtualClock};
@@ -101,22 +105,19 @@ fn windows_from_members() {
 }
 
 #[test]
-fn membership_round_trip() {
-    let unit = UnitId::new(9).unwrap();
-    let tx = membership(unit, Duration::from_millis(1500));
+fn membership_is_the_drivers() {
+    let unit = crate::modbus::UnitId::new(9).unwrap();
+    let settings = [
+        Setting::parse("events", "true").unwrap(),
+        Setting::parse("event_refresh", "1500ms").unwrap(),
+    ];
+    let member = MiniModDriver::new(Some(unit), &settings);
     assert_eq!(
-        membership_of(&tx),
+        member.collect_membership(),
         Some((unit, Duration::from_millis(1500)))
     );
-    let plain = Transaction {
-        frame: tx.frame.clone(),
-        tag: 7,
-    };
-    assert_eq!(
-        membership_of(&plain),
-        None,
-        "a driver's own Collect is not a membership"
-    );
+    let polled = MiniModDriver::new(Some(unit), &[]);
+    assert_eq!(polled.collect_membership(), None, "polled, not a member");
     assert_eq!(next_seq(1), 2);
     assert_eq!(next_seq(255), 1, "0 is skipped");
 }

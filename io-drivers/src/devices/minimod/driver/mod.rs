@@ -45,15 +45,15 @@
 //!
 //! ## Event mode (`events: true`)
 //!
-//! The inputs come from FC 70 Collect ("The Modbus function Collect"): after the status and
-//! counter reads, the read plan holds a membership transaction
-//! ([`crate::line::collect::membership`]) the bus owner turns into one broadcast Collect round
-//! for every event-mode module of the line, and every event of this module comes back through
-//! [`Driver::on_reply`] as a [`Response::Collect`]: TYPE 2 is the input
+//! The inputs come from FC 70 Collect ("The Modbus function Collect"): the driver is a member
+//! of its line's round ([`Driver::collect_membership`]), which the bus owner runs as one
+//! broadcast Collect for every event-mode module of the line, and every event of this module
+//! comes back through [`Driver::on_reply`] as a [`Response::Collect`]: TYPE 2 is the input
 //! word (X1..X3, X9/X10), TYPE 1 the output levels (Y1..Y4 point values only: they include
-//! pulsers and blinkers, so they never feed the write phase's comparison). After the
-//! membership comes the full input read (FC 2, or `?XWORD`) and the read-back: the owner runs
-//! them on the first cycle, every `event_refresh` (default 1 s), after a lost event, a failed
+//! pulsers and blinkers, so they never feed the write phase's comparison). The read plan then
+//! holds the status and counter reads only; the full input read (FC 2, or `?XWORD`) and the
+//! read-back are the refresh ([`Driver::plan_refresh`]): the owner runs them on the first
+//! cycle, every `event_refresh` (default 1 s), after a lost event, a failed
 //! round or a failed cycle, so a lost event cannot leave the image wrong for long. At start-up
 //! event mode writes XEVMASK = 7 and EVFB1 = EVFB2 = 1 unless the project sets them.
 //!
@@ -228,6 +228,8 @@ pub struct MiniModDriver {
     /// A write failed: write every owned output at the next write phase.
     rewrite: bool,
     cycle: u64,
+    /// Whether the read-back is due in this cycle's full read (event mode plans it apart).
+    refresh_readback: bool,
     /// Refused writes, restarts and the watchdog's status at start-up (see `restart`).
     restart: restart::Restart,
 }
@@ -256,6 +258,7 @@ impl MiniModDriver {
             y: [None; 4],
             rewrite: false,
             cycle: 0,
+            refresh_readback: false,
             restart: restart::Restart::default(),
         };
         for s in settings {
@@ -352,6 +355,19 @@ impl Driver for MiniModDriver {
         self.plan_reads(unit, out);
     }
 
+    fn collect_membership(&self) -> Option<(UnitId, Duration)> {
+        self.unit
+            .filter(|_| self.events)
+            .map(|unit| (unit, self.event_refresh))
+    }
+
+    fn plan_refresh(&mut self, out: &mut Vec<Transaction>) {
+        let Some(unit) = self.unit.filter(|_| self.events) else {
+            return;
+        };
+        self.plan_full_read(unit, out);
+    }
+
     fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>) {
         let Some(unit) = self.unit else { return };
         self.plan_writes(unit, desired, refresh, out);
@@ -363,7 +379,7 @@ impl Driver for MiniModDriver {
         }
         let result = match reply {
             Reply::Modbus(Response::Exception { code, .. }) => Err(DecodeError::Exception(*code)),
-            // Events come back under the membership's tag.
+            // Events of the line's Collect round.
             Reply::Modbus(Response::Collect { kind, data, .. }) => {
                 self.apply_event(tag, *kind, *data)
             }

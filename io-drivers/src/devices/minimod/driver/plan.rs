@@ -1,12 +1,12 @@
-//! The read plan of each cycle (status, counters, the event-mode membership, inputs, read-back)
-//! and the decoding of its answers, Modbus, text and Collect events.
+//! The read plan of each cycle (status, counters, inputs, read-back; in event mode the inputs
+//! and read-back are the refresh) and the decoding of its answers, Modbus, text and Collect
+//! events.
 
 use super::super::map;
 use super::super::text::{TextId, TextReply};
 use super::{MiniModDriver, Tag, IDX_FB1, IDX_FB2, IDX_X, IDX_X10, IDX_X9, IDX_Y};
 use crate::devices::Protocol;
 use crate::driver::{DecodeError, Transaction};
-use crate::line::collect;
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
@@ -52,12 +52,18 @@ impl MiniModDriver {
                 out.push(self.modbus(unit, request, Tag::Counters));
             }
         }
-        // Event mode: what follows the membership is the full refresh, run when the bus
-        // owner's Collect round says so.
-        if self.events {
-            out.push(collect::membership(unit, self.event_refresh));
+        self.refresh_readback = self.readback.due(cycle);
+        // Event mode: the inputs come from the line's Collect round; the full read is the
+        // refresh the bus owner asks for when it is due.
+        if !self.events {
+            self.plan_full_read(unit, out);
         }
-        if text {
+    }
+
+    /// The inputs and, when due this cycle, the read-back: every cycle when polled, the
+    /// refresh in event mode.
+    pub(super) fn plan_full_read(&self, unit: UnitId, out: &mut Vec<Transaction>) {
+        if self.protocol == Protocol::Text {
             out.push(self.read_tx(unit, TextId::Xword, Tag::Inputs));
         } else {
             let request = Request::ReadDiscreteInputs {
@@ -66,8 +72,8 @@ impl MiniModDriver {
             };
             out.push(self.modbus(unit, request, Tag::Inputs));
         }
-        if self.readback.due(cycle) {
-            if text {
+        if self.refresh_readback {
+            if self.protocol == Protocol::Text {
                 out.push(self.read_tx(unit, TextId::Yword, Tag::Readback));
             } else {
                 let request = Request::ReadCoils {

@@ -700,12 +700,13 @@ fn event_mode_plans_a_membership_then_the_refresh() {
     assert!(d.event_mode());
     let mut plan = Vec::new();
     d.plan_read(&mut plan);
-    assert_eq!(plan.len(), 2);
+    d.plan_refresh(&mut plan);
+    assert_eq!(plan.len(), 1);
     assert_eq!(
-        collect::membership_of(&plan[0]),
+        d.collect_membership(),
         Some((unit(), Duration::from_millis(250)))
     );
-    assert_eq!(wire(&plan[1]), frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]));
+    assert_eq!(wire(&plan[0]), frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]));
     // Start-up enables the input events.
     let mut setup = Vec::new();
     d.plan_startup(&mut setup);
@@ -716,14 +717,14 @@ fn event_mode_plans_a_membership_then_the_refresh() {
     assert_eq!(sim.get("XEVMASK"), Ok(Value::U16(7)));
     assert_eq!(sim.get("EVFB1"), Ok(Value::Bool(true)));
     assert_eq!(sim.get("EVFB2"), Ok(Value::Bool(true)));
-    // Events arrive under the membership's tag.
+    // Events arrive under the Collect round's tag.
     let event = Reply::Modbus(Response::Collect {
         slave: UNIT,
         seq: 1,
         kind: 2,
         data: 0x0205,
     });
-    d.on_reply(plan[0].tag, &event).unwrap();
+    d.on_reply(collect::EVENT_TAG, &event).unwrap();
     assert_eq!(value(&d, "X1"), Some(Value::Bool(true)));
     assert_eq!(value(&d, "X2"), Some(Value::Bool(false)));
     assert_eq!(value(&d, "X3"), Some(Value::Bool(true)));
@@ -735,7 +736,7 @@ fn event_mode_plans_a_membership_then_the_refresh() {
         kind: 1,
         data: 0b0010,
     });
-    d.on_reply(plan[0].tag, &outputs).unwrap();
+    d.on_reply(collect::EVENT_TAG, &outputs).unwrap();
     assert_eq!(value(&d, "Y2"), Some(Value::Bool(true)));
     let bad = Reply::Modbus(Response::Collect {
         slave: UNIT,
@@ -743,7 +744,7 @@ fn event_mode_plans_a_membership_then_the_refresh() {
         kind: 9,
         data: 0,
     });
-    assert!(d.on_reply(plan[0].tag, &bad).is_err());
+    assert!(d.on_reply(collect::EVENT_TAG, &bad).is_err());
     // A write is still planned from the program's desire: output events never feed it.
     let mut w = Vec::new();
     d.plan_write(&desired(&[("Y2", true)]), false, &mut w);
