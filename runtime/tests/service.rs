@@ -180,7 +180,22 @@ fn a_running_instance_notifies_systemd_and_obeys_its_control_socket() {
 /// Starts the quick start copy in `dir` with extra arguments; returns the child once its
 /// control socket answers.
 fn start(dir: &Path, socket: &Path, extra: &[&str]) -> std::process::Child {
-    let child = Command::new(BIN)
+    start_in(dir, socket, extra, None)
+}
+
+/// [`start`] with `$STATE_DIRECTORY` set, as systemd sets it for a unit with
+/// `StateDirectory=`.
+fn start_in(
+    dir: &Path,
+    socket: &Path,
+    extra: &[&str],
+    state: Option<&Path>,
+) -> std::process::Child {
+    let mut command = Command::new(BIN);
+    if let Some(state) = state {
+        command.env("STATE_DIRECTORY", state);
+    }
+    let child = command
         .args(["run", "--quiet", "--for", "20s", "--control"])
         .arg(socket)
         .args(extra)
@@ -238,6 +253,24 @@ fn forces_are_lost_on_restart_unless_kept() {
 
     let plc = start(&dir, &socket, &[]);
     assert!(!forced(&socket), "a plain restart clears forces");
+    stop(plc);
+
+    // Under systemd the unit's dynamic user cannot write beside the project: kept forces go
+    // to its state directory, one folder per instance.
+    let state = dir.join("var-lib-softplc");
+    let plc = start_in(&dir, &socket, &["--keep-forces"], Some(&state));
+    assert!(ctl(&socket, &["force", "stop", "1"]).0);
+    stop(plc);
+    let instance = dir.file_name().unwrap();
+    assert!(state
+        .join(instance)
+        .join("project.yaml.forces.json")
+        .exists());
+    let plc = start_in(&dir, &socket, &["--keep-forces"], Some(&state));
+    assert!(
+        forced(&socket),
+        "kept across the restart, from the state directory"
+    );
     stop(plc);
     let _ = std::fs::remove_dir_all(dir);
 }

@@ -1,5 +1,6 @@
 //! Forces that survive a restart, when asked (`softplc run --keep-forces`): every force and
-//! unforce rewrites a small file beside the project atomically, and the next start applies it
+//! unforce rewrites a small file beside the project (under systemd: in its state directory)
+//! atomically, and the next start applies it
 //! before the first scan. Without the option forces are lost on restart, as on most PLCs.
 
 use std::collections::BTreeMap;
@@ -7,11 +8,12 @@ use std::path::{Path, PathBuf};
 
 use super::Plc;
 
-/// The file that keeps `project_file`'s forces: `PROJECT.forces.json` beside it.
+/// The file that keeps `project_file`'s forces: `PROJECT.forces.json` beside it, or in the
+/// unit's state directory under systemd (see [`crate::project::state`]).
 pub fn forces_path(project_file: &Path) -> PathBuf {
     let mut name = project_file.file_name().unwrap_or_default().to_os_string();
     name.push(".forces.json");
-    project_file.with_file_name(name)
+    crate::project::state::default_state_folder(project_file).join(name)
 }
 
 impl Plc {
