@@ -167,8 +167,7 @@ fn setting_steps(d: &ResiDriver, settings: &[(Entry, Num)], steps: &mut Vec<Step
         Protocol::Text => {
             for &(e, v) in settings {
                 let set = ascii::ascii_set(d.model, e.item);
-                let get = plan::ascii_get(d.model, e.item);
-                let (Some((sc, sx)), Some((gc, gx, k))) = (set, get) else {
+                let (Some((sc, sx)), Some(get)) = (set, ascii_get(d, e, v)) else {
                     tracing::error!(
                         model = d.model.name,
                         setting = e.name,
@@ -176,26 +175,12 @@ fn setting_steps(d: &ResiDriver, settings: &[(Entry, Num)], steps: &mut Vec<Step
                     );
                     continue;
                 };
-                let at = match gc.action {
-                    Action::Get { fmt, .. } => plan::position(fmt, k),
-                    _ => k,
-                };
                 steps.push(Step {
                     frame: ascii::request(d.address, sc, sx, &[v]),
                     check: Check::Ok,
                     sets: Vec::new(),
                 });
-                steps.push(Step {
-                    frame: ascii::request(d.address, gc, gx, &[]),
-                    check: Check::Answer {
-                        command: gc,
-                        x: gx,
-                        at,
-                        entry: e,
-                        expected: v,
-                    },
-                    sets: Vec::new(),
-                });
+                steps.push(get);
             }
         }
     }
