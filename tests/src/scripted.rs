@@ -224,11 +224,11 @@ impl Transport for ScriptedTransport {
         s.now = s.now.max(t);
     }
 
-    fn flush_input(&mut self) -> usize {
+    fn flush_input(&mut self) -> Result<usize, LineError> {
         let mut s = lock(&self.0);
         let n = s.arrived_by(s.now);
         s.inbound.drain(..n);
         s.flushed += n;
-        n
+        Ok(n)
     }
 }

@@ -245,8 +245,8 @@ impl Transport for Stuck {
     fn wait_until(&mut self, t: Duration) {
         self.clock.sleep_until(t);
     }
-    fn flush_input(&mut self) -> usize {
-        0
+    fn flush_input(&mut self) -> Result<usize, LineError> {
+        Ok(0)
     }
 }
 

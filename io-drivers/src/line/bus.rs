@@ -22,7 +22,7 @@ use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
 use crate::line::collect::CollectState;
 use crate::line::health::{Health, HealthEvent, HealthLimits};
 use crate::line::settings::LineSettings;
-use crate::line::transport::{LineError, Transport};
+use crate::line::transport::{LineError, LineFault, Transport};
 use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError};
 use crate::modbus::{Request, Response};
 use crate::point::{Quality, Value};
@@ -88,6 +88,8 @@ pub struct Counters {
     pub decode_errors: u64,
     /// Bytes dropped by a flush or after a complete reply.
     pub dropped_bytes: u64,
+    /// Input flushes that failed (each one a line failure: the port is reopened).
+    pub flush_failures: u64,
     /// Round trip of the last good transaction: end of request to end of reply.
     pub last_round_trip: Duration,
 }
@@ -114,9 +116,12 @@ pub enum TxError {
     /// The request could not be encoded (a driver bug, reported rather than sent).
     #[error("request cannot be encoded")]
     Encode,
-    /// The line failed.
+    /// The line failed (the port is then reopened with a backoff).
     #[error("line failed: {0}")]
-    Line(String),
+    Line(LineFault),
+    /// The port failed earlier and is not open again yet: nothing was sent.
+    #[error("line failed: the port is down")]
+    PortDown,
 }
 
 /// A request as [`BusOwner::exchange`] sends it.
@@ -173,6 +178,8 @@ pub(crate) struct Exchanged {
     pub(crate) round_trip: Option<Duration>,
     /// Bytes dropped: stray ones before the request, extra after the reply, the guard's flush.
     pub(crate) dropped: usize,
+    /// An input flush failed (the outcome is then [`Miss::Line`]).
+    pub(crate) flush_failed: bool,
     /// The reply (`None`: nothing answers the frame), or why none.
     pub(crate) outcome: Result<Option<Reply>, Miss>,
 }
@@ -555,7 +562,7 @@ impl BusOwner {
                 self.port_failed(&e);
             }
         } else if !port_up {
-            error = Some(TxError::Line("the port is down".into()));
+            error = Some(TxError::PortDown);
         }
         let limits = self.discipline.health_limits();
         let line = &self.name;
@@ -625,7 +632,7 @@ impl BusOwner {
         }
     }
 
-    fn port_failed(&mut self, error: &TxError) {
+    pub(crate) fn port_failed(&mut self, error: &TxError) {
         let limits = HealthLimits {
             fail_limit: 1,
             ..self.discipline.health_limits()
@@ -778,6 +785,7 @@ impl BusOwner {
         let done = self.exchange(frame, timeout, Silence::Timeout);
         let counters = &mut self.modules[m].counters;
         counters.dropped_bytes += done.dropped as u64;
+        counters.flush_failures += u64::from(done.flush_failed);
         if done.sent.is_some() {
             counters.requests += 1;
         }
@@ -789,7 +797,7 @@ impl BusOwner {
                 Ok(reply)
             }
             Err(Miss::Encode) => Err(TxError::Encode),
-            Err(Miss::Line(e)) => Err(line_err(e)),
+            Err(Miss::Line(e)) => Err(line_err(&e)),
             Err(Miss::Silence) => {
                 counters.timeouts += 1;
                 Err(TxError::Timeout(timeout))
@@ -826,6 +834,7 @@ impl BusOwner {
             sent: None,
             round_trip: None,
             dropped: 0,
+            flush_failed: false,
             outcome: Ok(None),
         };
         self.tx_buf.clear();
@@ -847,8 +856,16 @@ impl BusOwner {
             }
         };
         self.transport.wait_until(self.line_free_at);
-        // Whatever arrived while the line was idle belongs to nobody.
-        done.dropped += self.transport.flush_input();
+        // Whatever arrived while the line was idle belongs to nobody; a line that cannot drop
+        // it could hand it over as the reply, so nothing is sent.
+        match self.transport.flush_input() {
+            Ok(n) => done.dropped += n,
+            Err(e) => {
+                done.flush_failed = true;
+                done.outcome = Err(Miss::Line(e));
+                return done;
+            }
+        }
         if let Err(e) = self.transport.write_frame(&self.tx_buf) {
             done.outcome = Err(Miss::Line(e));
             return done;
@@ -915,8 +932,17 @@ impl BusOwner {
             }
         };
         let now = self.transport.now();
-        done.dropped += self.recover(now, wait);
-        done.outcome = Err(miss);
+        done.outcome = match self.recover(now, wait) {
+            Ok(dropped) => {
+                done.dropped += dropped;
+                Err(miss)
+            }
+            // The late reply may still be there for the next request: the line has failed.
+            Err(e) => {
+                done.flush_failed = true;
+                Err(Miss::Line(e))
+            }
+        };
         done
     }
 
@@ -930,7 +956,7 @@ impl BusOwner {
     /// After a timeout or a bad reply to an exchange that waited `wait` for its first byte:
     /// wait out the guard time so a late or babbling reply ends, then drop whatever came;
     /// returns how many bytes.
-    fn recover(&mut self, now: Duration, wait: Duration) -> usize {
+    fn recover(&mut self, now: Duration, wait: Duration) -> Result<usize, LineError> {
         let guard = crate::line::budget::guard_time(self.settings, wait);
         self.transport.wait_until(now + guard);
         let dropped = self.transport.flush_input();
@@ -945,8 +971,8 @@ impl BusOwner {
     }
 }
 
-fn line_err(e: LineError) -> TxError {
-    TxError::Line(e.to_string())
+pub(crate) fn line_err(e: &LineError) -> TxError {
+    TxError::Line(LineFault::from(e))
 }
 
 /// A command to a bus thread.
@@ -1101,3 +1127,6 @@ impl BusThread {
         handle.join().ok()
     }
 }
+
+#[cfg(test)]
+mod tests;

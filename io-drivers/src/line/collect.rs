@@ -45,7 +45,7 @@ use std::time::Duration;
 #[cfg(doc)]
 use crate::driver::Driver;
 use crate::driver::{Reply, Transaction};
-use crate::line::bus::{BusOwner, Frame, Miss, Silence};
+use crate::line::bus::{line_err, BusOwner, Frame, Miss, Silence};
 use crate::modbus::{Request, Response};
 
 /// Reply slot of one address ("Each slave has 3 ms of time for replying").
@@ -195,6 +195,8 @@ pub struct CollectStats {
     pub decode_errors: u64,
     /// Bytes dropped (stray bytes before a request, extra bytes after a reply).
     pub dropped_bytes: u64,
+    /// Input flushes that failed (each one a line failure: the port is reopened).
+    pub flush_failures: u64,
 }
 
 /// What a bus owner keeps between Collect rounds.
@@ -385,7 +387,14 @@ impl BusOwner {
     fn quiet_after_last_slot(&mut self, slot_end: Duration) {
         let end = self.collect.last_sent + slot_end + self.settings.chars(COLLECT_REPLY_LEN);
         self.transport.wait_until(end);
-        self.collect.stats.dropped_bytes += self.transport.flush_input() as u64;
+        match self.transport.flush_input() {
+            Ok(n) => self.collect.stats.dropped_bytes += n as u64,
+            Err(e) => {
+                // What it could not drop would meet the next poll: the line has failed.
+                self.collect.stats.flush_failures += 1;
+                self.port_failed(&line_err(&e));
+            }
+        }
         self.line_free_at = self
             .line_free_at
             .max(self.transport.now() + self.settings.t3_5());
@@ -403,6 +412,7 @@ impl BusOwner {
         let done = self.exchange(frame, wait, Silence::Answer);
         let stats = &mut self.collect.stats;
         stats.dropped_bytes += done.dropped as u64;
+        stats.flush_failures += u64::from(done.flush_failed);
         if let Some(sent) = done.sent {
             stats.requests += 1;
             self.collect.last_sent = sent;
@@ -420,6 +430,11 @@ impl BusOwner {
                 data,
             }),
             Err(Miss::Silence) => Err(Exchange::Silence),
+            Err(Miss::Line(e)) => {
+                // As for any other exchange: the port is reopened with its backoff.
+                self.port_failed(&line_err(&e));
+                Err(Exchange::Failure)
+            }
             // Another answer, an unreadable one, or the line failed: the round ends.
             Ok(_) | Err(_) => Err(Exchange::Failure),
         }

@@ -29,6 +29,35 @@ pub enum LineError {
     /// Reading or writing failed (the port went away).
     #[error("serial I/O failed: {0}")]
     Io(#[from] std::io::Error),
+    /// Dropping the unread input failed: a late reply could then be read as the answer to
+    /// the next request, so the line cannot be trusted.
+    #[error("input flush failed: {0}")]
+    Flush(std::io::Error),
+}
+
+/// How a line failed, as a value that can be kept, compared and copied (a [`LineError`]
+/// carries the OS error itself): what was being done, and the OS error's kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum LineFault {
+    /// The port could not be opened or configured.
+    #[error("cannot open the port: {0}")]
+    Open(std::io::ErrorKind),
+    /// Reading or writing failed.
+    #[error("serial I/O failed: {0}")]
+    Io(std::io::ErrorKind),
+    /// Dropping the unread input failed.
+    #[error("input flush failed: {0}")]
+    Flush(std::io::ErrorKind),
+}
+
+impl From<&LineError> for LineFault {
+    fn from(e: &LineError) -> Self {
+        match e {
+            LineError::Open { source, .. } => LineFault::Open(source.kind()),
+            LineError::Io(e) => LineFault::Io(e.kind()),
+            LineError::Flush(e) => LineFault::Flush(e.kind()),
+        }
+    }
 }
 
 /// A half-duplex byte pipe with a notion of time.
@@ -55,8 +84,9 @@ pub trait Transport: Send + Debug {
     /// Keeps the line quiet until `t` (the t3.5 gap, the guard after a timeout).
     fn wait_until(&mut self, t: Duration);
 
-    /// Drops every byte that has arrived and not been read; returns how many.
-    fn flush_input(&mut self) -> usize;
+    /// Drops every byte that has arrived and not been read; returns how many. An error means
+    /// the input may still hold them ([`LineError::Flush`]): the line has failed.
+    fn flush_input(&mut self) -> Result<usize, LineError>;
 
     /// Opens the port again after it failed (an unplugged adapter plugged back in).
     fn reopen(&mut self) -> Result<(), LineError> {
@@ -241,10 +271,12 @@ impl Transport for SerialTransport {
         self.clock.sleep_until(t);
     }
 
-    fn flush_input(&mut self) -> usize {
-        let Ok(port) = self.port() else { return 0 };
+    fn flush_input(&mut self) -> Result<usize, LineError> {
+        let port = self.port()?;
+        // Only counted: a port that cannot say how much is waiting can still drop it.
         let pending = port.bytes_to_read().unwrap_or(0) as usize;
-        let _ = port.clear(serialport::ClearBuffer::Input);
-        pending
+        port.clear(serialport::ClearBuffer::Input)
+            .map_err(|e| LineError::Flush(std::io::Error::from(e)))?;
+        Ok(pending)
     }
 }

@@ -399,9 +399,9 @@ impl Transport for VirtualPort {
         self.sleep_until(t);
     }
 
-    fn flush_input(&mut self) -> usize {
+    fn flush_input(&mut self) -> Result<usize, LineError> {
         let (line, now) = (self.line, self.now());
-        self.lock().drop_arrived(line, now)
+        Ok(self.lock().drop_arrived(line, now))
     }
 }
 

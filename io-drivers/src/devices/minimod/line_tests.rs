@@ -52,7 +52,7 @@ impl Transport for Tap {
         self.port.wait_until(t);
     }
 
-    fn flush_input(&mut self) -> usize {
+    fn flush_input(&mut self) -> Result<usize, LineError> {
         self.port.flush_input()
     }
 }

@@ -149,7 +149,7 @@ impl Transport for Recorder {
     fn wait_until(&mut self, t: Duration) {
         self.inner.wait_until(t);
     }
-    fn flush_input(&mut self) -> usize {
+    fn flush_input(&mut self) -> Result<usize, LineError> {
         self.inner.flush_input()
     }
 }
