@@ -3,6 +3,7 @@
 mod args;
 mod check;
 mod control;
+mod journal;
 mod out;
 mod run;
 mod sim;
@@ -69,15 +70,37 @@ pub fn main() -> ExitCode {
 }
 
 fn init_logging() {
-    let filter = tracing_subscriber::EnvFilter::try_from_env("SOFTPLC_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
+    let filter = || {
+        tracing_subscriber::EnvFilter::try_from_env("SOFTPLC_LOG")
+            .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"))
+    };
+    // Under systemd (stderr is the journal stream), log natively to the journal, with the
+    // project, bus and module as fields; a journal that cannot be reached leaves stderr.
+    let mut unreachable = None;
+    if journal::stderr_is_journal() {
+        match journal::JournalLayer::new() {
+            Ok(layer) => {
+                let _ = tracing_subscriber::registry()
+                    .with(filter())
+                    .with(layer)
+                    .try_init();
+                return;
+            }
+            Err(e) => unreachable = Some(e),
+        }
+    }
     // Colour only for a person at a terminal: piped into a file, a journal or another
     // program, escape codes are noise.
     let ansi = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
+        .with_env_filter(filter())
         .with_writer(std::io::stderr)
         .with_ansi(ansi)
         .with_target(false)
         .try_init();
+    if let Some(e) = unreachable {
+        tracing::warn!("the journal cannot be reached ({e}); logging to stderr");
+    }
 }

@@ -58,6 +58,8 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     } else {
         Arc::new(MonotonicClock::new())
     };
+    // From now on every journal entry names the project (and modules by bus and address).
+    super::journal::set_context(&project);
     let realtime = project.scan.realtime;
     let name = project.name.clone();
     let period = project.scan.period;
