@@ -181,25 +181,14 @@ impl Program {
                     let q = edges.get_mut(slot as usize).is_some_and(|e| e.falling(x));
                     stack.push(q);
                 }
-                Instr::Ton { timer, preset } => {
+                Instr::Ton { timer, preset }
+                | Instr::Tof { timer, preset }
+                | Instr::Tp { timer, preset } => {
                     let x = pop(stack);
+                    // The lowering gives each timer instruction an instance of its kind.
                     let q = match instances.get_mut(timer as usize) {
                         Some(Instance::Ton(t)) => t.call(x, preset, now),
-                        _ => false,
-                    };
-                    stack.push(q);
-                }
-                Instr::Tof { timer, preset } => {
-                    let x = pop(stack);
-                    let q = match instances.get_mut(timer as usize) {
                         Some(Instance::Tof(t)) => t.call(x, preset, now),
-                        _ => false,
-                    };
-                    stack.push(q);
-                }
-                Instr::Tp { timer, preset } => {
-                    let x = pop(stack);
-                    let q = match instances.get_mut(timer as usize) {
                         Some(Instance::Tp(t)) => t.call(x, preset, now),
                         _ => false,
                     };
@@ -238,7 +227,7 @@ impl Program {
                     }
                     let en = pop(stack);
                     // Read the numeric arguments first: they may be other instances' outputs.
-                    let nums = site.call.nums().map(|n| num(image, instances, n));
+                    let nums = call_nums(&site.call).map(|n| num(image, instances, n));
                     let q = match instances.get_mut(site.inst as usize) {
                         Some(inst) => call(inst, &site.call, en, args, nums, now),
                         None => false,
@@ -297,6 +286,19 @@ pub(crate) fn tag_types(tags: &TagTable) -> Vec<ValueType> {
 /// Whether a module drives `id` (its coils then compute but do not write).
 fn is_released(released: &[bool], id: TagId) -> bool {
     released.get(id.index()).copied().unwrap_or(false)
+}
+
+/// The numeric arguments of a call, in the order [`call`] reads them (unused ones are zero).
+/// Next to the loop, so the compiler inlines it there.
+fn call_nums(call: &Call) -> [Num; 2] {
+    let zero = Num::Const(0.0);
+    match call {
+        Call::Ton { pt } | Call::Tof { pt } | Call::Tp { pt } | Call::Stair { pt } => [*pt, zero],
+        Call::Ctu { pv } | Call::Ctd { pv } | Call::Ctud { pv } => [*pv, zero],
+        Call::Blink { on, off } => [*on, *off],
+        Call::BlinkPattern { step, .. } => [*step, zero],
+        Call::RTrig | Call::FTrig | Call::Sr | Call::Rs | Call::Toggle => [zero, zero],
+    }
 }
 
 /// Calls one block with its power flow, bool arguments and numeric arguments (times in ms).

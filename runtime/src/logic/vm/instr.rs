@@ -197,22 +197,6 @@ pub enum Call {
     },
 }
 
-impl Call {
-    /// The numeric arguments, in the order the executor reads them (unused ones are zero).
-    pub(crate) fn nums(&self) -> [Num; 2] {
-        let zero = Num::Const(0.0);
-        match self {
-            Call::Ton { pt } | Call::Tof { pt } | Call::Tp { pt } | Call::Stair { pt } => {
-                [*pt, zero]
-            }
-            Call::Ctu { pv } | Call::Ctd { pv } | Call::Ctud { pv } => [*pv, zero],
-            Call::Blink { on, off } => [*on, *off],
-            Call::BlinkPattern { step, .. } => [*step, zero],
-            Call::RTrig | Call::FTrig | Call::Sr | Call::Rs | Call::Toggle => [zero, zero],
-        }
-    }
-}
-
 /// A block call site: the instance and its non-boolean arguments.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CallSite {
