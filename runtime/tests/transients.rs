@@ -62,6 +62,8 @@ struct Cycle {
     io_wait: Duration,
     /// mm1's requests so far.
     mm1_requests: u64,
+    /// Whether mm2 holds what the program asked of its outputs.
+    mm2_outputs: Quality,
 }
 
 /// What to do to the world before the cycle starting at a time.
@@ -96,6 +98,7 @@ fn run(plc: Plc, run_for: Duration, mut script: Script) -> (Vec<Cycle>, StopReas
                 y_terminal,
                 io_wait: plc.io_wait(),
                 mm1_requests: status[0].counters.requests,
+                mm2_outputs: status[1].outputs,
             });
             script(ctx.now - begin + PERIOD, &world);
         }));
@@ -170,6 +173,10 @@ fn a_dead_line_leaves_the_scan_on_its_grid_and_its_modules_come_back() {
         during[lost..].iter().all(|c| c.x == Quality::Bad),
         "{during:#?}"
     );
+    assert!(
+        during[lost..].iter().all(|c| c.mm2_outputs == Quality::Bad),
+        "a lost module's outputs are not held: {during:#?}"
+    );
     // Three failed reads (fail limit 3), each 2 attempts × (request + 100 ms + 50 ms guard):
     // the first one for both modules, the next ones after the line's answer to the scan.
     assert!(
@@ -185,6 +192,7 @@ fn a_dead_line_leaves_the_scan_on_its_grid_and_its_modules_come_back() {
         .expect("both modules back");
     assert!(back.now <= dead_until + Duration::from_secs(4), "{back:?}");
     assert_eq!(at(ms(9500)).x, Quality::Good);
+    assert_eq!(at(ms(9500)).mm2_outputs, Quality::Good);
     assert!(
         at(ms(9500)).y_terminal,
         "outputs written again after the outage"

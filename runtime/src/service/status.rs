@@ -43,6 +43,10 @@ pub struct ModuleReport {
     pub bus: String,
     /// `good`, `stale` or `bad`.
     pub quality: String,
+    /// Whether it holds what the program last asked of its outputs: `good`, or `bad` while a
+    /// write is refused or fails, while it restarts and while it is lost.
+    #[serde(default)]
+    pub outputs: String,
     /// Requests sent.
     pub requests: u64,
     /// Timeouts.
@@ -112,6 +116,7 @@ impl StatusReport {
                     name: m.name.clone(),
                     bus: m.bus.clone(),
                     quality: m.quality.to_string(),
+                    outputs: m.outputs.to_string(),
                     requests: m.counters.requests,
                     timeouts: m.counters.timeouts,
                     crc_errors: m.counters.crc_errors,
@@ -153,10 +158,15 @@ impl std::fmt::Display for StatusReport {
         for m in &self.modules {
             writeln!(
                 f,
-                "  module {} ({}): {}  requests {} timeouts {} crc {} bad {} exceptions {}{}",
+                "  module {} ({}): {}{}  requests {} timeouts {} crc {} bad {} exceptions {}{}",
                 m.name,
                 m.bus,
                 m.quality,
+                if m.outputs.is_empty() || m.outputs == "good" {
+                    String::new()
+                } else {
+                    format!(", outputs {}", m.outputs)
+                },
                 m.requests,
                 m.timeouts,
                 m.crc_errors,
