@@ -29,6 +29,9 @@ struct Placed {
     line: usize,
     name: String,
     device: Box<dyn SimDevice>,
+    /// The baud and format the module's UART is set to; `None`: whatever the line's master
+    /// uses (the module was configured for this line).
+    settings: Option<LineSettings>,
 }
 
 /// The plant and its wiring: per role, the device index and point name.
@@ -52,6 +55,9 @@ pub struct SimWorld {
     plant: Option<WiredPlant>,
     inbound: Vec<Inbound>,
     line_settings: Vec<LineSettings>,
+    /// Per line: whether the master's character format is known (a pty conveys only the
+    /// baud: the kernel forces its slave end to 8 data bits without parity).
+    format_known: Vec<bool>,
     faults: LineFaults,
 }
 
@@ -66,6 +72,7 @@ impl SimWorld {
             devices: Vec::new(),
             plant: None,
             inbound: lines.iter().map(|_| Inbound::default()).collect(),
+            format_known: lines.iter().map(|_| true).collect(),
             line_settings: lines,
             faults: LineFaults::new(0x5eed),
         }
@@ -77,8 +84,41 @@ impl SimWorld {
             line,
             name: name.to_string(),
             device,
+            settings: None,
         });
         self.devices.len() - 1
+    }
+
+    /// Sets the baud and format the device's own UART runs at (its DIP switches or stored
+    /// settings). A master at other settings is heard by it as garbage, see
+    /// [`SimWorld::deliver`].
+    pub fn set_device_settings(&mut self, index: usize, settings: LineSettings) {
+        if let Some(d) = self.devices.get_mut(index) {
+            d.settings = Some(settings);
+        }
+    }
+
+    /// The baud and format of `line`'s master from now on (a served pty follows the settings
+    /// the master program gave its end).
+    pub fn set_master_settings(&mut self, line: usize, settings: LineSettings) {
+        if let Some(s) = self.line_settings.get_mut(line) {
+            *s = settings;
+        }
+        if let Some(k) = self.format_known.get_mut(line) {
+            *k = true;
+        }
+    }
+
+    /// The baud of `line`'s master from now on, its format unknown: a device then hears
+    /// garbage only when its baud differs (a pty carries the baud a master sets, not the
+    /// parity).
+    pub fn follow_master_baud(&mut self, line: usize, baud: u32) {
+        if let Some(s) = self.line_settings.get_mut(line) {
+            s.baud = baud;
+        }
+        if let Some(k) = self.format_known.get_mut(line) {
+            *k = false;
+        }
     }
 
     /// Attaches a plant; `wires[i]` is `(device index, point)` for the plant's role `i`.
@@ -179,6 +219,7 @@ impl SimWorld {
             return;
         };
         let char_time = settings.char_time();
+        let format_known = self.format_known.get(line).copied().unwrap_or(true);
         if self.faults.is_dead(line) {
             return;
         }
@@ -189,7 +230,18 @@ impl SimWorld {
             .enumerate()
             .filter(|(_, d)| d.line == line)
         {
-            if let Some(reply) = d.device.on_frame(frame, t) {
+            // A UART at another baud or format than the sender samples the wrong bits: it
+            // hears garbage, and answers nothing a master at its own settings could read.
+            let heard = match d.settings {
+                Some(own)
+                    if own.baud != settings.baud
+                        || (format_known && own.format != settings.format) =>
+                {
+                    garble(frame)
+                }
+                _ => frame.to_vec(),
+            };
+            if let Some(reply) = d.device.on_frame(&heard, t) {
                 replies.push((i, reply));
             }
         }
@@ -268,6 +320,13 @@ impl SimWorld {
         let mut sink = Vec::new();
         self.take_arrived(line, t, &mut sink)
     }
+}
+
+/// What a UART at the wrong baud or format makes of `frame`, deterministically: every byte
+/// inverted, so a text command (printable ASCII) becomes bytes above 0x7F that no text
+/// protocol accepts, and an RTU frame's CRC no longer matches.
+pub fn garble(frame: &[u8]) -> Vec<u8> {
+    frame.iter().map(|b| !b).collect()
 }
 
 struct Wiring<'a> {
@@ -409,6 +468,34 @@ impl Transport for VirtualPort {
 mod tests {
     use super::*;
     use crate::modbus::crc::append_crc;
+
+    /// A module whose UART runs at 9600 8N1 does not answer a master at 19200 8E1, and does
+    /// once the master changes to its settings.
+    #[test]
+    fn a_module_at_other_line_settings_hears_garbage() {
+        let model = crate::devices::model("minimod").unwrap();
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        let d = world.add_device(0, "mm5", (model.simulator)(5));
+        let own = LineSettings {
+            baud: 9600,
+            format: "8N1".parse().unwrap(),
+        };
+        world.set_device_settings(d, own);
+        let ask = crate::devices::minimod::text::read_command(
+            5,
+            crate::devices::minimod::text::TextId::Device,
+        );
+        world.deliver(0, &ask, Duration::from_millis(10));
+        assert_eq!(world.next_arrival(0), None);
+        world.set_master_settings(0, own);
+        world.deliver(0, &ask, Duration::from_millis(100));
+        let mut reply = Vec::new();
+        world.take_arrived(0, Duration::from_secs(1), &mut reply);
+        assert!(
+            String::from_utf8_lossy(&reply).contains("MINIMOD"),
+            "{reply:?}"
+        );
+    }
 
     /// Two MiniMods with queued input events hear one broadcast Collect: slave 4 answers in its
     /// slot and slave 6, hearing it, stays silent (the master then polls the window 5–16).

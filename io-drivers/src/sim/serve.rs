@@ -55,14 +55,71 @@ pub fn complete_frame(buf: &[u8]) -> Option<usize> {
     None
 }
 
+/// The settings a tty is set to (on the slave end of a pty: what the master program set).
+pub fn tty_settings(port: &serialport::TTYPort) -> Option<LineSettings> {
+    use crate::line::settings::{Parity, SerialFormat};
+    let baud = port.baud_rate().ok()?;
+    let data_bits = match port.data_bits().ok()? {
+        serialport::DataBits::Seven => 7,
+        serialport::DataBits::Eight => 8,
+        _ => return None,
+    };
+    let parity = match port.parity().ok()? {
+        serialport::Parity::None => Parity::None,
+        serialport::Parity::Even => Parity::Even,
+        serialport::Parity::Odd => Parity::Odd,
+    };
+    let stop_bits = match port.stop_bits().ok()? {
+        serialport::StopBits::One => 1,
+        serialport::StopBits::Two => 2,
+    };
+    Some(LineSettings {
+        baud,
+        format: SerialFormat {
+            data_bits,
+            parity,
+            stop_bits,
+        },
+    })
+}
+
 /// Serves `world` on `port` until `stop` is set.
 pub fn serve(
-    mut port: serialport::TTYPort,
+    port: serialport::TTYPort,
     world: SharedWorld,
     settings: LineSettings,
     clock: Arc<dyn Clock>,
     stop: &AtomicBool,
 ) -> Result<ServeStats, LineError> {
+    serve_following(port, world, settings, clock, stop, None)
+}
+
+/// The baud the master's end of the line is set to now (on a pty: the termios of the slave
+/// end, which the master program set; the kernel keeps no parity there, so only the baud is
+/// followed); `None` when it cannot be read.
+pub type MasterSettings<'a> = &'a dyn Fn() -> Option<LineSettings>;
+
+/// Serves `world` on `port` until `stop` is set; before each frame is handed to the devices,
+/// the world learns the master's settings from `master` (if given), so a module at other
+/// settings hears that frame as garbage ([`crate::sim::line::SimWorld::deliver`]).
+pub fn serve_following(
+    mut port: serialport::TTYPort,
+    world: SharedWorld,
+    settings: LineSettings,
+    clock: Arc<dyn Clock>,
+    stop: &AtomicBool,
+    master: Option<MasterSettings<'_>>,
+) -> Result<ServeStats, LineError> {
+    let follow = |settings: LineSettings| match master.and_then(|m| m()) {
+        Some(m) => {
+            lock(&world).follow_master_baud(SERVED_LINE, m.baud);
+            LineSettings {
+                baud: m.baud,
+                format: settings.format,
+            }
+        }
+        None => settings,
+    };
     let mut stats = ServeStats::default();
     let mut buf: Vec<u8> = Vec::with_capacity(512);
     let mut chunk = [0u8; 256];
@@ -87,6 +144,7 @@ pub fn serve(
         while let Some(n) = complete_frame(&buf) {
             let frame: Vec<u8> = buf.drain(..n).collect();
             stats.frames += 1;
+            let settings = follow(settings);
             if answer(&mut port, &world, &frame, settings, clock.as_ref())? {
                 stats.replies += 1;
             }
@@ -96,6 +154,7 @@ pub fn serve(
             // would get it (they drop it on a bad CRC), and start afresh.
             let frame: Vec<u8> = std::mem::take(&mut buf);
             stats.frames += 1;
+            let settings = follow(settings);
             if answer(&mut port, &world, &frame, settings, clock.as_ref())? {
                 stats.replies += 1;
             } else {

@@ -3,6 +3,7 @@
 mod args;
 mod check;
 mod control;
+mod discover;
 mod journal;
 mod out;
 mod run;
@@ -40,6 +41,9 @@ enum Command {
     Unforce(control::UnforceArgs),
     /// Reload the program of a running instance at a cycle boundary (like SIGHUP).
     Reload(control::ReloadArgs),
+    /// Find the modules on a serial line (every family, baud and format) and print a project
+    /// skeleton; says first how long it takes at most.
+    Discover(discover::DiscoverArgs),
     /// Run scenario files (inputs over virtual time, expected outputs) on the simulator.
     Test(test::TestArgs),
 }
@@ -57,6 +61,7 @@ pub fn main() -> ExitCode {
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
         Command::Test(a) => test::test(a),
+        Command::Discover(a) => discover::discover(a),
     };
     match result {
         Ok(code) => code,

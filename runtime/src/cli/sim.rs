@@ -8,18 +8,20 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context};
 use softplc_io::devices;
-use softplc_io::line::transport::{open_tty, pty_pair};
+use softplc_io::line::transport::{open_tty, pty_pair, TTYPort};
 use softplc_io::line::{LineSettings, Parity, SerialFormat};
 use softplc_io::point::Value;
 use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
 use softplc_io::sim::line::{SharedWorld, SimWorld};
-use softplc_io::sim::serve::{serve, SERVED_LINE};
+use softplc_io::sim::serve::{serve_following, tty_settings, SERVED_LINE};
 use softplc_io::time::{Clock, MonotonicClock};
 
 pub(super) const LONG_HELP: &str = "\
 Serves simulated modules on a serial device so that any Modbus master (mbpoll, pymodbus, a
 SCADA) or a terminal can talk to them. Each MODEL@ADDR is one module at that unit address,
-e.g. minimod@5. With --pty, softplc creates a pseudo-terminal pair itself and prints the path
+e.g. minimod@5. MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1) sets the module's own baud
+and format: a master at other settings is then heard by it as garbage (on a --pty, the
+settings the master gave its end are followed frame by frame). With --pty, softplc creates a pseudo-terminal pair itself and prints the path
 to give to the master.
 
 Commands on standard input (one per line):
@@ -60,7 +62,7 @@ pub struct SimArgs {
     /// Stop bits.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
     stop_bits: u8,
-    /// Modules to simulate, as MODEL@ADDR (e.g. minimod@5).
+    /// Modules to simulate, as MODEL@ADDR or MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1).
     #[arg(required = true)]
     devices: Vec<String>,
 }
@@ -72,9 +74,29 @@ enum ParityArg {
     Odd,
 }
 
-/// Parses `minimod@5` into the model and the address.
-fn parse_device(spec: &str) -> anyhow::Result<(&'static devices::ModelSpec, u8)> {
-    let Some((model, addr)) = spec.split_once('@') else {
+/// A module to serve: its model, address and own line settings (if not the line's).
+type DeviceSpec = (&'static devices::ModelSpec, u8, Option<LineSettings>);
+
+/// Parses `minimod@5` or `minimod@5:9600:8N1` into the model, the address and the settings.
+fn parse_device(spec: &str) -> anyhow::Result<DeviceSpec> {
+    let (head, own) = match spec.split_once(':') {
+        None => (spec, None),
+        Some((head, line)) => {
+            let Some((baud, format)) = line.split_once(':') else {
+                bail!("{spec:?}: expected MODEL@ADDR:BAUD:FORMAT, e.g. minimod@5:9600:8N1");
+            };
+            let baud: u32 = baud
+                .parse()
+                .ok()
+                .filter(|b| *b > 0)
+                .with_context(|| format!("{spec:?}: baud {baud:?} is not a positive number"))?;
+            let format: SerialFormat = format
+                .parse()
+                .with_context(|| format!("{spec:?}: format {format:?}"))?;
+            (head, Some(LineSettings { baud, format }))
+        }
+    };
+    let Some((model, addr)) = head.split_once('@') else {
         bail!("{spec:?}: expected MODEL@ADDR, e.g. minimod@5");
     };
     let Some(m) = devices::model(model) else {
@@ -95,7 +117,7 @@ fn parse_device(spec: &str) -> anyhow::Result<(&'static devices::ModelSpec, u8)>
             m.name
         );
     }
-    Ok((m, a))
+    Ok((m, a, own))
 }
 
 pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
@@ -118,16 +140,19 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     let mut world = SimWorld::new(vec![settings]);
     let mut seen = Vec::new();
     for spec in &args.devices {
-        let (model, addr) = parse_device(spec)?;
+        let (model, addr, own) = parse_device(spec)?;
         if seen.contains(&addr) {
             bail!("{spec:?}: address {addr} is given twice");
         }
         seen.push(addr);
-        world.add_device(
+        let i = world.add_device(
             SERVED_LINE,
             &format!("{}@{addr}", model.name),
             (model.simulator)(addr),
         );
+        if let Some(own) = own {
+            world.set_device_settings(i, own);
+        }
     }
     let world = world.shared();
     let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
@@ -176,7 +201,13 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                 }
             })?;
     }
-    let stats = serve(port, world, settings, clock, &stop).context("serial line failed")?;
+    let follow = |slave: &TTYPort| tty_settings(slave);
+    let master = _slave.as_ref().map(|slave| move || follow(slave));
+    let master_ref = master
+        .as_ref()
+        .map(|m| m as &dyn Fn() -> Option<LineSettings>);
+    let stats = serve_following(port, world, settings, clock, &stop, master_ref)
+        .context("serial line failed")?;
     super::out::outln(&format!(
         "served {} frames, {} replies, {} noise bytes",
         stats.frames, stats.replies, stats.noise_bytes

@@ -1,0 +1,409 @@
+//! `softplc discover PORT`: finds the modules on a line and prints a project skeleton.
+//!
+//! Each family is identified by its own means, with the drivers' encoders:
+//! - MiniMod: `@N?DEVICE`, answered `DEVICE=MINIMOD 1.1` (manual, "Text commands protocol",
+//!   "Slave addressing", "Read commands table (text mode)"); bauds 4800..57600 ("SERLINE").
+//! - RESI: `#A,TYP`, answered `#A,TYPE:RESI-<model>-ASCII` (resi-spec §2.1, §2.5); bauds
+//!   4800..256000 by DIP switch, parity none or even only, one stop bit (§1.3).
+//! - EX-9053D: `$AAM` (read name), answered `!AA<name>` (manual §2.13); the factory setting
+//!   is 9600 8N1 (§1.3); DCON addresses are two hex digits.
+//!
+//! The probe plan is every (baud, format) × address × family the family supports; its worst
+//! case (every probe timing out) is printed before the first probe, from the line timing model.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use softplc_io::devices::ex9053::dcon::Command as DconCommand;
+use softplc_io::devices::minimod::serial_config::BAUD_RATES as MINIMOD_BAUDS;
+use softplc_io::devices::minimod::text::{read_command, TextId};
+use softplc_io::devices::resi::ascii::frame::frame as resi_frame;
+use softplc_io::line::transport::{SerialTransport, Transport};
+use softplc_io::line::{LineSettings, Parity, SerialFormat};
+use softplc_io::time::{Clock, MonotonicClock};
+
+use super::out::outln;
+
+/// Arguments of `softplc discover`.
+#[derive(Debug, clap::Args)]
+pub struct DiscoverArgs {
+    /// The serial device the modules are on (/dev/ttyUSB0, or a pty of `softplc sim --pty`).
+    port: PathBuf,
+    /// Baud rates to try, comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [9600, 19200, 38400, 57600, 4800, 115200])]
+    bauds: Vec<u32>,
+    /// Character formats to try, comma-separated (8E1, 8N1, 8O1, 8N2).
+    #[arg(long, value_delimiter = ',', default_values_t = ["8N1".to_string(), "8E1".to_string()])]
+    formats: Vec<String>,
+    /// Addresses to probe: a range (1-247), a list (1,2,5) or both (1-4,9).
+    #[arg(long, default_value = "1-247")]
+    addresses: String,
+    /// How long to wait for each module's answer.
+    #[arg(long, default_value = "50ms", value_parser = super::args::parse_duration)]
+    timeout: Duration,
+    /// Also write the project skeleton to this file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// A module family and how it is asked who it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Family {
+    MiniMod,
+    Resi,
+    Dcon,
+}
+
+impl Family {
+    const ALL: [Family; 3] = [Family::MiniMod, Family::Resi, Family::Dcon];
+
+    fn name(self) -> &'static str {
+        match self {
+            Family::MiniMod => "MiniMod",
+            Family::Resi => "RESI",
+            Family::Dcon => "EX-9053 (DCON)",
+        }
+    }
+
+    /// Whether the family can run at these settings and answer at this address.
+    fn supports(self, s: LineSettings, address: u8) -> bool {
+        match self {
+            // "SERLINE": 4800..57600; E, O, N (two stops) or X (none, one stop); @N 1..=255.
+            Family::MiniMod => {
+                MINIMOD_BAUDS.contains(&s.baud) && s.format.data_bits == 8 && address >= 1
+            }
+            // §1.3: DIP baud table; "Odd parity and 2 stop bits are not available".
+            Family::Resi => {
+                [4800, 9600, 19200, 38400, 57600, 115200, 230400, 256000].contains(&s.baud)
+                    && s.format.data_bits == 8
+                    && s.format.parity != Parity::Odd
+                    && s.format.stop_bits == 1
+                    && address >= 1
+            }
+            // §1.3 / %AANNTTCCFF baud codes 1200..115200, 8N1 (no parity in the DCON frame).
+            Family::Dcon => {
+                [1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200].contains(&s.baud)
+                    && s.format
+                        == SerialFormat {
+                            data_bits: 8,
+                            parity: Parity::None,
+                            stop_bits: 1,
+                        }
+            }
+        }
+    }
+
+    /// The identification request, from the drivers' encoders.
+    fn request(self, address: u8) -> Vec<u8> {
+        match self {
+            Family::MiniMod => read_command(address, TextId::Device),
+            Family::Resi => resi_frame(Some(&address.to_string()), "TYP"),
+            Family::Dcon => DconCommand::ReadName { address }.encode(false),
+        }
+    }
+
+    /// The model (project-file name) an answer names, if it is this family's answer.
+    fn identify(self, address: u8, reply: &str) -> Option<Result<&'static str, String>> {
+        let reply = reply.trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ');
+        match self {
+            Family::MiniMod => reply
+                .strip_prefix("DEVICE=")
+                .filter(|r| r.starts_with("MINIMOD"))
+                .map(|_| Ok("minimod")),
+            Family::Resi => {
+                let rest = reply.strip_prefix(&format!("#{address},TYPE:"))?;
+                let model = rest
+                    .strip_suffix("-ASCII")
+                    .unwrap_or(rest)
+                    .to_ascii_lowercase();
+                Some(
+                    softplc_io::devices::model(&model)
+                        .map(|m| m.name)
+                        .ok_or_else(|| format!("RESI type {rest:?} is not a model softplc knows")),
+                )
+            }
+            Family::Dcon => {
+                let name = reply.strip_prefix(&format!("!{address:02X}"))?;
+                Some(if name.starts_with("9053") {
+                    Ok("ex9053d")
+                } else {
+                    Err(format!(
+                        "DCON module named {name:?} is not a model softplc knows"
+                    ))
+                })
+            }
+        }
+    }
+}
+
+/// Parses `1-247`, `1,2,5` or `1-4,9` (unit addresses 0..=255 as the families allow).
+pub fn parse_addresses(text: &str) -> anyhow::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let num = |s: &str| -> anyhow::Result<u8> {
+            s.trim()
+                .parse()
+                .with_context(|| format!("--addresses {text:?}: {s:?} is not an address 0..=255"))
+        };
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (num(a)?, num(b)?);
+                if a > b {
+                    bail!("--addresses {text:?}: range {part:?} runs backwards");
+                }
+                out.extend(a..=b);
+            }
+            None => out.push(num(part)?),
+        }
+    }
+    if out.is_empty() {
+        bail!("--addresses {text:?}: no address given");
+    }
+    out.sort_unstable();
+    out.dedup();
+    Ok(out)
+}
+
+/// One probe: settings, address, family.
+type Probe = (LineSettings, u8, Family);
+
+/// The longest a probe can take: the request on the wire, the whole timeout, t3.5 after.
+fn probe_bound(p: &Probe, timeout: Duration) -> Duration {
+    let (s, a, f) = *p;
+    s.chars(f.request(a).len()) + timeout + s.t3_5()
+}
+
+/// A module found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Found {
+    settings: LineSettings,
+    address: u8,
+    model: &'static str,
+    reply: String,
+}
+
+pub(super) fn discover(args: DiscoverArgs) -> anyhow::Result<ExitCode> {
+    let addresses = parse_addresses(&args.addresses)?;
+    let mut lines = Vec::new();
+    for &baud in &args.bauds {
+        if baud == 0 {
+            bail!("--bauds: 0 is not a baud rate");
+        }
+        for f in &args.formats {
+            let format: SerialFormat = f.parse().with_context(|| format!("--formats: {f:?}"))?;
+            lines.push(LineSettings { baud, format });
+        }
+    }
+    let mut plan: Vec<Probe> = Vec::new();
+    for &s in &lines {
+        for &a in &addresses {
+            for fam in Family::ALL {
+                if fam.supports(s, a) {
+                    plan.push((s, a, fam));
+                }
+            }
+        }
+    }
+    let bound: Duration = plan.iter().map(|p| probe_bound(p, args.timeout)).sum();
+    outln(&format!(
+        "probing {} on {} settings x {} addresses: {} probes, at most {} (every probe timing out at {})",
+        args.port.display(),
+        lines.len(),
+        addresses.len(),
+        plan.len(),
+        crate::scan::fmt_duration(bound),
+        crate::scan::fmt_duration(args.timeout),
+    ))?;
+    let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
+    let started = Instant::now();
+    let mut found: Vec<Found> = Vec::new();
+    let mut transport: Option<SerialTransport> = None;
+    for p in &plan {
+        let (s, a, fam) = *p;
+        // A module found at this address and baud is not asked again in another format or
+        // as another family (on a pty, parity does not reach the other end: it would answer
+        // in every format).
+        if found
+            .iter()
+            .any(|f| f.settings.baud == s.baud && f.address == a)
+        {
+            continue;
+        }
+        if transport.as_ref().map(|t| t.settings()) != Some(s) {
+            drop(transport.take());
+            transport = Some(
+                SerialTransport::open(&args.port, s, clock.clone())
+                    .with_context(|| format!("at {s}"))?,
+            );
+        }
+        let Some(t) = transport.as_mut() else {
+            continue;
+        };
+        if let Some(reply) = ask(t, &fam.request(a), args.timeout)? {
+            match fam.identify(a, &reply) {
+                Some(Ok(model)) => {
+                    outln(&format!(
+                        "  found {model} at address {a}, {s} ({}: {:?})",
+                        fam.name(),
+                        reply.trim_end()
+                    ))?;
+                    found.push(Found {
+                        settings: s,
+                        address: a,
+                        model,
+                        reply,
+                    });
+                }
+                Some(Err(why)) => outln(&format!("  address {a}, {s}: {why}"))?,
+                None => {}
+            }
+        }
+    }
+    outln(&format!(
+        "{} module(s) found in {}",
+        found.len(),
+        crate::scan::fmt_duration(started.elapsed())
+    ))?;
+    let yaml = skeleton(&args.port.display().to_string(), &found);
+    outln("")?;
+    outln(&yaml)?;
+    if let Some(path) = &args.out {
+        std::fs::write(path, &yaml).with_context(|| format!("cannot write {}", path.display()))?;
+        let program = path
+            .parent()
+            .unwrap_or_else(|| std::path::Path::new("."))
+            .join(PROGRAM_FILE);
+        if !program.exists() {
+            std::fs::write(&program, "# the control program: one assignment per line\n")
+                .with_context(|| format!("cannot write {}", program.display()))?;
+        }
+        outln(&format!("# written to {}", path.display()))?;
+    }
+    Ok(if found.is_empty() {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// Sends `request` and reads one CR-ended answer until `timeout` after the request has left;
+/// keeps the line quiet for t3.5 after and drops whatever else came.
+fn ask(
+    t: &mut SerialTransport,
+    request: &[u8],
+    timeout: Duration,
+) -> anyhow::Result<Option<String>> {
+    t.flush_input().context("cannot flush the port's input")?;
+    t.write_frame(request).context("cannot write to the port")?;
+    let deadline = t.now() + timeout;
+    let mut buf = Vec::new();
+    while !buf.contains(&b'\r') {
+        if t.read_until(&mut buf, deadline)
+            .context("cannot read the port")?
+            == 0
+        {
+            break;
+        }
+    }
+    let quiet = t.now() + t.settings().t3_5();
+    t.wait_until(quiet);
+    let _ = t.flush_input();
+    let Some(end) = buf.iter().position(|b| *b == b'\r') else {
+        return Ok(None);
+    };
+    Ok(std::str::from_utf8(&buf[..end]).ok().map(str::to_string))
+}
+
+/// The program file the skeleton names.
+const PROGRAM_FILE: &str = "program.expr";
+
+/// A project file with one bus per (baud, format) found and every module on it.
+pub fn skeleton(port: &str, found: &[Found]) -> String {
+    let mut buses: BTreeMap<(u32, String), Vec<&Found>> = BTreeMap::new();
+    for f in found {
+        buses
+            .entry((f.settings.baud, f.settings.format.to_string()))
+            .or_default()
+            .push(f);
+    }
+    let mut y = String::new();
+    let _ = writeln!(
+        y,
+        "# Found by `softplc discover {port}`: edit names, add tags and a program."
+    );
+    let _ = writeln!(
+        y,
+        "# Modules at different settings need separate lines (or commissioning)."
+    );
+    let _ = writeln!(y, "project: discovered\n");
+    let _ = writeln!(y, "scan:\n  period: 100ms\n");
+    let _ = writeln!(
+        y,
+        "program:            # --out writes an empty one next to the project\n  file: {PROGRAM_FILE}\n  kind: expr\n"
+    );
+    let _ = writeln!(y, "buses:");
+    for (baud, format) in buses.keys() {
+        let _ = writeln!(y, "  - name: line_{baud}_{}", format.to_ascii_lowercase());
+        let _ = writeln!(y, "    port: {port}");
+        let _ = writeln!(y, "    baud: {baud}");
+        let _ = writeln!(y, "    format: {format}");
+        let _ = writeln!(y, "    response_timeout: 50ms");
+    }
+    let _ = writeln!(y, "\nmodules:");
+    for ((baud, format), mods) in &buses {
+        for f in mods {
+            let short = f.model.replace('-', "_");
+            let _ = writeln!(
+                y,
+                "  - {{ name: {short}_{}, bus: line_{baud}_{}, model: {}, address: {} }}",
+                f.address,
+                format.to_ascii_lowercase(),
+                f.model,
+                f.address
+            );
+        }
+    }
+    y
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_address_ranges_and_refuses_nonsense() {
+        assert_eq!(parse_addresses("1-3,7").unwrap(), vec![1, 2, 3, 7]);
+        assert!(parse_addresses("5-2")
+            .unwrap_err()
+            .to_string()
+            .contains("backwards"));
+        assert!(parse_addresses("1-300")
+            .unwrap_err()
+            .to_string()
+            .contains("300"));
+    }
+
+    #[test]
+    fn identifies_each_family_by_its_own_answer() {
+        assert_eq!(
+            Family::MiniMod.identify(5, "DEVICE=MINIMOD 1.1"),
+            Some(Ok("minimod"))
+        );
+        assert_eq!(
+            Family::Resi.identify(3, "#3,TYPE:RESI-16DI8RO-ASCII"),
+            Some(Ok("resi-16di8ro"))
+        );
+        assert_eq!(Family::Dcon.identify(2, "!029053"), Some(Ok("ex9053d")));
+        assert_eq!(Family::Dcon.identify(2, "?02"), None);
+        assert_eq!(
+            Family::Dcon.request(0x2A),
+            b"$2AM\r".to_vec(),
+            "the DCON address is hex"
+        );
+    }
+}
