@@ -89,6 +89,12 @@ pub trait SimDevice: Send + Debug {
         Ok(())
     }
 
+    /// The line's master now talks at `baud` and `format` (`None`: not known, as on a pty,
+    /// which carries no parity). A module that models its own UART settings compares them.
+    fn master_line(&mut self, baud: u32, format: Option<crate::line::settings::SerialFormat>) {
+        let _ = (baud, format);
+    }
+
     /// Help text for [`SimDevice::command`].
     fn command_help(&self) -> &'static str {
         ""

@@ -107,6 +107,9 @@ impl SimWorld {
         if let Some(k) = self.format_known.get_mut(line) {
             *k = true;
         }
+        for d in self.devices.iter_mut().filter(|d| d.line == line) {
+            d.device.master_line(settings.baud, Some(settings.format));
+        }
     }
 
     /// The baud of `line`'s master from now on, its format unknown: a device then hears
@@ -118,6 +121,9 @@ impl SimWorld {
         }
         if let Some(k) = self.format_known.get_mut(line) {
             *k = false;
+        }
+        for d in self.devices.iter_mut().filter(|d| d.line == line) {
+            d.device.master_line(baud, None);
         }
     }
 
@@ -467,34 +473,39 @@ impl Transport for VirtualPort {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::line::settings::SerialFormat;
     use crate::modbus::crc::append_crc;
 
     /// A module whose UART runs at 9600 8N1 does not answer a master at 19200 8E1, and does
     /// once the master changes to its settings.
     #[test]
     fn a_module_at_other_line_settings_hears_garbage() {
-        let model = crate::devices::model("minimod").unwrap();
+        let model = crate::devices::model("ex9053d").unwrap();
         let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
-        let d = world.add_device(0, "mm5", (model.simulator)(5));
+        let d = world.add_device(0, "ex5", (model.simulator)(5));
         let own = LineSettings {
             baud: 9600,
             format: "8N1".parse().unwrap(),
         };
         world.set_device_settings(d, own);
-        let ask = crate::devices::minimod::text::read_command(
-            5,
-            crate::devices::minimod::text::TextId::Device,
-        );
+        let ask = b"$05M\r".to_vec();
         world.deliver(0, &ask, Duration::from_millis(10));
         assert_eq!(world.next_arrival(0), None);
-        world.set_master_settings(0, own);
+        // A pty carries the baud only: the same baud is enough.
+        world.follow_master_baud(0, 9600);
         world.deliver(0, &ask, Duration::from_millis(100));
         let mut reply = Vec::new();
         world.take_arrived(0, Duration::from_secs(1), &mut reply);
-        assert!(
-            String::from_utf8_lossy(&reply).contains("MINIMOD"),
-            "{reply:?}"
+        assert_eq!(reply, b"!059053\r", "{reply:?}");
+        world.set_master_settings(
+            0,
+            LineSettings {
+                baud: 9600,
+                format: SerialFormat::EVEN_8E1,
+            },
         );
+        world.deliver(0, &ask, Duration::from_secs(2));
+        assert_eq!(world.next_arrival(0), None);
     }
 
     /// Two MiniMods with queued input events hear one broadcast Collect: slave 4 answers in its

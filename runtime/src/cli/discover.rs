@@ -53,16 +53,16 @@ pub struct DiscoverArgs {
 
 /// A module family and how it is asked who it is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Family {
+pub(super) enum Family {
     MiniMod,
     Resi,
     Dcon,
 }
 
 impl Family {
-    const ALL: [Family; 3] = [Family::MiniMod, Family::Resi, Family::Dcon];
+    pub(super) const ALL: [Family; 3] = [Family::MiniMod, Family::Resi, Family::Dcon];
 
-    fn name(self) -> &'static str {
+    pub(super) fn name(self) -> &'static str {
         match self {
             Family::MiniMod => "MiniMod",
             Family::Resi => "RESI",
@@ -71,7 +71,7 @@ impl Family {
     }
 
     /// Whether the family can run at these settings and answer at this address.
-    fn supports(self, s: LineSettings, address: u8) -> bool {
+    pub(super) fn supports(self, s: LineSettings, address: u8) -> bool {
         match self {
             // "SERLINE": 4800..57600; E, O, N (two stops) or X (none, one stop); @N 1..=255.
             Family::MiniMod => {
@@ -99,7 +99,7 @@ impl Family {
     }
 
     /// The identification request, from the drivers' encoders.
-    fn request(self, address: u8) -> Vec<u8> {
+    pub(super) fn request(self, address: u8) -> Vec<u8> {
         match self {
             Family::MiniMod => read_command(address, TextId::Device),
             Family::Resi => resi_frame(Some(&address.to_string()), "TYP"),
@@ -108,7 +108,7 @@ impl Family {
     }
 
     /// The model (project-file name) an answer names, if it is this family's answer.
-    fn identify(self, address: u8, reply: &str) -> Option<Result<&'static str, String>> {
+    pub(super) fn identify(self, address: u8, reply: &str) -> Option<Result<&'static str, String>> {
         let reply = reply.trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ');
         match self {
             Family::MiniMod => reply
@@ -293,7 +293,7 @@ pub(super) fn discover(args: DiscoverArgs) -> anyhow::Result<ExitCode> {
 
 /// Sends `request` and reads one CR-ended answer until `timeout` after the request has left;
 /// keeps the line quiet for t3.5 after and drops whatever else came.
-fn ask(
+pub(super) fn ask(
     t: &mut SerialTransport,
     request: &[u8],
     timeout: Duration,

@@ -2,6 +2,7 @@
 
 mod args;
 mod check;
+mod commission;
 mod control;
 mod discover;
 mod journal;
@@ -44,6 +45,9 @@ enum Command {
     /// Find the modules on a serial line (every family, baud and format) and print a project
     /// skeleton; says first how long it takes at most.
     Discover(discover::DiscoverArgs),
+    /// Set a module's address, baud/format and reply delay, save them in the module and read
+    /// them back; refuses what the module's manual forbids. Asks first unless --yes.
+    Commission(commission::CommissionArgs),
     /// Run scenario files (inputs over virtual time, expected outputs) on the simulator.
     Test(test::TestArgs),
 }
@@ -62,6 +66,7 @@ pub fn main() -> ExitCode {
         Command::Reload(a) => control::reload(a),
         Command::Test(a) => test::test(a),
         Command::Discover(a) => discover::discover(a),
+        Command::Commission(a) => commission::commission(a),
     };
     match result {
         Ok(code) => code,

@@ -380,6 +380,25 @@ impl SimDevice for MiniModSim {
         frame.len() == 8 && frame.get(1) == Some(&70)
     }
 
+    /// The master's baud (and format, when known) on a served line: the module listens only
+    /// when they are its own ("Setting the communication parameters").
+    fn master_line(&mut self, baud: u32, format: Option<crate::line::settings::SerialFormat>) {
+        let own = self.state.serial().active().serial;
+        let mode = format
+            .and_then(|f| {
+                [
+                    LineMode::Even,
+                    LineMode::Odd,
+                    LineMode::NoneTwoStops,
+                    LineMode::NoneOneStop,
+                ]
+                .into_iter()
+                .find(|m| m.format() == f)
+            })
+            .unwrap_or(own.mode);
+        self.state.set_line(SerialParams { baud, mode });
+    }
+
     fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
         self.advance_to(t);
         if !self.state.listening() {
