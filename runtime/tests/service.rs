@@ -27,7 +27,7 @@ fn scratch(name: &str) -> PathBuf {
 fn installed_unit(dir: &Path) -> PathBuf {
     let text = std::fs::read_to_string(repo().join("deploy/softplc@.service")).unwrap();
     let path = dir.join("softplc@quickstart.service");
-    std::fs::write(&path, text.replace("/usr/local/bin/softplc", BIN)).unwrap();
+    std::fs::write(&path, text.replace("/usr/bin/softplc", BIN)).unwrap();
     path
 }
 
