@@ -33,6 +33,30 @@ pub enum LineError {
     /// the next request, so the line cannot be trusted.
     #[error("input flush failed: {0}")]
     Flush(std::io::Error),
+    /// The port refused kernel RS-485 mode (a pty, a USB adapter whose driver has no
+    /// RS-485 support): `setting` is the project key it was asked for.
+    #[error("{} does not support kernel RS-485 mode ({setting}): {source}", path.display())]
+    Rs485 {
+        /// The device path.
+        path: PathBuf,
+        /// The project key (`rs485.rts_on_send`).
+        setting: &'static str,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The port took kernel RS-485 mode but reads back another value for one setting (the
+    /// kernel reverts what the driver does not support).
+    #[error("{} kept {setting} at {got}, not {asked} as configured (its driver does not support it)", path.display())]
+    Rs485Kept {
+        /// The device path.
+        path: PathBuf,
+        /// The project key (`rs485.delay_after_send`).
+        setting: &'static str,
+        /// What the project asks, in the key's own words (`5 ms`, `true`).
+        asked: String,
+        /// What the port reads back.
+        got: String,
+    },
 }
 
 /// How a line failed, as a value that can be kept, compared and copied (a [`LineError`]
@@ -56,6 +80,8 @@ impl From<&LineError> for LineFault {
             LineError::Open { source, .. } => LineFault::Open(source.kind()),
             LineError::Io(e) => LineFault::Io(e.kind()),
             LineError::Flush(e) => LineFault::Flush(e.kind()),
+            LineError::Rs485 { source, .. } => LineFault::Open(source.kind()),
+            LineError::Rs485Kept { .. } => LineFault::Open(std::io::ErrorKind::Unsupported),
         }
     }
 }
@@ -102,6 +128,8 @@ pub struct SerialTransport {
     /// Where it was opened from, to reopen it; `None` for a port handed over already open.
     path: Option<PathBuf>,
     settings: LineSettings,
+    /// Kernel RS-485 mode, applied again on every reopen.
+    rs485: Option<Rs485Mode>,
     clock: Arc<dyn Clock>,
 }
 
@@ -169,12 +197,26 @@ impl SerialTransport {
             port: Some(port),
             path: None,
             settings,
+            rs485: None,
             clock,
         }
     }
 }
 
 impl SerialTransport {
+    /// Puts the port in kernel RS-485 mode (the UART drives RTS, hence the transceiver's
+    /// direction, itself) and reads the mode back; kept for every reopen. A port that refuses
+    /// it, or keeps a setting other than asked, is an error, never a silent success.
+    pub fn set_rs485(&mut self, mode: Rs485Mode) -> Result<(), LineError> {
+        let path = self
+            .path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("(port handed over open)"));
+        apply_rs485(self.port()?, &path, mode)?;
+        self.rs485 = Some(mode);
+        Ok(())
+    }
+
     fn port(&mut self) -> Result<&mut TTYPort, LineError> {
         self.port.as_mut().ok_or_else(|| {
             LineError::Io(std::io::Error::new(
@@ -182,6 +224,145 @@ impl SerialTransport {
                 "the port is closed",
             ))
         })
+    }
+}
+
+/// Kernel RS-485 mode of a UART (`TIOCSRS485`, Documentation/driver-api/serial/serial-rs485.rst):
+/// the driver raises RTS for the frame and drops it after, so a transceiver whose DE is wired to
+/// RTS turns around with the frame. USB adapters switch in hardware and do not need it (most
+/// refuse it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rs485Mode {
+    /// RTS is high while sending (and low after); `false` inverts it.
+    pub rts_on_send: bool,
+    /// RTS raised this long before the first character (whole ms; the kernel caps at 100 ms).
+    pub delay_before_send: Duration,
+    /// RTS held this long after the last character (whole ms; the kernel caps at 100 ms).
+    pub delay_after_send: Duration,
+}
+
+impl Rs485Mode {
+    /// The longest delay the kernel accepts (`RS485_MAX_RTS_DELAY`).
+    pub const MAX_DELAY: Duration = Duration::from_millis(100);
+}
+
+/// `SER_RS485_*` flags of `include/uapi/linux/serial.h`.
+const SER_RS485_ENABLED: u32 = 1 << 0;
+const SER_RS485_RTS_ON_SEND: u32 = 1 << 1;
+const SER_RS485_RTS_AFTER_SEND: u32 = 1 << 2;
+
+/// `struct serial_rs485` (32 bytes; `libc` has the ioctl numbers but not the struct).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct SerialRs485 {
+    flags: u32,
+    delay_rts_before_send: u32,
+    delay_rts_after_send: u32,
+    padding: [u32; 5],
+}
+
+fn ms(d: Duration) -> u32 {
+    u32::try_from(d.as_millis()).unwrap_or(u32::MAX)
+}
+
+impl SerialRs485 {
+    fn encode(mode: Rs485Mode) -> Self {
+        let rts = if mode.rts_on_send {
+            SER_RS485_RTS_ON_SEND
+        } else {
+            SER_RS485_RTS_AFTER_SEND
+        };
+        Self {
+            flags: SER_RS485_ENABLED | rts,
+            delay_rts_before_send: ms(mode.delay_before_send),
+            delay_rts_after_send: ms(mode.delay_after_send),
+            padding: [0; 5],
+        }
+    }
+
+    /// The first setting the port kept other than asked: `(key, asked, got)`.
+    fn differs(self, mode: Rs485Mode) -> Option<(&'static str, String, String)> {
+        let want = Self::encode(mode);
+        if self.flags & SER_RS485_ENABLED == 0 {
+            return Some(("rs485", "enabled".into(), "disabled".into()));
+        }
+        let on_send = self.flags & SER_RS485_RTS_ON_SEND != 0;
+        if on_send != mode.rts_on_send {
+            return Some((
+                "rs485.rts_on_send",
+                mode.rts_on_send.to_string(),
+                on_send.to_string(),
+            ));
+        }
+        if self.delay_rts_before_send != want.delay_rts_before_send {
+            return Some((
+                "rs485.delay_before_send",
+                format!("{} ms", want.delay_rts_before_send),
+                format!("{} ms", self.delay_rts_before_send),
+            ));
+        }
+        if self.delay_rts_after_send != want.delay_rts_after_send {
+            return Some((
+                "rs485.delay_after_send",
+                format!("{} ms", want.delay_rts_after_send),
+                format!("{} ms", self.delay_rts_after_send),
+            ));
+        }
+        None
+    }
+}
+
+/// One RS-485 ioctl on `port` (`TIOCSRS485` or `TIOCGRS485`). Written here rather than taken
+/// from a crate: `serial2`'s `rs4xx` would mean opening the port with a second serial crate
+/// (softplc opens it with `serialport`, which has no RS-485 API), and the `rs485` crate
+/// hard-codes the x86/arm ioctl numbers (wrong on mips, powerpc, sparc) and dates from 2017;
+/// `libc` has the right numbers for every architecture.
+fn rs485_ioctl(
+    port: &TTYPort,
+    request: libc::Ioctl,
+    conf: &mut SerialRs485,
+) -> std::io::Result<()> {
+    use std::os::fd::AsRawFd;
+    // SAFETY: the descriptor is open for as long as `port` is borrowed, and both requests
+    // read or write exactly one `struct serial_rs485`, which `SerialRs485` lays out (repr(C),
+    // 8 u32s = 32 bytes) and `conf` points to for the whole call.
+    let rc = unsafe { libc::ioctl(port.as_raw_fd(), request, conf as *mut SerialRs485) };
+    if rc < 0 {
+        Err(std::io::Error::last_os_error())
+    } else {
+        Ok(())
+    }
+}
+
+/// Sets `mode` and reads it back: the kernel reverts what the driver does not support, and a
+/// GET alone proves nothing (it succeeds on ports without RS-485).
+fn apply_rs485(port: &TTYPort, path: &Path, mode: Rs485Mode) -> Result<(), LineError> {
+    let refused = |source| LineError::Rs485 {
+        path: path.to_path_buf(),
+        setting: "rs485.rts_on_send",
+        source,
+    };
+    let mut conf = SerialRs485::encode(mode);
+    rs485_ioctl(port, libc::TIOCSRS485, &mut conf).map_err(refused)?;
+    let mut back = SerialRs485::default();
+    rs485_ioctl(port, libc::TIOCGRS485, &mut back).map_err(refused)?;
+    match back.differs(mode) {
+        None => {
+            tracing::info!(
+                port = %path.display(),
+                flags = back.flags,
+                delay_before_send_ms = back.delay_rts_before_send,
+                delay_after_send_ms = back.delay_rts_after_send,
+                "kernel RS-485 mode on"
+            );
+            Ok(())
+        }
+        Some((setting, asked, got)) => Err(LineError::Rs485Kept {
+            path: path.to_path_buf(),
+            setting,
+            asked,
+            got,
+        }),
     }
 }
 
@@ -196,7 +377,11 @@ impl Transport for SerialTransport {
         // Close first: the old descriptor holds the device's exclusive lock, and a replugged
         // adapter gets its name back only once every descriptor of the old one is closed.
         self.port = None;
-        self.port = Some(open_tty(&path, self.settings)?);
+        let port = open_tty(&path, self.settings)?;
+        if let Some(mode) = self.rs485 {
+            apply_rs485(&port, &path, mode)?;
+        }
+        self.port = Some(port);
         Ok(())
     }
 
@@ -278,5 +463,75 @@ impl Transport for SerialTransport {
         port.clear(serialport::ClearBuffer::Input)
             .map_err(|e| LineError::Flush(std::io::Error::from(e)))?;
         Ok(pending)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn serial_rs485_is_the_kernels_32_bytes() {
+        assert_eq!(std::mem::size_of::<SerialRs485>(), 32);
+        assert_eq!(std::mem::align_of::<SerialRs485>(), 4);
+    }
+
+    #[test]
+    fn rs485_mode_encodes_flags_and_delays() {
+        let on = Rs485Mode {
+            rts_on_send: true,
+            delay_before_send: Duration::from_millis(2),
+            delay_after_send: Duration::from_micros(5_900),
+        };
+        let c = SerialRs485::encode(on);
+        assert_eq!(c.flags, 0b011); // ENABLED | RTS_ON_SEND
+        assert_eq!((c.delay_rts_before_send, c.delay_rts_after_send), (2, 5));
+        assert_eq!(c.padding, [0; 5]);
+        assert_eq!(c.differs(on), None);
+
+        let inverted = Rs485Mode {
+            rts_on_send: false,
+            ..on
+        };
+        assert_eq!(SerialRs485::encode(inverted).flags, 0b101); // ENABLED | RTS_AFTER_SEND
+    }
+
+    #[test]
+    fn read_back_names_the_setting_the_port_kept() {
+        let mode = Rs485Mode {
+            rts_on_send: true,
+            delay_before_send: Duration::ZERO,
+            delay_after_send: Duration::from_millis(3),
+        };
+        // sc16is7xx: delay_rts_after_send is not supported and comes back 0.
+        let mut back = SerialRs485::encode(mode);
+        back.delay_rts_after_send = 0;
+        assert_eq!(
+            back.differs(mode),
+            Some(("rs485.delay_after_send", "3 ms".into(), "0 ms".into()))
+        );
+        assert_eq!(
+            SerialRs485::default().differs(mode).map(|d| d.0),
+            Some("rs485")
+        );
+    }
+
+    #[test]
+    fn a_pty_refuses_rs485_mode_by_name() {
+        let (_master, slave, name) = pty_pair().unwrap();
+        let mode = Rs485Mode {
+            rts_on_send: true,
+            delay_before_send: Duration::ZERO,
+            delay_after_send: Duration::ZERO,
+        };
+        let e = apply_rs485(&slave, Path::new(&name), mode).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.starts_with(&format!(
+                "{name} does not support kernel RS-485 mode (rs485.rts_on_send): "
+            )),
+            "{text}"
+        );
+        assert!(matches!(e, LineError::Rs485 { .. }));
     }
 }

@@ -82,14 +82,18 @@ impl Plc {
                         clock.clone(),
                     ))
                 }
-                PortConfig::Serial(path) => Box::new(
-                    SerialTransport::open(path, bus.settings, clock.clone()).map_err(|source| {
-                        BuildError::Port {
-                            bus: bus.name.clone(),
-                            source,
-                        }
-                    })?,
-                ),
+                PortConfig::Serial(path) => {
+                    let port_error = |source| BuildError::Port {
+                        bus: bus.name.clone(),
+                        source,
+                    };
+                    let mut port = SerialTransport::open(path, bus.settings, clock.clone())
+                        .map_err(port_error)?;
+                    if let Some(mode) = bus.rs485 {
+                        port.set_rs485(mode).map_err(port_error)?;
+                    }
+                    Box::new(port)
+                }
             };
             let modules = bus_modules[b]
                 .iter()

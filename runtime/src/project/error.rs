@@ -240,6 +240,15 @@ pub enum ErrorKind {
         /// The value given.
         format: String,
     },
+    /// `rs485:` on a `port: sim` bus (the virtual line has no UART).
+    #[error("rs485 is for a device port (a UART with an RS-485 transceiver), not port: sim")]
+    Rs485OnSim,
+    /// An RS-485 delay that is not whole ms in 0..=100 ms.
+    #[error("{key} must be whole milliseconds from 0ms to 100ms (the kernel's limit)")]
+    BadRs485Delay {
+        /// Which one (`rs485.delay_after_send`).
+        key: &'static str,
+    },
     /// Retries outside 0..=255.
     #[error("retries {value} is outside 0..=255")]
     BadRetries {

@@ -92,6 +92,8 @@ pub struct BusConfig {
     pub retries: u8,
     /// Period of the full output refresh (outputs are otherwise written on change).
     pub output_refresh: Duration,
+    /// Kernel RS-485 mode to set when the port is opened (`rs485:`).
+    pub rs485: Option<softplc_io::line::transport::Rs485Mode>,
 }
 
 /// One module.

@@ -13,6 +13,12 @@
 //!     port: sim                # `sim`, or a device path: /dev/ttyUSB0, /dev/pts/3
 //!     baud: 19200              # default 19200
 //!     format: 8E1              # data bits 7|8, parity N|E|O, stop bits 1|2; default 8E1
+//!     rs485: { rts_on_send: true, delay_before_send: 0ms, delay_after_send: 0ms }
+//!                              # optional, device ports only: kernel RS-485 mode (TIOCSRS485)
+//!                              # for a UART whose RTS drives the transceiver (Pi HATs); set at
+//!                              # open and read back, a port that refuses it stops the start.
+//!                              # rts_on_send: RTS high while sending (false: inverted);
+//!                              # delays in whole ms, 0..=100ms. USB adapters need none.
 //!     response_timeout: 50ms   # default 100ms
 //!     retries: 1               # attempts after a failed one, 0..=255; default 1
 //!     output_refresh: 1s       # period of the full output rewrite; default 1s
@@ -180,7 +186,7 @@ pub struct RawRealtime {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh"
+    expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh, rs485"
 )]
 pub struct RawBus {
     /// The line's name.
@@ -202,6 +208,27 @@ pub struct RawBus {
     /// Full output refresh period (default 1 s).
     #[serde(default)]
     pub output_refresh: Option<DurationText>,
+    /// Kernel RS-485 mode (`TIOCSRS485`) for a UART whose RTS drives the transceiver.
+    #[serde(default)]
+    pub rs485: Option<RawRs485>,
+}
+
+/// A bus's `rs485:` mapping.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "rs485: a mapping with rts_on_send, delay_before_send, delay_after_send"
+)]
+pub struct RawRs485 {
+    /// RTS high while sending (default true); `false` inverts it.
+    #[serde(default)]
+    pub rts_on_send: Option<bool>,
+    /// RTS raised before the first character (default 0ms, whole ms, at most 100ms).
+    #[serde(default)]
+    pub delay_before_send: Option<DurationText>,
+    /// RTS held after the last character (default 0ms, whole ms, at most 100ms).
+    #[serde(default)]
+    pub delay_after_send: Option<DurationText>,
 }
 
 /// One `modules:` entry.

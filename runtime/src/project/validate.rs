@@ -14,7 +14,9 @@ use super::model::{
     Binding, BusConfig, ModuleConfig, PlantConfig, PortConfig, ProgramConfig, ProgramKind, Project,
     RealtimeConfig, ScanConfig, TagConfig, WatchdogConfig,
 };
-use super::raw::{Int, RawBus, RawModule, RawPlant, RawProject, RawScan, RawTag};
+use softplc_io::line::transport::Rs485Mode;
+
+use super::raw::{Int, RawBus, RawModule, RawPlant, RawProject, RawRs485, RawScan, RawTag};
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
 use crate::suggest::edit_distance;
@@ -359,7 +361,12 @@ impl Validator<'_> {
             None => Some(DEFAULT_OUTPUT_REFRESH),
             Some(t) => self.positive(t.0, path.key("output_refresh"), "output_refresh"),
         };
+        let rs485 = match &raw.rs485 {
+            None => Some(None),
+            Some(r) => self.rs485(r, &port, &path.key("rs485")),
+        };
         Some(BusConfig {
+            rs485: rs485?,
             name: raw.name.clone(),
             port: port?,
             settings: LineSettings {
@@ -370,6 +377,43 @@ impl Validator<'_> {
             retries: retries?,
             output_refresh: output_refresh?,
         })
+    }
+
+    /// A bus's `rs485:`: on a device port only, delays in whole ms up to the kernel's 100 ms.
+    fn rs485(
+        &mut self,
+        raw: &RawRs485,
+        port: &Option<PortConfig>,
+        path: &YPath,
+    ) -> Option<Option<Rs485Mode>> {
+        if matches!(port, Some(PortConfig::Sim)) {
+            self.error(path.clone(), ErrorKind::Rs485OnSim);
+            return None;
+        }
+        let mut delay = |d: Option<super::raw::DurationText>, name: &str, key: &'static str| {
+            let d = d.map_or(Duration::ZERO, |d| d.0);
+            if d > Rs485Mode::MAX_DELAY || d.subsec_nanos() % 1_000_000 != 0 {
+                self.error(path.key(name), ErrorKind::BadRs485Delay { key });
+                None
+            } else {
+                Some(d)
+            }
+        };
+        let before = delay(
+            raw.delay_before_send,
+            "delay_before_send",
+            "rs485.delay_before_send",
+        );
+        let after = delay(
+            raw.delay_after_send,
+            "delay_after_send",
+            "rs485.delay_after_send",
+        );
+        Some(Some(Rs485Mode {
+            rts_on_send: raw.rts_on_send.unwrap_or(true),
+            delay_before_send: before?,
+            delay_after_send: after?,
+        }))
     }
 
     /// Validates every module; returns, per module, what could be resolved and the config.
