@@ -30,6 +30,7 @@ pub mod text;
 pub mod watchdog;
 
 #[cfg(test)]
+#[path = "tests/line.rs"]
 pub(crate) mod line_tests;
 
 use std::time::Duration;

@@ -74,6 +74,7 @@ pub mod state;
 pub mod value;
 
 #[cfg(test)]
+#[path = "tests/line.rs"]
 mod line_tests;
 #[cfg(test)]
 mod tests;
