@@ -7,6 +7,7 @@
 //! - [`scan`]: the scan thread: deadlines, phases, overruns, the task watchdog, statistics.
 //! - [`retain`]: retained tags, saved atomically, restored at start-up.
 //! - [`plc`]: a project wired into a runnable PLC (lines, drivers, image, program).
+//! - [`trace`]: tags sampled every cycle around a trigger; CSV and VCD writers.
 //! - [`cli`]: the `softplc` subcommands.
 
 pub mod cli;
@@ -20,3 +21,4 @@ pub mod retain;
 pub mod scan;
 pub mod service;
 mod suggest;
+pub mod trace;

@@ -1,0 +1,3 @@
+//! Trace: chosen tags, module counters and phase times sampled at every cycle boundary.
+
+pub mod export;
