@@ -71,12 +71,114 @@ pub enum CompileErrorKind {
         /// `good` or `bad`.
         function: &'static str,
     },
+    /// A variable that is neither a tag nor declared with `let` (Rhai's strict variables).
+    #[error("unknown tag or variable `{name}`{}", hint(.suggestion.as_deref(), "declare it under `tags:` in the project, or with `let` in the script"))]
+    UnknownVariable {
+        /// The name.
+        name: String,
+        /// The closest tag or variable name.
+        suggestion: Option<String>,
+    },
+    /// A call of a function that neither the library, the script nor Rhai defines (Rhai would
+    /// fault when the call is reached: `Function not found`).
+    #[error("unknown function `{name}`{}", hint(.suggestion.as_deref(), "the library is ton, tof, tp, stair, ctu, ctd, ctud, r_trig, f_trig, sr, rs, toggle, blink, blink_pattern, q, et, cv, qu, qd, good, bad, limit"))]
+    UnknownFunction {
+        /// The name called.
+        name: String,
+        /// The closest known function, as its usage (`ton(name, in, pt)`).
+        suggestion: Option<String>,
+    },
+    /// A known function called with a number of arguments it has no form for.
+    #[error("{name}() takes {usage}; this call has {found}")]
+    Arity {
+        /// The function.
+        name: String,
+        /// Its forms: `3 arguments: ton(name, in, pt)`, or `3 arguments` for a script
+        /// function.
+        usage: String,
+        /// Arguments given.
+        found: usize,
+    },
+    /// An argument of a library function of a type the parameter does not take.
+    #[error("argument `{param}` of {function}() is {expected}, not {found}")]
+    ArgumentType {
+        /// The function.
+        function: &'static str,
+        /// The parameter.
+        param: &'static str,
+        /// What it takes ("a bool", "a time (ms or a string like \"2s\")").
+        expected: &'static str,
+        /// What was given ("an integer").
+        found: &'static str,
+    },
+    /// A literal duration argument that is not one.
+    #[error("bad duration \"{text}\" for `{param}` of {function}(): {reason}; write e.g. \"500ms\", \"2s\" or a number of ms")]
+    BadDuration {
+        /// The function.
+        function: &'static str,
+        /// The parameter.
+        param: &'static str,
+        /// The literal.
+        text: String,
+        /// Why.
+        reason: crate::project::DurationError,
+    },
+    /// A literal blink pattern that is not one.
+    #[error("bad pattern \"{text}\" for blink_pattern(): {reason}")]
+    BadPattern {
+        /// The literal.
+        text: String,
+        /// Why.
+        reason: crate::logic::blocks::PatternError,
+    },
+    /// A value of a type the tag cannot hold, assigned to it.
+    #[error("type error: `{name}` is {ty}, the value assigned is {value}{}", assign_hint(*.ty))]
+    AssignType {
+        /// The tag.
+        name: String,
+        /// Its declared type.
+        ty: softplc_io::point::ValueType,
+        /// The value's type ("an integer").
+        value: &'static str,
+    },
+    /// An operator given operands of types it cannot take.
+    #[error("type error: `{op}` cannot take {operands}")]
+    OperandType {
+        /// The operator.
+        op: String,
+        /// The operands' types ("a bool and an integer").
+        operands: String,
+    },
+    /// A condition (`if`, `while`, `&&`, `||`) that is not a bool.
+    #[error("type error: a condition is a bool, not {found}; compare it, e.g. `x > 0`")]
+    ConditionType {
+        /// Its type.
+        found: &'static str,
+    },
     /// A tag name the script cannot use (a Rhai keyword), used anyway.
     #[error("tag `{name}` has the name of a Rhai keyword and cannot be used in a script; rename it in the project")]
     KeywordTag {
         /// The tag.
         name: String,
     },
+}
+
+/// `; did you mean `x`?`, or the fallback advice.
+fn hint(suggestion: Option<&str>, otherwise: &str) -> String {
+    match suggestion {
+        Some(s) => format!("; did you mean `{s}`?"),
+        None => format!("; {otherwise}"),
+    }
+}
+
+/// How to store a value in a tag of type `ty` when its type does not fit.
+fn assign_hint(ty: softplc_io::point::ValueType) -> &'static str {
+    use softplc_io::point::ValueType as T;
+    match ty {
+        T::Bool => "; a bool tag takes a condition, e.g. `x > 0`",
+        T::U16 | T::I32 => "; round it explicitly, e.g. `x.to_int()` or `x.round().to_int()`",
+        T::F32 => "; an f32 tag takes a number",
+    }
 }
 
 /// A 1-based line and column in the user's file, from a Rhai position in the compiled text

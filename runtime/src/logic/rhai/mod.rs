@@ -12,8 +12,20 @@
 //!
 //! Every project tag is a variable of the script under its own name: module inputs are
 //! constants (assigning one is a compile error), outputs and memory tags are variables.
-//! `bool` tags are Rhai `bool`s, `u16`/`i32` tags integers, `f32` tags floats; a value
-//! assigned is converted to the tag's type at the end of the scan (integers saturate).
+//! `bool` tags are Rhai `bool`s, `u16`/`i32` tags integers, `f32` tags floats. A tag takes a
+//! value of its own kind only: a bool tag a bool, an integer tag an integer (saturated into its
+//! range at the end of the scan), an `f32` tag an integer or a float. `pump1 = 2` or
+//! `count = level / 2.0` is a type error at compile time when the value's type shows (a
+//! literal, a tag, an operator or a library call over them), and a script fault naming the tag
+//! when it does not (a `let` variable, a script function's result): never a silent conversion.
+//!
+//! # What the compiler checks
+//!
+//! Rhai finds functions and checks types only when a call is reached, so the compiler checks
+//! every call in every branch and every script function first (see `typing.rs`): the
+//! function's name (with the closest known one), its number of arguments, the types of
+//! arguments it can see and literal durations and patterns; and assignments, operators and
+//! conditions against the tags' declared types.
 //! Variables declared with `let` live for one scan; what must survive to the next scan is a
 //! memory tag (retained if `retain: true`) or a block instance. Script functions (`fn`) do not
 //! see tags: pass values as arguments.
@@ -59,11 +71,16 @@
 
 mod blocks;
 mod check;
+#[cfg(test)]
+mod check_tests;
 mod engine;
 mod error;
 mod quality;
+mod signatures;
 #[cfg(test)]
 mod tests;
+mod types;
+mod typing;
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -195,8 +212,21 @@ pub fn compile_with(
         Ok(ast) => ast,
         Err(e) => {
             let pos = e.position();
-            let message = error::message(e.to_string());
-            let mut out = vec![err(pos, CompileErrorKind::Parse { message })];
+            let kind = match e.err_type() {
+                rhai::ParseErrorType::VariableUndefined(name) => {
+                    CompileErrorKind::UnknownVariable {
+                        suggestion: crate::logic::expr::closest_name(
+                            name,
+                            usable.iter().map(|t| t.name.as_str()),
+                        ),
+                        name: name.clone(),
+                    }
+                }
+                _ => CompileErrorKind::Parse {
+                    message: error::message(e.to_string()),
+                },
+            };
+            let mut out = vec![err(pos, kind)];
             if let Some(bad) = tags.iter().find(|t| {
                 !usable.iter().any(|u| u.name == t.name) && source.contains(t.name.as_str())
             }) {
@@ -216,6 +246,7 @@ pub fn compile_with(
 
     let mut errors = Vec::new();
     let usage = check::walk(&ast, &mut errors);
+    typing::check(&ast, tags, &typing::Known::of(&engine, &ast), &mut errors);
     let qualities = Arc::new(quality::resolve(&ast, tags, &mut errors));
     quality::register(&mut engine, &qualities);
     if !errors.is_empty() {
@@ -268,27 +299,40 @@ fn to_dynamic(v: Value) -> Dynamic {
     }
 }
 
-/// A script value as a tag value of type `ty`; `None` for a value that is not a bool or a
-/// number.
+/// A script value as a tag value of type `ty`, under the rule the checker applies to the
+/// values it can see (`types::Ty::fits`): a bool tag takes a bool, an integer tag an integer
+/// (saturated into its range), an `f32` tag a number. `None` for any other value: the script
+/// faults naming the tag, rather than storing a silent conversion (`2` as `true`, `0.5` as
+/// `0`).
 fn from_dynamic(d: &Dynamic, ty: ValueType) -> Option<Value> {
-    let v = if let Ok(b) = d.as_bool() {
-        Value::Bool(b)
-    } else if let Ok(i) = d.as_int() {
-        match ty {
-            ValueType::F32 => Value::F32(i as f32),
-            _ => Value::I32(i.clamp(INT::from(i32::MIN), INT::from(i32::MAX)) as i32),
+    let v = match ty {
+        ValueType::Bool => Value::Bool(d.as_bool().ok()?),
+        ValueType::U16 | ValueType::I32 => {
+            let i = d.as_int().ok()?;
+            Value::I32(i.clamp(INT::from(i32::MIN), INT::from(i32::MAX)) as i32)
         }
-    } else if let Ok(f) = d.as_float() {
-        match ty {
-            ValueType::F32 => Value::F32(f as f32),
-            ValueType::Bool => Value::Bool(f != 0.0),
-            _ if f.is_nan() => Value::I32(0),
-            _ => Value::F32(f.clamp(-3.0e9, 3.0e9) as f32),
-        }
-    } else {
-        return None;
+        ValueType::F32 => match (d.as_int(), d.as_float()) {
+            (Ok(i), _) => Value::F32(i as f32),
+            (_, Ok(f)) => Value::F32(f as f32),
+            _ => return None,
+        },
     };
     Some(convert(v, ty))
+}
+
+/// A script value's type in words, as the checker says it (`types::Ty::words`).
+fn words(d: &Dynamic) -> &'static str {
+    if d.is_bool() {
+        types::Ty::Bool.words()
+    } else if d.is_int() {
+        types::Ty::Int.words()
+    } else if d.is_float() {
+        types::Ty::Float.words()
+    } else if d.is_string() {
+        types::Ty::Str.words()
+    } else {
+        "a value of another type"
+    }
 }
 
 impl RhaiProgram {
@@ -319,10 +363,11 @@ impl RhaiProgram {
             let Some(v) = from_dynamic(&d, h.ty) else {
                 return Err(LogicFault {
                     message: format!(
-                        "script error: tag `{}` ({}) was assigned a {}",
+                        "script error: tag `{}` is {}, the script assigned it {} ({})",
                         h.name,
                         h.ty,
-                        d.type_name()
+                        words(&d),
+                        d
                     ),
                     pos: error::user_pos(&self.file, h.assigned.unwrap_or(Position::new(2, 1))),
                 });

@@ -21,7 +21,7 @@ const TAGS: &[(&str, ValueType, bool)] = &[
     ("fn", ValueType::Bool, true),
 ];
 
-fn table() -> TagTable {
+pub(super) fn table() -> TagTable {
     TagTable::new(
         TAGS.iter()
             .enumerate()
@@ -190,11 +190,30 @@ fn runtime_errors_fault_with_the_position() {
     let mut r = Rig::new("motor = true;\nlet x = [1, 2];\ncount = x[5];\n");
     let f = r.try_scan().unwrap_err();
     assert_eq!((f.pos.line, f.pos.column), (3, 11), "{f}");
-    let mut r = Rig::new("motor = \"on\";\n");
-    let f = r.try_scan().unwrap_err();
-    assert_eq!(f.pos.line, 1);
-    assert!(f.message.contains("was assigned a string"), "{f}");
-    let mut r = Rig::new("ton(\"t\", start, \"2 fortnights\");\n");
+    // Values whose types the compiler cannot see are checked when they are stored.
+    for (script, message) in [
+        (
+            "let s = \"on\";\nmotor = s;\n",
+            "script error: tag `motor` is bool, the script assigned it a string (on)",
+        ),
+        (
+            "let v = 2;\nmotor = v;\n",
+            "script error: tag `motor` is bool, the script assigned it an integer (2)",
+        ),
+        (
+            "let v = 0.5;\ncount = v;\n",
+            "script error: tag `count` is i32, the script assigned it a float (0.5)",
+        ),
+    ] {
+        let mut r = Rig::new(script);
+        let f = r.try_scan().unwrap_err();
+        assert_eq!(
+            (f.pos.line, f.pos.column, f.message.as_str()),
+            (2, 1, message)
+        );
+        assert_eq!(r.get("motor"), Value::Bool(false), "nothing stored");
+    }
+    let mut r = Rig::new("let d = \"2 fortnights\";\nton(\"t\", start, d);\n");
     assert!(r.try_scan().unwrap_err().message.contains("bad duration"));
 }
 

@@ -1,0 +1,409 @@
+//! What `softplc check` (and a reload's compile) finds in a script before it runs, beyond
+//! Rhai's parser: Rhai resolves functions and checks types only when a call or an operator is
+//! reached, so a typo in a branch taken at scan 101 would fault the running PLC then. The
+//! checker walks every statement and expression, every branch and every script function, and
+//! reports:
+//!
+//! - a call of a function nobody defines (with the closest known one), or with a number of
+//!   arguments none of its forms takes;
+//! - a library call's arguments whose types are known (literals, tags) and do not fit, and
+//!   literal durations and blink patterns that do not parse;
+//! - an assignment to a tag of a value whose type the tag cannot hold, an operator given
+//!   operands it cannot take, a condition that is not a bool.
+//!
+//! The walk is Rhai's own [`AST::walk`] (a visitor over every node, in the `internals` API),
+//! not a match over every statement and expression kind here: the visitor follows the
+//! language as Rhai maintains it, and each check looks only at the nodes it knows. Types are
+//! those [`types::infer`] can see; a value of an unknown type is checked when the script
+//! assigns it (`RhaiProgram::copy_out`).
+
+use std::collections::HashSet;
+
+use rhai::{ASTNode, Engine, Expr, FnCallExpr, Position, Stmt, AST};
+
+use super::error::CompileErrorKind;
+use super::signatures::{self, Param, Signature};
+use super::types::{self, Ty};
+use crate::logic::blocks::Pattern;
+use crate::logic::expr::{closest_name, TagTable};
+
+type Errors = Vec<(Position, CompileErrorKind)>;
+
+/// Functions Rhai itself handles, whatever their arguments.
+const KEYWORDS: [&str; 9] = [
+    "print",
+    "debug",
+    "type_of",
+    "Fn",
+    "call",
+    "curry",
+    "is_shared",
+    "is_def_var",
+    "is_def_fn",
+];
+
+/// The functions a script may call besides the library: the engine's packages and the
+/// script's own functions, by name and number of parameters.
+#[derive(Debug, Default)]
+pub(crate) struct Known {
+    forms: HashSet<(String, usize)>,
+    /// Names callable by a user (no operators or property accessors), for suggestions.
+    names: Vec<String>,
+}
+
+impl Known {
+    /// What `engine` (its packages; the library is held against [`signatures`]) and `ast`
+    /// define.
+    pub(crate) fn of(engine: &Engine, ast: &AST) -> Known {
+        let mut forms: HashSet<(String, usize)> = engine
+            .collect_fn_metadata(
+                None,
+                |f| Some((f.metadata.name.to_string(), f.metadata.num_params)),
+                true,
+            )
+            .into_iter()
+            .collect();
+        forms.extend(
+            ast.iter_functions()
+                .map(|f| (f.name.to_string(), f.params.len())),
+        );
+        let mut names: Vec<String> = forms
+            .iter()
+            .map(|(n, _)| n.clone())
+            .filter(|n| {
+                n.chars()
+                    .next()
+                    .is_some_and(|c| c.is_alphabetic() || c == '_')
+            })
+            .filter(|n| !n.contains('$'))
+            .collect();
+        names.sort();
+        names.dedup();
+        Known { forms, names }
+    }
+
+    fn arities(&self, name: &str) -> Vec<usize> {
+        let mut a: Vec<usize> = self
+            .forms
+            .iter()
+            .filter(|(n, _)| n == name)
+            .map(|(_, k)| *k)
+            .collect();
+        a.sort_unstable();
+        a
+    }
+}
+
+/// Checks `ast` (the user's statements and functions) against `tags` and `known`.
+pub(crate) fn check(ast: &AST, tags: &TagTable, known: &Known, errors: &mut Errors) {
+    // Names the script declares itself (`let`, `const`, loop variables) shadow tags of the
+    // same name; their types are not known.
+    let mut declared: HashSet<String> = HashSet::new();
+    ast.walk(&mut |path: &[ASTNode]| {
+        match path.last() {
+            Some(ASTNode::Stmt(Stmt::Var(v, _, _))) => {
+                declared.insert(v.0.name.to_string());
+            }
+            Some(ASTNode::Stmt(Stmt::For(f, _))) => {
+                declared.insert(f.0.name.to_string());
+                if let Some(counter) = &f.1 {
+                    declared.insert(counter.name.to_string());
+                }
+            }
+            _ => {}
+        }
+        true
+    });
+    let tag_type = |name: &str| {
+        if declared.contains(name) {
+            return None;
+        }
+        tags.get(name).map(|t| Ty::of_tag(t.ty))
+    };
+    // Script functions do not see tags.
+    let no_tags = |_: &str| None;
+    let mut checker = Checker {
+        tags,
+        known,
+        errors,
+    };
+    checker.walk(&ast.clone_statements_only(), &tag_type, true);
+    checker.walk(&ast.clone_functions_only(), &no_tags, false);
+}
+
+struct Checker<'a> {
+    tags: &'a TagTable,
+    known: &'a Known,
+    errors: &'a mut Errors,
+}
+
+impl Checker<'_> {
+    fn walk(&mut self, ast: &AST, var: &dyn Fn(&str) -> Option<Ty>, sees_tags: bool) {
+        ast.walk(&mut |path: &[ASTNode]| {
+            match path.last() {
+                Some(ASTNode::Expr(Expr::FnCall(call, pos)))
+                | Some(ASTNode::Stmt(Stmt::FnCall(call, pos))) => self.call(call, *pos, var),
+                Some(ASTNode::Expr(Expr::MethodCall(call, pos))) => self.method(call, *pos),
+                Some(ASTNode::Expr(Expr::And(items, _) | Expr::Or(items, _))) => {
+                    for item in items.iter() {
+                        self.condition(item, var);
+                    }
+                }
+                Some(ASTNode::Stmt(
+                    Stmt::If(flow, _) | Stmt::While(flow, _) | Stmt::Do(flow, _, _),
+                )) => self.condition(&flow.expr, var),
+                Some(ASTNode::Stmt(Stmt::Assignment(a))) if sees_tags => {
+                    self.assignment(&a.0, &a.1.lhs, &a.1.rhs, var);
+                }
+                _ => {}
+            }
+            true
+        });
+    }
+
+    fn fail(&mut self, pos: Position, kind: CompileErrorKind) {
+        self.errors.push((pos, kind));
+    }
+
+    fn condition(&mut self, expr: &Expr, var: &dyn Fn(&str) -> Option<Ty>) {
+        let ty = types::infer(expr, var);
+        if !matches!(ty, Ty::Bool | Ty::Unknown) {
+            self.fail(
+                start(expr),
+                CompileErrorKind::ConditionType { found: ty.words() },
+            );
+        }
+    }
+
+    fn assignment(
+        &mut self,
+        op: &rhai::OpAssignment,
+        lhs: &Expr,
+        rhs: &Expr,
+        var: &dyn Fn(&str) -> Option<Ty>,
+    ) {
+        let Expr::Variable(v, _, _) = lhs else {
+            return;
+        };
+        let name = v.1.as_str();
+        let (Some(tag), Some(tag_ty)) = (self.tags.get(name), var(name)) else {
+            return;
+        };
+        let value = types::infer(rhs, var);
+        let (value, pos) = match op.get_op_assignment_info() {
+            Some((_, _, _, _, _, syntax)) => {
+                let operands = [tag_ty, value];
+                if types::operands_clash(syntax, &operands) {
+                    self.operands(syntax, &operands, op.position());
+                    return;
+                }
+                (types::operator(syntax, &operands), op.position())
+            }
+            None => (value, start(rhs)),
+        };
+        if !value.fits(tag.ty) {
+            self.fail(
+                pos,
+                CompileErrorKind::AssignType {
+                    name: name.to_string(),
+                    ty: tag.ty,
+                    value: value.words(),
+                },
+            );
+        }
+    }
+
+    fn operands(&mut self, op: &str, args: &[Ty], pos: Position) {
+        let words: Vec<&str> = args.iter().map(|t| t.words()).collect();
+        self.fail(
+            pos,
+            CompileErrorKind::OperandType {
+                op: op.to_string(),
+                operands: words.join(" and "),
+            },
+        );
+    }
+
+    fn call(&mut self, call: &FnCallExpr, pos: Position, var: &dyn Fn(&str) -> Option<Ty>) {
+        let name = call.name.as_str();
+        let args: Vec<Ty> = call.args.iter().map(|a| types::infer(a, var)).collect();
+        if call.is_operator_call() {
+            if types::operands_clash(name, &args) {
+                self.operands(name, &args, pos);
+            }
+            return;
+        }
+        // `good`/`bad` are checked by `quality.rs`.
+        if KEYWORDS.contains(&name) || super::quality::FUNCTIONS.contains(&name) {
+            return;
+        }
+        let library: Vec<&'static Signature> = signatures::overloads(name).collect();
+        if let Some(sig) = library.iter().find(|s| s.params.len() == args.len()) {
+            self.arguments(sig, &call.args, &args);
+            return;
+        }
+        if self.known.forms.contains(&(name.to_string(), args.len())) {
+            return;
+        }
+        self.unknown_or_arity(name, &library, self.known.arities(name), args.len(), pos);
+    }
+
+    /// `x.f(a)`: `f` with `x` as its first argument. Only the name and the arity are checked
+    /// (the receiver's type is rarely known).
+    fn method(&mut self, call: &FnCallExpr, pos: Position) {
+        let name = call.name.as_str();
+        let arity = call.args.len() + 1;
+        if KEYWORDS.contains(&name) {
+            return;
+        }
+        let library: Vec<&'static Signature> = signatures::overloads(name).collect();
+        if library.iter().any(|s| s.params.len() == arity)
+            || self.known.forms.contains(&(name.to_string(), arity))
+            // A script function called as a method takes the receiver as `this`.
+            || self.known.forms.contains(&(name.to_string(), call.args.len()))
+        {
+            return;
+        }
+        self.unknown_or_arity(name, &library, self.known.arities(name), arity, pos);
+    }
+
+    fn unknown_or_arity(
+        &mut self,
+        name: &str,
+        library: &[&'static Signature],
+        arities: Vec<usize>,
+        found: usize,
+        pos: Position,
+    ) {
+        let counts = |arities: &[usize]| {
+            let words: Vec<String> = arities.iter().map(usize::to_string).collect();
+            let plural = if arities == [1] { "" } else { "s" };
+            format!("{} argument{plural}", words.join(" or "))
+        };
+        let usage = if !library.is_empty() {
+            let arities: Vec<usize> = library.iter().map(|s| s.params.len()).collect();
+            let forms: Vec<String> = library.iter().map(|s| s.usage()).collect();
+            Some(format!("{}: {}", counts(&arities), forms.join(" or ")))
+        } else if !arities.is_empty() {
+            Some(counts(&arities))
+        } else {
+            None
+        };
+        let kind = match usage {
+            Some(usage) => CompileErrorKind::Arity {
+                name: name.to_string(),
+                usage,
+                found,
+            },
+            None => {
+                let candidates = signatures::LIBRARY
+                    .iter()
+                    .map(|s| s.name)
+                    .chain(self.known.names.iter().map(String::as_str));
+                let suggestion = closest_name(name, candidates).map(|n| {
+                    signatures::overloads(&n)
+                        .find(|s| s.params.len() == found)
+                        .or_else(|| signatures::overloads(&n).next())
+                        .map_or(n.clone(), |s| s.usage())
+                });
+                CompileErrorKind::UnknownFunction {
+                    name: name.to_string(),
+                    suggestion,
+                }
+            }
+        };
+        self.fail(pos, kind);
+    }
+
+    /// The arguments of a library call: types where known, literals parsed.
+    fn arguments(&mut self, sig: &'static Signature, exprs: &[Expr], types: &[Ty]) {
+        let mut numbers = Vec::new();
+        for ((&(param, kind), expr), &ty) in sig.params.iter().zip(exprs).zip(types) {
+            let pos = start(expr);
+            let wrong = |expected: &'static str| CompileErrorKind::ArgumentType {
+                function: sig.name,
+                param,
+                expected,
+                found: ty.words(),
+            };
+            match kind {
+                Param::Name if !matches!(ty, Ty::Str | Ty::Unknown) => {
+                    self.fail(pos, wrong("an instance name, a string such as \"t1\""));
+                }
+                Param::Bool if !matches!(ty, Ty::Bool | Ty::Unknown) => {
+                    self.fail(pos, wrong("a bool"));
+                }
+                Param::Int if !matches!(ty, Ty::Int | Ty::Unknown) => {
+                    self.fail(pos, wrong("an integer"));
+                }
+                Param::Time => match expr {
+                    Expr::StringConstant(text, _) => {
+                        if let Err(reason) = crate::project::parse_duration(text) {
+                            self.fail(
+                                pos,
+                                CompileErrorKind::BadDuration {
+                                    function: sig.name,
+                                    param,
+                                    text: text.to_string(),
+                                    reason,
+                                },
+                            );
+                        }
+                    }
+                    _ if ty == Ty::Bool => {
+                        self.fail(pos, wrong("a time (ms, or a string such as \"2s\")"));
+                    }
+                    _ => {}
+                },
+                Param::Pattern => match expr {
+                    Expr::StringConstant(text, _) => {
+                        if let Err(reason) = Pattern::parse(text) {
+                            let text = text.to_string();
+                            self.fail(pos, CompileErrorKind::BadPattern { text, reason });
+                        }
+                    }
+                    _ if !matches!(ty, Ty::Str | Ty::Unknown) => {
+                        self.fail(
+                            pos,
+                            wrong("a pattern, a string of 0 and 1 such as \"1101\""),
+                        );
+                    }
+                    _ => {}
+                },
+                Param::Number => {
+                    if matches!(ty, Ty::Int | Ty::Float | Ty::Unknown) {
+                        numbers.push((pos, param, ty));
+                    } else {
+                        self.fail(pos, wrong("a number"));
+                    }
+                }
+                Param::Name | Param::Bool | Param::Int | Param::Tag => {}
+            }
+        }
+        // `limit(0, x, 100.0)`: Rhai has it for three integers or three floats, not a mix.
+        let has_float = numbers.iter().any(|(_, _, t)| *t == Ty::Float);
+        if let Some(&(pos, param, _)) = numbers.iter().find(|(_, _, t)| *t == Ty::Int) {
+            if has_float {
+                self.fail(
+                    pos,
+                    CompileErrorKind::ArgumentType {
+                        function: sig.name,
+                        param,
+                        expected: "a float like the others (write 0.0, not 0)",
+                        found: Ty::Int.words(),
+                    },
+                );
+            }
+        }
+    }
+}
+
+/// Where an expression begins: Rhai places a binary operator's call at the operator.
+fn start(expr: &Expr) -> Position {
+    match expr {
+        Expr::FnCall(call, _) if call.is_operator_call() && call.args.len() == 2 => {
+            call.args.first().map_or(expr.start_position(), start)
+        }
+        _ => expr.start_position(),
+    }
+}
