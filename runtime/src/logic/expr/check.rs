@@ -158,6 +158,11 @@ impl Checker<'_> {
                 let l = self.operand(lhs, *lhs_pos);
                 let r = self.operand(rhs, *rhs_pos);
                 let (l, r) = (l?, r?);
+                for (lit, tag) in [(rhs, lhs), (lhs, rhs)] {
+                    if let (Expr::Number(n), Expr::Tag(t)) = (lit.as_ref(), tag.as_ref()) {
+                        self.literal_of(n, t)?;
+                    }
+                }
                 let (lhs, rhs) = match (l, r) {
                     (Side::Lit(_), Side::Lit(_)) => {
                         return self.fail(*lhs_pos, TypeError::ConstantComparison)
@@ -196,6 +201,20 @@ impl Checker<'_> {
         }
     }
 
+    /// A number compared with tag `tag`: one the tag's type can hold.
+    fn literal_of(&mut self, lit: &NumLit, tag: &Ident) -> Option<()> {
+        let ty = self.tags.get(&tag.name)?.ty;
+        if literal_fits(lit.value, ty) {
+            return Some(());
+        }
+        let kind = TypeError::LiteralOutOfType {
+            text: lit.text.clone(),
+            name: tag.name.clone(),
+            ty,
+        };
+        self.fail(lit.pos, kind)
+    }
+
     fn all(&mut self, items: &[Expr]) -> Option<Vec<BoolExpr>> {
         let checked: Vec<Option<BoolExpr>> = items.iter().map(|e| self.boolean(e)).collect();
         checked.into_iter().collect()
@@ -231,6 +250,30 @@ fn literal_for(v: f64, ty: ValueType) -> Operand {
     match ty {
         ValueType::F32 => Operand::Const(f64::from(v as f32)),
         _ => Operand::Const(v),
+    }
+}
+
+/// Whether a tag of type `ty` can hold the number `v` (the image's type lattice: integers are
+/// whole and in their range, an `f32` finite and within its range; a bool holds no number).
+/// The expr and ladder checkers hold literals against it, so `count == 0.5` or
+/// `MOVE(70000) => level` (u16) is refused before the first scan.
+pub(crate) fn literal_fits(v: f64, ty: ValueType) -> bool {
+    let whole = v.fract() == 0.0;
+    match ty {
+        ValueType::Bool => false,
+        ValueType::U16 => whole && (0.0..=f64::from(u16::MAX)).contains(&v),
+        ValueType::I32 => whole && (f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&v),
+        ValueType::F32 => v.is_finite() && v.abs() <= f64::from(f32::MAX),
+    }
+}
+
+/// What values of type `ty` are, in words, for a literal that does not fit.
+pub(crate) fn type_words(ty: ValueType) -> &'static str {
+    match ty {
+        ValueType::Bool => "a bool (true, false, 0 or 1)",
+        ValueType::U16 => "a u16 value (a whole number from 0 to 65535)",
+        ValueType::I32 => "an i32 value (a whole number from -2147483648 to 2147483647)",
+        ValueType::F32 => "an f32 value (a number within ±3.4e38)",
     }
 }
 

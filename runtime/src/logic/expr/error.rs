@@ -168,6 +168,17 @@ pub enum TypeError {
     /// A comparison of two numbers.
     #[error("a comparison needs at least one tag")]
     ConstantComparison,
+    /// A number literal compared with a tag whose type cannot hold it (`count == 0.5` with an
+    /// integer `count`, `level < 70000` with a u16 `level`): the answer would never change.
+    #[error("type error: `{text}` is not {}; `{name}` is {ty}", super::check::type_words(*.ty))]
+    LiteralOutOfType {
+        /// The literal as written.
+        text: String,
+        /// The tag.
+        name: String,
+        /// Its type.
+        ty: ValueType,
+    },
 }
 
 /// A timer duration that is not a valid duration.

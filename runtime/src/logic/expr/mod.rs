@@ -96,7 +96,7 @@ pub use error::{CompileError, CompileErrorKind, DurationError, Expected, TypeErr
 pub use exec::ExprProgram;
 
 /// The closest name within two edits, for "did you mean" (shared with the ladder engine).
-pub(crate) use check::closest as closest_name;
+pub(crate) use check::{closest as closest_name, literal_fits, type_words};
 
 use crate::image::TagId;
 use crate::logic::SourcePos;

@@ -847,3 +847,20 @@ fn conveyor_program_scenario() {
         );
     }
 }
+
+#[test]
+fn literals_the_tag_type_cannot_hold_are_type_errors() {
+    assert_eq!(
+        errors("motor = level == 0.5\nlamp = count < 3000000000 | temp > 9999999999999999999999999999999999999999\nq = level > -1\n"),
+        [
+            "p.expr:1:18: error: type error: `0.5` is not a u16 value (a whole number from 0 to \
+             65535); `level` is u16",
+            "p.expr:2:16: error: type error: `3000000000` is not an i32 value (a whole number \
+             from -2147483648 to 2147483647); `count` is i32",
+            "p.expr:2:36: error: type error: `9999999999999999999999999999999999999999` is not an f32 value (a number within \
+             ±3.4e38); `temp` is f32",
+            "p.expr:3:13: error: type error: `-1` is not a u16 value (a whole number from 0 to \
+             65535); `level` is u16",
+        ]
+    );
+}

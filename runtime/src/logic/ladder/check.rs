@@ -358,6 +358,11 @@ impl Checker<'_> {
                 let l = self.number(lhs);
                 let r = self.number(rhs);
                 let ((l, lty), (r, rty)) = (l?, r?);
+                for (lit, tag, ty) in [(rhs, lhs, lty), (lhs, rhs, rty)] {
+                    if let (Cond::Ref(r), Some(ty)) = (tag.as_ref(), ty) {
+                        self.literal_into(lit, ty, || format!("`{}`", r.name.text))?;
+                    }
+                }
                 match (l, r) {
                     (Num::Const(_), Num::Const(_)) => {
                         self.fail(lhs.pos(), TypeError::ConstantComparison)
@@ -399,6 +404,29 @@ impl Checker<'_> {
                 }
             }
             other => self.fail(other.pos(), TypeError::ConditionAsNumber),
+        }
+    }
+
+    /// `cond`, when it is a number literal, as a value of type `ty` (`target` names what it
+    /// meets, for the error).
+    fn literal_into(
+        &mut self,
+        cond: &Cond,
+        ty: ValueType,
+        target: impl FnOnce() -> String,
+    ) -> Option<()> {
+        match cond {
+            Cond::Lit(Lit::Number { value, text }, pos)
+                if !crate::logic::expr::literal_fits(*value, ty) =>
+            {
+                let kind = TypeError::LiteralOutOfType {
+                    text: text.clone(),
+                    target: target(),
+                    ty,
+                };
+                self.fail(*pos, kind)
+            }
+            _ => Some(()),
         }
     }
 
@@ -571,7 +599,19 @@ impl Checker<'_> {
                 None => ok = false,
             }
         }
-        let (dest, _) = dest?;
+        let (dest, ty) = dest?;
+        if ty == ValueType::Bool {
+            let kind = TypeError::NumberIntoBool {
+                name: b.dest.text.clone(),
+                op: name,
+            };
+            return self.fail(b.dest.pos, kind);
+        }
+        // A literal moved as it is must fit the tag; computed values are stored with the
+        // tag's type (truncated, saturated), as documented.
+        if let (BoxOp::Move, [arg]) = (op, b.args.as_slice()) {
+            self.literal_into(&arg.value, ty, || format!("`{}`", b.dest.text))?;
+        }
         ok.then_some(COut::Box { op, args, dest })
     }
 
@@ -733,7 +773,12 @@ impl Checker<'_> {
     fn value(&mut self, ty: ParamType, cond: &Cond) -> Option<Value> {
         match ty {
             ParamType::Bool => self.boolean(cond).map(Value::Bool),
-            ParamType::Number => self.number(cond).map(|(n, _)| Value::Num(n)),
+            // A preset is an i32 (`crate::logic::blocks`).
+            ParamType::Number => {
+                let n = self.number(cond)?;
+                self.literal_into(cond, ValueType::I32, || "a counter's preset".into())?;
+                Some(Value::Num(n.0))
+            }
             ParamType::Time => match cond {
                 Cond::Lit(Lit::Number { text, .. }, pos) => self.duration(text, *pos).map(|_| {
                     // A bare number always fails above: a duration needs its unit.

@@ -328,4 +328,24 @@ pub enum TypeError {
     /// A comparison between two numbers.
     #[error("a comparison needs at least one tag or block output")]
     ConstantComparison,
+    /// A math box computing into a bool tag (`MOVE(0.5) => demand`).
+    #[error("type error: `{name}` is bool and {op}(…) computes a number; drive a bool tag with a coil, e.g. `… -> {name}`")]
+    NumberIntoBool {
+        /// The tag.
+        name: String,
+        /// The box.
+        op: &'static str,
+    },
+    /// A number literal that the type it meets cannot hold: compared with or moved into a tag
+    /// (`count = 0.5` with an integer `count`, `MOVE(70000) => level` with a u16 `level`), or a
+    /// counter's preset (an i32).
+    #[error("type error: `{text}` is not {}; {target} is {ty}", crate::logic::expr::type_words(*.ty))]
+    LiteralOutOfType {
+        /// The literal as written.
+        text: String,
+        /// What it meets: "`count`", "the preset of CTU".
+        target: String,
+        /// Its type.
+        ty: ValueType,
+    },
 }

@@ -462,3 +462,38 @@ fn garbage_never_panics() {
         let _ = compile(&text, Path::new("f.yaml"), &table());
     }
 }
+
+#[test]
+fn numbers_that_the_destination_type_cannot_hold_are_type_errors() {
+    // Each rung starts at column 5 of its line (`  - `); line 1 is `rungs:`.
+    assert_eq!(
+        errors(&[
+            "start -> MOVE(0.5) => motor",
+            "start -> MOVE(0.5) => count",
+            "start -> MOVE(70000) => small",
+            "count = 0.5 | -1 < small -> lamp",
+            "start -> CTU c(2.5) -> alarm",
+        ]),
+        [
+            "2:27: type error: `motor` is bool and MOVE(…) computes a number; drive a bool tag \
+             with a coil, e.g. `… -> motor`",
+            "3:19: type error: `0.5` is not an i32 value (a whole number from -2147483648 to \
+             2147483647); `count` is i32",
+            "4:19: type error: `70000` is not a u16 value (a whole number from 0 to 65535); \
+             `small` is u16",
+            "5:13: type error: `0.5` is not an i32 value (a whole number from -2147483648 to \
+             2147483647); `count` is i32",
+            "5:19: type error: `-1` is not a u16 value (a whole number from 0 to 65535); `small` \
+             is u16",
+            "6:20: type error: `2.5` is not an i32 value (a whole number from -2147483648 to \
+             2147483647); a counter's preset is i32",
+        ]
+    );
+    // Widening, computed values and reals stay as documented.
+    build(&[
+        "start -> MOVE(3) => speed, MOVE(level) => speed, MOVE(temp) => count",
+        "start -> ADD(count, 0.5) => count, MOVE(-2) => count",
+        "temp > 0.5 -> lamp",
+        "level >= 65535 -> alarm",
+    ]);
+}
