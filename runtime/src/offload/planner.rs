@@ -556,9 +556,6 @@ fn place(
     rung: &Rung,
     later: &BTreeSet<TagId>,
 ) -> Result<ModulePlacement, Reason> {
-    if let RungShape::Opaque { reason } = &rung.shape {
-        return Err(Reason::Opaque(reason.clone()));
-    }
     let Some(tag) = project.tags.get(rung.coil.index()) else {
         return Err(Reason::NotAnOutput {
             what: "not a tag of the project".into(),
@@ -577,6 +574,11 @@ fn place(
         return Err(Reason::NotAnOutput {
             what: format!("bound to {}.{}", cfg.name, cfg.model.points[point].name),
         });
+    }
+    // After the coil: a rung writing a memory tag is no candidate whatever its shape, so a
+    // project-wide `offload: require` (which is about the outputs) does not fail on it.
+    if let RungShape::Opaque { reason } = &rung.shape {
+        return Err(Reason::Opaque(reason.clone()));
     }
     if project
         .service
