@@ -336,7 +336,9 @@ fn run_for_two_seconds_reports_cycle_statistics() {
     assert_eq!(out.code(), Some(0), "{out:?}");
     let text = &out.stdout;
     assert!(
-        text.starts_with("stopped on request; outputs set to their safe values\n"),
+        text.starts_with(
+            "stopped after its run time (--for 2.00s); outputs set to their safe values\n"
+        ),
         "{text}"
     );
     let (scans, cycle) = summary_lines(text);
@@ -664,7 +666,7 @@ fn status_into_a_closed_pipe_ends_quietly() {
     let dir = big_quickstart("pipestatus", 8000);
     let socket = dir.join("ctl.sock");
     let mut plc = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .args(["run", "--quiet", "--for", "30s", "--control"])
+        .args(["run", "--quiet", "--for", "30s", "--socket"])
         .arg(&socket)
         .arg(dir.join("project.yaml"))
         .stdin(Stdio::null())

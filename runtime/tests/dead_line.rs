@@ -32,7 +32,7 @@ fn a_dead_line_does_not_stop_the_plc_and_its_modules_come_back() {
     let path = dir.join("project.yaml");
     std::fs::write(&path, project).unwrap();
     let plc = Command::new(BIN)
-        .args(["run", "--quiet", "--no-control", "--for", "12s"])
+        .args(["run", "--quiet", "--no-socket", "--for", "12s"])
         .arg(&path)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

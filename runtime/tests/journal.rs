@@ -68,7 +68,7 @@ fn run_under_journal(dir: &Path, run_dir: &Path, project: &Path) -> String {
             "mount --bind \"$0\" /run && exec \"$@\"",
         ])
         .arg(run_dir)
-        .args([BIN, "run", "--quiet", "--no-control", "--for", "2s"])
+        .args([BIN, "run", "--quiet", "--no-socket", "--for", "2s"])
         .arg(project)
         .env("JOURNAL_STREAM", format!("{}:{}", meta.dev(), meta.ino()))
         .env("SOFTPLC_LOG", "info")

@@ -36,7 +36,7 @@ fn kill_9_leaves_the_outputs_to_the_module_watchdog() {
     std::fs::write(&project_path, project).unwrap();
 
     let mut plc = Command::new(BIN)
-        .args(["run", "--quiet", "--no-control"])
+        .args(["run", "--quiet", "--no-socket"])
         .arg(&project_path)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())

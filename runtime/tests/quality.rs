@@ -133,7 +133,7 @@ fn run(dir: &Path, (file, kind, text): (&str, &str, &str)) -> Vec<Cycle> {
         }));
     let outcome = engine.run();
     assert!(
-        matches!(outcome.reason, StopReason::Requested),
+        matches!(outcome.reason, StopReason::TimeUp),
         "{kind}: {:?}",
         outcome.reason
     );

@@ -75,7 +75,7 @@ fn project_with(name: &str, service: &str, extra: &str) -> PathBuf {
 /// `softplc run --for 10s` on the project in `dir`, with its control socket in `dir`.
 fn start(dir: &Path) -> Child {
     Command::new(BIN)
-        .args(["run", "--quiet", "--for", "10s", "--control"])
+        .args(["run", "--quiet", "--for", "10s", "--socket"])
         .arg(dir.join("ctl.sock"))
         .arg(dir.join("project.yaml"))
         .stdout(Stdio::null())

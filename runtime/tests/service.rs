@@ -114,7 +114,7 @@ fn a_running_instance_notifies_systemd_and_obeys_its_control_socket() {
         .unwrap();
     let socket = dir.join("ctl.sock");
     let mut child = Command::new(BIN)
-        .args(["run", "--quiet", "--for", "20s", "--control"])
+        .args(["run", "--quiet", "--for", "20s", "--socket"])
         .arg(&socket)
         .arg(&project_path)
         .env("NOTIFY_SOCKET", &notify_path)
@@ -196,7 +196,7 @@ fn start_in(
         command.env("STATE_DIRECTORY", state);
     }
     let child = command
-        .args(["run", "--quiet", "--for", "20s", "--control"])
+        .args(["run", "--quiet", "--for", "20s", "--socket"])
         .arg(socket)
         .args(extra)
         .arg(dir.join("project.yaml"))

@@ -138,7 +138,7 @@ fn a_dead_line_leaves_the_scan_on_its_grid_and_its_modules_come_back() {
     );
     assert_eq!(
         reason,
-        StopReason::Requested,
+        StopReason::TimeUp,
         "the PLC never stops on a line fault"
     );
     assert_eq!(overruns, 0, "every deadline kept");
@@ -229,7 +229,7 @@ fn modules_absent_at_start_are_lost_not_fatal_and_start_up_when_they_answer() {
             set(world, "mm1", "X1", next >= ms(5000));
         }),
     );
-    assert_eq!(reason, StopReason::Requested);
+    assert_eq!(reason, StopReason::TimeUp);
     assert_eq!(overruns, 0);
     let start = cycles.first().unwrap();
     assert_eq!(start.x, Quality::Bad, "bad from the first cycle: {start:?}");
@@ -265,7 +265,7 @@ fn a_lost_module_costs_its_line_one_request_per_probe() {
             set(world, "mm1", "X1", false);
         }),
     );
-    assert_eq!(reason, StopReason::Requested);
+    assert_eq!(reason, StopReason::TimeUp);
     assert_eq!(overruns, 0);
     // mm2 keeps being scanned: mm1's first failed read delays the line once (stale), then
     // mm1 is read after mm2's inputs have gone to the scan, and its probes never delay them.
@@ -326,7 +326,7 @@ fn a_power_cycled_module_gets_its_start_up_again_and_its_outputs_back() {
             }
         }),
     );
-    assert_eq!(reason, StopReason::Requested);
+    assert_eq!(reason, StopReason::TimeUp);
     let at = |t: Duration| cycles.iter().find(|c| c.now >= t).copied().unwrap();
     assert!(at(ms(1500)).y_terminal);
     assert!(at(ms(3000)).mm2 == Quality::Bad, "lost while off");
@@ -360,7 +360,7 @@ fn a_module_power_cycled_between_two_reads_gets_its_outputs_back_within_the_refr
             }
         }),
     );
-    assert_eq!(reason, StopReason::Requested);
+    assert_eq!(reason, StopReason::TimeUp);
     let at = |t: Duration| cycles.iter().find(|c| c.now >= t).copied().unwrap();
     assert!(at(ms(1500)).y_terminal);
     // The 1 s output refresh writes it again (the module answers throughout: it was never
@@ -408,7 +408,7 @@ fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
             let _ = plc;
         }));
     let outcome = engine.run();
-    assert_eq!(outcome.reason, StopReason::Requested);
+    assert_eq!(outcome.reason, StopReason::TimeUp);
     assert_eq!(outcome.stats.overruns, 0, "the compile never held a cycle");
     let reply = replies.try_recv().expect("the reload was answered");
     assert!(reply.ok, "{reply:?}");

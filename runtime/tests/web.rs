@@ -152,7 +152,7 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     std::fs::write(dir.join("project.yaml"), project).unwrap();
     let socket = dir.join("ctl.sock");
     let mut plc = Plc(Command::new(BIN)
-        .args(["run", "--quiet", "--for", "120s", "--control"])
+        .args(["run", "--quiet", "--for", "120s", "--socket"])
         .arg(&socket)
         .arg(dir.join("project.yaml"))
         .stdout(Stdio::null())

@@ -144,7 +144,7 @@ fn trace(run: &Run) -> String {
 fn the_quick_start_replays_bit_for_bit_and_matches_its_golden_trace() {
     let first = run();
     let second = run();
-    assert_eq!(first.outcome.reason, StopReason::Requested);
+    assert_eq!(first.outcome.reason, StopReason::TimeUp);
     assert_eq!(
         first.cycles, second.cycles,
         "same inputs, same times: same cycles"

@@ -89,7 +89,7 @@ mod tests {
             .max_cycles(3)
             .with_boundary(Recorder(log.clone()))
             .run();
-        assert_eq!(outcome.reason, StopReason::Requested);
+        assert_eq!(outcome.reason, StopReason::TimeUp);
         assert_eq!(
             *log.lock().unwrap(),
             [

@@ -311,7 +311,7 @@ fn main() -> anyhow::Result<()> {
             engine = engine.abandon_at_end();
         }
         let outcome = engine.run();
-        if outcome.reason != softplc::scan::StopReason::Requested {
+        if outcome.reason != softplc::scan::StopReason::TimeUp {
             bail!("the PLC stopped on its own: {:?}", outcome.reason);
         }
         if last {

@@ -472,7 +472,7 @@
     const s = app.state, st = app.stats, info = app.info;
     const items = [];
     const add = (sev, text) => items.push(el("li", {}, el("span", { class: "sev " + sev, text: sev === "ok" ? "ok" : sev === "bad" ? "fault" : "warning" }), el("span", { text })));
-    if (s.stopped) add(s.stop_reason === "stopped on request" ? "warn" : "bad", "The run has ended (" + (s.stop_reason || "stopped") + "); the outputs were set to their safe values.");
+    if (s.stopped) add((s.stop_reason === "stopped on request" || s.stop_reason === "stopped at the end of its run time") ? "warn" : "bad", "The run has ended (" + (s.stop_reason || "stopped") + "); the outputs were set to their safe values.");
     else if (!app.connected) add("bad", "No news from the PLC: it stopped, or this page lost its connection (it retries by itself).");
     if (st) {
       info.modules.forEach((m, i) => {
@@ -494,7 +494,7 @@
     const s = app.state, st = app.stats;
     const pill = $("state");
     let state, text;
-    if (s && s.stopped) { state = "stopped"; text = s.stop_reason === "stopped on request" ? "stopped" : "faulted"; }
+    if (s && s.stopped) { state = "stopped"; text = (s.stop_reason === "stopped on request" || s.stop_reason === "stopped at the end of its run time") ? "stopped" : "faulted"; }
     else if (!app.connected && app.lastEvent) { state = "lost"; text = "no connection"; }
     else if (!s || !s.published) { state = "connecting"; text = "starting"; }
     else if (st && st.modules.some((m) => m.q !== 0)) { state = "faulty"; text = "running · faults"; }
