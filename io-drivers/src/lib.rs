@@ -8,6 +8,8 @@
 //!   reassembled) and server side (what the simulators answer).
 //! - [`devices`]: one folder per module family: register map, driver (sans-IO), simulator.
 //! - [`sim`]: the simulated world: devices on a virtual line, plant models, serving on a pty.
+//! - [`wire`]: seeing the wire: one frame decoder (every protocol), the bus owner's frame
+//!   trace and the framing of a passively heard line.
 //!
 //! This crate never depends on the runtime: drivers never see logic.
 
@@ -18,3 +20,4 @@ pub mod modbus;
 pub mod point;
 pub mod sim;
 pub mod time;
+pub mod wire;

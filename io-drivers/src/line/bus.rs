@@ -26,6 +26,7 @@ use crate::line::transport::{LineError, LineFault, Transport};
 use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError};
 use crate::modbus::{Request, Response};
 use crate::point::{Quality, Value};
+use crate::wire::trace::{Discard, Verdict, WireEvent, WireTap};
 
 /// Longest reply any module sends (an RTU ADU is at most 256 bytes; text replies are shorter).
 const MAX_REPLY: usize = 512;
@@ -305,6 +306,8 @@ pub struct BusOwner {
     plan: Vec<Transaction>,
     tx_buf: Vec<u8>,
     rx_buf: Vec<u8>,
+    /// Where every frame is reported, when traced (`bus/tap.rs`).
+    tap: Option<std::sync::Arc<dyn WireTap>>,
 }
 
 /// A start-up check that failed.
@@ -340,6 +343,7 @@ impl BusOwner {
             plan: Vec::new(),
             tx_buf: Vec::with_capacity(256),
             rx_buf: Vec::with_capacity(256),
+            tap: None,
         }
     }
 
@@ -859,17 +863,22 @@ impl BusOwner {
         // Whatever arrived while the line was idle belongs to nobody; a line that cannot drop
         // it could hand it over as the reply, so nothing is sent.
         match self.transport.flush_input() {
-            Ok(n) => done.dropped += n,
+            Ok(n) => {
+                done.dropped += n;
+                self.trace_discard(self.transport.now(), n, Discard::BeforeRequest);
+            }
             Err(e) => {
                 done.flush_failed = true;
                 done.outcome = Err(Miss::Line(e));
                 return done;
             }
         }
+        let started = self.transport.now();
         if let Err(e) = self.transport.write_frame(&self.tx_buf) {
             done.outcome = Err(Miss::Line(e));
             return done;
         }
+        self.trace(started, WireEvent::Sent(&self.tx_buf));
         let sent = self.transport.now();
         done.sent = Some(sent);
         if assembler.is_none() && terminator.is_none() {
@@ -895,6 +904,7 @@ impl BusOwner {
             if n == 0 {
                 if self.rx_buf.is_empty() {
                     if silence == Silence::Answer {
+                        self.trace(now, WireEvent::Timeout { waited: wait });
                         self.line_free_at = now + self.settings.t3_5();
                         done.outcome = Err(Miss::Silence);
                         return done;
@@ -912,6 +922,7 @@ impl BusOwner {
             deadline = now + inter_char;
             if let Some(term) = terminator {
                 if let Some(end) = self.rx_buf.iter().position(|b| *b == term) {
+                    self.trace_reply(now, &self.rx_buf[..=end], Verdict::Good);
                     let reply = self.rx_buf[..end].to_vec();
                     self.finish(&mut done, sent, now, Reply::Text(reply));
                     return done;
@@ -925,6 +936,9 @@ impl BusOwner {
                 Progress::NeedMore => {}
                 Progress::Complete { response, extra } => {
                     done.dropped += extra;
+                    let frame = self.rx_buf.len().saturating_sub(extra);
+                    self.trace_reply(now, &self.rx_buf[..frame], Verdict::Good);
+                    self.trace_discard(now, extra, Discard::AfterReply);
                     self.finish(&mut done, sent, now, Reply::Modbus(response));
                     return done;
                 }
@@ -932,9 +946,11 @@ impl BusOwner {
             }
         };
         let now = self.transport.now();
+        self.trace_miss(now, &miss, wait);
         done.outcome = match self.recover(now, wait) {
             Ok(dropped) => {
                 done.dropped += dropped;
+                self.trace_discard(self.transport.now(), dropped, Discard::AfterGuard);
                 Err(miss)
             }
             // The late reply may still be there for the next request: the line has failed.
@@ -1128,5 +1144,6 @@ impl BusThread {
     }
 }
 
+mod tap;
 #[cfg(test)]
 mod tests;

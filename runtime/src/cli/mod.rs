@@ -6,10 +6,12 @@ mod commission;
 mod control;
 mod discover;
 mod journal;
+mod monitor;
 mod out;
 mod run;
 mod sim;
 pub mod test;
+mod trace_bus;
 
 use std::process::ExitCode;
 
@@ -50,6 +52,9 @@ enum Command {
     Commission(commission::CommissionArgs),
     /// Run scenario files (inputs over virtual time, expected outputs) on the simulator.
     Test(test::TestArgs),
+    /// Listen on a serial line without sending and print every frame heard, decoded (Modbus
+    /// RTU, MiniMod text, RESI ASCII, DCON), with the silence before it.
+    Monitor(monitor::MonitorArgs),
 }
 
 /// Entry point of the binary.
@@ -67,6 +72,7 @@ pub fn main() -> ExitCode {
         Command::Test(a) => test::test(a),
         Command::Discover(a) => discover::discover(a),
         Command::Commission(a) => commission::commission(a),
+        Command::Monitor(a) => monitor::monitor(a),
     };
     match result {
         Ok(code) => code,

@@ -43,6 +43,10 @@ pub struct RunArgs {
     /// Do not open a control socket.
     #[arg(long, conflicts_with = "control")]
     no_control: bool,
+    /// Print every frame each bus sends and receives (and every timeout and discarded byte)
+    /// on stdout, with the line's time, hex and decoding (README, "Seeing the wire").
+    #[arg(long)]
+    trace_bus: bool,
 }
 
 pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
@@ -63,7 +67,13 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let realtime = project.scan.realtime;
     let name = project.name.clone();
     let period = project.scan.period;
-    let mut plc = Plc::build(project, clock).context("cannot start the PLC")?;
+    let trace = match args.trace_bus {
+        true => Some(super::trace_bus::start(args.virtual_clock)?),
+        false => None,
+    };
+    let tap = trace.as_ref().map(|(tap, _)| tap.clone() as _);
+    let mut plc = Plc::build_traced(project, clock, None, tap).context("cannot start the PLC")?;
+    let printer = trace.map(|(_, printer)| printer);
     if args.keep_forces {
         plc.keep_forces(crate::plc::forces_path(&args.project));
     }
@@ -164,6 +174,10 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let outcome = scan
         .join()
         .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
+    if let Some(printer) = printer {
+        // The trace's last lines (the safe state written) come before the summary.
+        printer.finish(Duration::from_secs(2));
+    }
     if services.web.is_some() {
         // The page's event streams carry the last state (stopped, outputs safe) before the
         // process goes away, so an open page says "stopped" rather than "no connection".

@@ -9,6 +9,7 @@ use softplc_io::line::transport::{SerialTransport, Transport};
 use softplc_io::point::{Access, Quality};
 use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
 use softplc_io::sim::plant;
+use softplc_io::wire::WireTap;
 
 use crate::clock::Clock;
 use crate::image::{ProcessImage, TagId};
@@ -33,6 +34,18 @@ impl Plc {
         project: Project,
         clock: Arc<dyn Clock>,
         world: Option<SharedWorld>,
+    ) -> Result<Self, BuildError> {
+        Self::build_traced(project, clock, world, None)
+    }
+
+    /// [`Plc::build_on`], with every line's bus owner reporting its traffic (frames sent and
+    /// received, timeouts, discarded bytes) to `tap`, the start-up sequences included
+    /// (`softplc run --trace-bus`).
+    pub fn build_traced(
+        project: Project,
+        clock: Arc<dyn Clock>,
+        world: Option<SharedWorld>,
+        tap: Option<Arc<dyn WireTap>>,
     ) -> Result<Self, BuildError> {
         let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
         let mut logic = load::load_program(&project, &image)?;
@@ -109,6 +122,9 @@ impl Plc {
                 ..Discipline::default()
             };
             let mut owner = BusOwner::new(bus.name.clone(), transport, discipline, modules);
+            if let Some(tap) = &tap {
+                owner.set_wire_tap(tap.clone());
+            }
             owner.sync(clock.now());
             owner.startup().map_err(|source| BuildError::Startup {
                 bus: bus.name.clone(),
