@@ -380,7 +380,40 @@ impl RhaiProgram {
     }
 }
 
+/// Why a script's outputs stay central, in the planner's report and in `offload: require`'s
+/// error.
+pub const NOT_PUSHED_DOWN: &str = "a Rhai script: the planner pushes down expr and ladder rungs \
+only (write this output's rung in one of them to run it in the module)";
+
 impl LogicEngine for RhaiProgram {
+    /// Every output the script assigns, at its first assignment, as a rung that stays central
+    /// ([`NOT_PUSHED_DOWN`]): a Rhai assignment may sit in any control flow and read any
+    /// variable, so the planner is not given one to move, and `offload: require` on such a tag
+    /// fails with the place and the reason rather than being passed over.
+    fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
+        let mut assigned: Vec<(Position, TagId)> = self
+            .handles
+            .iter()
+            .filter(|h| h.writable)
+            .filter_map(|h| h.assigned.map(|at| (at, h.id)))
+            .collect();
+        assigned.sort_by_key(|(at, _)| (at.line(), at.position()));
+        Some(
+            assigned
+                .into_iter()
+                .map(|(at, coil)| crate::offload::ir::Rung {
+                    coil,
+                    shape: crate::offload::ir::RungShape::Opaque {
+                        reason: NOT_PUSHED_DOWN.to_string(),
+                    },
+                    pos: error::user_pos(&self.file, at),
+                })
+                .collect(),
+        )
+    }
+
+    // `release` stays the default: no rung of a script is ever pushed down.
+
     fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault> {
         if let Some(h) = self.handles.iter().find(|h| h.id.index() >= image.len()) {
             return Err(LogicFault {

@@ -1,0 +1,306 @@
+//! `softplc check` refuses what `run` would fault on (the service's `ExecStartPre` relies on
+//! it): Rhai calls of unknown functions, wrong arities and bad literal arguments in any branch,
+//! undeclared names, values a tag's type cannot hold (Rhai, ladder, expr), and `offload:
+//! require` on an output a Rhai script writes. Each case runs the binary on a project in its
+//! own folder and asserts the exact error lines and the exit code; every example and program
+//! of the repository still passes.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the workspace root")
+        .to_path_buf()
+}
+
+/// A project folder of its own, removed at the end.
+struct Scratch {
+    dir: PathBuf,
+}
+
+impl Scratch {
+    fn new(case: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!(
+            "softplc-check-catches-{}-{case}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a scratch folder");
+        Self { dir }
+    }
+
+    fn write(&self, name: &str, text: &str) -> PathBuf {
+        let path = self.dir.join(name);
+        std::fs::write(&path, text).expect("write a scratch file");
+        path
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// What `softplc ARGS` left: exit code, stdout, stderr.
+fn softplc(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(args)
+        .env("SOFTPLC_LOG", "warn")
+        .output()
+        .expect("softplc runs");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn path_str(p: &Path) -> &str {
+    p.to_str().expect("a UTF-8 path")
+}
+
+/// A pump on one simulated MiniMod; `{program}` and `{kind}` are filled in.
+const PROJECT: &str = "\
+project: pumps
+scan:
+  period: 100ms
+buses:
+  - { name: line1, port: sim }
+modules:
+  - { name: mm1, bus: line1, model: minimod, address: 1 }
+tags:
+  - { name: x1, point: mm1.X1 }
+  - { name: pump1, point: mm1.Y1 }
+  - { name: y2, point: mm1.Y2 }
+  - { name: demand, type: bool }
+  - { name: n, type: i32 }
+  - { name: level, type: u16 }
+program: { file: {program}, kind: {kind} }
+";
+
+/// Writes `program` as `name` beside a project running it; the project's path.
+fn project(scratch: &Scratch, name: &str, kind: &str, program: &str) -> PathBuf {
+    scratch.write(name, program);
+    let text = PROJECT.replace("{program}", name).replace("{kind}", kind);
+    scratch.write("project.yaml", &text)
+}
+
+/// `check` on `program` fails with exactly `expected` (each `line:col: error: …`, after the
+/// program's path) and prints no report.
+fn check_fails(case: &str, name: &str, kind: &str, program: &str, expected: &[&str]) {
+    let scratch = Scratch::new(case);
+    let path = project(&scratch, name, kind, program);
+    let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
+    assert_eq!(code, Some(1), "{case}: {stdout}{stderr}");
+    let file = scratch.dir.join(name);
+    let want: Vec<String> = expected
+        .iter()
+        .map(|e| format!("{}:{e}", file.display()))
+        .collect();
+    assert_eq!(stderr.lines().collect::<Vec<_>>(), want, "{case}");
+    assert!(!stdout.contains("push-down"), "{case}: {stdout}");
+}
+
+#[test]
+fn rhai_calls_in_every_branch_are_checked_by_name_arity_and_literal_arguments() {
+    // Scan 101 would have faulted with `Function not found: tonn`.
+    check_fails(
+        "issue",
+        "pump.rhai",
+        "rhai",
+        "n += 1;\nif n > 50 { y2 = tonn(\"t\", x1, \"1s\"); }\n",
+        &["2:18: error: unknown function `tonn`; did you mean `ton(name, in, pt)`?"],
+    );
+    // The script of docs/programming.md, "What `check` catches".
+    check_fails(
+        "docs",
+        "pump.rhai",
+        "rhai",
+        "n += 1;\n\
+         if n > 50 { y2 = tonn(\"t\", x1, \"1s\"); }\n\
+         pump1 = ton(\"t2\", x1);\n\
+         y2 = tof(\"t3\", x1, \"1 sec\");\n\
+         pump1 = 2;\n\
+         demand = ton(\"t4\", level, \"1s\");\n\
+         if level { n = 0; }\n",
+        &[
+            "2:18: error: unknown function `tonn`; did you mean `ton(name, in, pt)`?",
+            "3:9: error: ton() takes 3 arguments: ton(name, in, pt); this call has 2",
+            "4:20: error: bad duration \"1 sec\" for `pt` of tof(): unknown unit \"sec\" (ns, \
+             us, ms, s, m or h); write e.g. \"500ms\", \"2s\" or a number of ms",
+            "5:9: error: type error: `pump1` is bool, the value assigned is an integer; a bool \
+             tag takes a condition, e.g. `x > 0`",
+            "6:20: error: argument `in` of ton() is a bool, not an integer",
+            "7:4: error: type error: a condition is a bool, not an integer; compare it, e.g. \
+             `x > 0`",
+        ],
+    );
+    // Inside a script function, which no scan may ever call.
+    check_fails(
+        "function",
+        "pump.rhai",
+        "rhai",
+        "fn later(x) {\n    blink_pattern(\"b\", x, \"10x1\", 100)\n}\npump1 = x1;\n",
+        &[
+            "2:27: error: bad pattern \"10x1\" for blink_pattern(): a blink pattern is written \
+             with 0 and 1 only",
+        ],
+    );
+    check_fails(
+        "undeclared",
+        "pump.rhai",
+        "rhai",
+        "pump1 = levle > 2;\n",
+        &["1:9: error: unknown tag or variable `levle`; did you mean `level`?"],
+    );
+}
+
+#[test]
+fn a_number_into_a_bool_is_a_type_error_in_every_language() {
+    check_fails(
+        "ladder",
+        "pump.ladder.yaml",
+        "ladder",
+        "rungs:\n  - x1 -> MOVE(0.5) => demand\n  - x1 -> MOVE(0.5) => level\n",
+        &[
+            "2:24: error: type error: `demand` is bool and MOVE(…) computes a number; drive a \
+             bool tag with a coil, e.g. `… -> demand`",
+            "3:16: error: type error: `0.5` is not a u16 value (a whole number from 0 to \
+             65535); `level` is u16",
+        ],
+    );
+    check_fails(
+        "expr",
+        "pump.expr",
+        "expr",
+        "pump1 = level == 0.5\n",
+        &[
+            "1:18: error: type error: `0.5` is not a u16 value (a whole number from 0 to \
+             65535); `level` is u16",
+        ],
+    );
+}
+
+#[test]
+fn a_wrong_value_check_cannot_see_faults_naming_the_tag() {
+    let scratch = Scratch::new("run");
+    let path = project(&scratch, "pump.rhai", "rhai", "let v = 2;\npump1 = v;\n");
+    let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    let (_, stdout, stderr) = softplc(&[
+        "run",
+        path_str(&path),
+        "--virtual",
+        "--for",
+        "1s",
+        "--quiet",
+        "--no-control",
+    ]);
+    let file = scratch.dir.join("pump.rhai");
+    let fault = format!(
+        "FAULT: program error: script error: tag `pump1` is bool, the script assigned it an \
+         integer (2) at {}:2:1; outputs set to their safe values",
+        file.display()
+    );
+    assert!(
+        stdout.contains(&fault) || stderr.contains(&fault),
+        "{stdout}{stderr}"
+    );
+}
+
+#[test]
+fn require_on_an_output_a_rhai_script_writes_fails_with_the_reason() {
+    let scratch = Scratch::new("require");
+    let path = project(&scratch, "pump.rhai", "rhai", "n += 1;\ny2 = x1;\n");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("point: mm1.Y2 }", "point: mm1.Y2, offload: require }");
+    std::fs::write(&path, text).unwrap();
+    let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
+    let file = scratch.dir.join("pump.rhai");
+    let reason = "a Rhai script: the planner pushes down expr and ladder rungs only (write \
+                  this output's rung in one of them to run it in the module)";
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert_eq!(
+        stderr.trim_end(),
+        format!(
+            "{}:2:1: error: offload: require: the rung writing y2 stays central: {reason}",
+            file.display()
+        )
+    );
+    assert!(
+        stdout.contains(&format!(
+            "{}:2:1 y2 (other): central: {reason}",
+            file.display()
+        )),
+        "{stdout}"
+    );
+    // A project-wide `require` is about the outputs: the memory tag `n` does not fail it.
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace(", offload: require }", " }")
+        .replace("program:", "offload: require\nprogram:");
+    std::fs::write(&path, text).unwrap();
+    let (code, _, stderr) = softplc(&["check", path_str(&path)]);
+    assert_eq!(code, Some(1));
+    assert_eq!(
+        stderr.lines().collect::<Vec<_>>(),
+        [format!(
+            "{}:2:1: error: offload: require: the rung writing y2 stays central: {reason}",
+            file.display()
+        )]
+    );
+}
+
+#[test]
+fn every_example_and_program_passes_check() {
+    let mut checked = 0;
+    for entry in std::fs::read_dir(root().join("examples")).expect("examples/") {
+        let project = entry.expect("an entry").path().join("project.yaml");
+        if !project.exists() {
+            continue;
+        }
+        let (code, stdout, stderr) = softplc(&["check", path_str(&project)]);
+        assert_eq!(code, Some(0), "{}: {stdout}{stderr}", project.display());
+        checked += 1;
+        // The same project with each other program of its folder under programs/ (the ladder
+        // and the Rhai version of one machine).
+        let text = std::fs::read_to_string(&project).expect("the project");
+        let Some(line) = text
+            .lines()
+            .find(|l| l.trim_start().starts_with("file: ../../programs/"))
+        else {
+            continue;
+        };
+        let file = line.trim_start().trim_start_matches("file: ");
+        let program = project.parent().unwrap().join(file);
+        let folder = program.parent().unwrap().to_path_buf();
+        for sibling in std::fs::read_dir(&folder).expect("the program folder") {
+            let sibling = sibling.expect("an entry").path();
+            let name = sibling.file_name().unwrap().to_str().unwrap().to_string();
+            let kind = if name.ends_with(".rhai") {
+                "rhai"
+            } else if name.ends_with(".ladder.yaml") {
+                "ladder"
+            } else {
+                continue;
+            };
+            let scratch = Scratch::new(&format!("example-{name}"));
+            let kind_line = text
+                .lines()
+                .find(|l| l.trim_start().starts_with("kind: "))
+                .expect("a program kind");
+            let copy = text
+                .replace(line, &format!("  file: {}", sibling.display()))
+                .replace(kind_line, &format!("  kind: {kind}"));
+            let path = scratch.write("project.yaml", &copy);
+            let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
+            assert_eq!(code, Some(0), "{}: {stdout}{stderr}", sibling.display());
+            checked += 1;
+        }
+    }
+    assert!(checked >= 16, "{checked} checked");
+}
