@@ -1,12 +1,15 @@
 //! A line's time budget: the wire-time floor of its poll plan (DESIGN.md "Timing model").
 //!
 //! Each planned transaction costs request characters + the device's reply delay + reply
-//! characters + t3.5. The floor of a cycle is the sum over its transactions; no master on this
-//! line can be faster.
+//! characters + t3.5, and, on a USB adapter with a latency timer, up to that timer for every
+//! transaction that waits for bytes back ([`AdapterTiming`], `line/latency.rs`). The floor of a
+//! cycle is the sum over its transactions; no master on this line can be faster. An adapter's
+//! echo (`echo: discard`, `line/echo.rs`) arrives while the request is sent and adds nothing.
 
 use std::time::Duration;
 
 use crate::driver::{Driver, Outgoing, Transaction};
+use crate::line::echo::EchoMode;
 use crate::line::settings::LineSettings;
 use crate::modbus::master::encode_request;
 use crate::modbus::Request;
@@ -76,12 +79,48 @@ pub fn modbus_reply_len(req: &Request) -> usize {
     1 + pdu + 2
 }
 
+/// What a line's adapter adds to its transactions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct AdapterTiming {
+    /// Its latency timer: received bytes reach the host up to this late.
+    pub latency: Duration,
+    /// Whether the master reads back its own frames (then even a frame nothing answers waits
+    /// for bytes back: its echo).
+    pub echo: EchoMode,
+}
+
+impl AdapterTiming {
+    /// The time a transaction waits for bytes held back by the adapter: its latency, when
+    /// anything comes back (a reply, or the echo of a frame nothing answers).
+    fn hold(self, tx: &Transaction) -> Duration {
+        match (&tx.frame, self.echo) {
+            (Outgoing::NoReply { .. }, EchoMode::None) => Duration::ZERO,
+            _ => self.latency,
+        }
+    }
+}
+
 /// Wire time of one planned transaction.
 pub fn transaction_time(
     settings: LineSettings,
     tx: &Transaction,
     reply_delay: Duration,
 ) -> Duration {
+    wire_time(settings, tx, reply_delay)
+}
+
+/// Time of one planned transaction on a line whose adapter is `adapter`: its wire time and
+/// what the adapter holds back.
+pub fn transaction_time_on(
+    settings: LineSettings,
+    adapter: AdapterTiming,
+    tx: &Transaction,
+    reply_delay: Duration,
+) -> Duration {
+    wire_time(settings, tx, reply_delay) + adapter.hold(tx)
+}
+
+fn wire_time(settings: LineSettings, tx: &Transaction, reply_delay: Duration) -> Duration {
     match &tx.frame {
         Outgoing::Modbus { unit, request } => {
             let mut frame = Vec::new();
@@ -101,6 +140,16 @@ pub fn transaction_time(
 /// The budget of a line whose modules are `drivers` (name, driver, the model's point access).
 pub fn line_budget(
     settings: LineSettings,
+    drivers: &mut [(String, Box<dyn Driver>, Vec<Access>)],
+) -> LineBudget {
+    line_budget_on(settings, AdapterTiming::default(), drivers)
+}
+
+/// The budget of a line whose adapter is `adapter` (its latency counted in every
+/// transaction that waits for bytes back).
+pub fn line_budget_on(
+    settings: LineSettings,
+    adapter: AdapterTiming,
     drivers: &mut [(String, Box<dyn Driver>, Vec<Access>)],
 ) -> LineBudget {
     let mut modules = Vec::with_capacity(drivers.len());
@@ -127,7 +176,7 @@ pub fn line_budget(
         let read_transactions = plan.len();
         let read_time = plan
             .iter()
-            .map(|tx| transaction_time(settings, tx, delay))
+            .map(|tx| transaction_time_on(settings, adapter, tx, delay))
             .sum();
         let desired: Vec<_> = access
             .iter()
@@ -138,7 +187,7 @@ pub fn line_budget(
         let write_transactions = plan.len();
         let write_time = plan
             .iter()
-            .map(|tx| transaction_time(settings, tx, delay))
+            .map(|tx| transaction_time_on(settings, adapter, tx, delay))
             .sum();
         modules.push(ModuleBudget {
             name: name.clone(),

@@ -6,11 +6,15 @@
 //!   (response timeout, t3.5 gap, guard + flush after a timeout, retries, counters).
 //! - [`link`]: how the scan drives a line on either clock, against one deadline per phase.
 //! - [`collect`]: FC 70 Collect rounds for the modules in event mode (MiniMod).
+//! - [`echo`]: adapters that hear their own transmission (`echo: discard`).
+//! - [`latency`]: USB adapters' latency timer: read, lowered, and counted in the budget.
 
 pub mod budget;
 pub mod bus;
 pub mod collect;
+pub mod echo;
 pub mod health;
+pub mod latency;
 pub mod link;
 pub mod settings;
 pub mod transport;

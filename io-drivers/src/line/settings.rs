@@ -140,6 +140,12 @@ impl LineSettings {
         }
     }
 
+    /// Silence inside a reply (or an echo) after which it is taken as ended. Modbus says
+    /// t1.5; USB adapters and ptys deliver bytes in chunks, so allow some milliseconds.
+    pub fn chunk_allowance(self) -> Duration {
+        (self.t1_5() * 10).max(Duration::from_millis(5))
+    }
+
     /// One transaction: request + device reply delay + reply + t3.5 (DESIGN.md). With no reply
     /// (a broadcast) the master still keeps the line quiet for the device's turnaround.
     pub fn transaction(

@@ -12,6 +12,7 @@ use std::time::Duration;
 
 use serialport::SerialPort;
 
+use crate::line::latency::{AdapterLatency, SysfsRoot};
 use crate::line::settings::{LineSettings, Parity};
 use crate::time::Clock;
 
@@ -57,6 +58,13 @@ pub enum LineError {
         /// What the port reads back.
         got: String,
     },
+    /// `echo: discard`: the request's echo did not come back as sent (see `line/echo.rs`).
+    #[error("{0}")]
+    Echo(crate::line::echo::EchoFault),
+    /// The adapter's latency timer stays above the `adapter_latency` the project demands
+    /// (see `line/latency.rs`).
+    #[error("{0}")]
+    Latency(Box<crate::line::latency::LatencyRefused>),
 }
 
 /// How a line failed, as a value that can be kept, compared and copied (a [`LineError`]
@@ -72,6 +80,9 @@ pub enum LineFault {
     /// Dropping the unread input failed.
     #[error("input flush failed: {0}")]
     Flush(std::io::ErrorKind),
+    /// The request's echo was wrong or missing (`echo: discard`), or came back unasked.
+    #[error("{0}")]
+    Echo(crate::line::echo::EchoFault),
 }
 
 impl From<&LineError> for LineFault {
@@ -81,7 +92,10 @@ impl From<&LineError> for LineFault {
             LineError::Io(e) => LineFault::Io(e.kind()),
             LineError::Flush(e) => LineFault::Flush(e.kind()),
             LineError::Rs485 { source, .. } => LineFault::Open(source.kind()),
-            LineError::Rs485Kept { .. } => LineFault::Open(std::io::ErrorKind::Unsupported),
+            LineError::Rs485Kept { .. } | LineError::Latency(_) => {
+                LineFault::Open(std::io::ErrorKind::Unsupported)
+            }
+            LineError::Echo(f) => LineFault::Echo(*f),
         }
     }
 }
@@ -130,6 +144,9 @@ pub struct SerialTransport {
     settings: LineSettings,
     /// Kernel RS-485 mode, applied again on every reopen.
     rs485: Option<Rs485Mode>,
+    /// The adapter's latency timer: what to ask of it, and where sysfs is; applied again on
+    /// every reopen (a replugged FTDI adapter comes back at 16 ms).
+    latency: Option<(AdapterLatency, SysfsRoot)>,
     clock: Arc<dyn Clock>,
 }
 
@@ -198,6 +215,7 @@ impl SerialTransport {
             path: None,
             settings,
             rs485: None,
+            latency: None,
             clock,
         }
     }
@@ -215,6 +233,25 @@ impl SerialTransport {
         apply_rs485(self.port()?, &path, mode)?;
         self.rs485 = Some(mode);
         Ok(())
+    }
+
+    /// Brings the adapter's latency timer down to 1 ms where it is higher
+    /// ([`crate::line::latency::apply`], sysfs under `root`) and logs what the port has; kept
+    /// for every reopen. Returns the latency the port has now; an error only when `config`
+    /// demands a ceiling the port stays above.
+    pub fn set_adapter_latency(
+        &mut self,
+        config: AdapterLatency,
+        root: SysfsRoot,
+    ) -> Result<Duration, LineError> {
+        let path = self
+            .path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("(port handed over open)"));
+        let latency = crate::line::latency::apply(config, &root, self.port()?, &path)
+            .map_err(|e| LineError::Latency(Box::new(e)))?;
+        self.latency = Some((config, root));
+        Ok(latency)
     }
 
     fn port(&mut self) -> Result<&mut TTYPort, LineError> {
@@ -380,6 +417,10 @@ impl Transport for SerialTransport {
         let port = open_tty(&path, self.settings)?;
         if let Some(mode) = self.rs485 {
             apply_rs485(&port, &path, mode)?;
+        }
+        if let Some((config, root)) = &self.latency {
+            crate::line::latency::apply(*config, root, &port, &path)
+                .map_err(|e| LineError::Latency(Box::new(e)))?;
         }
         self.port = Some(port);
         Ok(())

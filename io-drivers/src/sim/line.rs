@@ -59,6 +59,18 @@ pub struct SimWorld {
     /// baud: the kernel forces its slave end to 8 data bits without parity).
     format_known: Vec<bool>,
     faults: LineFaults,
+    /// Per line: what its simulated adapter hears of the master's own frames.
+    echo: Vec<SimEcho>,
+}
+
+/// A line's simulated adapter that hears its own transmission (an FTDI design with its
+/// receiver always enabled), as `echo: discard` expects (`line/echo.rs`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SimEcho {
+    /// Every frame the master sends comes back to it, byte for byte, as it is sent.
+    pub on: bool,
+    /// This many of the next echoes come back with one bit flipped (a collision, noise).
+    pub corrupt_next: u32,
 }
 
 /// The shared handle the ports and `softplc sim` hold.
@@ -73,9 +85,55 @@ impl SimWorld {
             plant: None,
             inbound: lines.iter().map(|_| Inbound::default()).collect(),
             format_known: lines.iter().map(|_| true).collect(),
+            echo: lines.iter().map(|_| SimEcho::default()).collect(),
             line_settings: lines,
             faults: LineFaults::new(0x5eed),
         }
+    }
+
+    /// Makes `line`'s adapter echo the master's frames (or stop).
+    pub fn set_echo(&mut self, line: usize, on: bool) {
+        if let Some(e) = self.echo.get_mut(line) {
+            e.on = on;
+        }
+    }
+
+    /// The next `n` echoes on `line` come back with a bit flipped.
+    pub fn corrupt_next_echoes(&mut self, line: usize, n: u32) {
+        if let Some(e) = self.echo.get_mut(line) {
+            e.corrupt_next = n;
+        }
+    }
+
+    /// What `line`'s adapter echoes.
+    pub fn echo(&self, line: usize) -> SimEcho {
+        self.echo.get(line).copied().unwrap_or_default()
+    }
+
+    /// Queues the echo of `frame`, which ended on the wire at `t`: each byte comes back as it
+    /// is sent (on a real bus the receiver hears the transmitter's own bits).
+    fn queue_echo(&mut self, line: usize, frame: &[u8], settings: LineSettings, t: Duration) {
+        let Some(echo) = self.echo.get_mut(line).filter(|e| e.on) else {
+            return;
+        };
+        let mut bytes = frame.to_vec();
+        if echo.corrupt_next > 0 {
+            echo.corrupt_next -= 1;
+            if let Some(b) = bytes.get_mut(frame.len() / 2) {
+                *b ^= 0x01;
+            }
+        }
+        let Some(inbound) = self.inbound.get_mut(line) else {
+            return;
+        };
+        let start = t.saturating_sub(settings.chars(frame.len()));
+        inbound.bytes.extend(
+            bytes
+                .into_iter()
+                .enumerate()
+                .map(|(i, b)| (start + settings.chars(i + 1), b)),
+        );
+        inbound.bytes.make_contiguous().sort_by_key(|(at, _)| *at);
     }
 
     /// Puts a simulated device on `line` under `name`; returns its index.
@@ -226,6 +284,8 @@ impl SimWorld {
         };
         let char_time = settings.char_time();
         let format_known = self.format_known.get(line).copied().unwrap_or(true);
+        // The adapter hears the frame even when nothing else on the line is alive.
+        self.queue_echo(line, frame, settings, t);
         if self.faults.is_dead(line) {
             return;
         }

@@ -4,6 +4,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc_io::line::bus::{BusOwner, Counters, Discipline, Module, OutputFrame};
+use softplc_io::line::echo::{echo_margin, EchoDiscard, EchoMode};
+use softplc_io::line::latency::SysfsRoot;
 use softplc_io::line::link::LineLink;
 use softplc_io::line::transport::{SerialTransport, Transport};
 use softplc_io::point::{Access, Quality};
@@ -84,6 +86,8 @@ impl Plc {
         }
         let mut lines = Vec::with_capacity(project.buses.len());
         for (b, bus) in project.buses.iter().enumerate() {
+            // The adapter's latency timer holds an echo back as it holds a reply.
+            let mut adapter_latency = Duration::ZERO;
             let transport: Box<dyn Transport> = match &bus.port {
                 PortConfig::Sim => {
                     // build_world makes a world whenever a bus is `port: sim`.
@@ -105,8 +109,18 @@ impl Plc {
                     if let Some(mode) = bus.rs485 {
                         port.set_rs485(mode).map_err(port_error)?;
                     }
+                    adapter_latency = port
+                        .set_adapter_latency(bus.adapter_latency, SysfsRoot::default())
+                        .map_err(port_error)?;
                     Box::new(port)
                 }
+            };
+            let transport: Box<dyn Transport> = match bus.echo {
+                EchoMode::None => transport,
+                EchoMode::Discard => Box::new(EchoDiscard::new(
+                    transport,
+                    echo_margin(bus.settings, adapter_latency),
+                )),
             };
             let modules = bus_modules[b]
                 .iter()
@@ -238,6 +252,13 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
         return None;
     }
     let mut world = SimWorld::new(project.buses.iter().map(|b| b.settings).collect());
+    // The simulated adapter is the one the project describes: `echo: discard` hears itself.
+    for (b, bus) in project.buses.iter().enumerate() {
+        world.set_echo(
+            b,
+            bus.port == PortConfig::Sim && bus.echo == EchoMode::Discard,
+        );
+    }
     for module in &project.modules {
         if project.buses[module.bus].port == PortConfig::Sim {
             let mut sim = (module.model.simulator)(module.device.address);
