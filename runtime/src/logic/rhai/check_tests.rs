@@ -1,25 +1,11 @@
 //! What the compiler finds before a script runs (`typing.rs`): calls, arguments, types.
 
 use std::collections::BTreeSet;
-use std::path::Path;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 
 use super::signatures::LIBRARY;
-use super::tests::table;
-use super::{blocks, compile, engine, quality};
-
-fn errors(script: &str) -> Vec<String> {
-    match compile(
-        script,
-        Path::new("s.rhai"),
-        &table(),
-        Duration::from_secs(1),
-    ) {
-        Ok(_) => Vec::new(),
-        Err(e) => e.iter().map(ToString::to_string).collect(),
-    }
-}
+use super::tests::compile_errors as errors;
+use super::{blocks, engine, quality};
 
 fn error(script: &str) -> String {
     let mut e = errors(script);
