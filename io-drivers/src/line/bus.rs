@@ -20,6 +20,7 @@ use crossbeam_channel::{Receiver, Sender};
 
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
 use crate::line::collect::CollectState;
+use crate::line::echo::{self, EchoFault};
 use crate::line::health::{Health, HealthEvent, HealthLimits};
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, LineFault, Transport};
@@ -91,6 +92,9 @@ pub struct Counters {
     pub dropped_bytes: u64,
     /// Input flushes that failed (each one a line failure: the port is reopened).
     pub flush_failures: u64,
+    /// Requests whose echo was wrong or missing (`echo: discard`), or came back as the reply
+    /// on a bus without it: line errors, retried like a bad reply.
+    pub echo_errors: u64,
     /// Round trip of the last good transaction: end of request to end of reply.
     pub last_round_trip: Duration,
 }
@@ -98,7 +102,12 @@ pub struct Counters {
 impl Counters {
     /// All failures.
     pub fn errors(&self) -> u64 {
-        self.timeouts + self.crc_errors + self.bad_replies + self.exceptions + self.decode_errors
+        self.timeouts
+            + self.crc_errors
+            + self.bad_replies
+            + self.exceptions
+            + self.decode_errors
+            + self.echo_errors
     }
 }
 
@@ -123,6 +132,10 @@ pub enum TxError {
     /// The port failed earlier and is not open again yet: nothing was sent.
     #[error("line failed: the port is down")]
     PortDown,
+    /// The request's echo was wrong or missing, or an echo came back unasked (`line/echo.rs`):
+    /// the line is suspect for this exchange, not down (no reopen).
+    #[error("line error: {0}")]
+    Echo(EchoFault),
 }
 
 /// A request as [`BusOwner::exchange`] sends it.
@@ -168,6 +181,8 @@ pub(crate) enum Miss {
     Cut,
     /// A reply that failed verification, or one without end.
     Bad(ReplyError),
+    /// The request's echo was wrong or missing, or came back as the reply.
+    Echo(EchoFault),
 }
 
 /// How one exchange went, for the caller's counters.
@@ -802,6 +817,10 @@ impl BusOwner {
             }
             Err(Miss::Encode) => Err(TxError::Encode),
             Err(Miss::Line(e)) => Err(line_err(&e)),
+            Err(Miss::Echo(fault)) => {
+                counters.echo_errors += 1;
+                Err(TxError::Echo(fault))
+            }
             Err(Miss::Silence) => {
                 counters.timeouts += 1;
                 Err(TxError::Timeout(timeout))
@@ -874,9 +893,19 @@ impl BusOwner {
             }
         }
         let started = self.transport.now();
-        if let Err(e) = self.transport.write_frame(&self.tx_buf) {
-            done.outcome = Err(Miss::Line(e));
-            return done;
+        match self.transport.write_frame(&self.tx_buf) {
+            Ok(()) => {}
+            // Sent, but its echo came back wrong: the guard and flush as after a bad reply.
+            Err(LineError::Echo(fault)) => {
+                let now = self.transport.now();
+                done.sent = Some(now);
+                self.rx_buf.clear();
+                return self.recovered(done, now, wait, Miss::Echo(fault));
+            }
+            Err(e) => {
+                done.outcome = Err(Miss::Line(e));
+                return done;
+            }
         }
         self.trace(started, WireEvent::Sent(&self.tx_buf));
         let sent = self.transport.now();
@@ -922,6 +951,10 @@ impl BusOwner {
             deadline = now + inter_char;
             if let Some(term) = terminator {
                 if let Some(end) = self.rx_buf.iter().position(|b| *b == term) {
+                    if self.rx_buf[..=end] == self.tx_buf[..] {
+                        // The command line itself: the adapter's echo, not the module's reply.
+                        break Miss::Echo(EchoFault::Unexpected);
+                    }
                     self.trace_reply(now, &self.rx_buf[..=end], Verdict::Good);
                     let reply = self.rx_buf[..end].to_vec();
                     self.finish(&mut done, sent, now, Reply::Text(reply));
@@ -946,6 +979,25 @@ impl BusOwner {
             }
         };
         let now = self.transport.now();
+        self.recovered(done, now, wait, miss)
+    }
+
+    /// Ends a failed exchange with the guard and a flush ([`Self::recover`]); a failure that
+    /// began with the request's own bytes is the adapter's echo on a bus without
+    /// `echo: discard`, and says so.
+    fn recovered(
+        &mut self,
+        mut done: Exchanged,
+        now: Duration,
+        wait: Duration,
+        miss: Miss,
+    ) -> Exchanged {
+        let miss = match miss {
+            Miss::Bad(_) | Miss::Cut if echo::begins_with_request(&self.tx_buf, &self.rx_buf) => {
+                Miss::Echo(EchoFault::Unexpected)
+            }
+            miss => miss,
+        };
         self.trace_miss(now, &miss, wait);
         done.outcome = match self.recover(now, wait) {
             Ok(dropped) => {

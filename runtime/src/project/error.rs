@@ -249,6 +249,15 @@ pub enum ErrorKind {
         /// Which one (`rs485.delay_after_send`).
         key: &'static str,
     },
+    /// `echo:` other than `none` or `discard`.
+    #[error("echo must be none (the adapter does not hear itself) or discard (read back and verify every request's echo)")]
+    BadEcho,
+    /// `adapter_latency:` that is not whole ms in 0..=255 ms.
+    #[error("adapter_latency must be auto or whole milliseconds from 0ms to 255ms (an FTDI latency timer's range)")]
+    BadAdapterLatency,
+    /// An explicit `adapter_latency:` on a `port: sim` bus (the virtual line has no adapter).
+    #[error("adapter_latency is for a device port (a USB adapter), not port: sim; leave it out or set auto")]
+    AdapterLatencyOnSim,
     /// Retries outside 0..=255.
     #[error("retries {value} is outside 0..=255")]
     BadRetries {

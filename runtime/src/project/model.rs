@@ -94,6 +94,10 @@ pub struct BusConfig {
     pub output_refresh: Duration,
     /// Kernel RS-485 mode to set when the port is opened (`rs485:`).
     pub rs485: Option<softplc_io::line::transport::Rs485Mode>,
+    /// Whether the adapter's echo of every request is read back and verified (`echo:`).
+    pub echo: softplc_io::line::echo::EchoMode,
+    /// The USB adapter's latency timer (`adapter_latency:`).
+    pub adapter_latency: softplc_io::line::latency::AdapterLatency,
 }
 
 /// One module.

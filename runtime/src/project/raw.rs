@@ -19,6 +19,14 @@
 //!                              # open and read back, a port that refuses it stops the start.
 //!                              # rts_on_send: RTS high while sending (false: inverted);
 //!                              # delays in whole ms, 0..=100ms. USB adapters need none.
+//!     echo: discard            # none | discard; default none. discard: the adapter hears its
+//!                              # own transmission; each request is read back and verified
+//!                              # before the reply is awaited (a bad echo is a line error).
+//!     adapter_latency: auto    # auto | a duration, whole ms 0ms..=255ms; default auto.
+//!                              # auto: a USB adapter's latency timer is read from sysfs (and
+//!                              # lowered to 1 ms) when the port opens, 0 without one; a
+//!                              # duration: what `check` counts, and the most the port may
+//!                              # keep (the start fails if it stays higher).
 //!     response_timeout: 50ms   # default 100ms
 //!     retries: 1               # attempts after a failed one, 0..=255; default 1
 //!     output_refresh: 1s       # period of the full output rewrite; default 1s
@@ -186,7 +194,7 @@ pub struct RawRealtime {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh, rs485"
+    expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh, rs485, echo, adapter_latency"
 )]
 pub struct RawBus {
     /// The line's name.
@@ -211,6 +219,46 @@ pub struct RawBus {
     /// Kernel RS-485 mode (`TIOCSRS485`) for a UART whose RTS drives the transceiver.
     #[serde(default)]
     pub rs485: Option<RawRs485>,
+    /// `none` or `discard`: whether the adapter's echo of every request is read back.
+    #[serde(default)]
+    pub echo: Option<String>,
+    /// `auto` or a duration: the USB adapter's latency timer.
+    #[serde(default)]
+    pub adapter_latency: Option<RawAdapterLatency>,
+}
+
+/// A bus's `adapter_latency:`: `auto`, or a duration (whole ms, checked by the validator).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RawAdapterLatency {
+    /// `auto`.
+    Auto,
+    /// A duration.
+    Given(Duration),
+}
+
+impl<'de> Deserialize<'de> for RawAdapterLatency {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = RawAdapterLatency;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                write!(f, "auto, or {DURATION_EXPECTED}")
+            }
+
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<RawAdapterLatency, E> {
+                if v == "auto" {
+                    return Ok(RawAdapterLatency::Auto);
+                }
+                parse_duration(v).map(RawAdapterLatency::Given).map_err(|why| {
+                    E::custom(format_args!(
+                        "invalid value: adapter_latency \"{v}\": {why}; expected auto, or {DURATION_EXPECTED}"
+                    ))
+                })
+            }
+        }
+        d.deserialize_str(V)
+    }
 }
 
 /// A bus's `rs485:` mapping.

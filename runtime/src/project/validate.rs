@@ -14,9 +14,13 @@ use super::model::{
     Binding, BusConfig, ModuleConfig, PlantConfig, PortConfig, ProgramConfig, ProgramKind, Project,
     RealtimeConfig, ScanConfig, TagConfig, WatchdogConfig,
 };
+use softplc_io::line::echo::EchoMode;
+use softplc_io::line::latency::AdapterLatency;
 use softplc_io::line::transport::Rs485Mode;
 
-use super::raw::{Int, RawBus, RawModule, RawPlant, RawProject, RawRs485, RawScan, RawTag};
+use super::raw::{
+    Int, RawAdapterLatency, RawBus, RawModule, RawPlant, RawProject, RawRs485, RawScan, RawTag,
+};
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
 use crate::suggest::edit_distance;
@@ -365,8 +369,20 @@ impl Validator<'_> {
             None => Some(None),
             Some(r) => self.rs485(r, &port, &path.key("rs485")),
         };
+        let echo = match raw.echo.as_deref().map(str::parse::<EchoMode>) {
+            None => Some(EchoMode::None),
+            Some(Ok(e)) => Some(e),
+            Some(Err(_)) => {
+                self.error(path.key("echo"), ErrorKind::BadEcho);
+                None
+            }
+        };
+        let adapter_latency =
+            self.adapter_latency(raw.adapter_latency, &port, &path.key("adapter_latency"));
         Some(BusConfig {
             rs485: rs485?,
+            echo: echo?,
+            adapter_latency: adapter_latency?,
             name: raw.name.clone(),
             port: port?,
             settings: LineSettings {
@@ -377,6 +393,30 @@ impl Validator<'_> {
             retries: retries?,
             output_refresh: output_refresh?,
         })
+    }
+
+    /// A bus's `adapter_latency:`: `auto` anywhere, a duration on a device port only, in whole
+    /// ms up to the 255 ms an FTDI latency timer holds.
+    fn adapter_latency(
+        &mut self,
+        raw: Option<RawAdapterLatency>,
+        port: &Option<PortConfig>,
+        path: &YPath,
+    ) -> Option<AdapterLatency> {
+        match raw {
+            None | Some(RawAdapterLatency::Auto) => Some(AdapterLatency::Auto),
+            Some(RawAdapterLatency::Given(_)) if matches!(port, Some(PortConfig::Sim)) => {
+                self.error(path.clone(), ErrorKind::AdapterLatencyOnSim);
+                None
+            }
+            Some(RawAdapterLatency::Given(d))
+                if d > AdapterLatency::MAX || d.subsec_nanos() % 1_000_000 != 0 =>
+            {
+                self.error(path.clone(), ErrorKind::BadAdapterLatency);
+                None
+            }
+            Some(RawAdapterLatency::Given(d)) => Some(AdapterLatency::AtMost(d)),
+        }
     }
 
     /// A bus's `rs485:`: on a device port only, delays in whole ms up to the kernel's 100 ms.

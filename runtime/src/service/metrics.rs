@@ -12,7 +12,7 @@
 //! | `softplc_scans_total`, `softplc_overruns_total` | counter | completed cycles, skipped deadlines |
 //! | `softplc_{cycle,read,logic,write,lateness}_seconds` | summary | quantiles 0.5, 0.99, 0.999, `_sum`, `_count` |
 //! | `softplc_phase_max_seconds{phase}` | gauge | the longest sample of each phase |
-//! | `softplc_module_{requests,timeouts,crc_errors,bad_replies,exceptions}_total{module,bus}` | counter | bus counters |
+//! | `softplc_module_{requests,timeouts,crc_errors,bad_replies,exceptions,echo_errors}_total{module,bus}` | counter | bus counters |
 //! | `softplc_module_quality{module,bus}` | gauge | 0 good, 1 stale, 2 bad |
 //! | `softplc_module_round_trip_seconds{module,bus}` | gauge | last good transaction |
 //! | `softplc_tag_value{tag}` | gauge | value (bools 0/1) |
@@ -182,7 +182,7 @@ pub fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
     }
 
     type Counter = fn(&Counters) -> u64;
-    let counters: [(&str, &str, Counter); 5] = [
+    let counters: [(&str, &str, Counter); 6] = [
         ("requests", "Requests sent, retries included.", |c| {
             c.requests
         }),
@@ -197,6 +197,11 @@ pub fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
             "exceptions",
             "Exception replies (the device said no).",
             |c| c.exceptions,
+        ),
+        (
+            "echo_errors",
+            "Requests whose echo was wrong or missing, or came back as the reply.",
+            |c| c.echo_errors,
         ),
     ];
     let module = |i: usize| s.modules.get(i).copied().unwrap_or_default();

@@ -57,6 +57,9 @@ pub struct ModuleReport {
     pub bad_replies: u64,
     /// Exception replies.
     pub exceptions: u64,
+    /// Requests whose echo was wrong or missing, or came back as the reply (line errors).
+    #[serde(default)]
+    pub echo_errors: u64,
     /// Last round trip, µs.
     pub last_round_trip_us: u64,
     /// The last failure, if the last read failed.
@@ -122,6 +125,7 @@ impl StatusReport {
                     crc_errors: m.counters.crc_errors,
                     bad_replies: m.counters.bad_replies,
                     exceptions: m.counters.exceptions,
+                    echo_errors: m.counters.echo_errors,
                     last_round_trip_us: m.counters.last_round_trip.as_micros() as u64,
                     last_error: m.last_error.as_ref().map(ToString::to_string),
                 })
@@ -158,7 +162,7 @@ impl std::fmt::Display for StatusReport {
         for m in &self.modules {
             writeln!(
                 f,
-                "  module {} ({}): {}{}  requests {} timeouts {} crc {} bad {} exceptions {}{}",
+                "  module {} ({}): {}{}  requests {} timeouts {} crc {} bad {} exceptions {}{}{}",
                 m.name,
                 m.bus,
                 m.quality,
@@ -172,6 +176,12 @@ impl std::fmt::Display for StatusReport {
                 m.crc_errors,
                 m.bad_replies,
                 m.exceptions,
+                // Only on a bus whose adapter echoes, or should.
+                if m.echo_errors > 0 {
+                    format!(" echo {}", m.echo_errors)
+                } else {
+                    String::new()
+                },
                 m.last_error
                     .as_ref()
                     .map(|e| format!("  last error: {e}"))

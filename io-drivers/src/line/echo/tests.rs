@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::*;
-use crate::devices::{self, Protocol};
+use crate::devices::{self, DeviceConfig, Protocol};
 use crate::line::bus::{BusOwner, Discipline, Module, TxError};
 use crate::point::Quality;
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
@@ -24,8 +24,12 @@ fn world(echo: bool) -> SharedWorld {
 /// A bus owner for the MiniMod on `world`, discarding echoes or not; started up.
 fn owner(world: &SharedWorld, discard: bool, clock: &Arc<VirtualClock>) -> BusOwner {
     let model = devices::model("minimod").unwrap();
-    let config = model.device_config("mm", 5, Protocol::Modbus, &[]).unwrap();
-    let driver = (model.driver)(&config);
+    let driver = (model.driver)(&DeviceConfig {
+        name: "mm".into(),
+        address: 5,
+        protocol: Protocol::Modbus,
+        settings: Vec::new(),
+    });
     let port: Box<dyn Transport> =
         Box::new(VirtualPort::new(world.clone(), 0, LINE, clock.clone()));
     let port: Box<dyn Transport> = if discard {
