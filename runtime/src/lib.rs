@@ -7,6 +7,7 @@
 //! - [`scan`]: the scan thread: deadlines, phases, overruns, the task watchdog, statistics.
 //! - [`retain`]: retained tags, saved atomically, restored at start-up.
 //! - [`plc`]: a project wired into a runnable PLC (lines, drivers, image, program).
+//! - [`recorder`]: the flight recorder (what every cycle saw, crash-safe) and its replay.
 //! - [`trace`]: tags sampled every cycle around a trigger; CSV and VCD writers.
 //! - [`cli`]: the `softplc` subcommands.
 
@@ -17,6 +18,7 @@ pub mod logic;
 pub mod offload;
 pub mod plc;
 pub mod project;
+pub mod recorder;
 pub mod retain;
 pub mod scan;
 pub mod service;

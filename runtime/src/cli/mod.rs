@@ -8,6 +8,7 @@ mod discover;
 mod journal;
 mod monitor;
 mod out;
+mod replay;
 mod run;
 mod sim;
 pub mod test;
@@ -52,6 +53,9 @@ enum Command {
     Commission(commission::CommissionArgs),
     /// Run scenario files (inputs over virtual time, expected outputs) on the simulator.
     Test(test::TestArgs),
+    /// Re-run a project's program on a flight record's inputs and say where its outputs first
+    /// differ from the recorded ones (or that they match).
+    Replay(replay::ReplayArgs),
     /// Listen on a serial line without sending and print every frame heard, decoded (Modbus
     /// RTU, MiniMod text, RESI ASCII, DCON), with the silence before it.
     Monitor(monitor::MonitorArgs),
@@ -70,6 +74,7 @@ pub fn main() -> ExitCode {
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
         Command::Test(a) => test::test(a),
+        Command::Replay(a) => replay::replay_cmd(a),
         Command::Discover(a) => discover::discover(a),
         Command::Commission(a) => commission::commission(a),
         Command::Monitor(a) => monitor::monitor(a),

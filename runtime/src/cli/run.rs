@@ -11,6 +11,7 @@ use anyhow::Context;
 use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
 use crate::project;
+use crate::recorder::Settings;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::control::{default_socket_path, ControlServer};
@@ -40,6 +41,11 @@ pub struct RunArgs {
     /// a restart clears every force).
     #[arg(long)]
     keep_forces: bool,
+    /// Keep a flight record of at least this much scan time (e.g. 10m), in PROJECT.record
+    /// beside the project file (the state directory under systemd); the project's
+    /// `recorder:` section gives its other settings (and turns it on without this flag).
+    #[arg(long, value_name = "KEEP", value_parser = super::parse_duration)]
+    record: Option<Duration>,
     /// Do not open a control socket.
     #[arg(long, conflicts_with = "control")]
     no_control: bool,
@@ -77,6 +83,19 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if args.keep_forces {
         plc.keep_forces(crate::plc::forces_path(&args.project));
     }
+    // After the kept forces: the record's first keyframe is the state the first cycle sees.
+    let recorder = match Settings::for_run(plc.project(), args.record) {
+        Some(settings) => {
+            tracing::info!(
+                "flight recorder: {} (keeps {}, at most {} MiB)",
+                settings.folder.display(),
+                fmt_duration(settings.keep),
+                settings.max_bytes >> 20
+            );
+            Some(plc.record(settings)?)
+        }
+        None => None,
+    };
     let mut engine = ScanEngine::new(plc);
     if let Some(d) = args.run_for {
         engine = engine.run_for(d);
@@ -184,6 +203,12 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         std::thread::sleep(crate::service::web::sse::TICK * 3);
     }
     super::out::out(&summary(&outcome, period))?;
+    if let Some(r) = recorder {
+        // The PLC is gone with the scan thread: the writer has its last records.
+        if let Some(e) = r.finish().error {
+            super::out::errln(&e);
+        }
+    }
     Ok(match outcome.reason {
         StopReason::Requested => ExitCode::SUCCESS,
         _ => ExitCode::from(3),

@@ -242,6 +242,7 @@ impl Plc {
             offload,
             dead_lines: Vec::new(),
             forces_file: None,
+            recorder: None,
         })
     }
 }

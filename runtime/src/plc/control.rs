@@ -8,6 +8,7 @@ use crate::image::TagId;
 use crate::logic::load;
 use crate::offload::{self};
 use crate::project::Project;
+use crate::recorder::format::Event;
 
 use super::error::{ReloadError, TagError};
 use super::*;
@@ -20,6 +21,7 @@ impl Plc {
         let value = self.parse_value(id, tag, text)?;
         self.image.force(id, value);
         self.image.apply_forces(self.clock.now());
+        self.note(|| Event::Force { tag: id.0, value });
         self.save_forces();
         tracing::warn!("tag {tag} forced to {value}");
         Ok(value)
@@ -28,8 +30,15 @@ impl Plc {
     /// Removes the force of `tag` (or of every tag); returns how many were removed.
     pub fn unforce(&mut self, tag: Option<&str>) -> Result<usize, TagError> {
         let n = match tag {
-            Some(t) => usize::from(self.image.unforce(self.tag_id(t)?)),
-            None => self.image.unforce_all(),
+            Some(t) => {
+                let id = self.tag_id(t)?;
+                self.note(|| Event::Unforce { tag: id.0 });
+                usize::from(self.image.unforce(id))
+            }
+            None => {
+                self.note(|| Event::UnforceAll);
+                self.image.unforce_all()
+            }
         };
         if n > 0 {
             tracing::info!("{n} force(s) removed");
@@ -61,6 +70,9 @@ impl Plc {
             self.image.set(id, value, now);
             tracing::debug!("tag {} written: {value}", self.image.name(id));
         }
+        self.note(|| Event::Write {
+            values: parsed.iter().map(|&(id, v)| (id.0, v)).collect(),
+        });
         Ok(parsed.len())
     }
 
@@ -121,6 +133,9 @@ impl Plc {
     pub fn apply_reload(&mut self, prepared: PreparedReload) {
         self.logic = prepared.logic;
         self.project.program = prepared.program;
+        self.note(|| Event::Reload {
+            program_hash: prepared.program_hash,
+        });
         tracing::info!("program {} reloaded", self.project.program.path.display());
     }
 }
@@ -160,6 +175,8 @@ pub struct ReloadJob {
 pub struct PreparedReload {
     logic: Box<dyn crate::logic::LogicEngine>,
     program: crate::project::ProgramConfig,
+    /// The new program's identity, for the flight recorder (hashed here, off the scan).
+    program_hash: crate::recorder::format::Digest,
 }
 
 impl ReloadJob {
@@ -180,9 +197,13 @@ impl ReloadJob {
         for (r, _) in plan.pushed() {
             logic.release(r.rung.coil);
         }
+        // The source as compiled was read just now; a read failing here (the file went away
+        // since) leaves an identity of nothing rather than refusing a program that compiled.
+        let source = std::fs::read(&fresh.program.path).unwrap_or_default();
         Ok(PreparedReload {
             logic,
             program: fresh.program,
+            program_hash: crate::recorder::format::digest(&source),
         })
     }
 }

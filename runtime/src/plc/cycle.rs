@@ -100,6 +100,9 @@ impl Plc {
 
     /// Logic phase.
     pub fn run_logic(&mut self, ctx: &ScanContext) -> Result<(), LogicFault> {
+        if let Some(tap) = self.recorder.as_mut() {
+            tap.seen(&self.image, ctx.cycle, ctx.now);
+        }
         let result = self.logic.scan(&mut self.image, ctx);
         self.offload.after_logic(&mut self.image, ctx.now);
         result
@@ -130,6 +133,10 @@ impl Plc {
         // Between cycles: hand changed retained values to their writer (never waits).
         if let Some(r) = self.retain.as_mut() {
             r.tick(&self.image, self.clock.now());
+        }
+        // What the cycle wrote, to the flight recorder (never waits either).
+        if let Some(tap) = self.recorder.as_mut() {
+            tap.wrote(&self.image);
         }
     }
 

@@ -9,7 +9,8 @@
 //! - [`build`](Plc::build): wiring a validated project (`build.rs`);
 //! - the phases the scan calls and the safe state (`cycle.rs`);
 //! - the control interface's actions: force, write, reload (`control.rs`), and why they are
-//!   refused (`error.rs`).
+//!   refused (`error.rs`);
+//! - the flight recorder's tap: what every cycle saw and did (`record.rs`).
 //!
 //! Nothing here depends on the scan or the service: the scan ([`crate::scan`]) drives a `Plc`,
 //! the service ([`crate::service`]) reads it and asks it for changes at cycle boundaries.
@@ -19,10 +20,12 @@ mod control;
 mod cycle;
 mod error;
 mod forces;
+mod record;
 
 pub use control::{PreparedReload, ReloadJob};
 pub use error::{ReloadError, TagError};
 pub use forces::forces_path;
+pub use record::RecordError;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -147,6 +150,8 @@ pub struct Plc {
     dead_lines: Vec<usize>,
     /// Where forces are kept across restarts, when asked.
     forces_file: Option<std::path::PathBuf>,
+    /// The flight recorder's tap, when the run is recorded.
+    recorder: Option<crate::recorder::Tap>,
 }
 
 impl Plc {

@@ -20,6 +20,7 @@ pub mod model;
 pub mod nesting;
 pub mod offload;
 pub mod raw;
+pub mod recorder;
 pub mod retain;
 mod scada;
 pub mod service;
@@ -35,6 +36,7 @@ pub use error::{ErrorKind, Item, ProjectError, ProjectErrors};
 pub use model::*;
 pub use offload::{OffloadConfig, OffloadMode, OnStop, TagOffload};
 pub use raw::{parse_duration, DurationError};
+pub use recorder::RecorderConfig;
 pub use retain::RetainConfig;
 pub use scada::ServiceError;
 pub use service::{

@@ -56,6 +56,7 @@
 //!   model: conveyor
 //!   wiring: { motor: mm1.Y1, sensor_entry: mm1.X1, sensor_exit: mm1.X2 }
 //! offload: auto                # optional; never (default) | auto | require; see `offload.rs`
+//! recorder: { keep: 10m, size: 256MiB, folder: records }   # optional; see `recorder.rs`
 //! service:                     # optional; see `service.rs` (schema) and `scada.rs` (the map)
 //!   metrics: 127.0.0.1:9464    # Prometheus text endpoint; off when absent
 //!   modbus_tcp: { bind: 127.0.0.1:5020, unit: 1, writes: false, allow_remote_writes: false,
@@ -138,6 +139,9 @@ pub struct RawProject {
     /// Push-down of rungs into the modules (see [`super::offload`]).
     #[serde(default)]
     pub offload: Option<super::offload::RawOffload>,
+    /// The flight recorder (see [`super::recorder`]).
+    #[serde(default)]
+    pub recorder: Option<super::recorder::RawRecorder>,
 }
 
 /// `scan:`.

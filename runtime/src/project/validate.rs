@@ -109,6 +109,13 @@ pub(crate) fn validate(
         }
         config
     };
+    let recorder = {
+        let (config, errors) = super::recorder::validate(raw.recorder.as_ref(), file);
+        for (path, e) in errors {
+            v.error(path, e);
+        }
+        config
+    };
     let plant = match &raw.plant {
         Some(p) => v.plant(p, raw, &buses, &modules, &module_index).map(Some),
         None => Some(None),
@@ -131,6 +138,7 @@ pub(crate) fn validate(
             service: service?,
             retain: retain?,
             offload: offload?,
+            recorder,
         })
     })();
     match built {

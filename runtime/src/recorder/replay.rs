@@ -1,0 +1,463 @@
+//! Replay: the project's program re-run on the recorded inputs at the recorded times.
+//!
+//! Logic sees only the process image and the scan's time (DESIGN principle 2), so a cycle is
+//! re-created exactly from what the record holds: the cycle's timestamp and number (`now`,
+//! `delta`, `cycle` as the scan gave them), the image at the start of the logic, and the
+//! control requests applied before it. For each cycle, in order:
+//!
+//! 1. the recorded requests are applied as the PLC applied them: forces, unforces, writes;
+//! 2. the recorded image is applied: tags the program does not compute (inputs, pushed-down
+//!    outputs) take their recorded value and quality; tags it computes (outputs, memory) take
+//!    only their recorded quality (a module's refusal, a lost line), their value is the
+//!    replayed program's own;
+//! 3. forces are applied, the program runs, forces are applied again (as the output phase
+//!    does);
+//! 4. every output and memory tag is compared with what the recorded scan wrote.
+//!
+//! What replay does not re-create: module-side behaviour. A pushed-down rung runs in its
+//! module, so the value the module reported is an input to replay (its tag is not compared);
+//! a changed program is replayed with the record's placement. The lines, their timing and the
+//! plant are not simulated: the recorded inputs stand for them, so a changed program's
+//! outputs do not feed back into its inputs (the answer is "what the new program would have
+//! done with these inputs", not "what the machine would then have done"). A record whose
+//! oldest segments were rotated out starts from the image its first keyframe holds, but the
+//! program's function blocks (timers, counters, edge memories) start fresh there; the summary
+//! says so. Records dropped by a writer that fell behind are gaps: replay goes on across them
+//! (the program sees one long cycle) and lists them.
+
+use std::time::Duration;
+
+use softplc_io::point::{Access, Quality, Value};
+
+use crate::image::{ProcessImage, TagId};
+use crate::logic::{load, LogicEngine, ScanContext};
+use crate::project::{Binding, Project};
+use crate::recorder::format::{self, Digest, Event, Header, TagInfo, TagRole};
+use crate::recorder::reader::{Record, Segment};
+use crate::recorder::tap::same;
+use crate::scan::fmt_duration;
+
+/// How much replay reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReplayOptions {
+    /// How many differing cycles to describe (every one is counted).
+    pub differences: usize,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        Self { differences: 1 }
+    }
+}
+
+/// One tag whose replayed value differs from the recorded one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TagDifference {
+    /// The tag.
+    pub tag: String,
+    /// What the recorded scan wrote.
+    pub recorded: Value,
+    /// What the replayed program wrote.
+    pub replayed: Value,
+}
+
+/// A cycle whose outputs differ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Difference {
+    /// The cycle number, as the recorded run counted it.
+    pub cycle: u64,
+    /// Its timestamp (scan time of the recorded run).
+    pub now: Duration,
+    /// The tags that differ, in tag order.
+    pub tags: Vec<TagDifference>,
+}
+
+/// The compared tags' values after one cycle, recorded and replayed (for CSV/VCD).
+#[derive(Debug, Clone, Copy)]
+pub struct CycleOutputs<'a> {
+    /// The cycle number.
+    pub cycle: u64,
+    /// Its timestamp.
+    pub now: Duration,
+    /// Recorded values, in [`ReplayReport::compared`] order.
+    pub recorded: &'a [Value],
+    /// Replayed values, in the same order.
+    pub replayed: &'a [Value],
+}
+
+/// What replay found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayReport {
+    /// The recorded project's name.
+    pub project: String,
+    /// Cycles replayed.
+    pub cycles: u64,
+    /// Scan time they cover.
+    pub plant_time: Duration,
+    /// The tags compared (outputs and memory tags), in tag order.
+    pub compared: Vec<TagInfo>,
+    /// Cycles whose outputs differ.
+    pub differing_cycles: u64,
+    /// The first [`ReplayOptions::differences`] of them.
+    pub differences: Vec<Difference>,
+    /// The recorded program's identity (at the record's start).
+    pub recorded_program: Digest,
+    /// The replayed program's identity.
+    pub replayed_program: Digest,
+    /// Whether the project files differ (beyond the program; a comment counts).
+    pub project_file_differs: bool,
+    /// The replayed program faulted: the cycle and the fault. Replay stops there.
+    pub fault: Option<(u64, String)>,
+    /// What the reader of the summary must know: gaps, reloads, restarts, torn tails.
+    pub notes: Vec<String>,
+}
+
+impl ReplayReport {
+    /// Whether every compared output matched in every cycle.
+    pub fn identical(&self) -> bool {
+        self.differing_cycles == 0 && self.fault.is_none()
+    }
+}
+
+/// Why a record cannot be replayed against a project.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ReplayError {
+    /// The record holds no cycle.
+    #[error("the record holds no cycle")]
+    Empty,
+    /// The record is of another project.
+    #[error("the record is of project {record:?}, the project file is {project:?}")]
+    Project {
+        /// The record's.
+        record: String,
+        /// The project's.
+        project: String,
+    },
+    /// The tag tables differ in length.
+    #[error(
+        "the record's tag table has {record} tags, the project's {project}: replay needs the \
+         same tags (a changed program is fine, changed I/O is not)"
+    )]
+    TagCount {
+        /// The record's.
+        record: usize,
+        /// The project's.
+        project: usize,
+    },
+    /// A tag differs.
+    #[error("tag {index}: the record has {record}, the project has {project}")]
+    Tag {
+        /// Its place in the table (0-based).
+        index: usize,
+        /// The record's tag.
+        record: String,
+        /// The project's tag.
+        project: String,
+    },
+    /// The project's program does not compile.
+    #[error("{0}")]
+    Program(String),
+}
+
+/// The role of each of `project`'s tags, given which outputs are pushed down.
+pub fn tag_table(project: &Project, pushed: impl Fn(TagId) -> bool) -> Vec<TagInfo> {
+    project
+        .tags
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let role = match t.binding {
+                Binding::Memory => TagRole::Memory,
+                Binding::Point { module, point } => {
+                    match project.modules[module].model.points[point].access {
+                        Access::Output if pushed(TagId(i as u32)) => TagRole::Pushed,
+                        Access::Output => TagRole::Output,
+                        Access::Input | Access::ReadWrite => TagRole::Input,
+                    }
+                }
+            };
+            TagInfo {
+                name: t.name.clone(),
+                ty: t.ty,
+                role,
+            }
+        })
+        .collect()
+}
+
+/// Checks that `header`'s project is `project` but for its program.
+pub fn check_compatible(header: &Header, project: &Project) -> Result<(), ReplayError> {
+    if header.project != project.name {
+        return Err(ReplayError::Project {
+            record: header.project.clone(),
+            project: project.name.clone(),
+        });
+    }
+    let ours = tag_table(project, |_| false);
+    if ours.len() != header.tags.len() {
+        return Err(ReplayError::TagCount {
+            record: header.tags.len(),
+            project: ours.len(),
+        });
+    }
+    // A pushed-down output is an output wherever its rung runs: a new program may move it.
+    let class = |r: TagRole| {
+        if r == TagRole::Pushed {
+            TagRole::Output
+        } else {
+            r
+        }
+    };
+    let describe = |t: &TagInfo| format!("{} ({}, {})", t.name, t.ty, t.role.word());
+    for (index, (rec, new)) in header.tags.iter().zip(&ours).enumerate() {
+        if rec.name != new.name || rec.ty != new.ty || class(rec.role) != new.role {
+            return Err(ReplayError::Tag {
+                index,
+                record: describe(rec),
+                project: describe(new),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Replays `record` against `project`'s program; `sink` gets every cycle's compared values.
+pub fn replay(
+    record: &Record,
+    project: &Project,
+    options: ReplayOptions,
+    mut sink: impl FnMut(CycleOutputs<'_>),
+) -> Result<ReplayReport, ReplayError> {
+    let parts = record.parts();
+    let first = parts
+        .first()
+        .and_then(|p| p.first())
+        .filter(|_| record.cycles().next().is_some())
+        .ok_or(ReplayError::Empty)?;
+    for seg in &record.segments {
+        check_compatible(&seg.header, project)?;
+    }
+    let program = std::fs::read(&project.program.path).unwrap_or_default();
+    let project_file = std::fs::read(&project.source).unwrap_or_default();
+    let mut report = ReplayReport {
+        project: first.header.project.clone(),
+        cycles: 0,
+        plant_time: Duration::ZERO,
+        compared: first
+            .header
+            .tags
+            .iter()
+            .filter(|t| t.role.program_owned())
+            .cloned()
+            .collect(),
+        differing_cycles: 0,
+        differences: Vec::new(),
+        recorded_program: first.header.program_hash,
+        replayed_program: format::digest(&program),
+        project_file_differs: first.header.project_hash != format::digest(&project_file),
+        fault: None,
+        notes: Vec::new(),
+    };
+    for (n, part) in parts.iter().enumerate() {
+        for seg in part.iter() {
+            if let Some(t) = seg.torn {
+                report.notes.push(format!(
+                    "{}: torn tail at byte {} ({} bytes after the last good block ignored)",
+                    seg.path.display(),
+                    t.offset,
+                    t.ignored
+                ));
+            }
+        }
+        if n > 0 && part[0].header.run_id != parts[n - 1][0].header.run_id {
+            report.notes.push(format!(
+                "cycle {}: the PLC restarted (a new run); the program starts afresh there",
+                part[0].keyframe.next_cycle
+            ));
+        }
+        let mut run = PartReplay::new(part, project, &mut report)?;
+        if !run.go(options, &mut report, &mut sink) {
+            break;
+        }
+    }
+    Ok(report)
+}
+
+/// One part of a record (consecutive segments of one run) being replayed.
+struct PartReplay<'a> {
+    part: &'a [Segment],
+    image: ProcessImage,
+    logic: Box<dyn LogicEngine>,
+    /// The recorded state, after the last record.
+    recorded: Vec<(Value, Quality)>,
+    owned: Vec<bool>,
+    period: Duration,
+}
+
+impl<'a> PartReplay<'a> {
+    fn new(
+        part: &'a [Segment],
+        project: &Project,
+        report: &mut ReplayReport,
+    ) -> Result<Self, ReplayError> {
+        let seg = &part[0];
+        let mut image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
+        let mut logic =
+            load::load_program(project, &image).map_err(|e| ReplayError::Program(e.to_string()))?;
+        let owned: Vec<bool> = seg
+            .header
+            .tags
+            .iter()
+            .map(|t| t.role.program_owned())
+            .collect();
+        for (i, t) in seg.header.tags.iter().enumerate() {
+            if t.role == TagRole::Pushed {
+                logic.release(TagId(i as u32));
+            }
+        }
+        let k = &seg.keyframe;
+        for (i, &(v, q)) in k.slots.iter().enumerate() {
+            let id = TagId(i as u32);
+            image.set(id, v, k.now);
+            image.set_quality(id, q);
+        }
+        for &(tag, v) in &k.forces {
+            image.force(TagId(tag), v);
+        }
+        if seg.header.segment > 0 {
+            report.notes.push(format!(
+                "cycle {} (t={}): replay starts within a run whose earlier segments are gone \
+                 (rotated out): the image is as recorded, the program's function blocks \
+                 (timers, counters, edges) start fresh",
+                k.next_cycle,
+                fmt_duration(k.now)
+            ));
+        }
+        Ok(Self {
+            part,
+            image,
+            logic,
+            recorded: k.slots.clone(),
+            owned,
+            period: seg.header.period,
+        })
+    }
+
+    /// Replays every cycle of the part; false when the program faulted.
+    fn go(
+        &mut self,
+        options: ReplayOptions,
+        report: &mut ReplayReport,
+        sink: &mut impl FnMut(CycleOutputs<'_>),
+    ) -> bool {
+        let compared: Vec<usize> = (0..self.owned.len()).filter(|&i| self.owned[i]).collect();
+        let mut rec_values = vec![Value::Bool(false); compared.len()];
+        let mut new_values = rec_values.clone();
+        let mut previous: Option<Duration> = None;
+        let first_now = self.part[0].cycles.first().map(|c| c.now);
+        let mut last_now = None;
+        for r in self.part.iter().flat_map(|s| s.cycles.iter()) {
+            if r.dropped_before > 0 {
+                report.notes.push(format!(
+                    "cycle {}: {} record(s) before it were dropped (the recorder fell behind); \
+                     the program sees one long cycle",
+                    r.cycle, r.dropped_before
+                ));
+            }
+            for ev in &r.events {
+                self.apply_event(ev, r.cycle, r.now, report);
+            }
+            self.apply_changes(&r.seen, r.now);
+            self.image.apply_forces(r.now);
+            let ctx = ScanContext {
+                now: r.now,
+                delta: previous.map_or(self.period, |p| r.now.saturating_sub(p)),
+                cycle: r.cycle,
+            };
+            if let Err(fault) = self.logic.scan(&mut self.image, &ctx) {
+                report.fault = Some((r.cycle, fault.to_string()));
+                return false;
+            }
+            self.image.apply_forces(r.now);
+            for c in &r.wrote {
+                self.recorded[c.tag as usize] = (c.value, c.quality);
+            }
+            let mut diff = Vec::new();
+            for (k, &i) in compared.iter().enumerate() {
+                rec_values[k] = self.recorded[i].0;
+                new_values[k] = self.image.get(TagId(i as u32));
+                if !same(rec_values[k], new_values[k]) {
+                    diff.push(TagDifference {
+                        tag: self.image.name(TagId(i as u32)).to_string(),
+                        recorded: rec_values[k],
+                        replayed: new_values[k],
+                    });
+                }
+            }
+            sink(CycleOutputs {
+                cycle: r.cycle,
+                now: r.now,
+                recorded: &rec_values,
+                replayed: &new_values,
+            });
+            if !diff.is_empty() {
+                report.differing_cycles += 1;
+                if report.differences.len() < options.differences {
+                    report.differences.push(Difference {
+                        cycle: r.cycle,
+                        now: r.now,
+                        tags: diff,
+                    });
+                }
+            }
+            // What the output phase then did to the image (quality marks, read-backs).
+            self.apply_changes(&r.wrote, r.now);
+            report.cycles += 1;
+            previous = Some(r.now);
+            last_now = Some(r.now);
+        }
+        if let (Some(a), Some(b)) = (first_now, last_now) {
+            report.plant_time += b.saturating_sub(a) + self.period;
+        }
+        true
+    }
+
+    fn apply_event(&mut self, ev: &Event, cycle: u64, now: Duration, report: &mut ReplayReport) {
+        match ev {
+            Event::Force { tag, value } => {
+                self.image.force(TagId(*tag), *value);
+                self.image.apply_forces(now);
+            }
+            Event::Unforce { tag } => {
+                self.image.unforce(TagId(*tag));
+            }
+            Event::UnforceAll => {
+                self.image.unforce_all();
+            }
+            Event::Write { values } => {
+                for &(tag, v) in values {
+                    self.image.set(TagId(tag), v, now);
+                }
+            }
+            Event::Reload { program_hash } => report.notes.push(format!(
+                "cycle {cycle}: the recorded run reloaded its program (sha256 {}…); the \
+                 replay runs the project's program throughout",
+                format::short_hex(program_hash)
+            )),
+        }
+    }
+
+    /// Recorded changes into the replayed image: values of the tags the program does not
+    /// compute, qualities of all.
+    fn apply_changes(&mut self, changes: &[format::Change], now: Duration) {
+        for c in changes {
+            let i = c.tag as usize;
+            self.recorded[i] = (c.value, c.quality);
+            let id = TagId(c.tag);
+            if !self.owned[i] {
+                self.image.set(id, c.value, now);
+            }
+            self.image.set_quality(id, c.quality);
+        }
+    }
+}

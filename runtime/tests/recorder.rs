@@ -1,0 +1,445 @@
+//! The flight recorder and replay, end to end: the quick start with its simulated plant is
+//! recorded on the virtual clock, read back and replayed, against its own program and against
+//! one with a rung changed; a torn tail, rotation, and `kill -9` of a real-clock run.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use softplc::clock::VirtualClock;
+use softplc::plc::Plc;
+use softplc::recorder::format::{self, BlockKind, Framed};
+use softplc::recorder::replay::ReplayError;
+use softplc::recorder::writer::segments_in;
+use softplc::recorder::{read_record, replay, Record, ReplayOptions, Settings};
+use softplc::scan::{CycleBoundary, ScanEngine, ScanStats};
+use softplc_io::point::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+
+fn quickstart() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/quickstart/project.yaml")
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-recorder-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A copy of the quick start in `dir`, with `program` as its program (the original's when
+/// `None`).
+fn quickstart_copy(dir: &Path, program: Option<&str>) -> PathBuf {
+    let original = std::fs::read_to_string(quickstart()).unwrap();
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("../programs/conveyor.expr");
+    let text = match program {
+        Some(p) => p.to_string(),
+        None => std::fs::read_to_string(source).unwrap(),
+    };
+    std::fs::write(dir.join("conveyor.expr"), text).unwrap();
+    // No web page: a test opens no fixed port.
+    let yaml = original
+        .replace("file: ../../programs/conveyor.expr", "file: conveyor.expr")
+        .replace("service:\n  web: { bind: 127.0.0.1:8080 }\n", "");
+    assert!(
+        yaml.contains("file: conveyor.expr") && !yaml.contains("8080"),
+        "the quick start names its program and its web page as expected"
+    );
+    let path = dir.join("project.yaml");
+    std::fs::write(&path, yaml).unwrap();
+    path
+}
+
+/// Operator requests at cycle boundaries, as the control socket would make them.
+struct Operator;
+
+impl CycleBoundary for Operator {
+    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, _now: Duration) {
+        match stats.cycles {
+            // The motor forced on while no box is on its way, then released.
+            20 => drop(plc.force("motor", "1")),
+            26 => drop(plc.unforce(Some("motor"))),
+            // The stop button forced pressed for a while.
+            60 => drop(plc.force("stop", "true")),
+            71 => drop(plc.unforce(None)),
+            _ => {}
+        }
+    }
+}
+
+/// Records `project` for `run_for` of virtual time into `folder`.
+fn record(project: &Path, settings: Settings, run_for: Duration) -> Record {
+    let folder = settings.folder.clone();
+    let project = softplc::project::load(project).unwrap();
+    let mut plc = Plc::build(project, Arc::new(VirtualClock::new())).unwrap();
+    let handle = plc.record(settings).unwrap();
+    let mut engine = ScanEngine::new(plc)
+        .run_for(run_for)
+        .with_boundary(Operator);
+    engine.run();
+    drop(engine);
+    let outcome = handle.finish();
+    assert_eq!(outcome.error, None);
+    read_record(&folder).unwrap()
+}
+
+fn settings(folder: &Path) -> Settings {
+    Settings::new(folder.to_path_buf(), Duration::from_secs(600), 256 << 20)
+}
+
+/// Tag value after every cycle, from the record alone: (cycle, seen state, wrote state).
+fn states(record: &Record, tag: &str) -> Vec<(u64, Duration, Value, Value)> {
+    let seg = &record.segments[0];
+    let i = seg.header.tags.iter().position(|t| t.name == tag).unwrap() as u32;
+    let mut value = seg.keyframe.slots[i as usize].0;
+    let mut out = Vec::new();
+    for c in record.cycles() {
+        for ch in c.seen.iter().filter(|ch| ch.tag == i) {
+            value = ch.value;
+        }
+        let seen = value;
+        for ch in c.wrote.iter().filter(|ch| ch.tag == i) {
+            value = ch.value;
+        }
+        out.push((c.cycle, c.now, seen, value));
+    }
+    out
+}
+
+#[test]
+fn a_recorded_quickstart_replays_with_identical_outputs() {
+    let dir = tempdir("identical");
+    let record = record(
+        &quickstart(),
+        settings(&dir.join("rec")),
+        Duration::from_secs(30),
+    );
+    assert_eq!(record.segments.len(), 1);
+    let seg = &record.segments[0];
+    assert_eq!(seg.header.project, "quickstart");
+    assert_eq!(seg.cycles.len(), 300, "30 s at 100 ms");
+    assert_eq!(seg.end.map(|e| e.cycles), Some(300), "a clean end");
+    assert_eq!(seg.torn, None);
+    // The run did something worth replaying: boxes came and went, the motor ran.
+    let motor = states(&record, "motor");
+    let on = motor.iter().filter(|s| s.3 == Value::Bool(true)).count();
+    assert!(on > 30 && on < 270, "motor on in {on} cycles");
+    // The forces are in the record, at the cycles they were applied.
+    let forced: Vec<u64> = record
+        .cycles()
+        .filter(|c| !c.events.is_empty())
+        .map(|c| c.cycle)
+        .collect();
+    assert_eq!(forced, [20, 26, 60, 71]);
+
+    let project = softplc::project::load(&quickstart()).unwrap();
+    let mut cycles = 0;
+    let report = replay(&record, &project, ReplayOptions::default(), |c| {
+        assert_eq!(c.recorded.len(), c.replayed.len());
+        cycles += 1;
+    })
+    .unwrap();
+    assert_eq!(cycles, 300);
+    assert_eq!(report.cycles, 300);
+    assert_eq!(report.plant_time, Duration::from_secs(30));
+    assert_eq!(report.differing_cycles, 0, "{:?}", report.differences);
+    assert!(report.identical());
+    assert_eq!(report.recorded_program, report.replayed_program);
+    assert!(!report.project_file_differs);
+    assert!(report.notes.is_empty(), "{:?}", report.notes);
+}
+
+#[test]
+fn a_changed_rung_differs_first_where_the_recorded_inputs_say() {
+    let dir = tempdir("changed");
+    let original = quickstart_copy(&dir, None);
+    let record = record(
+        &original,
+        settings(&dir.join("rec")),
+        Duration::from_secs(30),
+    );
+    // The lamp now also lights while start is pressed.
+    let changed_dir = dir.join("changed");
+    std::fs::create_dir_all(&changed_dir).unwrap();
+    let changed = quickstart_copy(
+        &changed_dir,
+        Some(
+            "motor = (rising(start) | motor) & !stop & !box_at_exit\n\
+             lamp = box_at_exit | start\n",
+        ),
+    );
+    // Computed from the record alone: the first cycle where the new rung on the recorded
+    // inputs gives another lamp than the recorded scan wrote.
+    let start = states(&record, "start");
+    let exit = states(&record, "box_at_exit");
+    let lamp = states(&record, "lamp");
+    let expected: Vec<(u64, Duration, bool)> = start
+        .iter()
+        .zip(&exit)
+        .zip(&lamp)
+        .filter_map(|((s, e), l)| {
+            let new = s.2.as_bool() || e.2.as_bool();
+            (Value::Bool(new) != l.3).then_some((s.0, s.1, new))
+        })
+        .collect();
+    assert!(!expected.is_empty(), "start was pressed in the run");
+
+    let project = softplc::project::load(&changed).unwrap();
+    let options = ReplayOptions {
+        differences: usize::MAX,
+    };
+    let report = replay(&record, &project, options, |_| {}).unwrap();
+    assert_ne!(report.recorded_program, report.replayed_program);
+    assert_eq!(report.differing_cycles, expected.len() as u64);
+    let first = &report.differences[0];
+    assert_eq!((first.cycle, first.now), (expected[0].0, expected[0].1));
+    assert_eq!(first.tags.len(), 1, "{first:?}");
+    assert_eq!(first.tags[0].tag, "lamp");
+    assert_eq!(first.tags[0].recorded, Value::Bool(!expected[0].2));
+    assert_eq!(first.tags[0].replayed, Value::Bool(expected[0].2));
+    let cycles: Vec<u64> = report.differences.iter().map(|d| d.cycle).collect();
+    let want: Vec<u64> = expected.iter().map(|e| e.0).collect();
+    assert_eq!(cycles, want, "cycle by cycle");
+}
+
+#[test]
+fn the_cli_replays_a_record_and_exports_both_outputs() {
+    let dir = tempdir("cli");
+    let project = quickstart_copy(&dir, None);
+    let run = Command::new(BIN)
+        .args(["run", "--quiet", "--no-control", "--virtual", "--for", "5s"])
+        .args(["--record", "10m"])
+        .arg(&project)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let folder = dir.join("project.yaml.record");
+    let csv = dir.join("out.csv");
+    let vcd = dir.join("out.vcd");
+    let replayed = Command::new(BIN)
+        .arg("replay")
+        .arg(&folder)
+        .arg(&project)
+        .arg("--csv")
+        .arg(&csv)
+        .arg("--vcd")
+        .arg(&vcd)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&replayed.stdout);
+    assert_eq!(replayed.status.code(), Some(0), "{stdout}");
+    assert!(
+        stdout.ends_with("50 cycles, 5.00s of plant time, outputs identical\n"),
+        "{stdout}"
+    );
+    assert!(stdout.contains(": the same program"), "{stdout}");
+    let csv = std::fs::read_to_string(&csv).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(
+        header.contains("rec.motor") && header.contains("new.lamp"),
+        "{header}"
+    );
+    assert_eq!(csv.lines().count(), 51, "a header and one line per cycle");
+    let vcd = std::fs::read_to_string(&vcd).unwrap();
+    assert!(vcd.contains("$scope module rec $end"), "{vcd}");
+
+    // The same record against a changed rung: the first difference, exit status 1.
+    std::fs::write(
+        dir.join("conveyor.expr"),
+        "motor = (rising(start) | motor) & !stop & !box_at_exit\nlamp = !box_at_exit\n",
+    )
+    .unwrap();
+    let replayed = Command::new(BIN)
+        .arg("replay")
+        .arg(&folder)
+        .arg(&project)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&replayed.stdout);
+    assert_eq!(replayed.status.code(), Some(1), "{stdout}");
+    assert!(
+        stdout.contains("first difference at cycle 0 (t=")
+            && stdout.contains("lamp  recorded 0  replayed 1"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("a different program"), "{stdout}");
+    assert!(
+        !stdout.contains("note: the project file differs"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn a_record_of_another_project_is_refused_naming_what_differs() {
+    let dir = tempdir("mismatch");
+    let record = record(
+        &quickstart(),
+        settings(&dir.join("rec")),
+        Duration::from_secs(1),
+    );
+    let other_dir = dir.join("other");
+    std::fs::create_dir_all(&other_dir).unwrap();
+    let project = quickstart_copy(&other_dir, None);
+    let text = std::fs::read_to_string(&project).unwrap().replace(
+        "{ name: lamp,         point: mm2.Y1, safe: false }",
+        "{ name: lamp, type: bool }",
+    );
+    std::fs::write(&project, text).unwrap();
+    let project = softplc::project::load(&project).unwrap();
+    let err = replay(&record, &project, ReplayOptions::default(), |_| {}).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "tag 5: the record has lamp (bool, output), the project has lamp (bool, memory)"
+    );
+    assert!(matches!(err, ReplayError::Tag { index: 5, .. }));
+}
+
+/// The whole blocks of a segment file: offset, kind, and cycle records in it.
+fn blocks(bytes: &[u8], tags: usize) -> Vec<(usize, BlockKind, usize)> {
+    let mut at = format::PREAMBLE;
+    let mut out = Vec::new();
+    while let Framed::Block(kind, payload, next) = format::next_block(bytes, at) {
+        let cycles = match kind {
+            BlockKind::Cycles => format::Dec::new(payload).cycles(tags).unwrap().len(),
+            _ => 0,
+        };
+        out.push((at, kind, cycles));
+        at = next;
+    }
+    out
+}
+
+#[test]
+fn a_torn_tail_is_read_up_to_the_last_good_block() {
+    let dir = tempdir("torn");
+    let mut s = settings(&dir.join("rec"));
+    s.block_time = Duration::from_millis(500);
+    let full = record(&quickstart(), s, Duration::from_secs(10));
+    let path = full.segments[0].path.clone();
+    let bytes = std::fs::read(&path).unwrap();
+    let all = blocks(&bytes, full.segments[0].header.tags.len());
+    let cycles: Vec<&(usize, BlockKind, usize)> =
+        all.iter().filter(|b| b.1 == BlockKind::Cycles).collect();
+    // A block closes once it spans 500 ms: six cycles of 100 ms.
+    assert!(
+        cycles[..cycles.len() - 1].iter().all(|b| b.2 == 6),
+        "{all:?}"
+    );
+    assert_eq!(all.last().unwrap().1, BlockKind::End);
+    // Cut the last cycles block in its middle, as a kill -9 during its write would.
+    let (last, _, in_last) = **cycles.last().unwrap();
+    let good = 100 - in_last;
+    let end = all.last().unwrap().0;
+    let cut = last + (end - last) / 2;
+    std::fs::write(&path, &bytes[..cut]).unwrap();
+    let torn = read_record(&dir.join("rec")).unwrap();
+    let seg = &torn.segments[0];
+    assert_eq!(seg.end, None);
+    let t = seg.torn.expect("a torn tail");
+    assert_eq!((t.offset, t.ignored), (last, cut - last));
+    assert_eq!(seg.cycles.len(), good, "every cycle of the good blocks");
+    assert_eq!(seg.cycles[..], full.segments[0].cycles[..good]);
+    let project = softplc::project::load(&quickstart()).unwrap();
+    let report = replay(&torn, &project, ReplayOptions::default(), |_| {}).unwrap();
+    assert_eq!(report.cycles as usize, good);
+    assert!(report.identical());
+    assert!(
+        report.notes[0].contains("torn tail at byte"),
+        "{:?}",
+        report.notes
+    );
+}
+
+fn s_block_time() -> Duration {
+    Duration::from_millis(200)
+}
+
+#[test]
+fn rotation_keeps_the_time_and_size_bounds() {
+    let dir = tempdir("rotation");
+    let keep = Duration::from_secs(4);
+    let mut s = Settings::new(dir.join("rec"), keep, 256 << 20);
+    s.block_time = s_block_time();
+    let rec = record(&quickstart(), s, Duration::from_secs(60));
+    // Segments are cut every keep/4 = 1 s (at the first block boundary after it); when one
+    // starts, the oldest go while the next one starts before now - keep. What is left covers
+    // at least `keep`, and at most keep and two segments.
+    let first = rec.cycles().next().unwrap().now;
+    let last = rec.cycles().last().unwrap().now;
+    let span = last - first;
+    let segment = keep / 4 + s_block_time();
+    assert!(span >= keep, "{span:?}");
+    assert!(span <= keep + 2 * segment, "{span:?}");
+    assert!(rec.segments[0].header.segment > 40, "old segments went");
+    // The record still replays, from its first keyframe, and says so.
+    let project = softplc::project::load(&quickstart()).unwrap();
+    let report = replay(&rec, &project, ReplayOptions::default(), |_| {}).unwrap();
+    assert!(
+        report.notes[0].contains("rotated out"),
+        "{:?}",
+        report.notes
+    );
+
+    // The size bound: with 16 KiB segments and 48 KiB at most.
+    let dir = tempdir("rotation-size");
+    let mut s = Settings::new(dir.join("rec"), Duration::from_secs(3600), 48 << 10);
+    s.segment_bytes = 16 << 10;
+    s.block_bytes = 2 << 10;
+    record(&quickstart(), s.clone(), Duration::from_secs(600));
+    let files = segments_in(&s.folder);
+    let total: u64 = files.iter().map(|f| f.bytes).sum();
+    assert!(files.len() >= 3, "{files:?}");
+    assert!(
+        total <= s.max_bytes + s.segment_bytes + s.block_bytes as u64 + 64,
+        "{total} bytes in {} segments",
+        files.len()
+    );
+}
+
+#[test]
+fn kill_9_of_a_recorded_run_leaves_a_readable_record() {
+    let dir = tempdir("kill9");
+    let project = quickstart_copy(&dir, None);
+    let mut plc = Command::new(BIN)
+        .args(["run", "--quiet", "--no-control", "--record", "10m"])
+        .arg(&project)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let folder = dir.join("project.yaml.record");
+    // Real time: blocks are written every second of scan time.
+    let begin = Instant::now();
+    let mut seen = 0;
+    while begin.elapsed() < Duration::from_secs(30) {
+        std::thread::sleep(Duration::from_millis(200));
+        if let Ok(r) = read_record(&folder) {
+            seen = r.cycles().count();
+            if seen >= 25 {
+                break;
+            }
+        }
+    }
+    // SAFETY: kill with a valid pid and signal.
+    unsafe { libc::kill(plc.id() as i32, libc::SIGKILL) };
+    let status = plc.wait().unwrap();
+    assert!(!status.success());
+    assert!(seen >= 25, "only {seen} cycles recorded in 30 s");
+    let record = read_record(&folder).unwrap();
+    let seg = record.segments.last().unwrap();
+    assert_eq!(seg.end, None, "no clean end after kill -9");
+    assert!(!seg.header.virtual_clock);
+    let cycles = record.cycles().count();
+    assert!(cycles >= seen);
+    // Every cycle up to the kill replays on the virtual clock with the same outputs.
+    let loaded = softplc::project::load(&project).unwrap();
+    let report = replay(&record, &loaded, ReplayOptions::default(), |_| {}).unwrap();
+    assert_eq!(report.cycles as usize, cycles);
+    assert!(report.identical(), "{:?}", report.differences);
+}
