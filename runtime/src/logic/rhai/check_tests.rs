@@ -169,3 +169,21 @@ fn the_signatures_are_what_the_engine_registers() {
         assert!(packages.contains(&(f.0.to_string(), f.1)), "{f:?}");
     }
 }
+
+#[test]
+fn every_undeclared_name_is_reported_once_with_the_closest_tag() {
+    assert_eq!(
+        errors("motor = strt || motor;\nlamp = strt && !stpo;\nif lvel > 2 { motor = tonn(\"t\", start, 1); }\n"),
+        [
+            "s.rhai:1:9: error: unknown tag or variable `strt`; did you mean `start`?",
+            "s.rhai:2:17: error: unknown tag or variable `stpo`; did you mean `stop`?",
+            "s.rhai:3:4: error: unknown tag or variable `lvel`; did you mean `level`?",
+            "s.rhai:3:23: error: unknown function `tonn`; did you mean `ton(name, in, pt)`?",
+        ]
+    );
+    // A script function sees no tags: its undeclared name is reported where it is.
+    assert_eq!(
+        errors("fn f() { moter }\nmotor = f();\n"),
+        ["s.rhai:1:10: error: unknown tag or variable `moter`; did you mean `motor`?"]
+    );
+}

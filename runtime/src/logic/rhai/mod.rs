@@ -97,6 +97,9 @@ use crate::image::{convert, ProcessImage, TagId};
 use crate::logic::expr::TagTable;
 use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
 
+/// Most undeclared names one compile reports (each costs a compile of the script).
+const MAX_UNDECLARED: usize = 64;
+
 /// A tag the script names.
 #[derive(Debug, Clone)]
 struct Handle {
@@ -193,61 +196,86 @@ pub fn compile_with(
         .iter()
         .filter(|t| probe.compile(format!("let {} = 0;", t.name)).is_ok())
         .collect();
-    let mut prelude = String::with_capacity(usable.len() * 16 + source.len() + 1);
+    let mut declarations = String::with_capacity(usable.len() * 16);
     for t in &usable {
         if t.writable {
-            prelude.push_str(&format!("let {};", t.name));
+            declarations.push_str(&format!("let {};", t.name));
         } else {
-            prelude.push_str(&format!("const {} = ();", t.name));
+            declarations.push_str(&format!("const {} = ();", t.name));
         }
     }
-    prelude.push('\n');
-    prelude.push_str(source);
 
     let err = |pos: Position, kind: CompileErrorKind| CompileError {
         pos: error::user_pos(file, pos),
         kind,
     };
-    let full = match engine.compile(&prelude) {
-        Ok(ast) => ast,
-        Err(e) => {
-            let pos = e.position();
-            let kind = match e.err_type() {
-                rhai::ParseErrorType::VariableUndefined(name) => {
-                    CompileErrorKind::UnknownVariable {
-                        suggestion: crate::logic::expr::closest_name(
-                            name,
-                            usable.iter().map(|t| t.name.as_str()),
-                        ),
-                        name: name.clone(),
+    let mut errors = Vec::new();
+    // Rhai's strict variables stop at the first undeclared name. Each one found is declared on
+    // the declarations line (which shifts no user position) and the script compiled again, so
+    // every undeclared name is reported at once, at its first use, and the checks below still
+    // see the whole script.
+    let mut undeclared: Vec<String> = Vec::new();
+    let full = loop {
+        match engine.compile(format!("{declarations}\n{source}")) {
+            Ok(ast) => break ast,
+            Err(e) => {
+                let kind = match e.err_type() {
+                    rhai::ParseErrorType::VariableUndefined(name) => {
+                        CompileErrorKind::UnknownVariable {
+                            suggestion: crate::logic::expr::closest_name(
+                                name,
+                                usable.iter().map(|t| t.name.as_str()),
+                            ),
+                            name: name.clone(),
+                        }
+                    }
+                    _ => CompileErrorKind::Parse {
+                        message: error::message(e.to_string()),
+                    },
+                };
+                if let CompileErrorKind::UnknownVariable { name, .. } = &kind {
+                    // Undeclared in a script function (which no declaration here reaches), or
+                    // too many: report what was found.
+                    if !undeclared.contains(name) && undeclared.len() < MAX_UNDECLARED {
+                        declarations.push_str(&format!("let {name};"));
+                        undeclared.push(name.clone());
+                        errors.push((e.position(), kind));
+                        continue;
                     }
                 }
-                _ => CompileErrorKind::Parse {
-                    message: error::message(e.to_string()),
-                },
-            };
-            let mut out = vec![err(pos, kind)];
-            if let Some(bad) = tags.iter().find(|t| {
-                !usable.iter().any(|u| u.name == t.name) && source.contains(t.name.as_str())
-            }) {
-                out.push(err(
-                    Position::new(2, 1),
-                    CompileErrorKind::KeywordTag {
-                        name: bad.name.clone(),
-                    },
-                ));
+                let parse = matches!(kind, CompileErrorKind::Parse { .. });
+                if !errors.iter().any(|(p, k)| (*p, k) == (e.position(), &kind)) {
+                    errors.push((e.position(), kind));
+                }
+                let mut out: Vec<CompileError> =
+                    errors.into_iter().map(|(p, k)| err(p, k)).collect();
+                // A tag named like a keyword, used, is what Rhai's parser stumbles on.
+                if let Some(bad) = tags.iter().filter(|_| parse).find(|t| {
+                    !usable.iter().any(|u| u.name == t.name) && source.contains(t.name.as_str())
+                }) {
+                    out.push(err(
+                        Position::new(2, 1),
+                        CompileErrorKind::KeywordTag {
+                            name: bad.name.clone(),
+                        },
+                    ));
+                }
+                return Err(out);
             }
-            return Err(out);
         }
     };
     let statements = full.statements();
-    let user = statements.get(usable.len()..).unwrap_or(&[]).to_vec();
+    let declared = usable.len() + undeclared.len();
+    let user = statements.get(declared..).unwrap_or(&[]).to_vec();
     let ast = AST::new(user, full.shared_lib().clone());
 
-    let mut errors = Vec::new();
     let usage = check::walk(&ast, &mut errors);
     typing::check(&ast, tags, &typing::Known::of(&engine, &ast), &mut errors);
     let qualities = Arc::new(quality::resolve(&ast, tags, &mut errors));
+    // `good(strat)`: the undeclared name is the error, not that it is no tag.
+    errors.retain(|(_, k)| {
+        !matches!(k, CompileErrorKind::QualityOfNonTag { name, .. } if undeclared.contains(name))
+    });
     quality::register(&mut engine, &qualities);
     if !errors.is_empty() {
         errors.sort_by_key(|(pos, _)| (pos.line(), pos.position()));
