@@ -114,7 +114,12 @@ pub(super) fn monitor(args: MonitorArgs) -> anyhow::Result<ExitCode> {
         match line.read_until(&mut chunk, deadline) {
             Ok(_) => framer.push(&chunk, since_start(&line), &mut frames),
             // The other end went away (a pty's master closed, an adapter unplugged).
-            Err(LineError::Io(e)) if e.raw_os_error() == Some(libc::EIO) => break true,
+            Err(LineError::Io(e))
+                if e.kind() == std::io::ErrorKind::BrokenPipe
+                    || e.raw_os_error() == Some(libc::EIO) =>
+            {
+                break true
+            }
             Err(e) => {
                 return Err(anyhow::Error::new(e)
                     .context(format!("cannot read from {}", args.port.display())))

@@ -1,0 +1,266 @@
+//! `softplc monitor`: a passive listener decoding what it hears. For each protocol a session
+//! is captured first (the bus owner's start-up exchanges with the simulated modules of an
+//! example project, recorded with their timing through the frame trace), then written into
+//! one end of a pty pair with pauses of 60 ms between frames, with the monitor listening on
+//! the other end. It must find every frame's boundaries (t3.5 of silence for RTU, CR for text
+//! lines), and decode each one as the bus owner did, without being told which way it went.
+//!
+//! Real time and a real pty: the pauses are far above t3.5 at 9600 Bd (4 ms), so scheduling
+//! delays cannot merge or split frames; no assertion depends on how long anything took.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::os::fd::AsRawFd;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use softplc::clock::{Clock, VirtualClock};
+use softplc::plc::Plc;
+use softplc_io::line::transport::pty_pair;
+use softplc_io::wire::trace::{format_event, Verdict, WireEvent, WireTap};
+use softplc_io::wire::Hex;
+
+/// Frames replayed per session: every family's start-up has at least this many exchanges.
+const FRAMES: usize = 14;
+/// Silence between replayed frames.
+const PAUSE: Duration = Duration::from_millis(60);
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the workspace root")
+        .join("examples")
+}
+
+/// One frame of a captured session: its bytes and how the bus owner decoded it.
+#[derive(Debug, Clone)]
+struct Captured {
+    bytes: Vec<u8>,
+    decoded: String,
+}
+
+/// A tap that records one bus's frames (requests, and the replies it took as good).
+#[derive(Debug)]
+struct Capture {
+    bus: String,
+    frames: Mutex<Vec<Captured>>,
+}
+
+impl WireTap for Capture {
+    fn record(&self, bus: &str, at: Duration, event: &WireEvent<'_>) {
+        let bytes = match event {
+            WireEvent::Sent(bytes) => bytes,
+            WireEvent::Received {
+                bytes,
+                verdict: Verdict::Good,
+                ..
+            } => bytes,
+            _ => return,
+        };
+        if bus != self.bus {
+            return;
+        }
+        let line = format_event(bus, at, event);
+        let decoded = line.split_once("  | ").map(|(_, d)| d.to_string());
+        self.frames.lock().unwrap().push(Captured {
+            bytes: bytes.to_vec(),
+            decoded: decoded.unwrap_or_default(),
+        });
+    }
+}
+
+/// The first frames `bus` of the example project `dir/project.yaml` (edited by `edit`)
+/// exchanges with its simulated modules.
+fn capture(dir: &str, bus: &str, edit: impl Fn(String) -> String) -> Vec<Captured> {
+    let path = examples().join(dir).join("project.yaml");
+    let text = edit(std::fs::read_to_string(&path).unwrap());
+    let project = softplc::project::parse_str(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+    let tap = Arc::new(Capture {
+        bus: bus.to_string(),
+        frames: Mutex::new(Vec::new()),
+    });
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let plc = Plc::build_traced(project, clock, None, Some(tap.clone() as _)).expect("builds");
+    drop(plc);
+    let mut frames = tap.frames.lock().unwrap().clone();
+    assert!(frames.len() >= FRAMES, "{frames:?}");
+    frames.truncate(FRAMES);
+    frames
+}
+
+/// One line of the monitor's output, in parts.
+#[derive(Debug)]
+struct Heard {
+    gap: String,
+    hex: String,
+    decoded: String,
+}
+
+/// Replays `frames` into a pty with the monitor (`args`) on its other end; its lines.
+fn monitor(frames: &[Captured], args: &[&str]) -> Vec<Heard> {
+    let (mut master, slave, path) = pty_pair().expect("a pty pair");
+    // The monitor must not inherit the master: the line hangs up only when it is closed.
+    for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
+        // SAFETY: F_SETFD on a descriptor the ports own, for as long as they are alive.
+        unsafe { libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC) };
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .arg("monitor")
+        .arg(&path)
+        .args(args)
+        .args(["--for", "30s"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("softplc monitor starts");
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut banner = String::new();
+    stderr.read_line(&mut banner).unwrap();
+    assert!(banner.starts_with("monitoring "), "{banner}");
+    // From here only the monitor reads the line.
+    drop(slave);
+    for frame in frames {
+        std::thread::sleep(PAUSE);
+        master.write_all(&frame.bytes).unwrap();
+        master.flush().unwrap();
+    }
+    std::thread::sleep(PAUSE);
+    // The line hangs up: the monitor prints what it holds and ends.
+    drop(master);
+    let mut stdout = String::new();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut stdout)
+        .unwrap();
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).unwrap();
+    assert!(child.wait().unwrap().success(), "{stdout}\n{rest}");
+    assert!(
+        rest.contains(&format!("{} frame(s) in ", frames.len())) && rest.contains("hung up"),
+        "{rest}"
+    );
+    stdout
+        .lines()
+        .map(|line| {
+            let (head, decoded) = line.split_once("  | ").unwrap_or_else(|| panic!("{line}"));
+            let gap = head
+                .split("gap ")
+                .nth(1)
+                .and_then(|g| g.split_whitespace().next())
+                .unwrap_or_else(|| panic!("{line}"))
+                .to_string();
+            // The hex follows the gap; a text line's text follows it in quotes.
+            let hex = head
+                .split_once(&gap)
+                .map(|(_, h)| {
+                    h.split("  \"")
+                        .next()
+                        .unwrap_or_default()
+                        .trim()
+                        .to_string()
+                })
+                .unwrap_or_default();
+            Heard {
+                gap,
+                hex,
+                decoded: decoded.to_string(),
+            }
+        })
+        .collect()
+}
+
+/// Every frame heard whole and decoded as the bus owner decoded it, each after its pause.
+fn assert_heard_as_sent(frames: &[Captured], heard: &[Heard]) {
+    let sent: Vec<String> = frames.iter().map(|f| Hex(&f.bytes).to_string()).collect();
+    let got: Vec<&str> = heard.iter().map(|h| h.hex.as_str()).collect();
+    assert_eq!(got, sent, "frame boundaries");
+    for (frame, h) in frames.iter().zip(heard) {
+        assert_eq!(h.decoded, frame.decoded, "{}", h.hex);
+    }
+    assert_eq!(heard[0].gap, "-", "nothing before the first frame");
+    for h in &heard[1..] {
+        let ms: f64 = h
+            .gap
+            .strip_suffix("ms")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("gap {:?} of {}", h.gap, h.hex));
+        assert!(ms >= 40.0, "gap {ms} ms before {}", h.hex);
+    }
+}
+
+fn decodings(heard: &[Heard]) -> Vec<&str> {
+    heard.iter().map(|h| h.decoded.as_str()).collect()
+}
+
+#[test]
+fn modbus_rtu_frames_are_cut_at_silence_and_paired_with_their_replies() {
+    let frames = capture("quickstart", "line1", |t| t);
+    let heard = monitor(&frames, &["--baud", "19200", "--format", "8E1"]);
+    assert_heard_as_sent(&frames, &heard);
+    let decoded = decodings(&heard);
+    assert_eq!(
+        decoded[..2],
+        [
+            "rtu request unit 1: read coils (FC 1) 160 (1 bit), CRC ok",
+            "rtu reply unit 1: read coils (FC 1) 160 (1 bit) = 0, CRC ok"
+        ]
+    );
+    // --protocol rtu: the same frames.
+    let rtu = monitor(&frames, &["--baud", "19200", "--protocol", "rtu"]);
+    assert_heard_as_sent(&frames, &rtu);
+}
+
+#[test]
+fn minimod_text_lines_are_told_from_rtu_frames_on_the_same_line() {
+    // A MiniMod speaks both protocols on one line; with `protocol: text` its driver still
+    // uses Modbus where the text protocol has no command.
+    let frames = capture("quickstart", "line1", |t| {
+        t.replace(
+            "model: minimod, address: 1 }",
+            "model: minimod, address: 1, protocol: text }",
+        )
+    });
+    let heard = monitor(&frames, &["--baud", "19200", "--format", "8E1"]);
+    assert_heard_as_sent(&frames, &heard);
+    let decoded = decodings(&heard);
+    assert!(
+        decoded.contains(&"minimod command to module 1: read WFLAGS")
+            && decoded.contains(&"minimod reply: WFLAGS = 0"),
+        "{decoded:#?}"
+    );
+    assert!(
+        decoded.iter().any(|d| d.starts_with("rtu ")),
+        "{decoded:#?}"
+    );
+}
+
+#[test]
+fn resi_ascii_frames_keep_their_address_and_parts() {
+    let frames = capture("resi", "house", |t| {
+        t.replace("# protocol: text ", "protocol: text")
+    });
+    let heard = monitor(&frames, &["--baud", "19200", "--protocol", "text"]);
+    assert_heard_as_sent(&frames, &heard);
+    let decoded = decodings(&heard);
+    assert!(
+        decoded.contains(&"resi command address 1: GSMODE")
+            && decoded.contains(&"resi answer address 1: GSMODE [0, 0x0]"),
+        "{decoded:#?}"
+    );
+}
+
+#[test]
+fn dcon_commands_and_answers_are_paired() {
+    let frames = capture("mixed-lines", "dcon_line", |t| t);
+    let heard = monitor(&frames, &["--baud", "9600", "--format", "8N1"]);
+    assert_heard_as_sent(&frames, &heard);
+    let decoded = decodings(&heard);
+    assert!(
+        decoded.contains(&"dcon command to 01: ReadName { address: 1 }")
+            && decoded.contains(&"dcon answer from 01: Text(\"9053\")"),
+        "{decoded:#?}"
+    );
+}
