@@ -88,6 +88,40 @@ fn path_str(p: &Path) -> &str {
     p.to_str().expect("a UTF-8 path")
 }
 
+// --- the catalog ---
+
+#[test]
+fn points_lists_a_models_points_and_models_names_them_all() {
+    let out = softplc(&["points", "minimod", "--only", "input"]);
+    assert_eq!(out.code(), Some(0), "{out:?}");
+    let x1 = out.stdout.lines().find(|l| l.starts_with("X1 "));
+    assert_eq!(
+        x1.map(|l| l.split_whitespace().take(3).collect::<Vec<_>>()),
+        Some(vec!["X1", "input", "bool"]),
+        "{}",
+        out.stdout
+    );
+    let out = softplc(&["points", "resi16di8ro"]);
+    assert_eq!(out.code(), Some(1), "{out:?}");
+    assert!(
+        out.stderr
+            .starts_with("error: unknown model `resi16di8ro`; did you mean `resi-16di8ro`?"),
+        "{}",
+        out.stderr
+    );
+    let out = softplc(&["models"]);
+    assert_eq!(out.code(), Some(0), "{out:?}");
+    for model in ["minimod", "ex9053d", "resi-16di8ro", "resi-2rtd"] {
+        assert!(
+            out.stdout
+                .lines()
+                .any(|l| l.starts_with(&format!("{model} "))),
+            "{model} missing:\n{}",
+            out.stdout
+        );
+    }
+}
+
 // --- check ---
 
 #[test]

@@ -6,12 +6,14 @@ mod commission;
 mod control;
 mod discover;
 mod journal;
+mod models;
 mod monitor;
 mod out;
 mod replay;
 mod run;
 mod sim;
 pub mod test;
+mod trace;
 mod trace_bus;
 
 use std::process::ExitCode;
@@ -53,6 +55,13 @@ enum Command {
     Commission(commission::CommissionArgs),
     /// Run scenario files (inputs over virtual time, expected outputs) on the simulator.
     Test(test::TestArgs),
+    /// List the module models a project can name, with protocols, addresses and point counts.
+    Models(models::ModelsArgs),
+    /// List a model's points: the name a tag's `point:` takes, direction, type, manual name.
+    Points(models::PointsArgs),
+    /// Arm a trace of a running instance, show its state, save its samples as CSV or VCD.
+    #[command(subcommand)]
+    Trace(trace::TraceCommand),
     /// Re-run a project's program on a flight record's inputs and say where its outputs first
     /// differ from the recorded ones (or that they match).
     Replay(replay::ReplayArgs),
@@ -74,9 +83,12 @@ pub fn main() -> ExitCode {
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
         Command::Test(a) => test::test(a),
+        Command::Trace(c) => trace::trace(c),
         Command::Replay(a) => replay::replay_cmd(a),
         Command::Discover(a) => discover::discover(a),
         Command::Commission(a) => commission::commission(a),
+        Command::Models(a) => models::models(a),
+        Command::Points(a) => models::points(a),
         Command::Monitor(a) => monitor::monitor(a),
     };
     match result {
