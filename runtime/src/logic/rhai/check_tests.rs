@@ -127,6 +127,17 @@ fn a_value_a_tag_cannot_hold_is_a_type_error() {
         error("motor = start == 1;\n"),
         "s.rhai:1:15: error: type error: `==` cannot take a bool and an integer"
     );
+    assert_eq!(
+        errors("motor = [1];\nlamp = ();\nspeed = #{ a: 1 };\n"),
+        [
+            "s.rhai:1:9: error: type error: `motor` is bool, the value assigned is an array; a \
+             bool tag takes a condition, e.g. `x > 0`",
+            "s.rhai:2:8: error: type error: `lamp` is bool, the value assigned is () (nothing); \
+             a bool tag takes a condition, e.g. `x > 0`",
+            "s.rhai:3:9: error: type error: `speed` is f32, the value assigned is an object \
+             map; an f32 tag takes a number",
+        ]
+    );
     // Widening and the library's own types are fine; a `let` shadowing a tag is not typed.
     assert_eq!(
         errors(

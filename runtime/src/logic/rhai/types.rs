@@ -15,6 +15,8 @@ pub(crate) enum Ty {
     Int,
     Float,
     Str,
+    /// An array, an object map, a character or `()`: never a tag's value.
+    Other(&'static str),
     /// Not known before the script runs.
     Unknown,
 }
@@ -36,6 +38,7 @@ impl Ty {
             Ty::Int => "an integer",
             Ty::Float => "a float",
             Ty::Str => "a string",
+            Ty::Other(words) => words,
             Ty::Unknown => "a value",
         }
     }
@@ -72,6 +75,10 @@ pub(crate) fn infer(expr: &Expr, var: &dyn Fn(&str) -> Option<Ty>) -> Ty {
         Expr::IntegerConstant(..) => Ty::Int,
         Expr::FloatConstant(..) => Ty::Float,
         Expr::StringConstant(..) | Expr::InterpolatedString(..) => Ty::Str,
+        Expr::Array(..) => Ty::Other("an array"),
+        Expr::Map(..) => Ty::Other("an object map"),
+        Expr::CharConstant(..) => Ty::Other("a character"),
+        Expr::Unit(..) => Ty::Other("() (nothing)"),
         Expr::Variable(v, _, _) => var(v.1.as_str()).unwrap_or(Ty::Unknown),
         Expr::And(..) | Expr::Or(..) => Ty::Bool,
         Expr::FnCall(call, _) if call.is_operator_call() => {

@@ -166,6 +166,10 @@ impl Checker<'_> {
     }
 
     fn condition(&mut self, expr: &Expr, var: &dyn Fn(&str) -> Option<Ty>) {
+        // `loop { … }` is a `while` whose guard is `()`.
+        if matches!(expr, Expr::Unit(..)) {
+            return;
+        }
         let ty = types::infer(expr, var);
         if !matches!(ty, Ty::Bool | Ty::Unknown) {
             self.fail(
