@@ -1,6 +1,8 @@
 //! `kill -9` of a running PLC: the modules' own watchdogs, armed from the project file, take
 //! the outputs to their safe mask with no help from the dead process. Simulated MiniMods are
-//! served on a pty by `softplc sim`, exactly as a real line would be.
+//! served on a pty by `softplc sim`, exactly as a real line would be: one that keeps WDTTIME /
+//! WDTYMASK where the manual's register table says, and one that follows its coil/register
+//! aliasing rule (`--option minimod@1:watchdog-registers=aliased`).
 
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
@@ -15,8 +17,30 @@ const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
 #[test]
 fn kill_9_leaves_the_outputs_to_the_module_watchdog() {
-    let (mut sim, pty) = Sim::start(BIN, &["minimod@1"]);
-    let dir = std::env::temp_dir().join(format!("softplc-kill9-{}", std::process::id()));
+    kill_9_with(&[], "table");
+}
+
+#[test]
+fn kill_9_leaves_the_outputs_to_the_module_watchdog_under_the_aliasing_reading() {
+    kill_9_with(
+        &["--option", "minimod@1:watchdog-registers=aliased"],
+        "aliased",
+    );
+}
+
+/// A PLC on `softplc sim … minimod@1 SIM_ARGS` is killed; the module must take Y1 off by
+/// itself. `case` names the run (its project folder).
+fn kill_9_with(sim_args: &[&str], case: &str) {
+    let mut args = vec!["minimod@1"];
+    args.extend_from_slice(sim_args);
+    let (mut sim, pty) = Sim::start(BIN, &args);
+    sim.send("minimod@1 options");
+    let options = sim.wait_line("watchdog-registers", Duration::from_secs(10));
+    assert!(
+        options.is_some_and(|l| l.starts_with(&format!("watchdog-registers {case}:"))),
+        "the simulator serves the {case} reading"
+    );
+    let dir = std::env::temp_dir().join(format!("softplc-kill9-{}-{case}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(

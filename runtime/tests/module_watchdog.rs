@@ -3,7 +3,9 @@
 //! time derived from the scan and the line; `softplc check` prints it; `watchdog: off` turns it
 //! off and `check` warns. On the virtual clock, a PLC that stops scanning without its clean
 //! shutdown (as `kill -9` leaves it) has its outputs set to their safe values by the module
-//! itself, within the printed time.
+//! itself, within the printed time. Both hold on a module that keeps WDTTIME/WDTYMASK where
+//! the manual's register table says (holding registers 128/144) and on one that follows its
+//! coil/register aliasing rule (8/9): the driver arms the watchdog by name.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,7 +17,10 @@ use softplc::logic::ScanContext;
 use softplc::plc::Plc;
 use softplc::project::watchdog::{Armed, Origin};
 use softplc::project::{self, Project};
+use softplc_io::devices::minimod::map::WatchdogRegisters;
+use softplc_io::devices::minimod::MiniModSim;
 use softplc_io::point::Value;
+use softplc_io::sim::line::SimWorld;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 const PERIOD: Duration = Duration::from_millis(50);
@@ -68,8 +73,17 @@ fn check(dir: &Path) -> (bool, String) {
 
 /// Builds the PLC on a virtual clock and scans `cycles` times, as the scan engine does.
 fn run(project: Project, cycles: u64) -> (Plc, Arc<VirtualClock>) {
+    run_on(WatchdogRegisters::Table, project, cycles)
+}
+
+/// As [`run`], on a simulated MiniMod that keeps WDTTIME/WDTYMASK where `registers` says.
+fn run_on(registers: WatchdogRegisters, project: Project, cycles: u64) -> (Plc, Arc<VirtualClock>) {
+    let mut world = SimWorld::new(project.buses.iter().map(|b| b.settings).collect());
+    let mm1 = MiniModSim::with_watchdog_registers(project.modules[0].device.address, registers);
+    world.add_device(project.modules[0].bus, "mm1", Box::new(mm1));
     let clock = Arc::new(VirtualClock::new());
-    let mut plc = Plc::build(project, clock.clone()).unwrap_or_else(|e| panic!("builds: {e}"));
+    let mut plc = Plc::build_on(project, clock.clone(), Some(world.shared()))
+        .unwrap_or_else(|e| panic!("builds ({registers:?}): {e}"));
     let mut next = clock.now();
     for cycle in 0..cycles {
         clock.advance_to(next);
@@ -153,29 +167,31 @@ fn without_wdttime_the_watchdog_is_armed_and_takes_the_outputs_safe_after_a_kill
     );
     assert!(!text.contains("watchdog is off"), "{text}");
 
-    let (plc, _clock) = run(project, 40);
-    // Armed in the module by the start-up.
-    assert_eq!(sim(&plc, "WDTTIME"), Value::U16(time));
-    assert_eq!(sim(&plc, "WDTYMASK"), Value::U16(0b0010));
-    assert_eq!(sim(&plc, "Y1"), Value::Bool(true), "the program runs Y1");
-    assert_eq!(sim(&plc, "Y2"), Value::Bool(false));
+    for registers in WatchdogRegisters::ALL {
+        let (plc, _clock) = run_on(registers, project.clone(), 40);
+        // Armed in the module by the start-up, whichever register the module has.
+        assert_eq!(sim(&plc, "WDTTIME"), Value::U16(time), "{registers:?}");
+        assert_eq!(sim(&plc, "WDTYMASK"), Value::U16(0b0010), "{registers:?}");
+        assert_eq!(sim(&plc, "Y1"), Value::Bool(true), "the program runs Y1");
+        assert_eq!(sim(&plc, "Y2"), Value::Bool(false));
 
-    let printed = Duration::from_millis(u64::from(time) * 10);
-    let (off_after, y1, y2) = kill_and_wait(plc, printed * 2);
-    let off_after = off_after.expect("Y1 goes off by itself");
-    assert!(
-        off_after <= printed,
-        "within the printed {printed:?}: {off_after:?}"
-    );
-    assert!(
-        off_after + Duration::from_millis(10) >= printed,
-        "and not before it: {off_after:?}"
-    );
-    assert_eq!(
-        (y1, y2),
-        (Value::Bool(false), Value::Bool(true)),
-        "WDTYMASK"
-    );
+        let printed = Duration::from_millis(u64::from(time) * 10);
+        let (off_after, y1, y2) = kill_and_wait(plc, printed * 2);
+        let off_after = off_after.expect("Y1 goes off by itself");
+        assert!(
+            off_after <= printed,
+            "{registers:?}: within the printed {printed:?}: {off_after:?}"
+        );
+        assert!(
+            off_after + Duration::from_millis(10) >= printed,
+            "{registers:?}: and not before it: {off_after:?}"
+        );
+        assert_eq!(
+            (y1, y2),
+            (Value::Bool(false), Value::Bool(true)),
+            "{registers:?}: WDTYMASK"
+        );
+    }
 }
 
 #[test]
@@ -264,7 +280,18 @@ fn event_mode_covers_the_refresh_and_an_idle_line_does_not_fire_it() {
     assert_eq!(d.event_refresh, Some(Duration::from_secs(2)));
     assert!(u64::from(time) * 10 >= 2_000 + 150, "{time}");
     // Nothing changes on the inputs for 10 s: Collect rounds only, a full read every 2 s.
-    let (plc, _clock) = run(project, 200);
-    assert_eq!(sim(&plc, "WDTFIRED"), Value::Bool(false));
-    assert_eq!(sim(&plc, "Y1"), Value::Bool(true));
+    for registers in WatchdogRegisters::ALL {
+        let (plc, _clock) = run_on(registers, project.clone(), 200);
+        assert_eq!(sim(&plc, "WDTTIME"), Value::U16(time), "{registers:?}");
+        assert_eq!(sim(&plc, "WDTFIRED"), Value::Bool(false));
+        assert_eq!(sim(&plc, "Y1"), Value::Bool(true));
+        // And a dead host still takes the outputs safe: WDTYMASK 0b0010, Y1 off.
+        let printed = Duration::from_millis(u64::from(time) * 10);
+        let (off_after, y1, y2) = kill_and_wait(plc, printed * 2);
+        assert!(
+            off_after.is_some_and(|t| t <= printed),
+            "{registers:?}: {off_after:?}"
+        );
+        assert_eq!((y1, y2), (Value::Bool(false), Value::Bool(true)));
+    }
 }

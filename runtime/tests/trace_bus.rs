@@ -161,7 +161,7 @@ fn timeouts_late_replies_and_crc_errors_are_in_the_trace() {
     let crc = position("CRC bad (computed");
     assert_eq!(
         trace[crc],
-        "t=0.758411s  line1  RX  01 01 09 00 51 88  | rtu unit 1 FC 1: CRC bad (computed \
+        "t=0.776744s  line1  RX  01 01 09 00 51 88  | rtu unit 1 FC 1: CRC bad (computed \
          0x4856, frame carries 0x8851) (cut: then silence)",
         "{all}"
     );

@@ -22,7 +22,11 @@ SCADA) or a terminal can talk to them. Each MODEL@ADDR is one module at that uni
 e.g. minimod@5. MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1) sets the module's own baud
 and format: a master at other settings is then heard by it as garbage (on a --pty, the
 settings the master gave its end are followed frame by frame). With --pty, softplc creates a pseudo-terminal pair itself and prints the path
-to give to the master.
+to give to the master. --option DEVICE:NAME=VALUE sets a simulator's option before serving,
+as `DEVICE option NAME VALUE` would: where a manual can be read two ways, the simulator
+serves either (minimod@5:watchdog-registers=aliased keeps WDTTIME/WDTYMASK at holding
+registers 8/9, the coil/register aliasing rule, instead of the register table's 128/144;
+`DEVICE options` lists a module's options).
 
 Commands on standard input (one per line):
   set DEVICE.POINT VALUE   set a simulated input (the terminal's level) or any point
@@ -65,6 +69,26 @@ pub struct SimArgs {
     /// Modules to simulate, as MODEL@ADDR or MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1).
     #[arg(required = true)]
     devices: Vec<String>,
+    /// A simulator option, DEVICE:NAME=VALUE (minimod@5:watchdog-registers=aliased);
+    /// repeatable.
+    #[arg(long = "option", value_name = "DEVICE:NAME=VALUE")]
+    options: Vec<String>,
+}
+
+/// Applies `--option DEVICE:NAME=VALUE` to the device it names, as its console command
+/// `option NAME VALUE` does.
+fn apply_option(world: &mut SimWorld, option: &str) -> anyhow::Result<()> {
+    let parsed = option
+        .split_once(':')
+        .and_then(|(dev, rest)| rest.split_once('=').map(|(name, value)| (dev, name, value)));
+    let Some((dev, name, value)) = parsed else {
+        bail!("--option {option:?}: expected DEVICE:NAME=VALUE, e.g. minimod@5:watchdog-registers=aliased");
+    };
+    let i = find(world, dev).with_context(|| format!("--option {option:?}"))?;
+    let d = world.device_mut(i).context("device vanished")?;
+    d.command(&["option", name, value])
+        .with_context(|| format!("--option {option:?}"))?;
+    Ok(())
 }
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -153,6 +177,9 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         if let Some(own) = own {
             world.set_device_settings(i, own);
         }
+    }
+    for option in &args.options {
+        apply_option(&mut world, option)?;
     }
     let world = world.shared();
     let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());

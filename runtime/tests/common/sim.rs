@@ -73,6 +73,20 @@ impl Sim {
         }
     }
 
+    /// The next line of its output that starts with `prefix`, waiting at most `within`.
+    #[allow(dead_code)] // not every test binary that shares this file reads raw lines
+    pub fn wait_line(&mut self, prefix: &str, within: Duration) -> Option<String> {
+        let start = Instant::now();
+        while let Some(left) = within.checked_sub(start.elapsed()) {
+            match self.lines.recv_timeout(left) {
+                Ok(line) if line.starts_with(prefix) => return Some(line),
+                Ok(_) => {}
+                Err(_) => return None,
+            }
+        }
+        None
+    }
+
     /// Polls `target` until it reads `want`; how long that took, or `None` after `within`.
     pub fn wait_for(&mut self, target: &str, want: &str, within: Duration) -> Option<Duration> {
         let start = Instant::now();

@@ -13,15 +13,20 @@
 //! register 0 (30001), and the feedback bits at discrete inputs 48/49 (10049/10050), of which
 //! discrete inputs 8/9 (X9/X10, 10009/10010) are mirrors.
 //!
-//! ## Observation for the watchdog issue
+//! ## WDTTIME and WDTYMASK: two readings of the manual
 //!
-//! The bit tables look like bit views of the word tables (coil *n* = bit *n* % 16 of holding
+//! The bit tables are bit views of the word tables (coil *n* = bit *n* % 16 of holding
 //! register *n* / 16): coils 0..3 (Y1..Y4) are the bits of YWORD (HR 0), coils 80..82 (EVX1..3)
 //! those of XEVMASK (HR 5), coils 96..99 (EVY1..4) those of YEVMASK (HR 6). By that rule the
-//! table's WDTTIME = 40129 and WDTYMASK = 40145 might really be holding registers 8 and 9
-//! (the references look like the coil numbers 128/144 + 1). This map follows the table
-//! (holding registers 128 and 144); the bit coils that have a word twin in the table are
-//! aliased to it (EVX ↔ XEVMASK, EVY ↔ YEVMASK, WDTY ↔ WDTYMASK). To confirm on hardware.
+//! table's WDTTIME = 40129 and WDTYMASK = 40145 would really be holding registers 8 and 9
+//! (the references look like the coil numbers 128/144 + 1), and WDTY1..4 (coils 144..147)
+//! would be the bits of holding register 9. [`MAP`] follows the register table (holding
+//! registers 128 and 144, [`WatchdogRegisters::Table`]); the simulator can serve the other
+//! reading ([`WatchdogRegisters::Aliased`], [`lookup_in`]). The driver depends on neither: it
+//! sets and reads back both by name through the text protocol (see `driver/watchdog.rs`).
+//! Every other register the manual gives twice (prose and table) agrees between the two, and
+//! the coil table (WDTY1..4 = 00145..00148, WDTFB1..2 = 00113..00114, WDTFIRED = 00161) is
+//! the same under both readings.
 
 use crate::point::{Access, PointSpec, ValueType};
 
@@ -65,6 +70,75 @@ impl Space {
             Space::DiscreteInput => 129,   // SW4, 10130
             Space::InputRegister => 9,     // ROTSW, 30010
             Space::HoldingRegister => 144, // WDTYMASK, 40145
+        }
+    }
+}
+
+/// Where the module keeps WDTTIME and WDTYMASK among its holding registers: the manual gives
+/// them two ways (see the module docs above). The simulator serves either; the driver arms
+/// the watchdog by name, so it works with both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WatchdogRegisters {
+    /// The register table ("Modbus register map (read and write registers)"): WDTTIME 40129,
+    /// WDTYMASK 40145, holding registers 128 and 144.
+    #[default]
+    Table,
+    /// The coil/register aliasing rule the other bit/word pairs follow: holding registers 8
+    /// and 9 (the words of coils 128.. and 144..); nothing above YPULSE4 (40087).
+    Aliased,
+}
+
+impl WatchdogRegisters {
+    /// Both readings, the table's first.
+    pub const ALL: [WatchdogRegisters; 2] = [WatchdogRegisters::Table, WatchdogRegisters::Aliased];
+
+    /// The holding register (0-based) of WDTTIME.
+    pub const fn wdttime(self) -> u16 {
+        match self {
+            WatchdogRegisters::Table => 128,
+            WatchdogRegisters::Aliased => 8,
+        }
+    }
+
+    /// The holding register (0-based) of WDTYMASK.
+    pub const fn wdtymask(self) -> u16 {
+        match self {
+            WatchdogRegisters::Table => 144,
+            WatchdogRegisters::Aliased => 9,
+        }
+    }
+
+    /// The highest holding register the module implements under this reading.
+    pub const fn holding_extent(self) -> u16 {
+        match self {
+            WatchdogRegisters::Table => Space::HoldingRegister.extent(),
+            WatchdogRegisters::Aliased => 86, // YPULSE4, 40087
+        }
+    }
+
+    /// The name the simulator's option takes (`table`, `aliased`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            WatchdogRegisters::Table => "table",
+            WatchdogRegisters::Aliased => "aliased",
+        }
+    }
+
+    /// The reading of option value `name`.
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|r| r.name() == name)
+    }
+
+    /// Where this reading puts the two registers, in words (for logs and errors).
+    pub const fn describe(self) -> &'static str {
+        match self {
+            WatchdogRegisters::Table => {
+                "the register table: WDTTIME holding register 128 (40129), WDTYMASK 144 (40145)"
+            }
+            WatchdogRegisters::Aliased => {
+                "the coil/register aliasing rule: WDTTIME holding register 8 (40009), WDTYMASK 9 \
+                 (40010)"
+            }
         }
     }
 }
@@ -321,6 +395,23 @@ pub fn lookup(space: Space, addr: u16) -> Slot {
     MAP.iter()
         .find(|e| e.space == space && e.addr == addr)
         .map_or(Slot::Hole, |e| Slot::Mapped(e.item))
+}
+
+/// The item at a protocol address (0-based) of a table, for a module that keeps WDTTIME and
+/// WDTYMASK where `registers` says; [`lookup`] is the register table's reading.
+pub fn lookup_in(space: Space, addr: u16, registers: WatchdogRegisters) -> Slot {
+    if space != Space::HoldingRegister || registers == WatchdogRegisters::Table {
+        return lookup(space, addr);
+    }
+    if addr == registers.wdttime() {
+        Slot::Mapped(Item::WdtTime)
+    } else if addr == registers.wdtymask() {
+        Slot::Mapped(Item::WdtYMask)
+    } else if addr > registers.holding_extent() {
+        Slot::Outside
+    } else {
+        lookup(space, addr)
+    }
 }
 
 /// The first map entry with this name (`FB1` gives discrete input 8, not its mirror at 48).
@@ -720,13 +811,15 @@ pub static POINTS: &[PointSpec] = &[
         "WDTTIME",
         W,
         RW,
-        "watchdog timeout, 1/100 s, 0 = off (holding register 128, 40129)",
+        "watchdog timeout, 1/100 s, 0 = off (text WDTTIME; holding register 128, 40129, by \
+         the register table, 8 by the coil/register aliasing)",
     ),
     p(
         "WDTYMASK",
         W,
         RW,
-        "outputs while the watchdog fires (holding register 144, 40145)",
+        "outputs while the watchdog fires (text WDTMASK; holding register 144, 40145, by the \
+         register table, 9 by the coil/register aliasing)",
     ),
     p(
         "XEVMASK",
@@ -892,6 +985,36 @@ mod tests {
         );
         assert_eq!(lookup(Space::DiscreteInput, 5), Slot::Hole);
         assert_eq!(lookup(Space::HoldingRegister, 145), Slot::Outside);
+    }
+
+    #[test]
+    fn both_readings_of_wdttime_and_wdtymask() {
+        let hr = Space::HoldingRegister;
+        let table = WatchdogRegisters::Table;
+        let aliased = WatchdogRegisters::Aliased;
+        assert_eq!(lookup_in(hr, 128, table), Slot::Mapped(Item::WdtTime));
+        assert_eq!(lookup_in(hr, 144, table), Slot::Mapped(Item::WdtYMask));
+        assert_eq!(lookup_in(hr, 8, table), Slot::Hole);
+        assert_eq!(lookup_in(hr, 8, aliased), Slot::Mapped(Item::WdtTime));
+        assert_eq!(lookup_in(hr, 9, aliased), Slot::Mapped(Item::WdtYMask));
+        assert_eq!(lookup_in(hr, 128, aliased), Slot::Outside);
+        assert_eq!(lookup_in(hr, 144, aliased), Slot::Outside);
+        // Everything else is where the table puts it, under both readings.
+        for r in WatchdogRegisters::ALL {
+            assert_eq!(lookup_in(hr, 86, r), Slot::Mapped(Item::Pulse(3)));
+            assert_eq!(lookup_in(hr, 5, r), Slot::Mapped(Item::XevMask));
+            assert_eq!(lookup_in(Space::Coil, 144, r), Slot::Mapped(Item::WdtY(0)));
+            assert_eq!(lookup_in(Space::Coil, 160, r), Slot::Mapped(Item::WdtFired));
+            assert_eq!(WatchdogRegisters::parse(r.name()), Some(r));
+        }
+        // The aliasing rule: coil n is bit n % 16 of holding register n / 16.
+        assert_eq!(aliased.wdttime(), 128 / 16);
+        assert_eq!(aliased.wdtymask(), map_coil("WDTY1") / 16);
+        assert_eq!(WatchdogRegisters::parse("other"), None);
+    }
+
+    fn map_coil(name: &str) -> u16 {
+        entry(name).map(|e| e.addr).unwrap()
     }
 
     #[test]

@@ -19,6 +19,13 @@
 //! - Addresses: see [`super::map::Space::extent`]: holes inside the implemented range read 0
 //!   and ignore writes, addresses beyond it answer `IllegalDataAddress`; a pulser value above
 //!   65000 answers `IllegalDataValue`.
+//! - Where WDTTIME and WDTYMASK are (the manual gives them two ways, see [`super::map`]):
+//!   option `watchdog-registers table` (the default: holding registers 128/144, 40129/40145)
+//!   or `aliased` (holding registers 8/9 by the coil/register aliasing rule; 128 and 144 then
+//!   answer `IllegalDataAddress`), set with [`MiniModSim::with_watchdog_registers`], the
+//!   console's `option watchdog-registers aliased`, or `softplc sim --option
+//!   minimod@5:watchdog-registers=aliased`. The text protocol (`?WDTTIME`, `>WDTMASK=`) and
+//!   the coils WDTY1..4 work the same under both; a power cycle keeps it (it is the firmware).
 //! - Every reply but Collect's waits the module's reply delay, RDELAYT × 10 ms (power-on
 //!   10 ms) + RDELAYM × 0.1 ms; `>WCONF=1` takes 100 ms more.
 //! - Every frame the module acts on (Modbus for its address or broadcast, a well-formed text
@@ -29,7 +36,7 @@
 
 use std::time::Duration;
 
-use super::map::{lookup, point_item, Item, Slot, Space, POINTS};
+use super::map::{lookup_in, point_item, Item, Slot, Space, WatchdogRegisters, POINTS};
 use super::serial_config::{LineMode, SerialParams};
 use super::sim_text;
 use super::state::{Fault, MiniModState, WriteError};
@@ -86,16 +93,28 @@ impl FrameKind {
 pub struct MiniModSim {
     state: MiniModState,
     text: PacketReceiver,
+    registers: WatchdogRegisters,
 }
 
 impl MiniModSim {
     /// A module just powered on, answering at `address` (see [`MiniModState::new`] for the
     /// selector position it gets).
     pub fn new(address: u8) -> Self {
+        Self::with_watchdog_registers(address, WatchdogRegisters::Table)
+    }
+
+    /// A module just powered on whose WDTTIME and WDTYMASK are where `registers` says.
+    pub fn with_watchdog_registers(address: u8, registers: WatchdogRegisters) -> Self {
         Self {
             state: MiniModState::new(address),
             text: PacketReceiver::new(),
+            registers,
         }
+    }
+
+    /// Where this module keeps WDTTIME and WDTYMASK.
+    pub fn watchdog_registers(&self) -> WatchdogRegisters {
+        self.registers
     }
 
     /// The module's state.
@@ -163,7 +182,11 @@ impl MiniModSim {
                 delay: Duration::from_millis(delay_ms),
             });
         }
-        let resp = serve(&mut self.state, &req);
+        let mut bank = Bank {
+            state: &mut self.state,
+            registers: self.registers,
+        };
+        let resp = serve(&mut bank, &req);
         (unit != 0).then(|| self.reply(unit, &resp))
     }
 
@@ -196,6 +219,14 @@ impl MiniModSim {
                 model: MODEL,
                 point: point.to_string(),
             })
+    }
+
+    fn options(&self) -> String {
+        format!(
+            "watchdog-registers {}: {}",
+            self.registers.name(),
+            self.registers.describe()
+        )
     }
 
     fn status(&self) -> String {
@@ -288,53 +319,56 @@ fn exception(e: WriteError) -> ExceptionCode {
     }
 }
 
-/// Reads through the map: holes read 0, beyond the extent is `IllegalDataAddress`.
-fn read(state: &MiniModState, space: Space, addr: u16) -> Result<u16, ExceptionCode> {
-    match lookup(space, addr) {
-        Slot::Mapped(item) => Ok(state.read(item)),
-        Slot::Hole => Ok(0),
-        Slot::Outside => Err(ExceptionCode::IllegalDataAddress),
+/// The Modbus view of the state, by 0-based protocol address ([`super::map`]), with WDTTIME
+/// and WDTYMASK where the module's reading puts them.
+struct Bank<'a> {
+    state: &'a mut MiniModState,
+    registers: WatchdogRegisters,
+}
+
+impl Bank<'_> {
+    /// Reads through the map: holes read 0, beyond the extent is `IllegalDataAddress`.
+    fn read(&self, space: Space, addr: u16) -> Result<u16, ExceptionCode> {
+        match lookup_in(space, addr, self.registers) {
+            Slot::Mapped(item) => Ok(self.state.read(item)),
+            Slot::Hole => Ok(0),
+            Slot::Outside => Err(ExceptionCode::IllegalDataAddress),
+        }
+    }
+
+    /// Writes through the map: holes ignore writes, beyond the extent is `IllegalDataAddress`.
+    fn write(&mut self, space: Space, addr: u16, value: u16) -> Result<(), ExceptionCode> {
+        match lookup_in(space, addr, self.registers) {
+            Slot::Mapped(item) => self.state.write(item, value).map_err(exception),
+            Slot::Hole => Ok(()),
+            Slot::Outside => Err(ExceptionCode::IllegalDataAddress),
+        }
     }
 }
 
-/// Writes through the map: holes ignore writes, beyond the extent is `IllegalDataAddress`.
-fn write(
-    state: &mut MiniModState,
-    space: Space,
-    addr: u16,
-    value: u16,
-) -> Result<(), ExceptionCode> {
-    match lookup(space, addr) {
-        Slot::Mapped(item) => state.write(item, value).map_err(exception),
-        Slot::Hole => Ok(()),
-        Slot::Outside => Err(ExceptionCode::IllegalDataAddress),
-    }
-}
-
-/// The Modbus view of the state, by 0-based protocol address ([`super::map`]).
-impl RegisterBank for MiniModState {
+impl RegisterBank for Bank<'_> {
     fn read_coil(&self, addr: u16) -> Result<bool, ExceptionCode> {
-        read(self, Space::Coil, addr).map(|v| v != 0)
+        self.read(Space::Coil, addr).map(|v| v != 0)
     }
 
     fn read_discrete_input(&self, addr: u16) -> Result<bool, ExceptionCode> {
-        read(self, Space::DiscreteInput, addr).map(|v| v != 0)
+        self.read(Space::DiscreteInput, addr).map(|v| v != 0)
     }
 
     fn read_holding_register(&self, addr: u16) -> Result<u16, ExceptionCode> {
-        read(self, Space::HoldingRegister, addr)
+        self.read(Space::HoldingRegister, addr)
     }
 
     fn read_input_register(&self, addr: u16) -> Result<u16, ExceptionCode> {
-        read(self, Space::InputRegister, addr)
+        self.read(Space::InputRegister, addr)
     }
 
     fn write_coil(&mut self, addr: u16, value: bool) -> Result<(), ExceptionCode> {
-        write(self, Space::Coil, addr, u16::from(value))
+        self.write(Space::Coil, addr, u16::from(value))
     }
 
     fn write_holding_register(&mut self, addr: u16, value: u16) -> Result<(), ExceptionCode> {
-        write(self, Space::HoldingRegister, addr, value)
+        self.write(Space::HoldingRegister, addr, value)
     }
 }
 
@@ -353,6 +387,10 @@ minimod commands:
                                 the module hears it only while its SERLINE matches
   flash ok|broken               break the flash: >WCONF=1 answers \"Error 1\", FLASHFAIL = 1
   events                        the Collect event queue
+  options                       the simulator's choices where the manual gives two readings
+  option watchdog-registers table|aliased
+                                WDTTIME/WDTYMASK at holding registers 128/144 (the register
+                                table, the default) or 8/9 (the coil/register aliasing rule)
   status                        terminals, inputs, outputs, feedbacks, watchdog, events, serial
 points: `set X1 1` sets the level at a terminal (cooked after XLATUP/XLATDN); `set SW3 1`
 flips dip switch 3; `set ROTSW n` turns the address selector (0..15; 0 counts as 16);
@@ -553,6 +591,19 @@ impl SimDevice for MiniModSim {
                 })
             }
             ["status"] => Ok(self.status()),
+            ["options"] => Ok(self.options()),
+            ["option", "watchdog-registers", value] => {
+                self.registers =
+                    WatchdogRegisters::parse(value).ok_or_else(|| SimError::BadValue {
+                        point: "watchdog-registers".into(),
+                        value: format!("{value} (takes table or aliased)"),
+                    })?;
+                Ok(self.options())
+            }
+            ["option", name, _] => Err(SimError::BadValue {
+                point: "option".into(),
+                value: format!("{name} (options: watchdog-registers)"),
+            }),
             ["help"] => Ok(HELP.to_string()),
             _ => Err(SimError::UnknownCommand(words.join(" "))),
         }
@@ -1287,6 +1338,110 @@ mod tests {
             sim.on_frame(&write, ms(204)).map(|r| r.bytes),
             Some(write.clone())
         );
+    }
+
+    #[test]
+    fn wdttime_and_wdtymask_under_both_readings_of_the_manual() {
+        let read = |addr| Request::ReadHoldingRegisters { addr, count: 2 };
+        // The register table (default): WDTTIME at 128 (40129), WDTYMASK at 144 (40145).
+        let mut sim = MiniModSim::new(UNIT);
+        assert_eq!(text(&mut sim, ">WDTTIME=50\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(text(&mut sim, ">WDTMASK=2\r", 1).as_deref(), Some("OK\r"));
+        let write = Request::WriteSingleRegister {
+            addr: 128,
+            value: 51,
+        };
+        assert_eq!(ask(&mut sim, &write, ms(2)), Some(request(UNIT, &write)));
+        assert_eq!(
+            text(&mut sim, "?WDTTIME\r", 3).as_deref(),
+            Some("WDTTIME=00051\r")
+        );
+        let hr144 = Request::ReadHoldingRegisters {
+            addr: 144,
+            count: 1,
+        };
+        assert_eq!(
+            ask(&mut sim, &hr144, ms(4)),
+            Some(frame(&[0x05, 0x03, 0x02, 0x00, 0x02]))
+        );
+        // Holding registers 8/9 are holes: they read 0 and keep nothing.
+        assert_eq!(
+            ask(&mut sim, &read(8), ms(5)),
+            Some(frame(&[0x05, 0x03, 0x04, 0x00, 0x00, 0x00, 0x00]))
+        );
+
+        // The coil/register aliasing rule: the same two at 8 and 9; 128 and 144 are refused.
+        let mut sim = MiniModSim::with_watchdog_registers(UNIT, WatchdogRegisters::Aliased);
+        assert_eq!(text(&mut sim, ">WDTTIME=50\r", 0).as_deref(), Some("OK\r"));
+        assert_eq!(text(&mut sim, ">WDTMASK=2\r", 1).as_deref(), Some("OK\r"));
+        assert_eq!(
+            ask(&mut sim, &read(8), ms(2)),
+            Some(frame(&[0x05, 0x03, 0x04, 0x00, 0x32, 0x00, 0x02]))
+        );
+        let write = Request::WriteSingleRegister { addr: 8, value: 51 };
+        assert_eq!(ask(&mut sim, &write, ms(3)), Some(request(UNIT, &write)));
+        assert_eq!(
+            text(&mut sim, "?WDTTIME\r", 4).as_deref(),
+            Some("WDTTIME=00051\r")
+        );
+        assert_eq!(
+            ask(&mut sim, &hr144, ms(5)),
+            Some(frame(&[0x05, 0x83, 0x02])),
+            "IllegalDataAddress"
+        );
+        let old = Request::WriteMultipleRegisters {
+            addr: 128,
+            values: vec![0],
+        };
+        assert_eq!(ask(&mut sim, &old, ms(6)), Some(frame(&[0x05, 0x90, 0x02])));
+        assert_eq!(sim.get("WDTTIME"), Ok(Value::U16(51)), "unchanged");
+        // The coils WDTY1..4 are WDTYMASK's bits under both.
+        let coils = Request::ReadCoils {
+            addr: 144,
+            count: 4,
+        };
+        assert_eq!(
+            ask(&mut sim, &coils, ms(7)),
+            Some(frame(&[0x05, 0x01, 0x01, 0x02]))
+        );
+        // YPULSE4 (40087) is still the last holding register.
+        let pulse = Request::ReadHoldingRegisters { addr: 86, count: 1 };
+        assert_eq!(
+            ask(&mut sim, &pulse, ms(8)),
+            Some(frame(&[0x05, 0x03, 0x02, 0x00, 0x00]))
+        );
+    }
+
+    #[test]
+    fn the_watchdog_registers_option_on_the_console() {
+        let mut sim = MiniModSim::new(UNIT);
+        assert_eq!(
+            sim.command(&["options"]).unwrap(),
+            "watchdog-registers table: the register table: WDTTIME holding register 128 \
+             (40129), WDTYMASK 144 (40145)"
+        );
+        assert!(sim
+            .command(&["option", "watchdog-registers", "aliased"])
+            .unwrap()
+            .starts_with("watchdog-registers aliased: the coil/register aliasing rule"));
+        assert_eq!(sim.watchdog_registers(), WatchdogRegisters::Aliased);
+        sim.command(&["power-cycle"]).unwrap();
+        assert_eq!(
+            sim.watchdog_registers(),
+            WatchdogRegisters::Aliased,
+            "the firmware's, kept across a power cycle"
+        );
+        assert!(matches!(
+            sim.command(&["option", "watchdog-registers", "both"]),
+            Err(SimError::BadValue { .. })
+        ));
+        assert!(matches!(
+            sim.command(&["option", "colour", "red"]),
+            Err(SimError::BadValue { .. })
+        ));
+        assert!(sim
+            .command_help()
+            .contains("option watchdog-registers table|aliased"));
     }
 
     #[test]

@@ -61,7 +61,9 @@
 //!
 //! See [`super::settings`]. Contiguous holding registers are written with one FC 16 and read
 //! back with one FC 3; contiguous coils with FC 15 and FC 1; `RDELAYT` / `RDELAYM` are sent last
-//! as text (`@5>RDELAYT=5`), whatever the protocol, since no register holds them. A read-back
+//! as text (`@5>RDELAYT=5`), whatever the protocol, since no register holds them. WDTTIME and
+//! WDTYMASK are set and read back by name as text (`@5>WDTTIME=50`, `@5?WDTTIME`), whatever
+//! the protocol, since the manual gives their registers two ways ([`watchdog`]). A read-back
 //! difference is [`DecodeError::Mismatch`] with the register's name. When the project sets the
 //! watchdog (WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2), start-up also resets it (WDTFIRED = 0,
 //! read back): a watchdog that fired when the last run stopped would otherwise keep the outputs
@@ -69,6 +71,23 @@
 //! it, the start-up reads why the watchdog fired and logs it once ([`restart`]); the same
 //! sequence runs when the module comes back after it was lost or refused a write, and every
 //! output is then written again.
+//!
+//! ## Registers the manual gives two ways
+//!
+//! Every register the driver writes, against the manual's places: only the watchdog's words
+//! differ between two readings, and they are armed so that either works.
+//!
+//! | register | reading 1 | reading 2 | chosen | confirmed at start-up |
+//! |---|---|---|---|---|
+//! | WDTTIME | 40129, holding register 128 (table "Modbus register map (read and write registers)") | holding register 8: "coil *n* = bit *n* % 16 of holding register *n* / 16", which YWORD/Y1..Y4, XEVMASK/EVX1..3 and YEVMASK/EVY1..4 follow in the same table | neither: by name, `>WDTTIME=` (text table "WDTtime") | `?WDTTIME` reads the value back; a difference stops the start, logged with both readings |
+//! | WDTYMASK | 40145, holding register 144 (the table) | holding register 9, whose bits would be WDTY1..4 (00145..00148) | neither: by name, `>WDTMASK=` ("WDTmask") | `?WDTMASK`, as above |
+//! | WDTFB1..2 / FBENABLE | coils 112/113 (00113..00114; prose "Power outputs, blinkers, pulsers, and feedbacks": "The Single Coil at address 112") | text FBENABLE bits 0/1 ("FBEnable") | the coils (FBENABLE in text mode) | read back (FC 1, or `?FBENABLE`) |
+//! | WDTFIRED | coil 160 (00161) | text WFLAGS bit 1 ("Wflags") | the coil to reset it, WFLAGS to read it in text mode | the coil read back 0; a fired watchdog's reason read first ([`restart`]) |
+//! | XLATUP/XLATDN, XCOUNT, AON/AOFF, YLAMP, YPULSE, XEVMASK, YEVMASK, YWORD | prose ("Digital inputs, latencies and counters", "Power outputs, ...", "Automatic output management"): 19..21, 35..37, 11..13, 51..74, 75..78, 83..86 | the table: 40020.., 40036.., 40012.., 40052..40075, 40076.., 40084.., 40006, 40007, 40001 | the same registers (the two agree, and agree with the aliasing rule) | read back (counters by their echo: they count) |
+//!
+//! The manual also writes `>Y2=` as its example of clearing a condition ("To clear a condition
+//! an empty value is used, i.e. >Y2="): that is output Y2's identifier, not a condition's, so
+//! conditions are cleared by writing 0 to their registers and reading them back ([`logic`]).
 //!
 //! The logic registers (AON/AOFF conditions, blinkers, pulsers) come last: all cleared and read
 //! back, then the pushed-down outputs' initial values, then the settings' own tables (the
@@ -82,7 +101,7 @@
 //! checking their read-backs; [`plan`]: each cycle's reads and their answers; [`write`]: the
 //! write phase and its echoes; [`text`]: the text protocol's transactions and the parsing of
 //! its answers; [`logic`]: the logic tables' start-up; [`restart`]: refused writes and the
-//! watchdog.
+//! watchdog's status; [`watchdog`]: arming the watchdog by name.
 
 use std::time::Duration;
 
@@ -102,6 +121,7 @@ mod restart;
 mod settings;
 mod startup;
 mod text;
+mod watchdog;
 mod write;
 
 use settings::{runs, setup_steps, SetupStep};
@@ -161,6 +181,10 @@ enum Tag {
     WriteYword(u16),
     /// FC 6 command to a read-write holding register: index = its protocol address.
     WriteRegister(u16),
+    /// Text `>WDTTIME=v` command (see `watchdog`): index = v.
+    WdtTimeByName(u16),
+    /// Text `>WDTMASK=v` command: index = v.
+    WdtMaskByName(u16),
 }
 
 impl Tag {
@@ -178,6 +202,8 @@ impl Tag {
             Tag::WriteY(i) => (10, i),
             Tag::WriteYword(w) => (11, w),
             Tag::WriteRegister(a) => (12, a),
+            Tag::WdtTimeByName(v) => (13, v),
+            Tag::WdtMaskByName(v) => (14, v),
         };
         (kind << 16) | u32::from(index)
     }
@@ -197,6 +223,8 @@ impl Tag {
             10 => Tag::WriteY(index),
             11 => Tag::WriteYword(index),
             12 => Tag::WriteRegister(index),
+            13 => Tag::WdtTimeByName(index),
+            14 => Tag::WdtMaskByName(index),
             _ => return None,
         })
     }

@@ -137,6 +137,8 @@ pub(super) fn setup_steps(
     // Logic tables and the pushed-down outputs' initial values: a sequence of their own, after
     // the watchdog reset (see `logic`).
     let logic = logic::split(&mut registers, &mut coils);
+    // WDTTIME and WDTYMASK by name, whatever the protocol (see `watchdog`).
+    let watchdog_by_name = super::watchdog::arm_by_name(&mut registers);
     let mut steps = Vec::new();
     if protocol == Protocol::Text {
         let mut modbus_registers = Vec::new();
@@ -179,6 +181,7 @@ pub(super) fn setup_steps(
             names,
         });
     }
+    steps.extend(watchdog_by_name);
     for (addr, values, names) in runs(coils) {
         steps.push(SetupStep::Coils {
             addr,

@@ -215,6 +215,8 @@ impl MiniModDriver {
                     return Err(unexpected);
                 }
                 if found != *number {
+                    let address = self.unit.map_or(0, UnitId::get);
+                    super::watchdog::explain_mismatch(address, name, *number, found);
                     return Err(DecodeError::Mismatch {
                         register: name,
                         expected: u32::from(*number),

@@ -7,6 +7,7 @@ use crate::modbus::master::{encode_request, Progress, ReplyAssembler};
 use crate::modbus::ExceptionCode;
 use crate::sim::SimDevice;
 
+use super::super::map::WatchdogRegisters;
 use super::super::sim::MiniModSim;
 
 const UNIT: u8 = 5;
@@ -547,10 +548,11 @@ fn watchdog_and_event_masks_at_start_up() {
             frame(&[0x05, 0x02, 0x00, 0x18, 0x00, 0x02]),
             frame(&[0x05, 0x10, 0x00, 0x05, 0x00, 0x02, 0x04, 0x00, 0x07, 0x00, 0x0F]),
             frame(&[0x05, 0x03, 0x00, 0x05, 0x00, 0x02]),
-            frame(&[0x05, 0x10, 0x00, 0x80, 0x00, 0x01, 0x02, 0x00, 0x32]),
-            frame(&[0x05, 0x03, 0x00, 0x80, 0x00, 0x01]),
-            frame(&[0x05, 0x10, 0x00, 0x90, 0x00, 0x01, 0x02, 0x00, 0x08]),
-            frame(&[0x05, 0x03, 0x00, 0x90, 0x00, 0x01]),
+            // The watchdog by name, on the Modbus driver too (see `watchdog`).
+            b"@5>WDTTIME=50\r".to_vec(),
+            b"@5?WDTTIME\r".to_vec(),
+            b"@5>WDTMASK=8\r".to_vec(),
+            b"@5?WDTMASK\r".to_vec(),
             frame(&[0x05, 0x0F, 0x00, 0x70, 0x00, 0x02, 0x01, 0x03]),
             frame(&[0x05, 0x01, 0x00, 0x70, 0x00, 0x02]),
             frame(&[0x05, 0x0F, 0x00, 0xA0, 0x00, 0x01, 0x01, 0x00]),
@@ -558,10 +560,21 @@ fn watchdog_and_event_masks_at_start_up() {
             b"@5>RDELAYT=2\r".to_vec(),
         ]
     );
+    // Armed under either reading of the manual (see `map`).
+    let mut aliased = MiniModSim::with_watchdog_registers(UNIT, WatchdogRegisters::Aliased);
+    aliased.set("WDTFIRED", Value::Bool(true)).unwrap();
+    let mut d_aliased = d.clone();
+    for tx in &plan {
+        exchange(&mut d_aliased, &mut aliased, tx, Duration::ZERO).unwrap();
+    }
+    assert_eq!(aliased.get("WDTTIME"), Ok(Value::U16(50)));
+    assert_eq!(aliased.get("WDTYMASK"), Ok(Value::U16(8)));
+    assert_eq!(aliased.get("WDTFIRED"), Ok(Value::Bool(false)));
     for tx in &plan {
         exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
     }
     assert_eq!(sim.get("WDTTIME"), Ok(Value::U16(50)));
+    assert_eq!(sim.get("WDTYMASK"), Ok(Value::U16(8)));
     assert_eq!(sim.get("WDTFB2"), Ok(Value::Bool(true)));
     assert_eq!(sim.get("WDTFIRED"), Ok(Value::Bool(false)), "reset");
     assert_eq!(sim.state().rdelayt(), 2);
@@ -589,6 +602,83 @@ fn watchdog_and_event_masks_at_start_up() {
             found: 1
         })
     );
+}
+
+#[test]
+fn a_watchdog_read_back_otherwise_by_name_stops_the_start_naming_both_readings() {
+    let logs = super::super::line_tests::Logs::default();
+    let mut d = driver(&[("WDTTIME", "50"), ("WDTYMASK", "2")]);
+    let mut sim = MiniModSim::new(UNIT);
+    let mut plan = Vec::new();
+    d.plan_startup(&mut plan);
+    let verify = plan
+        .iter()
+        .position(|tx| matches!(&tx.frame, Outgoing::Text { line, .. } if line == b"@5?WDTTIME\r"))
+        .unwrap();
+    let result = tracing::subscriber::with_default(logs.clone(), || {
+        for tx in &plan[..verify] {
+            exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
+        }
+        // The module lost it between the write and its read-back (or never took it).
+        sim.set("WDTTIME", Value::U16(0)).unwrap();
+        exchange(&mut d, &mut sim, &plan[verify], Duration::ZERO)
+    });
+    assert_eq!(
+        result,
+        Err(DecodeError::Mismatch {
+            register: "WDTTIME",
+            expected: 50,
+            found: 0
+        })
+    );
+    assert_eq!(
+        logs.matching("watch-dog is not armed"),
+        [
+            "ERROR MiniMod at address 5: its watch-dog is not armed as the project says: WDTTIME \
+             read back by name (?WDTTIME) is 0, not 50. The manual places the watch-dog's \
+             registers two ways (the register table: WDTTIME holding register 128 (40129), \
+             WDTYMASK 144 (40145); the coil/register aliasing rule: WDTTIME holding register 8 \
+             (40009), WDTYMASK 9 (40010)); the name depends on neither, so the module refused \
+             or lost the value"
+        ]
+    );
+}
+
+#[test]
+fn a_program_command_to_wdttime_or_wdtymask_goes_by_name() {
+    for registers in WatchdogRegisters::ALL {
+        let mut d = driver(&[]);
+        let mut sim = MiniModSim::with_watchdog_registers(UNIT, registers);
+        let mut want = vec![None; POINTS.len()];
+        want[map::point_index("WDTTIME").unwrap()] = Some(Value::U16(30));
+        want[map::point_index("WDTYMASK").unwrap()] = Some(Value::U16(4));
+        want[map::point_index("YPULSE1").unwrap()] = Some(Value::U16(100));
+        let mut plan = Vec::new();
+        d.plan_write(&want, false, &mut plan);
+        let lines: Vec<Vec<u8>> = plan
+            .iter()
+            .map(|tx| match &tx.frame {
+                Outgoing::Text { line, .. } => line.clone(),
+                _ => wire(tx),
+            })
+            .collect();
+        assert_eq!(
+            lines,
+            [
+                // The pulser by its register (the same in both readings), FC 6.
+                frame(&[0x05, 0x06, 0x00, 0x53, 0x00, 0x64]),
+                b"@5>WDTTIME=30\r".to_vec(),
+                b"@5>WDTMASK=4\r".to_vec(),
+            ]
+        );
+        for tx in &plan {
+            exchange(&mut d, &mut sim, tx, Duration::ZERO).unwrap();
+        }
+        assert_eq!(sim.get("WDTTIME"), Ok(Value::U16(30)), "{registers:?}");
+        assert_eq!(sim.get("WDTYMASK"), Ok(Value::U16(4)), "{registers:?}");
+        assert_eq!(value(&d, "WDTTIME"), Some(Value::U16(30)));
+        assert_eq!(value(&d, "WDTYMASK"), Some(Value::U16(4)));
+    }
 }
 
 #[test]

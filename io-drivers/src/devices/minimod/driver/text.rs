@@ -28,9 +28,10 @@ impl MiniModDriver {
             Some(t @ (Tag::SetupWrite(_) | Tag::SetupVerify(_))) => {
                 self.on_setup_text(tag, t, reply)
             }
-            Some(t) if t.is_write() || matches!(t, Tag::WriteRegister(_)) => {
+            Some(t @ (Tag::WriteRegister(_) | Tag::WdtTimeByName(_) | Tag::WdtMaskByName(_))) => {
                 self.on_write_text(tag, t, reply)
             }
+            Some(t) if t.is_write() => self.on_write_text(tag, t, reply),
             Some(t) => self.on_read_text(tag, t, reply),
             None => Err(unexpected),
         }

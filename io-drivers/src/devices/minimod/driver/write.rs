@@ -37,6 +37,11 @@ impl MiniModDriver {
                 Value::I32(n) => u16::try_from(n).unwrap_or(0),
                 other => u16::from(other.as_bool()),
             };
+            // WDTTIME and WDTYMASK by name, as at start-up (see `watchdog`).
+            if let Some((line, tag)) = super::watchdog::command_by_name(unit, e.item, value) {
+                out.push(Self::text_tx(line, tag));
+                continue;
+            }
             let request = Request::WriteSingleRegister {
                 addr: e.addr,
                 value,
@@ -166,6 +171,14 @@ impl MiniModDriver {
             (Tag::WriteYword(w), TextReply::Ok) => {
                 self.set_yword(w);
                 self.rewrite = false;
+                Ok(())
+            }
+            (Tag::WdtTimeByName(v), TextReply::Ok) => {
+                self.set_named("WDTTIME", Value::U16(v));
+                Ok(())
+            }
+            (Tag::WdtMaskByName(v), TextReply::Ok) => {
+                self.set_named("WDTYMASK", Value::U16(v));
                 Ok(())
             }
             // The text protocol's "no" to an output write: what Modbus says with exception 04

@@ -1,11 +1,15 @@
 //! The MiniMod driver and simulator through the real bus owner on the virtual line, on a
 //! virtual clock: a line that dies for 1.5 s while the module's watchdog is armed, and comes
-//! back (Modbus, text protocol, event mode); a write refused because the watchdog fired.
-//! Every frame the master sends is recorded, so the restart sequence is checked byte by byte.
+//! back (Modbus, text protocol, event mode), each on a module that keeps WDTTIME/WDTYMASK
+//! where the register table says and on one that follows the coil/register aliasing rule
+//! (see `map`); a write refused because the watchdog fired. Every frame the master sends is
+//! recorded, so the restart sequence is checked byte by byte.
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use crate::devices::minimod::map::WatchdogRegisters;
+use crate::devices::minimod::MiniModSim;
 use crate::devices::{self, DeviceConfig, Protocol};
 use crate::line::bus::{BusOwner, Discipline, InputFrame, Module, OutputFrame};
 use crate::line::transport::{LineError, Transport};
@@ -113,10 +117,16 @@ struct Rig {
 }
 
 fn rig(protocol: Protocol, settings: &[(&str, &str)]) -> Rig {
+    rig_on(WatchdogRegisters::Table, protocol, settings)
+}
+
+/// A rig whose module keeps WDTTIME and WDTYMASK where `registers` says.
+fn rig_on(registers: WatchdogRegisters, protocol: Protocol, settings: &[(&str, &str)]) -> Rig {
     let line = LineSettings::DEFAULT;
     let mut world = SimWorld::new(vec![line]);
     let model = devices::model("minimod").unwrap();
-    world.add_device(0, "mm", (model.simulator)(UNIT));
+    let sim = MiniModSim::with_watchdog_registers(UNIT, registers);
+    world.add_device(0, "mm", Box::new(sim));
     let driver = (model.driver)(&DeviceConfig {
         name: "mm".into(),
         address: UNIT,
@@ -201,12 +211,20 @@ fn rtu(bytes: &[u8]) -> Vec<u8> {
 
 /// Y1 on, the line dead for 1.5 s (the module's watchdog fires after 0.5 s and turns Y1 off),
 /// the line back: returns the frames sent from the first one the module answered again, and
-/// the logs.
-fn outage(protocol: Protocol, settings: &[(&str, &str)]) -> (Rig, Vec<Vec<u8>>, Logs) {
+/// the logs. The module keeps its watchdog registers where `registers` says; the start-up
+/// must arm it all the same (read back from the module's state), before and after the
+/// outage.
+fn outage(
+    registers: WatchdogRegisters,
+    protocol: Protocol,
+    settings: &[(&str, &str)],
+) -> (Rig, Vec<Vec<u8>>, Logs) {
     let logs = Logs::default();
-    let mut r = rig(protocol, settings);
+    let mut r = rig_on(registers, protocol, settings);
     let frames = tracing::subscriber::with_default(logs.clone(), || {
         r.startup();
+        assert_eq!(r.sim("WDTTIME"), Value::U16(50), "armed ({registers:?})");
+        assert_eq!(r.sim("WDTYMASK"), Value::U16(0));
         for _ in 0..5 {
             r.cycle(true);
         }
@@ -243,6 +261,7 @@ fn outage(protocol: Protocol, settings: &[(&str, &str)]) -> (Rig, Vec<Vec<u8>>, 
         sent
     });
     assert_eq!(r.sim("WDTFIRED"), Value::Bool(false), "reset");
+    assert_eq!(r.sim("WDTTIME"), Value::U16(50), "armed again");
     assert_eq!(r.sim("Y1"), Value::Bool(true), "written again");
     (r, frames, logs)
 }
@@ -286,82 +305,96 @@ fn assert_logged_once(logs: &Logs) {
     );
 }
 
+/// The watchdog armed by name, on either protocol: WDTTIME = 50, WDTMASK = 0, each read back.
+fn arming_by_name() -> [Vec<u8>; 4] {
+    [
+        b"@5>WDTTIME=50\r".to_vec(),
+        b"@5?WDTTIME\r".to_vec(),
+        b"@5>WDTMASK=0\r".to_vec(),
+        b"@5?WDTMASK\r".to_vec(),
+    ]
+}
+
 #[test]
 fn modbus_module_back_after_its_watchdog_fired_is_reset_and_written_again() {
-    let (_r, sent, logs) = outage(Protocol::Modbus, &WATCHDOG);
-    let probe = rtu(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]);
-    let frames = from_restart(&sent);
-    // The logic tables' start-up (the push-down's) is checked in `driver::logic`.
-    let rest: Vec<Vec<u8>> = frames.into_iter().filter(|f| !is_logic_frame(f)).collect();
-    assert_eq!(
-        rest,
-        [
+    for registers in WatchdogRegisters::ALL {
+        let (_r, sent, logs) = outage(registers, Protocol::Modbus, &WATCHDOG);
+        let probe = rtu(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]);
+        let frames = from_restart(&sent);
+        // The logic tables' start-up (the push-down's) is checked in `driver::logic`.
+        let rest: Vec<Vec<u8>> = frames.into_iter().filter(|f| !is_logic_frame(f)).collect();
+        let mut expected = vec![
             // Why: WDTFIRED (coil 160), then WDTFB, WDTCOMM (discrete inputs 24..=25).
             probe,
             cause_read(),
-            // The settings again: WDTTIME = 50 (40129), WDTYMASK = 0 (40145), read back.
-            rtu(&[0x05, 0x10, 0x00, 0x80, 0x00, 0x01, 0x02, 0x00, 0x32]),
-            rtu(&[0x05, 0x03, 0x00, 0x80, 0x00, 0x01]),
-            rtu(&[0x05, 0x10, 0x00, 0x90, 0x00, 0x01, 0x02, 0x00, 0x00]),
-            rtu(&[0x05, 0x03, 0x00, 0x90, 0x00, 0x01]),
+        ];
+        // The settings again: WDTTIME and WDTYMASK by name, whatever the registers.
+        expected.extend(arming_by_name());
+        expected.extend([
             // The reset: WDTFIRED = 0, read back.
             rtu(&[0x05, 0x0F, 0x00, 0xA0, 0x00, 0x01, 0x01, 0x00]),
             rtu(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]),
             // The cycle's read, then Y1 written again (FC 5 coil 0).
             rtu(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]),
             rtu(&[0x05, 0x05, 0x00, 0x00, 0xFF, 0x00]),
-        ]
-    );
-    assert_logged_once(&logs);
+        ]);
+        assert_eq!(rest, expected, "{registers:?}");
+        assert_logged_once(&logs);
+    }
 }
 
 #[test]
 fn text_module_back_after_its_watchdog_fired_is_reset_and_written_again() {
-    let (_r, sent, logs) = outage(Protocol::Text, &WATCHDOG);
-    let frames = from_restart(&sent);
-    let rest: Vec<Vec<u8>> = frames.into_iter().filter(|f| !is_logic_frame(f)).collect();
-    assert_eq!(
-        rest,
-        [
-            b"@5?WFLAGS\r".to_vec(),
-            cause_read(),
-            b"@5>WDTTIME=50\r".to_vec(),
-            b"@5?WDTTIME\r".to_vec(),
-            b"@5>WDTMASK=0\r".to_vec(),
-            b"@5?WDTMASK\r".to_vec(),
+    for registers in WatchdogRegisters::ALL {
+        let (_r, sent, logs) = outage(registers, Protocol::Text, &WATCHDOG);
+        let frames = from_restart(&sent);
+        let rest: Vec<Vec<u8>> = frames.into_iter().filter(|f| !is_logic_frame(f)).collect();
+        let mut expected = vec![b"@5?WFLAGS\r".to_vec(), cause_read()];
+        expected.extend(arming_by_name());
+        expected.extend([
             rtu(&[0x05, 0x0F, 0x00, 0xA0, 0x00, 0x01, 0x01, 0x00]),
             rtu(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]),
             b"@5?XWORD\r".to_vec(),
             b"@5>Y1=1\r".to_vec(),
-        ]
-    );
-    assert_logged_once(&logs);
+        ]);
+        assert_eq!(rest, expected, "{registers:?}");
+        assert_logged_once(&logs);
+    }
 }
 
 #[test]
 fn event_mode_module_back_after_its_watchdog_fired_is_reset_and_written_again() {
     let settings = [WATCHDOG[0], WATCHDOG[1], ("events", "true")];
-    let (r, sent, logs) = outage(Protocol::Modbus, &settings);
-    let probe = rtu(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]);
-    let frames = from_restart(&sent);
-    assert_eq!(frames[..2], [probe, cause_read()]);
-    assert!(
-        frames.contains(&rtu(&[0x05, 0x0F, 0x00, 0xA0, 0x00, 0x01, 0x01, 0x00])),
-        "the reset"
-    );
-    assert_eq!(
-        frames.last(),
-        Some(&rtu(&[0x05, 0x05, 0x00, 0x00, 0xFF, 0x00])),
-        "Y1 written again, last"
-    );
-    assert_logged_once(&logs);
-    // An idle event-mode line keeps the watchdog fed: the Collect rounds are commands.
-    let mut r = r;
-    for _ in 0..30 {
-        r.cycle(true);
+    for registers in WatchdogRegisters::ALL {
+        let (r, sent, logs) = outage(registers, Protocol::Modbus, &settings);
+        let probe = rtu(&[0x05, 0x01, 0x00, 0xA0, 0x00, 0x01]);
+        let frames = from_restart(&sent);
+        assert_eq!(frames[..2], [probe, cause_read()]);
+        for f in arming_by_name() {
+            assert!(
+                frames.contains(&f),
+                "{registers:?}: {}",
+                String::from_utf8_lossy(&f)
+            );
+        }
+        assert!(
+            frames.contains(&rtu(&[0x05, 0x0F, 0x00, 0xA0, 0x00, 0x01, 0x01, 0x00])),
+            "the reset"
+        );
+        assert_eq!(
+            frames.last(),
+            Some(&rtu(&[0x05, 0x05, 0x00, 0x00, 0xFF, 0x00])),
+            "Y1 written again, last"
+        );
+        assert_logged_once(&logs);
+        // An idle event-mode line keeps the watchdog fed: the Collect rounds are commands.
+        let mut r = r;
+        for _ in 0..30 {
+            r.cycle(true);
+        }
+        assert_eq!(r.sim("WDTFIRED"), Value::Bool(false));
+        assert_eq!(r.sim("Y1"), Value::Bool(true));
     }
-    assert_eq!(r.sim("WDTFIRED"), Value::Bool(false));
-    assert_eq!(r.sim("Y1"), Value::Bool(true));
 }
 
 #[test]
