@@ -7,6 +7,10 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
+
+use softplc::clock::{Clock, VirtualClock};
+use softplc::plc::Plc;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -303,4 +307,25 @@ fn every_example_and_program_passes_check() {
         }
     }
     assert!(checked >= 16, "{checked} checked");
+}
+
+#[test]
+fn a_reload_with_a_type_error_is_refused_and_the_running_program_kept() {
+    let scratch = Scratch::new("reload");
+    let path = project(&scratch, "pump.rhai", "rhai", "pump1 = x1;\n");
+    let project = softplc::project::load(&path).expect("the project loads");
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let mut plc = Plc::build(project, clock).expect("the PLC builds");
+    let program = scratch.write("pump.rhai", "pump1 = 2;\n");
+    let refused = plc.reload_program().expect_err("the reload is refused");
+    assert_eq!(
+        refused.to_string(),
+        format!(
+            "reload refused:\n{}:1:9: error: type error: `pump1` is bool, the value assigned is \
+             an integer; a bool tag takes a condition, e.g. `x > 0`",
+            program.display()
+        )
+    );
+    scratch.write("pump.rhai", "pump1 = !x1;\n");
+    plc.reload_program().expect("a mended program reloads");
 }
