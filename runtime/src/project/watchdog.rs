@@ -9,7 +9,10 @@
 //! WDTTIME (40129, 1/100 s, 1..=65535) non-zero "Minimod expects messages from the master at
 //! least every WDTTIME time; if no messages are received in that time, the watch-dog fires",
 //! and the outputs take WDTYMASK (40145: "Bitmask for the outputs Y1..Y4 when the watch-dog is
-//! firing"). Unless the project sets them:
+//! firing"). The driver sets and reads back both by name through the text protocol, since the
+//! manual's other bit/word pairs would put them at holding registers 8 and 9 (see
+//! `softplc_io::devices::minimod` driver docs, "Registers the manual gives two ways"). Unless
+//! the project sets them:
 //! - **WDTYMASK** is built from the tags' safe values: bit n−1 is 1 when the tag bound to Yn
 //!   has `safe: true` (or a tag bound to YWORD has it in its safe value), else 0. The mask has
 //!   no "leave as is": an output without a safe value goes off, which `check` says.

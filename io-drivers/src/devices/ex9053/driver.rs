@@ -50,6 +50,21 @@
 //! Collect; the name registers 40483..40484 give the same identity with FC 3.
 //!
 //! There are no outputs: [`Driver::plan_write`] plans nothing.
+//!
+//! ## Registers the manual gives two ways
+//!
+//! What the driver writes where the manual says two things, the reading chosen, and how it is
+//! confirmed:
+//!
+//! | what | reading 1 | reading 2 | chosen | confirmed |
+//! |---|---|---|---|---|
+//! | host watchdog status after a timeout | `~AA0` "84 = host watchdog is enabled & host watchdog timeout status is set" (§2.18 table) | "The module's status ... will be 04" (§1.5), and the §2.21 example reads `!0104` then "host watchdog is disabled" | bit 2 (0x04) alone means a timeout, whatever bit 7 says; the watchdog is always armed again after the clear (`~AA1`, `~AA31VV`), so a module that disabled it is armed too | `~AA2` / FC 3 40489 + FC 1 00261 read back enabled with the value; the status is read again every cycle |
+//! | WDT timeout status, Modbus | 00270 reads "0x01: WDT timeout" | "(write 0xFF00 to clear WDT timeout status)": writing ON clears it | FC 5 00270 ← ON (0xFF00), as the FC 05 section says too (0x010D, "0xFF00 for Clear WDT timeout status") | FC 1 00270 every cycle: a timeout still set is logged and cleared again |
+//! | WDT timeout value | DCON `VV` "from 01 to FF" (§2.21) | Modbus 40489 "0x0000~0x00FF" | 1..=255 (`watchdog` 100ms..=25.5s), valid in both | read back (`~AA2`, FC 3 40489) |
+//! | `#AAN`, `$AA4` answers | the "Response" lines | the examples (§2.3, §2.2) | the examples (see [`super::dcon`]) | parsed strictly: another form is an error |
+//!
+//! The rest (enable 00261 = 0x0104, clear 00270 = 0x010D, host OK 0x3038 = 312345/412345,
+//! count edge FF bit 7 and 02251) is given the same way wherever the manual gives it.
 
 use std::time::Duration;
 

@@ -34,6 +34,24 @@
 //! - a module whose logic drives a relay should not have that relay bound to a program output:
 //!   the driver would set it back at the next change or refresh, and the manual leaves open
 //!   which of the two the module keeps (resi-spec §4.4).
+//!
+//! ## Registers the manual gives two ways
+//!
+//! What the driver writes where the manual (resi-spec.md's digest of it) says two things, the
+//! reading chosen, and how start-up confirms it:
+//!
+//! | register | reading 1 | reading 2 | chosen | confirmed at start-up |
+//! |---|---|---|---|---|
+//! | ENABLE LOGIC FUNCTIONS (4x21001) | logic runs "Only if this register contains 1" (L22516) | the central-light example writes 0x8000 (L16615, erratum 3): any non-zero value | 1, which both readings run (the push-down writes 1 and refuses a project value other than 1 for a module it places logic in); 0 to disarm, which both stop | read back (FC 3 / `GSMODE`); the simulator's option `enable nonzero` serves reading 2 |
+//! | CLEAR ALL LOGIC FUNCTIONS (4x21002) | "write the value 1" (10.1.1.2, L16504) | "Writing a value" (L22531) | the project's value, when it names the register (1 satisfies both); the start-up's own clear writes each table to 0 instead (its reach over PULSE TIME is open too, resi-spec §4.1) | each table read back 0 |
+//! | PULSE TIME ROn (32 bits) | high word first, 4x20065+2(n−1) (L21469) | low word first, 4x20081+2(n−1) (L21566); the PULSE example's "4x20066" should be 20082 (erratum 2) | the high-word-first view, both words in one FC 16, as "Writing a 32 bit value on both registers" says | both words read back from the same view |
+//! | PULSE example's relay | RO1 (prose start, the Modbus lines) | RO4 (prose end, the ASCII lines; erratum 1) | the register table: PULSE ROn = 4x20032+n | — (no example is written) |
+//! | 8CO ROS | 4x00001 (L31474) | 4x00101 printed "I:0" (L31496, erratum 6) | 4x00001 (protocol address 0): ROS whichever the second entry's address is | the write's echo; RO1..RO8 are polled every cycle |
+//! | SWITCH OFF | "sets the corresponding relay output to low (1)" (L19072, L21276) | low means 0 | 0 (erratum 5) | the relay's state, read every cycle |
+//!
+//! The coils RO1..RO8 and the other models' registers the driver writes (1RO DO1 and OFFDLY,
+//! 8CO PULSE ROn) have one address each in the manual. The 1RO's `SOFFDLY` is in ms in both
+//! places that give it (`SOFFDLY`, L4096–L4110; 4x00005 OFFDLY, L4291–L4295).
 
 pub mod ascii;
 pub mod plan;
