@@ -22,7 +22,7 @@ pub struct Target {
 }
 
 impl Target {
-    fn socket(&self) -> anyhow::Result<PathBuf> {
+    pub(super) fn socket(&self) -> anyhow::Result<PathBuf> {
         if let Some(s) = &self.socket {
             return Ok(s.clone());
         }

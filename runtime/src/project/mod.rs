@@ -26,6 +26,7 @@ mod scada;
 pub mod service;
 pub(crate) mod span;
 pub mod state;
+pub mod trace;
 mod validate;
 pub mod watchdog;
 pub mod web;

@@ -33,6 +33,8 @@ pub struct Project {
     pub retain: super::retain::RetainConfig,
     /// Push-down of rungs into the modules.
     pub offload: super::offload::OffloadConfig,
+    /// Trace definitions, in file order (see [`super::trace`]).
+    pub traces: Vec<super::trace::TraceConfig>,
     /// The flight recorder, when the project turns it on (see [`super::recorder`]).
     pub recorder: Option<super::recorder::RecorderConfig>,
 }

@@ -116,6 +116,7 @@ pub(crate) fn validate(
         }
         config
     };
+    let traces = super::trace::validate_all(raw, &tags, |path, e| v.error(path, e.into()));
     let plant = match &raw.plant {
         Some(p) => v.plant(p, raw, &buses, &modules, &module_index).map(Some),
         None => Some(None),
@@ -138,6 +139,7 @@ pub(crate) fn validate(
             service: service?,
             retain: retain?,
             offload: offload?,
+            traces,
             recorder,
         })
     })();

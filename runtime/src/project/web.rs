@@ -406,7 +406,7 @@ fn check_token(token: &str, source: TokenSource, remote: bool) -> Result<(), Web
 }
 
 /// The tag name closest to `name` (same letters ignoring case, or at most 2 edits away).
-fn closest<'a>(name: &str, tags: impl Iterator<Item = &'a str>) -> Option<String> {
+pub(crate) fn closest<'a>(name: &str, tags: impl Iterator<Item = &'a str>) -> Option<String> {
     let mut best: Option<(usize, &str)> = None;
     for t in tags {
         let d = if t.eq_ignore_ascii_case(name) {

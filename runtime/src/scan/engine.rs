@@ -8,7 +8,7 @@ use crate::logic::{LogicFault, ScanContext};
 use crate::plc::{ModuleStatus, Plc};
 use crate::scan::boundary::CycleBoundary;
 use crate::scan::overrun::OverrunLog;
-use crate::scan::stats::{Percentiles, ScanStats};
+use crate::scan::stats::{LastCycle, Percentiles, ScanStats};
 use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
 
 /// Why a run ended.
@@ -211,6 +211,13 @@ impl ScanEngine {
             stats.write.record(end - logic_end);
             let cycle = end - start;
             stats.cycle.record(cycle);
+            stats.last = LastCycle {
+                start: deadline,
+                read: read_end - start,
+                logic: logic_end - read_end,
+                write: end - logic_end,
+                cycle,
+            };
             stats.cycles += 1;
             stats.bus_errors = self.plc.bus_errors();
             if let Some(hook) = self.on_cycle.as_mut() {

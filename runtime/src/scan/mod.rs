@@ -19,4 +19,4 @@ pub mod watchdog;
 
 pub use boundary::CycleBoundary;
 pub use engine::{RunOutcome, ScanEngine, StatusSnapshot, StopReason};
-pub use stats::{fmt_duration, DurationHistogram, Percentiles, ScanStats};
+pub use stats::{fmt_duration, DurationHistogram, LastCycle, Percentiles, ScanStats};

@@ -122,6 +122,23 @@ pub struct ScanStats {
     pub cycle: DurationHistogram,
     /// Bus errors counted over all modules (timeouts, CRC, bad replies, exceptions).
     pub bus_errors: u64,
+    /// The cycle just completed (what a trace samples).
+    pub last: LastCycle,
+}
+
+/// The cycle just completed: its timestamp and its phases.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LastCycle {
+    /// Its timestamp: the deadline it started on, the time its logic saw.
+    pub start: Duration,
+    /// Input phase.
+    pub read: Duration,
+    /// Logic phase.
+    pub logic: Duration,
+    /// Output phase.
+    pub write: Duration,
+    /// The whole cycle.
+    pub cycle: Duration,
 }
 
 #[cfg(test)]

@@ -33,6 +33,8 @@ pub struct ServiceBoundary {
     reload_job: Option<Receiver<Result<PreparedReload, ReloadError>>>,
     /// Control clients waiting for that reload's outcome.
     reload_waiters: Vec<Sender<Response>>,
+    /// Armed traces, sampled at every boundary (see [`crate::trace`]).
+    traces: crate::trace::TraceSet,
 }
 
 impl ServiceBoundary {
@@ -88,6 +90,7 @@ impl ServiceBoundary {
                     Ok(n) => Response::done(format!("{n} force(s) removed")),
                     Err(e) => Response::refused(e.to_string()),
                 },
+                Request::Trace(t) => crate::service::trace::answer(&mut self.traces, plc, t),
                 Request::Reload => {
                     // Compiled off the scan thread; answered when it is swapped in.
                     self.start_reload(plc, Some(env.reply));
@@ -188,6 +191,8 @@ impl ServiceBoundary {
 
 impl CycleBoundary for ServiceBoundary {
     fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
+        // First, so a sample shows the cycle just ended, before any request changes the PLC.
+        self.traces.sample(plc, stats);
         self.answer(plc, stats);
         if self.reload.swap(false, Ordering::Relaxed) {
             self.start_reload(plc, None);

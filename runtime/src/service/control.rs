@@ -8,6 +8,8 @@
 //! {"cmd":"unforce","tag":"motor"}        {"cmd":"unforce"}   (every tag)
 //! {"cmd":"reload"}
 //! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary)
+//! {"cmd":"trace","action":"arm","name":"jam"}   (and status, save, read, disarm: see
+//!                                                 crate::service::trace)
 //! ```
 //!
 //! The socket thread only parses and forwards: the scan thread applies each request at a
@@ -51,6 +53,8 @@ pub enum Request {
         /// The tags and their values.
         values: Vec<TagValue>,
     },
+    /// Arm a trace, ask for its state or its samples (see [`crate::service::trace`]).
+    Trace(crate::service::trace::TraceRequest),
 }
 
 /// A tag and a value, as text (parsed as the tag's type).
@@ -77,6 +81,12 @@ pub struct Response {
     /// The status, for `status`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub status: Option<StatusReport>,
+    /// The traces' states, for `trace status` and `trace arm`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub traces: Option<Vec<crate::trace::TraceStatus>>,
+    /// A trace's samples, for `trace save` and `trace read`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trace: Option<crate::trace::TraceData>,
 }
 
 impl Response {

@@ -12,6 +12,7 @@
 //! - [`notify`]: `sd_notify` (READY after the first complete scan, WATCHDOG after each
 //!   completed scan, STATUS, STOPPING).
 //! - [`status`]: the status a running instance reports.
+//! - [`trace`]: the control socket's trace requests (arm, status, save).
 //! - [`snapshot`]: what the scan publishes, without blocking, for the two network services:
 //!   [`metrics`] (a Prometheus text endpoint) and [`modbus_tcp`] (a Modbus TCP server for
 //!   SCADA/HMI, with its address map in [`modbus_map`] and its input checks in
@@ -28,4 +29,5 @@ pub mod network;
 pub mod notify;
 pub mod snapshot;
 pub mod status;
+pub mod trace;
 pub mod web;
