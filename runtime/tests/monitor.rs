@@ -288,23 +288,22 @@ fn softplc(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn bad_arguments_and_a_missing_port_are_named() {
-    let out = softplc(&["monitor", "/dev/no-such-tty", "--for", "1s"]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(
-        stderr.contains("error: cannot listen on /dev/no-such-tty"),
-        "{stderr}"
-    );
-    let out = softplc(&["monitor", "/dev/null", "--format", "9X1"]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(
-        stderr.contains("\"9X1\": serial format must look like 8E1"),
-        "{stderr}"
-    );
-    let out = softplc(&["monitor", "/dev/null", "--baud", "0"]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--baud"));
+    for (args, says) in [
+        (
+            &["/dev/no-such-tty", "--for", "1s"][..],
+            "error: cannot listen on /dev/no-such-tty",
+        ),
+        (
+            &["/dev/null", "--format", "9X1"],
+            "\"9X1\": serial format must look like 8E1",
+        ),
+        (&["/dev/null", "--baud", "0"], "--baud"),
+    ] {
+        let out = softplc(&[&["monitor"][..], args].concat());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+    }
 }
 
 #[test]

@@ -34,9 +34,11 @@ pub enum Rtu {
         unit: u8,
         /// What it says.
         response: Response,
-        /// The request it answers, when it was seen; `None` when the reply was decoded from
-        /// its own header (the start address of a read is then unknown).
-        to: Option<Request>,
+        /// The request it answers: the one seen before it, or the one its own header implies
+        /// when none was seen (a read's start address is then unknown).
+        to: Request,
+        /// Whether `to` was seen on the line.
+        seen: bool,
     },
     /// An exception to a function softplc does not speak (its CRC is good).
     ForeignException {
@@ -88,7 +90,8 @@ pub fn reply_to(frame: &[u8], unit: u8, request: &Request) -> Option<Rtu> {
         Progress::Complete { response, extra: 0 } => Some(Rtu::Reply {
             unit: header.0.unwrap_or(unit),
             response,
-            to: Some(request.clone()),
+            to: request.clone(),
+            seen: true,
         }),
         Progress::Failed(ReplyError::Crc { expected, found })
             if assembler.expected_len() == Some(frame.len()) =>
@@ -118,10 +121,13 @@ pub fn reply_alone(frame: &[u8]) -> Option<Rtu> {
     }
     let implied = implied_request(frame, unit, function)?;
     match reply_to(frame, unit, &implied)? {
-        Rtu::Reply { unit, response, .. } => Some(Rtu::Reply {
+        Rtu::Reply {
+            unit, response, to, ..
+        } => Some(Rtu::Reply {
             unit,
             response,
-            to: None,
+            to,
+            seen: false,
         }),
         other => Some(other),
     }
@@ -428,20 +434,20 @@ impl fmt::Display for Rtu {
                 fmt_request(f, request)?;
                 f.write_str(", CRC ok")
             }
-            Rtu::Reply { unit, response, to } => {
-                let code = match response {
-                    Response::Exception { function, .. } => *function,
-                    _ => to
-                        .as_ref()
-                        .map_or_else(|| response_function(response), |r| r.function().code()),
-                };
+            Rtu::Reply {
+                unit,
+                response,
+                to,
+                seen,
+            } => {
+                let code = to.function().code();
                 write!(
                     f,
                     "reply {}: {} (FC {code}) ",
                     Address(*unit),
                     function_name(code)
                 )?;
-                fmt_response(f, response, to.as_ref())?;
+                fmt_response(f, response, seen.then_some(to))?;
                 f.write_str(", CRC ok")
             }
             Rtu::ForeignException {
@@ -475,22 +481,4 @@ impl fmt::Display for Rtu {
             ),
         }
     }
-}
-
-/// The function code of a response (for a reply decoded without its request).
-fn response_function(response: &Response) -> u8 {
-    let code = match response {
-        Response::ReadCoils(_) => FunctionCode::ReadCoils,
-        Response::ReadDiscreteInputs(_) => FunctionCode::ReadDiscreteInputs,
-        Response::ReadHoldingRegisters(_) => FunctionCode::ReadHoldingRegisters,
-        Response::ReadInputRegisters(_) => FunctionCode::ReadInputRegisters,
-        Response::WriteSingleCoil { .. } => FunctionCode::WriteSingleCoil,
-        Response::WriteSingleRegister { .. } => FunctionCode::WriteSingleRegister,
-        Response::WriteMultipleCoils { .. } => FunctionCode::WriteMultipleCoils,
-        Response::WriteMultipleRegisters { .. } => FunctionCode::WriteMultipleRegisters,
-        Response::MaskWriteRegister { .. } => FunctionCode::MaskWriteRegister,
-        Response::Collect { .. } => FunctionCode::Collect,
-        Response::Exception { function, .. } => return *function,
-    };
-    code.code()
 }

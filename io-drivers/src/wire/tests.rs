@@ -131,56 +131,45 @@ fn minimod_text_names_the_module_the_identifier_and_the_value() {
     );
 }
 
+/// Feeds a conversation `frames` in order; each must decode as given.
+fn assert_session(frames: &[(&[u8], &str)]) {
+    let mut talk = Conversation::new();
+    for (frame, want) in frames {
+        assert_eq!(talk.frame(frame).to_string(), *want, "{}", Shown(frame));
+    }
+}
+
 #[test]
 fn resi_frames_keep_the_address_as_spelled() {
     // resi-spec §2.2: the address is echoed in the notation it arrived in.
-    let mut talk = Conversation::new();
-    assert_eq!(
-        talk.frame(b"#0x2B,VER\r").to_string(),
-        "resi command address 0x2B: VER"
-    );
-    assert_eq!(
-        talk.frame(b"#0x2B,VERSION:3.0.0\r").to_string(),
-        "resi answer address 0x2B: VERSION [3.0.0]"
-    );
-    assert_eq!(
-        talk.frame(b"#1,SSWITCH1:3\r").to_string(),
-        "resi command address 1: SSWITCH1 [3]"
-    );
-    assert_eq!(
-        talk.frame(b"#1,OK\r").to_string(),
-        "resi answer address 1: OK"
-    );
+    assert_session(&[
+        (b"#0x2B,VER\r", "resi command address 0x2B: VER"),
+        (
+            b"#0x2B,VERSION:3.0.0\r",
+            "resi answer address 0x2B: VERSION [3.0.0]",
+        ),
+        (b"#1,SSWITCH1:3\r", "resi command address 1: SSWITCH1 [3]"),
+        (b"#1,OK\r", "resi answer address 1: OK"),
+    ]);
 }
 
 #[test]
 fn dcon_commands_and_answers_from_the_manual_examples() {
     // EX-9053D manual §2.9 "$AAM" and §2.3 "#AAN" examples.
-    let mut talk = Conversation::new();
-    assert_eq!(
-        talk.frame(b"$01M\r").to_string(),
-        "dcon command to 01: ReadName { address: 1 }"
-    );
-    assert_eq!(
-        talk.frame(b"!019053\r").to_string(),
-        "dcon answer from 01: Text(\"9053\")"
-    );
-    assert_eq!(
-        talk.frame(b"#032\r").to_string(),
-        "dcon command to 03: ReadCounter { address: 3, channel: 2 }"
-    );
-    assert_eq!(
-        talk.frame(b"!0300103\r").to_string(),
-        "dcon answer from 03: Counter(103)"
-    );
-    assert_eq!(
-        talk.frame(b"#025\r").to_string(),
-        "dcon command to 02: ReadCounter { address: 2, channel: 5 }"
-    );
-    assert_eq!(
-        talk.frame(b"?02\r").to_string(),
-        "dcon answer from 02: Invalid"
-    );
+    assert_session(&[
+        (b"$01M\r", "dcon command to 01: ReadName { address: 1 }"),
+        (b"!019053\r", "dcon answer from 01: Text(\"9053\")"),
+        (
+            b"#032\r",
+            "dcon command to 03: ReadCounter { address: 3, channel: 2 }",
+        ),
+        (b"!0300103\r", "dcon answer from 03: Counter(103)"),
+        (
+            b"#025\r",
+            "dcon command to 02: ReadCounter { address: 2, channel: 5 }",
+        ),
+        (b"?02\r", "dcon answer from 02: Invalid"),
+    ]);
     // With the checksum of §1.10: "$01M" sums to 0xD2.
     assert_eq!(
         decode_request(b"$01MD2\r").to_string(),
