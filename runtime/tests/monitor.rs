@@ -99,12 +99,7 @@ struct Heard {
 
 /// Replays `frames` into a pty with the monitor (`args`) on its other end; its lines.
 fn monitor(frames: &[Captured], args: &[&str]) -> Vec<Heard> {
-    let (mut master, slave, path) = pty_pair().expect("a pty pair");
-    // The monitor must not inherit the master: the line hangs up only when it is closed.
-    for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
-        // SAFETY: F_SETFD on a descriptor the ports own, for as long as they are alive.
-        unsafe { libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC) };
-    }
+    let (mut master, path) = private_pty();
     let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .arg("monitor")
         .arg(&path)
@@ -118,8 +113,6 @@ fn monitor(frames: &[Captured], args: &[&str]) -> Vec<Heard> {
     let mut banner = String::new();
     stderr.read_line(&mut banner).unwrap();
     assert!(banner.starts_with("monitoring "), "{banner}");
-    // From here only the monitor reads the line.
-    drop(slave);
     for frame in frames {
         std::thread::sleep(PAUSE);
         master.write_all(&frame.bytes).unwrap();
@@ -268,7 +261,9 @@ fn dcon_commands_and_answers_are_paired() {
     );
 }
 
-/// A pty pair whose ends the monitor does not inherit; the slave's path.
+/// The master end of a pty pair and its slave's path; the test keeps no slave open (only the
+/// monitor reads the line) and the monitor does not inherit the master (the line hangs up
+/// when the test closes it).
 fn private_pty() -> (softplc_io::line::transport::TTYPort, String) {
     let (master, slave, path) = pty_pair().expect("a pty pair");
     for fd in [master.as_raw_fd(), slave.as_raw_fd()] {

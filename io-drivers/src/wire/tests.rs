@@ -104,30 +104,26 @@ fn a_conversation_pairs_writes_with_their_echo() {
 
 #[test]
 fn minimod_text_names_the_module_the_identifier_and_the_value() {
-    // Manual "Text commands protocol", "Slave addressing".
-    assert_eq!(
-        decode_request(b"@3?X1\r").to_string(),
-        "minimod command to module 3: read X1"
-    );
+    // Manual "Text commands protocol", "Slave addressing"; "Configuration of Minimod" (SERLINE).
+    assert_session(&[
+        (b"@3?X1\r", "minimod command to module 3: read X1"),
+        (b"X1=1\r", "minimod reply: X1 = 1"),
+        (b">Y1=1\r", "minimod command to every module: write Y1 = 1"),
+        (b"OK\r", "minimod reply: OK (written)"),
+        (
+            b"@3>SERLINE=9600E\r",
+            "minimod command to module 3: write SERLINE = 9600 Bd, mode E",
+        ),
+        (b"Error\r", "minimod reply: Error (refused)"),
+        (
+            b"@3?NOSUCH\r",
+            "minimod command to module 3: answered Error (unknown identifier)",
+        ),
+    ]);
+    // The bus owner's trace decodes a reply against the request it answers.
     assert_eq!(
         decode_reply(b"X1=1\r", b"@3?X1\r").to_string(),
         "minimod reply: X1 = 1"
-    );
-    assert_eq!(
-        decode_request(b">Y1=1\r").to_string(),
-        "minimod command to every module: write Y1 = 1"
-    );
-    assert_eq!(
-        decode_reply(b"OK\r", b">Y1=1\r").to_string(),
-        "minimod reply: OK (written)"
-    );
-    assert_eq!(
-        decode_request(b"@3>SERLINE=9600E\r").to_string(),
-        "minimod command to module 3: write SERLINE = 9600 Bd, mode E"
-    );
-    assert_eq!(
-        decode_request(b"@3?NOSUCH\r").to_string(),
-        "minimod command to module 3: answered Error (unknown identifier)"
     );
 }
 
