@@ -17,7 +17,7 @@ use std::time::Duration;
 
 use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
-use softplc_io::line::transport::pty_pair;
+use softplc_io::line::transport::{pty_pair, TTYPort};
 use softplc_io::wire::trace::{format_event, Verdict, WireEvent, WireTap};
 use softplc_io::wire::Hex;
 
@@ -99,7 +99,7 @@ struct Heard {
 
 /// Replays `frames` into a pty with the monitor (`args`) on its other end; its lines.
 fn monitor(frames: &[Captured], args: &[&str]) -> Vec<Heard> {
-    let (mut master, path) = private_pty();
+    let (mut master, slave, path) = private_pty();
     let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .arg("monitor")
         .arg(&path)
@@ -113,6 +113,8 @@ fn monitor(frames: &[Captured], args: &[&str]) -> Vec<Heard> {
     let mut banner = String::new();
     stderr.read_line(&mut banner).unwrap();
     assert!(banner.starts_with("monitoring "), "{banner}");
+    // From here only the monitor reads the line.
+    drop(slave);
     for frame in frames {
         std::thread::sleep(PAUSE);
         master.write_all(&frame.bytes).unwrap();
@@ -187,16 +189,19 @@ fn assert_heard_as_sent(frames: &[Captured], heard: &[Heard]) {
     }
 }
 
-fn decodings(heard: &[Heard]) -> Vec<&str> {
-    heard.iter().map(|h| h.decoded.as_str()).collect()
+/// Captures the session of `bus` in the example `dir` (edited by `edit`), replays it to the
+/// monitor run with `args`, checks it heard every frame as sent; its decodings.
+fn heard(dir: &str, bus: &str, edit: impl Fn(String) -> String, args: &[&str]) -> Vec<String> {
+    let frames = capture(dir, bus, edit);
+    let heard = monitor(&frames, args);
+    assert_heard_as_sent(&frames, &heard);
+    heard.into_iter().map(|h| h.decoded).collect()
 }
 
 #[test]
 fn modbus_rtu_frames_are_cut_at_silence_and_paired_with_their_replies() {
-    let frames = capture("quickstart", "line1", |t| t);
-    let heard = monitor(&frames, &["--baud", "19200", "--format", "8E1"]);
-    assert_heard_as_sent(&frames, &heard);
-    let decoded = decodings(&heard);
+    let args = ["--baud", "19200", "--format", "8E1"];
+    let decoded = heard("quickstart", "line1", |t| t, &args);
     assert_eq!(
         decoded[..2],
         [
@@ -205,73 +210,71 @@ fn modbus_rtu_frames_are_cut_at_silence_and_paired_with_their_replies() {
         ]
     );
     // --protocol rtu: the same frames.
-    let rtu = monitor(&frames, &["--baud", "19200", "--protocol", "rtu"]);
-    assert_heard_as_sent(&frames, &rtu);
+    let rtu = heard("quickstart", "line1", |t| t, &["--protocol", "rtu"]);
+    assert_eq!(rtu, decoded);
 }
 
 #[test]
 fn minimod_text_lines_are_told_from_rtu_frames_on_the_same_line() {
     // A MiniMod speaks both protocols on one line; with `protocol: text` its driver still
     // uses Modbus where the text protocol has no command.
-    let frames = capture("quickstart", "line1", |t| {
+    let text = |t: String| {
         t.replace(
             "model: minimod, address: 1 }",
             "model: minimod, address: 1, protocol: text }",
         )
-    });
-    let heard = monitor(&frames, &["--baud", "19200", "--format", "8E1"]);
-    assert_heard_as_sent(&frames, &heard);
-    let decoded = decodings(&heard);
+    };
+    let decoded = heard("quickstart", "line1", text, &["--baud", "19200"]);
     assert!(
-        decoded.contains(&"minimod command to module 1: read WFLAGS")
-            && decoded.contains(&"minimod reply: WFLAGS = 0"),
-        "{decoded:#?}"
-    );
-    assert!(
-        decoded.iter().any(|d| d.starts_with("rtu ")),
+        decoded
+            .iter()
+            .any(|d| d == "minimod command to module 1: read WFLAGS")
+            && decoded.iter().any(|d| d == "minimod reply: WFLAGS = 0")
+            && decoded.iter().any(|d| d.starts_with("rtu request")),
         "{decoded:#?}"
     );
 }
 
 #[test]
 fn resi_ascii_frames_keep_their_address_and_parts() {
-    let frames = capture("resi", "house", |t| {
-        t.replace("# protocol: text ", "protocol: text")
-    });
-    let heard = monitor(&frames, &["--baud", "19200", "--protocol", "text"]);
-    assert_heard_as_sent(&frames, &heard);
-    let decoded = decodings(&heard);
+    let text = |t: String| t.replace("# protocol: text ", "protocol: text");
+    let decoded = heard("resi", "house", text, &["--protocol", "text"]);
     assert!(
-        decoded.contains(&"resi command address 1: GSMODE")
-            && decoded.contains(&"resi answer address 1: GSMODE [0, 0x0]"),
+        decoded
+            .iter()
+            .any(|d| d == "resi command address 1: GSMODE")
+            && decoded
+                .iter()
+                .any(|d| d == "resi answer address 1: GSMODE [0, 0x0]"),
         "{decoded:#?}"
     );
 }
 
 #[test]
 fn dcon_commands_and_answers_are_paired() {
-    let frames = capture("mixed-lines", "dcon_line", |t| t);
-    let heard = monitor(&frames, &["--baud", "9600", "--format", "8N1"]);
-    assert_heard_as_sent(&frames, &heard);
-    let decoded = decodings(&heard);
+    let args = ["--baud", "9600", "--format", "8N1"];
+    let decoded = heard("mixed-lines", "dcon_line", |t| t, &args);
     assert!(
-        decoded.contains(&"dcon command to 01: ReadName { address: 1 }")
-            && decoded.contains(&"dcon answer from 01: Text(\"9053\")"),
+        decoded
+            .iter()
+            .any(|d| d == "dcon command to 01: ReadName { address: 1 }")
+            && decoded
+                .iter()
+                .any(|d| d == "dcon answer from 01: Text(\"9053\")"),
         "{decoded:#?}"
     );
 }
 
-/// The master end of a pty pair and its slave's path; the test keeps no slave open (only the
-/// monitor reads the line) and the monitor does not inherit the master (the line hangs up
-/// when the test closes it).
-fn private_pty() -> (softplc_io::line::transport::TTYPort, String) {
+/// A pty pair whose ends the monitor does not inherit (the line hangs up when the test closes
+/// the master), and the slave's path. The test holds the slave until the monitor has opened
+/// it, then lets go so that only the monitor reads the line.
+fn private_pty() -> (TTYPort, TTYPort, String) {
     let (master, slave, path) = pty_pair().expect("a pty pair");
     for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
         // SAFETY: F_SETFD on a descriptor the ports own, for as long as they are alive.
         unsafe { libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC) };
     }
-    drop(slave);
-    (master, path)
+    (master, slave, path)
 }
 
 fn softplc(args: &[&str]) -> std::process::Output {
@@ -303,7 +306,7 @@ fn bad_arguments_and_a_missing_port_are_named() {
 
 #[test]
 fn a_silent_line_ends_at_for_and_a_closed_pipe_ends_it_quietly() {
-    let (_master, path) = private_pty();
+    let (_master, _slave, path) = private_pty();
     let out = softplc(&["monitor", &path, "--for", "300ms"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
@@ -311,7 +314,7 @@ fn a_silent_line_ends_at_for_and_a_closed_pipe_ends_it_quietly() {
     assert!(stderr.contains("0 frame(s) in "), "{stderr}");
 
     // `softplc monitor ... | head -0`: the reader of its output goes away.
-    let (mut master, path) = private_pty();
+    let (mut master, slave, path) = private_pty();
     let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .args(["monitor", &path, "--for", "30s"])
         .stdout(Stdio::piped())
@@ -321,6 +324,7 @@ fn a_silent_line_ends_at_for_and_a_closed_pipe_ends_it_quietly() {
     let mut stderr = BufReader::new(child.stderr.take().unwrap());
     let mut banner = String::new();
     stderr.read_line(&mut banner).unwrap();
+    drop(slave);
     drop(child.stdout.take());
     master.write_all(b"@1?X1\r").unwrap();
     let status = child.wait().unwrap();
