@@ -443,3 +443,66 @@ fn kill_9_of_a_recorded_run_leaves_a_readable_record() {
     assert_eq!(report.cycles as usize, cycles);
     assert!(report.identical(), "{:?}", report.differences);
 }
+
+#[test]
+fn the_service_unit_records_into_its_state_directory() {
+    let dir = tempdir("unit");
+    let project = quickstart_copy(&dir, None);
+    let state = dir.join("state");
+    let unit = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy/softplc@.service"),
+    )
+    .unwrap();
+    // The unit's own command line, with this binary and this project.
+    let exec = unit
+        .lines()
+        .find_map(|l| l.strip_prefix("ExecStart="))
+        .unwrap();
+    let args: Vec<String> = exec
+        .split_whitespace()
+        .skip(1)
+        .map(|a| {
+            if a == "/etc/softplc/%i/project.yaml" {
+                project.display().to_string()
+            } else {
+                a.to_string()
+            }
+        })
+        .collect();
+    assert!(args.iter().any(|a| a == "--record"), "{exec}");
+    let mut plc = Command::new(BIN)
+        .args(&args)
+        .arg("--no-control")
+        .env("STATE_DIRECTORY", &state)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The record is in the state directory, per project folder, as retained values are.
+    let folder = state
+        .join(dir.file_name().unwrap())
+        .join("project.yaml.record");
+    let begin = Instant::now();
+    while begin.elapsed() < Duration::from_secs(30)
+        && read_record(&folder).map_or(0, |r| r.cycles().count()) < 15
+    {
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // SAFETY: kill with a valid pid and signal.
+    unsafe { libc::kill(plc.id() as i32, libc::SIGTERM) };
+    let out = plc.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let record = read_record(&folder).unwrap();
+    let end = record
+        .segments
+        .last()
+        .unwrap()
+        .end
+        .expect("a clean end on SIGTERM");
+    assert_eq!(end.cycles as usize, record.cycles().count());
+    assert!(end.cycles >= 15);
+}

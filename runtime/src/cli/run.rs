@@ -204,9 +204,16 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     super::out::out(&summary(&outcome, period))?;
     if let Some(r) = recorder {
+        let dropped = r.dropped();
         // The PLC is gone with the scan thread: the writer has its last records.
         if let Some(e) = r.finish().error {
             super::out::errln(&e);
+        }
+        if dropped > 0 {
+            super::out::errln(&format!(
+                "flight recorder: {dropped} cycle record(s) dropped (the disk did not keep \
+                 up); replay reports the gaps"
+            ));
         }
     }
     Ok(match outcome.reason {

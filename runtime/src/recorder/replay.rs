@@ -35,7 +35,6 @@ use crate::project::{Binding, Project};
 use crate::recorder::format::{self, Digest, Event, Header, TagInfo, TagRole};
 use crate::recorder::reader::{Record, Segment};
 use crate::recorder::tap::same;
-use crate::scan::fmt_duration;
 
 /// How much replay reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -326,11 +325,11 @@ impl<'a> PartReplay<'a> {
         }
         if seg.header.segment > 0 {
             report.notes.push(format!(
-                "cycle {} (t={}): replay starts within a run whose earlier segments are gone \
+                "cycle {} (t={:.2}s): replay starts within a run whose earlier segments are gone \
                  (rotated out): the image is as recorded, the program's function blocks \
                  (timers, counters, edges) start fresh",
                 k.next_cycle,
-                fmt_duration(k.now)
+                k.now.as_secs_f64()
             ));
         }
         Ok(Self {
