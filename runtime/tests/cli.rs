@@ -274,7 +274,8 @@ fn check_names_file_line_column_and_fault() {
         "    baudrate: 19200",
         &[
             "7:5: error: unknown key `baudrate` in buses[0]; expected one of `name`, `port`, \
-           `baud`, `format`, `response_timeout`, `retries`, `output_refresh`, `rs485`",
+           `baud`, `format`, `response_timeout`, `retries`, `output_refresh`, `rs485`, `echo`, \
+           `adapter_latency`",
         ],
     );
     check_fails(

@@ -206,7 +206,14 @@ fn answer(
         clock.sleep_until(start);
         port.write_all(&bytes)?;
         port.flush()?;
-        clock.sleep_until(start + settings.chars(bytes.len()));
+        // The master on a pty has the whole burst at once, a wire time earlier than on a
+        // wire, and may send its next request at once. An echoing adapter must send that
+        // request back while it is sent, so after the last burst the server listens again
+        // at once (the next request's reply delay still counts from when it is heard).
+        let last = lock(world).next_arrival(SERVED_LINE).is_none();
+        if !(last && lock(world).echo(SERVED_LINE).on) {
+            clock.sleep_until(start + settings.chars(bytes.len()));
+        }
         wrote = true;
     }
     Ok(wrote)

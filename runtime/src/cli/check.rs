@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use softplc_io::line::budget::line_budget;
+use softplc_io::line::budget::{line_budget_on, AdapterTiming};
+use softplc_io::line::echo::EchoMode;
+use softplc_io::line::latency::{Assumed, SysfsRoot};
 use softplc_io::point::Access;
 
 use crate::image::ProcessImage;
@@ -55,8 +57,14 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The text `check` prints for a valid project: I/O map, budgets, warnings.
+/// The text `check` prints for a valid project: I/O map, budgets, warnings; adapter
+/// latencies are read from this machine's sysfs.
 pub fn report(project: &Project) -> String {
+    report_with(project, &SysfsRoot::default())
+}
+
+/// [`report`], with sysfs under `sysfs` (a fake tree in tests).
+pub fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let scan = &project.scan;
@@ -89,6 +97,24 @@ pub fn report(project: &Project) -> String {
             fmt_duration(bus.response_timeout),
             bus.retries
         );
+        // What the adapter holds back counts in every transaction that waits for bytes back
+        // (line/latency.rs); an echo comes while the request is sent and adds nothing.
+        let assumed = match &bus.port {
+            PortConfig::Sim => Assumed::simulated(),
+            PortConfig::Serial(p) => Assumed::for_port(bus.adapter_latency, p, sysfs),
+        };
+        let adapter = AdapterTiming {
+            latency: assumed.latency,
+            echo: bus.echo,
+        };
+        let _ = writeln!(out, "  adapter latency: {assumed}");
+        if bus.echo == EchoMode::Discard {
+            let _ = writeln!(
+                out,
+                "  echo: discard (every request is read back and verified; it comes back while \
+                 it is sent, so the budget counts nothing for it)"
+            );
+        }
         let mut drivers = Vec::new();
         for (m, module) in project
             .modules
@@ -141,10 +167,18 @@ pub fn report(project: &Project) -> String {
                     .collect::<Vec<_>>(),
             ));
         }
-        let budget = line_budget(bus.settings, &mut drivers);
+        let budget = line_budget_on(bus.settings, adapter, &mut drivers);
+        let held = if adapter.latency.is_zero() {
+            String::new()
+        } else {
+            format!(
+                ", each with up to {} of adapter latency",
+                fmt_duration(adapter.latency)
+            )
+        };
         let _ = writeln!(
             out,
-            "  budget: inputs {} ({} transactions), full output write {}, cycle floor {}",
+            "  budget: inputs {} ({} transactions{held}), full output write {}, cycle floor {}",
             fmt_duration(budget.read_floor),
             budget
                 .modules
@@ -169,7 +203,13 @@ pub fn report(project: &Project) -> String {
         // What a module that stops answering costs (bus.rs: its first failed cycle with the
         // line's retries, then one attempt per cycle until lost, then one probe per backoff),
         // against how long the scan waits for a line's inputs.
-        let attempt = softplc_io::line::budget::failed_attempt(bus.settings, bus.response_timeout);
+        // With echo: discard the response timeout starts once the echo is back, which the
+        // adapter holds back as it would a reply.
+        let attempt = softplc_io::line::budget::failed_attempt(bus.settings, bus.response_timeout)
+            + match bus.echo {
+                EchoMode::Discard => adapter.latency,
+                EchoMode::None => std::time::Duration::ZERO,
+            };
         let first = attempt * (u32::from(bus.retries) + 1);
         let n = budget.modules.len() as u32;
         let input_wait = scan.period * 9 / 10;
@@ -236,3 +276,6 @@ pub fn report(project: &Project) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests;

@@ -41,6 +41,9 @@ Commands on standard input (one per line):
   fault DEVICE|all clear   remove the injected faults
   faults                   list the injected faults
   line dead | line alive   cut the line (nothing in, nothing out) or restore it
+  echo on | echo off       the adapter hears its own transmission: every frame the
+                           master sends comes back to it (see --echo) or stops doing so
+  echo corrupt N           the next N echoes come back with a bit flipped
   DEVICE COMMAND ...       a model's own command (fault injection, power cycle, ...);
                            `help DEVICE` lists them
   help                     this text
@@ -66,6 +69,10 @@ pub struct SimArgs {
     /// Stop bits.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
     stop_bits: u8,
+    /// Send every frame the master writes back to it, as an RS-485 adapter that hears its own
+    /// transmission does (for a master's `echo: discard`).
+    #[arg(long)]
+    echo: bool,
     /// Modules to simulate, as MODEL@ADDR or MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1).
     #[arg(required = true)]
     devices: Vec<String>,
@@ -162,6 +169,7 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         bail!("--baud must be above 0");
     }
     let mut world = SimWorld::new(vec![settings]);
+    world.set_echo(SERVED_LINE, args.echo);
     let mut seen = Vec::new();
     for spec in &args.devices {
         let (model, addr, own) = parse_device(spec)?;
@@ -361,6 +369,17 @@ pub fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Re
         ["line", state @ ("dead" | "alive")] => {
             w.faults_mut().set_dead(SERVED_LINE, *state == "dead");
             format!("line {state}")
+        }
+        ["echo", state @ ("on" | "off")] => {
+            w.set_echo(SERVED_LINE, *state == "on");
+            format!("echo {state}")
+        }
+        ["echo", "corrupt", n] => {
+            let n: u32 = n
+                .parse()
+                .map_err(|_| anyhow::anyhow!("echo corrupt {n:?}: expected a count, e.g. 1"))?;
+            w.corrupt_next_echoes(SERVED_LINE, n);
+            format!("the next {n} echo(es) come back corrupted")
         }
         [dev, rest @ ..] if dev.contains('@') => {
             let i = find(&w, dev)?;

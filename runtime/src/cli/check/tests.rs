@@ -1,0 +1,166 @@
+//! What `check` prints of a bus's adapter latency and echo, with sysfs a fake tree.
+
+use std::path::{Path, PathBuf};
+
+use super::*;
+
+/// A tempdir holding a project on `port` (one MiniMod, `bus_extra` added to the bus) and a
+/// fake sysfs tree where `ttyUSB7` is an FTDI adapter whose latency timer reads `ms`.
+struct Fixture(PathBuf);
+
+impl Fixture {
+    fn new(tag: &str, port: &str, bus_extra: &str, ms: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("softplc-check-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let attr = dir.join("sys/class/tty/ttyUSB7/device");
+        std::fs::create_dir_all(&attr).unwrap();
+        std::fs::write(attr.join("latency_timer"), ms).unwrap();
+        std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
+        std::fs::write(
+            dir.join("project.yaml"),
+            format!(
+                "project: adapter\n\
+                 scan: {{ period: 50ms }}\n\
+                 buses:\n  - {{ name: line1, port: {port}{bus_extra} }}\n\
+                 modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1, watchdog: off }}\n\
+                 tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: lamp, point: mm1.Y1, safe: false }}\n\
+                 program: {{ file: follow.expr, kind: expr }}\n"
+            ),
+        )
+        .unwrap();
+        Self(dir)
+    }
+
+    fn report(&self) -> String {
+        let project = crate::project::load(&self.0.join("project.yaml")).unwrap();
+        report_with(&project, &SysfsRoot(self.0.join("sys")))
+    }
+
+    fn sys(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Fixture {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// The report's lines that start with `prefix` (trimmed of the indentation).
+fn lines<'a>(report: &'a str, prefixes: &[&str]) -> Vec<&'a str> {
+    report
+        .lines()
+        .map(str::trim_start)
+        .filter(|l| prefixes.iter().any(|p| l.starts_with(p)))
+        .collect()
+}
+
+const BUDGET: &[&str] = &[
+    "adapter latency:",
+    "echo:",
+    "budget:",
+    "on failure:",
+    "lines are polled",
+];
+
+#[test]
+fn a_16_ms_latency_timer_is_counted_in_every_transaction_of_the_budget() {
+    let usb = Fixture::new("ftdi", "/dev/ttyUSB7", "", "16\n");
+    let report = usb.report();
+    assert_eq!(
+        lines(&report, BUDGET),
+        [
+            format!(
+                "adapter latency: 16 ms, read from {}/sys/class/tty/ttyUSB7/device/latency_timer",
+                usb.sys().display()
+            )
+            .as_str(),
+            "budget: inputs 36.60ms (1 transactions, each with up to 16.00ms of adapter latency), \
+             full output write 37.17ms, cycle floor 73.77ms",
+            "on failure: a silent module costs the line 313.18ms in its first failed cycle, then \
+             156.59ms per cycle until lost (3 cycles), then one probe of 156.59ms per backoff \
+             (1 s to 30 s); the scan waits 45.00ms for inputs, then goes on with the line's last \
+             values (stale)",
+            "lines are polled in parallel: the input phase can be no shorter than 36.60ms",
+        ]
+    );
+    assert!(
+        report.contains(
+            "warning: bus line1: a cycle that also refreshes every output takes at least 73.77ms, \
+             longer than the scan period 50.00ms: refresh cycles will overrun"
+        ),
+        "{report}"
+    );
+
+    // The same line with the udev rule applied: 1 ms.
+    let tuned = Fixture::new("ftdi1", "/dev/ttyUSB7", "", "1\n");
+    assert_eq!(
+        lines(&tuned.report(), &["budget:"]),
+        [
+            "budget: inputs 21.60ms (1 transactions, each with up to 1.00ms of adapter latency), \
+          full output write 22.17ms, cycle floor 43.77ms"
+        ]
+    );
+}
+
+#[test]
+fn without_a_latency_timer_the_budget_is_the_wire_time() {
+    let uart = Fixture::new("none", "/dev/ttyUSB8", ", adapter_latency: 0ms", "16\n");
+    assert_eq!(
+        lines(&uart.report(), BUDGET),
+        [
+            "adapter latency: 0 ms, configured",
+            "budget: inputs 20.60ms (1 transactions), full output write 21.17ms, cycle floor 41.77ms",
+            "on failure: a silent module costs the line 313.18ms in its first failed cycle, then \
+             156.59ms per cycle until lost (3 cycles), then one probe of 156.59ms per backoff \
+             (1 s to 30 s); the scan waits 45.00ms for inputs, then goes on with the line's last \
+             values (stale)",
+            "lines are polled in parallel: the input phase can be no shorter than 20.60ms",
+        ]
+    );
+    let sim = Fixture::new("sim", "sim", ", echo: discard", "16\n");
+    assert_eq!(
+        lines(&sim.report(), &["adapter latency:", "echo:", "budget:"]),
+        [
+            "adapter latency: none: simulated line",
+            "echo: discard (every request is read back and verified; it comes back while it is \
+             sent, so the budget counts nothing for it)",
+            "budget: inputs 20.60ms (1 transactions), full output write 21.17ms, cycle floor 41.77ms",
+        ]
+    );
+}
+
+#[test]
+fn a_configured_latency_is_what_check_assumes_for_a_port_it_cannot_see() {
+    let remote = Fixture::new(
+        "remote",
+        "/dev/ttyUSB9",
+        ", adapter_latency: 4ms, echo: discard",
+        "16\n",
+    );
+    let report = remote.report();
+    let got = lines(&report, &["adapter latency:", "budget:", "on failure:"]);
+    assert_eq!(got[0], "adapter latency: 4 ms, configured");
+    assert_eq!(
+        got[1],
+        "budget: inputs 24.60ms (1 transactions, each with up to 4.00ms of adapter latency), \
+         full output write 25.17ms, cycle floor 49.77ms"
+    );
+    // The response timeout starts once the echo is back, which the adapter holds back too.
+    assert!(
+        got[2].contains("then 160.59ms per cycle until lost"),
+        "{}",
+        got[2]
+    );
+
+    let absent = Fixture::new("absent", "/dev/ttyUSB9", "", "16\n");
+    assert_eq!(
+        lines(&absent.report(), &["adapter latency:"]),
+        [
+            "adapter latency: 0 ms assumed: /dev/ttyUSB9 is not on this machine (set \
+          adapter_latency to the adapter's: 16 ms for an FTDI adapter without the udev rule, 1 \
+          ms with it)"
+        ]
+    );
+}
