@@ -216,47 +216,73 @@ fn a_wrong_value_check_cannot_see_faults_naming_the_tag() {
 }
 
 #[test]
-fn require_on_an_output_a_rhai_script_writes_fails_with_the_reason() {
+fn require_on_rhai_outputs_pushes_the_plain_forms_and_fails_the_others_with_the_reason() {
     let scratch = Scratch::new("require");
-    let path = project(&scratch, "pump.rhai", "rhai", "n += 1;\ny2 = x1;\n");
+    let path = project(
+        &scratch,
+        "pump.rhai",
+        "rhai",
+        "n += 1;\ny2 = x1 && !demand;\nif n > 5 { pump1 = !x1; }\n",
+    );
     let text = std::fs::read_to_string(&path)
         .unwrap()
+        .replace("point: mm1.Y1 }", "point: mm1.Y1, offload: require }")
         .replace("point: mm1.Y2 }", "point: mm1.Y2, offload: require }");
     std::fs::write(&path, text).unwrap();
     let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
     let file = scratch.dir.join("pump.rhai");
-    let reason = "a Rhai script: the planner pushes down expr and ladder rungs only (write \
-                  this output's rung in one of them to run it in the module)";
+    let reason = softplc::logic::rhai::NOT_PLAIN;
+    let failure = format!(
+        "{}:3:12: error: offload: require: the rung writing pump1 stays central: {reason}",
+        file.display()
+    );
     assert_eq!(code, Some(1), "{stdout}{stderr}");
+    // `demand` is a memory tag the module cannot read: y2 stays central too, with the reason.
+    let memory = format!(
+        "{}:2:1: error: offload: require: the rung writing y2 stays central: memory or a timer \
+         in the condition: demand is a memory tag, which the module cannot see",
+        file.display()
+    );
     assert_eq!(
-        stderr.trim_end(),
-        format!(
-            "{}:2:1: error: offload: require: the rung writing y2 stays central: {reason}",
-            file.display()
-        )
+        stderr.lines().collect::<Vec<_>>(),
+        [memory.as_str(), failure.as_str()]
     );
     assert!(
         stdout.contains(&format!(
-            "{}:2:1 y2 (other): central: {reason}",
+            "{}:3:12 pump1 (other): central: {reason}",
             file.display()
         )),
         "{stdout}"
     );
-    // A project-wide `require` is about the outputs: the memory tag `n` does not fail it.
+    assert!(
+        stdout.contains(&format!(
+            "{}:2:1 y2 (combinational): central: ",
+            file.display()
+        )),
+        "{stdout}"
+    );
+
+    // A plain condition of the module's inputs runs in the module; a project-wide `require`
+    // is about the outputs, so the memory tag `n` does not fail it.
     let text = std::fs::read_to_string(&path)
         .unwrap()
         .replace(", offload: require }", " }")
         .replace("program:", "offload: require\nprogram:");
     std::fs::write(&path, text).unwrap();
-    let (code, _, stderr) = softplc(&["check", path_str(&path)]);
-    assert_eq!(code, Some(1));
-    assert_eq!(
-        stderr.lines().collect::<Vec<_>>(),
-        [format!(
-            "{}:2:1: error: offload: require: the rung writing y2 stays central: {reason}",
-            file.display()
-        )]
+    scratch.write(
+        "pump.rhai",
+        "n += 1;\ny2 = x1 || y2;\nif n > 5 { pump1 = !x1; }\n",
     );
+    let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
+    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert!(
+        stdout.contains(&format!(
+            "{}:2:1 y2 (set/reset latch): module mm1 Y2",
+            file.display()
+        )),
+        "{stdout}"
+    );
+    assert_eq!(stderr.lines().collect::<Vec<_>>(), [failure.as_str()]);
 }
 
 #[test]

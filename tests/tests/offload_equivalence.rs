@@ -98,6 +98,14 @@ impl Plant for Recorder {
     }
 }
 
+/// The language of a case's program.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Lang {
+    Expr,
+    Ladder,
+    Rhai,
+}
+
 /// A test case: modules on one simulated line, tags, a program, inputs and outputs to watch.
 struct Case {
     name: &'static str,
@@ -109,9 +117,9 @@ struct Case {
     modules: &'static [&'static str],
     /// `tags:` entries.
     tags: &'static [&'static str],
-    /// The program: `expr` text, or ladder rungs (one per line) when `ladder`.
+    /// The program: `expr` text, ladder rungs (one per line) or a Rhai script, per `lang`.
     program: &'static str,
-    ladder: bool,
+    lang: Lang,
     /// Terminals driven: `module.point`.
     inputs: &'static [&'static str],
     /// Terminals recorded: `module.point`.
@@ -123,7 +131,7 @@ impl Case {
         // Cargo's scratch folder for integration tests (under target/), one per case.
         let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("offload-{}", self.name));
         std::fs::create_dir_all(&dir).unwrap();
-        let text = if self.ladder {
+        let text = if self.lang == Lang::Ladder {
             let mut t = String::from("rungs:\n");
             for rung in self.program.lines() {
                 let _ = writeln!(t, "  - \"{rung}\"");
@@ -137,10 +145,10 @@ impl Case {
     }
 
     fn file(&self) -> &'static str {
-        if self.ladder {
-            "program.yaml"
-        } else {
-            "program.expr"
+        match self.lang {
+            Lang::Expr => "program.expr",
+            Lang::Ladder => "program.yaml",
+            Lang::Rhai => "program.rhai",
         }
     }
 
@@ -164,7 +172,11 @@ impl Case {
         for tag in self.tags {
             let _ = writeln!(t, "  - {{ {tag} }}");
         }
-        let kind = if self.ladder { "ladder" } else { "expr" };
+        let kind = match self.lang {
+            Lang::Expr => "expr",
+            Lang::Ladder => "ladder",
+            Lang::Rhai => "rhai",
+        };
         let _ = writeln!(t, "program: {{ file: {}, kind: {kind} }}", self.file());
         t
     }
@@ -177,6 +189,17 @@ impl Case {
             .unwrap_or_else(|e| panic!("{}: the project is valid:\n{e}", self.name))
     }
 }
+
+/// Three inputs and four outputs of one MiniMod.
+const ABC_Y1_Y4: [&str; 7] = [
+    "name: a, point: mm1.X1",
+    "name: b, point: mm1.X2",
+    "name: c, point: mm1.X3",
+    "name: y1, point: mm1.Y1",
+    "name: y2, point: mm1.Y2",
+    "name: y3, point: mm1.Y3",
+    "name: y4, point: mm1.Y4",
+];
 
 /// A random input sequence: from 1 s on, every `gap` (random in `min_gap..=3 × min_gap`) one
 /// or more inputs flip.
@@ -371,17 +394,9 @@ fn combinational_rungs_run_in_the_minimod() {
         period_ms: 50,
         tick_ms: 1,
         modules: &["name: mm1, model: minimod, address: 1"],
-        tags: &[
-            "name: a, point: mm1.X1",
-            "name: b, point: mm1.X2",
-            "name: c, point: mm1.X3",
-            "name: y1, point: mm1.Y1",
-            "name: y2, point: mm1.Y2",
-            "name: y3, point: mm1.Y3",
-            "name: y4, point: mm1.Y4",
-        ],
+        tags: &ABC_Y1_Y4,
         program: "y1 = a & !b | c\ny2 = a ^ b\ny3 = a ^ b ^ c\ny4 = !c & (a | b)\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
         outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3", "mm1.Y4"],
     };
@@ -410,7 +425,7 @@ fn latches_run_in_the_minimod() {
         program: "reset_wins = (s | reset_wins) & !r\n\
                   set_wins = s | (set_wins & !r)\n\
                   keep_while = keep_while & k | s & k & !r\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
         outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3"],
     };
@@ -421,6 +436,31 @@ fn latches_run_in_the_minimod() {
             ("set_wins", true),
             ("keep_while", true),
         ],
+    );
+}
+
+/// The plain Rhai forms (`c = E;` at the top level, once, over bool inputs) are the expr
+/// statements of the same text: pushed down, they behave the same.
+#[test]
+fn rhai_plain_conditions_and_latches_run_in_the_minimod() {
+    let case = Case {
+        name: "rhai-plain",
+        period_ms: 50,
+        tick_ms: 1,
+        modules: &["name: mm1, model: minimod, address: 1"],
+        tags: &ABC_Y1_Y4,
+        program: "y1 = a && !b || c;\n\
+                  y2 = a ^ b;\n\
+                  y3 = (a || y3) && !b;\n\
+                  if true { y4 = !c && (a || b); }\n",
+        lang: Lang::Rhai,
+        inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
+        outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3", "mm1.Y4"],
+    };
+    // y4 is assigned inside `if`: central, and it must still match.
+    level_case(
+        &case,
+        &[("y1", true), ("y2", true), ("y3", true), ("y4", false)],
     );
 }
 
@@ -439,7 +479,7 @@ fn debounced_inputs_are_the_same_for_both() {
             "name: y, point: mm1.Y1",
         ],
         program: "y = a | b\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2"],
         outputs: &["mm1.Y1"],
     };
@@ -466,7 +506,7 @@ fn central_rungs_keep_their_reason() {
             "name: y4, point: mm1.Y4, offload: never",
         ],
         program: "y1 = a & b\ny2 = ton(a, 1s)\ny3 = a | m\ny4 = a\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm2.X1"],
         outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3", "mm1.Y4"],
     };
@@ -533,7 +573,7 @@ fn pulses_run_in_the_minimod_pulser_exactly() {
             "name: long, point: mm1.Y2",
         ],
         program: "short = tp(a, 50ms)\nlong = tp(b & !c, 130ms)\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
         outputs: &["mm1.Y1", "mm1.Y2"],
     };
@@ -625,7 +665,7 @@ fn the_example_project_behaves_the_same_pushed_down_and_faster() {
         modules: &[],
         tags: &[],
         program: "",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2", "mm1.X3", "mm2.X1", "mm2.X2", "mm2.X3"],
         outputs: &["mm1.Y1", "mm2.Y1", "mm1.Y4", "mm2.Y2"],
     };
@@ -672,7 +712,7 @@ fn edge_functions_run_in_the_resi_16di8ro() {
                   stairs = stairs ^ (rising(push) | rising(on_button))\n\
                   pump = level\n\
                   mixed = level & push\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["r1.DI1", "r1.DI2", "r1.DI3", "r1.DI4"],
         outputs: &["r1.RO1", "r1.RO2", "r1.RO3", "r1.RO4"],
     };
@@ -711,7 +751,7 @@ fn stop_clears_the_tables_or_keeps_them() {
         // `pump` follows its input (SWITCH, a level): its table must be gone before the relay
         // is set safe, or the next 10 ms sample would switch it on again.
         program: "y = a\nhall = (rising(on_button) | hall) & !rising(off_button)\npump = level\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &[],
         outputs: &[],
     };
@@ -767,21 +807,13 @@ fn ladder_latches_run_in_the_minimod() {
         period_ms: 50,
         tick_ms: 1,
         modules: &["name: mm1, model: minimod, address: 1"],
-        tags: &[
-            "name: a, point: mm1.X1",
-            "name: b, point: mm1.X2",
-            "name: c, point: mm1.X3",
-            "name: y1, point: mm1.Y1",
-            "name: y2, point: mm1.Y2",
-            "name: y3, point: mm1.Y3",
-            "name: y4, point: mm1.Y4",
-        ],
+        tags: &ABC_Y1_Y4,
         program: "a -> SR l1(r=b) -> y1\n\
                   c -> RS l2(r=a) -> y2\n\
                   b -> set y3\n\
                   c -> reset y3\n\
                   a /c -> y4",
-        ladder: true,
+        lang: Lang::Ladder,
         inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
         outputs: &["mm1.Y1", "mm1.Y2", "mm1.Y3", "mm1.Y4"],
     };
@@ -813,7 +845,7 @@ fn ladder_blocks_run_in_the_resi_16di8ro() {
                   rising(on_button) -> set hall\n\
                   rising(off_button) -> reset hall\n\
                   level -> pump",
-        ladder: true,
+        lang: Lang::Ladder,
         inputs: &["r1.DI1", "r1.DI2", "r1.DI3", "r1.DI4"],
         outputs: &["r1.RO1", "r1.RO2", "r1.RO3", "r1.RO4"],
     };
@@ -844,7 +876,7 @@ fn pushed_outputs_belong_to_their_module() {
             "name: seen, type: bool",
         ],
         program: "y = a\nseen = y\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &[],
         outputs: &[],
     };
@@ -1169,7 +1201,7 @@ fn tables_a_crashed_run_left_do_not_drive_the_next_program() {
         modules: &["name: mm1, model: minimod, address: 1"],
         tags: MM_LATCH_TAGS,
         program: "motor = (start | motor) & !stop\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
         outputs: &["mm1.Y2"],
     };
@@ -1235,7 +1267,7 @@ fn resi_tables_in_fram_survive_a_power_cycle_and_are_cleared_at_start_up() {
             "name: pump, point: r1.RO1, safe: false",
         ],
         program: "lamp = lamp ^ rising(button)\npump = level\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["r1.DI1", "r1.DI3", "r1.DI5"],
         outputs: &["r1.RO4", "r1.RO1"],
     };
@@ -1304,7 +1336,7 @@ fn motor_case(name: &'static str) -> Case {
         modules: &["name: mm1, model: minimod, address: 1"],
         tags: MM_LATCH_TAGS,
         program: "motor = (start | motor) & !stop\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2", "mm1.X3"],
         outputs: &["mm1.Y2"],
     }
@@ -1416,7 +1448,7 @@ fn a_toggle_restarted_after_kill_9_starts_off_in_both() {
             "name: lamp, point: r1.RO4, safe: false",
         ],
         program: "lamp = lamp ^ rising(button)\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["r1.DI1"],
         outputs: &["r1.RO4"],
     };
@@ -1477,7 +1509,7 @@ fn prior_module_state_does_not_change_the_traces() {
         program: "latch = (a | latch) & !b\nboth = a & b\n\
                   lamp = lamp ^ rising(on_button)\n\
                   hall = (rising(on_button) | hall) & !rising(off_button)\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["mm1.X1", "mm1.X2", "r1.DI1", "r1.DI2"],
         outputs: &["mm1.Y1", "mm1.Y2", "r1.RO1", "r1.RO2"],
     };
@@ -1714,7 +1746,7 @@ fn inputs_shorter_than_a_scan_reach_the_module_only() {
             "name: lamp, point: r1.RO4, safe: false",
         ],
         program: "lamp = lamp ^ rising(button)\n",
-        ladder: false,
+        lang: Lang::Expr,
         inputs: &["r1.DI1"],
         outputs: &["r1.RO4"],
     };

@@ -40,6 +40,13 @@
 //! output. `q(name)`, `et(name)` (ms), `cv(name)`, `qu(name)`, `qd(name)` read outputs; times
 //! are milliseconds or strings like `"1.5s"`; `limit(min, x, max)` clamps.
 //!
+//! # Push-down
+//!
+//! An output assigned once, at the top level, from a plain condition of bool tags the script
+//! does not write (`y1 = a && !b || c;`, `y2 = (s || y2) && !r;`) is described to the planner
+//! as the `expr` statement of the same text, and may run in its module; every other output is
+//! described as opaque, with the reason (see `rungs.rs`).
+//!
 //! # Quality
 //!
 //! `good(tag)` is true while the tag's quality is Good (read from its module in the last
@@ -76,6 +83,7 @@ mod check_tests;
 mod engine;
 mod error;
 mod quality;
+mod rungs;
 mod signatures;
 #[cfg(test)]
 mod tests;
@@ -92,6 +100,7 @@ use softplc_io::point::{Value, ValueType};
 pub use blocks::MAX_INSTANCES;
 pub use engine::Limits;
 pub use error::{CompileError, CompileErrorKind};
+pub use rungs::NOT_PLAIN;
 
 use crate::image::{convert, ProcessImage, TagId};
 use crate::logic::expr::TagTable;
@@ -128,6 +137,12 @@ pub struct RhaiProgram {
     deadline: engine::Deadline,
     budget: Duration,
     file: PathBuf,
+    /// The script's outputs as rungs for the push-down planner.
+    described: rungs::Described,
+    /// The user's top-level statements as compiled; `ast` holds those not released.
+    statements: Vec<rhai::Stmt>,
+    /// Indexes into `statements` of the rungs a module runs.
+    released: std::collections::BTreeSet<usize>,
 }
 
 impl std::fmt::Debug for RhaiProgram {
@@ -303,9 +318,18 @@ pub fn compile_with(
             });
         }
     }
+    let written: Vec<(TagId, Position)> = handles
+        .iter()
+        .filter(|h| h.writable)
+        .filter_map(|h| h.assigned.map(|at| (h.id, at)))
+        .collect();
+    let described = rungs::describe(&ast, tags, &written, file);
     Ok(RhaiProgram {
         engine,
+        statements: ast.statements().to_vec(),
         ast,
+        described,
+        released: std::collections::BTreeSet::new(),
         base: scope.len(),
         scope,
         handles,
@@ -408,39 +432,29 @@ impl RhaiProgram {
     }
 }
 
-/// Why a script's outputs stay central, in the planner's report and in `offload: require`'s
-/// error.
-pub const NOT_PUSHED_DOWN: &str = "a Rhai script: the planner pushes down expr and ladder rungs \
-only (write this output's rung in one of them to run it in the module)";
-
 impl LogicEngine for RhaiProgram {
-    /// Every output the script assigns, at its first assignment, as a rung that stays central
-    /// ([`NOT_PUSHED_DOWN`]): a Rhai assignment may sit in any control flow and read any
-    /// variable, so the planner is not given one to move, and `offload: require` on such a tag
-    /// fails with the place and the reason rather than being passed over.
+    /// Every output the script assigns, at its first assignment: the plain forms with their
+    /// shapes, the others opaque with the reason (see `rungs.rs`).
     fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
-        let mut assigned: Vec<(Position, TagId)> = self
-            .handles
-            .iter()
-            .filter(|h| h.writable)
-            .filter_map(|h| h.assigned.map(|at| (at, h.id)))
-            .collect();
-        assigned.sort_by_key(|(at, _)| (at.line(), at.position()));
-        Some(
-            assigned
-                .into_iter()
-                .map(|(at, coil)| crate::offload::ir::Rung {
-                    coil,
-                    shape: crate::offload::ir::RungShape::Opaque {
-                        reason: NOT_PUSHED_DOWN.to_string(),
-                    },
-                    pos: error::user_pos(&self.file, at),
-                })
-                .collect(),
-        )
+        Some(self.described.rungs.clone())
     }
 
-    // `release` stays the default: no rung of a script is ever pushed down.
+    /// The module runs `coil`'s rung: its statement leaves the script, so the tag's variable
+    /// holds the value the module's output is read back as.
+    fn release(&mut self, coil: TagId) {
+        let Some(&i) = self.described.statements.get(&coil) else {
+            return;
+        };
+        self.released.insert(i);
+        let kept: Vec<rhai::Stmt> = self
+            .statements
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !self.released.contains(i))
+            .map(|(_, s)| s.clone())
+            .collect();
+        self.ast = AST::new(kept, self.ast.shared_lib().clone());
+    }
 
     fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault> {
         if let Some(h) = self.handles.iter().find(|h| h.id.index() >= image.len()) {
