@@ -174,3 +174,37 @@ fn timeouts_late_replies_and_crc_errors_are_in_the_trace() {
         .count();
     assert!(mm2 >= 2, "{all}");
 }
+
+#[test]
+fn on_the_real_clock_the_trace_comes_from_the_bus_threads_before_the_summary() {
+    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .arg("run")
+        .arg(quickstart())
+        .args(["--for", "500ms", "--trace-bus", "--no-control", "--quiet"])
+        .output()
+        .expect("softplc runs");
+    let stdout = String::from_utf8(out.stdout).expect("utf-8");
+    assert!(out.status.success(), "{stdout}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert!(
+        lines[0].contains("monotonic time since softplc started"),
+        "{stdout}"
+    );
+    let summary = lines
+        .iter()
+        .position(|l| l.starts_with("stopped"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let trace = &lines[1..summary];
+    // The scan's cycles, and the safe state written at the end, on both modules.
+    assert!(trace.iter().all(|l| l.starts_with("t=")), "{stdout}");
+    let writes = |unit: &str| {
+        trace
+            .iter()
+            .filter(|l| {
+                l.contains(&format!("TX  {unit} 05 ")) || l.contains(&format!("TX  {unit} 0F "))
+            })
+            .count()
+    };
+    assert!(writes("01") >= 1 && writes("02") >= 1, "{stdout}");
+    assert!(trace.iter().any(|l| l.contains("RX  02 02 ")), "{stdout}");
+}
