@@ -449,7 +449,16 @@ pub fn apply(
     port: &TTYPort,
     path: &Path,
 ) -> Result<Duration, LatencyRefused> {
-    let lowered = lower(root, port, &TtyNode::of(path));
+    enforce(config, lower(root, port, &TtyNode::of(path)), path)
+}
+
+/// Holds what opening did against `config`: the latency the port has, or the refusal of a
+/// demanded ceiling it stays above (logged either way under `auto`).
+fn enforce(
+    config: AdapterLatency,
+    lowered: Lowered,
+    path: &Path,
+) -> Result<Duration, LatencyRefused> {
     let effective = lowered.effective();
     if let AdapterLatency::AtMost(demanded) = config {
         if effective > demanded {

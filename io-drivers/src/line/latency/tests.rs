@@ -216,3 +216,38 @@ fn serial_struct_is_the_kernels_layout() {
     assert_eq!(std::mem::size_of::<SerialStruct>(), 72);
     assert_eq!(std::mem::offset_of!(SerialStruct, flags), 16);
 }
+
+#[test]
+fn a_demanded_ceiling_holds_only_when_the_port_gets_under_it() {
+    let (_master, slave, _name) = pty_pair().unwrap();
+    let port = Path::new("/dev/ttyUSB0");
+    let ms = Duration::from_millis;
+    // The fake FTDI timer goes from 16 to 1 ms (through sysfs: the pty refuses the ioctl).
+    let opened = |config| {
+        let sys = FakeSys::new("enforce", "16\n");
+        enforce(config, lower(&sys.root(), &slave, &named("ttyUSB0")), port)
+    };
+    assert_eq!(opened(AdapterLatency::Auto), Ok(ms(1)));
+    assert_eq!(opened(AdapterLatency::AtMost(ms(1))), Ok(ms(1)));
+    let refused = opened(AdapterLatency::AtMost(ms(0))).unwrap_err();
+    assert_eq!(refused.demanded, ms(0));
+    assert!(
+        refused
+            .to_string()
+            .starts_with("/dev/ttyUSB0: the adapter's latency timer 1 ms ("),
+        "{refused}"
+    );
+    assert!(
+        refused.to_string().ends_with(
+            ", above adapter_latency 0 ms (run as root, install \
+         the udev rule, or raise adapter_latency to what the adapter has)"
+        ),
+        "{refused}"
+    );
+    // Without a timer (a pty, a UART) any ceiling holds: it adds nothing.
+    let none = lower(&SysfsRoot::default(), &slave, &TtyNode::Pty);
+    assert_eq!(
+        enforce(AdapterLatency::AtMost(ms(0)), none, port),
+        Ok(ms(0))
+    );
+}
