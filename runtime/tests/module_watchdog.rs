@@ -295,3 +295,43 @@ fn event_mode_covers_the_refresh_and_an_idle_line_does_not_fire_it() {
         assert_eq!((y1, y2), (Value::Bool(false), Value::Bool(true)));
     }
 }
+
+#[test]
+fn a_simulator_option_that_does_not_fit_is_refused_naming_it() {
+    let sim = |option: &str| {
+        let out = Command::new(BIN)
+            .args(["sim", "--pty", "minimod@1", "--option", option])
+            .stdin(std::process::Stdio::null())
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    for (option, error) in [
+        (
+            "minimod@1:watchdog-registers=both",
+            "error: --option \"minimod@1:watchdog-registers=both\": watchdog-registers does \
+             not take both (takes table or aliased)",
+        ),
+        (
+            "minimod@2:watchdog-registers=aliased",
+            "error: --option \"minimod@2:watchdog-registers=aliased\": no device \
+             \"minimod@2\" (devices: minimod@1)",
+        ),
+        (
+            "minimod@1-aliased",
+            "error: --option \"minimod@1-aliased\": expected DEVICE:NAME=VALUE, e.g. \
+             minimod@5:watchdog-registers=aliased",
+        ),
+        (
+            "minimod@1:colour=red",
+            "error: --option \"minimod@1:colour=red\": unknown command \"option colour red\"",
+        ),
+    ] {
+        let (ok, stderr) = sim(option);
+        assert!(!ok, "{option}");
+        assert!(stderr.contains(error), "{option}: {stderr}");
+    }
+}

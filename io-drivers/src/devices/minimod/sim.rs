@@ -600,10 +600,6 @@ impl SimDevice for MiniModSim {
                     })?;
                 Ok(self.options())
             }
-            ["option", name, _] => Err(SimError::BadValue {
-                point: "option".into(),
-                value: format!("{name} (options: watchdog-registers)"),
-            }),
             ["help"] => Ok(HELP.to_string()),
             _ => Err(SimError::UnknownCommand(words.join(" "))),
         }
@@ -1437,7 +1433,7 @@ mod tests {
         ));
         assert!(matches!(
             sim.command(&["option", "colour", "red"]),
-            Err(SimError::BadValue { .. })
+            Err(SimError::UnknownCommand(_))
         ));
         assert!(sim
             .command_help()
