@@ -169,11 +169,14 @@ plant:
     assert_eq!(m.bus, 1);
     assert_eq!(m.model.name, "minimod");
     assert_eq!(m.device.name, "mm1");
-    assert_eq!(m.device.address, 3);
+    assert_eq!(m.device.address.get(), 3);
     assert_eq!(m.device.protocol, Protocol::Modbus);
     assert!(m.device.settings.is_empty());
     let m = &p.modules[1];
-    assert_eq!((m.name.as_str(), m.bus, m.device.address), ("mm2", 0, 1));
+    assert_eq!(
+        (m.name.as_str(), m.bus, m.device.address.get()),
+        ("mm2", 0, 1)
+    );
     // Default protocol: the model's first.
     assert_eq!(m.device.protocol, m.model.protocols[0]);
 
@@ -248,7 +251,7 @@ fn load_reads_a_file_and_resolves_the_program_beside_it() {
     let p = load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(p.name, "line");
     assert_eq!(p.buses[0].settings.baud, 38400);
-    assert_eq!(p.modules[0].device.address, 7);
+    assert_eq!(p.modules[0].device.address.get(), 7);
     assert_eq!(p.tags[2].safe, Some(Value::Bool(false)));
     assert_eq!(p.program.path, fixtures().join("conveyor.expr"));
 }
@@ -314,6 +317,36 @@ fn unknown_key_points_at_the_key() {
         e.to_string()
             .contains("unknown key `bawd` in buses[0]; expected one of"),
         "{e}"
+    );
+}
+
+#[test]
+fn every_unknown_key_comes_with_the_other_errors() {
+    // Two typos in a bus (one with a nested value), one in a flow mapping, and a module on a
+    // bus that does not exist: all four at once, each at its place in the file.
+    let text = format!(
+        "{HEAD}{BUS}    format: 8E1\n    parity:\n      even: true\n    bawd: 9600\n\
+         modules:\n  - {{ name: m1, bus: line9, model: minimod, address: 1, adres: 2 }}\n"
+    );
+    let e = errors(&text);
+    let found: Vec<((usize, usize), String)> = e
+        .iter()
+        .map(|e| {
+            let text = e.to_string();
+            let message = text.split_once("error: ").map_or("", |(_, m)| m);
+            let message = message.split_once(';').map_or(message, |(m, _)| m);
+            (at(e), message.to_owned())
+        })
+        .collect();
+    assert_eq!(
+        found,
+        vec![
+            ((11, 5), "unknown key `parity` in buses[0]".to_owned()),
+            ((13, 5), "unknown key `bawd` in buses[0]".to_owned()),
+            ((15, 22), "unknown bus \"line9\" (known: line1)".to_owned()),
+            ((15, 57), "unknown key `adres` in modules[0]".to_owned()),
+        ],
+        "in file order"
     );
 }
 

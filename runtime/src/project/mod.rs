@@ -8,9 +8,10 @@
 //! plant.yaml:19:14: error: address 1 is already used by module mm1 on bus line1 (line 13)
 //! ```
 //!
-//! The schema is documented in [`raw`]. Errors of the YAML reader (syntax, an unknown key, a
-//! value of the wrong type) stop the reading, so they come alone; semantic errors (names,
-//! references, ranges, owners) are all collected. Positions of semantic errors come from
+//! The schema is documented in [`raw`]. Errors of the YAML reader (syntax, a value of the
+//! wrong type) stop the reading, so they come alone; unknown keys are all collected, with the
+//! semantic errors of the rest (see `unknown_keys.rs`), and so are semantic errors (names,
+//! references, ranges, owners). Positions of semantic errors come from
 //! re-reading the text along the error's path (see `span.rs`): they point at the offending
 //! value (or key, for an unknown plant role; or at the enclosing entry when the value is
 //! missing).
@@ -27,6 +28,7 @@ pub mod service;
 pub(crate) mod span;
 pub mod state;
 pub mod trace;
+mod unknown_keys;
 mod validate;
 pub mod watchdog;
 pub mod web;
@@ -79,10 +81,36 @@ pub fn parse_str(text: &str, file: &Path) -> Result<Project, ProjectErrors> {
             }],
         });
     }
-    let raw: raw::RawProject = yaml_serde::from_str(text).map_err(|e| ProjectErrors {
-        errors: vec![yaml_error(&e, file)],
-    })?;
-    validate::validate(&raw, text, file).map_err(|errors| ProjectErrors { errors })
+    let (raw, text, mut errors) = match yaml_serde::from_str::<raw::RawProject>(text) {
+        Ok(raw) => (raw, std::borrow::Cow::Borrowed(text), Vec::new()),
+        Err(e) => {
+            let first = yaml_error(&e, file);
+            if !matches!(first.kind, ErrorKind::UnknownKey { .. }) {
+                return Err(ProjectErrors {
+                    errors: vec![first],
+                });
+            }
+            // A typo in a key: report every one, and the schema's errors of the rest.
+            let pruned = unknown_keys::prune(text, file, first);
+            match pruned.rest {
+                Ok((raw, blanked)) => (raw, std::borrow::Cow::Owned(blanked), pruned.unknown),
+                Err(e) => {
+                    let mut errors = pruned.unknown;
+                    errors.push(e);
+                    return Err(ProjectErrors { errors });
+                }
+            }
+        }
+    };
+    match validate::validate(&raw, &text, file) {
+        Ok(project) if errors.is_empty() => Ok(project),
+        Ok(_) => Err(ProjectErrors { errors }),
+        Err(more) => {
+            errors.extend(more);
+            errors.sort_by_key(|e| (e.line, e.column));
+            Err(ProjectErrors { errors })
+        }
+    }
 }
 
 /// Converts an error of the YAML reader, keeping its position and classifying its message.
