@@ -143,7 +143,7 @@ fn a_value_a_tag_cannot_hold_is_a_type_error() {
         errors(
             "speed = level;\nspeed = count / 4;\ncount = et(\"t\") + cv(\"c\");\n\
              motor = ton(\"t\", start, 100) && ctu(\"c\", start, stop, 3);\n\
-             small = -5;\nfn g() { let motor = 2; motor }\n"
+             small = level - 20;\nfn g() { let motor = 2; motor }\n"
         ),
         Vec::<String>::new()
     );
@@ -196,5 +196,26 @@ fn every_undeclared_name_is_reported_once_with_the_closest_tag() {
     assert_eq!(
         errors("fn f() { moter }\nmotor = f();\n"),
         ["s.rhai:1:10: error: unknown tag or variable `moter`; did you mean `motor`?"]
+    );
+}
+
+#[test]
+fn a_literal_the_tag_cannot_hold_is_a_type_error() {
+    assert_eq!(
+        errors("small = 70000;\nsmall = -1;\nlamp = count == 0.5;\nlamp = 3000000000 > count;\n"),
+        [
+            "s.rhai:1:9: error: type error: `70000` is not a u16 value (a whole number from 0 \
+             to 65535); `small` is u16",
+            "s.rhai:2:9: error: type error: `-1` is not a u16 value (a whole number from 0 to \
+             65535); `small` is u16",
+            "s.rhai:3:17: error: type error: `0.5` is not an i32 value (a whole number from \
+             -2147483648 to 2147483647); `count` is i32",
+            "s.rhai:4:8: error: type error: `3000000000` is not an i32 value (a whole number \
+             from -2147483648 to 2147483647); `count` is i32",
+        ]
+    );
+    assert_eq!(
+        errors("small = 65535;\nlamp = speed < 0.5;\ncount = -7;\n"),
+        Vec::<String>::new()
     );
 }

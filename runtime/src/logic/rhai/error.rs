@@ -141,6 +141,18 @@ pub enum CompileErrorKind {
         /// The value's type ("an integer").
         value: &'static str,
     },
+    /// A number literal that the tag it is assigned to or compared with cannot hold
+    /// (`level = 70000` or `count == 0.5` with an integer tag): it would saturate, or the
+    /// comparison never change.
+    #[error("type error: `{value}` is not {}; `{name}` is {ty}", crate::logic::expr::type_words(*.ty))]
+    LiteralOutOfType {
+        /// The literal.
+        value: String,
+        /// The tag.
+        name: String,
+        /// Its declared type.
+        ty: softplc_io::point::ValueType,
+    },
     /// An operator given operands of types it cannot take.
     #[error("type error: `{op}` cannot take {operands}")]
     OperandType {

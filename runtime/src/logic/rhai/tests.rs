@@ -103,7 +103,7 @@ impl Rig {
 #[test]
 fn tags_are_variables_and_writes_are_converted() {
     let mut r = Rig::new(
-        "motor = (start || motor) && !stop;\nlet x = level * 2;\ncount = x - 1;\nspeed = level / 4.0;\nsmall = -5;\n",
+        "motor = (start || motor) && !stop;\nlet x = level * 2;\ncount = x - 1;\nspeed = level / 4.0;\nsmall = level - 20;\n",
     );
     r.set("level", Value::U16(10));
     r.set("start", Value::Bool(true));

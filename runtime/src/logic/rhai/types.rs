@@ -68,6 +68,11 @@ const ARITHMETIC: [&str; 6] = ["+", "-", "*", "/", "%", "**"];
 /// Bitwise/logical operators without short-circuit: bools give a bool, integers an integer.
 const BITWISE: [&str; 3] = ["&", "|", "^"];
 
+/// Whether `op` compares.
+pub(crate) fn is_comparison(op: &str) -> bool {
+    COMPARISONS.contains(&op)
+}
+
 /// The type of `expr`; `var` gives a variable's type (a tag's, or `None`).
 pub(crate) fn infer(expr: &Expr, var: &dyn Fn(&str) -> Option<Ty>) -> Ty {
     match expr {

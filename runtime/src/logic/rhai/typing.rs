@@ -20,12 +20,13 @@
 use std::collections::HashSet;
 
 use rhai::{ASTNode, Engine, Expr, FnCallExpr, Position, Stmt, AST};
+use softplc_io::point::ValueType;
 
 use super::error::CompileErrorKind;
 use super::signatures::{self, Param, Signature};
 use super::types::{self, Ty};
 use crate::logic::blocks::Pattern;
-use crate::logic::expr::{closest_name, TagTable};
+use crate::logic::expr::{closest_name, literal_fits, TagTable};
 
 type Errors = Vec<(Position, CompileErrorKind)>;
 
@@ -203,7 +204,10 @@ impl Checker<'_> {
                 }
                 (types::operator(syntax, &operands), op.position())
             }
-            None => (value, start(rhs)),
+            None => {
+                self.literal_against(rhs, lhs, var);
+                (value, start(rhs))
+            }
         };
         if !value.fits(tag.ty) {
             self.fail(
@@ -212,6 +216,31 @@ impl Checker<'_> {
                     name: name.to_string(),
                     ty: tag.ty,
                     value: value.words(),
+                },
+            );
+        }
+    }
+
+    /// `lit`, when it is a number literal, met with `tag` (assigned to it or compared with
+    /// it): one the tag's type can hold.
+    fn literal_against(&mut self, lit: &Expr, tag: &Expr, var: &dyn Fn(&str) -> Option<Ty>) {
+        let Expr::Variable(v, _, _) = tag else {
+            return;
+        };
+        let name = v.1.as_str();
+        let (Some(entry), Some(_)) = (self.tags.get(name), var(name)) else {
+            return;
+        };
+        let Some((value, text)) = number_literal(lit) else {
+            return;
+        };
+        if entry.ty != ValueType::Bool && !literal_fits(value, entry.ty) {
+            self.fail(
+                start(lit),
+                CompileErrorKind::LiteralOutOfType {
+                    value: text,
+                    name: name.to_string(),
+                    ty: entry.ty,
                 },
             );
         }
@@ -234,6 +263,11 @@ impl Checker<'_> {
         if call.is_operator_call() {
             if types::operands_clash(name, &args) {
                 self.operands(name, &args, pos);
+            } else if let [a, b] = call.args.as_slice() {
+                if types::is_comparison(name) {
+                    self.literal_against(a, b, var);
+                    self.literal_against(b, a, var);
+                }
             }
             return;
         }
@@ -409,5 +443,20 @@ fn start(expr: &Expr) -> Position {
             call.args.first().map_or(expr.start_position(), start)
         }
         _ => expr.start_position(),
+    }
+}
+
+/// A number literal's value and text (`-5` too, however Rhai folds it).
+fn number_literal(expr: &Expr) -> Option<(f64, String)> {
+    match expr {
+        Expr::IntegerConstant(i, _) => Some((*i as f64, i.to_string())),
+        Expr::FloatConstant(f, _) => Some((**f, f.to_string())),
+        Expr::FnCall(call, _) if call.is_operator_call() && call.name == "-" => {
+            match call.args.as_slice() {
+                [inner] => number_literal(inner).map(|(v, t)| (-v, format!("-{t}"))),
+                _ => None,
+            }
+        }
+        _ => None,
     }
 }
