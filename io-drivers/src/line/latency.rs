@@ -160,15 +160,26 @@ pub fn probe(root: &SysfsRoot, tty: &TtyNode) -> Probe {
     if !class.exists() {
         return Probe::Absent;
     }
-    match std::fs::read_link(class.join("device/driver")) {
-        Ok(driver) => Probe::None(NoTimer::Driver(
-            driver
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default(),
-        )),
-        Err(_) => Probe::None(NoTimer::NoDevice),
+    match driver_name(&class.join("device")) {
+        Some(driver) => Probe::None(NoTimer::Driver(driver)),
+        None => Probe::None(NoTimer::NoDevice),
     }
+}
+
+/// The name of the driver behind the tty device `device`. Since Linux 6.5 a UART's tty hangs
+/// below serial-base's `port` and `ctrl` devices (drivers of those names); the hardware's
+/// driver (`serial8250`, `uart-pl011`, `sc16is7xx`) is that of the first ancestor outside
+/// serial-base.
+fn driver_name(device: &Path) -> Option<String> {
+    let mut dir = std::fs::canonicalize(device).ok()?;
+    for _ in 0..4 {
+        let driver = std::fs::canonicalize(dir.join("driver")).ok()?;
+        if !driver.components().any(|c| c.as_os_str() == "serial-base") {
+            return driver.file_name().map(|n| n.to_string_lossy().into_owned());
+        }
+        dir = dir.parent()?.to_path_buf();
+    }
+    None
 }
 
 /// Where the latency a budget counts came from.

@@ -81,6 +81,28 @@ fn reads_the_ftdi_timer_through_the_class_link_and_the_usb_serial_bus() {
         Probe::None(NoTimer::Driver("serial8250".into()))
     );
     assert_eq!(probe(&root, &named("ttyUSB9")), Probe::Absent);
+    // Linux 6.5 and later: the tty's device is serial-base's port, below its ctrl, below the
+    // UART whose driver names it.
+    let pl011 = sys.0.join("devices/platform/fe201000.serial");
+    let port = pl011.join("fe201000.serial:0/fe201000.serial:0.0");
+    std::fs::create_dir_all(port.join("tty/ttyAMA0")).unwrap();
+    for (dir, driver) in [
+        (port.clone(), "bus/serial-base/drivers/port"),
+        (
+            pl011.join("fe201000.serial:0"),
+            "bus/serial-base/drivers/ctrl",
+        ),
+        (pl011.clone(), "bus/amba/drivers/uart-pl011"),
+    ] {
+        std::fs::create_dir_all(sys.0.join(driver)).unwrap();
+        std::os::unix::fs::symlink(sys.0.join(driver), dir.join("driver")).unwrap();
+    }
+    std::os::unix::fs::symlink(&port, port.join("tty/ttyAMA0/device")).unwrap();
+    std::os::unix::fs::symlink(port.join("tty/ttyAMA0"), sys.0.join("class/tty/ttyAMA0")).unwrap();
+    assert_eq!(
+        probe(&root, &named("ttyAMA0")),
+        Probe::None(NoTimer::Driver("uart-pl011".into()))
+    );
     assert_eq!(probe(&root, &TtyNode::Pty), Probe::None(NoTimer::Pty));
 }
 
