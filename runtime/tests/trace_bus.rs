@@ -208,3 +208,42 @@ fn on_the_real_clock_the_trace_comes_from_the_bus_threads_before_the_summary() {
     assert!(writes("01") >= 1 && writes("02") >= 1, "{stdout}");
     assert!(trace.iter().any(|l| l.contains("RX  02 02 ")), "{stdout}");
 }
+
+#[test]
+fn a_wrong_echo_is_in_the_trace_after_its_request() {
+    // The quick start on an adapter that hears itself (`echo: discard`), one echo corrupted.
+    let path = quickstart();
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("    retries: 1\n", "    retries: 1\n    echo: discard\n");
+    let project = softplc::project::parse_str(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let probe = Plc::build(project.clone(), clock).expect("builds");
+    let world = probe.world().unwrap().clone();
+    drop(probe);
+    world.lock().unwrap().corrupt_next_echoes(0, 1);
+    let clock = Arc::new(VirtualClock::new());
+    clock.advance_to(world.lock().unwrap().now());
+    let tap = Arc::new(Recorder::default());
+    let plc = Plc::build_traced(project, clock, Some(world), Some(tap.clone() as _))
+        .expect("a bad echo does not stop the start");
+    drop(plc);
+    let trace = tap.0.lock().unwrap().clone();
+    let all = trace.join("\n");
+    let echo = trace
+        .iter()
+        .position(|l| l.contains("--  echo differs from the request at byte"))
+        .unwrap_or_else(|| panic!("{all}"));
+    assert!(
+        trace[echo - 1].contains("  TX  01 01 00 A0 00 01 FD E8  "),
+        "{all}"
+    );
+    // Retried, and answered.
+    assert!(
+        trace[echo + 1..]
+            .iter()
+            .take(3)
+            .any(|l| l.contains("  RX  01 01 ")),
+        "{all}"
+    );
+}

@@ -897,6 +897,7 @@ impl BusOwner {
             Ok(()) => {}
             // Sent, but its echo came back wrong: the guard and flush as after a bad reply.
             Err(LineError::Echo(fault)) => {
+                self.trace(started, WireEvent::Sent(&self.tx_buf));
                 let now = self.transport.now();
                 done.sent = Some(now);
                 self.rx_buf.clear();

@@ -9,6 +9,7 @@ use std::fmt::{self, Write as _};
 use std::time::Duration;
 
 use super::decode::{decode_reply, decode_request};
+use crate::line::echo::EchoFault;
 use super::Shown;
 
 /// Where the bus owner reports its traffic.
@@ -36,6 +37,9 @@ pub enum WireEvent<'a> {
         /// The response timeout waited.
         waited: Duration,
     },
+    /// The request's echo was wrong or missing, or came back as the reply (`echo:` of the
+    /// bus, `line/echo.rs`).
+    Echo(EchoFault),
     /// Bytes the bus owner dropped.
     Discarded {
         /// How many.
@@ -94,6 +98,7 @@ pub fn format_event(bus: &str, at: Duration, event: &WireEvent<'_>) -> String {
         WireEvent::Timeout { waited } => {
             write!(line, "--  timeout: no reply within {}", LineTime(*waited))
         }
+        WireEvent::Echo(fault) => write!(line, "--  {fault}"),
         WireEvent::Discarded { count, why } => {
             let why = match why {
                 Discard::BeforeRequest => "arrived while the line was idle",

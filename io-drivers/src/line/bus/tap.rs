@@ -49,7 +49,13 @@ impl BusOwner {
             Miss::Silence => self.trace(at, WireEvent::Timeout { waited: wait }),
             Miss::Cut => self.trace_reply(at, &self.rx_buf, Verdict::Cut),
             Miss::Encode | Miss::Line(_) => {}
-            _ => self.trace_reply(at, &self.rx_buf, Verdict::Refused),
+            Miss::Echo(fault) => {
+                if !self.rx_buf.is_empty() {
+                    self.trace_reply(at, &self.rx_buf, Verdict::Refused);
+                }
+                self.trace(at, WireEvent::Echo(*fault));
+            }
+            Miss::Bad(_) => self.trace_reply(at, &self.rx_buf, Verdict::Refused),
         }
     }
 }
