@@ -9,8 +9,8 @@ use std::fmt::{self, Write as _};
 use std::time::Duration;
 
 use super::decode::{decode_reply, decode_request};
-use crate::line::echo::EchoFault;
 use super::Shown;
+use crate::line::echo::EchoFault;
 
 /// Where the bus owner reports its traffic.
 pub trait WireTap: Send + Sync + fmt::Debug {
