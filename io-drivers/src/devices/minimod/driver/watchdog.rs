@@ -30,6 +30,16 @@
 //! same bus or device" ("Process control and data acquisition by a PC/PLC"). The commands are
 //! always addressed (`@5`), so no other MiniMod acts on them.
 //!
+//! One neighbour can hear them: an EX-9053 in DCON mode reads the two characters after `@` as
+//! its hexadecimal address (`@AA`, "Read Digital Input Status"), and answers a command it does
+//! not know with `?AA` ("Invalid Command"). A MiniMod at 1..=9 is safe (`@5>` is no DCON
+//! address); one at 10..=99 is heard by the EX-9053 whose DCON address has the same digits
+//! (MiniMod 18 and DCON `18`, project address 24), one at 100..=247 by the one named by its
+//! first two digits (MiniMod 123 and DCON `12`). Their two answers then collide and the
+//! MiniMod's start-up fails, loudly (its read-back never comes; the module is lost and
+//! retried), never silently unarmed. Give such a pair other addresses; a text-protocol
+//! MiniMod has the same constraint on every command.
+//!
 //! A read-back that differs stops the start ([`DecodeError::Mismatch`] with the register's
 //! name), after an error log that names the module, the register and both readings; a module
 //! that does not answer is lost, retried, and armed when it answers. The watchdog is never
