@@ -36,9 +36,9 @@
 //! address); one at 10..=99 is heard by the EX-9053 whose DCON address has the same digits
 //! (MiniMod 18 and DCON `18`, project address 24), one at 100..=247 by the one named by its
 //! first two digits (MiniMod 123 and DCON `12`). Their two answers then collide and the
-//! MiniMod's start-up fails, loudly (its read-back never comes; the module is lost and
-//! retried), never silently unarmed. Give such a pair other addresses; a text-protocol
-//! MiniMod has the same constraint on every command.
+//! MiniMod's start-up fails loudly (a garbled answer stops the start naming the module, or
+//! none comes and the module is lost and retried), never silently unarmed. Give such a pair
+//! other addresses; a text-protocol MiniMod has the same constraint on every command.
 //!
 //! A read-back that differs stops the start ([`DecodeError::Mismatch`] with the register's
 //! name), after an error log that names the module, the register and both readings; a module
