@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::*;
-use crate::devices::{self, DeviceConfig, Protocol};
+use crate::devices::{self, Protocol};
 use crate::line::bus::{BusOwner, Discipline, Module, TxError};
 use crate::point::Quality;
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
@@ -21,15 +21,21 @@ fn world(echo: bool) -> SharedWorld {
     world.shared()
 }
 
-/// A bus owner for the MiniMod on `world`, discarding echoes or not; started up.
+/// A bus owner for the MiniMod on `world` (Modbus RTU), discarding echoes or not; started up.
 fn owner(world: &SharedWorld, discard: bool, clock: &Arc<VirtualClock>) -> BusOwner {
+    owner_speaking(world, discard, clock, Protocol::Modbus)
+}
+
+/// [`owner`], in `protocol`.
+fn owner_speaking(
+    world: &SharedWorld,
+    discard: bool,
+    clock: &Arc<VirtualClock>,
+    protocol: Protocol,
+) -> BusOwner {
     let model = devices::model("minimod").unwrap();
-    let driver = (model.driver)(&DeviceConfig {
-        name: "mm".into(),
-        address: 5,
-        protocol: Protocol::Modbus,
-        settings: Vec::new(),
-    });
+    let config = model.device_config("mm", 5, protocol, &[]).unwrap();
+    let driver = (model.driver)(&config);
     let port: Box<dyn Transport> =
         Box::new(VirtualPort::new(world.clone(), 0, LINE, clock.clone()));
     let port: Box<dyn Transport> = if discard {
@@ -173,4 +179,28 @@ fn verify_compares_byte_for_byte() {
     ));
     assert_eq!("discard".parse::<EchoMode>(), Ok(EchoMode::Discard));
     assert_eq!("on".parse::<EchoMode>(), Err(BadEchoMode));
+}
+
+#[test]
+fn the_text_protocol_reads_its_echo_back_too_and_names_it_without_discard() {
+    // A MiniMod spoken to in its text protocol: every command line comes back before the reply.
+    let clock = Arc::new(VirtualClock::new());
+    let heard = world(true);
+    heard
+        .lock()
+        .unwrap()
+        .set(0, "X1", crate::point::Value::Bool(true))
+        .unwrap();
+    let mut owner = owner_speaking(&heard, true, &clock, Protocol::Text);
+    let m = cycles(&mut owner, &clock, 5);
+    assert_eq!(m.quality, Quality::Good, "{:?}", m.last_error);
+    assert_eq!(m.counters.errors(), 0, "{:?}", m.counters);
+    assert_eq!(m.values[0], Some(crate::point::Value::Bool(true)));
+
+    // Without echo: discard the command line itself would be taken for the answer.
+    let clock = Arc::new(VirtualClock::new());
+    let echoing = world(true);
+    let mut owner = owner_speaking(&echoing, false, &clock, Protocol::Text);
+    let m = cycles(&mut owner, &clock, 2);
+    assert_eq!(m.last_error, Some(TxError::Echo(EchoFault::Unexpected)));
 }
