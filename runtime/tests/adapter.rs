@@ -14,7 +14,14 @@ use sim::Sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
-/// A tempdir with a follow-the-button project on `port`, `bus_extra` added to its bus.
+/// The follow-the-button project on `port`, `bus_extra` added to its bus (`fixtures/adapter`).
+fn project(port: &str, bus_extra: &str) -> String {
+    include_str!("fixtures/adapter/project.yaml")
+        .replace("{port}", port)
+        .replace("{bus_extra}", bus_extra)
+}
+
+/// A tempdir with [`project`] in it.
 struct Project(PathBuf);
 
 impl Project {
@@ -24,18 +31,7 @@ impl Project {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
-        std::fs::write(
-            dir.join("project.yaml"),
-            format!(
-                "project: adapter\n\
-                 scan: {{ period: 50ms }}\n\
-                 buses:\n  - {{ name: line1, port: {port}{bus_extra} }}\n\
-                 modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n\
-                 tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: lamp, point: mm1.Y1, safe: false }}\n\
-                 program: {{ file: follow.expr, kind: expr }}\n"
-            ),
-        )
-        .unwrap();
+        std::fs::write(dir.join("project.yaml"), project(port, bus_extra)).unwrap();
         Self(dir)
     }
 

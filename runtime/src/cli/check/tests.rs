@@ -16,18 +16,13 @@ impl Fixture {
         std::fs::create_dir_all(&attr).unwrap();
         std::fs::write(attr.join("latency_timer"), ms).unwrap();
         std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
-        std::fs::write(
-            dir.join("project.yaml"),
-            format!(
-                "project: adapter\n\
-                 scan: {{ period: 50ms }}\n\
-                 buses:\n  - {{ name: line1, port: {port}{bus_extra} }}\n\
-                 modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1, watchdog: off }}\n\
-                 tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: lamp, point: mm1.Y1, safe: false }}\n\
-                 program: {{ file: follow.expr, kind: expr }}\n"
-            ),
-        )
-        .unwrap();
+        // The project the end-to-end adapter tests run, its module's watchdog off here (the
+        // budget lines are the same; its start-up settings would only add output).
+        let project = include_str!("../../../tests/fixtures/adapter/project.yaml")
+            .replace("{port}", port)
+            .replace("{bus_extra}", bus_extra)
+            .replace("address: 1 }", "address: 1, watchdog: off }");
+        std::fs::write(dir.join("project.yaml"), project).unwrap();
         Self(dir)
     }
 
