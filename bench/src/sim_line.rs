@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use softplc_io::devices::minimod::{self, map, MiniModSim};
-use softplc_io::devices::{DeviceConfig, ModelSpec, Protocol};
+use softplc_io::devices::{ModelSpec, Protocol};
 use softplc_io::driver::{Driver, Outgoing, Transaction};
 use softplc_io::line::budget::{line_budget, modbus_reply_len, transaction_time, LineBudget};
 use softplc_io::line::bus::{BusOwner, Discipline, Module, OutputFrame};
@@ -39,16 +39,16 @@ pub fn driver(address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
 
 /// A Modbus driver of catalog `model` at `address` with the project file's `settings`.
 pub fn model_driver(model: &ModelSpec, address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
-    let config = DeviceConfig {
-        name: format!("{}{address}", model.name),
+    match model.device_config(
+        &format!("{}{address}", model.name),
         address,
-        protocol: Protocol::Modbus,
-        settings: settings
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect(),
-    };
-    (model.driver)(&config)
+        Protocol::Modbus,
+        settings,
+    ) {
+        Ok(config) => (model.driver)(&config),
+        // The callers check the settings first (`minimods`) or pass none.
+        Err(e) => panic!("{}: {e}", model.name),
+    }
 }
 
 /// `n` MiniMods at addresses 1..=n with the same `settings` (project-file keys and values, e.g.
@@ -59,9 +59,9 @@ pub fn minimods(
     settings: &[(&str, &str)],
     clock: Arc<dyn Clock>,
 ) -> anyhow::Result<MiniModLine> {
-    for (k, v) in settings {
-        (minimod::MODEL.check_setting)(k, v).map_err(|e| anyhow::anyhow!("{k}: {e}"))?;
-    }
+    minimod::MODEL
+        .device_config("mm1", 1, Protocol::Modbus, settings)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut world = SimWorld::new(vec![line]);
     let mut modules = Vec::with_capacity(usize::from(n));
     let mut budget_drivers: Vec<(String, Box<dyn Driver>, Vec<Access>)> = Vec::new();

@@ -79,7 +79,8 @@ fn run(project: Project, cycles: u64) -> (Plc, Arc<VirtualClock>) {
 /// As [`run`], on a simulated MiniMod that keeps WDTTIME/WDTYMASK where `registers` says.
 fn run_on(registers: WatchdogRegisters, project: Project, cycles: u64) -> (Plc, Arc<VirtualClock>) {
     let mut world = SimWorld::new(project.buses.iter().map(|b| b.settings).collect());
-    let mm1 = MiniModSim::with_watchdog_registers(project.modules[0].device.address, registers);
+    let mm1 =
+        MiniModSim::with_watchdog_registers(project.modules[0].device.address.get(), registers);
     world.add_device(project.modules[0].bus, "mm1", Box::new(mm1));
     let clock = Arc::new(VirtualClock::new());
     let mut plc = Plc::build_on(project, clock.clone(), Some(world.shared()))

@@ -1,6 +1,6 @@
 //! The real MiniMod driver, built the way a project builds it, and its points by name.
 
-use softplc_io::devices::{self, DeviceConfig, ModelSpec, Protocol};
+use softplc_io::devices::{self, ModelSpec, Protocol};
 use softplc_io::driver::Driver;
 use softplc_io::point::Value;
 
@@ -11,12 +11,9 @@ pub fn model() -> &'static ModelSpec {
 
 /// A MiniMod driver at `address` with default settings, through the catalog's constructor.
 pub fn driver(name: &str, address: u8) -> Box<dyn Driver> {
-    let config = DeviceConfig {
-        name: name.to_string(),
-        address,
-        protocol: Protocol::Modbus,
-        settings: Vec::new(),
-    };
+    let config = model()
+        .device_config(name, address, Protocol::Modbus, &[])
+        .expect("a MiniMod address");
     (model().driver)(&config)
 }
 

@@ -8,7 +8,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use softplc_io::devices::{self, DeviceConfig, Protocol};
+use softplc_io::devices::{self, Protocol};
 use softplc_io::line::bus::{BusCommand, BusOwner, BusThread, Discipline, Module, OutputFrame};
 use softplc_io::line::link::LineLink;
 use softplc_io::line::settings::LineSettings;
@@ -46,12 +46,10 @@ fn rig(response_timeout: Duration) -> Rig {
     let modules = [1u8, 2]
         .iter()
         .map(|&a| {
-            let driver = (model.driver)(&DeviceConfig {
-                name: format!("mm{a}"),
-                address: a,
-                protocol: Protocol::Modbus,
-                settings: Vec::new(),
-            });
+            let config = model
+                .device_config(&format!("mm{a}"), a, Protocol::Modbus, &[])
+                .unwrap();
+            let driver = (model.driver)(&config);
             Module::new(format!("mm{a}"), driver)
         })
         .collect();
@@ -252,12 +250,10 @@ impl Transport for Stuck {
 
 fn stuck_owner(clock: Arc<dyn Clock>) -> BusOwner {
     let model = devices::model("minimod").unwrap();
-    let driver = (model.driver)(&DeviceConfig {
-        name: "mm1".into(),
-        address: 1,
-        protocol: Protocol::Modbus,
-        settings: Vec::new(),
-    });
+    let config = model
+        .device_config("mm1", 1, Protocol::Modbus, &[])
+        .unwrap();
+    let driver = (model.driver)(&config);
     BusOwner::new(
         "stuck",
         Box::new(Stuck {

@@ -13,7 +13,7 @@ use std::time::Duration;
 use proptest::collection::vec;
 use proptest::prelude::*;
 use softplc::service::modbus_guard;
-use softplc_io::devices::{catalog, DeviceConfig, ModelSpec};
+use softplc_io::devices::{catalog, ModelSpec};
 use softplc_io::driver::{Outgoing, Reply};
 use softplc_io::modbus::crc::{append_crc, check_crc};
 use softplc_io::modbus::master::{Progress, ReplyAssembler};
@@ -214,12 +214,10 @@ proptest! {
         let models = models();
         let model = models[model_ix % models.len()];
         let protocol = model.protocols[protocol_ix % model.protocols.len()];
-        let mut driver = (model.driver)(&DeviceConfig {
-            name: "m".into(),
-            address: *model.addresses.start(),
-            protocol,
-            settings: Vec::new(),
-        });
+        let config = model
+            .device_config("m", *model.addresses.start(), protocol, &[])
+            .unwrap();
+        let mut driver = (model.driver)(&config);
         let mut plan = Vec::new();
         driver.plan_startup(&mut plan);
         driver.plan_read(&mut plan);

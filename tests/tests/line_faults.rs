@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use softplc_io::devices::{self, DeviceConfig, Protocol};
+use softplc_io::devices::{self, Protocol};
 use softplc_io::line::bus::{BusOwner, Counters, Discipline, Module};
 use softplc_io::line::LineSettings;
 use softplc_io::point::{Quality, Value};
@@ -30,12 +30,10 @@ fn rig(retries: u8) -> Rig {
     let world = world.shared();
     let clock = Arc::new(VirtualClock::new());
     let port = VirtualPort::new(world.clone(), 0, settings, clock.clone());
-    let driver = (model.driver)(&DeviceConfig {
-        name: "mm5".into(),
-        address: 5,
-        protocol: Protocol::Modbus,
-        settings: Vec::new(),
-    });
+    let config = model
+        .device_config("mm5", 5, Protocol::Modbus, &[])
+        .unwrap();
+    let driver = (model.driver)(&config);
     let discipline = Discipline {
         response_timeout: Duration::from_millis(50),
         retries,

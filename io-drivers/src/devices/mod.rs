@@ -1,6 +1,7 @@
 //! Module families: one folder each, with register map, driver and simulator, and the catalog
 //! that names them for project files and `softplc sim`.
 
+mod config;
 pub mod ex9053;
 pub mod minimod;
 pub mod resi;
@@ -10,6 +11,11 @@ use std::time::Duration;
 use crate::driver::Driver;
 use crate::point::PointSpec;
 use crate::sim::SimDevice;
+
+pub use config::{
+    Accepted, AddressError, ConfigError, DeviceConfig, KeyError, ModuleAddress, ModuleSettings,
+    ParseSettings, PushDown, Range, SettingError,
+};
 
 /// How a driver talks to its module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -28,20 +34,6 @@ impl Protocol {
             Protocol::Text => "text",
         }
     }
-}
-
-/// What a driver is built from: the validated module entry of a project file.
-#[derive(Debug, Clone)]
-pub struct DeviceConfig {
-    /// The module's name in the project (`mm1`).
-    pub name: String,
-    /// Unit / text address.
-    pub address: u8,
-    /// Protocol chosen for this module.
-    pub protocol: Protocol,
-    /// Model-specific settings from the project file, as `(key, value)` text, checked by
-    /// [`ModelSpec::check_setting`] before the first scan.
-    pub settings: Vec<(String, String)>,
 }
 
 /// A module model in the catalog.
@@ -65,8 +57,9 @@ pub struct ModelSpec {
     pub driver: fn(&DeviceConfig) -> Box<dyn Driver>,
     /// Builds a simulator at a unit address.
     pub simulator: fn(u8) -> Box<dyn SimDevice>,
-    /// Checks one model-specific setting; the error says what is accepted.
-    pub check_setting: fn(&str, &str) -> Result<(), String>,
+    /// Parses a module entry's `settings` (key, value as written, in file order) into the
+    /// model's typed settings, once; every refused setting comes back with its index.
+    pub parse_settings: ParseSettings,
 }
 
 impl ModelSpec {

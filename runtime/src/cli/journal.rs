@@ -81,7 +81,7 @@ pub(crate) fn set_context(project: &crate::project::Project) {
                 .get(m.bus)
                 .map(|b| b.name.clone())
                 .unwrap_or_default();
-            (bus, m.device.address, m.name.clone())
+            (bus, m.device.address.get(), m.name.clone())
         })
         .collect();
     let _ = CONTEXT.set(LogContext {

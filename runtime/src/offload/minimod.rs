@@ -23,22 +23,19 @@
 
 use std::time::Duration;
 
+use softplc_io::devices::minimod::push_down::{CONDITIONS, MAX_PULSE_MS};
+use softplc_io::devices::minimod::{AutoOutput, Condition, Output, PulseWidth};
 use softplc_io::devices::Protocol;
 
 use super::ir::{BoolExpr, RungShape};
 use super::minimize::{minimize, Cube};
-use super::planner::{Command, Feature, ModulePlacement, Reason, Site, TableEntry};
+use super::planner::{Command, Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
 use crate::image::TagId;
-use crate::project::ModuleConfig;
 
 /// The model's catalog name.
 pub const MODEL: &str = "minimod";
 /// The module's sampling tick ("Input conditioning": inputs are sampled once a millisecond).
 pub const TICK: Duration = Duration::from_millis(1);
-/// Longest pulse ("Pulse generation": 1 to 65000 ms).
-pub const MAX_PULSE_MS: u16 = 65000;
-/// Conditions per output and direction.
-pub const CONDITIONS: usize = 3;
 /// What the module's conditions can check.
 const CHECKS: &str = "only X1..X3";
 
@@ -52,7 +49,7 @@ enum Action {
 
 /// Maps a rung writing a MiniMod output, or says why it stays central.
 pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Reason> {
-    let y = output_number(site.coil_point().name).ok_or(Reason::Unsupported {
+    let y = Output::named(site.coil_point().name).ok_or(Reason::Unsupported {
         why: "the MiniMod's logic drives its outputs Y1..Y4 only",
     })?;
     match shape {
@@ -100,17 +97,6 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
     }
 }
 
-/// `Y3` → 3.
-fn output_number(name: &str) -> Option<u8> {
-    match name {
-        "Y1" => Some(1),
-        "Y2" => Some(2),
-        "Y3" => Some(3),
-        "Y4" => Some(4),
-        _ => None,
-    }
-}
-
 /// Each condition tag and its input bit (X1 = 0), or why a tag cannot be checked.
 fn bits_of(site: &Site, exprs: &[&BoolExpr]) -> Result<Vec<(TagId, u8)>, Reason> {
     let mut out = Vec::new();
@@ -150,33 +136,18 @@ fn actions(mut f: impl FnMut(u8) -> Action) -> [Action; 8] {
     out
 }
 
-/// The condition mask of a product term ("Automatic output management": low byte = inputs
+/// The condition of a product term ("Automatic output management": low byte = inputs
 /// checked, high byte = inputs inverted before the check).
-pub fn mask(cube: Cube) -> u16 {
-    u16::from(cube.care) | (u16::from(cube.care & !cube.value) << 8)
-}
-
-/// The manual's text form of a mask (`X1-X3`).
-pub fn condition_text(mask: u16) -> String {
-    let [check, invert] = mask.to_le_bytes();
-    let mut s = String::new();
-    for i in 0..3 {
-        if check & (1 << i) != 0 {
-            if invert & (1 << i) != 0 {
-                s.push('-');
-            }
-            s.push_str(&format!("X{}", i + 1));
-        }
-    }
-    s
+fn condition(cube: Cube) -> Condition {
+    Condition::product(cube.care, cube.value)
 }
 
 /// The masks of a minimal cover. A mask with no input checked is never true, so the constant
 /// true (the empty product) is written as one literal that covers `on` within `allowed`, or as
 /// `X1` and `-X1`.
-fn masks(cover: &[Cube], on: u8, allowed: u8) -> Vec<u16> {
+fn masks(cover: &[Cube], on: u8, allowed: u8) -> Vec<Condition> {
     if cover != [Cube { care: 0, value: 0 }] {
-        return cover.iter().map(|&c| mask(c)).collect();
+        return cover.iter().map(|&c| condition(c)).collect();
     }
     for bit in 0..3u8 {
         for value in [1u8 << bit, 0] {
@@ -186,18 +157,18 @@ fn masks(cover: &[Cube], on: u8, allowed: u8) -> Vec<u16> {
             };
             let covered = c.minterms(3);
             if covered & on == on && covered & !allowed == 0 {
-                return vec![mask(c)];
+                return vec![condition(c)];
             }
         }
     }
     vec![
-        mask(Cube { care: 1, value: 1 }),
-        mask(Cube { care: 1, value: 0 }),
+        condition(Cube { care: 1, value: 1 }),
+        condition(Cube { care: 1, value: 0 }),
     ]
 }
 
 /// AON/AOFF tables for an action table.
-fn auto_on_off(site: &Site, y: u8, table: &[Action; 8]) -> Result<ModulePlacement, Reason> {
+fn auto_on_off(site: &Site, y: Output, table: &[Action; 8]) -> Result<ModulePlacement, Reason> {
     if site.config().device.protocol == Protocol::Text {
         return Err(Reason::NotVerifiable {
             why: "on protocol text the MiniMod's driver cannot read the conditions back (the \
@@ -222,31 +193,38 @@ fn auto_on_off(site: &Site, y: u8, table: &[Action; 8]) -> Result<ModulePlacemen
             off: off_masks.len(),
         });
     }
+    let pick = |list: &[Condition]| {
+        let mut out = [Condition::UNUSED; CONDITIONS];
+        for (slot, c) in out.iter_mut().zip(list) {
+            *slot = *c;
+        }
+        out
+    };
+    let auto = AutoOutput {
+        output: y,
+        on: pick(&on_masks),
+        off: pick(&off_masks),
+    };
     let mut tables = Vec::with_capacity(2 * CONDITIONS);
-    for (kind, list) in [("AON", &on_masks), ("AOFF", &off_masks)] {
-        for k in 0..CONDITIONS {
-            let value = list.get(k).copied().unwrap_or(0);
-            let register = format!("Y{y}{kind}{}", k + 1);
-            if site.setting_taken(&register) {
-                return Err(Reason::SettingTaken { register });
-            }
-            tables.push(TableEntry {
-                register,
-                value: u32::from(value),
-                mask: true,
-                meaning: if value == 0 {
-                    "unused".into()
-                } else {
-                    condition_text(value)
-                },
+    for (register, c) in auto.registers() {
+        if site.setting_taken(register) {
+            return Err(Reason::SettingTaken {
+                register: register.into(),
             });
         }
+        tables.push(TableEntry {
+            register,
+            value: u32::from(c.mask()),
+            mask: true,
+            meaning: c.to_string(),
+        });
     }
     Ok(ModulePlacement {
         module: site.module,
         point: site.point,
         feature: Feature::AutoOnOff,
         tables,
+        pushed: Pushed::MiniMod(auto),
         command: None,
         tick: TICK,
         // The planner sets it from the rung's shape (`planner::initial`).
@@ -257,7 +235,7 @@ fn auto_on_off(site: &Site, y: u8, table: &[Action; 8]) -> Result<ModulePlacemen
 /// YPULSEn on the trigger's edge.
 fn pulse(
     site: &Site,
-    y: u8,
+    y: Output,
     trigger: &[BoolExpr],
     width: Duration,
 ) -> Result<ModulePlacement, Reason> {
@@ -265,7 +243,8 @@ fn pulse(
     let ms = (width.subsec_nanos() % 1_000_000 == 0)
         .then(|| u16::try_from(width.as_millis()).ok())
         .flatten()
-        .filter(|ms| (1..=MAX_PULSE_MS).contains(ms))
+        .filter(|ms| *ms <= MAX_PULSE_MS)
+        .and_then(PulseWidth::from_ms)
         .ok_or(Reason::Time { time: width, takes })?;
     for e in trigger {
         if let Some(tag) = e.tags().into_iter().find(|t| site.later.contains(t)) {
@@ -274,11 +253,10 @@ fn pulse(
             });
         }
     }
-    let name = format!("YPULSE{y}");
     let point = site
         .config()
         .model
-        .point_index(&name)
+        .point_index(&format!("YPULSE{}", y.number()))
         .ok_or(Reason::Unsupported {
             why: "the model has no pulser register",
         })?;
@@ -287,6 +265,7 @@ fn pulse(
         point: site.point,
         feature: Feature::Pulser,
         tables: Vec::new(),
+        pushed: Pushed::Nothing,
         command: Some(Command::Pulse {
             point,
             trigger: trigger.to_vec(),
@@ -299,48 +278,10 @@ fn pulse(
     })
 }
 
-/// Settings a MiniMod with pushed-down rungs needs besides the tables: the read-back of
-/// Y1..Y4 every cycle (so the image shows what the conditions did), unless the project set
-/// its own; in event mode, YEVMASK for the outputs the conditions drive.
-pub(crate) fn module_settings(
-    module: &ModuleConfig,
-    placements: &[&ModulePlacement],
-) -> Vec<(String, String)> {
-    let has = |key: &str| {
-        module
-            .device
-            .settings
-            .iter()
-            .any(|(k, _)| k.eq_ignore_ascii_case(key))
-    };
-    let auto: Vec<&&ModulePlacement> = placements
-        .iter()
-        .filter(|p| p.feature == Feature::AutoOnOff)
-        .collect();
-    let mut out = Vec::new();
-    if auto.is_empty() {
-        return out;
-    }
-    if !has("readback") {
-        out.push(("readback".into(), "every".into()));
-    }
-    let events = module.device.settings.iter().any(|(k, v)| {
-        k.eq_ignore_ascii_case("events") && matches!(v.trim(), "true" | "on" | "yes")
-    });
-    if events && !has("YEVMASK") {
-        let ys = auto.iter().fold(0u16, |acc, p| {
-            let name = module.model.points.get(p.point).map_or("", |s| s.name);
-            acc | output_number(name).map_or(0, |n| 1 << (n - 1))
-        });
-        out.push(("YEVMASK".into(), ys.to_string()));
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use softplc_io::devices::minimod::map::{condition_holds, parse_condition};
+    use softplc_io::devices::minimod::map::parse_condition;
 
     #[test]
     fn masks_match_the_manual() {
@@ -349,23 +290,27 @@ mod tests {
             care: 0b011,
             value: 0b001,
         };
-        assert_eq!(mask(c), 0x0203);
-        assert_eq!(condition_text(0x0203), "X1-X2");
-        assert_eq!(parse_condition(&condition_text(0x0203)), Ok(0x0203));
+        assert_eq!(condition(c).mask(), 0x0203);
+        assert_eq!(condition(c).to_string(), "X1-X2");
+        assert_eq!(parse_condition(&condition(c).to_string()), Ok(0x0203));
         for m in 0..8u8 {
-            assert_eq!(condition_holds(mask(c), m), c.covers(m), "{m}");
+            assert_eq!(condition(c).holds(m), c.covers(m), "{m}");
         }
     }
 
     #[test]
     fn constant_true_needs_a_checked_input() {
+        let mask_of = |list: Vec<Condition>| list.iter().map(|c| c.mask()).collect::<Vec<_>>();
         let always = masks(&[Cube { care: 0, value: 0 }], 0xFF, 0xFF);
-        assert_eq!(always, vec![0x0001, 0x0101]);
+        assert_eq!(mask_of(always.clone()), vec![0x0001, 0x0101]);
         for m in 0..8u8 {
-            assert!(always.iter().any(|&k| condition_holds(k, m)));
+            assert!(always.iter().any(|k| k.holds(m)));
         }
         // ON = "not X2" with X2 a don't-care: one literal does.
         let on = 0b0011_0011;
-        assert_eq!(masks(&[Cube { care: 0, value: 0 }], on, 0xFF), vec![0x0202]);
+        assert_eq!(
+            mask_of(masks(&[Cube { care: 0, value: 0 }], on, 0xFF)),
+            vec![0x0202]
+        );
     }
 }

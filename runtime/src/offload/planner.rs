@@ -6,7 +6,9 @@ use std::collections::BTreeSet;
 use std::fmt;
 use std::time::Duration;
 
-use softplc_io::devices::DeviceConfig;
+use softplc_io::devices::minimod::{self as mm, PulseWidth};
+use softplc_io::devices::resi::{self as r};
+use softplc_io::devices::{DeviceConfig, ModuleSettings, PushDown};
 use softplc_io::point::{Access, PointSpec};
 
 use super::ir::{BoolExpr, Rung, RungShape};
@@ -19,8 +21,8 @@ use crate::project::{Binding, ModuleConfig, OffloadMode, Project};
 /// driver; cleared at stop unless the project keeps the tables).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct TableEntry {
-    /// The register's name in the model's settings (`Y1AON1`, `SWITCH_RO3`).
-    pub register: String,
+    /// The register's name in the model's map (`Y1AON1`, `SWITCH_RO3`).
+    pub register: &'static str,
     /// Its value.
     pub value: u32,
     /// A bit mask (shown in hex) rather than a number.
@@ -42,8 +44,8 @@ pub enum Command {
         trigger: Vec<BoolExpr>,
         /// Length.
         width: Duration,
-        /// The register value (ms).
-        width_ms: u16,
+        /// The register value.
+        width_ms: PulseWidth,
     },
 }
 
@@ -87,8 +89,10 @@ pub struct ModulePlacement {
     pub point: usize,
     /// The module feature.
     pub feature: Feature,
-    /// Registers written at start-up.
+    /// Registers written at start-up, for the report and the clear at stop.
     pub tables: Vec<TableEntry>,
+    /// The same tables as the driver takes them.
+    pub pushed: Pushed,
     /// What the scan writes at run time, if anything.
     pub command: Option<Command>,
     /// The module's own reaction: its tick (input conditioning comes on top, for the module
@@ -102,6 +106,17 @@ pub struct ModulePlacement {
     /// value, no pulse running. `None` for a combinational rung or a SWITCH: the module sets
     /// those from its inputs at once, as the first scan would.
     pub initial: Option<bool>,
+}
+
+/// A placement's tables as the module's driver takes them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pushed {
+    /// No table (a pulser is driven by the scan).
+    Nothing,
+    /// A MiniMod output's AON/AOFF conditions.
+    MiniMod(mm::AutoOutput),
+    /// A RESI-16DI8RO relay's logic row.
+    Resi(r::LogicRow),
 }
 
 /// Where a rung runs.
@@ -281,8 +296,8 @@ pub struct Conditioning {
     pub tag: String,
     /// Index into [`Project::modules`].
     pub module: usize,
-    /// The register and its value (ms).
-    pub entries: Vec<(String, u16)>,
+    /// The latencies it sets.
+    pub latency: mm::Latency,
 }
 
 /// A rung that must be pushed down and cannot.
@@ -306,8 +321,9 @@ pub struct Plan {
     pub silent_engine: Option<&'static str>,
     /// Input conditioning from tags.
     pub conditioning: Vec<Conditioning>,
-    /// Per module (project order): settings the plan adds (tables, read-back).
-    pub settings: Vec<Vec<(String, String)>>,
+    /// Per module (project order): what the plan hands its driver (tables, start values,
+    /// input conditioning).
+    pub push_down: Vec<PushDown>,
 }
 
 impl Plan {
@@ -348,7 +364,7 @@ impl Plan {
             .collect()
     }
 
-    /// The modules' driver configurations with the plan's settings appended.
+    /// The modules' driver configurations with the plan's push-down.
     pub fn device_configs(&self, project: &Project) -> Vec<DeviceConfig> {
         project
             .modules
@@ -356,8 +372,8 @@ impl Plan {
             .enumerate()
             .map(|(m, cfg)| {
                 let mut device = cfg.device_with_watchdog();
-                if let Some(extra) = self.settings.get(m) {
-                    device.settings.extend(extra.iter().cloned());
+                if let Some(push) = self.push_down.get(m) {
+                    device.push_down = push.clone();
                 }
                 device
             })
@@ -426,16 +442,13 @@ impl Site<'_> {
         }
     }
 
-    /// Whether the module's own settings already set `register` (names compared as the
-    /// drivers do: case-insensitive, spaces as underscores).
+    /// Whether the module's own settings already set `register` (the map's name).
     pub fn setting_taken(&self, register: &str) -> bool {
-        let norm = |s: &str| s.trim().to_ascii_uppercase().replace(' ', "_");
-        let want = norm(register);
-        self.config()
-            .device
-            .settings
-            .iter()
-            .any(|(k, _)| norm(k) == want)
+        match &self.config().device.settings {
+            ModuleSettings::MiniMod(s) => s.sets(register),
+            ModuleSettings::Resi(s) => s.sets(register),
+            ModuleSettings::Ex9053(_) => false,
+        }
     }
 }
 
@@ -443,13 +456,13 @@ impl Site<'_> {
 /// is its name (for the report).
 pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -> Plan {
     let mut plan = Plan {
-        settings: vec![Vec::new(); project.modules.len()],
+        push_down: vec![PushDown::None; project.modules.len()],
         ..Plan::default()
     };
     plan.conditioning = conditioning(project);
     for c in &plan.conditioning {
-        if let Some(s) = plan.settings.get_mut(c.module) {
-            s.extend(c.entries.iter().map(|(r, v)| (r.clone(), v.to_string())));
+        if let Some(PushDown::MiniMod(push)) = minimod_push(&mut plan.push_down, c.module) {
+            push.latencies.push(c.latency);
         }
     }
     let Some(rungs) = rungs else {
@@ -498,41 +511,62 @@ pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -
     }
     let pushed: Vec<ModulePlacement> = plan.pushed().map(|(_, p)| p.clone()).collect();
     for p in &pushed {
-        if let Some(s) = plan.settings.get_mut(p.module) {
-            s.extend(
-                p.tables
-                    .iter()
-                    .map(|t| (t.register.clone(), t.value.to_string())),
-            );
-            if let (Some(on), Some(point)) = (
-                p.initial,
-                project.modules[p.module].model.points.get(p.point),
-            ) {
-                s.push((initial_key(point.name), u8::from(on).to_string()));
+        let point = project.modules[p.module].model.points.get(p.point);
+        match p.pushed {
+            Pushed::MiniMod(auto) => {
+                if let Some(PushDown::MiniMod(push)) = minimod_push(&mut plan.push_down, p.module) {
+                    push.auto.push(auto);
+                }
             }
+            Pushed::Resi(row) => {
+                if let Some(PushDown::Resi(table)) = resi_push(&mut plan.push_down, p.module) {
+                    table.rows.push(row);
+                }
+            }
+            Pushed::Nothing => {}
         }
-    }
-    for (m, module) in project.modules.iter().enumerate() {
-        let mine: Vec<&ModulePlacement> = pushed.iter().filter(|p| p.module == m).collect();
-        if mine.is_empty() {
+        let Some((on, point)) = p.initial.zip(point) else {
             continue;
-        }
-        let extra = match module.model.name {
-            minimod::MODEL => minimod::module_settings(module, &mine),
-            resi::MODEL => resi::module_settings(module, &mine),
-            _ => Vec::new(),
         };
-        if let Some(s) = plan.settings.get_mut(m) {
-            s.extend(extra);
+        match project.modules[p.module].model.name {
+            minimod::MODEL => {
+                let y = mm::Output::named(point.name);
+                if let (Some(PushDown::MiniMod(push)), Some(y)) =
+                    (minimod_push(&mut plan.push_down, p.module), y)
+                {
+                    push.initial.push((y, on));
+                }
+            }
+            resi::MODEL => {
+                let relay = r::Relay::named(point.name);
+                if let (Some(PushDown::Resi(table)), Some(relay)) =
+                    (resi_push(&mut plan.push_down, p.module), relay)
+                {
+                    table.initial.push((relay, on));
+                }
+            }
+            _ => {}
         }
     }
     plan
 }
 
-/// The setting that carries an output's start value to its driver (`initial_Y2`,
-/// `initial_RO4`): written after the module's old tables are cleared, before the new ones.
-pub fn initial_key(point: &str) -> String {
-    format!("initial_{point}")
+/// The MiniMod push-down of module `m`, made when it is the first.
+fn minimod_push(push: &mut [PushDown], m: usize) -> Option<&mut PushDown> {
+    let slot = push.get_mut(m)?;
+    if *slot == PushDown::None {
+        *slot = PushDown::MiniMod(mm::PushDown::default());
+    }
+    Some(slot)
+}
+
+/// The RESI logic table of module `m`, made when it is the first.
+fn resi_push(push: &mut [PushDown], m: usize) -> Option<&mut PushDown> {
+    let slot = push.get_mut(m)?;
+    if *slot == PushDown::None {
+        *slot = PushDown::Resi(r::LogicTable::default());
+    }
+    Some(slot)
 }
 
 /// The start value of a pushed-down output whose rung keeps a state (see
@@ -622,21 +656,22 @@ fn conditioning(project: &Project) -> Vec<Conditioning> {
         let Binding::Point { module, point } = tag.binding else {
             continue;
         };
-        let spec = &project.modules[module].model.points[point];
-        let Some((up, dn)) = crate::project::offload::latency_registers(spec.name) else {
+        let cfg = &project.modules[module];
+        let spec = &cfg.model.points[point];
+        let Some(input) = mm::Input::named(spec.name).filter(|_| cfg.model.name == minimod::MODEL)
+        else {
             continue;
         };
-        let mut entries = Vec::new();
-        if let Some(d) = opts.debounce {
-            entries.push((up, d));
-            entries.push((dn.clone(), opts.stretch.unwrap_or(d)));
-        } else if let Some(s) = opts.stretch {
-            entries.push((dn, s));
-        }
+        // debounce: both edges (stretch, when also given, sets the falling one).
+        let latency = mm::Latency {
+            input,
+            rising: opts.debounce,
+            falling: opts.stretch.or(opts.debounce),
+        };
         out.push(Conditioning {
             tag: tag.name.clone(),
             module,
-            entries,
+            latency,
         });
     }
     out

@@ -12,6 +12,8 @@ use std::time::Duration;
 
 use softplc_io::line::budget::{line_budget, LineBudget};
 
+use softplc_io::devices::{ModuleSettings, PushDown};
+
 use super::planner::{Command, Feature, ModulePlacement, Placement, Plan, RungPlan};
 use crate::project::{Binding, ModuleConfig, OnStop, Project};
 use crate::scan::fmt_duration;
@@ -114,11 +116,19 @@ pub fn report(project: &Project, plan: &Plan) -> String {
         }
     }
     if !plan.rungs.is_empty() {
-        let _ = writeln!(out, "  {pushed} rung(s) in modules, {kept} central");
+        // The planner works per coil (every bool tag the program drives, however many rungs
+        // drive it), so the count is of coils: a count of "rungs" here read as if rungs of
+        // the program had gone missing.
+        let _ = writeln!(
+            out,
+            "  {} coil(s) planned: {pushed} in modules, {kept} central (rungs that drive no bool tag, such as arithmetic, always run central)",
+            pushed + kept
+        );
     }
     for c in &plan.conditioning {
         let regs: Vec<String> = c
-            .entries
+            .latency
+            .registers()
             .iter()
             .map(|(r, v)| format!("{r} = {v} ms"))
             .collect();
@@ -130,11 +140,11 @@ pub fn report(project: &Project, plan: &Plan) -> String {
             regs.join(", ")
         );
     }
-    for (m, extra) in plan.settings.iter().enumerate() {
-        if extra.is_empty() {
+    for (m, push) in plan.push_down.iter().enumerate() {
+        let list = push_down_settings(project, m, push);
+        if list.is_empty() {
             continue;
         }
-        let list: Vec<String> = extra.iter().map(|(k, v)| format!("{k}: {v}")).collect();
         let _ = writeln!(
             out,
             "  module {} settings added by the plan (registers written and verified at start-up): {}",
@@ -145,29 +155,73 @@ pub fn report(project: &Project, plan: &Plan) -> String {
     out
 }
 
+/// The start-up settings a module's driver adds for the plan, as `NAME: value` (what the
+/// driver writes: the tables, the start values, and what they need besides).
+pub(crate) fn push_down_settings(project: &Project, m: usize, push: &PushDown) -> Vec<String> {
+    use softplc_io::devices::minimod::Setting as MM;
+    use softplc_io::devices::resi::driver::settings::Setting as R;
+    use softplc_io::devices::resi::models::m16di8ro;
+    use softplc_io::devices::resi::value::Num;
+    let Some(module) = project.modules.get(m) else {
+        return Vec::new();
+    };
+    match (push, &module.device.settings) {
+        (PushDown::MiniMod(push), ModuleSettings::MiniMod(own)) => push
+            .settings(own)
+            .iter()
+            .filter_map(|s| match *s {
+                MM::Register { name, value, .. } => Some(format!("{name}: {value}")),
+                MM::Coils { name, bits, .. } => Some(format!("initial {name}: {bits}")),
+                MM::Readback(_) => Some("readback: every".into()),
+                _ => None,
+            })
+            .collect(),
+        (PushDown::Resi(table), ModuleSettings::Resi(own)) => table
+            .settings(&m16di8ro::MODEL, own)
+            .iter()
+            .map(|s| match s {
+                R::Write { entry, value } => match value {
+                    Num::Int(v) => format!("{}: {v}", entry.name),
+                    Num::Real(v) => format!("{}: {v}", entry.name),
+                },
+                R::Initial { entry, on } => format!("initial {}: {}", entry.name, u8::from(*on)),
+                R::Poll(points) => {
+                    let names: Vec<&str> = points
+                        .iter()
+                        .filter_map(|&i| module.model.points.get(i).map(|p| p.name))
+                        .collect();
+                    format!("poll: {}", names.join(", "))
+                }
+                other => format!("{other:?}"),
+            })
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
 /// What the module's start-up does to its logic, in one line (`softplc check` prints it under
 /// the module): the logic registers it clears and reads back before the first scan, whatever
 /// the plan, then the pushed-down outputs' start values, then the tables of its settings.
 /// `None` for a model without logic tables. `module` carries the plan's settings.
 pub fn startup_logic(module: &ModuleConfig) -> Option<String> {
+    use softplc_io::devices::resi::driver::settings::Setting as R;
     use softplc_io::devices::{minimod::driver as mm, resi::driver as r};
-    let (cleared, prefix) = match module.model.name {
-        super::minimod::MODEL => (mm::LOGIC_CLEARED_AT_STARTUP, mm::INITIAL_PREFIX),
-        super::resi::MODEL => (r::LOGIC_CLEARED_AT_STARTUP, r::settings::INITIAL_PREFIX),
+    let cleared = match module.model.name {
+        super::minimod::MODEL => mm::LOGIC_CLEARED_AT_STARTUP,
+        super::resi::MODEL => r::LOGIC_CLEARED_AT_STARTUP,
         _ => return None,
     };
-    let starts: Vec<String> = module
-        .device
-        .settings
-        .iter()
-        .filter_map(|(k, v)| {
-            let point = k.get(prefix.len()..).filter(|_| {
-                k.get(..prefix.len())
-                    .is_some_and(|p| p.eq_ignore_ascii_case(prefix))
-            })?;
-            Some(format!("{point} = {}", v.trim()))
-        })
-        .collect();
+    let starts: Vec<String> = match &module.device.settings {
+        ModuleSettings::Resi(s) => s
+            .items()
+            .iter()
+            .filter_map(|s| match s {
+                R::Initial { entry, on } => Some(format!("{} = {}", entry.name, u8::from(*on))),
+                _ => None,
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
     let starts = if starts.is_empty() {
         String::new()
     } else {

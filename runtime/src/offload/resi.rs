@@ -18,9 +18,13 @@
 
 use std::time::Duration;
 
+use softplc_io::devices::resi::models::m16di8ro;
+use softplc_io::devices::resi::value::Num;
+use softplc_io::devices::resi::{Inputs, LogicRow, PulseTime, Relay, RelayFunction};
+use softplc_io::devices::ModuleSettings;
+
 use super::ir::{BoolExpr, RungShape};
-use super::planner::{Feature, ModulePlacement, Reason, Site, TableEntry};
-use crate::project::ModuleConfig;
+use super::planner::{Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
 
 /// The model's catalog name.
 pub const MODEL: &str = "resi-16di8ro";
@@ -28,17 +32,13 @@ pub const MODEL: &str = "resi-16di8ro";
 pub const TICK: Duration = Duration::from_millis(10);
 /// What its logic checks.
 const CHECKS: &str = "only DI1..DI16";
-/// The mask registers of a relay, in the module's order.
-const FUNCTIONS: [&str; 5] = ["SWITCH", "TOGGLE", "SWITCH_ON", "SWITCH_OFF", "PULSE"];
 
 /// Maps a rung writing a RESI-16DI8RO relay, or says why it stays central.
 pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Reason> {
-    let relay = relay_number(site.coil_point().name).ok_or(Reason::Unsupported {
+    let relay = Relay::named(site.coil_point().name).ok_or(Reason::Unsupported {
         why: "the RESI-16DI8RO's logic drives its relays RO1..RO8 only",
     })?;
-    let mut masks = [0u16; 5];
-    let mut pulse_time = None;
-    let feature = match shape {
+    let (feature, function) = match shape {
         RungShape::Combinational { expr } => {
             let BoolExpr::Tag(tag) = expr else {
                 for t in expr.tags() {
@@ -49,23 +49,29 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
                           condition is not a single input",
                 });
             };
-            masks[0] = input_bit(site, *tag)?;
-            Feature::Switch
+            (
+                Feature::Switch,
+                RelayFunction::Switch(input_bit(site, *tag)?),
+            )
         }
-        RungShape::Toggle { trigger } => {
-            masks[1] = edge_mask(site, trigger)?;
-            Feature::Toggle
-        }
-        RungShape::EdgeSetReset { set, reset } => {
-            masks[2] = edge_mask(site, set)?;
-            masks[3] = edge_mask(site, reset)?;
-            Feature::SwitchOnOff
-        }
-        RungShape::StairPulse { trigger, time } => {
-            masks[4] = edge_mask(site, trigger)?;
-            pulse_time = Some(tenths(*time)?);
-            Feature::Pulse
-        }
+        RungShape::Toggle { trigger } => (
+            Feature::Toggle,
+            RelayFunction::Toggle(edge_mask(site, trigger)?),
+        ),
+        RungShape::EdgeSetReset { set, reset } => (
+            Feature::SwitchOnOff,
+            RelayFunction::SwitchOnOff {
+                on: edge_mask(site, set)?,
+                off: edge_mask(site, reset)?,
+            },
+        ),
+        RungShape::StairPulse { trigger, time } => (
+            Feature::Pulse,
+            RelayFunction::Pulse {
+                inputs: edge_mask(site, trigger)?,
+                time: tenths(*time)?,
+            },
+        ),
         RungShape::Latch { .. } => {
             return Err(Reason::Unsupported {
                 why: "the RESI-16DI8RO has no level set/reset: SWITCH ON and SWITCH OFF take \
@@ -85,41 +91,32 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
         }
         RungShape::Opaque { reason } => return Err(Reason::Opaque(reason.clone())),
     };
-    let mut tables = Vec::with_capacity(6);
-    for (f, mask) in FUNCTIONS.iter().zip(masks) {
-        tables.push(TableEntry {
-            register: format!("{f}_RO{relay}"),
-            value: u32::from(mask),
-            mask: true,
-            meaning: if mask == 0 {
-                "unused".into()
-            } else {
-                inputs_text(mask)
+    let row = LogicRow { relay, function };
+    let tables: Vec<TableEntry> = row
+        .registers(&m16di8ro::MODEL)
+        .into_iter()
+        .map(|reg| TableEntry {
+            register: reg.name,
+            value: reg.value,
+            mask: reg.inputs.is_some(),
+            meaning: match reg.inputs {
+                Some(inputs) => inputs.to_string(),
+                None => format!("{} s", f64::from(reg.value) / 10.0),
             },
-        });
-    }
-    if let Some(t) = pulse_time {
-        tables.push(TableEntry {
-            register: format!("PULSE_TIME_RO{relay}"),
-            value: t,
-            mask: false,
-            meaning: format!("{} s", f64::from(t) / 10.0),
-        });
-    }
+        })
+        .collect();
     for t in &tables {
-        if site.setting_taken(&t.register) {
+        if site.setting_taken(t.register) {
             return Err(Reason::SettingTaken {
-                register: t.register.clone(),
+                register: t.register.into(),
             });
         }
     }
-    let enable = site
-        .config()
-        .device
-        .settings
-        .iter()
-        .find(|(k, _)| k.trim().eq_ignore_ascii_case("ENABLE_LOGIC_FUNCTIONS"));
-    if enable.is_some_and(|(_, v)| v.trim() != "1") {
+    let enable = match &site.config().device.settings {
+        ModuleSettings::Resi(s) => s.write_value("ENABLE_LOGIC_FUNCTIONS"),
+        _ => None,
+    };
+    if enable.is_some_and(|v| v != Num::Int(1)) {
         return Err(Reason::SettingTaken {
             register: "ENABLE_LOGIC_FUNCTIONS".into(),
         });
@@ -129,6 +126,7 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
         point: site.point,
         feature,
         tables,
+        pushed: Pushed::Resi(row),
         command: None,
         tick: TICK,
         // The planner sets it from the rung's shape (`planner::initial`).
@@ -136,21 +134,14 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
     })
 }
 
-/// `RO3` → 3.
-fn relay_number(name: &str) -> Option<u8> {
-    name.strip_prefix("RO")
-        .and_then(|n| n.parse::<u8>().ok())
-        .filter(|n| (1..=8).contains(n))
-}
-
 /// The mask bit of a condition tag bound to DIk.
-fn input_bit(site: &Site, tag: crate::image::TagId) -> Result<u16, Reason> {
+fn input_bit(site: &Site, tag: crate::image::TagId) -> Result<Inputs, Reason> {
     let spec = site.input(tag, CHECKS)?;
     spec.name
         .strip_prefix("DI")
         .and_then(|n| n.parse::<u8>().ok())
         .filter(|n| (1..=16).contains(n))
-        .map(|n| 1u16 << (n - 1))
+        .map(|n| Inputs(1u16 << (n - 1)))
         .ok_or(Reason::NotCheckable {
             tag: site.name(tag),
             point: spec.name,
@@ -159,7 +150,7 @@ fn input_bit(site: &Site, tag: crate::image::TagId) -> Result<u16, Reason> {
 }
 
 /// The mask of a list of rising edges, each of one input.
-fn edge_mask(site: &Site, edges: &[BoolExpr]) -> Result<u16, Reason> {
+fn edge_mask(site: &Site, edges: &[BoolExpr]) -> Result<Inputs, Reason> {
     let mut mask = 0;
     for e in edges {
         let BoolExpr::Tag(tag) = e else {
@@ -170,18 +161,18 @@ fn edge_mask(site: &Site, edges: &[BoolExpr]) -> Result<u16, Reason> {
                 why: "the RESI-16DI8RO's edge functions take rising edges of single inputs",
             });
         };
-        mask |= input_bit(site, *tag)?;
+        mask |= input_bit(site, *tag)?.0;
     }
     if mask == 0 {
         return Err(Reason::Unsupported {
             why: "the rung has no input edge to map",
         });
     }
-    Ok(mask)
+    Ok(Inputs(mask))
 }
 
 /// PULSE TIME in tenths of a second.
-fn tenths(time: Duration) -> Result<u32, Reason> {
+fn tenths(time: Duration) -> Result<PulseTime, Reason> {
     let bad = Reason::Time {
         time,
         takes: "a multiple of 0.1s from 0.1s (PULSE TIME)",
@@ -192,58 +183,8 @@ fn tenths(time: Duration) -> Result<u32, Reason> {
     }
     u32::try_from(nanos / 100_000_000)
         .ok()
-        .filter(|&t| t <= i32::MAX as u32)
+        .and_then(PulseTime::from_tenths)
         .ok_or(bad)
-}
-
-/// `DI1 DI4` for a mask.
-fn inputs_text(mask: u16) -> String {
-    (0..16)
-        .filter(|i| mask & (1 << i) != 0)
-        .map(|i| format!("DI{}", i + 1))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// Settings a RESI-16DI8RO with pushed-down rungs needs besides the tables: ENABLE LOGIC
-/// FUNCTIONS = 1, and its relays in the poll list (read back every cycle).
-pub(crate) fn module_settings(
-    module: &ModuleConfig,
-    placements: &[&ModulePlacement],
-) -> Vec<(String, String)> {
-    let mut out = Vec::new();
-    if placements.is_empty() {
-        return out;
-    }
-    let setting = |key: &str| {
-        module
-            .device
-            .settings
-            .iter()
-            .find(|(k, _)| k.trim().eq_ignore_ascii_case(key))
-            .map(|(_, v)| v.clone())
-    };
-    if setting("ENABLE_LOGIC_FUNCTIONS").is_none() {
-        out.push(("ENABLE_LOGIC_FUNCTIONS".into(), "1".into()));
-    }
-    // The default poll list reads every relay; a project's own list gets the relays added.
-    if let Some(poll) = setting("poll") {
-        let listed = |name: &str| {
-            poll.split(',').any(|p| {
-                let p = p.trim().to_ascii_uppercase();
-                p == name || p == "RO*"
-            })
-        };
-        let missing: Vec<&str> = placements
-            .iter()
-            .filter_map(|p| module.model.points.get(p.point).map(|s| s.name))
-            .filter(|n| !listed(n))
-            .collect();
-        if !missing.is_empty() {
-            out.push(("poll".into(), format!("{poll}, {}", missing.join(", "))));
-        }
-    }
-    out
 }
 
 #[cfg(test)]
@@ -252,17 +193,18 @@ mod tests {
 
     #[test]
     fn pulse_time_in_tenths() {
-        assert_eq!(tenths(Duration::from_secs(30)), Ok(300));
-        assert_eq!(tenths(Duration::from_millis(100)), Ok(1));
+        let t = |d| tenths(d).map(PulseTime::tenths);
+        assert_eq!(t(Duration::from_secs(30)), Ok(300));
+        assert_eq!(t(Duration::from_millis(100)), Ok(1));
         assert!(tenths(Duration::from_millis(150)).is_err());
         assert!(tenths(Duration::ZERO).is_err());
     }
 
     #[test]
     fn names() {
-        assert_eq!(relay_number("RO8"), Some(8));
-        assert_eq!(relay_number("RO9"), None);
-        assert_eq!(relay_number("ROS"), None);
-        assert_eq!(inputs_text(0b1001), "DI1 DI4");
+        assert_eq!(Relay::named("RO8").map(Relay::number), Some(8));
+        assert_eq!(Relay::named("RO9"), None);
+        assert_eq!(Relay::named("ROS"), None);
+        assert_eq!(Inputs(0b1001).to_string(), "DI1 DI4");
     }
 }

@@ -21,6 +21,7 @@
 
 use std::time::Duration;
 
+use softplc_io::devices::minimod::PulseWidth;
 use softplc_io::line::bus::{InputFrame, OutputFrame};
 use softplc_io::point::{Quality, Value};
 
@@ -45,7 +46,7 @@ enum Source {
         /// The pulse's length.
         width: Duration,
         /// Its register value.
-        width_ms: u16,
+        width_ms: PulseWidth,
         /// When the running pulse was commanded (scan time).
         started: Option<Duration>,
         /// Write the pulser in this cycle's output phase.
@@ -99,7 +100,7 @@ impl Offloaded {
             let tables = p
                 .tables
                 .iter()
-                .filter_map(|t| model.point_index(&t.register))
+                .filter_map(|t| model.point_index(t.register))
                 .map(|i| (i, model.points[i].ty.zero()))
                 .collect();
             let source = match &p.command {
@@ -232,7 +233,7 @@ impl Offloaded {
             } = &mut p.source
             {
                 if std::mem::take(fire) {
-                    let _ = set(frames, p.bus, p.module, *command, Value::U16(*width_ms));
+                    let _ = set(frames, p.bus, p.module, *command, Value::U16(width_ms.ms()));
                 }
             }
         }
@@ -327,7 +328,7 @@ pub fn same_placement(a: &Plan, b: &Plan) -> bool {
             .map(|r| (r.rung.coil, r.placement.clone()))
             .collect()
     };
-    a.settings == b.settings && pushed(a) == pushed(b)
+    a.push_down == b.push_down && pushed(a) == pushed(b)
 }
 
 /// One failure per line.

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use super::ir::{BoolExpr, Rung, RungShape};
-use super::planner::{plan, Command, Feature, ModulePlacement, Placement, Reason};
+use super::planner::{plan, Command, Feature, ModulePlacement, Placement, Plan, Reason};
 use crate::image::TagId;
 use crate::logic::SourcePos;
 use crate::project::{parse_str, Project};
@@ -79,6 +79,14 @@ const MM_TAGS: [&str; 5] = [
     "name: z, point: mm1.Y2",
 ];
 
+/// What the plan makes module 0's driver write at start-up, as `NAME: value`.
+fn given(p: &Project, pl: &Plan) -> Vec<String> {
+    pl.push_down
+        .first()
+        .map(|push| super::report::push_down_settings(p, 0, push))
+        .unwrap_or_default()
+}
+
 #[test]
 fn minimod_conditions_and_their_limits() {
     let p = project("auto", &[MM], &MM_TAGS);
@@ -100,11 +108,7 @@ fn minimod_conditions_and_their_limits() {
     // Set dominant: OFF = b & !a, ON = a.
     let m = module(&out[0]);
     assert_eq!(m.feature, Feature::AutoOnOff);
-    let regs: Vec<(&str, u32)> = m
-        .tables
-        .iter()
-        .map(|e| (e.register.as_str(), e.value))
-        .collect();
+    let regs: Vec<(&str, u32)> = m.tables.iter().map(|e| (e.register, e.value)).collect();
     assert_eq!(
         regs,
         vec![
@@ -125,7 +129,7 @@ fn minimod_conditions_and_their_limits() {
         Some(vec![rung(3, RungShape::Combinational { expr: t(0) })]),
         "expr",
     );
-    assert!(pl.settings[0].contains(&("readback".into(), "every".into())));
+    assert!(given(&p, &pl).contains(&"readback: every".into()));
 }
 
 #[test]
@@ -145,7 +149,7 @@ fn minimod_pulses() {
     assert_eq!(m.feature, Feature::Pulser);
     assert!(matches!(
         m.command,
-        Some(Command::Pulse { width_ms: 50, .. })
+        Some(Command::Pulse { width_ms, .. }) if width_ms.ms() == 50
     ));
     assert!(matches!(reason(&out[1]), Reason::Time { .. }));
     let out = placements(&p, vec![pulse(3, t(4), 50_000), pulse(4, t(0), 70_000_000)]);
@@ -325,7 +329,7 @@ fn resi_functions() {
         .tables
         .iter()
         .filter(|e| e.value != 0)
-        .map(|e| (e.register.as_str(), e.value))
+        .map(|e| (e.register, e.value))
         .collect();
     assert_eq!(regs, vec![("PULSE_RO1", 0x8001), ("PULSE_TIME_RO1", 300)]);
     let m = module(&out[1]);
@@ -342,8 +346,8 @@ fn resi_functions() {
         )]),
         "expr",
     );
-    assert!(pl.settings[0].contains(&("TOGGLE_RO1".into(), "1".into())));
-    assert!(pl.settings[0].contains(&("ENABLE_LOGIC_FUNCTIONS".into(), "1".into())));
+    assert!(given(&p, &pl).contains(&"TOGGLE_RO1: 1".into()));
+    assert!(given(&p, &pl).contains(&"ENABLE_LOGIC_FUNCTIONS: 1".into()));
 }
 
 #[test]
@@ -369,8 +373,8 @@ fn outputs_that_keep_a_state_get_their_start_value_before_their_tables() {
         [Some(false), None],
         "a latch, then a combinational rung"
     );
-    assert!(pl.settings[0].contains(&("initial_Y1".into(), "0".into())));
-    assert!(!pl.settings[0].iter().any(|(k, _)| k == "initial_Y2"));
+    assert!(given(&p, &pl).contains(&"initial Y1: 0".into()));
+    assert!(!given(&p, &pl).iter().any(|s| s.starts_with("initial Y2")));
     // A pulse starts with no pulse running.
     let pulse = RungShape::Pulse {
         trigger: vec![t(0)],
@@ -378,7 +382,7 @@ fn outputs_that_keep_a_state_get_their_start_value_before_their_tables() {
     };
     let pl = plan(&p, Some(vec![rung(3, pulse)]), "expr");
     assert_eq!(module(&pl.rungs[0].placement).initial, Some(false));
-    assert!(pl.settings[0].contains(&("initial_Y1".into(), "0".into())));
+    assert!(given(&p, &pl).contains(&"initial Y1: 0".into()));
     // RESI-16DI8RO: a TOGGLE and a SWITCH ON / OFF keep a state, a SWITCH does not.
     let p = project("auto", &[RESI], &RESI_TAGS);
     let pl = plan(
@@ -403,8 +407,8 @@ fn outputs_that_keep_a_state_get_their_start_value_before_their_tables() {
     );
     let initial: Vec<Option<bool>> = pl.pushed().map(|(_, m)| m.initial).collect();
     assert_eq!(initial, [Some(false), Some(false), None]);
-    for key in ["initial_RO1", "initial_RO2"] {
-        assert!(pl.settings[0].contains(&(key.into(), "0".into())), "{key}");
+    for key in ["initial RO1: 0", "initial RO2: 0"] {
+        assert!(given(&p, &pl).contains(&key.into()), "{key}");
     }
-    assert!(!pl.settings[0].iter().any(|(k, _)| k == "initial_RO3"));
+    assert!(!given(&p, &pl).iter().any(|s| s.starts_with("initial RO3")));
 }

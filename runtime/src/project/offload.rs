@@ -38,6 +38,7 @@ use super::error::ErrorKind;
 use super::model::{Binding, ModuleConfig, TagConfig};
 use super::raw::{RawProject, RawTag};
 use super::span::YPath;
+use softplc_io::devices::ModuleSettings;
 use softplc_io::point::Access;
 
 /// Whether rungs may be pushed down into modules.
@@ -417,11 +418,11 @@ fn tag<'m>(
             vec![dn]
         };
         for register in registers {
-            let in_settings = cfg.device.settings.iter().any(|(k, _)| {
-                let k = k.to_ascii_uppercase();
-                // The text spellings X1LATUP.. name the same registers.
-                k == register || latency_registers_text(&k).as_deref() == Some(&register)
-            });
+            // Parsed settings: the text spellings X1LATUP.. are the same registers there.
+            let in_settings = match &cfg.device.settings {
+                ModuleSettings::MiniMod(s) => s.sets(&register),
+                _ => false,
+            };
             let other = if in_settings {
                 Some("its settings".to_owned())
             } else {
@@ -451,15 +452,6 @@ fn tag<'m>(
     (out, errors)
 }
 
-/// `X1LATUP` → `XLATUP1` (the text protocol's spelling of the register names).
-fn latency_registers_text(upper: &str) -> Option<String> {
-    let rest = upper.strip_prefix('X')?;
-    let (n, kind) = rest.split_at_checked(1)?;
-    matches!(n, "1" | "2" | "3")
-        .then(|| matches!(kind, "LATUP" | "LATDN").then(|| format!("X{kind}{n}")))
-        .flatten()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -472,8 +464,6 @@ mod tests {
         );
         assert_eq!(latency_registers("X9"), None);
         assert_eq!(latency_registers("Y1"), None);
-        assert_eq!(latency_registers_text("X3LATDN"), Some("XLATDN3".into()));
-        assert_eq!(latency_registers_text("XLATDN3"), None);
     }
 
     #[test]

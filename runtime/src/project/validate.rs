@@ -24,7 +24,7 @@ use super::raw::{
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
 use crate::suggest::edit_distance;
-use softplc_io::devices::DeviceConfig;
+use softplc_io::devices::{DeviceConfig, ModuleAddress, PushDown};
 
 /// Default watchdog time, in periods.
 const WATCHDOG_PERIODS: u32 = 5;
@@ -620,26 +620,32 @@ impl Validator<'_> {
         };
 
         // Settings.
-        let settings = m.settings.clone().unwrap_or_default().0;
-        let mut settings_ok = true;
-        for (key, value) in &settings {
-            if let Err(message) = (model.check_setting)(key, value) {
-                settings_ok = false;
-                let kind = ErrorKind::BadSetting {
-                    module: m.name.clone(),
-                    key: key.clone(),
-                    message,
-                };
-                self.error(path.key("settings").key(key), kind);
+        // Parsed once, by the model; every later reader works on the typed value.
+        let text = m.settings.clone().unwrap_or_default().0;
+        let settings = match (model.parse_settings)(&text) {
+            Ok(settings) => Some(settings),
+            Err(errors) => {
+                for e in errors {
+                    let Some((key, value)) = text.get(e.index) else {
+                        continue;
+                    };
+                    let kind = ErrorKind::BadSetting {
+                        module: m.name.clone(),
+                        key: key.clone(),
+                        message: e.error.describe(value),
+                    };
+                    self.error(path.key("settings").key(key), kind);
+                }
+                None
             }
-        }
+        };
 
         // The module's own watchdog (see `watchdog.rs`).
         let policy = match &m.watchdog {
             None => Some(WatchdogPolicy::Auto),
             Some(text) => {
                 let parsed = super::watchdog::parse_policy(&text.0).and_then(|p| {
-                    match super::watchdog::conflict(model.name, &settings) {
+                    match settings.as_ref().and_then(super::watchdog::conflict) {
                         Some(why) if p == WatchdogPolicy::Off => Err(why),
                         _ => Ok(p),
                     }
@@ -659,22 +665,26 @@ impl Validator<'_> {
             }
         };
 
-        let config = match (bus, address, protocol, settings_ok, policy) {
-            (Some(bus), Some(address), Some(protocol), true, Some(policy)) => Some(ModuleConfig {
-                name: m.name.clone(),
-                bus,
-                model,
-                device: DeviceConfig {
+        let address = address.and_then(|a| ModuleAddress::new(model, a).ok());
+        let config = match (bus, address, protocol, settings, policy) {
+            (Some(bus), Some(address), Some(protocol), Some(settings), Some(policy)) => {
+                Some(ModuleConfig {
                     name: m.name.clone(),
-                    address,
-                    protocol,
-                    settings,
-                },
-                watchdog: super::watchdog::ModuleWatchdog {
-                    policy,
-                    ..Default::default()
-                },
-            }),
+                    bus,
+                    model,
+                    device: DeviceConfig {
+                        name: m.name.clone(),
+                        address,
+                        protocol,
+                        settings,
+                        push_down: PushDown::None,
+                    },
+                    watchdog: super::watchdog::ModuleWatchdog {
+                        policy,
+                        ..Default::default()
+                    },
+                })
+            }
             _ => None,
         };
         (resolved, config)

@@ -60,8 +60,8 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::ex9053::settings::Settings as Ex9053Settings;
-use softplc_io::devices::minimod::Setting as MiniModSetting;
+use softplc_io::devices::minimod::{Setting as MiniModSetting, Settings as MiniModSettings};
+use softplc_io::devices::ModuleSettings;
 use softplc_io::line::budget::{failed_attempt, line_budget, transaction_time};
 use softplc_io::point::{Access, Value};
 
@@ -172,8 +172,9 @@ pub struct ModuleWatchdog {
     pub policy: WatchdogPolicy,
     /// What it is (filled in by [`arm`]).
     pub armed: Armed,
-    /// The settings arming adds to the module's own (`WDTTIME`, `WDTYMASK`), for its driver.
-    pub settings: Vec<(String, String)>,
+    /// The settings arming adds to a MiniMod's own (`WDTTIME`, `WDTYMASK`), for its driver
+    /// (the other models' watchdogs add none).
+    pub settings: Vec<MiniModSetting>,
 }
 
 impl super::model::ModuleConfig {
@@ -181,45 +182,36 @@ impl super::model::ModuleConfig {
     /// watchdog adds (see [`arm`]).
     pub fn device_with_watchdog(&self) -> softplc_io::devices::DeviceConfig {
         let mut device = self.device.clone();
-        device
-            .settings
-            .extend(self.watchdog.settings.iter().cloned());
+        if let ModuleSettings::MiniMod(s) = &mut device.settings {
+            for added in &self.watchdog.settings {
+                s.push(*added);
+            }
+        }
         device
     }
 }
 
-/// A setting's value, keys compared without case.
-fn setting<'a>(settings: &'a [(String, String)], keys: &[&str]) -> Option<&'a str> {
-    settings
-        .iter()
-        .rev()
-        .find(|(k, _)| keys.iter().any(|key| k.eq_ignore_ascii_case(key)))
-        .map(|(_, v)| v.as_str())
-}
-
-/// A MiniMod number setting (decimal, `0x`, `0b`), as the driver reads it.
-fn minimod_register(settings: &[(String, String)], keys: &[&str]) -> Option<u16> {
-    let v = setting(settings, keys)?;
-    match MiniModSetting::parse(keys.first()?, v) {
-        Ok(MiniModSetting::Register { value, .. }) => Some(value),
+/// A MiniMod's settings, if `settings` are one's.
+fn minimod(settings: &ModuleSettings) -> Option<&MiniModSettings> {
+    match settings {
+        ModuleSettings::MiniMod(s) => Some(s),
         _ => None,
     }
 }
 
 /// Why `watchdog: off` cannot go with the module's settings, if it cannot.
-pub fn conflict(model: &str, settings: &[(String, String)]) -> Option<String> {
-    let key = match model {
-        "minimod" => "WDTTIME",
-        "ex9053d" | "ex9053d-m" => "watchdog",
-        "resi-1ro" => "SOFFDLY",
-        _ => return None,
+pub fn conflict(settings: &ModuleSettings) -> Option<String> {
+    let (key, value) = match settings {
+        ModuleSettings::MiniMod(s) => (
+            "WDTTIME",
+            s.register("WDTTIME").filter(|&t| t != 0)?.to_string(),
+        ),
+        ModuleSettings::Ex9053(s) => ("watchdog", format!("{}s", f64::from(s.watchdog?) / 10.0)),
+        ModuleSettings::Resi(s) => ("SOFFDLY", s.off_delay()?.to_string()),
     };
-    let value = setting(settings, &[key])?;
-    let disarmed = match model {
-        "minimod" => minimod_register(settings, &["WDTTIME"]) == Some(0),
-        _ => value.trim().eq_ignore_ascii_case("off"),
-    };
-    (!disarmed).then(|| format!("off contradicts the setting {key}: {value}; remove one of them"))
+    Some(format!(
+        "off contradicts the setting {key}: {value}; remove one of them"
+    ))
 }
 
 /// Rounds `d` up to whole hundredths of a second, within WDTTIME's range.
@@ -240,15 +232,16 @@ pub fn arm(project: &mut Project) {
         };
         let settings = &module.device.settings;
         let added = &mut module.watchdog.settings;
+        let mm = minimod(settings);
         let policy = module.watchdog.policy;
         module.watchdog.armed = match module.model.name {
             "minimod" => {
-                let time = minimod_register(settings, &["WDTTIME"]);
-                let explicit_mask = minimod_register(settings, &["WDTYMASK", "WDTMASK"]);
+                let time = mm.and_then(|s| s.register("WDTTIME"));
+                let explicit_mask = mm.and_then(|s| s.register("WDTYMASK"));
                 match (policy, time) {
                     (_, Some(0)) => Armed::Off,
                     (WatchdogPolicy::Off, _) => {
-                        added.push(("WDTTIME".into(), "0".into()));
+                        added.extend(MiniModSetting::holding("WDTTIME", 0));
                         Armed::Off
                     }
                     (WatchdogPolicy::Auto, time) => {
@@ -256,14 +249,14 @@ pub fn arm(project: &mut Project) {
                             Some(t) => (t, Origin::Project, None),
                             None => {
                                 let t = hundredths(derivation.total());
-                                added.push(("WDTTIME".into(), t.to_string()));
+                                added.extend(MiniModSetting::holding("WDTTIME", t));
                                 (t, Origin::Derived, Some(derivation))
                             }
                         };
                         let (mask, mask_from, no_safe) = match explicit_mask {
                             Some(v) => (v, Origin::Project, Vec::new()),
                             None => {
-                                added.push(("WDTYMASK".into(), format!("{}", mask.0)));
+                                added.extend(MiniModSetting::holding("WDTYMASK", mask.0));
                                 (mask.0, Origin::Derived, mask.1)
                             }
                         };
@@ -279,11 +272,11 @@ pub fn arm(project: &mut Project) {
                 }
             }
             "ex9053d" | "ex9053d-m" => {
-                let mut s = Ex9053Settings::default();
-                for (k, v) in settings.iter() {
-                    let _ = s.apply(k, v);
-                }
-                match (policy, s.watchdog) {
+                let watchdog = match settings {
+                    ModuleSettings::Ex9053(s) => s.watchdog,
+                    _ => None,
+                };
+                match (policy, watchdog) {
                     (WatchdogPolicy::Off, _) => Armed::NotArmed("watchdog: off"),
                     (_, Some(tenths)) => Armed::HostWatchdog { tenths },
                     (_, None) => Armed::NotArmed(
@@ -292,13 +285,12 @@ pub fn arm(project: &mut Project) {
                     ),
                 }
             }
-            "resi-1ro" => match (policy, setting(settings, &["SOFFDLY"])) {
+            "resi-1ro" => match (policy, settings) {
                 (WatchdogPolicy::Off, _) => Armed::NotArmed("watchdog: off"),
-                (_, Some(v)) => match v.trim().parse::<u16>() {
-                    Ok(ms) => Armed::OffDelay { ms },
-                    Err(_) => Armed::NotArmed("SOFFDLY is not a number of ms"),
+                (_, ModuleSettings::Resi(s)) if s.off_delay().is_some() => Armed::OffDelay {
+                    ms: s.off_delay().unwrap_or_default(),
                 },
-                (_, None) => Armed::NotArmed(
+                _ => Armed::NotArmed(
                     "the off-delay SOFFDLY is opt-in (it drives DO1 through a timer); setting \
                      SOFFDLY: <ms> arms it",
                 ),
@@ -382,13 +374,10 @@ fn derive_all(project: &Project) -> Vec<Derivation> {
                 // As it will run: a MiniMod's start-up with its watchdog settings (their
                 // values do not change its traffic).
                 let mut device = module.device.clone();
-                if module.model.name == "minimod" {
-                    for (key, names) in [
-                        ("WDTTIME", &["WDTTIME"][..]),
-                        ("WDTYMASK", &["WDTYMASK", "WDTMASK"]),
-                    ] {
-                        if setting(&device.settings, names).is_none() {
-                            device.settings.push((key.into(), "1".into()));
+                if let ModuleSettings::MiniMod(s) = &mut device.settings {
+                    for key in ["WDTTIME", "WDTYMASK"] {
+                        if s.register(key).is_none() {
+                            s.extend(MiniModSetting::holding(key, 1));
                         }
                     }
                 }
@@ -413,21 +402,9 @@ fn derive_all(project: &Project) -> Vec<Derivation> {
         let others = u32::try_from(members.len().saturating_sub(1)).unwrap_or(u32::MAX);
         let failures = attempt * attempts * 2 * others + attempt * u32::from(bus.retries);
         for &m in &members {
-            let settings = &project.modules[m].device.settings;
-            let events = setting(settings, &["events"]).is_some_and(|v| {
-                matches!(
-                    MiniModSetting::parse("events", v),
-                    Ok(MiniModSetting::Events(true))
-                )
-            });
-            let event_refresh = events.then(|| {
-                match setting(settings, &["event_refresh"])
-                    .map(|v| MiniModSetting::parse("event_refresh", v))
-                {
-                    Some(Ok(MiniModSetting::EventRefresh(d))) => d,
-                    _ => softplc_io::devices::minimod::settings::DEFAULT_EVENT_REFRESH,
-                }
-            });
+            let event_refresh = minimod(&project.modules[m].device.settings)
+                .filter(|s| s.events())
+                .map(MiniModSettings::event_refresh);
             if let Some(d) = out.get_mut(m) {
                 d.floor = floor;
                 d.startup = startup;

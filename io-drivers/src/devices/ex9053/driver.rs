@@ -79,24 +79,23 @@ use super::sync::SyncRole;
 use super::tables::{
     CHANNELS, FF_CHECKSUM, FF_RISING_EDGE, REPLY_DELAY, STATUS_WDT_TIMEOUT, TYPE_DIO,
 };
-use crate::devices::{DeviceConfig, Protocol};
+use crate::devices::{DeviceConfig, ModuleSettings, Protocol};
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
-/// Builds a driver from a validated module entry (the catalog's constructor). Settings were
-/// checked before; one that still fails is logged and ignored, as is a DCON-only setting on a
-/// module running Modbus. A Modbus module outside 1..=247 gets a driver that plans nothing.
+/// Builds a driver from a validated module entry (the catalog's constructor). A configuration
+/// of another family (never built by project validation, which parses the settings with this
+/// model) gives the defaults; a DCON-only setting on a module running Modbus is ignored, with
+/// a warning (see [`Ex9053Driver::new`]).
 pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
-    let mut settings = Settings::default();
-    for (key, value) in &config.settings {
-        if let Err(e) = settings.apply(key, value) {
-            tracing::error!(module = %config.name, key = %key, "ignored setting: {e}");
-        }
-    }
+    let settings = match &config.settings {
+        ModuleSettings::Ex9053(s) => *s,
+        _ => Settings::default(),
+    };
     Box::new(Ex9053Driver::new(
         &config.name,
-        config.address,
+        config.address.get(),
         config.protocol,
         settings,
     ))

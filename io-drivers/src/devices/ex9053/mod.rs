@@ -52,7 +52,7 @@ pub static MODEL_D: ModelSpec = ModelSpec {
     default_reply_delay: tables::REPLY_DELAY,
     driver: driver::build,
     simulator: sim::build_d,
-    check_setting: settings::check_setting,
+    parse_settings: settings::parse_module,
 };
 
 /// The EX-9053D-M in the catalog: Modbus RTU by default, DCON too (`protocol: text`), unit
@@ -68,5 +68,5 @@ pub static MODEL_M: ModelSpec = ModelSpec {
     default_reply_delay: tables::REPLY_DELAY,
     driver: driver::build,
     simulator: sim::build_m,
-    check_setting: settings::check_setting,
+    parse_settings: settings::parse_module,
 };

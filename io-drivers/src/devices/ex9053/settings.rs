@@ -21,6 +21,10 @@
 use super::points::channel_of;
 use super::sync::SyncRole;
 use super::tables::{CHANNELS, WDT_TICK_MS};
+use crate::devices::config::{parse_each, Accepted, KeyError};
+use crate::devices::ModuleSettings;
+
+pub use crate::devices::config::SettingError;
 
 /// Which latches are read each cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -46,24 +50,6 @@ impl LatchMode {
     pub fn low(self) -> bool {
         matches!(self, LatchMode::Low | LatchMode::Both)
     }
-}
-
-/// Why a setting was refused.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum SettingError {
-    /// Not a setting of this model.
-    #[error(
-        "not an ex9053d setting; accepted: checksum, latch, counters, count_edge, watchdog, sync"
-    )]
-    UnknownKey,
-    /// The value does not fit the setting.
-    #[error("{key} takes {expected}")]
-    BadValue {
-        /// The setting.
-        key: &'static str,
-        /// What it accepts.
-        expected: &'static str,
-    },
 }
 
 /// Validated settings.
@@ -181,17 +167,29 @@ impl Settings {
             "sync" => {
                 self.sync = SyncRole::parse(value).ok_or(bad("sync", "off, lead or follow"))?
             }
-            _ => return Err(SettingError::UnknownKey),
+            _ => return Err(UNKNOWN),
         }
         Ok(())
     }
+
+    /// Parses every `key: value` of the entry, later keys winning; every refusal comes back
+    /// with its index.
+    pub fn parse(pairs: &[(String, String)]) -> Result<Self, Vec<KeyError>> {
+        let mut settings = Settings::default();
+        parse_each(pairs, |k, v| settings.apply(k, v))?;
+        Ok(settings)
+    }
 }
 
-/// Checks one setting (the catalog's `check_setting`).
-pub fn check_setting(key: &str, value: &str) -> Result<(), String> {
-    Settings::default()
-        .apply(key, value)
-        .map_err(|e| e.to_string())
+/// The error of a key that is no EX-9053D setting.
+const UNKNOWN: SettingError = SettingError::UnknownKey {
+    model: "ex9053d",
+    accepted: Accepted::Ex9053,
+};
+
+/// The catalog's `parse_settings`.
+pub fn parse_module(pairs: &[(String, String)]) -> Result<ModuleSettings, Vec<KeyError>> {
+    Settings::parse(pairs).map(ModuleSettings::Ex9053)
 }
 
 #[cfg(test)]
@@ -250,10 +248,39 @@ mod tests {
                 "{k}: {v}"
             );
         }
-        assert_eq!(s.apply("RDELAYT", "1"), Err(SettingError::UnknownKey));
-        assert!(check_setting("latch", "high").is_ok());
-        assert!(check_setting("latch", "x")
-            .unwrap_err()
-            .contains("latch takes"));
+        assert_eq!(s.apply("RDELAYT", "1"), Err(UNKNOWN));
+        assert_eq!(
+            UNKNOWN.to_string(),
+            "not an ex9053d setting; accepted: checksum, latch, counters, count_edge, watchdog, sync"
+        );
+        let pairs = |list: &[(&str, &str)]| -> Vec<(String, String)> {
+            list.iter()
+                .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+                .collect()
+        };
+        assert_eq!(
+            Settings::parse(&pairs(&[("latch", "high"), ("watchdog", "2s")])),
+            Ok(Settings {
+                latch: LatchMode::High,
+                watchdog: Some(20),
+                ..Settings::default()
+            })
+        );
+        assert_eq!(
+            Settings::parse(&pairs(&[("latch", "x"), ("sync", "lead"), ("nope", "1")])),
+            Err(vec![
+                KeyError {
+                    index: 0,
+                    error: SettingError::BadValue {
+                        key: "latch",
+                        expected: "off, high, low or both"
+                    }
+                },
+                KeyError {
+                    index: 2,
+                    error: UNKNOWN
+                },
+            ])
+        );
     }
 }

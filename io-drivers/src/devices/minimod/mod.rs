@@ -15,12 +15,15 @@
 //! - [`text`]: the text protocol's grammar, both sides (`?X1`, `>Y1=1`, `@25?DEVICE`).
 //! - [`sim`]: the simulator ([`crate::sim::SimDevice`]): frames in, replies out; Modbus through
 //!   [`crate::modbus::server::RegisterBank`], text through [`sim_text`].
-//! - [`settings`] and [`driver`]: the sans-IO driver ([`crate::driver::Driver`]), Modbus or
+//! - [`settings`]: the project entry's settings, parsed once; [`push_down`]: the tables the
+//!   push-down planner hands the driver.
+//! - [`driver`]: the sans-IO driver ([`crate::driver::Driver`]), Modbus or
 //!   text, polled or in event mode (with [`crate::line::collect`] on the bus owner's side).
 
 pub mod driver;
 pub mod events;
 pub mod map;
+pub mod push_down;
 pub mod serial_config;
 pub mod settings;
 pub mod sim;
@@ -38,7 +41,8 @@ use std::time::Duration;
 use super::{ModelSpec, Protocol};
 
 pub use driver::MiniModDriver;
-pub use settings::{Readback, Setting, SettingError};
+pub use push_down::{AutoOutput, Condition, Input, Latency, Output, PulseWidth, PushDown};
+pub use settings::{Readback, Setting, SettingError, Settings};
 pub use sim::MiniModSim;
 pub use state::{Fault, MiniModState};
 
@@ -58,5 +62,5 @@ pub static MODEL: ModelSpec = ModelSpec {
     default_reply_delay: Duration::from_millis(10),
     driver: driver::build,
     simulator: sim::build,
-    check_setting: settings::check_setting,
+    parse_settings: Settings::parse_module,
 };

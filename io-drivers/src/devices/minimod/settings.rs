@@ -30,7 +30,9 @@
 
 use std::time::Duration;
 
-use super::map::{self, parse_condition, Item, Space};
+use super::map::{self, parse_condition, ConditionError, Item, Space};
+pub use crate::devices::config::SettingError;
+use crate::devices::config::{parse_each, Accepted, KeyError, Range};
 
 /// How often an optional read runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -54,27 +56,6 @@ impl Readback {
 
 /// Default full-read period in event mode.
 pub const DEFAULT_EVENT_REFRESH: Duration = Duration::from_secs(1);
-
-/// Why a setting was refused.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum SettingError {
-    /// Not a MiniMod setting.
-    #[error(
-        "not a minimod setting; accepted: readback, counters, status, events, event_refresh, \
-         RDELAYT, RDELAYM, XLATUP1..3, XLATDN1..3, XCOUNT1..3, Y1AON1..Y4AON3, \
-         Y1AOFF1..Y4AOFF3, YLAMP1..4, WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2, EVFB1..2, \
-         XEVMASK, YEVMASK"
-    )]
-    UnknownKey,
-    /// The value does not fit the setting.
-    #[error("{key} takes {expected}")]
-    BadValue {
-        /// The setting, as the manual names it.
-        key: &'static str,
-        /// What it accepts.
-        expected: &'static str,
-    },
-}
 
 /// One validated setting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -179,6 +160,17 @@ fn canonical(upper: &str) -> String {
 }
 
 impl Setting {
+    /// The start-up write of the holding register named `name` in the register table
+    /// (`WDTTIME`), `None` for a name that is not one.
+    pub fn holding(name: &str, value: u16) -> Option<Self> {
+        let e = map::entry(name).filter(|e| e.space == Space::HoldingRegister)?;
+        Some(Setting::Register {
+            name: e.name,
+            addr: e.addr,
+            value,
+        })
+    }
+
     /// Parses a `key: value` pair of the project file.
     pub fn parse(key: &str, value: &str) -> Result<Self, SettingError> {
         let lower = key.to_ascii_lowercase();
@@ -205,39 +197,43 @@ impl Setting {
                 )
             }
             "rdelayt" | "rdelaym" => {
-                let n = parse_number(value)
-                    .and_then(|n| u8::try_from(n).ok())
-                    .filter(|&n| n <= 200);
-                return if lower == "rdelayt" {
-                    n.map(Setting::ReplyDelay).ok_or(SettingError::BadValue {
-                        key: "RDELAYT",
-                        expected: "0..=200 (1/100 s)",
-                    })
+                let (key, unit) = if lower == "rdelayt" {
+                    ("RDELAYT", " (1/100 s)")
                 } else {
-                    n.map(Setting::FrameTimeout).ok_or(SettingError::BadValue {
-                        key: "RDELAYM",
-                        expected: "0..=200 (1/10 ms)",
-                    })
+                    ("RDELAYM", " (1/10 ms)")
                 };
+                let n = number_in(
+                    value,
+                    key,
+                    Range {
+                        min: 0,
+                        max: 200,
+                        unit,
+                    },
+                )? as u8;
+                return Ok(if lower == "rdelayt" {
+                    Setting::ReplyDelay(n)
+                } else {
+                    Setting::FrameTimeout(n)
+                });
             }
             "fbenable" => {
-                return parse_number(value)
-                    .filter(|&n| n <= 3)
-                    .map(|n| Setting::Coils {
-                        name: "FBENABLE",
-                        addr: WDTFB1_COIL,
-                        count: 2,
-                        bits: n as u8,
-                    })
-                    .ok_or(SettingError::BadValue {
-                        key: "FBENABLE",
-                        expected: "0..=3 (bit 0 = FB1, bit 1 = FB2)",
-                    })
+                let range = Range {
+                    min: 0,
+                    max: 3,
+                    unit: " (bit 0 = FB1, bit 1 = FB2)",
+                };
+                return Ok(Setting::Coils {
+                    name: "FBENABLE",
+                    addr: WDTFB1_COIL,
+                    count: 2,
+                    bits: number_in(value, "FBENABLE", range)? as u8,
+                });
             }
             _ => {}
         }
         let name = canonical(&key.to_ascii_uppercase());
-        let entry = map::entry(&name).ok_or(SettingError::UnknownKey)?;
+        let entry = map::entry(&name).ok_or(UNKNOWN)?;
         match (entry.space, entry.item) {
             (Space::Coil, Item::WdtFbEnable(_) | Item::EvFb(_)) => {
                 let bit =
@@ -255,33 +251,47 @@ impl Setting {
                 });
             }
             (Space::HoldingRegister, _) => {}
-            _ => return Err(SettingError::UnknownKey),
+            _ => return Err(UNKNOWN),
         }
-        let word = |expected| {
+        let word = |unit| {
+            let range = Range {
+                min: 0,
+                max: 65535,
+                unit,
+            };
+            number_in(value, entry.name, range).map(|n| n as u16)
+        };
+        let mask = || {
             parse_number(value)
                 .and_then(|n| u16::try_from(n).ok())
                 .ok_or(SettingError::BadValue {
                     key: entry.name,
-                    expected,
+                    expected: "a 16-bit mask",
                 })
         };
         let value = match entry.item {
-            Item::XlatUp(_) | Item::XlatDn(_) => word("0..=65535 (ms)")?,
-            Item::Xcount(_) => word("0..=65535")?,
-            Item::Lamp(_) => word("a 16-bit mask")?,
-            Item::WdtTime => word("0..=65535 (1/100 s; 0 = off)")?,
-            Item::WdtYMask | Item::XevMask | Item::YevMask => word("a 16-bit mask")?,
+            Item::XlatUp(_) | Item::XlatDn(_) => word(" (ms)")?,
+            Item::Xcount(_) => word("")?,
+            Item::Lamp(_) => mask()?,
+            Item::WdtTime => word(" (1/100 s; 0 = off)")?,
+            Item::WdtYMask | Item::XevMask | Item::YevMask => mask()?,
             Item::AutoOn(..) | Item::AutoOff(..) => {
-                let bad = SettingError::BadValue {
-                    key: entry.name,
-                    expected: "a 16-bit mask or a condition such as X1-X2",
-                };
+                const EXPECTED: &str = "a 16-bit mask or a condition such as X1-X2";
                 match parse_number(value) {
-                    Some(n) => u16::try_from(n).map_err(|_| bad)?,
-                    None => parse_condition(value).map_err(|_| bad)?,
+                    Some(n) => u16::try_from(n).map_err(|_| SettingError::BadValue {
+                        key: entry.name,
+                        expected: EXPECTED,
+                    })?,
+                    None => parse_condition(value).map_err(|ConditionError::Syntax { at }| {
+                        SettingError::BadSyntax {
+                            key: entry.name,
+                            at,
+                            expected: EXPECTED,
+                        }
+                    })?,
                 }
             }
-            _ => return Err(SettingError::UnknownKey),
+            _ => return Err(UNKNOWN),
         };
         Ok(Setting::Register {
             name: entry.name,
@@ -294,34 +304,227 @@ impl Setting {
 /// Coil of WDTFB1 (00113).
 pub const WDTFB1_COIL: u16 = 112;
 
-/// Checks one setting (the catalog's `check_setting`).
-pub fn check_setting(key: &str, value: &str) -> Result<(), String> {
-    Setting::parse(key, value)
-        .map(|_| ())
-        .map_err(|e| e.to_string())
+/// The error of a key that is no MiniMod setting.
+const UNKNOWN: SettingError = SettingError::UnknownKey {
+    model: "minimod",
+    accepted: Accepted::MiniMod,
+};
+
+/// A number of `range`; a number outside it, or no number, is [`SettingError::OutOfRange`].
+fn number_in(value: &str, key: &'static str, range: Range) -> Result<i64, SettingError> {
+    parse_number(value)
+        .and_then(|n| i64::try_from(n).ok())
+        .filter(|n| (range.min..=range.max).contains(n))
+        .ok_or(SettingError::OutOfRange { key, range })
+}
+
+/// A MiniMod's settings, parsed once from its project entry, in file order (a later setting
+/// of the same register wins, as it would on the module).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Settings {
+    items: Vec<Setting>,
+}
+
+impl Settings {
+    /// Parses every `key: value` of the entry; every refusal comes back with its index.
+    pub fn parse(pairs: &[(String, String)]) -> Result<Self, Vec<KeyError>> {
+        parse_each(pairs, Setting::parse).map(|items| Self { items })
+    }
+
+    /// The catalog's `parse_settings`.
+    pub fn parse_module(
+        pairs: &[(String, String)],
+    ) -> Result<crate::devices::ModuleSettings, Vec<KeyError>> {
+        Self::parse(pairs).map(crate::devices::ModuleSettings::MiniMod)
+    }
+
+    /// Settings from already typed items.
+    pub fn from_items(items: Vec<Setting>) -> Self {
+        Self { items }
+    }
+
+    /// Every setting, in file order.
+    pub fn items(&self) -> &[Setting] {
+        &self.items
+    }
+
+    /// Adds a setting after the entry's own (the runtime's watchdog arming).
+    pub fn push(&mut self, setting: Setting) {
+        self.items.push(setting);
+    }
+
+    /// Adds settings after the entry's own.
+    pub fn extend(&mut self, settings: impl IntoIterator<Item = Setting>) {
+        self.items.extend(settings);
+    }
+
+    /// The value the settings give the holding register named `name` (the register table's
+    /// name: `WDTTIME`, `WDTYMASK`), the last one winning.
+    pub fn register(&self, name: &str) -> Option<u16> {
+        self.items.iter().rev().find_map(|s| match *s {
+            Setting::Register { name: n, value, .. } if n == name => Some(value),
+            _ => None,
+        })
+    }
+
+    /// Whether a setting writes the register or coil named `name` (the register table's
+    /// name; `FBENABLE` writes WDTFB1 and WDTFB2).
+    pub fn sets(&self, name: &str) -> bool {
+        self.items.iter().any(|s| match *s {
+            Setting::Register { name: n, .. } => n == name,
+            Setting::Coils {
+                name: n,
+                addr,
+                count,
+                ..
+            } => {
+                n == name
+                    || map::entry(name).is_some_and(|e| {
+                        e.space == Space::Coil && (addr..addr + u16::from(count)).contains(&e.addr)
+                    })
+            }
+            _ => false,
+        })
+    }
+
+    /// The `readback` setting, if given.
+    pub fn readback(&self) -> Option<Readback> {
+        self.items.iter().rev().find_map(|s| match *s {
+            Setting::Readback(r) => Some(r),
+            _ => None,
+        })
+    }
+
+    /// Event mode (`events: true`).
+    pub fn events(&self) -> bool {
+        self.items
+            .iter()
+            .rev()
+            .find_map(|s| match *s {
+                Setting::Events(on) => Some(on),
+                _ => None,
+            })
+            .unwrap_or(false)
+    }
+
+    /// The full-read period in event mode.
+    pub fn event_refresh(&self) -> Duration {
+        self.items
+            .iter()
+            .rev()
+            .find_map(|s| match *s {
+                Setting::EventRefresh(d) => Some(d),
+                _ => None,
+            })
+            .unwrap_or(DEFAULT_EVENT_REFRESH)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn check(key: &str, value: &str) -> Result<(), SettingError> {
+        Setting::parse(key, value).map(|_| ())
+    }
+
     #[test]
     fn settings_are_checked() {
-        assert_eq!(check_setting("readback", "every"), Ok(()));
-        assert_eq!(check_setting("xlatup3", "65535"), Ok(()));
-        assert_eq!(check_setting("Y4AOFF3", "-X3"), Ok(()));
-        assert_eq!(check_setting("YLAMP2", "0b0000.0000.1111.1111"), Ok(()));
-        assert_eq!(check_setting("RDELAYT", "200"), Ok(()));
-        assert!(check_setting("RDELAYT", "201").is_err());
-        assert!(check_setting("XLATUP1", "65536").is_err());
-        assert!(check_setting("Y1AON1", "X7").is_err());
-        assert!(check_setting("readback", "0").is_err());
-        assert!(check_setting("YWORD", "1")
+        assert_eq!(check("readback", "every"), Ok(()));
+        assert_eq!(check("xlatup3", "65535"), Ok(()));
+        assert_eq!(check("Y4AOFF3", "-X3"), Ok(()));
+        assert_eq!(check("YLAMP2", "0b0000.0000.1111.1111"), Ok(()));
+        assert_eq!(check("RDELAYT", "200"), Ok(()));
+        assert!(check("readback", "0").is_err());
+        assert!(check("YWORD", "1")
             .unwrap_err()
+            .to_string()
             .contains("not a minimod setting"));
-        assert!(check_setting("YPULSE1", "1").is_err());
-        assert!(check_setting("baud", "1").is_err());
-        assert!(check_setting("EVX1", "1").is_err(), "use XEVMASK");
+        assert_eq!(check("YPULSE1", "1"), Err(UNKNOWN));
+        assert_eq!(check("baud", "1"), Err(UNKNOWN));
+        assert_eq!(check("EVX1", "1"), Err(UNKNOWN), "use XEVMASK");
+    }
+
+    #[test]
+    fn refusals_carry_the_key_and_the_range() {
+        let range = |max, unit| Range { min: 0, max, unit };
+        assert_eq!(
+            check("RDELAYT", "201"),
+            Err(SettingError::OutOfRange {
+                key: "RDELAYT",
+                range: range(200, " (1/100 s)")
+            })
+        );
+        assert_eq!(
+            check("rdelaym", "x"),
+            Err(SettingError::OutOfRange {
+                key: "RDELAYM",
+                range: range(200, " (1/10 ms)")
+            })
+        );
+        assert_eq!(
+            check("X1LATUP", "65536"),
+            Err(SettingError::OutOfRange {
+                key: "XLATUP1",
+                range: range(65535, " (ms)")
+            })
+        );
+        assert_eq!(
+            check("FBENABLE", "4"),
+            Err(SettingError::OutOfRange {
+                key: "FBENABLE",
+                range: range(3, " (bit 0 = FB1, bit 1 = FB2)")
+            })
+        );
+        assert_eq!(
+            check("RDELAYT", "201").unwrap_err().to_string(),
+            "RDELAYT takes 0..=200 (1/100 s)"
+        );
+        // A condition that goes wrong at X7: its position in the value.
+        assert_eq!(
+            check("Y1AON1", "X1 X7"),
+            Err(SettingError::BadSyntax {
+                key: "Y1AON1",
+                at: 3,
+                expected: "a 16-bit mask or a condition such as X1-X2"
+            })
+        );
+        assert_eq!(
+            check("YLAMP1", "0x10000"),
+            Err(SettingError::BadValue {
+                key: "YLAMP1",
+                expected: "a 16-bit mask"
+            })
+        );
+    }
+
+    #[test]
+    fn a_module_entry_is_parsed_whole_with_every_refusal_indexed() {
+        let pairs: Vec<(String, String)> = [
+            ("WDTTIME", "50"),
+            ("nope", "1"),
+            ("events", "true"),
+            ("RDELAYT", "300"),
+        ]
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+        .collect();
+        let errors = Settings::parse(&pairs).unwrap_err();
+        assert_eq!(
+            errors.iter().map(|e| e.index).collect::<Vec<_>>(),
+            vec![1, 3]
+        );
+        assert_eq!(errors[0].error, UNKNOWN);
+        let ok: Vec<(String, String)> = pairs
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| i % 2 == 0)
+            .map(|(_, p)| p)
+            .collect();
+        let s = Settings::parse(&ok).unwrap();
+        assert_eq!(s.register("WDTTIME"), Some(50));
+        assert!(s.events() && s.sets("WDTTIME") && !s.sets("WDTYMASK"));
+        assert_eq!(s.event_refresh(), DEFAULT_EVENT_REFRESH);
     }
 
     #[test]

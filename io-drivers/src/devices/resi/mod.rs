@@ -69,9 +69,12 @@ pub mod map;
 pub mod model;
 pub mod models;
 pub mod options;
+pub mod push_down;
 pub mod sim;
 pub mod state;
 pub mod value;
+
+pub use push_down::{Inputs, LogicRow, LogicTable, PulseTime, Relay, RelayFunction};
 
 #[cfg(test)]
 #[path = "tests/line.rs"]
@@ -104,8 +107,11 @@ macro_rules! catalog_entry {
             Box::new($crate::devices::resi::sim::ResiSim::new(&MODEL, address))
         }
 
-        fn check_setting(key: &str, value: &str) -> Result<(), String> {
-            $crate::devices::resi::driver::settings::check(&MODEL, key, value)
+        fn parse_settings(
+            pairs: &[(String, String)],
+        ) -> Result<$crate::devices::ModuleSettings, Vec<$crate::devices::KeyError>> {
+            $crate::devices::resi::driver::settings::Settings::parse(&MODEL, pairs)
+                .map($crate::devices::ModuleSettings::Resi)
         }
 
         /// The catalog entry: Modbus RTU (default) and RESI ASCII, unit addresses 1..=247,
@@ -123,7 +129,7 @@ macro_rules! catalog_entry {
             default_reply_delay: std::time::Duration::from_millis(2),
             driver: build_driver,
             simulator: build_sim,
-            check_setting,
+            parse_settings,
         };
     };
 }

@@ -11,18 +11,6 @@ use super::state::Module;
 use super::value::Enc;
 use crate::point::Access;
 
-static ALL: [&Model; 9] = [
-    &m16di8ro::MODEL,
-    &m32di::MODEL,
-    &m14ri::MODEL,
-    &m8co::MODEL,
-    &m2ri::MODEL,
-    &m1ro::MODEL,
-    &m2rtd::MODEL,
-    &m1led::MODEL,
-    &m4led::MODEL,
-];
-
 #[test]
 fn every_point_has_an_entry_of_its_type_and_access() {
     for m in ALL {
@@ -79,7 +67,9 @@ fn every_mapped_item_and_command_field_exists_in_the_state() {
             let (first, last) = c.x.unwrap_or((1, 1));
             for x in first..=last {
                 let fields = match c.action {
-                    Action::Get { fields, .. } | Action::Set { fields } => fields,
+                    Action::Get { fields, .. }
+                    | Action::Set { fields }
+                    | Action::SetSensorConfig { fields } => fields,
                     _ => &[],
                 };
                 for f in fields {
@@ -179,16 +169,14 @@ fn catalog_entries() {
         assert_eq!(spec.max_baud, m.series.max_baud());
         let sim = (spec.simulator)(7);
         assert_eq!((sim.model(), sim.address()), (m.name, 7));
-        let config = crate::devices::DeviceConfig {
-            name: "r".into(),
-            address: 7,
-            protocol: crate::devices::Protocol::Modbus,
-            settings: vec![],
-        };
+        let config = spec
+            .device_config("r", 7, crate::devices::Protocol::Modbus, &[])
+            .unwrap();
         let mut d = (spec.driver)(&config);
         let mut plan = Vec::new();
         d.plan_read(&mut plan);
         assert!(!plan.is_empty(), "{} polls nothing", m.name);
-        assert!((spec.check_setting)("poll", "nope").is_err());
+        let poll = [("poll".to_owned(), "nope".to_owned())];
+        assert!((spec.parse_settings)(&poll).is_err());
     }
 }

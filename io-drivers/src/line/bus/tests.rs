@@ -5,7 +5,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use super::*;
-use crate::devices::{self, DeviceConfig, Protocol};
+use crate::devices::{self, Protocol};
 use crate::line::settings::LineSettings;
 use crate::sim::line::{SimWorld, VirtualPort};
 use crate::time::{Clock, VirtualClock};
@@ -52,12 +52,8 @@ fn a_failed_flush_is_a_line_failure_counted_and_nothing_is_sent() {
     let model = devices::model("minimod").unwrap();
     let mut world = SimWorld::new(vec![line]);
     world.add_device(0, "mm", (model.simulator)(5));
-    let driver = (model.driver)(&DeviceConfig {
-        name: "mm".into(),
-        address: 5,
-        protocol: Protocol::Modbus,
-        settings: Vec::new(),
-    });
+    let config = model.device_config("mm", 5, Protocol::Modbus, &[]).unwrap();
+    let driver = (model.driver)(&config);
     let clock = Arc::new(VirtualClock::new());
     let fail = Arc::new(AtomicBool::new(false));
     let sent = Arc::new(Mutex::new(0));

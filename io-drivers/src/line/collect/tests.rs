@@ -7,7 +7,7 @@ use std::time::Duration;
 use super::*;
 use crate::devices::minimod::settings::Setting;
 use crate::devices::minimod::MiniModDriver;
-use crate::devices::{self, DeviceConfig, Protocol};
+use crate::devices::{self, Protocol};
 use crate::driver::Driver;
 use crate::line::bus::{BusOwner, Discipline, InputFrame, Module};
 use crate::line::settings::LineSettings;
@@ -173,15 +173,10 @@ fn rig(specs: &[Spec<'_>]) -> Rig {
     for (address, protocol, settings) in specs {
         let name = format!("mm{address}");
         world.add_device(0, &name, (model.simulator)(*address));
-        let driver = (model.driver)(&DeviceConfig {
-            name: name.clone(),
-            address: *address,
-            protocol: *protocol,
-            settings: settings
-                .iter()
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .collect(),
-        });
+        let config = model
+            .device_config(&name, *address, *protocol, settings)
+            .unwrap();
+        let driver = (model.driver)(&config);
         modules.push(Module::new(name, driver));
     }
     let world = world.shared();

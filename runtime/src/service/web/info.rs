@@ -108,7 +108,7 @@ impl WebInfo {
                 name: m.name.clone(),
                 bus: m.bus,
                 model: m.model.name,
-                address: m.device.address,
+                address: m.device.address.get(),
                 protocol: m.device.protocol.name(),
             })
             .collect();

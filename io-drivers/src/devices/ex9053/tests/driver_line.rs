@@ -8,7 +8,7 @@ use std::time::Duration;
 use crate::devices::minimod::line_tests::{Logs, Tap};
 
 use crate::devices::ex9053::points::Point;
-use crate::devices::{self, DeviceConfig, Protocol};
+use crate::devices::{self, Protocol};
 use crate::driver::{DecodeError, Outgoing};
 use crate::line::budget::{line_budget, transaction_time};
 use crate::line::bus::{BusOwner, Discipline, InputFrame, Module, StartupError, TxError};
@@ -58,16 +58,10 @@ fn rig(line: LineSettings, specs: &[Spec<'_>], plant: Option<Wired>) -> Rig {
         }
         let name = format!("m{i}");
         world.add_device(0, &name, sim);
-        let driver = (model.driver)(&DeviceConfig {
-            name: name.clone(),
-            address: s.address,
-            protocol: s.protocol,
-            settings: s
-                .settings
-                .iter()
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .collect(),
-        });
+        let config = model
+            .device_config(&name, s.address, s.protocol, s.settings)
+            .unwrap();
+        let driver = (model.driver)(&config);
         modules.push(Module::new(name, driver));
     }
     if let Some((plant, wires)) = plant {
@@ -629,15 +623,15 @@ fn broadcasts_cost_their_characters_and_t3_5_in_the_budget() {
     let t = transaction_time(DCON_LINE, &tx, Duration::from_millis(10));
     assert_eq!(t, DCON_LINE.chars(4) + DCON_LINE.t3_5());
     let model = devices::model("ex9053d").unwrap();
-    let driver = (model.driver)(&DeviceConfig {
-        name: "dc".into(),
-        address: 1,
-        protocol: Protocol::Text,
-        settings: vec![
-            ("sync".into(), "lead".into()),
-            ("watchdog".into(), "1s".into()),
-        ],
-    });
+    let config = model
+        .device_config(
+            "dc",
+            1,
+            Protocol::Text,
+            &[("sync", "lead"), ("watchdog", "1s")],
+        )
+        .unwrap();
+    let driver = (model.driver)(&config);
     let access = model.points.iter().map(|p| p.access).collect();
     let mut drivers = vec![("dc".to_string(), driver, access)];
     let budget = line_budget(DCON_LINE, &mut drivers);

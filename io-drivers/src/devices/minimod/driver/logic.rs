@@ -17,7 +17,7 @@
 //!    76, 77 and 78; a bitmask different from 0 imposes a flashing"); a pulser at 0 runs no
 //!    pulse ("The generator starts with the indicated value when written, and counts down").
 //! 2. **initial values** of the pushed-down outputs that keep a state (latches, pulses:
-//!    settings `initial_Y1..4`, written by the push-down planner): FC 15 on the coil, read
+//!    [`super::super::push_down::PushDown::initial`], from the push-down planner): FC 15 on the coil, read
 //!    back with FC 1, so the output starts where the central rung would (its tag's initial
 //!    value, a latch reset, no pulse).
 //! 3. **arm**: the settings' own conditions and blinkers, FC 16 + FC 3 per run.
@@ -39,7 +39,6 @@
 use std::ops::RangeInclusive;
 
 use super::super::map::{self, Space};
-use super::super::settings::Setting;
 use super::{runs, SetupStep};
 
 /// AON/AOFF conditions and blinkers: Y1AON1 (40052) ..= YLAMP4 (40079), protocol addresses.
@@ -49,33 +48,8 @@ const PULSERS: RangeInclusive<u16> = 83..=86;
 /// Coils Y1..Y4 (00001..00004).
 const OUTPUTS: RangeInclusive<u16> = map::COIL_Y1..=map::COIL_Y1 + 3;
 
-/// The key prefix of an output's initial value (`initial_Y2: 0`), as the planner writes it.
-pub const INITIAL_PREFIX: &str = "initial_";
-
 /// The logic registers start-up clears (register-table names), for reports.
 pub const CLEARED: &str = "Y1AON1..Y4AOFF3, YLAMP1..4, YPULSE1..4";
-
-/// `initial_Y1` .. `initial_Y4` with 0 or 1: the output's value written before its tables are
-/// armed. `None` for any other key (and a bad value, which the planner never writes).
-pub(super) fn initial_output(key: &str, value: &str) -> Option<Setting> {
-    let rest = key.get(..INITIAL_PREFIX.len())?;
-    if !rest.eq_ignore_ascii_case(INITIAL_PREFIX) {
-        return None;
-    }
-    let name = key.get(INITIAL_PREFIX.len()..)?.to_ascii_uppercase();
-    let e = map::entry(&name).filter(|e| e.space == Space::Coil && OUTPUTS.contains(&e.addr))?;
-    let bits = match value.trim() {
-        "0" | "false" => 0,
-        "1" | "true" => 1,
-        _ => return None,
-    };
-    Some(Setting::Coils {
-        name: e.name,
-        addr: e.addr,
-        count: 1,
-        bits,
-    })
-}
 
 fn register_name(addr: u16) -> &'static str {
     map::MAP
@@ -132,6 +106,8 @@ pub(super) fn split(
 pub(super) mod tests {
     use std::time::Duration;
 
+    use super::super::super::push_down::{Output, PushDown};
+    use super::super::super::settings::Settings;
     use super::super::super::sim::MiniModSim;
     use super::super::{MiniModDriver, Setting};
     use crate::driver::{Driver, Outgoing, Reply, Transaction};
@@ -164,15 +140,20 @@ pub(super) mod tests {
         ]
     }
 
-    fn driver(settings: &[(&str, &str)]) -> MiniModDriver {
-        let settings: Vec<Setting> = settings
+    /// A driver with `settings` and the planner's start values `initial`.
+    fn driver(settings: &[(&str, &str)], initial: &[(&str, bool)]) -> MiniModDriver {
+        let mut settings: Vec<Setting> = settings
             .iter()
-            .map(|(k, v)| {
-                super::initial_output(k, v)
-                    .or_else(|| Setting::parse(k, v).ok())
-                    .unwrap()
-            })
+            .map(|(k, v)| Setting::parse(k, v).unwrap())
             .collect();
+        let push = PushDown {
+            initial: initial
+                .iter()
+                .map(|(y, on)| (Output::named(y).unwrap(), *on))
+                .collect(),
+            ..PushDown::default()
+        };
+        settings.extend(push.settings(&Settings::default()));
         MiniModDriver::new(UnitId::new(UNIT), &settings)
     }
 
@@ -230,7 +211,7 @@ pub(super) mod tests {
     #[test]
     fn stale_tables_are_cleared_and_read_back_when_nothing_is_pushed() {
         let mut sim = crashed_module();
-        let mut d = driver(&[]);
+        let mut d = driver(&[], &[]);
         let wires = start(&mut d, &mut sim, Duration::from_millis(10));
         assert_eq!(wires, clear_frames(UNIT), "the clear, nothing else");
         for point in ["Y2AON1", "Y2AOFF1", "YLAMP3", "YPULSE4"] {
@@ -251,11 +232,10 @@ pub(super) mod tests {
     #[test]
     fn a_pushed_latch_starts_reset_then_its_tables_are_armed() {
         let mut sim = crashed_module();
-        let mut d = driver(&[
-            ("Y2AON1", "0x0001"),
-            ("Y2AOFF1", "0x0002"),
-            ("initial_Y2", "0"),
-        ]);
+        let mut d = driver(
+            &[("Y2AON1", "0x0001"), ("Y2AOFF1", "0x0002")],
+            &[("Y2", false)],
+        );
         let wires = start(&mut d, &mut sim, Duration::from_millis(10));
         let mut want = clear_frames(UNIT);
         // Y2 = 0 (FC 15 at coil 1) and its read-back, then the conditions.
@@ -274,22 +254,5 @@ pub(super) mod tests {
         sim.set("X1", Value::Bool(true)).unwrap();
         sim.advance_to(Duration::from_millis(22));
         assert_eq!(sim.get("Y2"), Ok(Value::Bool(true)));
-    }
-
-    #[test]
-    fn initial_values_are_planner_keys_for_outputs_only() {
-        assert_eq!(
-            super::initial_output("initial_Y3", "1"),
-            Some(Setting::Coils {
-                name: "Y3",
-                addr: 2,
-                count: 1,
-                bits: 1
-            })
-        );
-        assert!(super::initial_output("INITIAL_y1", "0").is_some());
-        assert_eq!(super::initial_output("initial_X1", "0"), None);
-        assert_eq!(super::initial_output("initial_Y2", "2"), None);
-        assert_eq!(super::initial_output("Y2", "0"), None);
     }
 }

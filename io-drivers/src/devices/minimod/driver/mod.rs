@@ -106,16 +106,16 @@
 use std::time::Duration;
 
 use super::map::{self, POINTS};
-use super::settings::{Readback, Setting, DEFAULT_EVENT_REFRESH};
-use crate::devices::{DeviceConfig, Protocol};
+use super::settings::{Readback, Setting, Settings, DEFAULT_EVENT_REFRESH};
+use crate::devices::{DeviceConfig, ModuleSettings, Protocol};
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
-pub use super::settings::{check_setting, SettingError};
+pub use super::settings::SettingError;
 
 mod logic;
-pub use logic::{CLEARED as LOGIC_CLEARED_AT_STARTUP, INITIAL_PREFIX};
+pub use logic::CLEARED as LOGIC_CLEARED_AT_STARTUP;
 mod plan;
 mod restart;
 mod settings;
@@ -126,28 +126,22 @@ mod write;
 
 use settings::{runs, setup_steps, SetupStep};
 
-/// Builds a driver from a validated module entry (the catalog's constructor). Settings were
-/// checked before; one that still fails is logged and ignored. An address outside 1..=247
-/// (refused by project validation) gives a driver that plans nothing.
+/// Builds a driver from a validated module entry (the catalog's constructor): the module's
+/// own settings, then what the push-down planner added ([`super::push_down::PushDown::settings`]). A
+/// configuration of another family (never built by project validation, which parses the
+/// settings with this model) gives the module's defaults. An address that is no Modbus unit
+/// (refused by the model's range, 1..=247) gives a driver that plans nothing.
 pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
-    let mut settings = Vec::with_capacity(config.settings.len());
-    for (key, value) in &config.settings {
-        // The push-down planner's `initial_Yn` (see `logic`).
-        if let Some(s) = logic::initial_output(key, value) {
-            settings.push(s);
-            continue;
-        }
-        match Setting::parse(key, value) {
-            Ok(s) => settings.push(s),
-            Err(e) => tracing::error!(module = %config.name, key = %key, "ignored setting: {e}"),
-        }
-    }
-    let unit = UnitId::new(config.address);
-    if unit.is_none() {
-        tracing::error!(module = %config.name, address = config.address, "not a unit address");
+    let own = match &config.settings {
+        ModuleSettings::MiniMod(s) => s.clone(),
+        _ => Settings::default(),
+    };
+    let mut settings = own.items().to_vec();
+    if let crate::devices::PushDown::MiniMod(push) = &config.push_down {
+        settings.extend(push.settings(&own));
     }
     Box::new(MiniModDriver::with_protocol(
-        unit,
+        config.address.unit(),
         config.protocol,
         &settings,
     ))

@@ -361,12 +361,9 @@ fn catalog_entry() {
     assert_eq!(m.protocols, [Protocol::Modbus, Protocol::Text]);
     assert_eq!(m.max_baud, 57600);
     assert_eq!(m.default_reply_delay, Duration::from_millis(10));
-    let config = DeviceConfig {
-        name: "mm1".into(),
-        address: UNIT,
-        protocol: Protocol::Modbus,
-        settings: vec![("readback".into(), "every".into())],
-    };
+    let config = m
+        .device_config("mm1", UNIT, Protocol::Modbus, &[("readback", "every")])
+        .unwrap();
     let mut d = (m.driver)(&config);
     assert_eq!(d.address(), UNIT);
     let mut plan = Vec::new();

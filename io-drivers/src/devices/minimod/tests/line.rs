@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use crate::devices::minimod::map::WatchdogRegisters;
 use crate::devices::minimod::MiniModSim;
-use crate::devices::{self, DeviceConfig, Protocol};
+use crate::devices::{self, Protocol};
 use crate::line::bus::{BusOwner, Discipline, InputFrame, Module, OutputFrame};
 use crate::line::transport::{LineError, Transport};
 use crate::line::LineSettings;
@@ -127,15 +127,8 @@ fn rig_on(registers: WatchdogRegisters, protocol: Protocol, settings: &[(&str, &
     let model = devices::model("minimod").unwrap();
     let sim = MiniModSim::with_watchdog_registers(UNIT, registers);
     world.add_device(0, "mm", Box::new(sim));
-    let driver = (model.driver)(&DeviceConfig {
-        name: "mm".into(),
-        address: UNIT,
-        protocol,
-        settings: settings
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect(),
-    });
+    let config = model.device_config("mm", UNIT, protocol, settings).unwrap();
+    let driver = (model.driver)(&config);
     let world = world.shared();
     let clock = Arc::new(VirtualClock::new());
     let sent = Arc::new(Mutex::new(Vec::new()));

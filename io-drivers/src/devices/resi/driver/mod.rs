@@ -69,29 +69,29 @@ use settings::Setting;
 use super::map::Entry;
 use super::model::Model;
 use super::value::Num;
-use crate::devices::{DeviceConfig, Protocol};
+use crate::devices::{DeviceConfig, ModuleSettings, Protocol, PushDown};
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
-/// Builds a driver for `model` from a validated module entry. Settings were checked before; one
-/// that still fails is logged and ignored. A Modbus address outside 1..=247 gives a driver that
-/// plans nothing (and says so).
+/// Builds a driver for `model` from a validated module entry: the module's own settings, then
+/// what the push-down planner added ([`super::push_down::LogicTable::settings`]). A
+/// configuration of another family (never built by project validation, which parses the
+/// settings with this model) gives the model's defaults.
 pub fn build(model: &'static Model, config: &DeviceConfig) -> Box<dyn Driver> {
-    let mut parsed = Vec::new();
-    for (key, value) in &config.settings {
-        match settings::parse(model, key, value) {
-            Ok(s) => parsed.push(s),
-            Err(e) => tracing::error!(module = %config.name, key = %key, "ignored setting: {e}"),
-        }
+    let own = match &config.settings {
+        ModuleSettings::Resi(s) => s.clone(),
+        _ => settings::Settings::default(),
+    };
+    let mut parsed = own.items().to_vec();
+    if let PushDown::Resi(table) = &config.push_down {
+        parsed.extend(table.settings(model, &own));
     }
-    let d = ResiDriver::new(model, config.protocol, config.address, &parsed);
-    if config.protocol == Protocol::Modbus && d.unit.is_none() {
-        let address = config.address;
-        tracing::error!(module = %config.name, address, "not a Modbus unit address");
-    }
+    let d = ResiDriver::new(model, config.protocol, config.address.get(), &parsed);
     for p in &d.unreadable {
         if let Some(spec) = model.points.get(*p) {
+            // A poll list is checked against the model, not the protocol: the one place
+            // where a setting meets the protocol is here.
             let point = spec.name;
             tracing::error!(module = %config.name, point, "no ASCII command reads this point");
         }

@@ -22,44 +22,14 @@
 
 use std::time::Duration;
 
+use crate::devices::config::{parse_each, Accepted, KeyError, Range};
 use crate::devices::resi::item::Kind;
 use crate::devices::resi::map::{Acc, Entry};
 use crate::devices::resi::model::Model;
 use crate::devices::resi::value::Num;
 use crate::point::Access;
 
-/// Why a setting was refused.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum SettingError {
-    /// Not a setting of this model.
-    #[error(
-        "not a {model} setting; accepted: poll, reply_delay, its read-write points ({example}, \
-         ...), the command registers it has (CLEAR_ALL_LOGIC_FUNCTIONS, RESET_COUNTER), on \
-         resi-1ro SOFFDLY, on resi-16di8ro initial_RO1..8"
-    )]
-    UnknownKey {
-        /// The model.
-        model: &'static str,
-        /// One of its read-write points.
-        example: &'static str,
-    },
-    /// The value does not fit.
-    #[error("{key} takes {expected}")]
-    BadValue {
-        /// The setting.
-        key: &'static str,
-        /// What it takes.
-        expected: &'static str,
-    },
-    /// A `poll` pattern that names no point.
-    #[error("poll: {pattern:?} names no point of {model}")]
-    NoSuchPoint {
-        /// The model.
-        model: &'static str,
-        /// The pattern.
-        pattern: String,
-    },
-}
+pub use crate::devices::config::SettingError;
 
 /// One validated setting.
 #[derive(Debug, Clone, PartialEq)]
@@ -111,9 +81,11 @@ pub fn select(model: &'static Model, patterns: &[&str]) -> Result<Vec<usize>, Se
             }
         }
         if out.len() == before && !model.points.iter().any(|s| matches(&p, s.name)) {
+            let trimmed = pattern.trim();
             return Err(SettingError::NoSuchPoint {
                 model: model.name,
-                pattern: pattern.trim().to_string(),
+                at: 0,
+                len: trimmed.len(),
             });
         }
     }
@@ -155,14 +127,29 @@ fn writable(model: &'static Model, key: &str) -> Option<Entry> {
 /// Parses one `key: value` of a module's `settings`.
 pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, SettingError> {
     if key.eq_ignore_ascii_case("poll") {
-        let patterns: Vec<&str> = value.split(',').filter(|p| !p.trim().is_empty()).collect();
+        // Each pattern with its byte offset in the value, for the error.
+        let mut patterns: Vec<(usize, &str)> = Vec::new();
+        let mut at = 0;
+        for piece in value.split(',') {
+            let lead = piece.len() - piece.trim_start().len();
+            if !piece.trim().is_empty() {
+                patterns.push((at + lead, piece.trim()));
+            }
+            at += piece.len() + 1;
+        }
         if patterns.is_empty() {
             return Err(SettingError::BadValue {
                 key: "poll",
                 expected: "a comma-separated list of point names (NAME or NAME*)",
             });
         }
-        return select(model, &patterns).map(Setting::Poll);
+        for &(at, pattern) in &patterns {
+            if let Err(SettingError::NoSuchPoint { model, len, .. }) = select(model, &[pattern]) {
+                return Err(SettingError::NoSuchPoint { model, at, len });
+            }
+        }
+        let names: Vec<&str> = patterns.iter().map(|(_, p)| *p).collect();
+        return select(model, &names).map(Setting::Poll);
     }
     if key.eq_ignore_ascii_case("reply_delay") {
         return value
@@ -173,17 +160,25 @@ pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, S
             .ok()
             .filter(|ms| *ms <= 10_000)
             .map(|ms| Setting::ReplyDelay(Duration::from_millis(ms)))
-            .ok_or(SettingError::BadValue {
+            .ok_or(SettingError::OutOfRange {
                 key: "reply_delay",
-                expected: "0..=10000 ms",
+                range: Range {
+                    min: 0,
+                    max: 10_000,
+                    unit: " ms",
+                },
             });
     }
     if key.eq_ignore_ascii_case("SOFFDLY") && model.hw.one_relay {
         return match number(value) {
             Some(Num::Int(ms @ 1..=65535)) => Ok(Setting::Watchdog(ms as u16)),
-            _ => Err(SettingError::BadValue {
+            _ => Err(SettingError::OutOfRange {
                 key: "SOFFDLY",
-                expected: "1..=65535 (ms)",
+                range: Range {
+                    min: 1,
+                    max: 65535,
+                    unit: " (ms)",
+                },
             }),
         };
     }
@@ -212,11 +207,13 @@ pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, S
     }
     let entry = writable(model, key).ok_or(SettingError::UnknownKey {
         model: model.name,
-        example: model
-            .points
-            .iter()
-            .find(|p| p.access == Access::ReadWrite)
-            .map_or("none", |p| p.name),
+        accepted: Accepted::Resi {
+            example: model
+                .points
+                .iter()
+                .find(|p| p.access == Access::ReadWrite)
+                .map_or("none", |p| p.name),
+        },
     })?;
     let expected = if entry.item.kind.is_real() {
         "a number"
@@ -230,7 +227,7 @@ pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, S
         key: entry.name,
         expected,
     };
-    let v = number(value).ok_or(bad.clone())?;
+    let v = number(value).ok_or(bad)?;
     let v = if entry.item.kind.is_real() {
         Num::Real(v.real())
     } else {
@@ -242,11 +239,57 @@ pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, S
     Ok(Setting::Write { entry, value: v })
 }
 
-/// Checks one setting (the catalog's `check_setting`).
-pub fn check(model: &'static Model, key: &str, value: &str) -> Result<(), String> {
-    parse(model, key, value)
-        .map(|_| ())
-        .map_err(|e| e.to_string())
+/// A RESI module's settings, parsed once from its project entry, in file order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Settings {
+    items: Vec<Setting>,
+}
+
+impl Settings {
+    /// Parses every `key: value` of the entry for `model`; every refusal comes back with its
+    /// index.
+    pub fn parse(model: &'static Model, pairs: &[(String, String)]) -> Result<Self, Vec<KeyError>> {
+        parse_each(pairs, |k, v| parse(model, k, v)).map(|items| Self { items })
+    }
+
+    /// Every setting, in file order.
+    pub fn items(&self) -> &[Setting] {
+        &self.items
+    }
+
+    /// The value the settings write to the map entry `name` (`ENABLE_LOGIC_FUNCTIONS`), the
+    /// last one winning.
+    pub fn write_value(&self, name: &str) -> Option<Num> {
+        self.items.iter().rev().find_map(|s| match s {
+            Setting::Write { entry, value } if entry.name == name => Some(*value),
+            _ => None,
+        })
+    }
+
+    /// Whether a setting writes the map entry `name` (`SWITCH_RO1`; `RO1` for its start
+    /// value).
+    pub fn sets(&self, name: &str) -> bool {
+        self.items.iter().any(|s| match s {
+            Setting::Write { entry, .. } | Setting::Initial { entry, .. } => entry.name == name,
+            _ => false,
+        })
+    }
+
+    /// The `poll` list (indexes into the model's points), if the entry gives one.
+    pub fn poll(&self) -> Option<&[usize]> {
+        self.items.iter().rev().find_map(|s| match s {
+            Setting::Poll(points) => Some(points.as_slice()),
+            _ => None,
+        })
+    }
+
+    /// 1RO `SOFFDLY`, ms.
+    pub fn off_delay(&self) -> Option<u16> {
+        self.items.iter().rev().find_map(|s| match s {
+            Setting::Watchdog(ms) => Some(*ms),
+            _ => None,
+        })
+    }
 }
 
 #[cfg(test)]
@@ -289,14 +332,49 @@ mod tests {
         );
         assert!(parse(m, "DIS", "1").is_err(), "read-only");
         assert!(parse(m, "SOFFDLY", "5000").is_err(), "1RO only");
-        let e = check(m, "nope", "1").unwrap_err();
-        assert!(e.contains("not a resi-16di8ro setting"), "{e}");
+        let e = parse(m, "nope", "1").unwrap_err();
+        assert_eq!(
+            e,
+            SettingError::UnknownKey {
+                model: "resi-16di8ro",
+                accepted: Accepted::Resi {
+                    example: "SWITCH_RO1"
+                }
+            }
+        );
+        assert!(e
+            .to_string()
+            .starts_with("not a resi-16di8ro setting; accepted: poll"));
         assert_eq!(
             parse(m, "reply_delay", "5ms"),
             Ok(Setting::ReplyDelay(Duration::from_millis(5)))
         );
         assert!(parse(m, "poll", "DI*, RISE_DI1").is_ok());
         assert!(parse(m, "poll", "").is_err());
+        let e = parse(m, "poll", "DI*,  DI17").unwrap_err();
+        assert_eq!(
+            e,
+            SettingError::NoSuchPoint {
+                model: "resi-16di8ro",
+                at: 6,
+                len: 4
+            }
+        );
+        assert_eq!(
+            e.describe("DI*,  DI17"),
+            "poll: \"DI17\" names no point of resi-16di8ro"
+        );
+        assert_eq!(
+            parse(&m1ro::MODEL, "SOFFDLY", "0"),
+            Err(SettingError::OutOfRange {
+                key: "SOFFDLY",
+                range: Range {
+                    min: 1,
+                    max: 65535,
+                    unit: " (ms)"
+                }
+            })
+        );
         assert_eq!(
             parse(&m1ro::MODEL, "SOFFDLY", "5000"),
             Ok(Setting::Watchdog(5000))

@@ -13,16 +13,15 @@ use crate::point::Value;
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
 use crate::time::{Clock, VirtualClock};
 
-fn config(name: &str, address: u8, protocol: Protocol, settings: &[(&str, &str)]) -> DeviceConfig {
-    DeviceConfig {
-        name: name.into(),
-        address,
-        protocol,
-        settings: settings
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect(),
-    }
+fn config(
+    spec: &ModelSpec,
+    name: &str,
+    address: u8,
+    protocol: Protocol,
+    settings: &[(&str, &str)],
+) -> DeviceConfig {
+    spec.device_config(name, address, protocol, settings)
+        .unwrap()
 }
 
 /// A module on the line: model, name, address, settings.
@@ -51,7 +50,7 @@ fn house(protocol: Protocol) -> (BusOwner, SharedWorld, Arc<VirtualClock>) {
         world.add_device(0, name, (spec.simulator)(*address));
         modules.push(Module::new(
             *name,
-            (spec.driver)(&config(name, *address, protocol, s)),
+            (spec.driver)(&config(spec, name, *address, protocol, s)),
         ));
     }
     let world = world.shared();
