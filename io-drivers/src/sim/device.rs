@@ -95,16 +95,6 @@ pub trait SimDevice: Send + Debug {
         let _ = (baud, format);
     }
 
-    /// The module is installed for `settings`: its DIP switches or stored baud and format are
-    /// set to them. True if the module models its own UART from then on (its own settings
-    /// change with its configuration and a power cycle, and it compares them with
-    /// [`SimDevice::master_line`] itself); false leaves the comparison to the world, with
-    /// `settings` fixed.
-    fn set_uart(&mut self, settings: crate::line::settings::LineSettings) -> bool {
-        let _ = settings;
-        false
-    }
-
     /// Help text for [`SimDevice::command`].
     fn command_help(&self) -> &'static str {
         ""

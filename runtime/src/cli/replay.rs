@@ -240,36 +240,14 @@ pub fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &Path) -
         r.cycles,
         fmt_duration(r.plant_time)
     );
-    match (&r.fault, r.recorded_fault) {
-        (Some((cycle, fault)), recorded) => {
-            let _ = writeln!(
-                out,
-                "the replayed program faulted at cycle {cycle}: {fault}; replay stopped there{}",
-                if recorded == Some(*cycle) {
-                    ", as the recorded run did"
-                } else {
-                    ""
-                }
-            );
-        }
-        (None, Some(cycle)) => {
-            let _ = writeln!(
-                out,
-                "the recorded program faulted at cycle {cycle}; the replayed one did not"
-            );
-        }
-        (None, None) => {}
-    }
-    if r.differing_cycles == 0 {
+    if let Some((cycle, fault)) = &r.fault {
         let _ = writeln!(
             out,
-            "{span}, outputs identical{}",
-            if r.identical() {
-                ""
-            } else {
-                "; the faults differ (above)"
-            }
+            "the replayed program faulted at cycle {cycle}: {fault}; replay stopped there"
         );
+    }
+    if r.differing_cycles == 0 {
+        let _ = writeln!(out, "{span}, outputs identical");
     } else {
         let _ = writeln!(
             out,

@@ -22,8 +22,7 @@
 //! bit, then the value: u16 as 2 bytes LE, i32 as a zig-zag varint, f32 as its 4 bytes LE.
 //!
 //! A cycle record holds what the scan saw and did in one cycle:
-//! `cycle delta, time delta (ns), dropped records before it, faulted (u8), events, seen,
-//! wrote`: the control
+//! `cycle delta, time delta (ns), dropped records before it, events, seen, wrote`: the control
 //! requests applied at the boundary before it (force, unforce, write, reload), the tags whose
 //! value or quality at the start of the logic differ from the state before (`seen`: the input
 //! image, and the quality marks the scan put on other tags), and the tags whose value or
@@ -229,8 +228,6 @@ pub struct CycleRecord {
     /// Records dropped just before this one (the writer fell behind): a gap. After a gap
     /// `seen` lists every tag.
     pub dropped_before: u64,
-    /// The program faulted in this cycle: the run stopped here, `wrote` holds nothing.
-    pub faulted: bool,
     /// Control requests applied at the boundary before the cycle.
     pub events: Vec<Event>,
     /// Changes at the start of the logic.
@@ -396,7 +393,6 @@ impl Enc {
         self.varint(r.cycle.saturating_sub(prev.0));
         self.nanos(r.now.saturating_sub(prev.1));
         self.varint(r.dropped_before);
-        self.u8(u8::from(r.faulted));
         self.varint(r.events.len() as u64);
         for ev in &r.events {
             match ev {
@@ -687,7 +683,6 @@ impl<'a> Dec<'a> {
             let cycle = prev.0.saturating_add(self.varint()?);
             let now = prev.1.saturating_add(self.nanos()?);
             let dropped_before = self.varint()?;
-            let faulted = self.u8()? != 0;
             let n = self.len()?;
             let mut events = Vec::with_capacity(n);
             for _ in 0..n {
@@ -729,7 +724,6 @@ impl<'a> Dec<'a> {
                 cycle,
                 now,
                 dropped_before,
-                faulted,
                 events,
                 seen,
                 wrote,
@@ -855,7 +849,6 @@ mod tests {
                 cycle: 40,
                 now: Duration::from_millis(4000),
                 dropped_before: 0,
-                faulted: false,
                 events: vec![
                     Event::Force {
                         tag: 0,
@@ -881,7 +874,6 @@ mod tests {
                 cycle: 43,
                 now: Duration::from_millis(4300),
                 dropped_before: 2,
-                faulted: true,
                 ..CycleRecord::default()
             },
         ];

@@ -11,6 +11,18 @@ use super::state::Module;
 use super::value::Enc;
 use crate::point::Access;
 
+static ALL: [&Model; 9] = [
+    &m16di8ro::MODEL,
+    &m32di::MODEL,
+    &m14ri::MODEL,
+    &m8co::MODEL,
+    &m2ri::MODEL,
+    &m1ro::MODEL,
+    &m2rtd::MODEL,
+    &m1led::MODEL,
+    &m4led::MODEL,
+];
+
 #[test]
 fn every_point_has_an_entry_of_its_type_and_access() {
     for m in ALL {
@@ -67,9 +79,7 @@ fn every_mapped_item_and_command_field_exists_in_the_state() {
             let (first, last) = c.x.unwrap_or((1, 1));
             for x in first..=last {
                 let fields = match c.action {
-                    Action::Get { fields, .. }
-                    | Action::Set { fields }
-                    | Action::SetSensorConfig { fields } => fields,
+                    Action::Get { fields, .. } | Action::Set { fields } => fields,
                     _ => &[],
                 };
                 for f in fields {

@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::*;
-use crate::devices::{self, DeviceConfig, Protocol};
+use crate::devices::{self, Protocol};
 use crate::line::bus::{BusOwner, Discipline, Module, TxError};
 use crate::point::Quality;
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
@@ -34,12 +34,7 @@ fn owner_speaking(
     protocol: Protocol,
 ) -> BusOwner {
     let model = devices::model("minimod").unwrap();
-    let config = DeviceConfig {
-        name: "mm".into(),
-        address: 5,
-        protocol,
-        settings: Vec::new(),
-    };
+    let config = model.device_config("mm", 5, protocol, &[]).unwrap();
     let driver = (model.driver)(&config);
     let port: Box<dyn Transport> =
         Box::new(VirtualPort::new(world.clone(), 0, LINE, clock.clone()));

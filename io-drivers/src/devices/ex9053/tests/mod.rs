@@ -4,4 +4,3 @@
 mod driver_line;
 mod manual_dcon;
 mod manual_modbus;
-mod uart;

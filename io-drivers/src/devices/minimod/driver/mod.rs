@@ -127,8 +127,8 @@ mod write;
 use settings::{runs, setup_steps, SetupStep};
 
 /// Builds a driver from a validated module entry (the catalog's constructor): the module's
-/// own settings, then what the push-down planner added ([`super::push_down::PushDown::settings`]). A
-/// configuration of another family (never built by project validation, which parses the
+/// own settings, then what the push-down planner added
+/// ([`super::push_down::PushDown::settings`]). A configuration of another family (never built by project validation, which parses the
 /// settings with this model) gives the module's defaults. An address that is no Modbus unit
 /// (refused by the model's range, 1..=247) gives a driver that plans nothing.
 pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {

@@ -11,5 +11,4 @@
 
 pub mod command;
 pub mod frame;
-pub mod sensor_config;
 pub mod serve;
