@@ -30,7 +30,7 @@ fn run_refuses_rs485_mode_on_a_pty_by_name() {
     let path = dir.join("project.yaml");
     std::fs::write(&path, project).unwrap();
     let out = Command::new(BIN)
-        .args(["run", "--quiet", "--no-control", "--for", "5s"])
+        .args(["run", "--quiet", "--no-socket", "--for", "5s"])
         .arg(&path)
         .output()
         .unwrap();

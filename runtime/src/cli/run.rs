@@ -35,7 +35,9 @@ pub struct RunArgs {
     quiet: bool,
     /// The control socket (status, force, reload); default: from the project name, under
     /// $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR/softplc or /tmp/softplc-UID.
-    #[arg(long)]
+    /// The same flag as `status`, `force`, `reload` take (`--control` is the older name,
+    /// still accepted).
+    #[arg(long = "socket", alias = "control")]
     control: Option<PathBuf>,
     /// Keep forces across restarts, in PROJECT.forces.json beside the project file (by default
     /// a restart clears every force).
@@ -47,7 +49,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "KEEP", value_parser = super::parse_duration)]
     record: Option<Duration>,
     /// Do not open a control socket.
-    #[arg(long, conflicts_with = "control")]
+    #[arg(long = "no-socket", alias = "no-control", conflicts_with = "control")]
     no_control: bool,
     /// Print every frame each bus sends and receives (and every timeout and discarded byte)
     /// on stdout, with the line's time, hex and decoding (README, "Seeing the wire").
@@ -202,7 +204,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         // process goes away, so an open page says "stopped" rather than "no connection".
         std::thread::sleep(crate::service::web::sse::TICK * 3);
     }
-    super::out::out(&summary(&outcome, period))?;
+    super::out::out(&summary(&outcome, period, args.run_for))?;
     if let Some(r) = recorder {
         let dropped = r.dropped();
         // The PLC is gone with the scan thread: the writer has its last records.
@@ -217,18 +219,25 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(match outcome.reason {
-        StopReason::Requested => ExitCode::SUCCESS,
+        StopReason::Requested | StopReason::TimeUp => ExitCode::SUCCESS,
         _ => ExitCode::from(3),
     })
 }
 
 /// The end-of-run summary.
-pub fn summary(outcome: &RunOutcome, period: Duration) -> String {
+pub fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Duration>) -> String {
     use std::fmt::Write;
     let s = &outcome.stats;
     let mut out = String::new();
     let reason = match &outcome.reason {
         StopReason::Requested => "stopped on request; outputs set to their safe values".to_string(),
+        StopReason::TimeUp => match run_for {
+            Some(d) => format!(
+                "stopped after its run time (--for {}); outputs set to their safe values",
+                fmt_duration(d)
+            ),
+            None => "stopped at its cycle limit; outputs set to their safe values".to_string(),
+        },
         StopReason::LogicFault(f) => {
             format!("FAULT: program error: {f}; outputs set to their safe values")
         }

@@ -14,8 +14,11 @@ use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
 /// Why a run ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum StopReason {
-    /// Asked to stop (signal, `--for` elapsed, cycle limit).
+    /// Asked to stop: a signal (SIGINT, SIGTERM) or a stop flag.
     Requested,
+    /// The run's own limit was reached (`--for` elapsed, a cycle limit): it ended as planned,
+    /// which an operator reading the log must not take for someone's stop.
+    TimeUp,
     /// The program faulted; outputs went to their safe values.
     LogicFault(LogicFault),
     /// The task watchdog fired; outputs went to their safe values.
@@ -168,7 +171,7 @@ impl ScanEngine {
             if end_at.is_some_and(|end| deadline >= end)
                 || self.max_cycles.is_some_and(|n| stats.cycles >= n)
             {
-                break StopReason::Requested;
+                break StopReason::TimeUp;
             }
             clock.sleep_until(deadline);
             let start = clock.now();

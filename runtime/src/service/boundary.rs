@@ -216,6 +216,7 @@ impl CycleBoundary for ServiceBoundary {
         if let Some(p) = &mut self.publisher {
             p.set_stop_reason(match reason {
                 StopReason::Requested => "stopped on request".to_string(),
+                StopReason::TimeUp => "stopped at the end of its run time".to_string(),
                 StopReason::LogicFault(f) => format!("program error: {f}"),
                 StopReason::Watchdog(w) => format!("task watchdog: {w}"),
             });

@@ -176,7 +176,7 @@ fn check_folder(dir: &Path) -> std::io::Result<()> {
         return Err(std::io::Error::new(
             std::io::ErrorKind::PermissionDenied,
             format!(
-                "{} is not a private folder of this user (owner {}, mode {:o}); remove it or pass --control",
+                "{} is not a private folder of this user (owner {}, mode {:o}); remove it or pass --socket",
                 dir.display(),
                 meta.uid(),
                 meta.mode() & 0o7777

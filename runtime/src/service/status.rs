@@ -146,18 +146,24 @@ impl StatusReport {
     }
 }
 
+/// A JSON field in µs, printed as `softplc run` prints its times (µs, ms or s by size), so
+/// the same figure reads the same in both places.
+fn micros(us: u64) -> String {
+    crate::scan::fmt_duration(std::time::Duration::from_micros(us))
+}
+
 impl std::fmt::Display for StatusReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "{}: {} scans, {} overruns, period {} µs; cycle p50 {} µs p99 {} µs max {} µs",
+            "{}: {} scans, {} overruns, period {}; cycle p50 {} p99 {} max {}",
             self.project,
             self.scans,
             self.overruns,
-            self.period_us,
-            self.cycle.p50_us,
-            self.cycle.p99_us,
-            self.cycle.max_us
+            micros(self.period_us),
+            micros(self.cycle.p50_us),
+            micros(self.cycle.p99_us),
+            micros(self.cycle.max_us)
         )?;
         for m in &self.modules {
             writeln!(
