@@ -257,10 +257,8 @@ fn dcon_commands_and_answers_are_paired() {
     assert!(
         decoded
             .iter()
-            .any(|d| d == "dcon command to 01: ReadName { address: 1 }")
-            && decoded
-                .iter()
-                .any(|d| d == "dcon answer from 01: Text(\"9053\")"),
+            .any(|d| d == "dcon command to 01: §2.9 read module name")
+            && decoded.iter().any(|d| d == "dcon answer from 01: \"9053\""),
         "{decoded:#?}"
     );
 }

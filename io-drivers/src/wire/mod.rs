@@ -10,6 +10,7 @@
 //! - [`trace`]: the optional tap the bus owner reports every frame, timeout and discarded
 //!   byte to, and the trace line format.
 
+mod dcon;
 pub mod decode;
 pub mod framer;
 pub mod rtu;

@@ -153,23 +153,23 @@ fn resi_frames_keep_the_address_as_spelled() {
 fn dcon_commands_and_answers_from_the_manual_examples() {
     // EX-9053D manual §2.9 "$AAM" and §2.3 "#AAN" examples.
     assert_session(&[
-        (b"$01M\r", "dcon command to 01: ReadName { address: 1 }"),
-        (b"!019053\r", "dcon answer from 01: Text(\"9053\")"),
+        (b"$01M\r", "dcon command to 01: §2.9 read module name"),
+        (b"!019053\r", "dcon answer from 01: \"9053\""),
         (
             b"#032\r",
-            "dcon command to 03: ReadCounter { address: 3, channel: 2 }",
+            "dcon command to 03: §2.3 read digital input counter of DI2",
         ),
-        (b"!0300103\r", "dcon answer from 03: Counter(103)"),
+        (b"!0300103\r", "dcon answer from 03: count 103"),
         (
             b"#025\r",
-            "dcon command to 02: ReadCounter { address: 2, channel: 5 }",
+            "dcon command to 02: §2.3 read digital input counter of DI5",
         ),
-        (b"?02\r", "dcon answer from 02: Invalid"),
+        (b"?02\r", "dcon answer from 02: invalid command"),
     ]);
     // With the checksum of §1.10: "$01M" sums to 0xD2.
     assert_eq!(
         decode_request(b"$01MD2\r").to_string(),
-        "dcon command to 01: ReadName { address: 1 }, checksum ok"
+        "dcon command to 01: §2.9 read module name, checksum ok"
     );
 }
 

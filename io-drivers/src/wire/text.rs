@@ -14,6 +14,7 @@
 
 use std::fmt;
 
+use super::dcon::{Described, Told};
 use crate::devices::ex9053::dcon::{self, Answer, Command as DconCommand};
 use crate::devices::minimod::text::{
     self as minimod, format_condition, Command as MiniCommand, Op, TextReply, WriteValue,
@@ -214,7 +215,7 @@ impl fmt::Display for Dcon {
                     Some(a) => write!(f, "to {a:02X}: ")?,
                     None => f.write_str("to every module: ")?,
                 }
-                write!(f, "{command:?}{}", chk(*checksum))
+                write!(f, "{}{}", Described(command), chk(*checksum))
             }
             Dcon::Answer {
                 answer,
@@ -225,7 +226,7 @@ impl fmt::Display for Dcon {
                 if let Some(a) = address {
                     write!(f, "from {a:02X}: ")?;
                 }
-                write!(f, "{answer:?}{}", chk(*checksum))
+                write!(f, "{}{}", Told(answer), chk(*checksum))
             }
         }
     }
