@@ -52,7 +52,7 @@ fn kill_nine_then_restart(kind: &str) {
     let dir = temp(kind);
     let project = project(&dir, kind);
     let file = dir.join("state/count.json");
-    let mut child = softplc(&["run", project.to_str().unwrap(), "--quiet"])
+    let mut child = softplc(&["run", project.to_str().unwrap(), "--quiet", "--no-socket"])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
@@ -78,7 +78,14 @@ fn kill_nine_then_restart(kind: &str) {
     let at_kill = saved(&file).unwrap();
     assert!(at_kill >= before_kill);
 
-    let out = softplc(&["run", project.to_str().unwrap(), "--quiet", "--for", "1s"])
+    let out = softplc(&[
+        "run",
+        project.to_str().unwrap(),
+        "--quiet",
+        "--no-socket",
+        "--for",
+        "1s",
+    ])
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&out.stderr);
@@ -114,6 +121,7 @@ fn a_corrupt_file_is_reported_kept_aside_and_the_defaults_used() {
         "run",
         project.to_str().unwrap(),
         "--quiet",
+        "--no-socket",
         "--virtual",
         "--for",
         "1s",
@@ -200,6 +208,7 @@ fn under_systemd_retained_values_go_to_the_state_directory() {
         "--for",
         "2s",
         "--quiet",
+        "--no-socket",
     ])
     .env("STATE_DIRECTORY", &state)
     .output()
