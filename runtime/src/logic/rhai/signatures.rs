@@ -63,63 +63,52 @@ const fn sig(
 }
 
 const TIMER: &[(&str, Param)] = &[("name", Name), ("in", Bool), ("pt", Time)];
-const LATCH: &[(&str, Param)] = &[("name", Name), ("s", Bool), ("r", Bool)];
-const COUNTER: &[(&str, Param)] = &[("name", Name), ("cu", Bool), ("reset", Bool), ("pv", Int)];
+const STAIR_RESET: &[(&str, Param)] =
+    &[("name", Name), ("in", Bool), ("pt", Time), ("reset", Bool)];
+/// SR: set dominant (`s1`); RS: reset dominant (`r1`), as IEC 61131-3 names them.
+const SET_LATCH: &[(&str, Param)] = &[("name", Name), ("s1", Bool), ("r", Bool)];
+const RESET_LATCH: &[(&str, Param)] = &[("name", Name), ("s", Bool), ("r1", Bool)];
+const UP: &[(&str, Param)] = &[("name", Name), ("cu", Bool), ("reset", Bool), ("pv", Int)];
 const DOWN: &[(&str, Param)] = &[("name", Name), ("cd", Bool), ("load", Bool), ("pv", Int)];
+const UP_DOWN: &[(&str, Param)] = &[
+    ("name", Name),
+    ("cu", Bool),
+    ("cd", Bool),
+    ("reset", Bool),
+    ("load", Bool),
+    ("pv", Int),
+];
 const EDGE: &[(&str, Param)] = &[("name", Name), ("x", Bool)];
+const TOGGLE_RESET: &[(&str, Param)] = &[("name", Name), ("x", Bool), ("reset", Bool)];
+const BLINK: &[(&str, Param)] = &[("name", Name), ("en", Bool), ("on", Time), ("off", Time)];
+const PATTERN: &[(&str, Param)] = &[
+    ("name", Name),
+    ("en", Bool),
+    ("pattern", Pattern),
+    ("step", Time),
+];
 const READER: &[(&str, Param)] = &[("name", Name)];
 const QUALITY: &[(&str, Param)] = &[("tag", Tag)];
+const LIMIT: &[(&str, Param)] = &[("min", Number), ("x", Number), ("max", Number)];
 
-/// Every library function, each overload once (`docs`: the `rhai` module docs).
+/// Every library function, each overload once (as the `rhai` module docs list them).
 pub(crate) const LIBRARY: &[Signature] = &[
     sig("ton", TIMER, Returns::Bool),
     sig("tof", TIMER, Returns::Bool),
     sig("tp", TIMER, Returns::Bool),
     sig("stair", TIMER, Returns::Bool),
-    sig(
-        "stair",
-        &[("name", Name), ("in", Bool), ("pt", Time), ("reset", Bool)],
-        Returns::Bool,
-    ),
-    sig("ctu", COUNTER, Returns::Bool),
+    sig("stair", STAIR_RESET, Returns::Bool),
+    sig("ctu", UP, Returns::Bool),
     sig("ctd", DOWN, Returns::Bool),
-    sig(
-        "ctud",
-        &[
-            ("name", Name),
-            ("cu", Bool),
-            ("cd", Bool),
-            ("reset", Bool),
-            ("load", Bool),
-            ("pv", Int),
-        ],
-        Returns::Bool,
-    ),
+    sig("ctud", UP_DOWN, Returns::Bool),
     sig("r_trig", EDGE, Returns::Bool),
     sig("f_trig", EDGE, Returns::Bool),
-    sig("sr", LATCH, Returns::Bool),
-    sig("rs", LATCH, Returns::Bool),
+    sig("sr", SET_LATCH, Returns::Bool),
+    sig("rs", RESET_LATCH, Returns::Bool),
     sig("toggle", EDGE, Returns::Bool),
-    sig(
-        "toggle",
-        &[("name", Name), ("x", Bool), ("reset", Bool)],
-        Returns::Bool,
-    ),
-    sig(
-        "blink",
-        &[("name", Name), ("en", Bool), ("on", Time), ("off", Time)],
-        Returns::Bool,
-    ),
-    sig(
-        "blink_pattern",
-        &[
-            ("name", Name),
-            ("en", Bool),
-            ("pattern", Pattern),
-            ("step", Time),
-        ],
-        Returns::Bool,
-    ),
+    sig("toggle", TOGGLE_RESET, Returns::Bool),
+    sig("blink", BLINK, Returns::Bool),
+    sig("blink_pattern", PATTERN, Returns::Bool),
     sig("q", READER, Returns::Bool),
     sig("qu", READER, Returns::Bool),
     sig("qd", READER, Returns::Bool),
@@ -127,11 +116,7 @@ pub(crate) const LIBRARY: &[Signature] = &[
     sig("cv", READER, Returns::Int),
     sig("good", QUALITY, Returns::Bool),
     sig("bad", QUALITY, Returns::Bool),
-    sig(
-        "limit",
-        &[("min", Number), ("x", Number), ("max", Number)],
-        Returns::SameNumber,
-    ),
+    sig("limit", LIMIT, Returns::SameNumber),
 ];
 
 /// The overloads of `name`.
