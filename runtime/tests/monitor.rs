@@ -331,3 +331,51 @@ fn a_silent_line_ends_at_for_and_a_closed_pipe_ends_it_quietly() {
     assert_eq!(status.code(), Some(141), "{rest}");
     assert_eq!(rest, "", "nothing said about the closed pipe");
 }
+
+#[test]
+fn ctrl_c_ends_it_with_the_frame_it_held() {
+    let (mut master, slave, path) = private_pty();
+    // A text line ends at its CR, or cut short by the frame gap (here 10 s): the line below
+    // is still being heard when Ctrl-C comes.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args([
+            "monitor",
+            &path,
+            "--protocol",
+            "text",
+            "--gap",
+            "10s",
+            "--for",
+            "30s",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut banner = String::new();
+    stderr.read_line(&mut banner).unwrap();
+    drop(slave);
+    master.write_all(b"@1?X").unwrap();
+    std::thread::sleep(PAUSE);
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    // SAFETY: a signal to the child this test started and has not reaped.
+    unsafe { libc::kill(pid, libc::SIGINT) };
+    let mut stdout = String::new();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut stdout)
+        .unwrap();
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).unwrap();
+    assert!(child.wait().unwrap().success(), "{rest}");
+    assert!(
+        stdout.trim_end().ends_with(
+            "40 31 3F 58  \"@1?X\"  | unrecognised: text without its CR (cut: the capture ended)"
+        ),
+        "{stdout}"
+    );
+    assert!(rest.contains("1 frame(s) in "), "{rest}");
+}
