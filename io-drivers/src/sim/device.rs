@@ -40,6 +40,16 @@ pub enum SimError {
     UnknownCommand(String),
 }
 
+/// The master's baud and format as a served line conveys them ([`SimDevice::master_line`]):
+/// `None` until known; the format `None` where the line carries only the baud (a pty).
+pub type MasterLine = Option<(u32, Option<crate::line::settings::SerialFormat>)>;
+
+/// Whether a UART at `own` reads what a master on `master` sends: same baud, and the same
+/// format where it is known. Nothing known yet: it does.
+pub fn hears(own: crate::line::settings::LineSettings, master: MasterLine) -> bool {
+    master.is_none_or(|(baud, format)| baud == own.baud && format.is_none_or(|f| f == own.format))
+}
+
 /// A simulated module.
 pub trait SimDevice: Send + Debug {
     /// The model name (`minimod`).
@@ -93,6 +103,16 @@ pub trait SimDevice: Send + Debug {
     /// which carries no parity). A module that models its own UART settings compares them.
     fn master_line(&mut self, baud: u32, format: Option<crate::line::settings::SerialFormat>) {
         let _ = (baud, format);
+    }
+
+    /// The module is installed for `settings`: its DIP switches or stored baud and format are
+    /// set to them. True if the module models its own UART from then on (its own settings
+    /// change with its configuration and a power cycle, and it compares them with
+    /// [`SimDevice::master_line`] itself); false leaves the comparison to the world, with
+    /// `settings` fixed.
+    fn set_uart(&mut self, settings: crate::line::settings::LineSettings) -> bool {
+        let _ = settings;
+        false
     }
 
     /// Help text for [`SimDevice::command`].

@@ -32,6 +32,9 @@ struct Placed {
     /// The baud and format the module's UART is set to; `None`: whatever the line's master
     /// uses (the module was configured for this line).
     settings: Option<LineSettings>,
+    /// The module models its own UART ([`SimDevice::set_uart`]): it is told the master's
+    /// settings before every frame and compares them itself.
+    own_uart: bool,
 }
 
 /// The plant and its wiring: per role, the device index and point name.
@@ -143,6 +146,7 @@ impl SimWorld {
             name: name.to_string(),
             device,
             settings: None,
+            own_uart: false,
         });
         self.devices.len() - 1
     }
@@ -150,10 +154,24 @@ impl SimWorld {
     /// Sets the baud and format the device's own UART runs at (its DIP switches or stored
     /// settings). A master at other settings is heard by it as garbage, see
     /// [`SimWorld::deliver`].
+    /// A module that models its own UART ([`SimDevice::set_uart`]) takes them as its
+    /// configuration, which commissioning and a power cycle can then change.
     pub fn set_device_settings(&mut self, index: usize, settings: LineSettings) {
-        if let Some(d) = self.devices.get_mut(index) {
-            d.settings = Some(settings);
+        if !self.install_device_uart(index, settings) {
+            if let Some(d) = self.devices.get_mut(index) {
+                d.settings = Some(settings);
+            }
         }
+    }
+
+    /// Installs a module for `settings` if it models its own UART ([`SimDevice::set_uart`]);
+    /// any other module keeps following whatever the line's master uses. True if it took them.
+    pub fn install_device_uart(&mut self, index: usize, settings: LineSettings) -> bool {
+        let Some(d) = self.devices.get_mut(index) else {
+            return false;
+        };
+        d.own_uart = d.device.set_uart(settings);
+        d.own_uart
     }
 
     /// The baud and format of `line`'s master from now on (a served pty follows the settings
@@ -296,6 +314,10 @@ impl SimWorld {
             .enumerate()
             .filter(|(_, d)| d.line == line)
         {
+            if d.own_uart {
+                d.device
+                    .master_line(settings.baud, format_known.then_some(settings.format));
+            }
             // A UART at another baud or format than the sender samples the wrong bits: it
             // hears garbage, and answers nothing a master at its own settings could read.
             let heard = match d.settings {

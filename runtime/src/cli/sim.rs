@@ -44,6 +44,9 @@ Commands on standard input (one per line):
   echo on | echo off       the adapter hears its own transmission: every frame the
                            master sends comes back to it (see --echo) or stops doing so
   echo corrupt N           the next N echoes come back with a bit flipped
+  power-cycle              switch the line's power supply off and on: every module
+                           powers up again with what it saved (MiniMod WCONF, RESI
+                           FLASH/FRAM, EX-9053 EEPROM) and loses what it did not
   DEVICE COMMAND ...       a model's own command (fault injection, power cycle, ...);
                            `help DEVICE` lists them
   help                     this text
@@ -182,8 +185,13 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
             &format!("{}@{addr}", model.name),
             (model.simulator)(addr),
         );
-        if let Some(own) = own {
-            world.set_device_settings(i, own);
+        match own {
+            Some(own) => world.set_device_settings(i, own),
+            // Installed for this line: a module that models its own UART (RESI DIP switches,
+            // EX-9053 EEPROM) gets the line's settings as its own.
+            None => {
+                world.install_device_uart(i, settings);
+            }
         }
     }
     for option in &args.options {
@@ -365,6 +373,14 @@ pub fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Re
             } else {
                 rules.join("\n")
             }
+        }
+        ["power-cycle"] => {
+            let mut out = Vec::new();
+            for (i, name) in w.names().into_iter().enumerate() {
+                let Some(d) = w.device_mut(i) else { continue };
+                out.push(format!("{name}: {}", d.command(&["power-cycle"])?));
+            }
+            out.join("\n")
         }
         ["line", state @ ("dead" | "alive")] => {
             w.faults_mut().set_dead(SERVED_LINE, *state == "dead");

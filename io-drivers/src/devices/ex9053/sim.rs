@@ -5,6 +5,13 @@
 //!
 //! Every answer comes [`REPLY_DELAY`] (1 ms) after the request: the manual gives none.
 //!
+//! The module's UART runs at the baud it took at its last power-on (§1.4: from EEPROM, or
+//! 9600 Bd in INIT*), 8N1 (a DCON line has no parity); on a served line ([`SimDevice::master_line`])
+//! a master at another baud or a known other format is not heard. `%AANNTTCCFF` stores a new
+//! baud or checksum only with INIT* on GND and it takes effect at the next power-on (§2.1), so
+//! commissioning can be tried on a pty: `init on`, `power-cycle`, the command, `init off`,
+//! `power-cycle`.
+//!
 //! Points: `DI0`..`DI15` are the terminals' levels (set them); the latches, counters,
 //! `WDT_TIMEOUT` and `SYNC_FIRST` read the module's inside. Commands (`softplc sim`'s standard
 //! input, `MODEL@ADDR COMMAND`): see [`HELP`].
@@ -15,7 +22,8 @@ use super::points::{Point, POINTS};
 use super::sim_dcon;
 use super::sim_modbus;
 use super::state::{Ex9053State, Variant, WireProtocol};
-use super::tables::{baud_of_code, CHANNELS, REPLY_DELAY};
+use super::tables::{baud_of_code, code_of_baud, CHANNELS, LINE_FORMAT, REPLY_DELAY};
+use crate::line::settings::{LineSettings, SerialFormat};
 use crate::point::{PointSpec, Value};
 use crate::sim::{SimDevice, SimError, SimReply};
 
@@ -34,8 +42,9 @@ pub const HELP: &str = "\
 ex9053d / ex9053d-m commands:
   init on|off            slide the INIT* switch (§1.4); read at the next power-cycle: INIT*
                          runs DCON at address 00, 9600 Bd, no checksum
-  power-cycle            switch off and on: stored baud, checksum, protocol and Modbus
-                         address take effect, counters and latches restart, reset status set
+  power-cycle            switch off and on: the EEPROM (address, baud, checksum, protocol,
+                         name, watchdog) is kept and takes effect, RAM (counters, latches,
+                         synchronized sample) restarts, reset status set
   protocol dcon|modbus   (-M) store the protocol for the next power-cycle, as $AAPN or coil
                          00257 would
   inputs HHHH            set all 16 terminals at once, hexadecimal, bit n = DIn (0F00: DI8..DI11)
@@ -48,6 +57,8 @@ WDT_TIMEOUT and SYNC_FIRST read the module (not settable).";
 #[derive(Debug, Clone)]
 pub struct Ex9053Sim {
     state: Ex9053State,
+    /// The master's baud and format on a served line, when known ([`SimDevice::master_line`]).
+    master: crate::sim::device::MasterLine,
 }
 
 impl Ex9053Sim {
@@ -55,7 +66,22 @@ impl Ex9053Sim {
     pub fn new(variant: Variant, address: u8) -> Self {
         Self {
             state: Ex9053State::new(variant, address),
+            master: None,
         }
+    }
+
+    /// The baud and format the module's UART runs at now: the baud code of its last power-on,
+    /// 8N1.
+    pub fn uart(&self) -> LineSettings {
+        LineSettings {
+            baud: baud_of_code(self.state.running().baud_code).unwrap_or(9600),
+            format: LINE_FORMAT,
+        }
+    }
+
+    /// Whether the module's UART can read what the master sends.
+    fn hears_master(&self) -> bool {
+        crate::sim::device::hears(self.uart(), self.master)
     }
 
     /// The module's state.
@@ -175,8 +201,19 @@ impl SimDevice for Ex9053Sim {
         self.state.advance_to(t);
     }
 
+    fn set_uart(&mut self, settings: LineSettings) -> bool {
+        code_of_baud(settings.baud).is_some_and(|c| self.state.install_baud_code(c))
+    }
+
+    fn master_line(&mut self, baud: u32, format: Option<SerialFormat>) {
+        self.master = Some((baud, format));
+    }
+
     fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
         self.state.advance_to(t);
+        if !self.hears_master() {
+            return None;
+        }
         let bytes = match self.state.running().protocol {
             WireProtocol::Dcon => sim_dcon::answer(&mut self.state, frame),
             WireProtocol::Modbus => sim_modbus::answer(&mut self.state, frame),

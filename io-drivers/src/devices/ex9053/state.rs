@@ -471,6 +471,19 @@ impl Ex9053State {
         }
     }
 
+    /// The module installed at `code` (its stored and running baud, as the installer left
+    /// it before it was put on the line); `false` for a code outside §1.10's table.
+    pub fn install_baud_code(&mut self, code: u8) -> bool {
+        if baud_of_code(code).is_none() {
+            return false;
+        }
+        self.eeprom.baud_code = code;
+        if !self.running.init {
+            self.running.baud_code = code;
+        }
+        true
+    }
+
     /// Register 40486: the baud code after the next reboot.
     pub fn set_stored_baud_code(&mut self, code: u16) -> Result<(), ConfigError> {
         match u8::try_from(code)

@@ -29,6 +29,14 @@ pub fn code_of_baud(baud: u32) -> Option<u8> {
     BAUD_CODES.iter().find(|(_, b)| *b == baud).map(|(c, _)| *c)
 }
 
+/// The character format of a DCON line: 8 data bits, no parity, 1 stop bit. §1.10 sets only
+/// the baud (CC) and FF's checksum and counter bits; no parity or stop bits are settable.
+pub const LINE_FORMAT: crate::line::settings::SerialFormat = crate::line::settings::SerialFormat {
+    data_bits: 8,
+    parity: crate::line::settings::Parity::None,
+    stop_bits: 1,
+};
+
 /// FF bit 7, "Counter Update Direction": 1 = rising edge, 0 = falling edge (§1.10).
 pub const FF_RISING_EDGE: u8 = 0x80;
 

@@ -11,18 +11,6 @@ use super::state::Module;
 use super::value::Enc;
 use crate::point::Access;
 
-static ALL: [&Model; 9] = [
-    &m16di8ro::MODEL,
-    &m32di::MODEL,
-    &m14ri::MODEL,
-    &m8co::MODEL,
-    &m2ri::MODEL,
-    &m1ro::MODEL,
-    &m2rtd::MODEL,
-    &m1led::MODEL,
-    &m4led::MODEL,
-];
-
 #[test]
 fn every_point_has_an_entry_of_its_type_and_access() {
     for m in ALL {

@@ -4,3 +4,4 @@
 mod driver_line;
 mod manual_dcon;
 mod manual_modbus;
+mod uart;

@@ -11,3 +11,21 @@ pub mod m2rtd;
 pub mod m32di;
 pub mod m4led;
 pub mod m8co;
+
+/// Every RESI model.
+pub static ALL: [&super::model::Model; 9] = [
+    &m16di8ro::MODEL,
+    &m32di::MODEL,
+    &m14ri::MODEL,
+    &m8co::MODEL,
+    &m2ri::MODEL,
+    &m1ro::MODEL,
+    &m2rtd::MODEL,
+    &m1led::MODEL,
+    &m4led::MODEL,
+];
+
+/// A RESI model by its project-file name (`resi-16di8ro`).
+pub fn by_name(name: &str) -> Option<&'static super::model::Model> {
+    ALL.iter().copied().find(|m| m.name == name)
+}

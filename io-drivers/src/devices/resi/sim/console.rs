@@ -27,8 +27,9 @@ resi commands (DEVICE COMMAND ...):
 points: `set DEV.DI3 1` sets the level at terminal DI3 (sampled every 10 ms); `set DEV.DIP1 1`
 and `set DEV.DIP 0x0A` flip DIP switches; `set DEV.CH1_REAL_TEMP 21.5` sets a 2RTD sensor;
 other points are written as the host would write them (e.g. `set DEV.RO1 1`).
-The simulator serves the line at the baud rate given to `softplc sim`; the DIP baud rate and
-parity are reported (status, GDIP, DIP registers) but not enforced.";
+The module's UART runs at the DIP baud rate and parity: on `softplc sim` a master at other
+settings is not heard (MODEL@ADDR:BAUD:FORMAT sets the switches; a pty carries the baud only).
+The FLASH unit address (SMBADR) and the FRAM contents survive `power-cycle`.";
 
 fn number(text: &str) -> Option<u64> {
     let t = text.trim();

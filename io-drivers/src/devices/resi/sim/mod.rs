@@ -10,6 +10,11 @@
 //!   [`bank`] says.
 //! - Every answer waits the reply delay (option `reply-delay`, 2 ms by default; the manual
 //!   gives no figure).
+//! - The UART runs at what the DIP switches select (resi-spec §1.3: baud BR0..BR2 and PARITY
+//!   on compact modules, DIP1+2 and the stored parity on slim ones; 8 data bits, 1 stop bit):
+//!   on a served line ([`SimDevice::master_line`]) a master at another baud, or a known other
+//!   format, is not heard. A module installed for a line ([`SimDevice::set_uart`]) gets its
+//!   switches set to it.
 
 pub mod bank;
 pub mod console;
@@ -21,6 +26,7 @@ use super::item::Kind;
 use super::model::Model;
 use super::state::Module;
 use super::value::Num;
+use crate::line::settings::{LineSettings, SerialFormat};
 use crate::modbus::crc::check_crc;
 use crate::modbus::server::{decode_request, encode_response, serve};
 use crate::modbus::{ExceptionCode, Request, Response};
@@ -31,6 +37,8 @@ use crate::sim::{SimDevice, SimError, SimReply};
 #[derive(Debug, Clone)]
 pub struct ResiSim {
     m: Module,
+    /// The master's baud and format on a served line, when known.
+    master: crate::sim::device::MasterLine,
 }
 
 /// Whether a frame is a RESI ASCII line.
@@ -50,7 +58,26 @@ impl ResiSim {
     pub fn new(model: &'static Model, address: u8) -> Self {
         Self {
             m: Module::new(model, address),
+            master: None,
         }
+    }
+
+    /// The baud and format the DIP switches select now.
+    pub fn uart(&self) -> LineSettings {
+        let s = self.m.system();
+        LineSettings {
+            baud: s.baud(),
+            format: SerialFormat {
+                data_bits: 8,
+                parity: s.parity(),
+                stop_bits: 1,
+            },
+        }
+    }
+
+    /// Whether the module's UART can read what the master sends.
+    fn hears_master(&self) -> bool {
+        crate::sim::device::hears(self.uart(), self.master)
     }
 
     /// The module.
@@ -131,8 +158,31 @@ impl SimDevice for ResiSim {
             .advance_to(u64::try_from(t.as_millis()).unwrap_or(u64::MAX));
     }
 
+    fn set_uart(&mut self, settings: LineSettings) -> bool {
+        let f = settings.format;
+        if f.data_bits != 8 || f.stop_bits != 1 {
+            return false;
+        }
+        self.m
+            .change_switches(|s| match s.baud_bits(settings.baud) {
+                Some(bits) if s.set_parity(f.parity) => {
+                    let mask = s.baud_mask();
+                    s.set_dip((s.dip() & !mask) | bits);
+                    true
+                }
+                _ => false,
+            })
+    }
+
+    fn master_line(&mut self, baud: u32, format: Option<SerialFormat>) {
+        self.master = Some((baud, format));
+    }
+
     fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
         self.advance_to(t);
+        if !self.hears_master() {
+            return None;
+        }
         if is_ascii(frame) {
             if !self.m.opts.ascii {
                 return None;

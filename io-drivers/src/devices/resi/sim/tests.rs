@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::devices::resi::models::{m16di8ro, m1ro, m2rtd, m8co};
+use crate::line::settings::LineSettings;
 use crate::modbus::crc::append_crc;
 
 const UNIT: u8 = 1;
@@ -741,4 +742,61 @@ fn no_bytes_or_text_make_it_panic() {
             ]);
         }
     }
+}
+
+/// The UART runs at the DIP switches' baud and parity: a module installed for a line takes
+/// its settings as its switches; a master at another baud, or a known other parity, is not
+/// heard; a switch change moves it (resi-spec §1.3).
+#[test]
+fn the_uart_follows_the_dip_switches() {
+    let mut s = sim();
+    let line = |baud, parity: &str| LineSettings {
+        baud,
+        format: format!("8{parity}1").parse().unwrap(),
+    };
+    assert!(s.set_uart(line(9600, "N")));
+    assert_eq!(s.uart(), line(9600, "N"));
+    s.master_line(9600, None);
+    assert!(ascii(&mut s, 10, "#1,TYP\r").is_some());
+    s.master_line(19200, None);
+    assert_eq!(ascii(&mut s, 20, "#1,TYP\r"), None, "another baud");
+    s.master_line(9600, Some(line(9600, "E").format));
+    assert_eq!(ascii(&mut s, 30, "#1,TYP\r"), None, "another parity");
+    s.command(&["baud", "38400"]).unwrap();
+    s.master_line(38400, None);
+    assert!(ascii(&mut s, 40, "#1,TYP\r").is_some());
+    // Odd parity and two stop bits are not on the switches: left to the world.
+    assert!(!s.set_uart(line(9600, "O")));
+    assert!(!s.set_uart(LineSettings {
+        baud: 9600,
+        format: "8N2".parse().unwrap(),
+    }));
+}
+
+/// SMBADR + RST: the FLASH address is in use after the reboot and survives a power cycle;
+/// the edge counters (RAM) do not.
+#[test]
+fn smbadr_survives_a_power_cycle() {
+    let mut s = sim();
+    assert_eq!(
+        ascii(&mut s, 10, "#1,SMBADR:9\r").as_deref(),
+        Some("#1,OK\r")
+    );
+    assert_eq!(ascii(&mut s, 20, "#9,RST\r"), None, "RST answers nothing");
+    assert_eq!(
+        ascii(&mut s, 30, "#9,GMBADR\r").as_deref(),
+        Some("#9,GMBADR:9,9,0x9,0x9\r")
+    );
+    press(&mut s, 40, "DI1", true);
+    press(&mut s, 60, "DI1", false);
+    assert_eq!(
+        ascii(&mut s, 80, "#9,RDI1\r").as_deref(),
+        Some("#9,RDI1:1,0x1\r")
+    );
+    s.command(&["power-cycle"]).unwrap();
+    assert_eq!(ascii(&mut s, 90, "#1,TYP\r"), None);
+    assert_eq!(
+        ascii(&mut s, 100, "#9,RDI1\r").as_deref(),
+        Some("#9,RDI1:0,0x0\r")
+    );
 }
