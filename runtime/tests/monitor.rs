@@ -11,7 +11,7 @@
 use std::io::{BufRead, BufReader, Read, Write};
 use std::os::fd::AsRawFd;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{ChildStderr, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -89,6 +89,36 @@ fn capture(dir: &str, bus: &str, edit: impl Fn(String) -> String) -> Vec<Capture
     frames
 }
 
+/// `softplc monitor PATH ARGS --for 30s`, once it listens: the child and its stderr after the
+/// banner. The caller then lets go of the pty's slave, so only the monitor reads the line.
+fn listening(path: &str, args: &[&str]) -> (std::process::Child, BufReader<ChildStderr>) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .arg("monitor")
+        .arg(path)
+        .args(args)
+        .args(["--for", "30s"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("softplc monitor starts");
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut banner = String::new();
+    stderr.read_line(&mut banner).unwrap();
+    assert!(banner.starts_with("monitoring "), "{banner}");
+    (child, stderr)
+}
+
+/// Everything a monitor that is ending prints: its stdout, and its stderr after the banner.
+fn ended(child: &mut std::process::Child, mut stderr: BufReader<ChildStderr>) -> (String, String) {
+    let mut stdout = String::new();
+    if let Some(mut out) = child.stdout.take() {
+        out.read_to_string(&mut stdout).unwrap();
+    }
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).unwrap();
+    (stdout, rest)
+}
+
 /// One line of the monitor's output, in parts.
 #[derive(Debug)]
 struct Heard {
@@ -100,19 +130,7 @@ struct Heard {
 /// Replays `frames` into a pty with the monitor (`args`) on its other end; its lines.
 fn monitor(frames: &[Captured], args: &[&str]) -> Vec<Heard> {
     let (mut master, slave, path) = private_pty();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .arg("monitor")
-        .arg(&path)
-        .args(args)
-        .args(["--for", "30s"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("softplc monitor starts");
-    let mut stderr = BufReader::new(child.stderr.take().unwrap());
-    let mut banner = String::new();
-    stderr.read_line(&mut banner).unwrap();
-    assert!(banner.starts_with("monitoring "), "{banner}");
+    let (mut child, stderr) = listening(&path, args);
     // From here only the monitor reads the line.
     drop(slave);
     for frame in frames {
@@ -123,15 +141,7 @@ fn monitor(frames: &[Captured], args: &[&str]) -> Vec<Heard> {
     std::thread::sleep(PAUSE);
     // The line hangs up: the monitor prints what it holds and ends.
     drop(master);
-    let mut stdout = String::new();
-    child
-        .stdout
-        .take()
-        .unwrap()
-        .read_to_string(&mut stdout)
-        .unwrap();
-    let mut rest = String::new();
-    stderr.read_to_string(&mut rest).unwrap();
+    let (stdout, rest) = ended(&mut child, stderr);
     assert!(child.wait().unwrap().success(), "{stdout}\n{rest}");
     assert!(
         rest.contains(&format!("{} frame(s) in ", frames.len())) && rest.contains("hung up"),
@@ -313,15 +323,7 @@ fn a_silent_line_ends_at_for_and_a_closed_pipe_ends_it_quietly() {
 
     // `softplc monitor ... | head -0`: the reader of its output goes away.
     let (mut master, slave, path) = private_pty();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .args(["monitor", &path, "--for", "30s"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(child.stderr.take().unwrap());
-    let mut banner = String::new();
-    stderr.read_line(&mut banner).unwrap();
+    let (mut child, mut stderr) = listening(&path, &[]);
     drop(slave);
     drop(child.stdout.take());
     master.write_all(b"@1?X1\r").unwrap();
@@ -330,4 +332,27 @@ fn a_silent_line_ends_at_for_and_a_closed_pipe_ends_it_quietly() {
     stderr.read_to_string(&mut rest).unwrap();
     assert_eq!(status.code(), Some(141), "{rest}");
     assert_eq!(rest, "", "nothing said about the closed pipe");
+}
+
+#[test]
+fn ctrl_c_ends_it_with_the_frame_it_held() {
+    let (mut master, slave, path) = private_pty();
+    // A text line ends at its CR, or cut short by the frame gap (here 10 s): the line below
+    // is still being heard when Ctrl-C comes.
+    let (mut child, stderr) = listening(&path, &["--protocol", "text", "--gap", "10s"]);
+    drop(slave);
+    master.write_all(b"@1?X").unwrap();
+    std::thread::sleep(PAUSE);
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    // SAFETY: a signal to the child this test started and has not reaped.
+    unsafe { libc::kill(pid, libc::SIGINT) };
+    let (stdout, rest) = ended(&mut child, stderr);
+    assert!(child.wait().unwrap().success(), "{rest}");
+    assert!(
+        stdout.trim_end().ends_with(
+            "40 31 3F 58  \"@1?X\"  | unrecognised: text without its CR (cut: the capture ended)"
+        ),
+        "{stdout}"
+    );
+    assert!(rest.contains("1 frame(s) in "), "{rest}");
 }
