@@ -55,7 +55,7 @@ pub enum Reply {
 }
 
 /// Why a driver could not use a reply.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum DecodeError {
     /// The device refused the request.
     #[error("device answered with exception {0}")]

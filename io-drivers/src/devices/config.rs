@@ -229,7 +229,9 @@ pub struct KeyError {
 }
 
 /// Why a module entry cannot become a driver configuration (for callers outside project
-/// validation: tests, the bench, `softplc sim` tools).
+/// validation: tests, the bench, `softplc sim` tools). The setting's reason stays text here:
+/// it is the message for a person, made with the value's text ([`SettingError::describe`]),
+/// which the typed error does not carry.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ConfigError {
     /// The address.
@@ -339,5 +341,58 @@ pub(crate) fn parse_each<T>(
         Ok(items)
     } else {
         Err(errors)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::devices::{ex9053, minimod};
+
+    fn copy_eq<T: Copy + Eq>() {}
+
+    #[test]
+    fn errors_across_the_seam_are_copy_and_comparable() {
+        copy_eq::<SettingError>();
+        copy_eq::<KeyError>();
+        copy_eq::<AddressError>();
+        copy_eq::<crate::driver::DecodeError>();
+        copy_eq::<crate::line::bus::TxError>();
+    }
+
+    #[test]
+    fn an_address_is_checked_against_its_models_range() {
+        assert_eq!(
+            ModuleAddress::new(&minimod::MODEL, 0),
+            Err(AddressError {
+                model: "minimod",
+                given: 0,
+                min: 1,
+                max: 247
+            })
+        );
+        // DCON address 0 is an EX-9053D's, but no Modbus unit.
+        let dcon = ModuleAddress::new(&ex9053::MODEL_D, 0).unwrap();
+        assert_eq!((dcon.get(), dcon.unit()), (0, None));
+        let unit = ModuleAddress::new(&minimod::MODEL, 5).unwrap().unit();
+        assert_eq!(unit.map(UnitId::get), Some(5));
+    }
+
+    #[test]
+    fn a_config_from_text_names_the_refused_setting() {
+        let e = minimod::MODEL
+            .device_config("mm1", 1, Protocol::Modbus, &[("RDELAYT", "300")])
+            .unwrap_err();
+        assert_eq!(
+            e,
+            ConfigError::Setting {
+                key: "RDELAYT".into(),
+                message: "RDELAYT takes 0..=200 (1/100 s)".into()
+            }
+        );
+        let c = minimod::MODEL
+            .device_config("mm1", 1, Protocol::Modbus, &[])
+            .unwrap();
+        assert!(c.settings.is_empty() && c.push_down == PushDown::None);
     }
 }

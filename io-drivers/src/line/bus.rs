@@ -112,7 +112,7 @@ impl Counters {
 }
 
 /// Why one transaction failed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum TxError {
     /// No reply before the response timeout.
     #[error("no reply within {0:?}")]
@@ -287,7 +287,7 @@ impl Module {
             values: self.driver.values().to_vec(),
             quality,
             counters: self.counters,
-            last_error: self.last_error.clone(),
+            last_error: self.last_error,
             outputs: self.output_quality(),
         }
     }
@@ -577,7 +577,7 @@ impl BusOwner {
                 }
             }
             if let Some(e @ TxError::Line(_)) = &error {
-                let e = e.clone();
+                let e = *e;
                 self.port_failed(&e);
             }
         } else if !port_up {

@@ -57,7 +57,7 @@ impl Plc {
                         st.quality = snap.quality;
                         st.outputs = snap.outputs;
                         st.counters = snap.counters;
-                        st.last_error = snap.last_error.clone();
+                        st.last_error = snap.last_error;
                     }
                     None if dead[b] => {
                         st.quality = Quality::Bad;

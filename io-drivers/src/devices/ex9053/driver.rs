@@ -405,9 +405,9 @@ impl Ex9053Driver {
 
     fn on_dcon(&mut self, step: Step, tag: u32, text: &[u8]) -> Result<(), DecodeError> {
         let unexpected = DecodeError::Unexpected { tag };
-        let cmd = self.command(step).ok_or(unexpected.clone())?;
-        let body = check_line(text, self.settings.checksum).map_err(|_| unexpected.clone())?;
-        let answer = Answer::parse(&cmd, body).map_err(|_| unexpected.clone())?;
+        let cmd = self.command(step).ok_or(unexpected)?;
+        let body = check_line(text, self.settings.checksum).map_err(|_| unexpected)?;
+        let answer = Answer::parse(&cmd, body).map_err(|_| unexpected)?;
         match (step, answer) {
             (_, Answer::Invalid) => {
                 tracing::debug!(module = %self.name, command = %cmd, "module answered ?AA");
@@ -557,7 +557,7 @@ impl Ex9053Driver {
         }
         let single = |bits: &[bool]| match bits {
             [b] => Ok(*b),
-            _ => Err(unexpected.clone()),
+            _ => Err(unexpected),
         };
         let word = |bits: &[bool]| {
             if bits.len() == CHANNELS {
@@ -566,7 +566,7 @@ impl Ex9053Driver {
                     .enumerate()
                     .fold(0u16, |w, (i, b)| w | (u16::from(*b) << i)))
             } else {
-                Err(unexpected.clone())
+                Err(unexpected)
             }
         };
         match (step, response) {
@@ -668,7 +668,7 @@ impl Ex9053Driver {
                 Ok(())
             }
             (Step::Counters, Response::ReadInputRegisters(regs)) => {
-                let (first, last) = self.counter_span().ok_or(unexpected.clone())?;
+                let (first, last) = self.counter_span().ok_or(unexpected)?;
                 if regs.len() != usize::from(last - first + 1) {
                     return Err(unexpected);
                 }
@@ -775,7 +775,7 @@ impl Driver for Ex9053Driver {
 
     fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError> {
         let unexpected = DecodeError::Unexpected { tag };
-        let step = Step::from_tag(tag).ok_or(unexpected.clone())?;
+        let step = Step::from_tag(tag).ok_or(unexpected)?;
         match reply {
             Reply::Text(text) if self.dcon() => self.on_dcon(step, tag, text),
             Reply::Modbus(response) if !self.dcon() => self.on_modbus(step, tag, response),

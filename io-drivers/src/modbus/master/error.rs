@@ -29,7 +29,7 @@ impl std::fmt::Display for EchoField {
 
 /// Why a reply was refused. All of these mean "the bus failed", not "the device said no": an
 /// exception reply is a successful decode ([`crate::modbus::Response::Exception`]).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum ReplyError {
     /// The frame's CRC does not match its content (line noise). Counted apart by the bus owner.
     #[error("CRC error: computed {expected:#06x}, frame carries {found:#06x}")]

@@ -23,7 +23,7 @@ impl MiniModDriver {
 
     pub(super) fn on_text(&mut self, tag: u32, bytes: &[u8]) -> Result<(), DecodeError> {
         let unexpected = DecodeError::Unexpected { tag };
-        let reply = text::parse_reply(bytes).map_err(|_| unexpected.clone())?;
+        let reply = text::parse_reply(bytes).map_err(|_| unexpected)?;
         match Tag::decode(tag) {
             Some(t @ (Tag::SetupWrite(_) | Tag::SetupVerify(_))) => {
                 self.on_setup_text(tag, t, reply)

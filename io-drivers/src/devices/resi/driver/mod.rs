@@ -246,7 +246,7 @@ impl ResiDriver {
 
     fn apply_read(&mut self, i: usize, reply: &Reply, tag: u32) -> Result<(), DecodeError> {
         let unexpected = DecodeError::Unexpected { tag };
-        let read = self.reads.get(i).cloned().ok_or(unexpected.clone())?;
+        let read = self.reads.get(i).cloned().ok_or(unexpected)?;
         match (&read, reply) {
             (
                 Read::Bits { count, targets, .. },
@@ -279,7 +279,7 @@ impl ResiDriver {
                 Reply::Text(text),
             ) => {
                 let values = ascii::answer_values(text, self.address, command, *x)
-                    .map_err(|_| unexpected.clone())?;
+                    .map_err(|_| unexpected)?;
                 let decoded: Vec<(usize, Num)> = targets
                     .iter()
                     .map(|t| ascii::value(&values, t.at, t.part).map(|n| (t.point, n)))
@@ -319,7 +319,7 @@ impl ResiDriver {
                     let got = words
                         .get(*at..*at + usize::from(entry.words()))
                         .and_then(|w| entry.enc.decode(w))
-                        .ok_or(unexpected.clone())?;
+                        .ok_or(unexpected)?;
                     if entry.enc.encode(got) != entry.enc.encode(*want) {
                         return Err(mismatch(entry, *want, got));
                     }
@@ -349,7 +349,7 @@ impl ResiDriver {
                 Reply::Text(text),
             ) => {
                 let values = ascii::answer_values(text, self.address, command, *x)
-                    .map_err(|_| unexpected.clone())?;
+                    .map_err(|_| unexpected)?;
                 let got = ascii::value(&values, *at, None).ok_or(unexpected)?;
                 if entry.enc.encode(got) == entry.enc.encode(*expected) {
                     Ok(())
