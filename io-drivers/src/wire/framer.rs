@@ -9,12 +9,15 @@
 //! - In [`Framing::Auto`] a CR ends the frame only while every byte of it so far is printable
 //!   ASCII and there is text before it: a CR inside a binary RTU frame is data (resi-spec §2.9 tells the two protocols
 //!   apart the same way).
+//! - RTU frames that arrive without the silence between them are split where their CRCs say
+//!   ([`unglue`]).
 //! - A frame never grows past [`MAX_FRAME`] bytes (a stuck transmitter, noise without a
 //!   pause): it is cut there, so memory stays bounded whatever the line does.
 
 use std::time::Duration;
 
 use crate::line::settings::LineSettings;
+use crate::modbus::crc::check_crc;
 
 /// The longest frame kept: an RTU ADU is at most 256 bytes, text lines are shorter.
 pub const MAX_FRAME: usize = 512;
@@ -41,6 +44,9 @@ pub enum FrameEnd {
     Overflow,
     /// The capture ended.
     Finished,
+    /// No silence was seen after it: it arrived glued to the next RTU frame, and the CRCs
+    /// told where it ends ([`unglue`]).
+    Glued,
 }
 
 /// A frame as it was heard.
@@ -158,6 +164,63 @@ impl Framer {
         self.prev_end = Some(self.last_byte);
         frame
     }
+}
+
+/// The most RTU frames [`unglue`] finds in one piece of silence.
+const MAX_GLUED: usize = 8;
+
+/// RTU frames that came without the silence between them (a reader late by more than the
+/// frame gap on a loaded machine, a USB adapter's burst), split where the CRCs say: only when
+/// the whole is not one frame with a good CRC and divides completely into frames that each
+/// have one (noise does so by chance once in 2^32 per split). Text lines and anything else
+/// come back whole. The pieces keep the whole's times; every piece but the last ends
+/// [`FrameEnd::Glued`] and every piece but the first has no gap.
+pub fn unglue(frame: HeardFrame) -> Vec<HeardFrame> {
+    if super::decode::is_text(&frame.bytes) || check_crc(&frame.bytes) {
+        return vec![frame];
+    }
+    let Some(lengths) = partition(&frame.bytes, MAX_GLUED) else {
+        return vec![frame];
+    };
+    let mut pieces = Vec::with_capacity(lengths.len());
+    let mut at = 0;
+    let last = lengths.len() - 1;
+    for (i, len) in lengths.into_iter().enumerate() {
+        pieces.push(HeardFrame {
+            bytes: frame.bytes.get(at..at + len).unwrap_or_default().to_vec(),
+            start: frame.start,
+            end: frame.end,
+            gap: if i == 0 { frame.gap } else { None },
+            ended_by: if i == last {
+                frame.ended_by
+            } else {
+                FrameEnd::Glued
+            },
+        });
+        at += len;
+    }
+    pieces
+}
+
+/// The lengths of at most `most` frames with good CRCs that `bytes` is made of, shortest
+/// first; `None` if it is not.
+fn partition(bytes: &[u8], most: usize) -> Option<Vec<usize>> {
+    if check_crc(bytes) {
+        return Some(vec![bytes.len()]);
+    }
+    if most < 2 {
+        return None;
+    }
+    // The shortest RTU frame is 4 bytes (an address, a function and the CRC).
+    (4..bytes.len().saturating_sub(3)).find_map(|len| {
+        let head = bytes.get(..len)?;
+        if !check_crc(head) {
+            return None;
+        }
+        let mut rest = partition(bytes.get(len..)?, most - 1)?;
+        rest.insert(0, len);
+        Some(rest)
+    })
 }
 
 /// The silence that ends an RTU frame on a line: t3.5 from its baud and format.

@@ -250,3 +250,40 @@ fn text_framing_cuts_an_unterminated_line_at_silence_and_memory_is_bounded() {
         .all(|fr| fr.ended_by == FrameEnd::Overflow && fr.bytes.len() == framer::MAX_FRAME));
     assert_eq!(rtu.finish().map(|fr| fr.bytes.len()), Some(10));
 }
+
+#[test]
+fn rtu_frames_glued_together_are_split_where_their_crcs_say() {
+    let glued: Vec<u8> = [&READ_REQ[..], &READ_REPLY[..]].concat();
+    let whole = HeardFrame {
+        bytes: glued,
+        start: ms(10),
+        end: ms(14),
+        gap: Some(ms(50)),
+        ended_by: FrameEnd::Silence,
+    };
+    let pieces = framer::unglue(whole);
+    let parts: Vec<(&[u8], Option<Duration>, FrameEnd)> = pieces
+        .iter()
+        .map(|p| (p.bytes.as_slice(), p.gap, p.ended_by))
+        .collect();
+    assert_eq!(
+        parts,
+        [
+            (&READ_REQ[..], Some(ms(50)), FrameEnd::Glued),
+            (&READ_REPLY[..], None, FrameEnd::Silence)
+        ]
+    );
+    // A frame with a bad CRC that does not divide into good ones stays whole; so does text.
+    let mut bad = READ_REPLY.to_vec();
+    bad[4] ^= 1;
+    for bytes in [bad, b"@1?X1\r".to_vec()] {
+        let frame = HeardFrame {
+            bytes: bytes.clone(),
+            start: ms(0),
+            end: ms(0),
+            gap: None,
+            ended_by: FrameEnd::Silence,
+        };
+        assert_eq!(framer::unglue(frame).len(), 1);
+    }
+}

@@ -19,7 +19,7 @@ use std::time::Duration;
 use anyhow::Context;
 use softplc_io::line::settings::{LineSettings, SerialFormat};
 use softplc_io::line::transport::{LineError, SerialTransport, Transport};
-use softplc_io::wire::framer::{frame_gap, FrameEnd, MAX_FRAME};
+use softplc_io::wire::framer::{frame_gap, unglue, FrameEnd, MAX_FRAME};
 use softplc_io::wire::trace::LineTime;
 use softplc_io::wire::{Conversation, Framer, Framing, HeardFrame, Shown};
 
@@ -70,10 +70,10 @@ pub(super) fn monitor(args: MonitorArgs) -> anyhow::Result<ExitCode> {
         baud: args.baud,
         format: args.format,
     };
-    let framing = match args.protocol {
-        ProtocolArg::Auto => Framing::Auto,
-        ProtocolArg::Rtu => Framing::Rtu,
-        ProtocolArg::Text => Framing::Text,
+    let (framing, framing_name) = match args.protocol {
+        ProtocolArg::Auto => (Framing::Auto, "auto"),
+        ProtocolArg::Rtu => (Framing::Rtu, "rtu"),
+        ProtocolArg::Text => (Framing::Text, "text"),
     };
     let gap = args.gap.unwrap_or_else(|| frame_gap(settings));
     // Only read, never written: a second adapter must not drive the line.
@@ -84,12 +84,11 @@ pub(super) fn monitor(args: MonitorArgs) -> anyhow::Result<ExitCode> {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
     }
     out::errln(&format!(
-        "monitoring {} at {} Bd {} ({:?} framing); a frame ends after {} of silence; t = time \
-         since the start, gap = silence before the frame",
+        "monitoring {} at {} Bd {} ({framing_name} framing); a frame ends after {} of silence; \
+         t = time since the start, gap = silence before the frame",
         args.port.display(),
         settings.baud,
         settings.format,
-        args.protocol,
         fmt_duration(gap)
     ));
     let start = line.now();
@@ -126,12 +125,12 @@ pub(super) fn monitor(args: MonitorArgs) -> anyhow::Result<ExitCode> {
             }
         }
         frames.extend(framer.poll(since_start(&line)));
-        for frame in frames.drain(..) {
+        for frame in frames.drain(..).flat_map(unglue) {
             heard += 1;
             out::outln(&frame_line(&frame, &mut talk))?;
         }
     };
-    if let Some(frame) = framer.finish() {
+    for frame in framer.finish().into_iter().flat_map(unglue) {
         heard += 1;
         out::outln(&frame_line(&frame, &mut talk))?;
     }
@@ -150,6 +149,7 @@ fn frame_line(frame: &HeardFrame, talk: &mut Conversation) -> String {
         FrameEnd::Silence | FrameEnd::Terminator => "",
         FrameEnd::Overflow => " (cut: longer than any frame)",
         FrameEnd::Finished => " (cut: the capture ended)",
+        FrameEnd::Glued => " (no silence after it: split from the next by their CRCs)",
     };
     format!(
         "t={}  gap {gap:>9}  {}  | {}{note}",
