@@ -75,6 +75,42 @@ impl fmt::Display for ModuleAddress {
     }
 }
 
+/// A numbered point of a module family (`Y1`..`Y4`, `X1`..`X3`, `RO1`..`RO8`) as a value:
+/// its number checked against the range, its point name parsed by its prefix.
+macro_rules! numbered_point {
+    ($(#[$doc:meta])* $name:ident, $prefix:literal, $range:expr) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub struct $name(u8);
+
+        impl $name {
+            #[doc = concat!("`", $prefix, "n` for n in its range.")]
+            pub fn new(n: u8) -> Option<Self> {
+                ($range).contains(&n).then_some(Self(n))
+            }
+
+            #[doc = concat!("The point by its name (`", $prefix, "2`).")]
+            pub fn named(name: &str) -> Option<Self> {
+                name.strip_prefix($prefix)
+                    .and_then(|n| n.parse().ok())
+                    .and_then(Self::new)
+            }
+
+            #[doc = concat!("n of `", $prefix, "n`.")]
+            pub fn number(self) -> u8 {
+                self.0
+            }
+        }
+
+        impl std::fmt::Display for $name {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                write!(f, "{}{}", $prefix, self.0)
+            }
+        }
+    };
+}
+pub(crate) use numbered_point;
+
 /// A module's settings, parsed by its model.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ModuleSettings {

@@ -12,6 +12,7 @@ use std::fmt;
 use super::map::{self, condition_holds, Item, Space};
 use super::settings::{Readback, Setting, Settings};
 use super::text::format_condition;
+use crate::devices::config::numbered_point;
 
 /// Conditions per output and direction ("Automatic output management": YnAON1..3,
 /// YnAOFF1..3).
@@ -20,67 +21,34 @@ pub const CONDITIONS: usize = 3;
 /// Longest pulse, ms ("Pulse generation": 1 to 65000 ms).
 pub const MAX_PULSE_MS: u16 = 65000;
 
-/// An output Y1..Y4.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct Output(u8);
+numbered_point!(
+    /// An output Y1..Y4.
+    Output,
+    "Y",
+    1..=4
+);
 
 impl Output {
-    /// Yn for n in 1..=4.
-    pub fn new(n: u8) -> Option<Self> {
-        (1..=4).contains(&n).then_some(Self(n))
-    }
-
-    /// The output by its point name (`Y3`).
-    pub fn named(name: &str) -> Option<Self> {
-        name.strip_prefix('Y')
-            .and_then(|n| n.parse().ok())
-            .and_then(Self::new)
-    }
-
-    /// n of Yn.
-    pub fn number(self) -> u8 {
-        self.0
-    }
-
     /// Its bit in YWORD, YEVMASK and WDTYMASK.
     pub fn bit(self) -> u16 {
         1 << (self.0 - 1)
     }
 
-    /// Its coil (Y1 = coil 0, 00001), protocol address.
-    fn coil(self) -> u16 {
-        map::COIL_Y1 + u16::from(self.0 - 1)
+    /// Its coil's map entry (Y1 = coil 0, 00001).
+    fn coil(self) -> Option<&'static map::Entry> {
+        let item = Item::Output(self.0 - 1);
+        map::MAP
+            .iter()
+            .find(|e| e.space == Space::Coil && e.item == item)
     }
 }
 
-impl fmt::Display for Output {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "Y{}", self.0)
-    }
-}
-
-/// An input X1..X3 (the ones the conditions and latencies work on).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct Input(u8);
-
-impl Input {
-    /// Xn for n in 1..=3.
-    pub fn new(n: u8) -> Option<Self> {
-        (1..=3).contains(&n).then_some(Self(n))
-    }
-
-    /// The input by its point name (`X2`).
-    pub fn named(name: &str) -> Option<Self> {
-        name.strip_prefix('X')
-            .and_then(|n| n.parse().ok())
-            .and_then(Self::new)
-    }
-
-    /// n of Xn.
-    pub fn number(self) -> u8 {
-        self.0
-    }
-}
+numbered_point!(
+    /// An input X1..X3 (the ones the conditions and latencies work on).
+    Input,
+    "X",
+    1..=3
+);
 
 /// One automatic-output condition: a product of X1..X3, each checked high or low. Manual,
 /// "Automatic output management": the mask's low byte selects the inputs checked, its high
@@ -245,12 +213,12 @@ impl PushDown {
             }
         }
         for &(y, on) in &self.initial {
-            out.push(Setting::Coils {
-                name: coil_name(y.coil()),
-                addr: y.coil(),
+            out.extend(y.coil().map(|e| Setting::Coils {
+                name: e.name,
+                addr: e.addr,
                 count: 1,
                 bits: u8::from(on),
-            });
+            }));
         }
         for a in &self.auto {
             for (name, c) in a.registers() {
@@ -269,13 +237,6 @@ impl PushDown {
         }
         out
     }
-}
-
-fn coil_name(addr: u16) -> &'static str {
-    map::MAP
-        .iter()
-        .find(|e| e.space == Space::Coil && e.addr == addr)
-        .map_or("coil", |e| e.name)
 }
 
 #[cfg(test)]

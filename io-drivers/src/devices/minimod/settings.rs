@@ -447,35 +447,25 @@ mod tests {
 
     #[test]
     fn refusals_carry_the_key_and_the_range() {
-        let range = |max, unit| Range { min: 0, max, unit };
-        assert_eq!(
-            check("RDELAYT", "201"),
-            Err(SettingError::OutOfRange {
-                key: "RDELAYT",
-                range: range(200, " (1/100 s)")
-            })
-        );
-        assert_eq!(
-            check("rdelaym", "x"),
-            Err(SettingError::OutOfRange {
-                key: "RDELAYM",
-                range: range(200, " (1/10 ms)")
-            })
-        );
-        assert_eq!(
-            check("X1LATUP", "65536"),
-            Err(SettingError::OutOfRange {
-                key: "XLATUP1",
-                range: range(65535, " (ms)")
-            })
-        );
-        assert_eq!(
-            check("FBENABLE", "4"),
-            Err(SettingError::OutOfRange {
-                key: "FBENABLE",
-                range: range(3, " (bit 0 = FB1, bit 1 = FB2)")
-            })
-        );
+        for (key, value, name, max, unit) in [
+            ("RDELAYT", "201", "RDELAYT", 200, " (1/100 s)"),
+            ("rdelaym", "x", "RDELAYM", 200, " (1/10 ms)"),
+            ("X1LATUP", "65536", "XLATUP1", 65535, " (ms)"),
+            (
+                "FBENABLE",
+                "4",
+                "FBENABLE",
+                3,
+                " (bit 0 = FB1, bit 1 = FB2)",
+            ),
+        ] {
+            let range = Range { min: 0, max, unit };
+            assert_eq!(
+                check(key, value),
+                Err(SettingError::OutOfRange { key: name, range }),
+                "{key}: {value}"
+            );
+        }
         assert_eq!(
             check("RDELAYT", "201").unwrap_err().to_string(),
             "RDELAYT takes 0..=200 (1/100 s)"

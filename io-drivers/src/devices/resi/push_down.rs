@@ -14,37 +14,18 @@ use super::item::{Func, Item, Kind};
 use super::map::Acc;
 use super::model::Model;
 use super::value::Num;
+use crate::devices::config::numbered_point;
 
-/// A relay RO1..RO8.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct Relay(u8);
+numbered_point!(
+    /// A relay RO1..RO8.
+    Relay,
+    "RO",
+    1..=8
+);
 
 impl Relay {
-    /// ROn for n in 1..=8.
-    pub fn new(n: u8) -> Option<Self> {
-        (1..=8).contains(&n).then_some(Self(n))
-    }
-
-    /// The relay by its point name (`RO3`).
-    pub fn named(name: &str) -> Option<Self> {
-        name.strip_prefix("RO")
-            .and_then(|n| n.parse().ok())
-            .and_then(Self::new)
-    }
-
-    /// n of ROn.
-    pub fn number(self) -> u8 {
-        self.0
-    }
-
     fn index(self) -> u8 {
         self.0 - 1
-    }
-}
-
-impl fmt::Display for Relay {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "RO{}", self.0)
     }
 }
 
