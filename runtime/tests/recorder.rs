@@ -85,6 +85,15 @@ fn record(project: &Path, settings: Settings, run_for: Duration) -> Record {
     read_record(&folder).unwrap()
 }
 
+/// Records `project` for `secs` seconds of virtual time into `dir/rec`, with the defaults.
+fn record_in(project: &Path, dir: &Path, secs: u64) -> Record {
+    record(
+        project,
+        settings(&dir.join("rec")),
+        Duration::from_secs(secs),
+    )
+}
+
 fn settings(folder: &Path) -> Settings {
     Settings::new(folder.to_path_buf(), Duration::from_secs(600), 256 << 20)
 }
@@ -111,11 +120,7 @@ fn states(record: &Record, tag: &str) -> Vec<(u64, Duration, Value, Value)> {
 #[test]
 fn a_recorded_quickstart_replays_with_identical_outputs() {
     let dir = tempdir("identical");
-    let record = record(
-        &quickstart(),
-        settings(&dir.join("rec")),
-        Duration::from_secs(30),
-    );
+    let record = record_in(&quickstart(), &dir, 30);
     assert_eq!(record.segments.len(), 1);
     let seg = &record.segments[0];
     assert_eq!(seg.header.project, "quickstart");
@@ -155,11 +160,7 @@ fn a_recorded_quickstart_replays_with_identical_outputs() {
 fn a_changed_rung_differs_first_where_the_recorded_inputs_say() {
     let dir = tempdir("changed");
     let original = quickstart_copy(&dir, None);
-    let record = record(
-        &original,
-        settings(&dir.join("rec")),
-        Duration::from_secs(30),
-    );
+    let record = record_in(&original, &dir, 30);
     // The lamp now also lights while start is pressed.
     let changed_dir = dir.join("changed");
     std::fs::create_dir_all(&changed_dir).unwrap();
@@ -278,11 +279,7 @@ fn the_cli_replays_a_record_and_exports_both_outputs() {
 #[test]
 fn a_record_of_another_project_is_refused_naming_what_differs() {
     let dir = tempdir("mismatch");
-    let record = record(
-        &quickstart(),
-        settings(&dir.join("rec")),
-        Duration::from_secs(1),
-    );
+    let record = record_in(&quickstart(), &dir, 1);
     let other_dir = dir.join("other");
     std::fs::create_dir_all(&other_dir).unwrap();
     let project = quickstart_copy(&other_dir, None);
@@ -470,7 +467,7 @@ fn the_service_unit_records_into_its_state_directory() {
         })
         .collect();
     assert!(args.iter().any(|a| a == "--record"), "{exec}");
-    let mut plc = Command::new(BIN)
+    let plc = Command::new(BIN)
         .args(&args)
         .arg("--no-control")
         .env("STATE_DIRECTORY", &state)
@@ -505,4 +502,104 @@ fn the_service_unit_records_into_its_state_directory() {
         .expect("a clean end on SIGTERM");
     assert_eq!(end.cycles as usize, record.cycles().count());
     assert!(end.cycles >= 15);
+}
+
+#[test]
+fn the_cycle_a_program_faults_in_is_recorded_and_replayed() {
+    let dir = tempdir("fault");
+    // The quick start's rungs in Rhai, and a fault when a box reaches the exit.
+    let rhai = "motor = (start || motor) && !stop && !box_at_exit;\n\
+                lamp = box_at_exit;\n\
+                if box_at_exit { throw \"box jammed at the exit\"; }\n";
+    let project = quickstart_copy(&dir, Some(rhai));
+    let yaml = std::fs::read_to_string(&project).unwrap().replace(
+        "file: conveyor.expr\n  kind: expr",
+        "file: conveyor.expr\n  kind: rhai",
+    );
+    assert!(yaml.contains("kind: rhai"));
+    std::fs::write(&project, yaml).unwrap();
+    let record = record_in(&project, &dir, 30);
+    let last = record.cycles().last().unwrap().clone();
+    assert!(last.faulted, "{last:?}");
+    assert!(last.wrote.is_empty());
+    let exit = states(&record, "box_at_exit");
+    let first_exit = exit.iter().find(|s| s.2 == Value::Bool(true)).unwrap();
+    assert_eq!(
+        last.cycle, first_exit.0,
+        "the cycle that first saw the box at the exit"
+    );
+    assert_eq!(
+        record.segments[0].end.map(|e| e.cycles),
+        Some(last.cycle + 1)
+    );
+
+    // The same program faults at the same cycle: that is a match.
+    let loaded = softplc::project::load(&project).unwrap();
+    let report = replay(&record, &loaded, ReplayOptions::default(), |_| {}).unwrap();
+    assert_eq!(report.recorded_fault, Some(last.cycle));
+    assert_eq!(report.fault.as_ref().map(|f| f.0), Some(last.cycle));
+    assert!(report.identical(), "{report:?}");
+    // The fix does not fault there: the summary says so.
+    std::fs::write(
+        dir.join("conveyor.expr"),
+        "motor = (start || motor) && !stop && !box_at_exit;\nlamp = box_at_exit;\n",
+    )
+    .unwrap();
+    let out = Command::new(BIN)
+        .arg("replay")
+        .arg(dir.join("rec"))
+        .arg(&project)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}");
+    assert!(
+        stdout.contains(&format!(
+            "the recorded program faulted at cycle {}; the replayed one did not",
+            last.cycle
+        )),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn replay_names_what_it_cannot_read() {
+    let dir = tempdir("unreadable");
+    let project = quickstart_copy(&dir, None);
+    let run = |record: &Path| {
+        let out = Command::new(BIN)
+            .arg("replay")
+            .arg(record)
+            .arg(&project)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let missing = dir.join("nothing.record");
+    let (code, err) = run(&missing);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains(&format!("{}: no record there", missing.display())),
+        "{err}"
+    );
+    let empty = dir.join("empty.record");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, err) = run(&empty);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("no record segments (*.splrec) in this folder"),
+        "{err}"
+    );
+    let (code, err) = run(&project);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains(&format!(
+            "{}: not a softplc record segment",
+            project.display()
+        )),
+        "{err}"
+    );
 }
