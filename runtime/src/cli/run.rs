@@ -125,6 +125,8 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     };
     let published = snapshot::SnapshotCell::new();
     let mut services = network::start(engine.plc().project(), &published, &requests)?;
+    let mqtt = crate::service::mqtt::MqttNode::start(engine.plc().project(), &published, &requests)
+        .context("cannot start the MQTT edge node")?;
     if args.virtual_clock {
         if engine.plc().project().service.web.is_some() {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
@@ -132,7 +134,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     } else {
         services.web = network::start_web(engine.plc(), &published, &requests);
     }
-    if services.any() {
+    if services.any() || mqtt.is_some() {
         let mut publisher = snapshot::Publisher::new(published);
         if services.web.is_some() {
             publisher = publisher.with_details();
@@ -195,6 +197,10 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let outcome = scan
         .join()
         .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
+    if let Some(node) = mqtt {
+        // Its last DATA (the safe state) and its NDEATH leave before the process does.
+        node.finish(Duration::from_secs(3));
+    }
     if let Some(printer) = printer {
         // The trace's last lines (the safe state written) come before the summary.
         printer.finish(Duration::from_secs(2));

@@ -18,6 +18,7 @@
 
 pub mod error;
 pub mod model;
+pub mod mqtt;
 pub mod nesting;
 pub mod offload;
 pub mod raw;

@@ -161,6 +161,9 @@ pub enum ServiceError {
     /// The web page's settings.
     #[error(transparent)]
     Web(#[from] super::web::WebError),
+    /// The MQTT edge node's settings.
+    #[error(transparent)]
+    Mqtt(#[from] super::mqtt::MqttError),
 }
 
 /// Validates `raw.service` (of the project file `file`) and every tag's `scada:` against the
@@ -206,12 +209,22 @@ pub(crate) fn validate(
         }
         super::web::validate(w, file, &names, &taken, &mut errors)
     });
+    let mqtt = service.mqtt.as_ref().map(|m| {
+        let names: Vec<(&str, Option<ValueType>)> = raw
+            .tags
+            .iter()
+            .zip(tags)
+            .map(|(t, f)| (t.name.as_str(), f.as_ref().map(|f| f.ty)))
+            .collect();
+        super::mqtt::validate(m, file, &names, &root.key("mqtt"), &mut errors)
+    });
     let map = scada_map(raw, tags, loc, &mut errors);
     let config = (|| {
         Some(ServiceConfig {
             metrics: metrics.map_or(Some(None), |a| a.map(Some))?,
             modbus_tcp: modbus.map_or(Some(None), |m| m.map(Some))?,
             web: web.map_or(Some(None), |w| w.map(Some))?,
+            mqtt: mqtt.map_or(Some(None), |m| m.map(Some))?,
             scada: map,
         })
     })();

@@ -38,7 +38,7 @@ use super::raw::{DurationText, Int};
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "service settings: a mapping with metrics, modbus_tcp and web"
+    expecting = "service settings: a mapping with metrics, modbus_tcp, web and mqtt"
 )]
 pub struct RawService {
     /// Address of the Prometheus text endpoint.
@@ -50,6 +50,9 @@ pub struct RawService {
     /// The web page (see [`super::web`]).
     #[serde(default)]
     pub web: Option<super::web::RawWeb>,
+    /// The MQTT Sparkplug B edge node (see [`super::mqtt`]).
+    #[serde(default)]
+    pub mqtt: Option<super::mqtt::RawMqtt>,
 }
 
 /// `service.modbus_tcp:` as written.
@@ -182,6 +185,8 @@ pub struct ServiceConfig {
     pub modbus_tcp: Option<ModbusTcpConfig>,
     /// The web page (`None`: off).
     pub web: Option<super::web::WebConfig>,
+    /// The MQTT Sparkplug B edge node (`None`: off).
+    pub mqtt: Option<super::mqtt::MqttConfig>,
     /// Every exposed tag's Modbus addresses.
     pub scada: ScadaMap,
 }

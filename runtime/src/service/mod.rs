@@ -25,6 +25,7 @@ pub mod metrics;
 pub mod modbus_guard;
 pub mod modbus_map;
 pub mod modbus_tcp;
+pub mod mqtt;
 pub mod network;
 pub mod notify;
 pub mod snapshot;

@@ -1,0 +1,122 @@
+//! The edge node's metric set: what NBIRTH and each DBIRTH declare, with the aliases DATA and
+//! CMD messages use (Sparkplug B 3.0, "Payloads" › "Metric": an alias is unique across the
+//! edge node's whole metric set, devices included).
+//!
+//! Each module is a Sparkplug device whose metrics are the tags bound to its points; memory
+//! tags are node metrics, beside the PLC's own (scans, overruns, cycle p99, state).
+
+use softplc_io::point::ValueType;
+
+use crate::project::{Binding, Project};
+
+/// The name of the rebirth command metric (Sparkplug B 3.0, "Operational Behavior" ›
+/// "Commands"); it has no alias, as the specification requires.
+pub const REBIRTH: &str = "Node Control/Rebirth";
+/// The birth/death sequence metric.
+pub const BD_SEQ: &str = "bdSeq";
+
+/// The PLC's own node metrics, in alias order after the tags.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlcMetric {
+    /// Completed scans (UInt64).
+    Scans,
+    /// Overruns (UInt64).
+    Overruns,
+    /// Cycle time's 99th percentile in µs (UInt64).
+    CycleP99,
+    /// `running` or `stopped` (String).
+    State,
+    /// Changes dropped from the buffer while the broker was away (UInt64).
+    Dropped,
+}
+
+impl PlcMetric {
+    /// Every PLC metric.
+    pub const ALL: [PlcMetric; 5] = [
+        PlcMetric::Scans,
+        PlcMetric::Overruns,
+        PlcMetric::CycleP99,
+        PlcMetric::State,
+        PlcMetric::Dropped,
+    ];
+
+    /// Its metric name.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlcMetric::Scans => "PLC/Scans",
+            PlcMetric::Overruns => "PLC/Overruns",
+            PlcMetric::CycleP99 => "PLC/Cycle p99 us",
+            PlcMetric::State => "PLC/State",
+            PlcMetric::Dropped => "MQTT/Dropped changes",
+        }
+    }
+}
+
+/// One tag as a metric.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TagMetric {
+    /// Index into the project's tags (and the snapshot's values).
+    pub tag: usize,
+    /// The metric name (the tag's name).
+    pub name: String,
+    /// Its type.
+    pub ty: ValueType,
+    /// Its alias.
+    pub alias: u64,
+    /// Its device (module index), `None` for a node metric (a memory tag).
+    pub device: Option<usize>,
+}
+
+/// The whole metric set.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Layout {
+    /// Every tag, in tag order (alias = tag index + 1).
+    pub tags: Vec<TagMetric>,
+    /// Device ids (module names), in module order.
+    pub devices: Vec<String>,
+}
+
+impl Layout {
+    /// The layout of `project`.
+    pub fn of(project: &Project) -> Self {
+        let tags = project
+            .tags
+            .iter()
+            .enumerate()
+            .map(|(i, t)| TagMetric {
+                tag: i,
+                name: t.name.clone(),
+                ty: t.ty,
+                alias: i as u64 + 1,
+                device: match t.binding {
+                    Binding::Point { module, .. } => Some(module),
+                    Binding::Memory => None,
+                },
+            })
+            .collect();
+        let devices = project.modules.iter().map(|m| m.name.clone()).collect();
+        Self { tags, devices }
+    }
+
+    /// The alias of a PLC metric (after every tag's).
+    pub fn plc_alias(&self, m: PlcMetric) -> u64 {
+        let at = PlcMetric::ALL.iter().position(|&x| x == m).unwrap_or(0);
+        self.tags.len() as u64 + 1 + at as u64
+    }
+
+    /// The tags of device `device` (`None`: the node's own).
+    pub fn tags_of(&self, device: Option<usize>) -> impl Iterator<Item = &TagMetric> {
+        self.tags.iter().filter(move |t| t.device == device)
+    }
+
+    /// The tag a CMD names, by alias or by name, on `device`.
+    pub fn find(
+        &self,
+        device: Option<usize>,
+        alias: Option<u64>,
+        name: Option<&str>,
+    ) -> Option<&TagMetric> {
+        self.tags_of(device)
+            .find(|t| alias.is_some_and(|a| a == t.alias) || name.is_some_and(|n| n == t.name))
+    }
+}

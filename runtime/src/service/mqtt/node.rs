@@ -1,0 +1,466 @@
+//! The edge node's state, without I/O: which messages a snapshot turns into (Sparkplug B 3.0,
+//! "Operational Behavior" › "Edge Node Session Establishment", "Data Publish" and "Commands").
+//!
+//! - A birth (a new MQTT session, or a rebirth command) is NBIRTH with seq 0 and every node
+//!   metric, then a DBIRTH per live device, each with every metric's name, alias, datatype and
+//!   current value, then what the buffer kept while the broker was away.
+//! - At each snapshot, only what changed goes out (by exception, a numeric tag beyond its
+//!   deadband, any quality change): one NDATA, one DDATA per device. A module that is lost
+//!   gets a DDEATH; when it answers again, a DBIRTH with its current values.
+//! - While the broker is away the same changes go into a bounded buffer instead (the oldest is
+//!   dropped and counted in `MQTT/Dropped changes`). Sparkplug forbids sending them before the
+//!   new NBIRTH, and a host takes a birth's values as current, so the buffer is sent after the
+//!   births, each metric marked `is_historical` with the time it was captured: the host keeps
+//!   the history and the births' current values stand.
+
+use std::collections::VecDeque;
+
+use softplc_io::point::{Quality, Value, ValueType};
+
+use super::layout::{Layout, PlcMetric, REBIRTH};
+use super::payload::{self, bd_seq_metric, datatype, metric_value, MetricSpec};
+use super::spb::payload::metric::Value as MetricValue;
+use super::spb::DataType;
+use crate::service::snapshot::ServiceSnapshot;
+
+/// How often the PLC's own metrics (scans, cycle p99, ...) go out in NDATA at most, in ms: they
+/// change every scan, and a host trends them, it does not react to them.
+pub const PLC_METRICS_EVERY_MS: u64 = 1000;
+/// The most metrics in one historical DATA message.
+pub const HISTORICAL_CHUNK: usize = 500;
+
+/// One message to publish.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Outgoing {
+    /// Its topic.
+    pub topic: String,
+    /// The Sparkplug payload.
+    pub payload: Vec<u8>,
+    /// QoS 1 (NDEATH) rather than 0 (everything else the edge node publishes).
+    pub at_least_once: bool,
+}
+
+/// The topic namespace of one edge node ("Topics": `spBv1.0/GROUP/VERB/NODE[/DEVICE]`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topics {
+    group: String,
+    node: String,
+}
+
+impl Topics {
+    /// The topics of `node` in `group`.
+    pub fn new(group: &str, node: &str) -> Self {
+        Self {
+            group: group.into(),
+            node: node.into(),
+        }
+    }
+
+    /// A node topic (`NBIRTH`, `NDEATH`, `NDATA`, `NCMD`).
+    pub fn node(&self, verb: &str) -> String {
+        format!("spBv1.0/{}/{verb}/{}", self.group, self.node)
+    }
+
+    /// A device topic (`DBIRTH`, `DDEATH`, `DDATA`, `DCMD`).
+    pub fn device(&self, verb: &str, device: &str) -> String {
+        format!("spBv1.0/{}/{verb}/{}/{device}", self.group, self.node)
+    }
+
+    /// Whom a command topic addresses: `Some(None)` the node (`NCMD`), `Some(Some(device))`
+    /// a device (`DCMD`), `None` a topic that is neither.
+    pub fn command_target<'a>(&self, topic: &'a str) -> Option<Option<&'a str>> {
+        if topic == self.node("NCMD") {
+            return Some(None);
+        }
+        let prefix = format!("{}/", self.node("DCMD"));
+        topic.strip_prefix(&prefix).map(Some)
+    }
+}
+
+/// A change kept while the broker was away.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Kept {
+    tag: usize,
+    value: Value,
+    quality: Quality,
+    timestamp: u64,
+}
+
+/// The edge node (see the module docs).
+#[derive(Debug)]
+pub struct EdgeNode {
+    layout: Layout,
+    topics: Topics,
+    /// Per tag: the smallest change sent (0: any).
+    deadband: Vec<f64>,
+    seq: u8,
+    /// Per tag: what the host was last told (sent, or kept in the buffer).
+    last: Vec<Option<(Value, Quality)>>,
+    /// Per device: whether it is born in this session.
+    born: Vec<bool>,
+    plc_last: Vec<Option<MetricValue>>,
+    plc_sent_at: u64,
+    buffer: VecDeque<Kept>,
+    capacity: usize,
+    dropped: u64,
+    /// UTC ms minus scan ms, fixed at the first snapshot.
+    epoch: Option<i128>,
+}
+
+fn changed(old: Value, new: Value, deadband: f64) -> bool {
+    let num = |v: Value| match v {
+        Value::Bool(b) => f64::from(u8::from(b)),
+        Value::U16(u) => f64::from(u),
+        Value::I32(i) => f64::from(i),
+        Value::F32(f) => f64::from(f),
+    };
+    if deadband <= 0.0 || matches!(new, Value::Bool(_)) {
+        return old != new && !(num(old).is_nan() && num(new).is_nan());
+    }
+    let (a, b) = (num(old), num(new));
+    (a - b).abs() >= deadband || a.is_nan() != b.is_nan()
+}
+
+impl EdgeNode {
+    /// An edge node for `layout` publishing under `topics`, with a per-tag `deadband` and a
+    /// buffer of `capacity` changes.
+    pub fn new(layout: Layout, topics: Topics, deadband: &[(usize, f64)], capacity: usize) -> Self {
+        let mut db = vec![0.0; layout.tags.len()];
+        for &(tag, d) in deadband {
+            if let Some(slot) = db.get_mut(tag) {
+                *slot = d;
+            }
+        }
+        Self {
+            last: vec![None; layout.tags.len()],
+            born: vec![false; layout.devices.len()],
+            plc_last: vec![None; PlcMetric::ALL.len()],
+            plc_sent_at: 0,
+            deadband: db,
+            layout,
+            topics,
+            seq: 0,
+            buffer: VecDeque::new(),
+            capacity: capacity.max(1),
+            dropped: 0,
+            epoch: None,
+        }
+    }
+
+    /// The topics.
+    pub fn topics(&self) -> &Topics {
+        &self.topics
+    }
+
+    /// The metric set.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Changes dropped from the buffer so far.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Changes in the buffer.
+    pub fn buffered(&self) -> usize {
+        self.buffer.len()
+    }
+
+    fn next_seq(&mut self) -> u8 {
+        let s = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        s
+    }
+
+    fn utc(&mut self, snap: &ServiceSnapshot, wall_ms: u64, scan: std::time::Duration) -> u64 {
+        let epoch = *self
+            .epoch
+            .get_or_insert(i128::from(wall_ms) - snap.now.as_millis() as i128);
+        (epoch + scan.as_millis() as i128).clamp(0, u64::MAX as i128) as u64
+    }
+
+    fn alive(snap: &ServiceSnapshot, device: usize) -> bool {
+        // Module qualities come with the statistics; before their first refresh, alive.
+        snap.modules
+            .get(device)
+            .is_none_or(|m| m.quality != Quality::Bad)
+    }
+
+    fn tag_now(snap: &ServiceSnapshot, tag: usize) -> Option<(Value, Quality)> {
+        Some((*snap.values.get(tag)?, *snap.qualities.get(tag)?))
+    }
+
+    fn tag_spec(
+        &mut self,
+        snap: &ServiceSnapshot,
+        wall_ms: u64,
+        tag: usize,
+        birth: bool,
+    ) -> Option<MetricSpec<'static>> {
+        let (value, quality) = Self::tag_now(snap, tag)?;
+        let at = snap.timestamps.get(tag).copied().unwrap_or(snap.now);
+        let timestamp = self.utc(snap, wall_ms, at);
+        self.last[tag] = Some((value, quality));
+        let t = &self.layout.tags[tag];
+        Some(MetricSpec {
+            name: None,
+            alias: Some(t.alias),
+            datatype: birth.then(|| datatype(t.ty)),
+            timestamp,
+            value: metric_value(value),
+            quality: Some(quality),
+            historical: false,
+        })
+    }
+
+    fn plc_values(&self, snap: &ServiceSnapshot) -> Vec<(PlcMetric, DataType, MetricValue)> {
+        PlcMetric::ALL
+            .iter()
+            .map(|&m| match m {
+                PlcMetric::Scans => (m, DataType::UInt64, MetricValue::LongValue(snap.cycles)),
+                PlcMetric::Overruns => (m, DataType::UInt64, MetricValue::LongValue(snap.overruns)),
+                PlcMetric::CycleP99 => (
+                    m,
+                    DataType::UInt64,
+                    MetricValue::LongValue(snap.phases[0].p99.as_micros() as u64),
+                ),
+                PlcMetric::State => (
+                    m,
+                    DataType::String,
+                    MetricValue::StringValue(
+                        if snap.stopped { "stopped" } else { "running" }.into(),
+                    ),
+                ),
+                PlcMetric::Dropped => (m, DataType::UInt64, MetricValue::LongValue(self.dropped)),
+            })
+            .collect()
+    }
+
+    /// Births for a new session or a rebirth: NBIRTH (seq 0, carrying `bd_seq`), a DBIRTH per
+    /// live device, then the buffer as historical DATA.
+    pub fn birth(&mut self, snap: &ServiceSnapshot, wall_ms: u64, bd_seq: u8) -> Vec<Outgoing> {
+        self.seq = 0;
+        let now = self.utc(snap, wall_ms, snap.now);
+        let mut out = Vec::new();
+        let mut metrics = vec![
+            bd_seq_metric(bd_seq, now),
+            MetricSpec {
+                name: Some(REBIRTH),
+                alias: None,
+                datatype: Some(DataType::Boolean),
+                timestamp: now,
+                value: MetricValue::BooleanValue(false),
+                quality: None,
+                historical: false,
+            },
+        ];
+        let plc = self.plc_values(snap);
+        for (m, dt, v) in &plc {
+            metrics.push(MetricSpec {
+                name: Some(m.name()),
+                alias: Some(self.layout.plc_alias(*m)),
+                datatype: Some(*dt),
+                timestamp: now,
+                value: v.clone(),
+                quality: None,
+                historical: false,
+            });
+        }
+        self.plc_last = plc.into_iter().map(|(_, _, v)| Some(v)).collect();
+        self.plc_sent_at = wall_ms;
+        let node_tags: Vec<usize> = self.layout.tags_of(None).map(|t| t.tag).collect();
+        let names: Vec<String> = self.layout.tags.iter().map(|t| t.name.clone()).collect();
+        let tag_specs: Vec<(usize, MetricSpec<'static>)> = node_tags
+            .iter()
+            .filter_map(|&t| Some((t, self.tag_spec(snap, wall_ms, t, true)?)))
+            .collect();
+        let mut all: Vec<MetricSpec<'_>> = metrics;
+        for (t, spec) in &tag_specs {
+            all.push(MetricSpec {
+                name: Some(names[*t].as_str()),
+                ..spec.clone()
+            });
+        }
+        let seq = self.next_seq();
+        out.push(Outgoing {
+            topic: self.topics.node("NBIRTH"),
+            payload: payload::encode(now, Some(seq), &all),
+            at_least_once: false,
+        });
+        for d in 0..self.layout.devices.len() {
+            self.born[d] = false;
+            if Self::alive(snap, d) {
+                out.push(self.device_birth(snap, wall_ms, d));
+            }
+        }
+        out.extend(self.flush_buffer(wall_ms));
+        out
+    }
+
+    fn device_birth(&mut self, snap: &ServiceSnapshot, wall_ms: u64, device: usize) -> Outgoing {
+        let tags: Vec<usize> = self.layout.tags_of(Some(device)).map(|t| t.tag).collect();
+        let specs: Vec<(usize, MetricSpec<'static>)> = tags
+            .iter()
+            .filter_map(|&t| Some((t, self.tag_spec(snap, wall_ms, t, true)?)))
+            .collect();
+        let now = self.utc(snap, wall_ms, snap.now);
+        let metrics: Vec<MetricSpec<'_>> = specs
+            .iter()
+            .map(|(t, s)| MetricSpec {
+                name: Some(self.layout.tags[*t].name.as_str()),
+                ..s.clone()
+            })
+            .collect();
+        let payload = payload::encode(now, Some(self.seq), &metrics);
+        self.next_seq();
+        self.born[device] = true;
+        Outgoing {
+            topic: self.topics.device("DBIRTH", &self.layout.devices[device]),
+            payload,
+            at_least_once: false,
+        }
+    }
+
+    fn flush_buffer(&mut self, wall_ms: u64) -> Vec<Outgoing> {
+        let kept: Vec<Kept> = self.buffer.drain(..).collect();
+        let mut out = Vec::new();
+        for device in std::iter::once(None).chain((0..self.layout.devices.len()).map(Some)) {
+            if device.is_some_and(|d| !self.born[d]) {
+                continue;
+            }
+            let mine: Vec<&Kept> = kept
+                .iter()
+                .filter(|k| self.layout.tags[k.tag].device == device)
+                .collect();
+            for chunk in mine.chunks(HISTORICAL_CHUNK) {
+                let metrics: Vec<MetricSpec<'_>> = chunk
+                    .iter()
+                    .map(|k| MetricSpec {
+                        name: None,
+                        alias: Some(self.layout.tags[k.tag].alias),
+                        datatype: None,
+                        timestamp: k.timestamp,
+                        value: metric_value(k.value),
+                        quality: Some(k.quality),
+                        historical: true,
+                    })
+                    .collect();
+                out.push(self.data_message(device, wall_ms, &metrics));
+            }
+        }
+        out
+    }
+
+    fn data_message(
+        &mut self,
+        device: Option<usize>,
+        wall_ms: u64,
+        metrics: &[MetricSpec<'_>],
+    ) -> Outgoing {
+        let seq = self.next_seq();
+        Outgoing {
+            topic: match device {
+                None => self.topics.node("NDATA"),
+                Some(d) => self.topics.device("DDATA", &self.layout.devices[d]),
+            },
+            payload: payload::encode(wall_ms, Some(seq), metrics),
+            at_least_once: false,
+        }
+    }
+
+    /// What changed since the last call, as NDATA/DDATA/DDEATH/DBIRTH (`online`), or kept in
+    /// the buffer (not `online`: nothing is returned).
+    pub fn update(&mut self, snap: &ServiceSnapshot, wall_ms: u64, online: bool) -> Vec<Outgoing> {
+        let mut out = Vec::new();
+        if online {
+            for d in 0..self.layout.devices.len() {
+                let alive = Self::alive(snap, d);
+                if self.born[d] && !alive {
+                    let now = self.utc(snap, wall_ms, snap.now);
+                    let seq = self.next_seq();
+                    out.push(Outgoing {
+                        topic: self.topics.device("DDEATH", &self.layout.devices[d]),
+                        payload: payload::encode(now, Some(seq), &[]),
+                        at_least_once: false,
+                    });
+                    self.born[d] = false;
+                } else if !self.born[d] && alive {
+                    out.push(self.device_birth(snap, wall_ms, d));
+                }
+            }
+        }
+        let mut changes: Vec<Vec<MetricSpec<'static>>> =
+            vec![Vec::new(); self.layout.devices.len() + 1];
+        for tag in 0..self.layout.tags.len() {
+            let Some((value, quality)) = Self::tag_now(snap, tag) else {
+                continue;
+            };
+            let device = self.layout.tags[tag].device;
+            if online && device.is_some_and(|d| !self.born[d]) {
+                continue;
+            }
+            let due = match self.last[tag] {
+                None => true,
+                Some((v, q)) => q != quality || changed(v, value, self.deadband[tag]),
+            };
+            if !due {
+                continue;
+            }
+            if online {
+                if let Some(spec) = self.tag_spec(snap, wall_ms, tag, false) {
+                    changes[device.map_or(0, |d| d + 1)].push(spec);
+                }
+            } else {
+                let at = snap.timestamps.get(tag).copied().unwrap_or(snap.now);
+                let timestamp = self.utc(snap, wall_ms, at);
+                self.last[tag] = Some((value, quality));
+                if self.buffer.len() >= self.capacity {
+                    self.buffer.pop_front();
+                    self.dropped += 1;
+                }
+                self.buffer.push_back(Kept {
+                    tag,
+                    value,
+                    quality,
+                    timestamp,
+                });
+            }
+        }
+        if !online {
+            return out;
+        }
+        let plc_due =
+            snap.stopped || wall_ms.saturating_sub(self.plc_sent_at) >= PLC_METRICS_EVERY_MS;
+        if plc_due {
+            let now = self.utc(snap, wall_ms, snap.now);
+            for (i, (m, _, v)) in self.plc_values(snap).into_iter().enumerate() {
+                if self.plc_last[i].as_ref() != Some(&v) {
+                    changes[0].push(MetricSpec {
+                        name: None,
+                        alias: Some(self.layout.plc_alias(m)),
+                        datatype: None,
+                        timestamp: now,
+                        value: v.clone(),
+                        quality: None,
+                        historical: false,
+                    });
+                    self.plc_last[i] = Some(v);
+                }
+            }
+            self.plc_sent_at = wall_ms;
+        }
+        for (slot, metrics) in changes.iter().enumerate() {
+            if !metrics.is_empty() {
+                let device = slot.checked_sub(1);
+                out.push(self.data_message(device, wall_ms, metrics));
+            }
+        }
+        out
+    }
+
+    /// The type of tag `tag`.
+    pub fn tag_type(&self, tag: usize) -> Option<ValueType> {
+        self.layout.tags.get(tag).map(|t| t.ty)
+    }
+}

@@ -1,0 +1,346 @@
+//! The edge node's thread: one MQTT 3.1.1 connection (rumqttc's sync client), driven from
+//! this thread alone, and the snapshot read once per scan period. The scan never waits on
+//! it: the snapshot is published with `try_lock`, writes reach the scan through the control
+//! channel with `try_send`, and publishes are queued with `try_publish`.
+//!
+//! Sessions ("Edge Node Session Establishment"): every CONNECT carries the Will (NDEATH with
+//! the session's bdSeq, QoS 1, not retained); on CONNACK the node subscribes to its NCMD and
+//! DCMD topics, then births. A lost connection bumps bdSeq (the next CONNECT is a new
+//! session), puts the new Will in place, and retries with a backoff doubling from
+//! [`BACKOFF_MIN`] to [`BACKOFF_MAX`] (rumqttc itself would retry at once, in a loop).
+//! A clean stop publishes NDEATH, then DISCONNECT (which makes the broker drop the Will).
+
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use crossbeam_channel::{Receiver, Sender};
+use rumqttc::{
+    Client, Connection, Event, LastWill, MqttOptions, Outgoing as Out, Packet, QoS, Transport,
+};
+
+use super::command;
+use super::node::{EdgeNode, Outgoing};
+use super::payload;
+use crate::project::mqtt::MqttConfig;
+use crate::service::control::{Envelope, Request, Response, TagValue};
+use crate::service::snapshot::SnapshotCell;
+
+/// The first wait before reconnecting.
+pub const BACKOFF_MIN: Duration = Duration::from_millis(250);
+/// The longest wait before reconnecting.
+pub const BACKOFF_MAX: Duration = Duration::from_secs(10);
+/// How long a write may wait for the scan's answer before it is logged as lost.
+pub const WRITE_WAIT: Duration = Duration::from_secs(2);
+/// The MQTT keep-alive: a broker that vanished without closing is noticed within 1.5 × this.
+pub const KEEP_ALIVE: Duration = Duration::from_secs(5);
+/// Queued requests to the connection (births of many devices fit at once).
+const REQUEST_CAPACITY: usize = 4096;
+/// Largest MQTT packet either way (a birth of thousands of tags).
+const MAX_PACKET: usize = 4 << 20;
+
+fn wall_ms() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
+}
+
+/// The options of a CONNECT (without the Will).
+fn options(cfg: &MqttConfig) -> MqttOptions {
+    let mut o = MqttOptions::new(cfg.client_id.clone(), cfg.host.clone(), cfg.port);
+    o.set_keep_alive(KEEP_ALIVE)
+        .set_clean_session(true)
+        .set_max_packet_size(MAX_PACKET, MAX_PACKET);
+    if let Some((user, password)) = &cfg.credentials {
+        o.set_credentials(user.clone(), password.0.clone());
+    }
+    if let Some((_, ca)) = &cfg.tls_ca {
+        // rustls without a compiled-in default: ring is the provider (already installed
+        // when another part of the process did it first).
+        let _ = rustls::crypto::ring::default_provider().install_default();
+        o.set_transport(Transport::tls(ca.clone(), None, None));
+    }
+    o
+}
+
+/// The running session (see the module docs).
+pub(super) struct Session {
+    pub(super) cfg: MqttConfig,
+    pub(super) node: EdgeNode,
+    pub(super) writable: Vec<bool>,
+    pub(super) names: Vec<String>,
+    pub(super) snapshot: SnapshotCell,
+    pub(super) scan: Sender<Envelope>,
+    pub(super) period: Duration,
+}
+
+struct Pending {
+    tags: Vec<String>,
+    answer: Receiver<Response>,
+    deadline: Instant,
+}
+
+impl Session {
+    fn will(&self, bd_seq: u8) -> LastWill {
+        LastWill::new(
+            self.node.topics().node("NDEATH"),
+            payload::ndeath(bd_seq, wall_ms()),
+            QoS::AtLeastOnce,
+            false,
+        )
+    }
+
+    /// Runs until the PLC's last publication (the scan stopped), then dies cleanly.
+    pub(super) fn run(mut self) {
+        let mut bd_seq: u8 = 0;
+        let mut opts = options(&self.cfg);
+        opts.set_last_will(self.will(bd_seq));
+        let (client, mut conn) = Client::new(opts, REQUEST_CAPACITY);
+        let mut online = false;
+        let mut want_birth = false;
+        let mut retry_at: Option<Instant> = None;
+        let mut backoff = BACKOFF_MIN;
+        let mut pending: Vec<Pending> = Vec::new();
+        let mut last_cycle = u64::MAX;
+        let tick = self
+            .period
+            .clamp(Duration::from_millis(5), Duration::from_millis(100));
+        let mut next_tick = Instant::now();
+        tracing::info!(
+            "MQTT Sparkplug B: edge node {}/{} on {}:{}{}",
+            self.cfg.group,
+            self.cfg.node,
+            self.cfg.host,
+            self.cfg.port,
+            if self.cfg.tls_ca.is_some() {
+                " (TLS)"
+            } else {
+                ""
+            }
+        );
+        loop {
+            // The connection: events until the next tick, unless waiting to reconnect.
+            let now = Instant::now();
+            match retry_at {
+                Some(at) if now < at => std::thread::sleep(at.min(next_tick) - now),
+                _ => {
+                    retry_at = None;
+                    let wait = next_tick
+                        .saturating_duration_since(now)
+                        .max(Duration::from_millis(1));
+                    match conn.recv_timeout(wait) {
+                        Ok(Ok(event)) => {
+                            if let Some(rebirth) =
+                                self.on_event(&client, event, &mut online, &mut pending)
+                            {
+                                want_birth |= rebirth;
+                                backoff = BACKOFF_MIN;
+                            }
+                        }
+                        Ok(Err(e)) => {
+                            if online {
+                                tracing::warn!(
+                                    "MQTT: connection to {}:{} lost: {e}; buffering changes",
+                                    self.cfg.host,
+                                    self.cfg.port
+                                );
+                            } else {
+                                tracing::debug!(
+                                    "MQTT: cannot connect to {}:{}: {e}",
+                                    self.cfg.host,
+                                    self.cfg.port
+                                );
+                            }
+                            online = false;
+                            // The next CONNECT is a new session: a new bdSeq, in its Will.
+                            bd_seq = bd_seq.wrapping_add(1);
+                            let will = self.will(bd_seq);
+                            conn.eventloop.mqtt_options.set_last_will(will);
+                            retry_at = Some(Instant::now() + backoff);
+                            backoff = (backoff * 2).min(BACKOFF_MAX);
+                        }
+                        Err(rumqttc::RecvTimeoutError::Timeout) => {}
+                        Err(rumqttc::RecvTimeoutError::Disconnected) => return,
+                    }
+                }
+            }
+            if Instant::now() < next_tick {
+                continue;
+            }
+            next_tick = Instant::now() + tick;
+            self.answers(&mut pending);
+            let snap = self.snapshot.get();
+            if !snap.published || (snap.cycles == last_cycle && !want_birth && !snap.stopped) {
+                continue;
+            }
+            last_cycle = snap.cycles;
+            let out = if online && want_birth {
+                want_birth = false;
+                tracing::info!(
+                    "MQTT: NBIRTH (bdSeq {bd_seq}) and DBIRTHs, {} buffered change(s) after them",
+                    self.node.buffered()
+                );
+                self.node.birth(&snap, wall_ms(), bd_seq)
+            } else {
+                self.node.update(&snap, wall_ms(), online)
+            };
+            if !self.send(&client, out) {
+                want_birth = true;
+            }
+            if snap.stopped {
+                self.die(&client, &mut conn, bd_seq, online);
+                return;
+            }
+        }
+    }
+
+    /// Queues `out`; false when the queue was full (a rebirth then resends everything).
+    fn send(&self, client: &Client, out: Vec<Outgoing>) -> bool {
+        for m in out {
+            let qos = if m.at_least_once {
+                QoS::AtLeastOnce
+            } else {
+                QoS::AtMostOnce
+            };
+            if let Err(e) = client.try_publish(m.topic.clone(), qos, false, m.payload) {
+                tracing::warn!("MQTT: {} not queued ({e}); a rebirth follows", m.topic);
+                return false;
+            }
+        }
+        true
+    }
+
+    /// One connection event; `Some(true)` when a session just started (birth due).
+    fn on_event(
+        &mut self,
+        client: &Client,
+        event: Event,
+        online: &mut bool,
+        pending: &mut Vec<Pending>,
+    ) -> Option<bool> {
+        match event {
+            Event::Incoming(Packet::ConnAck(_)) => {
+                *online = true;
+                let topics = self.node.topics();
+                let mut subs = vec![topics.node("NCMD")];
+                subs.extend(
+                    self.node
+                        .layout()
+                        .devices
+                        .iter()
+                        .map(|d| topics.device("DCMD", d)),
+                );
+                for s in subs {
+                    if let Err(e) = client.try_subscribe(s.clone(), QoS::AtLeastOnce) {
+                        tracing::warn!("MQTT: cannot subscribe to {s}: {e}");
+                    }
+                }
+                tracing::info!("MQTT: connected to {}:{}", self.cfg.host, self.cfg.port);
+                Some(true)
+            }
+            Event::Incoming(Packet::Publish(p)) => {
+                match command::decode(
+                    &self.node,
+                    &p.topic,
+                    &p.payload,
+                    self.cfg.writes,
+                    &self.writable,
+                ) {
+                    Err(e) => tracing::warn!("MQTT: command ignored: {e}"),
+                    Ok(cmd) => {
+                        for (tag, why) in &cmd.refused {
+                            tracing::warn!("MQTT: {}: write to {tag} refused: {why}", p.topic);
+                        }
+                        if !cmd.writes.is_empty() {
+                            self.write(&p.topic, &cmd.writes, pending);
+                        }
+                        if cmd.rebirth {
+                            tracing::info!("MQTT: rebirth requested on {}", p.topic);
+                            return Some(true);
+                        }
+                    }
+                }
+                Some(false)
+            }
+            _ => None,
+        }
+    }
+
+    /// Hands writes to the scan, through the control socket's request path; the answer is
+    /// read at a later tick (never waited for here).
+    fn write(
+        &self,
+        topic: &str,
+        writes: &[(usize, softplc_io::point::Value)],
+        pending: &mut Vec<Pending>,
+    ) {
+        let values: Vec<TagValue> = writes
+            .iter()
+            .map(|&(t, v)| TagValue {
+                tag: self.names[t].clone(),
+                value: v.to_string(),
+            })
+            .collect();
+        let tags: Vec<String> = values.iter().map(|v| v.tag.clone()).collect();
+        let (reply, answer) = crossbeam_channel::bounded(1);
+        let env = Envelope::new(Request::Write { values }, reply, WRITE_WAIT);
+        match self.scan.try_send(env) {
+            Ok(()) => pending.push(Pending {
+                tags,
+                answer,
+                deadline: Instant::now() + WRITE_WAIT,
+            }),
+            Err(_) => tracing::warn!(
+                "MQTT: {topic}: write to {} refused: the scan's request queue is full",
+                tags.join(", ")
+            ),
+        }
+    }
+
+    fn answers(&self, pending: &mut Vec<Pending>) {
+        pending.retain(|p| match p.answer.try_recv() {
+            Ok(r) if r.ok => {
+                tracing::info!("MQTT: write to {} applied", p.tags.join(", "));
+                false
+            }
+            Ok(r) => {
+                tracing::warn!(
+                    "MQTT: write to {} refused: {}",
+                    p.tags.join(", "),
+                    r.error.unwrap_or_default()
+                );
+                false
+            }
+            Err(_) if Instant::now() >= p.deadline => {
+                tracing::warn!(
+                    "MQTT: write to {} refused: the scan did not answer within {WRITE_WAIT:?}",
+                    p.tags.join(", ")
+                );
+                false
+            }
+            Err(_) => true,
+        });
+    }
+
+    /// The clean stop: the last DATA went out; NDEATH, DISCONNECT, and the connection driven
+    /// until both left (at most two seconds: a dead broker must not hold up the stop).
+    fn die(&self, client: &Client, conn: &mut Connection, bd_seq: u8, online: bool) {
+        if !online {
+            return;
+        }
+        let death = payload::ndeath(bd_seq, wall_ms());
+        let _ = client.try_publish(
+            self.node.topics().node("NDEATH"),
+            QoS::AtLeastOnce,
+            false,
+            death,
+        );
+        let _ = client.try_disconnect();
+        let deadline = Instant::now() + Duration::from_secs(2);
+        while Instant::now() < deadline {
+            match conn.recv_timeout(deadline - Instant::now()) {
+                Ok(Ok(Event::Outgoing(Out::Disconnect))) | Ok(Err(_)) | Err(_) => break,
+                Ok(Ok(_)) => {}
+            }
+        }
+        tracing::info!("MQTT: NDEATH (bdSeq {bd_seq}) published, disconnected");
+    }
+}
