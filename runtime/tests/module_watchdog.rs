@@ -336,3 +336,48 @@ fn a_simulator_option_that_does_not_fit_is_refused_naming_it() {
         assert!(stderr.contains(error), "{option}: {stderr}");
     }
 }
+
+#[test]
+fn a_minimod_whose_text_commands_an_ex9053_would_answer_is_refused_naming_both() {
+    let dir = std::env::temp_dir().join(format!(
+        "softplc-module-watchdog-{}-dcon",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("run.expr"), "motor = 1\n").unwrap();
+    let project = |minimod: u8, ex9053: u8, checksum: &str| {
+        format!(
+            "project: neighbours
+scan: {{ period: 50ms }}
+buses:
+  - {{ name: line1, port: sim, baud: 9600, format: 8N1 }}
+modules:
+  - {{ name: mm1, bus: line1, model: minimod, address: {minimod} }}
+  - {{ name: ex1, bus: line1, model: ex9053d, address: {ex9053}{checksum} }}
+tags:
+  - {{ name: motor, point: mm1.Y1, safe: false }}
+program: {{ file: run.expr, kind: expr }}
+"
+        )
+    };
+    let load = |text: String| {
+        std::fs::write(dir.join("project.yaml"), text).unwrap();
+        project::load(&dir.join("project.yaml")).map_err(|e| e.to_string())
+    };
+    // MiniMod 18 is `@18>...`: DCON address 18 (hexadecimal), the EX-9053 at 24.
+    let errors = load(project(18, 24, "")).unwrap_err();
+    assert!(
+        errors.contains(
+            "project.yaml:6:55: error: module mm1 (minimod, address 18) gets text commands \
+             (`@18>WDTTIME=` at start-up) that module ex1 (DCON address 18, line 7) on bus line1 \
+             takes for its own and answers `?18` over the MiniMod's reply; give one of them \
+             another address (or turn the EX-9053's checksum on)"
+        ),
+        "{errors}"
+    );
+    // Other addresses, or the EX-9053's checksum on: nothing heard.
+    assert!(load(project(18, 18 + 1, "")).is_ok());
+    assert!(load(project(5, 5 + 0x10, "")).is_ok());
+    assert!(load(project(18, 24, ", settings: { checksum: true }")).is_ok());
+}

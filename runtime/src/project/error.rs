@@ -306,6 +306,28 @@ pub enum ErrorKind {
         /// That module's `address` line.
         other_line: usize,
     },
+    /// A MiniMod whose text commands an EX-9053 in DCON mode on its bus takes for its own
+    /// (see `dcon_neighbours`).
+    #[error(
+        "module {module} (minimod, address {address}) gets text commands (`@{address}>WDTTIME=` \
+         at start-up) that module {other} (DCON address {dcon:02X}, line {other_line}) on bus \
+         {bus} takes for its own and answers `?{dcon:02X}` over the MiniMod's reply; give one \
+         of them another address (or turn the EX-9053's checksum on)"
+    )]
+    HeardByDcon {
+        /// The MiniMod.
+        module: String,
+        /// Its address.
+        address: u8,
+        /// The EX-9053.
+        other: String,
+        /// Its address, as DCON writes it (hexadecimal on the wire).
+        dcon: u8,
+        /// The bus.
+        bus: String,
+        /// The EX-9053's `address` line.
+        other_line: usize,
+    },
     /// A bus faster than a module on it accepts.
     #[error(
         "module {module} ({model}) accepts at most {max} Bd, but bus {bus} runs at {baud} Bd \

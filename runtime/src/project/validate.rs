@@ -76,6 +76,7 @@ pub(crate) fn validate(
         "buses",
     );
     let modules = v.modules(raw, &buses, &bus_index);
+    v.dcon_neighbours(raw, &modules);
     let module_index = v.names(
         Item::Module,
         raw.modules.iter().map(|m| m.name.as_str()),
@@ -464,6 +465,32 @@ impl Validator<'_> {
             delay_before_send: before?,
             delay_after_send: after?,
         }))
+    }
+
+    /// MiniMods whose text commands an EX-9053 on their bus answers (see `dcon_neighbours`).
+    fn dcon_neighbours(&mut self, raw: &RawProject, modules: &[(Resolved, Option<ModuleConfig>)]) {
+        let configs = modules.iter().map(|(_, c)| c.as_ref());
+        for (mm, ex) in super::dcon_neighbours::clashes(configs) {
+            let (Some(Some(mm_cfg)), Some(Some(ex_cfg))) =
+                (modules.get(mm).map(|m| &m.1), modules.get(ex).map(|m| &m.1))
+            else {
+                continue;
+            };
+            let at = |i: usize| YPath::root().key("modules").index(i).key("address");
+            let kind = ErrorKind::HeardByDcon {
+                module: mm_cfg.name.clone(),
+                address: mm_cfg.device.address.get(),
+                other: ex_cfg.name.clone(),
+                dcon: ex_cfg.device.address.get(),
+                bus: raw
+                    .buses
+                    .get(mm_cfg.bus)
+                    .map(|b| b.name.clone())
+                    .unwrap_or_default(),
+                other_line: self.loc.line(&at(ex)),
+            };
+            self.error(at(mm), kind);
+        }
     }
 
     /// Validates every module; returns, per module, what could be resolved and the config.
