@@ -16,7 +16,7 @@ use softplc_io::point::Value;
 
 use crate::project;
 use crate::recorder::format::short_hex;
-use crate::recorder::replay::{CycleOutputs, Difference};
+use crate::recorder::replay::{compared, CycleOutputs, Difference};
 use crate::recorder::{read_record, replay, Record, ReplayOptions, ReplayReport};
 use crate::scan::fmt_duration;
 use crate::trace::export::{CsvWriter, ExportError, Sample, Signal, VcdWriter};
@@ -114,12 +114,7 @@ impl Exports {
     fn open(args: &ReplayArgs, record: &Record) -> anyhow::Result<Self> {
         let signals: Vec<Signal> = match record.segments.first() {
             Some(seg) => {
-                let owned: Vec<_> = seg
-                    .header
-                    .tags
-                    .iter()
-                    .filter(|t| t.role.program_owned())
-                    .collect();
+                let owned = compared(&seg.header);
                 let rec = owned
                     .iter()
                     .map(|t| Signal::new(format!("rec.{}", t.name), t.ty));
@@ -240,14 +235,36 @@ pub fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &Path) -
         r.cycles,
         fmt_duration(r.plant_time)
     );
-    if let Some((cycle, fault)) = &r.fault {
-        let _ = writeln!(
-            out,
-            "the replayed program faulted at cycle {cycle}: {fault}; replay stopped there"
-        );
+    match (&r.fault, r.recorded_fault) {
+        (Some((cycle, fault)), recorded) => {
+            let _ = writeln!(
+                out,
+                "the replayed program faulted at cycle {cycle}: {fault}; replay stopped there{}",
+                if recorded == Some(*cycle) {
+                    ", as the recorded run did"
+                } else {
+                    ""
+                }
+            );
+        }
+        (None, Some(cycle)) => {
+            let _ = writeln!(
+                out,
+                "the recorded program faulted at cycle {cycle}; the replayed one did not"
+            );
+        }
+        (None, None) => {}
     }
     if r.differing_cycles == 0 {
-        let _ = writeln!(out, "{span}, outputs identical");
+        let _ = writeln!(
+            out,
+            "{span}, outputs identical{}",
+            if r.identical() {
+                ""
+            } else {
+                "; the faults differ (above)"
+            }
+        );
     } else {
         let _ = writeln!(
             out,

@@ -142,6 +142,10 @@ impl Plc {
 
     /// Drives every output to its safe value (stop, fault, watchdog).
     pub fn write_safe_state(&mut self) {
+        // A cycle whose program faulted ends here: the recorder keeps it, as it started.
+        if let Some(tap) = self.recorder.as_mut() {
+            tap.unfinished();
+        }
         // Pushed-down outputs: their tables are cleared first, in a write of their own, so no
         // module logic drives them once they are set to their safe values.
         if self.offload.clear_tables(&mut self.frames) {

@@ -14,6 +14,10 @@
 //!    does);
 //! 4. every output and memory tag is compared with what the recorded scan wrote.
 //!
+//! A cycle whose recorded program faulted is in the record as it started; replay expects the
+//! replayed program to fault there too (a changed program that does not, or one that faults
+//! elsewhere, is a difference).
+//!
 //! What replay does not re-create: module-side behaviour. A pushed-down rung runs in its
 //! module, so the value the module reported is an input to replay (its tag is not compared);
 //! a changed program is replayed with the record's placement. The lines, their timing and the
@@ -107,6 +111,8 @@ pub struct ReplayReport {
     pub project_file_differs: bool,
     /// The replayed program faulted: the cycle and the fault. Replay stops there.
     pub fault: Option<(u64, String)>,
+    /// The recorded run's program faulted in this cycle (the run stopped there).
+    pub recorded_fault: Option<u64>,
     /// What the reader of the summary must know: gaps, reloads, restarts, torn tails.
     pub notes: Vec<String>,
 }
@@ -114,7 +120,7 @@ pub struct ReplayReport {
 impl ReplayReport {
     /// Whether every compared output matched in every cycle.
     pub fn identical(&self) -> bool {
-        self.differing_cycles == 0 && self.fault.is_none()
+        self.differing_cycles == 0 && self.fault.as_ref().map(|f| f.0) == self.recorded_fault
     }
 }
 
@@ -184,6 +190,17 @@ pub fn tag_table(project: &Project, pushed: impl Fn(TagId) -> bool) -> Vec<TagIn
         .collect()
 }
 
+/// The tags replay compares (outputs and memory tags: what the program computes), in tag
+/// order.
+pub fn compared(header: &Header) -> Vec<TagInfo> {
+    header
+        .tags
+        .iter()
+        .filter(|t| t.role.program_owned())
+        .cloned()
+        .collect()
+}
+
 /// Checks that `header`'s project is `project` but for its program.
 pub fn check_compatible(header: &Header, project: &Project) -> Result<(), ReplayError> {
     if header.project != project.name {
@@ -242,19 +259,14 @@ pub fn replay(
         project: first.header.project.clone(),
         cycles: 0,
         plant_time: Duration::ZERO,
-        compared: first
-            .header
-            .tags
-            .iter()
-            .filter(|t| t.role.program_owned())
-            .cloned()
-            .collect(),
+        compared: compared(&first.header),
         differing_cycles: 0,
         differences: Vec::new(),
         recorded_program: first.header.program_hash,
         replayed_program: format::digest(&program),
         project_file_differs: first.header.project_hash != format::digest(&project_file),
         fault: None,
+        recorded_fault: None,
         notes: Vec::new(),
     };
     for (n, part) in parts.iter().enumerate() {
@@ -373,9 +385,22 @@ impl<'a> PartReplay<'a> {
                 delta: previous.map_or(self.period, |p| r.now.saturating_sub(p)),
                 cycle: r.cycle,
             };
-            if let Err(fault) = self.logic.scan(&mut self.image, &ctx) {
-                report.fault = Some((r.cycle, fault.to_string()));
-                return false;
+            let result = self.logic.scan(&mut self.image, &ctx);
+            if r.faulted {
+                report.recorded_fault = Some(r.cycle);
+            }
+            match result {
+                Err(fault) => {
+                    report.fault = Some((r.cycle, fault.to_string()));
+                    report.cycles += 1;
+                    return false;
+                }
+                // The recorded cycle wrote nothing: there is nothing to compare.
+                Ok(()) if r.faulted => {
+                    report.cycles += 1;
+                    continue;
+                }
+                Ok(()) => {}
             }
             self.image.apply_forces(r.now);
             for c in &r.wrote {

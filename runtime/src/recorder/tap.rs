@@ -79,6 +79,7 @@ impl Tap {
             cycle,
             now,
             dropped_before: 0,
+            faulted: false,
             events: std::mem::take(&mut self.events),
             seen,
             wrote: Vec::new(),
@@ -91,6 +92,19 @@ impl Tap {
             return;
         };
         record.wrote = diff(&mut self.mirror, image);
+        self.send(record);
+    }
+
+    /// The run stops in a cycle that never reached its output phase (its program faulted):
+    /// the cycle is recorded as it started, marked, since it is the one an operator asks about.
+    pub fn unfinished(&mut self) {
+        if let Some(mut record) = self.current.take() {
+            record.faulted = true;
+            self.send(record);
+        }
+    }
+
+    fn send(&mut self, mut record: CycleRecord) {
         record.dropped_before = self.dropped;
         match self.tx.try_send(record) {
             Ok(()) => {
