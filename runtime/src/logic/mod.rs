@@ -8,6 +8,7 @@ pub mod expr;
 pub mod ladder;
 pub mod load;
 pub mod rhai;
+mod undeclared;
 mod vm;
 
 use std::fmt::Debug;

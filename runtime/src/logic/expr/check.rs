@@ -121,9 +121,25 @@ impl Checker<'_> {
         if let Some(entry) = self.tags.get(&ident.name) {
             return Some(entry.clone());
         }
+        let uses = self.errors.iter_mut().filter_map(|(pos, k)| match k {
+            CompileErrorKind::UnknownTag { name, also, .. } => {
+                Some((name.as_str(), pos.line, also))
+            }
+            _ => None,
+        });
+        if crate::logic::undeclared::seen_before(uses, &ident.name, ident.pos.line) {
+            return None;
+        }
         let suggestion = closest(&ident.name, self.tags.iter().map(|t| t.name.as_str()));
         let name = ident.name.clone();
-        self.fail(ident.pos, CompileErrorKind::UnknownTag { name, suggestion })
+        self.fail(
+            ident.pos,
+            CompileErrorKind::UnknownTag {
+                name,
+                suggestion,
+                also: Vec::new(),
+            },
+        )
     }
 
     /// An expression in a boolean place. Checks every part, even after an error.

@@ -28,12 +28,14 @@ pub enum CompileErrorKind {
         found: String,
     },
     /// A name that is not in the tag table.
-    #[error("unknown tag `{name}`{}", suggest(.suggestion))]
+    #[error("unknown tag `{name}`{}", crate::logic::undeclared::hint(name, suggestion.as_deref(), also))]
     UnknownTag {
         /// The name as written.
         name: String,
         /// The closest known tag name, within edit distance 2.
         suggestion: Option<String>,
+        /// The other lines that use it (one error per name).
+        also: Vec<u32>,
     },
     /// A call of a function the language does not have.
     #[error(

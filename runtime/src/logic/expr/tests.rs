@@ -154,7 +154,8 @@ q2 = (a
                 9,
                 K::UnknownTag {
                     name: "strt".into(),
-                    suggestion: Some("start".into())
+                    suggestion: Some("start".into()),
+                    also: vec![]
                 }
             ),
             (
@@ -278,8 +279,8 @@ fn all_errors_are_reported_at_least_one_per_line() {
         [
             "p.expr:1:8: error: expected a tag, 0, 1, true, false, `!`, `(` or a function call, found end of line",
             "p.expr:2:8: error: expected `)`, found end of line",
-            "p.expr:3:9: error: unknown tag `x`",
-            "p.expr:3:13: error: unknown tag `y`",
+            "p.expr:3:9: error: unknown tag `x`; declare it under `tags:` in the project, e.g. `- { name: x, type: bool }` for a memory bit",
+            "p.expr:3:13: error: unknown tag `y`; declare it under `tags:` in the project, e.g. `- { name: y, type: bool }` for a memory bit",
             "p.expr:5:1: error: expected a coil name, found `=`",
             "p.expr:6:10: error: expected an operator or end of line, found `b`",
         ]
@@ -311,7 +312,7 @@ fn crlf_bom_and_comments_are_accepted() {
     rig.scan();
     assert!(rig.get("q") && !rig.get("q2"));
     let err = errors("\u{feff}q = x\r\n");
-    assert_eq!(err, ["p.expr:1:5: error: unknown tag `x`"]);
+    assert_eq!(err, ["p.expr:1:5: error: unknown tag `x`; declare it under `tags:` in the project, e.g. `- { name: x, type: bool }` for a memory bit"]);
 }
 
 // ---- scans ---------------------------------------------------------------------------------
@@ -862,5 +863,13 @@ fn literals_the_tag_type_cannot_hold_are_type_errors() {
             "p.expr:3:13: error: type error: `-1` is not a u16 value (a whole number from 0 to \
              65535); `level` is u16",
         ]
+    );
+}
+
+#[test]
+fn an_undeclared_coil_is_one_error_with_its_uses_and_how_to_declare_it() {
+    assert_eq!(
+        errors("running = start | running\nmotor = running & !stop\nlamp = running\n"),
+        ["p.expr:1:1: error: unknown tag `running`; declare it under `tags:` in the project, e.g. `- { name: running, type: bool }` for a memory bit (also used on lines 2, 3)"]
     );
 }

@@ -96,6 +96,7 @@ pub(crate) fn check(
         insts: Instances::default(),
         errors,
         rung: 0,
+        line_of,
     };
     c.declare(rungs, line_of);
     let mut drivers: HashMap<TagId, (Driver, u32)> = HashMap::new();
@@ -123,6 +124,8 @@ struct Checker<'a> {
     insts: Instances,
     errors: &'a mut Vec<Error>,
     rung: usize,
+    /// The first line of a rung.
+    line_of: &'a dyn Fn(usize) -> u32,
 }
 
 /// One argument a block takes.
@@ -184,12 +187,27 @@ fn param_names(kind: Kind) -> &'static [&'static str] {
     }
 }
 
+/// The names of `kind`'s parameters, in order, each with whether it is a bool input (a power
+/// flow, drawn as a wire into the block) and whether it may be given by position.
+pub(crate) fn param_list(kind: Kind) -> impl Iterator<Item = (&'static str, bool, bool)> {
+    params(kind)
+        .iter()
+        .map(|p| (p.name, p.ty == ParamType::Bool, p.positional))
+}
+
 /// A checked argument value.
 #[derive(Debug, Clone)]
 enum Value {
     Num(Num),
     Bool(BoolExpr),
     Pattern(Pattern),
+}
+
+impl Instances {
+    /// The instance named `name`: its index and kind.
+    pub(crate) fn get(&self, name: &str) -> Option<(u32, Kind)> {
+        self.by_name.get(name).map(|&(i, k, _)| (i, k))
+    }
 }
 
 impl Checker<'_> {
@@ -255,11 +273,28 @@ impl Checker<'_> {
         } else {
             closest(&name.text, self.tags.iter().map(|t| t.name.as_str()))
         };
+        self.undeclared(name, suggestion)
+    }
+
+    /// One error per unknown name, at its first use; later uses add their rung's line to it.
+    fn undeclared<T>(&mut self, name: &Name, suggestion: Option<String>) -> Option<T> {
+        let line_of = self.line_of;
+        let line = line_of(self.rung);
+        let uses = self.errors.iter_mut().filter_map(|(rung, _, k)| match k {
+            CompileErrorKind::UnknownTag { name, also, .. } => {
+                Some((name.as_str(), line_of(*rung), also))
+            }
+            _ => None,
+        });
+        if crate::logic::undeclared::seen_before(uses, &name.text, line) {
+            return None;
+        }
         self.fail(
             name.pos,
             CompileErrorKind::UnknownTag {
                 name: name.text.clone(),
                 suggestion,
+                also: Vec::new(),
             },
         )
     }
@@ -345,8 +380,7 @@ impl Checker<'_> {
             Cond::Quality { good, tag, .. } => {
                 let Some(e) = self.tags.get(&tag.text) else {
                     let suggestion = closest(&tag.text, self.tags.iter().map(|t| t.name.as_str()));
-                    let name = tag.text.clone();
-                    return self.fail(tag.pos, CompileErrorKind::UnknownTag { name, suggestion });
+                    return self.undeclared(tag, suggestion);
                 };
                 Some(if *good {
                     BoolExpr::Good(e.id)

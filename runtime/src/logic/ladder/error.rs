@@ -73,12 +73,14 @@ pub enum CompileErrorKind {
         function: &'static str,
     },
     /// A name that is neither a tag nor a block instance.
-    #[error("unknown tag `{name}`{}", suggest(.suggestion))]
+    #[error("unknown tag `{name}`{}", crate::logic::undeclared::hint(name, suggestion.as_deref(), also))]
     UnknownTag {
         /// The name as written.
         name: String,
         /// The closest known name.
         suggestion: Option<String>,
+        /// The first lines of the other rungs that use it (one error per name).
+        also: Vec<u32>,
     },
     /// `name.MEMBER` where `name` is no block instance.
     #[error("`{name}` is not a block instance (no rung calls a block named so){}", suggest(.suggestion))]

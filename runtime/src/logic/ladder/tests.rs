@@ -339,6 +339,22 @@ fn check_errors_point_at_the_offending_token() {
 }
 
 #[test]
+fn an_undeclared_coil_is_one_error_with_its_uses_and_how_to_declare_it() {
+    assert_eq!(
+        errors(&[
+            "start /stop -> running",
+            "running -> motor",
+            "running good(running) -> alarm",
+            "strt -> lamp",
+        ]),
+        [
+            "2:20: unknown tag `running`; declare it under `tags:` in the project, e.g. `- { name: running, type: bool }` for a memory bit (also used on lines 3, 4)",
+            "5:5: unknown tag `strt`; did you mean `start`?",
+        ]
+    );
+}
+
+#[test]
 fn quality_contacts_of_unknown_tags_are_errors_at_the_name() {
     assert_eq!(
         errors(&["start -> motor", "/good(sensr) | bad(levl) -> alarm"]),
@@ -354,7 +370,7 @@ fn quality_contacts_of_unknown_tags_are_errors_at_the_name() {
     // A block instance is no tag.
     assert_eq!(
         errors(&["start -> TON t(1s)", "good(t) -> alarm"]),
-        ["3:10: unknown tag `t`"]
+        ["3:10: unknown tag `t`; declare it under `tags:` in the project, e.g. `- { name: t, type: bool }` for a memory bit"]
     );
     assert_eq!(
         errors(&["good(level) > 3 -> alarm"]),
