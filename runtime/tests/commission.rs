@@ -394,3 +394,40 @@ fn ex9053_waits_for_init_and_gives_up_having_changed_nothing() {
         ],
     );
 }
+
+/// The engineer sets INIT* and powers on, but never takes INIT* off again: commission gives up
+/// after --wait and says what the module has already taken (the new settings in its EEPROM).
+#[test]
+fn ex9053_a_half_done_change_says_what_the_module_already_took() {
+    let (mut sim, pty) = sim::Sim::start(BIN, &["ex9053d@2:9600:8N1"]);
+    let mut c = Running::start(&[
+        "commission",
+        &pty,
+        "--address",
+        "2",
+        "--baud",
+        "9600",
+        "--format",
+        "8N1",
+        "--set-baud",
+        "19200",
+        "--yes",
+        "--wait",
+        "2s",
+    ]);
+    c.until("waiting up to 2.00s");
+    sim.send("ex9053d@2 init on");
+    sim.send("ex9053d@2 power-cycle");
+    let (ok, text) = c.finish();
+    assert!(!ok, "{text}");
+    holds(
+        &text,
+        &[
+            r##"-> "%0002400700\r""##,
+            "the module at its new settings",
+            "stopped here",
+            "already done: the module in INIT* mode",
+            "%AANNTTCCFF: address 02h",
+        ],
+    );
+}

@@ -291,50 +291,69 @@ fn run(session: &mut Session, plan: Plan, args: &CommissionArgs) -> anyhow::Resu
         outln("nothing changed")?;
         return Ok(ExitCode::from(1));
     }
+    // What the module has taken so far, for the engineer when a later step fails: it keeps
+    // those changes (saved or in force) whatever happens next.
+    let mut taken: Vec<String> = Vec::new();
     for step in plan.steps {
-        match step {
-            Step::Send {
-                what,
-                frame,
-                expect,
-            } => {
-                let reply = session.ask(&what, &frame)?;
-                match (expect, reply) {
-                    (Expect::Answer(check), Some(r)) => {
-                        if let Err(why) = check(&r) {
-                            bail!("{what}: {why}; stopped here");
-                        }
-                    }
-                    (Expect::Answer(_), None) => {
-                        bail!("{what}: the module did not answer; stopped here")
-                    }
-                    (Expect::Silence, None) => {}
-                    (Expect::Silence, Some(r)) => {
-                        bail!("{what}: the module answered {r:?} where its manual says it answers nothing; stopped here")
-                    }
-                }
+        let what = match &step {
+            Step::Send { what, .. } | Step::Await { what, .. } => Some(what.clone()),
+            Step::Switch(_) => None,
+        };
+        if let Err(e) = execute(session, step, args.wait) {
+            if taken.is_empty() {
+                return Err(e);
             }
-            Step::Switch(s) => session.switch(s)?,
-            Step::Await {
-                what,
-                instructions,
-                settings,
-                frame,
-                check,
-                within,
-            } => await_module(
-                session,
-                &what,
-                &instructions,
-                settings,
-                &frame,
-                &check,
-                within.unwrap_or(args.wait),
-            )?,
+            bail!("{e}\nalready done: {}", taken.join("; "));
         }
+        taken.extend(what);
     }
     outln(&plan.done)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Runs one step; an error says which and why, and that the run stopped there.
+fn execute(session: &mut Session, step: Step, wait: Duration) -> anyhow::Result<()> {
+    match step {
+        Step::Send {
+            what,
+            frame,
+            expect,
+        } => {
+            let reply = session.ask(&what, &frame)?;
+            match (expect, reply) {
+                (Expect::Answer(check), Some(r)) => {
+                    if let Err(why) = check(&r) {
+                        bail!("{what}: {why}; stopped here");
+                    }
+                }
+                (Expect::Answer(_), None) => {
+                    bail!("{what}: the module did not answer; stopped here")
+                }
+                (Expect::Silence, None) => {}
+                (Expect::Silence, Some(r)) => {
+                    bail!("{what}: the module answered {r:?} where its manual says it answers nothing; stopped here")
+                }
+            }
+        }
+        Step::Switch(s) => session.switch(s)?,
+        Step::Await {
+            what,
+            instructions,
+            settings,
+            frame,
+            check,
+            within,
+        } => await_module(
+            session,
+            &what,
+            &instructions,
+            settings,
+            &frame,
+            &check,
+            within.unwrap_or(wait),
+        )?,
+    }
+    Ok(())
 }
 
 /// Between two questions to a module that is not there yet.
