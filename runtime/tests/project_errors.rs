@@ -687,6 +687,28 @@ fn setting_refused_by_the_model() {
 }
 
 #[test]
+fn a_misspelt_setting_gets_the_models_close_keys() {
+    let e = one(&format!("{HEAD}{BUS}{MM1}    settings:\n      RDELAY: 5\n"));
+    assert_eq!(at(&e), (16, 15), "at the value");
+    assert!(
+        e.to_string()
+            .ends_with("setting `RDELAY`: not a minimod setting; accepted: readback, counters, status, events, event_refresh, RDELAYT, RDELAYM, XLATUP1..3, XLATDN1..3, XCOUNT1..3, Y1AON1..Y4AON3, Y1AOFF1..Y4AOFF3, YLAMP1..4, WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2, EVFB1..2, XEVMASK, YEVMASK; did you mean RDELAYT, RDELAYM?"),
+        "{e}"
+    );
+    // A value out of range names the range; a condition names where it goes wrong.
+    let e = one(&format!(
+        "{HEAD}{BUS}{MM1}    settings:\n      Y1AON1: X1 X7\n"
+    ));
+    assert!(
+        e.to_string().ends_with(
+            "setting `Y1AON1`: Y1AON1 takes a 16-bit mask or a condition such as X1-X2; the value \
+             goes wrong at character 4"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
 fn bad_point_suggests_close_matches() {
     let text = format!("{HEAD}{BUS}{MM1}tags:\n  - name: motor\n    point: mm1.Y9\n");
     let e = one(&text);

@@ -60,6 +60,8 @@ pub struct ModelSpec {
     /// Parses a module entry's `settings` (key, value as written, in file order) into the
     /// model's typed settings, once; every refused setting comes back with its index.
     pub parse_settings: ParseSettings,
+    /// Every setting key the model accepts, in the manual's spelling (for "did you mean").
+    pub setting_keys: fn() -> Vec<&'static str>,
 }
 
 impl ModelSpec {

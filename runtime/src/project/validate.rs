@@ -24,7 +24,7 @@ use super::raw::{
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
 use crate::suggest::edit_distance;
-use softplc_io::devices::{DeviceConfig, ModuleAddress, PushDown};
+use softplc_io::devices::{DeviceConfig, ModuleAddress, PushDown, SettingError};
 
 /// Default watchdog time, in periods.
 const WATCHDOG_PERIODS: u32 = 5;
@@ -656,10 +656,17 @@ impl Validator<'_> {
                     let Some((key, value)) = text.get(e.index) else {
                         continue;
                     };
+                    let mut message = e.error.describe(value);
+                    if let SettingError::UnknownKey { .. } = e.error {
+                        let close = close_matches(key, &(model.setting_keys)());
+                        if !close.is_empty() {
+                            message.push_str(&format!("; did you mean {}?", close.join(", ")));
+                        }
+                    }
                     let kind = ErrorKind::BadSetting {
                         module: m.name.clone(),
                         key: key.clone(),
-                        message: e.error.describe(value),
+                        message,
                     };
                     self.error(path.key("settings").key(key), kind);
                 }

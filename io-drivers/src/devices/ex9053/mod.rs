@@ -53,6 +53,7 @@ pub static MODEL_D: ModelSpec = ModelSpec {
     driver: driver::build,
     simulator: sim::build_d,
     parse_settings: settings::parse_module,
+    setting_keys: settings::keys,
 };
 
 /// The EX-9053D-M in the catalog: Modbus RTU by default, DCON too (`protocol: text`), unit
@@ -69,4 +70,5 @@ pub static MODEL_M: ModelSpec = ModelSpec {
     driver: driver::build,
     simulator: sim::build_m,
     parse_settings: settings::parse_module,
+    setting_keys: settings::keys,
 };

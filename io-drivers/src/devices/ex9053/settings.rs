@@ -187,6 +187,18 @@ const UNKNOWN: SettingError = SettingError::UnknownKey {
     accepted: Accepted::Ex9053,
 };
 
+/// Every key (the catalog's `setting_keys`).
+pub fn keys() -> Vec<&'static str> {
+    vec![
+        "checksum",
+        "latch",
+        "counters",
+        "count_edge",
+        "watchdog",
+        "sync",
+    ]
+}
+
 /// The catalog's `parse_settings`.
 pub fn parse_module(pairs: &[(String, String)]) -> Result<ModuleSettings, Vec<KeyError>> {
     Settings::parse(pairs).map(ModuleSettings::Ex9053)

@@ -63,4 +63,5 @@ pub static MODEL: ModelSpec = ModelSpec {
     driver: driver::build,
     simulator: sim::build,
     parse_settings: Settings::parse_module,
+    setting_keys: settings::keys,
 };

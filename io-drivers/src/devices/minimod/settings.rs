@@ -304,6 +304,28 @@ impl Setting {
 /// Coil of WDTFB1 (00113).
 pub const WDTFB1_COIL: u16 = 112;
 
+/// Every key (the catalog's `setting_keys`): the named ones, then each register and coil of
+/// the map that a setting writes.
+pub fn keys() -> Vec<&'static str> {
+    let named = [
+        "readback",
+        "counters",
+        "status",
+        "events",
+        "event_refresh",
+        "RDELAYT",
+        "RDELAYM",
+        "FBENABLE",
+    ];
+    let registers = map::MAP.iter().map(|e| e.name).filter(|name| {
+        !matches!(
+            Setting::parse(name, "0"),
+            Err(SettingError::UnknownKey { .. })
+        )
+    });
+    named.into_iter().chain(registers).collect()
+}
+
 /// The error of a key that is no MiniMod setting.
 const UNKNOWN: SettingError = SettingError::UnknownKey {
     model: "minimod",
@@ -443,6 +465,19 @@ mod tests {
         assert_eq!(check("YPULSE1", "1"), Err(UNKNOWN));
         assert_eq!(check("baud", "1"), Err(UNKNOWN));
         assert_eq!(check("EVX1", "1"), Err(UNKNOWN), "use XEVMASK");
+    }
+
+    #[test]
+    fn the_keys_are_what_parses() {
+        let k = keys();
+        for key in [
+            "readback", "RDELAYT", "Y1AON1", "XLATUP3", "WDTTIME", "EVFB2",
+        ] {
+            assert!(k.contains(&key), "{key}");
+        }
+        for key in ["YWORD", "YPULSE1", "X1", "Y1"] {
+            assert!(!k.contains(&key), "{key}");
+        }
     }
 
     #[test]

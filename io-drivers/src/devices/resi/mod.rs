@@ -107,6 +107,10 @@ macro_rules! catalog_entry {
             Box::new($crate::devices::resi::sim::ResiSim::new(&MODEL, address))
         }
 
+        fn setting_keys() -> Vec<&'static str> {
+            $crate::devices::resi::driver::settings::keys(&MODEL)
+        }
+
         fn parse_settings(
             pairs: &[(String, String)],
         ) -> Result<$crate::devices::ModuleSettings, Vec<$crate::devices::KeyError>> {
@@ -130,6 +134,7 @@ macro_rules! catalog_entry {
             driver: build_driver,
             simulator: build_sim,
             parse_settings,
+            setting_keys,
         };
     };
 }

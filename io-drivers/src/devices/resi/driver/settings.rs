@@ -239,6 +239,24 @@ pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, S
     Ok(Setting::Write { entry, value: v })
 }
 
+/// Every key of `model` (the catalog's `setting_keys`): `poll`, `reply_delay`, 1RO `SOFFDLY`,
+/// then each register a setting writes.
+pub fn keys(model: &'static Model) -> Vec<&'static str> {
+    let mut out = vec!["poll", "reply_delay"];
+    if model.hw.one_relay {
+        out.push("SOFFDLY");
+    }
+    out.extend(
+        model
+            .map
+            .entries()
+            .filter(|e| writable(model, e.name).is_some())
+            .map(|e| e.name),
+    );
+    out.dedup();
+    out
+}
+
 /// A RESI module's settings, parsed once from its project entry, in file order.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Settings {
@@ -307,6 +325,21 @@ mod tests {
         assert_eq!(select(m, &["DI*", "RO*"]).unwrap().len(), 24);
         assert_eq!(select(m, &["rise di*"]).unwrap().len(), 16);
         assert!(select(m, &["DI17"]).is_err());
+    }
+
+    #[test]
+    fn the_keys_are_what_parses() {
+        let k = keys(&m16di8ro::MODEL);
+        for key in [
+            "poll",
+            "SWITCH_RO1",
+            "PULSE_TIME_RO8",
+            "ENABLE_LOGIC_FUNCTIONS",
+        ] {
+            assert!(k.contains(&key), "{key}");
+        }
+        assert!(!k.contains(&"RO1") && !k.contains(&"SOFFDLY"));
+        assert!(keys(&m1ro::MODEL).contains(&"SOFFDLY"));
     }
 
     #[test]
