@@ -249,7 +249,7 @@ fn identify(
         }
     }
     bail!(
-        "no module answers at address {} at {now} on {}{}",
+        "no module answers at address {} at {now} on {}{} (modules are asked by their text protocols: an EX-9053D-M running Modbus RTU, its factory protocol, is not commissioned by softplc commission)",
         args.address,
         args.port.display(),
         if args.checksum {
