@@ -225,7 +225,7 @@ mod tests {
     fn a_flow_entry_takes_one_comma() {
         assert_eq!(
             blanked("- { name: m, save: \"a,b\", point: p }\n", 1, 14),
-            "- { name: m,                 point: p }\n"
+            "- { name: m,              point: p }\n"
         );
         assert_eq!(
             blanked("- { name: m, save: [1, 2] }\n", 1, 14),

@@ -97,7 +97,7 @@ mod tests {
                 "between 1 at 0ms",
                 "between 2 at 10ms",
                 "between 3 at 20ms",
-                "stopping Requested",
+                "stopping TimeUp",
                 "stopped after 3 with seen=1",
             ]
         );
