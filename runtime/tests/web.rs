@@ -312,6 +312,46 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
         std::thread::sleep(Duration::from_millis(400));
         b.screenshot(&shots.join(format!("{view}.png")));
     }
+    // The Trace view: arm a trace from the page (signed in), watch it fill and complete, see
+    // its plot in the trend's look, download its CSV.
+    b.eval("location.hash = '#trace'; true");
+    b.eval(
+        "document.getElementById('trace-name').value = 'webtrace'; \
+         document.getElementById('trace-tags').value = 'start, motor, phase.cycle'; \
+         document.getElementById('trace-trigger').value = 'phase.cycle >= 0'; \
+         document.getElementById('trace-pre').value = '0'; \
+         document.getElementById('trace-post').value = '5'; \
+         document.getElementById('trace-form').requestSubmit(); true",
+    );
+    let state = "(document.querySelector('#trace-table tr[data-trace=webtrace] .trace-state') || {}).textContent";
+    let done = b.wait_for(&format!("{state} === 'complete'"), Duration::from_secs(30));
+    assert!(done.is_some(), "the trace never completed: {}", b.eval(state));
+    assert_eq!(
+        b.eval("document.querySelector('#trace-table tr[data-trace=webtrace] td.num').textContent"),
+        "6 / 6"
+    );
+    let plotted = b.wait_for(
+        "document.querySelectorAll('#trace-plot svg path.trace').length === 3 \
+         && document.querySelectorAll('#trace-plot svg .trigger-mark').length === 1",
+        Duration::from_secs(10),
+    );
+    assert!(plotted.is_some(), "no plot: {}", b.eval("document.getElementById('trace-plot').innerHTML"));
+    b.eval("document.getElementById('toast').className = 'toast'; true");
+    b.screenshot(&shots.join("trace.png"));
+    let (code, csv) = http(
+        port,
+        "GET /api/trace/csv?name=webtrace HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n",
+    );
+    assert_eq!(code, 200, "{csv}");
+    assert!(
+        csv.starts_with("time_s,cycle,start [bool],motor [bool],phase.cycle [i32 us]\n"),
+        "{csv}"
+    );
+    assert_eq!(csv.lines().count(), 7, "{csv}");
+    // Arming takes the token, as forcing does.
+    let (code, text) = post(port, "/api/trace/arm", json, r#"{"name":"webtrace"}"#);
+    assert_eq!(code, 403, "{text}");
+
     let requests = b.eval("+document.querySelector('#bus-table tr[data-module=mm1] td:nth-child(5)').textContent.replace(/,/g, '')");
     assert!(
         requests.as_f64().unwrap_or(0.0) > 10.0,

@@ -42,7 +42,13 @@ pub enum TraceRefusal {
     /// Neither a name nor a definition.
     #[error("arm a trace by name, or give its tags (and trigger)")]
     Nothing,
+    /// Too many traces armed at once.
+    #[error("{MAX_ARMED} traces are armed already; disarm one first")]
+    TooMany,
 }
+
+/// Most traces armed at once: each holds up to 8 MB.
+pub const MAX_ARMED: usize = 16;
 
 fn known(defined: &[String]) -> String {
     if defined.is_empty() {

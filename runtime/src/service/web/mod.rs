@@ -28,6 +28,7 @@ pub mod info;
 pub mod program;
 pub mod routes;
 pub mod sse;
+pub mod trace;
 pub mod trend;
 pub mod view;
 
@@ -183,6 +184,7 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
             Reply::Full(Response::json(200, view::trend(&t).to_string()))
         }
         Route::Events => Reply::Events,
+        Route::Trace(t) => Reply::Full(trace::answer(&shared.auth, &shared.scan, t, req)),
         Route::Force | Route::Unforce | Route::Auth => {
             Reply::Full(routes::write(&shared.auth, &shared.scan, route, req))
         }

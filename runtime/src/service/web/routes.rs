@@ -11,6 +11,7 @@
 //! | `POST /api/force` | `{"tag": "motor", "value": "1"}` (value: text, number or boolean) |
 //! | `POST /api/unforce` | `{"tag": "motor"}`, or `{}` for every tag |
 //! | `POST /api/auth` | `{}`: whether the token would be accepted (the page's sign-in); changes nothing |
+//! | `/api/trace…` | the Trace view: states, samples, CSV/VCD, arm, disarm ([`super::trace`]) |
 //!
 //! A write answers 200 `{"ok": true, "message": …}` once the scan applied it at a cycle
 //! boundary, 409 `{"ok": false, "error": …}` when the scan refused it (no such tag, a value
@@ -63,6 +64,8 @@ pub enum Route {
     Unforce,
     /// `/api/auth`.
     Auth,
+    /// `/api/trace…` (see [`super::trace`]).
+    Trace(super::trace::TraceRoute),
 }
 
 /// The route of `method` on `path`: `Err(404)` for an unknown path, `Err(405)` for a known
@@ -79,7 +82,10 @@ pub fn route(method: Method, path: &str) -> Result<Route, u16> {
         "/api/force" => (Route::Force, true),
         "/api/unforce" => (Route::Unforce, true),
         "/api/auth" => (Route::Auth, true),
-        _ => return Err(404),
+        p => match super::trace::TraceRoute::of(p) {
+            Some((t, write)) => (Route::Trace(t), write),
+            None => return Err(404),
+        },
     };
     match (method, write) {
         (Method::Post, true) | (Method::Get | Method::Head, false) => Ok(route),

@@ -126,6 +126,7 @@
     document.body.dataset.view = v;
     if (v === "overview") renderTrend();
     if (v === "bus") renderRtt();
+    if (v === "trace") renderTraceView();
   }
 
   // ---- Writes ----
@@ -535,35 +536,42 @@
       return;
     }
     $("trend-hint").textContent = "last " + TREND_WINDOW_MS / 1000 + " s of scan time";
-    const W = Math.max(600, box.clientWidth - 24);
+    const now = tr.t.length ? tr.t[tr.t.length - 1] : 0;
+    const signals = tr.tags.map((tag, k) => ({ name: info.tags[tag].name, type: info.tags[tag].type, values: tr.series[k] }));
+    const tick = (k) => (k === 6 ? "now" : "−" + (60 - k * 10) + " s");
+    box.replaceChildren(lanes(Math.max(600, box.clientWidth - 24), signals, tr.t, now - TREND_WINDOW_MS, TREND_WINDOW_MS, tick));
+  }
+
+  // Signals over time, one lane each (the trend's look, also the Trace view's plot): bools as
+  // filled steps, numbers as steps scaled to what is visible, the last value by the name.
+  // `signals`: [{ name, type, values }] with one value per time of `t` (ms); the window is
+  // [t0, t0 + span]; `tick(k)` labels the k-th of 7 grid lines; `mark`, a time to draw a line at.
+  function lanes(W, signals, t, t0, span, tick, mark) {
     const labelW = 170, right = 14, axisH = 22;
     const plotW = W - labelW - right;
-    const lanes = tr.tags.map((tag) => (info.tags[tag].type === "bool" ? 30 : 78));
-    const H = lanes.reduce((a, b) => a + b + 8, 0) + axisH;
+    const heights = signals.map((s) => (s.type === "bool" ? 30 : 78));
+    const H = heights.reduce((a, b) => a + b + 8, 0) + axisH;
     const g = svg("svg", { viewBox: "0 0 " + W + " " + H, height: H, role: "img", "aria-label": "trend" });
-    const now = tr.t.length ? tr.t[tr.t.length - 1] : 0;
-    const t0 = now - TREND_WINDOW_MS;
-    const xOf = (t) => labelW + ((t - t0) / TREND_WINDOW_MS) * plotW;
-    // Time grid every 10 s.
+    const xOf = (x) => labelW + ((x - t0) / span) * plotW;
     for (let k = 0; k <= 6; k++) {
       const x = labelW + (k / 6) * plotW;
       g.append(svg("line", { x1: x, x2: x, y1: 0, y2: H - axisH, class: "gridline" }));
-      g.append(svg("text", { x, y: H - 6, "text-anchor": k === 6 ? "end" : "middle", class: "axis" }, k === 6 ? "now" : "−" + (60 - k * 10) + " s"));
+      g.append(svg("text", { x, y: H - 6, "text-anchor": k === 6 ? "end" : k === 0 ? "start" : "middle", class: "axis" }, tick(k)));
     }
+    if (mark !== undefined) g.append(svg("line", { x1: xOf(mark), x2: xOf(mark), y1: 0, y2: H - axisH, class: "trigger-mark" }));
     let y = 4;
-    tr.tags.forEach((tag, k) => {
-      const t = info.tags[tag];
-      const h = lanes[k];
+    signals.forEach((sig, k) => {
+      const h = heights[k];
       const color = PALETTE[k % PALETTE.length];
-      const ser = tr.series[k];
+      const ser = sig.values;
       g.append(svg("rect", { x: labelW, y, width: plotW, height: h, class: "lane" }));
       const last = ser.length ? ser[ser.length - 1] : null;
-      g.append(svg("text", { x: 8, y: y + Math.min(h / 2, 18) + 4, class: "trace-label", fill: color }, t.name));
+      g.append(svg("text", { x: 8, y: y + Math.min(h / 2, 18) + 4, class: "trace-label", fill: color }, sig.name));
       g.append(svg("text", { x: 8, y: y + Math.min(h / 2, 18) + 19, class: "trace-value" },
-        last === null ? "" : t.type === "bool" ? (last ? "ON" : "OFF") : fmtValue(last, t.type)));
+        last === null ? "" : sig.type === "bool" ? (last ? "ON" : "OFF") : fmtValue(last, sig.type)));
       let lo = 0, hi = 1;
-      if (t.type !== "bool") {
-        const vis = ser.filter((v, i) => v !== null && tr.t[i] >= t0);
+      if (sig.type !== "bool") {
+        const vis = ser.filter((v, i) => v !== null && t[i] >= t0);
         lo = vis.length ? Math.min(...vis) : 0;
         hi = vis.length ? Math.max(...vis) : 1;
         if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
@@ -575,11 +583,11 @@
       const top = y + 4, bottom = y + h - 4;
       const yOf = (v) => bottom - ((v - lo) / (hi - lo)) * (bottom - top);
       let d = "", fill = "", prev = null;
-      for (let i = 0; i < tr.t.length; i++) {
+      for (let i = 0; i < t.length; i++) {
         const v = ser[i];
         if (v === null) { prev = null; continue; }
-        if (tr.t[i] < t0 && !(i + 1 < tr.t.length && tr.t[i + 1] >= t0)) continue;
-        const x = Math.max(labelW, xOf(tr.t[i]));
+        if (t[i] < t0 && !(i + 1 < t.length && t[i + 1] >= t0)) continue;
+        const x = Math.max(labelW, xOf(t[i]));
         const yy = yOf(v);
         if (prev === null) d += "M" + x.toFixed(1) + " " + yy.toFixed(1);
         else d += "H" + x.toFixed(1) + "V" + yy.toFixed(1);
@@ -587,7 +595,7 @@
       }
       if (d) {
         d += "H" + (labelW + plotW).toFixed(1);
-        if (t.type === "bool") {
+        if (sig.type === "bool") {
           fill = d + "V" + bottom + "H" + labelW + "Z";
           g.append(svg("path", { d: fill, class: "trace-fill", fill: color }));
         }
@@ -595,7 +603,103 @@
       }
       y += h + 8;
     });
-    box.replaceChildren(g);
+    return g;
+  }
+
+  // ---- Trace ----
+
+  // The traces' table (GET /api/trace), the selected trace's plot (GET /api/trace/data),
+  // polled while the view is open; arming takes the token, as forcing does.
+  const traceView = { selected: null, timer: null };
+
+  async function renderTraceView() {
+    if (document.body.dataset.view !== "trace") {
+      clearInterval(traceView.timer);
+      traceView.timer = null;
+      return;
+    }
+    if (!traceView.timer) traceView.timer = setInterval(renderTraceView, 500);
+    let list;
+    try {
+      list = (await getJSON("/api/trace")).traces || [];
+    } catch (e) {
+      return;
+    }
+    const table = $("trace-table");
+    const head = el("tr", {}, ...["trace", "state", "samples", "pre / post", "triggered at", "signals", ""].map((h) => el("th", { text: h })));
+    const rows = list.map((s) => {
+      const enc = encodeURIComponent(s.name);
+      const actions = el("td", { class: "actions" },
+        el("button", { type: "button", text: "Arm", onclick: () => armTrace({ name: s.name }) }),
+        s.state ? el("button", { type: "button", text: "Plot", onclick: () => { traceView.selected = s.name; renderTraceView(); } }) : null,
+        s.state ? el("a", { href: "/api/trace/csv?name=" + enc, download: s.name + ".csv", text: "CSV" }) : null,
+        s.state ? el("a", { href: "/api/trace/vcd?name=" + enc, download: s.name + ".vcd", text: "VCD" }) : null);
+      return el("tr", { "data-trace": s.name },
+        el("td", { text: s.name }),
+        el("td", { class: "trace-state", "data-state": s.state || "idle", text: s.state || "not armed" }),
+        el("td", { class: "num", text: s.samples + " / " + s.depth }),
+        el("td", { class: "num", text: s.pre + " / " + s.post }),
+        el("td", { class: "num", text: s.triggered_at ? "cycle " + s.triggered_at : "" }),
+        el("td", { text: s.signals.join(", ") }),
+        actions);
+    });
+    table.replaceChildren(head, ...rows);
+    $("trace-hint").textContent = list.length ? "" : "No traces defined (traces: in the project); arm one below.";
+    if (!traceView.selected || !list.some((s) => s.name === traceView.selected && s.state)) {
+      const armed = list.find((s) => s.state);
+      traceView.selected = armed ? armed.name : null;
+    }
+    if (traceView.selected) plotTrace(traceView.selected);
+  }
+
+  async function plotTrace(name) {
+    let d;
+    try {
+      d = (await getJSON("/api/trace/data?name=" + encodeURIComponent(name))).trace;
+    } catch (e) {
+      return;
+    }
+    const box = $("trace-plot");
+    $("trace-plot-title").textContent = "Trace " + d.name + " · " + d.state + " · " + d.time_ns.length + " samples";
+    if (!d.time_ns.length) {
+      box.replaceChildren(el("div", { class: "empty", text: "No samples yet." }));
+      return;
+    }
+    const t = d.time_ns.map((ns) => ns / 1e6);
+    const t0 = t[0];
+    const span = Math.max(t[t.length - 1] - t0, 1e-3);
+    const origin = d.trigger !== undefined && d.trigger !== null ? t[d.trigger] : t0;
+    const signals = d.signals.map((s, k) => ({ name: s.name, type: s.type, values: d.values.map((row) => row[k]) }));
+    // Times from the trigger sample (from the first sample before a trigger).
+    const tick = (k) => {
+      const rel = t0 + (k / 6) * span - origin;
+      const a = fmtTick(Math.abs(rel));
+      return rel < 0 ? "−" + a : rel > 0 ? "+" + a : a;
+    };
+    box.replaceChildren(lanes(Math.max(600, box.clientWidth - 24), signals, t, t0, span, tick, d.trigger != null ? origin : undefined));
+  }
+
+  async function armTrace(body) {
+    const r = await post("/api/trace/arm", body);
+    toast(r.ok ? r.message : "Not armed: " + r.error, !r.ok);
+    if (r.ok && r.traces && r.traces.length) traceView.selected = r.traces[0].name;
+    renderTraceView();
+  }
+
+  function bindTraceForm() {
+    $("trace-form").addEventListener("submit", (e) => {
+      e.preventDefault();
+      const num = (id) => ($(id).value === "" ? undefined : Number($(id).value));
+      const spec = {
+        name: $("trace-name").value.trim() || "web",
+        tags: $("trace-tags").value.split(",").map((s) => s.trim()).filter(Boolean),
+        pre: num("trace-pre"),
+        post: num("trace-post"),
+      };
+      const trigger = $("trace-trigger").value.trim();
+      if (trigger) spec.trigger = trigger;
+      armTrace({ spec });
+    });
   }
 
   // ---- Timing ----
@@ -879,6 +983,7 @@
     document.title = app.info.project + " · softplc";
     $("project").textContent = app.info.project;
     renderAuth();
+    bindTraceForm();
     buildIo();
     buildProgram();
     try {
