@@ -368,6 +368,28 @@ fn summary_lines(stdout: &str) -> (String, String) {
 }
 
 #[test]
+fn the_service_default_priority_is_applied_or_its_refusal_logged() {
+    let (out, _) = run_quickstart(&["--for", "300ms", "--quiet", "--realtime-priority", "50"]);
+    assert_eq!(out.code(), Some(0), "{out:?}");
+    // Whether the kernel grants it depends on the machine; either way the log says which.
+    let applied = out
+        .stderr
+        .contains("scan thread runs SCHED_FIFO priority 50");
+    let refused = out.stderr.contains("WARN")
+        && out.stderr.contains("SCHED_FIFO priority 50 refused (")
+        && out.stderr.contains("running with normal scheduling");
+    assert!(applied ^ refused, "{}", out.stderr);
+    let (out, _) = run_quickstart(&["--for", "300ms", "--realtime-priority", "0"]);
+    assert_eq!(out.code(), Some(2), "{out:?}");
+    assert!(
+        out.stderr
+            .contains("invalid value '0' for '--realtime-priority <PRIORITY>'"),
+        "{}",
+        out.stderr
+    );
+}
+
+#[test]
 fn run_for_two_seconds_reports_cycle_statistics() {
     let (out, _) = run_quickstart(&["--for", "2s", "--quiet"]);
     assert_eq!(out.code(), Some(0), "{out:?}");
