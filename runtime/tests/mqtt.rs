@@ -1,0 +1,302 @@
+//! The MQTT Sparkplug B edge node against a real broker (Debian's `mosquitto`, started here on
+//! 127.0.0.1 on a free port) and a third-party host application (Python paho-mqtt with the
+//! protobuf generated from Eclipse Tahu's `sparkplug_b.proto`, `runtime/tests/mqtt/consumer.py`).
+//!
+//! The consumer drives the scenario: births (datatypes, aliases, bdSeq, seq), a DDATA after the
+//! plant changes an input, a write applied, writes refused (read-only tag, forced tag), a
+//! rebirth on command, a broker restart in the middle of the run, NDEATH with the matching
+//! bdSeq when softplc is killed, and a clean stop. `scripts/test` installs mosquitto and the
+//! Python environment (`target/py-venv`, pinned in `runtime/tests/mqtt/requirements.txt`);
+//! without them this test fails and says so.
+
+use std::io::{BufRead, BufReader, Write};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{channel, Receiver};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+fn python() -> PathBuf {
+    let py = workspace().join("target/py-venv/bin/python");
+    assert!(
+        py.exists(),
+        "{} is missing: run scripts/test, which creates it (paho-mqtt, protobuf, grpcio-tools \
+         from runtime/tests/mqtt/requirements.txt)",
+        py.display()
+    );
+    py
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// A mosquitto of this test: loopback only, anonymous, no persistence.
+struct Broker {
+    child: Child,
+    port: u16,
+    conf: PathBuf,
+}
+
+impl Broker {
+    fn start(dir: &Path, port: u16) -> Self {
+        let conf = dir.join("mosquitto.conf");
+        std::fs::write(
+            &conf,
+            format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"),
+        )
+        .unwrap();
+        let child = Command::new("mosquitto")
+            .arg("-c")
+            .arg(&conf)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| {
+                panic!("cannot start mosquitto ({e}): scripts/test installs it (apt: mosquitto)")
+            });
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+            assert!(
+                Instant::now() < deadline,
+                "mosquitto did not listen on {port}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        Self { child, port, conf }
+    }
+
+    fn restart(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let dir = self.conf.parent().unwrap().to_path_buf();
+        *self = Broker::start(&dir, self.port);
+    }
+}
+
+impl Drop for Broker {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn lines_of(r: impl std::io::Read + Send + 'static) -> Receiver<String> {
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(r).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
+fn project(dir: &Path, port: u16) -> PathBuf {
+    let programs = workspace().join("programs");
+    let text = format!(
+        r#"project: mqtt_test
+scan:
+  period: 50ms
+buses:
+  - {{ name: line1, port: sim, baud: 57600, format: 8E1, response_timeout: 30ms, retries: 1 }}
+modules:
+  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}
+  - {{ name: mm2, bus: line1, model: minimod, address: 2 }}
+tags:
+  - {{ name: box_at_entry, point: mm1.X1 }}
+  - {{ name: start,        point: mm1.X2 }}
+  - {{ name: stop,         point: mm1.X3 }}
+  - {{ name: motor,        point: mm1.Y1, safe: false }}
+  - {{ name: box_at_exit,  point: mm2.X1 }}
+  - {{ name: lamp,         point: mm2.Y1, safe: false }}
+  - {{ name: setpoint, type: u16, scada: write }}
+  - {{ name: limit, type: i32, initial: -40 }}
+  - {{ name: gain, type: f32, initial: 1.5 }}
+program:
+  file: {}
+  kind: expr
+plant:
+  model: conveyor
+  wiring: {{ motor: mm1.Y1, start_button: mm1.X2, sensor_entry: mm1.X1, sensor_exit: mm2.X1 }}
+service:
+  mqtt:
+    host: 127.0.0.1
+    port: {port}
+    group: plant1
+    node: line1
+    writes: true
+    buffer: 1000
+"#,
+        programs.join("conveyor.expr").display()
+    );
+    let path = dir.join("project.yaml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn softplc(project: &Path, socket: &Path, run_for: &str, log: &Path) -> Child {
+    Command::new(BIN)
+        .args(["run", "--quiet", "--for", run_for, "--socket"])
+        .arg(socket)
+        .arg(project)
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).unwrap())
+        .spawn()
+        .unwrap()
+}
+
+#[test]
+fn a_sparkplug_host_sees_births_data_commands_a_broker_restart_and_death() {
+    let dir = tempfile_dir();
+    let port = free_port();
+    let mut broker = Broker::start(&dir, port);
+    let pb2 = dir.join("py");
+    std::fs::create_dir_all(&pb2).unwrap();
+    let proto = workspace().join("runtime/proto");
+    let gen = Command::new(python())
+        .args(["-m", "grpc_tools.protoc", "-I"])
+        .arg(&proto)
+        .arg(format!("--python_out={}", pb2.display()))
+        .arg(proto.join("sparkplug_b.proto"))
+        .status()
+        .unwrap();
+    assert!(
+        gen.success(),
+        "grpc_tools.protoc failed on sparkplug_b.proto"
+    );
+
+    let project = project(&dir, port);
+    let socket = dir.join("control.sock");
+    let mut consumer = Command::new(python())
+        .arg(workspace().join("runtime/tests/mqtt/consumer.py"))
+        .arg(port.to_string())
+        .args(["plant1", "line1"])
+        .arg(&pb2)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut to_consumer = consumer.stdin.take().unwrap();
+    let from_consumer = lines_of(consumer.stdout.take().unwrap());
+    let mut plc: Option<Child> = None;
+    let mut runs = 0;
+    let mut passed = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(150);
+    let log = |n: i32| dir.join(format!("softplc-{n}.log"));
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let Ok(line) = from_consumer.recv_timeout(left) else {
+            let _ = consumer.kill();
+            if let Some(mut p) = plc.take() {
+                let _ = p.kill();
+            }
+            panic!(
+                "the consumer stopped or timed out after {passed:?}; softplc's log:\n{}",
+                std::fs::read_to_string(log(runs)).unwrap_or_default()
+            );
+        };
+        eprintln!("consumer: {line}");
+        if let Some(step) = line.strip_prefix("PASS ") {
+            passed.push(step.to_string());
+            continue;
+        }
+        if let Some(why) = line.strip_prefix("FAIL ") {
+            if let Some(mut p) = plc.take() {
+                let _ = p.kill();
+            }
+            panic!(
+                "consumer: {why} (after {passed:?}); softplc's log:\n{}",
+                std::fs::read_to_string(log(runs)).unwrap_or_default()
+            );
+        }
+        if line == "DONE" {
+            break;
+        }
+        let Some(action) = line.strip_prefix("NEED ") else {
+            continue;
+        };
+        match action {
+            "start" => {
+                runs += 1;
+                plc = Some(softplc(&project, &socket, "120s", &log(runs)));
+            }
+            "force setpoint 7" => {
+                let out = Command::new(BIN)
+                    .args(["force", "--socket"])
+                    .arg(&socket)
+                    .args(["setpoint", "7"])
+                    .output()
+                    .unwrap();
+                assert!(out.status.success(), "force: {out:?}");
+            }
+            "restart broker" => broker.restart(),
+            "kill" => {
+                let mut p = plc.take().expect("softplc runs");
+                p.kill().unwrap();
+                p.wait().unwrap();
+            }
+            "start short" => {
+                runs += 1;
+                plc = Some(softplc(
+                    &project,
+                    &dir.join("control2.sock"),
+                    "3s",
+                    &log(runs),
+                ));
+            }
+            other => panic!("unknown action {other}"),
+        }
+        writeln!(to_consumer, "done").unwrap();
+    }
+    assert!(consumer.wait().unwrap().success());
+    let mut last = plc.take().expect("the short run");
+    let end = Instant::now() + Duration::from_secs(20);
+    while last.try_wait().unwrap().is_none() {
+        assert!(Instant::now() < end, "the short run did not stop");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(last.wait().unwrap().success());
+
+    // What the first run logged: the refusals, with the tag and why, and the reconnect.
+    let first = std::fs::read_to_string(log(1)).unwrap();
+    assert!(
+        first.contains("write to limit refused: the tag is not writable (scada: write)"),
+        "{first}"
+    );
+    assert!(
+        first.contains("write to setpoint refused: setpoint is forced"),
+        "{first}"
+    );
+    assert!(first.contains("connection to 127.0.0.1"), "{first}");
+    assert_eq!(
+        passed.len(),
+        8,
+        "every step of the consumer passed: {passed:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A fresh folder of this test.
+fn tempfile_dir() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-mqtt-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
