@@ -48,6 +48,11 @@ pub struct RunArgs {
     /// `recorder:` section gives its other settings (and turns it on without this flag).
     #[arg(long, value_name = "KEEP", value_parser = super::parse_duration)]
     record: Option<Duration>,
+    /// Run the scan thread at SCHED_FIFO with this priority (1..=99) when the project's
+    /// `scan.realtime.priority` does not say; the service unit passes 50. Best effort: a
+    /// refusal (no CAP_SYS_NICE, an RLIMIT_RTPRIO too low) is a warning in the log.
+    #[arg(long, value_name = "PRIORITY", value_parser = clap::value_parser!(u8).range(1..=99))]
+    realtime_priority: Option<u8>,
     /// Do not open a control socket.
     #[arg(long = "no-socket", alias = "no-control", conflicts_with = "control")]
     no_control: bool,
@@ -72,7 +77,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     };
     // From now on every journal entry names the project (and modules by bus and address).
     super::journal::set_context(&project);
-    let realtime = project.scan.realtime;
+    let mut realtime = project.scan.realtime;
+    // The project's own priority wins; the flag is the service unit's default.
+    if realtime.priority.is_none() {
+        realtime.priority = args.realtime_priority;
+    }
     let name = project.name.clone();
     let period = project.scan.period;
     let trace = match args.trace_bus {
@@ -158,7 +167,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         .name("scan".into())
         .spawn(move || {
             for note in rt::apply(&realtime).notes {
-                tracing::info!("{note}");
+                if note.applied {
+                    tracing::info!("{}", note.text);
+                } else {
+                    tracing::warn!("{}", note.text);
+                }
             }
             engine.run()
         })

@@ -67,7 +67,9 @@ fn every_mapped_item_and_command_field_exists_in_the_state() {
             let (first, last) = c.x.unwrap_or((1, 1));
             for x in first..=last {
                 let fields = match c.action {
-                    Action::Get { fields, .. } | Action::Set { fields } => fields,
+                    Action::Get { fields, .. }
+                    | Action::Set { fields }
+                    | Action::SetSensorConfig { fields } => fields,
                     _ => &[],
                 };
                 for f in fields {

@@ -65,6 +65,10 @@ pub enum Fmt {
     DecsThenHexes,
     /// Real numbers with a `.` (2RTD `GTS:<SENSOR1Dbl>,<SENSOR2Dbl>`, L5425).
     Reals,
+    /// A 2RTD SENSOR_TYPE word by its names, `<Type>,<Current>,<Linearisation>,<Unit>`, and
+    /// for both channels `S1,...,S2,...` (`GSCS`, L6416; see
+    /// [`super::sensor_config`]). Not numbers: the driver never plans a read through it.
+    SensorConfig,
 }
 
 /// The fixed texts of the identity commands.
@@ -125,6 +129,12 @@ pub enum Action {
         /// The values, in parameter order.
         fields: &'static [Field],
     },
+    /// Takes SENSOR_TYPE words by their names, as [`Fmt::SensorConfig`] writes them, and
+    /// answers `OK` (2RTD `SSCS`, `SSC1`, `SSC2`, L6491–L6530).
+    SetSensorConfig {
+        /// The SENSOR_TYPE words, in parameter order.
+        fields: &'static [Field],
+    },
     /// Acts and answers `OK` (nothing for [`Op::Reset`]).
     Do(Op),
 }
@@ -174,6 +184,20 @@ impl Command {
             long,
             x: None,
             action: Action::Set { fields },
+        }
+    }
+
+    /// A set command taking sensor configurations by name.
+    pub const fn set_sensor_config(
+        short: &'static str,
+        long: &'static [&'static str],
+        fields: &'static [Field],
+    ) -> Self {
+        Self {
+            short,
+            long,
+            x: None,
+            action: Action::SetSensorConfig { fields },
         }
     }
 

@@ -11,4 +11,5 @@
 
 pub mod command;
 pub mod frame;
+pub mod sensor_config;
 pub mod serve;

@@ -14,6 +14,7 @@
 
 use super::command::{self, Action, Command, Field, Fmt, Op, Text};
 use super::frame::{frame, hex, parse_number, real, Frame};
+use super::sensor_config;
 use crate::devices::resi::item::Item;
 use crate::devices::resi::state::Module;
 use crate::devices::resi::value::Num;
@@ -60,6 +61,14 @@ fn execute(m: &mut Module, cmd: &Command, x: u8, params: Option<&str>) -> Option
                 .iter()
                 .map(|f| m.read(item(f, x)).ok())
                 .collect::<Option<Vec<Num>>>()?;
+            if fmt == Fmt::SensorConfig {
+                let words: Vec<u16> = values.iter().map(|v| v.int() as u16).collect();
+                let body = match words.as_slice() {
+                    [one] => sensor_config::format(*one),
+                    both => sensor_config::format_both(both),
+                };
+                return Some(format!("{}:{body}", cmd.reply_keyword(x)));
+            }
             Some(format!(
                 "{}:{}",
                 cmd.reply_keyword(x),
@@ -81,6 +90,18 @@ fn execute(m: &mut Module, cmd: &Command, x: u8, params: Option<&str>) -> Option
             }
             for (f, v) in fields.iter().zip(values) {
                 m.write(item(f, x), v).ok()?;
+            }
+            Some("OK".to_string())
+        }
+        Action::SetSensorConfig { fields } => {
+            let parts: Vec<&str> = params?.split(',').collect();
+            let words: Vec<u16> = match fields.len() {
+                1 => vec![sensor_config::parse(&parts)?],
+                2 => sensor_config::parse_both(&parts)?.to_vec(),
+                _ => return None,
+            };
+            for (f, w) in fields.iter().zip(words) {
+                m.write(item(f, x), Num::Int(w.into())).ok()?;
             }
             Some("OK".to_string())
         }
@@ -111,6 +132,10 @@ pub fn format_values(values: &[Num], fmt: Fmt) -> String {
             .chain(values.iter().map(hx))
             .collect(),
         Fmt::Reals => values.iter().map(|v| real(v.real())).collect(),
+        Fmt::SensorConfig => values
+            .iter()
+            .map(|v| sensor_config::format(v.int() as u16))
+            .collect(),
     };
     parts.join(",")
 }
@@ -179,6 +204,54 @@ mod tests {
         assert_eq!(ask(&mut m, "#RST\r"), None, "RST answers nothing");
         m.opts.lenient = true;
         assert_eq!(ask(&mut m, "#gdis\r").as_deref(), Some("#GDIS:0,0x0\r"));
+    }
+
+    #[test]
+    fn the_2rtd_sensor_configuration_by_name() {
+        use crate::devices::resi::item::Kind;
+        let mut m = Module::new(&crate::devices::resi::models::m2rtd::MODEL, 7);
+        assert_eq!(
+            ask(&mut m, "#7,GSCS\r").as_deref(),
+            Some("#7,CSCS:S1,PT100,500MYA,EUROPE,CELSIUS,S2,PT100,500MYA,EUROPE,CELSIUS\r")
+        );
+        assert_eq!(
+            ask(&mut m, "#7,SSC2:NI120,1MA,ITS90,KELVIN\r").as_deref(),
+            Some("#7,OK\r")
+        );
+        assert_eq!(
+            ask(&mut m, "#7,GETSENSORCONFIG2\r").as_deref(),
+            Some("#7,CSC2:NI120,1MA,ITS90,KELVIN\r")
+        );
+        // The same word as the register holds (4x06041: TYPE 7, CURRENT 1, LIN 3, UNIT 2).
+        assert_eq!(
+            m.read(Item::new(Kind::SensorType, 1)).map(|v| v.int()),
+            Ok(0x2317)
+        );
+        assert_eq!(
+            ask(
+                &mut m,
+                "#7,SSCS:S1,PT1000,5MYA,JAPAN,FAHRENHEIT,S2,PT10,250MYA,DONT_CARE,CELSIUS\r"
+            )
+            .as_deref(),
+            Some("#7,OK\r")
+        );
+        assert_eq!(
+            ask(&mut m, "#7,GSC1\r").as_deref(),
+            Some("#7,CSC1:PT1000,5MYA,JAPAN,FAHRENHEIT\r")
+        );
+        // Malformed: no answer, nothing changed (resi-spec §2.4).
+        for bad in [
+            "#7,SSC1:PT99,1MA,EUROPE,CELSIUS\r",
+            "#7,SSC1:PT100,1MA,EUROPE\r",
+            "#7,SSCS:S2,PT100,1MA,EUROPE,CELSIUS,S1,PT100,1MA,EUROPE,CELSIUS\r",
+            "#7,GSC1:1\r",
+        ] {
+            assert_eq!(ask(&mut m, bad), None, "{bad:?}");
+        }
+        assert_eq!(
+            ask(&mut m, "#7,GSC1\r").as_deref(),
+            Some("#7,CSC1:PT1000,5MYA,JAPAN,FAHRENHEIT\r")
+        );
     }
 
     #[test]

@@ -140,7 +140,8 @@ fn gets(model: &'static Model) -> impl Iterator<Item = (&'static Command, u8)> {
         .commands
         .iter()
         .chain(COMMON.iter())
-        .filter(|c| matches!(c.action, Action::Get { .. }))
+        // A sensor configuration is names, not a number the driver could decode.
+        .filter(|c| matches!(c.action, Action::Get { fmt, .. } if fmt != Fmt::SensorConfig))
         .flat_map(|c| {
             let (first, last) = c.x.unwrap_or((1, 1));
             (first..=last).map(move |x| (c, x))
@@ -152,6 +153,8 @@ pub fn position(fmt: Fmt, k: usize) -> usize {
     match fmt {
         Fmt::Pairs => 2 * k,
         Fmt::DecsThenHexes | Fmt::Reals => k,
+        // `S1,<4 names>,S2,...`: never planned (see `gets`); where value `k`'s first name is.
+        Fmt::SensorConfig => 5 * k + 1,
     }
 }
 

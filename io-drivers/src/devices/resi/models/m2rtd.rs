@@ -6,8 +6,11 @@
 //! 32-bit "I" convention (erratum 8, L7607, L7749). 4x00909-912 is listed twice, for CH1 and
 //! CH2 AVG_SUM (erratum 7, L7929, L7944): it serves CH1's. The TYPE row prints
 //! `RESI-1RO-ASCII` (L5370); the simulator answers `RESI-2RTD-ASCII`. The sensor
-//! configuration commands `GSCS`/`SSCS`/`GSC1`.. (text tokens, L6416–L6530) are not
-//! implemented; 4x06021 / 4x06041 (SENSOR_TYPE) hold the same configuration.
+//! configuration commands `GSCS`, `GSC1`, `GSC2`, `SSCS`, `SSC1`, `SSC2` (L6416–L6530) read
+//! and write 4x06021 / 4x06041 (SENSOR_TYPE) by name (see
+//! [`crate::devices::resi::ascii::sensor_config`] for the names and where the chapters
+//! differ); like the register, a new configuration is stored at once and measured with after
+//! a reboot, and `GSCx` shows what is stored.
 
 use crate::devices::resi::ascii::command::{Command, Field, Fmt};
 use crate::devices::resi::item::{Kind, Temp};
@@ -327,6 +330,13 @@ const OFFSETS: [Field; 2] = [
     Field::at(Kind::ZeroOffset, 1),
 ];
 const STATUS: [Field; 2] = [Field::at(Kind::Status, 0), Field::at(Kind::Status, 1)];
+const SENSORS: [Field; 2] = [
+    Field::at(Kind::SensorType, 0),
+    Field::at(Kind::SensorType, 1),
+];
+const SENSOR1: [Field; 1] = [Field::at(Kind::SensorType, 0)];
+const SENSOR2: [Field; 1] = [Field::at(Kind::SensorType, 1)];
+const SC: Fmt = Fmt::SensorConfig;
 
 static COMMANDS: &[Command] = &[
     Command::get("GTS", &["GET TEMPS", "GETTEMPS"], &VALID, R),
@@ -367,6 +377,42 @@ static COMMANDS: &[Command] = &[
     .xs(1, 2),
     Command::set("SOTS", &["SET OFFSET TEMPS"], &OFFSETS),
     Command::set("SOT", &["SET OFFSET TEMP"], &[Field::x(Kind::ZeroOffset)]).xs(1, 2),
+    Command::get(
+        "GSCS",
+        &["GET SENSOR CONFIGS", "GETSENSORCONFIGS"],
+        &SENSORS,
+        SC,
+    )
+    .reply("CSCS"),
+    Command::get(
+        "GSC1",
+        &["GET SENSOR CONFIG1", "GETSENSORCONFIG1"],
+        &SENSOR1,
+        SC,
+    )
+    .reply("CSC1"),
+    Command::get(
+        "GSC2",
+        &["GET SENSOR CONFIG2", "GETSENSORCONFIG2"],
+        &SENSOR2,
+        SC,
+    )
+    .reply("CSC2"),
+    Command::set_sensor_config(
+        "SSCS",
+        &["SET SENSOR CONFIGS", "SETSENSORCONFIGS"],
+        &SENSORS,
+    ),
+    Command::set_sensor_config(
+        "SSC1",
+        &["SET SENSOR CONFIG1", "SETSENSORCONFIG1"],
+        &SENSOR1,
+    ),
+    Command::set_sensor_config(
+        "SSC2",
+        &["SET SENSOR CONFIG2", "SETSENSORCONFIG2"],
+        &SENSOR2,
+    ),
     Command::get("GSS", &["GET SENSOR STATUS"], &STATUS, P),
     Command::get("GSS", &["GET SENSOR STATUS"], &[Field::x(Kind::Status)], P).xs(1, 2),
 ];
