@@ -464,3 +464,7 @@ impl EdgeNode {
         self.layout.tags.get(tag).map(|t| t.ty)
     }
 }
+
+#[cfg(test)]
+#[path = "node_tests.rs"]
+mod tests;

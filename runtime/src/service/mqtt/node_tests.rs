@@ -1,0 +1,197 @@
+//! The edge node without a broker: which messages snapshots turn into.
+
+use std::time::Duration;
+
+use prost::Message;
+use softplc_io::point::{Quality, Value, ValueType};
+
+use super::*;
+use crate::service::mqtt::layout::TagMetric;
+use crate::service::mqtt::spb::Payload;
+use crate::service::snapshot::ModuleSnapshot;
+
+fn layout() -> Layout {
+    let tag = |tag: usize, name: &str, ty, device| TagMetric {
+        tag,
+        name: name.into(),
+        ty,
+        alias: tag as u64 + 1,
+        device,
+    };
+    Layout {
+        tags: vec![
+            tag(0, "level", ValueType::F32, Some(0)),
+            tag(1, "pump", ValueType::Bool, Some(0)),
+            tag(2, "setpoint", ValueType::U16, None),
+        ],
+        devices: vec!["mm1".into()],
+    }
+}
+
+fn snap(level: f32, pump: bool, setpoint: u16, module: Quality) -> ServiceSnapshot {
+    ServiceSnapshot {
+        published: true,
+        cycles: 10,
+        now: Duration::from_millis(500),
+        values: vec![Value::F32(level), Value::Bool(pump), Value::U16(setpoint)],
+        qualities: vec![Quality::Good; 3],
+        timestamps: vec![Duration::from_millis(400); 3],
+        forced: vec![false; 3],
+        modules: vec![ModuleSnapshot {
+            quality: module,
+            ..ModuleSnapshot::default()
+        }],
+        ..ServiceSnapshot::default()
+    }
+}
+
+fn node(capacity: usize) -> EdgeNode {
+    EdgeNode::new(layout(), Topics::new("g", "n"), &[(0, 0.5)], capacity)
+}
+
+fn decoded(m: &Outgoing) -> Payload {
+    Payload::decode(m.payload.as_slice()).unwrap()
+}
+
+/// (topic, seq, [(alias, value, historical)]) of each message.
+fn summary(out: &[Outgoing]) -> Vec<(String, Option<u64>, Vec<(Option<u64>, String, bool)>)> {
+    out.iter()
+        .map(|m| {
+            let p = decoded(m);
+            let metrics = p
+                .metrics
+                .iter()
+                .map(|x| {
+                    (
+                        x.alias,
+                        format!("{:?}", x.value.as_ref().unwrap()),
+                        x.is_historical == Some(true),
+                    )
+                })
+                .collect();
+            (m.topic.clone(), p.seq, metrics)
+        })
+        .collect()
+}
+
+#[test]
+fn a_birth_declares_everything_then_data_carries_only_changes_beyond_the_deadband() {
+    let mut n = node(10);
+    let birth = n.birth(&snap(1.0, false, 5, Quality::Good), 1_000_000, 4);
+    let s = summary(&birth);
+    assert_eq!(s.len(), 2);
+    assert_eq!((s[0].0.as_str(), s[0].1), ("spBv1.0/g/NBIRTH/n", Some(0)));
+    assert_eq!(
+        (s[1].0.as_str(), s[1].1),
+        ("spBv1.0/g/DBIRTH/n/mm1", Some(1))
+    );
+    let nb = decoded(&birth[0]);
+    assert_eq!(nb.metrics[0].name.as_deref(), Some("bdSeq"));
+    assert_eq!(
+        nb.metrics[0].value,
+        Some(crate::service::mqtt::spb::payload::metric::Value::LongValue(4))
+    );
+    let db = decoded(&birth[1]);
+    let names: Vec<_> = db.metrics.iter().map(|m| m.name.clone().unwrap()).collect();
+    assert_eq!(names, ["level", "pump"]);
+    // The tag's timestamp: its capture time, scan 400 ms = 100 ms before the snapshot's.
+    assert_eq!(db.metrics[0].timestamp, Some(1_000_000 - 100));
+
+    // 0.3 is within level's deadband of 0.5: nothing; the pump changes: one DDATA, by alias.
+    let out = n.update(&snap(1.3, true, 5, Quality::Good), 1_000_050, true);
+    let s = summary(&out);
+    assert_eq!(s.len(), 1);
+    assert_eq!(s[0].0, "spBv1.0/g/DDATA/n/mm1");
+    assert_eq!(s[0].1, Some(2));
+    assert_eq!(s[0].2, [(Some(2), "BooleanValue(true)".into(), false)]);
+    assert_eq!(decoded(&out[0]).metrics[0].name, None);
+    // 1.6 is 0.6 from the 1.0 last sent: out; the setpoint goes in NDATA.
+    let s = summary(&n.update(&snap(1.6, true, 6, Quality::Good), 1_000_100, true));
+    assert_eq!(s.len(), 2);
+    assert_eq!(s[0].0, "spBv1.0/g/NDATA/n");
+    assert_eq!(s[0].2, [(Some(3), "IntValue(6)".into(), false)]);
+    assert_eq!(s[1].2, [(Some(1), "FloatValue(1.6)".into(), false)]);
+    assert_eq!((s[0].1, s[1].1), (Some(3), Some(4)));
+    // Nothing changed: nothing sent.
+    assert!(n
+        .update(&snap(1.6, true, 6, Quality::Good), 1_000_150, true)
+        .is_empty());
+}
+
+#[test]
+fn a_lost_module_dies_and_is_born_again_when_it_answers() {
+    let mut n = node(10);
+    n.birth(&snap(1.0, false, 5, Quality::Good), 0, 0);
+    let s = summary(&n.update(&snap(1.0, false, 5, Quality::Bad), 50, true));
+    assert_eq!(s.len(), 1);
+    assert_eq!(s[0].0, "spBv1.0/g/DDEATH/n/mm1");
+    // Its tags are not sent while it is dead.
+    assert!(n
+        .update(&snap(9.0, true, 5, Quality::Bad), 100, true)
+        .is_empty());
+    let s = summary(&n.update(&snap(9.0, true, 5, Quality::Good), 150, true));
+    assert_eq!(s.len(), 1);
+    assert_eq!(s[0].0, "spBv1.0/g/DBIRTH/n/mm1");
+    assert_eq!(
+        s[0].2,
+        [
+            (Some(1), "FloatValue(9.0)".into(), false),
+            (Some(2), "BooleanValue(true)".into(), false)
+        ]
+    );
+}
+
+#[test]
+fn changes_while_offline_are_buffered_oldest_dropped_and_sent_as_history_after_the_births() {
+    let mut n = node(2);
+    n.birth(&snap(1.0, false, 5, Quality::Good), 0, 0);
+    // Broker away: three changes, room for two.
+    assert!(n
+        .update(&snap(1.0, true, 5, Quality::Good), 50, false)
+        .is_empty());
+    assert!(n
+        .update(&snap(1.0, false, 5, Quality::Good), 100, false)
+        .is_empty());
+    assert!(n
+        .update(&snap(1.0, false, 7, Quality::Good), 150, false)
+        .is_empty());
+    assert_eq!((n.buffered(), n.dropped()), (2, 1));
+    // Back: births with the current values, then the history (node first, then the device).
+    let out = n.birth(&snap(1.0, false, 7, Quality::Good), 200, 1);
+    let s = summary(&out);
+    let topics: Vec<&str> = s.iter().map(|m| m.0.as_str()).collect();
+    assert_eq!(
+        topics,
+        [
+            "spBv1.0/g/NBIRTH/n",
+            "spBv1.0/g/DBIRTH/n/mm1",
+            "spBv1.0/g/NDATA/n",
+            "spBv1.0/g/DDATA/n/mm1"
+        ]
+    );
+    let seqs: Vec<_> = s.iter().map(|m| m.1).collect();
+    assert_eq!(seqs, [Some(0), Some(1), Some(2), Some(3)]);
+    assert_eq!(s[2].2, [(Some(3), "IntValue(7)".into(), true)]);
+    assert_eq!(s[3].2, [(Some(2), "BooleanValue(false)".into(), true)]);
+    // The NBIRTH counts the dropped change.
+    let nb = decoded(&out[0]);
+    let dropped = nb
+        .metrics
+        .iter()
+        .find(|m| m.name.as_deref() == Some("MQTT/Dropped changes"))
+        .unwrap();
+    assert_eq!(
+        dropped.value,
+        Some(crate::service::mqtt::spb::payload::metric::Value::LongValue(1))
+    );
+    assert_eq!(n.buffered(), 0);
+}
+
+#[test]
+fn command_topics_name_the_node_or_a_device() {
+    let t = Topics::new("g", "n");
+    assert_eq!(t.command_target("spBv1.0/g/NCMD/n"), Some(None));
+    assert_eq!(t.command_target("spBv1.0/g/DCMD/n/mm1"), Some(Some("mm1")));
+    assert_eq!(t.command_target("spBv1.0/g/DCMD/other/mm1"), None);
+    assert_eq!(t.command_target("spBv1.0/g/NDATA/n"), None);
+}
