@@ -118,6 +118,29 @@ fn screenshots() -> PathBuf {
     dir
 }
 
+/// `softplc run` on `project`, once its page answers on `port`.
+fn run_plc(project: &Path, socket: &Path, port: u16) -> Plc {
+    let mut plc = Plc(Command::new(BIN)
+        .args(["run", "--quiet", "--for", "120s", "--socket"])
+        .arg(socket)
+        .arg(project)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap());
+    let up = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        if up.elapsed() > Duration::from_secs(30) || plc.0.try_wait().unwrap().is_some() {
+            let _ = plc.0.kill();
+            let mut err = String::new();
+            let _ = plc.0.stderr.take().unwrap().read_to_string(&mut err);
+            panic!("the web page never listened on port {port}:\n{err}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    plc
+}
+
 #[test]
 fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     chromium_available();
@@ -151,24 +174,7 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     );
     std::fs::write(dir.join("project.yaml"), project).unwrap();
     let socket = dir.join("ctl.sock");
-    let mut plc = Plc(Command::new(BIN)
-        .args(["run", "--quiet", "--for", "120s", "--socket"])
-        .arg(&socket)
-        .arg(dir.join("project.yaml"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap());
-    let up = Instant::now();
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
-        if up.elapsed() > Duration::from_secs(30) || plc.0.try_wait().unwrap().is_some() {
-            let _ = plc.0.kill();
-            let mut err = String::new();
-            let _ = plc.0.stderr.take().unwrap().read_to_string(&mut err);
-            panic!("the web page never listened on port {port}:\n{err}");
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    let plc = run_plc(&dir.join("project.yaml"), &socket, port);
 
     // Without the token, or with a wrong one, a write is refused and changes nothing.
     let json = "Content-Type: application/json\r\n";
@@ -325,7 +331,11 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     );
     let state = "(document.querySelector('#trace-table tr[data-trace=webtrace] .trace-state') || {}).textContent";
     let done = b.wait_for(&format!("{state} === 'complete'"), Duration::from_secs(30));
-    assert!(done.is_some(), "the trace never completed: {}", b.eval(state));
+    assert!(
+        done.is_some(),
+        "the trace never completed: {}",
+        b.eval(state)
+    );
     assert_eq!(
         b.eval("document.querySelector('#trace-table tr[data-trace=webtrace] td.num').textContent"),
         "6 / 6"
@@ -335,7 +345,11 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
          && document.querySelectorAll('#trace-plot svg .trigger-mark').length === 1",
         Duration::from_secs(10),
     );
-    assert!(plotted.is_some(), "no plot: {}", b.eval("document.getElementById('trace-plot').innerHTML"));
+    assert!(
+        plotted.is_some(),
+        "no plot: {}",
+        b.eval("document.getElementById('trace-plot').innerHTML")
+    );
     b.eval("document.getElementById('toast').className = 'toast'; true");
     b.screenshot(&shots.join("trace.png"));
     let (code, csv) = http(
@@ -382,5 +396,134 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     assert!(why.is_some(), "the overview says why the run ended");
     drop(b);
     drop(plc);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The `data-kind:data-tag` of each element of rung `n`'s diagram, left to right.
+const RUNG_ELEMENTS: &str = "n => [...document.querySelectorAll(`#ladder svg[data-rung=\"${n}\"] .lad-el`)].map(e => e.dataset.kind + ':' + (e.dataset.tag || e.dataset.instance)).join(',')";
+
+#[test]
+fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
+    chromium_available();
+    let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
+    let dir = std::env::temp_dir().join(format!("softplc-web-ladder-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("machine.ladder.yaml"),
+        "description: the web page's ladder test\n\
+         rungs:\n\
+         \x20 - start /stop -> motor                  # two contacts, one NC, a coil\n\
+         \x20 - box_at_exit -> lamp                   # pushed down into mm2\n\
+         \x20 - motor -> TON run(300ms) -> running    # a block, its Q on a coil\n\
+         \x20 - (start | box_at_exit) -> set seen\n",
+    )
+    .unwrap();
+    let port = free_port();
+    let project = format!(
+        "project: webladder\n\
+         scan: {{ period: 50ms, watchdog: {{ time: 1s, sensitivity: 3 }} }}\n\
+         offload: auto\n\
+         buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 200ms, retries: 1 }}\n\
+         modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2 }}\n\
+         tags:\n\
+         \x20 - {{ name: start,        point: mm1.X2 }}\n\
+         \x20 - {{ name: stop,         point: mm1.X3 }}\n\
+         \x20 - {{ name: motor,        point: mm1.Y1, safe: false }}\n\
+         \x20 - {{ name: running,      point: mm1.Y2, safe: false }}\n\
+         \x20 - {{ name: box_at_exit,  point: mm2.X1 }}\n\
+         \x20 - {{ name: lamp,         point: mm2.Y1, safe: false }}\n\
+         \x20 - {{ name: seen,         type: bool }}\n\
+         program: {{ file: machine.ladder.yaml, kind: ladder }}\n\
+         service:\n  web: {{ bind: \"127.0.0.1:{port}\" }}\n"
+    );
+    std::fs::write(dir.join("project.yaml"), project).unwrap();
+    let plc = run_plc(&dir.join("project.yaml"), &dir.join("ctl.sock"), port);
+
+    let mut b = Browser::start(&dir.join("chromium"));
+    b.open(&format!("http://127.0.0.1:{port}/#program"));
+    b.wait_for(
+        "document.querySelector('#ladder svg[data-rung=\"4\"]') !== null",
+        Duration::from_secs(30),
+    )
+    .expect("the program view draws the rungs as ladders");
+    let elements = |b: &mut Browser, n: u32| {
+        b.eval(&format!("({RUNG_ELEMENTS})({n})"))
+            .as_str()
+            .unwrap_or_default()
+            .to_string()
+    };
+    assert_eq!(elements(&mut b, 1), "no:start,nc:stop,coil-normal:motor");
+    assert_eq!(
+        elements(&mut b, 3),
+        "no:motor,block:run,coil-normal:running"
+    );
+    assert_eq!(elements(&mut b, 4), "no:start,no:box_at_exit,coil-set:seen");
+    // The block shows its kind, preset and outputs.
+    let block = "document.querySelector('#ladder svg[data-rung=\"3\"] .lad-block').textContent";
+    let drawn = b.wait_for(
+        &format!("{block} === 'runTONINPT 300msQ 0ET ?'"),
+        Duration::from_secs(10),
+    );
+    assert!(drawn.is_some(), "the TON box: {}", b.eval(block));
+    // The pushed-down rungs keep their mark (rungs 1 and 2 are plain logic on one module's
+    // points); the timer and the latch of a memory tag run in the scan.
+    let pushed = b.eval("[...document.querySelectorAll('#ladder .lad-rung')].map(r => r.querySelector('[data-pushed]')?.dataset.pushed || '-').join(',')");
+    assert_eq!(pushed.as_str(), Some("mm1,mm2,-,-"));
+
+    // Rung 1 with neither input: only the NC contact passes power, the coil is off.
+    let lit = "(() => { const s = document.querySelector('#ladder svg[data-rung=\"1\"]'); \
+               return [...s.querySelectorAll('.lad-el')].map(e => e.dataset.passes ?? e.dataset.energised).join(''); })()";
+    let settled = |b: &mut Browser, want: &str| {
+        b.wait_for(&format!("{lit} === '{want}'"), Duration::from_secs(10))
+            .map(|_| ())
+            .unwrap_or_else(|| panic!("rung 1 lit {} instead of {want}", b.eval(lit)))
+    };
+    settled(&mut b, "010");
+    // start pressed: both contacts pass, power reaches the coil, the motor runs.
+    sim.send("set minimod@1.X2 1");
+    settled(&mut b, "111");
+    assert!(sim
+        .wait_for("minimod@1.Y1", "1", Duration::from_secs(5))
+        .is_some());
+    let wires = b.eval("[...document.querySelectorAll('#ladder svg[data-rung=\"1\"] .lad-wire')].every(w => w.classList.contains('lit'))");
+    assert_eq!(wires, true, "every wire of rung 1 carries power");
+    // The TON's output comes on 300 ms later, lighting its coil.
+    b.wait_for(
+        "document.querySelector('#ladder svg[data-rung=\"3\"] .lad-block').dataset.q === '1' && \
+         document.querySelector('#ladder svg[data-rung=\"3\"] .lad-coil').dataset.energised === '1'",
+        Duration::from_secs(10),
+    )
+    .expect("the timer's Q and its coil light");
+    // stop pressed: the NC contact opens and the coil drops, downstream wires go dark.
+    sim.send("set minimod@1.X3 1");
+    settled(&mut b, "100");
+    let dark = b.eval("[...document.querySelectorAll('#ladder svg[data-rung=\"1\"] .lad-coil .lad-wire')].some(w => w.classList.contains('lit'))");
+    assert_eq!(dark, false, "no power reaches the coil");
+    assert!(sim
+        .wait_for("minimod@1.Y1", "0", Duration::from_secs(5))
+        .is_some());
+
+    // The rung's source line is one click away.
+    assert_eq!(
+        b.eval("document.querySelector('#rung-1 .lad-src').hidden"),
+        true
+    );
+    b.eval("document.querySelector('#rung-1 .lad-toggle').click(); true");
+    assert_eq!(
+        b.eval("[document.querySelector('#rung-1 .lad-src').hidden, document.querySelector('#rung-1 .lad-src').textContent]"),
+        serde_json::json!([false, "start /stop -> motor"])
+    );
+    b.screenshot(&screenshots().join("program-ladder.png"));
+    // And the whole text view, with its live values.
+    b.eval("document.getElementById('ladder-switch').click(); true");
+    b.wait_for(
+        "document.getElementById('ladder').hidden && document.querySelector('#program .tag[data-tag=stop] + .val').textContent === '1'",
+        Duration::from_secs(5),
+    )
+    .expect("the text view with live values");
+    drop(b);
+    drop(plc);
+    sim.send("set minimod@1.X2 0");
     let _ = std::fs::remove_dir_all(&dir);
 }

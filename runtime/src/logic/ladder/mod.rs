@@ -43,6 +43,7 @@
 //! their inputs. A scan allocates nothing and looks up no names.
 
 mod check;
+mod diagram;
 mod error;
 mod exec;
 mod lexer;
@@ -56,6 +57,9 @@ mod tests;
 use std::path::Path;
 
 pub use crate::logic::vm::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num};
+pub use diagram::{
+    diagram, BlockBox, BlockInput, Coil, Element, MathBox, Operand, Output, RungDiagram,
+};
 pub use error::{CompileError, CompileErrorKind, Driver, Expected, TypeError};
 pub use exec::LadderProgram;
 pub use parser::CoilKind;
@@ -64,44 +68,16 @@ use crate::logic::blocks::Instance;
 use crate::logic::expr::TagTable;
 use crate::logic::SourcePos;
 
-/// Compiles a ladder program. `file` is used in positions only (the text is `source`).
-///
-/// On failure returns every error found, sorted by position.
-///
-/// ```
-/// use std::path::Path;
-/// use std::time::Duration;
-/// use softplc::image::{ProcessImage, TagId};
-/// use softplc::logic::{expr::TagTable, ladder, LogicEngine, ScanContext};
-/// use softplc_io::point::{Value, ValueType};
-///
-/// let tags = TagTable::new([
-///     ("start".to_string(), TagId(0), ValueType::Bool, false),
-///     ("stop".to_string(), TagId(1), ValueType::Bool, false),
-///     ("motor".to_string(), TagId(2), ValueType::Bool, true),
-/// ]);
-/// let text = "rungs:\n  - (start | motor) /stop -> motor\n";
-/// let mut program = ladder::compile(text, Path::new("m.yaml"), &tags).unwrap();
-/// let mut image = ProcessImage::new(
-///     ["start", "stop", "motor"].map(|n| (n.to_string(), Value::Bool(false))),
-/// );
-/// image.set(TagId(0), Value::Bool(true), Duration::ZERO);
-/// let ctx = ScanContext { now: Duration::ZERO, delta: Duration::from_millis(10), cycle: 0 };
-/// program.scan(&mut image, &ctx).unwrap();
-/// assert_eq!(image.get(TagId(2)), Value::Bool(true));
-///
-/// let err = ladder::compile("rungs:\n  - strat -> motor\n", Path::new("m.yaml"), &tags)
-///     .unwrap_err();
-/// assert_eq!(
-///     err[0].to_string(),
-///     "m.yaml:2:5: error: unknown tag `strat`; did you mean `start`?"
-/// );
-/// ```
-pub fn compile(
-    source: &str,
-    file: &Path,
-    tags: &TagTable,
-) -> Result<LadderProgram, Vec<CompileError>> {
+/// A program read, parsed and checked: what the compiler lowers and [`diagram`] draws.
+struct Front {
+    src: source::LadderSource,
+    parsed: Vec<(usize, parser::Rung)>,
+    checked: Vec<check::CRung>,
+    instances: check::Instances,
+}
+
+/// Reads, parses and checks `source`; every error found, sorted by position.
+fn front(source: &str, file: &Path, tags: &TagTable) -> Result<Front, Vec<CompileError>> {
     let source = source.strip_prefix('\u{feff}').unwrap_or(source);
     let at = |line: u32, column: u32| SourcePos {
         file: file.to_path_buf(),
@@ -141,6 +117,63 @@ pub fn compile(
         out.sort_by_key(|e| (e.pos.line, e.pos.column));
         return Err(out);
     }
+    Ok(Front {
+        src,
+        parsed: rungs,
+        checked,
+        instances,
+    })
+}
+
+/// Compiles a ladder program. `file` is used in positions only (the text is `source`).
+///
+/// On failure returns every error found, sorted by position.
+///
+/// ```
+/// use std::path::Path;
+/// use std::time::Duration;
+/// use softplc::image::{ProcessImage, TagId};
+/// use softplc::logic::{expr::TagTable, ladder, LogicEngine, ScanContext};
+/// use softplc_io::point::{Value, ValueType};
+///
+/// let tags = TagTable::new([
+///     ("start".to_string(), TagId(0), ValueType::Bool, false),
+///     ("stop".to_string(), TagId(1), ValueType::Bool, false),
+///     ("motor".to_string(), TagId(2), ValueType::Bool, true),
+/// ]);
+/// let text = "rungs:\n  - (start | motor) /stop -> motor\n";
+/// let mut program = ladder::compile(text, Path::new("m.yaml"), &tags).unwrap();
+/// let mut image = ProcessImage::new(
+///     ["start", "stop", "motor"].map(|n| (n.to_string(), Value::Bool(false))),
+/// );
+/// image.set(TagId(0), Value::Bool(true), Duration::ZERO);
+/// let ctx = ScanContext { now: Duration::ZERO, delta: Duration::from_millis(10), cycle: 0 };
+/// program.scan(&mut image, &ctx).unwrap();
+/// assert_eq!(image.get(TagId(2)), Value::Bool(true));
+///
+/// let err = ladder::compile("rungs:\n  - strat -> motor\n", Path::new("m.yaml"), &tags)
+///     .unwrap_err();
+/// assert_eq!(
+///     err[0].to_string(),
+///     "m.yaml:2:5: error: unknown tag `strat`; did you mean `start`?"
+/// );
+/// ```
+pub fn compile(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+) -> Result<LadderProgram, Vec<CompileError>> {
+    let Front {
+        src,
+        checked,
+        instances,
+        ..
+    } = front(source, file, tags)?;
+    let at = |line: u32, column: u32| SourcePos {
+        file: file.to_path_buf(),
+        line,
+        column,
+    };
     let lowered = lower::lower(&checked);
     debug_assert!(
         lower::max_depth(&lowered.code, &lowered.calls).is_some(),

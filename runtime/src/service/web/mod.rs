@@ -168,6 +168,7 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
     match route {
         Route::Index => text("text/html; charset=utf-8", routes::INDEX_HTML),
         Route::Script => text("text/javascript; charset=utf-8", routes::APP_JS),
+        Route::LadderScript => text("text/javascript; charset=utf-8", routes::LADDER_JS),
         Route::Style => text("text/css; charset=utf-8", routes::STYLE_CSS),
         Route::Info => Reply::Full(Response::json(200, shared.info_json.clone())),
         Route::State => {

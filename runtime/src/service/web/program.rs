@@ -5,9 +5,16 @@
 //! This reads the text only; no engine internals: a name is a tag when it is spelt like one
 //! outside comments and strings and is not a member (`jam.Q`); in a ladder file, only in the
 //! rungs (a `description:` is prose).
+//!
+//! A ladder program also gets its diagram ([`crate::logic::ladder::diagram`]: the compiler's own
+//! parse of each rung), which the page draws as a ladder with power flow lit live.
 
 use serde::Serialize;
 
+use crate::image::TagId;
+use crate::logic::expr::TagTable;
+use crate::logic::ladder::{self, RungDiagram};
+use crate::logic::load;
 use crate::offload::{Placement, Plan};
 use crate::project::{ProgramKind, Project};
 
@@ -58,6 +65,12 @@ pub struct ProgramView {
     pub kind: &'static str,
     /// Its lines.
     pub lines: Vec<Line>,
+    /// A ladder program's rungs as diagrams, in file order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub diagram: Option<Vec<RungDiagram>>,
+    /// Why a ladder program has no diagram (the page shows its text).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub no_diagram: Option<String>,
     /// Why there is no source, when it could not be read.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
@@ -101,12 +114,38 @@ pub fn view(project: &Project, plan: &Plan) -> ProgramView {
         };
         line.rungs.push(mark);
     }
+    let (diagram, no_diagram) = match project.program.kind {
+        ProgramKind::Ladder if error.is_none() => match ladder_diagram(project, &text) {
+            Ok(d) => (Some(d), None),
+            Err(why) => (None, Some(why)),
+        },
+        _ => (None, None),
+    };
     ProgramView {
         file,
         kind,
         lines,
+        diagram,
+        no_diagram,
         error,
     }
+}
+
+/// The diagram of the project's ladder program `text`, or why there is none (the file changed
+/// since the scan compiled it and no longer compiles: the page then shows the text).
+fn ladder_diagram(project: &Project, text: &str) -> Result<Vec<RungDiagram>, String> {
+    let tags = TagTable::new(project.tags.iter().enumerate().map(|(i, t)| {
+        (
+            t.name.clone(),
+            TagId(i as u32),
+            t.ty,
+            load::writable(project, i),
+        )
+    }));
+    ladder::diagram(text, &project.program.path, &tags).map_err(|errors| {
+        let first = errors.first().map(ToString::to_string).unwrap_or_default();
+        format!("no diagram: the file no longer compiles ({first})")
+    })
 }
 
 /// Cuts `text` (a program of `kind`) into lines of parts, recognising the names in `tags`.

@@ -3,7 +3,7 @@
 //! | route | answer |
 //! |---|---|
 //! | `GET /` | the page (`assets/index.html`); its views are `#overview`, `#io`, `#program`, `#timing`, `#bus` |
-//! | `GET /app.js`, `GET /style.css` | its script and style, embedded in the binary |
+//! | `GET /app.js`, `GET /ladder.js`, `GET /style.css` | its scripts (the ladder diagrams in their own) and style, embedded in the binary |
 //! | `GET /api/info` | what does not change: project, lines, modules, tags, program ([`super::info`]) |
 //! | `GET /api/state` | `{"state": …, "stats": …}` now ([`super::view`]) |
 //! | `GET /api/trend` | the trend's history |
@@ -29,6 +29,8 @@ use crate::service::control::{Envelope, Request as Control, Response as ControlR
 
 /// The page's script.
 pub const APP_JS: &str = include_str!("assets/app.js");
+/// The page's ladder diagrams.
+pub const LADDER_JS: &str = include_str!("assets/ladder.js");
 /// The page's style.
 pub const STYLE_CSS: &str = include_str!("assets/style.css");
 /// The page.
@@ -48,6 +50,8 @@ pub enum Route {
     Index,
     /// Its script.
     Script,
+    /// Its ladder diagrams' script.
+    LadderScript,
     /// Its style.
     Style,
     /// `/api/info`.
@@ -74,6 +78,7 @@ pub fn route(method: Method, path: &str) -> Result<Route, u16> {
     let (route, write) = match path {
         "/" | "/index.html" => (Route::Index, false),
         "/app.js" => (Route::Script, false),
+        "/ladder.js" => (Route::LadderScript, false),
         "/style.css" => (Route::Style, false),
         "/api/info" => (Route::Info, false),
         "/api/state" => (Route::State, false),

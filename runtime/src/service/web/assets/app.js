@@ -400,10 +400,13 @@
     root.classList.toggle("narrow", pushed === 0);
     $("program-hint").textContent = p.kind + " · " + (marks
       ? pushed + " rung" + (pushed === 1 ? "" : "s") + " pushed down into modules, " + central + " in the scan"
-      : "live values beside each tag");
+      : "live values beside each tag") + (p.no_diagram ? " · " + p.no_diagram : "");
+    // A ladder program is drawn as ladder diagrams (ladder.js); its text stays one click away.
+    app.ladder = p.diagram && window.softplcLadder ? window.softplcLadder.build(root, p, app.info) : null;
   }
 
   function updateProgram(s) {
+    if (app.ladder) app.ladder.update(s);
     const forced = new Set(s.forced);
     for (const c of app.codeTags) {
       const t = app.info.tags[c.tag];

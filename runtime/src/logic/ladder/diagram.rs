@@ -1,0 +1,529 @@
+//! The ladder diagram of each rung, for a page that draws it: series and parallel elements
+//! (contacts, edges, comparisons, quality tests), then the coils, math boxes or the function
+//! block the power flow drives, each with the tag or instance it names so live values can
+//! light it.
+//!
+//! Built from the parser's tree of a program that passed the checker (the same front end the
+//! compiler lowers), so what is drawn is what runs; names are resolved to tag indexes and
+//! instance indexes (the order of `LadderProgram`'s instances).
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::check::{param_list, Instances};
+use super::error::CompileError;
+use super::parser::{self, Action, Arg, Cond, Lit, Ref};
+use super::{front, CoilKind, Front};
+use crate::logic::expr::TagTable;
+
+/// A value as a diagram shows it: a tag, an instance's output or a literal.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "k", rename_all = "snake_case")]
+pub enum Operand {
+    /// A tag: its name and index in the project's tags.
+    Tag {
+        /// Its name.
+        name: String,
+        /// Its index.
+        tag: usize,
+    },
+    /// `instance.MEMBER`.
+    Member {
+        /// The instance's name.
+        instance: String,
+        /// Its index among the program's instances.
+        inst: u32,
+        /// `Q`, `ET`, `CV`, `QU` or `QD`.
+        member: &'static str,
+    },
+    /// A literal as written: `80`, `1.5s`, `true`.
+    Literal {
+        /// Its text.
+        text: String,
+    },
+}
+
+/// One element of a rung's condition.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "k", rename_all = "snake_case")]
+pub enum Element {
+    /// A contact on a bool: `| |` (normally open) or `|/|` (normally closed, `negated`).
+    Contact {
+        /// What it reads.
+        of: Operand,
+        /// Normally closed.
+        negated: bool,
+    },
+    /// `rising(..)` (P) or `falling(..)` (N) of a condition; a single contact's edge is a P/N
+    /// contact on it.
+    Edge {
+        /// P when true, N when false.
+        rising: bool,
+        /// The condition whose edge passes power.
+        of: Box<Element>,
+        /// Normally closed: `/rising(x)`.
+        negated: bool,
+    },
+    /// A comparison box: passes power while `lhs op rhs` holds (or does not, `negated`).
+    Compare {
+        /// Left operand.
+        lhs: Operand,
+        /// `<`, `<=`, `>`, `>=`, `==`, `!=`.
+        op: &'static str,
+        /// Right operand.
+        rhs: Operand,
+        /// Normally closed.
+        negated: bool,
+    },
+    /// `good(tag)` / `bad(tag)`: a contact on the tag's quality.
+    Quality {
+        /// `good` (true) or `bad`.
+        good: bool,
+        /// The tag.
+        of: Operand,
+        /// Normally closed.
+        negated: bool,
+    },
+    /// Elements one after the other.
+    Series {
+        /// Left to right.
+        items: Vec<Element>,
+    },
+    /// Branches side by side.
+    Parallel {
+        /// Top to bottom.
+        branches: Vec<Element>,
+    },
+    /// A negated group: `/(a | b)` passes power when the group does not.
+    Not {
+        /// The group.
+        of: Box<Element>,
+    },
+}
+
+/// A coil.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Coil {
+    /// `normal` `( )`, `negated` `(/)`, `set` `(S)` or `reset` `(R)`.
+    pub kind: &'static str,
+    /// Its tag.
+    pub of: Operand,
+}
+
+/// A math box: `OP(args) => dest`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct MathBox {
+    /// `MOVE`, `ADD`, `SUB`, `MUL`, `DIV`, `LIMIT`.
+    pub op: String,
+    /// Its arguments, in order.
+    pub args: Vec<Operand>,
+    /// Where the result goes.
+    pub dest: Operand,
+}
+
+/// What the power flow drives.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "k", rename_all = "snake_case")]
+pub enum Output {
+    /// A coil.
+    Coil(Coil),
+    /// A math box, computed while powered.
+    Math(MathBox),
+}
+
+/// One input of a block besides the power flow.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "k", rename_all = "snake_case")]
+pub enum BlockInput {
+    /// A bool input (`R`, `LD`, `CD`): a condition wired into the block.
+    Power {
+        /// The parameter, upper case as the block's pin: `R`.
+        pin: String,
+        /// What drives it.
+        of: Element,
+    },
+    /// A value (`PT`, `PV`, `ON`, ...).
+    Value {
+        /// The pin: `PT`.
+        pin: String,
+        /// The value.
+        of: Operand,
+    },
+}
+
+/// A function block fed by the rung's condition, its main output feeding the coils.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct BlockBox {
+    /// `TON`, `CTU`, ...
+    pub kind: &'static str,
+    /// The instance's name.
+    pub instance: String,
+    /// Its index among the program's instances.
+    pub inst: u32,
+    /// Inputs besides the power flow, as given.
+    pub inputs: Vec<BlockInput>,
+    /// Its outputs: `Q`, `ET`, `CV`, `QU`, `QD`.
+    pub outputs: Vec<&'static str>,
+    /// The output passed along the rung: `Q` (`QU` for CTUD).
+    pub main: &'static str,
+    /// The coils after it.
+    pub coils: Vec<Coil>,
+}
+
+/// One rung as a diagram.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct RungDiagram {
+    /// Its first line in the file (1-based).
+    pub line: u32,
+    /// Its text.
+    pub text: String,
+    /// Its condition; `None` when always powered (`-> ...`).
+    pub cond: Option<Element>,
+    /// The block it calls, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub block: Option<BlockBox>,
+    /// Its coils and boxes (none when it calls a block: the block's coils are in `block`).
+    pub outputs: Vec<Output>,
+}
+
+/// The diagram of each rung of a ladder program, in file order; the compiler's errors when it
+/// does not compile.
+pub fn diagram(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+) -> Result<Vec<RungDiagram>, Vec<CompileError>> {
+    let Front {
+        src,
+        parsed,
+        instances,
+        ..
+    } = front(source, file, tags)?;
+    let names = Names {
+        tags,
+        instances: &instances,
+    };
+    Ok(parsed
+        .iter()
+        .map(|(i, rung)| {
+            let (block, outputs) = match &rung.action {
+                Action::Outputs(outs) => (None, outs.iter().map(|o| names.output(o)).collect()),
+                Action::Block { call, coils } => (names.block(call, coils), Vec::new()),
+            };
+            RungDiagram {
+                line: src.position(*i, 0).0,
+                text: src
+                    .rungs
+                    .get(*i)
+                    .map(|r| r.text.clone())
+                    .unwrap_or_default(),
+                cond: rung.cond.as_ref().map(|c| names.element(c)),
+                block,
+                outputs,
+            }
+        })
+        .collect())
+}
+
+/// Resolves the names of a checked program.
+struct Names<'a> {
+    tags: &'a TagTable,
+    instances: &'a Instances,
+}
+
+impl Names<'_> {
+    fn operand(&self, c: &Cond) -> Operand {
+        match c {
+            Cond::Ref(r) => self.reference(r),
+            Cond::Lit(lit, _) => Operand::Literal {
+                text: match lit {
+                    Lit::Number { text, .. } | Lit::Duration { text } => text.clone(),
+                    Lit::Bool(b) => b.to_string(),
+                },
+            },
+            // The checker accepts only names and literals as values.
+            other => Operand::Literal {
+                text: format!("{other:?}"),
+            },
+        }
+    }
+
+    fn reference(&self, r: &Ref) -> Operand {
+        match &r.member {
+            Some(member) => Operand::Member {
+                instance: r.name.text.clone(),
+                inst: self.instances.get(&r.name.text).map_or(0, |(i, _)| i),
+                member: crate::logic::blocks::Member::parse(&member.text).map_or("Q", |m| m.name()),
+            },
+            None => self.tag(&r.name.text),
+        }
+    }
+
+    fn tag(&self, name: &str) -> Operand {
+        Operand::Tag {
+            name: name.to_owned(),
+            tag: self.tags.get(name).map_or(0, |t| t.id.0 as usize),
+        }
+    }
+
+    /// `c`, normally closed when `negated`.
+    fn contact(&self, c: &Cond, negated: bool) -> Element {
+        match c {
+            Cond::Ref(_) | Cond::Lit(..) => Element::Contact {
+                of: self.operand(c),
+                negated,
+            },
+            Cond::Not(inner) => self.contact(inner, !negated),
+            Cond::Edge { rising, arg } => Element::Edge {
+                rising: *rising,
+                of: Box::new(self.element(arg)),
+                negated,
+            },
+            Cond::Cmp { lhs, op, rhs, .. } => Element::Compare {
+                lhs: self.operand(lhs),
+                op: op.symbol(),
+                rhs: self.operand(rhs),
+                negated,
+            },
+            Cond::Quality { good, tag, .. } => Element::Quality {
+                good: *good,
+                of: self.tag(&tag.text),
+                negated,
+            },
+            Cond::Series(_) | Cond::Parallel(_) if negated => Element::Not {
+                of: Box::new(self.element(c)),
+            },
+            Cond::Series(items) => Element::Series {
+                items: items.iter().map(|i| self.element(i)).collect(),
+            },
+            Cond::Parallel(items) => Element::Parallel {
+                branches: items.iter().map(|i| self.element(i)).collect(),
+            },
+        }
+    }
+
+    fn element(&self, c: &Cond) -> Element {
+        self.contact(c, false)
+    }
+
+    fn coil(&self, c: &parser::Coil) -> Coil {
+        Coil {
+            kind: match c.kind {
+                CoilKind::Normal => "normal",
+                CoilKind::Negated => "negated",
+                CoilKind::Set => "set",
+                CoilKind::Reset => "reset",
+            },
+            of: self.tag(&c.name.text),
+        }
+    }
+
+    fn output(&self, o: &parser::Output) -> Output {
+        match o {
+            parser::Output::Coil(c) => Output::Coil(self.coil(c)),
+            parser::Output::Box(b) => Output::Math(MathBox {
+                op: b.op.text.clone(),
+                args: b.args.iter().map(|a| self.operand(&a.value)).collect(),
+                dest: self.tag(&b.dest.text),
+            }),
+        }
+    }
+
+    fn block(&self, call: &parser::BlockCall, coils: &[parser::Coil]) -> Option<BlockBox> {
+        let (inst, kind) = self.instances.get(&call.instance.text)?;
+        let params: Vec<(&str, bool, bool)> = param_list(kind).collect();
+        let mut positional = params.iter().filter(|p| p.2);
+        let inputs = call
+            .args
+            .iter()
+            .filter_map(|Arg { name, value }| {
+                let (pin, is_bool, _) = match name {
+                    Some(n) => {
+                        let lower = n.text.to_ascii_lowercase();
+                        *params.iter().find(|p| p.0 == lower)?
+                    }
+                    None => *positional.next()?,
+                };
+                let pin = pin.to_ascii_uppercase();
+                Some(if is_bool {
+                    BlockInput::Power {
+                        pin,
+                        of: self.element(value),
+                    }
+                } else {
+                    BlockInput::Value {
+                        pin,
+                        of: self.operand(value),
+                    }
+                })
+            })
+            .collect();
+        Some(BlockBox {
+            kind: kind.name(),
+            instance: call.instance.text.clone(),
+            inst,
+            inputs,
+            outputs: kind.outputs().iter().map(|m| m.name()).collect(),
+            main: kind.main_output().name(),
+            coils: coils.iter().map(|c| self.coil(c)).collect(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use softplc_io::point::ValueType;
+
+    use super::*;
+    use crate::image::TagId;
+
+    fn tags() -> TagTable {
+        let names = ["start", "stop", "motor", "level", "reset", "count", "lamp"];
+        TagTable::new(names.iter().enumerate().map(|(i, n)| {
+            let ty = if matches!(*n, "level" | "count") {
+                ValueType::F32
+            } else {
+                ValueType::Bool
+            };
+            (n.to_string(), TagId(i as u32), ty, true)
+        }))
+    }
+
+    fn draw(rungs: &str) -> Vec<RungDiagram> {
+        let text = format!("description: x\nrungs:\n{rungs}");
+        diagram(&text, Path::new("p.ladder.yaml"), &tags()).unwrap_or_else(|e| panic!("{e:?}"))
+    }
+
+    fn tag(name: &str, tag: usize) -> Operand {
+        Operand::Tag {
+            name: name.into(),
+            tag,
+        }
+    }
+
+    fn no(name: &str, t: usize) -> Element {
+        Element::Contact {
+            of: tag(name, t),
+            negated: false,
+        }
+    }
+
+    #[test]
+    fn contacts_branches_and_coils() {
+        let d = draw("  - (rising(start) | motor) /stop -> motor, set lamp\n");
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].line, 3);
+        assert_eq!(
+            d[0].text,
+            "(rising(start) | motor) /stop -> motor, set lamp"
+        );
+        assert_eq!(
+            d[0].cond,
+            Some(Element::Series {
+                items: vec![
+                    Element::Parallel {
+                        branches: vec![
+                            Element::Edge {
+                                rising: true,
+                                of: Box::new(no("start", 0)),
+                                negated: false
+                            },
+                            no("motor", 2),
+                        ]
+                    },
+                    Element::Contact {
+                        of: tag("stop", 1),
+                        negated: true
+                    },
+                ]
+            })
+        );
+        assert_eq!(
+            d[0].outputs,
+            vec![
+                Output::Coil(Coil {
+                    kind: "normal",
+                    of: tag("motor", 2)
+                }),
+                Output::Coil(Coil {
+                    kind: "set",
+                    of: tag("lamp", 6)
+                }),
+            ]
+        );
+        assert_eq!(d[0].block, None);
+    }
+
+    #[test]
+    fn blocks_comparisons_and_boxes() {
+        let d = draw(
+            "  - motor -> TON t(5s)\n  - start -> CTU n(10, r=reset) -> /lamp\n  - t.Q level >= 80 /(start | stop) -> ADD(count, 1) => count\n  - -> reset motor\n",
+        );
+        let ton = d[0].block.as_ref().unwrap();
+        assert_eq!((ton.kind, ton.instance.as_str(), ton.inst), ("TON", "t", 0));
+        assert_eq!(
+            ton.inputs,
+            vec![BlockInput::Value {
+                pin: "PT".into(),
+                of: Operand::Literal { text: "5s".into() }
+            }]
+        );
+        assert_eq!(ton.outputs, ["Q", "ET"]);
+        let ctu = d[1].block.as_ref().unwrap();
+        assert_eq!((ctu.kind, ctu.inst, ctu.main), ("CTU", 1, "Q"));
+        assert_eq!(
+            ctu.inputs[1],
+            BlockInput::Power {
+                pin: "R".into(),
+                of: no("reset", 4)
+            }
+        );
+        assert_eq!(ctu.coils[0].kind, "negated");
+        let Some(Element::Series { items }) = &d[2].cond else {
+            panic!("a series: {:?}", d[2].cond)
+        };
+        assert_eq!(
+            items[0],
+            Element::Contact {
+                of: Operand::Member {
+                    instance: "t".into(),
+                    inst: 0,
+                    member: "Q"
+                },
+                negated: false
+            }
+        );
+        assert_eq!(
+            items[1],
+            Element::Compare {
+                lhs: tag("level", 3),
+                op: ">=",
+                rhs: Operand::Literal { text: "80".into() },
+                negated: false
+            }
+        );
+        assert!(
+            matches!(&items[2], Element::Not { of } if matches!(**of, Element::Parallel { .. }))
+        );
+        assert_eq!(
+            d[2].outputs,
+            vec![Output::Math(MathBox {
+                op: "ADD".into(),
+                args: vec![tag("count", 5), Operand::Literal { text: "1".into() }],
+                dest: tag("count", 5)
+            })]
+        );
+        assert_eq!(d[3].cond, None);
+    }
+
+    #[test]
+    fn a_program_that_does_not_compile_has_no_diagram() {
+        let text = "rungs:\n  - strat -> motor\n";
+        let err = diagram(text, Path::new("p.yaml"), &tags()).unwrap_err();
+        assert_eq!(
+            err[0].to_string(),
+            "p.yaml:2:5: error: unknown tag `strat`; did you mean `start`?"
+        );
+    }
+}
