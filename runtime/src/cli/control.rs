@@ -8,7 +8,7 @@ use anyhow::Context;
 use super::out::{errln, out, outln};
 
 use crate::project;
-use crate::service::control::{default_socket_path, request, Request};
+use crate::service::control::{default_socket_path, request, Request, Response};
 
 /// Which running instance to talk to.
 #[derive(Debug, clap::Args)]
@@ -79,6 +79,11 @@ fn send(target: &Target, req: &Request) -> anyhow::Result<ExitCode> {
     let path = target.socket()?;
     let response =
         request(&path, req).with_context(|| format!("no answer from {}", path.display()))?;
+    report(&response)
+}
+
+/// Prints a response's message and error; the exit status it stands for.
+pub(super) fn report(response: &Response) -> anyhow::Result<ExitCode> {
     if let Some(m) = &response.message {
         outln(m)?;
     }

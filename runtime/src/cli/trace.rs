@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
-use super::control::Target;
+use super::control::{report, Target};
 use super::out::{errln, outln};
 use crate::project::trace::RawTrace;
 use crate::service::control::{request, Request, Response};
@@ -102,7 +102,7 @@ pub(super) fn trace(command: TraceCommand) -> anyhow::Result<ExitCode> {
         TraceCommand::Save(a) => save(a),
         TraceCommand::Disarm(a) => {
             let r = ask(&a.target, TraceRequest::Disarm { name: a.name })?;
-            finish(&r)
+            report(&r)
         }
     }
 }
@@ -110,20 +110,6 @@ pub(super) fn trace(command: TraceCommand) -> anyhow::Result<ExitCode> {
 fn ask(target: &Target, t: TraceRequest) -> anyhow::Result<Response> {
     let path = target.socket()?;
     request(&path, &Request::Trace(t)).with_context(|| format!("no answer from {}", path.display()))
-}
-
-fn finish(r: &Response) -> anyhow::Result<ExitCode> {
-    if let Some(m) = &r.message {
-        outln(m)?;
-    }
-    if let Some(e) = &r.error {
-        errln(&format!("error: {e}"));
-    }
-    Ok(if r.ok {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
 }
 
 fn arm(a: ArmArgs) -> anyhow::Result<ExitCode> {
@@ -153,7 +139,7 @@ fn arm(a: ArmArgs) -> anyhow::Result<ExitCode> {
     for s in r.traces.iter().flatten() {
         outln(&s.to_string())?;
     }
-    finish(&Response { message: None, ..r })
+    report(&Response { message: None, ..r })
 }
 
 fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
@@ -168,7 +154,7 @@ fn status(a: StatusArgs) -> anyhow::Result<ExitCode> {
             outln(&s.to_string())?;
         }
     }
-    finish(&r)
+    report(&r)
 }
 
 fn save(a: SaveArgs) -> anyhow::Result<ExitCode> {
@@ -177,7 +163,7 @@ fn save(a: SaveArgs) -> anyhow::Result<ExitCode> {
     }
     let r = ask(&a.target, TraceRequest::Save { name: a.name })?;
     let Some(data) = &r.trace else {
-        return finish(&r);
+        return report(&r);
     };
     if !matches!(data.state, TraceState::Complete | TraceState::Recording) {
         errln(&format!(
