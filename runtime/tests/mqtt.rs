@@ -300,3 +300,64 @@ fn tempfile_dir() -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+#[test]
+fn check_names_each_bad_mqtt_setting_at_its_place() {
+    let dir = std::env::temp_dir().join(format!("softplc-mqtt-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let program = workspace().join("programs/conveyor.expr");
+    let path = dir.join("p.yaml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"project: bad
+scan: {{ period: 50ms }}
+buses:
+  - {{ name: line1, port: sim, baud: 19200, format: 8E1 }}
+modules:
+  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}
+tags:
+  - {{ name: pump, point: mm1.Y1 }}
+  - {{ name: speed, type: u16 }}
+program: {{ file: {}, kind: expr }}
+service:
+  mqtt:
+    host: 127.0.0.1
+    port: 70000
+    group: "plant/1"
+    buffer: 0
+    password: secret
+    deadband: {{ pump: 1, nope: 2, speed: -1 }}
+    tls: {{ ca_file: missing-ca.pem }}
+"#,
+            program.display()
+        ),
+    )
+    .unwrap();
+    let out = Command::new(BIN).arg("check").arg(&path).output().unwrap();
+    assert!(!out.status.success());
+    let text =
+        String::from_utf8_lossy(&out.stderr).to_string() + &String::from_utf8_lossy(&out.stdout);
+    let f = path.display();
+    for want in [
+        format!("{f}:13:5: error: service.mqtt.node is required"),
+        format!("{f}:14:11: error: service.mqtt.port 70000 is outside 1..=65535"),
+        format!(
+            "{f}:15:12: error: service.mqtt.group \"plant/1\" cannot be a Sparkplug id: it must \
+             be non-empty, without '+', '/' or '#'"
+        ),
+        format!("{f}:16:13: error: service.mqtt.buffer 0 is outside 1..=1000000"),
+        format!("{f}:17:15: error: service.mqtt: a password needs a username"),
+        format!("{f}:18:17: error: service.mqtt.deadband: tag pump is a bool; a deadband needs a number"),
+        format!("{f}:18:26: error: service.mqtt.deadband: no tag named nope"),
+        format!("{f}:18:42: error: service.mqtt.deadband: speed: -1 is not a deadband (a number ≥ 0)"),
+        format!(
+            "{f}:19:21: error: service.mqtt.tls.ca_file {}: cannot read it: No such file or \
+             directory (os error 2)",
+            dir.join("missing-ca.pem").display()
+        ),
+    ] {
+        assert!(text.contains(&want), "missing {want:?} in:\n{text}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -23,6 +23,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 use softplc_io::point::ValueType;
 
@@ -40,7 +41,7 @@ pub const DEFAULT_BUFFER: usize = 10_000;
 pub const MAX_BUFFER: usize = 1_000_000;
 
 /// `service.mqtt:` as written.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "MQTT settings: a mapping with host, port, group, node, client_id, username, \
@@ -86,7 +87,7 @@ pub struct RawMqtt {
 }
 
 /// `service.mqtt.tls:` as written.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "TLS settings: a mapping with ca_file"
@@ -255,7 +256,7 @@ pub(crate) fn validate(
             Ok(pem) => Some((at, pem)),
             Err(e) => {
                 errors.push((
-                    "tls",
+                    "tls.ca_file",
                     MqttError::CaFile {
                         path: at,
                         message: e.to_string(),
@@ -318,17 +319,20 @@ pub(crate) fn validate(
         (None, None) => None,
     };
     let mut deadband = Vec::new();
+    // Deadband errors point at their tag's key.
+    let mut at_tag: Vec<(YPath, MqttError)> = Vec::new();
     for (tag, &value) in raw.deadband.iter().flatten() {
+        let here = path.key("deadband").key_itself(tag);
         let Some(index) = tags.iter().position(|(n, _)| n == tag) else {
-            errors.push(("deadband", MqttError::DeadbandTag { tag: tag.clone() }));
+            at_tag.push((here, MqttError::DeadbandTag { tag: tag.clone() }));
             continue;
         };
         match tags[index].1 {
             Some(ValueType::Bool) => {
-                errors.push(("deadband", MqttError::DeadbandBool { tag: tag.clone() }))
+                at_tag.push((here, MqttError::DeadbandBool { tag: tag.clone() }))
             }
-            _ if !value.is_finite() || value < 0.0 => errors.push((
-                "deadband",
+            _ if !value.is_finite() || value < 0.0 => at_tag.push((
+                path.key("deadband").key(tag),
                 MqttError::DeadbandValue {
                     tag: tag.clone(),
                     value,
@@ -337,12 +341,12 @@ pub(crate) fn validate(
             _ => deadband.push((index, value)),
         }
     }
-    let ok = errors.is_empty();
-    out.extend(
-        errors
-            .into_iter()
-            .map(|(key, e)| (path.key(key), ServiceError::Mqtt(e))),
-    );
+    let ok = errors.is_empty() && at_tag.is_empty();
+    out.extend(at_tag.into_iter().map(|(p, e)| (p, ServiceError::Mqtt(e))));
+    out.extend(errors.into_iter().map(|(key, e)| {
+        let at = key.split('.').fold(path.clone(), |p, k| p.key(k));
+        (at, ServiceError::Mqtt(e))
+    }));
     ok.then_some(MqttConfig {
         host,
         port,
