@@ -53,8 +53,11 @@ fn decoded(m: &Outgoing) -> Payload {
     Payload::decode(m.payload.as_slice()).unwrap()
 }
 
-/// (topic, seq, [(alias, value, historical)]) of each message.
-fn summary(out: &[Outgoing]) -> Vec<(String, Option<u64>, Vec<(Option<u64>, String, bool)>)> {
+/// One metric: alias, value (debug-printed), historical.
+type Seen = (Option<u64>, String, bool);
+
+/// (topic, seq, metrics) of each message.
+fn summary(out: &[Outgoing]) -> Vec<(String, Option<u64>, Vec<Seen>)> {
     out.iter()
         .map(|m| {
             let p = decoded(m);
