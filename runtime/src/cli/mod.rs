@@ -55,9 +55,6 @@ enum Command {
     Commission(commission::CommissionArgs),
     /// Run scenario files (inputs over virtual time, expected outputs) on the simulator.
     Test(test::TestArgs),
-    /// Arm a trace of a running instance, show its state, save its samples as CSV or VCD.
-    #[command(subcommand)]
-    Trace(trace::TraceCommand),
     /// List the module models a project can name, with protocols, addresses and point counts.
     Models(models::ModelsArgs),
     /// List a model's points: the name a tag's `point:` takes, direction, type, manual name.
