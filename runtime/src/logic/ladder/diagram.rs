@@ -242,10 +242,8 @@ impl Names<'_> {
                     Lit::Bool(b) => b.to_string(),
                 },
             },
-            // The checker accepts only names and literals as values.
-            other => Operand::Literal {
-                text: format!("{other:?}"),
-            },
+            // The checker accepts only names and literals as values; nothing else gets here.
+            _ => Operand::Literal { text: "?".into() },
         }
     }
 
@@ -515,6 +513,33 @@ mod tests {
             })]
         );
         assert_eq!(d[3].cond, None);
+    }
+
+    /// The JSON the page's ladder.js reads: every element and operand tagged by `k`.
+    #[test]
+    fn the_json_the_page_reads() {
+        let d = draw("  - /rising(start) t.ET > 2s -> TON t(5s) -> lamp\n");
+        let json = serde_json::to_value(&d[0]).unwrap();
+        assert_eq!(
+            json,
+            serde_json::json!({
+                "line": 3,
+                "text": "/rising(start) t.ET > 2s -> TON t(5s) -> lamp",
+                "cond": {"k": "series", "items": [
+                    {"k": "edge", "rising": true, "negated": true,
+                     "of": {"k": "contact", "negated": false,
+                            "of": {"k": "tag", "name": "start", "tag": 0}}},
+                    {"k": "compare", "op": ">", "negated": false,
+                     "lhs": {"k": "member", "instance": "t", "inst": 0, "member": "ET"},
+                     "rhs": {"k": "literal", "text": "2s"}},
+                ]},
+                "block": {"kind": "TON", "instance": "t", "inst": 0,
+                          "inputs": [{"k": "value", "pin": "PT", "of": {"k": "literal", "text": "5s"}}],
+                          "outputs": ["Q", "ET"], "main": "Q",
+                          "coils": [{"kind": "normal", "of": {"k": "tag", "name": "lamp", "tag": 6}}]},
+                "outputs": [],
+            })
+        );
     }
 
     #[test]

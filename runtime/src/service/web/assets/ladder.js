@@ -368,10 +368,10 @@ window.softplcLadder = (() => {
       node.group = svg("g", { class: "lad-el lad-math", "data-kind": "math", "data-tag": b.dest.name });
       node.left = wire(node.group, x, m, x + 16, m);
       node.group.append(svg("rect", { x: x + 16, y: y + 6, width: 2 * CW - 32, height: RH - 14, rx: 4, class: "lad-sym lad-box" }));
-      node.group.append(svg("text", { x: x + CW, y: y + 20, class: "lad-letter" }, b.op));
-      node.group.append(svg("text", { x: x + CW, y: y + 36, class: "lad-label" },
+      node.group.append(svg("text", { x: x + CW, y: y + 18, class: "lad-letter" }, b.op));
+      node.group.append(svg("text", { x: x + CW, y: y + 31, class: "lad-label" },
         b.args.map(operandText).join(", ") + " ⇒ " + b.dest.name));
-      node.value = svg("text", { x: x + CW, y: y + 50, class: "lad-value" }, "");
+      node.value = svg("text", { x: x + CW, y: y + 44, class: "lad-value" }, "");
       node.group.append(node.value);
       g.append(node.group);
     };
