@@ -709,6 +709,23 @@ fn a_misspelt_setting_gets_the_models_close_keys() {
 }
 
 #[test]
+fn a_dcon_setting_on_a_modbus_module_is_refused_not_ignored() {
+    let module = "modules:\n  - name: ex1\n    bus: line1\n    model: ex9053d-m\n    address: 2\n    settings:\n      Sync: lead\n";
+    let e = one(&format!("{HEAD}{BUS}{module}"));
+    assert_eq!(at(&e), (16, 13));
+    assert!(
+        e.to_string().ends_with(
+            "module ex1: setting `Sync`: sync is a DCON setting and the module speaks Modbus \
+             (protocol: modbus); remove it, or use protocol: text"
+        ),
+        "{e}"
+    );
+    // On its DCON side the same setting is the module's own.
+    let text = format!("{HEAD}{BUS}{module}    protocol: text\n");
+    assert!(parse_str(&text, &file()).is_ok());
+}
+
+#[test]
 fn bad_point_suggests_close_matches() {
     let text = format!("{HEAD}{BUS}{MM1}tags:\n  - name: motor\n    point: mm1.Y9\n");
     let e = one(&text);

@@ -24,7 +24,7 @@ use super::raw::{
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
 use crate::suggest::edit_distance;
-use softplc_io::devices::{DeviceConfig, ModuleAddress, PushDown, SettingError};
+use softplc_io::devices::{DeviceConfig, ModuleAddress, ModuleSettings, PushDown, SettingError};
 
 /// Default watchdog time, in periods.
 const WATCHDOG_PERIODS: u32 = 5;
@@ -672,6 +672,33 @@ impl Validator<'_> {
                 }
                 None
             }
+        };
+
+        // A DCON-only setting on a module speaking Modbus would do nothing: refused, not
+        // ignored.
+        let settings = match (settings, protocol) {
+            (Some(ModuleSettings::Ex9053(s)), Some(Protocol::Modbus))
+                if s.dcon_only().is_some() =>
+            {
+                let dcon = s.dcon_only().unwrap_or_default();
+                let key = text
+                    .iter()
+                    .map(|(k, _)| k)
+                    .find(|k| k.eq_ignore_ascii_case(dcon))
+                    .cloned()
+                    .unwrap_or_else(|| dcon.to_owned());
+                let kind = ErrorKind::BadSetting {
+                    module: m.name.clone(),
+                    message: format!(
+                        "{dcon} is a DCON setting and the module speaks Modbus (protocol: \
+                         modbus); remove it, or use protocol: text"
+                    ),
+                    key: key.clone(),
+                };
+                self.error(path.key("settings").key(&key), kind);
+                None
+            }
+            (settings, _) => settings,
         };
 
         // The module's own watchdog (see `watchdog.rs`).

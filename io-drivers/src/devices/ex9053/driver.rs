@@ -86,8 +86,9 @@ use crate::point::Value;
 
 /// Builds a driver from a validated module entry (the catalog's constructor). A configuration
 /// of another family (never built by project validation, which parses the settings with this
-/// model) gives the defaults; a DCON-only setting on a module running Modbus is ignored, with
-/// a warning (see [`Ex9053Driver::new`]).
+/// model) gives the defaults. Project validation refuses a DCON-only setting on a module
+/// running Modbus; [`Ex9053Driver::new`] still drops one, with a warning, for callers that
+/// build a driver by hand.
 pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
     let settings = match &config.settings {
         ModuleSettings::Ex9053(s) => *s,

@@ -172,6 +172,18 @@ impl Settings {
         Ok(())
     }
 
+    /// The first DCON-only setting given (`checksum`, `sync`): the module's Modbus side has
+    /// neither, so on `protocol: modbus` it is refused before the first scan.
+    pub fn dcon_only(&self) -> Option<&'static str> {
+        if self.checksum {
+            Some("checksum")
+        } else if self.sync != SyncRole::Off {
+            Some("sync")
+        } else {
+            None
+        }
+    }
+
     /// Parses every `key: value` of the entry, later keys winning; every refusal comes back
     /// with its index.
     pub fn parse(pairs: &[(String, String)]) -> Result<Self, Vec<KeyError>> {
