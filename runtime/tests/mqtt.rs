@@ -9,21 +9,16 @@
 //! Python environment (`target/py-venv`, pinned in `runtime/tests/mqtt/requirements.txt`);
 //! without them this test fails and says so.
 
-use std::io::{BufRead, BufReader, Write};
-use std::net::TcpListener;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
 
-const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+#[path = "common/host.rs"]
+mod host;
+use host::{free_port, lines_of, repo as workspace};
 
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
 fn python() -> PathBuf {
     let py = workspace().join("target/py-venv/bin/python");
@@ -34,14 +29,6 @@ fn python() -> PathBuf {
         py.display()
     );
     py
-}
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// A mosquitto of this test: loopback only, anonymous, no persistence.
@@ -92,18 +79,6 @@ impl Drop for Broker {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-fn lines_of(r: impl std::io::Read + Send + 'static) -> Receiver<String> {
-    let (tx, rx) = channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(r).lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
-                break;
-            }
-        }
-    });
-    rx
 }
 
 fn project(dir: &Path, port: u16) -> PathBuf {
