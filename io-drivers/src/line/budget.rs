@@ -74,7 +74,8 @@ pub fn modbus_reply_len(req: &Request) -> usize {
         | Request::WriteMultipleCoils { .. }
         | Request::WriteMultipleRegisters { .. } => 5,
         Request::MaskWriteRegister { .. } => 7,
-        Request::Collect { .. } => 7,
+        // FCN SLVSEQ TYPE DATH DATL 0 (MiniMod manual, "The Modbus function Collect").
+        Request::Collect { .. } => 6,
     };
     1 + pdu + 2
 }

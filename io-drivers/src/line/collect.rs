@@ -31,8 +31,10 @@
 //!   way when the ordinary polls start (on the virtual line a slave cannot hear another one's
 //!   reply, so a slave that a real line would have blocked may answer an earlier Collect too).
 //! - The wait for a reply is the window's slots (3 ms each) plus 1 ms, the manual's "nominal
-//!   timeout", plus the owner's inter-character allowance, since USB adapters and ptys
-//!   deliver late. Each Collect is one exchange of the owner's (`BusOwner::exchange`), with
+//!   timeout", plus one character time ([`first_char_margin`]): a reply that starts at the
+//!   window's last instant is heard once its first character is in. The floor of a round
+//!   ([`floor::CollectFloor`]) counts the window alone, so the owner's idle round is that
+//!   floor and one character above it. Each Collect is one exchange of the owner's (`BusOwner::exchange`), with
 //!   the discipline of every other: t3.5 before it, the input flushed, and after a bad reply
 //!   the guard time for that wait, then a flush. Silence is the round's normal end, not a
 //!   timeout: no guard follows it.
@@ -46,12 +48,23 @@ use std::time::Duration;
 use crate::driver::Driver;
 use crate::driver::{Reply, Transaction};
 use crate::line::bus::{line_err, BusOwner, Frame, Miss, Silence};
+use crate::line::settings::LineSettings;
 use crate::modbus::{Request, Response};
 
 /// Reply slot of one address ("Each slave has 3 ms of time for replying").
 pub const SLOT: Duration = Duration::from_millis(3);
 /// Margin after the last slot ("plus 1 for safety").
 pub const SAFETY: Duration = Duration::from_millis(1);
+
+/// How long after a Collect's reply window the owner still listens for a reply to begin: one
+/// character time. The window (3 ms a slot "plus 1 for safety") is when a slave may start
+/// to answer; a reply begun at its very end is heard once its first character has been
+/// received, one character later. Less would cut off a reply the manual allows; more (the
+/// owner once waited its inter-character allowance, 8.6 ms at 19200) only makes every
+/// silent window, the normal end of every round, longer than the manual's timeout.
+pub fn first_char_margin(settings: LineSettings) -> Duration {
+    settings.char_time()
+}
 
 /// The tag under which a member's events are handed to its driver: no transaction a driver
 /// plans carries it, so an event is never taken for the answer to one.
@@ -216,9 +229,6 @@ pub struct CollectState {
     /// End of the last Collect request on the line.
     last_sent: Duration,
 }
-
-/// Length of a Collect reply: `SLAVE 46 SLVSEQ TYPE DATH DATL 00` + CRC.
-const COLLECT_REPLY_LEN: usize = 9;
 
 impl CollectState {
     fn prepare(&mut self, modules: usize) {
@@ -385,7 +395,7 @@ impl BusOwner {
     /// slave's slot (from the end of the last request) and a reply's length have passed, then
     /// drops whatever came, so no late or repeated reply meets the next poll.
     fn quiet_after_last_slot(&mut self, slot_end: Duration) {
-        let end = self.collect.last_sent + slot_end + self.settings.chars(COLLECT_REPLY_LEN);
+        let end = self.collect.last_sent + slot_end + self.settings.chars(floor::REPLY_LEN);
         self.transport.wait_until(end);
         match self.transport.flush_input() {
             Ok(n) => self.collect.stats.dropped_bytes += n as u64,
@@ -403,7 +413,7 @@ impl BusOwner {
     /// Broadcasts one Collect and listens through its reply window, as one exchange of the
     /// owner's.
     fn collect_exchange(&mut self, request: &Request, window: Duration) -> Result<Heard, Exchange> {
-        let wait = window + self.inter_char_timeout();
+        let wait = window + first_char_margin(self.settings);
         // A Collect round ends when a window passes in silence: that is no timeout.
         let frame = Frame::Modbus {
             address: 0,
@@ -440,6 +450,8 @@ impl BusOwner {
         }
     }
 }
+
+pub mod floor;
 
 #[cfg(test)]
 mod tests;

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use softplc_io::line::budget::{line_budget_on, AdapterTiming};
+use softplc_io::line::collect::floor::CollectFloor;
 use softplc_io::line::echo::EchoMode;
 use softplc_io::line::latency::{Assumed, SysfsRoot};
 use softplc_io::point::Access;
@@ -188,6 +189,9 @@ pub fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
             fmt_duration(budget.write_floor),
             fmt_duration(budget.cycle_floor())
         );
+        if let Some(line) = collect_floor_line(bus.settings, adapter, &drivers) {
+            let _ = writeln!(out, "  {line}");
+        }
         for m in &budget.modules {
             let _ = writeln!(
                 out,
@@ -275,6 +279,41 @@ pub fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         let _ = writeln!(out, "{w}");
     }
     out
+}
+
+/// The floor of a line's Collect round, for a line with modules in event mode (MiniMod
+/// manual, "The Modbus function Collect"; `line/collect/floor.rs`), with what it includes.
+fn collect_floor_line(
+    settings: softplc_io::line::LineSettings,
+    adapter: AdapterTiming,
+    drivers: &[(String, Box<dyn softplc_io::driver::Driver>, Vec<Access>)],
+) -> Option<String> {
+    let members: Vec<u8> = drivers
+        .iter()
+        .filter_map(|(_, d, _)| d.collect_membership().map(|(unit, _)| unit.get()))
+        .collect();
+    let floor = CollectFloor::over(settings, adapter, &members)?;
+    let (first, last) = floor.window();
+    let held = if adapter.latency.is_zero() {
+        String::new()
+    } else {
+        format!(
+            ", up to {} of adapter latency",
+            fmt_duration(adapter.latency)
+        )
+    };
+    Some(format!(
+        "collect floor (event mode, window {first}–{last}, {} member(s)): idle round {} (a \
+         Collect request of {} characters, {} slots × 3 ms + 1 ms, t3.5{held}); each event \
+         {} more (its {}-character reply from the start of its slot, t3.5, the next Collect; \
+         less from address {last}, which ends the round); no reply delay applies",
+        members.len(),
+        fmt_duration(floor.idle()),
+        softplc_io::line::collect::floor::REQUEST_LEN,
+        floor.slots(),
+        fmt_duration(floor.per_event()),
+        softplc_io::line::collect::floor::REPLY_LEN,
+    ))
 }
 
 #[cfg(test)]

@@ -424,3 +424,118 @@ fn event_mode_with_the_text_protocol_and_two_slaves_with_events() {
     assert!(f.modules.iter().all(|m| m.last_error.is_none()));
     assert_eq!(r.owner.collect_stats().failures, 0);
 }
+
+/// Back-to-back idle rounds over 4 members: from the end of one to the end of the next.
+fn idle_round_time(specs: &[Spec<'_>]) -> Duration {
+    let mut r = rig(specs);
+    r.startup();
+    r.read_at(1000);
+    let (first, sent) = r.read_at(1100);
+    assert_eq!(sent.len(), 1, "one silent Collect");
+    r.owner.sync(first.finished);
+    let second = r.owner.read_inputs();
+    second.finished - first.finished
+}
+
+#[test]
+fn an_idle_round_is_its_floor_and_one_character() {
+    let members: Vec<Spec<'_>> = (1..=4).map(|a| (a, Protocol::Modbus, EVENTS)).collect();
+    let s = LineSettings::DEFAULT;
+    let floor = floor::CollectFloor::over(s, Default::default(), &[1, 2, 3, 4]).unwrap();
+    // t3.5 after the last round, 8 characters, 4 slots + 1 ms, and the first-character margin.
+    assert_eq!(idle_round_time(&members), floor.idle() + s.char_time());
+    assert_eq!(first_char_margin(s), s.char_time());
+    // 19.588 ms + 0.573 ms: within 5 % of the floor (the manual's own timeout).
+    assert!(floor.idle().mul_f64(1.05) > floor.idle() + s.char_time());
+}
+
+/// A MiniMod that starts its Collect replies `late` later in its slot than the simulator.
+#[derive(Debug)]
+struct LateInSlot {
+    inner: Box<dyn crate::sim::device::SimDevice>,
+    late: Duration,
+}
+
+impl crate::sim::device::SimDevice for LateInSlot {
+    fn model(&self) -> &'static str {
+        self.inner.model()
+    }
+    fn address(&self) -> u8 {
+        self.inner.address()
+    }
+    fn advance_to(&mut self, t: Duration) {
+        self.inner.advance_to(t);
+    }
+    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<crate::sim::device::SimReply> {
+        let mut reply = self.inner.on_frame(frame, t)?;
+        if frame.get(1) == Some(&70) {
+            reply.delay += self.late;
+        }
+        Some(reply)
+    }
+    fn points(&self) -> &'static [crate::point::PointSpec] {
+        self.inner.points()
+    }
+    fn get(&self, point: &str) -> Result<Value, crate::sim::device::SimError> {
+        self.inner.get(point)
+    }
+    fn set(&mut self, point: &str, value: Value) -> Result<(), crate::sim::device::SimError> {
+        self.inner.set(point, value)
+    }
+    fn yields_to_earlier_reply(&self, frame: &[u8]) -> bool {
+        self.inner.yields_to_earlier_reply(frame)
+    }
+}
+
+#[test]
+fn a_reply_begun_at_the_end_of_the_window_is_heard() {
+    // Slave 4 of window 1–4 starts its reply 13 ms after the request, the last instant of
+    // 4 slots + 1 ms (the simulator starts 1 ms into the slot, at 10 ms: 3 ms later).
+    let line = LineSettings::DEFAULT;
+    let model = devices::model("minimod").unwrap();
+    let mut world = SimWorld::new(vec![line]);
+    let mut modules = Vec::new();
+    for address in 1..=4u8 {
+        let name = format!("mm{address}");
+        let sim = (model.simulator)(address);
+        let sim: Box<dyn crate::sim::device::SimDevice> = if address == 4 {
+            Box::new(LateInSlot {
+                inner: sim,
+                late: Duration::from_millis(3),
+            })
+        } else {
+            sim
+        };
+        world.add_device(0, &name, sim);
+        let config = model
+            .device_config(&name, address, Protocol::Modbus, EVENTS)
+            .unwrap();
+        modules.push(Module::new(name, (model.driver)(&config)));
+    }
+    let world = world.shared();
+    let clock = Arc::new(VirtualClock::new());
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let port = Recorder {
+        inner: VirtualPort::new(world.clone(), 0, line, clock.clone()),
+        log: log.clone(),
+    };
+    let owner = BusOwner::new("line", Box::new(port), Discipline::default(), modules);
+    let mut r = Rig {
+        clock,
+        world,
+        owner,
+        log,
+    };
+    r.startup();
+    r.read_at(1000);
+    r.at(1050);
+    r.set(3, "X1", true);
+    let (f, sent) = r.read_at(1100);
+    assert_eq!(sent, [collect(1, 4, 0, 0)], "no poll: the event was heard");
+    assert_eq!(value(&f, 3, "X1"), Some(Value::Bool(true)));
+    assert!(f.modules.iter().all(|m| m.last_error.is_none()));
+    let stats = r.owner.collect_stats();
+    assert_eq!((stats.events, stats.failures), (1, 0));
+    let (_, sent) = r.read_at(1200);
+    assert_eq!(sent, [collect(1, 4, 4, 1)], "acknowledged by the next round");
+}

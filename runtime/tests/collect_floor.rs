@@ -1,0 +1,100 @@
+//! `softplc check` prints the floor of a Collect round for a line with MiniMods in event mode
+//! (MiniMod manual, "The Modbus function Collect"), with what it includes, and nothing of the
+//! kind for a line that is only polled.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+
+/// A project folder: bus `events` at `baud` with MiniMods 1..=4 in event mode, bus `polled`
+/// with one MiniMod polled.
+fn folder(case: &str, baud: u32) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "softplc-collect-floor-{}-{case}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("run.expr"), "lamp = button\n").unwrap();
+    let mut modules = String::new();
+    for a in 1..=4 {
+        modules.push_str(&format!(
+            "  - {{ name: mm{a}, bus: events, model: minimod, address: {a}, watchdog: off, \
+             settings: {{ events: true }} }}\n"
+        ));
+    }
+    let text = format!(
+        "project: collect
+scan: {{ period: 100ms }}
+buses:
+  - {{ name: events, port: sim, baud: {baud} }}
+  - {{ name: polled, port: sim }}
+modules:
+{modules}  - {{ name: mm9, bus: polled, model: minimod, address: 9, watchdog: off }}
+tags:
+  - {{ name: button, point: mm1.X1 }}
+  - {{ name: lamp, point: mm9.Y1, safe: false }}
+program: {{ file: run.expr, kind: expr }}
+"
+    );
+    std::fs::write(dir.join("project.yaml"), text).unwrap();
+    dir
+}
+
+fn check(dir: &PathBuf) -> String {
+    let out = Command::new(BIN)
+        .arg("check")
+        .arg(dir.join("project.yaml"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(dir);
+    stdout
+}
+
+fn floor_lines(report: &str) -> Vec<&str> {
+    report
+        .lines()
+        .map(str::trim_start)
+        .filter(|l| l.starts_with("collect floor"))
+        .collect()
+}
+
+#[test]
+fn check_prints_the_collect_floor_of_a_line_in_event_mode() {
+    let report = check(&folder("19200", 19200));
+    // 8 characters of 11 bits at 19200 (4.583 ms) + 4 × 3 ms + 1 ms + t3.5 (2.005 ms);
+    // an event: 8 + 9 characters (9.740 ms) + t3.5 − its 3 ms slot.
+    assert_eq!(
+        floor_lines(&report),
+        [
+            "collect floor (event mode, window 1–4, 4 member(s)): idle round 19.59ms (a Collect \
+          request of 8 characters, 4 slots × 3 ms + 1 ms, t3.5); each event 8.74ms more (its \
+          9-character reply from the start of its slot, t3.5, the next Collect; less from \
+          address 4, which ends the round); no reply delay applies"
+        ],
+        "{report}"
+    );
+    // Printed with the bus it belongs to, not the polled one.
+    let events = report.find("bus events:").unwrap();
+    let polled = report.find("bus polled:").unwrap();
+    let at = report.find("collect floor").unwrap();
+    assert!(events < at && at < polled, "{report}");
+}
+
+#[test]
+fn above_19200_the_floor_uses_the_fixed_t3_5() {
+    let report = check(&folder("57600", 57600));
+    // 8 × 190.97 µs = 1.528 ms + 13 ms + 1.75 ms.
+    let lines = floor_lines(&report);
+    assert_eq!(lines.len(), 1, "{report}");
+    assert!(lines[0].contains("idle round 16.28ms"), "{}", lines[0]);
+    // 17 × 190.97 µs = 3.247 ms + 1.75 ms − 3 ms = 1.997 ms.
+    assert!(lines[0].contains("each event 2.00ms more"), "{}", lines[0]);
+}
