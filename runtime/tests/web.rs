@@ -435,7 +435,7 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
          \x20 - {{ name: lamp,         point: mm2.Y1, safe: false }}\n\
          \x20 - {{ name: seen,         type: bool }}\n\
          program: {{ file: machine.ladder.yaml, kind: ladder }}\n\
-         service:\n  web: {{ bind: \"127.0.0.1:{port}\" }}\n"
+         service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, token: {TOKEN} }}\n"
     );
     std::fs::write(dir.join("project.yaml"), project).unwrap();
     let plc = run_plc(&dir.join("project.yaml"), &dir.join("ctl.sock"), port);
@@ -503,6 +503,17 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
     assert!(sim
         .wait_for("minimod@1.Y1", "0", Duration::from_secs(5))
         .is_some());
+
+    // A forced tag is marked where the diagram shows it, lit by the forced value.
+    let auth = format!("Content-Type: application/json\r\nAuthorization: Bearer {TOKEN}\r\n");
+    let (code, text) = post(port, "/api/force", &auth, r#"{"tag":"seen","value":"0"}"#);
+    assert_eq!(code, 200, "{text}");
+    b.wait_for(
+        "(() => { const c = document.querySelector('#ladder svg[data-rung=\"4\"] .lad-coil'); \
+         return c.classList.contains('forced') && c.querySelector('.lad-value').textContent === '0'; })()",
+        Duration::from_secs(10),
+    )
+    .expect("the forced coil is marked, with its forced value");
 
     // The rung's source line is one click away.
     assert_eq!(

@@ -137,6 +137,7 @@ window.softplcLadder = (() => {
       p.group.classList.toggle("pass", passes);
       p.group.classList.toggle("unknown", v === null);
       p.group.dataset.passes = passes ? "1" : "0";
+      p.group.classList.toggle("forced", opts.forced !== undefined && forced(ctx, opts.forced));
       lit(p.left, powered);
       lit(p.right, out);
       if (opts.shown) p.value.textContent = opts.shown(ctx);
@@ -161,10 +162,16 @@ window.softplcLadder = (() => {
     };
   }
 
+  // Whether tag `tag` is forced now (a force holds the value the diagram is lit by).
+  function forced(ctx, tag) {
+    return !!ctx.s && Array.isArray(ctx.s.forced) && ctx.s.forced.includes(tag);
+  }
+
   function contact(e) {
     const o = e.of;
     return cell(operandText(o), contactSymbol(e.negated), {
       kind: e.negated ? "nc" : "no", tag: operandText(o), negated: e.negated,
+      forced: o.k === "tag" ? o.tag : undefined,
       value: (ctx) => {
         const v = value(ctx, ctx.s, o);
         if (v === null || v === undefined) return null;
@@ -353,6 +360,7 @@ window.softplcLadder = (() => {
     node.paint = (ctx, powered) => {
       node.group.classList.toggle("energised", powered);
       node.group.dataset.energised = powered ? "1" : "0";
+      node.group.classList.toggle("forced", forced(ctx, c.of.tag));
       lit(node.left, powered);
       lit(node.right, powered);
       node.value.textContent = ctx.s ? fmt(ctx.s.v[c.of.tag]) : "";
