@@ -206,6 +206,7 @@ mod tests {
     fn routes_and_methods() {
         assert_eq!(route(Method::Get, "/"), Ok(Route::Index));
         assert_eq!(route(Method::Head, "/app.js"), Ok(Route::Script));
+        assert_eq!(route(Method::Get, "/ladder.js"), Ok(Route::LadderScript));
         assert_eq!(route(Method::Get, "/api/events"), Ok(Route::Events));
         assert_eq!(route(Method::Post, "/api/force"), Ok(Route::Force));
         assert_eq!(route(Method::Get, "/api/force"), Err(405));
