@@ -9,6 +9,7 @@ pub mod reaction;
 pub mod scale;
 pub mod scheduler;
 pub mod serial_path;
+pub mod trace_cost;
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -78,5 +79,6 @@ pub fn all() -> Vec<Scenario> {
         pulse::SCENARIO,
         serial_path::SCENARIO,
         scale::SCENARIO,
+        trace_cost::SCENARIO,
     ]
 }
