@@ -11,6 +11,7 @@ mod monitor;
 mod out;
 mod replay;
 mod run;
+mod schema;
 mod sim;
 pub mod test;
 mod trace;
@@ -65,6 +66,9 @@ enum Command {
     /// Re-run a project's program on a flight record's inputs and say where its outputs first
     /// differ from the recorded ones (or that they match).
     Replay(replay::ReplayArgs),
+    /// Print the JSON Schema of the project file, ladder programs or scenario files (the
+    /// repository's schema/*.schema.json), for an editor's completion and checks.
+    Schema(schema::SchemaArgs),
     /// Listen on a serial line without sending and print every frame heard, decoded (Modbus
     /// RTU, MiniMod text, RESI ASCII, DCON), with the silence before it.
     Monitor(monitor::MonitorArgs),
@@ -90,6 +94,7 @@ pub fn main() -> ExitCode {
         Command::Models(a) => models::models(a),
         Command::Points(a) => models::points(a),
         Command::Monitor(a) => monitor::monitor(a),
+        Command::Schema(a) => schema::schema(a),
     };
     match result {
         Ok(code) => code,

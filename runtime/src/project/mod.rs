@@ -23,6 +23,7 @@ pub mod mqtt;
 pub mod nesting;
 pub mod offload;
 pub mod raw;
+mod raw_schema;
 pub mod recorder;
 pub mod retain;
 mod scada;

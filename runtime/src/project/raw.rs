@@ -102,11 +102,13 @@
 use std::fmt;
 use std::time::Duration;
 
+use schemars::JsonSchema;
 use serde::de::{self, Deserializer, MapAccess, Unexpected, Visitor};
 use serde::Deserialize;
 
-/// The whole file.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+/// A softplc project file: the scan, the RS-485 lines and their modules, the tags, the
+/// program, and optionally a simulated plant, services, retain, push-down, recorder, traces.
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a project: a mapping with project, scan, buses, modules, tags, program and plant"
@@ -148,7 +150,7 @@ pub struct RawProject {
 }
 
 /// `scan:`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "scan settings: a mapping with period, watchdog and realtime"
@@ -165,7 +167,7 @@ pub struct RawScan {
 }
 
 /// `scan.watchdog:`.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "watchdog settings: a mapping with time and sensitivity"
@@ -180,7 +182,7 @@ pub struct RawWatchdog {
 }
 
 /// `scan.realtime:`.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "real-time settings: a mapping with priority, cpu and lock_memory"
@@ -198,7 +200,7 @@ pub struct RawRealtime {
 }
 
 /// One `buses:` entry.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh, rs485, echo, adapter_latency"
@@ -213,6 +215,7 @@ pub struct RawBus {
     pub baud: Option<Int>,
     /// Character format (default `8E1`).
     #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::serial_format")]
     pub format: Option<String>,
     /// Response timeout (default 100 ms).
     #[serde(default)]
@@ -228,6 +231,7 @@ pub struct RawBus {
     pub rs485: Option<RawRs485>,
     /// `none` or `discard`: whether the adapter's echo of every request is read back.
     #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::echo")]
     pub echo: Option<String>,
     /// `auto` or a duration: the USB adapter's latency timer.
     #[serde(default)]
@@ -269,7 +273,7 @@ impl<'de> Deserialize<'de> for RawAdapterLatency {
 }
 
 /// A bus's `rs485:` mapping.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "rs485: a mapping with rts_on_send, delay_before_send, delay_after_send"
@@ -287,7 +291,7 @@ pub struct RawRs485 {
 }
 
 /// One `modules:` entry.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a module: a mapping with name, bus, model, address, protocol, settings and watchdog"
@@ -303,17 +307,19 @@ pub struct RawModule {
     pub address: Int,
     /// Protocol (default: the model's first).
     #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::protocol")]
     pub protocol: Option<String>,
     /// Model-specific settings.
     #[serde(default)]
     pub settings: Option<Settings>,
     /// The module's own watchdog: `auto` (default) or `off` (see [`super::watchdog`]).
     #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::module_watchdog")]
     pub watchdog: Option<ScalarText>,
 }
 
 /// One `tags:` entry.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a tag: a mapping with name and point or type, safe, initial"
@@ -326,6 +332,7 @@ pub struct RawTag {
     pub point: Option<String>,
     /// The type of a memory tag.
     #[serde(default, rename = "type")]
+    #[schemars(schema_with = "super::raw_schema::field::tag_type")]
     pub ty: Option<String>,
     /// Safe-state value (outputs).
     #[serde(default)]
@@ -341,6 +348,7 @@ pub struct RawTag {
     pub retain: Option<bool>,
     /// Push-down of the rung writing this output (see [`super::offload`]).
     #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::tag_offload")]
     pub offload: Option<ScalarText>,
     /// MiniMod input debounce in the module (see [`super::offload`]).
     #[serde(default)]
@@ -351,7 +359,7 @@ pub struct RawTag {
 }
 
 /// `program:`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a program: a mapping with file and kind"
@@ -360,11 +368,12 @@ pub struct RawProgram {
     /// The program file, relative to the project file's folder.
     pub file: String,
     /// Its language.
+    #[schemars(schema_with = "super::raw_schema::field::program_kind")]
     pub kind: String,
 }
 
 /// `plant:`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a plant: a mapping with model and wiring"

@@ -15,6 +15,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::error::ErrorKind;
@@ -27,7 +28,7 @@ pub const DEFAULT_SIZE: u64 = 256 << 20;
 pub const MIN_SIZE: u64 = 1 << 20;
 
 /// `recorder:` as written.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "recorder settings: a mapping with keep, size and folder"

@@ -13,6 +13,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::error::ErrorKind;
@@ -23,7 +24,7 @@ use super::span::YPath;
 pub const DEFAULT_RETAIN_PERIOD: Duration = Duration::from_secs(10);
 
 /// `retain:` as written.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "retain settings: a mapping with file and period"

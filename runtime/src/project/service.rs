@@ -28,6 +28,7 @@ use std::fmt;
 use std::net::SocketAddr;
 use std::time::Duration;
 
+use schemars::JsonSchema;
 use serde::de::{self, value::MapAccessDeserializer, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 use softplc_io::point::ValueType;
@@ -35,7 +36,7 @@ use softplc_io::point::ValueType;
 use super::raw::{DurationText, Int};
 
 /// `service:` as written.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "service settings: a mapping with metrics, modbus_tcp, web and mqtt"
@@ -56,7 +57,7 @@ pub struct RawService {
 }
 
 /// `service.modbus_tcp:` as written.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "Modbus TCP settings: a mapping with bind, unit, writes, allow_remote_writes, \

@@ -21,6 +21,7 @@
 //! The same rules check a trace armed at run time (`softplc trace arm --tags ...`): both go
 //! through [`build`].
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use softplc_io::point::ValueType;
 
@@ -40,7 +41,7 @@ pub const DEFAULT_PRE: u32 = 100;
 pub const DEFAULT_POST: u32 = 400;
 
 /// One `traces:` entry as written (also the body of a run-time `trace arm`).
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a trace: a mapping with name, tags, trigger, pre, post, mode and every"
@@ -61,6 +62,7 @@ pub struct RawTrace {
     pub post: Option<i64>,
     /// `single` or `repeat`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(schema_with = "super::raw_schema::field::trace_mode")]
     pub mode: Option<String>,
     /// One sample every this many cycles.
     #[serde(default, skip_serializing_if = "Option::is_none")]

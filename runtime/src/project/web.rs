@@ -23,6 +23,7 @@ use std::fmt;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::scada::ServiceError;
@@ -41,7 +42,7 @@ pub const MIN_REMOTE_TOKEN: usize = 16;
 pub const MAX_TOKEN: usize = 256;
 
 /// `service.web:` as written.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "web page settings: a mapping with bind, writes, token, token_file, token_env \

@@ -19,6 +19,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 use softplc_io::point::{Access, Value};
 
@@ -26,40 +27,60 @@ use crate::project::raw::{DurationText, Settings};
 use crate::project::span::{Locator, YPath};
 use crate::project::{self, Binding, PortConfig, ProgramKind, Project};
 
-/// A scenario file as written.
-#[derive(Debug, Deserialize)]
+/// A scenario file: inputs over virtual time and the outputs expected, run against a project
+/// by `softplc test`.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a scenario: a mapping with project, steps and optionally name, programs, watch, plant, until, expect_retained"
 )]
 struct RawScenario {
+    /// What the scenario shows (default: the file's name).
     #[serde(default)]
     name: Option<String>,
+    /// The project file, relative to this file.
     project: String,
+    /// Programs to run the scenario with, once each, all to the same trace; relative to this
+    /// file, the language told by the name (`.ladder.yaml`, `.rhai`, `.expr`). Default: the
+    /// project's program.
     #[serde(default)]
     programs: Vec<String>,
+    /// Tags in the trace (default: the expected tags and the outputs).
     #[serde(default)]
     watch: Vec<String>,
+    /// Keep the project's plant model (default false: removed, the steps drive the inputs).
     #[serde(default)]
     plant: Option<bool>,
+    /// Run length on the virtual clock (default: the last step + 1 s).
     #[serde(default)]
     until: Option<DurationText>,
+    /// Inputs set and values expected, by time.
     steps: Vec<RawStep>,
+    /// Values in the retain file after the run, by tag.
     #[serde(default)]
     expect_retained: Option<Settings>,
 }
 
-#[derive(Debug, Deserialize)]
+/// One step: at a time, inputs to set and/or tag values to expect.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a step: a mapping with at and set and/or expect"
 )]
 struct RawStep {
+    /// Scenario time of the step, from the start of the run.
     at: DurationText,
+    /// Module inputs of simulated modules to set, by tag: `{ button: 1 }`.
     #[serde(default)]
     set: Option<Settings>,
+    /// Tag values expected after the last scan that starts by `at`: `{ light: 1 }`.
     #[serde(default)]
     expect: Option<Settings>,
+}
+
+/// The JSON Schema of a scenario file (`softplc schema scenario`).
+pub fn file_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+    generator.root_schema_for::<RawScenario>()
 }
 
 /// An input set by a step: the tag and the simulated module point that feeds it.

@@ -63,6 +63,7 @@ pub use diagram::{
 pub use error::{CompileError, CompileErrorKind, Driver, Expected, TypeError};
 pub use exec::LadderProgram;
 pub use parser::CoilKind;
+pub(crate) use source::file_schema;
 
 use crate::logic::blocks::Instance;
 use crate::logic::expr::TagTable;

@@ -8,12 +8,13 @@
 //! side by side, a folded line break in the text matching one space of the rung; where they part
 //! (an escape), the position falls back to the rung's start.
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use crate::project::span::{Locator, YPath};
 
-/// The document as written.
-#[derive(Debug, Deserialize)]
+/// A ladder program: its rungs, each one line of text (`X1 AND NOT X2 => Y1`).
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a ladder program: a mapping with `rungs:` (a list of rungs) and an optional `description:`"
@@ -23,8 +24,16 @@ struct RawLadder {
     #[serde(default)]
     #[allow(dead_code)]
     description: Option<String>,
-    /// The rungs, in execution order.
+    /// The rungs, in execution order, each read left to right like a ladder diagram: contacts
+    /// (`x`, `/x`, `rising(x)`, `level >= 80`) in series, `|` for parallel branches, `->`,
+    /// then coils (`y`, `/y`, `set y`, `reset y`), a block (`TON t(10s) -> lamp`) or a box
+    /// (`ADD(n, 1) => n`). The guide is docs/programming.md.
     rungs: Vec<String>,
+}
+
+/// The JSON Schema of a ladder program file (`softplc schema ladder`).
+pub(crate) fn file_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+    generator.root_schema_for::<RawLadder>()
 }
 
 /// One rung's text and where it starts in the file.
