@@ -40,10 +40,15 @@ struct Broker {
 
 impl Broker {
     fn start(dir: &Path, port: u16) -> Self {
+        Self::start_with(dir, port, "")
+    }
+
+    /// With `extra` configuration lines for the listener (TLS).
+    fn start_with(dir: &Path, port: u16, extra: &str) -> Self {
         let conf = dir.join("mosquitto.conf");
         std::fs::write(
             &conf,
-            format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"),
+            format!("listener {port} 127.0.0.1\n{extra}allow_anonymous true\npersistence false\n"),
         )
         .unwrap();
         let child = Command::new("mosquitto")
@@ -70,7 +75,15 @@ impl Broker {
         let _ = self.child.kill();
         let _ = self.child.wait();
         let dir = self.conf.parent().unwrap().to_path_buf();
-        *self = Broker::start(&dir, self.port);
+        let extra = std::fs::read_to_string(&self.conf).unwrap_or_default();
+        let extra: String = extra
+            .lines()
+            .filter(|l| {
+                l.starts_with("cafile") || l.starts_with("certfile") || l.starts_with("keyfile")
+            })
+            .map(|l| format!("{l}\n"))
+            .collect();
+        *self = Broker::start_with(&dir, self.port, &extra);
     }
 }
 
@@ -333,6 +346,136 @@ service:
         ),
     ] {
         assert!(text.contains(&want), "missing {want:?} in:\n{text}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs `openssl` in `dir` (the certificates of the TLS test).
+fn openssl(dir: &Path, args: &[&str]) {
+    let out = Command::new("openssl")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run openssl ({e}): scripts/test installs it"));
+    assert!(out.status.success(), "openssl {args:?}: {out:?}");
+}
+
+#[test]
+fn tls_to_a_broker_signed_by_the_projects_ca_and_a_refusal_by_another_ca() {
+    let dir = std::env::temp_dir().join(format!("softplc-mqtt-tls-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for ca in ["ca", "other-ca"] {
+        openssl(
+            &dir,
+            &[
+                "req",
+                "-x509",
+                "-newkey",
+                "rsa:2048",
+                "-nodes",
+                "-days",
+                "2",
+                "-subj",
+                &format!("/CN={ca}"),
+                "-keyout",
+                &format!("{ca}.key"),
+                "-out",
+                &format!("{ca}.pem"),
+            ],
+        );
+    }
+    openssl(
+        &dir,
+        &[
+            "req",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-subj",
+            "/CN=127.0.0.1",
+            "-keyout",
+            "server.key",
+            "-out",
+            "server.csr",
+        ],
+    );
+    std::fs::write(
+        dir.join("ext"),
+        "subjectAltName=IP:127.0.0.1\nbasicConstraints=CA:FALSE\nextendedKeyUsage=serverAuth\n",
+    )
+    .unwrap();
+    openssl(
+        &dir,
+        &[
+            "x509",
+            "-req",
+            "-in",
+            "server.csr",
+            "-CA",
+            "ca.pem",
+            "-CAkey",
+            "ca.key",
+            "-CAcreateserial",
+            "-days",
+            "2",
+            "-extfile",
+            "ext",
+            "-out",
+            "server.pem",
+        ],
+    );
+    // mosquitto started as root reads its files as the user `mosquitto`: a key of this test only.
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(
+        dir.join("server.key"),
+        std::fs::Permissions::from_mode(0o644),
+    )
+    .unwrap();
+    let port = free_port();
+    let d = dir.display();
+    let _broker = Broker::start_with(
+        &dir,
+        port,
+        &format!("cafile {d}/ca.pem\ncertfile {d}/server.pem\nkeyfile {d}/server.key\n"),
+    );
+    for (ca, connects) in [("ca.pem", true), ("other-ca.pem", false)] {
+        let text = std::fs::read_to_string(project(&dir, port)).unwrap();
+        let path = dir.join(format!("tls-{ca}.yaml"));
+        std::fs::write(
+            &path,
+            text.replace(
+                "    buffer: 1000\n",
+                &format!("    buffer: 1000\n    tls: {{ ca_file: {ca} }}\n"),
+            ),
+        )
+        .unwrap();
+        let log = dir.join(format!("tls-{ca}.log"));
+        let mut plc = softplc(&path, &dir.join(format!("{ca}.sock")), "2s", &log);
+        let end = Instant::now() + Duration::from_secs(20);
+        while plc.try_wait().unwrap().is_none() {
+            assert!(Instant::now() < end, "softplc did not stop");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let text = std::fs::read_to_string(&log).unwrap();
+        assert_eq!(
+            text.contains(&format!("MQTT: connected to 127.0.0.1:{port}")),
+            connects,
+            "{ca}: {text}"
+        );
+        assert_eq!(
+            text.contains("MQTT: NDEATH (bdSeq 0) published"),
+            connects,
+            "{ca}: {text}"
+        );
+        assert!(text.contains("(TLS)"), "{text}");
+        if !connects {
+            assert!(
+                text.contains(&format!("MQTT: cannot connect to 127.0.0.1:{port}: "))
+                    && text.contains("UnknownIssuer"),
+                "{text}"
+            );
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

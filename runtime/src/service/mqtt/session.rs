@@ -142,6 +142,15 @@ impl Session {
                                     self.cfg.host,
                                     self.cfg.port
                                 );
+                            } else if backoff == BACKOFF_MIN {
+                                // The first failure of a series says why (a refused
+                                // certificate, a wrong password); the retries stay quiet.
+                                tracing::warn!(
+                                    "MQTT: cannot connect to {}:{}: {e}; retrying up to every {}s",
+                                    self.cfg.host,
+                                    self.cfg.port,
+                                    BACKOFF_MAX.as_secs()
+                                );
                             } else {
                                 tracing::debug!(
                                     "MQTT: cannot connect to {}:{}: {e}",
