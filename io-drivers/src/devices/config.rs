@@ -298,6 +298,27 @@ pub struct DeviceConfig {
     pub push_down: PushDown,
 }
 
+impl DeviceConfig {
+    /// How long the module holds a change of its input point `point` (by the manual's name)
+    /// before it takes it, as configured: the MiniMod's input latency on X1..X3; nothing for
+    /// the models whose inputs have no programmable latency. A reaction to the input, in the
+    /// module or in the scan, starts only after it.
+    pub fn input_latency(&self, point: &str) -> Option<std::time::Duration> {
+        match (&self.settings, &self.push_down) {
+            (ModuleSettings::MiniMod(own), push_down) => {
+                let input = minimod::push_down::Input::named(point)?;
+                let none = minimod::PushDown::default();
+                let planned = match push_down {
+                    PushDown::MiniMod(p) => p,
+                    _ => &none,
+                };
+                Some(minimod::push_down::input_latency(own, planned, input))
+            }
+            _ => None,
+        }
+    }
+}
+
 /// The tables the push-down planner hands a module's driver, which writes them at start-up
 /// after the module's own settings and reads them back.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -386,6 +407,44 @@ mod tests {
     use crate::devices::{ex9053, minimod};
 
     fn copy_eq<T: Copy + Eq>() {}
+
+    #[test]
+    fn a_minimods_input_latency_is_the_plans_else_its_settings_else_20ms() {
+        use std::time::Duration;
+        let ms = |n| Some(Duration::from_millis(n));
+        let plain = minimod::MODEL
+            .device_config("mm1", 1, Protocol::Modbus, &[])
+            .unwrap();
+        assert_eq!(plain.input_latency("X1"), ms(20), "power-on");
+        assert_eq!(plain.input_latency("Y1"), None, "an output has none");
+        let mut set = minimod::MODEL
+            .device_config(
+                "mm1",
+                1,
+                Protocol::Modbus,
+                &[("XLATUP2", "5"), ("XLATDN2", "50")],
+            )
+            .unwrap();
+        assert_eq!(set.input_latency("X2"), ms(50), "the longer edge");
+        assert_eq!(set.input_latency("X3"), ms(20));
+        set.push_down = PushDown::MiniMod(minimod::PushDown {
+            latencies: vec![minimod::push_down::Latency {
+                input: minimod::push_down::Input::named("X2").unwrap(),
+                rising: Some(2),
+                falling: Some(3),
+            }],
+            ..Default::default()
+        });
+        assert_eq!(
+            set.input_latency("X2"),
+            ms(3),
+            "the plan's conditioning wins"
+        );
+        let dcon = ex9053::MODEL_D
+            .device_config("di", 2, Protocol::Text, &[])
+            .unwrap();
+        assert_eq!(dcon.input_latency("DI0"), None, "no programmable latency");
+    }
 
     #[test]
     fn errors_across_the_seam_are_copy_and_comparable() {

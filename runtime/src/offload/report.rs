@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use softplc_io::line::budget::{line_budget, LineBudget};
 
-use softplc_io::devices::{ModuleSettings, PushDown};
+use softplc_io::devices::{DeviceConfig, ModuleSettings, PushDown};
 
 use super::planner::{Command, Feature, ModulePlacement, Placement, Plan, RungPlan};
 use crate::project::{Binding, ModuleConfig, OnStop, Project};
@@ -91,13 +91,14 @@ pub fn report(project: &Project, plan: &Plan) -> String {
         );
     }
     let budgets = budgets(project, plan);
+    let devices = plan.device_configs(project);
     let names: Vec<String> = project.tags.iter().map(|t| t.name.clone()).collect();
     let (mut pushed, mut kept) = (0usize, 0usize);
     for r in &plan.rungs {
         match &r.placement {
             Placement::Module(p) => {
                 pushed += 1;
-                module_rung(&mut out, project, &budgets, r, p, &names);
+                module_rung(&mut out, project, &budgets, &devices, r, p, &names);
             }
             Placement::Central(reason) => {
                 kept += 1;
@@ -110,6 +111,8 @@ pub fn report(project: &Project, plan: &Plan) -> String {
                 );
                 if let Some(bus) = output_bus(project, r) {
                     let (bound, parts) = central(project, &budgets, bus);
+                    let latency = input_latency(project, &devices, r);
+                    let (bound, parts) = with_latency(&latency, bound, &parts);
                     let _ = writeln!(out, "      reaction ≤ {} ({parts})", fmt_duration(bound));
                 }
             }
@@ -233,6 +236,45 @@ pub fn startup_logic(module: &ModuleConfig) -> Option<String> {
 }
 
 /// The bus of the output a rung writes, if it is a module output.
+/// The longest input latency of the module inputs rung `r` reads (a MiniMod's XLATUP/XLATDN
+/// of X1..X3, 20 ms at power-on), and what it is: every reaction to those inputs, the
+/// module's or the scan's, begins only once the module has taken the change.
+fn input_latency(
+    project: &Project,
+    devices: &[DeviceConfig],
+    r: &RungPlan,
+) -> Option<(Duration, String)> {
+    r.rung
+        .shape
+        .module_inputs()
+        .into_iter()
+        .filter_map(|tag| {
+            let Binding::Point { module, point } = project.tags.get(tag.index())?.binding else {
+                return None;
+            };
+            let m = project.modules.get(module)?;
+            let name = m.model.points.get(point)?.name;
+            let latency = devices.get(module)?.input_latency(name)?;
+            Some((latency, format!("{name} of {}", m.name)))
+        })
+        .max_by_key(|(latency, _)| *latency)
+}
+
+/// `bound` and `parts` with the input latency in front, when the rung has one.
+fn with_latency(
+    latency: &Option<(Duration, String)>,
+    bound: Duration,
+    parts: &str,
+) -> (Duration, String) {
+    match latency {
+        Some((l, of)) => (
+            *l + bound,
+            format!("input latency {} ({of}) + {parts}", fmt_duration(*l)),
+        ),
+        None => (bound, parts.to_string()),
+    }
+}
+
 fn output_bus(project: &Project, r: &RungPlan) -> Option<usize> {
     match project.tags.get(r.rung.coil.index())?.binding {
         Binding::Point { module, .. } => Some(project.modules[module].bus),
@@ -244,6 +286,7 @@ fn module_rung(
     out: &mut String,
     project: &Project,
     budgets: &[LineBudget],
+    devices: &[DeviceConfig],
     r: &RungPlan,
     p: &ModulePlacement,
     names: &[String],
@@ -275,6 +318,14 @@ fn module_rung(
         );
     }
     let (bound, parts) = central(project, budgets, module.bus);
+    // The module's own reaction and the scan's both wait for the input latency first.
+    let latency = input_latency(project, devices, r);
+    let (module_bound, module_parts) = with_latency(
+        &latency,
+        p.tick,
+        &format!("its tick {}", fmt_duration(p.tick)),
+    );
+    let (bound, parts) = with_latency(&latency, bound, &parts);
     match (&p.command, p.feature) {
         (
             Some(Command::Pulse {
@@ -309,16 +360,16 @@ fn module_rung(
         (None, Feature::Pulse) => {
             let _ = writeln!(
                 out,
-                "      reaction: module ≤ {} vs central ≤ {} ({parts}); the pulse's end is timed by the module to its tick",
-                fmt_duration(p.tick),
+                "      reaction: module ≤ {} ({module_parts}) vs central ≤ {} ({parts}); the pulse's end is timed by the module to its tick",
+                fmt_duration(module_bound),
                 fmt_duration(bound)
             );
         }
         (None, _) => {
             let _ = writeln!(
                 out,
-                "      reaction: module ≤ {} vs central ≤ {} ({parts})",
-                fmt_duration(p.tick),
+                "      reaction: module ≤ {} ({module_parts}) vs central ≤ {} ({parts})",
+                fmt_duration(module_bound),
                 fmt_duration(bound)
             );
         }
