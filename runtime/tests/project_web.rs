@@ -280,6 +280,8 @@ fn info(writes: bool) -> WebInfo {
             file: "p.expr".into(),
             kind: "expr",
             lines: Vec::new(),
+            diagram: None,
+            no_diagram: None,
             error: None,
         },
     }
