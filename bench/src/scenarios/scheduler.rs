@@ -188,8 +188,8 @@ fn scan_engine(
                 ..RealtimeConfig::default()
             };
             for note in rt::apply(&cfg).notes {
-                if note.contains("refused") {
-                    refused = Some(note);
+                if !note.applied {
+                    refused = Some(note.text);
                 }
             }
         }
