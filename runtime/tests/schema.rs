@@ -235,6 +235,10 @@ fn wrong_types_and_words_fail_where_they_are() {
         ("scada: write", "scada: admin", "/tags/1/scada: "),
         ("safe: false", "safe: [1, 2]", "/tags/1/safe: "),
         ("on_stop: keep", "on_stop: later", "/offload: "),
+        // Models are the catalog's (`softplc models`), spelled exactly.
+        ("model: minimod", "model: MiniMod", "/modules/0/model: "),
+        // A tag is bound to a point or has a type.
+        ("type: u16, ", "", "/tags/2: "),
     ];
     for (good, bad, at) in cases {
         assert!(GOOD_PROJECT.contains(good), "{good}");

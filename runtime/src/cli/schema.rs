@@ -59,7 +59,7 @@ pub fn schema_text(kind: FileKind) -> serde_json::Result<String> {
 fn generate(kind: FileKind) -> Schema {
     // Draft 7: the newest draft the YAML language server implements in full.
     let mut generator: SchemaGenerator = SchemaSettings::draft07()
-        .with_transform(RecursiveTransform(plain_descriptions))
+        .with_transform(RecursiveTransform(for_editors))
         .into_generator();
     match kind {
         FileKind::Project => generator.root_schema_for::<crate::project::raw::RawProject>(),
@@ -68,12 +68,19 @@ fn generate(kind: FileKind) -> Schema {
     }
 }
 
-/// Rust doc links (`` [`super::offload`] ``) mean nothing in an editor's hover: keep the name.
-fn plain_descriptions(schema: &mut Schema) {
-    let Some(serde_json::Value::String(text)) = schema.get_mut("description") else {
-        return;
-    };
-    *text = plain_text(text);
+/// What an editor shows: Rust doc links (`` [`super::offload`] ``) mean nothing in a hover, so
+/// only the name is kept; `default: null` (an optional key) would be inserted by completion as
+/// `key: null`, so it goes.
+fn for_editors(schema: &mut Schema) {
+    if let Some(serde_json::Value::String(text)) = schema.get_mut("description") {
+        *text = plain_text(text);
+    }
+    if schema
+        .get("default")
+        .is_some_and(serde_json::Value::is_null)
+    {
+        schema.remove("default");
+    }
 }
 
 /// `` [`super::web`] `` → `` `web` ``, `` [`DEFAULT_UNIT`] `` → `` `DEFAULT_UNIT` ``.

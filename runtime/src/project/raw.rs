@@ -156,7 +156,7 @@ pub struct RawProject {
     expecting = "scan settings: a mapping with period, watchdog and realtime"
 )]
 pub struct RawScan {
-    /// Cycle period.
+    /// Cycle period, above zero: `20ms`.
     pub period: DurationText,
     /// Task watchdog.
     #[serde(default)]
@@ -208,19 +208,19 @@ pub struct RawRealtime {
 pub struct RawBus {
     /// The line's name.
     pub name: String,
-    /// `sim` or a device path.
+    /// `sim` (simulated modules, no hardware) or a serial device path: `/dev/ttyUSB0`.
     pub port: String,
-    /// Baud rate (default 19200).
+    /// Baud rate (default 19200); at most the `max_baud` of every model on the bus.
     #[serde(default)]
     pub baud: Option<Int>,
-    /// Character format (default `8E1`).
+    /// Character format: data bits 7|8, parity N|E|O, stop bits 1|2 (default `8E1`).
     #[serde(default)]
     #[schemars(schema_with = "super::raw_schema::field::serial_format")]
     pub format: Option<String>,
     /// Response timeout (default 100 ms).
     #[serde(default)]
     pub response_timeout: Option<DurationText>,
-    /// Retries per transaction (default 1).
+    /// Attempts after a failed one, 0..=255 (default 1).
     #[serde(default)]
     pub retries: Option<Int>,
     /// Full output refresh period (default 1 s).
@@ -302,14 +302,15 @@ pub struct RawModule {
     /// The bus it is on.
     pub bus: String,
     /// Its model.
+    #[schemars(schema_with = "super::raw_schema::field::module_model")]
     pub model: String,
-    /// Its unit address.
+    /// Its unit address, within the model's range (`softplc models`), unique on the bus.
     pub address: Int,
-    /// Protocol (default: the model's first).
+    /// `modbus` or `text` (default: the model's first protocol).
     #[serde(default)]
     #[schemars(schema_with = "super::raw_schema::field::protocol")]
     pub protocol: Option<String>,
-    /// Model-specific settings.
+    /// Model-specific settings, checked by the model: `{ RDELAYT: 5 }`.
     #[serde(default)]
     pub settings: Option<Settings>,
     /// The module's own watchdog: `auto` (default) or `off` (see [`super::watchdog`]).
@@ -324,20 +325,22 @@ pub struct RawModule {
     deny_unknown_fields,
     expecting = "a tag: a mapping with name and point or type, safe, initial"
 )]
+#[schemars(extend("anyOf" = [{ "required": ["point"] }, { "required": ["type"] }]))]
 pub struct RawTag {
     /// The tag's name.
     pub name: String,
-    /// `module.POINT`.
+    /// The point it is bound to, `module.POINT` in the manual's spelling (`softplc points
+    /// MODEL`); the tag takes the point's type.
     #[serde(default)]
     pub point: Option<String>,
-    /// The type of a memory tag.
+    /// The type of a memory tag: bool, u16, i32 or f32.
     #[serde(default, rename = "type")]
     #[schemars(schema_with = "super::raw_schema::field::tag_type")]
     pub ty: Option<String>,
-    /// Safe-state value (outputs).
+    /// Value written in the safe state (tags bound to outputs).
     #[serde(default)]
     pub safe: Option<ScalarText>,
-    /// Initial value (memory tags).
+    /// Initial value (memory tags); integers may be written in hex, `0x1F`.
     #[serde(default)]
     pub initial: Option<ScalarText>,
     /// SCADA access and address (see [`super::service`]).
@@ -365,9 +368,9 @@ pub struct RawTag {
     expecting = "a program: a mapping with file and kind"
 )]
 pub struct RawProgram {
-    /// The program file, relative to the project file's folder.
+    /// The program file, relative to the project file's folder; must exist.
     pub file: String,
-    /// Its language.
+    /// Its language: expr, ladder or rhai.
     #[schemars(schema_with = "super::raw_schema::field::program_kind")]
     pub kind: String,
 }
@@ -380,6 +383,7 @@ pub struct RawProgram {
 )]
 pub struct RawPlant {
     /// The plant model.
+    #[schemars(schema_with = "super::raw_schema::field::plant_model")]
     pub model: String,
     /// Role → `module.POINT`.
     #[serde(default)]

@@ -219,6 +219,31 @@ pub mod field {
         })
     }
 
+    /// `modules[].model`: a model of the catalog (`softplc models`), each with its summary.
+    pub fn module_model(_: &mut SchemaGenerator) -> Schema {
+        let models = softplc_io::devices::catalog()
+            .iter()
+            .map(|m| (m.name, m.summary));
+        named(models)
+    }
+
+    /// `plant.model`: a plant model of the simulator's catalog, each with its summary.
+    pub fn plant_model(_: &mut SchemaGenerator) -> Schema {
+        let plants = softplc_io::sim::plant::catalog()
+            .iter()
+            .map(|p| (p.name, p.summary));
+        named(plants)
+    }
+
+    /// One of the `(name, description)` pairs; the editor shows the description beside each
+    /// name it offers.
+    fn named(pairs: impl Iterator<Item = (&'static str, &'static str)>) -> Schema {
+        let choices: Vec<_> = pairs
+            .map(|(name, summary)| json_schema!({ "const": name, "description": summary }))
+            .collect();
+        json_schema!({ "type": "string", "anyOf": choices })
+    }
+
     /// `tags[].type`.
     pub fn tag_type(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["bool", "u16", "i32", "f32"]))
