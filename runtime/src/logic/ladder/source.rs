@@ -13,14 +13,14 @@ use serde::Deserialize;
 
 use crate::project::span::{Locator, YPath};
 
-/// A ladder program: its rungs, each one line of text (`X1 AND NOT X2 => Y1`).
+/// A ladder program: its rungs, each one line of text (`start /stop -> motor`).
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "a ladder program: a mapping with `rungs:` (a list of rungs) and an optional `description:`"
 )]
 struct RawLadder {
-    /// Free text.
+    /// What the program does (free text).
     #[serde(default)]
     #[allow(dead_code)]
     description: Option<String>,
