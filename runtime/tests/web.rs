@@ -7,7 +7,9 @@
 //! - signing in with the project's token and clicking "Force 1" on the page turns the output on
 //!   in the simulator (and `softplc status` shows the force); "Unforce" gives it back;
 //! - a write without the token, or with a wrong one, is refused with 403 and changes nothing;
-//! - a rung the planner pushed down is marked with its module on the program view.
+//! - a rung the planner pushed down is marked with its module on the program view;
+//! - a ladder program is drawn as ladders lit by its inputs and its blocks' live outputs (a
+//!   timer's `ET` counting up, a `jam.Q` contact on a block that drives no coil).
 //!
 //! Screenshots of each view are left in `target/web-screenshots/` (test artefacts).
 
@@ -416,7 +418,9 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
          \x20 - start /stop -> motor                  # two contacts, one NC, a coil\n\
          \x20 - box_at_exit -> lamp                   # pushed down into mm2\n\
          \x20 - motor -> TON run(300ms) -> running    # a block, its Q on a coil\n\
-         \x20 - (start | box_at_exit) -> set seen\n",
+         \x20 - (start | box_at_exit) -> set seen\n\
+         \x20 - start -> TON jam(3s)                  # a block driving no coil\n\
+         \x20 - jam.Q -> jammed                       # its Q read by a contact\n",
     )
     .unwrap();
     let port = free_port();
@@ -434,6 +438,7 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
          \x20 - {{ name: box_at_exit,  point: mm2.X1 }}\n\
          \x20 - {{ name: lamp,         point: mm2.Y1, safe: false }}\n\
          \x20 - {{ name: seen,         type: bool }}\n\
+         \x20 - {{ name: jammed,       type: bool }}\n\
          program: {{ file: machine.ladder.yaml, kind: ladder }}\n\
          service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, token: {TOKEN} }}\n"
     );
@@ -443,7 +448,7 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
     let mut b = Browser::start(&dir.join("chromium"));
     b.open(&format!("http://127.0.0.1:{port}/#program"));
     b.wait_for(
-        "document.querySelector('#ladder svg[data-rung=\"4\"]') !== null",
+        "document.querySelector('#ladder svg[data-rung=\"6\"]') !== null",
         Duration::from_secs(30),
     )
     .expect("the program view draws the rungs as ladders");
@@ -459,17 +464,30 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
         "no:motor,block:run,coil-normal:running"
     );
     assert_eq!(elements(&mut b, 4), "no:start,no:box_at_exit,coil-set:seen");
-    // The block shows its kind, preset and outputs.
+    assert_eq!(elements(&mut b, 5), "no:start,block:jam");
+    assert_eq!(elements(&mut b, 6), "no:jam.Q,coil-normal:jammed");
+    // The block shows its kind, preset and live outputs (`b` in the state).
     let block = "document.querySelector('#ladder svg[data-rung=\"3\"] .lad-block').textContent";
     let drawn = b.wait_for(
-        &format!("{block} === 'runTONINPT 300msQ 0ET ?'"),
+        &format!("{block} === 'runTONINPT 300msQ 0ET 0ms'"),
         Duration::from_secs(10),
     );
     assert!(drawn.is_some(), "the TON box: {}", b.eval(block));
     // The pushed-down rungs keep their mark (rungs 1 and 2 are plain logic on one module's
     // points); the timer and the latch of a memory tag run in the scan.
     let pushed = b.eval("[...document.querySelectorAll('#ladder .lad-rung')].map(r => r.querySelector('[data-pushed]')?.dataset.pushed || '-').join(',')");
-    assert_eq!(pushed.as_str(), Some("mm1,mm2,-,-"));
+    assert_eq!(pushed.as_str(), Some("mm1,mm2,-,-,-,-"));
+    // The contact on `jam.Q` is read from the live block outputs (no coil says what it is):
+    // known and open, not grey.
+    let jam_contact =
+        "document.querySelector('#ladder svg[data-rung=\"6\"] .lad-el[data-tag=\"jam.Q\"]')";
+    b.wait_for(
+        &format!(
+            "{jam_contact}.dataset.passes === '0' && !{jam_contact}.classList.contains('unknown')"
+        ),
+        Duration::from_secs(10),
+    )
+    .expect("the jam.Q contact is known and open");
 
     // Rung 1 with neither input: only the NC contact passes power, the coil is off.
     let lit = "(() => { const s = document.querySelector('#ladder svg[data-rung=\"1\"]'); \
@@ -488,6 +506,34 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
         .is_some());
     let wires = b.eval("[...document.querySelectorAll('#ladder svg[data-rung=\"1\"] .lad-wire')].every(w => w.classList.contains('lit'))");
     assert_eq!(wires, true, "every wire of rung 1 carries power");
+    // The jam timer's ET counts up on its box while its Q is still off, then stops at the
+    // preset as Q comes on; the contact reading jam.Q closes and powers its coil.
+    let jam = "document.querySelector('#ladder svg[data-rung=\"5\"] .lad-block')";
+    let et = format!("(() => {{ const t = [...{jam}.querySelectorAll('.lad-out')].find(e => e.textContent.startsWith('ET ')).textContent; return parseInt(t.slice(3)); }})()");
+    let until_jam = |b: &mut Browser, cond: String, what: &str| {
+        if b.wait_for(&cond, Duration::from_secs(10)).is_none() {
+            panic!("{what}: {}", b.eval(&format!("{jam}.textContent")));
+        }
+    };
+    until_jam(
+        &mut b,
+        format!("{jam}.dataset.q === '0' && {et} > 0 && {et} < 2000"),
+        "jam's ET counting up",
+    );
+    let first = b.eval(&et).as_i64().unwrap();
+    until_jam(
+        &mut b,
+        format!("{jam}.dataset.q === '0' && {et} > {first}"),
+        &format!("jam's ET past {first}ms"),
+    );
+    until_jam(
+        &mut b,
+        format!(
+            "{jam}.dataset.q === '1' && {et} === 3000 && {jam_contact}.dataset.passes === '1' && \
+             document.querySelector('#ladder svg[data-rung=\"6\"] .lad-coil').dataset.energised === '1'"
+        ),
+        "jam's Q, its contact and coil",
+    );
     // The TON's output comes on 300 ms later, lighting its coil.
     b.wait_for(
         "document.querySelector('#ladder svg[data-rung=\"3\"] .lad-block').dataset.q === '1' && \

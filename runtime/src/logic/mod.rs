@@ -55,6 +55,18 @@ pub struct LogicFault {
     pub pos: SourcePos,
 }
 
+/// One output of one block instance, as the running program holds it: what the web page's
+/// ladder view shows on a block's pins and on a contact reading `t.Q`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct InstanceOutput {
+    /// The instance's index among the program's instances (the diagram's `inst`).
+    pub inst: u32,
+    /// Which output.
+    pub member: blocks::Member,
+    /// Its value.
+    pub value: blocks::OutputValue,
+}
+
 /// A control program ready to scan.
 pub trait LogicEngine: Send + Debug {
     /// Runs the program once: reads and writes the image.
@@ -71,5 +83,13 @@ pub trait LogicEngine: Send + Debug {
     /// module's value into the image instead). Engines that describe rungs must honour it.
     fn release(&mut self, coil: crate::image::TagId) {
         let _ = coil;
+    }
+
+    /// Replaces `out` with every output of every block instance, by instance index then in
+    /// [`blocks::Kind::outputs`] order. Engines without numbered instances (expr, Rhai) leave
+    /// it empty. Called when the service snapshot is published, not by the scan; it reuses
+    /// `out`'s capacity, so it allocates nothing once warm.
+    fn instance_outputs(&self, out: &mut Vec<InstanceOutput>) {
+        out.clear();
     }
 }

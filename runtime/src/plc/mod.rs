@@ -185,6 +185,12 @@ impl Plc {
         &self.status
     }
 
+    /// Replaces `out` with the program's block outputs now (`ET`, `CV`, `Q`, ... by instance
+    /// index; empty for expr and Rhai), for the web page's ladder view.
+    pub fn instance_outputs(&self, out: &mut Vec<crate::logic::InstanceOutput>) {
+        self.logic.instance_outputs(out);
+    }
+
     /// The simulated world, when the project has `port: sim` lines.
     pub fn world(&self) -> Option<&SharedWorld> {
         self.world.as_ref()

@@ -3,8 +3,9 @@
 //! cycle boundary.
 //!
 //! The scan never waits for a reader: it publishes with `try_lock` and, when a reader holds the
-//! lock, tries again at the next boundary. Tag values are copied every cycle (a copy into
-//! buffers that keep their capacity: no allocation once warm); the statistics, whose
+//! lock, tries again at the next boundary. Tag values (and, for the web page, the block
+//! instances' outputs) are copied every cycle (a copy into buffers that keep their capacity:
+//! no allocation once warm); the statistics, whose
 //! percentiles cost a walk over each histogram, every [`STATS_EVERY`] of scan time.
 
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -194,6 +195,10 @@ pub struct ServiceSnapshot {
     /// Each phase's histogram, in [`Phase::ALL`] order (refreshed with the phases; empty
     /// unless [`Publisher::with_details`]).
     pub histograms: Vec<HistogramView>,
+    /// Every block instance's outputs, by instance index (every publication; empty for expr
+    /// and Rhai programs, and unless [`Publisher::with_details`]: only the web page draws
+    /// them).
+    pub blocks: Vec<crate::logic::InstanceOutput>,
     /// Counts the refreshes of the statistics, so a reader sees when they changed.
     pub stats_seq: u64,
     /// Set by the last publication of a run, after the outputs went to their safe values.
@@ -293,6 +298,10 @@ impl Publisher {
         s.forced.extend(
             (0..image.len()).map(|i| image.forced(crate::image::TagId(i as u32)).is_some()),
         );
+        if self.details {
+            // Published with the tag values, so a block's ET and the coil it drives agree.
+            plc.instance_outputs(&mut s.blocks);
+        }
         let due = self
             .stats_at
             .is_none_or(|at| now.saturating_sub(at) >= STATS_EVERY);

@@ -270,17 +270,40 @@ impl Instance {
 
     /// An output as a number: booleans as 0/1, `ET` in milliseconds, `CV` as is.
     pub fn number_output(&self, member: Member) -> f64 {
-        match (self, member) {
-            (Instance::Ton(t), Member::Et) => millis(t.et()),
-            (Instance::Tof(t), Member::Et) => millis(t.et()),
-            (Instance::Tp(t), Member::Et) => millis(t.et()),
-            (Instance::Stair(t), Member::Et) => millis(t.et()),
-            (Instance::Ctu(c), Member::Cv) => f64::from(c.cv()),
-            (Instance::Ctd(c), Member::Cv) => f64::from(c.cv()),
-            (Instance::Ctud(c), Member::Cv) => f64::from(c.cv()),
-            (_, m) => f64::from(u8::from(self.bool_output(m))),
+        match self.output(member) {
+            OutputValue::Bool(b) => f64::from(u8::from(b)),
+            OutputValue::Time(d) => millis(d),
+            OutputValue::Count(c) => f64::from(c),
         }
     }
+
+    /// An output, typed: `ET` a duration, `CV` a count, the others booleans (`false`, zero
+    /// for a member the kind does not have).
+    pub fn output(&self, member: Member) -> OutputValue {
+        match (self, member) {
+            (Instance::Ton(t), Member::Et) => OutputValue::Time(t.et()),
+            (Instance::Tof(t), Member::Et) => OutputValue::Time(t.et()),
+            (Instance::Tp(t), Member::Et) => OutputValue::Time(t.et()),
+            (Instance::Stair(t), Member::Et) => OutputValue::Time(t.et()),
+            (_, Member::Et) => OutputValue::Time(Duration::ZERO),
+            (Instance::Ctu(c), Member::Cv) => OutputValue::Count(c.cv()),
+            (Instance::Ctd(c), Member::Cv) => OutputValue::Count(c.cv()),
+            (Instance::Ctud(c), Member::Cv) => OutputValue::Count(c.cv()),
+            (_, Member::Cv) => OutputValue::Count(0),
+            (_, m) => OutputValue::Bool(self.bool_output(m)),
+        }
+    }
+}
+
+/// The value of one output of an instance ([`Instance::output`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputValue {
+    /// `Q`, `QU`, `QD`.
+    Bool(bool),
+    /// `ET`.
+    Time(Duration),
+    /// `CV`.
+    Count(i32),
 }
 
 /// A duration in (fractional) milliseconds.

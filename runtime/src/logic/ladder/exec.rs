@@ -9,7 +9,7 @@ use super::lower::Lowered;
 use crate::image::{ProcessImage, TagId};
 use crate::logic::blocks::Instance;
 use crate::logic::vm::{self, Instr};
-use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
+use crate::logic::{InstanceOutput, LogicEngine, LogicFault, ScanContext, SourcePos};
 
 /// A compiled ladder program, ready to scan. Build it with [`super::compile`].
 #[derive(Debug, Clone)]
@@ -90,5 +90,16 @@ impl LogicEngine for LadderProgram {
 
     fn release(&mut self, coil: TagId) {
         self.vm.release(coil);
+    }
+
+    fn instance_outputs(&self, out: &mut Vec<InstanceOutput>) {
+        out.clear();
+        for (inst, b) in (0u32..).zip(self.vm.instances()) {
+            out.extend(b.kind().outputs().iter().map(|&member| InstanceOutput {
+                inst,
+                member,
+                value: b.output(member),
+            }));
+        }
     }
 }

@@ -160,6 +160,91 @@ fn timer_feeds_coils_and_outputs_are_readable() {
 }
 
 #[test]
+fn instance_outputs_follow_the_blocks_over_time() {
+    use crate::logic::blocks::{Member, OutputValue};
+    use crate::logic::InstanceOutput;
+    // A timer on a coil, a counter driving none, and a timer whose Q only a contact reads.
+    let mut r = Rig::new(&[
+        "start -> TON t(30ms) -> motor",
+        "sensor -> CTU boxes(2)",
+        "start -> TON jam(50ms)",
+        "jam.Q -> alarm",
+    ]);
+    let mut out = vec![InstanceOutput {
+        inst: 9,
+        member: Member::Qd,
+        value: OutputValue::Count(7),
+    }];
+    let trace = |r: &mut Rig, out: &mut Vec<InstanceOutput>| {
+        r.program.instance_outputs(out);
+        out.iter()
+            .map(|o| {
+                let v = match o.value {
+                    OutputValue::Bool(b) => u8::from(b).to_string(),
+                    OutputValue::Time(d) => format!("{}ms", d.as_millis()),
+                    OutputValue::Count(c) => c.to_string(),
+                };
+                format!("{}.{}={v}", o.inst, o.member)
+            })
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    // Fresh: everything off and zero, the stale entry gone, instances in call order.
+    assert_eq!(
+        trace(&mut r, &mut out),
+        "0.Q=0 0.ET=0ms 1.Q=0 1.CV=0 2.Q=0 2.ET=0ms"
+    );
+    r.set("start", Value::Bool(true));
+    let mut seen = Vec::new();
+    for k in 0..7 {
+        r.set("sensor", Value::Bool(k % 2 == 1));
+        r.scan();
+        seen.push(trace(&mut r, &mut out));
+    }
+    assert_eq!(
+        seen,
+        [
+            "0.Q=0 0.ET=0ms 1.Q=0 1.CV=0 2.Q=0 2.ET=0ms",
+            "0.Q=0 0.ET=10ms 1.Q=0 1.CV=1 2.Q=0 2.ET=10ms",
+            "0.Q=0 0.ET=20ms 1.Q=0 1.CV=1 2.Q=0 2.ET=20ms",
+            "0.Q=1 0.ET=30ms 1.Q=1 1.CV=2 2.Q=0 2.ET=30ms",
+            "0.Q=1 0.ET=30ms 1.Q=1 1.CV=2 2.Q=0 2.ET=40ms",
+            "0.Q=1 0.ET=30ms 1.Q=1 1.CV=3 2.Q=1 2.ET=50ms",
+            "0.Q=1 0.ET=30ms 1.Q=1 1.CV=3 2.Q=1 2.ET=50ms",
+        ]
+    );
+    // The coils agree with the outputs published with them.
+    assert!(r.bit("motor") && r.bit("alarm"));
+    // A reset forgets them.
+    r.program.reset();
+    assert_eq!(
+        trace(&mut r, &mut out),
+        "0.Q=0 0.ET=0ms 1.Q=0 1.CV=0 2.Q=0 2.ET=0ms"
+    );
+}
+
+#[test]
+fn an_engine_without_instances_publishes_none() {
+    use crate::logic::LogicEngine;
+    #[derive(Debug)]
+    struct Plain;
+    impl LogicEngine for Plain {
+        fn scan(
+            &mut self,
+            _: &mut ProcessImage,
+            _: &ScanContext,
+        ) -> Result<(), crate::logic::LogicFault> {
+            Ok(())
+        }
+    }
+    let mut out = Vec::new();
+    build(&["start -> TON t(30ms) -> motor"]).instance_outputs(&mut out);
+    assert_eq!(out.len(), 2);
+    Plain.instance_outputs(&mut out);
+    assert!(out.is_empty(), "the default leaves nothing behind: {out:?}");
+}
+
+#[test]
 fn counters_and_math_boxes() {
     let mut r = Rig::new(&[
         "rising(sensor) -> ADD(count, 1) => count",

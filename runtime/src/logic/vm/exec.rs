@@ -89,6 +89,11 @@ impl Program {
         &self.code
     }
 
+    /// The block instances with their state now, by instance index.
+    pub(crate) fn instances(&self) -> &[Instance] {
+        &self.instances
+    }
+
     /// Forgets every edge, timer and block state, as on a fresh start.
     pub(crate) fn reset(&mut self) {
         self.edges.fill(Edge::default());

@@ -8,6 +8,8 @@ use serde_json::{json, Value as Json};
 use softplc_io::point::{Quality, Value};
 
 use super::trend::Trend;
+use crate::logic::blocks::OutputValue;
+use crate::logic::InstanceOutput;
 use crate::service::snapshot::{Phase, ServiceSnapshot};
 
 fn ms(d: std::time::Duration) -> f64 {
@@ -34,7 +36,34 @@ fn quality(q: Quality) -> u8 {
     }
 }
 
-/// The state: cycle figures and every tag's value, quality, age and force.
+fn output(v: OutputValue) -> Json {
+    match v {
+        OutputValue::Bool(b) => Json::Bool(b),
+        OutputValue::Time(d) => json!(ms(d)),
+        OutputValue::Count(c) => json!(c),
+    }
+}
+
+/// The block instances' outputs as the ladder view reads them: an array by instance index of
+/// objects by member name, `[{"Q": true, "ET": 120.0}, {"Q": false, "CV": 3}]` (`ET` in
+/// milliseconds, like every time here).
+fn blocks(outputs: &[InstanceOutput]) -> Json {
+    let mut all: Vec<Json> = Vec::new();
+    for o in outputs {
+        let at = o.inst as usize;
+        if all.len() <= at {
+            all.resize_with(at + 1, || Json::Object(serde_json::Map::new()));
+        }
+        if let Some(Json::Object(members)) = all.get_mut(at) {
+            members.insert(o.member.name().to_string(), output(o.value));
+        }
+    }
+    Json::Array(all)
+}
+
+/// The state: cycle figures and every tag's value, quality, age and force, and the block
+/// outputs (`b`) when the program has blocks (ladder; expr and Rhai programs publish none,
+/// and their state stays as small as it was).
 pub fn state(s: &ServiceSnapshot) -> Json {
     let age: Vec<f64> = s
         .timestamps
@@ -47,7 +76,7 @@ pub fn state(s: &ServiceSnapshot) -> Json {
         .enumerate()
         .filter_map(|(i, f)| f.then_some(i))
         .collect();
-    json!({
+    let mut state = json!({
         "published": s.published,
         "stopped": s.stopped,
         "stop_reason": s.stop_reason,
@@ -58,7 +87,11 @@ pub fn state(s: &ServiceSnapshot) -> Json {
         "q": s.qualities.iter().map(|q| quality(*q)).collect::<Vec<_>>(),
         "age": age,
         "forced": forced,
-    })
+    });
+    if !s.blocks.is_empty() {
+        state["b"] = blocks(&s.blocks);
+    }
+    state
 }
 
 /// The statistics: each phase's percentiles and histogram, each module's counters.
@@ -126,6 +159,7 @@ mod tests {
     use std::time::Duration;
 
     use super::*;
+    use crate::logic::blocks::Member;
     use crate::service::snapshot::HistogramView;
 
     #[test]
@@ -153,11 +187,36 @@ mod tests {
         assert_eq!(j["q"], json!([0, 1, 2]));
         assert_eq!(j["age"], json!([50.0, 700.0, 700.0]));
         assert_eq!(j["forced"], json!([2]));
+        assert!(j.get("b").is_none(), "no blocks, no `b`: {j}");
         let j = stats(&s);
         assert_eq!(j["phases"][0]["name"], "cycle");
         assert_eq!(j["phases"][0]["hist"]["lo"], json!(1.5));
         assert_eq!(j["phases"][1]["hist"], Json::Null);
         assert_eq!(j["modules"][0]["error"], "timeout");
+        let with_blocks = ServiceSnapshot {
+            blocks: vec![
+                InstanceOutput {
+                    inst: 0,
+                    member: Member::Q,
+                    value: OutputValue::Bool(true),
+                },
+                InstanceOutput {
+                    inst: 0,
+                    member: Member::Et,
+                    value: OutputValue::Time(Duration::from_micros(120_500)),
+                },
+                InstanceOutput {
+                    inst: 1,
+                    member: Member::Cv,
+                    value: OutputValue::Count(-3),
+                },
+            ],
+            ..ServiceSnapshot::default()
+        };
+        assert_eq!(
+            state(&with_blocks)["b"],
+            json!([{"Q": true, "ET": 120.5}, {"CV": -3}])
+        );
         let mut t = Trend::new(vec![0]);
         t.sample(1, Duration::from_millis(100), &s.values);
         assert_eq!(
