@@ -262,3 +262,25 @@ fn wrong_types_and_words_fail_where_they_are() {
         "{errors:?}"
     );
 }
+
+/// A module's settings keys are offered per model, but only the model judges them (its error
+/// says "did you mean"): the schema neither refuses an unknown key nor misses a known one.
+#[test]
+fn settings_keys_are_offered_per_model_and_judged_by_the_model() {
+    let schema: Value =
+        serde_json::from_str(&std::fs::read_to_string(schema_file("project")).unwrap()).unwrap();
+    let hints = schema["definitions"]["RawModule"]["allOf"]
+        .as_array()
+        .expect("per-model hints");
+    let minimod = hints
+        .iter()
+        .find(|h| h["if"]["properties"]["model"]["const"] == "minimod")
+        .expect("a hint for minimod");
+    let keys = &minimod["then"]["properties"]["settings"]["properties"];
+    assert!(
+        keys.get("RDELAYT").is_some() && keys.get("WDTTIME").is_some(),
+        "{keys}"
+    );
+    let yaml = GOOD_PROJECT.replace("RDELAYT: 5", "RDELAYX: 5");
+    assert_eq!(violations("project", &yaml), Vec::<String>::new());
+}

@@ -296,6 +296,7 @@ pub struct RawRs485 {
     deny_unknown_fields,
     expecting = "a module: a mapping with name, bus, model, address, protocol, settings and watchdog"
 )]
+#[schemars(extend("allOf" = super::raw_schema::field::settings_hints()))]
 pub struct RawModule {
     /// The module's name.
     pub name: String,

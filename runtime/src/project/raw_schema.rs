@@ -244,6 +244,26 @@ pub mod field {
         json_schema!({ "type": "string", "anyOf": choices })
     }
 
+    /// `modules[].settings`' keys per model, offered for completion (`if model is X then its
+    /// settings have X's keys`). Hints only: the model checks the keys and values, with "did
+    /// you mean", and the schema does not refuse what the model might accept.
+    pub fn settings_hints() -> serde_json::Value {
+        let per_model: Vec<_> = softplc_io::devices::catalog()
+            .iter()
+            .map(|m| {
+                let keys: serde_json::Map<String, serde_json::Value> = (m.setting_keys)()
+                    .into_iter()
+                    .map(|k| (k.to_owned(), serde_json::json!({})))
+                    .collect();
+                serde_json::json!({
+                    "if": { "properties": { "model": { "const": m.name } }, "required": ["model"] },
+                    "then": { "properties": { "settings": { "properties": keys } } }
+                })
+            })
+            .collect();
+        per_model.into()
+    }
+
     /// `tags[].type`.
     pub fn tag_type(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["bool", "u16", "i32", "f32"]))
