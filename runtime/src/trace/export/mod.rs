@@ -17,7 +17,14 @@
 //! vcd.write(&Sample::new(Duration::from_millis(10), 2, &[Value::Bool(true), Value::F32(0.0)]))
 //!     .unwrap();
 //! let text = String::from_utf8(vcd.finish().unwrap()).unwrap();
-//! assert!(text.contains("#10000\n1!\n"));
+//! // x1's identifier, from its declaration; at 10 ms (timescale 1 us) it changes to 1.
+//! let id = text
+//!     .lines()
+//!     .find(|l| l.starts_with("$var") && l.contains(" x1 "))
+//!     .and_then(|l| l.split_whitespace().nth(3))
+//!     .unwrap();
+//! let at_10ms = text.split("#10000\n").nth(1).unwrap();
+//! assert!(at_10ms.lines().any(|l| l == format!("1{id}")), "{text}");
 //! ```
 
 pub mod csv;
