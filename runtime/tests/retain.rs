@@ -86,8 +86,8 @@ fn kill_nine_then_restart(kind: &str) {
         "--for",
         "1s",
     ])
-        .output()
-        .unwrap();
+    .output()
+    .unwrap();
     let log = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{log}");
     assert!(log.contains("retain: 1 value(s) restored"), "{log}");
