@@ -169,14 +169,7 @@ pub fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
             ));
         }
         let budget = line_budget_on(bus.settings, adapter, &mut drivers);
-        let held = if adapter.latency.is_zero() {
-            String::new()
-        } else {
-            format!(
-                ", each with up to {} of adapter latency",
-                fmt_duration(adapter.latency)
-            )
-        };
+        let held = latency_clause(adapter, "each with ");
         let _ = writeln!(
             out,
             "  budget: inputs {} ({} transactions{held}), full output write {}, cycle floor {}",
@@ -294,26 +287,32 @@ fn collect_floor_line(
         .collect();
     let floor = CollectFloor::over(settings, adapter, &members)?;
     let (first, last) = floor.window();
-    let held = if adapter.latency.is_zero() {
-        String::new()
-    } else {
-        format!(
-            ", up to {} of adapter latency",
-            fmt_duration(adapter.latency)
-        )
-    };
+    let held = latency_clause(adapter, "per Collect ");
     Some(format!(
         "collect floor (event mode, window {first}–{last}, {} member(s)): idle round {} (a \
-         Collect request of {} characters, {} slots × 3 ms + 1 ms, t3.5{held}); each event \
+         Collect request of {} characters, {} slot{} × 3 ms + 1 ms, t3.5{held}); each event \
          {} more (its {}-character reply from the start of its slot, t3.5, the next Collect; \
          less from address {last}, which ends the round); no reply delay applies",
         members.len(),
         fmt_duration(floor.idle()),
         softplc_io::line::collect::floor::REQUEST_LEN,
         floor.slots(),
+        if floor.slots() == 1 { "" } else { "s" },
         fmt_duration(floor.per_event()),
         softplc_io::line::collect::floor::REPLY_LEN,
     ))
+}
+
+/// `, {each}up to L of adapter latency` when the line's adapter holds bytes back, else nothing.
+fn latency_clause(adapter: AdapterTiming, each: &str) -> String {
+    if adapter.latency.is_zero() {
+        String::new()
+    } else {
+        format!(
+            ", {each}up to {} of adapter latency",
+            fmt_duration(adapter.latency)
+        )
+    }
 }
 
 #[cfg(test)]

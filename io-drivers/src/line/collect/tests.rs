@@ -16,6 +16,7 @@ use crate::modbus::crc::append_crc;
 use crate::modbus::master::encode_request;
 use crate::point::{Quality, Value};
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use crate::sim::{SimDevice, SimError, SimReply};
 use crate::time::{Clock, VirtualClock};
 
 fn frame(bytes: &[u8]) -> Vec<u8> {
@@ -164,15 +165,23 @@ struct Rig {
 /// One MiniMod of a rig: address, protocol, settings.
 type Spec<'a> = (u8, Protocol, &'a [(&'a str, &'a str)]);
 
+/// A module's simulator as the rig puts it on the line (wrapped, or as it is).
+type SimAs = fn(u8, Box<dyn SimDevice>) -> Box<dyn SimDevice>;
+
 /// MiniMods on one line at 19200 8E1.
 fn rig(specs: &[Spec<'_>]) -> Rig {
+    rig_with(specs, |_, sim| sim)
+}
+
+/// [`rig`], each simulator passed through `sim_as` with its address.
+fn rig_with(specs: &[Spec<'_>], sim_as: SimAs) -> Rig {
     let line = LineSettings::DEFAULT;
     let model = devices::model("minimod").unwrap();
     let mut world = SimWorld::new(vec![line]);
     let mut modules = Vec::new();
     for (address, protocol, settings) in specs {
         let name = format!("mm{address}");
-        world.add_device(0, &name, (model.simulator)(*address));
+        world.add_device(0, &name, sim_as(*address, (model.simulator)(*address)));
         let config = model
             .device_config(&name, *address, *protocol, settings)
             .unwrap();
@@ -452,11 +461,11 @@ fn an_idle_round_is_its_floor_and_one_character() {
 /// A MiniMod that starts its Collect replies `late` later in its slot than the simulator.
 #[derive(Debug)]
 struct LateInSlot {
-    inner: Box<dyn crate::sim::device::SimDevice>,
+    inner: Box<dyn SimDevice>,
     late: Duration,
 }
 
-impl crate::sim::device::SimDevice for LateInSlot {
+impl SimDevice for LateInSlot {
     fn model(&self) -> &'static str {
         self.inner.model()
     }
@@ -466,7 +475,7 @@ impl crate::sim::device::SimDevice for LateInSlot {
     fn advance_to(&mut self, t: Duration) {
         self.inner.advance_to(t);
     }
-    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<crate::sim::device::SimReply> {
+    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
         let mut reply = self.inner.on_frame(frame, t)?;
         if frame.get(1) == Some(&70) {
             reply.delay += self.late;
@@ -476,10 +485,10 @@ impl crate::sim::device::SimDevice for LateInSlot {
     fn points(&self) -> &'static [crate::point::PointSpec] {
         self.inner.points()
     }
-    fn get(&self, point: &str) -> Result<Value, crate::sim::device::SimError> {
+    fn get(&self, point: &str) -> Result<Value, SimError> {
         self.inner.get(point)
     }
-    fn set(&mut self, point: &str, value: Value) -> Result<(), crate::sim::device::SimError> {
+    fn set(&mut self, point: &str, value: Value) -> Result<(), SimError> {
         self.inner.set(point, value)
     }
     fn yields_to_earlier_reply(&self, frame: &[u8]) -> bool {
@@ -491,41 +500,17 @@ impl crate::sim::device::SimDevice for LateInSlot {
 fn a_reply_begun_at_the_end_of_the_window_is_heard() {
     // Slave 4 of window 1–4 starts its reply 13 ms after the request, the last instant of
     // 4 slots + 1 ms (the simulator starts 1 ms into the slot, at 10 ms: 3 ms later).
-    let line = LineSettings::DEFAULT;
-    let model = devices::model("minimod").unwrap();
-    let mut world = SimWorld::new(vec![line]);
-    let mut modules = Vec::new();
-    for address in 1..=4u8 {
-        let name = format!("mm{address}");
-        let sim = (model.simulator)(address);
-        let sim: Box<dyn crate::sim::device::SimDevice> = if address == 4 {
+    let members: Vec<Spec<'_>> = (1..=4).map(|a| (a, Protocol::Modbus, EVENTS)).collect();
+    let mut r = rig_with(&members, |address, sim| {
+        if address == 4 {
             Box::new(LateInSlot {
                 inner: sim,
                 late: Duration::from_millis(3),
             })
         } else {
             sim
-        };
-        world.add_device(0, &name, sim);
-        let config = model
-            .device_config(&name, address, Protocol::Modbus, EVENTS)
-            .unwrap();
-        modules.push(Module::new(name, (model.driver)(&config)));
-    }
-    let world = world.shared();
-    let clock = Arc::new(VirtualClock::new());
-    let log = Arc::new(Mutex::new(Vec::new()));
-    let port = Recorder {
-        inner: VirtualPort::new(world.clone(), 0, line, clock.clone()),
-        log: log.clone(),
-    };
-    let owner = BusOwner::new("line", Box::new(port), Discipline::default(), modules);
-    let mut r = Rig {
-        clock,
-        world,
-        owner,
-        log,
-    };
+        }
+    });
     r.startup();
     r.read_at(1000);
     r.at(1050);
@@ -537,5 +522,9 @@ fn a_reply_begun_at_the_end_of_the_window_is_heard() {
     let stats = r.owner.collect_stats();
     assert_eq!((stats.events, stats.failures), (1, 0));
     let (_, sent) = r.read_at(1200);
-    assert_eq!(sent, [collect(1, 4, 4, 1)], "acknowledged by the next round");
+    assert_eq!(
+        sent,
+        [collect(1, 4, 4, 1)],
+        "acknowledged by the next round"
+    );
 }

@@ -159,3 +159,26 @@ fn a_configured_latency_is_what_check_assumes_for_a_port_it_cannot_see() {
         ]
     );
 }
+
+#[test]
+fn the_collect_floor_counts_the_adapter_latency_once_per_collect() {
+    let usb = Fixture::new("collect", "/dev/ttyUSB7", "", "1\n");
+    let path = usb.sys().join("project.yaml");
+    let project = std::fs::read_to_string(&path).unwrap().replace(
+        "watchdog: off }",
+        "watchdog: off, settings: { events: true } }",
+    );
+    std::fs::write(&path, project).unwrap();
+    // 8 characters (4.583 ms) + 1 slot of 3 ms + 1 ms + t3.5 (2.005 ms) + 1 ms held back;
+    // an event: 17 characters (9.740 ms) + t3.5 + 1 ms − its 3 ms slot.
+    assert_eq!(
+        lines(&usb.report(), &["collect floor"]),
+        [
+            "collect floor (event mode, window 1–1, 1 member(s)): idle round 11.59ms (a Collect \
+             request of 8 characters, 1 slot × 3 ms + 1 ms, t3.5, per Collect up to 1.00ms of \
+             adapter latency); each event 9.74ms more (its 9-character reply from the start of \
+             its slot, t3.5, the next Collect; less from address 1, which ends the round); no \
+             reply delay applies"
+        ]
+    );
+}
