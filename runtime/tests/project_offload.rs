@@ -269,3 +269,53 @@ fn check_fails_when_a_required_rung_stays_central() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// `softplc check` on the push-down example, its line on `port` with `extra` bus keys.
+fn check_pushdown(port: &str, extra: &str) -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = std::env::temp_dir().join(format!(
+        "softplc-offload-adapter-{}-{}",
+        std::process::id(),
+        extra.len()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(root.join("examples/pushdown/project.yaml")).unwrap();
+    let text = text.replace(
+        "    port: sim ",
+        &format!("    port: {port}\n{extra}    # was: sim "),
+    );
+    std::fs::write(dir.join("project.yaml"), text).unwrap();
+    for f in std::fs::read_dir(root.join("examples/pushdown")).unwrap() {
+        let f = f.unwrap().path();
+        if f.file_name().is_some_and(|n| n != "project.yaml") {
+            std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
+        }
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(["check", dir.join("project.yaml").to_str().unwrap()])
+        .output()
+        .unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn reaction_times_count_the_input_latency_and_the_adapters() {
+    let line = |report: &str| {
+        report
+            .lines()
+            .find(|l| l.trim_start().starts_with("reaction: module"))
+            .map(str::trim)
+            .map(str::to_owned)
+            .unwrap_or_else(|| panic!("no reaction line in:\n{report}"))
+    };
+    assert_eq!(
+        line(&check_pushdown("sim", "")),
+        "reaction: module ≤ 21.00ms (input latency 20.00ms (X3 of mm1) + its tick 1.00ms) vs central ≤ 157.11ms (input latency 20.00ms (X3 of mm1) + period 100.00ms + inputs 22.69ms + write 14.42ms)"
+    );
+    // A USB adapter holding each reply 16 ms: 5 reads and 3 writes each wait that much more.
+    assert_eq!(
+        line(&check_pushdown("/dev/ttyUSB9", "    adapter_latency: 16ms\n")),
+        "reaction: module ≤ 21.00ms (input latency 20.00ms (X3 of mm1) + its tick 1.00ms) vs central ≤ 285.11ms (input latency 20.00ms (X3 of mm1) + period 100.00ms + inputs 102.69ms + write 62.42ms)"
+    );
+}

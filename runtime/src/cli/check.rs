@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use softplc_io::line::budget::{line_budget_on, AdapterTiming};
 use softplc_io::line::collect::floor::CollectFloor;
 use softplc_io::line::echo::EchoMode;
-use softplc_io::line::latency::{Assumed, SysfsRoot};
+use softplc_io::line::latency::SysfsRoot;
 use softplc_io::point::Access;
 
 use crate::image::ProcessImage;
@@ -100,14 +100,7 @@ pub fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         );
         // What the adapter holds back counts in every transaction that waits for bytes back
         // (line/latency.rs); an echo comes while the request is sent and adds nothing.
-        let assumed = match &bus.port {
-            PortConfig::Sim => Assumed::simulated(),
-            PortConfig::Serial(p) => Assumed::for_port(bus.adapter_latency, p, sysfs),
-        };
-        let adapter = AdapterTiming {
-            latency: assumed.latency,
-            echo: bus.echo,
-        };
+        let (assumed, adapter) = crate::offload::report::bus_adapter(bus, sysfs);
         let _ = writeln!(out, "  adapter latency: {assumed}");
         if bus.echo == EchoMode::Discard {
             let _ = writeln!(
