@@ -309,13 +309,18 @@ fn reaction_times_count_the_input_latency_and_the_adapters() {
             .map(str::to_owned)
             .unwrap_or_else(|| panic!("no reaction line in:\n{report}"))
     };
+    let sim = check_pushdown("sim", "");
+    let usb = check_pushdown("/dev/ttyUSB9", "    adapter_latency: 16ms\n");
+    // The module's own watchdog waits for the slower line too, or it fires on a healthy one.
+    assert!(sim.contains("module watchdog: WDTTIME 132 (1.32s ≥ 3 × period 0.10s + line floor 0.03s + start-up 0.28s"), "{sim}");
+    assert!(usb.contains("module watchdog: WDTTIME 204 (2.04s ≥ 3 × period 0.10s + line floor 0.12s + start-up 0.90s"), "{usb}");
     assert_eq!(
-        line(&check_pushdown("sim", "")),
+        line(&sim),
         "reaction: module ≤ 21.00ms (input latency 20.00ms (X3 of mm1) + its tick 1.00ms) vs central ≤ 157.11ms (input latency 20.00ms (X3 of mm1) + period 100.00ms + inputs 22.69ms + write 14.42ms)"
     );
     // A USB adapter holding each reply 16 ms: 5 reads and 3 writes each wait that much more.
     assert_eq!(
-        line(&check_pushdown("/dev/ttyUSB9", "    adapter_latency: 16ms\n")),
+        line(&usb),
         "reaction: module ≤ 21.00ms (input latency 20.00ms (X3 of mm1) + its tick 1.00ms) vs central ≤ 285.11ms (input latency 20.00ms (X3 of mm1) + period 100.00ms + inputs 102.69ms + write 62.42ms)"
     );
 }

@@ -100,7 +100,7 @@ pub fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         );
         // What the adapter holds back counts in every transaction that waits for bytes back
         // (line/latency.rs); an echo comes while the request is sent and adds nothing.
-        let (assumed, adapter) = crate::offload::report::bus_adapter(bus, sysfs);
+        let (assumed, adapter) = bus.adapter(sysfs);
         let _ = writeln!(out, "  adapter latency: {assumed}");
         if bus.echo == EchoMode::Discard {
             let _ = writeln!(

@@ -10,13 +10,13 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use softplc_io::line::budget::{line_budget_on, AdapterTiming, LineBudget};
-use softplc_io::line::latency::{Assumed, SysfsRoot};
+use softplc_io::line::budget::{line_budget_on, LineBudget};
+use softplc_io::line::latency::SysfsRoot;
 
 use softplc_io::devices::{DeviceConfig, ModuleSettings, PushDown};
 
 use super::planner::{Command, Feature, ModulePlacement, Placement, Plan, RungPlan};
-use crate::project::{Binding, BusConfig, ModuleConfig, OnStop, PortConfig, Project};
+use crate::project::{Binding, ModuleConfig, OnStop, Project};
 use crate::scan::fmt_duration;
 
 /// The central reaction bound of the outputs of bus `bus`: period + slowest read + the bus's
@@ -68,26 +68,10 @@ fn budgets(project: &Project, plan: &Plan) -> Vec<LineBudget> {
                     )
                 })
                 .collect();
-            let (_, adapter) = bus_adapter(bus, &SysfsRoot::default());
+            let (_, adapter) = bus.adapter(&SysfsRoot::default());
             line_budget_on(bus.settings, adapter, &mut drivers)
         })
         .collect()
-}
-
-/// What bus `bus`'s adapter adds to its transactions, and where the figure comes from: on a
-/// serial port, the latency timer read from sysfs under `sysfs` (or the project's
-/// `adapter_latency`); nothing on the simulated line (line/latency.rs). Reaction times and
-/// budgets count it in every transaction that waits for bytes back.
-pub fn bus_adapter(bus: &BusConfig, sysfs: &SysfsRoot) -> (Assumed, AdapterTiming) {
-    let assumed = match &bus.port {
-        PortConfig::Sim => Assumed::simulated(),
-        PortConfig::Serial(p) => Assumed::for_port(bus.adapter_latency, p, sysfs),
-    };
-    let adapter = AdapterTiming {
-        latency: assumed.latency,
-        echo: bus.echo,
-    };
-    (assumed, adapter)
 }
 
 /// The report.

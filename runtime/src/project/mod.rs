@@ -17,6 +17,7 @@
 //! missing).
 
 mod dcon_neighbours;
+mod adapter;
 pub mod error;
 pub mod model;
 pub mod mqtt;

@@ -62,7 +62,8 @@ use std::time::Duration;
 
 use softplc_io::devices::minimod::{Setting as MiniModSetting, Settings as MiniModSettings};
 use softplc_io::devices::ModuleSettings;
-use softplc_io::line::budget::{failed_attempt, line_budget, transaction_time};
+use softplc_io::line::budget::{failed_attempt, line_budget_on, transaction_time};
+use softplc_io::line::latency::SysfsRoot;
 use softplc_io::point::{Access, Value};
 
 use super::model::{Binding, Project};
@@ -363,6 +364,9 @@ fn derive_all(project: &Project) -> Vec<Derivation> {
         project.modules.len()
     ];
     for (b, bus) in project.buses.iter().enumerate() {
+        // A USB adapter's latency timer stretches every exchange, so the module's timeout
+        // must too, or the watchdog fires on a healthy line.
+        let (_, adapter) = bus.adapter(&SysfsRoot::default());
         let members: Vec<usize> = (0..project.modules.len())
             .filter(|&m| project.modules[m].bus == b)
             .collect();
@@ -392,10 +396,10 @@ fn derive_all(project: &Project) -> Vec<Derivation> {
             let delay = driver.reply_delay();
             startup += plan
                 .iter()
-                .map(|tx| transaction_time(bus.settings, tx, delay))
+                .map(|tx| transaction_time(bus.settings, tx, delay) + adapter.latency)
                 .sum::<Duration>();
         }
-        let floor = line_budget(bus.settings, &mut drivers).cycle_floor();
+        let floor = line_budget_on(bus.settings, adapter, &mut drivers).cycle_floor();
         // One attempt that gets no answer: the request, the response timeout, the guard.
         let attempt = failed_attempt(bus.settings, bus.response_timeout);
         let attempts = u32::from(bus.retries) + 1;
