@@ -48,6 +48,11 @@ pub struct Discipline {
     pub reconnect_min: Duration,
     /// Longest retry interval.
     pub reconnect_max: Duration,
+    /// What the port's adapter holds received bytes back (a USB adapter's latency timer, as
+    /// the port reported it when opened): a wait that ends by silence rather than by a
+    /// timeout (a Collect window) must last that much longer, or a reply in its last slot is
+    /// still inside the adapter when the owner stops listening.
+    pub adapter_latency: Duration,
 }
 
 impl Discipline {
@@ -69,6 +74,7 @@ impl Default for Discipline {
             fail_limit: 3,
             reconnect_min: Duration::from_secs(1),
             reconnect_max: Duration::from_secs(30),
+            adapter_latency: Duration::ZERO,
         }
     }
 }
@@ -308,7 +314,7 @@ pub struct BusOwner {
     name: String,
     pub(crate) transport: Box<dyn Transport>,
     pub(crate) settings: LineSettings,
-    discipline: Discipline,
+    pub(super) discipline: Discipline,
     pub(crate) modules: Vec<Module>,
     pub(crate) line_free_at: Duration,
     /// FC 70 Collect rounds for the modules in event mode (line/collect.rs).

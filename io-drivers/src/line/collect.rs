@@ -413,7 +413,8 @@ impl BusOwner {
     /// Broadcasts one Collect and listens through its reply window, as one exchange of the
     /// owner's.
     fn collect_exchange(&mut self, request: &Request, window: Duration) -> Result<Heard, Exchange> {
-        let wait = window + first_char_margin(self.settings);
+        // The adapter holds the first character back up to its latency timer.
+        let wait = window + first_char_margin(self.settings) + self.discipline.adapter_latency;
         // A Collect round ends when a window passes in silence: that is no timeout.
         let frame = Frame::Modbus {
             address: 0,

@@ -133,6 +133,7 @@ impl Plc {
                 response_timeout: bus.response_timeout,
                 retries: bus.retries,
                 output_refresh: bus.output_refresh,
+                adapter_latency,
                 ..Discipline::default()
             };
             let mut owner = BusOwner::new(bus.name.clone(), transport, discipline, modules);

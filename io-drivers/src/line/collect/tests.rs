@@ -175,6 +175,11 @@ fn rig(specs: &[Spec<'_>]) -> Rig {
 
 /// [`rig`], each simulator passed through `sim_as` with its address.
 fn rig_with(specs: &[Spec<'_>], sim_as: SimAs) -> Rig {
+    rig_on(specs, sim_as, Duration::ZERO)
+}
+
+/// [`rig_with`], behind an adapter that holds received bytes `adapter_latency` back.
+fn rig_on(specs: &[Spec<'_>], sim_as: SimAs, adapter_latency: Duration) -> Rig {
     let line = LineSettings::DEFAULT;
     let model = devices::model("minimod").unwrap();
     let mut world = SimWorld::new(vec![line]);
@@ -198,6 +203,7 @@ fn rig_with(specs: &[Spec<'_>], sim_as: SimAs) -> Rig {
     let discipline = Discipline {
         response_timeout: Duration::from_millis(50),
         retries: 0,
+        adapter_latency,
         ..Discipline::default()
     };
     let owner = BusOwner::new("line", Box::new(port), discipline, modules);
@@ -526,5 +532,39 @@ fn a_reply_begun_at_the_end_of_the_window_is_heard() {
         sent,
         [collect(1, 4, 4, 1)],
         "acknowledged by the next round"
+    );
+}
+
+#[test]
+fn behind_a_usb_adapter_the_window_waits_for_its_latency_timer() {
+    // Slave 4's reply at the window's last instant, held 16 ms more by an FTDI adapter's
+    // default latency timer (modelled as a reply that starts 16 ms later on the wire).
+    let late = |address, sim: Box<dyn SimDevice>| -> Box<dyn SimDevice> {
+        if address == 4 {
+            Box::new(LateInSlot {
+                inner: sim,
+                late: Duration::from_millis(3 + 16),
+            })
+        } else {
+            sim
+        }
+    };
+    let members: Vec<Spec<'_>> = (1..=4).map(|a| (a, Protocol::Modbus, EVENTS)).collect();
+    let heard = |adapter_ms: u64| {
+        let mut r = rig_on(&members, late, Duration::from_millis(adapter_ms));
+        r.startup();
+        r.read_at(1000);
+        r.at(1050);
+        r.set(3, "X1", true);
+        let (f, _) = r.read_at(1100);
+        value(&f, 3, "X1") == Some(Value::Bool(true)) && r.owner.collect_stats().failures == 0
+    };
+    assert!(
+        heard(16),
+        "the owner told of the adapter hears the late slot"
+    );
+    assert!(
+        !heard(0),
+        "without it, the reply is still in the adapter when the window ends"
     );
 }
