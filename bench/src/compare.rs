@@ -6,7 +6,7 @@ use std::fmt::Write;
 use serde_json::Value;
 
 /// A change worth printing: ±25 %.
-pub const THRESHOLD: f64 = 0.25;
+pub(crate) const THRESHOLD: f64 = 0.25;
 
 /// Key and (p50, p99) of every measured row of a results document.
 fn measured(doc: &Value) -> Vec<(String, f64, f64)> {
@@ -31,7 +31,7 @@ fn measured(doc: &Value) -> Vec<(String, f64, f64)> {
 }
 
 /// A report of what moved between `before` and `after` (empty when nothing did).
-pub fn changes(before: &Value, after: &Value) -> String {
+pub(crate) fn changes(before: &Value, after: &Value) -> String {
     let old = measured(before);
     let mut out = String::new();
     let mut compared = 0;

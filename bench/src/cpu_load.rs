@@ -8,14 +8,14 @@ use std::time::{Duration, Instant};
 
 /// Busy threads that spin until dropped or until their time limit, whichever comes first.
 #[derive(Debug)]
-pub struct CpuLoad {
+pub(crate) struct CpuLoad {
     stop: Arc<AtomicBool>,
     threads: Vec<JoinHandle<u64>>,
 }
 
 impl CpuLoad {
     /// Starts `threads` busy threads that stop by themselves after `limit`.
-    pub fn start(threads: usize, limit: Duration) -> Self {
+    pub(crate) fn start(threads: usize, limit: Duration) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
         let end = Instant::now() + limit;
         let threads = (0..threads)
@@ -31,7 +31,7 @@ impl CpuLoad {
     }
 
     /// One busy thread per CPU the process may use.
-    pub fn per_cpu(limit: Duration) -> Self {
+    pub(crate) fn per_cpu(limit: Duration) -> Self {
         Self::start(
             std::thread::available_parallelism().map_or(2, |n| n.get()),
             limit,

@@ -10,7 +10,7 @@ use crate::report::{Figure, Row};
 use crate::scenarios::ScenarioResult;
 
 /// Version of this file's layout.
-pub const SCHEMA: u64 = 1;
+pub(crate) const SCHEMA: u64 = 1;
 
 /// Microseconds with nanosecond digits.
 fn us(d: Duration) -> f64 {
@@ -71,7 +71,7 @@ fn row_json(row: &Row) -> Value {
 }
 
 /// The whole results document.
-pub fn document(
+pub(crate) fn document(
     machine: &Machine,
     load_at_end: f64,
     command: &str,

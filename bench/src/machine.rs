@@ -5,7 +5,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 /// Where and when.
 #[derive(Debug, Clone)]
-pub struct Machine {
+pub(crate) struct Machine {
     /// CPUs this process may use.
     pub cpus: usize,
     /// `model name` from /proc/cpuinfo.
@@ -23,7 +23,7 @@ pub struct Machine {
 
 impl Machine {
     /// Looks at this machine now.
-    pub fn describe() -> Self {
+    pub(crate) fn describe() -> Self {
         let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
         let cpu_model = cpuinfo
             .lines()
@@ -45,7 +45,7 @@ impl Machine {
     }
 
     /// One line for the README: `2 CPUs, AMD EPYC, Linux 6.1`.
-    pub fn summary(&self) -> String {
+    pub(crate) fn summary(&self) -> String {
         format!(
             "{} CPUs ({}), Linux {}",
             self.cpus, self.cpu_model, self.kernel
@@ -54,7 +54,7 @@ impl Machine {
 }
 
 /// The 1-minute load average (0 when /proc/loadavg cannot be read).
-pub fn load_average() -> f64 {
+pub(crate) fn load_average() -> f64 {
     std::fs::read_to_string("/proc/loadavg")
         .ok()
         .and_then(|s| s.split_whitespace().next().and_then(|v| v.parse().ok()))
@@ -88,7 +88,7 @@ fn revision() -> String {
 }
 
 /// Seconds since the epoch as `YYYY-MM-DD HH:MM UTC` (proleptic Gregorian calendar).
-pub fn utc(secs: u64) -> String {
+pub(crate) fn utc(secs: u64) -> String {
     let days = (secs / 86_400) as i64;
     let (h, m) = ((secs % 86_400) / 3600, (secs % 3600) / 60);
     // Howard Hinnant's days-to-civil algorithm.

@@ -13,7 +13,7 @@ use anyhow::{bail, Context};
 
 /// `mbpoll <version>` (the Debian package's version when dpkg knows it: mbpoll's own `-V`
 /// prints an old internal number), or `None` when mbpoll is not installed.
-pub fn version() -> Option<String> {
+pub(crate) fn version() -> Option<String> {
     let out = Command::new("mbpoll")
         .arg("-V")
         .stderr(Stdio::null())
@@ -33,7 +33,7 @@ pub fn version() -> Option<String> {
 
 /// One mbpoll run reading discrete inputs 0..10 of `unit` (FC 2, what the runtime's MiniMod
 /// driver reads) `polls` times back to back at 19200 8E1; returns its wall time.
-pub fn timed_run(path: &Path, unit: u8, polls: usize) -> anyhow::Result<Duration> {
+pub(crate) fn timed_run(path: &Path, unit: u8, polls: usize) -> anyhow::Result<Duration> {
     let units = vec![unit.to_string(); polls].join(",");
     let start = Instant::now();
     let out = Command::new("mbpoll")
@@ -62,7 +62,7 @@ pub fn timed_run(path: &Path, unit: u8, polls: usize) -> anyhow::Result<Duration
 }
 
 /// Time per transaction of one measurement: (`polls` in one process − 1 poll) / (polls − 1).
-pub fn per_transaction(path: &Path, unit: u8, polls: usize) -> anyhow::Result<Duration> {
+pub(crate) fn per_transaction(path: &Path, unit: u8, polls: usize) -> anyhow::Result<Duration> {
     let one = timed_run(path, unit, 1)?;
     let many = timed_run(path, unit, polls)?;
     Ok(many.saturating_sub(one) / (polls.max(2) as u32 - 1))

@@ -114,7 +114,7 @@ fn escape(s: &str) -> String {
 }
 
 /// Renders `plot` as an SVG document.
-pub fn svg(plot: &Plot) -> String {
+pub(crate) fn svg(plot: &Plot) -> String {
     let data: Vec<Vec<(f64, u64)>> = plot.series.iter().map(buckets).collect();
     let lo = data
         .iter()

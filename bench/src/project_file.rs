@@ -10,7 +10,7 @@ use softplc::project::{self, Project};
 /// One bus of a generated project: its name, baud, and the unit addresses of its modules
 /// (MiniMods unless [`SimBus::model`] says otherwise).
 #[derive(Debug, Clone)]
-pub struct SimBus {
+pub(crate) struct SimBus {
     /// Bus name.
     pub name: String,
     /// Baud rate (8E1).
@@ -25,7 +25,7 @@ pub struct SimBus {
 
 impl SimBus {
     /// A bus of MiniMods with their power-on settings.
-    pub fn new(name: &str, baud: u32, addresses: impl IntoIterator<Item = u8>) -> Self {
+    pub(crate) fn new(name: &str, baud: u32, addresses: impl IntoIterator<Item = u8>) -> Self {
         Self {
             name: name.into(),
             baud,
@@ -40,7 +40,7 @@ impl SimBus {
 ///
 /// `buses` are simulated (`port: sim`) lines of modules; `tags` are YAML flow mappings
 /// (`{ name: x, type: bool }`), `program` is `expr` source.
-pub fn load(
+pub(crate) fn load(
     scratch: &Path,
     name: &str,
     period: &str,
@@ -53,7 +53,7 @@ pub fn load(
 
 /// [`load`] with the project's push-down mode (`offload: auto` lets the planner move rungs
 /// into the modules).
-pub fn load_offload(
+pub(crate) fn load_offload(
     scratch: &Path,
     name: &str,
     period: &str,

@@ -9,7 +9,7 @@ use softplc::scan::{DurationHistogram, Percentiles};
 /// measured in the same run. A constant bound has `p50 == p99`; a measured baseline gives its
 /// own percentiles, so p50 is compared with p50 and p99 with p99.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Bound {
+pub(crate) struct Bound {
     /// What the bound is, as a reader needs it ("wire-time floor", "tokio interval loop").
     pub name: String,
     /// The bound at the median.
@@ -20,7 +20,7 @@ pub struct Bound {
 
 impl Bound {
     /// A bound that is one number (a floor, a figure from a manual).
-    pub fn fixed(name: impl Into<String>, value: Duration) -> Self {
+    pub(crate) fn fixed(name: impl Into<String>, value: Duration) -> Self {
         Self {
             name: name.into(),
             p50: value,
@@ -29,7 +29,7 @@ impl Bound {
     }
 
     /// A baseline measured in the same run: percentile against percentile.
-    pub fn baseline(name: impl Into<String>, of: &Percentiles) -> Self {
+    pub(crate) fn baseline(name: impl Into<String>, of: &Percentiles) -> Self {
         Self {
             name: name.into(),
             p50: of.p50,
@@ -38,7 +38,7 @@ impl Bound {
     }
 
     /// `figure / bound` at the median and at the 99th percentile (`None` for a zero bound).
-    pub fn ratios(&self, figure: &Percentiles) -> (Option<f64>, Option<f64>) {
+    pub(crate) fn ratios(&self, figure: &Percentiles) -> (Option<f64>, Option<f64>) {
         let r =
             |a: Duration, b: Duration| (!b.is_zero()).then(|| a.as_secs_f64() / b.as_secs_f64());
         (r(figure.p50, self.p50), r(figure.p99, self.p99))
@@ -47,7 +47,7 @@ impl Bound {
 
 /// The figure of a row.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Figure {
+pub(crate) enum Figure {
     /// A measured distribution.
     Measured(Percentiles),
     /// The scenario needs a feature that has not landed: say so rather than invent a figure.
@@ -65,7 +65,7 @@ pub enum Figure {
 
 /// One row of the results table.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Row {
+pub(crate) struct Row {
     /// The measured situation ("N=4, 19200 8E1, reply delay 10 ms").
     pub case: String,
     /// What is measured ("I/O cycle", "wake-up lateness").
@@ -83,7 +83,7 @@ pub struct Row {
 
 impl Row {
     /// A measured row.
-    pub fn measured(case: impl Into<String>, metric: impl Into<String>, p: Percentiles) -> Self {
+    pub(crate) fn measured(case: impl Into<String>, metric: impl Into<String>, p: Percentiles) -> Self {
         Self {
             case: case.into(),
             metric: metric.into(),
@@ -96,7 +96,7 @@ impl Row {
 
     /// A row for a scenario whose feature has not landed yet.
     #[cfg_attr(not(test), allow(dead_code))]
-    pub fn not_yet(case: impl Into<String>, feature: &str, issue: &str) -> Self {
+    pub(crate) fn not_yet(case: impl Into<String>, feature: &str, issue: &str) -> Self {
         Self {
             case: case.into(),
             metric: "—".into(),
@@ -111,7 +111,7 @@ impl Row {
     }
 
     /// A row for a measurement that could not be made.
-    pub fn unavailable(
+    pub(crate) fn unavailable(
         case: impl Into<String>,
         metric: impl Into<String>,
         why: impl Into<String>,
@@ -127,25 +127,25 @@ impl Row {
     }
 
     /// Adds a bound.
-    pub fn bound(mut self, b: Bound) -> Self {
+    pub(crate) fn bound(mut self, b: Bound) -> Self {
         self.bounds.push(b);
         self
     }
 
     /// Adds a scalar for the JSON file.
-    pub fn value(mut self, name: &str, v: f64) -> Self {
+    pub(crate) fn value(mut self, name: &str, v: f64) -> Self {
         self.values.push((name.to_string(), v));
         self
     }
 
     /// Sets the note.
-    pub fn note(mut self, note: impl Into<String>) -> Self {
+    pub(crate) fn note(mut self, note: impl Into<String>) -> Self {
         self.note = note.into();
         self
     }
 
     /// The measured percentiles, if any.
-    pub fn percentiles(&self) -> Option<&Percentiles> {
+    pub(crate) fn percentiles(&self) -> Option<&Percentiles> {
         match &self.figure {
             Figure::Measured(p) => Some(p),
             _ => None,
@@ -155,7 +155,7 @@ impl Row {
 
 /// One curve of a plot.
 #[derive(Debug, Clone)]
-pub struct Series {
+pub(crate) struct Series {
     /// Legend text.
     pub label: String,
     /// The samples.
@@ -164,7 +164,7 @@ pub struct Series {
 
 /// How a plot shows its series.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PlotKind {
+pub(crate) enum PlotKind {
     /// Cumulative distribution; `log_x` for figures spanning decades (µs to ms).
     Cdf {
         /// Logarithmic time axis.
@@ -176,7 +176,7 @@ pub enum PlotKind {
 
 /// A plot a scenario asks for.
 #[derive(Debug, Clone)]
-pub struct Plot {
+pub(crate) struct Plot {
     /// File name inside the results folder (`scheduler-lateness.svg`).
     pub file: String,
     /// Title.
@@ -191,7 +191,7 @@ pub struct Plot {
 
 /// Everything one scenario produced.
 #[derive(Debug, Default)]
-pub struct Outcome {
+pub(crate) struct Outcome {
     /// Table rows.
     pub rows: Vec<Row>,
     /// Plots.

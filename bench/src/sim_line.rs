@@ -21,7 +21,7 @@ use softplc_io::time::Clock;
 
 /// A line ready to run.
 #[derive(Debug)]
-pub struct MiniModLine {
+pub(crate) struct MiniModLine {
     /// The bus owner, start-up done (not yet on its thread).
     pub owner: BusOwner,
     /// The simulated world behind the line: device `i` is the module at address `i + 1`.
@@ -33,12 +33,12 @@ pub struct MiniModLine {
 }
 
 /// A MiniMod driver at `address` with the project file's `settings`.
-pub fn driver(address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
+pub(crate) fn driver(address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
     model_driver(&minimod::MODEL, address, settings)
 }
 
 /// A Modbus driver of catalog `model` at `address` with the project file's `settings`.
-pub fn model_driver(model: &ModelSpec, address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
+pub(crate) fn model_driver(model: &ModelSpec, address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
     match model.device_config(
         &format!("{}{address}", model.name),
         address,
@@ -53,7 +53,7 @@ pub fn model_driver(model: &ModelSpec, address: u8, settings: &[(&str, &str)]) -
 
 /// `n` MiniMods at addresses 1..=n with the same `settings` (project-file keys and values, e.g.
 /// `RDELAYT`, `events`) on one virtual line at `line`, in real time on `clock`.
-pub fn minimods(
+pub(crate) fn minimods(
     n: u8,
     line: LineSettings,
     settings: &[(&str, &str)],
@@ -90,7 +90,7 @@ pub fn minimods(
 }
 
 /// One MiniMod's desired outputs with only Y1 driven, at `on`.
-pub fn y1_frame(on: bool) -> Vec<Option<Value>> {
+pub(crate) fn y1_frame(on: bool) -> Vec<Option<Value>> {
     let mut desired = vec![None; map::POINTS.len()];
     if let Some(i) = map::point_index("Y1") {
         desired[i] = Some(Value::Bool(on));
@@ -100,7 +100,7 @@ pub fn y1_frame(on: bool) -> Vec<Option<Value>> {
 
 /// The floor of the writes of one cycle in which output `point` of one `model` module at
 /// `line` with `settings` changes: planned on a scratch driver and priced on the wire.
-pub fn write_floor(
+pub(crate) fn write_floor(
     model: &ModelSpec,
     line: LineSettings,
     settings: &[(&str, &str)],
@@ -120,7 +120,7 @@ pub fn write_floor(
 }
 
 /// The output frame of a line of `n` modules with every Y1 at `on`.
-pub fn all_y1(n: usize, on: bool) -> OutputFrame {
+pub(crate) fn all_y1(n: usize, on: bool) -> OutputFrame {
     OutputFrame {
         modules: vec![y1_frame(on); n],
     }
@@ -128,12 +128,12 @@ pub fn all_y1(n: usize, on: bool) -> OutputFrame {
 
 /// The floor of one read cycle of a single MiniMod at `line` with `settings`, and the part of
 /// it from the end of the request to the end of the reply (reply delay + reply characters).
-pub fn single_read_floor(line: LineSettings, settings: &[(&str, &str)]) -> (Duration, Duration) {
+pub(crate) fn single_read_floor(line: LineSettings, settings: &[(&str, &str)]) -> (Duration, Duration) {
     read_floor(&minimod::MODEL, line, settings)
 }
 
 /// [`single_read_floor`] of one module of catalog `model`.
-pub fn read_floor(
+pub(crate) fn read_floor(
     model: &ModelSpec,
     line: LineSettings,
     settings: &[(&str, &str)],

@@ -9,7 +9,7 @@ use anyhow::{bail, Context};
 
 /// The `softplc` binary of this workspace, built now if cargo runs the harness (so the
 /// simulator is the code under test, not a stale build).
-pub fn softplc_binary() -> anyhow::Result<PathBuf> {
+pub(crate) fn softplc_binary() -> anyhow::Result<PathBuf> {
     let exe = std::env::current_exe().context("cannot locate the harness's own binary")?;
     let dir = exe.parent().context("the harness's binary has no folder")?;
     let bin = dir.join("softplc");
@@ -37,7 +37,7 @@ pub fn softplc_binary() -> anyhow::Result<PathBuf> {
 
 /// A running `softplc sim` serving on a pty.
 #[derive(Debug)]
-pub struct ServedSim {
+pub(crate) struct ServedSim {
     child: Child,
     stdin: Option<ChildStdin>,
     /// The pty path a master opens.
@@ -46,7 +46,7 @@ pub struct ServedSim {
 
 impl ServedSim {
     /// Starts `softplc sim --pty DEVICES...` and waits for the path it prints.
-    pub fn start(binary: &Path, devices: &[&str]) -> anyhow::Result<Self> {
+    pub(crate) fn start(binary: &Path, devices: &[&str]) -> anyhow::Result<Self> {
         let mut child = Command::new(binary)
             .arg("sim")
             .arg("--pty")

@@ -11,7 +11,7 @@ use crate::scenarios::ScenarioResult;
 
 /// A duration for the table: like the runtime's `fmt_duration`, with nanoseconds and tenths
 /// of microseconds below 10 µs (a logic scan of a few rungs).
-pub fn fmt_time(d: Duration) -> String {
+pub(crate) fn fmt_time(d: Duration) -> String {
     let ns = d.as_nanos();
     if ns < 1_000 {
         format!("{ns}ns")
@@ -23,7 +23,7 @@ pub fn fmt_time(d: Duration) -> String {
 }
 
 /// A ratio as the table prints it: `×1.03`, `×0.052`.
-pub fn fmt_ratio(r: f64) -> String {
+pub(crate) fn fmt_ratio(r: f64) -> String {
     if r >= 10.0 {
         format!("×{r:.1}")
     } else if r >= 0.1 {
@@ -94,7 +94,7 @@ fn row_line(row: &Row) -> String {
 }
 
 /// The whole table, one section per scenario.
-pub fn markdown(results: &[ScenarioResult]) -> String {
+pub(crate) fn markdown(results: &[ScenarioResult]) -> String {
     let mut out = String::new();
     for r in results {
         let _ = writeln!(out, "#### {}. {}\n", r.number, r.title);

@@ -9,11 +9,11 @@ use softplc_io::sim::line::SharedWorld;
 use softplc_io::time::Clock;
 
 /// The sampling period.
-pub const SAMPLE: Duration = Duration::from_millis(1);
+pub(crate) const SAMPLE: Duration = Duration::from_millis(1);
 
 /// Samples `point` of device `device` and records the width of each complete on-pulse.
 #[derive(Debug)]
-pub struct PulseWatch {
+pub(crate) struct PulseWatch {
     world: SharedWorld,
     device: usize,
     point: &'static str,
@@ -25,7 +25,7 @@ pub struct PulseWatch {
 
 impl PulseWatch {
     /// Watches `point` of `device` in `world`.
-    pub fn new(world: SharedWorld, device: usize, point: &'static str) -> Self {
+    pub(crate) fn new(world: SharedWorld, device: usize, point: &'static str) -> Self {
         Self {
             world,
             device,
@@ -37,7 +37,7 @@ impl PulseWatch {
     }
 
     /// Brings the world to `clock`'s now and looks at the point once.
-    pub fn sample(&mut self, clock: &dyn Clock) {
+    pub(crate) fn sample(&mut self, clock: &dyn Clock) {
         let now = clock.now();
         let on = {
             let mut w = self.world.lock().unwrap_or_else(|e| e.into_inner());
@@ -57,7 +57,7 @@ impl PulseWatch {
     }
 
     /// Samples every [`SAMPLE`] on absolute deadlines until `until` (clock time).
-    pub fn run_until(&mut self, clock: &dyn Clock, until: Duration) {
+    pub(crate) fn run_until(&mut self, clock: &dyn Clock, until: Duration) {
         let mut next = clock.now();
         while next < until {
             clock.sleep_until(next);
@@ -69,7 +69,7 @@ impl PulseWatch {
 
 /// How the output answers an input edge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Follow {
+pub(crate) enum Follow {
     /// The output takes the input's level (`y = x`): every edge is timed.
     Level,
     /// The output flips on a rising edge (`y = y ^ rising(x)`, an impulse relay): rising edges
@@ -80,7 +80,7 @@ pub enum Follow {
 /// Drives an input terminal of a simulated device and times how long an output terminal takes
 /// to follow it.
 #[derive(Debug)]
-pub struct ReactionProbe {
+pub(crate) struct ReactionProbe {
     world: SharedWorld,
     device: usize,
     input: &'static str,
@@ -95,7 +95,7 @@ pub struct ReactionProbe {
 
 impl ReactionProbe {
     /// Probes `input` → `output` of `device` in `world`; both start low.
-    pub fn new(
+    pub(crate) fn new(
         world: SharedWorld,
         device: usize,
         input: &'static str,
@@ -123,7 +123,7 @@ impl ReactionProbe {
     /// Flips the input at the terminal now, then samples the output every [`SAMPLE`] until it
     /// shows the expected level or `timeout` passes: the input's level ([`Follow::Level`]), or
     /// after a rising edge the opposite of the output's level at the edge ([`Follow::Toggle`]).
-    pub fn edge(&mut self, clock: &dyn Clock, timeout: Duration) {
+    pub(crate) fn edge(&mut self, clock: &dyn Clock, timeout: Duration) {
         self.level = !self.level;
         let at = clock.now();
         let expected = {

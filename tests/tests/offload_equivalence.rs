@@ -951,7 +951,7 @@ mod machine {
 
     /// A handle on a module of the machine.
     #[derive(Debug, Clone)]
-    pub struct Shared(Module);
+    pub(crate) struct Shared(Module);
 
     impl Shared {
         fn lock(&self) -> std::sync::MutexGuard<'_, Box<dyn SimDevice>> {
@@ -996,7 +996,7 @@ mod machine {
     }
 
     /// The machine's module of `model` at `address` (made on first use, powered on).
-    pub fn module(model: &'static str, address: u8) -> Shared {
+    pub(crate) fn module(model: &'static str, address: u8) -> Shared {
         MODULES.with(|m| {
             let mut m = m.borrow_mut();
             if let Some((_, _, d)) = m.iter().find(|(n, a, _)| *n == model && *a == address) {
@@ -1010,7 +1010,7 @@ mod machine {
     }
 
     /// A new machine: the next PLC gets modules fresh from the factory.
-    pub fn replace() {
+    pub(crate) fn replace() {
         MODULES.with(|m| m.borrow_mut().clear());
     }
 
@@ -1023,7 +1023,7 @@ mod machine {
     }
 
     /// `project` on this thread's machine.
-    pub fn on_machine(mut project: Project) -> Project {
+    pub(crate) fn on_machine(mut project: Project) -> Project {
         for m in &mut project.modules {
             let simulator: fn(u8) -> Box<dyn SimDevice> = match m.model.name {
                 "minimod" => minimod,

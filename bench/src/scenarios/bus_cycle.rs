@@ -23,7 +23,7 @@ use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 use crate::sim_line;
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 3,
     name: "bus-cycle",
     title: "Bus cycle: one line of MiniMods against the wire-time floor and the manual",

@@ -31,7 +31,7 @@ use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 use crate::sim_line;
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 4,
     name: "collect",
     title: "Collect vs its floor and vs polling: time per round",

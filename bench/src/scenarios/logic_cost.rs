@@ -18,7 +18,7 @@ use super::{Ctx, Scenario};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 2,
     name: "logic-cost",
     title: "Logic cost per scan: ladder and Rhai, 10 / 100 / 1000 rungs",

@@ -1,15 +1,15 @@
 //! The scenarios, one file each. Adding one: write `NAME.rs` with a `pub fn run(&Ctx) ->
 //! anyhow::Result<Outcome>` and list it in [`all`].
 
-pub mod bus_cycle;
-pub mod collect;
-pub mod logic_cost;
-pub mod pulse;
-pub mod reaction;
-pub mod scale;
-pub mod scheduler;
-pub mod serial_path;
-pub mod trace_cost;
+pub(crate) mod bus_cycle;
+pub(crate) mod collect;
+pub(crate) mod logic_cost;
+pub(crate) mod pulse;
+pub(crate) mod reaction;
+pub(crate) mod scale;
+pub(crate) mod scheduler;
+pub(crate) mod serial_path;
+pub(crate) mod trace_cost;
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -18,7 +18,7 @@ use crate::report::{Outcome, Row};
 
 /// What every scenario gets.
 #[derive(Debug, Clone)]
-pub struct Ctx {
+pub(crate) struct Ctx {
     /// Short runs (`--quick`): the whole harness under a minute.
     pub quick: bool,
     /// A scratch folder for generated project and program files.
@@ -27,7 +27,7 @@ pub struct Ctx {
 
 impl Ctx {
     /// `full` normally, `quick` with `--quick`.
-    pub fn pick(&self, full: Duration, quick: Duration) -> Duration {
+    pub(crate) fn pick(&self, full: Duration, quick: Duration) -> Duration {
         if self.quick {
             quick
         } else {
@@ -38,7 +38,7 @@ impl Ctx {
 
 /// A scenario of issue #8.
 #[derive(Debug, Clone, Copy)]
-pub struct Scenario {
+pub(crate) struct Scenario {
     /// Its number in the issue.
     pub number: u8,
     /// Name for `--only`.
@@ -53,7 +53,7 @@ pub struct Scenario {
 
 /// A scenario's results.
 #[derive(Debug)]
-pub struct ScenarioResult {
+pub(crate) struct ScenarioResult {
     /// Its number.
     pub number: u8,
     /// Its name.
@@ -69,7 +69,7 @@ pub struct ScenarioResult {
 }
 
 /// Every scenario, in the issue's order.
-pub fn all() -> Vec<Scenario> {
+pub(crate) fn all() -> Vec<Scenario> {
     vec![
         scheduler::SCENARIO,
         logic_cost::SCENARIO,

@@ -24,7 +24,7 @@ use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 use crate::terminal::PulseWatch;
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 6,
     name: "pulse",
     title: "Pulse accuracy: 50 ms requested by a program scanning every 80 ms",

@@ -31,7 +31,7 @@ use crate::sim_line;
 use crate::terminal::{Follow, ReactionProbe};
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 5,
     name: "reaction",
     title: "Reaction latency: input edge → output edge, central vs in the module",

@@ -19,7 +19,7 @@ use crate::project_file::{self, SimBus};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 8,
     name: "scale",
     title: "Scale: lines polled in parallel",

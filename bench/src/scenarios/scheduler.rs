@@ -25,7 +25,7 @@ use crate::project_file;
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 1,
     name: "scheduler",
     title: "Scheduler: wake-up lateness of the scan thread vs a tokio interval loop",

@@ -22,7 +22,7 @@ use crate::softplc_sim::{softplc_binary, ServedSim};
 use crate::{mbpoll, sim_line};
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 7,
     name: "serial-path",
     title: "Real serial path: a pty, `softplc sim`, the runtime's bus owner vs mbpoll",

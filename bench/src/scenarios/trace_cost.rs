@@ -20,7 +20,7 @@ use super::{Ctx, Scenario};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 
 /// The scenario.
-pub const SCENARIO: Scenario = Scenario {
+pub(crate) const SCENARIO: Scenario = Scenario {
     number: 9,
     name: "trace-cost",
     title: "Trace: cost per traced tag",

@@ -25,7 +25,7 @@ use softplc_io::point::{Value, ValueType};
 
 /// The engines a synthetic program exists in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Language {
+pub(crate) enum Language {
     /// The `expr` engine: the baseline.
     Expr,
     /// Ladder YAML.
@@ -36,14 +36,14 @@ pub enum Language {
 
 /// Tag names in image order: `x0..=xN`, then `y0..y(N-1)`, with their types and whether the
 /// program may write them.
-pub fn tags(n: usize) -> Vec<(String, ValueType, bool)> {
+pub(crate) fn tags(n: usize) -> Vec<(String, ValueType, bool)> {
     let inputs = (0..=n).map(|i| (format!("x{i}"), ValueType::Bool, false));
     let outputs = (0..n).map(|i| (format!("y{i}"), ValueType::Bool, true));
     inputs.chain(outputs).collect()
 }
 
 /// The tag table programs compile against.
-pub fn tag_table(n: usize) -> TagTable {
+pub(crate) fn tag_table(n: usize) -> TagTable {
     TagTable::new(
         tags(n)
             .into_iter()
@@ -53,19 +53,19 @@ pub fn tag_table(n: usize) -> TagTable {
 }
 
 /// A process image with every tag false.
-pub fn image(n: usize) -> ProcessImage {
+pub(crate) fn image(n: usize) -> ProcessImage {
     ProcessImage::new(tags(n).into_iter().map(|(name, ty, _)| (name, ty.zero())))
 }
 
 /// The `expr` program with `n` rungs.
-pub fn expr_program(n: usize) -> String {
+pub(crate) fn expr_program(n: usize) -> String {
     (0..n)
         .map(|i| format!("y{i} = ton((x{i} | y{i}) & !x{j}, 100ms)\n", j = i + 1))
         .collect()
 }
 
 /// The ladder program with `n` rungs.
-pub fn ladder_program(n: usize) -> String {
+pub(crate) fn ladder_program(n: usize) -> String {
     let mut s = String::from("description: synthetic latch + timer rungs\nrungs:\n");
     for i in 0..n {
         let _ = writeln!(
@@ -78,7 +78,7 @@ pub fn ladder_program(n: usize) -> String {
 }
 
 /// The Rhai program with `n` rungs.
-pub fn rhai_program(n: usize) -> String {
+pub(crate) fn rhai_program(n: usize) -> String {
     let mut s = String::from("// synthetic latch + timer rungs\n");
     for i in 0..n {
         let _ = writeln!(
@@ -92,7 +92,7 @@ pub fn rhai_program(n: usize) -> String {
 
 /// The `n`-rung program of `language`, compiled against [`tag_table`]. An error is a bug:
 /// the programs are generated to be valid.
-pub fn compile(language: Language, n: usize) -> anyhow::Result<Box<dyn LogicEngine>> {
+pub(crate) fn compile(language: Language, n: usize) -> anyhow::Result<Box<dyn LogicEngine>> {
     let table = tag_table(n);
     let fail =
         |e: &dyn std::fmt::Display| anyhow::anyhow!("synthetic program does not compile: {e}");
@@ -119,7 +119,7 @@ pub fn compile(language: Language, n: usize) -> anyhow::Result<Box<dyn LogicEngi
 
 /// Sets the inputs for `cycle`: input `i` is true for 20 cycles out of every 20 + (i % 7),
 /// a pattern that keeps latches and timers moving without any randomness.
-pub fn drive_inputs(image: &mut ProcessImage, n: usize, cycle: u64) {
+pub(crate) fn drive_inputs(image: &mut ProcessImage, n: usize, cycle: u64) {
     for i in 0..=n {
         let period = 20 + (i as u64 % 7) + 20;
         let on = (cycle + i as u64 * 13) % period < 20;
