@@ -192,7 +192,28 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     let profile = dir.join("chromium");
     let mut b = Browser::start(&profile);
     let url = format!("http://127.0.0.1:{port}/");
+    // The page draws the running PLC from its first requests, not from the event stream: with
+    // no EventSource at all it still shows the state and the I/O values.
+    let no_stream = b.page(
+        "Page.addScriptToEvaluateOnNewDocument",
+        serde_json::json!({ "source": "window.EventSource = undefined;" }),
+    );
     b.open(&format!("{url}#io"));
+    let drawn = b.wait_for(
+        "['running', 'faulty'].includes(document.getElementById('state').dataset.state) && \
+         document.getElementById('value-stop').dataset.value !== undefined",
+        Duration::from_secs(30),
+    );
+    assert!(
+        drawn.is_some(),
+        "the page draws nothing without the event stream"
+    );
+    b.page(
+        "Page.removeScriptToEvaluateOnNewDocument",
+        serde_json::json!({ "identifier": no_stream["identifier"] }),
+    );
+    // Another URL, so the page loads again (the same one with a hash would not).
+    b.open(&format!("{url}?live#io"));
     let live = b.wait_for(
         "document.getElementById('value-stop').dataset.value",
         Duration::from_secs(30),
