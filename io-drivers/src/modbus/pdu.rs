@@ -149,32 +149,80 @@ impl fmt::Display for ExceptionCode {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Request {
     /// FC 1: `count` coils from `addr`.
-    ReadCoils { addr: u16, count: u16 },
+    ReadCoils {
+        /// First coil, 0-based.
+        addr: u16,
+        /// How many coils (1..=2000 on the wire).
+        count: u16,
+    },
     /// FC 2: `count` discrete inputs from `addr`.
-    ReadDiscreteInputs { addr: u16, count: u16 },
+    ReadDiscreteInputs {
+        /// First discrete input, 0-based.
+        addr: u16,
+        /// How many inputs (1..=2000 on the wire).
+        count: u16,
+    },
     /// FC 3: `count` holding registers from `addr`.
-    ReadHoldingRegisters { addr: u16, count: u16 },
+    ReadHoldingRegisters {
+        /// First holding register, 0-based.
+        addr: u16,
+        /// How many registers (1..=125 on the wire).
+        count: u16,
+    },
     /// FC 4: `count` input registers from `addr`.
-    ReadInputRegisters { addr: u16, count: u16 },
+    ReadInputRegisters {
+        /// First input register, 0-based.
+        addr: u16,
+        /// How many registers (1..=125 on the wire).
+        count: u16,
+    },
     /// FC 5.
-    WriteSingleCoil { addr: u16, value: bool },
+    WriteSingleCoil {
+        /// The coil, 0-based.
+        addr: u16,
+        /// On is sent as `FF 00`, off as `00 00`.
+        value: bool,
+    },
     /// FC 6.
-    WriteSingleRegister { addr: u16, value: u16 },
+    WriteSingleRegister {
+        /// The holding register, 0-based.
+        addr: u16,
+        /// The value written.
+        value: u16,
+    },
     /// FC 15.
-    WriteMultipleCoils { addr: u16, values: Vec<bool> },
+    WriteMultipleCoils {
+        /// First coil, 0-based.
+        addr: u16,
+        /// One value per coil from `addr` on; the count sent is its length.
+        values: Vec<bool>,
+    },
     /// FC 16.
-    WriteMultipleRegisters { addr: u16, values: Vec<u16> },
+    WriteMultipleRegisters {
+        /// First holding register, 0-based.
+        addr: u16,
+        /// One value per register from `addr` on; the count sent is its length.
+        values: Vec<u16>,
+    },
     /// FC 22: register := (register AND and_mask) OR (or_mask AND NOT and_mask).
     MaskWriteRegister {
+        /// The holding register, 0-based.
         addr: u16,
+        /// Bits set here keep the register's current value.
         and_mask: u16,
+        /// Bits taken where `and_mask` is clear.
         or_mask: u16,
     },
-    /// FC 70 (MiniMod): `FIRST LAST SLVACK SLVSEQ`.
+    /// FC 70 (MiniMod): `FIRST LAST SLVACK SLVSEQ` (MiniMod manual, "The Modbus function
+    /// Collect").
     Collect {
+        /// FIRST: lowest slave address allowed to reply in this window.
         first: u8,
+        /// LAST: highest slave address allowed to reply; each slave gets 3 ms in turn.
         last: u8,
+        /// SLVACK: the slave whose last reply this Collect acknowledges (0: none).
         slave_ack: u8,
+        /// SLVSEQ: the sequence number of the reply acknowledged (0: none).
         slave_seq: u8,
     },
 }
@@ -209,28 +257,59 @@ pub enum Response {
     /// FC 4.
     ReadInputRegisters(Vec<u16>),
     /// FC 5 echo.
-    WriteSingleCoil { addr: u16, value: bool },
+    WriteSingleCoil {
+        /// The coil written, 0-based.
+        addr: u16,
+        /// The state the device echoed.
+        value: bool,
+    },
     /// FC 6 echo.
-    WriteSingleRegister { addr: u16, value: u16 },
+    WriteSingleRegister {
+        /// The holding register written, 0-based.
+        addr: u16,
+        /// The value the device echoed.
+        value: u16,
+    },
     /// FC 15: address and quantity written.
-    WriteMultipleCoils { addr: u16, count: u16 },
+    WriteMultipleCoils {
+        /// First coil written, 0-based.
+        addr: u16,
+        /// How many coils the device says it wrote.
+        count: u16,
+    },
     /// FC 16: address and quantity written.
-    WriteMultipleRegisters { addr: u16, count: u16 },
+    WriteMultipleRegisters {
+        /// First holding register written, 0-based.
+        addr: u16,
+        /// How many registers the device says it wrote.
+        count: u16,
+    },
     /// FC 22 echo.
     MaskWriteRegister {
+        /// The holding register masked, 0-based.
         addr: u16,
+        /// The AND mask the device echoed.
         and_mask: u16,
+        /// The OR mask the device echoed.
         or_mask: u16,
     },
-    /// FC 70 reply: `SLAVE 70 SLVSEQ TYPE DATH DATL 0`. `slave` is the frame's address (the
-    /// device that answered inside the Collect window); `kind` is TYPE (2 = inputs,
-    /// 1 = outputs); `data` is `DATH DATL`.
+    /// FC 70 reply: `SLAVE 70 SLVSEQ TYPE DATH DATL 0` (MiniMod manual, "The Modbus function
+    /// Collect").
     Collect {
+        /// SLAVE: the frame's address, the device that answered inside the Collect window.
         slave: u8,
+        /// SLVSEQ: the event's sequence number, echoed back in the acknowledging Collect.
         seq: u8,
+        /// TYPE: 2 = inputs, 1 = outputs.
         kind: u8,
+        /// `DATH DATL`: the 16-bit mask of the inputs or outputs stored as the event.
         data: u16,
     },
     /// The device said no.
-    Exception { function: u8, code: ExceptionCode },
+    Exception {
+        /// The request's function code, without the 0x80 exception bit.
+        function: u8,
+        /// Why the device refused.
+        code: ExceptionCode,
+    },
 }
