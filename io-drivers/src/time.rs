@@ -40,6 +40,7 @@ impl Default for MonotonicClock {
     }
 }
 
+#[allow(unsafe_code)] // one clock_gettime; see SAFETY below
 fn monotonic_raw() -> Duration {
     let mut ts = libc::timespec {
         tv_sec: 0,
@@ -55,6 +56,7 @@ impl Clock for MonotonicClock {
         monotonic_raw().saturating_sub(self.origin)
     }
 
+    #[allow(unsafe_code)] // one clock_nanosleep; see SAFETY below
     fn sleep_until(&self, deadline: Duration) {
         let abs = self.origin + deadline;
         let ts = libc::timespec {

@@ -294,6 +294,7 @@ struct SerialStruct {
     iomap_base: libc::c_ulong,
 }
 
+#[allow(unsafe_code)] // one ioctl; see SAFETY below
 fn serial_ioctl(port: &TTYPort, request: libc::Ioctl, s: &mut SerialStruct) -> std::io::Result<()> {
     use std::os::fd::AsRawFd;
     // SAFETY: the descriptor is open for as long as `port` is borrowed; both requests read or

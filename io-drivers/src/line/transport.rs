@@ -209,7 +209,7 @@ impl SerialTransport {
         clock: Arc<dyn Clock>,
     ) -> Self {
         // A pty refuses exclusive mode on some kernels; the port works the same without it.
-        let _ = port.set_exclusive(false);
+        drop(port.set_exclusive(false));
         Self {
             port: Some(port),
             path: None,
@@ -354,6 +354,7 @@ impl SerialRs485 {
 /// (softplc opens it with `serialport`, which has no RS-485 API), and the `rs485` crate
 /// hard-codes the x86/arm ioctl numbers (wrong on mips, powerpc, sparc) and dates from 2017;
 /// `libc` has the right numbers for every architecture.
+#[allow(unsafe_code)] // one ioctl; see SAFETY below
 fn rs485_ioctl(
     port: &TTYPort,
     request: libc::Ioctl,
