@@ -1086,6 +1086,8 @@ pub struct BusThread {
     handle: Option<JoinHandle<BusOwner>>,
     /// Sequence number of the last command sent.
     last_sent: u64,
+    /// The line's name, for what is logged about the thread once the owner is inside it.
+    name: String,
 }
 
 impl BusThread {
@@ -1093,8 +1095,9 @@ impl BusThread {
     pub fn spawn(mut owner: BusOwner) -> std::io::Result<Self> {
         let (commands, cmd_rx) = crossbeam_channel::bounded::<(u64, BusCommand)>(8);
         let (ev_tx, events) = crossbeam_channel::unbounded::<(u64, BusEvent)>();
+        let name = owner.name.clone();
         let handle = std::thread::Builder::new()
-            .name(format!("bus-{}", owner.name))
+            .name(format!("bus-{name}"))
             .spawn(move || {
                 for (seq, cmd) in cmd_rx {
                     let event = match cmd {
@@ -1113,7 +1116,9 @@ impl BusThread {
                         BusCommand::Stop(last) => {
                             if let Some(frame) = last {
                                 let report = owner.write_safe(&frame);
-                                let _ = ev_tx.send((seq, BusEvent::Written(report)));
+                                // `BusThread::stop` only drains events while it waits, and
+                                // gives up at its deadline: no one may be listening.
+                                drop(ev_tx.send((seq, BusEvent::Written(report))));
                             }
                             break;
                         }
@@ -1129,7 +1134,13 @@ impl BusThread {
             events,
             handle: Some(handle),
             last_sent: 0,
+            name,
         })
+    }
+
+    /// The name of the line this thread runs.
+    pub fn name(&self) -> &str {
+        &self.name
     }
 
     /// Whether the thread has ended (a driver panicked, or it was stopped).
@@ -1188,16 +1199,20 @@ impl BusThread {
     pub fn stop(mut self, last: Option<OutputFrame>, timeout: Duration) -> Option<BusOwner> {
         let deadline = std::time::Instant::now() + timeout;
         let seq = self.last_sent + 1;
-        let _ = self
-            .commands
-            .send_deadline((seq, BusCommand::Stop(last)), deadline);
+        // Not sent means the thread has ended (channel closed) or is stuck past the deadline:
+        // either way the wait below says which.
+        drop(
+            self.commands
+                .send_deadline((seq, BusCommand::Stop(last)), deadline),
+        );
         let handle = self.handle.take()?;
         while !handle.is_finished() {
             if std::time::Instant::now() >= deadline {
                 // The line is stuck (a port that blocks): leave the thread, do not hang the PLC.
                 return None;
             }
-            let _ = self.events.recv_timeout(Duration::from_millis(5));
+            // A 5 ms pause between looks; the events themselves are for no one now.
+            drop(self.events.recv_timeout(Duration::from_millis(5)));
         }
         handle.join().ok()
     }

@@ -283,7 +283,16 @@ impl LineLink {
     /// Stops the line's thread, waiting at most `timeout` (a stuck port leaves it behind).
     pub fn stop(&mut self, timeout: Duration) {
         if let Kind::Thread(t) = std::mem::replace(&mut self.kind, Kind::Stopped) {
-            let _ = t.thread.stop(None, timeout);
+            let name = t.thread.name().to_owned();
+            // The owner given back closes its port here. One not given back is a thread
+            // stuck on its port (or ended by a driver bug): the user is told, since that port
+            // stays open and the line's last exchange may not have ended.
+            if t.thread.stop(None, timeout).is_none() {
+                tracing::warn!(
+                    "line {name}: its thread did not stop within {timeout:?}; left behind with \
+                     its port open"
+                );
+            }
         }
     }
 }

@@ -435,7 +435,7 @@ impl PlantIo for Wiring<'_> {
         if let Some((dev, point)) = self.wires.get(role) {
             if let Some(d) = self.devices.get_mut(*dev) {
                 // Wiring was checked against the model when the world was built.
-                let _ = d.device.set(point, Value::Bool(value));
+                drop(d.device.set(point, Value::Bool(value)));
             }
         }
     }

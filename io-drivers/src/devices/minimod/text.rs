@@ -970,10 +970,10 @@ mod tests {
                 .map(|_| alphabet[(next() as usize) % alphabet.len()])
                 .collect();
             let _ = parse_command(&packet);
-            let _ = parse_reply(&packet);
+            drop(parse_reply(&packet));
             let mut r = PacketReceiver::new();
             for b in &packet {
-                let _ = r.push(*b);
+                drop(r.push(*b));
             }
         }
     }

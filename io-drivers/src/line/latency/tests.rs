@@ -12,7 +12,8 @@ struct FakeSys(PathBuf);
 impl FakeSys {
     fn new(tag: &str, ms: &str) -> Self {
         let root = std::env::temp_dir().join(format!("softplc-sysfs-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&root);
+        // A leftover of an earlier run, if any; usually there is none.
+        drop(std::fs::remove_dir_all(&root));
         let usb = root.join("devices/pci0000:00/usb1/1-1/1-1:1.0/ttyUSB0");
         std::fs::create_dir_all(usb.join("tty/ttyUSB0")).unwrap();
         std::fs::write(usb.join("latency_timer"), ms).unwrap();
@@ -50,7 +51,8 @@ impl FakeSys {
 
 impl Drop for FakeSys {
     fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
+        // Best effort: the test's scratch folder.
+        drop(std::fs::remove_dir_all(&self.0));
     }
 }
 

@@ -350,7 +350,8 @@ fn foreign_and_damaged_lines_are_ignored() {
                 }
             })
             .collect();
-        let _ = m.sim.on_frame(&frame, t);
+        // Only that it never panics: what junk gets back is not the point.
+        drop(m.sim.on_frame(&frame, t));
     }
 }
 

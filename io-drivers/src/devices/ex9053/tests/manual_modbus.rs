@@ -376,6 +376,7 @@ fn modbus_discipline() {
             })
             .collect();
         append_crc(&mut f);
-        let _ = m.raw(&f);
+        // Only that it never panics: what junk gets back is not the point.
+        drop(m.raw(&f));
     }
 }
