@@ -83,7 +83,11 @@ pub(crate) struct Row {
 
 impl Row {
     /// A measured row.
-    pub(crate) fn measured(case: impl Into<String>, metric: impl Into<String>, p: Percentiles) -> Self {
+    pub(crate) fn measured(
+        case: impl Into<String>,
+        metric: impl Into<String>,
+        p: Percentiles,
+    ) -> Self {
         Self {
             case: case.into(),
             metric: metric.into(),

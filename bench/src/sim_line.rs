@@ -38,7 +38,11 @@ pub(crate) fn driver(address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> 
 }
 
 /// A Modbus driver of catalog `model` at `address` with the project file's `settings`.
-pub(crate) fn model_driver(model: &ModelSpec, address: u8, settings: &[(&str, &str)]) -> Box<dyn Driver> {
+pub(crate) fn model_driver(
+    model: &ModelSpec,
+    address: u8,
+    settings: &[(&str, &str)],
+) -> Box<dyn Driver> {
     match model.device_config(
         &format!("{}{address}", model.name),
         address,
@@ -128,7 +132,10 @@ pub(crate) fn all_y1(n: usize, on: bool) -> OutputFrame {
 
 /// The floor of one read cycle of a single MiniMod at `line` with `settings`, and the part of
 /// it from the end of the request to the end of the reply (reply delay + reply characters).
-pub(crate) fn single_read_floor(line: LineSettings, settings: &[(&str, &str)]) -> (Duration, Duration) {
+pub(crate) fn single_read_floor(
+    line: LineSettings,
+    settings: &[(&str, &str)],
+) -> (Duration, Duration) {
     read_floor(&minimod::MODEL, line, settings)
 }
 

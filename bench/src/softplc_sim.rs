@@ -91,7 +91,8 @@ impl Drop for ServedSim {
     fn drop(&mut self) {
         // `quit` on standard input stops the server cleanly; kill it if it does not.
         if let Some(mut stdin) = self.stdin.take() {
-            let _ = stdin.write_all(b"quit\n");
+            // The server may have exited already (a broken pipe); the kill below covers it.
+            drop(stdin.write_all(b"quit\n"));
         }
         for _ in 0..50 {
             if matches!(self.child.try_wait(), Ok(Some(_))) {
@@ -99,7 +100,9 @@ impl Drop for ServedSim {
             }
             std::thread::sleep(Duration::from_millis(20));
         }
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        // Best effort on the way out: the child may have exited between the last poll and
+        // the kill; the wait reaps it either way.
+        drop(self.child.kill());
+        drop(self.child.wait());
     }
 }

@@ -130,7 +130,13 @@ impl ReactionProbe {
             let mut w = self.world.lock().unwrap_or_else(|e| e.into_inner());
             w.advance_to(at);
             let before = matches!(w.get(self.device, self.output), Ok(Value::Bool(true)));
-            let _ = w.set(self.device, self.input, Value::Bool(self.level));
+            // A stimulus that never reached the terminal would time every edge out.
+            if let Err(e) = w.set(self.device, self.input, Value::Bool(self.level)) {
+                panic!(
+                    "setting {} of simulated device {}: {e}",
+                    self.input, self.device
+                );
+            }
             match self.follow {
                 Follow::Level => self.level,
                 Follow::Toggle if self.level => !before,

@@ -141,7 +141,8 @@ fn measure(
         }
         k += 1;
     }
-    let _ = bus.stop(None, wait);
+    // The owner handed back is not reused: the line is torn down with the scenario.
+    drop(bus.stop(None, wait));
 
     let delay_ms = u64::from(rdelayt) * 10;
     let case = format!(

@@ -193,5 +193,8 @@ fn rounds(ctx: &Ctx, n: u8, settings: &[(&str, &str)], changes: bool) -> anyhow:
 fn set_x1(world: &SharedWorld, clock: &dyn Clock, index: usize, level: bool) {
     let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
     w.advance_to(clock.now());
-    let _ = w.set(index, "X1", Value::Bool(level));
+    // A stimulus that never reached the terminal would make the measurement meaningless.
+    if let Err(e) = w.set(index, "X1", Value::Bool(level)) {
+        panic!("setting X1 of simulated device {index}: {e}");
+    }
 }
