@@ -192,14 +192,15 @@ proptest! {
         let model = models[model_ix % models.len()];
         let mut sim = (model.simulator)(*model.addresses.start());
         let refs: Vec<&str> = words.iter().map(String::as_str).collect();
-        let _ = sim.command(&refs);
+        // Only that the simulator answers without panicking: a refusal is fine.
+        drop(sim.command(&refs));
         let points = sim.points();
         if !points.is_empty() {
             let p = points[point_ix % points.len()];
             if let Some(v) = Value::parse(p.ty, &value) {
-                let _ = sim.set(p.name, v);
+                drop(sim.set(p.name, v));
             }
-            let _ = sim.get(p.name);
+            drop(sim.get(p.name));
         }
     }
 

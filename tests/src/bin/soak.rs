@@ -207,7 +207,8 @@ fn main() -> anyhow::Result<()> {
                 let k = (next.as_millis() / POWER_CYCLE_EVERY.as_millis()) as usize % modules;
                 let before = w.get(k, "X1");
                 if let Some(d) = w.device_mut(k) {
-                    let _ = d.command(&["power-cycle"]);
+                    d.command(&["power-cycle"])
+                        .expect("a MiniMod simulator takes power-cycle");
                     if std::env::var_os("SOAK_DEBUG").is_some() {
                         eprintln!(
                             "power-cycle mm{} at {now:?}: X1 {before:?} -> {:?}",
@@ -246,7 +247,8 @@ fn main() -> anyhow::Result<()> {
                 let phase = TOGGLE_EVERY * k as u32 / ids.len().max(1) as u32;
                 if now >= phase && now.saturating_sub(since) >= TOGGLE_EVERY {
                     let new = !level;
-                    let _ = w.set(k, "X1", Value::Bool(new));
+                    w.set(k, "X1", Value::Bool(new))
+                        .expect("the generated MiniMods have an X1 terminal");
                     // On the virtual clock a busy line (restarting modules after an outage)
                     // runs ahead of the scan: the terminal changes at the world's time.
                     lv[k] = (new, now.max(w.now()), level);
@@ -335,7 +337,8 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or_else(|e| e.into_inner())
         .faults()
         .applied;
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the soak's scratch folder.
+    drop(std::fs::remove_dir_all(&dir));
     let growth = if t.rss_early > 0 {
         rss_end as f64 / t.rss_early as f64 - 1.0
     } else {
