@@ -16,7 +16,7 @@ use crate::scan::fmt_duration;
 
 /// Arguments of `softplc check`.
 #[derive(Debug, clap::Args)]
-pub struct CheckArgs {
+pub(crate) struct CheckArgs {
     /// The project file.
     project: PathBuf,
 }
@@ -60,12 +60,12 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
 
 /// The text `check` prints for a valid project: I/O map, budgets, warnings; adapter
 /// latencies are read from this machine's sysfs.
-pub fn report(project: &Project) -> String {
+pub(crate) fn report(project: &Project) -> String {
     report_with(project, &SysfsRoot::default())
 }
 
 /// [`report`], with sysfs under `sysfs` (a fake tree in tests).
-pub fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
+pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let scan = &project.scan;

@@ -12,7 +12,7 @@ use crate::service::control::{default_socket_path, request, Request, Response};
 
 /// Which running instance to talk to.
 #[derive(Debug, clap::Args)]
-pub struct Target {
+pub(crate) struct Target {
     /// The project file of the running instance (its socket is found from the project name).
     #[arg(long, short = 'p', conflicts_with = "socket")]
     project: Option<PathBuf>,
@@ -36,7 +36,7 @@ impl Target {
 
 /// Arguments of `softplc status`.
 #[derive(Debug, clap::Args)]
-pub struct StatusArgs {
+pub(crate) struct StatusArgs {
     #[command(flatten)]
     target: Target,
     /// Print the status as JSON.
@@ -46,7 +46,7 @@ pub struct StatusArgs {
 
 /// Arguments of `softplc force`.
 #[derive(Debug, clap::Args)]
-pub struct ForceArgs {
+pub(crate) struct ForceArgs {
     #[command(flatten)]
     target: Target,
     /// The tag.
@@ -57,7 +57,7 @@ pub struct ForceArgs {
 
 /// Arguments of `softplc unforce`.
 #[derive(Debug, clap::Args)]
-pub struct UnforceArgs {
+pub(crate) struct UnforceArgs {
     #[command(flatten)]
     target: Target,
     /// The tag.
@@ -70,7 +70,7 @@ pub struct UnforceArgs {
 
 /// Arguments of `softplc reload`.
 #[derive(Debug, clap::Args)]
-pub struct ReloadArgs {
+pub(crate) struct ReloadArgs {
     #[command(flatten)]
     target: Target,
 }

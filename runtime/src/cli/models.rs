@@ -12,11 +12,11 @@ use crate::suggest::edit_distance;
 
 /// Arguments of `softplc models`.
 #[derive(Debug, clap::Args)]
-pub struct ModelsArgs {}
+pub(crate) struct ModelsArgs {}
 
 /// Arguments of `softplc points`.
 #[derive(Debug, clap::Args)]
-pub struct PointsArgs {
+pub(crate) struct PointsArgs {
     /// The model, as a project file names it (`minimod`, `resi-16di8ro`, `ex9053d`).
     model: String,
     /// Only the points of one direction.

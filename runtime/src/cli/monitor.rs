@@ -29,7 +29,7 @@ use crate::scan::fmt_duration;
 
 /// Arguments of `softplc monitor`.
 #[derive(Debug, clap::Args)]
-pub struct MonitorArgs {
+pub(crate) struct MonitorArgs {
     /// The serial device to listen on (a second adapter on the line, a tap).
     port: PathBuf,
     /// The line's baud rate.

@@ -20,7 +20,7 @@ use crate::service::{network, snapshot};
 
 /// Arguments of `softplc run`.
 #[derive(Debug, clap::Args)]
-pub struct RunArgs {
+pub(crate) struct RunArgs {
     /// The project file.
     project: PathBuf,
     /// Stop by itself after this long (e.g. 10s, 2m); the safe state is written as on SIGINT.
@@ -244,7 +244,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// The end-of-run summary.
-pub fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Duration>) -> String {
+pub(crate) fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Duration>) -> String {
     use std::fmt::Write;
     let s = &outcome.stats;
     let mut out = String::new();

@@ -12,7 +12,7 @@ use schemars::{Schema, SchemaGenerator};
 
 /// Arguments of `softplc schema`.
 #[derive(Debug, Args)]
-pub struct SchemaArgs {
+pub(crate) struct SchemaArgs {
     /// The file kind.
     #[arg(value_enum)]
     pub file: FileKind,
@@ -20,7 +20,7 @@ pub struct SchemaArgs {
 
 /// A file kind softplc reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum FileKind {
+pub(crate) enum FileKind {
     /// The project file (`project.yaml`).
     Project,
     /// A ladder program (`*.ladder.yaml`).
@@ -41,14 +41,14 @@ impl FileKind {
 }
 
 /// Prints the schema of `args.file`.
-pub fn schema(args: SchemaArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn schema(args: SchemaArgs) -> anyhow::Result<ExitCode> {
     let text = schema_text(args.file)?;
     super::out::out(&text)?;
     Ok(ExitCode::SUCCESS)
 }
 
 /// The schema of `kind`, as pretty JSON ending in a newline (the committed files' form).
-pub fn schema_text(kind: FileKind) -> serde_json::Result<String> {
+pub(crate) fn schema_text(kind: FileKind) -> serde_json::Result<String> {
     let mut schema = generate(kind);
     schema.insert("title".into(), kind.title().into());
     let mut text = serde_json::to_string_pretty(&schema)?;

@@ -395,17 +395,17 @@ pub(crate) struct Site<'a> {
 
 impl Site<'_> {
     /// The coil's module.
-    pub fn config(&self) -> &ModuleConfig {
+    pub(crate) fn config(&self) -> &ModuleConfig {
         &self.project.modules[self.module]
     }
 
     /// The coil's point.
-    pub fn coil_point(&self) -> &'static PointSpec {
+    pub(crate) fn coil_point(&self) -> &'static PointSpec {
         &self.config().model.points[self.point]
     }
 
     /// A tag's name.
-    pub fn name(&self, tag: TagId) -> String {
+    pub(crate) fn name(&self, tag: TagId) -> String {
         self.project
             .tags
             .get(tag.index())
@@ -414,7 +414,11 @@ impl Site<'_> {
 
     /// The point of the coil's module a condition tag reads, or why it cannot be read there.
     /// `checks` says what the module's logic checks, for the error.
-    pub fn input(&self, tag: TagId, checks: &'static str) -> Result<&'static PointSpec, Reason> {
+    pub(crate) fn input(
+        &self,
+        tag: TagId,
+        checks: &'static str,
+    ) -> Result<&'static PointSpec, Reason> {
         let name = self.name(tag);
         let Some(t) = self.project.tags.get(tag.index()) else {
             return Err(Reason::Memory { tag: name });
@@ -443,7 +447,7 @@ impl Site<'_> {
     }
 
     /// Whether the module's own settings already set `register` (the map's name).
-    pub fn setting_taken(&self, register: &str) -> bool {
+    pub(crate) fn setting_taken(&self, register: &str) -> bool {
         match &self.config().device.settings {
             ModuleSettings::MiniMod(s) => s.sets(register),
             ModuleSettings::Resi(s) => s.sets(register),

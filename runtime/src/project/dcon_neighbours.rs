@@ -23,7 +23,7 @@ use super::model::ModuleConfig;
 
 /// The DCON address (as the project writes an EX-9053's address: the number) that takes the
 /// text commands of the MiniMod at `address` for its own; `None` when none does.
-pub fn dcon_address_hearing(address: u8) -> Option<u8> {
+pub(crate) fn dcon_address_hearing(address: u8) -> Option<u8> {
     let line = write_command(address, TextId::WdtTime, WriteValue::Number(0)).ok()?;
     let body = line.strip_suffix(b"\r").unwrap_or(&line);
     match Command::parse(body) {

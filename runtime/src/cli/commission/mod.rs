@@ -30,7 +30,7 @@ use super::out::outln;
 
 /// Arguments of `softplc commission`.
 #[derive(Debug, clap::Args)]
-pub struct CommissionArgs {
+pub(crate) struct CommissionArgs {
     /// The serial device the module is on.
     port: PathBuf,
     /// The module's address now.

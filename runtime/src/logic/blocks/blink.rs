@@ -6,7 +6,7 @@ use std::time::Duration;
 use super::elapsed;
 
 /// Longest bit pattern.
-pub const MAX_PATTERN_BITS: usize = 64;
+pub(crate) const MAX_PATTERN_BITS: usize = 64;
 
 /// A blink pattern: bits played one per `step`, first bit first, repeated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
