@@ -239,7 +239,9 @@ impl Retainer {
     pub fn finish(&mut self, image: &ProcessImage) {
         if let Some((tx, handle)) = self.writer.take() {
             drop(tx);
-            let _ = handle.join();
+            // A writer that panicked has reported it already (panic hook), and the values
+            // are written again just below.
+            drop(handle.join());
         }
         let current: Vec<Value> = self.tags.iter().map(|(id, _)| image.get(*id)).collect();
         self.write_now(&current);
@@ -251,7 +253,9 @@ impl Drop for Retainer {
     fn drop(&mut self) {
         if let Some((tx, handle)) = self.writer.take() {
             drop(tx);
-            let _ = handle.join();
+            // A writer that panicked has reported it already (panic hook); a drop has
+            // nothing left to write.
+            drop(handle.join());
         }
     }
 }
@@ -414,7 +418,8 @@ mod tests {
 
     fn dir(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("softplc-retain-{}-{name}", std::process::id()));
-        let _ = fs::remove_dir_all(&d);
+        // Best effort: the test's scratch folder, possibly absent.
+        drop(fs::remove_dir_all(&d));
         fs::create_dir_all(&d).unwrap();
         d
     }

@@ -31,7 +31,7 @@ use super::out::outln;
 
 /// Arguments of `softplc discover`.
 #[derive(Debug, clap::Args)]
-pub struct DiscoverArgs {
+pub(crate) struct DiscoverArgs {
     /// The serial device the modules are on (/dev/ttyUSB0, or a pty of `softplc sim --pty`).
     port: PathBuf,
     /// Baud rates to try, comma-separated.
@@ -142,7 +142,7 @@ impl Family {
 }
 
 /// Parses `1-247`, `1,2,5` or `1-4,9` (unit addresses 0..=255 as the families allow).
-pub fn parse_addresses(text: &str) -> anyhow::Result<Vec<u8>> {
+pub(crate) fn parse_addresses(text: &str) -> anyhow::Result<Vec<u8>> {
     let mut out = Vec::new();
     for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let num = |s: &str| -> anyhow::Result<u8> {
@@ -180,7 +180,7 @@ fn probe_bound(p: &Probe, timeout: Duration) -> Duration {
 
 /// A module found.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Found {
+pub(crate) struct Found {
     settings: LineSettings,
     address: u8,
     model: &'static str,
@@ -312,7 +312,8 @@ pub(super) fn ask(
     }
     let quiet = t.now() + t.settings().t3_5();
     t.wait_until(quiet);
-    let _ = t.flush_input();
+    // Best effort: a line that cannot be flushed fails the next probe's read, which reports it.
+    drop(t.flush_input());
     let Some(end) = buf.iter().position(|b| *b == b'\r') else {
         return Ok(None);
     };
@@ -323,7 +324,7 @@ pub(super) fn ask(
 const PROGRAM_FILE: &str = "program.expr";
 
 /// A project file with one bus per (baud, format) found and every module on it.
-pub fn skeleton(port: &str, found: &[Found]) -> String {
+pub(crate) fn skeleton(port: &str, found: &[Found]) -> String {
     let mut buses: BTreeMap<(u32, String), Vec<&Found>> = BTreeMap::new();
     for f in found {
         buses

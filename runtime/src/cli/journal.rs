@@ -84,10 +84,11 @@ pub(crate) fn set_context(project: &crate::project::Project) {
             (bus, m.device.address.get(), m.name.clone())
         })
         .collect();
-    let _ = CONTEXT.set(LogContext {
+    // Set once per process: a second run in the same process keeps the first context.
+    drop(CONTEXT.set(LogContext {
         project: project.name.clone(),
         modules,
-    });
+    }));
 }
 
 /// What an event says about itself: which context fields it has and its message.

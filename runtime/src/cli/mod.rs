@@ -120,10 +120,13 @@ fn init_logging() {
     if journal::stderr_is_journal() {
         match journal::JournalLayer::new() {
             Ok(layer) => {
-                let _ = tracing_subscriber::registry()
-                    .with(filter())
-                    .with(layer)
-                    .try_init();
+                // Refused only when a subscriber is already installed: that one keeps logging.
+                drop(
+                    tracing_subscriber::registry()
+                        .with(filter())
+                        .with(layer)
+                        .try_init(),
+                );
                 return;
             }
             Err(e) => unreachable = Some(e),
@@ -132,12 +135,15 @@ fn init_logging() {
     // Colour only for a person at a terminal: piped into a file, a journal or another
     // program, escape codes are noise.
     let ansi = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter())
-        .with_writer(std::io::stderr)
-        .with_ansi(ansi)
-        .with_target(false)
-        .try_init();
+    // Refused only when a subscriber is already installed: that one keeps logging.
+    drop(
+        tracing_subscriber::fmt()
+            .with_env_filter(filter())
+            .with_writer(std::io::stderr)
+            .with_ansi(ansi)
+            .with_target(false)
+            .try_init(),
+    );
     if let Some(e) = unreachable {
         tracing::warn!("the journal cannot be reached ({e}); logging to stderr");
     }

@@ -55,7 +55,7 @@ pub(crate) fn errln(text: &str) {
 /// Writes `text` to stderr, best effort: a failure is ignored.
 pub(crate) fn err(text: &str) {
     let mut lock = std::io::stderr().lock();
-    let _ = lock.write_all(text.as_bytes()).and_then(|()| lock.flush());
+    drop(lock.write_all(text.as_bytes()).and_then(|()| lock.flush()));
 }
 
 /// Whether `e` is, or was caused by, a closed stdout.

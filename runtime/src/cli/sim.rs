@@ -56,7 +56,7 @@ DEVICE is MODEL@ADDR as given on the command line. Values: 1/0, true/false, or n
 
 /// Arguments of `softplc sim`.
 #[derive(Debug, clap::Args)]
-pub struct SimArgs {
+pub(crate) struct SimArgs {
     /// The serial device to serve on (e.g. one end of a pty pair).
     #[arg(long, required_unless_present = "pty", conflicts_with = "pty")]
     port: Option<PathBuf>,
@@ -234,11 +234,11 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                         }
                         // A closed stdout leaves the simulators serving, silently.
                         Ok(Reply::Text(t)) if !t.is_empty() => {
-                            let _ = super::out::outln(&t);
+                            drop(super::out::outln(&t));
                         }
                         Ok(Reply::Text(_)) => {}
                         Err(e) => {
-                            let _ = super::out::outln(&format!("error: {e}"));
+                            drop(super::out::outln(&format!("error: {e}")));
                         }
                     }
                 }
@@ -260,7 +260,7 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
 
 /// What a command line produced.
 #[derive(Debug, PartialEq, Eq)]
-pub enum Reply {
+pub(crate) enum Reply {
     /// Text to print.
     Text(String),
     /// Stop serving.
@@ -268,7 +268,7 @@ pub enum Reply {
 }
 
 /// Executes one command line against `world` (see [`LONG_HELP`]).
-pub fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Result<Reply> {
+pub(crate) fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Result<Reply> {
     let words: Vec<&str> = line.split_whitespace().collect();
     let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
     w.advance_to(clock.now());

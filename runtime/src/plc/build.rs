@@ -266,7 +266,7 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
             let mut sim = (module.model.simulator)(module.device.address.get());
             if module.device.protocol != module.model.protocols[0] {
                 // Validation checked the model speaks it, so this cannot be refused.
-                let _ = sim.set_protocol(module.device.protocol);
+                drop(sim.set_protocol(module.device.protocol));
             }
             world.add_device(module.bus, &module.name, sim);
         }

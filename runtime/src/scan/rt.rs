@@ -38,6 +38,7 @@ impl RealtimeNote {
 }
 
 /// Applies `cfg` to the calling thread.
+#[allow(unsafe_code)]
 pub fn apply(cfg: &RealtimeConfig) -> RealtimeOutcome {
     let mut out = RealtimeOutcome::default();
     if let Some(prio) = cfg.priority {

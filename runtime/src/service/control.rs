@@ -153,12 +153,16 @@ pub fn default_socket_path(project: &str) -> PathBuf {
         .or_else(|| std::env::var_os("RUNTIME_DIRECTORY"))
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("XDG_RUNTIME_DIR").map(|d| PathBuf::from(d).join("softplc")))
-        .unwrap_or_else(|| {
-            // SAFETY: getuid has no preconditions and cannot fail.
-            let uid = unsafe { libc::getuid() };
-            PathBuf::from(format!("/tmp/softplc-{uid}"))
-        });
+        .unwrap_or_else(|| PathBuf::from(format!("/tmp/softplc-{}", current_uid())));
     dir.join(format!("{project}.sock"))
+}
+
+/// The real user id of this process: it names the fallback socket folder and is the owner
+/// that folder must have.
+#[allow(unsafe_code)]
+fn current_uid() -> u32 {
+    // SAFETY: getuid has no preconditions and cannot fail.
+    unsafe { libc::getuid() }
 }
 
 /// Refuses a socket folder another user owns or may write to: whoever can write there can put
@@ -166,8 +170,7 @@ pub fn default_socket_path(project: &str) -> PathBuf {
 fn check_folder(dir: &Path) -> std::io::Result<()> {
     use std::os::unix::fs::MetadataExt;
     let meta = std::fs::symlink_metadata(dir)?;
-    // SAFETY: getuid has no preconditions and cannot fail.
-    let me = unsafe { libc::getuid() };
+    let me = current_uid();
     let others_write = meta.mode() & 0o022 != 0;
     if !meta.is_dir()
         || (meta.uid() != me && meta.uid() != 0)
@@ -220,9 +223,14 @@ impl ControlServer {
                 for stream in listener.incoming() {
                     let Ok(stream) = stream else { continue };
                     let scan = scan.clone();
-                    let _ = std::thread::Builder::new()
+                    // Out of threads: this client's connection closes unanswered, and
+                    // whoever runs the PLC should learn why `softplc control` saw nothing.
+                    if let Err(e) = std::thread::Builder::new()
                         .name("control-client".into())
-                        .spawn(move || serve_client(stream, &scan));
+                        .spawn(move || serve_client(stream, &scan))
+                    {
+                        tracing::warn!("control socket: cannot serve a client: {e}");
+                    }
                 }
             })?;
         Ok(Self {
@@ -238,7 +246,8 @@ impl ControlServer {
 
 impl Drop for ControlServer {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
+        // Best effort: a socket file already gone (removed by hand, or the folder) is the goal.
+        drop(std::fs::remove_file(&self.path));
     }
 }
 
@@ -257,7 +266,11 @@ fn serve_client(stream: UnixStream, scan: &Sender<Envelope>) {
             return;
         }
         let response = if !line.ends_with('\n') && n as u64 >= MAX_LINE {
-            let _ = write_response(&mut out, &Response::refused("request longer than 64 KiB"));
+            // The client is dropped either way; a failed write only means it left first.
+            drop(write_response(
+                &mut out,
+                &Response::refused("request longer than 64 KiB"),
+            ));
             return;
         } else if line.trim().is_empty() {
             continue;
@@ -351,7 +364,8 @@ mod tests {
         let server = ControlServer::start(&path, tx).unwrap();
         std::thread::spawn(move || {
             for env in rx {
-                let _ = env.reply.send(Response::done(format!("{:?}", env.request)));
+                // The test's client may have given up; nothing to tell then.
+                drop(env.reply.send(Response::done(format!("{:?}", env.request))));
             }
         });
         let r = request(server.path(), &Request::Reload).unwrap();
@@ -368,6 +382,7 @@ mod tests {
         );
         drop(server);
         assert!(!path.exists());
-        let _ = std::fs::remove_dir_all(dir);
+        // Best effort: the test's scratch folder.
+        drop(std::fs::remove_dir_all(dir));
     }
 }

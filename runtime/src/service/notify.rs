@@ -60,10 +60,12 @@ impl Notifier {
         if let Some(name) = addr.strip_prefix('@') {
             use std::os::linux::net::SocketAddrExt;
             if let Ok(a) = std::os::unix::net::SocketAddr::from_abstract_name(name.as_bytes()) {
-                let _ = sock.send_to_addr(state.as_bytes(), &a);
+                // Best effort, as sd_notify(3) is: a supervisor that is gone has nobody to tell.
+                drop(sock.send_to_addr(state.as_bytes(), &a));
             }
         } else {
-            let _ = sock.send_to(state.as_bytes(), addr);
+            // Best effort, as sd_notify(3) is: a supervisor that is gone has nobody to tell.
+            drop(sock.send_to(state.as_bytes(), addr));
         }
     }
 }
@@ -75,7 +77,8 @@ mod tests {
     #[test]
     fn sends_states_to_the_notify_socket() {
         let path = std::env::temp_dir().join(format!("softplc-notify-{}", std::process::id()));
-        let _ = std::fs::remove_file(&path);
+        // Best effort: the test's scratch socket, possibly absent.
+        drop(std::fs::remove_file(&path));
         let listener = UnixDatagram::bind(&path).unwrap();
         let mut n = Notifier {
             socket: Some((UnixDatagram::unbound().unwrap(), path.display().to_string())),
@@ -94,6 +97,7 @@ mod tests {
         assert_eq!(&buf[..len], b"WATCHDOG=1");
         let len = listener.recv(&mut buf).unwrap();
         assert_eq!(&buf[..len], b"STOPPING=1");
-        let _ = std::fs::remove_file(&path);
+        // Best effort: the test's scratch socket, possibly absent.
+        drop(std::fs::remove_file(&path));
     }
 }

@@ -11,7 +11,8 @@ struct Fixture(PathBuf);
 impl Fixture {
     fn new(tag: &str, port: &str, bus_extra: &str, ms: &str) -> Self {
         let dir = std::env::temp_dir().join(format!("softplc-check-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        // Best effort: the test's scratch folder, possibly absent.
+        drop(std::fs::remove_dir_all(&dir));
         let attr = dir.join("sys/class/tty/ttyUSB7/device");
         std::fs::create_dir_all(&attr).unwrap();
         std::fs::write(attr.join("latency_timer"), ms).unwrap();
@@ -38,7 +39,8 @@ impl Fixture {
 
 impl Drop for Fixture {
     fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
+        // Best effort: the test's scratch folder.
+        drop(std::fs::remove_dir_all(&self.0));
     }
 }
 

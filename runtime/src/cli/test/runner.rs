@@ -136,7 +136,8 @@ pub fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
         project.plant = None;
     }
     let retain_file = temp_retain();
-    let _ = std::fs::remove_file(&retain_file);
+    // Best effort: a scratch retain file, absent unless the scenario retained values.
+    drop(std::fs::remove_file(&retain_file));
     project.retain.file = retain_file.clone();
     let period = project.scan.period;
     let watch = sc
@@ -207,7 +208,8 @@ pub fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
     if !sc.retained.is_empty() {
         check_retained(sc, &retain_file, &mut result);
     }
-    let _ = std::fs::remove_file(&retain_file);
+    // Best effort: a scratch retain file, absent unless the scenario retained values.
+    drop(std::fs::remove_file(&retain_file));
     result
 }
 

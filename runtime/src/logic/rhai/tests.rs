@@ -284,7 +284,8 @@ fn garbage_never_panics() {
                 delta: Duration::from_millis(10),
                 cycle: 0,
             };
-            let _ = p.scan(&mut image, &ctx);
+            // Any answer will do; the test is that it comes without a panic.
+            drop(p.scan(&mut image, &ctx));
         }
     }
 }

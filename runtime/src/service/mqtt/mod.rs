@@ -82,7 +82,8 @@ impl MqttNode {
             std::thread::sleep(Duration::from_millis(10));
         }
         if self.thread.is_finished() {
-            let _ = self.thread.join();
+            // A session that panicked has reported it already (panic hook); the stop goes on.
+            drop(self.thread.join());
         }
     }
 }

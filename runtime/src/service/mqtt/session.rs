@@ -25,13 +25,13 @@ use crate::service::control::{Envelope, Request, Response, TagValue};
 use crate::service::snapshot::SnapshotCell;
 
 /// The first wait before reconnecting.
-pub const BACKOFF_MIN: Duration = Duration::from_millis(250);
+pub(crate) const BACKOFF_MIN: Duration = Duration::from_millis(250);
 /// The longest wait before reconnecting.
-pub const BACKOFF_MAX: Duration = Duration::from_secs(10);
+pub(crate) const BACKOFF_MAX: Duration = Duration::from_secs(10);
 /// How long a write may wait for the scan's answer before it is logged as lost.
-pub const WRITE_WAIT: Duration = Duration::from_secs(2);
+pub(crate) const WRITE_WAIT: Duration = Duration::from_secs(2);
 /// The MQTT keep-alive: a broker that vanished without closing is noticed within 1.5 × this.
-pub const KEEP_ALIVE: Duration = Duration::from_secs(5);
+pub(crate) const KEEP_ALIVE: Duration = Duration::from_secs(5);
 /// Queued requests to the connection (births of many devices fit at once).
 const REQUEST_CAPACITY: usize = 4096;
 /// Largest MQTT packet either way (a birth of thousands of tags).
@@ -55,7 +55,7 @@ fn options(cfg: &MqttConfig) -> MqttOptions {
     if let Some((_, ca)) = &cfg.tls_ca {
         // rustls without a compiled-in default: ring is the provider (already installed
         // when another part of the process did it first).
-        let _ = rustls::crypto::ring::default_provider().install_default();
+        drop(rustls::crypto::ring::default_provider().install_default());
         o.set_transport(Transport::tls(ca.clone(), None, None));
     }
     o
@@ -336,13 +336,15 @@ impl Session {
             return;
         }
         let death = payload::ndeath(bd_seq, wall_ms());
-        let _ = client.try_publish(
+        // A full queue or a lost link: the broker then publishes the will, the same NDEATH.
+        drop(client.try_publish(
             self.node.topics().node("NDEATH"),
             QoS::AtLeastOnce,
             false,
             death,
-        );
-        let _ = client.try_disconnect();
+        ));
+        // Already disconnected is the goal; the wait below is bounded either way.
+        drop(client.try_disconnect());
         let deadline = Instant::now() + Duration::from_secs(2);
         while Instant::now() < deadline {
             match conn.recv_timeout(deadline - Instant::now()) {
