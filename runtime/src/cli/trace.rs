@@ -17,7 +17,7 @@ use crate::trace::{TraceData, TraceState};
 
 /// The trace subcommands.
 #[derive(Debug, clap::Subcommand)]
-pub enum TraceCommand {
+pub(crate) enum TraceCommand {
     /// Arm the project's trace NAME, or a trace given here with --tags (named NAME, or adhoc).
     Arm(ArmArgs),
     /// Show each trace's state (filling, armed, triggered, complete, recording) and samples.
@@ -30,7 +30,7 @@ pub enum TraceCommand {
 
 /// Arguments of `softplc trace arm`.
 #[derive(Debug, clap::Args)]
-pub struct ArmArgs {
+pub(crate) struct ArmArgs {
     #[command(flatten)]
     target: Target,
     /// The trace (one of the project's `traces:`, or the name for one given with --tags).
@@ -58,7 +58,7 @@ pub struct ArmArgs {
 
 /// Arguments of `softplc trace status`.
 #[derive(Debug, clap::Args)]
-pub struct StatusArgs {
+pub(crate) struct StatusArgs {
     #[command(flatten)]
     target: Target,
     /// One trace; all when absent.
@@ -70,7 +70,7 @@ pub struct StatusArgs {
 
 /// Arguments of `softplc trace save`.
 #[derive(Debug, clap::Args)]
-pub struct SaveArgs {
+pub(crate) struct SaveArgs {
     #[command(flatten)]
     target: Target,
     /// The trace.
@@ -88,7 +88,7 @@ pub struct SaveArgs {
 
 /// A trace's name.
 #[derive(Debug, clap::Args)]
-pub struct NameArgs {
+pub(crate) struct NameArgs {
     #[command(flatten)]
     target: Target,
     /// The trace.

@@ -17,24 +17,25 @@ use super::service::{RawScada, ScadaAccess};
 
 /// The duration syntax of `raw::parse_duration`: a decimal number, an optional space, a unit.
 /// (Whole nanoseconds and the upper bound are the validation's.)
-pub const DURATION_PATTERN: &str = r"^\s*([0-9]+(\.[0-9]*)?|\.[0-9]+) ?(ns|us|µs|ms|s|m|h)\s*$";
+pub(crate) const DURATION_PATTERN: &str =
+    r"^\s*([0-9]+(\.[0-9]*)?|\.[0-9]+) ?(ns|us|µs|ms|s|m|h)\s*$";
 
 /// A serial character format as `SerialFormat::from_str` reads it: data bits, parity, stop bits.
-pub const SERIAL_FORMAT_PATTERN: &str = "^[78][NEOneo][12]$";
+pub(crate) const SERIAL_FORMAT_PATTERN: &str = "^[78][NEOneo][12]$";
 
 /// The words of `offload:` and a tag's `offload:` (`OffloadMode`).
-pub const OFFLOAD_MODES: &[&str] = &["never", "auto", "require"];
+pub(crate) const OFFLOAD_MODES: &[&str] = &["never", "auto", "require"];
 
 /// The words of `offload.on_stop:` (`OnStop`).
-pub const ON_STOP: &[&str] = &["clear", "keep"];
+pub(crate) const ON_STOP: &[&str] = &["clear", "keep"];
 
 /// A schema that is one of `words`.
-pub fn words(words: &[&str]) -> Schema {
+pub(crate) fn words(words: &[&str]) -> Schema {
     json_schema!({ "type": "string", "enum": words })
 }
 
 /// `schema` or null: an optional key given as `~` reads as absent.
-pub fn nullable(schema: Schema) -> Schema {
+pub(crate) fn nullable(schema: Schema) -> Schema {
     json_schema!({ "anyOf": [schema, { "type": "null" }] })
 }
 
@@ -167,7 +168,7 @@ impl JsonSchema for RawOffload {
 }
 
 /// `schemars(schema_with)` functions for string fields whose values are a fixed list.
-pub mod field {
+pub(crate) mod field {
     use schemars::{json_schema, Schema, SchemaGenerator};
 
     use super::{nullable, words, OFFLOAD_MODES, SERIAL_FORMAT_PATTERN};
@@ -175,7 +176,7 @@ pub mod field {
     /// `buses[].format`. Unquoted, `8E1` and `7E2` are numbers to a YAML reader that resolves
     /// types, as an editor's does (8×10¹ = 80); the runtime reads the text as written, so the
     /// numbers the even-parity formats spell are accepted too.
-    pub fn serial_format(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn serial_format(_: &mut SchemaGenerator) -> Schema {
         nullable(json_schema!({
             "anyOf": [
                 {
@@ -189,18 +190,18 @@ pub mod field {
     }
 
     /// `buses[].echo`.
-    pub fn echo(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn echo(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["none", "discard"]))
     }
 
     /// `modules[].protocol`.
-    pub fn protocol(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn protocol(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["modbus", "text"]))
     }
 
     /// `modules[].watchdog`: the words `watchdog::parse_policy` reads (in any case, around
     /// spaces), and YAML's booleans; `auto` and `off` first, for completion.
-    pub fn module_watchdog(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn module_watchdog(_: &mut SchemaGenerator) -> Schema {
         const WORDS: [&str; 7] = ["auto", "on", "true", "yes", "off", "false", "no"];
         let any_case: Vec<String> = WORDS
             .iter()
@@ -220,7 +221,7 @@ pub mod field {
     }
 
     /// `modules[].model`: a model of the catalog (`softplc models`), each with its summary.
-    pub fn module_model(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn module_model(_: &mut SchemaGenerator) -> Schema {
         let models = softplc_io::devices::catalog()
             .iter()
             .map(|m| (m.name, m.summary));
@@ -228,7 +229,7 @@ pub mod field {
     }
 
     /// `plant.model`: a plant model of the simulator's catalog, each with its summary.
-    pub fn plant_model(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn plant_model(_: &mut SchemaGenerator) -> Schema {
         let plants = softplc_io::sim::plant::catalog()
             .iter()
             .map(|p| (p.name, p.summary));
@@ -247,7 +248,7 @@ pub mod field {
     /// `modules[].settings`' keys per model, offered for completion (`if model is X then its
     /// settings have X's keys`). Hints only: the model checks the keys and values, with "did
     /// you mean", and the schema does not refuse what the model might accept.
-    pub fn settings_hints() -> serde_json::Value {
+    pub(crate) fn settings_hints() -> serde_json::Value {
         let per_model: Vec<_> = softplc_io::devices::catalog()
             .iter()
             .map(|m| {
@@ -265,22 +266,22 @@ pub mod field {
     }
 
     /// `tags[].type`.
-    pub fn tag_type(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn tag_type(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["bool", "u16", "i32", "f32"]))
     }
 
     /// `tags[].offload`.
-    pub fn tag_offload(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn tag_offload(_: &mut SchemaGenerator) -> Schema {
         nullable(words(OFFLOAD_MODES))
     }
 
     /// `program.kind`.
-    pub fn program_kind(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn program_kind(_: &mut SchemaGenerator) -> Schema {
         words(&["expr", "ladder", "rhai"])
     }
 
     /// `traces[].mode`.
-    pub fn trace_mode(_: &mut SchemaGenerator) -> Schema {
+    pub(crate) fn trace_mode(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["single", "repeat"]))
     }
 }

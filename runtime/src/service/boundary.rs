@@ -105,7 +105,7 @@ impl ServiceBoundary {
                 }
             };
             // A client that gave up meanwhile has nobody left to tell.
-            let _ = env.reply.send(response);
+            drop(env.reply.send(response));
         }
     }
 
@@ -125,7 +125,7 @@ impl ServiceBoundary {
             .name("reload".into())
             .spawn(move || {
                 // The scan may have ended meanwhile: then nobody waits for the result.
-                let _ = tx.send(job.prepare());
+                drop(tx.send(job.prepare()));
             });
         match spawned {
             Ok(_) => self.reload_job = Some(rx),
@@ -160,10 +160,10 @@ impl ServiceBoundary {
         }
         for reply in self.reload_waiters.drain(..) {
             // A client that gave up meanwhile has nobody left to tell.
-            let _ = reply.send(match &outcome {
+            drop(reply.send(match &outcome {
                 Ok(m) => Response::done(m.clone()),
                 Err(e) => Response::refused(e.clone()),
-            });
+            }));
         }
     }
 
