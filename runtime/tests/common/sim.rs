@@ -7,7 +7,7 @@ use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
 
 /// A running `softplc sim --pty`.
-pub struct Sim {
+pub(crate) struct Sim {
     child: Child,
     stdin: ChildStdin,
     lines: Receiver<String>,
@@ -15,7 +15,7 @@ pub struct Sim {
 
 impl Sim {
     /// Starts `bin sim --pty DEVICES…`; returns it and the pty path it printed.
-    pub fn start(bin: &str, devices: &[&str]) -> (Self, String) {
+    pub(crate) fn start(bin: &str, devices: &[&str]) -> (Self, String) {
         let mut child = Command::new(bin)
             .arg("sim")
             .arg("--pty")
@@ -54,13 +54,13 @@ impl Sim {
     }
 
     /// Sends one command line.
-    pub fn send(&mut self, command: &str) {
+    pub(crate) fn send(&mut self, command: &str) {
         writeln!(self.stdin, "{command}").unwrap();
         self.stdin.flush().unwrap();
     }
 
     /// `get TARGET`, and its answer line.
-    pub fn get(&mut self, target: &str) -> String {
+    pub(crate) fn get(&mut self, target: &str) -> String {
         self.send(&format!("get {target}"));
         loop {
             let line = self
@@ -75,7 +75,7 @@ impl Sim {
 
     /// The next line of its output that starts with `prefix`, waiting at most `within`.
     #[allow(dead_code)] // not every test binary that shares this file reads raw lines
-    pub fn wait_line(&mut self, prefix: &str, within: Duration) -> Option<String> {
+    pub(crate) fn wait_line(&mut self, prefix: &str, within: Duration) -> Option<String> {
         let start = Instant::now();
         while let Some(left) = within.checked_sub(start.elapsed()) {
             match self.lines.recv_timeout(left) {
@@ -88,7 +88,12 @@ impl Sim {
     }
 
     /// Polls `target` until it reads `want`; how long that took, or `None` after `within`.
-    pub fn wait_for(&mut self, target: &str, want: &str, within: Duration) -> Option<Duration> {
+    pub(crate) fn wait_for(
+        &mut self,
+        target: &str,
+        want: &str,
+        within: Duration,
+    ) -> Option<Duration> {
         let start = Instant::now();
         while start.elapsed() < within {
             if self.get(target) == format!("{target}={want}") {
@@ -102,7 +107,8 @@ impl Sim {
 
 impl Drop for Sim {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.child.kill());
+        drop(self.child.wait());
     }
 }

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use serde_json::{json, Value};
 
 /// A running headless Chromium with one page attached.
-pub struct Browser {
+pub(crate) struct Browser {
     child: Child,
     to: File,
     from: Receiver<Value>,
@@ -26,6 +26,7 @@ pub struct Browser {
 
 fn pipe() -> (RawFd, RawFd) {
     let mut fds = [0; 2];
+    #[allow(unsafe_code)]
     // SAFETY: `fds` has room for the two descriptors pipe2 writes.
     let rc = unsafe { libc::pipe2(fds.as_mut_ptr(), libc::O_CLOEXEC) };
     assert_eq!(rc, 0, "pipe2: {}", std::io::Error::last_os_error());
@@ -35,7 +36,7 @@ fn pipe() -> (RawFd, RawFd) {
 impl Browser {
     /// Starts Chromium (`chromium` on the PATH) with a scratch profile in `profile`, a
     /// 1280×900 window, and a blank page.
-    pub fn start(profile: &Path) -> Self {
+    pub(crate) fn start(profile: &Path) -> Self {
         let (child_in, to_child) = pipe();
         let (from_child, child_out) = pipe();
         let mut cmd = Command::new("chromium");
@@ -59,6 +60,7 @@ impl Browser {
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::null());
+        #[allow(unsafe_code)]
         // SAFETY: only async-signal-safe calls (fcntl, dup2, close) between fork and exec.
         unsafe {
             cmd.pre_exec(move || {
@@ -79,6 +81,7 @@ impl Browser {
                  chromium package; run scripts/test, which installs it"
             )
         });
+        #[allow(unsafe_code)]
         // SAFETY: these descriptors are ours alone; each File closes its own.
         let (to, from, _child_in, _child_out) = unsafe {
             (
@@ -173,13 +176,13 @@ impl Browser {
     }
 
     /// A command to the page.
-    pub fn page(&mut self, method: &str, params: Value) -> Value {
+    pub(crate) fn page(&mut self, method: &str, params: Value) -> Value {
         let session = self.session.clone();
         self.call(method, params, Some(&session))
     }
 
     /// Opens `url` and waits for its load event's readiness (`document.readyState`).
-    pub fn open(&mut self, url: &str) {
+    pub(crate) fn open(&mut self, url: &str) {
         self.page("Page.navigate", json!({ "url": url }));
         let ready = self.wait_for(
             "document.readyState === 'complete'",
@@ -189,7 +192,7 @@ impl Browser {
     }
 
     /// The value of the JavaScript expression `expr` (promises awaited).
-    pub fn eval(&mut self, expr: &str) -> Value {
+    pub(crate) fn eval(&mut self, expr: &str) -> Value {
         let r = self.page(
             "Runtime.evaluate",
             json!({ "expression": expr, "returnByValue": true, "awaitPromise": true }),
@@ -202,7 +205,7 @@ impl Browser {
 
     /// Polls `expr` every 20 ms until it is truthy: its value and how long that took, or
     /// `None` after `within`.
-    pub fn wait_for(&mut self, expr: &str, within: Duration) -> Option<(Value, Duration)> {
+    pub(crate) fn wait_for(&mut self, expr: &str, within: Duration) -> Option<(Value, Duration)> {
         let start = Instant::now();
         let guarded =
             format!("(() => {{ try {{ return ({expr}); }} catch (e) {{ return null; }} }})()");
@@ -224,7 +227,7 @@ impl Browser {
     }
 
     /// A PNG of the whole page (up to 3000 px tall) in `path`.
-    pub fn screenshot(&mut self, path: &Path) {
+    pub(crate) fn screenshot(&mut self, path: &Path) {
         let metrics = self.page("Page.getLayoutMetrics", json!({}));
         let height = metrics["cssContentSize"]["height"]
             .as_f64()
@@ -245,8 +248,9 @@ impl Browser {
 
 impl Drop for Browser {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.child.kill());
+        drop(self.child.wait());
     }
 }
 
