@@ -30,7 +30,8 @@ impl Scratch {
             "softplc-check-catches-{}-{case}",
             std::process::id()
         ));
-        let _ = std::fs::remove_dir_all(&dir);
+        // Best effort: the test's scratch folder (it may not exist).
+        drop(std::fs::remove_dir_all(&dir));
         std::fs::create_dir_all(&dir).expect("a scratch folder");
         Self { dir }
     }
@@ -44,7 +45,8 @@ impl Scratch {
 
 impl Drop for Scratch {
     fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
+        // Best effort: the test's scratch folder (it may not exist).
+        drop(std::fs::remove_dir_all(&self.dir));
     }
 }
 

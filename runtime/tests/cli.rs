@@ -44,8 +44,10 @@ fn drain(mut pipe: impl Read + Send + 'static) -> Receiver<String> {
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
         let mut text = String::new();
-        let _ = pipe.read_to_string(&mut text);
-        let _ = tx.send(text);
+        // A read ending in an error (timeout, reset) still leaves what arrived in the buffer.
+        drop(pipe.read_to_string(&mut text));
+        // The receiver is gone once the test has what it needs.
+        drop(tx.send(text));
     });
     rx
 }
@@ -67,8 +69,9 @@ fn run(program: &str, args: &[&str]) -> Finished {
             break status;
         }
         if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
+            // The child may have exited already; then there is nothing to stop.
+            drop(child.kill());
+            drop(child.wait());
             panic!("{program} {args:?} did not finish within {PATIENCE:?}");
         }
         std::thread::sleep(Duration::from_millis(10));
@@ -158,7 +161,8 @@ struct Scratch {
 impl Scratch {
     fn new(case: &str) -> Self {
         let dir = std::env::temp_dir().join(format!("softplc-cli-{}-{case}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        // Best effort: the test's scratch folder (it may not exist).
+        drop(std::fs::remove_dir_all(&dir));
         std::fs::create_dir_all(&dir).expect("a scratch folder");
         let program = std::fs::read_to_string(root().join("programs/conveyor.expr"))
             .expect("programs/conveyor.expr");
@@ -175,7 +179,8 @@ impl Scratch {
 
 impl Drop for Scratch {
     fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
+        // Best effort: the test's scratch folder (it may not exist).
+        drop(std::fs::remove_dir_all(&self.dir));
     }
 }
 
@@ -545,7 +550,8 @@ impl Sim {
 impl Drop for Sim {
     fn drop(&mut self) {
         if let Some(mut stdin) = self.stdin.take() {
-            let _ = writeln!(stdin, "quit");
+            // The simulator may have exited already.
+            drop(writeln!(stdin, "quit"));
         }
         let deadline = Instant::now() + Duration::from_secs(10);
         while Instant::now() < deadline {
@@ -554,8 +560,9 @@ impl Drop for Sim {
             }
             std::thread::sleep(Duration::from_millis(20));
         }
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.child.kill());
+        drop(self.child.wait());
     }
 }
 
@@ -640,7 +647,8 @@ fn a_coil_written_by_a_third_party_master_shows_on_stdin_get() {
 /// and `status` print far more than a pipe holds) and the project name `name`.
 fn big_quickstart(name: &str, n: usize) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::copy(
         root().join("programs/conveyor.expr"),
@@ -683,7 +691,8 @@ fn with_stdout_closed_early(args: &[&str]) -> Finished {
             break status;
         }
         if Instant::now() > deadline {
-            let _ = child.kill();
+            // The child may have exited already; then there is nothing to stop.
+            drop(child.kill());
             panic!("softplc {args:?} did not end after its stdout closed");
         }
         std::thread::sleep(Duration::from_millis(10));
@@ -717,7 +726,8 @@ fn check_into_a_closed_pipe_ends_quietly() {
     let out = with_stdout_closed_early(&["check", path_str(&project)]);
     assert!(out.stdout.starts_with("project pipe"), "{out:?}");
     ended_quietly(&out);
-    let _ = std::fs::remove_dir_all(dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }
 
 #[test]
@@ -753,15 +763,18 @@ fn status_into_a_closed_pipe_ends_quietly() {
     ended_quietly(&out);
     // The instance is unharmed and answers the next client.
     assert_eq!(softplc(&status).code(), Some(0));
-    let _ = plc.kill();
-    let _ = plc.wait();
-    let _ = std::fs::remove_dir_all(dir);
+    // The child may have exited already; then there is nothing to stop.
+    drop(plc.kill());
+    drop(plc.wait());
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }
 
 #[test]
 fn check_answers_a_deeply_nested_project_at_once() {
     let dir = std::env::temp_dir().join(format!("softplc-cli-nested-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     for (name, text) in [
         // 100 000 brackets inside one another, then as many closing: 200 KB.
@@ -797,5 +810,6 @@ fn check_answers_a_deeply_nested_project_at_once() {
         assert_eq!(out.stderr.trim(), expected, "{name}");
         assert!(took < Duration::from_secs(10), "{name}: {took:?}");
     }
-    let _ = std::fs::remove_dir_all(dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }

@@ -182,12 +182,14 @@ impl Running {
         let tx2 = tx.clone();
         std::thread::spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let _ = tx.send(line);
+                // The receiver is gone once the test has what it needs.
+                drop(tx.send(line));
             }
         });
         std::thread::spawn(move || {
             for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                let _ = tx2.send(line);
+                // The receiver is gone once the test has what it needs.
+                drop(tx2.send(line));
             }
         });
         Self {

@@ -24,7 +24,8 @@ fn finds_every_family_at_mixed_settings_and_its_skeleton_checks() {
         ],
     );
     let dir = std::env::temp_dir().join(format!("softplc-discover-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     let project = dir.join("project.yaml");
     let started = Instant::now();
@@ -73,7 +74,8 @@ fn finds_every_family_at_mixed_settings_and_its_skeleton_checks() {
         "{yaml}\n{}",
         String::from_utf8_lossy(&check.stderr)
     );
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 #[test]

@@ -21,7 +21,8 @@ const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-journal-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }

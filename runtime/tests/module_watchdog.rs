@@ -32,7 +32,8 @@ fn folder(case: &str, module_extra: &str) -> PathBuf {
         "softplc-module-watchdog-{}-{case}",
         std::process::id()
     ));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("run.expr"), "motor = 1\nlamp = 0\n").unwrap();
     let text = format!(
@@ -343,7 +344,8 @@ fn a_minimod_whose_text_commands_an_ex9053_would_answer_is_refused_naming_both()
         "softplc-module-watchdog-{}-dcon",
         std::process::id()
     ));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("run.expr"), "motor = 1\n").unwrap();
     let project = |minimod: u8, ex9053: u8, checksum: &str| {

@@ -285,8 +285,11 @@ fn dcon_commands_and_answers_are_paired() {
 fn private_pty() -> (TTYPort, TTYPort, String) {
     let (master, slave, path) = pty_pair().expect("a pty pair");
     for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
+        #[allow(unsafe_code)]
         // SAFETY: F_SETFD on a descriptor the ports own, for as long as they are alive.
-        unsafe { libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC) };
+        unsafe {
+            libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC)
+        };
     }
     (master, slave, path)
 }
@@ -350,8 +353,11 @@ fn ctrl_c_ends_it_with_the_frame_it_held() {
     master.write_all(b"@1?X").unwrap();
     std::thread::sleep(PAUSE);
     let pid = libc::pid_t::try_from(child.id()).unwrap();
+    #[allow(unsafe_code)]
     // SAFETY: a signal to the child this test started and has not reaped.
-    unsafe { libc::kill(pid, libc::SIGINT) };
+    unsafe {
+        libc::kill(pid, libc::SIGINT)
+    };
     let (stdout, rest) = ended(&mut child, stderr);
     assert!(child.wait().unwrap().success(), "{rest}");
     assert!(

@@ -72,8 +72,9 @@ impl Broker {
     }
 
     fn restart(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.child.kill());
+        drop(self.child.wait());
         let dir = self.conf.parent().unwrap().to_path_buf();
         let extra = std::fs::read_to_string(&self.conf).unwrap_or_default();
         let extra: String = extra
@@ -89,8 +90,9 @@ impl Broker {
 
 impl Drop for Broker {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.child.kill());
+        drop(self.child.wait());
     }
 }
 
@@ -191,9 +193,11 @@ fn a_sparkplug_host_sees_births_data_commands_a_broker_restart_and_death() {
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
         let Ok(line) = from_consumer.recv_timeout(left) else {
-            let _ = consumer.kill();
+            // The child may have exited already; then there is nothing to stop.
+            drop(consumer.kill());
             if let Some(mut p) = plc.take() {
-                let _ = p.kill();
+                // The child may have exited already; then there is nothing to stop.
+                drop(p.kill());
             }
             panic!(
                 "the consumer stopped or timed out after {passed:?}; softplc's log:\n{}",
@@ -207,7 +211,8 @@ fn a_sparkplug_host_sees_births_data_commands_a_broker_restart_and_death() {
         }
         if let Some(why) = line.strip_prefix("FAIL ") {
             if let Some(mut p) = plc.take() {
-                let _ = p.kill();
+                // The child may have exited already; then there is nothing to stop.
+                drop(p.kill());
             }
             panic!(
                 "consumer: {why} (after {passed:?}); softplc's log:\n{}",
@@ -278,13 +283,15 @@ fn a_sparkplug_host_sees_births_data_commands_a_broker_restart_and_death() {
         8,
         "every step of the consumer passed: {passed:?}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 /// A fresh folder of this test.
 fn tempfile_dir() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-mqtt-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
@@ -347,7 +354,8 @@ service:
     ] {
         assert!(text.contains(&want), "missing {want:?} in:\n{text}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 /// Runs `openssl` in `dir` (the certificates of the TLS test).
@@ -363,7 +371,8 @@ fn openssl(dir: &Path, args: &[&str]) {
 #[test]
 fn tls_to_a_broker_signed_by_the_projects_ca_and_a_refusal_by_another_ca() {
     let dir = std::env::temp_dir().join(format!("softplc-mqtt-tls-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     for ca in ["ca", "other-ca"] {
         openssl(
@@ -477,5 +486,6 @@ fn tls_to_a_broker_signed_by_the_projects_ca_and_a_refusal_by_another_ca() {
             );
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }

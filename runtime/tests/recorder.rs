@@ -24,7 +24,8 @@ fn quickstart() -> PathBuf {
 
 fn tempdir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-recorder-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
@@ -423,8 +424,11 @@ fn kill_9_of_a_recorded_run_leaves_a_readable_record() {
             }
         }
     }
+    #[allow(unsafe_code)]
     // SAFETY: kill with a valid pid and signal.
-    unsafe { libc::kill(plc.id() as i32, libc::SIGKILL) };
+    unsafe {
+        libc::kill(plc.id() as i32, libc::SIGKILL)
+    };
     let status = plc.wait().unwrap();
     assert!(!status.success());
     assert!(seen >= 25, "only {seen} cycles recorded in 30 s");
@@ -485,8 +489,11 @@ fn the_service_unit_records_into_its_state_directory() {
     {
         std::thread::sleep(Duration::from_millis(200));
     }
+    #[allow(unsafe_code)]
     // SAFETY: kill with a valid pid and signal.
-    unsafe { libc::kill(plc.id() as i32, libc::SIGTERM) };
+    unsafe {
+        libc::kill(plc.id() as i32, libc::SIGTERM)
+    };
     let out = plc.wait_with_output().unwrap();
     assert!(
         out.status.success(),

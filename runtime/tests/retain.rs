@@ -30,7 +30,8 @@ fn project(dir: &Path, kind: &str) -> PathBuf {
 
 fn temp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("softplc-retain-it-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&d));
     d
 }
 
@@ -97,7 +98,8 @@ fn kill_nine_then_restart(kind: &str) {
         after >= at_kill + 10 && after <= at_kill + 40,
         "{at_kill} → {after}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 #[test]
@@ -134,7 +136,8 @@ fn a_corrupt_file_is_reported_kept_aside_and_the_defaults_used() {
     assert!(dir.join("state/count.json.corrupt").exists());
     // Started from 0: 20 scans of 50 ms.
     assert_eq!(saved(&file), Some(20), "{log}");
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 #[test]
@@ -188,7 +191,8 @@ fn project_errors_for_retain_settings() {
     let kind = good.replace("kind: ladder", "kind: ladr");
     let e = parse_str(&kind, &project_path).unwrap_err().errors;
     assert!(e[0].to_string().contains("ladder"), "{}", e[0]);
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 #[test]
@@ -230,5 +234,6 @@ fn under_systemd_retained_values_go_to_the_state_directory() {
         !dir.join("project.retain.json").exists(),
         "nothing beside the project"
     );
-    let _ = std::fs::remove_dir_all(dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }

@@ -16,7 +16,8 @@ const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 fn run_refuses_rs485_mode_on_a_pty_by_name() {
     let (_sim, pty) = Sim::start(BIN, &["minimod@1"]);
     let dir = std::env::temp_dir().join(format!("softplc-rs485-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
     let project = format!(
@@ -40,13 +41,15 @@ fn run_refuses_rs485_mode_on_a_pty_by_name() {
         "bus line1: {pty} does not support kernel RS-485 mode (rs485.rts_on_send): Inappropriate ioctl for device"
     );
     assert!(stderr.contains(&want), "want {want:?} in:\n{stderr}");
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 #[test]
 fn check_refuses_rs485_on_a_sim_bus_and_a_long_delay_with_positions() {
     let dir = std::env::temp_dir().join(format!("softplc-rs485-check-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
     let project = "project: rs485\n\
@@ -71,5 +74,6 @@ fn check_refuses_rs485_on_a_sim_bus_and_a_long_delay_with_positions() {
         text.contains("rs485.delay_after_send must be whole milliseconds"),
         "{text}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }

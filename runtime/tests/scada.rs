@@ -36,7 +36,8 @@ fn project(name: &str, service: &str) -> PathBuf {
 /// [`project`] with `extra` (tag lines) after the four SCADA tags.
 fn project_with(name: &str, service: &str, extra: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-scada-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::copy(
         repo().join("programs/conveyor.expr"),
@@ -93,7 +94,8 @@ fn finish(mut child: Child) -> Output {
         }
         std::thread::sleep(Duration::from_millis(100));
     }
-    let _ = child.kill();
+    // The child may have exited already; then there is nothing to stop.
+    drop(child.kill());
     child.wait_with_output().unwrap()
 }
 
@@ -136,7 +138,8 @@ fn wait_until_serving(child: &mut Child, port: u16) {
         }
         if child.try_wait().unwrap().is_some() {
             let mut log = String::new();
-            let _ = child.stderr.take().unwrap().read_to_string(&mut log);
+            // Best effort: the log only adds to the panic message.
+            drop(child.stderr.take().unwrap().read_to_string(&mut log));
             panic!("softplc run stopped before serving:\n{log}");
         }
         assert!(
@@ -274,7 +277,8 @@ fn a_third_party_master_reads_the_map_and_writes_only_writable_tags() {
             && log.contains(&format!("metrics at http://127.0.0.1:{metrics}/metrics")),
         "{log}"
     );
-    let _ = std::fs::remove_dir_all(dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }
 
 #[test]
@@ -296,7 +300,8 @@ fn writes_are_refused_unless_the_project_allows_them() {
     assert!(ok && values(&text) == [(0, "120".into())], "{text}");
     let out = finish(child);
     assert!(out.status.success(), "{out:?}");
-    let _ = std::fs::remove_dir_all(dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }
 
 /// A Modbus TCP request for the most registers one reply carries, 125 from 0, transaction
@@ -321,7 +326,9 @@ fn served(port: u16, wait: Duration) -> bool {
     let Ok(mut c) = TcpStream::connect(("127.0.0.1", port)) else {
         return false;
     };
-    let _ = c.set_read_timeout(Some(wait));
+    // Only a zero `wait` is refused, and that would block this probe forever.
+    c.set_read_timeout(Some(wait))
+        .expect("a nonzero probe timeout");
     if c.write_all(&read_registers(7)).is_err() {
         return false;
     }
@@ -335,6 +342,7 @@ fn small_buffers(c: &TcpStream) {
     use std::os::fd::AsRawFd;
     for option in [libc::SO_SNDBUF, libc::SO_RCVBUF] {
         let size: libc::c_int = 4096;
+        #[allow(unsafe_code)]
         // SAFETY: the fd is `c`'s open socket; the value is a c_int of the length given.
         let rc = unsafe {
             libc::setsockopt(
@@ -454,7 +462,8 @@ fn clients_that_never_read_their_replies_lose_their_slots() {
         // All twelve bytes went out (over at least 3 s): the server must not answer them.
         slow.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
         let mut rest = Vec::new();
-        let _ = slow.read_to_end(&mut rest);
+        // A read ending in an error (timeout, reset) still leaves what arrived in the buffer.
+        drop(slow.read_to_end(&mut rest));
         assert!(rest.is_empty(), "answered a dribbled request: {rest:?}");
     }
     assert!(started.elapsed() < Duration::from_secs(10));
@@ -467,7 +476,8 @@ fn clients_that_never_read_their_replies_lose_their_slots() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let _ = std::fs::remove_dir_all(dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }
 
 #[test]
@@ -503,10 +513,12 @@ fn slow_clients_do_not_hold_up_a_scrape() {
     for c in &mut slow {
         c.set_read_timeout(Some(Duration::from_secs(15))).unwrap();
         let mut out = String::new();
-        let _ = c.read_to_string(&mut out);
+        // A read ending in an error (timeout, reset) still leaves what arrived in the buffer.
+        drop(c.read_to_string(&mut out));
         assert!(out.starts_with("HTTP/1.1 408"), "{out}");
     }
     let out = finish(child);
     assert!(out.status.success(), "{out:?}");
-    let _ = std::fs::remove_dir_all(dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }

@@ -12,12 +12,14 @@ const PATIENCE: Duration = Duration::from_secs(60);
 
 fn folder(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-trace-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
 
-/// `n` counts the cycles, `pulse` is true on every fourth; the project defines `pulses`.
+/// `n` counts the cycles, `pulse` is true on every fourth; the project defines `boot`, armed
+/// when the PLC starts (the default), and `pulses`, armed by hand.
 const PROJECT: &str = "project: tracecli
 scan: { period: 10ms }
 tags:
@@ -26,11 +28,17 @@ tags:
   - { name: level, type: f32 }
 program: { file: count.rhai, kind: rhai }
 traces:
+  - name: boot
+    tags: [n]
+    trigger: pulse rising
+    pre: 1
+    post: 1
   - name: pulses
     tags: [n, pulse, phase.logic]
     trigger: pulse rising
     pre: 2
     post: 3
+    arm: manual
 ";
 
 fn softplc(args: &[&str]) -> Output {
@@ -53,9 +61,13 @@ struct Running(Child);
 
 impl Drop for Running {
     fn drop(&mut self) {
+        #[allow(unsafe_code)]
         // SAFETY: kill has no memory preconditions; the pid is our own child's.
-        unsafe { libc::kill(self.0.id() as i32, libc::SIGTERM) };
-        let _ = self.0.wait();
+        unsafe {
+            libc::kill(self.0.id() as i32, libc::SIGTERM)
+        };
+        // Only reaps the child: its exit status is not what this test checks.
+        drop(self.0.wait());
     }
 }
 
@@ -96,7 +108,9 @@ fn a_project_trace_is_armed_waited_for_and_saved_as_csv_and_vcd() {
     assert!(o.status.success(), "{o:?}");
     assert_eq!(
         text(&o).0,
-        "pulses: not armed, 0/6 samples (pre 2, post 3); n, pulse, phase.logic\n"
+        "boot: complete, 3/3 samples (pre 1, post 1), triggered at cycle 4; n\n\
+         pulses: not armed, 0/6 samples (pre 2, post 3); n, pulse, phase.logic\n",
+        "boot armed itself at start and caught the first pulse; pulses waits to be armed"
     );
 
     let o = softplc(&["trace", "arm", "pulses", "--socket", s]);
@@ -220,11 +234,11 @@ fn a_trace_given_with_tags_is_checked_like_the_project_and_refusals_name_the_fau
         ),
         (
             &["trace", "arm", "jam"],
-            "error: no trace jam (traces: pulses, climb)\n",
+            "error: no trace jam (traces: boot, pulses, climb)\n",
         ),
         (
             &["trace", "save", "pulses", "--csv", "-"],
-            "error: no trace pulses (traces: pulses, climb)\n",
+            "error: trace pulses is not armed: arm it with `softplc trace arm pulses`\n",
         ),
     ];
     for (args, expected) in cases {

@@ -51,8 +51,9 @@ struct Plc(Child);
 
 impl Drop for Plc {
     fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.0.kill());
+        drop(self.0.wait());
     }
 }
 
@@ -62,7 +63,8 @@ fn http(port: u16, request: &str) -> (u16, String) {
     c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
     c.write_all(request.as_bytes()).unwrap();
     let mut out = String::new();
-    let _ = c.read_to_string(&mut out);
+    // A read ending in an error (timeout, reset) still leaves what arrived in the buffer.
+    drop(c.read_to_string(&mut out));
     let status = out
         .split(' ')
         .nth(1)
@@ -133,9 +135,11 @@ fn run_plc(project: &Path, socket: &Path, port: u16) -> Plc {
     let up = Instant::now();
     while TcpStream::connect(("127.0.0.1", port)).is_err() {
         if up.elapsed() > Duration::from_secs(30) || plc.0.try_wait().unwrap().is_some() {
-            let _ = plc.0.kill();
+            // The child may have exited already; then there is nothing to stop.
+            drop(plc.0.kill());
             let mut err = String::new();
-            let _ = plc.0.stderr.take().unwrap().read_to_string(&mut err);
+            // Best effort: the log only adds to the panic message.
+            drop(plc.0.stderr.take().unwrap().read_to_string(&mut err));
             panic!("the web page never listened on port {port}:\n{err}");
         }
         std::thread::sleep(Duration::from_millis(100));
@@ -148,7 +152,8 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     chromium_available();
     let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
     let dir = std::env::temp_dir().join(format!("softplc-web-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::copy(
         repo().join("programs/conveyor.expr"),
@@ -402,9 +407,12 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
         );
     }
 
+    #[allow(unsafe_code)]
     // Stopping the PLC (SIGINT, as Ctrl-C): the page says so rather than "no connection".
     // SAFETY: a signal to the child this test started.
-    unsafe { libc::kill(plc.0.id() as i32, libc::SIGINT) };
+    unsafe {
+        libc::kill(plc.0.id() as i32, libc::SIGINT)
+    };
     b.wait_for(
         "document.getElementById('state').dataset.state === 'stopped' && \
          document.getElementById('state').textContent === 'stopped'",
@@ -419,7 +427,8 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     assert!(why.is_some(), "the overview says why the run ended");
     drop(b);
     drop(plc);
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
 
 /// The `data-kind:data-tag` of each element of rung `n`'s diagram, left to right.
@@ -430,7 +439,8 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
     chromium_available();
     let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
     let dir = std::env::temp_dir().join(format!("softplc-web-ladder-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(
         dir.join("machine.ladder.yaml"),
@@ -603,5 +613,6 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
     drop(b);
     drop(plc);
     sim.send("set minimod@1.X2 0");
-    let _ = std::fs::remove_dir_all(&dir);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
