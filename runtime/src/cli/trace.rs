@@ -132,6 +132,7 @@ fn arm(a: ArmArgs) -> anyhow::Result<ExitCode> {
                 post: a.post,
                 mode: a.mode,
                 every: a.every,
+                arm: None,
             }),
         }
     };

@@ -284,6 +284,10 @@ pub(crate) mod field {
     pub(crate) fn trace_mode(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["single", "repeat"]))
     }
+
+    pub(crate) fn trace_arm(_: &mut SchemaGenerator) -> Schema {
+        nullable(words(&["start", "manual"]))
+    }
 }
 
 #[cfg(test)]

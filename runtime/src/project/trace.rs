@@ -44,7 +44,7 @@ pub const DEFAULT_POST: u32 = 400;
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a trace: a mapping with name, tags, trigger, pre, post, mode and every"
+    expecting = "a trace: a mapping with name, tags, trigger, pre, post, mode, every and arm"
 )]
 pub struct RawTrace {
     /// Its name.
@@ -67,6 +67,12 @@ pub struct RawTrace {
     /// One sample every this many cycles.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub every: Option<i64>,
+    /// `start` (the default for a trace of the project): armed when the PLC starts, so a
+    /// restart never leaves the event it waits for unwatched; `manual`: armed by `softplc
+    /// trace arm NAME` or the web page. A trace armed at run time is armed at once.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(schema_with = "super::raw_schema::field::trace_arm")]
+    pub arm: Option<String>,
 }
 
 /// A validated trace definition.
@@ -86,6 +92,8 @@ pub struct TraceConfig {
     pub mode: TraceMode,
     /// One sample every this many cycles (≥ 1).
     pub every: u32,
+    /// Armed when the PLC starts (`arm: start`, a project trace's default).
+    pub at_start: bool,
 }
 
 impl TraceConfig {
@@ -371,6 +379,8 @@ pub enum Field {
     Mode,
     /// `every`.
     Every,
+    /// `arm`.
+    Arm,
 }
 
 /// What is wrong with a trace.
@@ -500,6 +510,12 @@ pub enum TraceError {
         /// As written.
         value: i64,
     },
+    /// An unknown `arm`.
+    #[error("arm {arm:?}: a trace is armed at start or manual")]
+    UnknownArm {
+        /// As written.
+        arm: String,
+    },
     /// An unknown mode.
     #[error("mode {mode:?}: a trace's mode is single or repeat")]
     UnknownMode {
@@ -594,6 +610,14 @@ pub fn build(
             1
         }
     };
+    let at_start = match raw.arm.as_deref() {
+        None | Some("start") => true,
+        Some("manual") => false,
+        Some(a) => {
+            errors.push((Field::Arm, TraceError::UnknownArm { arm: a.to_owned() }));
+            false
+        }
+    };
     let config = TraceConfig {
         name: raw.name.clone(),
         probes,
@@ -602,6 +626,7 @@ pub fn build(
         post,
         mode,
         every,
+        at_start,
     };
     let samples = config.depth() as u64;
     if raw.trigger.is_none() && samples == 0 {
@@ -676,6 +701,7 @@ impl Field {
             Field::Pre => entry.key("pre"),
             Field::Post => entry.key("post"),
             Field::Mode => entry.key("mode"),
+            Field::Arm => entry.key("arm"),
             Field::Every => entry.key("every"),
         }
     }

@@ -190,6 +190,13 @@ impl ServiceBoundary {
 }
 
 impl CycleBoundary for ServiceBoundary {
+    fn started(&mut self, plc: &mut Plc) {
+        let n = self.traces.arm_at_start(plc.project());
+        if n > 0 {
+            tracing::info!("{n} trace(s) of the project armed at start");
+        }
+    }
+
     fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
         // First, so a sample shows the cycle just ended, before any request changes the PLC.
         self.traces.sample(plc, stats);

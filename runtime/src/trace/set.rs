@@ -28,6 +28,12 @@ pub enum TraceRefusal {
         /// The traces there are.
         defined: Vec<String>,
     },
+    /// A trace of the project that is not armed (`arm: manual`, or disarmed).
+    #[error("trace {name} is not armed: arm it with `softplc trace arm {name}`")]
+    NotArmed {
+        /// Its name.
+        name: String,
+    },
     /// A run-time trace named like one of the project's.
     #[error(
         "trace {name} is defined in the project: arm it by name, or give yours another --name"
@@ -173,6 +179,18 @@ impl TraceSet {
         Ok(armed_status)
     }
 
+    /// Arms every trace of the project marked `arm: start` (the default), before the first
+    /// cycle; the number armed.
+    pub fn arm_at_start(&mut self, project: &Project) -> usize {
+        let mut n = 0;
+        for t in project.traces.iter().filter(|t| t.at_start) {
+            if self.arm(project, Some(&t.name), None).is_ok() {
+                n += 1;
+            }
+        }
+        n
+    }
+
     /// Stops and forgets the armed trace `name`.
     pub fn disarm(&mut self, project: &Project, name: &str) -> Result<(), TraceRefusal> {
         let before = self.armed.len();
@@ -236,6 +254,11 @@ impl TraceSet {
     }
 
     fn unknown(&self, project: &Project, name: &str) -> TraceRefusal {
+        if project.traces.iter().any(|t| t.name == name) {
+            return TraceRefusal::NotArmed {
+                name: name.to_owned(),
+            };
+        }
         let mut defined: Vec<String> = project.traces.iter().map(|t| t.name.clone()).collect();
         for a in &self.armed {
             if !defined.contains(&a.capture.config().name) {
