@@ -91,3 +91,31 @@ fn bad_arguments_are_refused_naming_the_place() {
         "{err}"
     );
 }
+
+/// A MiniMod installed at 9600 8N1 (its SERLINE, `minimod@5:9600:8N1`) shares the pty with
+/// one at the factory 19200 8E1: each is found at its own baud, and only there.
+#[test]
+fn finds_a_minimod_at_its_own_serline_next_to_one_at_the_factory_settings() {
+    let (_sim, pty) = sim::Sim::start(BIN, &["minimod@5:9600:8N1", "minimod@6"]);
+    let out = Command::new(BIN)
+        .args(["discover", &pty, "--bauds", "9600,19200"])
+        .args(["--formats", "8N1,8E1", "--addresses", "4-7"])
+        .args(["--timeout", "40ms"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for want in [
+        "found minimod at address 5, 9600",
+        "found minimod at address 6, 19200",
+    ] {
+        assert!(text.contains(want), "no {want:?} in\n{text}");
+    }
+    assert!(!text.contains("address 5, 19200"), "{text}");
+    assert!(!text.contains("address 6, 9600"), "{text}");
+    assert!(text.contains("2 module(s) found"), "{text}");
+}

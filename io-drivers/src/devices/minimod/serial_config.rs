@@ -72,6 +72,19 @@ impl LineMode {
         }
     }
 
+    /// The mode whose character format is `format`, if the module has one (8 data bits; even
+    /// or odd parity with 1 stop bit, or no parity with 1 or 2).
+    pub fn of_format(format: SerialFormat) -> Option<Self> {
+        [
+            LineMode::Even,
+            LineMode::Odd,
+            LineMode::NoneTwoStops,
+            LineMode::NoneOneStop,
+        ]
+        .into_iter()
+        .find(|m| m.format() == format)
+    }
+
     /// The character format.
     pub fn format(self) -> SerialFormat {
         let (parity, stop_bits) = match self {
@@ -121,6 +134,16 @@ impl SerialParams {
             baud: self.baud,
             format: self.mode.format(),
         }
+    }
+
+    /// The parameters for `settings`, if `>SERLINE=` can set them (one of [`BAUD_RATES`] and a
+    /// format of [`LineMode`]).
+    pub fn of_line_settings(settings: LineSettings) -> Option<Self> {
+        let mode = LineMode::of_format(settings.format)?;
+        BAUD_RATES.contains(&settings.baud).then_some(Self {
+            baud: settings.baud,
+            mode,
+        })
     }
 
     /// The parameters a `>SERLINE=` value gives when the current mode is `current` (no letter:
@@ -238,6 +261,13 @@ impl SerialConfig {
     /// `>SERLINE=`: takes effect at once; the caller has already built its reply.
     pub fn set_serial(&mut self, serial: SerialParams) {
         self.active.serial = serial;
+    }
+
+    /// The module is installed for `serial`: set with `>SERLINE=` and saved with `>WCONF=1`
+    /// before it went on the line, so it is in use and in flash (a power-up keeps it).
+    pub fn install_serial(&mut self, serial: SerialParams) {
+        self.active.serial = serial;
+        self.stored.serial = serial;
     }
 
     /// `>RDELAYT=n` (values above 200 are clamped).

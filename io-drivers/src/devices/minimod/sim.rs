@@ -32,7 +32,8 @@
 //!   packet for it) is a valid command for the watchdog.
 //! - While the module's serial settings (SERLINE, dip-switch 3) differ from the master's
 //!   ([`MiniModState::line`], changed with the `line` command), it hears only garbage: no
-//!   action, no reply.
+//!   action, no reply. Installed for a line's settings ([`SimDevice::set_uart`], `softplc sim
+//!   --pty minimod@5:9600:8N1`), they are its SERLINE, in use and in flash.
 
 use std::time::Duration;
 
@@ -419,22 +420,31 @@ impl SimDevice for MiniModSim {
     }
 
     /// The master's baud (and format, when known) on a served line: the module listens only
-    /// when they are its own ("Setting the communication parameters").
+    /// when they are its own ("Setting the communication parameters"). A format the module
+    /// cannot have is never its own.
     fn master_line(&mut self, baud: u32, format: Option<crate::line::settings::SerialFormat>) {
         let own = self.state.serial().active().serial;
-        let mode = format
-            .and_then(|f| {
-                [
-                    LineMode::Even,
-                    LineMode::Odd,
-                    LineMode::NoneTwoStops,
-                    LineMode::NoneOneStop,
-                ]
-                .into_iter()
-                .find(|m| m.format() == f)
-            })
-            .unwrap_or(own.mode);
+        let (baud, mode) = match format.map(LineMode::of_format) {
+            None => (baud, own.mode),
+            Some(Some(mode)) => (baud, mode),
+            // No SERLINE gives this format: baud 0, which none gives either, keeps it deaf.
+            Some(None) => (0, own.mode),
+        };
         self.state.set_line(SerialParams { baud, mode });
+    }
+
+    /// The module's own UART is its SERLINE: installed for `settings` (`softplc sim --pty
+    /// minimod@5:9600:8N1`), it runs at them from then on, changed by `>SERLINE=`, kept over
+    /// a power cycle once `>WCONF=1` saved them, and it hears only a master at them. Settings
+    /// no SERLINE can take (another baud, 7 data bits, 8O2) are refused.
+    fn set_uart(&mut self, settings: crate::line::settings::LineSettings) -> bool {
+        match SerialParams::of_line_settings(settings) {
+            Some(params) => {
+                self.state.install_serial(params);
+                true
+            }
+            None => false,
+        }
     }
 
     fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
@@ -1665,5 +1675,79 @@ mod tests {
         let start = std::time::Instant::now();
         sim.advance_to(Duration::from_secs(365 * 24 * 3600));
         assert!(start.elapsed() < Duration::from_millis(50));
+    }
+
+    /// Installed at 9600 8N1 (`softplc sim --pty minimod@5:9600:8N1`), the module's SERLINE is
+    /// 9600X: a master at the factory 19200 8E1, or at 9600 with another format, gets nothing;
+    /// one at 9600 8N1, or at 9600 on a pty (format unknown), reads X1; the installed setting
+    /// survives a power cycle, and `>SERLINE=` moves the module away from it.
+    #[test]
+    fn a_module_installed_at_its_own_settings_hears_only_a_master_at_them() {
+        use crate::line::settings::{LineSettings, SerialFormat};
+        use crate::sim::line::SimWorld;
+        let own = LineSettings {
+            baud: 9600,
+            format: "8N1".parse().unwrap(),
+        };
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        let d = world.add_device(0, "mm5", build(UNIT));
+        world.set_device_settings(d, own);
+        let read_x1 = request(UNIT, &Request::ReadDiscreteInputs { addr: 0, count: 1 });
+        // Each frame a second after the last; what comes back within 900 ms.
+        let mut at = 0;
+        let mut send = |world: &mut SimWorld, frame: &[u8]| {
+            at += 1000;
+            world.deliver(0, frame, ms(at));
+            let mut reply = Vec::new();
+            world.take_arrived(0, ms(at + 900), &mut reply);
+            reply
+        };
+        assert_eq!(send(&mut world, &read_x1), b"", "master at 19200 8E1");
+        world.set_master_settings(
+            0,
+            LineSettings {
+                baud: 9600,
+                format: SerialFormat::EVEN_8E1,
+            },
+        );
+        assert_eq!(send(&mut world, &read_x1), b"", "master at 9600 8E1");
+        world.set_master_settings(0, own);
+        assert_eq!(send(&mut world, &read_x1), frame(&[UNIT, 2, 1, 0]));
+        world.follow_master_baud(0, 19200);
+        assert_eq!(send(&mut world, &read_x1), b"", "pty at 19200");
+        world.follow_master_baud(0, 9600);
+        assert_eq!(
+            send(&mut world, &read_x1),
+            frame(&[UNIT, 2, 1, 0]),
+            "pty at 9600"
+        );
+        let sim = world.device_mut(d).unwrap();
+        sim.command(&["power-cycle"]).unwrap();
+        assert_eq!(send(&mut world, &read_x1), frame(&[UNIT, 2, 1, 0]), "kept");
+        world.set_master_settings(0, own);
+        assert_eq!(send(&mut world, &read_x1), frame(&[UNIT, 2, 1, 0]));
+        assert_eq!(send(&mut world, b">SERLINE=19200E\r"), b"OK\r");
+        assert_eq!(send(&mut world, &read_x1), b"", "now at 19200E");
+        world.set_master_settings(0, LineSettings::DEFAULT);
+        assert_eq!(send(&mut world, &read_x1), frame(&[UNIT, 2, 1, 0]));
+    }
+
+    /// Settings no `>SERLINE=` gives are refused at install (the world then keeps them fixed).
+    #[test]
+    fn settings_a_minimod_cannot_have_are_refused_at_install() {
+        let mut sim = MiniModSim::new(UNIT);
+        for bad in ["8O2", "7E1"] {
+            let settings = crate::line::settings::LineSettings {
+                baud: 9600,
+                format: bad.parse().unwrap(),
+            };
+            assert!(!sim.set_uart(settings), "{bad}");
+        }
+        let fast = crate::line::settings::LineSettings {
+            baud: 115_200,
+            format: "8N1".parse().unwrap(),
+        };
+        assert!(!sim.set_uart(fast));
+        assert_eq!(sim.state().serial().active().serial, SerialParams::FACTORY);
     }
 }

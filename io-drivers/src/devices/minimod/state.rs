@@ -236,6 +236,13 @@ impl MiniModState {
         self.serial.set_serial(params);
     }
 
+    /// The module is installed for `params` (in use and in flash, see
+    /// [`SerialConfig::install_serial`]), on a line whose master uses them too.
+    pub fn install_serial(&mut self, params: SerialParams) {
+        self.serial.install_serial(params);
+        self.line = params;
+    }
+
     /// `>RDELAYM=n`.
     pub fn set_rdelaym(&mut self, tenths_ms: u8) {
         self.serial.set_rdelaym(tenths_ms);
