@@ -23,7 +23,7 @@ use crate::trace::export::{CsvWriter, ExportError, Sample, Signal, VcdWriter};
 
 /// Arguments of `softplc replay`.
 #[derive(Debug, clap::Args)]
-pub struct ReplayArgs {
+pub(crate) struct ReplayArgs {
     /// The record: its folder (PROJECT.record, beside the project or in the unit's state
     /// directory) or one segment file.
     record: PathBuf,
@@ -182,7 +182,7 @@ impl Exports {
 }
 
 /// The replay's summary, as printed.
-pub fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &Path) -> String {
+pub(crate) fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &Path) -> String {
     let mut out = String::new();
     let runs = {
         let mut ids: Vec<u64> = record.segments.iter().map(|s| s.header.run_id).collect();

@@ -318,7 +318,7 @@ impl Writer {
         file.sync_data()?;
         if let Ok(dir) = File::open(&self.settings.folder) {
             // The new name must survive a power cut too; a folder that refuses is no error.
-            let _ = dir.sync_all();
+            drop(dir.sync_all());
         }
         self.file = Some(file);
         self.segment_bytes = bytes.len() as u64;
