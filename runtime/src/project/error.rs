@@ -592,12 +592,12 @@ pub enum ErrorKind {
         "retain.file is empty; give a file name (relative to the project file) or leave it out"
     )]
     EmptyRetainFile,
-    /// A `traces:` entry.
-    #[error("{0}")]
-    Trace(#[from] super::trace::TraceError),
     /// The `recorder:` section.
     #[error("{0}")]
     Recorder(#[from] super::recorder::RecorderError),
+    /// A `traces:` entry.
+    #[error("{0}")]
+    Trace(#[from] super::trace::TraceError),
 }
 
 fn within(section: &str) -> String {

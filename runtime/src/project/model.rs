@@ -33,10 +33,10 @@ pub struct Project {
     pub retain: super::retain::RetainConfig,
     /// Push-down of rungs into the modules.
     pub offload: super::offload::OffloadConfig,
-    /// Trace definitions, in file order (see [`super::trace`]).
-    pub traces: Vec<super::trace::TraceConfig>,
     /// The flight recorder, when the project turns it on (see [`super::recorder`]).
     pub recorder: Option<super::recorder::RecorderConfig>,
+    /// Trace definitions, in file order (see [`super::trace`]).
+    pub traces: Vec<super::trace::TraceConfig>,
 }
 
 /// The scan task.

@@ -141,12 +141,12 @@ pub struct RawProject {
     /// Push-down of rungs into the modules (see [`super::offload`]).
     #[serde(default)]
     pub offload: Option<super::offload::RawOffload>,
-    /// Traces that can be armed at run time (see [`super::trace`]).
-    #[serde(default)]
-    pub traces: Vec<super::trace::RawTrace>,
     /// The flight recorder (see [`super::recorder`]).
     #[serde(default)]
     pub recorder: Option<super::recorder::RawRecorder>,
+    /// Traces that can be armed at run time (see [`super::trace`]).
+    #[serde(default)]
+    pub traces: Vec<super::trace::RawTrace>,
 }
 
 /// `scan:`.

@@ -110,6 +110,7 @@ pub(crate) fn validate(
         }
         config
     };
+    let traces = super::trace::validate_all(raw, &tags, |path, e| v.error(path, e.into()));
     let recorder = {
         let (config, errors) = super::recorder::validate(raw.recorder.as_ref(), file);
         for (path, e) in errors {
@@ -117,7 +118,6 @@ pub(crate) fn validate(
         }
         config
     };
-    let traces = super::trace::validate_all(raw, &tags, |path, e| v.error(path, e.into()));
     let plant = match &raw.plant {
         Some(p) => v.plant(p, raw, &buses, &modules, &module_index).map(Some),
         None => Some(None),
@@ -140,8 +140,8 @@ pub(crate) fn validate(
             service: service?,
             retain: retain?,
             offload: offload?,
-            traces,
             recorder,
+            traces,
         })
     })();
     match built {
