@@ -16,8 +16,8 @@
 //! value (or key, for an unknown plant role; or at the enclosing entry when the value is
 //! missing).
 
-mod dcon_neighbours;
 mod adapter;
+mod dcon_neighbours;
 pub mod error;
 pub mod model;
 pub mod mqtt;
