@@ -42,7 +42,7 @@ struct Args {
     #[arg(long)]
     quick: bool,
     /// Run only this scenario (repeatable): scheduler, logic-cost, bus-cycle, collect,
-    /// reaction, pulse, serial-path, scale, trace-cost.
+    /// reaction, pulse, serial-path, scale, trace-cost, plant-services.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
     /// Results folder [default: bench/results for a full run, bench/results/partial for

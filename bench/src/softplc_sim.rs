@@ -87,6 +87,19 @@ impl ServedSim {
     }
 }
 
+impl ServedSim {
+    /// One line on the simulator's console (`set minimod@1.X1 1`).
+    pub(crate) fn command(&mut self, line: &str) -> anyhow::Result<()> {
+        let stdin = self
+            .stdin
+            .as_mut()
+            .context("the simulator's console is closed")?;
+        stdin.write_all(format!("{line}\n").as_bytes())?;
+        stdin.flush()?;
+        Ok(())
+    }
+}
+
 impl Drop for ServedSim {
     fn drop(&mut self) {
         // `quit` on standard input stops the server cleanly; kill it if it does not.
