@@ -1129,21 +1129,41 @@ fn nesting_deeper_than_the_limit_is_refused_at_the_collection_past_it() {
 
 #[test]
 fn thousands_of_errors_in_a_large_file_are_located_quickly() {
-    // 4000 tags with a bad name each: 4000 errors, each at its own line, in about 200 KB.
-    let mut text = format!("{HEAD}tags:\n");
-    for i in 0..4000 {
-        text.push_str(&format!(
-            "  - {{ name: \"bad-{i}\", type: u16, initial: {i} }}   # a comment to fill the file\n"
-        ));
-    }
-    assert!(text.len() > 200_000, "{}", text.len());
-    let started = std::time::Instant::now();
-    let e = errors(&text);
-    let took = started.elapsed();
+    // N tags with a bad name each: N errors, each at its own line; 4000 make about 200 KB.
+    let file = |n: usize| {
+        let mut text = format!("{HEAD}tags:\n");
+        for i in 0..n {
+            text.push_str(&format!(
+                "  - {{ name: \"bad-{i}\", type: u16, initial: {i} }}   # a comment to fill the file\n"
+            ));
+        }
+        text
+    };
+    let (small, large) = (file(400), file(4000));
+    assert!(large.len() > 200_000, "{}", large.len());
+    // The best of three, so one slow spell of the machine does not decide.
+    let timed = |text: &str| {
+        (0..3)
+            .map(|_| {
+                let started = std::time::Instant::now();
+                let e = errors(text);
+                (started.elapsed(), e)
+            })
+            .min_by_key(|(took, _)| *took)
+            .unwrap()
+    };
+    let (took_small, _) = timed(&small);
+    let (took, e) = timed(&large);
     assert_eq!(e.len(), 4000);
     for (i, e) in e.iter().enumerate() {
         assert_eq!(at(e), (8 + i, 13), "{e}");
     }
-    // Each error once cost a reading of the whole file (minutes for these); now a few.
-    assert!(took < Duration::from_secs(10), "{took:?}");
+    // Each error once cost a reading of the whole file (minutes for these, 100 times the 400
+    // errors' time); now a few readings in all, so ten times the errors take about ten times
+    // as long. Compared within this run, not with a fixed time, so a loaded machine does not
+    // fail it.
+    assert!(
+        took < took_small * 30 + Duration::from_millis(200),
+        "4000 errors took {took:?}, 400 took {took_small:?}"
+    );
 }
