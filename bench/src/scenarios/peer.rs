@@ -54,8 +54,8 @@ pub(crate) const SCENARIO: Scenario = Scenario {
 };
 
 const UNITS: [u8; 4] = [1, 2, 3, 4];
-/// Event mode, as scenario 4 runs it: Collect rounds only (the periodic full refresh out of
-/// the way), X1's input latency 0.
+/// Event mode with Collect rounds only: the periodic full refresh (`event_refresh`) out of
+/// the way of the cycles measured.
 const EVENT_MODE: [(&str, &str); 2] = [("events", "true"), ("event_refresh", "60s")];
 
 fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
