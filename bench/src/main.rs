@@ -17,6 +17,7 @@ mod machine;
 mod mbpoll;
 mod plot;
 mod project_file;
+mod python;
 mod report;
 mod scenarios;
 mod sim_line;
@@ -42,7 +43,7 @@ struct Args {
     #[arg(long)]
     quick: bool,
     /// Run only this scenario (repeatable): scheduler, logic-cost, bus-cycle, collect,
-    /// reaction, pulse, serial-path, scale, trace-cost, plant-services.
+    /// reaction, pulse, serial-path, scale, trace-cost, peer, plant-services.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
     /// Results folder [default: bench/results for a full run, bench/results/partial for

@@ -110,6 +110,19 @@ pub(crate) fn write_floor(
     settings: &[(&str, &str)],
     point: &str,
 ) -> Duration {
+    let (plan, delay) = planned_write(model, settings, point);
+    plan.iter()
+        .map(|tx| transaction_time(line, tx, delay))
+        .sum()
+}
+
+/// The writes a scratch `model` driver with `settings` plans when output `point` changes, and
+/// its reply delay.
+fn planned_write(
+    model: &ModelSpec,
+    settings: &[(&str, &str)],
+    point: &str,
+) -> (Vec<Transaction>, Duration) {
     let mut desired = vec![None; model.points.len()];
     if let Some(i) = model.point_index(point) {
         desired[i] = Some(Value::Bool(true));
@@ -117,10 +130,7 @@ pub(crate) fn write_floor(
     let mut scratch = model_driver(model, 1, settings);
     let mut plan: Vec<Transaction> = Vec::new();
     scratch.plan_write(&desired, false, &mut plan);
-    let delay = scratch.reply_delay();
-    plan.iter()
-        .map(|tx| transaction_time(line, tx, delay))
-        .sum()
+    (plan, scratch.reply_delay())
 }
 
 /// The output frame of a line of `n` modules with every Y1 at `on`.
@@ -153,13 +163,28 @@ pub(crate) fn read_floor(
         .iter()
         .map(|tx| transaction_time(line, tx, delay))
         .sum();
-    let round_trip = plan
-        .iter()
+    (floor, round_trip(line, delay, &plan))
+}
+
+/// The part of `plan`'s transactions from the end of each request to the end of its reply:
+/// reply delay + reply characters, what paces a master on a pty (which has no baud rate).
+fn round_trip(line: LineSettings, delay: Duration, plan: &[Transaction]) -> Duration {
+    plan.iter()
         .map(|tx| match &tx.frame {
             Outgoing::Modbus { request, .. } => delay + line.chars(modbus_reply_len(request)),
             // Text replies and broadcasts: their length is not known here.
             _ => delay,
         })
-        .sum();
-    (floor, round_trip)
+        .sum()
+}
+
+/// [`round_trip`] of the writes of one cycle in which output `point` of one MiniMod at `line`
+/// with `settings` changes.
+pub(crate) fn write_round_trip(
+    line: LineSettings,
+    settings: &[(&str, &str)],
+    point: &str,
+) -> Duration {
+    let (plan, delay) = planned_write(&minimod::MODEL, settings, point);
+    round_trip(line, delay, &plan)
 }

@@ -4,6 +4,7 @@
 pub(crate) mod bus_cycle;
 pub(crate) mod collect;
 pub(crate) mod logic_cost;
+pub(crate) mod peer;
 pub(crate) mod plant_services;
 pub(crate) mod pulse;
 pub(crate) mod reaction;
@@ -81,6 +82,7 @@ pub(crate) fn all() -> Vec<Scenario> {
         serial_path::SCENARIO,
         scale::SCENARIO,
         trace_cost::SCENARIO,
+        peer::SCENARIO,
         plant_services::SCENARIO,
     ]
 }

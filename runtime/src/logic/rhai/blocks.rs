@@ -3,12 +3,17 @@
 //! `ton("jam", motor && !box_out, "10s")` calls the TON instance `jam` (created on its first
 //! call) and returns its Q; `q("jam")`, `et("jam")` (ms), `cv(..)`, `qu(..)`, `qd(..)` read the
 //! outputs anywhere. Times are milliseconds (integer or float) or duration strings ("1.5s").
+//!
+//! Instances live in slots. A call whose instance name is a literal (`ton("jam", ..)`, the
+//! usual form) is resolved when the script is compiled: its position in the script gives the
+//! slot (a binary search over integers, checked against the name the call passes), so no name
+//! is hashed during the scan. Any other call (a name in a variable) finds its slot by name.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use rhai::{Dynamic, Engine, EvalAltResult, ImmutableString, INT};
+use rhai::{Dynamic, Engine, EvalAltResult, ImmutableString, NativeCallContext, Position, INT};
 
 use crate::logic::blocks::{from_millis, Instance, Kind, Member, Pattern};
 
@@ -19,7 +24,16 @@ pub const MAX_INSTANCES: usize = 10_000;
 #[derive(Debug, Default)]
 pub(crate) struct Blocks {
     pub now: Duration,
-    map: HashMap<String, Instance>,
+    /// Instances by slot, each created on its first call.
+    slots: Vec<Option<Instance>>,
+    /// The instance name of each slot.
+    names: Vec<ImmutableString>,
+    /// Slot by instance name.
+    by_name: HashMap<String, usize>,
+    /// Call sites resolved at compile time: `(line, column)` of the call → slot, sorted.
+    sites: Vec<((usize, usize), usize)>,
+    /// Instances created.
+    created: usize,
 }
 
 /// The shared handle the registered functions hold.
@@ -37,22 +51,76 @@ fn lock(blocks: &Mutex<Blocks>) -> MutexGuard<'_, Blocks> {
     blocks.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// Runs `f` on instance `name` of `kind`, creating it on first use.
+/// A position as a sortable key.
+fn key(pos: Position) -> (usize, usize) {
+    (pos.line().unwrap_or(0), pos.position().unwrap_or(0))
+}
+
+impl Blocks {
+    /// Resolves the calls with a literal instance name: `(call position, instance name)`.
+    pub(crate) fn resolve(&mut self, calls: &[(Position, String)]) {
+        for (pos, name) in calls {
+            let slot = self.slot_named(name);
+            self.sites.push((key(*pos), slot));
+        }
+        self.sites.sort_unstable();
+        self.sites.dedup_by_key(|s| s.0);
+    }
+
+    /// The slot of instance `name`, a new (empty) one if the name is new.
+    fn slot_named(&mut self, name: &str) -> usize {
+        if let Some(&slot) = self.by_name.get(name) {
+            return slot;
+        }
+        let slot = self.slots.len();
+        self.slots.push(None);
+        self.names.push(name.into());
+        self.by_name.insert(name.to_string(), slot);
+        slot
+    }
+
+    /// The slot of instance `name` called or read at `at`: the resolved one, or by name.
+    fn slot(&self, at: Position, name: &str) -> Option<usize> {
+        if let Ok(i) = self.sites.binary_search_by_key(&key(at), |s| s.0) {
+            let slot = self.sites[i].1;
+            if self.names.get(slot).is_some_and(|n| n.as_str() == name) {
+                return Some(slot);
+            }
+        }
+        self.by_name.get(name).copied()
+    }
+
+    /// The instance `name` read at `at`, if it was ever called.
+    fn find(&self, at: Position, name: &str) -> Option<&Instance> {
+        self.slots.get(self.slot(at, name)?)?.as_ref()
+    }
+}
+
+/// Runs `f` on instance `name` of `kind`, called at `at`, creating it on first use.
 fn with<T>(
     blocks: &Mutex<Blocks>,
+    at: Position,
     name: &str,
     kind: Kind,
     f: impl FnOnce(&mut Instance, Duration) -> T,
 ) -> Res<T> {
     let mut b = lock(blocks);
     let now = b.now;
-    if !b.map.contains_key(name) {
-        if b.map.len() >= MAX_INSTANCES {
+    let slot = match b.slot(at, name) {
+        Some(slot) => slot,
+        None if b.created >= MAX_INSTANCES => {
             return error(format!("more than {MAX_INSTANCES} block instances"));
         }
-        b.map.insert(name.to_string(), Instance::new(kind));
+        None => b.slot_named(name),
+    };
+    if b.slots.get(slot).is_some_and(Option::is_none) {
+        if b.created >= MAX_INSTANCES {
+            return error(format!("more than {MAX_INSTANCES} block instances"));
+        }
+        b.slots[slot] = Some(Instance::new(kind));
+        b.created += 1;
     }
-    match b.map.get_mut(name) {
+    match b.slots.get_mut(slot).and_then(Option::as_mut) {
         Some(inst) if inst.kind() == kind => Ok(f(inst, now)),
         Some(inst) => error(format!(
             "instance \"{name}\" is a {}; it cannot be called as {kind}",
@@ -64,10 +132,10 @@ fn with<T>(
 
 /// A time argument: milliseconds (INT or FLOAT) or a duration string.
 fn time(v: &Dynamic) -> Res<Duration> {
-    if let Some(ms) = v.clone().try_cast::<INT>() {
+    if let Ok(ms) = v.as_int() {
         return Ok(from_millis(ms as f64));
     }
-    if let Some(ms) = v.clone().try_cast::<f64>() {
+    if let Ok(ms) = v.as_float() {
         return Ok(from_millis(ms));
     }
     if let Some(s) = v.clone().try_cast::<ImmutableString>() {
@@ -114,13 +182,22 @@ pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
     macro_rules! timer {
         ($name:literal, $variant:ident) => {{
             let b = blocks.clone();
-            engine.register_fn($name, move |n: ImmutableString, x: bool, pt: Dynamic| {
-                let pt = time(&pt)?;
-                with(&b, &n, Kind::$variant, |i, now| match i {
-                    Instance::$variant(t) => t.call(x, pt, now),
-                    _ => false,
-                })
-            });
+            engine.register_fn(
+                $name,
+                move |ctx: NativeCallContext, n: ImmutableString, x: bool, pt: Dynamic| {
+                    let pt = time(&pt)?;
+                    with(
+                        &b,
+                        ctx.call_position(),
+                        &n,
+                        Kind::$variant,
+                        |i, now| match i {
+                            Instance::$variant(t) => t.call(x, pt, now),
+                            _ => false,
+                        },
+                    )
+                },
+            );
         }};
     }
     timer!("ton", Ton);
@@ -130,28 +207,31 @@ pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
     let b = blocks.clone();
     engine.register_fn(
         "stair",
-        move |n: ImmutableString, x: bool, pt: Dynamic, reset: bool| {
+        move |ctx: NativeCallContext, n: ImmutableString, x: bool, pt: Dynamic, reset: bool| {
             let pt = time(&pt)?;
-            with(&b, &n, Kind::Stair, |i, now| match i {
+            with(&b, ctx.call_position(), &n, Kind::Stair, |i, now| match i {
                 Instance::Stair(t) => t.call(x, reset, pt, now),
                 _ => false,
             })
         },
     );
     let b = blocks.clone();
-    engine.register_fn("stair", move |n: ImmutableString, x: bool, pt: Dynamic| {
-        let pt = time(&pt)?;
-        with(&b, &n, Kind::Stair, |i, now| match i {
-            Instance::Stair(t) => t.call(x, false, pt, now),
-            _ => false,
-        })
-    });
+    engine.register_fn(
+        "stair",
+        move |ctx: NativeCallContext, n: ImmutableString, x: bool, pt: Dynamic| {
+            let pt = time(&pt)?;
+            with(&b, ctx.call_position(), &n, Kind::Stair, |i, now| match i {
+                Instance::Stair(t) => t.call(x, false, pt, now),
+                _ => false,
+            })
+        },
+    );
 
     let b = blocks.clone();
     engine.register_fn(
         "ctu",
-        move |n: ImmutableString, cu: bool, reset: bool, pv: INT| {
-            with(&b, &n, Kind::Ctu, |i, _| match i {
+        move |ctx: NativeCallContext, n: ImmutableString, cu: bool, reset: bool, pv: INT| {
+            with(&b, ctx.call_position(), &n, Kind::Ctu, |i, _| match i {
                 Instance::Ctu(c) => c.call(cu, reset, preset(pv)),
                 _ => false,
             })
@@ -160,8 +240,8 @@ pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
     let b = blocks.clone();
     engine.register_fn(
         "ctd",
-        move |n: ImmutableString, cd: bool, load: bool, pv: INT| {
-            with(&b, &n, Kind::Ctd, |i, _| match i {
+        move |ctx: NativeCallContext, n: ImmutableString, cd: bool, load: bool, pv: INT| {
+            with(&b, ctx.call_position(), &n, Kind::Ctd, |i, _| match i {
                 Instance::Ctd(c) => c.call(cd, load, preset(pv)),
                 _ => false,
             })
@@ -170,8 +250,14 @@ pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
     let b = blocks.clone();
     engine.register_fn(
         "ctud",
-        move |n: ImmutableString, cu: bool, cd: bool, reset: bool, load: bool, pv: INT| {
-            with(&b, &n, Kind::Ctud, |i, _| match i {
+        move |ctx: NativeCallContext,
+              n: ImmutableString,
+              cu: bool,
+              cd: bool,
+              reset: bool,
+              load: bool,
+              pv: INT| {
+            with(&b, ctx.call_position(), &n, Kind::Ctud, |i, _| match i {
                 Instance::Ctud(c) => c.call(cu, cd, reset, load, preset(pv)),
                 _ => false,
             })
@@ -179,48 +265,66 @@ pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
     );
 
     let b = blocks.clone();
-    engine.register_fn("r_trig", move |n: ImmutableString, x: bool| {
-        with(&b, &n, Kind::RTrig, |i, _| match i {
-            Instance::RTrig(e) => e.rising(x),
-            _ => false,
-        })
-    });
+    engine.register_fn(
+        "r_trig",
+        move |ctx: NativeCallContext, n: ImmutableString, x: bool| {
+            with(&b, ctx.call_position(), &n, Kind::RTrig, |i, _| match i {
+                Instance::RTrig(e) => e.rising(x),
+                _ => false,
+            })
+        },
+    );
     let b = blocks.clone();
-    engine.register_fn("f_trig", move |n: ImmutableString, x: bool| {
-        with(&b, &n, Kind::FTrig, |i, _| match i {
-            Instance::FTrig(e) => e.falling(x),
-            _ => false,
-        })
-    });
+    engine.register_fn(
+        "f_trig",
+        move |ctx: NativeCallContext, n: ImmutableString, x: bool| {
+            with(&b, ctx.call_position(), &n, Kind::FTrig, |i, _| match i {
+                Instance::FTrig(e) => e.falling(x),
+                _ => false,
+            })
+        },
+    );
 
     macro_rules! latch {
         ($name:literal, $variant:ident) => {{
             let b = blocks.clone();
-            engine.register_fn($name, move |n: ImmutableString, s: bool, r: bool| {
-                with(&b, &n, Kind::$variant, |i, _| match i {
-                    Instance::$variant(l) => l.call(s, r),
-                    _ => false,
-                })
-            });
+            engine.register_fn(
+                $name,
+                move |ctx: NativeCallContext, n: ImmutableString, s: bool, r: bool| {
+                    with(
+                        &b,
+                        ctx.call_position(),
+                        &n,
+                        Kind::$variant,
+                        |i, _| match i {
+                            Instance::$variant(l) => l.call(s, r),
+                            _ => false,
+                        },
+                    )
+                },
+            );
         }};
     }
     latch!("sr", Sr);
     latch!("rs", Rs);
     latch!("toggle", Toggle);
     let b = blocks.clone();
-    engine.register_fn("toggle", move |n: ImmutableString, x: bool| {
-        with(&b, &n, Kind::Toggle, |i, _| match i {
-            Instance::Toggle(l) => l.call(x, false),
-            _ => false,
-        })
-    });
+    engine.register_fn(
+        "toggle",
+        move |ctx: NativeCallContext, n: ImmutableString, x: bool| {
+            with(&b, ctx.call_position(), &n, Kind::Toggle, |i, _| match i {
+                Instance::Toggle(l) => l.call(x, false),
+                _ => false,
+            })
+        },
+    );
 
     let b = blocks.clone();
     engine.register_fn(
         "blink",
-        move |n: ImmutableString, en: bool, on: Dynamic, off: Dynamic| {
+        move |ctx: NativeCallContext, n: ImmutableString, en: bool, on: Dynamic, off: Dynamic| {
             let (on, off) = (time(&on)?, time(&off)?);
-            with(&b, &n, Kind::Blink, |i, now| match i {
+            with(&b, ctx.call_position(), &n, Kind::Blink, |i, now| match i {
                 Instance::Blink(bl) => bl.call(en, on, off, now),
                 _ => false,
             })
@@ -229,13 +333,17 @@ pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
     let b = blocks.clone();
     engine.register_fn(
         "blink_pattern",
-        move |n: ImmutableString, en: bool, bits: ImmutableString, step: Dynamic| {
+        move |ctx: NativeCallContext,
+              n: ImmutableString,
+              en: bool,
+              bits: ImmutableString,
+              step: Dynamic| {
             let step = time(&step)?;
             let pattern = match Pattern::parse(&bits) {
                 Ok(p) => p,
                 Err(e) => return error(format!("bad pattern \"{bits}\": {e}")),
             };
-            with(&b, &n, Kind::Blink, |i, now| match i {
+            with(&b, ctx.call_position(), &n, Kind::Blink, |i, now| match i {
                 Instance::Blink(bl) => bl.call_pattern(en, pattern, step, now),
                 _ => false,
             })
@@ -244,34 +352,41 @@ pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
 
     // Outputs: a fresh (never called) instance reads false / 0.
     let b = blocks.clone();
-    engine.register_fn("q", move |n: ImmutableString| -> bool {
-        let b = lock(&b);
-        b.map.get(n.as_str()).is_some_and(|i| {
-            let m = i.kind().main_output();
-            i.bool_output(if m == Member::Qu {
-                Member::Qu
-            } else {
-                Member::Q
+    engine.register_fn(
+        "q",
+        move |ctx: NativeCallContext, n: ImmutableString| -> bool {
+            let b = lock(&b);
+            b.find(ctx.call_position(), &n).is_some_and(|i| {
+                let m = i.kind().main_output();
+                i.bool_output(if m == Member::Qu {
+                    Member::Qu
+                } else {
+                    Member::Q
+                })
             })
-        })
-    });
+        },
+    );
     for (name, member) in [("qu", Member::Qu), ("qd", Member::Qd)] {
         let b = blocks.clone();
-        engine.register_fn(name, move |n: ImmutableString| -> bool {
-            lock(&b)
-                .map
-                .get(n.as_str())
-                .is_some_and(|i| i.bool_output(member))
-        });
+        engine.register_fn(
+            name,
+            move |ctx: NativeCallContext, n: ImmutableString| -> bool {
+                lock(&b)
+                    .find(ctx.call_position(), &n)
+                    .is_some_and(|i| i.bool_output(member))
+            },
+        );
     }
     for (name, member) in [("et", Member::Et), ("cv", Member::Cv)] {
         let b = blocks.clone();
-        engine.register_fn(name, move |n: ImmutableString| -> INT {
-            lock(&b)
-                .map
-                .get(n.as_str())
-                .map_or(0, |i| i.number_output(member) as INT)
-        });
+        engine.register_fn(
+            name,
+            move |ctx: NativeCallContext, n: ImmutableString| -> INT {
+                lock(&b)
+                    .find(ctx.call_position(), &n)
+                    .map_or(0, |i| i.number_output(member) as INT)
+            },
+        );
     }
 
     engine.register_fn("limit", |mn: INT, x: INT, mx: INT| x.max(mn).min(mx));

@@ -17,6 +17,11 @@ pub(crate) struct Usage {
     pub names: HashSet<String>,
     /// First assignment position of each assigned name.
     pub assigned: HashMap<String, Position>,
+    /// Every block call and output read with a literal instance name: its position and the
+    /// name (resolved to the instance's slot before the first scan, see `blocks.rs`).
+    pub block_calls: Vec<(Position, String)>,
+    /// Every variable a closure captures, where.
+    pub captured: Vec<(Position, String)>,
 }
 
 /// Walks `ast`; errors (with their Rhai positions) go to `errors`.
@@ -30,6 +35,11 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
             Some(ASTNode::Expr(Expr::Variable(v, _, _))) => {
                 usage.names.insert(v.1.to_string());
             }
+            Some(ASTNode::Stmt(Stmt::Share(vars))) => {
+                for (var, _) in vars.iter() {
+                    usage.captured.push((var.pos, var.name.to_string()));
+                }
+            }
             Some(ASTNode::Stmt(Stmt::Assignment(a))) => {
                 if let Expr::Variable(v, _, pos) = &a.1.lhs {
                     usage.assigned.entry(v.1.to_string()).or_insert(*pos);
@@ -41,6 +51,10 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
                     _ => None,
                 };
                 if let Some(name) = literal {
+                    let block = FUNCTIONS.iter().any(|(f, _)| *f == call.name);
+                    if block || READERS.contains(&call.name.as_str()) {
+                        usage.block_calls.push((*pos, name.clone()));
+                    }
                     if let Some(&(fname, _)) = FUNCTIONS.iter().find(|(f, _)| *f == call.name) {
                         let this = kind_name(fname);
                         match calls.get(&name) {

@@ -71,6 +71,13 @@ pub enum CompileErrorKind {
         /// `good` or `bad`.
         function: &'static str,
     },
+    /// A closure that captures a module input: the script reads inputs from the scan's
+    /// slots, which a closure's captured copy would not follow.
+    #[error("a closure cannot capture the input `{name}`; pass its value as an argument")]
+    CapturedInput {
+        /// The input tag.
+        name: String,
+    },
     /// A variable that is neither a tag nor declared with `let` (Rhai's strict variables).
     #[error("unknown tag or variable `{name}`{}", hint(.suggestion.as_deref(), "declare it under `tags:` in the project, or with `let` in the script"))]
     UnknownVariable {

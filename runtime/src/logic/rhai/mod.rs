@@ -62,10 +62,18 @@
 //! its scope at compile time, but searches the scope by name (linearly) for any variable it
 //! does not. So the script is compiled behind one extra line that declares every tag
 //! (`let motor; const start = (); ...`), those declarations are cut from the compiled AST, and
-//! each scan runs on a persistent scope holding exactly those variables, in that order, as
-//! shared values whose handles the engine keeps: copying the image in and out is one lock per
-//! tag the script names, and a tag access in the script is an index, whatever the number of
-//! tags. The scope is rewound after each scan, so `let`s do not pile up.
+//! each scan runs on a persistent scope holding exactly those variables, in that order. A tag
+//! access in the script is then an index, whatever the number of tags:
+//!
+//! - a read-only tag (a module input) is read through Rhai's variable resolver from an indexed
+//!   slot the scan fills from the image (see `slots.rs`): no lock, no name compared;
+//! - a writable tag is a plain value of the scope, read and written in place. The scan copies
+//!   the image into it only when the image holds something else than the script left there
+//!   (a force, a write from outside, a module's read-back after push-down), and reads every
+//!   writable tag back once, in order, after the script.
+//!
+//! Block calls with a literal instance name are resolved to the instance's slot at compile
+//! time too (see `blocks.rs`). The scope is rewound after each scan, so `let`s do not pile up.
 //!
 //! # Sandbox
 //!
@@ -85,6 +93,9 @@ mod error;
 mod quality;
 mod rungs;
 mod signatures;
+mod slots;
+#[cfg(test)]
+mod slots_tests;
 #[cfg(test)]
 mod tests;
 mod types;
@@ -94,7 +105,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use rhai::{Dynamic, Engine, Position, Scope, AST, INT};
+use rhai::{Dynamic, Engine, ImmutableString, Position, Scope, AST, INT};
 use softplc_io::point::{Value, ValueType};
 
 pub use blocks::MAX_INSTANCES;
@@ -115,14 +126,34 @@ struct Handle {
     id: TagId,
     ty: ValueType,
     writable: bool,
-    /// The scope variable's shared value.
-    value: Dynamic,
+    /// Its variable's place in the scope (the order of the declarations line).
+    position: usize,
+    /// A read-only tag's slot (see `slots.rs`).
+    slot: Option<u32>,
     /// The value copied in at the start of the scan.
     before: Value,
+    /// A writable tag: the value its scope variable holds after the last scan, when that
+    /// variable holds exactly this tag value (`None`: it must be copied in again).
+    held: Option<Value>,
+    /// A writable tag after the script: its value as a tag value and whether the variable
+    /// holds exactly that (see [`holds`]), or the variable if no tag value fits it.
+    after: Result<(Value, bool), Dynamic>,
     /// Where the script first assigns it (for a type fault).
     assigned: Option<Position>,
     name: String,
 }
+
+/// A variable of the declarations line, in order: what rebuilding the scope pushes.
+#[derive(Debug, Clone)]
+struct Declared {
+    name: ImmutableString,
+    ty: ValueType,
+    writable: bool,
+}
+
+/// Changed writable tags above which the scope is rebuilt rather than searched by name once
+/// per tag (`Scope` has no public write by index).
+const REBUILD_ABOVE: usize = 8;
 
 /// A compiled Rhai program, ready to scan. Build it with [`compile`].
 pub struct RhaiProgram {
@@ -131,6 +162,12 @@ pub struct RhaiProgram {
     scope: Scope<'static>,
     base: usize,
     handles: Vec<Handle>,
+    /// Every variable of the declarations line, in scope order.
+    declared: Vec<Declared>,
+    /// The read-only tags' values, read by the engine's variable resolver.
+    inputs: Arc<slots::InputSlots>,
+    /// Copy every writable tag in at the next scan (after a fault, a release, at the first).
+    resync: bool,
     blocks: blocks::SharedBlocks,
     /// The `good(tag)` / `bad(tag)` call sites and their tags' qualities.
     qualities: Arc<quality::Sites>,
@@ -211,6 +248,15 @@ pub fn compile_with(
         .iter()
         .filter(|t| probe.compile(format!("let {} = 0;", t.name)).is_ok())
         .collect();
+    let inputs = Arc::new(slots::InputSlots::new(
+        usable.iter().map(|t| (t.name.as_str(), t.ty, t.writable)),
+    ));
+    {
+        let inputs = inputs.clone();
+        // `on_var` is marked volatile by Rhai, not deprecated.
+        #[allow(deprecated)]
+        engine.on_var(move |name, offset, ctx| Ok(inputs.resolve(name, offset, ctx.scope().len())));
+    }
     let mut declarations = String::with_capacity(usable.len() * 16);
     for t in &usable {
         if t.writable {
@@ -285,6 +331,11 @@ pub fn compile_with(
     let ast = AST::new(user, full.shared_lib().clone());
 
     let usage = check::walk(&ast, &mut errors);
+    for (pos, name) in &usage.captured {
+        if tags.get(name).is_some_and(|t| !t.writable) {
+            errors.push((*pos, CompileErrorKind::CapturedInput { name: name.clone() }));
+        }
+    }
     typing::check(&ast, tags, &typing::Known::of(&engine, &ast), &mut errors);
     let qualities = Arc::new(quality::resolve(&ast, tags, &mut errors));
     // `good(strat)`: the undeclared name is the error, not that it is no tag.
@@ -297,27 +348,37 @@ pub fn compile_with(
         return Err(errors.into_iter().map(|(p, k)| err(p, k)).collect());
     }
 
-    let mut scope = Scope::with_capacity(usable.len() + 16);
-    let mut handles = Vec::new();
-    for t in &usable {
-        let value = to_dynamic(t.ty.zero()).into_shared();
-        if t.writable {
-            scope.push_dynamic(t.name.as_str(), value.clone());
-        } else {
-            scope.push_constant_dynamic(t.name.as_str(), value.clone());
-        }
-        if usage.names.contains(&t.name) {
-            handles.push(Handle {
-                id: t.id,
-                ty: t.ty,
-                writable: t.writable,
-                value,
-                before: t.ty.zero(),
-                assigned: usage.assigned.get(&t.name).copied(),
-                name: t.name.clone(),
-            });
-        }
+    match blocks.lock() {
+        Ok(mut b) => b.resolve(&usage.block_calls),
+        Err(p) => p.into_inner().resolve(&usage.block_calls),
     }
+    let declared: Vec<Declared> = usable
+        .iter()
+        .map(|t| Declared {
+            name: t.name.as_str().into(),
+            ty: t.ty,
+            writable: t.writable,
+        })
+        .collect();
+    let mut scope = Scope::with_capacity(usable.len() + 16);
+    push_declared(&mut scope, &declared, |_| None);
+    let handles: Vec<Handle> = usable
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| usage.names.contains(&t.name))
+        .map(|(position, t)| Handle {
+            id: t.id,
+            ty: t.ty,
+            writable: t.writable,
+            position,
+            slot: inputs.slot_at(position),
+            before: t.ty.zero(),
+            held: None,
+            after: Ok((t.ty.zero(), false)),
+            assigned: usage.assigned.get(&t.name).copied(),
+            name: t.name.clone(),
+        })
+        .collect();
     let written: Vec<(TagId, Position)> = handles
         .iter()
         .filter(|h| h.writable)
@@ -333,12 +394,46 @@ pub fn compile_with(
         base: scope.len(),
         scope,
         handles,
+        declared,
+        inputs,
+        resync: true,
         blocks,
         qualities,
         deadline,
         budget,
         file: file.to_path_buf(),
     })
+}
+
+/// Pushes every declared variable on `scope` (which holds nothing else): a writable tag with
+/// `value(position)` or its type's zero, a read-only one as the unit constant its slot stands
+/// for.
+fn push_declared(
+    scope: &mut Scope<'static>,
+    declared: &[Declared],
+    value: impl Fn(usize) -> Option<Value>,
+) {
+    for (position, d) in declared.iter().enumerate() {
+        if d.writable {
+            let v = value(position).unwrap_or(d.ty.zero());
+            scope.push_dynamic(d.name.clone(), to_dynamic(v));
+        } else {
+            scope.push_constant_dynamic(d.name.clone(), Dynamic::UNIT);
+        }
+    }
+}
+
+/// Whether `d` is exactly what [`to_dynamic`] makes of tag value `v` (so the variable need not
+/// be copied in again while the image holds `v`).
+fn holds(d: &Dynamic, v: Value) -> bool {
+    match v {
+        Value::Bool(b) => d.as_bool() == Ok(b),
+        Value::U16(x) => d.as_int() == Ok(INT::from(x)),
+        Value::I32(x) => d.as_int() == Ok(INT::from(x)),
+        Value::F32(x) => d
+            .as_float()
+            .is_ok_and(|f| f.to_bits() == f64::from(x).to_bits()),
+    }
 }
 
 /// A tag value as Rhai sees it.
@@ -400,33 +495,91 @@ impl RhaiProgram {
 
     fn copy_in(&mut self, image: &ProcessImage) {
         self.qualities.copy_in(image);
+        let mut stale = 0;
         for h in &mut self.handles {
             let v = image.get(h.id);
             h.before = v;
-            if let Some(mut guard) = h.value.write_lock::<Dynamic>() {
-                *guard = to_dynamic(v);
+            if let Some(slot) = h.slot {
+                self.inputs.store(slot, v);
+            } else if self.resync || h.held != Some(v) {
+                h.held = None;
+                stale += 1;
             }
+        }
+        self.resync = false;
+        if stale == 0 {
+            return;
+        }
+        if stale > REBUILD_ABOVE {
+            let before: std::collections::HashMap<usize, Value> = self
+                .handles
+                .iter()
+                .filter(|h| h.writable)
+                .map(|h| (h.position, h.before))
+                .collect();
+            self.scope.clear();
+            push_declared(&mut self.scope, &self.declared, |p| before.get(&p).copied());
+        } else {
+            for h in self
+                .handles
+                .iter()
+                .filter(|h| h.writable && h.held.is_none())
+            {
+                self.scope.set_value(h.name.as_str(), to_dynamic(h.before));
+            }
+        }
+        for h in self.handles.iter_mut().filter(|h| h.writable) {
+            h.held = Some(h.before);
         }
     }
 
     fn copy_out(&mut self, image: &mut ProcessImage, now: Duration) -> Result<(), LogicFault> {
-        for h in self.handles.iter().filter(|h| h.writable) {
-            let d = h.value.flatten_clone();
-            let Some(v) = from_dynamic(&d, h.ty) else {
-                return Err(LogicFault {
-                    message: format!(
-                        "script error: tag `{}` is {}, the script assigned it {} ({})",
-                        h.name,
-                        h.ty,
-                        words(&d),
-                        d
-                    ),
-                    pos: error::user_pos(&self.file, h.assigned.unwrap_or(Position::new(2, 1))),
-                });
+        // The scope iterates from its end: read every writable variable first (from the last
+        // declared), then store them in project order, so a type fault stops at the same tag
+        // as before, with the earlier ones stored.
+        let len = self.scope.len();
+        let mut writable = self
+            .handles
+            .iter_mut()
+            .rev()
+            .filter(|h| h.writable)
+            .peekable();
+        for (k, (_, _, d)) in self.scope.iter_raw().enumerate() {
+            let position = len - 1 - k;
+            let Some(h) = writable.next_if(|h| h.position == position) else {
+                if writable.peek().is_none() {
+                    break;
+                }
+                continue;
+            };
+            let d = d.flatten_clone();
+            h.after = match from_dynamic(&d, h.ty) {
+                Some(v) => Ok((v, holds(&d, v))),
+                None => Err(d),
+            };
+        }
+        for h in self.handles.iter_mut().filter(|h| h.writable) {
+            let (v, exact) = match &h.after {
+                Ok(after) => *after,
+                Err(d) => {
+                    return Err(LogicFault {
+                        message: format!(
+                            "script error: tag `{}` is {}, the script assigned it {} ({})",
+                            h.name,
+                            h.ty,
+                            words(d),
+                            d
+                        ),
+                        pos: error::user_pos(&self.file, h.assigned.unwrap_or(Position::new(2, 1))),
+                    })
+                }
             };
             if v != h.before {
                 image.set(h.id, v, now);
             }
+            // What the image now holds, or (a saturated integer, an f32 rounded, a force) a
+            // reason to copy it in again.
+            h.held = (exact && image.get(h.id) == v).then_some(v);
         }
         Ok(())
     }
@@ -454,6 +607,7 @@ impl LogicEngine for RhaiProgram {
             .map(|(_, s)| s.clone())
             .collect();
         self.ast = AST::new(kept, self.ast.shared_lib().clone());
+        self.resync = true;
     }
 
     fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault> {
@@ -481,8 +635,13 @@ impl LogicEngine for RhaiProgram {
         let run = self.engine.run_ast_with_scope(&mut self.scope, &self.ast);
         self.scope.rewind(self.base);
         if let Err(e) = run {
+            self.resync = true;
             return Err(error::fault(&e, &self.file, self.budget));
         }
-        self.copy_out(image, ctx.now)
+        let out = self.copy_out(image, ctx.now);
+        if out.is_err() {
+            self.resync = true;
+        }
+        out
     }
 }
