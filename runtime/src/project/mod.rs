@@ -29,6 +29,7 @@ mod raw_schema;
 pub mod recorder;
 pub mod retain;
 mod scada;
+pub mod secret;
 pub mod service;
 pub(crate) mod span;
 pub mod state;

@@ -82,15 +82,8 @@ impl OpcUaSecurity {
     }
 }
 
-/// The password, kept out of `Debug` so a printed project does not leak it.
-#[derive(Clone, PartialEq, Eq)]
-pub struct OpcUaPassword(pub String);
-
-impl std::fmt::Debug for OpcUaPassword {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("OpcUaPassword(<hidden>)")
-    }
-}
+/// The user's password.
+pub use super::secret::Password as OpcUaPassword;
 
 /// The validated OPC UA settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -210,24 +203,19 @@ pub(crate) fn validate(
             0
         }),
     };
-    let password = match (&raw.password, &raw.password_env) {
-        (Some(_), Some(_)) => {
+    let password = match super::secret::password(&raw.password, &raw.password_env) {
+        Ok(p) => p,
+        Err(super::secret::PasswordError::Both) => {
             errors.push((
                 "password",
                 OpcUaError::Credentials("give password or password_env, not both"),
             ));
             None
         }
-        (Some(p), None) => Some(OpcUaPassword(p.clone())),
-        (None, Some(name)) => match std::env::var(name) {
-            Ok(p) => Some(OpcUaPassword(p)),
-            Err(_) => {
-                let name = name.clone();
-                errors.push(("password_env", OpcUaError::PasswordEnv { name }));
-                None
-            }
-        },
-        (None, None) => None,
+        Err(super::secret::PasswordError::Unset(name)) => {
+            errors.push(("password_env", OpcUaError::PasswordEnv { name }));
+            None
+        }
     };
     let given_password = raw.password.is_some() || raw.password_env.is_some();
     let user = match (&raw.username, password) {

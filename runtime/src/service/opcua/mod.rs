@@ -159,10 +159,9 @@ fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<wr
         .user_access_level(access)
         .organized_by(id(&n.folder))
         .insert(&mut *sp);
-        if let Some(v) = sp.find_mut(&id(&n.id)) {
-            if let NodeType::Variable(v) = v {
-                v.set_data_value(space::initial(n.data_type));
-            }
+        // Waiting, not Good, until the first snapshot.
+        if let Some(NodeType::Variable(v)) = sp.find_mut(&id(&n.id)) {
+            v.set_data_value(space::initial(n.data_type));
         }
     }
     drop(sp);
