@@ -136,6 +136,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let mut services = network::start(engine.plc().project(), &published, &requests)?;
     let mqtt = crate::service::mqtt::MqttNode::start(engine.plc().project(), &published, &requests)
         .context("cannot start the MQTT edge node")?;
+    let opcua =
+        crate::service::opcua::OpcUaServer::start(engine.plc().project(), &published, &requests)?;
+    if let Some(server) = &opcua {
+        tracing::info!("OPC UA server at {}", server.describe());
+    }
     if args.virtual_clock {
         if engine.plc().project().service.web.is_some() {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
@@ -143,7 +148,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     } else {
         services.web = network::start_web(engine.plc(), &published, &requests);
     }
-    if services.any() || mqtt.is_some() {
+    if services.any() || mqtt.is_some() || opcua.is_some() {
         let mut publisher = snapshot::Publisher::new(published);
         if services.web.is_some() {
             publisher = publisher.with_details();

@@ -97,15 +97,8 @@ pub struct RawMqttTls {
     pub ca_file: String,
 }
 
-/// The password, kept out of `Debug` so a printed project does not leak it.
-#[derive(Clone, PartialEq, Eq)]
-pub struct MqttPassword(pub String);
-
-impl std::fmt::Debug for MqttPassword {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("MqttPassword(<hidden>)")
-    }
-}
+/// The broker's password (the project's type of every password).
+pub use super::secret::Password as MqttPassword;
 
 /// The validated MQTT settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -285,26 +278,19 @@ pub(crate) fn validate(
             0
         }
     };
-    let password = match (&raw.password, &raw.password_env) {
-        (Some(_), Some(_)) => {
+    let password = match super::secret::password(&raw.password, &raw.password_env) {
+        Ok(p) => p,
+        Err(super::secret::PasswordError::Both) => {
             errors.push((
                 "password",
                 MqttError::Credentials("give password or password_env, not both"),
             ));
             None
         }
-        (Some(p), None) => Some(MqttPassword(p.clone())),
-        (None, Some(name)) => match std::env::var(name) {
-            Ok(p) => Some(MqttPassword(p)),
-            Err(_) => {
-                errors.push((
-                    "password_env",
-                    MqttError::PasswordEnv { name: name.clone() },
-                ));
-                None
-            }
-        },
-        (None, None) => None,
+        Err(super::secret::PasswordError::Unset(name)) => {
+            errors.push(("password_env", MqttError::PasswordEnv { name }));
+            None
+        }
     };
     let credentials = match (&raw.username, password) {
         (Some(u), Some(p)) => Some((u.clone(), p)),

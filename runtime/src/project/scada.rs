@@ -164,6 +164,9 @@ pub enum ServiceError {
     /// The MQTT edge node's settings.
     #[error(transparent)]
     Mqtt(#[from] super::mqtt::MqttError),
+    /// The OPC UA server's settings.
+    #[error(transparent)]
+    OpcUa(#[from] super::opcua::OpcUaError),
 }
 
 /// Validates `raw.service` (of the project file `file`) and every tag's `scada:` against the
@@ -218,6 +221,10 @@ pub(crate) fn validate(
             .collect();
         super::mqtt::validate(m, file, &names, &root.key("mqtt"), &mut errors)
     });
+    let opcua = service
+        .opcua
+        .as_ref()
+        .map(|o| super::opcua::validate(o, &root.key("opcua"), &mut errors));
     let map = scada_map(raw, tags, loc, &mut errors);
     let config = (|| {
         Some(ServiceConfig {
@@ -225,6 +232,7 @@ pub(crate) fn validate(
             modbus_tcp: modbus.map_or(Some(None), |m| m.map(Some))?,
             web: web.map_or(Some(None), |w| w.map(Some))?,
             mqtt: mqtt.map_or(Some(None), |m| m.map(Some))?,
+            opcua: opcua.map_or(Some(None), |o| o.map(Some))?,
             scada: map,
         })
     })();

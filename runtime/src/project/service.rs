@@ -15,6 +15,8 @@
 //!     send_timeout: 10s             # a client that does not take a reply within this is
 //!                                   # disconnected (it does not read); default 10s
 //!   web: { bind: 127.0.0.1:8080 }   # the web page; off when absent (see `web.rs`)
+//!   mqtt: ...                       # MQTT Sparkplug B edge node (see `mqtt.rs`)
+//!   opcua: { port: 4840 }           # OPC UA server; off when absent (see `opcua.rs`)
 //! tags:
 //!   - { name: speed, type: u16, scada: write }                        # writable, next free address
 //!   - { name: motor, point: mm1.Y1, scada: { access: read, address: 8 } }   # pinned address
@@ -39,7 +41,7 @@ use super::raw::{DurationText, Int};
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "service settings: a mapping with metrics, modbus_tcp, web and mqtt"
+    expecting = "service settings: a mapping with metrics, modbus_tcp, web, mqtt and opcua"
 )]
 pub struct RawService {
     /// Address of the Prometheus text endpoint.
@@ -54,6 +56,9 @@ pub struct RawService {
     /// The MQTT Sparkplug B edge node (see [`super::mqtt`]).
     #[serde(default)]
     pub mqtt: Option<super::mqtt::RawMqtt>,
+    /// The OPC UA server (see [`super::opcua`]).
+    #[serde(default)]
+    pub opcua: Option<super::opcua::RawOpcUa>,
 }
 
 /// `service.modbus_tcp:` as written.
@@ -188,6 +193,8 @@ pub struct ServiceConfig {
     pub web: Option<super::web::WebConfig>,
     /// The MQTT Sparkplug B edge node (`None`: off).
     pub mqtt: Option<super::mqtt::MqttConfig>,
+    /// The OPC UA server (`None`: off).
+    pub opcua: Option<super::opcua::OpcUaConfig>,
     /// Every exposed tag's Modbus addresses.
     pub scada: ScadaMap,
 }

@@ -17,7 +17,8 @@
 //!   [`metrics`] (a Prometheus text endpoint) and [`modbus_tcp`] (a Modbus TCP server for
 //!   SCADA/HMI, with its address map in [`modbus_map`] and its input checks in
 //!   [`modbus_guard`]) and [`web`] (the web page: live I/O, forcing, the program with live
-//!   values, timing plots); [`network`] starts them.
+//!   values, timing plots); [`network`] starts them. [`mqtt`] (a Sparkplug B edge node) and
+//!   [`opcua`] (an OPC UA server) read the same snapshot.
 
 pub mod boundary;
 pub mod control;
@@ -28,6 +29,7 @@ pub mod modbus_tcp;
 pub mod mqtt;
 pub mod network;
 pub mod notify;
+pub mod opcua;
 pub mod snapshot;
 pub mod status;
 pub mod trace;

@@ -165,6 +165,23 @@ pub fn report(project: &Project) -> String {
             }
         );
     }
+    if let Some(o) = &service.opcua {
+        let writable = service.scada.entries.iter().filter(|e| e.writable).count();
+        let _ = writeln!(
+            out,
+            "\nOPC UA server at {} ({}, {}): {} tags, writes {}; certificate in {}",
+            o.endpoint_url(o.port),
+            o.security.describe(),
+            o.login(),
+            service.scada.entries.len(),
+            if o.writes {
+                format!("on ({writable} writable tags)")
+            } else {
+                "off".to_string()
+            },
+            super::opcua::pki_folder(project).display()
+        );
+    }
     let Some(cfg) = service.modbus_tcp else {
         return out;
     };

@@ -1,0 +1,37 @@
+//! A password given in the project (`password:`) or by an environment variable
+//! (`password_env:`), as the services that log in (MQTT) or let clients log in (OPC UA) take it.
+
+/// A password, kept out of `Debug` so a printed project does not leak it.
+#[derive(Clone, PartialEq, Eq)]
+pub struct Password(pub String);
+
+impl std::fmt::Debug for Password {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Password(<hidden>)")
+    }
+}
+
+/// Why `password:` / `password_env:` give no password.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum PasswordError {
+    /// Both keys are set.
+    Both,
+    /// The variable is not set.
+    Unset(String),
+}
+
+/// The password `password` (in clear) or `password_env` (a variable's name) gives; `None`
+/// when neither is set.
+pub(crate) fn password(
+    password: &Option<String>,
+    password_env: &Option<String>,
+) -> Result<Option<Password>, PasswordError> {
+    match (password, password_env) {
+        (Some(_), Some(_)) => Err(PasswordError::Both),
+        (Some(p), None) => Ok(Some(Password(p.clone()))),
+        (None, Some(name)) => std::env::var(name)
+            .map(|p| Some(Password(p)))
+            .map_err(|_| PasswordError::Unset(name.clone())),
+        (None, None) => Ok(None),
+    }
+}

@@ -1,0 +1,330 @@
+//! The PLC's OPC UA server (async-opcua; the project's `service.opcua:`, see
+//! [`crate::project::opcua`]).
+//!
+//! - [`space`]: the address space (tags, modules' and the PLC's diagnostics) and what a
+//!   snapshot changes in it.
+//! - [`write`]: a client's write, under the Modbus TCP server's rules.
+//!
+//! Three threads: the server's (a tokio runtime with two workers: each connection and request
+//! is a task), and the updater's, which reads the snapshot the scan publishes once per scan
+//! period (at most every 100 ms, at least every 5 ms) and hands the variables that changed to
+//! the server's address space. The scan never waits on either: it publishes with `try_lock`,
+//! and a write reaches it through the control channel with `try_send`.
+//!
+//! One endpoint, at `opc.tcp://BIND:PORT/`: SecurityPolicy None with anonymous access (loopback
+//! only, enforced when the project is loaded), or Basic256Sha256 Sign & Encrypt with the
+//! project's user and password. The server's certificate and private key are made at first
+//! start in the PLC's state folder (`opcua-pki/own/cert.der`, `opcua-pki/private/private.pem`);
+//! a client certificate the server does not know yet is put in `opcua-pki/rejected/` and is
+//! trusted once moved to `opcua-pki/trusted/`.
+
+pub mod space;
+pub mod write;
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use crossbeam_channel::Sender;
+use opcua::server::address_space::{AccessLevel, NodeType, VariableBuilder};
+use opcua::server::diagnostics::NamespaceMetadata;
+use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
+use opcua::server::{
+    ServerBuilder, ServerEndpoint, ServerUserToken, SubscriptionCache, ANONYMOUS_USER_TOKEN_ID,
+};
+use opcua::types::{DateTime, NodeId, QualifiedName};
+
+use super::control::Envelope;
+use super::snapshot::SnapshotCell;
+use crate::project::opcua::{OpcUaConfig, OpcUaSecurity};
+use crate::project::Project;
+use space::{Layout, Updates};
+
+/// The user token id of the project's user.
+const USER_TOKEN: &str = "project-user";
+
+/// Why the server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum OpcUaStartError {
+    /// The address could not be bound.
+    #[error("OPC UA server: cannot listen on {addr}: {source}")]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The PKI folder cannot be made.
+    #[error("OPC UA server: cannot make its certificate folder {}: {source}", path.display())]
+    Pki {
+        /// The folder.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// async-opcua refused the configuration.
+    #[error("OPC UA server: {0}")]
+    Config(String),
+    /// A thread or the runtime could not be made.
+    #[error("OPC UA server: cannot start its threads: {0}")]
+    Thread(std::io::Error),
+}
+
+/// A running server; it lives as long as the process.
+#[derive(Debug)]
+pub struct OpcUaServer {
+    addr: SocketAddr,
+    url: String,
+    security: OpcUaSecurity,
+    login: String,
+}
+
+/// The folder of the server's certificates: in the PLC's state folder.
+pub fn pki_folder(project: &Project) -> PathBuf {
+    crate::project::state::default_state_folder(&project.source).join("opcua-pki")
+}
+
+fn builder(project: &Project, cfg: &OpcUaConfig, port: u16, pki: PathBuf) -> ServerBuilder {
+    let url = cfg.endpoint_url(port);
+    let mut b = ServerBuilder::new()
+        .application_name(format!("softplc {}", project.name))
+        .application_uri(format!("urn:softplc:server:{}", project.name))
+        .product_uri("urn:softplc")
+        .host(cfg.host().trim_matches(['[', ']']))
+        .port(port)
+        .discovery_urls(vec![url])
+        .pki_dir(pki)
+        .create_sample_keypair(true)
+        .diagnostics_enabled(false);
+    let token = match &cfg.user {
+        Some((user, password)) => {
+            b = b.add_user_token(
+                USER_TOKEN,
+                ServerUserToken::user_pass(user.as_str(), password.0.as_str()),
+            );
+            USER_TOKEN
+        }
+        None => ANONYMOUS_USER_TOKEN_ID,
+    };
+    let tokens = [token.to_string()];
+    let endpoint = match cfg.security {
+        OpcUaSecurity::None => ServerEndpoint::new_none("/", &tokens),
+        OpcUaSecurity::Basic256Sha256 => {
+            ServerEndpoint::new_basic256sha256_sign_encrypt("/", &tokens)
+        }
+    };
+    b = b.add_endpoint("plc", endpoint).default_endpoint("plc");
+    // Changes come at the scan's cycle boundaries: a client may sample and publish as fast as
+    // the scan runs (async-opcua's floor is 100 ms), and the subscriptions are checked that
+    // often.
+    let tick = project
+        .scan
+        .period
+        .clamp(Duration::from_millis(10), Duration::from_millis(100));
+    let limits = &mut b.limits_mut().subscriptions;
+    limits.min_sampling_interval_ms = 0.0;
+    limits.min_publishing_interval_ms = tick.as_secs_f64() * 1e3;
+    b.subscription_poll_interval_ms(tick.as_millis() as u64)
+}
+
+fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<write::Writer>) {
+    let id = |s: &str| NodeId::new(ns, s.to_string());
+    let mut sp = nm.address_space().write();
+    for (folder, name, parent) in &layout.folders {
+        let parent = parent.as_deref().map_or_else(NodeId::objects_folder_id, id);
+        sp.add_folder(
+            &id(folder),
+            QualifiedName::new(ns, name.as_str()),
+            name.as_str(),
+            &parent,
+        );
+    }
+    let diagnostics = layout.modules.iter().flatten().chain(&layout.plc);
+    let tags = layout.tags.iter().map(|t| &t.node);
+    for n in tags.chain(diagnostics) {
+        let access = if n.writable {
+            AccessLevel::CURRENT_READ | AccessLevel::CURRENT_WRITE
+        } else {
+            AccessLevel::CURRENT_READ
+        };
+        VariableBuilder::new(
+            &id(&n.id),
+            QualifiedName::new(ns, n.name.as_str()),
+            n.name.as_str(),
+        )
+        .data_type(n.data_type)
+        .value(space::initial(n.data_type).value.unwrap_or_default())
+        .access_level(access)
+        .user_access_level(access)
+        .organized_by(id(&n.folder))
+        .insert(&mut *sp);
+        // Waiting, not Good, until the first snapshot.
+        if let Some(NodeType::Variable(v)) = sp.find_mut(&id(&n.id)) {
+            v.set_data_value(space::initial(n.data_type));
+        }
+    }
+    drop(sp);
+    for t in layout.tags.iter().filter(|t| t.node.writable) {
+        let w = writer.clone();
+        let (tag, ty) = (t.tag, t.ty);
+        nm.inner()
+            .add_write_callback(id(&t.node.id), move |dv, _range| w.write(tag, ty, &dv));
+    }
+}
+
+impl OpcUaServer {
+    /// Starts the server `project` configures (`None` when it configures none), reading
+    /// `snapshot` and sending writes to `scan`.
+    pub fn start(
+        project: &Project,
+        snapshot: &SnapshotCell,
+        scan: &Sender<Envelope>,
+    ) -> Result<Option<Self>, OpcUaStartError> {
+        let Some(cfg) = project.service.opcua.clone() else {
+            return Ok(None);
+        };
+        let bind = SocketAddr::new(cfg.bind, cfg.port);
+        let listener = std::net::TcpListener::bind(bind)
+            .and_then(|l| l.set_nonblocking(true).map(|()| l))
+            .map_err(|source| OpcUaStartError::Bind { addr: bind, source })?;
+        let addr = listener
+            .local_addr()
+            .map_err(|source| OpcUaStartError::Bind { addr: bind, source })?;
+        let pki = pki_folder(project);
+        std::fs::create_dir_all(&pki).map_err(|source| OpcUaStartError::Pki {
+            path: pki.clone(),
+            source,
+        })?;
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("opcua")
+            .enable_all()
+            .build()
+            .map_err(OpcUaStartError::Thread)?;
+        // async-opcua starts tasks of its own while it is built.
+        let _in_runtime = runtime.enter();
+        let namespace = format!("{}{}", space::NAMESPACE_PREFIX, project.name);
+        let (server, handle) = builder(project, &cfg, addr.port(), pki)
+            .with_node_manager(simple_node_manager(
+                NamespaceMetadata {
+                    namespace_uri: namespace.clone(),
+                    ..Default::default()
+                },
+                "softplc",
+            ))
+            .build()
+            .map_err(OpcUaStartError::Config)?;
+        let nm = handle
+            .node_managers()
+            .get_of_type::<SimpleNodeManager>()
+            .ok_or_else(|| OpcUaStartError::Config("no node manager for the tags".into()))?;
+        let ns = handle
+            .get_namespace_index(&namespace)
+            .ok_or_else(|| OpcUaStartError::Config("no namespace for the tags".into()))?;
+        let layout = Layout::of(project, cfg.writes);
+        let writer = Arc::new(write::Writer::new(
+            project.tags.iter().map(|t| t.name.clone()).collect(),
+            snapshot.clone(),
+            scan.clone(),
+        ));
+        build_space(&nm, ns, &layout, &writer);
+        std::thread::Builder::new()
+            .name("opcua".into())
+            .spawn(move || {
+                runtime.block_on(async move {
+                    match tokio::net::TcpListener::from_std(listener) {
+                        Ok(l) => {
+                            if let Err(e) = server.run_with(l).await {
+                                tracing::error!("OPC UA server stopped: {e}");
+                            }
+                        }
+                        Err(e) => tracing::error!("OPC UA server: cannot listen: {e}"),
+                    }
+                });
+            })
+            .map_err(OpcUaStartError::Thread)?;
+        let updater = Updater {
+            nm,
+            subscriptions: handle.subscriptions().clone(),
+            ns,
+            layout,
+            snapshot: snapshot.clone(),
+            tick: project
+                .scan
+                .period
+                .clamp(Duration::from_millis(5), Duration::from_millis(100)),
+        };
+        std::thread::Builder::new()
+            .name("opcua-update".into())
+            .spawn(move || updater.run())
+            .map_err(OpcUaStartError::Thread)?;
+        Ok(Some(Self {
+            addr,
+            url: cfg.endpoint_url(addr.port()),
+            security: cfg.security,
+            login: cfg.login(),
+        }))
+    }
+
+    /// The address it listens on (the bound port when the configured one was 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// What the log says of it: the endpoint, its security and who may log in.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({}, {})",
+            self.url,
+            self.security.describe(),
+            self.login
+        )
+    }
+}
+
+/// The updater's thread (see the module docs).
+struct Updater {
+    nm: Arc<SimpleNodeManager>,
+    subscriptions: Arc<SubscriptionCache>,
+    ns: u16,
+    layout: Layout,
+    snapshot: SnapshotCell,
+    tick: Duration,
+}
+
+impl Updater {
+    fn run(self) {
+        let mut updates = Updates::new(&self.layout);
+        let ids: std::collections::HashMap<String, NodeId> = self
+            .layout
+            .tags
+            .iter()
+            .map(|t| &t.node)
+            .chain(self.layout.modules.iter().flatten())
+            .chain(&self.layout.plc)
+            .map(|n| (n.id.clone(), NodeId::new(self.ns, n.id.clone())))
+            .collect();
+        let mut last_cycle = None;
+        loop {
+            std::thread::sleep(self.tick);
+            let snap = self.snapshot.get();
+            if !snap.published || last_cycle == Some((snap.cycles, snap.stats_seq, snap.stopped)) {
+                continue;
+            }
+            last_cycle = Some((snap.cycles, snap.stats_seq, snap.stopped));
+            let changes = updates.changes(&self.layout, &snap, DateTime::now());
+            let values = changes
+                .into_iter()
+                .filter_map(|(id, dv)| Some((ids.get(&id)?, None, dv)));
+            if let Err(e) = self.nm.set_values(&self.subscriptions, values) {
+                tracing::warn!("OPC UA: values not updated: {e}");
+            }
+            if snap.stopped {
+                // The last publication (outputs safe, state stopped) is in the address space;
+                // clients read it until the process ends.
+                return;
+            }
+        }
+    }
+}

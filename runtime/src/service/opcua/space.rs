@@ -1,0 +1,462 @@
+//! The OPC UA address space of a project, and what a snapshot changes in it.
+//!
+//! ```text
+//! Objects/
+//!   Tags/            one variable per exposed tag (not `scada: none`): Tags.NAME
+//!   Modules/NAME/    Quality, Requests, Errors, RoundTrip: Modules.NAME.FIELD
+//!   PLC/             State, Scans, Overruns, CycleP50, CycleP99, CycleMax: PLC.FIELD
+//! ```
+//!
+//! Node ids are strings in the project's namespace ([`NAMESPACE_PREFIX`] + the project's
+//! name). A tag's DataType is its type's (bool → Boolean, u16 → UInt16, i32 → Int32, f32 →
+//! Float); its StatusCode is its quality's ([`status_of`]); its SourceTimestamp is the scan
+//! time of the value, its ServerTimestamp when the server took it from the snapshot. Durations
+//! are OPC UA `Duration`s (a Double of milliseconds).
+
+use opcua::types::{DataTypeId, DataValue, DateTime, StatusCode, Variant};
+use softplc_io::point::{Quality, Value, ValueType};
+
+use crate::project::Project;
+use crate::service::snapshot::ServiceSnapshot;
+
+/// The namespace URI of a project's nodes: this + the project's name.
+pub const NAMESPACE_PREFIX: &str = "urn:softplc:";
+
+/// The StatusCode of a value of quality `q`.
+pub fn status_of(q: Quality) -> StatusCode {
+    match q {
+        Quality::Good => StatusCode::Good,
+        Quality::Stale => StatusCode::UncertainLastUsableValue,
+        Quality::Bad => StatusCode::BadCommunicationError,
+    }
+}
+
+/// A tag's value as an OPC UA Variant of its exact type.
+pub fn variant(v: Value) -> Variant {
+    match v {
+        Value::Bool(b) => Variant::Boolean(b),
+        Value::U16(u) => Variant::UInt16(u),
+        Value::I32(i) => Variant::Int32(i),
+        Value::F32(f) => Variant::Float(f),
+    }
+}
+
+/// The value a Variant written by a client gives a tag of type `ty`, when it is of that exact
+/// type (the server has checked it against the node's DataType already).
+pub fn value_of(ty: ValueType, v: &Variant) -> Option<Value> {
+    match (ty, v) {
+        (ValueType::Bool, Variant::Boolean(b)) => Some(Value::Bool(*b)),
+        (ValueType::U16, Variant::UInt16(u)) => Some(Value::U16(*u)),
+        (ValueType::I32, Variant::Int32(i)) => Some(Value::I32(*i)),
+        (ValueType::F32, Variant::Float(f)) => Some(Value::F32(*f)),
+        _ => None,
+    }
+}
+
+/// A tag type's DataType.
+pub fn data_type(ty: ValueType) -> DataTypeId {
+    match ty {
+        ValueType::Bool => DataTypeId::Boolean,
+        ValueType::U16 => DataTypeId::UInt16,
+        ValueType::I32 => DataTypeId::Int32,
+        ValueType::F32 => DataTypeId::Float,
+    }
+}
+
+/// A module's diagnostic variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModuleField {
+    /// Its last read's quality: "good", "stale" or "bad" (String).
+    Quality,
+    /// Requests sent (UInt64).
+    Requests,
+    /// Failed requests (UInt64).
+    Errors,
+    /// Round trip of its last good transaction (Duration).
+    RoundTrip,
+}
+
+impl ModuleField {
+    /// Every field, in browse order.
+    pub const ALL: [ModuleField; 4] = [
+        ModuleField::Quality,
+        ModuleField::Requests,
+        ModuleField::Errors,
+        ModuleField::RoundTrip,
+    ];
+
+    /// Its browse name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Quality => "Quality",
+            Self::Requests => "Requests",
+            Self::Errors => "Errors",
+            Self::RoundTrip => "RoundTrip",
+        }
+    }
+
+    fn data_type(self) -> DataTypeId {
+        match self {
+            Self::Quality => DataTypeId::String,
+            Self::Requests | Self::Errors => DataTypeId::UInt64,
+            Self::RoundTrip => DataTypeId::Duration,
+        }
+    }
+}
+
+/// The PLC's diagnostic variables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlcField {
+    /// "running" or "stopped" (String).
+    State,
+    /// Completed scans (UInt64).
+    Scans,
+    /// Overruns (UInt64).
+    Overruns,
+    /// Cycle time median (Duration).
+    CycleP50,
+    /// Cycle time 99th percentile (Duration).
+    CycleP99,
+    /// Longest cycle (Duration).
+    CycleMax,
+}
+
+impl PlcField {
+    /// Every field, in browse order.
+    pub const ALL: [PlcField; 6] = [
+        PlcField::State,
+        PlcField::Scans,
+        PlcField::Overruns,
+        PlcField::CycleP50,
+        PlcField::CycleP99,
+        PlcField::CycleMax,
+    ];
+
+    /// Its browse name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::State => "State",
+            Self::Scans => "Scans",
+            Self::Overruns => "Overruns",
+            Self::CycleP50 => "CycleP50",
+            Self::CycleP99 => "CycleP99",
+            Self::CycleMax => "CycleMax",
+        }
+    }
+
+    fn data_type(self) -> DataTypeId {
+        match self {
+            Self::State => DataTypeId::String,
+            Self::Scans | Self::Overruns => DataTypeId::UInt64,
+            _ => DataTypeId::Duration,
+        }
+    }
+}
+
+/// A variable of the address space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    /// Its node id (string part).
+    pub id: String,
+    /// Its browse and display name.
+    pub name: String,
+    /// The folder it is in (string part of the folder's node id).
+    pub folder: String,
+    /// Its DataType.
+    pub data_type: DataTypeId,
+    /// Whether clients may write it (a `scada: write` tag with writes on).
+    pub writable: bool,
+}
+
+/// An exposed tag.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TagNode {
+    /// Index into the project's tags.
+    pub tag: usize,
+    /// Its type.
+    pub ty: ValueType,
+    /// Its node.
+    pub node: Node,
+}
+
+/// The whole address space of a project.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// Folders: id, name, parent (`None`: the Objects folder), in creation order.
+    pub folders: Vec<(String, String, Option<String>)>,
+    /// Tags, in project order.
+    pub tags: Vec<TagNode>,
+    /// Each module's diagnostics, in project order, in [`ModuleField::ALL`] order.
+    pub modules: Vec<Vec<Node>>,
+    /// The PLC's, in [`PlcField::ALL`] order.
+    pub plc: Vec<Node>,
+}
+
+fn node(folder: &str, name: &str, data_type: DataTypeId) -> Node {
+    Node {
+        id: format!("{folder}.{name}"),
+        name: name.into(),
+        folder: folder.into(),
+        data_type,
+        writable: false,
+    }
+}
+
+impl Layout {
+    /// The address space of `project`; `writes` is the server's switch.
+    pub fn of(project: &Project, writes: bool) -> Self {
+        let mut folders = vec![
+            ("Tags".to_string(), "Tags".to_string(), None),
+            ("Modules".to_string(), "Modules".to_string(), None),
+            ("PLC".to_string(), "PLC".to_string(), None),
+        ];
+        let tags = project
+            .service
+            .scada
+            .entries
+            .iter()
+            .filter_map(|e| {
+                let t = project.tags.get(e.tag)?;
+                Some(TagNode {
+                    tag: e.tag,
+                    ty: t.ty,
+                    node: Node {
+                        writable: writes && e.writable,
+                        ..node("Tags", &t.name, data_type(t.ty))
+                    },
+                })
+            })
+            .collect::<Vec<_>>();
+        let mut tags = tags;
+        tags.sort_by_key(|t| t.tag);
+        let mut modules = Vec::new();
+        for m in &project.modules {
+            let folder = format!("Modules.{}", m.name);
+            folders.push((folder.clone(), m.name.clone(), Some("Modules".into())));
+            modules.push(
+                ModuleField::ALL
+                    .iter()
+                    .map(|f| node(&folder, f.name(), f.data_type()))
+                    .collect(),
+            );
+        }
+        let plc = PlcField::ALL
+            .iter()
+            .map(|f| node("PLC", f.name(), f.data_type()))
+            .collect();
+        Self {
+            folders,
+            tags,
+            modules,
+            plc,
+        }
+    }
+}
+
+fn ms(d: std::time::Duration) -> Variant {
+    Variant::Double(d.as_secs_f64() * 1e3)
+}
+
+/// Turns snapshots into the values of the address space's variables, sending only what
+/// changed.
+#[derive(Debug)]
+pub struct Updates {
+    /// Per exposed tag (in [`Layout::tags`] order): what clients were last given.
+    last: Vec<Option<(Value, Quality)>>,
+    /// What the diagnostics were last given, per variable id.
+    diagnostics: std::collections::HashMap<String, Variant>,
+    /// OPC UA ticks (100 ns since 1601) minus scan ticks, fixed at the first snapshot.
+    epoch: Option<i64>,
+}
+
+impl Updates {
+    /// Nothing sent yet.
+    pub fn new(layout: &Layout) -> Self {
+        Self {
+            last: vec![None; layout.tags.len()],
+            diagnostics: Default::default(),
+            epoch: None,
+        }
+    }
+
+    fn at(&mut self, snap: &ServiceSnapshot, now: DateTime, scan: std::time::Duration) -> DateTime {
+        let scan_ticks = |d: std::time::Duration| (d.as_nanos() / 100).min(i64::MAX as u128) as i64;
+        let epoch = *self
+            .epoch
+            .get_or_insert_with(|| now.ticks().saturating_sub(scan_ticks(snap.now)));
+        DateTime::from(epoch.saturating_add(scan_ticks(scan)))
+    }
+
+    /// The variables `snap` changes (node id string, value), with `now` as the server
+    /// timestamp. Tags: when the value or the quality changed; diagnostics: when their value
+    /// changed.
+    pub fn changes(
+        &mut self,
+        layout: &Layout,
+        snap: &ServiceSnapshot,
+        now: DateTime,
+    ) -> Vec<(String, DataValue)> {
+        let mut out = Vec::new();
+        for (i, t) in layout.tags.iter().enumerate() {
+            let (Some(&v), Some(&q)) = (snap.values.get(t.tag), snap.qualities.get(t.tag)) else {
+                continue;
+            };
+            if self.last[i] == Some((v, q)) {
+                continue;
+            }
+            self.last[i] = Some((v, q));
+            let at = snap.timestamps.get(t.tag).copied().unwrap_or(snap.now);
+            let source = self.at(snap, now, at);
+            out.push((
+                t.node.id.clone(),
+                DataValue {
+                    value: Some(variant(v)),
+                    status: Some(status_of(q)),
+                    source_timestamp: Some(source),
+                    server_timestamp: Some(now),
+                    ..Default::default()
+                },
+            ));
+        }
+        let source = self.at(snap, now, snap.now);
+        let mut diag = |node: &Node, v: Variant, out: &mut Vec<(String, DataValue)>| {
+            if self.diagnostics.get(&node.id) == Some(&v) {
+                return;
+            }
+            self.diagnostics.insert(node.id.clone(), v.clone());
+            out.push((
+                node.id.clone(),
+                DataValue {
+                    value: Some(v),
+                    status: Some(StatusCode::Good),
+                    source_timestamp: Some(source),
+                    server_timestamp: Some(now),
+                    ..Default::default()
+                },
+            ));
+        };
+        for (nodes, m) in layout.modules.iter().zip(&snap.modules) {
+            for (n, f) in nodes.iter().zip(ModuleField::ALL) {
+                let v = match f {
+                    ModuleField::Quality => Variant::from(m.quality.to_string()),
+                    ModuleField::Requests => Variant::UInt64(m.counters.requests),
+                    ModuleField::Errors => Variant::UInt64(m.counters.errors()),
+                    ModuleField::RoundTrip => ms(m.counters.last_round_trip),
+                };
+                diag(n, v, &mut out);
+            }
+        }
+        let cycle = snap.phases[0];
+        for (n, f) in layout.plc.iter().zip(PlcField::ALL) {
+            let v = match f {
+                PlcField::State => Variant::from(if snap.stopped { "stopped" } else { "running" }),
+                PlcField::Scans => Variant::UInt64(snap.cycles),
+                PlcField::Overruns => Variant::UInt64(snap.overruns),
+                PlcField::CycleP50 => ms(cycle.p50),
+                PlcField::CycleP99 => ms(cycle.p99),
+                PlcField::CycleMax => ms(cycle.max),
+            };
+            diag(n, v, &mut out);
+        }
+        out
+    }
+}
+
+/// The value a variable holds before the first snapshot: zero of its type, waiting.
+pub fn initial(data_type: DataTypeId) -> DataValue {
+    let value = match data_type {
+        DataTypeId::Boolean => Variant::Boolean(false),
+        DataTypeId::UInt16 => Variant::UInt16(0),
+        DataTypeId::Int32 => Variant::Int32(0),
+        DataTypeId::Float => Variant::Float(0.0),
+        DataTypeId::UInt64 => Variant::UInt64(0),
+        DataTypeId::String => Variant::from(""),
+        _ => Variant::Double(0.0),
+    };
+    DataValue {
+        value: Some(value),
+        status: Some(StatusCode::BadWaitingForInitialData),
+        server_timestamp: Some(DateTime::now()),
+        ..Default::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::snapshot::ModuleSnapshot;
+    use std::time::Duration;
+
+    fn layout() -> Layout {
+        let tag = |tag: usize, name: &str, ty: ValueType| TagNode {
+            tag,
+            ty,
+            node: node("Tags", name, data_type(ty)),
+        };
+        Layout {
+            folders: vec![],
+            tags: vec![
+                tag(0, "run", ValueType::Bool),
+                tag(2, "speed", ValueType::U16),
+            ],
+            modules: vec![ModuleField::ALL
+                .iter()
+                .map(|f| node("Modules.mm1", f.name(), f.data_type()))
+                .collect()],
+            plc: PlcField::ALL
+                .iter()
+                .map(|f| node("PLC", f.name(), f.data_type()))
+                .collect(),
+        }
+    }
+
+    fn snap(cycle: u64, speed: u16, q: Quality) -> ServiceSnapshot {
+        ServiceSnapshot {
+            published: true,
+            cycles: cycle,
+            now: Duration::from_millis(10 * cycle),
+            values: vec![Value::Bool(true), Value::I32(0), Value::U16(speed)],
+            qualities: vec![Quality::Good, Quality::Good, q],
+            timestamps: vec![Duration::from_millis(10 * cycle); 3],
+            forced: vec![false; 3],
+            modules: vec![ModuleSnapshot::default()],
+            ..ServiceSnapshot::default()
+        }
+    }
+
+    #[test]
+    fn only_changes_go_out_with_their_status_and_scan_time() {
+        let l = layout();
+        let mut u = Updates::new(&l);
+        let t0 = DateTime::from(1_000_000_000_000_000i64);
+        let first = u.changes(&l, &snap(1, 5, Quality::Good), t0);
+        let ids: Vec<&str> = first.iter().map(|(i, _)| i.as_str()).collect();
+        assert_eq!(&ids[..2], ["Tags.run", "Tags.speed"]);
+        assert!(ids.contains(&"Modules.mm1.Quality") && ids.contains(&"PLC.Scans"));
+        assert_eq!(first[1].1.value, Some(Variant::UInt16(5)));
+        assert_eq!(first[1].1.source_timestamp, Some(t0));
+        // The next cycle: speed went stale, 10 ms of scan time later; only it and the scan
+        // count change.
+        let next = u.changes(&l, &snap(2, 5, Quality::Stale), t0);
+        let ids: Vec<&str> = next.iter().map(|(i, _)| i.as_str()).collect();
+        assert_eq!(ids, ["Tags.speed", "PLC.Scans"]);
+        assert_eq!(next[0].1.status, Some(StatusCode::UncertainLastUsableValue));
+        assert_eq!(
+            next[0].1.source_timestamp.map(|t| t.ticks() - t0.ticks()),
+            Some(100_000),
+            "10 ms in 100 ns ticks"
+        );
+        assert_eq!(status_of(Quality::Bad), StatusCode::BadCommunicationError);
+    }
+
+    #[test]
+    fn written_values_must_have_the_tags_exact_type() {
+        assert_eq!(
+            value_of(ValueType::U16, &Variant::UInt16(7)),
+            Some(Value::U16(7))
+        );
+        assert_eq!(value_of(ValueType::U16, &Variant::Int64(7)), None);
+        assert_eq!(value_of(ValueType::F32, &Variant::Double(1.0)), None);
+        assert_eq!(variant(Value::I32(-4)), Variant::Int32(-4));
+    }
+}

@@ -1,0 +1,153 @@
+//! A client's write to a tag, under the Modbus TCP server's rules, and the StatusCode it gets:
+//!
+//! | the write                                         | StatusCode            |
+//! |---------------------------------------------------|-----------------------|
+//! | applied by the scan at its next cycle boundary    | `Good`                |
+//! | `writes: false`, or the tag is not `scada: write` | `BadUserAccessDenied` (the tag's AccessLevel is CurrentRead only; async-opcua answers) |
+//! | not the tag's exact type (UInt16 for u16, ...)    | `BadTypeMismatch`     |
+//! | the tag is forced                                 | `BadLocked`           |
+//! | refused by the scan otherwise (pushed-down output)| `BadNotWritable`      |
+//! | the scan did not take or answer it in time        | `BadTimeout`          |
+//!
+//! The write goes through the same request as the control socket's and the Modbus TCP
+//! server's (`Request::Write`), applied by the scan thread between two cycles. async-opcua
+//! calls this holding its address space's lock, so the wait for the scan's answer (one cycle,
+//! [`WRITE_WAIT`] at most) holds up the updates and other clients' requests meanwhile, never
+//! the scan.
+
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::Sender;
+use opcua::types::{DataValue, StatusCode};
+use softplc_io::point::ValueType;
+
+use super::space::value_of;
+use crate::service::control::{Envelope, Request, TagValue};
+use crate::service::snapshot::SnapshotCell;
+
+/// How long a write waits for the scan to take and answer it.
+pub const WRITE_WAIT: Duration = Duration::from_secs(2);
+
+/// What a write needs (shared by every writable tag's callback).
+#[derive(Debug)]
+pub struct Writer {
+    names: Vec<String>,
+    snapshot: SnapshotCell,
+    scan: Sender<Envelope>,
+}
+
+impl Writer {
+    /// Writes name their tags from `names` (in tag order), check forces in `snapshot`, and go
+    /// to `scan`.
+    pub fn new(names: Vec<String>, snapshot: SnapshotCell, scan: Sender<Envelope>) -> Self {
+        Self {
+            names,
+            snapshot,
+            scan,
+        }
+    }
+
+    /// Writes `dv` to tag `tag` of type `ty` (see the module docs).
+    pub fn write(&self, tag: usize, ty: ValueType, dv: &DataValue) -> StatusCode {
+        let Some(name) = self.names.get(tag) else {
+            return StatusCode::BadNodeIdUnknown;
+        };
+        let Some(value) = dv.value.as_ref().and_then(|v| value_of(ty, v)) else {
+            return StatusCode::BadTypeMismatch;
+        };
+        if self
+            .snapshot
+            .with(|s| s.forced.get(tag).copied().unwrap_or(false))
+        {
+            tracing::info!("OPC UA: write to {name} refused: {name} is forced");
+            return StatusCode::BadLocked;
+        }
+        let deadline = Instant::now() + WRITE_WAIT;
+        let (reply, answer) = crossbeam_channel::bounded(1);
+        let values = vec![TagValue {
+            tag: name.clone(),
+            value: value.to_string(),
+        }];
+        let env = Envelope::new(Request::Write { values }, reply, WRITE_WAIT);
+        if self.scan.send_deadline(env, deadline).is_err() {
+            tracing::warn!("OPC UA: write to {name} refused: the scan did not take it in time");
+            return StatusCode::BadTimeout;
+        }
+        match answer.recv_deadline(deadline) {
+            Ok(r) if r.ok => {
+                tracing::info!("OPC UA: {name} written: {value}");
+                StatusCode::Good
+            }
+            Ok(r) => {
+                let why = r.error.unwrap_or_default();
+                tracing::info!("OPC UA: write to {name} refused: {why}");
+                StatusCode::BadNotWritable
+            }
+            Err(_) => {
+                tracing::warn!("OPC UA: write to {name}: the scan did not answer in time");
+                StatusCode::BadTimeout
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::control::Response;
+    use crate::service::snapshot::ServiceSnapshot;
+    use opcua::types::Variant;
+
+    fn dv(v: Variant) -> DataValue {
+        DataValue {
+            value: Some(v),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_write_goes_to_the_scan_unless_forced_or_of_another_type() {
+        let cell = SnapshotCell::new();
+        cell.set(ServiceSnapshot {
+            forced: vec![false, true],
+            ..Default::default()
+        });
+        let (tx, rx) = crossbeam_channel::bounded::<Envelope>(4);
+        let w = Writer::new(vec!["speed".into(), "held".into()], cell, tx);
+        // A stand-in scan: applies "speed", refuses anything else.
+        let scan = std::thread::spawn(move || {
+            let mut seen = Vec::new();
+            while let Ok(env) = rx.recv() {
+                let Request::Write { values } = &env.request else {
+                    continue;
+                };
+                seen.push(format!("{}={}", values[0].tag, values[0].value));
+                let r = if values[0].tag == "speed" && values[0].value == "7" {
+                    Response::done("1 tag(s) written")
+                } else {
+                    Response::refused("pushed down")
+                };
+                drop(env.reply.send(r));
+            }
+            seen
+        });
+        assert_eq!(
+            w.write(0, ValueType::U16, &dv(Variant::UInt16(7))),
+            StatusCode::Good
+        );
+        assert_eq!(
+            w.write(0, ValueType::U16, &dv(Variant::Int64(7))),
+            StatusCode::BadTypeMismatch
+        );
+        assert_eq!(
+            w.write(1, ValueType::U16, &dv(Variant::UInt16(3))),
+            StatusCode::BadLocked
+        );
+        assert_eq!(
+            w.write(0, ValueType::U16, &dv(Variant::UInt16(8))),
+            StatusCode::BadNotWritable
+        );
+        drop(w);
+        assert_eq!(scan.join().unwrap(), ["speed=7", "speed=8"]);
+    }
+}

@@ -1,0 +1,306 @@
+//! The OPC UA server against a third-party client (Python asyncua,
+//! `runtime/tests/opcua/client.py`), on 127.0.0.1 at a free port.
+//!
+//! The client browses the address space, reads each tag type's exact Variant type and the
+//! status of a tag whose module does not answer (its line is a pty nobody serves), reads the
+//! PLC's and the modules' diagnostics, subscribes, writes a writable tag and sees the change
+//! within two cycles of the write's answer, sees a forced input within two cycles, and is
+//! refused for a read-only tag, a value of the wrong type, a forced tag, and any write when
+//! the server's writes are off. `scripts/test` installs the Python environment
+//! (`target/py-venv`, pinned in `runtime/tests/opcua/requirements.txt`).
+//!
+//! `check` refuses a server beyond loopback without security, at the key to fix.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+#[path = "common/host.rs"]
+mod host;
+use host::{free_port, lines_of, repo as workspace};
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+const PERIOD_MS: u64 = 100;
+
+fn python() -> PathBuf {
+    let py = workspace().join("target/py-venv/bin/python");
+    assert!(
+        py.exists(),
+        "{} is missing: run scripts/test, which creates it (asyncua from \
+         runtime/tests/opcua/requirements.txt)",
+        py.display()
+    );
+    py
+}
+
+/// A fresh folder of this test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-opcua-{name}-{}", std::process::id()));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A pseudo-terminal nobody answers on, held open by a child; its path.
+struct DeadLine {
+    child: Child,
+    path: String,
+}
+
+impl DeadLine {
+    fn open() -> Self {
+        let mut child = Command::new(python())
+            .args([
+                "-c",
+                "import os,sys,time\nm,s=os.openpty()\nprint(os.ttyname(s),flush=True)\n\
+                 sys.stdin.read()",
+            ])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let lines = lines_of(child.stdout.take().unwrap());
+        let path = lines.recv_timeout(Duration::from_secs(10)).unwrap();
+        Self { child, path }
+    }
+}
+
+impl Drop for DeadLine {
+    fn drop(&mut self) {
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.child.kill());
+        drop(self.child.wait());
+    }
+}
+
+fn project(dir: &Path, port: u16, writes: bool, dead: &str) -> PathBuf {
+    let programs = workspace().join("programs");
+    let text = format!(
+        r#"project: opcua_test
+scan:
+  period: {PERIOD_MS}ms
+buses:
+  - {{ name: line1, port: sim, baud: 57600, format: 8E1, response_timeout: 30ms, retries: 1 }}
+  - {{ name: line2, port: {dead}, baud: 57600, format: 8E1, response_timeout: 20ms, retries: 0 }}
+modules:
+  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}
+  - {{ name: mm2, bus: line1, model: minimod, address: 2 }}
+  - {{ name: mm3, bus: line2, model: minimod, address: 3 }}
+tags:
+  - {{ name: box_at_entry, point: mm1.X1 }}
+  - {{ name: start,        point: mm1.X2 }}
+  - {{ name: stop,         point: mm1.X3, scada: none }}
+  - {{ name: motor,        point: mm1.Y1, safe: false }}
+  - {{ name: box_at_exit,  point: mm2.X1, scada: none }}
+  - {{ name: lamp,         point: mm2.Y1, safe: false, scada: none }}
+  - {{ name: far,          point: mm3.X1 }}
+  - {{ name: setpoint, type: u16, scada: write }}
+  - {{ name: held, type: u16, scada: write }}
+  - {{ name: limit, type: i32, initial: -40 }}
+  - {{ name: gain, type: f32, initial: 1.5 }}
+program:
+  file: {}
+  kind: expr
+service:
+  opcua:
+    port: {port}
+    writes: {writes}
+"#,
+        programs.join("conveyor.expr").display()
+    );
+    let path = dir.join("project.yaml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn softplc(project: &Path, socket: &Path, log: &Path) -> Child {
+    Command::new(BIN)
+        .args(["run", "--quiet", "--for", "90s", "--socket"])
+        .arg(socket)
+        .arg(project)
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).unwrap())
+        .spawn()
+        .unwrap()
+}
+
+/// Runs the client in `mode` against a softplc serving `writes`; the steps it passed.
+fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
+    let dir = scratch(name);
+    let dead = DeadLine::open();
+    let port = free_port();
+    let project = project(&dir, port, writes, &dead.path);
+    let socket = dir.join("control.sock");
+    let log = dir.join("softplc.log");
+    let mut plc = softplc(&project, &socket, &log);
+    let mut client = Command::new(python())
+        .arg(workspace().join("runtime/tests/opcua/client.py"))
+        .arg(format!("opc.tcp://127.0.0.1:{port}/"))
+        .arg("urn:softplc:opcua_test")
+        .arg(PERIOD_MS.to_string())
+        .arg(mode)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut to_client = client.stdin.take().unwrap();
+    let from_client = lines_of(client.stdout.take().unwrap());
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut passed = Vec::new();
+    let fail = |why: String, plc: &mut Child, client: &mut Child| -> ! {
+        // The children may have exited already; then there is nothing to stop.
+        drop(client.kill());
+        drop(plc.kill());
+        panic!(
+            "{why}; softplc's log:\n{}",
+            std::fs::read_to_string(&log).unwrap_or_default()
+        );
+    };
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let Ok(line) = from_client.recv_timeout(left) else {
+            fail(
+                format!("the client stopped or timed out after {passed:?}"),
+                &mut plc,
+                &mut client,
+            );
+        };
+        eprintln!("client: {line}");
+        if let Some(step) = line.strip_prefix("PASS ") {
+            passed.push(step.to_string());
+        } else if let Some(why) = line.strip_prefix("FAIL ") {
+            fail(
+                format!("client: {why} (after {passed:?})"),
+                &mut plc,
+                &mut client,
+            );
+        } else if line == "DONE" {
+            break;
+        } else if let Some(action) = line.strip_prefix("NEED force ") {
+            let mut words = action.split(' ');
+            let out = Command::new(BIN)
+                .args(["force", "--socket"])
+                .arg(&socket)
+                .args([words.next().unwrap(), words.next().unwrap()])
+                .output()
+                .unwrap();
+            assert!(out.status.success(), "force: {out:?}");
+            writeln!(to_client, "done").unwrap();
+        }
+    }
+    assert!(client.wait().unwrap().success());
+    // The child may have exited already; then there is nothing to stop.
+    drop(plc.kill());
+    drop(plc.wait());
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.contains(&format!(
+            "OPC UA server at opc.tcp://127.0.0.1:{port}/ (SecurityPolicy None, anonymous)"
+        )),
+        "{text}"
+    );
+    assert!(
+        dir.join("opcua-pki/own/cert.der").exists() && dir.join("opcua-pki/private").exists(),
+        "the server's certificate is made in the state folder at first start"
+    );
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    passed
+}
+
+#[test]
+fn an_asyncua_client_browses_reads_subscribes_writes_and_is_refused_where_it_must_be() {
+    let passed = run_client("full", true, "full");
+    assert_eq!(passed.len(), 6, "every step passed: {passed:?}");
+}
+
+#[test]
+fn with_writes_off_an_asyncua_client_cannot_write() {
+    let passed = run_client("off", false, "writes-off");
+    assert_eq!(passed, ["writes off"]);
+}
+
+fn check(text: &str) -> std::process::Output {
+    let dir = scratch("check");
+    let program = dir.join("p.expr");
+    std::fs::write(&program, "flag = !flag\n").unwrap();
+    let path = dir.join("p.yaml");
+    std::fs::write(
+        &path,
+        format!(
+            "project: c\nscan: {{ period: 50ms }}\nbuses:\n  - {{ name: line1, port: sim }}\n\
+             modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n\
+             tags:\n  - {{ name: speed, type: u16, scada: write }}\n  - {{ name: flag, type: bool }}\n\
+             program: {{ file: {}, kind: expr }}\nservice:\n  opcua:\n{text}",
+            program.display()
+        ),
+    )
+    .unwrap();
+    let out = Command::new(BIN).arg("check").arg(&path).output().unwrap();
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    out
+}
+
+#[test]
+fn check_refuses_a_server_beyond_loopback_without_security() {
+    let out = check("    bind: 0.0.0.0\n    port: 4840\n");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains(
+            "p.yaml:13:11: error: service.opcua: bind 0.0.0.0 reaches beyond loopback, where \
+             SecurityPolicy None and anonymous access are not allowed: set security: \
+             basic256sha256 (Sign & Encrypt) and username with password or password_env"
+        ),
+        "{err}"
+    );
+    // Security without a user is still refused beyond loopback, at the security key.
+    let out = check("    bind: 192.0.2.7\n    security: basic256sha256\n");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("p.yaml:14:15: error: service.opcua: bind 192.0.2.7"),
+        "{err}"
+    );
+    // A user on an endpoint without security would send its password in clear.
+    let out = check("    username: op\n    password: x\n");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("p.yaml:13:15: error: service.opcua.username needs security"),
+        "{err}"
+    );
+    // Basic256Sha256 with a user beyond loopback is accepted, and check says how to reach it.
+    let out = check(
+        "    bind: 0.0.0.0\n    port: 4841\n    security: basic256sha256\n    username: op\n    \
+         password: secret\n    writes: true\n",
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains(
+            ":4841/ (SecurityPolicy Basic256Sha256, Sign & Encrypt, user op with \
+                       password): 2 tags, writes on (1 writable tags)"
+        ),
+        "{text}"
+    );
+    assert!(!text.contains("secret"), "{text}");
+    // On loopback, None and anonymous.
+    let out = check("    port: 4842\n");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(
+            "OPC UA server at opc.tcp://127.0.0.1:4842/ (SecurityPolicy None, anonymous): 2 tags, \
+             writes off"
+        ),
+        "{text}"
+    );
+}
