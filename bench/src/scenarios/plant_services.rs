@@ -32,18 +32,22 @@ use crate::softplc_sim::{softplc_binary, ServedSim};
 pub(crate) const SCENARIO: Scenario = Scenario {
     number: 11,
     name: "plant-services",
-    title: "Plant services: terminal → MQTT consumer, and the edge node's CPU cost",
+    title: "Plant services: terminal → MQTT consumer and OPC UA client, the edge node's CPU cost",
     summary: "Latency: one MiniMod served by `softplc sim --pty` (reply delay 0, X1 input filter \
               1 ms), scanned every 10 ms at 19200 8E1 by `softplc run`, a Sparkplug B edge node on \
-              a local mosquitto; X1 flipped at the simulator's console at random times, the \
-              harness's own subscriber timestamps the DDATA with the new value (includes the \
-              filter, the wait for the next input phase, the scan, the publish, the broker and \
-              the consumer's decoding). CPU: 1,000 bool memory tags toggled every 100 ms cycle, \
+              a local mosquitto, and an OPC UA server; X1 flipped at the simulator's console at random \
+              times, the harness's own MQTT subscriber timestamps the DDATA with the new value, \
+              and an asyncua client (bench/py/opcua_watch.py) its data-change notification \
+              (includes the filter, the wait for the next input phase, the scan, the publish, \
+              the broker or the server's publishing interval of 10 ms, and the client). CPU: 1,000 bool memory tags toggled every 100 ms cycle, \
               the softplc process's CPU time per second of run, with and without the edge node.",
     run,
 };
 
 const PERIOD: Duration = Duration::from_millis(10);
+/// One read of the MiniMod's inputs on the pty: FC 2 request and reply at 19200 8E1 (8 + 6
+/// characters of 11 bits) with reply delay 0, as the simulator paces it.
+const BUS_CYCLE: Duration = Duration::from_micros(8_021);
 const GROUP: &str = "bench";
 /// Tags of the CPU case, each toggled every cycle.
 const TAGS: usize = 1000;
@@ -61,25 +65,47 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
     }
     let binary = softplc_binary()?;
     match latency(ctx, &binary) {
-        Ok(hist) => {
-            let p = hist.percentiles();
-            out.rows.push(
-                Row::measured("terminal → MQTT consumer", "latency", p)
-                    .bound(Bound::fixed("scan period", PERIOD))
-                    .note(format!(
-                        "{} flips; a change waits up to one scan period for the next input phase",
-                        p.count
-                    )),
-            );
+        Ok(l) => {
+            let mut series = Vec::new();
+            for (case, hist, label) in [
+                (
+                    "terminal → MQTT consumer",
+                    Ok(l.mqtt),
+                    "MQTT: DDATA at a subscriber (mosquitto)",
+                ),
+                (
+                    "terminal → OPC UA client",
+                    l.opcua,
+                    "OPC UA: data-change notification at asyncua",
+                ),
+            ] {
+                match hist {
+                    Ok(hist) => {
+                        let p = hist.percentiles();
+                        out.rows.push(
+                            Row::measured(case, "latency", p)
+                                .bound(Bound::fixed("scan period", PERIOD))
+                                .bound(Bound::fixed("scan period + bus cycle", PERIOD + BUS_CYCLE))
+                                .note(format!(
+                                    "{} flips; a change waits up to one scan period for the next \
+                                     input phase",
+                                    p.count
+                                )),
+                        );
+                        series.push(Series {
+                            label: label.into(),
+                            hist,
+                        });
+                    }
+                    Err(why) => out.rows.push(Row::unavailable(case, "latency", why)),
+                }
+            }
             out.plots.push(Plot {
-                file: "plant-mqtt-latency.svg".into(),
-                title: "Input change at the terminal → DDATA at an MQTT consumer".into(),
+                file: "plant-latency.svg".into(),
+                title: "Input change at the terminal → plant client (10 ms scan)".into(),
                 x_label: "latency".into(),
                 kind: PlotKind::Cdf { log_x: false },
-                series: vec![Series {
-                    label: "softplc edge node, mosquitto, 10 ms scan".into(),
-                    hist,
-                }],
+                series,
             });
         }
         Err(e) => out.rows.push(Row::unavailable(
@@ -274,18 +300,25 @@ fn subscribe(port: u16) -> anyhow::Result<mpsc::Receiver<Received>> {
     Ok(rx)
 }
 
-fn latency(ctx: &Ctx, binary: &Path) -> anyhow::Result<DurationHistogram> {
-    let dir = scratch(ctx, "plant-mqtt")?;
+/// The latency case's figures: MQTT, and OPC UA when its client could run.
+struct Latencies {
+    mqtt: DurationHistogram,
+    opcua: Result<DurationHistogram, String>,
+}
+
+fn latency(ctx: &Ctx, binary: &Path) -> anyhow::Result<Latencies> {
+    let dir = scratch(ctx, "plant-latency")?;
     let broker = Broker::start(&dir)?;
     let mut sim = ServedSim::start(binary, &["minimod@1"])?;
+    let opcua_port = free_port()?;
     let project = dir.join("project.yaml");
     std::fs::write(
         &project,
         format!(
-            "project: plant_mqtt\nscan: {{ period: 10ms }}\nbuses:\n  - {{ name: line1, port: {}, \
+            "project: plant_latency\nscan: {{ period: 10ms }}\nbuses:\n  - {{ name: line1, port: {}, \
              baud: 19200, format: 8E1 }}\nmodules:\n  - {{ name: mm1, bus: line1, model: minimod, \
              address: 1, settings: {{ RDELAYT: 0, XLATUP1: 1, XLATDN1: 1 }} }}\ntags:\n  - {{ \
-             name: x1, point: mm1.X1 }}\n{}",
+             name: x1, point: mm1.X1 }}\n{}  opcua: {{ port: {opcua_port} }}\n",
             sim.path.display(),
             mqtt_section(broker.port)
         ),
@@ -295,7 +328,9 @@ fn latency(ctx: &Ctx, binary: &Path) -> anyhow::Result<DurationHistogram> {
     let _plc = Running::start(binary, &project, Duration::from_secs(600))?;
     // The DBIRTH (X1 false) says the node is up and the module is read.
     wait_for(&rx, "x1", false, Duration::from_secs(20)).context("no DDATA/DBIRTH baseline")?;
-    let mut hist = DurationHistogram::new();
+    let mut opcua = OpcUaWatch::start(opcua_port, "plant_latency", "x1");
+    let mut mqtt = DurationHistogram::new();
+    let mut ua = DurationHistogram::new();
     let mut seed = 0x2545_f491_u32;
     let mut value = false;
     for _ in 0..flips {
@@ -305,15 +340,105 @@ fn latency(ctx: &Ctx, binary: &Path) -> anyhow::Result<DurationHistogram> {
         seed ^= seed << 5;
         std::thread::sleep(Duration::from_micros(u64::from(seed % 20_000)));
         while rx.try_recv().is_ok() {}
+        if let Ok(w) = &opcua {
+            while w.changes.try_recv().is_ok() {}
+        }
         value = !value;
         let t0 = Instant::now();
         sim.command(&format!("set minimod@1.X1 {}", u8::from(value)))?;
         let at = wait_for(&rx, "x1", value, Duration::from_secs(5))
             .with_context(|| format!("no DDATA with x1 = {value} within 5 s"))?;
-        hist.record(at.saturating_duration_since(t0));
+        mqtt.record(at.saturating_duration_since(t0));
+        if let Ok(w) = &opcua {
+            match w.wait_for(value, Duration::from_secs(5)) {
+                Ok(at) => ua.record(at.saturating_duration_since(t0)),
+                Err(e) => opcua = Err(format!("{e:#}")),
+            }
+        }
     }
     drop(broker);
-    Ok(hist)
+    Ok(Latencies {
+        mqtt,
+        opcua: opcua.map(|_| ua),
+    })
+}
+
+/// `bench/py/opcua_watch.py` (asyncua, from the harness's virtual environment) subscribed to
+/// one bool tag: a line per data-change notification, timestamped here when it is read.
+struct OpcUaWatch {
+    child: Child,
+    changes: mpsc::Receiver<(Instant, bool)>,
+}
+
+impl OpcUaWatch {
+    /// The client, subscribed; why not when the environment is missing or it cannot connect.
+    fn start(port: u16, project: &str, tag: &str) -> Result<Self, String> {
+        let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let python = bench.join("../target/bench-venv/bin/python");
+        if !python.exists() {
+            return Err("no target/bench-venv with asyncua: run bench/setup".into());
+        }
+        let mut child = Command::new(python)
+            .arg(bench.join("py/opcua_watch.py"))
+            .arg(format!("opc.tcp://127.0.0.1:{port}/"))
+            .arg(format!("urn:softplc:{project}"))
+            .arg(tag)
+            .arg(PERIOD.as_millis().to_string())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("cannot start the asyncua client: {e}"))?;
+        let stdout = child.stdout.take().ok_or("no stdout from the asyncua client")?;
+        let (tx, rx) = mpsc::channel();
+        let (ready_tx, ready_rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                let at = Instant::now();
+                if line == "READY" || line.starts_with("FAIL") {
+                    // Nobody waits any more once the harness gave up.
+                    ready_tx.send(line).ok();
+                } else if let Some(v) = line.strip_prefix("CHANGE ") {
+                    if tx.send((at, v == "True")).is_err() {
+                        break;
+                    }
+                }
+            }
+        });
+        let watch = Self { child, changes: rx };
+        match ready_rx.recv_timeout(Duration::from_secs(40)) {
+            Ok(line) if line == "READY" => Ok(watch),
+            Ok(line) => Err(format!("the asyncua client: {line}")),
+            Err(_) => Err("the asyncua client did not subscribe within 40 s".into()),
+        }
+    }
+
+    /// The arrival of the notification with `value`.
+    fn wait_for(&self, value: bool, within: Duration) -> anyhow::Result<Instant> {
+        let deadline = Instant::now() + within;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let (at, v) = self
+                .changes
+                .recv_timeout(left)
+                .with_context(|| format!("no OPC UA notification x1 = {value} within {within:?}"))?;
+            if v == value {
+                return Ok(at);
+            }
+        }
+    }
+}
+
+impl Drop for OpcUaWatch {
+    fn drop(&mut self) {
+        // Closing its standard input ends the client; kill it if it lingers.
+        drop(self.child.stdin.take());
+        std::thread::sleep(Duration::from_millis(200));
+        drop(self.child.kill());
+        drop(self.child.wait());
+    }
 }
 
 /// Waits for a DDATA that carries `tag = value`; its arrival time.
