@@ -23,6 +23,7 @@ pub mod model;
 pub mod mqtt;
 pub mod nesting;
 pub mod offload;
+pub mod profile;
 pub mod raw;
 mod raw_schema;
 pub mod recorder;
