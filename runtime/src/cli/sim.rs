@@ -117,15 +117,24 @@ enum ParityArg {
 /// A module to serve: its model, address and own line settings (if not the line's).
 type DeviceSpec = (&'static devices::ModelSpec, u8, Option<LineSettings>);
 
-/// The models of the `--profile` files, each read and checked as a project reads it.
-fn profile_models(files: &[PathBuf]) -> anyhow::Result<Vec<&'static devices::ModelSpec>> {
-    files
-        .iter()
-        .map(|file| match crate::project::profile::load(file) {
-            Ok(profile) => Ok(devices::profile::model_of(profile)),
-            Err(errors) => bail!("{errors}"),
-        })
-        .collect()
+/// The models of the `--profile` files, each read and checked as a project reads it; every
+/// error of every file.
+fn profile_models(
+    files: &[PathBuf],
+) -> Result<Vec<&'static devices::ModelSpec>, crate::project::ProjectErrors> {
+    let mut models = Vec::new();
+    let mut errors = Vec::new();
+    for file in files {
+        match crate::project::profile::load(file) {
+            Ok(profile) => models.push(devices::profile::model_of(profile)),
+            Err(e) => errors.extend(e.errors),
+        }
+    }
+    if errors.is_empty() {
+        Ok(models)
+    } else {
+        Err(crate::project::ProjectErrors { errors })
+    }
 }
 
 /// Parses `minimod@5` or `minimod@5:9600:8N1` into the model (a built-in one or one of
@@ -200,7 +209,13 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     let mut world = SimWorld::new(vec![settings]);
     world.set_echo(SERVED_LINE, args.echo);
     let mut seen = Vec::new();
-    let profiles = profile_models(&args.profiles)?;
+    let profiles = match profile_models(&args.profiles) {
+        Ok(models) => models,
+        Err(errors) => {
+            super::out::errln(&errors.to_string());
+            return Ok(ExitCode::FAILURE);
+        }
+    };
     for spec in &args.devices {
         let (model, addr, own) = parse_device(spec, &profiles)?;
         if seen.contains(&addr) {

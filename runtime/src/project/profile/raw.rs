@@ -45,7 +45,8 @@ use serde::Deserialize;
 
 use crate::project::raw::{DurationText, Int};
 
-/// A profile file.
+/// A device profile: one Modbus device's points, polling and timing, written from its manual
+/// (docs/devices.md).
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,

@@ -240,52 +240,46 @@ pub(super) fn validate(
         }),
     }
 
-    // Points, and the names of points and bit fields (one name space: the project's).
-    let mut names: HashMap<String, usize> = HashMap::new();
+    // The names of points and bit fields (one name space: the project's), then each point.
+    let mut names: HashMap<&str, usize> = HashMap::new();
+    for (i, rp) in raw.points.iter().enumerate() {
+        let p = root.key("points").index(i);
+        let mut named = vec![(rp.name.as_str(), p.key("name"))];
+        for (b, f) in rp.bits.iter().flatten().enumerate() {
+            named.push((f.name.as_str(), p.key("bits").index(b).key("name")));
+        }
+        for (name, at) in named {
+            if let Some(&line) = names.get(name) {
+                let e = ProfileError::Duplicate { what: "point", name: name.to_owned(), line };
+                c.error(&at, e);
+            } else {
+                names.insert(name, c.loc.line(&at));
+            }
+        }
+    }
     let mut points = Vec::new();
     for (i, rp) in raw.points.iter().enumerate() {
         let p = root.key("points").index(i);
         if let Some(point) = point(&mut c, &p, rp, &groups) {
-            let mut named = vec![(point.name.clone(), p.key("name"))];
-            if let Some(bits) = &rp.bits {
-                for (b, f) in bits.iter().enumerate() {
-                    named.push((f.name.clone(), p.key("bits").index(b).key("name")));
-                }
-            }
-            for (name, at) in named {
-                if let Some(&line) = names.get(&name) {
-                    c.error(
-                        &at,
-                        ProfileError::Duplicate {
-                            what: "point",
-                            name,
-                            line,
-                        },
-                    );
-                } else {
-                    names.insert(name, c.loc.line(&at));
-                }
-            }
             points.push(point);
         }
     }
 
-    // Behaviours.
+    // Behaviours, by the points' names (indexes are the file's: the profile is refused
+    // unless every point is good).
     let mut behaviours = Vec::new();
-    let point_names: Vec<String> = points
-        .iter()
-        .map(|p: &ProfilePoint| p.name.clone())
-        .collect();
+    let mut known: Vec<String> = Vec::new();
+    for rp in &raw.points {
+        if !known.contains(&rp.name) {
+            known.push(rp.name.clone());
+        }
+    }
     for (i, b) in raw.simulate.iter().flatten().enumerate() {
         let p = root.key("simulate").index(i);
         let find = |c: &mut Checker<'_>, key: &str, name: &str| {
-            let found = points.iter().position(|q: &ProfilePoint| q.name == name);
+            let found = raw.points.iter().position(|q| q.name == name);
             if found.is_none() {
-                let e = ProfileError::NoSuch {
-                    what: "point",
-                    name: name.to_owned(),
-                    known: point_names.clone(),
-                };
+                let e = ProfileError::NoSuch { what: "point", name: name.to_owned(), known: known.clone() };
                 c.error(&p.key(key), e);
             }
             found
@@ -293,22 +287,13 @@ pub(super) fn validate(
         let point = find(&mut c, "point", &b.point);
         let source = find(&mut c, "follows", &b.follows);
         if let (Some(point), Some(source)) = (point, source) {
+            let bits = |i: usize| TABLES.iter().any(|t| t.is_bits() && t.name() == raw.points[i].table);
             if point == source {
-                c.error(
-                    &p.key("follows"),
-                    ProfileError::BadBehaviour("a point cannot follow itself"),
-                );
-            } else if points[point].table.is_bits() || points[source].table.is_bits() {
-                c.error(
-                    &p.key("point"),
-                    ProfileError::BadBehaviour("a lag moves registers, not bits"),
-                );
+                c.error(&p.key("follows"), ProfileError::BadBehaviour("a point cannot follow itself"));
+            } else if bits(point) || bits(source) {
+                c.error(&p.key("point"), ProfileError::BadBehaviour("a lag moves registers, not bits"));
             } else {
-                behaviours.push(Behaviour::Follow {
-                    point,
-                    source,
-                    time_constant: b.time_constant.0,
-                });
+                behaviours.push(Behaviour::Follow { point, source, time_constant: b.time_constant.0 });
             }
         }
     }
@@ -369,7 +354,8 @@ fn point(
         Some(name) => match groups.iter().position(|g| &g.name == name) {
             Some(g) => Some(g),
             None => {
-                let known = groups.iter().map(|g| g.name.clone()).collect();
+                let mut known: Vec<String> = groups.iter().map(|g| g.name.clone()).collect();
+                known.dedup();
                 c.error(
                     &p.key("poll"),
                     ProfileError::NoSuch {
