@@ -57,7 +57,7 @@ points:
             "meter.yaml:9:50: error: no poll group \"slow\" in this profile (known: cycle)",
             "meter.yaml:10:41: error: a u32 at address 65535 runs past address 65535",
             "meter.yaml:11:13: error: point name \"2x\" is not an identifier (letters, digits and _, not first a digit)",
-            "meter.yaml:11:58: error: unknown type \"float\" (known: bool, u16, i16, u32, i32, f32)",
+            "meter.yaml:11:51: error: unknown type \"float\" (known: bool, u16, i16, u32, i32, f32)",
         ]
     );
 }
@@ -89,7 +89,7 @@ simulate:
             "meter.yaml:6:13: error: poll group fast is already defined at line 5",
             "meter.yaml:6:27: error: period \"10\": no unit (ns, us, ms, s, m or h); expected cycle or a duration like 10s",
             "meter.yaml:12:26: error: bits 15..=16 do not fit a 16-bit register",
-            "meter.yaml:13:55: error: write does not apply to a point the program does not write (access: read)",
+            "meter.yaml:13:50: error: write does not apply to a point the program does not write (access: read)",
             "meter.yaml:15:31: error: no point \"nothing\" in this profile (known: status, run)",
             "meter.yaml:16:14: error: a lag moves registers, not bits",
         ]
@@ -111,7 +111,7 @@ fn yaml_errors_and_unknown_keys_are_placed_too() {
     );
     assert_eq!(
         errors("model: m\npoints: []\n"),
-        ["meter.yaml:1:1: error: missing key `source`"]
+        ["meter.yaml:1:1: error: missing key `source` at the top level"]
     );
 }
 
@@ -138,10 +138,22 @@ fn a_project_names_its_profile_and_check_prints_its_map() {
         )
     };
     let sdm120 = repo().join("examples/profiles/sdm120.yaml");
-    std::fs::write(dir.join("good.yaml"), project(&format!("profile:{}", sdm120.display()))).unwrap();
-    let out = Command::new(BIN).arg("check").arg(dir.join("good.yaml")).output().unwrap();
+    std::fs::write(
+        dir.join("good.yaml"),
+        project(&format!("profile:{}", sdm120.display())),
+    )
+    .unwrap();
+    let out = Command::new(BIN)
+        .arg("check")
+        .arg(dir.join("good.yaml"))
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{text}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     for line in [
         "  module meter = sdm120 @3 (modbus)",
         "      active_power   input 12 f32 ABCD W, read, live every cycle — 30013 Active power → tag power",
@@ -157,11 +169,17 @@ fn a_project_names_its_profile_and_check_prints_its_map() {
 
     // A missing profile, and one with an error: each at its place, the profile's in its file.
     std::fs::write(dir.join("missing.yaml"), project("profile:nowhere.yaml")).unwrap();
-    let out = Command::new(BIN).arg("check").arg(dir.join("missing.yaml")).output().unwrap();
+    let out = Command::new(BIN)
+        .arg("check")
+        .arg(dir.join("missing.yaml"))
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(
-        err.contains("missing.yaml:7:66: error: cannot read profile nowhere.yaml: No such file or directory"),
+        err.contains(
+            "missing.yaml:7:39: error: cannot read profile nowhere.yaml: No such file or directory (os error 2)"
+        ),
         "{err}"
     );
     std::fs::write(
@@ -170,13 +188,20 @@ fn a_project_names_its_profile_and_check_prints_its_map() {
     )
     .unwrap();
     std::fs::write(dir.join("bad.yaml"), project("profile:bad-profile.yaml")).unwrap();
-    let out = Command::new(BIN).arg("check").arg(dir.join("bad.yaml")).output().unwrap();
+    let out = Command::new(BIN)
+        .arg("check")
+        .arg(dir.join("bad.yaml"))
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("bad-profile.yaml:4:69: error: unknown type \"f64\" (known: bool, u16, i16, u32, i32, f32)"),
+        err.contains("bad-profile.yaml:4:59: error: unknown type \"f64\" (known: bool, u16, i16, u32, i32, f32)"),
         "{err}"
     );
-    assert!(err.contains("bad.yaml:7:66: error: profile bad-profile.yaml has 1 error(s)"), "{err}");
+    assert!(
+        err.contains("bad.yaml:7:39: error: profile bad-profile.yaml has 1 error(s)"),
+        "{err}"
+    );
     drop(std::fs::remove_dir_all(&dir));
 }
 
@@ -184,7 +209,10 @@ fn a_project_names_its_profile_and_check_prints_its_map() {
 fn a_profiled_drive_and_a_minimod_on_one_pty_line() {
     let vfd = repo().join("examples/profiles/delta-vfd-el.yaml");
     let vfd = vfd.to_str().unwrap();
-    let (mut sim, pty) = Sim::start(BIN, &["--baud", "19200", "--profile", vfd, "vfd-el@2", "minimod@1"]);
+    let (mut sim, pty) = Sim::start(
+        BIN,
+        &["--baud", "19200", "--profile", vfd, "vfd-el@2", "minimod@1"],
+    );
     let dir = scratch("pty");
     std::fs::write(
         dir.join("drive.rhai"),
@@ -211,17 +239,32 @@ fn a_profiled_drive_and_a_minimod_on_one_pty_line() {
         .unwrap();
     sim.send("set minimod@1.X1 1");
     assert!(
-        sim.wait_for("vfd-el@2.command", "18", Duration::from_secs(5)).is_some(),
+        sim.wait_for("vfd-el@2.command", "18", Duration::from_secs(5))
+            .is_some(),
         "the PLC writes the run command 0x12"
     );
-    assert_eq!(sim.get("vfd-el@2.frequency_command"), "vfd-el@2.frequency_command=40");
+    assert!(
+        sim.wait_for("vfd-el@2.frequency_command", "40", Duration::from_secs(2))
+            .is_some(),
+        "and the setpoint, 40 Hz, in the same write phase"
+    );
     // 35 of 40 Hz with a 1.5 s lag: about 3.1 s after the setpoint.
     let up = sim.wait_for("minimod@1.Y1", "1", Duration::from_secs(6));
-    assert!(up.is_some(), "the lamp lights once the drive is up to speed");
+    assert!(
+        up.is_some(),
+        "the lamp lights once the drive is up to speed"
+    );
     let out = plc.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // Stopped: the safe state writes the stop command and 0 Hz.
     assert_eq!(sim.get("vfd-el@2.command"), "vfd-el@2.command=1");
-    assert_eq!(sim.get("vfd-el@2.frequency_command"), "vfd-el@2.frequency_command=0");
+    assert_eq!(
+        sim.get("vfd-el@2.frequency_command"),
+        "vfd-el@2.frequency_command=0"
+    );
     drop(std::fs::remove_dir_all(&dir));
 }

@@ -16,7 +16,9 @@ const KINDS: [(&str, IsKind); 4] = [
     ("project", |path| path.ends_with("/project.yaml")),
     ("ladder", |path| path.ends_with(".ladder.yaml")),
     ("scenario", |path| path.ends_with(".scenario.yaml")),
-    ("profile", |path| path.contains("/profiles/") && path.ends_with(".yaml")),
+    ("profile", |path| {
+        path.contains("/examples/profiles/") && path.ends_with(".yaml")
+    }),
 ];
 
 fn root() -> PathBuf {
@@ -284,4 +286,21 @@ fn settings_keys_are_offered_per_model_and_judged_by_the_model() {
     );
     let yaml = GOOD_PROJECT.replace("RDELAYT: 5", "RDELAYX: 5");
     assert_eq!(violations("project", &yaml), Vec::<String>::new());
+}
+
+#[test]
+fn a_profile_with_a_wrong_word_or_key_fails_where_it_is() {
+    let text =
+        "model: m\nsource: s\npoints:\n  - { name: v, table: holdng, address: 0, sclae: 2 }\n";
+    let errors = violations("profile", text);
+    assert!(
+        errors.iter().any(|e| e.starts_with("/points/0/table: ")),
+        "{errors:?}"
+    );
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.starts_with("/points/0: ") && e.contains("sclae")),
+        "{errors:?}"
+    );
 }
