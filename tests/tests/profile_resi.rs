@@ -72,7 +72,8 @@ fn the_resi_32di_as_a_profile_reads_what_the_builtin_driver_reads() {
             let mut w = world.lock().unwrap();
             for n in 0..32 {
                 let level = pattern & (1 << n) != 0;
-                w.set(sim, &format!("DI{}", n + 1), Value::Bool(level)).unwrap();
+                w.set(sim, &format!("DI{}", n + 1), Value::Bool(level))
+                    .unwrap();
             }
         }
         // Past the module's 10 ms input sampling.
@@ -93,7 +94,12 @@ fn the_resi_32di_as_a_profile_reads_what_the_builtin_driver_reads() {
             compared += 1;
         }
         // And what the inputs are: DIn as set, the DIS words their bits.
-        let get = |name: &str| profile_read.iter().find(|(n, _)| n == name).map(|(_, v)| *v);
+        let get = |name: &str| {
+            profile_read
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, v)| *v)
+        };
         assert_eq!(get("DI5"), Some(Value::Bool(pattern & (1 << 4) != 0)));
         assert_eq!(get("DIS1_16"), Some(Value::U16(*pattern as u16)));
         assert_eq!(get("DIS17_32"), Some(Value::U16((pattern >> 16) as u16)));

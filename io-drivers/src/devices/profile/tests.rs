@@ -9,10 +9,10 @@ use super::plan::reads;
 use super::*;
 use crate::devices::{ModelSpec, Protocol};
 use crate::driver::{Driver, Outgoing, Reply};
-use crate::modbus::{Request, Response};
 use crate::line::bus::{BusOwner, Discipline, Module, OutputFrame};
 use crate::line::LineSettings;
 use crate::modbus::master::encode_request;
+use crate::modbus::{Request, Response};
 use crate::point::Value;
 use crate::sim::line::{SimWorld, VirtualPort};
 use crate::time::{Clock, VirtualClock};
@@ -126,7 +126,10 @@ fn word_orders_place_the_bytes_as_named() {
     });
     assert_eq!(value::encode(&p, -45.0), vec![(-50i16) as u16]);
     let (raw, _) = value::raw(&p, &[(-50i16) as u16]).unwrap();
-    assert_eq!(value::to_value(&p, value::engineering(&p, raw)), Value::F32(-45.0));
+    assert_eq!(
+        value::to_value(&p, value::engineering(&p, raw)),
+        Value::F32(-45.0)
+    );
     // Saturated at the raw type's range, never wrapped.
     let u = point("u", Table::Holding, 0, DataType::U16);
     assert_eq!(value::encode(&u, 70000.0), vec![u16::MAX]);
@@ -206,7 +209,11 @@ fn a_slow_group_is_read_at_its_period_and_again_after_a_failure() {
         out.len()
     };
     // Fast: the setpoint, the status, the output (apart: three reads); slow: the hours.
-    assert_eq!(cycle(&mut d, 0, true), 4, "the first cycle reads every group");
+    assert_eq!(
+        cycle(&mut d, 0, true),
+        4,
+        "the first cycle reads every group"
+    );
     assert_eq!(cycle(&mut d, 100, true), 3);
     assert_eq!(cycle(&mut d, 900, true), 3);
     assert_eq!(cycle(&mut d, 1000, false), 4, "1 s after the first");

@@ -250,7 +250,11 @@ pub(super) fn validate(
         }
         for (name, at) in named {
             if let Some(&line) = names.get(name) {
-                let e = ProfileError::Duplicate { what: "point", name: name.to_owned(), line };
+                let e = ProfileError::Duplicate {
+                    what: "point",
+                    name: name.to_owned(),
+                    line,
+                };
                 c.error(&at, e);
             } else {
                 names.insert(name, c.loc.line(&at));
@@ -279,7 +283,11 @@ pub(super) fn validate(
         let find = |c: &mut Checker<'_>, key: &str, name: &str| {
             let found = raw.points.iter().position(|q| q.name == name);
             if found.is_none() {
-                let e = ProfileError::NoSuch { what: "point", name: name.to_owned(), known: known.clone() };
+                let e = ProfileError::NoSuch {
+                    what: "point",
+                    name: name.to_owned(),
+                    known: known.clone(),
+                };
                 c.error(&p.key(key), e);
             }
             found
@@ -287,13 +295,27 @@ pub(super) fn validate(
         let point = find(&mut c, "point", &b.point);
         let source = find(&mut c, "follows", &b.follows);
         if let (Some(point), Some(source)) = (point, source) {
-            let bits = |i: usize| TABLES.iter().any(|t| t.is_bits() && t.name() == raw.points[i].table);
+            let bits = |i: usize| {
+                TABLES
+                    .iter()
+                    .any(|t| t.is_bits() && t.name() == raw.points[i].table)
+            };
             if point == source {
-                c.error(&p.key("follows"), ProfileError::BadBehaviour("a point cannot follow itself"));
+                c.error(
+                    &p.key("follows"),
+                    ProfileError::BadBehaviour("a point cannot follow itself"),
+                );
             } else if bits(point) || bits(source) {
-                c.error(&p.key("point"), ProfileError::BadBehaviour("a lag moves registers, not bits"));
+                c.error(
+                    &p.key("point"),
+                    ProfileError::BadBehaviour("a lag moves registers, not bits"),
+                );
             } else {
-                behaviours.push(Behaviour::Follow { point, source, time_constant: b.time_constant.0 });
+                behaviours.push(Behaviour::Follow {
+                    point,
+                    source,
+                    time_constant: b.time_constant.0,
+                });
             }
         }
     }
