@@ -334,3 +334,65 @@ fn a_profile_is_interned_by_content() {
     other.model = "another".into();
     assert!(!std::ptr::eq(model_of(other), a));
 }
+
+/// How long one full read of a slow device takes on the line, and whether it was good, with
+/// the profile's `reply_timeout` and `frame_gap` as given.
+fn slow_device_read(
+    reply_timeout: Option<Duration>,
+    frame_gap: Option<Duration>,
+) -> (Duration, crate::point::Quality) {
+    let mut p = profile(vec![
+        point("a", Table::Holding, 0, DataType::U16),
+        point("b", Table::Holding, 10, DataType::U16),
+    ]);
+    // It answers after 150 ms: past the line's 100 ms response timeout.
+    p.timing.reply_delay = Duration::from_millis(150);
+    p.timing.reply_timeout = reply_timeout;
+    p.timing.frame_gap = frame_gap;
+    let model = model_of(p);
+    let settings = LineSettings::DEFAULT;
+    let mut world = SimWorld::new(vec![settings]);
+    world.add_device(0, "slow", model.simulate(1));
+    let world = world.shared();
+    let clock = Arc::new(VirtualClock::new());
+    let port = VirtualPort::new(world.clone(), 0, settings, clock.clone());
+    let config = model
+        .device_config("slow", 1, Protocol::Modbus, &[])
+        .unwrap();
+    let module = Module::new("slow", (model.driver)(&config));
+    let mut owner = BusOwner::new("line", Box::new(port), Discipline::default(), vec![module]);
+    drop(owner.startup());
+    // A second cycle, after the first: the gap counts between frames of a running line.
+    owner.read_inputs();
+    clock.advance_to(Duration::from_secs(5));
+    owner.sync(clock.now());
+    let started = owner.now();
+    let frame = owner.read_inputs();
+    (frame.finished - started, frame.modules[0].quality)
+}
+
+#[test]
+fn a_devices_reply_timeout_and_frame_gap_are_the_bus_owners() {
+    use crate::point::Quality;
+    let (_, quality) = slow_device_read(None, None);
+    assert_ne!(
+        quality,
+        Quality::Good,
+        "the line's 100 ms is too short for it"
+    );
+    let (plain, quality) = slow_device_read(Some(Duration::from_millis(300)), None);
+    assert_eq!(quality, Quality::Good, "its own 300 ms is long enough");
+    let (gapped, quality) = slow_device_read(
+        Some(Duration::from_millis(300)),
+        Some(Duration::from_millis(50)),
+    );
+    assert_eq!(quality, Quality::Good);
+    // Two reads, each after 50 ms of silence instead of t3.5 (2 ms at 19200 Bd).
+    let t3_5 = LineSettings::DEFAULT.t3_5();
+    let extra = gapped - plain;
+    assert!(
+        extra >= (Duration::from_millis(50) - t3_5)
+            && extra <= 2 * (Duration::from_millis(50) - t3_5),
+        "{extra:?} more with the gap"
+    );
+}
