@@ -143,4 +143,22 @@ pub trait Driver: Send + Debug {
 
     /// The device's reply delay as configured (used for the line's budget).
     fn reply_delay(&self) -> Duration;
+
+    /// The line's time now, told before each [`Driver::plan_read`] (a driver whose points
+    /// have their own poll periods plans from it).
+    fn advance_to(&mut self, now: Duration) {
+        let _ = now;
+    }
+
+    /// How long the device may take to reply, when it needs other than its line's
+    /// `response_timeout` (a device profile's `reply_timeout`).
+    fn response_timeout(&self) -> Option<Duration> {
+        None
+    }
+
+    /// The silence the device needs before a request to it, from the end of the last frame
+    /// on the line, when it needs more than the line's t3.5 (a device profile's `frame_gap`).
+    fn frame_gap(&self) -> Option<Duration> {
+        None
+    }
 }

@@ -44,7 +44,13 @@ fn every_program_scenario_passes_in_both_engines() {
 
 #[test]
 fn every_example_project_checks_and_finds_its_scenarios() {
-    for example in ["stairway", "conveyor", "pump_station", "traffic_light"] {
+    for example in [
+        "stairway",
+        "conveyor",
+        "pump_station",
+        "traffic_light",
+        "energy-meter",
+    ] {
         let project = format!("examples/{example}/project.yaml");
         let (ok, text) = softplc(&["check", &project]);
         assert!(ok, "{project}: {text}");

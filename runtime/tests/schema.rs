@@ -8,14 +8,17 @@ use std::process::Command;
 
 use serde_json::Value;
 
-/// Whether a file name is of a kind.
+/// Whether a file (its path) is of a kind.
 type IsKind = fn(&str) -> bool;
 
-/// The three file kinds: `softplc schema` argument, and which files are of that kind.
-const KINDS: [(&str, IsKind); 3] = [
-    ("project", |name| name == "project.yaml"),
-    ("ladder", |name| name.ends_with(".ladder.yaml")),
-    ("scenario", |name| name.ends_with(".scenario.yaml")),
+/// The file kinds: `softplc schema` argument, and which files are of that kind.
+const KINDS: [(&str, IsKind); 4] = [
+    ("project", |path| path.ends_with("/project.yaml")),
+    ("ladder", |path| path.ends_with(".ladder.yaml")),
+    ("scenario", |path| path.ends_with(".scenario.yaml")),
+    ("profile", |path| {
+        path.contains("/examples/profiles/") && path.ends_with(".yaml")
+    }),
 ];
 
 fn root() -> PathBuf {
@@ -83,14 +86,14 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// The repository's files of schema `kind`: the examples' projects, the programs' ladder
-/// programs and scenarios.
+/// The repository's files of schema `kind`: the examples' projects and device profiles, the
+/// programs' ladder programs and scenarios.
 fn repository_files(kind: &str) -> Vec<PathBuf> {
     let (_, is_kind) = KINDS.iter().find(|(k, _)| *k == kind).expect("a kind");
     let files: Vec<PathBuf> = ["examples", "programs"]
         .iter()
         .flat_map(|d| files_under(&root().join(d)))
-        .filter(|p| is_kind(p.file_name().and_then(|n| n.to_str()).unwrap_or("")))
+        .filter(|p| is_kind(p.to_str().unwrap_or("")))
         .collect();
     assert!(!files.is_empty(), "no {kind} files found");
     files
@@ -124,8 +127,8 @@ fn every_example_and_program_passes_its_schema() {
             checked += 1;
         }
     }
-    // 8 example projects, 4 ladder programs, 7 scenarios at the time of writing.
-    assert!(checked >= 19, "only {checked} files checked");
+    // 9 example projects, 4 ladder programs, 8 scenarios, 3 profiles at the time of writing.
+    assert!(checked >= 24, "only {checked} files checked");
 }
 
 #[test]
@@ -283,4 +286,21 @@ fn settings_keys_are_offered_per_model_and_judged_by_the_model() {
     );
     let yaml = GOOD_PROJECT.replace("RDELAYT: 5", "RDELAYX: 5");
     assert_eq!(violations("project", &yaml), Vec::<String>::new());
+}
+
+#[test]
+fn a_profile_with_a_wrong_word_or_key_fails_where_it_is() {
+    let text =
+        "model: m\nsource: s\npoints:\n  - { name: v, table: holdng, address: 0, sclae: 2 }\n";
+    let errors = violations("profile", text);
+    assert!(
+        errors.iter().any(|e| e.starts_with("/points/0/table: ")),
+        "{errors:?}"
+    );
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.starts_with("/points/0: ") && e.contains("sclae")),
+        "{errors:?}"
+    );
 }

@@ -78,6 +78,12 @@ const SNIPPETS: &[&str] = &[
     "while true {",
     "\t",
     "\u{feff}",
+    "holding",
+    "f32",
+    "CDAB",
+    "65535",
+    "scale: 0",
+    "bits: [{ name: b, bit: 15, width: 9 }]",
     "é",
     "\u{0}",
 ];
@@ -121,10 +127,52 @@ fn project_seeds() -> Vec<String> {
         "pump_station",
         "stairway",
         "traffic_light",
+        "energy-meter",
     ]
     .iter()
     .map(|e| read(&format!("examples/{e}/project.yaml")))
     .collect()
+}
+
+fn profile_seeds() -> Vec<String> {
+    ["sdm120", "delta-vfd-el", "resi-32di"]
+        .iter()
+        .map(|p| read(&format!("examples/profiles/{p}.yaml")))
+        .collect()
+}
+
+/// Drives and simulates a profile that read: its reads and full writes planned, each request
+/// served by its simulator, every point read and set through the console's path.
+fn exercise_profile(profile: project::profile::Profile) {
+    use softplc_io::devices::profile::model_of;
+    use softplc_io::devices::Protocol;
+    use softplc_io::driver::Outgoing;
+    let model = model_of(profile);
+    let address = *model.addresses.start();
+    let Ok(config) = model.device_config("fuzz", address, Protocol::Modbus, &[]) else {
+        return;
+    };
+    let mut driver = (model.driver)(&config);
+    let mut sim = model.simulate(address);
+    let mut plan = Vec::new();
+    driver.advance_to(Duration::from_secs(1));
+    driver.plan_read(&mut plan);
+    let desired: Vec<_> = model.points.iter().map(|p| Some(p.ty.zero())).collect();
+    driver.plan_write(&desired, true, &mut plan);
+    for (i, tx) in plan.iter().enumerate() {
+        if let Outgoing::Modbus { unit, request } = &tx.frame {
+            let mut frame = Vec::new();
+            if softplc_io::modbus::master::encode_request(unit.get(), request, &mut frame).is_ok() {
+                drop(sim.on_frame(&frame, Duration::from_millis(i as u64)));
+            }
+        }
+        driver.on_failure(tx.tag);
+    }
+    for p in model.points {
+        drop(sim.get(p.name));
+        drop(sim.set(p.name, p.ty.zero()));
+    }
+    sim.advance_to(Duration::from_secs(10));
 }
 
 /// The conveyor example's tags, which the program seeds use.
@@ -169,6 +217,15 @@ proptest! {
     fn project_files(text in mutated(project_seeds())) {
         // Relative program paths resolve against the example's folder, as `load` would.
         drop(project::parse_str(&text, &repo().join("examples/conveyor/project.yaml")));
+    }
+
+    #[test]
+    fn profile_files(text in mutated(profile_seeds())) {
+        // A profile that reads is driven and simulated: plans, writes, and its simulator
+        // answering the plan's requests and its console's questions.
+        if let Ok(profile) = project::profile::parse_str(&text, Path::new("fuzz.yaml")) {
+            exercise_profile(profile);
+        }
     }
 
     #[test]

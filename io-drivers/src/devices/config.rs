@@ -120,6 +120,8 @@ pub enum ModuleSettings {
     Resi(resi::driver::settings::Settings),
     /// An EX-9053D's or EX-9053D-M's.
     Ex9053(ex9053::settings::Settings),
+    /// A profile module's: its profile.
+    Profile(super::profile::catalog::ProfileSettings),
 }
 
 impl ModuleSettings {
@@ -129,6 +131,7 @@ impl ModuleSettings {
             ModuleSettings::MiniMod(s) => s.items().is_empty(),
             ModuleSettings::Resi(s) => s.items().is_empty(),
             ModuleSettings::Ex9053(s) => *s == ex9053::settings::Settings::default(),
+            ModuleSettings::Profile(_) => true,
         }
     }
 }
@@ -162,6 +165,8 @@ pub enum Accepted {
     },
     /// The EX-9053D's list.
     Ex9053,
+    /// A profile module's: none.
+    Profile,
 }
 
 impl fmt::Display for Accepted {
@@ -180,6 +185,9 @@ impl fmt::Display for Accepted {
             ),
             Accepted::Ex9053 => {
                 f.write_str("checksum, latch, counters, count_edge, watchdog, sync")
+            }
+            Accepted::Profile => {
+                f.write_str("nothing: a profile module is described by its profile file")
             }
         }
     }
@@ -347,7 +355,7 @@ impl ModelSpec {
             .iter()
             .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
             .collect();
-        let settings = (self.parse_settings)(&owned).map_err(|errors| {
+        let settings = self.parse(&owned).map_err(|errors| {
             let first = errors
                 .first()
                 .and_then(|e| Some((owned.get(e.index)?, e.error)));

@@ -4,6 +4,7 @@
 mod config;
 pub mod ex9053;
 pub mod minimod;
+pub mod profile;
 pub mod resi;
 
 use std::time::Duration;
@@ -62,12 +63,31 @@ pub struct ModelSpec {
     pub parse_settings: ParseSettings,
     /// Every setting key the model accepts, in the manual's spelling (for "did you mean").
     pub setting_keys: fn() -> Vec<&'static str>,
+    /// The profile a model read from a profile file is built from (`None` for the built-in
+    /// models). Its simulator is made by [`ModelSpec::simulate`], which can reach it.
+    pub profile: Option<&'static profile::Profile>,
 }
 
 impl ModelSpec {
     /// Index of a point by name (case-sensitive, the manual's spelling).
     pub fn point_index(&self, name: &str) -> Option<usize> {
         self.points.iter().position(|p| p.name == name)
+    }
+
+    /// A simulator of the model at `address` (a profile model's from its profile).
+    pub fn simulate(&'static self, address: u8) -> Box<dyn SimDevice> {
+        match self.profile {
+            Some(_) => Box::new(profile::sim::ProfileSim::new(self, address)),
+            None => (self.simulator)(address),
+        }
+    }
+
+    /// A module entry's `settings:` parsed by the model, once (a profile model takes none).
+    pub fn parse(&self, pairs: &[(String, String)]) -> Result<ModuleSettings, Vec<KeyError>> {
+        match self.profile {
+            Some(p) => profile::catalog::parse(p, pairs),
+            None => (self.parse_settings)(pairs),
+        }
     }
 }
 

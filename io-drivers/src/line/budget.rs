@@ -157,6 +157,10 @@ pub fn line_budget_on(
     let mut plan = Vec::new();
     for (name, driver, access) in drivers.iter_mut() {
         let delay = driver.reply_delay();
+        // A device that needs more silence than t3.5 before a request adds the difference.
+        let gap = driver
+            .frame_gap()
+            .map_or(Duration::ZERO, |g| g.saturating_sub(settings.t3_5()));
         plan.clear();
         driver.plan_read(&mut plan);
         if let Some((unit, _)) = driver.collect_membership() {
@@ -177,7 +181,7 @@ pub fn line_budget_on(
         let read_transactions = plan.len();
         let read_time = plan
             .iter()
-            .map(|tx| transaction_time_on(settings, adapter, tx, delay))
+            .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
             .sum();
         let desired: Vec<_> = access
             .iter()
@@ -188,7 +192,7 @@ pub fn line_budget_on(
         let write_transactions = plan.len();
         let write_time = plan
             .iter()
-            .map(|tx| transaction_time_on(settings, adapter, tx, delay))
+            .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
             .sum();
         modules.push(ModuleBudget {
             name: name.clone(),

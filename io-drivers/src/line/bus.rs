@@ -570,6 +570,7 @@ impl BusOwner {
                 error = self.restart(m).err();
             }
             if error.is_none() {
+                self.modules[m].driver.advance_to(now);
                 self.read_plan(m, plan);
                 // A module that failed its last cycle (a lost one's probe included) gets one
                 // attempt per exchange until it answers again: retries are for noise, not for
@@ -806,7 +807,14 @@ impl BusOwner {
             },
             Outgoing::NoReply { bytes } => Frame::NoReply(bytes),
         };
-        let timeout = self.discipline.response_timeout;
+        // A device may need a longer reply timeout or inter-frame gap than its line's.
+        let driver = &self.modules[m].driver;
+        let timeout = driver
+            .response_timeout()
+            .unwrap_or(self.discipline.response_timeout);
+        if let Some(gap) = driver.frame_gap() {
+            self.line_free_at += gap.saturating_sub(self.settings.t3_5());
+        }
         let done = self.exchange(frame, timeout, Silence::Timeout);
         let counters = &mut self.modules[m].counters;
         counters.dropped_bytes += done.dropped as u64;

@@ -130,6 +130,9 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
             let (watchdog, warning) = crate::project::watchdog::report(module);
             let _ = writeln!(out, "{watchdog}");
             warnings.extend(warning);
+            if let Some(profile) = module.model.profile {
+                let _ = write!(out, "{}", profile_map(profile, m, &project.tags));
+            }
             for (i, tag) in project.tags.iter().enumerate() {
                 if let Binding::Point { module: tm, point } = tag.binding {
                     if tm == m {
@@ -178,10 +181,19 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         if let Some(line) = collect_floor_line(bus.settings, adapter, &drivers) {
             let _ = writeln!(out, "  {line}");
         }
+        let floor = budget.cycle_floor().as_secs_f64();
         for m in &budget.modules {
+            let share = if floor > 0.0 {
+                format!(
+                    " ({:.0}% of the line's cycle floor)",
+                    (m.read_time + m.write_time).as_secs_f64() * 100.0 / floor
+                )
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 out,
-                "    {}: read {} in {} tx, write {} in {} tx",
+                "    {}: read {} in {} tx, write {} in {} tx{share}",
                 m.name,
                 fmt_duration(m.read_time),
                 m.read_transactions,
@@ -263,6 +275,64 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
     out.push_str(&crate::service::network::report(project));
     for w in warnings {
         let _ = writeln!(out, "{w}");
+    }
+    out
+}
+
+/// A profile module's I/O map: where the profile came from, its timing and poll groups, then
+/// every point (table, address, type, scaling, access, group, the manual's name) with the tag
+/// bound to it.
+fn profile_map(
+    profile: &softplc_io::devices::profile::Profile,
+    module: usize,
+    tags: &[crate::project::TagConfig],
+) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(out, "    profile {}: {}", profile.model, profile.source);
+    let t = &profile.timing;
+    let groups: Vec<String> = profile
+        .groups
+        .iter()
+        .map(|g| match g.period {
+            Some(p) => format!("{} every {}", g.name, fmt_duration(p)),
+            None => format!("{} every cycle", g.name),
+        })
+        .collect();
+    let _ =
+        writeln!(
+        out,
+        "    timing: reply delay {}, reply timeout {}, frame gap {}; at most {} registers / {} \
+         bits per read{}; poll groups: {}",
+        fmt_duration(t.reply_delay),
+        t.reply_timeout.map_or("the line's".into(), fmt_duration),
+        t.frame_gap.map_or("t3.5".into(), fmt_duration),
+        profile.limits.max_registers,
+        profile.limits.max_bits,
+        if profile.limits.read_gaps { ", gaps read" } else { "" },
+        groups.join(", ")
+    );
+    for (e, entry) in profile.entries().into_iter().enumerate() {
+        let p = &profile.points[entry.point];
+        let name = match entry.bits {
+            Some(b) => &p.bits[b].name,
+            None => &p.name,
+        };
+        let bound: Vec<&str> = tags
+            .iter()
+            .filter(|t| t.binding == Binding::Point { module, point: e })
+            .map(|t| t.name.as_str())
+            .collect();
+        let tag = if bound.is_empty() {
+            String::new()
+        } else {
+            format!(" → tag {}", bound.join(", "))
+        };
+        let _ = writeln!(
+            out,
+            "      {name:<14} {}{tag}",
+            softplc_io::devices::profile::catalog::describe(profile, entry)
+        );
     }
     out
 }

@@ -27,6 +27,8 @@ pub(crate) enum FileKind {
     Ladder,
     /// A scenario file for `softplc test` (`*.scenario.yaml`).
     Scenario,
+    /// A device profile (`model: profile:FILE`, `softplc sim --profile FILE`).
+    Profile,
 }
 
 impl FileKind {
@@ -36,6 +38,7 @@ impl FileKind {
             FileKind::Project => "softplc project file",
             FileKind::Ladder => "softplc ladder program",
             FileKind::Scenario => "softplc scenario file",
+            FileKind::Profile => "softplc device profile",
         }
     }
 }
@@ -65,6 +68,9 @@ fn generate(kind: FileKind) -> Schema {
         FileKind::Project => generator.root_schema_for::<crate::project::raw::RawProject>(),
         FileKind::Ladder => crate::logic::ladder::file_schema(&mut generator),
         FileKind::Scenario => super::test::scenario::file_schema(&mut generator),
+        FileKind::Profile => {
+            generator.root_schema_for::<crate::project::profile::raw::RawProfile>()
+        }
     }
 }
 
@@ -120,7 +126,12 @@ mod tests {
     // generates and names itself.
     #[test]
     fn every_kind_has_its_title() {
-        for kind in [FileKind::Project, FileKind::Ladder, FileKind::Scenario] {
+        for kind in [
+            FileKind::Project,
+            FileKind::Ladder,
+            FileKind::Scenario,
+            FileKind::Profile,
+        ] {
             let text = schema_text(kind).unwrap();
             assert!(text.contains(kind.title()), "{kind:?}");
             assert!(text.contains("\"additionalProperties\": false"), "{kind:?}");

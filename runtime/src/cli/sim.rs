@@ -26,7 +26,9 @@ to give to the master. --option DEVICE:NAME=VALUE sets a simulator's option befo
 as `DEVICE option NAME VALUE` would: where a manual can be read two ways, the simulator
 serves either (minimod@5:watchdog-registers=aliased keeps WDTTIME/WDTYMASK at holding
 registers 8/9, the coil/register aliasing rule, instead of the register table's 128/144;
-`DEVICE options` lists a module's options).
+`DEVICE options` lists a module's options). --profile FILE adds the device a profile file
+describes, served by its model name: `--profile sdm120.yaml sdm120@3` (docs/devices.md); its
+points are set and read like any module's, and it follows its profile's `simulate:` lags.
 
 Commands on standard input (one per line):
   set DEVICE.POINT VALUE   set a simulated input (the terminal's level) or any point
@@ -76,9 +78,13 @@ pub(crate) struct SimArgs {
     /// transmission does (for a master's `echo: discard`).
     #[arg(long)]
     echo: bool,
-    /// Modules to simulate, as MODEL@ADDR or MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1).
+    /// Modules to simulate, as MODEL@ADDR or MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1);
+    /// MODEL is a built-in model or the `model:` of a --profile.
     #[arg(required = true)]
     devices: Vec<String>,
+    /// A device profile file whose model the devices may name (sdm120@3); repeatable.
+    #[arg(long = "profile", value_name = "FILE")]
+    profiles: Vec<PathBuf>,
     /// A simulator option, DEVICE:NAME=VALUE (minimod@5:watchdog-registers=aliased);
     /// repeatable.
     #[arg(long = "option", value_name = "DEVICE:NAME=VALUE")]
@@ -111,8 +117,32 @@ enum ParityArg {
 /// A module to serve: its model, address and own line settings (if not the line's).
 type DeviceSpec = (&'static devices::ModelSpec, u8, Option<LineSettings>);
 
-/// Parses `minimod@5` or `minimod@5:9600:8N1` into the model, the address and the settings.
-fn parse_device(spec: &str) -> anyhow::Result<DeviceSpec> {
+/// The models of the `--profile` files, each read and checked as a project reads it; every
+/// error of every file.
+fn profile_models(
+    files: &[PathBuf],
+) -> Result<Vec<&'static devices::ModelSpec>, crate::project::ProjectErrors> {
+    let mut models = Vec::new();
+    let mut errors = Vec::new();
+    for file in files {
+        match crate::project::profile::load(file) {
+            Ok(profile) => models.push(devices::profile::model_of(profile)),
+            Err(e) => errors.extend(e.errors),
+        }
+    }
+    if errors.is_empty() {
+        Ok(models)
+    } else {
+        Err(crate::project::ProjectErrors { errors })
+    }
+}
+
+/// Parses `minimod@5` or `minimod@5:9600:8N1` into the model (a built-in one or one of
+/// `profiles`), the address and the settings.
+fn parse_device(
+    spec: &str,
+    profiles: &[&'static devices::ModelSpec],
+) -> anyhow::Result<DeviceSpec> {
     let (head, own) = match spec.split_once(':') {
         None => (spec, None),
         Some((head, line)) => {
@@ -133,8 +163,13 @@ fn parse_device(spec: &str) -> anyhow::Result<DeviceSpec> {
     let Some((model, addr)) = head.split_once('@') else {
         bail!("{spec:?}: expected MODEL@ADDR, e.g. minimod@5");
     };
-    let Some(m) = devices::model(model) else {
-        let known: Vec<_> = devices::catalog().iter().map(|m| m.name).collect();
+    let found = profiles.iter().copied().find(|m| m.name == model);
+    let Some(m) = found.or_else(|| devices::model(model)) else {
+        let known: Vec<_> = profiles
+            .iter()
+            .chain(devices::catalog())
+            .map(|m| m.name)
+            .collect();
         bail!(
             "{spec:?}: unknown model {model:?} (known: {})",
             known.join(", ")
@@ -174,8 +209,15 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     let mut world = SimWorld::new(vec![settings]);
     world.set_echo(SERVED_LINE, args.echo);
     let mut seen = Vec::new();
+    let profiles = match profile_models(&args.profiles) {
+        Ok(models) => models,
+        Err(errors) => {
+            super::out::errln(&errors.to_string());
+            return Ok(ExitCode::FAILURE);
+        }
+    };
     for spec in &args.devices {
-        let (model, addr, own) = parse_device(spec)?;
+        let (model, addr, own) = parse_device(spec, &profiles)?;
         if seen.contains(&addr) {
             bail!("{spec:?}: address {addr} is given twice");
         }
@@ -183,7 +225,7 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         let i = world.add_device(
             SERVED_LINE,
             &format!("{}@{addr}", model.name),
-            (model.simulator)(addr),
+            model.simulate(addr),
         );
         match own {
             Some(own) => world.set_device_settings(i, own),

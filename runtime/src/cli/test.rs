@@ -35,8 +35,16 @@ pub fn find(path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let project = std::fs::canonicalize(path)?;
     let mut dirs = vec![project.parent().map(Path::to_path_buf).unwrap_or_default()];
     if let Ok(p) = crate::project::load(path) {
-        if let Some(d) = p.program.path.parent() {
-            dirs.push(d.to_path_buf());
+        // The program's folder, unless it is the project's own (then walked once).
+        if let Some(d) = p
+            .program
+            .path
+            .parent()
+            .and_then(|d| std::fs::canonicalize(d).ok())
+        {
+            if !dirs.contains(&d) {
+                dirs.push(d);
+            }
         }
     }
     let mut out = Vec::new();

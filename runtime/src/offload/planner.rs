@@ -451,7 +451,7 @@ impl Site<'_> {
         match &self.config().device.settings {
             ModuleSettings::MiniMod(s) => s.sets(register),
             ModuleSettings::Resi(s) => s.sets(register),
-            ModuleSettings::Ex9053(_) => false,
+            ModuleSettings::Ex9053(_) | ModuleSettings::Profile(_) => false,
         }
     }
 }

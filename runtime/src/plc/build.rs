@@ -263,7 +263,7 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
     }
     for module in &project.modules {
         if project.buses[module.bus].port == PortConfig::Sim {
-            let mut sim = (module.model.simulator)(module.device.address.get());
+            let mut sim = module.model.simulate(module.device.address.get());
             if module.device.protocol != module.model.protocols[0] {
                 // Validation checked the model speaks it, so this cannot be refused.
                 drop(sim.set_protocol(module.device.protocol));

@@ -272,6 +272,10 @@ pub enum ErrorKind {
         /// The buses of the project.
         known: Vec<String>,
     },
+    /// An error of a device profile file (at its own file:line:col), or of the reference to
+    /// one.
+    #[error(transparent)]
+    Profile(#[from] super::profile::ProfileError),
     /// A model that is not in the catalog.
     #[error("unknown model \"{name}\" (known: {})", known.join(", "))]
     UnknownModel {

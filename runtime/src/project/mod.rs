@@ -24,6 +24,7 @@ pub mod mqtt;
 pub mod nesting;
 pub mod offload;
 pub mod opcua;
+pub mod profile;
 pub mod raw;
 mod raw_schema;
 pub mod recorder;

@@ -225,7 +225,16 @@ pub(crate) mod field {
         let models = softplc_io::devices::catalog()
             .iter()
             .map(|m| (m.name, m.summary));
-        named(models)
+        let mut schema = named(models);
+        // Or a device profile file, relative to the project's folder.
+        if let Some(serde_json::Value::Array(choices)) = schema.get_mut("anyOf") {
+            choices.push(serde_json::json!({
+                "pattern": "^profile:.+",
+                "description": "a device profile file, relative to the project file's folder: \
+                                profile:profiles/sdm120.yaml"
+            }));
+        }
+        schema
     }
 
     /// `plant.model`: a plant model of the simulator's catalog, each with its summary.

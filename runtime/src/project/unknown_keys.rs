@@ -14,23 +14,27 @@
 use std::path::Path;
 
 use super::error::{ErrorKind, ProjectError};
-use super::raw::RawProject;
+use serde::de::DeserializeOwned;
 
 /// At most this many unknown keys are collected (each costs a reading of the document).
 const MAX_UNKNOWN: usize = 64;
 
 /// What reading the text gave once every unknown key was blanked out.
-pub(super) struct Pruned {
+pub(super) struct Pruned<T> {
     /// One error per unknown key, in the order found.
     pub(super) unknown: Vec<ProjectError>,
     /// The document without them (and that text, with the same positions as the original),
     /// or the reader's first other error.
-    pub(super) rest: Result<(RawProject, String), ProjectError>,
+    pub(super) rest: Result<(T, String), ProjectError>,
 }
 
 /// Reads `text` (whose first reading failed with `first`, an unknown key) again and again,
 /// without each unknown key found.
-pub(super) fn prune(text: &str, file: &Path, first: ProjectError) -> Pruned {
+pub(super) fn prune<T: DeserializeOwned>(
+    text: &str,
+    file: &Path,
+    first: ProjectError,
+) -> Pruned<T> {
     let mut unknown = Vec::new();
     let mut text = text.to_owned();
     let mut error = first;
@@ -51,7 +55,7 @@ pub(super) fn prune(text: &str, file: &Path, first: ProjectError) -> Pruned {
                 rest: Err(last),
             };
         }
-        match yaml_serde::from_str::<RawProject>(&text) {
+        match yaml_serde::from_str::<T>(&text) {
             Ok(raw) => {
                 return Pruned {
                     unknown,

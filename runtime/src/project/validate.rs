@@ -199,7 +199,43 @@ struct Validator<'a> {
     errors: Vec<ProjectError>,
 }
 
+/// A module's model read from a profile file: `model: profile:PATH`.
+const PROFILE_PREFIX: &str = "profile:";
+
 impl Validator<'_> {
+    /// The model of the profile at `rel` (relative to the project file's folder); its errors
+    /// are the profile file's own, and one at the module's `model:` says it was refused.
+    fn profile_model(&mut self, rel: &str, at: &YPath) -> Option<&'static ModelSpec> {
+        let rel = rel.trim();
+        let dir = self.file.parent().unwrap_or(Path::new(""));
+        let file = dir.join(rel);
+        if !file.is_file() {
+            let message = match std::fs::metadata(&file) {
+                Ok(_) => "not a file".to_owned(),
+                Err(e) => e.to_string(),
+            };
+            let e = crate::project::profile::ProfileError::Unreadable {
+                path: rel.to_owned(),
+                message,
+            };
+            self.error(at.clone(), ErrorKind::Profile(e));
+            return None;
+        }
+        match crate::project::profile::load(&file) {
+            Ok(profile) => Some(softplc_io::devices::profile::model_of(profile)),
+            Err(errors) => {
+                let count = errors.len();
+                self.errors.extend(errors.errors);
+                let e = crate::project::profile::ProfileError::Refused {
+                    path: rel.to_owned(),
+                    count,
+                };
+                self.error(at.clone(), ErrorKind::Profile(e));
+                None
+            }
+        }
+    }
+
     fn error(&mut self, path: YPath, kind: ErrorKind) {
         let (line, column) = self.loc.position(&path);
         self.errors.push(ProjectError {
@@ -532,8 +568,11 @@ impl Validator<'_> {
                 },
             );
         }
-        let model = devices::model(&m.model);
-        if model.is_none() {
+        let model = match m.model.strip_prefix(PROFILE_PREFIX) {
+            Some(rel) => self.profile_model(rel, &path.key("model")),
+            None => devices::model(&m.model),
+        };
+        if model.is_none() && !m.model.starts_with(PROFILE_PREFIX) {
             let known = devices::catalog().iter().map(|s| s.name).collect();
             self.error(
                 path.key("model"),
@@ -649,7 +688,7 @@ impl Validator<'_> {
         // Settings.
         // Parsed once, by the model; every later reader works on the typed value.
         let text = m.settings.clone().unwrap_or_default().0;
-        let settings = match (model.parse_settings)(&text) {
+        let settings = match model.parse(&text) {
             Ok(settings) => Some(settings),
             Err(errors) => {
                 for e in errors {

@@ -209,6 +209,8 @@ pub fn conflict(settings: &ModuleSettings) -> Option<String> {
         ),
         ModuleSettings::Ex9053(s) => ("watchdog", format!("{}s", f64::from(s.watchdog?) / 10.0)),
         ModuleSettings::Resi(s) => ("SOFFDLY", s.off_delay()?.to_string()),
+        // A profiled device's watchdog, if it has one, is not in its profile.
+        ModuleSettings::Profile(_) => return None,
     };
     Some(format!(
         "off contradicts the setting {key}: {value}; remove one of them"
@@ -296,6 +298,9 @@ pub fn arm(project: &mut Project) {
                      SOFFDLY: <ms> arms it",
                 ),
             },
+            _ if matches!(settings, ModuleSettings::Profile(_)) => Armed::NotArmed(
+                "a device profile arms no watchdog (configure the device's own, if it has one)",
+            ),
             _ => Armed::NotArmed("the model has no communication watchdog (resi-spec §5.4)"),
         };
     }

@@ -54,6 +54,7 @@ pub static MODEL_D: ModelSpec = ModelSpec {
     simulator: sim::build_d,
     parse_settings: settings::parse_module,
     setting_keys: settings::keys,
+    profile: None,
 };
 
 /// The EX-9053D-M in the catalog: Modbus RTU by default, DCON too (`protocol: text`), unit
@@ -71,4 +72,5 @@ pub static MODEL_M: ModelSpec = ModelSpec {
     simulator: sim::build_m,
     parse_settings: settings::parse_module,
     setting_keys: settings::keys,
+    profile: None,
 };

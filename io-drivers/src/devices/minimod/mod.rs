@@ -64,4 +64,5 @@ pub static MODEL: ModelSpec = ModelSpec {
     simulator: sim::build,
     parse_settings: Settings::parse_module,
     setting_keys: settings::keys,
+    profile: None,
 };

@@ -135,6 +135,7 @@ macro_rules! catalog_entry {
             simulator: build_sim,
             parse_settings,
             setting_keys,
+            profile: None,
         };
     };
 }

@@ -1,0 +1,96 @@
+//! Device profile files: any Modbus device described in YAML (see [`raw`] for the format),
+//! read into a typed [`Profile`] once, with every error at its file:line:col as for the
+//! project file.
+//!
+//! A project names a profile as a module's model, `model: profile:PATH`, PATH relative to
+//! the project file's folder (a shared folder is a relative or absolute path to it). Tags bind
+//! to the profile's points by name, as to a built-in model's.
+
+mod error;
+pub mod raw;
+pub(crate) mod schema;
+mod validate;
+
+use std::path::Path;
+
+pub use error::ProfileError;
+pub use softplc_io::devices::profile::Profile;
+use softplc_io::devices::profile::{PointAccess, Table, WriteMode};
+
+use super::error::{ErrorKind, ProjectError, ProjectErrors};
+
+/// The tables, in the order errors list them.
+pub(crate) const TABLES: [Table; 4] = [Table::Coil, Table::Discrete, Table::Input, Table::Holding];
+/// The access words.
+pub(crate) const ACCESS: [PointAccess; 3] = [
+    PointAccess::Read,
+    PointAccess::Write,
+    PointAccess::ReadWrite,
+];
+/// The write words.
+pub(crate) const WRITES: [(&str, WriteMode); 2] = [
+    ("on_change", WriteMode::OnChange),
+    ("cyclic", WriteMode::Cyclic),
+];
+
+/// Reads and checks the profile file at `path`.
+pub fn load(path: &Path) -> Result<Profile, ProjectErrors> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => parse_str(&text, path),
+        Err(e) => Err(ProjectErrors {
+            errors: vec![ProjectError {
+                file: path.to_path_buf(),
+                line: 0,
+                column: 0,
+                kind: ErrorKind::Io {
+                    message: e.to_string(),
+                },
+            }],
+        }),
+    }
+}
+
+/// Checks profile text as if read from `file` (errors name `file`).
+pub fn parse_str(text: &str, file: &Path) -> Result<Profile, ProjectErrors> {
+    if let Err(at) = super::nesting::check(text) {
+        return Err(ProjectErrors {
+            errors: vec![ProjectError {
+                file: file.to_path_buf(),
+                line: at.line,
+                column: at.column,
+                kind: ErrorKind::TooDeep {
+                    limit: super::nesting::MAX_DEPTH,
+                },
+            }],
+        });
+    }
+    let (raw, text, mut errors) = match yaml_serde::from_str::<raw::RawProfile>(text) {
+        Ok(raw) => (raw, std::borrow::Cow::Borrowed(text), Vec::new()),
+        Err(e) => {
+            let first = super::yaml_error(&e, file);
+            if !matches!(first.kind, ErrorKind::UnknownKey { .. }) {
+                return Err(ProjectErrors {
+                    errors: vec![first],
+                });
+            }
+            let pruned = super::unknown_keys::prune::<raw::RawProfile>(text, file, first);
+            match pruned.rest {
+                Ok((raw, blanked)) => (raw, std::borrow::Cow::Owned(blanked), pruned.unknown),
+                Err(e) => {
+                    let mut errors = pruned.unknown;
+                    errors.push(e);
+                    return Err(ProjectErrors { errors });
+                }
+            }
+        }
+    };
+    match validate::validate(&raw, &text, file) {
+        Ok(profile) if errors.is_empty() => Ok(profile),
+        Ok(_) => Err(ProjectErrors { errors }),
+        Err(more) => {
+            errors.extend(more);
+            errors.sort_by_key(|e| (e.line, e.column));
+            Err(ProjectErrors { errors })
+        }
+    }
+}
