@@ -423,6 +423,42 @@ fn serve_hostile(mut stream: TcpStream, mode: Hostile, stop: &AtomicBool) {
 }
 
 #[test]
+fn a_unit_the_gateway_cannot_reach_is_lost_and_keeps_the_connection() {
+    let sim = world();
+    let server = Server::on_free_port(&sim, NetFraming::ModbusTcp);
+    // Unit 9 is not behind the gateway: it answers exception 0x0B for it.
+    let modules = vec![
+        Module::new("mm1", driver("minimod", 1)),
+        Module::new("ghost", driver("minimod", 9)),
+    ];
+    let mut owner = BusOwner::new(
+        "gw",
+        transport(NetFraming::ModbusTcp, server.addr),
+        discipline(),
+        modules,
+    );
+    owner.startup().unwrap();
+    let end = Instant::now() + Duration::from_secs(3);
+    let f = loop {
+        let f = owner.read_inputs();
+        if f.modules[1].quality == Quality::Bad || Instant::now() > end {
+            break f;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(f.modules[0].quality, Quality::Good);
+    assert_eq!(f.modules[1].quality, Quality::Bad);
+    // The gateway's "target device failed to respond" is the unit's silence, not a refusal.
+    assert!(
+        f.modules[1].counters.timeouts >= 1,
+        "{:?}",
+        f.modules[1].counters
+    );
+    assert_eq!(f.modules[1].counters.exceptions, 0);
+    assert_eq!(f.modules[0].counters.errors(), 0);
+}
+
+#[test]
 fn hostile_servers_cost_timeouts_and_bad_replies_never_a_stuck_bus() {
     for mode in [
         Hostile::Silent,

@@ -206,6 +206,19 @@ pub(crate) struct Exchanged {
     pub(crate) outcome: Result<Option<Reply>, Miss>,
 }
 
+impl Exchanged {
+    /// Before anything was sent.
+    pub(crate) fn nothing_yet() -> Self {
+        Self {
+            sent: None,
+            round_trip: None,
+            dropped: 0,
+            flush_failed: false,
+            outcome: Ok(None),
+        }
+    }
+}
+
 /// A module's state as one cycle left it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModuleSnapshot {
@@ -865,13 +878,7 @@ impl BusOwner {
                 return self.exchange_pdu(address, request, wait);
             }
         }
-        let mut done = Exchanged {
-            sent: None,
-            round_trip: None,
-            dropped: 0,
-            flush_failed: false,
-            outcome: Ok(None),
-        };
+        let mut done = Exchanged::nothing_yet();
         self.tx_buf.clear();
         let (mut assembler, terminator) = match frame {
             Frame::Modbus { address, request } => {

@@ -26,13 +26,7 @@ impl BusOwner {
         request: &Request,
         wait: Duration,
     ) -> Exchanged {
-        let mut done = Exchanged {
-            sent: None,
-            round_trip: None,
-            dropped: 0,
-            flush_failed: false,
-            outcome: Ok(None),
-        };
+        let mut done = Exchanged::nothing_yet();
         // A broadcast gets no answer on TCP to tell it was heard: drivers on a TCP bus address
         // their unit, and anything else is refused before it is sent.
         if unit == 0 || validate_request(unit, request).is_err() {

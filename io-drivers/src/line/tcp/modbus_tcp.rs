@@ -193,8 +193,9 @@ impl PduChannel for ModbusTcpTransport {
         let result = match answer {
             Err(_elapsed) => Err(CallMiss::Silence),
             Ok(Ok(Ok(res))) => convert::response(request, res).map_err(CallMiss::Bad),
+            // A well-formed answer from the gateway itself: the connection stays.
             Ok(Ok(Err(code))) if GATEWAY_SILENCE.contains(&u8::from(code)) => {
-                Err(CallMiss::Silence)
+                return Err(CallMiss::Silence);
             }
             Ok(Ok(Err(code))) => Ok(convert::exception(request, code)),
             Ok(Err(tokio_modbus::Error::Protocol(e))) => Err(CallMiss::Bad(match e {
