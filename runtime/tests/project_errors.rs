@@ -1167,3 +1167,155 @@ fn thousands_of_errors_in_a_large_file_are_located_quickly() {
         "4000 errors took {took:?}, 400 took {took_small:?}"
     );
 }
+
+#[test]
+fn network_bus_urls_and_keys() {
+    use softplc_io::line::tcp::{EndpointError, NetFraming, TcpEndpoint};
+    // A good one of each framing.
+    let text = format!(
+        "{HEAD}buses:
+  - {{ name: gw, port: \"tcp://10.0.0.7:502\" }}
+  - {{ name: ser, port: \"rtu+tcp://moxa.local:4001\", baud: 9600 }}
+"
+    );
+    let p = parse_str(&text, &file()).unwrap();
+    assert_eq!(
+        p.buses[0].port,
+        PortConfig::Tcp(TcpEndpoint {
+            framing: NetFraming::ModbusTcp,
+            host: "10.0.0.7".into(),
+            port: 502
+        })
+    );
+    assert_eq!(
+        p.buses[1].port,
+        PortConfig::Tcp(TcpEndpoint {
+            framing: NetFraming::RtuOverTcp,
+            host: "moxa.local".into(),
+            port: 4001
+        })
+    );
+    assert_eq!(p.buses[1].settings.baud, 9600);
+
+    let text = format!(
+        "{HEAD}buses:
+  - name: a
+    port: udp://10.0.0.7:502
+  - name: b
+    port: tcp://10.0.0.7
+  - name: c
+    port: tcp://:502
+  - name: d
+    port: tcp://10.0.0.7:70000
+  - name: e
+    port: tcp://10.0.0.8:502
+    baud: 9600
+    rs485: {{ rts_on_send: true }}
+  - name: f
+    port: rtu+tcp://10.0.0.8:502
+"
+    );
+    let got: Vec<_> = errors(&text)
+        .iter()
+        .map(|e| (at(e), e.kind.clone(), e.to_string()))
+        .collect();
+    let url = |port: &str, reason| ErrorKind::BadPortUrl {
+        port: port.into(),
+        reason,
+    };
+    let kinds: Vec<_> = got.iter().map(|(at, k, _)| (*at, k.clone())).collect();
+    assert_eq!(
+        kinds,
+        vec![
+            (
+                (9, 11),
+                url("udp://10.0.0.7:502", EndpointError::UnknownScheme)
+            ),
+            ((11, 11), url("tcp://10.0.0.7", EndpointError::MissingPort)),
+            ((13, 11), url("tcp://:502", EndpointError::MissingHost)),
+            (
+                (15, 11),
+                url("tcp://10.0.0.7:70000", EndpointError::BadPort)
+            ),
+            (
+                (18, 11),
+                ErrorKind::NotOnNetworkBus {
+                    key: "baud",
+                    scheme: "tcp",
+                    hint: ": the gateway's RTU side is set in the gateway"
+                }
+            ),
+            (
+                (19, 12),
+                ErrorKind::NotOnNetworkBus {
+                    key: "rs485",
+                    scheme: "tcp",
+                    hint: ": that is the serial server's own business"
+                }
+            ),
+            (
+                (21, 11),
+                ErrorKind::DuplicateEndpoint {
+                    endpoint: "rtu+tcp://10.0.0.8:502".into(),
+                    other: "e".into(),
+                    other_line: 17
+                }
+            ),
+        ]
+    );
+    let messages: Vec<&str> = got.iter().map(|(_, _, m)| m.as_str()).collect();
+    assert!(
+        messages[1].ends_with(
+            ":11:11: error: port \"tcp://10.0.0.7\": no port (expected tcp://HOST:PORT; Modbus TCP's \
+             port is 502)"
+        ),
+        "{}",
+        messages[1]
+    );
+}
+
+#[test]
+fn text_protocols_and_watchdog_by_name_stay_off_modbus_tcp() {
+    let text = format!(
+        "{HEAD}buses:
+  - {{ name: gw, port: \"tcp://127.0.0.1:1502\" }}
+modules:
+  - {{ name: mm1, bus: gw, model: minimod, address: 1, protocol: text }}
+  - {{ name: ex, bus: gw, model: ex9053d, address: 2 }}
+  - name: mm3
+    bus: gw
+    model: minimod
+    address: 3
+    settings: {{ WDTTIME: 100 }}
+"
+    );
+    let got: Vec<_> = errors(&text)
+        .iter()
+        .map(|e| (at(e), e.kind.clone()))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (
+                (10, 65),
+                ErrorKind::TextOnModbusTcp {
+                    module: "mm1".into(),
+                    model: "minimod",
+                    bus: "gw".into()
+                }
+            ),
+            (
+                (11, 33),
+                ErrorKind::TextOnModbusTcp {
+                    module: "ex".into(),
+                    model: "ex9053d",
+                    bus: "gw".into()
+                }
+            ),
+            (
+                (16, 26),
+                ErrorKind::TextSettingOnModbusTcp { key: "WDTTIME" }
+            ),
+        ]
+    );
+}

@@ -522,3 +522,161 @@ fn slow_clients_do_not_hold_up_a_scrape() {
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(dir));
 }
+
+/// A remote I/O as another softplc's Modbus TCP bus sees this one: `speed` (input register 0,
+/// written at holding register 0) and `enable` (discrete input 6, written at coil 6), read
+/// and written through the bus owner and the transport a `port: tcp://` bus runs on.
+#[derive(Debug)]
+struct RemoteTags {
+    values: Vec<Option<softplc_io::point::Value>>,
+}
+
+impl softplc_io::driver::Driver for RemoteTags {
+    fn address(&self) -> u8 {
+        1
+    }
+
+    fn plan_read(&mut self, out: &mut Vec<softplc_io::driver::Transaction>) {
+        use softplc_io::modbus::Request;
+        for (tag, request) in [
+            Request::ReadInputRegisters { addr: 0, count: 1 },
+            Request::ReadDiscreteInputs { addr: 6, count: 1 },
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            out.push(tx(tag as u32, request));
+        }
+    }
+
+    fn plan_write(
+        &mut self,
+        desired: &[Option<softplc_io::point::Value>],
+        _refresh: bool,
+        out: &mut Vec<softplc_io::driver::Transaction>,
+    ) {
+        use softplc_io::modbus::Request;
+        use softplc_io::point::Value;
+        if let Some(Some(Value::U16(v))) = desired.first() {
+            out.push(tx(10, Request::WriteSingleRegister { addr: 0, value: *v }));
+        }
+        if let Some(Some(Value::Bool(b))) = desired.get(1) {
+            out.push(tx(11, Request::WriteSingleCoil { addr: 6, value: *b }));
+        }
+    }
+
+    fn on_reply(
+        &mut self,
+        tag: u32,
+        reply: &softplc_io::driver::Reply,
+    ) -> Result<(), softplc_io::driver::DecodeError> {
+        use softplc_io::driver::Reply;
+        use softplc_io::modbus::Response;
+        use softplc_io::point::Value;
+        match (tag, reply) {
+            (0, Reply::Modbus(Response::ReadInputRegisters(w))) => {
+                self.values[0] = Some(Value::U16(w[0]))
+            }
+            (1, Reply::Modbus(Response::ReadDiscreteInputs(b))) => {
+                self.values[1] = Some(Value::Bool(b[0]))
+            }
+            (10 | 11, Reply::Modbus(_)) => {}
+            _ => return Err(softplc_io::driver::DecodeError::Unexpected { tag }),
+        }
+        Ok(())
+    }
+
+    fn values(&self) -> &[Option<softplc_io::point::Value>] {
+        &self.values
+    }
+
+    fn reply_delay(&self) -> Duration {
+        Duration::ZERO
+    }
+}
+
+fn tx(tag: u32, request: softplc_io::modbus::Request) -> softplc_io::driver::Transaction {
+    softplc_io::driver::Transaction {
+        frame: softplc_io::driver::Outgoing::Modbus {
+            unit: softplc_io::modbus::UnitId::new(1).unwrap(),
+            request,
+        },
+        tag,
+    }
+}
+
+#[test]
+fn another_softplc_reads_and_writes_these_tags_as_remote_io_over_modbus_tcp() {
+    use softplc_io::line::bus::{BusOwner, Discipline, Module, OutputFrame};
+    use softplc_io::line::tcp::{ModbusTcpTransport, NetFraming, TcpEndpoint};
+    use softplc_io::point::{Quality, Value};
+    use softplc_io::time::MonotonicClock;
+
+    let modbus = free_port();
+    let dir = project(
+        "remote-io",
+        &format!("  modbus_tcp: {{ bind: 127.0.0.1:{modbus}, writes: true }}\n"),
+    );
+    let mut child = start(&dir);
+    wait_until_serving(&mut child, modbus);
+
+    let endpoint = TcpEndpoint {
+        framing: NetFraming::ModbusTcp,
+        host: "127.0.0.1".into(),
+        port: modbus,
+    };
+    let transport = ModbusTcpTransport::new(
+        endpoint,
+        Duration::from_secs(1),
+        std::sync::Arc::new(MonotonicClock::new()),
+    )
+    .unwrap();
+    let remote = Module::new(
+        "plc_a",
+        Box::new(RemoteTags {
+            values: vec![None; 2],
+        }),
+    );
+    let discipline = Discipline {
+        response_timeout: Duration::from_millis(500),
+        ..Discipline::default()
+    };
+    let mut owner = BusOwner::new("to_a", Box::new(transport), discipline, vec![remote]);
+    owner.startup().unwrap();
+    let f = owner.read_inputs();
+    let m = &f.modules[0];
+    assert_eq!(m.quality, Quality::Good, "{:?}", m.last_error);
+    assert_eq!(
+        m.values,
+        vec![Some(Value::U16(120)), Some(Value::Bool(false))]
+    );
+
+    let report = owner.write_outputs(&OutputFrame {
+        modules: vec![vec![Some(Value::U16(777)), Some(Value::Bool(true))]],
+    });
+    assert_eq!((report.transactions, report.failures), (2, 0));
+    // The instance publishes a write at its next cycle boundary (100 ms period).
+    let end = Instant::now() + Duration::from_secs(5);
+    let f = loop {
+        let f = owner.read_inputs();
+        if f.modules[0].values[1] == Some(Value::Bool(true)) || Instant::now() > end {
+            break f;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert_eq!(
+        f.modules[0].values,
+        vec![Some(Value::U16(777)), Some(Value::Bool(true))]
+    );
+    assert_eq!(status_value(&dir, "speed"), "777");
+    assert_eq!(status_value(&dir, "enable"), "1");
+    // One connection served every request.
+    assert_eq!(
+        f.modules[0].counters.errors(),
+        0,
+        "{:?}",
+        f.modules[0].counters
+    );
+    drop(child.kill());
+    drop(child.wait());
+}

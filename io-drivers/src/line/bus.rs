@@ -206,6 +206,19 @@ pub(crate) struct Exchanged {
     pub(crate) outcome: Result<Option<Reply>, Miss>,
 }
 
+impl Exchanged {
+    /// Before anything was sent.
+    pub(crate) fn nothing_yet() -> Self {
+        Self {
+            sent: None,
+            round_trip: None,
+            dropped: 0,
+            flush_failed: false,
+            outcome: Ok(None),
+        }
+    }
+}
+
 /// A module's state as one cycle left it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModuleSnapshot {
@@ -501,8 +514,9 @@ impl BusOwner {
     pub fn read_answering(&mut self) -> InputFrame {
         let started = self.transport.now();
         let port_up = self.port_ready(started);
-        if port_up {
-            // One FC 70 Collect round for the modules in event mode, before any poll.
+        // One FC 70 Collect round for the modules in event mode, before any poll (an RS-485
+        // line's time slots: never on a Modbus TCP bus, where the build refuses event mode).
+        if port_up && !self.carries_pdus() {
             self.collect_pass(started);
         }
         let mut plan = std::mem::take(&mut self.plan);
@@ -867,13 +881,12 @@ impl BusOwner {
         wait: Duration,
         silence: Silence,
     ) -> Exchanged {
-        let mut done = Exchanged {
-            sent: None,
-            round_trip: None,
-            dropped: 0,
-            flush_failed: false,
-            outcome: Ok(None),
-        };
+        if let Frame::Modbus { address, request } = frame {
+            if self.carries_pdus() {
+                return self.exchange_pdu(address, request, wait);
+            }
+        }
+        let mut done = Exchanged::nothing_yet();
         self.tx_buf.clear();
         let (mut assembler, terminator) = match frame {
             Frame::Modbus { address, request } => {
@@ -901,7 +914,8 @@ impl BusOwner {
                 self.trace_discard(self.transport.now(), n, Discard::BeforeRequest);
             }
             Err(e) => {
-                done.flush_failed = true;
+                // A network pipe connects here; only a failed flush is counted as one.
+                done.flush_failed = matches!(e, LineError::Flush(_));
                 done.outcome = Err(Miss::Line(e));
                 return done;
             }
@@ -1226,6 +1240,7 @@ impl BusThread {
     }
 }
 
+mod pdu;
 mod tap;
 #[cfg(test)]
 mod tests;

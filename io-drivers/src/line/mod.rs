@@ -8,6 +8,7 @@
 //! - [`collect`]: FC 70 Collect rounds for the modules in event mode (MiniMod).
 //! - [`echo`]: adapters that hear their own transmission (`echo: discard`).
 //! - [`latency`]: USB adapters' latency timer: read, lowered, and counted in the budget.
+//! - [`tcp`]: buses over TCP: Modbus TCP (`tcp://`) and RTU over TCP (`rtu+tcp://`).
 
 pub mod budget;
 pub mod bus;
@@ -17,6 +18,7 @@ pub mod health;
 pub mod latency;
 pub mod link;
 pub mod settings;
+pub mod tcp;
 pub mod transport;
 
 pub use settings::{LineSettings, Parity, SerialFormat};

@@ -61,6 +61,15 @@ pub enum LineError {
     /// `echo: discard`: the request's echo did not come back as sent (see `line/echo.rs`).
     #[error("{0}")]
     Echo(crate::line::echo::EchoFault),
+    /// A network bus could not connect to its endpoint (refused, unreachable, no answer
+    /// within the connect timeout, a name that does not resolve).
+    #[error("cannot connect to {endpoint}: {source}")]
+    Connect {
+        /// The endpoint, as the project gives it (`tcp://10.0.0.7:502`).
+        endpoint: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
     /// The adapter's latency timer stays above the `adapter_latency` the project demands
     /// (see `line/latency.rs`).
     #[error("{0}")]
@@ -83,6 +92,9 @@ pub enum LineFault {
     /// The request's echo was wrong or missing (`echo: discard`), or came back unasked.
     #[error("{0}")]
     Echo(crate::line::echo::EchoFault),
+    /// A network bus could not connect to its endpoint.
+    #[error("cannot connect: {0}")]
+    Connect(std::io::ErrorKind),
 }
 
 impl From<&LineError> for LineFault {
@@ -96,6 +108,7 @@ impl From<&LineError> for LineFault {
                 LineFault::Open(std::io::ErrorKind::Unsupported)
             }
             LineError::Echo(f) => LineFault::Echo(*f),
+            LineError::Connect { source, .. } => LineFault::Connect(source.kind()),
         }
     }
 }
@@ -132,6 +145,38 @@ pub trait Transport: Send + Debug {
     fn reopen(&mut self) -> Result<(), LineError> {
         Ok(())
     }
+
+    /// The channel that carries Modbus requests whole, when this transport frames them itself
+    /// (Modbus TCP: the MBAP header and its transaction id replace the RTU address, CRC and
+    /// silences); `None` for a byte pipe the RTU codec frames.
+    fn pdu_channel(&mut self) -> Option<&mut dyn PduChannel> {
+        None
+    }
+}
+
+/// Why a request on a [`PduChannel`] brought no usable answer.
+#[derive(Debug)]
+pub enum CallMiss {
+    /// No answer within the response timeout (or a gateway said its target did not answer).
+    Silence,
+    /// An answer that is not the request's (transaction id, function, byte count, echo) or
+    /// not Modbus at all.
+    Bad(crate::modbus::master::ReplyError),
+    /// The connection failed or could not be made.
+    Line(LineError),
+}
+
+/// A transport that carries Modbus requests as whole messages (see
+/// [`Transport::pdu_channel`]).
+pub trait PduChannel {
+    /// Sends `request` to `unit` and waits at most `timeout` for its answer; an exception is
+    /// an answer ([`crate::modbus::Response::Exception`]).
+    fn call(
+        &mut self,
+        unit: u8,
+        request: &crate::modbus::Request,
+        timeout: Duration,
+    ) -> Result<crate::modbus::Response, CallMiss>;
 }
 
 /// A real serial device (a USB RS-485 adapter, or one end of a pty).

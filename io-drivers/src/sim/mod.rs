@@ -10,5 +10,6 @@ pub mod fault;
 pub mod line;
 pub mod plant;
 pub mod serve;
+pub mod serve_tcp;
 
 pub use device::{SimDevice, SimError, SimReply};

@@ -165,13 +165,13 @@ pub fn serve_following(
     Ok(stats)
 }
 
-fn lock(world: &SharedWorld) -> std::sync::MutexGuard<'_, crate::sim::line::SimWorld> {
+pub(crate) fn lock(world: &SharedWorld) -> std::sync::MutexGuard<'_, crate::sim::line::SimWorld> {
     world.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Hands a frame to the devices and writes the reply when it is due. True if one was written.
-fn answer(
-    port: &mut serialport::TTYPort,
+pub(crate) fn answer<W: Write>(
+    port: &mut W,
     world: &SharedWorld,
     frame: &[u8],
     settings: LineSettings,

@@ -89,19 +89,28 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         let port = match &bus.port {
             PortConfig::Sim => "sim (simulated modules)".to_string(),
             PortConfig::Serial(p) => p.display().to_string(),
+            PortConfig::Tcp(e) => tcp::describe(e, project.modules.iter().filter(|m| m.bus == b)),
+        };
+        let line = if bus.port.is_modbus_tcp() {
+            String::new()
+        } else {
+            format!(", {}", bus.settings)
         };
         let _ = writeln!(
             out,
-            "\nbus {}: {port}, {}, response timeout {}, retries {}",
+            "\nbus {}: {port}{line}, response timeout {}, retries {}",
             bus.name,
-            bus.settings,
             fmt_duration(bus.response_timeout),
             bus.retries
         );
         // What the adapter holds back counts in every transaction that waits for bytes back
         // (line/latency.rs); an echo comes while the request is sent and adds nothing.
         let (assumed, adapter) = bus.adapter(sysfs);
-        let _ = writeln!(out, "  adapter latency: {assumed}");
+        if let PortConfig::Tcp(_) = bus.port {
+            let _ = writeln!(out, "  {}", tcp::connection());
+        } else {
+            let _ = writeln!(out, "  adapter latency: {assumed}");
+        }
         if bus.echo == EchoMode::Discard {
             let _ = writeln!(
                 out,
@@ -165,6 +174,10 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
             ));
         }
         let budget = line_budget_on(bus.settings, adapter, &mut drivers);
+        if bus.port.is_modbus_tcp() {
+            out.push_str(&tcp::budget(bus, &budget, scan.period));
+            continue;
+        }
         let held = latency_clause(adapter, "each with ");
         let _ = writeln!(
             out,
@@ -378,5 +391,6 @@ fn latency_clause(adapter: AdapterTiming, each: &str) -> String {
     }
 }
 
+mod tcp;
 #[cfg(test)]
 mod tests;

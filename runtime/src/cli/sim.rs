@@ -8,12 +8,14 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context};
 use softplc_io::devices;
+use softplc_io::line::tcp::{NetFraming, TcpEndpoint};
 use softplc_io::line::transport::{open_tty, pty_pair, TTYPort};
 use softplc_io::line::{LineSettings, Parity, SerialFormat};
 use softplc_io::point::Value;
 use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
 use softplc_io::sim::line::{SharedWorld, SimWorld};
 use softplc_io::sim::serve::{serve_following, tty_settings, SERVED_LINE};
+use softplc_io::sim::serve_tcp::serve_tcp;
 use softplc_io::time::{Clock, MonotonicClock};
 
 pub(super) const LONG_HELP: &str = "\
@@ -60,11 +62,20 @@ DEVICE is MODEL@ADDR as given on the command line. Values: 1/0, true/false, or n
 #[derive(Debug, clap::Args)]
 pub(crate) struct SimArgs {
     /// The serial device to serve on (e.g. one end of a pty pair).
-    #[arg(long, required_unless_present = "pty", conflicts_with = "pty")]
+    #[arg(long, required_unless_present_any = ["pty", "tcp", "rtu_tcp"], conflicts_with_all = ["pty", "tcp", "rtu_tcp"])]
     port: Option<PathBuf>,
     /// Create a pty pair and serve on it; the path for the master is printed on stdout.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["tcp", "rtu_tcp"])]
     pty: bool,
+    /// Serve as a Modbus TCP gateway on HOST:PORT (port 0: any free port), each unit id
+    /// answered by the module at that address; the address bound is printed as
+    /// tcp://HOST:PORT, for a bus's `port:`.
+    #[arg(long, value_name = "HOST:PORT", conflicts_with = "rtu_tcp")]
+    tcp: Option<std::net::SocketAddr>,
+    /// Serve as a serial device server in transparent mode on HOST:PORT: RTU frames (and text
+    /// lines) pass through as on the line; printed as rtu+tcp://HOST:PORT.
+    #[arg(long = "rtu-tcp", value_name = "HOST:PORT")]
+    rtu_tcp: Option<std::net::SocketAddr>,
     /// Baud rate (the wire-time model uses it; a pty does not enforce it).
     #[arg(long, default_value_t = 19200)]
     baud: u32,
@@ -242,6 +253,42 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     let world = world.shared();
     let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
 
+    let stop = Arc::new(AtomicBool::new(false));
+    if let Some((bind, framing)) = args
+        .tcp
+        .map(|a| (a, NetFraming::ModbusTcp))
+        .or(args.rtu_tcp.map(|a| (a, NetFraming::RtuOverTcp)))
+    {
+        let listener = std::net::TcpListener::bind(bind)
+            .with_context(|| format!("cannot listen on {bind}"))?;
+        let bound = listener.local_addr()?;
+        let endpoint = TcpEndpoint {
+            framing,
+            host: bound.ip().to_string(),
+            port: bound.port(),
+        };
+        let what = match framing {
+            NetFraming::ModbusTcp => "a Modbus TCP gateway",
+            NetFraming::RtuOverTcp => "a transparent serial server",
+        };
+        super::out::outln(&format!(
+            "serving {} on {endpoint} ({what}; the line behind it at {settings})",
+            args.devices.join(", ")
+        ))?;
+        spawn_console(&world, &stop, &clock)?;
+        for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+            signal_hook::flag::register(sig, stop.clone())
+                .context("cannot install signal handlers")?;
+        }
+        let stats = serve_tcp(listener, world, framing, settings, clock, &stop)
+            .context("serving over TCP failed")?;
+        super::out::outln(&format!(
+            "served {} frames, {} replies, {} noise bytes",
+            stats.frames, stats.replies, stats.noise_bytes
+        ))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+
     // With --pty the slave end stays open here, so the pty lives while no master is connected.
     let (port, _slave, path) = if args.pty {
         let (master, slave, name) = pty_pair().context("cannot create a pty pair")?;
@@ -255,37 +302,10 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         args.devices.join(", ")
     ))?;
 
-    let stop = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
     }
-    {
-        let world = world.clone();
-        let stop = stop.clone();
-        let clock = clock.clone();
-        std::thread::Builder::new()
-            .name("sim-stdin".into())
-            .spawn(move || {
-                let stdin = std::io::stdin();
-                for line in stdin.lock().lines() {
-                    let Ok(line) = line else { break };
-                    match execute(&world, clock.as_ref(), &line) {
-                        Ok(Reply::Quit) => {
-                            stop.store(true, Ordering::Relaxed);
-                            break;
-                        }
-                        // A closed stdout leaves the simulators serving, silently.
-                        Ok(Reply::Text(t)) if !t.is_empty() => {
-                            drop(super::out::outln(&t));
-                        }
-                        Ok(Reply::Text(_)) => {}
-                        Err(e) => {
-                            drop(super::out::outln(&format!("error: {e}")));
-                        }
-                    }
-                }
-            })?;
-    }
+    spawn_console(&world, &stop, &clock)?;
     let follow = |slave: &TTYPort| tty_settings(slave);
     let master = _slave.as_ref().map(|slave| move || follow(slave));
     let master_ref = master
@@ -298,6 +318,41 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         stats.frames, stats.replies, stats.noise_bytes
     ))?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Plays standard input's commands against `world` on a thread of their own; `quit` sets
+/// `stop`.
+fn spawn_console(
+    world: &SharedWorld,
+    stop: &Arc<AtomicBool>,
+    clock: &Arc<dyn Clock>,
+) -> anyhow::Result<()> {
+    let world = world.clone();
+    let stop = stop.clone();
+    let clock = clock.clone();
+    std::thread::Builder::new()
+        .name("sim-stdin".into())
+        .spawn(move || {
+            let stdin = std::io::stdin();
+            for line in stdin.lock().lines() {
+                let Ok(line) = line else { break };
+                match execute(&world, clock.as_ref(), &line) {
+                    Ok(Reply::Quit) => {
+                        stop.store(true, Ordering::Relaxed);
+                        break;
+                    }
+                    // A closed stdout leaves the simulators serving, silently.
+                    Ok(Reply::Text(t)) if !t.is_empty() => {
+                        drop(super::out::outln(&t));
+                    }
+                    Ok(Reply::Text(_)) => {}
+                    Err(e) => {
+                        drop(super::out::outln(&format!("error: {e}")));
+                    }
+                }
+            }
+        })?;
+    Ok(())
 }
 
 /// What a command line produced.

@@ -7,6 +7,7 @@ use softplc_io::line::bus::{BusOwner, Counters, Discipline, Module, OutputFrame}
 use softplc_io::line::echo::{echo_margin, EchoDiscard, EchoMode};
 use softplc_io::line::latency::SysfsRoot;
 use softplc_io::line::link::LineLink;
+use softplc_io::line::tcp::{ModbusTcpTransport, NetFraming, RtuOverTcpTransport, CONNECT_TIMEOUT};
 use softplc_io::line::transport::{SerialTransport, Transport};
 use softplc_io::point::{Access, Quality};
 use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
@@ -114,6 +115,23 @@ impl Plc {
                         .map_err(port_error)?;
                     Box::new(port)
                 }
+                // Nothing is connected here: a server that is not up yet leaves its modules
+                // lost at start-up, and the bus owner connects when its backoff allows.
+                PortConfig::Tcp(endpoint) => match endpoint.framing {
+                    NetFraming::ModbusTcp => Box::new(
+                        ModbusTcpTransport::new(endpoint.clone(), CONNECT_TIMEOUT, clock.clone())
+                            .map_err(|source| BuildError::Thread {
+                            bus: bus.name.clone(),
+                            source,
+                        })?,
+                    ),
+                    NetFraming::RtuOverTcp => Box::new(RtuOverTcpTransport::new(
+                        endpoint.clone(),
+                        bus.settings,
+                        CONNECT_TIMEOUT,
+                        clock.clone(),
+                    )),
+                },
             };
             let transport: Box<dyn Transport> = match bus.echo {
                 EchoMode::None => transport,
@@ -122,13 +140,24 @@ impl Plc {
                     echo_margin(bus.settings, adapter_latency),
                 )),
             };
-            let modules = bus_modules[b]
+            let modules: Vec<Module> = bus_modules[b]
                 .iter()
                 .map(|&m| {
                     let cfg = &project.modules[m];
                     Module::new(cfg.name.clone(), (cfg.model.driver)(&devices[m]))
                 })
                 .collect();
+            if bus.port.is_modbus_tcp() {
+                if let Some(m) = modules
+                    .iter()
+                    .find(|m| m.driver.collect_membership().is_some())
+                {
+                    return Err(BuildError::EventsOnModbusTcp {
+                        bus: bus.name.clone(),
+                        module: m.name.clone(),
+                    });
+                }
+            }
             let discipline = Discipline {
                 response_timeout: bus.response_timeout,
                 retries: bus.retries,

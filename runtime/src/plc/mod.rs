@@ -67,6 +67,19 @@ pub enum BuildError {
         /// The OS error.
         source: std::io::Error,
     },
+    /// A module in event mode (FC 70 Collect) on a Modbus TCP bus: Collect answers in time
+    /// slots of an RS-485 line, which a TCP connection does not have.
+    #[error(
+        "bus {bus}: module {module} is in event mode (FC 70 Collect), which needs the RS-485 \
+         line's reply slots; a Modbus TCP bus cannot carry it: poll it (no event settings), \
+         or put it on an rtu+tcp:// bus"
+    )]
+    EventsOnModbusTcp {
+        /// The bus.
+        bus: String,
+        /// The module.
+        module: String,
+    },
     /// A module refused its start-up configuration.
     #[error("bus {bus}: {source}")]
     Startup {

@@ -15,7 +15,8 @@ impl BusConfig {
     /// one; nothing on the simulated line.
     pub fn adapter(&self, sysfs: &SysfsRoot) -> (Assumed, AdapterTiming) {
         let assumed = match &self.port {
-            PortConfig::Sim => Assumed::simulated(),
+            // No USB adapter on this host's side of a network bus.
+            PortConfig::Sim | PortConfig::Tcp(_) => Assumed::simulated(),
             PortConfig::Serial(p) => Assumed::for_port(self.adapter_latency, p, sysfs),
         };
         let timing = AdapterTiming {

@@ -219,11 +219,69 @@ pub enum ErrorKind {
         /// The value given.
         value: i64,
     },
-    /// A port that is neither `sim` nor a device path.
-    #[error("port \"{port}\" is neither `sim` nor a device path (like /dev/ttyUSB0)")]
+    /// A port that is neither `sim`, a device path nor a URL.
+    #[error(
+        "port \"{port}\" is neither `sim`, a device path (like /dev/ttyUSB0) nor a network \
+         endpoint (tcp://HOST:PORT for Modbus TCP, rtu+tcp://HOST:PORT for RTU over TCP)"
+    )]
     BadPort {
         /// The value given.
         port: String,
+    },
+    /// A `port:` URL that is not a valid endpoint.
+    #[error("port \"{port}\": {reason}")]
+    BadPortUrl {
+        /// The value given.
+        port: String,
+        /// What is wrong with it.
+        reason: softplc_io::line::tcp::EndpointError,
+    },
+    /// A serial-port key on a bus whose port has no such thing (`rs485:` on `tcp://`).
+    #[error("{key} is for a serial line; a {scheme}:// bus has none{hint}")]
+    NotOnNetworkBus {
+        /// The key (`baud`, `rs485`).
+        key: &'static str,
+        /// The bus's scheme (`tcp`, `rtu+tcp`).
+        scheme: &'static str,
+        /// What to do instead.
+        hint: &'static str,
+    },
+    /// Two buses with one network endpoint.
+    #[error(
+        "endpoint {endpoint} is already bus {other}'s (line {other_line}): one connection per \
+         endpoint, shared by every unit id behind it; put these modules on bus {other}"
+    )]
+    DuplicateEndpoint {
+        /// The endpoint.
+        endpoint: String,
+        /// The bus that has it first.
+        other: String,
+        /// That bus's `port` line.
+        other_line: usize,
+    },
+    /// A MiniMod setting its driver writes by name (a text command) on a Modbus TCP bus.
+    #[error(
+        "{key} is written by name with a text command (>{key}=), which a Modbus TCP bus cannot \
+         carry: set it in the module's flash (WCONF) on a line of its own, or use an \
+         rtu+tcp:// bus"
+    )]
+    TextSettingOnModbusTcp {
+        /// The setting.
+        key: &'static str,
+    },
+    /// A text-protocol module on a Modbus TCP bus.
+    #[error(
+        "module {module} ({model}) speaks its text protocol here, which a Modbus TCP bus \
+         (bus {bus}) cannot carry: use protocol: modbus, or an rtu+tcp:// bus (a serial \
+         server that passes the line's bytes through)"
+    )]
+    TextOnModbusTcp {
+        /// The module.
+        module: String,
+        /// Its model.
+        model: &'static str,
+        /// The bus.
+        bus: String,
     },
     /// A baud rate that is not a positive 32-bit number.
     #[error("baud {value} is not a baud rate (a positive number of bits per second, like 19200)")]

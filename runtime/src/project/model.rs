@@ -79,6 +79,24 @@ pub enum PortConfig {
     Sim,
     /// A serial device path (`/dev/ttyUSB0`, or one end of a pty).
     Serial(PathBuf),
+    /// A network endpoint: Modbus TCP (`tcp://HOST:PORT`) or RTU over TCP
+    /// (`rtu+tcp://HOST:PORT`).
+    Tcp(softplc_io::line::tcp::TcpEndpoint),
+}
+
+impl PortConfig {
+    /// Whether the bus carries Modbus TCP (no serial line, no RTU framing).
+    pub fn is_modbus_tcp(&self) -> bool {
+        matches!(self, PortConfig::Tcp(e) if e.framing == softplc_io::line::tcp::NetFraming::ModbusTcp)
+    }
+
+    /// The URL scheme of a network bus.
+    pub fn scheme(&self) -> Option<&'static str> {
+        match self {
+            PortConfig::Tcp(e) => Some(e.framing.scheme()),
+            _ => None,
+        }
+    }
 }
 
 /// One RS-485 line.

@@ -10,7 +10,12 @@
 //!   realtime: { priority: 50, cpu: 1, lock_memory: true }   # optional, best effort
 //! buses:
 //!   - name: line1
-//!     port: sim                # `sim`, or a device path: /dev/ttyUSB0, /dev/pts/3
+//!     port: sim                # `sim`, a device path: /dev/ttyUSB0, /dev/pts/3, or a
+//!                              # network endpoint: tcp://HOST:PORT (Modbus TCP; no baud,
+//!                              # format, rs485, echo or adapter_latency) or
+//!                              # rtu+tcp://HOST:PORT (RTU through a serial server whose
+//!                              # line is baud/format; no rs485, echo or adapter_latency).
+//!                              # One bus per endpoint: its modules share one connection.
 //!     baud: 19200              # default 19200
 //!     format: 8E1              # data bits 7|8, parity N|E|O, stop bits 1|2; default 8E1
 //!     rs485: { rts_on_send: true, delay_before_send: 0ms, delay_after_send: 0ms }
@@ -208,7 +213,10 @@ pub struct RawRealtime {
 pub struct RawBus {
     /// The line's name.
     pub name: String,
-    /// `sim` (simulated modules, no hardware) or a serial device path: `/dev/ttyUSB0`.
+    /// `sim` (simulated modules, no hardware), a serial device path (`/dev/ttyUSB0`), a Modbus
+    /// TCP endpoint (`tcp://HOST:PORT`: a TCP device or a TCP-to-RTU gateway, each module's
+    /// address its unit id) or a serial server passing RTU frames through
+    /// (`rtu+tcp://HOST:PORT`, its line at `baud`/`format`).
     pub port: String,
     /// Baud rate (default 19200); at most the `max_baud` of every model on the bus.
     #[serde(default)]

@@ -10,6 +10,8 @@ use softplc_io::point::{Access, Value, ValueType};
 use softplc_io::sim::plant;
 
 use super::error::{ErrorKind, Item, ProjectError};
+use softplc_io::line::tcp::{NetFraming, TcpEndpoint};
+
 use super::model::{
     Binding, BusConfig, ModuleConfig, PlantConfig, PortConfig, ProgramConfig, ProgramKind, Project,
     RealtimeConfig, ScanConfig, TagConfig, WatchdogConfig,
@@ -70,6 +72,7 @@ pub(crate) fn validate(
         .enumerate()
         .map(|(i, b)| v.bus(b, &root.key("buses").index(i)))
         .collect();
+    v.duplicate_endpoints(&buses);
     let bus_index = v.names(
         Item::Bus,
         raw.buses.iter().map(|b| b.name.as_str()),
@@ -360,6 +363,21 @@ impl Validator<'_> {
     fn bus(&mut self, raw: &RawBus, path: &YPath) -> Option<BusConfig> {
         let port = if raw.port == "sim" {
             Some(PortConfig::Sim)
+        } else if raw.port.contains("://") {
+            match TcpEndpoint::parse(&raw.port) {
+                Ok(Some(e)) => Some(PortConfig::Tcp(e)),
+                Ok(None) => None,
+                Err(reason) => {
+                    self.error(
+                        path.key("port"),
+                        ErrorKind::BadPortUrl {
+                            port: raw.port.clone(),
+                            reason,
+                        },
+                    );
+                    None
+                }
+            }
         } else if raw.port.contains('/') {
             Some(PortConfig::Serial(PathBuf::from(&raw.port)))
         } else {
@@ -426,6 +444,9 @@ impl Validator<'_> {
         };
         let adapter_latency =
             self.adapter_latency(raw.adapter_latency, &port, &path.key("adapter_latency"));
+        if let Some(scheme) = port.as_ref().and_then(PortConfig::scheme) {
+            self.network_bus_keys(raw, scheme, path);
+        }
         Some(BusConfig {
             rs485: rs485?,
             echo: echo?,
@@ -440,6 +461,70 @@ impl Validator<'_> {
             retries: retries?,
             output_refresh: output_refresh?,
         })
+    }
+
+    /// Refuses the keys of a local serial port on a network bus: a Modbus TCP bus has no
+    /// serial line at all; an RTU-over-TCP bus has the server's (`baud`, `format`), but no
+    /// UART or adapter here.
+    fn network_bus_keys(&mut self, raw: &RawBus, scheme: &'static str, path: &YPath) {
+        let modbus_tcp = scheme == NetFraming::ModbusTcp.scheme();
+        let serial_hint = ": the gateway's RTU side is set in the gateway";
+        let local_hint = ": that is the serial server's own business";
+        let keys: [(&'static str, bool, &'static str); 5] = [
+            ("baud", modbus_tcp && raw.baud.is_some(), serial_hint),
+            ("format", modbus_tcp && raw.format.is_some(), serial_hint),
+            ("rs485", raw.rs485.is_some(), local_hint),
+            ("echo", raw.echo.is_some(), local_hint),
+            (
+                "adapter_latency",
+                matches!(raw.adapter_latency, Some(RawAdapterLatency::Given(_))),
+                local_hint,
+            ),
+        ];
+        for (key, given, hint) in keys {
+            if given {
+                self.error(
+                    path.key(key),
+                    ErrorKind::NotOnNetworkBus { key, scheme, hint },
+                );
+            }
+        }
+    }
+
+    /// Refuses a second bus on an endpoint another bus has (one connection per endpoint).
+    fn duplicate_endpoints(&mut self, buses: &[Option<BusConfig>]) {
+        let mut seen: Vec<(&TcpEndpoint, usize)> = Vec::new();
+        for (b, bus) in buses.iter().enumerate() {
+            let Some(BusConfig {
+                port: PortConfig::Tcp(e),
+                ..
+            }) = bus
+            else {
+                continue;
+            };
+            let other = seen
+                .iter()
+                .find(|(o, _)| o.host == e.host && o.port == e.port);
+            match other {
+                Some(&(_, o)) => {
+                    let root = YPath::root().key("buses");
+                    let other_line = self.loc.line(&root.index(o).key("port"));
+                    let other = buses[o]
+                        .as_ref()
+                        .map(|c| c.name.clone())
+                        .unwrap_or_default();
+                    self.error(
+                        root.index(b).key("port"),
+                        ErrorKind::DuplicateEndpoint {
+                            endpoint: e.to_string(),
+                            other,
+                            other_line,
+                        },
+                    );
+                }
+                None => seen.push((e, b)),
+            }
+        }
     }
 
     /// A bus's `adapter_latency:`: `auto` anywhere, a duration on a device port only, in whole
@@ -685,6 +770,24 @@ impl Validator<'_> {
             },
         };
 
+        if let (Some(Protocol::Text), Some(Some(bus_cfg))) =
+            (protocol, bus.and_then(|b| buses.get(b)))
+        {
+            if bus_cfg.port.is_modbus_tcp() {
+                let at = if m.protocol.is_some() {
+                    path.key("protocol")
+                } else {
+                    path.key("model")
+                };
+                let kind = ErrorKind::TextOnModbusTcp {
+                    module: m.name.clone(),
+                    model: model.name,
+                    bus: m.bus.clone(),
+                };
+                self.error(at, kind);
+            }
+        }
+
         // Settings.
         // Parsed once, by the model; every later reader works on the typed value.
         let text = m.settings.clone().unwrap_or_default().0;
@@ -765,6 +868,20 @@ impl Validator<'_> {
             }
         };
 
+        if let (Some(ModuleSettings::MiniMod(s)), Some(Some(bus_cfg))) =
+            (&settings, bus.and_then(|b| buses.get(b)))
+        {
+            if bus_cfg.port.is_modbus_tcp() {
+                for key in ["WDTTIME", "WDTYMASK"] {
+                    if s.register(key).is_some() {
+                        self.error(
+                            path.key("settings").key(key),
+                            ErrorKind::TextSettingOnModbusTcp { key },
+                        );
+                    }
+                }
+            }
+        }
         let address = address.and_then(|a| ModuleAddress::new(model, a).ok());
         let config = match (bus, address, protocol, settings, policy) {
             (Some(bus), Some(address), Some(protocol), Some(settings), Some(policy)) => {

@@ -223,6 +223,11 @@ fn hundredths(d: Duration) -> u16 {
     u16::try_from(h).unwrap_or(u16::MAX).max(1)
 }
 
+/// Why a MiniMod on a Modbus TCP bus has no watchdog armed by softplc.
+pub const MINIMOD_ON_MODBUS_TCP: &str = "a MiniMod's watchdog is armed by name with text \
+     commands (>WDTTIME=), which a Modbus TCP bus cannot carry; arm it in the module's flash \
+     (WCONF) on a line of its own, or put it on an rtu+tcp:// bus";
+
 /// Works out every module's watchdog and the settings that arm it
 /// ([`ModuleWatchdog::settings`]; the module's own settings stay as written): at the end of
 /// validation, once the project is whole.
@@ -230,6 +235,11 @@ pub fn arm(project: &mut Project) {
     let derivations = derive_all(project);
     for (m, derivation) in derivations.into_iter().enumerate() {
         let mask = safe_mask(project, m);
+        let on_modbus_tcp = project
+            .modules
+            .get(m)
+            .and_then(|module| project.buses.get(module.bus))
+            .is_some_and(|bus| bus.port.is_modbus_tcp());
         let Some(module) = project.modules.get_mut(m) else {
             continue;
         };
@@ -238,6 +248,9 @@ pub fn arm(project: &mut Project) {
         let mm = minimod(settings);
         let policy = module.watchdog.policy;
         module.watchdog.armed = match module.model.name {
+            // The driver arms it by name (`>WDTTIME=`, read back with `?WDTTIME`; `?WFLAGS`
+            // after a restart): text commands, which Modbus TCP cannot carry.
+            "minimod" if on_modbus_tcp => Armed::NotArmed(MINIMOD_ON_MODBUS_TCP),
             "minimod" => {
                 let time = mm.and_then(|s| s.register("WDTTIME"));
                 let explicit_mask = mm.and_then(|s| s.register("WDTYMASK"));
@@ -512,6 +525,13 @@ pub fn report(module: &super::model::ModuleConfig) -> (String, Option<String>) {
             Some(format!(
                 "warning: module {name}: its watchdog is off: if this process dies or the line \
                  breaks, its outputs keep their last state"
+            )),
+        ),
+        Armed::NotArmed(why) if *why == MINIMOD_ON_MODBUS_TCP => (
+            format!("    module watchdog: not armed: {why}"),
+            Some(format!(
+                "warning: module {name}: no watchdog armed on a Modbus TCP bus: if this process \
+                 dies or the connection breaks, its outputs keep their last state"
             )),
         ),
         Armed::NotArmed(why) => (format!("    module watchdog: not armed: {why}"), None),

@@ -83,6 +83,10 @@ pub enum ReplyError {
         /// The echoed value.
         found: u16,
     },
+    /// A Modbus TCP reply whose MBAP header is not the request's (another transaction id or
+    /// unit id): a late answer to an earlier request, or a server that mixes them up.
+    #[error("reply header (transaction or unit id) is not the request's")]
+    HeaderMismatch,
     /// A byte the protocol fixes has another value (the trailing 0 of a Collect reply).
     #[error("malformed reply: unexpected byte at offset {offset}")]
     Malformed {

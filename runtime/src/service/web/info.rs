@@ -97,6 +97,7 @@ impl WebInfo {
                 port: match &b.port {
                     PortConfig::Sim => "sim".to_owned(),
                     PortConfig::Serial(p) => p.display().to_string(),
+                    PortConfig::Tcp(e) => e.to_string(),
                 },
                 settings: b.settings.to_string(),
             })
