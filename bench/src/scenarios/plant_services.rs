@@ -59,8 +59,11 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
         let why = "mosquitto is not installed (bench/setup installs it)";
         out.rows
             .push(Row::unavailable("terminal → MQTT consumer", "latency", why));
-        out.rows
-            .push(Row::unavailable("1,000 tags via MQTT", "CPU per second", why));
+        out.rows.push(Row::unavailable(
+            "1,000 tags via MQTT",
+            "CPU per second",
+            why,
+        ));
         return Ok(out);
     }
     let binary = softplc_binary()?;
@@ -136,12 +139,16 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
                     )),
             );
             out.rows.push(
-                Row::measured("mosquitto, same run", "CPU per second", f.broker.percentiles())
-                    .value("delivered_changes_per_s", delivered)
-                    .note(format!(
-                        "one local broker forwarding to one subscriber; the subscriber got \
+                Row::measured(
+                    "mosquitto, same run",
+                    "CPU per second",
+                    f.broker.percentiles(),
+                )
+                .value("delivered_changes_per_s", delivered)
+                .note(format!(
+                    "one local broker forwarding to one subscriber; the subscriber got \
                          {delivered:.0} metric changes/s at the median (of {rate:.0} published)"
-                    )),
+                )),
             );
         }
         Err(e) => out.rows.push(Row::unavailable(
@@ -225,9 +232,7 @@ impl Drop for Running {
 }
 
 fn mqtt_section(port: u16) -> String {
-    format!(
-        "service:\n  mqtt: {{ host: 127.0.0.1, port: {port}, group: {GROUP}, node: {NODE} }}\n"
-    )
+    format!("service:\n  mqtt: {{ host: 127.0.0.1, port: {port}, group: {GROUP}, node: {NODE} }}\n")
 }
 
 /// What the harness's subscriber got: arrival, topic, booleans by metric name.
@@ -240,8 +245,14 @@ fn subscribe(port: u16) -> anyhow::Result<mpsc::Receiver<Received>> {
     opts.set_keep_alive(Duration::from_secs(30));
     opts.set_max_packet_size(1 << 20, 1 << 20);
     let (client, mut connection) = rumqttc::Client::new(opts, 64);
-    client.subscribe(format!("spBv1.0/{GROUP}/+/{NODE}"), rumqttc::QoS::AtMostOnce)?;
-    client.subscribe(format!("spBv1.0/{GROUP}/+/{NODE}/+"), rumqttc::QoS::AtMostOnce)?;
+    client.subscribe(
+        format!("spBv1.0/{GROUP}/+/{NODE}"),
+        rumqttc::QoS::AtMostOnce,
+    )?;
+    client.subscribe(
+        format!("spBv1.0/{GROUP}/+/{NODE}/+"),
+        rumqttc::QoS::AtMostOnce,
+    )?;
     let (tx, rx) = mpsc::channel();
     let (ready_tx, ready_rx) = mpsc::channel();
     std::thread::spawn(move || {
@@ -389,7 +400,10 @@ impl OpcUaWatch {
             .stderr(Stdio::null())
             .spawn()
             .map_err(|e| format!("cannot start the asyncua client: {e}"))?;
-        let stdout = child.stdout.take().ok_or("no stdout from the asyncua client")?;
+        let stdout = child
+            .stdout
+            .take()
+            .ok_or("no stdout from the asyncua client")?;
         let (tx, rx) = mpsc::channel();
         let (ready_tx, ready_rx) = mpsc::channel();
         std::thread::spawn(move || {
@@ -420,10 +434,9 @@ impl OpcUaWatch {
         let deadline = Instant::now() + within;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            let (at, v) = self
-                .changes
-                .recv_timeout(left)
-                .with_context(|| format!("no OPC UA notification x1 = {value} within {within:?}"))?;
+            let (at, v) = self.changes.recv_timeout(left).with_context(|| {
+                format!("no OPC UA notification x1 = {value} within {within:?}")
+            })?;
             if v == value {
                 return Ok(at);
             }
@@ -560,9 +573,8 @@ fn sample_cpu(
         let now = cpu_ticks(pid)?;
         let wall = at.elapsed().as_secs_f64();
         at = Instant::now();
-        let per_second = |ticks: u64| {
-            (tick * u32::try_from(ticks).unwrap_or(u32::MAX)).div_f64(wall)
-        };
+        let per_second =
+            |ticks: u64| (tick * u32::try_from(ticks).unwrap_or(u32::MAX)).div_f64(wall);
         // Per second of wall time, whatever the sleep really took.
         into.record(per_second(now.saturating_sub(last)));
         last = now;
