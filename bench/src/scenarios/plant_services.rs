@@ -123,6 +123,7 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
             let extra_ms = (w.p50.as_secs_f64() - wo.p50.as_secs_f64()) * 1e3;
             let rate = f64::from(u32::try_from(TAGS).unwrap_or(u32::MAX)) * 10.0;
             let delivered = median(&f.delivered);
+            let bytes = median(&f.bytes);
             out.rows.push(
                 Row::measured("1,000 tags, no edge node", "CPU per second", wo)
                     .note("baseline: the same scan without the MQTT service"),
@@ -145,9 +146,17 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
                     f.broker.percentiles(),
                 )
                 .value("delivered_changes_per_s", delivered)
+                .value("ndata_bytes_per_s", bytes)
                 .note(format!(
                     "one local broker forwarding to one subscriber; the subscriber got \
-                         {delivered:.0} metric changes/s at the median (of {rate:.0} published)"
+                     {delivered:.0} metric changes/s at the median (of {rate:.0} published), \
+                     {:.0} kB/s of NDATA payload ({:.1} B per change)",
+                    bytes / 1e3,
+                    if delivered > 0.0 {
+                        bytes / delivered
+                    } else {
+                        0.0
+                    }
                 )),
             );
         }
@@ -235,8 +244,8 @@ fn mqtt_section(port: u16) -> String {
     format!("service:\n  mqtt: {{ host: 127.0.0.1, port: {port}, group: {GROUP}, node: {NODE} }}\n")
 }
 
-/// What the harness's subscriber got: arrival, topic, booleans by metric name.
-type Received = (Instant, String, Vec<(String, bool)>);
+/// What the harness's subscriber got: arrival, topic, booleans by metric name, payload bytes.
+type Received = (Instant, String, Vec<(String, bool)>, usize);
 
 /// A subscriber of the harness on `GROUP`/`NODE`: every DATA message, with metric names taken
 /// from the BIRTH aliases (Sparkplug aliases are unique within an edge node).
@@ -297,7 +306,10 @@ fn subscribe(port: u16) -> anyhow::Result<mpsc::Receiver<Received>> {
                             values.push((name, *b));
                         }
                     }
-                    if tx.send((at, p.topic.clone(), values)).is_err() {
+                    if tx
+                        .send((at, p.topic.clone(), values, p.payload.len()))
+                        .is_err()
+                    {
                         break;
                     }
                 }
@@ -464,7 +476,7 @@ fn wait_for(
     let deadline = Instant::now() + within;
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
-        let (at, _, values) = rx.recv_timeout(left).context("timed out")?;
+        let (at, _, values, _) = rx.recv_timeout(left).context("timed out")?;
         if values.iter().any(|(n, v)| n == tag && *v == value) {
             return Ok(at);
         }
@@ -481,6 +493,8 @@ struct CpuFigures {
     broker: DurationHistogram,
     /// Metric changes the harness's subscriber received per second (every window).
     delivered: Vec<f64>,
+    /// NDATA payload bytes it received per second.
+    bytes: Vec<f64>,
 }
 
 /// CPU time per second of run of the 1,000-tag project, with and without the edge node.
@@ -507,18 +521,20 @@ fn cpu(ctx: &Ctx, binary: &Path) -> anyhow::Result<CpuFigures> {
         without: DurationHistogram::new(),
         broker: DurationHistogram::new(),
         delivered: Vec::new(),
+        bytes: Vec::new(),
     };
     let broker_pid = broker.child.id();
     // Turns, so a slow spell of the machine falls on both.
     for _ in 0..2 {
         let mut on_second = |_: u32| {
-            let mut changes = 0usize;
-            while let Ok((_, topic, values)) = rx.try_recv() {
+            let (mut changes, mut bytes) = (0usize, 0usize);
+            while let Ok((_, topic, values, len)) = rx.try_recv() {
                 if topic.contains("/NDATA/") {
                     changes += values.len();
+                    bytes += len;
                 }
             }
-            changes
+            (changes, bytes)
         };
         let delivered = sample_cpu(
             binary,
@@ -529,16 +545,17 @@ fn cpu(ctx: &Ctx, binary: &Path) -> anyhow::Result<CpuFigures> {
             &mut on_second,
         )?;
         // The first window holds the births' backlog; the rest are steady state.
-        figures
-            .delivered
-            .extend(delivered.iter().skip(1).map(|&n| n as f64));
+        for &(changes, bytes) in delivered.iter().skip(1) {
+            figures.delivered.push(changes as f64);
+            figures.bytes.push(bytes as f64);
+        }
         sample_cpu(
             binary,
             &without,
             seconds,
             &mut figures.without,
             None,
-            &mut |_| 0,
+            &mut |_| (0, 0),
         )?;
     }
     drop(broker);
@@ -554,8 +571,8 @@ fn sample_cpu(
     seconds: u32,
     into: &mut DurationHistogram,
     mut also: Option<(u32, &mut DurationHistogram)>,
-    each: &mut dyn FnMut(u32) -> usize,
-) -> anyhow::Result<Vec<usize>> {
+    each: &mut dyn FnMut(u32) -> (usize, usize),
+) -> anyhow::Result<Vec<(usize, usize)>> {
     let plc = Running::start(binary, project, Duration::from_secs(u64::from(seconds) + 4))?;
     let pid = plc.0.id();
     std::thread::sleep(Duration::from_secs(2));

@@ -7,7 +7,9 @@
 //! the session's bdSeq, QoS 1, not retained); on CONNACK the node subscribes to its NCMD and
 //! DCMD topics, then births. A lost connection bumps bdSeq (the next CONNECT is a new
 //! session), puts the new Will in place, and retries with a backoff doubling from
-//! [`BACKOFF_MIN`] to [`BACKOFF_MAX`] (rumqttc itself would retry at once, in a loop).
+//! [`BACKOFF_MIN`] to [`BACKOFF_MAX`] (rumqttc itself would retry at once, in a loop), each
+//! wait spread over its upper half by the node's name ([`spread`]) so that the nodes of a plant
+//! do not all reconnect and birth in the same instant after a broker restart.
 //! A clean stop publishes NDEATH, then DISCONNECT (which makes the broker drop the Will).
 
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -28,6 +30,19 @@ use crate::service::snapshot::SnapshotCell;
 pub(crate) const BACKOFF_MIN: Duration = Duration::from_millis(250);
 /// The longest wait before reconnecting.
 pub(crate) const BACKOFF_MAX: Duration = Duration::from_secs(10);
+/// `backoff` shortened by up to a half, by a hash of the node's identity and the session:
+/// different nodes wait different times ("equal jitter"), the same node the same time for the
+/// same session, so a test can reason about it. Never longer than `backoff`.
+pub(crate) fn spread(backoff: Duration, group: &str, node: &str, bd_seq: u64) -> Duration {
+    use std::hash::{Hash, Hasher};
+    // DefaultHasher::new() has fixed keys: the same inputs give the same wait in every run.
+    let mut h = std::hash::DefaultHasher::new();
+    (group, node, bd_seq).hash(&mut h);
+    let half = backoff / 2;
+    let nanos = u64::try_from(half.as_nanos()).unwrap_or(u64::MAX).max(1);
+    half + Duration::from_nanos(h.finish() % nanos)
+}
+
 /// How long a write may wait for the scan's answer before it is logged as lost.
 pub(crate) const WRITE_WAIT: Duration = Duration::from_secs(2);
 /// The MQTT keep-alive: a broker that vanished without closing is noticed within 1.5 × this.
@@ -163,7 +178,15 @@ impl Session {
                             bd_seq = bd_seq.wrapping_add(1);
                             let will = self.will(bd_seq);
                             conn.eventloop.mqtt_options.set_last_will(will);
-                            retry_at = Some(Instant::now() + backoff);
+                            retry_at = Some(
+                                Instant::now()
+                                    + spread(
+                                        backoff,
+                                        &self.cfg.group,
+                                        &self.cfg.node,
+                                        u64::from(bd_seq),
+                                    ),
+                            );
                             backoff = (backoff * 2).min(BACKOFF_MAX);
                         }
                         Err(rumqttc::RecvTimeoutError::Timeout) => {}
@@ -353,5 +376,36 @@ impl Session {
             }
         }
         tracing::info!("MQTT: NDEATH (bdSeq {bd_seq}) published, disconnected");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reconnect_waits_are_spread_over_the_upper_half_and_differ_between_nodes() {
+        let waits: Vec<Duration> = (0..50)
+            .map(|i| spread(Duration::from_secs(4), "plant1", &format!("press{i}"), 1))
+            .collect();
+        for w in &waits {
+            assert!(
+                *w >= Duration::from_secs(2) && *w <= Duration::from_secs(4),
+                "{w:?}"
+            );
+        }
+        let mut distinct = waits.clone();
+        distinct.sort();
+        distinct.dedup();
+        assert!(
+            distinct.len() > 45,
+            "{} distinct waits of 50",
+            distinct.len()
+        );
+        // The same node, the same session: the same wait.
+        assert_eq!(
+            spread(Duration::from_secs(4), "plant1", "press7", 1),
+            waits[7]
+        );
     }
 }
