@@ -75,49 +75,7 @@ pub fn load(path: &Path) -> Result<Project, ProjectErrors> {
 /// Validates project text as if read from `file`: errors name `file`, and the program file is
 /// resolved against `file`'s folder and must exist (as for [`load`]).
 pub fn parse_str(text: &str, file: &Path) -> Result<Project, ProjectErrors> {
-    // Before the reader, whose time grows with the square of the nesting.
-    if let Err(at) = nesting::check(text) {
-        return Err(ProjectErrors {
-            errors: vec![ProjectError {
-                file: file.to_path_buf(),
-                line: at.line,
-                column: at.column,
-                kind: ErrorKind::TooDeep {
-                    limit: nesting::MAX_DEPTH,
-                },
-            }],
-        });
-    }
-    let (raw, text, mut errors) = match yaml_serde::from_str::<raw::RawProject>(text) {
-        Ok(raw) => (raw, std::borrow::Cow::Borrowed(text), Vec::new()),
-        Err(e) => {
-            let first = yaml_error(&e, file);
-            if !matches!(first.kind, ErrorKind::UnknownKey { .. }) {
-                return Err(ProjectErrors {
-                    errors: vec![first],
-                });
-            }
-            // A typo in a key: report every one, and the schema's errors of the rest.
-            let pruned = unknown_keys::prune(text, file, first);
-            match pruned.rest {
-                Ok((raw, blanked)) => (raw, std::borrow::Cow::Owned(blanked), pruned.unknown),
-                Err(e) => {
-                    let mut errors = pruned.unknown;
-                    errors.push(e);
-                    return Err(ProjectErrors { errors });
-                }
-            }
-        }
-    };
-    match validate::validate(&raw, &text, file) {
-        Ok(project) if errors.is_empty() => Ok(project),
-        Ok(_) => Err(ProjectErrors { errors }),
-        Err(more) => {
-            errors.extend(more);
-            errors.sort_by_key(|e| (e.line, e.column));
-            Err(ProjectErrors { errors })
-        }
-    }
+    unknown_keys::read_checked::<raw::RawProject, _>(text, file, validate::validate)
 }
 
 /// Converts an error of the YAML reader, keeping its position and classifying its message.

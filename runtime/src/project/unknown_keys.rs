@@ -13,11 +13,65 @@
 
 use std::path::Path;
 
-use super::error::{ErrorKind, ProjectError};
+use super::error::{ErrorKind, ProjectError, ProjectErrors};
 use serde::de::DeserializeOwned;
 
 /// At most this many unknown keys are collected (each costs a reading of the document).
 const MAX_UNKNOWN: usize = 64;
+
+/// Reads a YAML file of the project's family (a project, a device profile) as schema `R`, then
+/// checks it with `validate`: the nesting limit first (the reader's time grows with the square
+/// of the nesting), every unknown key at once, the reader's other first error, then
+/// `validate`'s errors on what is left, all in the order of the file. `validate` gets the text
+/// it was read from (unknown keys blanked, positions kept) to locate its own errors.
+pub(super) fn read_checked<R: DeserializeOwned, T>(
+    text: &str,
+    file: &Path,
+    validate: impl FnOnce(&R, &str, &Path) -> Result<T, Vec<ProjectError>>,
+) -> Result<T, ProjectErrors> {
+    if let Err(at) = super::nesting::check(text) {
+        return Err(ProjectErrors {
+            errors: vec![ProjectError {
+                file: file.to_path_buf(),
+                line: at.line,
+                column: at.column,
+                kind: ErrorKind::TooDeep {
+                    limit: super::nesting::MAX_DEPTH,
+                },
+            }],
+        });
+    }
+    let (raw, text, mut errors) = match yaml_serde::from_str::<R>(text) {
+        Ok(raw) => (raw, std::borrow::Cow::Borrowed(text), Vec::new()),
+        Err(e) => {
+            let first = super::yaml_error(&e, file);
+            if !matches!(first.kind, ErrorKind::UnknownKey { .. }) {
+                return Err(ProjectErrors {
+                    errors: vec![first],
+                });
+            }
+            // A typo in a key: report every one, and the schema's errors of the rest.
+            let pruned = prune::<R>(text, file, first);
+            match pruned.rest {
+                Ok((raw, blanked)) => (raw, std::borrow::Cow::Owned(blanked), pruned.unknown),
+                Err(e) => {
+                    let mut errors = pruned.unknown;
+                    errors.push(e);
+                    return Err(ProjectErrors { errors });
+                }
+            }
+        }
+    };
+    match validate(&raw, &text, file) {
+        Ok(value) if errors.is_empty() => Ok(value),
+        Ok(_) => Err(ProjectErrors { errors }),
+        Err(more) => {
+            errors.extend(more);
+            errors.sort_by_key(|e| (e.line, e.column));
+            Err(ProjectErrors { errors })
+        }
+    }
+}
 
 /// What reading the text gave once every unknown key was blanked out.
 pub(super) struct Pruned<T> {

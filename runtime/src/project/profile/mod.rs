@@ -52,45 +52,5 @@ pub fn load(path: &Path) -> Result<Profile, ProjectErrors> {
 
 /// Checks profile text as if read from `file` (errors name `file`).
 pub fn parse_str(text: &str, file: &Path) -> Result<Profile, ProjectErrors> {
-    if let Err(at) = super::nesting::check(text) {
-        return Err(ProjectErrors {
-            errors: vec![ProjectError {
-                file: file.to_path_buf(),
-                line: at.line,
-                column: at.column,
-                kind: ErrorKind::TooDeep {
-                    limit: super::nesting::MAX_DEPTH,
-                },
-            }],
-        });
-    }
-    let (raw, text, mut errors) = match yaml_serde::from_str::<raw::RawProfile>(text) {
-        Ok(raw) => (raw, std::borrow::Cow::Borrowed(text), Vec::new()),
-        Err(e) => {
-            let first = super::yaml_error(&e, file);
-            if !matches!(first.kind, ErrorKind::UnknownKey { .. }) {
-                return Err(ProjectErrors {
-                    errors: vec![first],
-                });
-            }
-            let pruned = super::unknown_keys::prune::<raw::RawProfile>(text, file, first);
-            match pruned.rest {
-                Ok((raw, blanked)) => (raw, std::borrow::Cow::Owned(blanked), pruned.unknown),
-                Err(e) => {
-                    let mut errors = pruned.unknown;
-                    errors.push(e);
-                    return Err(ProjectErrors { errors });
-                }
-            }
-        }
-    };
-    match validate::validate(&raw, &text, file) {
-        Ok(profile) if errors.is_empty() => Ok(profile),
-        Ok(_) => Err(ProjectErrors { errors }),
-        Err(more) => {
-            errors.extend(more);
-            errors.sort_by_key(|e| (e.line, e.column));
-            Err(ProjectErrors { errors })
-        }
-    }
+    super::unknown_keys::read_checked::<raw::RawProfile, _>(text, file, validate::validate)
 }
