@@ -32,7 +32,7 @@ buses:
   - {{ name: events, port: sim, baud: {baud} }}
   - {{ name: polled, port: sim }}
 modules:
-{modules}  - {{ name: mm9, bus: polled, model: minimod, address: 9, watchdog: off }}
+{modules}  - {{ name: mm9, bus: polled, model: minimod, address: 9, watchdog: off, settings: {{ events: false }} }}
 tags:
   - {{ name: button, point: mm1.X1 }}
   - {{ name: lamp, point: mm9.Y1, safe: false }}

@@ -35,8 +35,10 @@ scan:
 buses:
   - { name: line1, port: sim, baud: 19200, format: 8E1, response_timeout: 100ms, retries: 1 }
 modules:
-  - { name: mm1, bus: line1, model: minimod, address: 1 }
-  - { name: mm2, bus: line1, model: minimod, address: 2 }
+  # Polled, pinned: the paths of a polled line (a silent module is seen in the next cycle;
+  # in event mode, the default here, only at its refresh).
+  - { name: mm1, bus: line1, model: minimod, address: 1, settings: { events: false } }
+  - { name: mm2, bus: line1, model: minimod, address: 2, settings: { events: false } }
 tags:
   - { name: x, point: mm1.X1 }
   - { name: y1, point: mm1.Y1, safe: false }

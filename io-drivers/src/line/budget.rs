@@ -9,6 +9,7 @@
 use std::time::Duration;
 
 use crate::driver::{Driver, Outgoing, Transaction};
+use crate::line::collect::floor::CollectFloor;
 use crate::line::echo::EchoMode;
 use crate::line::settings::LineSettings;
 use crate::modbus::master::encode_request;
@@ -157,10 +158,7 @@ pub fn line_budget_on(
     let mut plan = Vec::new();
     for (name, driver, access) in drivers.iter_mut() {
         let delay = driver.reply_delay();
-        // A device that needs more silence than t3.5 before a request adds the difference.
-        let gap = driver
-            .frame_gap()
-            .map_or(Duration::ZERO, |g| g.saturating_sub(settings.t3_5()));
+        let gap = frame_gap_excess(settings, driver.as_ref());
         plan.clear();
         driver.plan_read(&mut plan);
         if let Some((unit, _)) = driver.collect_membership() {
@@ -209,6 +207,41 @@ pub fn line_budget_on(
         read_floor,
         write_floor,
     }
+}
+
+/// What a device that needs more silence than t3.5 before a request adds to each of its
+/// transactions.
+fn frame_gap_excess(settings: LineSettings, driver: &dyn Driver) -> Duration {
+    driver
+        .frame_gap()
+        .map_or(Duration::ZERO, |g| g.saturating_sub(settings.t3_5()))
+}
+
+/// The floor of a line's input phase as the bus owner runs it on a cycle without events and
+/// without refreshes: every module's own reads of the cycle (a member of the Collect round
+/// reads its inputs from the round, so only its status and counters, if any), then one idle
+/// Collect round over the members ([`CollectFloor::idle`]). Each reply delay and, per
+/// transaction and per Collect, the adapter's latency are in it.
+pub fn input_floor(
+    settings: LineSettings,
+    adapter: AdapterTiming,
+    drivers: &mut [Box<dyn Driver>],
+) -> Duration {
+    let mut plan = Vec::new();
+    let mut members = Vec::new();
+    let mut total = Duration::ZERO;
+    for driver in drivers.iter_mut() {
+        let delay = driver.reply_delay();
+        let gap = frame_gap_excess(settings, driver.as_ref());
+        plan.clear();
+        driver.plan_read(&mut plan);
+        total += plan
+            .iter()
+            .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
+            .sum::<Duration>();
+        members.extend(driver.collect_membership().map(|(unit, _)| unit.get()));
+    }
+    total + CollectFloor::over(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle())
 }
 
 #[cfg(test)]

@@ -194,6 +194,9 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         if let Some(line) = collect_floor_line(bus.settings, adapter, &drivers) {
             let _ = writeln!(out, "  {line}");
         }
+        for line in plan::lines(project, bus, adapter) {
+            let _ = writeln!(out, "  {line}");
+        }
         let floor = budget.cycle_floor().as_secs_f64();
         for m in &budget.modules {
             let share = if floor > 0.0 {
@@ -391,6 +394,7 @@ fn latency_clause(adapter: AdapterTiming, each: &str) -> String {
     }
 }
 
+mod plan;
 mod tcp;
 #[cfg(test)]
 mod tests;

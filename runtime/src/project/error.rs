@@ -307,6 +307,18 @@ pub enum ErrorKind {
         /// Which one (`rs485.delay_after_send`).
         key: &'static str,
     },
+    /// `direction:` other than `host` or `auto`.
+    #[error("direction must be host (the host, or nobody said, turns the transceiver round) or auto (the adapter does, within a character)")]
+    BadDirection,
+    /// `tune:` other than `reply_delay`.
+    #[error("tune must be reply_delay (set every MiniMod's reply delay to the least the line allows, for this run)")]
+    BadTune,
+    /// `tune: reply_delay` on a line that does not turn round within a character.
+    #[error("tune: reply_delay needs a line that turns round within a character (MiniMod RDELAYT=0 answers at once): {why}")]
+    TuneNeedsFastTurn {
+        /// Why this line does not.
+        why: super::line_plan::direction::SlowTurn,
+    },
     /// `echo:` other than `none` or `discard`.
     #[error("echo must be none (the adapter does not hear itself) or discard (read back and verify every request's echo)")]
     BadEcho,

@@ -19,6 +19,7 @@
 mod adapter;
 mod dcon_neighbours;
 pub mod error;
+pub mod line_plan;
 pub mod model;
 pub mod mqtt;
 pub mod nesting;

@@ -120,6 +120,12 @@ pub struct BusConfig {
     pub echo: softplc_io::line::echo::EchoMode,
     /// The USB adapter's latency timer (`adapter_latency:`).
     pub adapter_latency: softplc_io::line::latency::AdapterLatency,
+    /// Who turns the transceiver round (`direction:`).
+    pub direction: super::line_plan::Direction,
+    /// `tune: reply_delay`.
+    pub tune_reply_delay: bool,
+    /// What softplc planned for the line and why (filled in at the end of validation).
+    pub plan: super::line_plan::LinePlan,
 }
 
 /// One module.

@@ -32,6 +32,16 @@
 //!                              # lowered to 1 ms) when the port opens, 0 without one; a
 //!                              # duration: what `check` counts, and the most the port may
 //!                              # keep (the start fails if it stays higher).
+//!     direction: host          # host | auto; default host. Who turns the transceiver round
+//!                              # after a request: host (RTS from the driver, or unknown) or
+//!                              # auto: an adapter that switches by itself within a
+//!                              # character (with `rs485:` the kernel does it: also fast).
+//!     tune: reply_delay        # optional, opt-in: at every start-up of its MiniMods, their
+//!                              # reply delay is set to the least the line's direction
+//!                              # control allows (RDELAYT=0: `port: sim`, `rs485:` with
+//!                              # delay_after_send within a character, or direction: auto;
+//!                              # refused otherwise), never saved (no WCONF); a module's own
+//!                              # RDELAYT wins. See `line_plan/tune.rs`.
 //!     response_timeout: 50ms   # default 100ms
 //!     retries: 1               # attempts after a failed one, 0..=255; default 1
 //!     output_refresh: 1s       # period of the full output rewrite; default 1s
@@ -208,7 +218,7 @@ pub struct RawRealtime {
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh, rs485, echo, adapter_latency"
+    expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh, rs485, echo, adapter_latency, direction, tune"
 )]
 pub struct RawBus {
     /// The line's name.
@@ -244,6 +254,15 @@ pub struct RawBus {
     /// `auto` or a duration: the USB adapter's latency timer.
     #[serde(default)]
     pub adapter_latency: Option<RawAdapterLatency>,
+    /// `host` (default) or `auto`: who turns the transceiver round after a request; `auto`
+    /// declares an adapter that does it by itself, within a character.
+    #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::direction")]
+    pub direction: Option<String>,
+    /// `reply_delay`: opt-in tuning of the line's modules at start-up (not saved in them).
+    #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::tune")]
+    pub tune: Option<String>,
 }
 
 /// A bus's `adapter_latency:`: `auto`, or a duration (whole ms, checked by the validator).

@@ -194,6 +194,16 @@ pub(crate) mod field {
         nullable(words(&["none", "discard"]))
     }
 
+    /// `buses[].direction`.
+    pub(crate) fn direction(_: &mut SchemaGenerator) -> Schema {
+        nullable(words(&["host", "auto"]))
+    }
+
+    /// `buses[].tune`.
+    pub(crate) fn tune(_: &mut SchemaGenerator) -> Schema {
+        nullable(words(&["reply_delay"]))
+    }
+
     /// `modules[].protocol`.
     pub(crate) fn protocol(_: &mut SchemaGenerator) -> Schema {
         nullable(words(&["modbus", "text"]))

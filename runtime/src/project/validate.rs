@@ -20,6 +20,8 @@ use softplc_io::line::echo::EchoMode;
 use softplc_io::line::latency::AdapterLatency;
 use softplc_io::line::transport::Rs485Mode;
 
+use super::line_plan::Direction;
+
 use super::raw::{
     Int, RawAdapterLatency, RawBus, RawModule, RawPlant, RawProject, RawRs485, RawScan, RawTag,
 };
@@ -149,7 +151,9 @@ pub(crate) fn validate(
     })();
     match built {
         Some(mut project) if errors.is_empty() => {
-            // The modules' own watchdogs, now that the scan and the lines are known.
+            // What softplc plans for each line (tuning, the input mode), then the modules'
+            // own watchdogs, now that the scan and the lines are known.
+            super::line_plan::apply(&mut project);
             super::watchdog::arm(&mut project);
             Ok(project)
         }
@@ -447,7 +451,26 @@ impl Validator<'_> {
         if let Some(scheme) = port.as_ref().and_then(PortConfig::scheme) {
             self.network_bus_keys(raw, scheme, path);
         }
-        Some(BusConfig {
+        let direction = match raw.direction.as_deref().map(str::parse::<Direction>) {
+            None => Some(Direction::default()),
+            Some(Ok(d)) => Some(d),
+            Some(Err(())) => {
+                self.error(path.key("direction"), ErrorKind::BadDirection);
+                None
+            }
+        };
+        let tune_reply_delay = match raw.tune.as_deref() {
+            None => Some(false),
+            Some(super::line_plan::tune::REPLY_DELAY) => Some(true),
+            Some(_) => {
+                self.error(path.key("tune"), ErrorKind::BadTune);
+                None
+            }
+        };
+        let bus = BusConfig {
+            direction: direction?,
+            tune_reply_delay: tune_reply_delay?,
+            plan: Default::default(),
             rs485: rs485?,
             echo: echo?,
             adapter_latency: adapter_latency?,
@@ -460,7 +483,14 @@ impl Validator<'_> {
             response_timeout: response_timeout?,
             retries: retries?,
             output_refresh: output_refresh?,
-        })
+        };
+        if bus.tune_reply_delay {
+            if let Err(why) = super::line_plan::direction::turnaround(&bus) {
+                self.error(path.key("tune"), ErrorKind::TuneNeedsFastTurn { why });
+                return None;
+            }
+        }
+        Some(bus)
     }
 
     /// Refuses the keys of a local serial port on a network bus: a Modbus TCP bus has no
@@ -470,11 +500,12 @@ impl Validator<'_> {
         let modbus_tcp = scheme == NetFraming::ModbusTcp.scheme();
         let serial_hint = ": the gateway's RTU side is set in the gateway";
         let local_hint = ": that is the serial server's own business";
-        let keys: [(&'static str, bool, &'static str); 5] = [
+        let keys: [(&'static str, bool, &'static str); 6] = [
             ("baud", modbus_tcp && raw.baud.is_some(), serial_hint),
             ("format", modbus_tcp && raw.format.is_some(), serial_hint),
             ("rs485", raw.rs485.is_some(), local_hint),
             ("echo", raw.echo.is_some(), local_hint),
+            ("direction", raw.direction.is_some(), local_hint),
             (
                 "adapter_latency",
                 matches!(raw.adapter_latency, Some(RawAdapterLatency::Given(_))),

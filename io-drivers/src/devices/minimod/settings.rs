@@ -9,7 +9,7 @@
 //! | `readback` | `off` \| `every` \| N | read Y1..Y4 back every Nth cycle (default off) |
 //! | `counters` | `off` \| `every` \| N | read XCOUNT1..3 every Nth cycle (default off) |
 //! | `status` | `off` \| `every` \| N | read the module status (WDTFIRED, WDTFB, WDTCOMM, EVENTSPRS, GENERICFAIL, FLASHFAIL, SW3, SW4) every Nth cycle (default off) |
-//! | `events` | `true` \| `false` | event mode: inputs from FC 70 Collect (default false) |
+//! | `events` | `true` \| `false` | event mode: inputs from FC 70 Collect (not given: false for the driver; a project's validation chooses per line, Collect where its floor is lower) |
 //! | `event_refresh` | `500ms`, `2s`, or ms | full input read in event mode at least this often (default 1 s) |
 //! | `RDELAYT` | 0..=200 | reply delay in 1/100 s, set at start-up with `>RDELAYT=` |
 //! | `RDELAYM` | 0..=200 | extra end-of-frame silence in 1/10 ms, set with `>RDELAYM=` |
@@ -419,14 +419,23 @@ impl Settings {
 
     /// Event mode (`events: true`).
     pub fn events(&self) -> bool {
-        self.items
-            .iter()
-            .rev()
-            .find_map(|s| match *s {
-                Setting::Events(on) => Some(on),
-                _ => None,
-            })
-            .unwrap_or(false)
+        self.events_given().unwrap_or(false)
+    }
+
+    /// `events:` as given (`None`: the project leaves the mode to softplc).
+    pub fn events_given(&self) -> Option<bool> {
+        self.items.iter().rev().find_map(|s| match *s {
+            Setting::Events(on) => Some(on),
+            _ => None,
+        })
+    }
+
+    /// `RDELAYT` as given, hundredths of a second.
+    pub fn reply_delay_given(&self) -> Option<u8> {
+        self.items.iter().rev().find_map(|s| match *s {
+            Setting::ReplyDelay(n) => Some(n),
+            _ => None,
+        })
     }
 
     /// The full-read period in event mode.

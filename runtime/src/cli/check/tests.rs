@@ -22,7 +22,7 @@ impl Fixture {
         let project = include_str!("../../../tests/fixtures/adapter/project.yaml")
             .replace("{port}", port)
             .replace("{bus_extra}", bus_extra)
-            .replace("address: 1 }", "address: 1, watchdog: off }");
+            .replace("address: 1,", "address: 1, watchdog: off,");
         std::fs::write(dir.join("project.yaml"), project).unwrap();
         Self(dir)
     }
@@ -166,10 +166,9 @@ fn a_configured_latency_is_what_check_assumes_for_a_port_it_cannot_see() {
 fn the_collect_floor_counts_the_adapter_latency_once_per_collect() {
     let usb = Fixture::new("collect", "/dev/ttyUSB7", "", "1\n");
     let path = usb.sys().join("project.yaml");
-    let project = std::fs::read_to_string(&path).unwrap().replace(
-        "watchdog: off }",
-        "watchdog: off, settings: { events: true } }",
-    );
+    let project = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("events: false", "events: true");
     std::fs::write(&path, project).unwrap();
     // 8 characters (4.583 ms) + 1 slot of 3 ms + 1 ms + t3.5 (2.005 ms) + 1 ms held back;
     // an event: 17 characters (9.740 ms) + t3.5 + 1 ms − its 3 ms slot.
