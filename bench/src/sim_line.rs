@@ -66,31 +66,46 @@ pub(crate) fn minimods(
     minimod::MODEL
         .device_config("mm1", 1, Protocol::Modbus, settings)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut world = SimWorld::new(vec![line]);
     let mut modules = Vec::with_capacity(usize::from(n));
     let mut budget_drivers: Vec<(String, Box<dyn Driver>, Vec<Access>)> = Vec::new();
     let mut toggle_write_floor = Duration::ZERO;
     for address in 1..=n {
         let name = format!("mm{address}");
-        world.add_device(0, &name, Box::new(MiniModSim::new(address)));
-        modules.push(Module::new(name.clone(), driver(address, settings)));
+        modules.push((name.clone(), driver(address, settings)));
         let access = map::POINTS.iter().map(|p| p.access).collect();
         budget_drivers.push((name, driver(address, settings), access));
         toggle_write_floor += write_floor(&minimod::MODEL, line, settings, "Y1");
     }
     let budget = line_budget(line, &mut budget_drivers);
-    let world = world.shared();
-    let port = VirtualPort::new(world.clone(), 0, line, clock);
-    let mut owner = BusOwner::new("bench", Box::new(port), Discipline::default(), modules);
-    owner
-        .startup()
-        .context("module start-up on the bench line")?;
+    let (owner, world) = line_of(modules, line, clock)?;
     Ok(MiniModLine {
         owner,
         world,
         budget,
         toggle_write_floor,
     })
+}
+
+/// A virtual line at `line` of one simulated MiniMod per driver (device `i` at the address
+/// of driver `i`), their bus owner's start-up done, in real time on `clock`.
+pub(crate) fn line_of(
+    drivers: Vec<(String, Box<dyn Driver>)>,
+    line: LineSettings,
+    clock: Arc<dyn Clock>,
+) -> anyhow::Result<(BusOwner, SharedWorld)> {
+    let mut world = SimWorld::new(vec![line]);
+    let mut modules = Vec::with_capacity(drivers.len());
+    for (name, driver) in drivers {
+        world.add_device(0, &name, Box::new(MiniModSim::new(driver.address())));
+        modules.push(Module::new(name, driver));
+    }
+    let world = world.shared();
+    let port = VirtualPort::new(world.clone(), 0, line, clock);
+    let mut owner = BusOwner::new("bench", Box::new(port), Discipline::default(), modules);
+    owner
+        .startup()
+        .context("module start-up on the bench line")?;
+    Ok((owner, world))
 }
 
 /// One MiniMod's desired outputs with only Y1 driven, at `on`.

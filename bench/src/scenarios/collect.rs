@@ -21,6 +21,7 @@ use softplc::scan::DurationHistogram;
 use softplc_io::line::budget::AdapterTiming;
 use softplc_io::line::bus::{BusCommand, BusEvent, BusThread};
 use softplc_io::line::collect::floor::CollectFloor;
+use softplc_io::line::collect::CollectStats;
 use softplc_io::line::LineSettings;
 use softplc_io::point::Value;
 use softplc_io::sim::line::SharedWorld;
@@ -176,11 +177,7 @@ fn rounds(ctx: &Ctx, n: u8, settings: &[(&str, &str)], changes: bool) -> anyhow:
         }
         k += 1;
     }
-    let owner = bus
-        .stop(None, wait)
-        .ok_or_else(|| anyhow::anyhow!("the bus thread was lost"))?;
-    let stats = owner.collect_stats();
-    let per_round = stats.events as f64 / stats.rounds.max(1) as f64;
+    let (stats, per_round) = stop(bus, wait)?;
     Ok(Rounds {
         hist,
         per_round,
@@ -189,8 +186,17 @@ fn rounds(ctx: &Ctx, n: u8, settings: &[(&str, &str)], changes: bool) -> anyhow:
     })
 }
 
+/// Stops `bus` within `wait`; its Collect counters and the events a round.
+pub(super) fn stop(bus: BusThread, wait: Duration) -> anyhow::Result<(CollectStats, f64)> {
+    let owner = bus
+        .stop(None, wait)
+        .ok_or_else(|| anyhow::anyhow!("the bus thread was lost"))?;
+    let stats = owner.collect_stats();
+    Ok((stats, stats.events as f64 / stats.rounds.max(1) as f64))
+}
+
 /// Sets X1 of device `index` at its terminal.
-fn set_x1(world: &SharedWorld, clock: &dyn Clock, index: usize, level: bool) {
+pub(super) fn set_x1(world: &SharedWorld, clock: &dyn Clock, index: usize, level: bool) {
     let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
     w.advance_to(clock.now());
     // A stimulus that never reached the terminal would make the measurement meaningless.

@@ -3,6 +3,7 @@
 
 pub(crate) mod bus_cycle;
 pub(crate) mod collect;
+pub(crate) mod full_cycle;
 pub(crate) mod logic_cost;
 pub(crate) mod peer;
 pub(crate) mod plant_services;
@@ -84,5 +85,6 @@ pub(crate) fn all() -> Vec<Scenario> {
         trace_cost::SCENARIO,
         peer::SCENARIO,
         plant_services::SCENARIO,
+        full_cycle::SCENARIO,
     ]
 }
