@@ -1584,10 +1584,13 @@ fn edges_near(edges: &[Edge], want: &[(u64, bool)], late: Duration) -> bool {
 #[test]
 fn bus_loss_in_the_middle_of_a_run() {
     // The module's own watchdog is off here: this is about the line (the watchdog's safe state
-    // is tested with the drivers).
+    // is tested with the drivers). Polled, pinned: a lost line is seen at the next poll (in
+    // event mode, this line's default, only at the module's refresh).
     let case = Case {
         name: "bus-loss",
-        modules: &["name: mm1, model: minimod, address: 1, settings: { WDTTIME: 0 }"],
+        modules: &[
+            "name: mm1, model: minimod, address: 1, settings: { WDTTIME: 0, events: false }",
+        ],
         ..motor_case("bus-loss")
     };
     let bound = plans(&case).2;
@@ -1728,10 +1731,12 @@ fn inputs_shorter_than_a_scan_reach_the_module_only() {
     // middle of a 100 ms cycle latches the pushed-down motor, and the central scan, which reads
     // the inputs at the start of each cycle, never sees it. The expected result is the
     // module's: the press happened. (With the power-on latency of 20 ms the module would filter
-    // the pulse out too, "Input conditioning".)
+    // the pulse out too, "Input conditioning".) Polled, pinned: in event mode, this line's
+    // default, the module queues the pulse's two edges as events and the central scan sees
+    // them too.
     let mm = Case {
         name: "short-minimod",
-        modules: &["name: mm1, model: minimod, address: 1, settings: { XLATUP1: 0, XLATDN1: 0 }"],
+        modules: &["name: mm1, model: minimod, address: 1, settings: { XLATUP1: 0, XLATDN1: 0, events: false }"],
         ..motor_case("short-minimod")
     };
     // A RESI-16DI8RO samples every 10 ms: a 15 ms press always spans a sample, so its TOGGLE

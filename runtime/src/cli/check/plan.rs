@@ -56,7 +56,8 @@ fn chosen(c: &Choice, modules: &str, held: &str) -> String {
         format!(
             "input plan: event mode (Collect) for {modules}, chosen: {both}; each event adds {}, \
              so a round stays cheaper than polling up to {} event(s); a full refresh every \
-             event_refresh; pin the mode with events: false",
+             event_refresh, which is also when a silent module is seen (an idle round is \
+             silence either way); pin the mode with events: false",
             fmt_duration(c.per_event),
             c.break_even()
         )

@@ -61,7 +61,8 @@ fn four_factory_minimods_run_collect_by_default_and_check_says_why() {
           t3.5), in event mode 19.59ms (one idle Collect round over window 1–4: request, 3 ms a \
           slot + 1 ms, t3.5, no reply delay; and what the modules read besides their inputs); \
           each event adds 8.74ms, so a round stays cheaper than polling up to 7 event(s); a full \
-          refresh every event_refresh; pin the mode with events: false"
+          refresh every event_refresh, which is also when a silent module is seen (an idle \
+          round is silence either way); pin the mode with events: false"
         ]
     );
 }
