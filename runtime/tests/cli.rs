@@ -137,17 +137,23 @@ fn check_accepts_the_quick_start_and_prints_its_budget() {
         text.contains("out Y1       bool → tag #3 motor safe=0"),
         "{text}"
     );
-    // Two FC 2 reads of 8 + 7 bytes at 19200 8E1, each with the MiniMod's 10 ms reply delay
-    // and t3.5: 2 × (8.594 + 10 + 2.005) ms.
+    // Event mode by default (the round, 13.59 ms, is cheaper than two polls, 41.20 ms); its
+    // longest input phase is a refresh: the round, then two FC 2 reads of 8 + 7 bytes at
+    // 19200 8E1, each with the MiniMod's 10 ms reply delay and t3.5: 2 × (8.594 + 10 + 2.005)
+    // ms.
+    assert!(
+        text.contains("input plan: event mode (Collect) for mm1, mm2, chosen"),
+        "{text}"
+    );
     assert!(
         text.contains(
-            "budget: inputs 41.20ms (2 transactions), full output write 42.34ms, cycle floor \
-             83.54ms"
+            "budget: inputs 54.79ms (2 transactions after an idle Collect round of 13.59ms, a \
+             refresh cycle), full output write 42.34ms, cycle floor 97.13ms"
         ),
         "{text}"
     );
     assert!(
-        text.contains("the input phase can be no shorter than 41.20ms"),
+        text.contains("the input phase can be no shorter than 54.79ms"),
         "{text}"
     );
     assert!(!text.contains("warning"), "{text}");
@@ -280,7 +286,7 @@ fn check_names_file_line_column_and_fault() {
         &[
             "7:5: error: unknown key `baudrate` in buses[0]; expected one of `name`, `port`, \
            `baud`, `format`, `response_timeout`, `retries`, `output_refresh`, `rs485`, `echo`, \
-           `adapter_latency`",
+           `adapter_latency`, `direction`, `tune`",
         ],
     );
     check_fails(
@@ -444,9 +450,11 @@ fn run_on_the_virtual_clock_is_fast_and_deterministic() {
     );
     let (scans, cycle) = summary_lines(&first.stdout);
     assert_eq!(scans, "scans 300  overruns 0  period 100.00ms");
-    // The longest cycle reads both modules and refreshes both outputs: the cycle floor of
-    // `check` (83.54 ms) without the last t3.5, to the histogram's 3 significant digits.
-    assert!(cycle.ends_with("max 81.59ms"), "{cycle}");
+    // The longest cycle runs the Collect round, refreshes both modules' inputs and both
+    // outputs: the cycle floor of `check` (97.13 ms) without the last t3.5 and with the
+    // character the owner listens past the round's window (0.57 ms), to the histogram's 3
+    // significant digits.
+    assert!(cycle.ends_with("max 95.75ms"), "{cycle}");
     // Everything, the statistics included, is the same twice.
     assert_eq!(first.stdout, second.stdout);
 }

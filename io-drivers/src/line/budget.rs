@@ -5,6 +5,9 @@
 //! transaction that waits for bytes back ([`AdapterTiming`], `line/latency.rs`). The floor of a
 //! cycle is the sum over its transactions; no master on this line can be faster. An adapter's
 //! echo (`echo: discard`, `line/echo.rs`) arrives while the request is sent and adds nothing.
+//! A line with modules in event mode adds one idle Collect round ([`CollectFloor::idle`]),
+//! counted once for the line and without reply delays (a Collect reply has its slot instead),
+//! and counts each member's full refresh: the longest input phase is a refresh cycle.
 
 use std::time::Duration;
 
@@ -36,8 +39,12 @@ pub struct ModuleBudget {
 pub struct LineBudget {
     /// Per module.
     pub modules: Vec<ModuleBudget>,
-    /// Sum of every module's reads: the input phase can be no shorter.
+    /// Sum of every module's reads, and the line's idle Collect round when it has members
+    /// (their refreshes counted: a refresh cycle is the longest): the input phase can be no
+    /// shorter.
     pub read_floor: Duration,
+    /// The idle Collect round in `read_floor` (zero without event-mode modules).
+    pub collect_round: Duration,
     /// Sum of every module's full writes (a refresh cycle).
     pub write_floor: Duration,
 }
@@ -156,25 +163,17 @@ pub fn line_budget_on(
 ) -> LineBudget {
     let mut modules = Vec::with_capacity(drivers.len());
     let mut plan = Vec::new();
+    let mut members = Vec::new();
     for (name, driver, access) in drivers.iter_mut() {
         let delay = driver.reply_delay();
         let gap = frame_gap_excess(settings, driver.as_ref());
         plan.clear();
         driver.plan_read(&mut plan);
         if let Some((unit, _)) = driver.collect_membership() {
-            // A member's share of its line's Collect round, counted as one Collect exchange
-            // with the module, and its full refresh (a cycle that refreshes is the longest).
-            let request = Request::Collect {
-                first: unit.get(),
-                last: unit.get(),
-                slave_ack: 0,
-                slave_seq: 0,
-            };
-            plan.push(Transaction {
-                frame: Outgoing::Modbus { unit, request },
-                tag: crate::line::collect::EVENT_TAG,
-            });
+            // A member's full refresh (a cycle that refreshes is the longest); its share of
+            // the line's Collect round is counted once for the line, below.
             driver.plan_refresh(&mut plan);
+            members.push(unit.get());
         }
         let read_transactions = plan.len();
         let read_time = plan
@@ -200,12 +199,16 @@ pub fn line_budget_on(
             write_time,
         });
     }
-    let read_floor = modules.iter().map(|m| m.read_time).sum();
+    // One idle Collect round for the members, whose reply delays do not apply to it.
+    let collect_round =
+        CollectFloor::over(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle());
+    let read_floor = modules.iter().map(|m| m.read_time).sum::<Duration>() + collect_round;
     let write_floor = modules.iter().map(|m| m.write_time).sum();
     LineBudget {
         modules,
         read_floor,
         write_floor,
+        collect_round,
     }
 }
 

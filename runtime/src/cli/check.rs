@@ -179,9 +179,19 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
             continue;
         }
         let held = latency_clause(adapter, "each with ");
+        // A line in event mode: its longest input phase is a refresh after the round.
+        let round = if budget.collect_round.is_zero() {
+            String::new()
+        } else {
+            format!(
+                " after an idle Collect round of {}, a refresh cycle",
+                fmt_duration(budget.collect_round)
+            )
+        };
         let _ = writeln!(
             out,
-            "  budget: inputs {} ({} transactions{held}), full output write {}, cycle floor {}",
+            "  budget: inputs {} ({} transactions{held}{round}), full output write {}, cycle \
+             floor {}",
             fmt_duration(budget.read_floor),
             budget
                 .modules
