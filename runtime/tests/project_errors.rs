@@ -1170,7 +1170,7 @@ fn thousands_of_errors_in_a_large_file_are_located_quickly() {
 
 #[test]
 fn network_bus_urls_and_keys() {
-    use softplc_io::line::tcp::{EndpointError, NetFraming, TcpEndpoint};
+    use softplc_io::line::{EndpointError, NetFraming, TcpEndpoint};
     // A good one of each framing.
     let text = format!(
         "{HEAD}buses:

@@ -14,8 +14,8 @@ use std::time::Duration;
 use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
 use softplc::scan::ScanEngine;
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::wire::trace::{format_event, WireEvent, WireTap};
+use softplc_io::sim::{Fault, FaultRule, Frequency};
+use softplc_io::wire::{format_event, WireEvent, WireTap};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

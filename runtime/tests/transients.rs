@@ -11,8 +11,7 @@ use softplc::plc::Plc;
 use softplc::project::parse_str;
 use softplc::scan::{ScanEngine, StopReason};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld};
 
 const PERIOD: Duration = Duration::from_millis(100);
 

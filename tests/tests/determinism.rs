@@ -14,7 +14,7 @@ use softplc::image::TagId;
 use softplc::plc::Plc;
 use softplc::project::{self, Project};
 use softplc::scan::{RunOutcome, ScanEngine, StopReason};
-use softplc_io::line::budget::{line_budget, LineBudget};
+use softplc_io::line::{line_budget, LineBudget};
 use softplc_io::point::{Quality, Value};
 use softplc_tests::workspace_root;
 

@@ -162,7 +162,7 @@ fn exercise_profile(profile: project::profile::Profile) {
     for (i, tx) in plan.iter().enumerate() {
         if let Outgoing::Modbus { unit, request } = &tx.frame {
             let mut frame = Vec::new();
-            if softplc_io::modbus::master::encode_request(unit.get(), request, &mut frame).is_ok() {
+            if softplc_io::modbus::encode_request(unit.get(), request, &mut frame).is_ok() {
                 drop(sim.on_frame(&frame, Duration::from_millis(i as u64)));
             }
         }

@@ -15,12 +15,12 @@ use proptest::prelude::*;
 use softplc::service::modbus_guard;
 use softplc_io::devices::{catalog, ModelSpec};
 use softplc_io::driver::{Outgoing, Reply};
-use softplc_io::modbus::crc::{append_crc, check_crc};
-use softplc_io::modbus::master::{Progress, ReplyAssembler};
-use softplc_io::modbus::server::{decode_request, request_frame_len, FrameLen};
-use softplc_io::modbus::{ExceptionCode, Request, Response};
+use softplc_io::modbus::{
+    append_crc, check_crc, decode_request, request_frame_len, ExceptionCode, FrameLen, Progress,
+    ReplyAssembler, Request, Response,
+};
 use softplc_io::point::Value;
-use softplc_io::sim::serve::complete_frame;
+use softplc_io::sim::complete_frame;
 
 /// Characters the modules' text protocols are made of, so that random lines reach deep into
 /// the parsers instead of failing at the first byte.

@@ -1129,7 +1129,7 @@ impl Session {
     }
 
     /// Runs `f` on the world, brought up to the clock's time.
-    fn world<R>(&self, f: impl FnOnce(&mut softplc_io::sim::line::SimWorld) -> R) -> R {
+    fn world<R>(&self, f: impl FnOnce(&mut softplc_io::sim::SimWorld) -> R) -> R {
         let world = self.plc.world().expect("a simulated line").clone();
         let mut w = world.lock().unwrap();
         let now = self.plc.clock().now();

@@ -50,7 +50,7 @@ impl LineBudget {
 
 /// The guard time after a timeout or a bad reply: long enough for a late or babbling reply
 /// to end before the input is flushed (half the response timeout, at least two t3.5).
-pub fn guard_time(settings: LineSettings, response_timeout: Duration) -> Duration {
+pub(crate) fn guard_time(settings: LineSettings, response_timeout: Duration) -> Duration {
     (response_timeout / 2).max(settings.t3_5() * 2)
 }
 
@@ -112,7 +112,7 @@ pub fn transaction_time(
 
 /// Time of one planned transaction on a line whose adapter is `adapter`: its wire time and
 /// what the adapter holds back.
-pub fn transaction_time_on(
+pub(crate) fn transaction_time_on(
     settings: LineSettings,
     adapter: AdapterTiming,
     tx: &Transaction,

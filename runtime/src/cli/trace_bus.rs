@@ -13,7 +13,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
-use softplc_io::wire::trace::{format_event, WireEvent, WireTap};
+use softplc_io::wire::{format_event, WireEvent, WireTap};
 
 /// Trace lines queued for the printer before a real-clock line drops one.
 const QUEUE: usize = 4096;

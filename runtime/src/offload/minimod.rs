@@ -23,8 +23,9 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::push_down::{CONDITIONS, MAX_PULSE_MS};
-use softplc_io::devices::minimod::{AutoOutput, Condition, Output, PulseWidth};
+use softplc_io::devices::minimod::{
+    AutoOutput, Condition, Output, PulseWidth, CONDITIONS, MAX_PULSE_MS,
+};
 use softplc_io::devices::Protocol;
 
 use super::ir::{BoolExpr, RungShape};
@@ -281,7 +282,7 @@ fn pulse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use softplc_io::devices::minimod::map::parse_condition;
+    use softplc_io::devices::minimod::parse_condition;
 
     #[test]
     fn masks_match_the_manual() {

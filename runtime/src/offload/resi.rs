@@ -18,9 +18,7 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::resi::models::m16di8ro;
-use softplc_io::devices::resi::value::Num;
-use softplc_io::devices::resi::{Inputs, LogicRow, PulseTime, Relay, RelayFunction};
+use softplc_io::devices::resi::{m16di8ro, Inputs, LogicRow, Num, PulseTime, Relay, RelayFunction};
 use softplc_io::devices::ModuleSettings;
 
 use super::ir::{BoolExpr, RungShape};

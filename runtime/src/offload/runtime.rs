@@ -22,7 +22,7 @@
 use std::time::Duration;
 
 use softplc_io::devices::minimod::PulseWidth;
-use softplc_io::line::bus::{InputFrame, OutputFrame};
+use softplc_io::line::{InputFrame, OutputFrame};
 use softplc_io::point::{Quality, Value};
 
 use super::ir::BoolExpr;

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use softplc_io::line::bus::InputFrame;
+use softplc_io::line::InputFrame;
 use softplc_io::point::Quality;
 
 use crate::image::convert;

@@ -81,13 +81,13 @@ pub enum PortConfig {
     Serial(PathBuf),
     /// A network endpoint: Modbus TCP (`tcp://HOST:PORT`) or RTU over TCP
     /// (`rtu+tcp://HOST:PORT`).
-    Tcp(softplc_io::line::tcp::TcpEndpoint),
+    Tcp(softplc_io::line::TcpEndpoint),
 }
 
 impl PortConfig {
     /// Whether the bus carries Modbus TCP (no serial line, no RTU framing).
     pub fn is_modbus_tcp(&self) -> bool {
-        matches!(self, PortConfig::Tcp(e) if e.framing == softplc_io::line::tcp::NetFraming::ModbusTcp)
+        matches!(self, PortConfig::Tcp(e) if e.framing == softplc_io::line::NetFraming::ModbusTcp)
     }
 
     /// The URL scheme of a network bus.
@@ -115,11 +115,11 @@ pub struct BusConfig {
     /// Period of the full output refresh (outputs are otherwise written on change).
     pub output_refresh: Duration,
     /// Kernel RS-485 mode to set when the port is opened (`rs485:`).
-    pub rs485: Option<softplc_io::line::transport::Rs485Mode>,
+    pub rs485: Option<softplc_io::line::Rs485Mode>,
     /// Whether the adapter's echo of every request is read back and verified (`echo:`).
-    pub echo: softplc_io::line::echo::EchoMode,
+    pub echo: softplc_io::line::EchoMode,
     /// The USB adapter's latency timer (`adapter_latency:`).
-    pub adapter_latency: softplc_io::line::latency::AdapterLatency,
+    pub adapter_latency: softplc_io::line::AdapterLatency,
 }
 
 /// One module.

@@ -62,8 +62,7 @@ use std::time::Duration;
 
 use softplc_io::devices::minimod::{Setting as MiniModSetting, Settings as MiniModSettings};
 use softplc_io::devices::ModuleSettings;
-use softplc_io::line::budget::{failed_attempt, line_budget_on, transaction_time};
-use softplc_io::line::latency::SysfsRoot;
+use softplc_io::line::{failed_attempt, line_budget_on, transaction_time, SysfsRoot};
 use softplc_io::point::{Access, Value};
 
 use super::model::{Binding, Project};

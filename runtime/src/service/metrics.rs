@@ -26,7 +26,7 @@ use std::io::Write;
 use std::net::{SocketAddr, TcpListener};
 use std::time::Duration;
 
-use softplc_io::line::bus::Counters;
+use softplc_io::line::Counters;
 use softplc_io::point::{Quality, Value};
 
 use super::snapshot::{Phase, ServiceSnapshot, SnapshotCell};

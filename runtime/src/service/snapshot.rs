@@ -11,7 +11,7 @@
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use softplc_io::line::bus::Counters;
+use softplc_io::line::Counters;
 use softplc_io::point::{Quality, Value};
 
 use crate::plc::Plc;

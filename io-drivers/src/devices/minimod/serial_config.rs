@@ -35,7 +35,7 @@ pub const BAUD_RATES: [u32; 5] = [4800, 9600, 19200, 38400, 57600];
 pub const MAX_RDELAY: u8 = 200;
 
 /// Power-on reply delay, hundredths of a second ("Setting the reply delay").
-pub const FACTORY_RDELAYT: u8 = 1;
+pub(crate) const FACTORY_RDELAYT: u8 = 1;
 
 /// The letter after the baud rate of `>SERLINE=`: parity and stop bits (8 data bits always).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -307,7 +307,7 @@ impl SerialConfig {
 
 /// The address the rotary selector gives: positions 1..=15 as they are, 0 as 16 ("RS-485
 /// serial interface").
-pub fn selector_value(rotary: u8) -> u8 {
+pub(crate) fn selector_value(rotary: u8) -> u8 {
     match rotary & 0x0F {
         0 => 16,
         n => n,

@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use softplc_io::point::Value;
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::SharedWorld;
 
 use super::scenario::{Expect, ProgramSpec, Scenario, SetInput};
 use super::trace::Change;
