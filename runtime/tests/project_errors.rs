@@ -1098,7 +1098,7 @@ fn one_input_driven_by_two_roles() {
 
 #[test]
 fn nesting_deeper_than_the_limit_is_refused_at_the_collection_past_it() {
-    use softplc::project::nesting::MAX_DEPTH;
+    use softplc::project::MAX_DEPTH;
     // The top-level mapping is one level; 63 brackets more are accepted, 64 are not.
     let ok = format!(
         "{HEAD}plant: {}{}\n",

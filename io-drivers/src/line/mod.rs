@@ -26,23 +26,28 @@ pub(crate) mod transport;
 
 pub use budget::{
     failed_attempt, line_budget, line_budget_on, modbus_reply_len, transaction_time, AdapterTiming,
-    LineBudget,
+    LineBudget, ModuleBudget,
 };
 pub use bus::{
     BusCommand, BusEvent, BusOwner, BusThread, Counters, Discipline, InputFrame, Module,
-    OutputFrame, StartupError, TxError,
+    ModuleSnapshot, OutputFrame, StartupError, TxError, WriteReport,
 };
-pub use collect::floor::{
-    CollectFloor, REPLY_LEN as COLLECT_REPLY_LEN, REQUEST_LEN as COLLECT_REQUEST_LEN,
+pub use collect::{
+    floor::{CollectFloor, REPLY_LEN as COLLECT_REPLY_LEN, REQUEST_LEN as COLLECT_REQUEST_LEN},
+    CollectStats,
 };
-pub use echo::{echo_margin, EchoDiscard, EchoMode};
-pub use latency::{AdapterLatency, Assumed, SysfsRoot};
-pub use link::LineLink;
-pub use settings::{LineSettings, Parity, SerialFormat};
+pub use echo::{echo_margin, BadEchoMode, EchoDiscard, EchoFault, EchoMode};
+pub use latency::{
+    AdapterLatency, Assumed, LatencyRefused, LowLatencyRefused, Lowered, NoTimer, Probe, Source,
+    SysfsRoot,
+};
+pub use link::{Delivery, LineLink};
+pub use settings::{BadFormat, LineSettings, Parity, SerialFormat};
 pub use tcp::{
     EndpointError, ModbusTcpTransport, NetFraming, RtuOverTcpTransport, TcpEndpoint,
     CONNECT_TIMEOUT,
 };
 pub use transport::{
-    open_tty, pty_pair, LineError, LineFault, Rs485Mode, SerialTransport, TTYPort, Transport,
+    open_tty, pty_pair, CallMiss, LineError, LineFault, PduChannel, Rs485Mode, SerialTransport,
+    TTYPort, Transport,
 };

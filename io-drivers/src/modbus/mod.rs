@@ -19,7 +19,7 @@ pub(crate) mod pdu;
 pub(crate) mod server;
 
 pub use crc::{append_crc, check_crc};
-pub use master::{encode_request, EchoField, Progress, ReplyAssembler, ReplyError};
+pub use master::{encode_request, EchoField, EncodeError, Progress, ReplyAssembler, ReplyError};
 pub use pdu::{ExceptionCode, FunctionCode, Request, Response, UnitId};
 pub use server::{
     decode_request, encode_response, request_frame_len, serve, FrameLen, RegisterBank, RequestError,

@@ -13,7 +13,7 @@ pub(crate) mod serve;
 pub(crate) mod serve_tcp;
 
 pub use device::{SimDevice, SimError, SimReply};
-pub use fault::{Fault, FaultRule, Frequency};
-pub use line::{SharedWorld, SimWorld, VirtualPort};
+pub use fault::{Fault, FaultRule, Frequency, LineFaults, Wire};
+pub use line::{SharedWorld, SimEcho, SimWorld, VirtualPort};
 pub use serve::{complete_frame, serve, serve_following, tty_settings, ServeStats, SERVED_LINE};
 pub use serve_tcp::serve_tcp;

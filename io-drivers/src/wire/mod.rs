@@ -25,7 +25,9 @@ use std::fmt;
 pub use decode::{decode_reply, decode_request, Conversation, Decoded, Unrecognised};
 pub use framer::{frame_gap, unglue, FrameEnd, MAX_FRAME};
 pub use framer::{Framer, Framing, HeardFrame};
-pub use trace::{format_event, LineTime, Verdict};
+pub use rtu::Rtu;
+pub use text::{Dcon, MiniMod, Resi};
+pub use trace::{format_event, Discard, LineTime, Verdict};
 pub use trace::{WireEvent, WireTap};
 
 /// A frame as the trace and the monitor print it: its hex, and for a text line its text too

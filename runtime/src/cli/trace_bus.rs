@@ -1,5 +1,5 @@
 //! `softplc run --trace-bus`: every bus owner's frames on stdout, one line each
-//! (`softplc_io::wire::trace::format_event`), written by a thread of their own so a slow
+//! (`softplc_io::wire::format_event`), written by a thread of their own so a slow
 //! terminal never holds a line.
 //!
 //! On the real clock a bus thread never waits for the printer: when the queue is full a line

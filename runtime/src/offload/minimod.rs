@@ -34,9 +34,9 @@ use super::planner::{Command, Feature, ModulePlacement, Pushed, Reason, Site, Ta
 use crate::image::TagId;
 
 /// The model's catalog name.
-pub const MODEL: &str = "minimod";
+pub(crate) const MODEL: &str = "minimod";
 /// The module's sampling tick ("Input conditioning": inputs are sampled once a millisecond).
-pub const TICK: Duration = Duration::from_millis(1);
+pub(crate) const TICK: Duration = Duration::from_millis(1);
 /// What the module's conditions can check.
 const CHECKS: &str = "only X1..X3";
 

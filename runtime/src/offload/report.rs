@@ -205,7 +205,7 @@ pub(crate) fn push_down_settings(project: &Project, m: usize, push: &PushDown) -
 /// the module): the logic registers it clears and reads back before the first scan, whatever
 /// the plan, then the pushed-down outputs' start values, then the tables of its settings.
 /// `None` for a model without logic tables. `module` carries the plan's settings.
-pub fn startup_logic(module: &ModuleConfig) -> Option<String> {
+pub(crate) fn startup_logic(module: &ModuleConfig) -> Option<String> {
     use softplc_io::devices::resi::Setting as R;
     use softplc_io::devices::{minimod as mm, resi as r};
     let cleared = match module.model.name {

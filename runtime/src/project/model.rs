@@ -33,9 +33,9 @@ pub struct Project {
     pub retain: super::retain::RetainConfig,
     /// Push-down of rungs into the modules.
     pub offload: super::offload::OffloadConfig,
-    /// The flight recorder, when the project turns it on (see [`super::recorder`]).
+    /// The flight recorder, when the project turns it on (see `super::recorder`).
     pub recorder: Option<super::recorder::RecorderConfig>,
-    /// Trace definitions, in file order (see [`super::trace`]).
+    /// Trace definitions, in file order (see `super::trace`).
     pub traces: Vec<super::trace::TraceConfig>,
 }
 
@@ -135,7 +135,7 @@ pub struct ModuleConfig {
     pub device: DeviceConfig,
     /// Its own watchdog: the entry's `watchdog:`, what it is armed with and the settings that
     /// arm it, added to `device`'s by [`ModuleConfig::device_with_watchdog`] (see
-    /// [`super::watchdog`]).
+    /// `super::watchdog`).
     pub watchdog: super::watchdog::ModuleWatchdog,
 }
 

@@ -297,7 +297,7 @@ fn main() -> anyhow::Result<()> {
                     due.push_back(item);
                 }
             }
-        }) as softplc::scan::engine::CycleHook
+        }) as softplc::scan::CycleHook
     };
     let started = Instant::now();
     // Segments between kills: each ends as kill -9 would, the next starts on the same modules.

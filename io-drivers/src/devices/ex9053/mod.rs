@@ -35,10 +35,12 @@ mod tests;
 
 use super::{ModelSpec, Protocol};
 
-pub use dcon::{check_line, Answer, AnswerError, Command, ParseError};
+pub use dcon::{check_line, Answer, AnswerError, Command, FrameError, ParseError};
 pub use driver::Ex9053Driver;
+pub use settings::{LatchMode, Settings};
 pub use sim::Ex9053Sim;
-pub use state::{Ex9053State, Variant, WireProtocol};
+pub use state::{ConfigError, Eeprom, Ex9053State, Running, Variant, WireProtocol};
+pub use sync::SyncRole;
 pub use tables::{
     baud_of_code, code_of_baud, BAUD_CODES, FF_CHECKSUM, INIT_ADDRESS, INIT_BAUD_CODE, LINE_FORMAT,
     TYPE_DIO,

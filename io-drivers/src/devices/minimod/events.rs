@@ -49,7 +49,7 @@ const INPUT_EVENT_BITS: u16 = 0x0307;
 pub struct Event {
     /// SLVSEQ, 1..=255.
     pub seq: u8,
-    /// TYPE: [`KIND_INPUTS`] or [`KIND_OUTPUTS`].
+    /// TYPE: `KIND_INPUTS` or `KIND_OUTPUTS`.
     pub kind: u8,
     /// DATH:DATL.
     pub data: u16,

@@ -41,14 +41,22 @@ use std::time::Duration;
 use super::{ModelSpec, Protocol};
 
 pub use driver::{MiniModDriver, LOGIC_CLEARED_AT_STARTUP};
-pub use map::{parse_condition, point_index, WatchdogRegisters, POINTS};
+pub use events::{Event, Events};
+pub use map::{parse_condition, point_index, ConditionError, Item, WatchdogRegisters, POINTS};
 pub use push_down::{AutoOutput, Condition, Input, Latency, Output, PulseWidth, PushDown};
 pub use push_down::{CONDITIONS, MAX_PULSE_MS};
-pub use serial_config::{LineMode, BAUD_RATES, MAX_RDELAY};
+pub use serial_config::{
+    FlashError, LineMode, Preferences, SerialConfig, SerialError, SerialParams, BAUD_RATES,
+    MAX_RDELAY,
+};
 pub use settings::{Readback, Setting, SettingError, Settings};
 pub use sim::MiniModSim;
-pub use state::{Fault, MiniModState};
-pub use text::{read_command, write_command, TextId, WriteValue};
+pub use state::{Fault, MiniModState, WriteError};
+pub use text::{
+    read_command, write_command, Command, Op, Refusal, TextId, TextReply, Unwritable, WriteKind,
+    WriteValue,
+};
+pub use watchdog::{Cause, Watchdog};
 
 /// The MiniMod in the catalog: unit addresses 1..=247 (selector + MBADD, "Setting the slave
 /// address"), at most 57600 Bd ("Setting the communication parameters"), 10 ms reply delay at

@@ -22,8 +22,8 @@ mod tests;
 
 use std::time::Duration;
 
-pub use catalog::describe;
 pub use catalog::model_of;
+pub use catalog::{describe, ProfileSettings};
 pub use value::{DataType, WordOrder};
 
 use crate::point::ValueType;

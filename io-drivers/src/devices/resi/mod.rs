@@ -74,12 +74,17 @@ pub(crate) mod sim;
 pub(crate) mod state;
 pub(crate) mod value;
 
-pub use driver::settings::Setting;
 pub use driver::LOGIC_CLEARED_AT_STARTUP;
-pub use model::{Model, Series};
+pub use driver::{
+    ascii::BadAnswer,
+    settings::{Setting, Settings},
+};
+pub use item::{Func, Item, Kind, Temp};
+pub use map::{Acc, Block, Entry, Map, Table};
+pub use model::{Hardware, Model, RelayKind, Series};
 pub use models::{by_name, m16di8ro};
-pub use push_down::{Inputs, LogicRow, LogicTable, PulseTime, Relay, RelayFunction};
-pub use value::Num;
+pub use push_down::{Inputs, LogicRow, LogicTable, PulseTime, Relay, RelayFunction, RowRegister};
+pub use value::{Enc, Num, WordOrder};
 
 #[cfg(test)]
 #[path = "tests/line.rs"]

@@ -15,5 +15,5 @@ pub(crate) mod sensor_config;
 pub(crate) mod serve;
 
 pub use super::driver::ascii::{answer_values, is_ok, request};
-pub use command::{find, Command, COMMON};
+pub use command::{find, Action, Command, Field, Fmt, Op, Text, COMMON};
 pub use frame::{frame, parse_number};
