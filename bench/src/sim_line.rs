@@ -9,14 +9,15 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
-use softplc_io::devices::minimod::{self, map, MiniModSim};
+use softplc_io::devices::minimod::{self, MiniModSim};
 use softplc_io::devices::{ModelSpec, Protocol};
 use softplc_io::driver::{Driver, Outgoing, Transaction};
-use softplc_io::line::budget::{line_budget, modbus_reply_len, transaction_time, LineBudget};
-use softplc_io::line::bus::{BusOwner, Discipline, Module, OutputFrame};
-use softplc_io::line::LineSettings;
+use softplc_io::line::{
+    line_budget, modbus_reply_len, transaction_time, BusOwner, Discipline, LineBudget,
+    LineSettings, Module, OutputFrame,
+};
 use softplc_io::point::{Access, Value};
-use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use softplc_io::sim::{SharedWorld, SimWorld, VirtualPort};
 use softplc_io::time::Clock;
 
 /// A line ready to run.
@@ -72,7 +73,7 @@ pub(crate) fn minimods(
     for address in 1..=n {
         let name = format!("mm{address}");
         modules.push((name.clone(), driver(address, settings)));
-        let access = map::POINTS.iter().map(|p| p.access).collect();
+        let access = minimod::POINTS.iter().map(|p| p.access).collect();
         budget_drivers.push((name, driver(address, settings), access));
         toggle_write_floor += write_floor(&minimod::MODEL, line, settings, "Y1");
     }
@@ -110,8 +111,8 @@ pub(crate) fn line_of(
 
 /// One MiniMod's desired outputs with only Y1 driven, at `on`.
 pub(crate) fn y1_frame(on: bool) -> Vec<Option<Value>> {
-    let mut desired = vec![None; map::POINTS.len()];
-    if let Some(i) = map::point_index("Y1") {
+    let mut desired = vec![None; minimod::POINTS.len()];
+    if let Some(i) = minimod::point_index("Y1") {
         desired[i] = Some(Value::Bool(on));
     }
     desired

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use softplc::scan::DurationHistogram;
 use softplc_io::point::Value;
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::SharedWorld;
 use softplc_io::time::Clock;
 
 /// The sampling period.

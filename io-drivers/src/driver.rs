@@ -1,6 +1,6 @@
 //! The sans-IO device driver: plans transactions, decodes replies into points.
 //!
-//! A driver never touches a port. The bus owner of its line ([`crate::line::bus`]) executes
+//! A driver never touches a port. The bus owner of its line (`crate::line::bus`) executes
 //! the transactions the driver plans and hands each reply back. One driver instance serves one
 //! module; its point table is the model's ([`crate::devices::ModelSpec::points`]).
 
@@ -122,11 +122,11 @@ pub trait Driver: Send + Debug {
     }
 
     /// Whether the module takes part in its line's FC 70 Collect round, and as which unit,
-    /// with the period of its full refresh ([`crate::line::collect`]). A member's
+    /// with the period of its full refresh (`crate::line::collect`). A member's
     /// [`Driver::plan_read`] then holds only what it reads every cycle; the bus owner asks
     /// [`Driver::plan_refresh`] for the rest when a refresh is due, and hands every event of
     /// the module to [`Driver::on_reply`] as a [`Response::Collect`] under
-    /// [`crate::line::collect::EVENT_TAG`].
+    /// `crate::line::collect::EVENT_TAG`.
     fn collect_membership(&self) -> Option<(UnitId, Duration)> {
         None
     }

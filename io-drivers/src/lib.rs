@@ -1,13 +1,23 @@
 //! softplc-io: everything that talks to I/O modules.
 //!
-//! Layers, bottom up (see DESIGN.md):
-//! - [`time`]: the [`time::Clock`] trait (monotonic or virtual) every timed part shares.
-//! - [`line`]: serial settings and the wire-time model, transports (a real serial port or the
-//!   virtual multidrop line) and the bus owner that runs transactions on one line.
+//! The public surface is one namespace per layer, bottom up (see DESIGN.md); everything else
+//! is internal to the crate:
+//! - [`time`]: the [`Clock`](time::Clock) trait (monotonic or virtual) every timed part shares.
+//! - [`point`]: a module's points: [`Value`](point::Value), [`ValueType`](point::ValueType),
+//!   [`Quality`](point::Quality), [`PointSpec`](point::PointSpec).
+//! - [`driver`]: the sans-IO [`Driver`](driver::Driver) trait: a driver plans
+//!   [`Transaction`](driver::Transaction)s and decodes their replies, never touching a port.
+//! - [`line`](mod@line): serial settings and the wire-time budget, transports (a real serial
+//!   port, the virtual multidrop line, TCP) and the [`BusOwner`](line::BusOwner) that runs
+//!   transactions on one line, on its own thread or linked to the scan.
 //! - [`modbus`]: the sans-IO Modbus RTU codec, master side (requests out, replies verified and
 //!   reassembled) and server side (what the simulators answer).
-//! - [`devices`]: one folder per module family: register map, driver (sans-IO), simulator.
-//! - [`sim`]: the simulated world: devices on a virtual line, plant models, serving on a pty.
+//! - [`devices`]: the [`catalog`](devices::catalog) of module models
+//!   ([`ModelSpec`](devices::ModelSpec)), and one namespace per family ([`devices::minimod`],
+//!   [`devices::resi`], [`devices::ex9053`], [`devices::profile`]) with its settings, tables
+//!   and simulator.
+//! - [`sim`]: the simulated world: devices on a virtual line ([`SimWorld`](sim::SimWorld)),
+//!   injected faults, [`sim::plant`] models, serving on a pty or TCP.
 //! - [`wire`]: seeing the wire: one frame decoder (every protocol), the bus owner's frame
 //!   trace and the framing of a passively heard line.
 //!

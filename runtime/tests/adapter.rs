@@ -141,7 +141,7 @@ fn a_corrupted_echo_is_a_line_error_and_the_line_recovers() {
 
 #[test]
 fn check_says_a_pty_has_no_adapter_latency() {
-    let (_master, _slave, pty) = softplc_io::line::transport::pty_pair().unwrap();
+    let (_master, _slave, pty) = softplc_io::line::pty_pair().unwrap();
     let project = Project::new("check", &pty, ", echo: discard");
     let out = project.check();
     let (stdout, stderr) = text(&out);

@@ -10,8 +10,7 @@ use softplc::plc::Plc;
 use softplc::project::parse_str;
 use softplc::scan::{ScanEngine, StopReason};
 use softplc_io::point::Value;
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld};
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)

@@ -15,12 +15,10 @@ use std::time::Duration;
 use softplc::clock::{Clock, VirtualClock};
 use softplc::logic::ScanContext;
 use softplc::plc::Plc;
-use softplc::project::watchdog::{Armed, Origin};
-use softplc::project::{self, Project};
-use softplc_io::devices::minimod::map::WatchdogRegisters;
-use softplc_io::devices::minimod::MiniModSim;
+use softplc::project::{self, Armed, Origin, Project};
+use softplc_io::devices::minimod::{MiniModSim, WatchdogRegisters};
 use softplc_io::point::Value;
-use softplc_io::sim::line::SimWorld;
+use softplc_io::sim::SimWorld;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 const PERIOD: Duration = Duration::from_millis(50);

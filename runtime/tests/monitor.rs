@@ -17,9 +17,8 @@ use std::time::Duration;
 
 use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
-use softplc_io::line::transport::{pty_pair, TTYPort};
-use softplc_io::wire::trace::{format_event, Verdict, WireEvent, WireTap};
-use softplc_io::wire::Hex;
+use softplc_io::line::{pty_pair, TTYPort};
+use softplc_io::wire::{format_event, Hex, Verdict, WireEvent, WireTap};
 
 /// Frames replayed per session: every family's start-up has at least this many exchanges.
 const FRAMES: usize = 14;

@@ -248,7 +248,7 @@ fn module_settings_are_kept_in_order_as_text() {
 /// Whether a module's settings hold nothing the file wrote: at most the input mode that the
 /// line's plan chose for it (`project/line_plan`: Collect where cheaper).
 fn only_planned(settings: &softplc_io::devices::ModuleSettings) -> bool {
-    use softplc_io::devices::minimod::settings::Setting;
+    use softplc_io::devices::minimod::Setting;
     match settings {
         softplc_io::devices::ModuleSettings::MiniMod(s) => {
             s.items().iter().all(|i| matches!(i, Setting::Events(true)))
@@ -1110,7 +1110,7 @@ fn one_input_driven_by_two_roles() {
 
 #[test]
 fn nesting_deeper_than_the_limit_is_refused_at_the_collection_past_it() {
-    use softplc::project::nesting::MAX_DEPTH;
+    use softplc::project::MAX_DEPTH;
     // The top-level mapping is one level; 63 brackets more are accepted, 64 are not.
     let ok = format!(
         "{HEAD}plant: {}{}\n",
@@ -1182,7 +1182,7 @@ fn thousands_of_errors_in_a_large_file_are_located_quickly() {
 
 #[test]
 fn network_bus_urls_and_keys() {
-    use softplc_io::line::tcp::{EndpointError, NetFraming, TcpEndpoint};
+    use softplc_io::line::{EndpointError, NetFraming, TcpEndpoint};
     // A good one of each framing.
     let text = format!(
         "{HEAD}buses:

@@ -6,8 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use softplc::project::offload::OffloadError;
-use softplc::project::{parse_str, ErrorKind, OffloadMode, OnStop, ProjectError, TagOffload};
+use softplc::project::{
+    parse_str, ErrorKind, OffloadError, OffloadMode, OnStop, ProjectError, TagOffload,
+};
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/projects")

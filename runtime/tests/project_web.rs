@@ -14,10 +14,8 @@ use softplc::project::{
     parse_str, ErrorKind, Project, ServiceError, WebConfig, WebError, WebToken,
 };
 use softplc::service::control::{Envelope, Request, Response};
-use softplc::service::snapshot::{ServiceSnapshot, SnapshotCell};
-use softplc::service::web::info::WebInfo;
-use softplc::service::web::program::ProgramView;
-use softplc::service::web::WebServer;
+use softplc::service::web::{ProgramView, WebInfo, WebServer};
+use softplc::service::{ServiceSnapshot, SnapshotCell};
 
 use softplc_io::point::{Quality, Value};
 

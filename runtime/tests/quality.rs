@@ -14,7 +14,7 @@ use softplc::plc::Plc;
 use softplc::project::parse_str;
 use softplc::scan::{ScanEngine, StopReason};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
+use softplc_io::sim::{Fault, FaultRule, Frequency};
 
 const PERIOD: Duration = Duration::from_millis(200);
 const FAULT_FROM: Duration = Duration::from_secs(2);

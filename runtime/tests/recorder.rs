@@ -10,9 +10,9 @@ use std::time::{Duration, Instant};
 use softplc::clock::VirtualClock;
 use softplc::plc::Plc;
 use softplc::recorder::format::{self, BlockKind, Framed};
-use softplc::recorder::replay::ReplayError;
-use softplc::recorder::writer::segments_in;
-use softplc::recorder::{read_record, replay, Record, ReplayOptions, Settings};
+use softplc::recorder::{
+    read_record, replay, segments_in, Record, ReplayError, ReplayOptions, Settings,
+};
 use softplc::scan::{CycleBoundary, ScanEngine, ScanStats};
 use softplc_io::point::Value;
 

@@ -607,8 +607,9 @@ fn tx(tag: u32, request: softplc_io::modbus::Request) -> softplc_io::driver::Tra
 
 #[test]
 fn another_softplc_reads_and_writes_these_tags_as_remote_io_over_modbus_tcp() {
-    use softplc_io::line::bus::{BusOwner, Discipline, Module, OutputFrame};
-    use softplc_io::line::tcp::{ModbusTcpTransport, NetFraming, TcpEndpoint};
+    use softplc_io::line::{
+        BusOwner, Discipline, ModbusTcpTransport, Module, NetFraming, OutputFrame, TcpEndpoint,
+    };
     use softplc_io::point::{Quality, Value};
     use softplc_io::time::MonotonicClock;
 

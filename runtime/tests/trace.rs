@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use softplc::clock::VirtualClock;
 use softplc::plc::Plc;
-use softplc::project::trace::RawTrace;
+use softplc::project::RawTrace;
 use softplc::scan::{CycleBoundary, ScanEngine, ScanStats};
 use softplc::trace::{TraceData, TraceSet, TraceState};
 

@@ -14,8 +14,8 @@ use std::time::Duration;
 use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
 use softplc::scan::ScanEngine;
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::wire::trace::{format_event, WireEvent, WireTap};
+use softplc_io::sim::{Fault, FaultRule, Frequency};
+use softplc_io::wire::{format_event, WireEvent, WireTap};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -105,9 +105,7 @@ fn timeouts_late_replies_and_crc_errors_are_in_the_trace() {
     // Collect by default, where a silent module is only seen at its refresh).
     for module in &mut project.modules {
         if let softplc_io::devices::ModuleSettings::MiniMod(s) = &mut module.device.settings {
-            s.push(softplc_io::devices::minimod::settings::Setting::Events(
-                false,
-            ));
+            s.push(softplc_io::devices::minimod::Setting::Events(false));
         }
     }
     let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());

@@ -11,8 +11,7 @@ use softplc::plc::Plc;
 use softplc::project::parse_str;
 use softplc::scan::{ScanEngine, StopReason};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld};
 
 const PERIOD: Duration = Duration::from_millis(100);
 
@@ -372,8 +371,8 @@ fn a_module_power_cycled_between_two_reads_gets_its_outputs_back_within_the_refr
 
 #[test]
 fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
-    use softplc::service::boundary::ServiceBoundary;
     use softplc::service::control::{Envelope, Request};
+    use softplc::service::ServiceBoundary;
     let project = project();
     let program = project.program.path.clone();
     let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());

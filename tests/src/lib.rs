@@ -1,6 +1,6 @@
 //! Helpers of softplc's end-to-end tests (the tests themselves are in `tests/tests/`).
 //!
-//! - [`scripted`]: a fake [`Transport`](softplc_io::line::transport::Transport) on a virtual
+//! - [`scripted`]: a fake [`Transport`](softplc_io::line::Transport) on a virtual
 //!   time cursor that answers each request with scripted bytes at scripted times, so the bus
 //!   owner's discipline (timeouts, guard, flush, retries) is tested deterministically.
 //! - [`frames`]: building RTU frames independently of the codec under test (our own CRC).

@@ -10,8 +10,7 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use softplc_io::line::settings::LineSettings;
-use softplc_io::line::transport::{LineError, Transport};
+use softplc_io::line::{LineError, LineSettings, Transport};
 
 use crate::frames::hex;
 

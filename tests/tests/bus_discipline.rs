@@ -9,10 +9,10 @@
 use std::time::Duration;
 
 use softplc_io::driver::DecodeError;
-use softplc_io::line::bus::{BusOwner, Discipline, InputFrame, Module, OutputFrame, TxError};
-use softplc_io::line::settings::LineSettings;
-use softplc_io::modbus::master::ReplyError;
-use softplc_io::modbus::ExceptionCode;
+use softplc_io::line::{
+    BusOwner, Discipline, InputFrame, LineSettings, Module, OutputFrame, TxError,
+};
+use softplc_io::modbus::{ExceptionCode, ReplyError};
 use softplc_io::point::{Quality, Value};
 use softplc_tests::frames::{exception, hex, minimod_inputs_reply, rtu};
 use softplc_tests::minimod::{desired, driver, point};

@@ -9,13 +9,12 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use softplc_io::devices::{self, Protocol};
-use softplc_io::line::bus::{BusCommand, BusOwner, BusThread, Discipline, Module, OutputFrame};
-use softplc_io::line::link::LineLink;
-use softplc_io::line::settings::LineSettings;
-use softplc_io::line::transport::{LineError, Transport};
+use softplc_io::line::{
+    BusCommand, BusOwner, BusThread, Discipline, LineError, LineLink, LineSettings, Module,
+    OutputFrame, Transport,
+};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld, SimWorld, VirtualPort};
 use softplc_io::time::{Clock, MonotonicClock};
 
 /// Slack on every real-time bound.

@@ -14,7 +14,7 @@ use softplc::image::TagId;
 use softplc::plc::Plc;
 use softplc::project::{self, Project};
 use softplc::scan::{RunOutcome, ScanEngine, StopReason};
-use softplc_io::line::budget::{line_budget, LineBudget};
+use softplc_io::line::{line_budget, LineBudget};
 use softplc_io::point::{Quality, Value};
 use softplc_tests::workspace_root;
 
@@ -65,9 +65,7 @@ fn load_polled() -> Project {
     let mut project = load();
     for module in &mut project.modules {
         if let softplc_io::devices::ModuleSettings::MiniMod(s) = &mut module.device.settings {
-            s.push(softplc_io::devices::minimod::settings::Setting::Events(
-                false,
-            ));
+            s.push(softplc_io::devices::minimod::Setting::Events(false));
         }
     }
     project

@@ -12,7 +12,7 @@ use std::time::Duration;
 use proptest::collection::vec;
 use proptest::prelude::*;
 use softplc::image::{ProcessImage, TagId};
-use softplc::logic::{expr, ladder, load, rhai, LogicEngine, ScanContext};
+use softplc::logic::{expr, ladder, rhai, tag_table, LogicEngine, ScanContext};
 use softplc::project;
 use softplc_io::point::Value;
 
@@ -162,7 +162,7 @@ fn exercise_profile(profile: project::profile::Profile) {
     for (i, tx) in plan.iter().enumerate() {
         if let Outgoing::Modbus { unit, request } = &tx.frame {
             let mut frame = Vec::new();
-            if softplc_io::modbus::master::encode_request(unit.get(), request, &mut frame).is_ok() {
+            if softplc_io::modbus::encode_request(unit.get(), request, &mut frame).is_ok() {
                 drop(sim.on_frame(&frame, Duration::from_millis(i as u64)));
             }
         }
@@ -231,7 +231,7 @@ proptest! {
     #[test]
     fn expr_programs(text in mutated(vec![read("programs/conveyor.expr")]), salt in any::<usize>()) {
         let (p, mut image) = conveyor();
-        let table = load::tag_table(&p, &image);
+        let table = tag_table(&p, &image);
         if let Ok(mut prog) = expr::compile(&text, Path::new("f.expr"), &table) {
             scan_a_little(&mut prog, &mut image, salt);
         }
@@ -240,7 +240,7 @@ proptest! {
     #[test]
     fn ladder_programs(text in mutated(vec![read("programs/conveyor/conveyor.ladder.yaml"), read("programs/pump_station/pump_station.ladder.yaml")]), salt in any::<usize>()) {
         let (p, mut image) = conveyor();
-        let table = load::tag_table(&p, &image);
+        let table = tag_table(&p, &image);
         if let Ok(mut prog) = ladder::compile(&text, Path::new("f.ladder.yaml"), &table) {
             scan_a_little(&mut prog, &mut image, salt);
         }
@@ -249,7 +249,7 @@ proptest! {
     #[test]
     fn rhai_programs(text in mutated(vec![read("programs/conveyor/conveyor.rhai"), read("programs/traffic_light/traffic_light.rhai")]), salt in any::<usize>()) {
         let (p, mut image) = conveyor();
-        let table = load::tag_table(&p, &image);
+        let table = tag_table(&p, &image);
         if let Ok(mut prog) = rhai::compile(&text, Path::new("f.rhai"), &table, Duration::from_millis(50)) {
             scan_a_little(&mut prog, &mut image, salt);
         }
@@ -257,7 +257,7 @@ proptest! {
 
     #[test]
     fn scenario_files(text in mutated(vec![read("programs/conveyor/jam_and_count.scenario.yaml"), read("programs/pump_station/dry_run.scenario.yaml")])) {
-        drop(softplc::cli::test::scenario::parse(&text, &repo().join("programs/conveyor/x.scenario.yaml")));
+        drop(softplc::cli::parse_scenario(&text, &repo().join("programs/conveyor/x.scenario.yaml")));
     }
 
     #[test]
@@ -277,7 +277,7 @@ proptest! {
             "POST /api/force HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer abcdefgh\r\nContent-Type: application/json\r\nContent-Length: 29\r\n\r\n{\"tag\":\"motor\",\"value\":\"1\"}".to_string(),
         ]).prop_map(String::into_bytes),
     ]) {
-        drop(softplc::service::metrics::parse_head(&bytes));
-        drop(softplc::service::web::http::parse(&bytes));
+        drop(softplc::service::parse_metrics_head(&bytes));
+        drop(softplc::service::web::parse_http(&bytes));
     }
 }

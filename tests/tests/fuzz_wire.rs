@@ -12,15 +12,15 @@ use std::time::Duration;
 
 use proptest::collection::vec;
 use proptest::prelude::*;
-use softplc::service::modbus_guard;
+use softplc::service::{check_pdu, whole_frames};
 use softplc_io::devices::{catalog, ModelSpec};
 use softplc_io::driver::{Outgoing, Reply};
-use softplc_io::modbus::crc::{append_crc, check_crc};
-use softplc_io::modbus::master::{Progress, ReplyAssembler};
-use softplc_io::modbus::server::{decode_request, request_frame_len, FrameLen};
-use softplc_io::modbus::{ExceptionCode, Request, Response};
+use softplc_io::modbus::{
+    append_crc, check_crc, decode_request, request_frame_len, ExceptionCode, FrameLen, Progress,
+    ReplyAssembler, Request, Response,
+};
 use softplc_io::point::Value;
-use softplc_io::sim::serve::complete_frame;
+use softplc_io::sim::complete_frame;
 
 /// Characters the modules' text protocols are made of, so that random lines reach deep into
 /// the parsers instead of failing at the first byte.
@@ -238,9 +238,9 @@ proptest! {
     /// The Modbus TCP guard in front of tokio-modbus's decoder takes any byte stream.
     #[test]
     fn modbus_tcp_guard_takes_any_stream(bytes in vec(any::<u8>(), 0..300)) {
-        let _ = modbus_guard::whole_frames(&bytes);
+        let _ = whole_frames(&bytes);
         if bytes.len() > 7 {
-            let _ = modbus_guard::check_pdu(&bytes[7..]);
+            let _ = check_pdu(&bytes[7..]);
         }
     }
 }

@@ -8,8 +8,9 @@ use std::time::Duration;
 
 use proptest::collection::vec;
 use proptest::prelude::*;
-use softplc_io::wire::framer::{unglue, MAX_FRAME};
-use softplc_io::wire::{decode_reply, decode_request, Conversation, Framer, Framing, Shown};
+use softplc_io::wire::{
+    decode_reply, decode_request, unglue, Conversation, Framer, Framing, Shown, MAX_FRAME,
+};
 
 /// Frames from the manuals: Modbus (read, its reply, an exception, Collect and its event),
 /// MiniMod text, RESI ASCII, DCON with and without checksum.

@@ -6,11 +6,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc_io::devices::{self, Protocol};
-use softplc_io::line::bus::{BusOwner, Counters, Discipline, Module};
-use softplc_io::line::LineSettings;
+use softplc_io::line::{BusOwner, Counters, Discipline, LineSettings, Module};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld, SimWorld, VirtualPort};
 use softplc_io::time::{Clock, VirtualClock};
 
 const X1: usize = 0;

@@ -279,9 +279,9 @@ fn plans(case: &Case) -> (Project, Project, Duration) {
     let auto = case.project("auto");
     let image =
         softplc::image::ProcessImage::new(never.tags.iter().map(|t| (t.name.clone(), t.initial)));
-    let engine = softplc::logic::load::load_program(&never, &image).unwrap();
+    let engine = softplc::logic::load_program(&never, &image).unwrap();
     let plan = softplc::offload::plan_program(&never, engine.as_ref());
-    let bound = softplc::offload::report::central_bound(&never, &plan, 0);
+    let bound = softplc::offload::central_bound(&never, &plan, 0);
     (never, auto, bound)
 }
 
@@ -289,7 +289,7 @@ fn plans(case: &Case) -> (Project, Project, Duration) {
 fn pushed(project: &Project) -> Vec<(String, bool)> {
     let image =
         softplc::image::ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
-    let engine = softplc::logic::load::load_program(project, &image).unwrap();
+    let engine = softplc::logic::load_program(project, &image).unwrap();
     let plan = softplc::offload::plan_program(project, engine.as_ref());
     plan.rungs
         .iter()
@@ -513,7 +513,7 @@ fn central_rungs_keep_their_reason() {
     let auto = case.project("auto");
     let image =
         softplc::image::ProcessImage::new(auto.tags.iter().map(|t| (t.name.clone(), t.initial)));
-    let engine = softplc::logic::load::load_program(&auto, &image).unwrap();
+    let engine = softplc::logic::load_program(&auto, &image).unwrap();
     let plan = softplc::offload::plan_program(&auto, engine.as_ref());
     let reasons: Vec<(String, Reason)> = plan
         .rungs
@@ -529,7 +529,7 @@ fn central_rungs_keep_their_reason() {
     assert!(
         matches!(&reasons[3], (c, Reason::Never { by_tag: true, would: Some(_) }) if c == "y4")
     );
-    let report = softplc::offload::report::report(&auto, &plan);
+    let report = softplc::offload::report(&auto, &plan);
     assert!(
         report.contains("an input from another module: b is on mm2"),
         "{report}"
@@ -671,9 +671,9 @@ fn the_example_project_behaves_the_same_pushed_down_and_faster() {
     };
     let image =
         softplc::image::ProcessImage::new(never.tags.iter().map(|t| (t.name.clone(), t.initial)));
-    let engine = softplc::logic::load::load_program(&never, &image).unwrap();
+    let engine = softplc::logic::load_program(&never, &image).unwrap();
     let plan = softplc::offload::plan_program(&never, engine.as_ref());
-    let bound = softplc::offload::report::central_bound(&never, &plan, 0);
+    let bound = softplc::offload::central_bound(&never, &plan, 0);
     let run_for = ms(30_000);
     let inputs = schedule(6, 5, ms(200) + bound, run_for - ms(1000));
     let central = run(&case, never, &inputs, run_for);
@@ -1129,7 +1129,7 @@ impl Session {
     }
 
     /// Runs `f` on the world, brought up to the clock's time.
-    fn world<R>(&self, f: impl FnOnce(&mut softplc_io::sim::line::SimWorld) -> R) -> R {
+    fn world<R>(&self, f: impl FnOnce(&mut softplc_io::sim::SimWorld) -> R) -> R {
         let world = self.plc.world().expect("a simulated line").clone();
         let mut w = world.lock().unwrap();
         let now = self.plc.clock().now();

@@ -8,10 +8,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc_io::devices::{self, ModelSpec, Protocol};
-use softplc_io::line::bus::{BusOwner, Discipline, Module};
-use softplc_io::line::LineSettings;
+use softplc_io::line::{BusOwner, Discipline, LineSettings, Module};
 use softplc_io::point::Value;
-use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use softplc_io::sim::{SharedWorld, SimWorld, VirtualPort};
 use softplc_io::time::{Clock, VirtualClock};
 
 const UNIT: u8 = 2;

@@ -8,12 +8,12 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use softplc_io::line::bus::{BusOwner, Discipline, InputFrame, Module, OutputFrame};
-use softplc_io::line::settings::LineSettings;
-use softplc_io::line::transport::{pty_pair, LineError, SerialTransport};
+use softplc_io::line::{
+    pty_pair, BusOwner, Discipline, InputFrame, LineError, LineSettings, Module, OutputFrame,
+    SerialTransport,
+};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::line::{SharedWorld, SimWorld};
-use softplc_io::sim::serve::{serve, ServeStats, SERVED_LINE};
+use softplc_io::sim::{serve, ServeStats, SharedWorld, SimWorld, SERVED_LINE};
 use softplc_io::time::{Clock, MonotonicClock};
 use softplc_tests::minimod::{desired, driver, model, point};
 

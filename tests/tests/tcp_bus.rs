@@ -13,14 +13,12 @@ use std::time::{Duration, Instant};
 
 use softplc_io::devices::{self, Protocol};
 use softplc_io::driver::Driver;
-use softplc_io::line::bus::{BusOwner, Discipline, InputFrame, Module, OutputFrame, TxError};
-use softplc_io::line::settings::LineSettings;
-use softplc_io::line::tcp::{ModbusTcpTransport, NetFraming, RtuOverTcpTransport, TcpEndpoint};
-use softplc_io::line::transport::{LineFault, Transport};
+use softplc_io::line::{
+    BusOwner, Discipline, InputFrame, LineFault, LineSettings, ModbusTcpTransport, Module,
+    NetFraming, OutputFrame, RtuOverTcpTransport, TcpEndpoint, Transport, TxError,
+};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::line::{SharedWorld, SimWorld};
-use softplc_io::sim::serve::SERVED_LINE;
-use softplc_io::sim::serve_tcp::serve_tcp;
+use softplc_io::sim::{serve_tcp, SharedWorld, SimWorld, SERVED_LINE};
 use softplc_io::time::{Clock, MonotonicClock};
 
 const LINE: LineSettings = LineSettings::DEFAULT;

@@ -14,8 +14,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc::scan::DurationHistogram;
-use softplc_io::line::bus::{BusCommand, BusEvent, BusThread};
-use softplc_io::line::LineSettings;
+use softplc_io::line::{BusCommand, BusEvent, BusThread, LineSettings};
 use softplc_io::time::{Clock, MonotonicClock};
 
 use super::{Ctx, Scenario};

@@ -18,13 +18,11 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc::scan::DurationHistogram;
-use softplc_io::line::budget::AdapterTiming;
-use softplc_io::line::bus::{BusCommand, BusEvent, BusThread};
-use softplc_io::line::collect::floor::CollectFloor;
-use softplc_io::line::collect::CollectStats;
-use softplc_io::line::LineSettings;
+use softplc_io::line::{
+    AdapterTiming, BusCommand, BusEvent, BusThread, CollectFloor, CollectStats, LineSettings,
+};
 use softplc_io::point::Value;
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::SharedWorld;
 use softplc_io::time::{Clock, MonotonicClock};
 
 use super::{Ctx, Scenario};

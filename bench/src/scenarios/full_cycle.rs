@@ -18,13 +18,13 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use softplc::project::line_plan::event_mode::InputPlan;
+use softplc::project::InputPlan;
 use softplc::project::Project;
 use softplc::scan::DurationHistogram;
 use softplc_io::driver::Driver;
-use softplc_io::line::budget::{input_floor, AdapterTiming};
-use softplc_io::line::bus::{BusCommand, BusEvent, BusThread, OutputFrame};
 use softplc_io::line::LineSettings;
+use softplc_io::line::{input_floor, AdapterTiming};
+use softplc_io::line::{BusCommand, BusEvent, BusThread, OutputFrame};
 use softplc_io::time::{Clock, MonotonicClock};
 
 use super::{Ctx, Scenario};

@@ -22,10 +22,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use softplc::scan::DurationHistogram;
-use softplc_io::devices::minimod::map;
-use softplc_io::line::bus::{BusOwner, Discipline, Module, OutputFrame};
-use softplc_io::line::transport::SerialTransport;
-use softplc_io::line::LineSettings;
+use softplc_io::devices::minimod;
+use softplc_io::line::{BusOwner, Discipline, LineSettings, Module, OutputFrame, SerialTransport};
 use softplc_io::point::Value;
 use softplc_io::time::{Clock, MonotonicClock};
 
@@ -172,9 +170,9 @@ fn bus_owner(
     owner
         .startup()
         .map_err(|e| anyhow::anyhow!("module start-up on the pty: {e}"))?;
-    let y1 = map::point_index("Y1").context("MiniMod has no Y1")?;
+    let y1 = minimod::point_index("Y1").context("MiniMod has no Y1")?;
     let mut outputs = OutputFrame {
-        modules: vec![vec![None; map::POINTS.len()]; UNITS.len()],
+        modules: vec![vec![None; minimod::POINTS.len()]; UNITS.len()],
     };
     for m in &mut outputs.modules {
         m[y1] = Some(Value::Bool(false));

@@ -11,7 +11,7 @@ use softplc::plc::Plc;
 use softplc::project::Project;
 use softplc::scan::ScanEngine;
 use softplc_io::driver::Driver;
-use softplc_io::line::budget::line_budget;
+use softplc_io::line::line_budget;
 use softplc_io::point::Access;
 
 use super::{Ctx, Scenario};

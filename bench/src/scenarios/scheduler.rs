@@ -17,7 +17,7 @@ use std::time::Duration;
 use softplc::clock::MonotonicClock;
 use softplc::plc::Plc;
 use softplc::project::RealtimeConfig;
-use softplc::scan::{rt, DurationHistogram, ScanEngine};
+use softplc::scan::{apply_realtime, DurationHistogram, ScanEngine};
 
 use super::{Ctx, Scenario};
 use crate::cpu_load::CpuLoad;
@@ -187,7 +187,7 @@ fn scan_engine(
                 priority: Some(p),
                 ..RealtimeConfig::default()
             };
-            for note in rt::apply(&cfg).notes {
+            for note in apply_realtime(&cfg).notes {
                 if !note.applied {
                     refused = Some(note.text);
                 }

@@ -11,9 +11,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc::scan::DurationHistogram;
-use softplc_io::line::bus::{BusOwner, Discipline, Module};
-use softplc_io::line::transport::SerialTransport;
-use softplc_io::line::LineSettings;
+use softplc_io::line::{BusOwner, Discipline, LineSettings, Module, SerialTransport};
 use softplc_io::time::{Clock, MonotonicClock};
 
 use super::{Ctx, Scenario};

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use softplc::clock::VirtualClock;
 use softplc::logic::ScanContext;
 use softplc::plc::Plc;
-use softplc::project::trace::RawTrace;
+use softplc::project::RawTrace;
 use softplc::scan::{DurationHistogram, ScanStats};
 use softplc::trace::TraceSet;
 

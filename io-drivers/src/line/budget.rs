@@ -58,7 +58,7 @@ impl LineBudget {
 
 /// The guard time after a timeout or a bad reply: long enough for a late or babbling reply
 /// to end before the input is flushed (half the response timeout, at least two t3.5).
-pub fn guard_time(settings: LineSettings, response_timeout: Duration) -> Duration {
+pub(crate) fn guard_time(settings: LineSettings, response_timeout: Duration) -> Duration {
     (response_timeout / 2).max(settings.t3_5() * 2)
 }
 

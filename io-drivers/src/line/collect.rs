@@ -52,9 +52,9 @@ use crate::line::settings::LineSettings;
 use crate::modbus::{Request, Response};
 
 /// Reply slot of one address ("Each slave has 3 ms of time for replying").
-pub const SLOT: Duration = Duration::from_millis(3);
+pub(crate) const SLOT: Duration = Duration::from_millis(3);
 /// Margin after the last slot ("plus 1 for safety").
-pub const SAFETY: Duration = Duration::from_millis(1);
+pub(crate) const SAFETY: Duration = Duration::from_millis(1);
 
 /// How long after a Collect's reply window the owner still listens for a reply to begin: one
 /// character time. The window (3 ms a slot "plus 1 for safety") is when a slave may start
@@ -62,16 +62,16 @@ pub const SAFETY: Duration = Duration::from_millis(1);
 /// received, one character later. Less would cut off a reply the manual allows; more (the
 /// owner once waited its inter-character allowance, 8.6 ms at 19200) only makes every
 /// silent window, the normal end of every round, longer than the manual's timeout.
-pub fn first_char_margin(settings: LineSettings) -> Duration {
+pub(crate) fn first_char_margin(settings: LineSettings) -> Duration {
     settings.char_time()
 }
 
 /// The tag under which a member's events are handed to its driver: no transaction a driver
 /// plans carries it, so an event is never taken for the answer to one.
-pub const EVENT_TAG: u32 = u32::MAX;
+pub(crate) const EVENT_TAG: u32 = u32::MAX;
 
 /// The SLVSEQ that follows `seq` (a MiniMod counts 1..=255 and skips 0).
-pub fn next_seq(seq: u8) -> u8 {
+pub(crate) fn next_seq(seq: u8) -> u8 {
     if seq == u8::MAX {
         1
     } else {
@@ -81,7 +81,7 @@ pub fn next_seq(seq: u8) -> u8 {
 
 /// One Collect round, sans IO.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct CollectRound {
+pub(crate) struct CollectRound {
     /// FIRST of the next request.
     next: u8,
     /// LAST of every request.
@@ -95,7 +95,7 @@ pub struct CollectRound {
 impl CollectRound {
     /// A round over the window `first..=last` (1..=247), carrying the acknowledgement the last
     /// round could not send. `None` for an empty window.
-    pub fn new(first: u8, last: u8, pending_ack: Option<(u8, u8)>) -> Option<Self> {
+    pub(crate) fn new(first: u8, last: u8, pending_ack: Option<(u8, u8)>) -> Option<Self> {
         (1..=last).contains(&first).then_some(Self {
             next: first,
             last,
@@ -106,14 +106,14 @@ impl CollectRound {
     }
 
     /// A round over every address in `members`; `None` when there is none.
-    pub fn over(members: &[u8], pending_ack: Option<(u8, u8)>) -> Option<Self> {
+    pub(crate) fn over(members: &[u8], pending_ack: Option<(u8, u8)>) -> Option<Self> {
         let first = members.iter().copied().filter(|&a| a != 0).min()?;
         let last = members.iter().copied().max()?;
         Self::new(first, last, pending_ack)
     }
 
     /// The next Collect to broadcast; `None` when the round is over.
-    pub fn request(&self) -> Option<Request> {
+    pub(crate) fn request(&self) -> Option<Request> {
         if self.done {
             return None;
         }
@@ -128,20 +128,20 @@ impl CollectRound {
 
     /// How long the slaves of the next request's window have to start a reply, from the end
     /// of the request: 3 ms per address plus 1 ms.
-    pub fn reply_window(&self) -> Duration {
+    pub(crate) fn reply_window(&self) -> Duration {
         let slots = u32::from(self.last.saturating_sub(self.next)) + 1;
         SLOT * slots + SAFETY
     }
 
     /// The time from the end of the next request to the end of `slave`'s slot in it.
-    pub fn slot_end(&self, slave: u8) -> Duration {
+    pub(crate) fn slot_end(&self, slave: u8) -> Duration {
         SLOT * (u32::from(slave.saturating_sub(self.next)) + 1)
     }
 
     /// Slave `slave` answered the last request with SLVSEQ `seq`: it is acknowledged by the
     /// next request, whose window starts after it; after the window's last address the round
     /// is over and the next round acknowledges it.
-    pub fn on_reply(&mut self, slave: u8, seq: u8) {
+    pub(crate) fn on_reply(&mut self, slave: u8, seq: u8) {
         self.ack = Some((slave, seq));
         if slave >= self.last {
             self.done = true;
@@ -151,32 +151,32 @@ impl CollectRound {
     }
 
     /// The last request's window passed in silence: no slave left with events.
-    pub fn on_silence(&mut self) {
+    pub(crate) fn on_silence(&mut self) {
         self.ack = None;
         self.done = true;
     }
 
     /// The last request got a reply that could not be read (a collision, noise): the round
     /// ends and the members must be read in full.
-    pub fn on_failure(&mut self) {
+    pub(crate) fn on_failure(&mut self) {
         self.ack = None;
         self.done = true;
         self.failed = true;
     }
 
     /// Whether the round is over.
-    pub fn is_done(&self) -> bool {
+    pub(crate) fn is_done(&self) -> bool {
         self.done
     }
 
     /// Whether the round ended on a failure.
-    pub fn failed(&self) -> bool {
+    pub(crate) fn failed(&self) -> bool {
         self.failed
     }
 
     /// The acknowledgement no request of this round carried (the reply came from the window's
     /// last address); the next round sends it.
-    pub fn pending_ack(&self) -> Option<(u8, u8)> {
+    pub(crate) fn pending_ack(&self) -> Option<(u8, u8)> {
         if self.done && !self.failed {
             self.ack
         } else {
@@ -214,7 +214,7 @@ pub struct CollectStats {
 
 /// What a bus owner keeps between Collect rounds.
 #[derive(Debug, Clone, Default)]
-pub struct CollectState {
+pub(crate) struct CollectState {
     /// Per module: the read plan made before the round (the refresh appended when due), and
     /// whether it is there.
     stash: Vec<Vec<Transaction>>,
@@ -452,7 +452,7 @@ impl BusOwner {
     }
 }
 
-pub mod floor;
+pub(crate) mod floor;
 
 #[cfg(test)]
 mod tests;

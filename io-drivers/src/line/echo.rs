@@ -88,7 +88,7 @@ pub enum EchoFault {
 
 /// Compares what came back with what was sent: `Ok(())` when the first `sent.len()` bytes of
 /// `heard` are the request.
-pub fn verify(sent: &[u8], heard: &[u8]) -> Result<(), EchoFault> {
+pub(crate) fn verify(sent: &[u8], heard: &[u8]) -> Result<(), EchoFault> {
     let clip = |n: usize| u16::try_from(n).unwrap_or(u16::MAX);
     if let Some(offset) = sent.iter().zip(heard).position(|(a, b)| a != b) {
         return Err(EchoFault::Mismatch {
@@ -108,7 +108,7 @@ pub fn verify(sent: &[u8], heard: &[u8]) -> Result<(), EchoFault> {
 /// three bytes (a Modbus reply to a read is refused at its third, the byte count) and on all
 /// of the shorter one. Only asked of replies that failed: a good reply to FC 5 or 6 is the
 /// request's copy by the protocol.
-pub fn begins_with_request(sent: &[u8], heard: &[u8]) -> bool {
+pub(crate) fn begins_with_request(sent: &[u8], heard: &[u8]) -> bool {
     let common = sent.iter().zip(heard).take_while(|(a, b)| a == b).count();
     common >= 3.min(sent.len()) && common == sent.len().min(heard.len()) && common > 0
 }

@@ -11,7 +11,7 @@ use crate::point::Quality;
 
 /// Limits of the health state machine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct HealthLimits {
+pub(crate) struct HealthLimits {
     /// Consecutive failed cycles after which the module is lost.
     pub fail_limit: u32,
     /// First retry interval once lost.
@@ -22,7 +22,7 @@ pub struct HealthLimits {
 
 /// A change worth one log line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum HealthEvent {
+pub(crate) enum HealthEvent {
     /// The module just became lost.
     Lost,
     /// A lost module answered again after being lost for this long.
@@ -31,7 +31,7 @@ pub enum HealthEvent {
 
 /// One module's health.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Health {
+pub(crate) struct Health {
     failed_cycles: u32,
     lost_since: Option<Duration>,
     backoff: Duration,
@@ -40,27 +40,27 @@ pub struct Health {
 
 impl Health {
     /// Whether the module should be polled at `now` (always, unless lost and backing off).
-    pub fn due(&self, now: Duration) -> bool {
+    pub(crate) fn due(&self, now: Duration) -> bool {
         self.lost_since.is_none() || now >= self.next_attempt
     }
 
     /// Makes a lost module due now (its line came back: no reason to wait out its backoff).
-    pub fn retry_now(&mut self) {
+    pub(crate) fn retry_now(&mut self) {
         self.next_attempt = Duration::ZERO;
     }
 
     /// Whether the module is lost.
-    pub fn is_lost(&self) -> bool {
+    pub(crate) fn is_lost(&self) -> bool {
         self.lost_since.is_some()
     }
 
     /// Whether its last polled cycle failed (it is stale or lost).
-    pub fn is_failing(&self) -> bool {
+    pub(crate) fn is_failing(&self) -> bool {
         self.failed_cycles > 0 || self.is_lost()
     }
 
     /// Its quality as its last polled cycle left it.
-    pub fn quality(&self) -> Quality {
+    pub(crate) fn quality(&self) -> Quality {
         if self.is_lost() {
             Quality::Bad
         } else if self.failed_cycles > 0 {
@@ -71,7 +71,7 @@ impl Health {
     }
 
     /// The quality of a module that was not polled this cycle.
-    pub fn skipped_quality(&self) -> Quality {
+    pub(crate) fn skipped_quality(&self) -> Quality {
         if self.is_lost() {
             Quality::Bad
         } else {
@@ -81,7 +81,7 @@ impl Health {
 
     /// Makes the module lost at once (it did not answer its start-up), retried after the
     /// first backoff.
-    pub fn mark_lost(&mut self, now: Duration, limits: &HealthLimits) {
+    pub(crate) fn mark_lost(&mut self, now: Duration, limits: &HealthLimits) {
         self.failed_cycles = limits.fail_limit;
         self.lost_since.get_or_insert(now);
         self.backoff = limits.reconnect_min;
@@ -90,7 +90,7 @@ impl Health {
 
     /// Records a polled cycle's outcome at `now`; returns the quality to report and an event
     /// when the state changed.
-    pub fn record(
+    pub(crate) fn record(
         &mut self,
         ok: bool,
         now: Duration,

@@ -53,7 +53,7 @@ impl Default for SysfsRoot {
 
 /// The tty behind a port path.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub enum TtyNode {
+pub(crate) enum TtyNode {
     /// A pseudo-terminal: no adapter, no latency timer.
     Pty,
     /// A tty the kernel names (`ttyUSB0`), after following links such as
@@ -63,7 +63,7 @@ pub enum TtyNode {
 
 impl TtyNode {
     /// The tty of `port` (links followed when the path exists).
-    pub fn of(port: &Path) -> Self {
+    pub(crate) fn of(port: &Path) -> Self {
         let real = std::fs::canonicalize(port).unwrap_or_else(|_| port.to_path_buf());
         if real.starts_with("/dev/pts") || real == Path::new("/dev/ptmx") {
             return Self::Pty;
@@ -145,7 +145,7 @@ fn read_ms(path: &Path) -> Result<u8, std::io::ErrorKind> {
 }
 
 /// Reads the latency timer of `tty` under `root`.
-pub fn probe(root: &SysfsRoot, tty: &TtyNode) -> Probe {
+pub(crate) fn probe(root: &SysfsRoot, tty: &TtyNode) -> Probe {
     let name = match tty {
         TtyNode::Pty => return Probe::None(NoTimer::Pty),
         TtyNode::Named(n) => n,
@@ -331,7 +331,7 @@ fn os_error(errno: i32) -> std::io::Error {
 /// Sets `ASYNC_LOW_LATENCY` on `port` (`TIOCGSERIAL`, then `TIOCSSERIAL` with the flag; a
 /// flag already set is left). ftdi_sio then runs its timer at 1 ms; drivers without serial
 /// info (a pty, cp210x, ch341) refuse it.
-pub fn set_low_latency(port: &TTYPort) -> Result<(), LowLatencyRefused> {
+pub(crate) fn set_low_latency(port: &TTYPort) -> Result<(), LowLatencyRefused> {
     let mut s = SerialStruct::default();
     serial_ioctl(port, libc::TIOCGSERIAL, &mut s).map_err(|e| LowLatencyRefused {
         ioctl: "TIOCGSERIAL",
@@ -412,7 +412,7 @@ impl fmt::Display for Lowered {
 
 /// Brings the latency timer of `port` (the tty `tty`, sysfs under `root`) down to 1 ms where
 /// it is higher: `ASYNC_LOW_LATENCY` first, then the sysfs attribute; reads it back.
-pub fn lower(root: &SysfsRoot, port: &TTYPort, tty: &TtyNode) -> Lowered {
+pub(crate) fn lower(root: &SysfsRoot, port: &TTYPort, tty: &TtyNode) -> Lowered {
     let before = probe(root, tty);
     let mut done = Lowered {
         before: before.clone(),
@@ -455,7 +455,7 @@ pub struct LatencyRefused {
 /// Lowers the latency timer of `port` (opened from `path`) and checks it against `config`:
 /// the latency the port has, or the refusal of a demanded ceiling. A refusal under `auto` is
 /// logged, not an error.
-pub fn apply(
+pub(crate) fn apply(
     config: AdapterLatency,
     root: &SysfsRoot,
     port: &TTYPort,

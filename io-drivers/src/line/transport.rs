@@ -281,7 +281,7 @@ impl SerialTransport {
     }
 
     /// Brings the adapter's latency timer down to 1 ms where it is higher
-    /// ([`crate::line::latency::apply`], sysfs under `root`) and logs what the port has; kept
+    /// (`crate::line::latency::apply`, sysfs under `root`) and logs what the port has; kept
     /// for every reopen. Returns the latency the port has now; an error only when `config`
     /// demands a ceiling the port stays above.
     pub fn set_adapter_latency(

@@ -30,7 +30,7 @@ const fn build_table() -> [u16; 256] {
 }
 
 /// The CRC-16/MODBUS of `bytes` (as a number; the wire order is low byte first).
-pub fn crc16(bytes: &[u8]) -> u16 {
+pub(crate) fn crc16(bytes: &[u8]) -> u16 {
     bytes.iter().fold(0xFFFF_u16, |crc, &b| {
         // `(crc ^ b) & 0xFF` is at most 255, so the index is always in the table.
         let idx = usize::from((crc ^ u16::from(b)) & 0x00FF);
@@ -46,7 +46,7 @@ pub fn append_crc(frame: &mut Vec<u8>) {
 
 /// The CRC carried in the last two bytes of `frame` (low byte first), and the CRC computed
 /// over the bytes before them: `(computed, carried)`. `None` if `frame` is shorter than 2.
-pub fn split_crc(frame: &[u8]) -> Option<(u16, u16)> {
+pub(crate) fn split_crc(frame: &[u8]) -> Option<(u16, u16)> {
     let split = frame.len().checked_sub(2)?;
     let (body, tail) = frame.split_at(split);
     match tail {

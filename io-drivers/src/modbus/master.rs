@@ -78,14 +78,14 @@ pub enum EncodeError {
 
 /// Whether a device answers `req` sent to `unit`: every unicast does; a broadcast (0) does
 /// not, except FC 70 Collect, which the devices in its window answer.
-pub fn expects_reply(unit: u8, req: &Request) -> bool {
+pub(crate) fn expects_reply(unit: u8, req: &Request) -> bool {
     unit != 0 || matches!(req, Request::Collect { .. })
 }
 
 /// Checks `req` sent to `unit` against the Modbus limits: unit 0..=247, no broadcast read,
 /// quantity within the function's range (FC 1/2: 1..=2000, FC 3/4: 1..=125, FC 15: 1..=1968,
 /// FC 16: 1..=123), `addr + count <= 65536`, a non-empty Collect window.
-pub fn validate_request(unit: u8, req: &Request) -> Result<(), EncodeError> {
+pub(crate) fn validate_request(unit: u8, req: &Request) -> Result<(), EncodeError> {
     if unit > MAX_UNIT {
         return Err(EncodeError::ReservedUnit { unit });
     }

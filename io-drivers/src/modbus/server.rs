@@ -4,7 +4,7 @@
 //! A simulated device typically does:
 //!
 //! ```
-//! use softplc_io::modbus::server::{
+//! use softplc_io::modbus::{
 //!     decode_request, encode_response, request_frame_len, serve, FrameLen, RegisterBank,
 //! };
 //!

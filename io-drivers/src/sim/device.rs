@@ -42,11 +42,11 @@ pub enum SimError {
 
 /// The master's baud and format as a served line conveys them ([`SimDevice::master_line`]):
 /// `None` until known; the format `None` where the line carries only the baud (a pty).
-pub type MasterLine = Option<(u32, Option<crate::line::settings::SerialFormat>)>;
+pub(crate) type MasterLine = Option<(u32, Option<crate::line::settings::SerialFormat>)>;
 
 /// Whether a UART at `own` reads what a master on `master` sends: same baud, and the same
 /// format where it is known. Nothing known yet: it does.
-pub fn hears(own: crate::line::settings::LineSettings, master: MasterLine) -> bool {
+pub(crate) fn hears(own: crate::line::settings::LineSettings, master: MasterLine) -> bool {
     master.is_none_or(|(baud, format)| baud == own.baud && format.is_none_or(|f| f == own.format))
 }
 

@@ -83,7 +83,7 @@ impl Fault {
 }
 
 /// The fault kinds as `softplc sim` takes them.
-pub const FAULT_HELP: &str =
+pub(crate) const FAULT_HELP: &str =
     "garbage N | crc | truncate N | late 80ms | duplicate | wrong-address N | babble N | silent";
 
 fn parse_ms(text: &str) -> Result<Duration, String> {

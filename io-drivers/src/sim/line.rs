@@ -413,7 +413,7 @@ impl SimWorld {
 /// What a UART at the wrong baud or format makes of `frame`, deterministically: every byte
 /// inverted, so a text command (printable ASCII) becomes bytes above 0x7F that no text
 /// protocol accepts, and an RTU frame's CRC no longer matches.
-pub fn garble(frame: &[u8]) -> Vec<u8> {
+pub(crate) fn garble(frame: &[u8]) -> Vec<u8> {
     frame.iter().map(|b| !b).collect()
 }
 

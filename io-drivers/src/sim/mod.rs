@@ -5,11 +5,15 @@
 //! advanced lazily to the time of each interaction, so it gives the same answers on a virtual
 //! clock as in real time.
 
-pub mod device;
-pub mod fault;
-pub mod line;
+pub(crate) mod device;
+pub(crate) mod fault;
+pub(crate) mod line;
 pub mod plant;
-pub mod serve;
-pub mod serve_tcp;
+pub(crate) mod serve;
+pub(crate) mod serve_tcp;
 
 pub use device::{SimDevice, SimError, SimReply};
+pub use fault::{Fault, FaultRule, Frequency, LineFaults, Wire};
+pub use line::{SharedWorld, SimEcho, SimWorld, VirtualPort};
+pub use serve::{complete_frame, serve, serve_following, tty_settings, ServeStats, SERVED_LINE};
+pub use serve_tcp::serve_tcp;

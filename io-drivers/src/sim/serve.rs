@@ -97,7 +97,7 @@ pub fn serve(
 /// The baud the master's end of the line is set to now (on a pty: the termios of the slave
 /// end, which the master program set; the kernel keeps no parity there, so only the baud is
 /// followed); `None` when it cannot be read.
-pub type MasterSettings<'a> = &'a dyn Fn() -> Option<LineSettings>;
+pub(crate) type MasterSettings<'a> = &'a dyn Fn() -> Option<LineSettings>;
 
 /// Serves `world` on `port` until `stop` is set; before each frame is handed to the devices,
 /// the world learns the master's settings from `master` (if given), so a module at other

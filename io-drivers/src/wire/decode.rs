@@ -49,7 +49,7 @@ impl Decoded {
 }
 
 /// Whether every byte is printable ASCII (or CR, LF): a text line rather than RTU.
-pub fn is_text(frame: &[u8]) -> bool {
+pub(crate) fn is_text(frame: &[u8]) -> bool {
     !frame.is_empty()
         && frame
             .iter()

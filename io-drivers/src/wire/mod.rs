@@ -1,21 +1,21 @@
 //! Seeing the wire: one frame decoder for the bus owner's frame trace (`softplc run
 //! --trace-bus`) and the passive bus monitor (`softplc monitor`).
 //!
-//! - [`decode`]: a frame's bytes in, a typed [`Decoded`] out: Modbus RTU ([`rtu`], through the
-//!   codec of [`crate::modbus`]), MiniMod text, RESI ASCII and DCON ([`text`], through the
-//!   families' own parsers). What none of them knows is [`Decoded::Unrecognised`], never a
+//! - [`decode_request`], [`decode_reply`]: a frame's bytes in, a typed [`Decoded`] out: Modbus
+//!   RTU (through the codec of [`crate::modbus`]), MiniMod text, RESI ASCII and DCON (through
+//!   the families' own parsers). What none of them knows is [`Decoded::Unrecognised`], never a
 //!   panic.
-//! - [`framer`]: a passively heard byte stream cut into frames by silence (t3.5) and
+//! - [`Framer`]: a passively heard byte stream cut into frames by silence (t3.5) and
 //!   terminators, sans-IO (bytes and their arrival time in, frames out).
-//! - [`trace`]: the optional tap the bus owner reports every frame, timeout and discarded
-//!   byte to, and the trace line format.
+//! - [`WireTap`]: the optional tap the bus owner reports every frame, timeout and discarded
+//!   byte to, and the trace line format ([`format_event`]).
 
 mod dcon;
-pub mod decode;
-pub mod framer;
-pub mod rtu;
-pub mod text;
-pub mod trace;
+pub(crate) mod decode;
+pub(crate) mod framer;
+pub(crate) mod rtu;
+pub(crate) mod text;
+pub(crate) mod trace;
 
 #[cfg(test)]
 mod tests;
@@ -23,7 +23,11 @@ mod tests;
 use std::fmt;
 
 pub use decode::{decode_reply, decode_request, Conversation, Decoded, Unrecognised};
+pub use framer::{frame_gap, unglue, FrameEnd, MAX_FRAME};
 pub use framer::{Framer, Framing, HeardFrame};
+pub use rtu::Rtu;
+pub use text::{Dcon, MiniMod, Resi};
+pub use trace::{format_event, Discard, LineTime, Verdict};
 pub use trace::{WireEvent, WireTap};
 
 /// A frame as the trace and the monitor print it: its hex, and for a text line its text too

@@ -73,7 +73,7 @@ pub enum Rtu {
 }
 
 /// A request frame, if `frame` is one with a good CRC; a bad CRC is [`Rtu::BadCrc`].
-pub fn request(frame: &[u8]) -> Option<Rtu> {
+pub(crate) fn request(frame: &[u8]) -> Option<Rtu> {
     match decode_request(frame) {
         Ok((unit, request)) => Some(Rtu::Request { unit, request }),
         Err(RequestError::Crc { expected, found }) => bad_crc(frame, expected, found),
@@ -83,7 +83,7 @@ pub fn request(frame: &[u8]) -> Option<Rtu> {
 
 /// `frame` as the reply to `request` sent to `unit`: `None` when it is not a whole frame of
 /// that reply's length (another frame, or a cut one).
-pub fn reply_to(frame: &[u8], unit: u8, request: &Request) -> Option<Rtu> {
+pub(crate) fn reply_to(frame: &[u8], unit: u8, request: &Request) -> Option<Rtu> {
     let mut assembler = ReplyAssembler::new(unit, request);
     let header = (frame.first().copied(), frame.get(1).copied());
     match assembler.push(frame) {
@@ -111,7 +111,7 @@ pub fn reply_to(frame: &[u8], unit: u8, request: &Request) -> Option<Rtu> {
 }
 
 /// `frame` as a reply whose request was not seen: the request is the one its header implies.
-pub fn reply_alone(frame: &[u8]) -> Option<Rtu> {
+pub(crate) fn reply_alone(frame: &[u8]) -> Option<Rtu> {
     let (&unit, &function) = match frame {
         [unit, function, ..] => (unit, function),
         _ => return None,

@@ -65,7 +65,7 @@ pub enum Dcon {
 }
 
 /// A MiniMod command or reply, if `line` is one the module would act on or a master read.
-pub fn minimod_command(line: &[u8]) -> Option<MiniMod> {
+pub(crate) fn minimod_command(line: &[u8]) -> Option<MiniMod> {
     // DCON's `?AA` and `>XXXX` answers parse as MiniMod commands with an unknown identifier:
     // those are taken as MiniMod only when addressed with `@N`.
     match minimod::parse_command(line) {
@@ -80,14 +80,14 @@ pub fn minimod_command(line: &[u8]) -> Option<MiniMod> {
 }
 
 /// A MiniMod reply.
-pub fn minimod_reply(line: &[u8]) -> Option<MiniMod> {
+pub(crate) fn minimod_reply(line: &[u8]) -> Option<MiniMod> {
     minimod::parse_reply(strip_cr(line))
         .ok()
         .map(MiniMod::Reply)
 }
 
 /// A RESI request frame (`answer: false`).
-pub fn resi(line: &[u8]) -> Option<Resi> {
+pub(crate) fn resi(line: &[u8]) -> Option<Resi> {
     let frame = ResiFrame::parse(line).ok()?;
     Some(Resi {
         answer: false,
@@ -99,7 +99,7 @@ pub fn resi(line: &[u8]) -> Option<Resi> {
 
 /// `line` as the answer to the RESI `request`: same address spelling, and `OK` or values to a
 /// request without parameters (resi-spec §2.4: a get answers with values, a set `OK`).
-pub fn resi_answer(line: &[u8], request: &Resi) -> Option<Resi> {
+pub(crate) fn resi_answer(line: &[u8], request: &Resi) -> Option<Resi> {
     let mut answer = resi(line)?;
     let fits = answer.address == request.address
         && (answer.keyword == "OK" || (request.params.is_empty() && !answer.params.is_empty()));
@@ -110,7 +110,7 @@ pub fn resi_answer(line: &[u8], request: &Resi) -> Option<Resi> {
 }
 
 /// A DCON command, without or with its checksum.
-pub fn dcon_command(line: &[u8]) -> Option<Dcon> {
+pub(crate) fn dcon_command(line: &[u8]) -> Option<Dcon> {
     let line = strip_cr(line);
     [false, true].into_iter().find_map(|checksum| {
         let body = dcon::check_line(line, checksum).ok()?;
@@ -120,7 +120,7 @@ pub fn dcon_command(line: &[u8]) -> Option<Dcon> {
 }
 
 /// `line` as the answer to the DCON `command` (same checksum setting, §1.10).
-pub fn dcon_answer(line: &[u8], command: &DconCommand, checksum: bool) -> Option<Dcon> {
+pub(crate) fn dcon_answer(line: &[u8], command: &DconCommand, checksum: bool) -> Option<Dcon> {
     let body = dcon::check_line(strip_cr(line), checksum).ok()?;
     let answer = Answer::parse(command, body).ok()?;
     Some(Dcon::Answer {
@@ -131,7 +131,7 @@ pub fn dcon_answer(line: &[u8], command: &DconCommand, checksum: bool) -> Option
 }
 
 /// Whether `#...` is DCON's `#AAN` or `#**` rather than a RESI frame.
-pub fn is_dcon_hash(line: &[u8]) -> bool {
+pub(crate) fn is_dcon_hash(line: &[u8]) -> bool {
     let line = strip_cr(line);
     match line.strip_prefix(b"#") {
         Some(b"**") => true,

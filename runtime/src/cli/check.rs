@@ -3,10 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use softplc_io::line::budget::{line_budget_on, AdapterTiming};
-use softplc_io::line::collect::floor::CollectFloor;
-use softplc_io::line::echo::EchoMode;
-use softplc_io::line::latency::SysfsRoot;
+use softplc_io::line::{line_budget_on, AdapterTiming, CollectFloor, EchoMode, SysfsRoot};
 use softplc_io::point::Access;
 
 use crate::image::ProcessImage;
@@ -233,7 +230,7 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         // against how long the scan waits for a line's inputs.
         // With echo: discard the response timeout starts once the echo is back, which the
         // adapter holds back as it would a reply.
-        let attempt = softplc_io::line::budget::failed_attempt(bus.settings, bus.response_timeout)
+        let attempt = softplc_io::line::failed_attempt(bus.settings, bus.response_timeout)
             + match bus.echo {
                 EchoMode::Discard => adapter.latency,
                 EchoMode::None => std::time::Duration::ZERO,
@@ -357,7 +354,7 @@ fn profile_map(
         let _ = writeln!(
             out,
             "      {name:<14} {}{tag}",
-            softplc_io::devices::profile::catalog::describe(profile, entry)
+            softplc_io::devices::profile::describe(profile, entry)
         );
     }
     out
@@ -384,11 +381,11 @@ fn collect_floor_line(
          less from address {last}, which ends the round); no reply delay applies",
         members.len(),
         fmt_duration(floor.idle()),
-        softplc_io::line::collect::floor::REQUEST_LEN,
+        softplc_io::line::COLLECT_REQUEST_LEN,
         floor.slots(),
         if floor.slots() == 1 { "" } else { "s" },
         fmt_duration(floor.per_event()),
-        softplc_io::line::collect::floor::REPLY_LEN,
+        softplc_io::line::COLLECT_REPLY_LEN,
     ))
 }
 

@@ -19,12 +19,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
-use softplc_io::devices::ex9053::dcon::Command as DconCommand;
-use softplc_io::devices::minimod::serial_config::BAUD_RATES as MINIMOD_BAUDS;
-use softplc_io::devices::minimod::text::{read_command, TextId};
-use softplc_io::devices::resi::ascii::frame::frame as resi_frame;
-use softplc_io::line::transport::{SerialTransport, Transport};
-use softplc_io::line::{LineSettings, Parity, SerialFormat};
+use softplc_io::devices::ex9053::Command as DconCommand;
+use softplc_io::devices::minimod::{read_command, TextId, BAUD_RATES as MINIMOD_BAUDS};
+use softplc_io::devices::resi::ascii::frame as resi_frame;
+use softplc_io::line::{LineSettings, Parity, SerialFormat, SerialTransport, Transport};
 use softplc_io::time::{Clock, MonotonicClock};
 
 use super::out::outln;

@@ -13,7 +13,7 @@ mod replay;
 mod run;
 mod schema;
 mod sim;
-pub mod test;
+pub(crate) mod test;
 mod trace;
 mod trace_bus;
 
@@ -22,6 +22,9 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub use args::parse_duration;
+pub use test::scenario::{
+    parse as parse_scenario, Expect, ProgramSpec, Scenario, ScenarioErrors, SetInput,
+};
 
 /// softplc: a deterministic soft-PLC for RS-485 I/O modules.
 #[derive(Debug, Parser)]

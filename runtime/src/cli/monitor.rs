@@ -17,11 +17,11 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
-use softplc_io::line::settings::{LineSettings, SerialFormat};
-use softplc_io::line::transport::{LineError, SerialTransport, Transport};
-use softplc_io::wire::framer::{frame_gap, unglue, FrameEnd, MAX_FRAME};
-use softplc_io::wire::trace::LineTime;
-use softplc_io::wire::{Conversation, Framer, Framing, HeardFrame, Shown};
+use softplc_io::line::{LineError, LineSettings, SerialFormat, SerialTransport, Transport};
+use softplc_io::wire::{
+    frame_gap, unglue, Conversation, FrameEnd, Framer, Framing, HeardFrame, LineTime, Shown,
+    MAX_FRAME,
+};
 
 use super::out;
 use crate::clock::MonotonicClock;

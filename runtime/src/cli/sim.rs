@@ -8,14 +8,14 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context};
 use softplc_io::devices;
-use softplc_io::line::tcp::{NetFraming, TcpEndpoint};
-use softplc_io::line::transport::{open_tty, pty_pair, TTYPort};
-use softplc_io::line::{LineSettings, Parity, SerialFormat};
+use softplc_io::line::{
+    open_tty, pty_pair, LineSettings, NetFraming, Parity, SerialFormat, TTYPort, TcpEndpoint,
+};
 use softplc_io::point::Value;
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
-use softplc_io::sim::line::{SharedWorld, SimWorld};
-use softplc_io::sim::serve::{serve_following, tty_settings, SERVED_LINE};
-use softplc_io::sim::serve_tcp::serve_tcp;
+use softplc_io::sim::{
+    serve_following, serve_tcp, tty_settings, Fault, FaultRule, Frequency, SharedWorld, SimWorld,
+    SERVED_LINE,
+};
 use softplc_io::time::{Clock, MonotonicClock};
 
 pub(super) const LONG_HELP: &str = "\

@@ -2,16 +2,16 @@
 //! simulated modules and checks the outputs at the given times; with several programs, checks
 //! that they give the same trace. Exit status 1 when anything fails.
 
-pub mod runner;
-pub mod scenario;
-pub mod trace;
+pub(crate) mod runner;
+pub(crate) mod scenario;
+pub(crate) mod trace;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// Arguments of `softplc test`.
 #[derive(Debug, clap::Args)]
-pub struct TestArgs {
+pub(crate) struct TestArgs {
     /// A scenario file (`*.scenario.yaml`), a folder (every scenario under it) or a project
     /// file (the scenarios beside it and its program that use it).
     path: PathBuf,
@@ -21,7 +21,7 @@ pub struct TestArgs {
 }
 
 /// The scenarios `path` names.
-pub fn find(path: &Path) -> std::io::Result<Vec<PathBuf>> {
+pub(crate) fn find(path: &Path) -> std::io::Result<Vec<PathBuf>> {
     if path.is_dir() {
         let mut out = Vec::new();
         walk(path, &mut out)?;
@@ -88,7 +88,7 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
 }
 
 /// Runs every scenario of `path`; the report and whether all passed.
-pub fn run_path(path: &Path, verbose: bool) -> (String, bool) {
+pub(crate) fn run_path(path: &Path, verbose: bool) -> (String, bool) {
     use std::fmt::Write;
     let mut out = String::new();
     let files = match find(path) {

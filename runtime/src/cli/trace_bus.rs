@@ -1,5 +1,5 @@
 //! `softplc run --trace-bus`: every bus owner's frames on stdout, one line each
-//! (`softplc_io::wire::trace::format_event`), written by a thread of their own so a slow
+//! (`softplc_io::wire::format_event`), written by a thread of their own so a slow
 //! terminal never holds a line.
 //!
 //! On the real clock a bus thread never waits for the printer: when the queue is full a line
@@ -13,7 +13,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
-use softplc_io::wire::trace::{format_event, WireEvent, WireTap};
+use softplc_io::wire::{format_event, WireEvent, WireTap};
 
 /// Trace lines queued for the printer before a real-clock line drops one.
 const QUEUE: usize = 4096;

@@ -49,7 +49,7 @@ impl<T: fmt::Display> fmt::Display for Lines<'_, T> {
 }
 
 /// Whether the program may write a tag: memory tags and tags bound to module outputs.
-pub fn writable(project: &Project, tag: usize) -> bool {
+pub(crate) fn writable(project: &Project, tag: usize) -> bool {
     match project.tags[tag].binding {
         Binding::Memory => true,
         Binding::Point { module, point } => {
@@ -71,7 +71,7 @@ pub fn tag_table(project: &Project, image: &ProcessImage) -> expr::TagTable {
 /// least half a period), so a runaway script faults the PLC before the watchdog's limit while a
 /// script that was merely preempted on a busy machine is not a fault. The operation limit stops
 /// runaway loops deterministically on any clock; this wall-clock guard is the backstop.
-pub fn script_budget(project: &Project) -> Duration {
+pub(crate) fn script_budget(project: &Project) -> Duration {
     // The guard against a runaway script: the task watchdog's time, not a share of the period,
     // so a script preempted once on a busy machine is not a fault (the watchdog decides that).
     project.scan.watchdog.time.max(project.scan.period / 2)

@@ -3,13 +3,16 @@
 //! An engine sees only the [`ProcessImage`] and the scan's time ([`ScanContext`]): no I/O, no
 //! wall clock. Same image + same times ⇒ same outputs (DESIGN.md principle 2).
 
-pub mod blocks;
+pub(crate) mod blocks;
 pub mod expr;
 pub mod ladder;
-pub mod load;
+pub(crate) mod load;
 pub mod rhai;
 mod undeclared;
 mod vm;
+
+pub use blocks::{Kind, Member, OutputValue, Pattern, PatternError};
+pub use load::{load_program, tag_table, ProgramError};
 
 use std::fmt::Debug;
 use std::path::PathBuf;
@@ -86,7 +89,7 @@ pub trait LogicEngine: Send + Debug {
     }
 
     /// Replaces `out` with every output of every block instance, by instance index then in
-    /// [`blocks::Kind::outputs`] order. Engines without numbered instances (expr, Rhai) leave
+    /// `blocks::Kind::outputs` order. Engines without numbered instances (expr, Rhai) leave
     /// it empty. Called when the service snapshot is published, not by the scan; it reuses
     /// `out`'s capacity, so it allocates nothing once warm.
     fn instance_outputs(&self, out: &mut Vec<InstanceOutput>) {

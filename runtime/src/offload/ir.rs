@@ -226,7 +226,7 @@ pub enum RungShape {
 
 /// Most tags a self-reading condition may read for [`RungShape::self_latch`] to check it
 /// (2^12 evaluations).
-pub const MAX_LATCH_TAGS: usize = 12;
+pub(crate) const MAX_LATCH_TAGS: usize = 12;
 
 impl RungShape {
     /// The tags the module's own logic reads once this shape is pushed down. A pulse's trigger
@@ -253,7 +253,7 @@ impl RungShape {
     /// `expr[coil:=0]` holds and reset where `expr[coil:=1]` does not. That is a latch exactly
     /// when the two never hold together (then the step never inverts the coil, and which one
     /// dominates does not matter); checked over every combination of the other tags, when
-    /// there are at most [`MAX_LATCH_TAGS`] of them.
+    /// there are at most `MAX_LATCH_TAGS` of them.
     pub fn self_latch(coil: TagId, expr: &BoolExpr) -> RungShape {
         let set = expr.substitute(coil, false);
         let reset = BoolExpr::negate(expr.substitute(coil, true));

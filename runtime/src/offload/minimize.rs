@@ -8,12 +8,12 @@
 //! covered or not, whichever gives the smaller sum.
 
 /// Most variables the minimiser takes (the MiniMod's X1..X3).
-pub const MAX_VARS: u8 = 3;
+pub(crate) const MAX_VARS: u8 = 3;
 
 /// A product term. Variable `i` appears when bit `i` of `care` is set, un-negated when bit `i`
 /// of `value` is also set. The empty product (`care == 0`) is always true.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Cube {
+pub(crate) struct Cube {
     /// The variables in the term.
     pub care: u8,
     /// Their polarity (a subset of `care`).
@@ -22,17 +22,17 @@ pub struct Cube {
 
 impl Cube {
     /// Whether the term is true for the input combination `minterm` (variable `i` = bit `i`).
-    pub fn covers(self, minterm: u8) -> bool {
+    pub(crate) fn covers(self, minterm: u8) -> bool {
         minterm & self.care == self.value
     }
 
     /// Number of literals.
-    pub fn literals(self) -> u32 {
+    pub(crate) fn literals(self) -> u32 {
         self.care.count_ones()
     }
 
     /// The set of input combinations (over `vars` variables) the term is true for, as bits.
-    pub fn minterms(self, vars: u8) -> u8 {
+    pub(crate) fn minterms(self, vars: u8) -> u8 {
         (0..(1u8 << vars.min(MAX_VARS)))
             .filter(|&m| self.covers(m))
             .fold(0, |acc, m| acc | (1 << m))
@@ -41,7 +41,7 @@ impl Cube {
 
 /// Why the minimiser refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum MinimizeError {
+pub(crate) enum MinimizeError {
     /// More variables than it handles.
     #[error("{vars} variables: the minimiser takes at most {MAX_VARS}")]
     TooManyVariables {
@@ -51,7 +51,8 @@ pub enum MinimizeError {
 }
 
 /// The truth table of `f` over `vars` variables: bit `m` is `f(m)`.
-pub fn truth_table(vars: u8, mut f: impl FnMut(u8) -> bool) -> Result<u8, MinimizeError> {
+#[cfg(test)]
+pub(crate) fn truth_table(vars: u8, mut f: impl FnMut(u8) -> bool) -> Result<u8, MinimizeError> {
     if vars > MAX_VARS {
         return Err(MinimizeError::TooManyVariables { vars });
     }
@@ -65,7 +66,7 @@ pub fn truth_table(vars: u8, mut f: impl FnMut(u8) -> bool) -> Result<u8, Minimi
 /// combination `m`). Minimal: fewest terms, then fewest literals; ties are broken the same way
 /// every time. An empty result is the constant false; `[Cube { care: 0, value: 0 }]` the
 /// constant true.
-pub fn minimize(on: u8, dc: u8, vars: u8) -> Result<Vec<Cube>, MinimizeError> {
+pub(crate) fn minimize(on: u8, dc: u8, vars: u8) -> Result<Vec<Cube>, MinimizeError> {
     if vars > MAX_VARS {
         return Err(MinimizeError::TooManyVariables { vars });
     }

@@ -23,8 +23,9 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::push_down::{CONDITIONS, MAX_PULSE_MS};
-use softplc_io::devices::minimod::{AutoOutput, Condition, Output, PulseWidth};
+use softplc_io::devices::minimod::{
+    AutoOutput, Condition, Output, PulseWidth, CONDITIONS, MAX_PULSE_MS,
+};
 use softplc_io::devices::Protocol;
 
 use super::ir::{BoolExpr, RungShape};
@@ -33,9 +34,9 @@ use super::planner::{Command, Feature, ModulePlacement, Pushed, Reason, Site, Ta
 use crate::image::TagId;
 
 /// The model's catalog name.
-pub const MODEL: &str = "minimod";
+pub(crate) const MODEL: &str = "minimod";
 /// The module's sampling tick ("Input conditioning": inputs are sampled once a millisecond).
-pub const TICK: Duration = Duration::from_millis(1);
+pub(crate) const TICK: Duration = Duration::from_millis(1);
 /// What the module's conditions can check.
 const CHECKS: &str = "only X1..X3";
 
@@ -281,7 +282,7 @@ fn pulse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use softplc_io::devices::minimod::map::parse_condition;
+    use softplc_io::devices::minimod::parse_condition;
 
     #[test]
     fn masks_match_the_manual() {

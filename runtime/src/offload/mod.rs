@@ -6,18 +6,18 @@
 //! rung into its module only when the module's function is the rung's own, and says why for
 //! every rung it keeps:
 //!
-//! 1. the engine describes each coil it writes as a [`ir::Rung`] (an engine-neutral shape:
+//! 1. the engine describes each coil it writes as a `ir::Rung` (an engine-neutral shape:
 //!    combinational, latch, pulse, staircase, toggle, edge set/reset, blinker, or opaque);
 //! 2. [`planner::plan`] maps each rung with the project's bindings and `offload:` switches to
-//!    module tables ([`minimod`], [`resi`]) or keeps it central with a [`planner::Reason`];
-//!    conditions are minimised exactly ([`minimize`]);
-//! 3. [`runtime::Offloaded`] runs the plan in the PLC: the tables are settings the drivers
+//!    module tables (`minimod`, `resi`) or keeps it central with a [`planner::Reason`];
+//!    conditions are minimised exactly (`minimize`);
+//! 3. `runtime::Offloaded` runs the plan in the PLC: the tables are settings the drivers
 //!    write and verify at start-up, the pushed-down outputs are no longer written by the scan
 //!    but read back into the image, pulse triggers become pulser writes, and at stop the
 //!    tables are cleared (or kept). Every start-up (and every restart of a module that comes
 //!    back) first clears all the module's logic registers, whatever the plan, so tables a
 //!    crashed run left behind never drive the outputs; an output whose rung keeps a state then
-//!    gets the central rung's start value ([`planner::ModulePlacement::initial`]) before its
+//!    gets the central rung's start value (`planner::ModulePlacement::initial`) before its
 //!    tables are armed;
 //! 4. [`report`] is what `softplc check` prints: placement, tables, reaction times.
 //!
@@ -41,17 +41,22 @@
 //! provided every input state lasts longer than that (a central scan cannot see shorter ones;
 //! the module can, which is the point).
 
-pub mod ir;
-pub mod minimize;
-pub mod minimod;
-pub mod planner;
-pub mod report;
-pub mod resi;
-pub mod runtime;
+pub(crate) mod ir;
+pub(crate) mod minimize;
+pub(crate) mod minimod;
+pub(crate) mod planner;
+pub(crate) mod report;
+pub(crate) mod resi;
+pub(crate) mod runtime;
 #[cfg(test)]
 mod tests;
 
-pub use planner::{plan, Placement, Plan, Reason, RequireFailure};
+pub use ir::{BoolExpr, Rung, RungShape};
+pub use planner::{
+    plan, Command, Conditioning, Feature, ModulePlacement, Placement, Plan, Pushed, Reason,
+    RequireFailure, RungPlan, TableEntry,
+};
+pub use report::{central_bound, report};
 
 use crate::logic::LogicEngine;
 use crate::project::{ProgramKind, Project};

@@ -10,8 +10,7 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use softplc_io::line::budget::{line_budget_on, LineBudget};
-use softplc_io::line::latency::SysfsRoot;
+use softplc_io::line::{line_budget_on, LineBudget, SysfsRoot};
 
 use softplc_io::devices::{DeviceConfig, ModuleSettings, PushDown};
 
@@ -164,9 +163,7 @@ pub fn report(project: &Project, plan: &Plan) -> String {
 /// driver writes: the tables, the start values, and what they need besides).
 pub(crate) fn push_down_settings(project: &Project, m: usize, push: &PushDown) -> Vec<String> {
     use softplc_io::devices::minimod::Setting as MM;
-    use softplc_io::devices::resi::driver::settings::Setting as R;
-    use softplc_io::devices::resi::models::m16di8ro;
-    use softplc_io::devices::resi::value::Num;
+    use softplc_io::devices::resi::{m16di8ro, Num, Setting as R};
     let Some(module) = project.modules.get(m) else {
         return Vec::new();
     };
@@ -208,9 +205,9 @@ pub(crate) fn push_down_settings(project: &Project, m: usize, push: &PushDown) -
 /// the module): the logic registers it clears and reads back before the first scan, whatever
 /// the plan, then the pushed-down outputs' start values, then the tables of its settings.
 /// `None` for a model without logic tables. `module` carries the plan's settings.
-pub fn startup_logic(module: &ModuleConfig) -> Option<String> {
-    use softplc_io::devices::resi::driver::settings::Setting as R;
-    use softplc_io::devices::{minimod::driver as mm, resi::driver as r};
+pub(crate) fn startup_logic(module: &ModuleConfig) -> Option<String> {
+    use softplc_io::devices::resi::Setting as R;
+    use softplc_io::devices::{minimod as mm, resi as r};
     let cleared = match module.model.name {
         super::minimod::MODEL => mm::LOGIC_CLEARED_AT_STARTUP,
         super::resi::MODEL => r::LOGIC_CLEARED_AT_STARTUP,

@@ -18,18 +18,16 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::resi::models::m16di8ro;
-use softplc_io::devices::resi::value::Num;
-use softplc_io::devices::resi::{Inputs, LogicRow, PulseTime, Relay, RelayFunction};
+use softplc_io::devices::resi::{m16di8ro, Inputs, LogicRow, Num, PulseTime, Relay, RelayFunction};
 use softplc_io::devices::ModuleSettings;
 
 use super::ir::{BoolExpr, RungShape};
 use super::planner::{Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
 
 /// The model's catalog name.
-pub const MODEL: &str = "resi-16di8ro";
+pub(crate) const MODEL: &str = "resi-16di8ro";
 /// The module's input sample (10.1.1: inputs are sampled every 10 ms).
-pub const TICK: Duration = Duration::from_millis(10);
+pub(crate) const TICK: Duration = Duration::from_millis(10);
 /// What its logic checks.
 const CHECKS: &str = "only DI1..DI16";
 

@@ -22,7 +22,7 @@
 use std::time::Duration;
 
 use softplc_io::devices::minimod::PulseWidth;
-use softplc_io::line::bus::{InputFrame, OutputFrame};
+use softplc_io::line::{InputFrame, OutputFrame};
 use softplc_io::point::{Quality, Value};
 
 use super::ir::BoolExpr;
@@ -72,7 +72,7 @@ struct Pushed {
 
 /// The pushed-down outputs of a running PLC.
 #[derive(Debug, Clone, Default)]
-pub struct Offloaded {
+pub(crate) struct Offloaded {
     outputs: Vec<Pushed>,
     on_stop: OnStop,
 }
@@ -80,7 +80,7 @@ pub struct Offloaded {
 impl Offloaded {
     /// The run-time side of `plan`. `bus_modules[b]` lists the project module indexes of bus
     /// `b` in the bus owner's order.
-    pub fn new(plan: &Plan, project: &Project, bus_modules: &[Vec<usize>]) -> Self {
+    pub(crate) fn new(plan: &Plan, project: &Project, bus_modules: &[Vec<usize>]) -> Self {
         let mut outputs = Vec::new();
         for (r, p) in plan.pushed() {
             let Some(tag) = project.tags.get(r.rung.coil.index()) else {
@@ -138,18 +138,13 @@ impl Offloaded {
     }
 
     /// Whether `tag` is a pushed-down output.
-    pub fn owns(&self, tag: TagId) -> bool {
+    pub(crate) fn owns(&self, tag: TagId) -> bool {
         self.outputs.iter().any(|p| p.tag == tag)
-    }
-
-    /// Whether anything is pushed down.
-    pub fn is_empty(&self) -> bool {
-        self.outputs.is_empty()
     }
 
     /// Input phase: the modules' values of their outputs into the image (`frames[b]` is bus
     /// `b`'s read, `None` when the line did not answer).
-    pub fn read_back(
+    pub(crate) fn read_back(
         &mut self,
         image: &mut ProcessImage,
         frames: &[Option<InputFrame>],
@@ -189,7 +184,7 @@ impl Offloaded {
 
     /// Logic phase, after the program: pulse triggers, and the image keeps the modules' values
     /// of their outputs whatever the program wrote. `now` is the scan's time.
-    pub fn after_logic(&mut self, image: &mut ProcessImage, now: Duration) {
+    pub(crate) fn after_logic(&mut self, image: &mut ProcessImage, now: Duration) {
         for p in &mut self.outputs {
             if let Source::Pulse {
                 trigger,
@@ -223,7 +218,7 @@ impl Offloaded {
 
     /// Output phase: this cycle's commands into the output frames (call
     /// [`Self::clear_commands`] after the write).
-    pub fn commands(&mut self, frames: &mut [OutputFrame]) {
+    pub(crate) fn commands(&mut self, frames: &mut [OutputFrame]) {
         for p in &mut self.outputs {
             if let Source::Pulse {
                 command,
@@ -241,7 +236,7 @@ impl Offloaded {
 
     /// Removes the commands (and the safe state's writes) from the frames: they are written
     /// once, and the outputs stay the modules'.
-    pub fn clear_commands(&self, frames: &mut [OutputFrame]) {
+    pub(crate) fn clear_commands(&self, frames: &mut [OutputFrame]) {
         for p in &self.outputs {
             if let Some(slot) = slot(frames, p.bus, p.module, p.point) {
                 *slot = None;
@@ -261,7 +256,7 @@ impl Offloaded {
 
     /// The safe state, first step: with `on_stop: clear`, zero every table and pulser of the
     /// pushed-down outputs. Returns whether there is anything to write.
-    pub fn clear_tables(&self, frames: &mut [OutputFrame]) -> bool {
+    pub(crate) fn clear_tables(&self, frames: &mut [OutputFrame]) -> bool {
         if self.on_stop == OnStop::Keep {
             return false;
         }
@@ -279,7 +274,7 @@ impl Offloaded {
 
     /// The safe state, second step: with `on_stop: clear`, the safe values of the pushed-down
     /// outputs (the image shows them); with `keep`, the outputs stay the modules'.
-    pub fn safe_outputs(
+    pub(crate) fn safe_outputs(
         &self,
         frames: &mut [OutputFrame],
         image: &mut ProcessImage,
@@ -320,7 +315,7 @@ fn set(frames: &mut [OutputFrame], bus: usize, module: usize, point: usize, v: V
 
 /// Whether two plans put the same rungs in the same modules with the same tables and
 /// settings (a program reload must not change what the modules were given at start-up).
-pub fn same_placement(a: &Plan, b: &Plan) -> bool {
+pub(crate) fn same_placement(a: &Plan, b: &Plan) -> bool {
     let pushed = |p: &Plan| -> Vec<(TagId, Placement)> {
         p.rungs
             .iter()
@@ -332,7 +327,7 @@ pub fn same_placement(a: &Plan, b: &Plan) -> bool {
 }
 
 /// One failure per line.
-pub fn lines(failures: &[RequireFailure]) -> String {
+pub(crate) fn lines(failures: &[RequireFailure]) -> String {
     failures
         .iter()
         .map(ToString::to_string)

@@ -3,15 +3,13 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use softplc_io::line::bus::{BusOwner, Counters, Discipline, Module, OutputFrame};
-use softplc_io::line::echo::{echo_margin, EchoDiscard, EchoMode};
-use softplc_io::line::latency::SysfsRoot;
-use softplc_io::line::link::LineLink;
-use softplc_io::line::tcp::{ModbusTcpTransport, NetFraming, RtuOverTcpTransport, CONNECT_TIMEOUT};
-use softplc_io::line::transport::{SerialTransport, Transport};
+use softplc_io::line::{
+    echo_margin, BusOwner, Counters, Discipline, EchoDiscard, EchoMode, LineLink,
+    ModbusTcpTransport, Module, NetFraming, OutputFrame, RtuOverTcpTransport, SerialTransport,
+    SysfsRoot, Transport, CONNECT_TIMEOUT,
+};
 use softplc_io::point::{Access, Quality};
-use softplc_io::sim::line::{SharedWorld, SimWorld, VirtualPort};
-use softplc_io::sim::plant;
+use softplc_io::sim::{plant, SharedWorld, SimWorld, VirtualPort};
 use softplc_io::wire::WireTap;
 
 use crate::clock::Clock;

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use softplc_io::line::bus::InputFrame;
+use softplc_io::line::InputFrame;
 use softplc_io::point::Quality;
 
 use crate::image::convert;
@@ -15,7 +15,7 @@ impl Plc {
     ///
     /// The scan waits for the lines until one deadline, [`Plc::read_budget`] after the cycle's
     /// start: a line that has not delivered by then keeps its last values, stale, and finishes
-    /// in its own time (see [`softplc_io::line::link`]).
+    /// in its own time (see [`softplc_io::line::LineLink`]).
     pub fn read_inputs(&mut self) {
         let start = self.clock.now();
         self.cycle_start = start;

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use super::Plc;
 
 /// The file that keeps `project_file`'s forces: `PROJECT.forces.json` beside it, or in the
-/// unit's state directory under systemd (see [`crate::project::state`]).
+/// unit's state directory under systemd (see `crate::project::state`).
 pub fn forces_path(project_file: &Path) -> PathBuf {
     let mut name = project_file.file_name().unwrap_or_default().to_os_string();
     name.push(".forces.json");

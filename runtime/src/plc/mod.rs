@@ -30,11 +30,9 @@ pub use record::RecordError;
 use std::sync::Arc;
 use std::time::Duration;
 
-use softplc_io::line::bus::{Counters, OutputFrame, StartupError, TxError};
-use softplc_io::line::link::LineLink;
-use softplc_io::line::transport::LineError;
+use softplc_io::line::{Counters, LineError, LineLink, OutputFrame, StartupError, TxError};
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::SharedWorld;
 
 use crate::clock::Clock;
 use crate::image::{ProcessImage, TagId};

@@ -4,8 +4,7 @@
 //! MiniMod watchdog's WDTTIME), so it is found in one place (`softplc_io::line::latency` says
 //! how).
 
-use softplc_io::line::budget::AdapterTiming;
-use softplc_io::line::latency::{Assumed, SysfsRoot};
+use softplc_io::line::{AdapterTiming, Assumed, SysfsRoot};
 
 use super::model::{BusConfig, PortConfig};
 

@@ -15,8 +15,8 @@
 //! digits (MiniMod 18: DCON `18`, project address 24), 100..=247 by their first two digits
 //! (MiniMod 123: DCON `12`, project address 18).
 
-use softplc_io::devices::ex9053::dcon::{Command, ParseError};
-use softplc_io::devices::minimod::text::{write_command, TextId, WriteValue};
+use softplc_io::devices::ex9053::{Command, ParseError};
+use softplc_io::devices::minimod::{write_command, TextId, WriteValue};
 use softplc_io::devices::{ModuleSettings, Protocol};
 
 use super::model::ModuleConfig;

@@ -234,7 +234,7 @@ pub enum ErrorKind {
         /// The value given.
         port: String,
         /// What is wrong with it.
-        reason: softplc_io::line::tcp::EndpointError,
+        reason: softplc_io::line::EndpointError,
     },
     /// A serial-port key on a bus whose port has no such thing (`rs485:` on `tcp://`).
     #[error("{key} is for a serial line; a {scheme}:// bus has none{hint}")]

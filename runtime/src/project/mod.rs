@@ -1,4 +1,4 @@
-//! The project file: YAML → [`raw`] serde structs → validated [`Project`].
+//! The project file: YAML → `raw` serde structs → validated [`Project`].
 //!
 //! Everything is checked before the first scan, and every error found is reported with its
 //! `file:line:col`, like rustc:
@@ -8,7 +8,7 @@
 //! plant.yaml:19:14: error: address 1 is already used by module mm1 on bus line1 (line 13)
 //! ```
 //!
-//! The schema is documented in [`raw`]. Errors of the YAML reader (syntax, a value of the
+//! The schema is documented in `raw`. Errors of the YAML reader (syntax, a value of the
 //! wrong type) stop the reading, so they come alone; unknown keys are all collected, with the
 //! semantic errors of the rest (see `unknown_keys.rs`), and so are semantic errors (names,
 //! references, ranges, owners). Positions of semantic errors come from
@@ -18,42 +18,52 @@
 
 mod adapter;
 mod dcon_neighbours;
-pub mod error;
-pub mod line_plan;
-pub mod model;
-pub mod mqtt;
-pub mod nesting;
-pub mod offload;
-pub mod opcua;
+pub(crate) mod error;
+pub(crate) mod line_plan;
+pub(crate) mod model;
+pub(crate) mod mqtt;
+pub(crate) mod nesting;
+pub(crate) mod offload;
+pub(crate) mod opcua;
 pub mod profile;
-pub mod raw;
+pub(crate) mod raw;
 mod raw_schema;
-pub mod recorder;
-pub mod retain;
+pub(crate) mod recorder;
+pub(crate) mod retain;
 mod scada;
-pub mod secret;
-pub mod service;
+pub(crate) mod secret;
+pub(crate) mod service;
 pub(crate) mod span;
-pub mod state;
-pub mod trace;
+pub(crate) mod state;
+pub(crate) mod trace;
 mod unknown_keys;
 mod validate;
-pub mod watchdog;
-pub mod web;
+pub(crate) mod watchdog;
+pub(crate) mod web;
 
 use std::path::Path;
 
 pub use error::{ErrorKind, Item, ProjectError, ProjectErrors};
+pub use line_plan::{Choice, Direction, FastTurn, InputPlan, LinePlan, SlowTurn, Tuned};
 pub use model::*;
-pub use offload::{OffloadConfig, OffloadMode, OnStop, TagOffload};
+pub use mqtt::{MqttConfig, MqttError};
+pub use nesting::MAX_DEPTH;
+pub use offload::{OffloadConfig, OffloadError, OffloadMode, OnStop, TagOffload};
+pub use opcua::{OpcUaConfig, OpcUaError, OpcUaSecurity};
 pub use raw::{parse_duration, DurationError};
-pub use recorder::RecorderConfig;
+pub use recorder::{RecorderConfig, RecorderError};
 pub use retain::RetainConfig;
 pub use scada::ServiceError;
+pub use secret::Password;
 pub use service::{
     ModbusTcpConfig, ScadaAccess, ScadaEntry, ScadaMap, ServiceConfig, Space, DEFAULT_MODBUS_BIND,
 };
-pub use web::{WebConfig, WebError, WebToken, DEFAULT_WEB_BIND};
+pub use trace::{
+    CompareOp, Condition, Counter, Phase, Probe, RawTrace, TraceConfig, TraceError, TraceMode,
+    Trigger,
+};
+pub use watchdog::{Armed, Derivation, ModuleWatchdog, Origin, WatchdogPolicy};
+pub use web::{TokenSource, WebConfig, WebError, WebToken, DEFAULT_WEB_BIND};
 
 /// Reads and validates the project file at `path`. The program file is resolved against the
 /// file's folder and must exist.

@@ -33,9 +33,9 @@ pub struct Project {
     pub retain: super::retain::RetainConfig,
     /// Push-down of rungs into the modules.
     pub offload: super::offload::OffloadConfig,
-    /// The flight recorder, when the project turns it on (see [`super::recorder`]).
+    /// The flight recorder, when the project turns it on (see `super::recorder`).
     pub recorder: Option<super::recorder::RecorderConfig>,
-    /// Trace definitions, in file order (see [`super::trace`]).
+    /// Trace definitions, in file order (see `super::trace`).
     pub traces: Vec<super::trace::TraceConfig>,
 }
 
@@ -81,13 +81,13 @@ pub enum PortConfig {
     Serial(PathBuf),
     /// A network endpoint: Modbus TCP (`tcp://HOST:PORT`) or RTU over TCP
     /// (`rtu+tcp://HOST:PORT`).
-    Tcp(softplc_io::line::tcp::TcpEndpoint),
+    Tcp(softplc_io::line::TcpEndpoint),
 }
 
 impl PortConfig {
     /// Whether the bus carries Modbus TCP (no serial line, no RTU framing).
     pub fn is_modbus_tcp(&self) -> bool {
-        matches!(self, PortConfig::Tcp(e) if e.framing == softplc_io::line::tcp::NetFraming::ModbusTcp)
+        matches!(self, PortConfig::Tcp(e) if e.framing == softplc_io::line::NetFraming::ModbusTcp)
     }
 
     /// The URL scheme of a network bus.
@@ -115,11 +115,11 @@ pub struct BusConfig {
     /// Period of the full output refresh (outputs are otherwise written on change).
     pub output_refresh: Duration,
     /// Kernel RS-485 mode to set when the port is opened (`rs485:`).
-    pub rs485: Option<softplc_io::line::transport::Rs485Mode>,
+    pub rs485: Option<softplc_io::line::Rs485Mode>,
     /// Whether the adapter's echo of every request is read back and verified (`echo:`).
-    pub echo: softplc_io::line::echo::EchoMode,
+    pub echo: softplc_io::line::EchoMode,
     /// The USB adapter's latency timer (`adapter_latency:`).
-    pub adapter_latency: softplc_io::line::latency::AdapterLatency,
+    pub adapter_latency: softplc_io::line::AdapterLatency,
     /// Who turns the transceiver round (`direction:`).
     pub direction: super::line_plan::Direction,
     /// `tune: reply_delay`.
@@ -141,7 +141,7 @@ pub struct ModuleConfig {
     pub device: DeviceConfig,
     /// Its own watchdog: the entry's `watchdog:`, what it is armed with and the settings that
     /// arm it, added to `device`'s by [`ModuleConfig::device_with_watchdog`] (see
-    /// [`super::watchdog`]).
+    /// `super::watchdog`).
     pub watchdog: super::watchdog::ModuleWatchdog,
 }
 

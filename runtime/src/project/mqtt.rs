@@ -32,13 +32,13 @@ use super::scada::ServiceError;
 use super::span::YPath;
 
 /// The broker's port unless told, plain.
-pub const DEFAULT_MQTT_PORT: u16 = 1883;
+pub(crate) const DEFAULT_MQTT_PORT: u16 = 1883;
 /// The broker's port unless told, with TLS.
-pub const DEFAULT_MQTTS_PORT: u16 = 8883;
+pub(crate) const DEFAULT_MQTTS_PORT: u16 = 8883;
 /// How many changes are kept while the broker is away unless told.
-pub const DEFAULT_BUFFER: usize = 10_000;
+pub(crate) const DEFAULT_BUFFER: usize = 10_000;
 /// The most changes a buffer may keep (each takes a few dozen bytes).
-pub const MAX_BUFFER: usize = 1_000_000;
+pub(crate) const MAX_BUFFER: usize = 1_000_000;
 
 /// `service.mqtt:` as written.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
@@ -47,7 +47,7 @@ pub const MAX_BUFFER: usize = 1_000_000;
     expecting = "MQTT settings: a mapping with host, port, group, node, client_id, username, \
                  password, password_env, tls, writes, buffer and deadband"
 )]
-pub struct RawMqtt {
+pub(crate) struct RawMqtt {
     /// The broker's host.
     #[serde(default)]
     pub host: Option<String>,
@@ -92,13 +92,13 @@ pub struct RawMqtt {
     deny_unknown_fields,
     expecting = "TLS settings: a mapping with ca_file"
 )]
-pub struct RawMqttTls {
+pub(crate) struct RawMqttTls {
     /// The CA certificate(s) the broker's certificate must chain to, PEM.
     pub ca_file: String,
 }
 
 /// The broker's password (the project's type of every password).
-pub use super::secret::Password as MqttPassword;
+pub(crate) use super::secret::Password as MqttPassword;
 
 /// The validated MQTT settings.
 #[derive(Debug, Clone, PartialEq)]

@@ -20,7 +20,7 @@ pub const MAX_DEPTH: usize = 64;
 /// Where the text first nests deeper than [`MAX_DEPTH`]: 1-based line and column (in
 /// characters) of the collection that does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct TooDeep {
+pub(crate) struct TooDeep {
     /// 1-based line.
     pub line: usize,
     /// 1-based column, in characters.
@@ -28,7 +28,7 @@ pub struct TooDeep {
 }
 
 /// Checks that `text` nests no deeper than [`MAX_DEPTH`]. Linear in the length of `text`.
-pub fn check(text: &str) -> Result<(), TooDeep> {
+pub(crate) fn check(text: &str) -> Result<(), TooDeep> {
     let mut s = Scanner::new(text.as_bytes());
     s.run()
 }

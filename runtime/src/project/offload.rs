@@ -120,7 +120,7 @@ impl OffloadConfig {
 
 /// `offload:` as written: a word, or a mapping.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct RawOffload {
+pub(crate) struct RawOffload {
     /// `auto`, `never`, `require`.
     pub mode: Option<String>,
     /// `clear` or `keep`.
@@ -241,7 +241,7 @@ pub enum OffloadError {
 }
 
 /// The MiniMod latency registers of a point (`X2` → `XLATUP2`, `XLATDN2`).
-pub fn latency_registers(point: &str) -> Option<(String, String)> {
+pub(crate) fn latency_registers(point: &str) -> Option<(String, String)> {
     let n = point.strip_prefix('X')?;
     matches!(n, "1" | "2" | "3").then(|| (format!("XLATUP{n}"), format!("XLATDN{n}")))
 }

@@ -26,9 +26,9 @@ use super::scada::ServiceError;
 use super::span::YPath;
 
 /// The port unless told: OPC UA's registered port.
-pub const DEFAULT_OPCUA_PORT: u16 = 4840;
+pub(crate) const DEFAULT_OPCUA_PORT: u16 = 4840;
 /// The address unless told.
-pub const DEFAULT_OPCUA_BIND: &str = "127.0.0.1";
+pub(crate) const DEFAULT_OPCUA_BIND: &str = "127.0.0.1";
 
 /// `service.opcua:` as written.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
@@ -37,7 +37,7 @@ pub const DEFAULT_OPCUA_BIND: &str = "127.0.0.1";
     expecting = "OPC UA settings: a mapping with bind, port, writes, security, username, \
                  password and password_env"
 )]
-pub struct RawOpcUa {
+pub(crate) struct RawOpcUa {
     /// The address to listen on (an IP literal; default [`DEFAULT_OPCUA_BIND`]).
     #[serde(default)]
     pub bind: Option<String>,
@@ -83,7 +83,7 @@ impl OpcUaSecurity {
 }
 
 /// The user's password.
-pub use super::secret::Password as OpcUaPassword;
+pub(crate) use super::secret::Password as OpcUaPassword;
 
 /// The validated OPC UA settings.
 #[derive(Debug, Clone, PartialEq)]

@@ -128,7 +128,7 @@ use serde::Deserialize;
     deny_unknown_fields,
     expecting = "a project: a mapping with project, scan, buses, modules, tags, program and plant"
 )]
-pub struct RawProject {
+pub(crate) struct RawProject {
     /// The project's name.
     pub project: String,
     /// The scan task.
@@ -170,7 +170,7 @@ pub struct RawProject {
     deny_unknown_fields,
     expecting = "scan settings: a mapping with period, watchdog and realtime"
 )]
-pub struct RawScan {
+pub(crate) struct RawScan {
     /// Cycle period, above zero: `20ms`.
     pub period: DurationText,
     /// Task watchdog.
@@ -187,7 +187,7 @@ pub struct RawScan {
     deny_unknown_fields,
     expecting = "watchdog settings: a mapping with time and sensitivity"
 )]
-pub struct RawWatchdog {
+pub(crate) struct RawWatchdog {
     /// Longest acceptable cycle (default 5 × period).
     #[serde(default)]
     pub time: Option<DurationText>,
@@ -202,7 +202,7 @@ pub struct RawWatchdog {
     deny_unknown_fields,
     expecting = "real-time settings: a mapping with priority, cpu and lock_memory"
 )]
-pub struct RawRealtime {
+pub(crate) struct RawRealtime {
     /// SCHED_FIFO priority 1..=99.
     #[serde(default)]
     pub priority: Option<Int>,
@@ -220,7 +220,7 @@ pub struct RawRealtime {
     deny_unknown_fields,
     expecting = "a bus: a mapping with name, port, baud, format, response_timeout, retries, output_refresh, rs485, echo, adapter_latency, direction, tune"
 )]
-pub struct RawBus {
+pub(crate) struct RawBus {
     /// The line's name.
     pub name: String,
     /// `sim` (simulated modules, no hardware), a serial device path (`/dev/ttyUSB0`), a Modbus
@@ -267,7 +267,7 @@ pub struct RawBus {
 
 /// A bus's `adapter_latency:`: `auto`, or a duration (whole ms, checked by the validator).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RawAdapterLatency {
+pub(crate) enum RawAdapterLatency {
     /// `auto`.
     Auto,
     /// A duration.
@@ -305,7 +305,7 @@ impl<'de> Deserialize<'de> for RawAdapterLatency {
     deny_unknown_fields,
     expecting = "rs485: a mapping with rts_on_send, delay_before_send, delay_after_send"
 )]
-pub struct RawRs485 {
+pub(crate) struct RawRs485 {
     /// RTS high while sending (default true); `false` inverts it.
     #[serde(default)]
     pub rts_on_send: Option<bool>,
@@ -324,7 +324,7 @@ pub struct RawRs485 {
     expecting = "a module: a mapping with name, bus, model, address, protocol, settings and watchdog"
 )]
 #[schemars(extend("allOf" = super::raw_schema::field::settings_hints()))]
-pub struct RawModule {
+pub(crate) struct RawModule {
     /// The module's name.
     pub name: String,
     /// The bus it is on.
@@ -354,7 +354,7 @@ pub struct RawModule {
     expecting = "a tag: a mapping with name and point or type, safe, initial"
 )]
 #[schemars(extend("anyOf" = [{ "required": ["point"] }, { "required": ["type"] }]))]
-pub struct RawTag {
+pub(crate) struct RawTag {
     /// The tag's name.
     pub name: String,
     /// The point it is bound to, `module.POINT` in the manual's spelling (`softplc points
@@ -395,7 +395,7 @@ pub struct RawTag {
     deny_unknown_fields,
     expecting = "a program: a mapping with file and kind"
 )]
-pub struct RawProgram {
+pub(crate) struct RawProgram {
     /// The program file, relative to the project file's folder; must exist.
     pub file: String,
     /// Its language: expr, ladder or rhai.
@@ -409,7 +409,7 @@ pub struct RawProgram {
     deny_unknown_fields,
     expecting = "a plant: a mapping with model and wiring"
 )]
-pub struct RawPlant {
+pub(crate) struct RawPlant {
     /// The plant model.
     #[schemars(schema_with = "super::raw_schema::field::plant_model")]
     pub model: String,
@@ -420,7 +420,7 @@ pub struct RawPlant {
 
 /// A duration written with a unit (`20ms`, `1.5s`); see the module docs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct DurationText(pub Duration);
+pub(crate) struct DurationText(pub Duration);
 
 /// The duration syntax the module docs describe.
 const DURATION_EXPECTED: &str =
@@ -515,7 +515,7 @@ pub fn parse_duration(text: &str) -> Result<Duration, DurationError> {
 
 /// A whole number; range checks are the validation's, so they can name the key's meaning.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Int(pub i64);
+pub(crate) struct Int(pub i64);
 
 impl<'de> Deserialize<'de> for Int {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -543,7 +543,7 @@ impl<'de> Deserialize<'de> for Int {
 
 /// Any scalar (string, number, bool), as its text; for values typed later (`safe`, settings).
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ScalarText(pub String);
+pub(crate) struct ScalarText(pub String);
 
 impl<'de> Deserialize<'de> for ScalarText {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -581,7 +581,7 @@ impl<'de> Deserialize<'de> for ScalarText {
 
 /// A mapping of text keys to scalar values, in file order; a key given twice is an error.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Settings(pub Vec<(String, String)>);
+pub(crate) struct Settings(pub Vec<(String, String)>);
 
 impl<'de> Deserialize<'de> for Settings {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {

@@ -23,9 +23,9 @@ use super::raw::DurationText;
 use super::span::YPath;
 
 /// The default size bound.
-pub const DEFAULT_SIZE: u64 = 256 << 20;
+pub(crate) const DEFAULT_SIZE: u64 = 256 << 20;
 /// The smallest size bound: a few segments of the smallest size.
-pub const MIN_SIZE: u64 = 1 << 20;
+pub(crate) const MIN_SIZE: u64 = 1 << 20;
 
 /// `recorder:` as written.
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
@@ -33,7 +33,7 @@ pub const MIN_SIZE: u64 = 1 << 20;
     deny_unknown_fields,
     expecting = "recorder settings: a mapping with keep, size and folder"
 )]
-pub struct RawRecorder {
+pub(crate) struct RawRecorder {
     /// Scan time kept.
     pub keep: DurationText,
     /// Size bound (`256MiB`).
@@ -68,7 +68,7 @@ impl RecorderConfig {
 
 /// Where a project's record goes by default: `<project file name>.record`, beside the project
 /// file or in its state folder under systemd (see [`super::state`]).
-pub fn default_folder(project_file: &Path) -> PathBuf {
+pub(crate) fn default_folder(project_file: &Path) -> PathBuf {
     let mut name = project_file.file_name().unwrap_or_default().to_os_string();
     name.push(".record");
     super::state::default_state_folder(project_file).join(name)
@@ -85,7 +85,7 @@ pub enum RecorderError {
         /// What was written.
         text: String,
     },
-    /// `size` is below [`MIN_SIZE`].
+    /// `size` is below `MIN_SIZE`.
     #[error("recorder.size {bytes} bytes is too small: at least 1MiB")]
     SmallSize {
         /// The size given.
@@ -99,7 +99,7 @@ pub enum RecorderError {
 }
 
 /// Reads a size with its unit: `64MiB`, `1GiB`, `500MB`, `512KiB`, `4096B`.
-pub fn parse_size(text: &str) -> Option<u64> {
+pub(crate) fn parse_size(text: &str) -> Option<u64> {
     let t = text.trim();
     let split = t.find(|c: char| !c.is_ascii_digit()).unwrap_or(t.len());
     let (num, unit) = t.split_at(split);

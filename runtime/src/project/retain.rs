@@ -21,7 +21,7 @@ use super::raw::DurationText;
 use super::span::YPath;
 
 /// Default save period.
-pub const DEFAULT_RETAIN_PERIOD: Duration = Duration::from_secs(10);
+pub(crate) const DEFAULT_RETAIN_PERIOD: Duration = Duration::from_secs(10);
 
 /// `retain:` as written.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
@@ -29,7 +29,7 @@ pub const DEFAULT_RETAIN_PERIOD: Duration = Duration::from_secs(10);
     deny_unknown_fields,
     expecting = "retain settings: a mapping with file and period"
 )]
-pub struct RawRetain {
+pub(crate) struct RawRetain {
     /// The file, relative to the project file's folder.
     #[serde(default)]
     pub file: Option<String>,

@@ -43,7 +43,7 @@ use super::raw::{DurationText, Int};
     deny_unknown_fields,
     expecting = "service settings: a mapping with metrics, modbus_tcp, web, mqtt and opcua"
 )]
-pub struct RawService {
+pub(crate) struct RawService {
     /// Address of the Prometheus text endpoint.
     #[serde(default)]
     pub metrics: Option<String>,
@@ -68,7 +68,7 @@ pub struct RawService {
     expecting = "Modbus TCP settings: a mapping with bind, unit, writes, allow_remote_writes, \
                  idle_timeout and send_timeout"
 )]
-pub struct RawModbusTcp {
+pub(crate) struct RawModbusTcp {
     /// Listening address (default [`DEFAULT_MODBUS_BIND`]).
     #[serde(default)]
     pub bind: Option<String>,
@@ -118,7 +118,7 @@ impl ScadaAccess {
 
 /// A tag's `scada:` as written: `read` | `write` | `none`, or `{ access, address }`.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct RawScada {
+pub(crate) struct RawScada {
     /// Access (default read).
     pub access: Option<ScadaAccess>,
     /// Pinned protocol address (0-based), checked by the validation.
@@ -176,11 +176,11 @@ impl<'de> Deserialize<'de> for RawScada {
 /// CAP_NET_BIND_SERVICE).
 pub const DEFAULT_MODBUS_BIND: &str = "127.0.0.1:5020";
 /// The unit identifier answered unless told.
-pub const DEFAULT_UNIT: u8 = 1;
+pub(crate) const DEFAULT_UNIT: u8 = 1;
 /// How long a Modbus TCP client may go without completing a request unless told.
-pub const DEFAULT_MODBUS_IDLE: Duration = Duration::from_secs(60);
+pub(crate) const DEFAULT_MODBUS_IDLE: Duration = Duration::from_secs(60);
 /// How long a Modbus TCP reply may wait for its client to take it unless told.
-pub const DEFAULT_MODBUS_SEND: Duration = Duration::from_secs(10);
+pub(crate) const DEFAULT_MODBUS_SEND: Duration = Duration::from_secs(10);
 
 /// The validated `service:` section and SCADA map.
 #[derive(Debug, Clone, Default, PartialEq)]

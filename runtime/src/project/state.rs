@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 /// The folder for `project_file`'s state, given the value of `$STATE_DIRECTORY` (systemd
 /// may list several, separated by colons: the first is used).
-pub fn state_folder(project_file: &Path, state_directory: Option<&OsStr>) -> PathBuf {
+pub(crate) fn state_folder(project_file: &Path, state_directory: Option<&OsStr>) -> PathBuf {
     let beside = project_file.parent().unwrap_or(Path::new("")).to_path_buf();
     let Some(dirs) = state_directory.and_then(OsStr::to_str) else {
         return beside;
@@ -37,7 +37,7 @@ pub fn state_folder(project_file: &Path, state_directory: Option<&OsStr>) -> Pat
 }
 
 /// [`state_folder`] with this process's `$STATE_DIRECTORY`.
-pub fn default_state_folder(project_file: &Path) -> PathBuf {
+pub(crate) fn default_state_folder(project_file: &Path) -> PathBuf {
     state_folder(project_file, std::env::var_os("STATE_DIRECTORY").as_deref())
 }
 

@@ -30,15 +30,15 @@ use super::raw::RawProject;
 use super::span::YPath;
 
 /// Most samples one trace keeps (`pre + 1 + post`).
-pub const MAX_SAMPLES: u64 = 100_000;
+pub(crate) const MAX_SAMPLES: u64 = 100_000;
 /// Most values one trace keeps (samples × signals): 8 MB.
-pub const MAX_VALUES: u64 = 1_000_000;
+pub(crate) const MAX_VALUES: u64 = 1_000_000;
 /// Largest `every`.
-pub const MAX_EVERY: u64 = 1_000_000;
+pub(crate) const MAX_EVERY: u64 = 1_000_000;
 /// Default `pre`.
-pub const DEFAULT_PRE: u32 = 100;
+pub(crate) const DEFAULT_PRE: u32 = 100;
 /// Default `post`.
-pub const DEFAULT_POST: u32 = 400;
+pub(crate) const DEFAULT_POST: u32 = 400;
 
 /// One `traces:` entry as written (also the body of a run-time `trace arm`).
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -268,7 +268,7 @@ pub enum TraceMode {
 
 /// The names a trace can use: the project's tags (with their types, when valid) and modules.
 #[derive(Debug, Clone, Copy)]
-pub struct SignalNames<'a> {
+pub(crate) struct SignalNames<'a> {
     /// Tag names and types, in project order (a tag whose type is invalid has `None`).
     pub tags: &'a [(&'a str, Option<ValueType>)],
     /// Module names, in project order.
@@ -277,7 +277,7 @@ pub struct SignalNames<'a> {
 
 impl SignalNames<'_> {
     /// The signal called `name`.
-    pub fn resolve(&self, name: &str) -> Result<Probe, TraceError> {
+    pub(crate) fn resolve(&self, name: &str) -> Result<Probe, TraceError> {
         if let Some(i) = self.tags.iter().position(|(t, _)| *t == name) {
             return Ok(Probe::Tag(i));
         }
@@ -324,7 +324,7 @@ impl SignalNames<'_> {
     }
 
     /// A signal's name.
-    pub fn name(&self, probe: Probe) -> String {
+    pub(crate) fn name(&self, probe: Probe) -> String {
         match probe {
             Probe::Tag(i) => self.tags.get(i).map_or("?", |(t, _)| *t).to_owned(),
             Probe::Counter { module, counter } => format!(
@@ -337,7 +337,7 @@ impl SignalNames<'_> {
     }
 
     /// The type of a signal's values: a tag's own, `i32` for counters and phase times.
-    pub fn value_type(&self, probe: Probe) -> Option<ValueType> {
+    pub(crate) fn value_type(&self, probe: Probe) -> Option<ValueType> {
         match probe {
             Probe::Tag(i) => self.tags.get(i).and_then(|(_, t)| *t),
             Probe::Counter { .. } | Probe::Phase(_) => Some(ValueType::I32),
@@ -346,7 +346,7 @@ impl SignalNames<'_> {
 }
 
 /// The unit of a signal's values, when it has one.
-pub fn unit(probe: Probe) -> Option<&'static str> {
+pub(crate) fn unit(probe: Probe) -> Option<&'static str> {
     match probe {
         Probe::Tag(_) => None,
         Probe::Counter {
@@ -360,9 +360,7 @@ pub fn unit(probe: Probe) -> Option<&'static str> {
 
 /// Which part of a trace an error is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Field {
-    /// The entry as a whole.
-    Entry,
+pub(crate) enum Field {
     /// `name`.
     Name,
     /// `tags`.
@@ -536,7 +534,7 @@ fn hint_text(hint: &Option<String>) -> String {
 }
 
 /// Validates one trace against the project's `names`; every error found, with its field.
-pub fn build(
+pub(crate) fn build(
     raw: &RawTrace,
     names: &SignalNames<'_>,
 ) -> Result<TraceConfig, Vec<(Field, TraceError)>> {
@@ -693,7 +691,6 @@ pub(crate) fn validate_all(
 impl Field {
     fn path(self, entry: &YPath) -> YPath {
         match self {
-            Field::Entry => entry.clone(),
             Field::Name => entry.key("name"),
             Field::Tags => entry.key("tags"),
             Field::Tag(k) => entry.key("tags").index(k),
@@ -709,7 +706,7 @@ impl Field {
 
 /// Reads `SIGNAL rising|falling|high|low` or `SIGNAL OP NUMBER` and checks it against the
 /// signal's type.
-pub fn parse_trigger(text: &str, names: &SignalNames<'_>) -> Result<Trigger, TraceError> {
+pub(crate) fn parse_trigger(text: &str, names: &SignalNames<'_>) -> Result<Trigger, TraceError> {
     let syntax = || TraceError::TriggerSyntax {
         text: text.to_owned(),
     };

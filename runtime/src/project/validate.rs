@@ -10,15 +10,13 @@ use softplc_io::point::{Access, Value, ValueType};
 use softplc_io::sim::plant;
 
 use super::error::{ErrorKind, Item, ProjectError};
-use softplc_io::line::tcp::{NetFraming, TcpEndpoint};
+use softplc_io::line::{NetFraming, TcpEndpoint};
 
 use super::model::{
     Binding, BusConfig, ModuleConfig, PlantConfig, PortConfig, ProgramConfig, ProgramKind, Project,
     RealtimeConfig, ScanConfig, TagConfig, WatchdogConfig,
 };
-use softplc_io::line::echo::EchoMode;
-use softplc_io::line::latency::AdapterLatency;
-use softplc_io::line::transport::Rs485Mode;
+use softplc_io::line::{AdapterLatency, EchoMode, Rs485Mode};
 
 use super::line_plan::Direction;
 

@@ -62,14 +62,13 @@ use std::time::Duration;
 
 use softplc_io::devices::minimod::{Setting as MiniModSetting, Settings as MiniModSettings};
 use softplc_io::devices::ModuleSettings;
-use softplc_io::line::budget::{failed_attempt, line_budget_on, transaction_time};
-use softplc_io::line::latency::SysfsRoot;
+use softplc_io::line::{failed_attempt, line_budget_on, transaction_time, SysfsRoot};
 use softplc_io::point::{Access, Value};
 
 use super::model::{Binding, Project};
 
 /// The module entry's key.
-pub const KEY: &str = "watchdog";
+pub(crate) const KEY: &str = "watchdog";
 
 /// What the module entry asks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -82,7 +81,7 @@ pub enum WatchdogPolicy {
 }
 
 /// Parses the module entry's `watchdog:` value.
-pub fn parse_policy(text: &str) -> Result<WatchdogPolicy, String> {
+pub(crate) fn parse_policy(text: &str) -> Result<WatchdogPolicy, String> {
     match text.trim().to_ascii_lowercase().as_str() {
         "auto" | "on" | "true" | "yes" => Ok(WatchdogPolicy::Auto),
         "off" | "false" | "no" => Ok(WatchdogPolicy::Off),
@@ -171,7 +170,7 @@ pub enum Armed {
 pub struct ModuleWatchdog {
     /// The entry's `watchdog:`.
     pub policy: WatchdogPolicy,
-    /// What it is (filled in by [`arm`]).
+    /// What it is (filled in by `arm`).
     pub armed: Armed,
     /// The settings arming adds to a MiniMod's own (`WDTTIME`, `WDTYMASK`), for its driver
     /// (the other models' watchdogs add none).
@@ -180,7 +179,7 @@ pub struct ModuleWatchdog {
 
 impl super::model::ModuleConfig {
     /// What the module's driver is built from: its settings as written, then what arming its
-    /// watchdog adds (see [`arm`]).
+    /// watchdog adds (see `arm`).
     pub fn device_with_watchdog(&self) -> softplc_io::devices::DeviceConfig {
         let mut device = self.device.clone();
         if let ModuleSettings::MiniMod(s) = &mut device.settings {
@@ -201,7 +200,7 @@ fn minimod(settings: &ModuleSettings) -> Option<&MiniModSettings> {
 }
 
 /// Why `watchdog: off` cannot go with the module's settings, if it cannot.
-pub fn conflict(settings: &ModuleSettings) -> Option<String> {
+pub(crate) fn conflict(settings: &ModuleSettings) -> Option<String> {
     let (key, value) = match settings {
         ModuleSettings::MiniMod(s) => (
             "WDTTIME",
@@ -224,14 +223,14 @@ fn hundredths(d: Duration) -> u16 {
 }
 
 /// Why a MiniMod on a Modbus TCP bus has no watchdog armed by softplc.
-pub const MINIMOD_ON_MODBUS_TCP: &str = "a MiniMod's watchdog is armed by name with text \
+pub(crate) const MINIMOD_ON_MODBUS_TCP: &str = "a MiniMod's watchdog is armed by name with text \
      commands (>WDTTIME=), which a Modbus TCP bus cannot carry; arm it in the module's flash \
      (WCONF) on a line of its own, or put it on an rtu+tcp:// bus";
 
 /// Works out every module's watchdog and the settings that arm it
 /// ([`ModuleWatchdog::settings`]; the module's own settings stay as written): at the end of
 /// validation, once the project is whole.
-pub fn arm(project: &mut Project) {
+pub(crate) fn arm(project: &mut Project) {
     let derivations = derive_all(project);
     for (m, derivation) in derivations.into_iter().enumerate() {
         let mask = safe_mask(project, m);
@@ -466,7 +465,7 @@ fn fmt_secs(d: Duration) -> String {
 }
 
 /// The line `check` prints for a module's watchdog, and a warning when it is off.
-pub fn report(module: &super::model::ModuleConfig) -> (String, Option<String>) {
+pub(crate) fn report(module: &super::model::ModuleConfig) -> (String, Option<String>) {
     let name = &module.name;
     match &module.watchdog.armed {
         Armed::MiniMod {

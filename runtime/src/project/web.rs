@@ -33,13 +33,13 @@ use crate::suggest::edit_distance;
 /// Where the page listens unless told.
 pub const DEFAULT_WEB_BIND: &str = "127.0.0.1:8080";
 /// The most tags a trend shows (more lines are no longer readable).
-pub const MAX_TREND: usize = 8;
+pub(crate) const MAX_TREND: usize = 8;
 /// The shortest token on a loopback address.
-pub const MIN_TOKEN: usize = 8;
+pub(crate) const MIN_TOKEN: usize = 8;
 /// The shortest token on an address beyond loopback, where anyone on the network may guess.
-pub const MIN_REMOTE_TOKEN: usize = 16;
+pub(crate) const MIN_REMOTE_TOKEN: usize = 16;
 /// The longest token (it travels in a request head of bounded size).
-pub const MAX_TOKEN: usize = 256;
+pub(crate) const MAX_TOKEN: usize = 256;
 
 /// `service.web:` as written.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
@@ -48,7 +48,7 @@ pub const MAX_TOKEN: usize = 256;
     expecting = "web page settings: a mapping with bind, writes, token, token_file, token_env \
                  and trend"
 )]
-pub struct RawWeb {
+pub(crate) struct RawWeb {
     /// Listening address (default [`DEFAULT_WEB_BIND`]).
     #[serde(default)]
     pub bind: Option<String>,

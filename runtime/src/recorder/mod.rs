@@ -5,21 +5,23 @@
 //! at the start of the logic (the inputs, as the logic saw them), the changes after the output
 //! phase (what the program wrote) and the control requests applied at the boundary before it
 //! (force, unforce, write, reload with the new program's identity). The scan's side
-//! ([`tap`]) only diffs and `try_send`s into a bounded channel; the writer ([`writer`]) runs
+//! (`tap`) only diffs and `try_send`s into a bounded channel; the writer (`writer`) runs
 //! on its own thread and cuts the record into checksummed blocks and bounded segments
-//! ([`format`]), deleting the oldest beyond `keep` and the size bound. [`reader`] reads a
+//! ([`format`](mod@format)), deleting the oldest beyond `keep` and the size bound. `reader` reads a
 //! record back, up to the last good block of a torn tail; [`replay`] re-runs a program on it.
 //!
 //! The recorder sits beside the PLC it records, below it: [`crate::plc::Plc::record`] wires
 //! it in, and nothing here knows of the scan loop or the service.
 
 pub mod format;
-pub mod reader;
-pub mod replay;
-pub mod tap;
-pub mod writer;
+pub(crate) mod reader;
+pub(crate) mod replay;
+pub(crate) mod tap;
+pub(crate) mod writer;
 
-pub use reader::{read_record, Record};
-pub use replay::{replay, ReplayError, ReplayOptions, ReplayReport};
+pub use reader::{read_record, FileError, Record, RecordError, Segment, SegmentError, Torn};
+pub use replay::{
+    replay, CycleOutputs, Difference, ReplayError, ReplayOptions, ReplayReport, TagDifference,
+};
 pub use tap::Tap;
-pub use writer::{RecorderHandle, Settings, WriterOutcome};
+pub use writer::{segments_in, RecorderHandle, SegmentFile, Settings, WriterOutcome};

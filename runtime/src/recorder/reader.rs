@@ -77,7 +77,7 @@ impl fmt::Display for FileError {
 impl std::error::Error for FileError {}
 
 /// Reads one segment, up to its last good block.
-pub fn read_segment(path: &Path) -> Result<Segment, FileError> {
+pub(crate) fn read_segment(path: &Path) -> Result<Segment, FileError> {
     let fail = |error| FileError {
         path: path.to_path_buf(),
         error,

@@ -165,7 +165,7 @@ pub enum ReplayError {
 }
 
 /// The role of each of `project`'s tags, given which outputs are pushed down.
-pub fn tag_table(project: &Project, pushed: impl Fn(TagId) -> bool) -> Vec<TagInfo> {
+pub(crate) fn tag_table(project: &Project, pushed: impl Fn(TagId) -> bool) -> Vec<TagInfo> {
     project
         .tags
         .iter()
@@ -192,7 +192,7 @@ pub fn tag_table(project: &Project, pushed: impl Fn(TagId) -> bool) -> Vec<TagIn
 
 /// The tags replay compares (outputs and memory tags: what the program computes), in tag
 /// order.
-pub fn compared(header: &Header) -> Vec<TagInfo> {
+pub(crate) fn compared(header: &Header) -> Vec<TagInfo> {
     header
         .tags
         .iter()
@@ -202,7 +202,7 @@ pub fn compared(header: &Header) -> Vec<TagInfo> {
 }
 
 /// Checks that `header`'s project is `project` but for its program.
-pub fn check_compatible(header: &Header, project: &Project) -> Result<(), ReplayError> {
+pub(crate) fn check_compatible(header: &Header, project: &Project) -> Result<(), ReplayError> {
     if header.project != project.name {
         return Err(ReplayError::Project {
             record: header.project.clone(),

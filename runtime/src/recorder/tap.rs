@@ -19,7 +19,7 @@ use crate::recorder::format::{Change, CycleRecord, Event};
 
 /// Records handed to the writer, and the ones it could not take.
 #[derive(Debug, Default)]
-pub struct TapCounters {
+pub(crate) struct TapCounters {
     /// Records handed over.
     pub sent: AtomicU64,
     /// Records dropped because the writer's channel was full (or the writer had stopped).
@@ -157,7 +157,7 @@ fn diff(mirror: &mut [(Value, Quality)], image: &ProcessImage) -> Vec<Change> {
 }
 
 /// Equality of values as the record sees it: floats by their bits, so a NaN is a NaN.
-pub fn same(a: Value, b: Value) -> bool {
+pub(crate) fn same(a: Value, b: Value) -> bool {
     match (a, b) {
         (Value::F32(x), Value::F32(y)) => x.to_bits() == y.to_bits(),
         _ => a == b,

@@ -24,7 +24,7 @@ use crate::recorder::format::{self, BlockKind, CycleRecord, Enc, End, Event, Hea
 use crate::recorder::tap::TapCounters;
 
 /// The extension of segment files.
-pub const SEGMENT_EXT: &str = "splrec";
+pub(crate) const SEGMENT_EXT: &str = "splrec";
 
 /// How the writer cuts and bounds the record.
 #[derive(Debug, Clone, PartialEq, Eq)]

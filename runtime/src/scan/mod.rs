@@ -10,13 +10,15 @@
 //! PLC (the service's control requests, reloads, systemd, the snapshot for the network
 //! services) does so through a [`CycleBoundary`], called between cycles on the scan thread.
 
-pub mod boundary;
-pub mod engine;
+pub(crate) mod boundary;
+pub(crate) mod engine;
 mod overrun;
-pub mod rt;
-pub mod stats;
-pub mod watchdog;
+pub(crate) mod rt;
+pub(crate) mod stats;
+pub(crate) mod watchdog;
 
 pub use boundary::CycleBoundary;
-pub use engine::{RunOutcome, ScanEngine, StatusSnapshot, StopReason};
+pub use engine::{CycleHook, RunOutcome, ScanEngine, StatusSnapshot, StopReason};
+pub use rt::{apply as apply_realtime, RealtimeNote, RealtimeOutcome};
 pub use stats::{fmt_duration, DurationHistogram, LastCycle, Percentiles, ScanStats};
+pub use watchdog::WatchdogTrip;

@@ -8,7 +8,7 @@ use crate::project::WatchdogConfig;
 
 /// Watchdog state across cycles.
 #[derive(Debug, Clone)]
-pub struct TaskWatchdog {
+pub(crate) struct TaskWatchdog {
     cfg: WatchdogConfig,
     consecutive: u32,
 }
@@ -38,7 +38,7 @@ pub enum WatchdogTrip {
 
 impl TaskWatchdog {
     /// A watchdog with no history.
-    pub fn new(cfg: WatchdogConfig) -> Self {
+    pub(crate) fn new(cfg: WatchdogConfig) -> Self {
         Self {
             cfg,
             consecutive: 0,
@@ -46,7 +46,7 @@ impl TaskWatchdog {
     }
 
     /// Checks one completed cycle's duration.
-    pub fn check(&mut self, cycle: Duration) -> Result<(), WatchdogTrip> {
+    pub(crate) fn check(&mut self, cycle: Duration) -> Result<(), WatchdogTrip> {
         let sensitivity = self.cfg.sensitivity.max(1);
         let hard = self.cfg.time.saturating_mul(sensitivity);
         if cycle > hard {

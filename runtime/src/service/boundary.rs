@@ -50,7 +50,7 @@ impl ServiceBoundary {
     }
 
     /// Publishes a snapshot for the services at every cycle boundary (see
-    /// [`crate::service::snapshot`]).
+    /// `crate::service::snapshot`).
     pub fn with_publisher(mut self, publisher: Publisher) -> Self {
         self.publisher = Some(publisher);
         self

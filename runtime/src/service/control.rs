@@ -53,7 +53,7 @@ pub enum Request {
         /// The tags and their values.
         values: Vec<TagValue>,
     },
-    /// Arm a trace, ask for its state or its samples (see [`crate::service::trace`]).
+    /// Arm a trace, ask for its state or its samples (see `crate::service::trace`).
     Trace(crate::service::trace::TraceRequest),
 }
 

@@ -26,14 +26,14 @@ use std::io::Write;
 use std::net::{SocketAddr, TcpListener};
 use std::time::Duration;
 
-use softplc_io::line::bus::Counters;
+use softplc_io::line::Counters;
 use softplc_io::point::{Quality, Value};
 
 use super::snapshot::{Phase, ServiceSnapshot, SnapshotCell};
 use super::web::http::{self, Limits, Method, Request, Response, ServerConfig};
 
 /// The endpoint's bounds: as the web page's.
-pub const LIMITS: Limits = Limits {
+pub(crate) const LIMITS: Limits = Limits {
     clients: 16,
     request: Duration::from_secs(5),
     write: Duration::from_secs(5),
@@ -41,7 +41,7 @@ pub const LIMITS: Limits = Limits {
 
 /// The names the metrics carry; fixed for the life of the process.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct MetricsInfo {
+pub(crate) struct MetricsInfo {
     /// Project name.
     pub project: String,
     /// Scan period.
@@ -59,7 +59,7 @@ pub fn parse_head(bytes: &[u8]) -> Result<Option<Request>, http::HttpError> {
 }
 
 /// The answer to `req`: the exposition at `/metrics`, a pointer to it at `/`.
-pub fn respond(info: &MetricsInfo, snapshot: &SnapshotCell, req: &Request) -> Response {
+pub(crate) fn respond(info: &MetricsInfo, snapshot: &SnapshotCell, req: &Request) -> Response {
     let readable = matches!(req.method, Method::Get | Method::Head);
     match req.path.as_str() {
         "/metrics" if readable => Response::new(
@@ -118,7 +118,7 @@ fn family(out: &mut String, name: &str, kind: &str, help: &str) {
 }
 
 /// The exposition text for `snapshot`.
-pub fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
+pub(crate) fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
     let mut out = String::with_capacity(4096 + 160 * info.tags.len());
     family(&mut out, "softplc_info", "gauge", "The running project.");
     let _ = writeln!(
@@ -269,13 +269,13 @@ pub fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
 
 /// A running endpoint; it lives as long as the process.
 #[derive(Debug)]
-pub struct MetricsServer {
+pub(crate) struct MetricsServer {
     addr: SocketAddr,
 }
 
 impl MetricsServer {
     /// Binds `addr` and serves on threads.
-    pub fn start(
+    pub(crate) fn start(
         addr: SocketAddr,
         info: MetricsInfo,
         snapshot: SnapshotCell,
@@ -295,7 +295,7 @@ impl MetricsServer {
     }
 
     /// The address it listens on (the bound port when the configured one was 0).
-    pub fn local_addr(&self) -> SocketAddr {
+    pub(crate) fn local_addr(&self) -> SocketAddr {
         self.addr
     }
 }

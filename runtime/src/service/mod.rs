@@ -4,33 +4,43 @@
 //! [`crate::scan::CycleBoundary`], which [`boundary::ServiceBoundary`] implements, and knows
 //! nothing of what it does there.
 //!
-//! - [`boundary`]: what runs at each cycle boundary: control requests, reloads, sd_notify, the
+//! - `boundary`: what runs at each cycle boundary: control requests, reloads, sd_notify, the
 //!   snapshot.
 //! - [`control`]: the local control interface (a Unix socket, one JSON request per line):
 //!   status, force, unforce, reload. Requests are applied by the scan thread at a cycle
 //!   boundary, so they never race a scan.
-//! - [`notify`]: `sd_notify` (READY after the first complete scan, WATCHDOG after each
+//! - `notify`: `sd_notify` (READY after the first complete scan, WATCHDOG after each
 //!   completed scan, STATUS, STOPPING).
-//! - [`status`]: the status a running instance reports.
-//! - [`trace`]: the control socket's trace requests (arm, status, save).
-//! - [`snapshot`]: what the scan publishes, without blocking, for the two network services:
-//!   [`metrics`] (a Prometheus text endpoint) and [`modbus_tcp`] (a Modbus TCP server for
-//!   SCADA/HMI, with its address map in [`modbus_map`] and its input checks in
-//!   [`modbus_guard`]) and [`web`] (the web page: live I/O, forcing, the program with live
-//!   values, timing plots); [`network`] starts them. [`mqtt`] (a Sparkplug B edge node) and
-//!   [`opcua`] (an OPC UA server) read the same snapshot.
+//! - `status`: the status a running instance reports.
+//! - `trace`: the control socket's trace requests (arm, status, save).
+//! - `snapshot`: what the scan publishes, without blocking, for the two network services:
+//!   `metrics` (a Prometheus text endpoint) and `modbus_tcp` (a Modbus TCP server for
+//!   SCADA/HMI, with its address map in `modbus_map` and its input checks in
+//!   `modbus_guard`) and [`web`] (the web page: live I/O, forcing, the program with live
+//!   values, timing plots); `network` starts them. [`mqtt`] (a Sparkplug B edge node) and
+//!   `opcua` (an OPC UA server) read the same snapshot.
 
-pub mod boundary;
+pub(crate) mod boundary;
 pub mod control;
-pub mod metrics;
-pub mod modbus_guard;
-pub mod modbus_map;
-pub mod modbus_tcp;
+pub(crate) mod metrics;
+pub(crate) mod modbus_guard;
+pub(crate) mod modbus_map;
+pub(crate) mod modbus_tcp;
 pub mod mqtt;
-pub mod network;
-pub mod notify;
-pub mod opcua;
-pub mod snapshot;
-pub mod status;
-pub mod trace;
+pub(crate) mod network;
+pub(crate) mod notify;
+pub(crate) mod opcua;
+pub(crate) mod snapshot;
+pub(crate) mod status;
+pub(crate) mod trace;
 pub mod web;
+
+pub use boundary::ServiceBoundary;
+pub use metrics::parse_head as parse_metrics_head;
+pub use modbus_guard::{check_pdu, whole_frames, Malformed};
+pub use notify::Notifier;
+pub use snapshot::{
+    HistogramView, ModuleSnapshot, PhaseSummary, Publisher, ServiceSnapshot, SnapshotCell,
+};
+pub use status::{MicrosPercentiles, ModuleReport, StatusReport, TagReport};
+pub use trace::TraceRequest;

@@ -94,11 +94,11 @@ pub fn check_pdu(pdu: &[u8]) -> Result<(), Malformed> {
 
 /// One of a limited number of client slots, given back on drop.
 #[derive(Debug)]
-pub struct ClientSlot(Arc<AtomicUsize>);
+pub(crate) struct ClientSlot(Arc<AtomicUsize>);
 
 impl ClientSlot {
     /// Takes a slot if fewer than `max` are taken.
-    pub fn take(count: &Arc<AtomicUsize>, max: usize) -> Option<Self> {
+    pub(crate) fn take(count: &Arc<AtomicUsize>, max: usize) -> Option<Self> {
         count
             .fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| {
                 (n < max).then_some(n + 1)
@@ -117,7 +117,7 @@ impl Drop for ClientSlot {
 /// How long a client may take: to finish an exchange once the previous one ended (or it
 /// connected), and to take a reply the server is sending.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Patience {
+pub(crate) struct Patience {
     /// From the end of the last completed exchange (a reply sent) or the connection, to the
     /// next request arriving whole; a client that sends nothing, or a frame byte by byte, is
     /// disconnected once it passes.
@@ -136,7 +136,7 @@ pub struct Patience {
 /// byte keeps its slot no longer than a silent one), and it runs only while the server waits
 /// for the client: a write the scan takes seconds to apply does not count against it.
 #[derive(Debug)]
-pub struct FrameGuard<T> {
+pub(crate) struct FrameGuard<T> {
     inner: T,
     /// Received, not yet a whole frame.
     pending: Vec<u8>,
@@ -153,7 +153,7 @@ pub struct FrameGuard<T> {
 
 impl<T> FrameGuard<T> {
     /// Guards `inner`, holding `slot` until dropped.
-    pub fn new(inner: T, slot: ClientSlot, patience: Patience) -> Self {
+    pub(crate) fn new(inner: T, slot: ClientSlot, patience: Patience) -> Self {
         Self {
             inner,
             pending: Vec::with_capacity(512),

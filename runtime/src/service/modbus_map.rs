@@ -18,18 +18,18 @@ use crate::image::convert;
 use crate::project::{ScadaMap, Space};
 
 /// Most bits one read returns (FC 1, 2: the spec's 2000).
-pub const MAX_READ_BITS: u16 = 2000;
+pub(crate) const MAX_READ_BITS: u16 = 2000;
 /// Most registers one read returns (FC 3, 4: 125).
-pub const MAX_READ_REGISTERS: u16 = 125;
+pub(crate) const MAX_READ_REGISTERS: u16 = 125;
 /// Most coils one write sets (FC 15: 1968).
-pub const MAX_WRITE_BITS: usize = 1968;
+pub(crate) const MAX_WRITE_BITS: usize = 1968;
 /// Most registers one write sets (FC 16: 123).
-pub const MAX_WRITE_REGISTERS: usize = 123;
+pub(crate) const MAX_WRITE_REGISTERS: usize = 123;
 
 /// A Modbus exception the server answers with (the protocol's codes; see README "SCADA and
 /// metrics").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum Exception {
+pub(crate) enum Exception {
     /// 01: a function this server does not implement, or a write while `writes: false`.
     #[error("illegal function (01)")]
     IllegalFunction,
@@ -53,7 +53,7 @@ pub enum Exception {
 
 impl Exception {
     /// The exception code on the wire.
-    pub fn code(self) -> u8 {
+    pub(crate) fn code(self) -> u8 {
         match self {
             Exception::IllegalFunction => 0x01,
             Exception::IllegalDataAddress => 0x02,
@@ -83,7 +83,7 @@ impl Slot {
 
 /// The map, indexed for lookups by address.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct ModbusMap {
+pub(crate) struct ModbusMap {
     /// Bool tags, by address.
     bits: Vec<Slot>,
     /// Numeric tags, by address.
@@ -92,7 +92,7 @@ pub struct ModbusMap {
 
 impl ModbusMap {
     /// Indexes `map`.
-    pub fn new(map: &ScadaMap) -> Self {
+    pub(crate) fn new(map: &ScadaMap) -> Self {
         let mut m = Self::default();
         for e in &map.entries {
             let slot = Slot {
@@ -128,7 +128,7 @@ impl ModbusMap {
     }
 
     /// FC 1 and 2: the bits `start .. start + qty`, from `values` (tag values in tag order).
-    pub fn read_bits(
+    pub(crate) fn read_bits(
         &self,
         start: u16,
         qty: u16,
@@ -147,7 +147,7 @@ impl ModbusMap {
     }
 
     /// FC 3 and 4: the registers `start .. start + qty`, from `values`.
-    pub fn read_registers(
+    pub(crate) fn read_registers(
         &self,
         start: u16,
         qty: u16,
@@ -169,7 +169,11 @@ impl ModbusMap {
 
     /// FC 5 and 15: the tag values that writing `bits` from `start` sets. Every bit must be a
     /// writable tag.
-    pub fn write_bits(&self, start: u16, bits: &[bool]) -> Result<Vec<(usize, Value)>, Exception> {
+    pub(crate) fn write_bits(
+        &self,
+        start: u16,
+        bits: &[bool],
+    ) -> Result<Vec<(usize, Value)>, Exception> {
         if bits.is_empty() || bits.len() > MAX_WRITE_BITS {
             return Err(Exception::IllegalDataValue);
         }
@@ -184,7 +188,7 @@ impl ModbusMap {
 
     /// FC 6 and 16: the tag values that writing `words` from `start` sets. The words must
     /// cover whole writable tags.
-    pub fn write_registers(
+    pub(crate) fn write_registers(
         &self,
         start: u16,
         words: &[u16],
@@ -211,7 +215,7 @@ impl ModbusMap {
 
     /// Every mapped tag with its space, first address and writability, in address order (for
     /// `softplc check` and the docs).
-    pub fn describe(&self) -> Vec<(Space, u16, u16, usize, bool)> {
+    pub(crate) fn describe(&self) -> Vec<(Space, u16, u16, usize, bool)> {
         let bits = self.bits.iter().map(|s| (Space::Bits, s));
         let regs = self.registers.iter().map(|s| (Space::Registers, s));
         bits.chain(regs)
@@ -222,7 +226,7 @@ impl ModbusMap {
 
 /// A numeric value as registers: u16 as is; i32 and f32 as two registers, high word first.
 /// A bool (never in the register space) reads as 0 or 1.
-pub fn encode(v: Value) -> Vec<u16> {
+pub(crate) fn encode(v: Value) -> Vec<u16> {
     let split = |x: u32| vec![(x >> 16) as u16, x as u16];
     match v {
         Value::Bool(b) => vec![u16::from(b)],
@@ -234,7 +238,7 @@ pub fn encode(v: Value) -> Vec<u16> {
 
 /// Registers (high word first) as a value of type `ty`; a float that is not finite is refused
 /// (03): NaN or infinity is never a sensible setpoint.
-pub fn decode(ty: ValueType, words: &[u16]) -> Result<Value, Exception> {
+pub(crate) fn decode(ty: ValueType, words: &[u16]) -> Result<Value, Exception> {
     let joined = || match words {
         [hi, lo] => Ok((u32::from(*hi) << 16) | u32::from(*lo)),
         _ => Err(Exception::IllegalDataAddress),

@@ -35,15 +35,15 @@ use super::snapshot::{ServiceSnapshot, SnapshotCell};
 use crate::project::ModbusTcpConfig;
 
 /// Most clients connected at once; more are refused (closed at once).
-pub const MAX_CLIENTS: usize = 16;
+pub(crate) const MAX_CLIENTS: usize = 16;
 /// The unit identifier Modbus TCP uses for "the server itself".
-pub const UNIT_THIS_SERVER: u8 = 255;
+pub(crate) const UNIT_THIS_SERVER: u8 = 255;
 /// How long a write waits for the scan to apply and publish it.
 const WRITE_WAIT: Duration = Duration::from_secs(3);
 
 /// What to do with a request.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Answer {
+pub(crate) enum Answer {
     /// Answer this.
     Now(MbResponse),
     /// Set these tags (index, value) through the scan, then answer this.
@@ -52,7 +52,7 @@ pub enum Answer {
 
 /// Decides the answer to `request` for `unit` from `snapshot`. Pure: the server's whole
 /// protocol logic, unit-tested and fuzzable without a socket.
-pub fn answer(
+pub(crate) fn answer(
     cfg: &ModbusTcpConfig,
     map: &ModbusMap,
     snapshot: &ServiceSnapshot,
@@ -216,7 +216,7 @@ impl tokio_modbus::server::Service for Scada {
 
 /// Why the server could not start.
 #[derive(Debug, thiserror::Error)]
-pub enum StartError {
+pub(crate) enum StartError {
     /// The address could not be bound.
     #[error("cannot listen on {addr}: {source}")]
     Bind {
@@ -232,14 +232,14 @@ pub enum StartError {
 
 /// A running server; it lives as long as the process.
 #[derive(Debug)]
-pub struct ModbusTcpServer {
+pub(crate) struct ModbusTcpServer {
     addr: SocketAddr,
 }
 
 impl ModbusTcpServer {
     /// Binds `cfg.bind` and serves `map` on a thread. `names` are the tag names in tag order;
     /// `snapshot` is what the scan publishes; writes go to `scan`.
-    pub fn start(
+    pub(crate) fn start(
         cfg: ModbusTcpConfig,
         map: ModbusMap,
         names: Vec<String>,
@@ -273,7 +273,7 @@ impl ModbusTcpServer {
     }
 
     /// The address it listens on (the bound port when the configured one was 0).
-    pub fn local_addr(&self) -> SocketAddr {
+    pub(crate) fn local_addr(&self) -> SocketAddr {
         self.addr
     }
 }

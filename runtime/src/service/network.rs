@@ -15,7 +15,7 @@ use crate::project::Project;
 
 /// Why a service could not start.
 #[derive(Debug, thiserror::Error)]
-pub enum NetworkError {
+pub(crate) enum NetworkError {
     /// The metrics endpoint.
     #[error("metrics endpoint: cannot listen on {addr}: {source}")]
     Metrics {
@@ -31,7 +31,7 @@ pub enum NetworkError {
 
 /// The running services; they live as long as the process.
 #[derive(Debug, Default)]
-pub struct NetworkServices {
+pub(crate) struct NetworkServices {
     /// The metrics endpoint, when configured.
     pub metrics: Option<MetricsServer>,
     /// The Modbus TCP server, when configured.
@@ -42,7 +42,7 @@ pub struct NetworkServices {
 
 impl NetworkServices {
     /// Whether any service runs (and so needs the scan to publish).
-    pub fn any(&self) -> bool {
+    pub(crate) fn any(&self) -> bool {
         self.metrics.is_some() || self.modbus.is_some() || self.web.is_some()
     }
 }
@@ -51,7 +51,11 @@ impl NetworkServices {
 /// `scan`; logs its address. A page that cannot listen is logged and left out: it is for
 /// people to look at, and the machine must not wait for it (the other services are part of
 /// the plant's interface and stop the start-up instead).
-pub fn start_web(plc: &Plc, snapshot: &SnapshotCell, scan: &Sender<Envelope>) -> Option<WebServer> {
+pub(crate) fn start_web(
+    plc: &Plc,
+    snapshot: &SnapshotCell,
+    scan: &Sender<Envelope>,
+) -> Option<WebServer> {
     let project = plc.project();
     let config = project.service.web.as_ref()?;
     let info = WebInfo::new(plc, config);
@@ -86,7 +90,7 @@ pub fn start_web(plc: &Plc, snapshot: &SnapshotCell, scan: &Sender<Envelope>) ->
 
 /// Starts what `project.service` configures, reading `snapshot` and sending Modbus writes to
 /// `scan`. Each started service is logged with its address.
-pub fn start(
+pub(crate) fn start(
     project: &Project,
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
@@ -136,7 +140,7 @@ pub fn start(
 
 /// What `softplc check` prints about the services: their addresses and the SCADA map, in
 /// address order (empty when the project configures none).
-pub fn report(project: &Project) -> String {
+pub(crate) fn report(project: &Project) -> String {
     use std::fmt::Write;
     let service = &project.service;
     let mut out = String::new();

@@ -11,14 +11,14 @@
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use softplc_io::line::bus::Counters;
+use softplc_io::line::Counters;
 use softplc_io::point::{Quality, Value};
 
 use crate::plc::Plc;
 use crate::scan::{DurationHistogram, ScanStats};
 
 /// How often the statistics are refreshed, in scan time.
-pub const STATS_EVERY: Duration = Duration::from_millis(250);
+pub(crate) const STATS_EVERY: Duration = Duration::from_millis(250);
 
 /// One timed phase, summarised.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -58,9 +58,9 @@ impl PhaseSummary {
 }
 
 /// How many bars a published histogram has.
-pub const HISTOGRAM_BUCKETS: usize = 40;
+pub(crate) const HISTOGRAM_BUCKETS: usize = 40;
 
-/// A phase's histogram reduced to [`HISTOGRAM_BUCKETS`] bars between its smallest and its
+/// A phase's histogram reduced to `HISTOGRAM_BUCKETS` bars between its smallest and its
 /// largest sample, for plots: equal widths, or equal ratios when the largest is more than 20
 /// times the smallest (a long tail would otherwise squeeze every other sample into the first
 /// bar).
@@ -111,7 +111,7 @@ impl HistogramView {
 
 /// The timed phases, in the order [`Phase::ALL`] lists them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Phase {
+pub(crate) enum Phase {
     /// Start to end of the output phase.
     Cycle,
     /// Input phase.
@@ -126,7 +126,7 @@ pub enum Phase {
 
 impl Phase {
     /// Every phase.
-    pub const ALL: [Phase; 5] = [
+    pub(crate) const ALL: [Phase; 5] = [
         Phase::Cycle,
         Phase::Read,
         Phase::Logic,
@@ -135,7 +135,7 @@ impl Phase {
     ];
 
     /// Its name in metrics.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Phase::Cycle => "cycle",
             Phase::Read => "read",
@@ -185,18 +185,18 @@ pub struct ServiceSnapshot {
     pub timestamps: Vec<Duration>,
     /// Whether each tag is forced, in tag order.
     pub forced: Vec<bool>,
-    /// Phase summaries, in [`Phase::ALL`] order (refreshed every [`STATS_EVERY`]).
+    /// Phase summaries, in `Phase::ALL` order (refreshed every `STATS_EVERY`).
     pub phases: [PhaseSummary; 5],
     /// Modules, in project order (refreshed with the phases).
     pub modules: Vec<ModuleSnapshot>,
     /// Each module's last failure, when its last read failed (refreshed with the phases; only
-    /// with [`Publisher::with_details`]).
+    /// with `Publisher::with_details`).
     pub module_errors: Vec<Option<String>>,
-    /// Each phase's histogram, in [`Phase::ALL`] order (refreshed with the phases; empty
-    /// unless [`Publisher::with_details`]).
+    /// Each phase's histogram, in `Phase::ALL` order (refreshed with the phases; empty
+    /// unless `Publisher::with_details`).
     pub histograms: Vec<HistogramView>,
     /// Every block instance's outputs, by instance index (every publication; empty for expr
-    /// and Rhai programs, and unless [`Publisher::with_details`]: only the web page draws
+    /// and Rhai programs, and unless `Publisher::with_details`: only the web page draws
     /// them).
     pub blocks: Vec<crate::logic::InstanceOutput>,
     /// Counts the refreshes of the statistics, so a reader sees when they changed.
@@ -223,7 +223,7 @@ impl SnapshotCell {
     }
 
     /// Replaces the snapshot (tests and fuzzing harnesses publish with this; the scan uses a
-    /// [`Publisher`]).
+    /// `Publisher`).
     pub fn set(&self, snapshot: ServiceSnapshot) {
         *self.lock() = snapshot;
     }
@@ -261,7 +261,7 @@ impl Publisher {
     }
 
     /// Also publishes what only the web page shows: each phase's histogram and each module's
-    /// last failure (a walk over each histogram every [`STATS_EVERY`]).
+    /// last failure (a walk over each histogram every `STATS_EVERY`).
     pub fn with_details(mut self) -> Self {
         self.details = true;
         self
@@ -272,7 +272,7 @@ impl Publisher {
         self.stop_reason = Some(why);
     }
 
-    /// Publishes the PLC's image (every call) and statistics (every [`STATS_EVERY`], or when
+    /// Publishes the PLC's image (every call) and statistics (every `STATS_EVERY`, or when
     /// `final_` is set) without blocking: skipped when a reader holds the lock.
     pub fn publish(&mut self, plc: &Plc, stats: &ScanStats, now: Duration, final_: bool) {
         let Ok(mut s) = self.cell.0.try_lock() else {

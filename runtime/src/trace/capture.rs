@@ -254,7 +254,7 @@ impl Capture {
 }
 
 /// A value as a number (bools as 0 and 1).
-pub fn as_f64(v: Value) -> f64 {
+pub(crate) fn as_f64(v: Value) -> f64 {
     match v {
         Value::Bool(b) => f64::from(u8::from(b)),
         Value::U16(x) => f64::from(x),

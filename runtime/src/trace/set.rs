@@ -54,7 +54,7 @@ pub enum TraceRefusal {
 }
 
 /// Most traces armed at once: each holds up to 8 MB.
-pub const MAX_ARMED: usize = 16;
+pub(crate) const MAX_ARMED: usize = 16;
 
 fn known(defined: &[String]) -> String {
     if defined.is_empty() {
@@ -299,7 +299,7 @@ fn names(project: &Project) -> (Vec<(&str, Option<ValueType>)>, Vec<&str>) {
 }
 
 /// The export signals of `config`'s probes.
-pub fn signals(project: &Project, config: &TraceConfig) -> Vec<Signal> {
+pub(crate) fn signals(project: &Project, config: &TraceConfig) -> Vec<Signal> {
     let (tags, modules) = names(project);
     let names = SignalNames {
         tags: &tags,

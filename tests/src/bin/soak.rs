@@ -25,7 +25,7 @@ use softplc::plc::Plc;
 use softplc::project;
 use softplc::scan::ScanEngine;
 use softplc_io::point::{Quality, Value};
-use softplc_io::sim::fault::{Fault, FaultRule, Frequency};
+use softplc_io::sim::{Fault, FaultRule, Frequency};
 
 const TOGGLE_EVERY: Duration = Duration::from_secs(12);
 /// Longest time an input change may take to show as a good value: the module's 20 ms input
@@ -297,7 +297,7 @@ fn main() -> anyhow::Result<()> {
                     due.push_back(item);
                 }
             }
-        }) as softplc::scan::engine::CycleHook
+        }) as softplc::scan::CycleHook
     };
     let started = Instant::now();
     // Segments between kills: each ends as kill -9 would, the next starts on the same modules.

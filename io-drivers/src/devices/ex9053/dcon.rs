@@ -19,15 +19,15 @@
 use std::fmt;
 
 /// The terminator of every DCON line.
-pub const CR: u8 = b'\r';
+pub(crate) const CR: u8 = b'\r';
 
 /// The DCON checksum: the sum of `bytes` modulo 256 (§1.10, data format bit 6).
-pub fn checksum(bytes: &[u8]) -> u8 {
+pub(crate) fn checksum(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0u8, |acc, b| acc.wrapping_add(*b))
 }
 
 /// The whole line for `body`: the body, its checksum when enabled, CR.
-pub fn encode_line(body: &str, with_checksum: bool) -> Vec<u8> {
+pub(crate) fn encode_line(body: &str, with_checksum: bool) -> Vec<u8> {
     let mut line = Vec::with_capacity(body.len() + 3);
     line.extend_from_slice(body.as_bytes());
     if with_checksum {
@@ -97,14 +97,14 @@ pub fn check_line(line: &[u8], with_checksum: bool) -> Result<&[u8], FrameError>
 }
 
 /// The value of one hexadecimal digit (either case).
-pub fn hex_digit(b: u8) -> Option<u8> {
+pub(crate) fn hex_digit(b: u8) -> Option<u8> {
     char::from(b)
         .to_digit(16)
         .and_then(|d| u8::try_from(d).ok())
 }
 
 /// Exactly two hexadecimal digits.
-pub fn hex_u8(two: &[u8]) -> Option<u8> {
+pub(crate) fn hex_u8(two: &[u8]) -> Option<u8> {
     match two {
         [h, l] => Some((hex_digit(*h)? << 4) | hex_digit(*l)?),
         _ => None,
@@ -112,7 +112,7 @@ pub fn hex_u8(two: &[u8]) -> Option<u8> {
 }
 
 /// Exactly four hexadecimal digits.
-pub fn hex_u16(four: &[u8]) -> Option<u16> {
+pub(crate) fn hex_u16(four: &[u8]) -> Option<u16> {
     match four {
         [a, b, c, d] => Some(u16::from_be_bytes([hex_u8(&[*a, *b])?, hex_u8(&[*c, *d])?])),
         _ => None,

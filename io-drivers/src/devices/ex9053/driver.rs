@@ -89,7 +89,7 @@ use crate::point::Value;
 /// model) gives the defaults. Project validation refuses a DCON-only setting on a module
 /// running Modbus; [`Ex9053Driver::new`] still drops one, with a warning, for callers that
 /// build a driver by hand.
-pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
+pub(crate) fn build(config: &DeviceConfig) -> Box<dyn Driver> {
     let settings = match &config.settings {
         ModuleSettings::Ex9053(s) => *s,
         _ => Settings::default(),

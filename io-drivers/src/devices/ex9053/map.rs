@@ -38,48 +38,48 @@ use super::state::{Ex9053State, WireProtocol};
 use super::tables::{CHANNELS, MODBUS_COUNTER_MODULUS};
 
 /// Coils 00033..00048: DI channel.
-pub const COIL_DI: u16 = 0x0020;
+pub(crate) const COIL_DI: u16 = 0x0020;
 /// Coils 00065..00080: DI latch high.
-pub const COIL_LATCH_HIGH: u16 = 0x0040;
+pub(crate) const COIL_LATCH_HIGH: u16 = 0x0040;
 /// Coils 00097..00112: DI latch low.
-pub const COIL_LATCH_LOW: u16 = 0x0060;
+pub(crate) const COIL_LATCH_LOW: u16 = 0x0060;
 /// Coil 00257: protocol at the next reboot, ON = Modbus RTU.
-pub const COIL_PROTOCOL: u16 = 0x0100;
+pub(crate) const COIL_PROTOCOL: u16 = 0x0100;
 /// Coil 00261: host watchdog enable.
-pub const COIL_WDT_ENABLE: u16 = 0x0104;
+pub(crate) const COIL_WDT_ENABLE: u16 = 0x0104;
 /// Coil 00264: write ON to clear the latches.
-pub const COIL_CLEAR_LATCHES: u16 = 0x0107;
+pub(crate) const COIL_CLEAR_LATCHES: u16 = 0x0107;
 /// Coil 00270: host watchdog timeout status; write ON to clear it.
-pub const COIL_WDT_STATUS: u16 = 0x010D;
+pub(crate) const COIL_WDT_STATUS: u16 = 0x010D;
 /// Coils 00513..00528: write ON to clear a channel's counter.
-pub const COIL_CLEAR_COUNTER: u16 = 0x0200;
+pub(crate) const COIL_CLEAR_COUNTER: u16 = 0x0200;
 /// Coil 02251: count edge, ON = rising.
-pub const COIL_COUNT_EDGE: u16 = 0x08CA;
+pub(crate) const COIL_COUNT_EDGE: u16 = 0x08CA;
 /// Discrete inputs 10001..10016: DI channel.
-pub const DI_INPUTS: u16 = 0x0000;
+pub(crate) const DI_INPUTS: u16 = 0x0000;
 /// Input registers 30001..30016 (and holding registers 0..15, FC 03 table): counters.
-pub const REG_COUNTERS: u16 = 0x0000;
+pub(crate) const REG_COUNTERS: u16 = 0x0000;
 /// Holding registers 40483..40484: module name.
-pub const HR_NAME: u16 = 0x01E2;
+pub(crate) const HR_NAME: u16 = 0x01E2;
 /// Holding register 40485: module address, 1..=247, after reboot.
-pub const HR_ADDRESS: u16 = 0x01E4;
+pub(crate) const HR_ADDRESS: u16 = 0x01E4;
 /// Holding register 40486: baud code 03..0A, after reboot.
-pub const HR_BAUD: u16 = 0x01E5;
+pub(crate) const HR_BAUD: u16 = 0x01E5;
 /// Holding register 40489: host watchdog value, 0..=255 × 0.1 s.
-pub const HR_WDT_VALUE: u16 = 0x01E8;
+pub(crate) const HR_WDT_VALUE: u16 = 0x01E8;
 /// Registers 312345 / 412345 with quantity 0: host OK, no response.
-pub const REG_HOST_OK: u16 = 0x3038;
+pub(crate) const REG_HOST_OK: u16 = 0x3038;
 /// The name registers' content ("0x0090 0x5300").
-pub const NAME_WORDS: [u16; 2] = [0x0090, 0x5300];
+pub(crate) const NAME_WORDS: [u16; 2] = [0x0090, 0x5300];
 /// The module-name function (0x46; MiniMod uses the same code for Collect).
-pub const FC_MODULE: u8 = 0x46;
+pub(crate) const FC_MODULE: u8 = 0x46;
 /// FC 0x46 sub-function 00: read the module name.
-pub const SUB_READ_NAME: u8 = 0x00;
+pub(crate) const SUB_READ_NAME: u8 = 0x00;
 /// FC 0x46 sub-function 04: set the module address (after reboot).
-pub const SUB_SET_ADDRESS: u8 = 0x04;
+pub(crate) const SUB_SET_ADDRESS: u8 = 0x04;
 
 /// The host OK frame to `unit`: `uu 04 30 38 00 00` + CRC (the -M never answers it).
-pub fn host_ok_frame(unit: u8) -> Vec<u8> {
+pub(crate) fn host_ok_frame(unit: u8) -> Vec<u8> {
     let mut f = vec![unit, 0x04, 0x30, 0x38, 0x00, 0x00];
     append_crc(&mut f);
     f

@@ -70,11 +70,11 @@ macro_rules! points {
 }
 
 /// Every point of the EX-9053D and EX-9053D-M, in index order (see the module table).
-pub static POINTS: &[PointSpec] = points!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
+pub(crate) static POINTS: &[PointSpec] = points!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
 
 /// A point, decoded from its name or index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Point {
+pub(crate) enum Point {
     /// `DIn`.
     Input(usize),
     /// `DIn_LATCH_HIGH`.
@@ -90,14 +90,14 @@ pub enum Point {
 }
 
 /// Index of `WDT_TIMEOUT`.
-pub const IDX_WDT_TIMEOUT: usize = 4 * CHANNELS;
+pub(crate) const IDX_WDT_TIMEOUT: usize = 4 * CHANNELS;
 
 /// Index of `SYNC_FIRST`.
-pub const IDX_SYNC_FIRST: usize = 4 * CHANNELS + 1;
+pub(crate) const IDX_SYNC_FIRST: usize = 4 * CHANNELS + 1;
 
 impl Point {
     /// Its index in [`POINTS`].
-    pub fn index(self) -> usize {
+    pub(crate) fn index(self) -> usize {
         match self {
             Point::Input(ch) => ch,
             Point::LatchHigh(ch) => CHANNELS + ch,
@@ -109,7 +109,7 @@ impl Point {
     }
 
     /// The point at `index`.
-    pub fn from_index(index: usize) -> Option<Self> {
+    pub(crate) fn from_index(index: usize) -> Option<Self> {
         Some(match (index / CHANNELS, index % CHANNELS) {
             (0, ch) => Point::Input(ch),
             (1, ch) => Point::LatchHigh(ch),
@@ -122,7 +122,7 @@ impl Point {
     }
 
     /// The point called `name` (the manual's spelling, case-sensitive).
-    pub fn from_name(name: &str) -> Option<Self> {
+    pub(crate) fn from_name(name: &str) -> Option<Self> {
         POINTS
             .iter()
             .position(|p| p.name == name)
@@ -131,7 +131,7 @@ impl Point {
 }
 
 /// The channel of `DIn` (`DI0`..`DI15`), as the project file's settings name channels.
-pub fn channel_of(name: &str) -> Option<usize> {
+pub(crate) fn channel_of(name: &str) -> Option<usize> {
     match Point::from_name(name) {
         Some(Point::Input(ch)) => Some(ch),
         _ => None,

@@ -24,7 +24,7 @@ use super::tables::{CHANNELS, WDT_TICK_MS};
 use crate::devices::config::{parse_each, Accepted, KeyError};
 use crate::devices::ModuleSettings;
 
-pub use crate::devices::config::SettingError;
+pub(crate) use crate::devices::config::SettingError;
 
 /// Which latches are read each cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -200,7 +200,7 @@ const UNKNOWN: SettingError = SettingError::UnknownKey {
 };
 
 /// Every key (the catalog's `setting_keys`).
-pub fn keys() -> Vec<&'static str> {
+pub(crate) fn keys() -> Vec<&'static str> {
     vec![
         "checksum",
         "latch",
@@ -212,7 +212,7 @@ pub fn keys() -> Vec<&'static str> {
 }
 
 /// The catalog's `parse_settings`.
-pub fn parse_module(pairs: &[(String, String)]) -> Result<ModuleSettings, Vec<KeyError>> {
+pub(crate) fn parse_module(pairs: &[(String, String)]) -> Result<ModuleSettings, Vec<KeyError>> {
     Settings::parse(pairs).map(ModuleSettings::Ex9053)
 }
 

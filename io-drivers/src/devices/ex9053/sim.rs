@@ -28,17 +28,17 @@ use crate::point::{PointSpec, Value};
 use crate::sim::{SimDevice, SimError, SimReply};
 
 /// Builds an EX-9053D at `address` (the catalog's constructor).
-pub fn build_d(address: u8) -> Box<dyn SimDevice> {
+pub(crate) fn build_d(address: u8) -> Box<dyn SimDevice> {
     Box::new(Ex9053Sim::new(Variant::D, address))
 }
 
 /// Builds an EX-9053D-M at `address`, running Modbus RTU (the catalog's constructor).
-pub fn build_m(address: u8) -> Box<dyn SimDevice> {
+pub(crate) fn build_m(address: u8) -> Box<dyn SimDevice> {
     Box::new(Ex9053Sim::new(Variant::M, address))
 }
 
 /// Help for the model's own commands.
-pub const HELP: &str = "\
+pub(crate) const HELP: &str = "\
 ex9053d / ex9053d-m commands:
   init on|off            slide the INIT* switch (§1.4); read at the next power-cycle: INIT*
                          runs DCON at address 00, 9600 Bd, no checksum

@@ -21,7 +21,7 @@ use super::state::{Ex9053State, Variant, WireProtocol};
 use super::tables::FIRMWARE;
 
 /// The module's answer to one line as it came off the wire, or `None` for silence.
-pub fn answer(state: &mut Ex9053State, frame: &[u8]) -> Option<Vec<u8>> {
+pub(crate) fn answer(state: &mut Ex9053State, frame: &[u8]) -> Option<Vec<u8>> {
     let start = frame.iter().position(|b| *b != b'\r' && *b != b'\n')?;
     let rest = frame.get(start..)?;
     let end = rest.iter().position(|b| *b == b'\r' || *b == b'\n')?;
@@ -42,7 +42,7 @@ pub fn answer(state: &mut Ex9053State, frame: &[u8]) -> Option<Vec<u8>> {
 
 /// Executes a parsed command; returns the answer and the address it carries, or `None` when
 /// the command is not for this module or is a broadcast.
-pub fn execute(state: &mut Ex9053State, cmd: &Command) -> Option<(u8, Answer)> {
+pub(crate) fn execute(state: &mut Ex9053State, cmd: &Command) -> Option<(u8, Answer)> {
     let address = match cmd.address() {
         None => {
             match cmd {

@@ -23,7 +23,7 @@ use super::map::{FC_MODULE, NAME_WORDS, REG_HOST_OK, SUB_READ_NAME, SUB_SET_ADDR
 use super::state::Ex9053State;
 
 /// The module's answer to one frame, or `None` for silence.
-pub fn answer(state: &mut Ex9053State, frame: &[u8]) -> Option<Vec<u8>> {
+pub(crate) fn answer(state: &mut Ex9053State, frame: &[u8]) -> Option<Vec<u8>> {
     if !check_crc(frame) {
         return None;
     }

@@ -31,15 +31,15 @@
 use std::collections::VecDeque;
 
 /// Events the queue holds.
-pub const QUEUE_CAPACITY: usize = 16;
+pub(crate) const QUEUE_CAPACITY: usize = 16;
 /// Length of one reply slot of a Collect, in ms.
-pub const SLOT_MS: u64 = 3;
+pub(crate) const SLOT_MS: u64 = 3;
 /// Where in its slot a slave starts its Collect reply, in ms.
-pub const COLLECT_TURNAROUND_MS: u64 = 1;
+pub(crate) const COLLECT_TURNAROUND_MS: u64 = 1;
 /// TYPE of an output event.
-pub const KIND_OUTPUTS: u8 = 1;
+pub(crate) const KIND_OUTPUTS: u8 = 1;
 /// TYPE of an input event.
-pub const KIND_INPUTS: u8 = 2;
+pub(crate) const KIND_INPUTS: u8 = 2;
 
 /// Bits of the input word that can make events: X1..X3 and FB1/FB2.
 const INPUT_EVENT_BITS: u16 = 0x0307;
@@ -49,7 +49,7 @@ const INPUT_EVENT_BITS: u16 = 0x0307;
 pub struct Event {
     /// SLVSEQ, 1..=255.
     pub seq: u8,
-    /// TYPE: [`KIND_INPUTS`] or [`KIND_OUTPUTS`].
+    /// TYPE: `KIND_INPUTS` or `KIND_OUTPUTS`.
     pub kind: u8,
     /// DATH:DATL.
     pub data: u16,

@@ -32,7 +32,7 @@ use crate::point::{Access, PointSpec, ValueType};
 
 /// One of the four Modbus tables.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Space {
+pub(crate) enum Space {
     /// Coils (0xxxx), FC 1 / 5 / 15.
     Coil,
     /// Discrete inputs (1xxxx), FC 2.
@@ -46,7 +46,7 @@ pub enum Space {
 impl Space {
     /// The manual's reference of protocol address 0 minus one (`40001` − 1 for holding
     /// registers): reference = base + address + 1.
-    pub const fn base(self) -> u32 {
+    pub(crate) const fn base(self) -> u32 {
         match self {
             Space::Coil => 0,
             Space::DiscreteInput => 10000,
@@ -55,16 +55,11 @@ impl Space {
         }
     }
 
-    /// True for the bit tables.
-    pub const fn is_bit(self) -> bool {
-        matches!(self, Space::Coil | Space::DiscreteInput)
-    }
-
     /// The highest protocol address the module implements in this table. Addresses up to it
     /// that are not in [`MAP`] are holes: they read 0 and ignore writes, as the manual says of
     /// discrete inputs 3..7 and 10..15. Addresses above it are refused with
     /// `IllegalDataAddress` (simulator's choice; the manual does not say).
-    pub const fn extent(self) -> u16 {
+    pub(crate) const fn extent(self) -> u16 {
         match self {
             Space::Coil => 160,            // WDTFIRED, 00161
             Space::DiscreteInput => 129,   // SW4, 10130
@@ -211,7 +206,7 @@ pub enum Item {
 
 /// One address of the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Entry {
+pub(crate) struct Entry {
     /// The manual's name (mirrors carry their original's name).
     pub name: &'static str,
     /// The table.
@@ -224,13 +219,9 @@ pub struct Entry {
 
 impl Entry {
     /// The manual's 1-based reference (`40020` for XLATUP1).
-    pub const fn reference(&self) -> u32 {
+    #[cfg(test)]
+    pub(crate) const fn reference(&self) -> u32 {
         self.space.base() + self.addr as u32 + 1
-    }
-
-    /// Whether the master may write it (coils and holding registers).
-    pub const fn writable(&self) -> bool {
-        matches!(self.space, Space::Coil | Space::HoldingRegister)
     }
 }
 
@@ -266,27 +257,27 @@ const fn hr(name: &'static str, reference: u32, item: Item) -> Entry {
 // here so that the driver and the table cannot disagree.
 
 /// EVENTSPRS (10018): the first discrete input of the driver's status read.
-pub const EVENTSPRS: Entry = di("EVENTSPRS", 10018, Item::EventsPresent);
+pub(crate) const EVENTSPRS: Entry = di("EVENTSPRS", 10018, Item::EventsPresent);
 /// WDTFB (10025): the watchdog fired because of a feedback; WDTCOMM (10026) follows it.
-pub const WDTFB: Entry = di("WDTFB", 10025, Item::WdtFb);
+pub(crate) const WDTFB: Entry = di("WDTFB", 10025, Item::WdtFb);
 /// SW4 (10130): the last discrete input of the driver's status read.
-pub const SW4: Entry = di("SW4", 10130, Item::Sw4);
+pub(crate) const SW4: Entry = di("SW4", 10130, Item::Sw4);
 /// EVFB1 (00089): event recording of FB1; EVFB2 (00090) follows it.
-pub const EVFB1: Entry = coil("EVFB1", 89, Item::EvFb(0));
+pub(crate) const EVFB1: Entry = coil("EVFB1", 89, Item::EvFb(0));
 /// WDTFB1 (00113): FB1 fires the watchdog.
-pub const WDTFB1: Entry = coil("WDTFB1", 113, Item::WdtFbEnable(0));
+pub(crate) const WDTFB1: Entry = coil("WDTFB1", 113, Item::WdtFbEnable(0));
 /// WDTFB2 (00114): FB2 fires the watchdog.
-pub const WDTFB2: Entry = coil("WDTFB2", 114, Item::WdtFbEnable(1));
+pub(crate) const WDTFB2: Entry = coil("WDTFB2", 114, Item::WdtFbEnable(1));
 /// WDTFIRED (00161): the watchdog is firing (written 0 to reset it).
-pub const WDTFIRED: Entry = coil("WDTFIRED", 161, Item::WdtFired);
+pub(crate) const WDTFIRED: Entry = coil("WDTFIRED", 161, Item::WdtFired);
 /// XEVMASK (40006): event recording mask for X1..X3.
-pub const XEVMASK: Entry = hr("XEVMASK", 40006, Item::XevMask);
+pub(crate) const XEVMASK: Entry = hr("XEVMASK", 40006, Item::XevMask);
 /// XCOUNT1 (40012): the first of the three counters.
-pub const XCOUNT1: Entry = hr("XCOUNT1", 40012, Item::Xcount(0));
+pub(crate) const XCOUNT1: Entry = hr("XCOUNT1", 40012, Item::Xcount(0));
 
 /// Every address of both manual tables, plus the prose-only ones (input register 0,
 /// discrete inputs 48/49). Written with the manual's 1-based references.
-pub static MAP: &[Entry] = &[
+pub(crate) static MAP: &[Entry] = &[
     // --- Read-only registers (table "Modbus register map (read-only registers)") ---
     di("X1", 10001, Item::Input(0)),
     di("X2", 10002, Item::Input(1)),
@@ -378,7 +369,7 @@ pub static MAP: &[Entry] = &[
 
 /// What a protocol address holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Slot {
+pub(crate) enum Slot {
     /// A mapped address.
     Mapped(Item),
     /// Inside the implemented range but not implemented: reads 0, writes are ignored.
@@ -388,7 +379,7 @@ pub enum Slot {
 }
 
 /// The item at a protocol address (0-based) of a table.
-pub fn lookup(space: Space, addr: u16) -> Slot {
+pub(crate) fn lookup(space: Space, addr: u16) -> Slot {
     if addr > space.extent() {
         return Slot::Outside;
     }
@@ -399,7 +390,7 @@ pub fn lookup(space: Space, addr: u16) -> Slot {
 
 /// The item at a protocol address (0-based) of a table, for a module that keeps WDTTIME and
 /// WDTYMASK where `registers` says; [`lookup`] is the register table's reading.
-pub fn lookup_in(space: Space, addr: u16, registers: WatchdogRegisters) -> Slot {
+pub(crate) fn lookup_in(space: Space, addr: u16, registers: WatchdogRegisters) -> Slot {
     if space != Space::HoldingRegister || registers == WatchdogRegisters::Table {
         return lookup(space, addr);
     }
@@ -415,13 +406,13 @@ pub fn lookup_in(space: Space, addr: u16, registers: WatchdogRegisters) -> Slot 
 }
 
 /// The first map entry with this name (`FB1` gives discrete input 8, not its mirror at 48).
-pub fn entry(name: &str) -> Option<&'static Entry> {
+pub(crate) fn entry(name: &str) -> Option<&'static Entry> {
     MAP.iter().find(|e| e.name == name)
 }
 
 /// The item a point name reaches: the map's names plus X9/X10 (aliases of FB1/FB2, manual
 /// "Outputs feedback") and Y1..Y4 (coils 0..3).
-pub fn point_item(name: &str) -> Option<Item> {
+pub(crate) fn point_item(name: &str) -> Option<Item> {
     match name {
         "X9" => Some(Item::Feedback(0)),
         "X10" => Some(Item::Feedback(1)),
@@ -432,17 +423,13 @@ pub fn point_item(name: &str) -> Option<Item> {
 // --- Protocol addresses the driver uses (0-based) ---
 
 /// Discrete input of X1 (10001): the driver's FC 2 read starts here.
-pub const DI_X1: u16 = 0;
+pub(crate) const DI_X1: u16 = 0;
 /// Discrete inputs read per cycle: 0..=9 covers X1..X3 and X9/X10 (10001..10010).
-pub const DI_READ_COUNT: u16 = 10;
-/// Discrete input of FB1 / X9 (10009).
-pub const DI_X9: u16 = 8;
-/// Discrete input of FB2 / X10 (10010).
-pub const DI_X10: u16 = 9;
+pub(crate) const DI_READ_COUNT: u16 = 10;
 /// Coil of Y1 (00001).
-pub const COIL_Y1: u16 = 0;
+pub(crate) const COIL_Y1: u16 = 0;
 /// Holding register YWORD (40001).
-pub const HR_YWORD: u16 = 0;
+pub(crate) const HR_YWORD: u16 = 0;
 
 // --- Automatic output conditions ---
 
@@ -450,7 +437,7 @@ pub const HR_YWORD: u16 = 0;
 /// "Automatic output management": the low byte selects the inputs to check, the high byte the
 /// inputs to invert before checking; all checked inputs must be 1 after inversion. A mask
 /// with an empty low byte is no condition (never true).
-pub fn condition_holds(mask: u16, inputs: u8) -> bool {
+pub(crate) fn condition_holds(mask: u16, inputs: u8) -> bool {
     let [check, invert] = mask.to_le_bytes();
     check != 0 && (inputs ^ invert) & check == check
 }

@@ -161,13 +161,17 @@ impl Latency {
 
 /// XLATUPn and XLATDNn at power-on, ms ("Digital inputs, latencies and counters": "The
 /// power-on setting for these values ... are 20 milliseconds").
-pub const POWER_ON_LATENCY_MS: u16 = 20;
+pub(crate) const POWER_ON_LATENCY_MS: u16 = 20;
 
 /// How long input `input` must hold before the module takes a change of it, either way: the
 /// longer of XLATUPn and XLATDNn, as the plan's conditioning, else the project's settings,
 /// else the power-on value set them. Every reaction to that input, the module's own or the
 /// scan's, waits this long first.
-pub fn input_latency(own: &Settings, push_down: &PushDown, input: Input) -> std::time::Duration {
+pub(crate) fn input_latency(
+    own: &Settings,
+    push_down: &PushDown,
+    input: Input,
+) -> std::time::Duration {
     let planned = push_down.latencies.iter().find(|l| l.input == input);
     let edge = |planned: Option<u16>, name: String| {
         planned

@@ -307,7 +307,7 @@ impl SerialConfig {
 
 /// The address the rotary selector gives: positions 1..=15 as they are, 0 as 16 ("RS-485
 /// serial interface").
-pub fn selector_value(rotary: u8) -> u8 {
+pub(crate) fn selector_value(rotary: u8) -> u8 {
     match rotary & 0x0F {
         0 => 16,
         n => n,

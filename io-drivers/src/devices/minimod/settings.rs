@@ -55,7 +55,7 @@ impl Readback {
 }
 
 /// Default full-read period in event mode.
-pub const DEFAULT_EVENT_REFRESH: Duration = Duration::from_secs(1);
+pub(crate) const DEFAULT_EVENT_REFRESH: Duration = Duration::from_secs(1);
 
 /// One validated setting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,7 +97,7 @@ pub enum Setting {
 }
 
 /// Parses a number: decimal, `0x` hex, `0b` binary.
-pub fn parse_number(text: &str) -> Option<u64> {
+pub(crate) fn parse_number(text: &str) -> Option<u64> {
     let t = text.trim();
     if let Some(hex) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
         u64::from_str_radix(hex, 16).ok()
@@ -302,11 +302,11 @@ impl Setting {
 }
 
 /// Coil of WDTFB1 (00113).
-pub const WDTFB1_COIL: u16 = 112;
+pub(crate) const WDTFB1_COIL: u16 = 112;
 
 /// Every key (the catalog's `setting_keys`): the named ones, then each register and coil of
 /// the map that a setting writes.
-pub fn keys() -> Vec<&'static str> {
+pub(crate) fn keys() -> Vec<&'static str> {
     let named = [
         "readback",
         "counters",

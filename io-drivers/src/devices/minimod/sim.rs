@@ -52,13 +52,13 @@ use crate::sim::{SimDevice, SimError, SimReply};
 const MODEL: &str = "minimod";
 
 /// Builds a simulator at a unit address (the catalog's constructor).
-pub fn build(address: u8) -> Box<dyn SimDevice> {
+pub(crate) fn build(address: u8) -> Box<dyn SimDevice> {
     Box::new(MiniModSim::new(address))
 }
 
 /// How a frame seen on the line is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FrameKind {
+pub(crate) enum FrameKind {
     /// A Modbus RTU frame with an intact CRC.
     Modbus,
     /// A line of the text protocol: starts with `?`, `>` or `@`, printable ASCII, ends with CR
@@ -71,7 +71,7 @@ pub enum FrameKind {
 impl FrameKind {
     /// Classifies a frame. The CRC decides first: a text line is taken for Modbus only if its
     /// last two bytes happen to be its CRC.
-    pub fn of(frame: &[u8]) -> Self {
+    pub(crate) fn of(frame: &[u8]) -> Self {
         if check_crc(frame) {
             return FrameKind::Modbus;
         }

@@ -21,11 +21,11 @@ use super::text::{
 };
 
 /// Extra time a `>WCONF=1` takes before its reply (the flash write).
-pub const WCONF_EXTRA_DELAY: Duration = Duration::from_millis(100);
+pub(crate) const WCONF_EXTRA_DELAY: Duration = Duration::from_millis(100);
 
 /// What the module answers to a packet.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TextAnswer {
+pub(crate) struct TextAnswer {
     /// The reply, without its CR.
     pub text: String,
     /// Extra delay before it (the flash write of WCONF).
@@ -43,7 +43,7 @@ impl TextAnswer {
 
 /// Executes one packet (CR stripped or not) on `state`; `None` when the module stays silent
 /// (malformed, or addressed to another slave).
-pub fn execute(state: &mut MiniModState, packet: &[u8]) -> Option<TextAnswer> {
+pub(crate) fn execute(state: &mut MiniModState, packet: &[u8]) -> Option<TextAnswer> {
     let command = parse_command(packet).ok()?;
     if command.to.is_some_and(|to| to != state.address()) {
         return None;

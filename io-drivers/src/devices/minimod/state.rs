@@ -54,15 +54,15 @@ use super::serial_config::{FlashError, Preferences, SerialConfig, SerialParams};
 use super::watchdog::{Cause, Watchdog, WFLAGS_FIRED};
 
 /// Length of one tick of the module's sampling clock, in ms.
-pub const TICK_MS: u64 = 1;
+pub(crate) const TICK_MS: u64 = 1;
 /// Length of one blinker step, in ticks ("about a tenth of a second").
-pub const BLINK_STEP_MS: u64 = 100;
+pub(crate) const BLINK_STEP_MS: u64 = 100;
 /// Power-on value of XLATUP1..3 and XLATDN1..3, ms ("Digital inputs, latencies and counters").
-pub const POWER_ON_LATENCY_MS: u16 = 20;
+pub(crate) const POWER_ON_LATENCY_MS: u16 = 20;
 /// Highest pulser value the manual allows ("Pulse generation": 1 to 65000 ms).
-pub const MAX_PULSE_MS: u16 = 65000;
+pub(crate) const MAX_PULSE_MS: u16 = 65000;
 /// Power-on reply delay, hundredths of a second ("Setting the reply delay": RDELAYT).
-pub const POWER_ON_RDELAYT: u8 = super::serial_config::FACTORY_RDELAYT;
+pub(crate) const POWER_ON_RDELAYT: u8 = super::serial_config::FACTORY_RDELAYT;
 
 /// A fault injected on an output's load, seen by the module's output monitoring.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -237,7 +237,7 @@ impl MiniModState {
     }
 
     /// The module is installed for `params` (in use and in flash, see
-    /// [`SerialConfig::install_serial`]), on a line whose master uses them too.
+    /// `SerialConfig::install_serial`), on a line whose master uses them too.
     pub fn install_serial(&mut self, params: SerialParams) {
         self.serial.install_serial(params);
         self.line = params;
@@ -388,7 +388,7 @@ impl MiniModState {
         self.touched = true;
     }
 
-    /// WFLAGS (text protocol; see [`super::watchdog`]).
+    /// WFLAGS (text protocol; see `super::watchdog`).
     pub fn wflags(&self) -> u16 {
         self.watchdog.wflags()
     }

@@ -38,17 +38,17 @@ use super::map::{parse_condition, ConditionError};
 use super::serial_config::{LineMode, BAUD_RATES};
 
 /// The byte that ends commands and replies.
-pub const TERMINATOR: u8 = b'\r';
+pub(crate) const TERMINATOR: u8 = b'\r';
 /// Longest message, in characters.
-pub const MAX_MESSAGE: usize = 76;
+pub(crate) const MAX_MESSAGE: usize = 76;
 /// What `?DEVICE` returns ("Device").
-pub const DEVICE_NAME: &str = "MINIMOD 1.1";
+pub(crate) const DEVICE_NAME: &str = "MINIMOD 1.1";
 /// Reply to a write that succeeded.
-pub const OK: &str = "OK";
+pub(crate) const OK: &str = "OK";
 /// Reply to a refused command.
-pub const ERROR: &str = "Error";
+pub(crate) const ERROR: &str = "Error";
 /// Reply to a `>WCONF=1` whose flash write failed.
-pub const FLASH_ERROR: &str = "Error 1";
+pub(crate) const FLASH_ERROR: &str = "Error 1";
 
 /// A text-protocol identifier. Indexes are 0-based (`X(0)` is X1, `AutoOn(2, 1)` is Y3AON2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -358,7 +358,7 @@ impl fmt::Display for TextId {
 
 /// Why a packet gets no reply at all.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum Malformed {
+pub(crate) enum Malformed {
     /// Nothing but spaces and LF.
     #[error("empty packet")]
     Empty,
@@ -413,7 +413,7 @@ pub struct Command {
 
 /// Parses one packet, with or without its CR (anything after the first CR is ignored):
 /// spaces and LF dropped, upper-cased, cut at [`MAX_MESSAGE`] characters. Never panics.
-pub fn parse_command(packet: &[u8]) -> Result<Command, Malformed> {
+pub(crate) fn parse_command(packet: &[u8]) -> Result<Command, Malformed> {
     let mut text = String::with_capacity(MAX_MESSAGE);
     for &b in packet {
         match b {
@@ -470,20 +470,20 @@ pub fn parse_command(packet: &[u8]) -> Result<Command, Malformed> {
 
 /// The reply to a read of a numeric identifier: `X1=0`, `ADDRESS=034`, `XWORD=00003`. A
 /// write-only identifier is printed with 5 digits (never sent by the simulator).
-pub fn format_value(id: TextId, value: u16) -> String {
+pub(crate) fn format_value(id: TextId, value: u16) -> String {
     let width = id.read_width().unwrap_or(5);
     format!("{id}={value:0width$}")
 }
 
 /// The reply to `?DEVICE`.
-pub fn device_reply() -> String {
+pub(crate) fn device_reply() -> String {
     format!("{}={DEVICE_NAME}", TextId::Device)
 }
 
 /// A condition mask as the text protocol writes it (`0x0203` → `X1-X2`, 0 → empty); `None`
 /// when the mask cannot be written with input names (bits beyond X1..X3, or an inverted input
 /// that is not checked).
-pub fn format_condition(mask: u16) -> Option<String> {
+pub(crate) fn format_condition(mask: u16) -> Option<String> {
     let [check, invert] = mask.to_le_bytes();
     if check & !0x07 != 0 || invert & !check != 0 {
         return None;
@@ -539,7 +539,7 @@ pub enum TextReply {
 
 /// Why a reply could not be read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum ReplyError {
+pub(crate) enum ReplyError {
     /// Not `OK`, `Error`, `DEVICE=...` or `ID=digits`.
     #[error("not a MiniMod reply")]
     Garbled,
@@ -549,7 +549,7 @@ pub enum ReplyError {
 }
 
 /// Parses a reply (terminator stripped or not; spaces, CR and LF around it ignored).
-pub fn parse_reply(bytes: &[u8]) -> Result<TextReply, ReplyError> {
+pub(crate) fn parse_reply(bytes: &[u8]) -> Result<TextReply, ReplyError> {
     let text = std::str::from_utf8(bytes).map_err(|_| ReplyError::Garbled)?;
     let text = text.trim_matches(|c: char| c.is_ascii_whitespace());
     if text.eq_ignore_ascii_case(OK) {
@@ -577,18 +577,18 @@ pub fn parse_reply(bytes: &[u8]) -> Result<TextReply, ReplyError> {
 /// and LF are ignored, characters past [`MAX_MESSAGE`] are discarded until the CR, and a byte
 /// that is not printable ASCII (noise, a corrupted Modbus frame) throws the packet away.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct PacketReceiver {
+pub(crate) struct PacketReceiver {
     buf: Vec<u8>,
 }
 
 impl PacketReceiver {
     /// An empty receiver.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self::default()
     }
 
     /// Feeds one byte; returns the packet it completes.
-    pub fn push(&mut self, byte: u8) -> Option<Vec<u8>> {
+    pub(crate) fn push(&mut self, byte: u8) -> Option<Vec<u8>> {
         match byte {
             TERMINATOR => return Some(std::mem::take(&mut self.buf)),
             b' ' | b'\n' => {}
@@ -603,13 +603,8 @@ impl PacketReceiver {
     }
 
     /// Drops a partial packet.
-    pub fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         self.buf.clear();
-    }
-
-    /// Whether a partial packet is held.
-    pub fn is_empty(&self) -> bool {
-        self.buf.is_empty()
     }
 }
 

@@ -27,11 +27,11 @@
 //!   feedback that still holds fires again at the next millisecond.
 
 /// WFLAGS bit: the watchdog has fired (manual, "Wflags").
-pub const WFLAGS_FIRED: u16 = 1 << 1;
+pub(crate) const WFLAGS_FIRED: u16 = 1 << 1;
 /// WFLAGS bit: fired because of a feedback (simulator's choice).
-pub const WFLAGS_FB: u16 = 1 << 2;
+pub(crate) const WFLAGS_FB: u16 = 1 << 2;
 /// WFLAGS bit: fired because of a communication loss (simulator's choice).
-pub const WFLAGS_COMM: u16 = 1 << 3;
+pub(crate) const WFLAGS_COMM: u16 = 1 << 3;
 
 /// Why the watchdog fired.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

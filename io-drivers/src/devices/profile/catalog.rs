@@ -40,7 +40,7 @@ pub fn model_of(profile: Profile) -> &'static ModelSpec {
 }
 
 /// The profile with no points, for a driver or simulator asked for without one.
-pub fn empty() -> &'static Profile {
+pub(crate) fn empty() -> &'static Profile {
     static EMPTY: OnceLock<Profile> = OnceLock::new();
     EMPTY.get_or_init(|| Profile {
         model: String::new(),

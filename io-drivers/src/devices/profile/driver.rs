@@ -19,7 +19,7 @@ const WRITE_TAG: u32 = 1 << 24;
 /// Builds the driver of a profile module (the catalog's `driver` of every profile model). A
 /// configuration that is not a profile's (which validation never hands over) gives a driver
 /// with no points.
-pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
+pub(crate) fn build(config: &DeviceConfig) -> Box<dyn Driver> {
     match &config.settings {
         ModuleSettings::Profile(p) => Box::new(ProfileDriver::new(p.profile, config.address.get())),
         _ => Box::new(ProfileDriver::new(
@@ -31,7 +31,7 @@ pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
 
 /// A profiled device's driver.
 #[derive(Debug)]
-pub struct ProfileDriver {
+pub(crate) struct ProfileDriver {
     profile: &'static Profile,
     address: u8,
     entries: Vec<Entry>,
@@ -51,7 +51,7 @@ pub struct ProfileDriver {
 
 impl ProfileDriver {
     /// The driver of `profile` at unit `address`.
-    pub fn new(profile: &'static Profile, address: u8) -> Self {
+    pub(crate) fn new(profile: &'static Profile, address: u8) -> Self {
         let entries = profile.entries();
         let mut entry_of = vec![0; profile.points.len()];
         for (i, e) in entries.iter().enumerate() {

@@ -3,19 +3,19 @@
 //!
 //! The file format and its file:line:col errors belong to the runtime (`project/profile/`),
 //! which reads a profile file into a [`Profile`] once; this module holds the typed value, the
-//! driver that plans from it ([`driver`]), the simulator that serves it ([`sim`]) and its entry
-//! among the models ([`model_of`]): a profile becomes a [`ModelSpec`] like a built-in model,
+//! driver that plans from it (`driver`), the simulator that serves it (`sim`) and its entry
+//! among the models ([`model_of`]): a profile becomes a [`ModelSpec`](crate::devices::ModelSpec) like a built-in model,
 //! so the project's validation, the bus owner, the line's budget and `softplc check` treat it
 //! as any module.
 //!
 //! Addresses are Modbus protocol addresses, 0-based (the manual's 40001 is holding register
 //! 0). A point's engineering value is `raw × scale + offset`.
 
-pub mod catalog;
-pub mod driver;
-pub mod plan;
-pub mod sim;
-pub mod value;
+pub(crate) mod catalog;
+pub(crate) mod driver;
+pub(crate) mod plan;
+pub(crate) mod sim;
+pub(crate) mod value;
 
 #[cfg(test)]
 mod tests;
@@ -23,6 +23,7 @@ mod tests;
 use std::time::Duration;
 
 pub use catalog::model_of;
+pub use catalog::{describe, ProfileSettings};
 pub use value::{DataType, WordOrder};
 
 use crate::point::ValueType;

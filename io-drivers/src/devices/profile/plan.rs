@@ -8,7 +8,7 @@ use crate::modbus::Request;
 
 /// One read request and the points its reply holds.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Read {
+pub(crate) struct Read {
     /// The table.
     pub table: Table,
     /// First protocol address.
@@ -21,7 +21,7 @@ pub struct Read {
 
 impl Read {
     /// The request on the wire.
-    pub fn request(&self) -> Request {
+    pub(crate) fn request(&self) -> Request {
         let (addr, count) = (self.addr, self.count);
         match self.table {
             Table::Coil => Request::ReadCoils { addr, count },
@@ -34,7 +34,7 @@ impl Read {
 
 /// The reads of every readable point whose group `due` says is due, in table then address
 /// order.
-pub fn reads(profile: &Profile, due: impl Fn(usize) -> bool) -> Vec<Read> {
+pub(crate) fn reads(profile: &Profile, due: impl Fn(usize) -> bool) -> Vec<Read> {
     let mut points: Vec<usize> = (0..profile.points.len())
         .filter(|&i| {
             let p = &profile.points[i];

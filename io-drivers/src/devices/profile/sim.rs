@@ -20,7 +20,7 @@ use crate::sim::{SimDevice, SimError, SimReply};
 
 /// The simulator asked for by the fn pointer of a profile model, which cannot carry the
 /// profile: a device with no points. [`ModelSpec::simulate`] builds the real one.
-pub fn unbound(address: u8) -> Box<dyn SimDevice> {
+pub(crate) fn unbound(address: u8) -> Box<dyn SimDevice> {
     Box::new(ProfileSim::new(
         super::model_of(super::catalog::empty().clone()),
         address,
@@ -89,7 +89,7 @@ impl RegisterBank for Bank {
 
 /// A simulated profiled device.
 #[derive(Debug, Clone)]
-pub struct ProfileSim {
+pub(crate) struct ProfileSim {
     spec: &'static ModelSpec,
     profile: &'static Profile,
     address: u8,
@@ -103,7 +103,7 @@ pub struct ProfileSim {
 impl ProfileSim {
     /// The simulator of profile model `spec` at unit `address` (a model without a profile
     /// has no points).
-    pub fn new(spec: &'static ModelSpec, address: u8) -> Self {
+    pub(crate) fn new(spec: &'static ModelSpec, address: u8) -> Self {
         let profile = spec.profile.unwrap_or_else(super::catalog::empty);
         let mut sim = Self {
             spec,

@@ -112,7 +112,7 @@ impl WordOrder {
 
 /// The raw number of a point's registers (`words` in wire order, as many as its width), and
 /// the bits they hold (for bit fields).
-pub fn raw(point: &ProfilePoint, words: &[u16]) -> Option<(f64, u32)> {
+pub(crate) fn raw(point: &ProfilePoint, words: &[u16]) -> Option<(f64, u32)> {
     let first = *words.first()?;
     let (n, bits) = match point.data {
         DataType::Bool => (f64::from(u8::from(first != 0)), u32::from(first != 0)),
@@ -132,7 +132,7 @@ pub fn raw(point: &ProfilePoint, words: &[u16]) -> Option<(f64, u32)> {
 }
 
 /// The engineering value of a raw number.
-pub fn engineering(point: &ProfilePoint, raw: f64) -> f64 {
+pub(crate) fn engineering(point: &ProfilePoint, raw: f64) -> f64 {
     match point.scaling {
         Some(s) => raw * s.scale + s.offset,
         None => raw,
@@ -140,12 +140,12 @@ pub fn engineering(point: &ProfilePoint, raw: f64) -> f64 {
 }
 
 /// The value programs see, of an engineering number.
-pub fn to_value(point: &ProfilePoint, n: f64) -> Value {
+pub(crate) fn to_value(point: &ProfilePoint, n: f64) -> Value {
     typed(point.value_type(), n)
 }
 
 /// `n` as a value of `ty` (integers saturate at the type's range).
-pub fn typed(ty: ValueType, n: f64) -> Value {
+pub(crate) fn typed(ty: ValueType, n: f64) -> Value {
     match ty {
         ValueType::Bool => Value::Bool(n != 0.0),
         ValueType::U16 => Value::U16(n.round().clamp(0.0, f64::from(u16::MAX)) as u16),
@@ -157,7 +157,7 @@ pub fn typed(ty: ValueType, n: f64) -> Value {
 }
 
 /// A value as a number.
-pub fn number(v: Value) -> f64 {
+pub(crate) fn number(v: Value) -> f64 {
     match v {
         Value::Bool(b) => f64::from(u8::from(b)),
         Value::U16(n) => f64::from(n),
@@ -168,7 +168,7 @@ pub fn number(v: Value) -> f64 {
 
 /// The registers (wire order) that hold engineering value `n`: unscaled, rounded for the
 /// integer types and saturated at the raw type's range.
-pub fn encode(point: &ProfilePoint, n: f64) -> Vec<u16> {
+pub(crate) fn encode(point: &ProfilePoint, n: f64) -> Vec<u16> {
     let raw = match point.scaling {
         Some(s) => (n - s.offset) / s.scale,
         None => n,

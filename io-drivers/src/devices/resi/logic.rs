@@ -33,7 +33,7 @@ use super::state::relays::Relays;
 
 /// The logic tables (kept in FRAM, L16434) and the running pulse timers (not kept).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct Logic {
+pub(crate) struct Logic {
     masks: [[u16; 8]; 5],
     pulse_time: [u32; 8],
     /// Remaining pulse time, ms; 0 = no pulse running.
@@ -43,7 +43,7 @@ pub struct Logic {
 
 impl Logic {
     /// Whether the logic runs with this ENABLE value.
-    pub fn enabled(&self, opts: &Options) -> bool {
+    pub(crate) fn enabled(&self, opts: &Options) -> bool {
         if opts.enable_exactly_one {
             self.enable == 1
         } else {
@@ -52,7 +52,7 @@ impl Logic {
     }
 
     /// A mask of RO(r+1).
-    pub fn mask(&self, f: Func, r: u8) -> Option<u16> {
+    pub(crate) fn mask(&self, f: Func, r: u8) -> Option<u16> {
         self.masks
             .get(f.slot())
             .and_then(|m| m.get(usize::from(r)))
@@ -60,7 +60,7 @@ impl Logic {
     }
 
     /// Sets a mask of RO(r+1).
-    pub fn set_mask(&mut self, f: Func, r: u8, mask: u16) {
+    pub(crate) fn set_mask(&mut self, f: Func, r: u8, mask: u16) {
         if let Some(m) = self
             .masks
             .get_mut(f.slot())
@@ -71,12 +71,12 @@ impl Logic {
     }
 
     /// PULSE TIME of RO(r+1), 1/10 s.
-    pub fn pulse_time(&self, r: u8) -> Option<u32> {
+    pub(crate) fn pulse_time(&self, r: u8) -> Option<u32> {
         self.pulse_time.get(usize::from(r)).copied()
     }
 
     /// Sets PULSE TIME of RO(r+1); a running pulse keeps its time.
-    pub fn set_pulse_time(&mut self, r: u8, tenths: u32) {
+    pub(crate) fn set_pulse_time(&mut self, r: u8, tenths: u32) {
         if let Some(t) = self.pulse_time.get_mut(usize::from(r)) {
             *t = tenths;
         }
@@ -85,7 +85,7 @@ impl Logic {
     /// The remaining PULSE TIMER of RO(r+1) in 1/10 s, `idle_ms` after the last sample that
     /// ran (samples that change nothing are skipped, see [`super::state`]); rounded up so
     /// that it reads 0 only when no pulse runs (L21663).
-    pub fn pulse_timer(&self, r: u8, idle_ms: u64) -> Option<u32> {
+    pub(crate) fn pulse_timer(&self, r: u8, idle_ms: u64) -> Option<u32> {
         self.timer_ms.get(usize::from(r)).map(|ms| {
             let left = if *ms > 0 {
                 ms.saturating_sub(idle_ms).max(1)
@@ -97,12 +97,12 @@ impl Logic {
     }
 
     /// ENABLE LOGIC FUNCTIONS.
-    pub fn enable(&self) -> u16 {
+    pub(crate) fn enable(&self) -> u16 {
         self.enable
     }
 
     /// Writes ENABLE LOGIC FUNCTIONS; running pulses end unless the logic stays enabled.
-    pub fn set_enable(&mut self, value: u16, opts: &Options) {
+    pub(crate) fn set_enable(&mut self, value: u16, opts: &Options) {
         self.enable = value;
         if !self.enabled(opts) {
             self.timer_ms = [0; 8];
@@ -110,7 +110,7 @@ impl Logic {
     }
 
     /// CLEAR ALL LOGIC FUNCTIONS (4x21002) / `RSTSPCMODE`.
-    pub fn clear(&mut self, opts: &Options) {
+    pub(crate) fn clear(&mut self, opts: &Options) {
         self.masks = [[0; 8]; 5];
         self.enable = 0;
         self.timer_ms = [0; 8];
@@ -120,7 +120,7 @@ impl Logic {
     }
 
     /// A host write switched RO(r+1): a write of 0 ends its pulse (option).
-    pub fn host_wrote(&mut self, r: u8, on: bool, opts: &Options) {
+    pub(crate) fn host_wrote(&mut self, r: u8, on: bool, opts: &Options) {
         if !on && opts.host_off_ends_pulse {
             if let Some(t) = self.timer_ms.get_mut(usize::from(r)) {
                 *t = 0;
@@ -129,13 +129,13 @@ impl Logic {
     }
 
     /// The shortest remaining pulse, ms, if a pulse runs.
-    pub fn next_expiry(&self) -> Option<u64> {
+    pub(crate) fn next_expiry(&self) -> Option<u64> {
         self.timer_ms.iter().copied().filter(|&t| t > 0).min()
     }
 
     /// Power-on: the tables are kept; running pulses are lost, and their relays are switched
     /// off or left as they are ([`super::options::PulseAtBoot`]).
-    pub fn boot(&mut self, relays: &mut Relays, opts: &Options) {
+    pub(crate) fn boot(&mut self, relays: &mut Relays, opts: &Options) {
         for r in 0..8u8 {
             let running = self.timer_ms.get(usize::from(r)).is_some_and(|&t| t > 0);
             if running && opts.pulse_at_boot == super::options::PulseAtBoot::Off {
@@ -146,7 +146,13 @@ impl Logic {
     }
 
     /// One input sample, `elapsed_ms` after the previous one.
-    pub fn scan(&mut self, s: &Sample, elapsed_ms: u64, relays: &mut Relays, opts: &Options) {
+    pub(crate) fn scan(
+        &mut self,
+        s: &Sample,
+        elapsed_ms: u64,
+        relays: &mut Relays,
+        opts: &Options,
+    ) {
         if !self.enabled(opts) {
             self.timer_ms = [0; 8];
             return;

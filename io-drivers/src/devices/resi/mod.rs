@@ -3,15 +3,15 @@
 //! and every other model with a documented register map: 2RI (5), 1RO (6), 2RTD (7), 1LED
 //! (8), 4LED (9), 32DI (11), 14RI (12), 8CO (13).
 //!
-//! One mechanism serves every model; a model is a table ([`models`]):
-//! - [`map`]: the register map as blocks of like values, written with the manual's 1-based
-//!   references; [`value`]: 16/32/64-bit encodings, both word orders, scaling.
+//! One mechanism serves every model; a model is a table (`models`):
+//! - `map`: the register map as blocks of like values, written with the manual's 1-based
+//!   references; `value`: 16/32/64-bit encodings, both word orders, scaling.
 //! - [`ascii`]: the RESI ASCII protocol (`#[addr,]CMD[:p1,p2]` + CR), the command table type
 //!   and the commands every model has.
-//! - [`state`]: the module's inside, protocol-free, on its own clock (10 ms input sampling);
-//!   [`logic`]: the 16DI8RO logic functions; [`options`]: the simulator's switches where the
+//! - `state`: the module's inside, protocol-free, on its own clock (10 ms input sampling);
+//!   `logic`: the 16DI8RO logic functions; `options`: the simulator's switches where the
 //!   manual is silent.
-//! - [`sim`]: the simulator (Modbus and ASCII on one port); [`driver`]: the sans-IO driver
+//! - `sim`: the simulator (Modbus and ASCII on one port); `driver`: the sans-IO driver
 //!   (Modbus or ASCII, start-up settings verified by read-back).
 //!
 //! # Where the manual is silent: the choices made
@@ -62,19 +62,29 @@
 //! interval has passed, configuration takes effect after a reboot.
 
 pub mod ascii;
-pub mod driver;
-pub mod item;
-pub mod logic;
-pub mod map;
-pub mod model;
-pub mod models;
-pub mod options;
-pub mod push_down;
-pub mod sim;
-pub mod state;
-pub mod value;
+pub(crate) mod driver;
+pub(crate) mod item;
+pub(crate) mod logic;
+pub(crate) mod map;
+pub(crate) mod model;
+pub(crate) mod models;
+pub(crate) mod options;
+pub(crate) mod push_down;
+pub(crate) mod sim;
+pub(crate) mod state;
+pub(crate) mod value;
 
-pub use push_down::{Inputs, LogicRow, LogicTable, PulseTime, Relay, RelayFunction};
+pub use driver::LOGIC_CLEARED_AT_STARTUP;
+pub use driver::{
+    ascii::BadAnswer,
+    settings::{Setting, Settings},
+};
+pub use item::{Func, Item, Kind, Temp};
+pub use map::{Acc, Block, Entry, Map, Table};
+pub use model::{Hardware, Model, RelayKind, Series};
+pub use models::{by_name, m16di8ro};
+pub use push_down::{Inputs, LogicRow, LogicTable, PulseTime, Relay, RelayFunction, RowRegister};
+pub use value::{Enc, Num, WordOrder};
 
 #[cfg(test)]
 #[path = "tests/line.rs"]
@@ -120,7 +130,7 @@ macro_rules! catalog_entry {
 
         /// The catalog entry: Modbus RTU (default) and RESI ASCII, unit addresses 1..=247,
         /// the series' highest baud rate, 2 ms reply delay (undocumented).
-        pub static SPEC: $crate::devices::ModelSpec = $crate::devices::ModelSpec {
+        pub(crate) static SPEC: $crate::devices::ModelSpec = $crate::devices::ModelSpec {
             name: MODEL.name,
             summary: $summary,
             points: MODEL.points,

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 /// How SWITCH drives a relay (resi-spec §4.4, point 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SwitchMode {
+pub(crate) enum SwitchMode {
     /// The relay follows the input at every 10 ms sample: a host write to a relay held by
     /// SWITCH lasts until the next sample.
     Level,
@@ -17,7 +17,7 @@ pub enum SwitchMode {
 
 /// How several inputs in one SWITCH mask combine (resi-spec §4.4, point 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Combine {
+pub(crate) enum Combine {
     /// Each mapped input writes its level in turn, DI1 first: the highest mapped input wins.
     Last,
     /// The relay is on while any mapped input is high.
@@ -27,7 +27,7 @@ pub enum Combine {
 /// What happens at power-on to a relay whose PULSE was running at the power loss (resi-spec
 /// §3.5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PulseAtBoot {
+pub(crate) enum PulseAtBoot {
     /// The bistable relay keeps its contact; the timer is lost, so it stays on.
     Keep,
     /// The module switches it off at boot, as if the pulse had ended.
@@ -36,7 +36,7 @@ pub enum PulseAtBoot {
 
 /// The options.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Options {
+pub(crate) struct Options {
     /// SWITCH drive.
     pub switch: SwitchMode,
     /// SWITCH with several inputs.
@@ -91,7 +91,7 @@ impl Default for Options {
 
 /// Why an option was refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum OptionError {
+pub(crate) enum OptionError {
     /// No such option.
     #[error("unknown option; options: {}", NAMES.join(", "))]
     Unknown,
@@ -106,7 +106,7 @@ pub enum OptionError {
 }
 
 /// Every option name.
-pub const NAMES: [&str; 12] = [
+pub(crate) const NAMES: [&str; 12] = [
     "switch",
     "switch-combine",
     "enable",
@@ -142,7 +142,7 @@ fn word(b: bool) -> &'static str {
 
 impl Options {
     /// Sets option `name` from its text.
-    pub fn set(&mut self, name: &str, value: &str) -> Result<(), OptionError> {
+    pub(crate) fn set(&mut self, name: &str, value: &str) -> Result<(), OptionError> {
         let bad =
             |name: &'static str, expected: &'static str| OptionError::BadValue { name, expected };
         match name {
@@ -210,7 +210,7 @@ impl Options {
     }
 
     /// Every option and its value, one per line.
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         let lines = [
             (
                 "switch",

@@ -7,9 +7,9 @@
 //! - [`rtu_over_tcp`]: the byte pipe for RTU over TCP, framed by our own RTU codec.
 
 pub(crate) mod convert;
-pub mod endpoint;
-pub mod modbus_tcp;
-pub mod rtu_over_tcp;
+pub(crate) mod endpoint;
+pub(crate) mod modbus_tcp;
+pub(crate) mod rtu_over_tcp;
 
 pub use endpoint::{EndpointError, NetFraming, TcpEndpoint};
 pub use modbus_tcp::ModbusTcpTransport;

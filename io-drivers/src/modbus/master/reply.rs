@@ -123,7 +123,7 @@ enum Header {
 /// Reassembles and verifies the reply to one request, from fragments of any size.
 ///
 /// ```
-/// use softplc_io::modbus::master::{Progress, ReplyAssembler};
+/// use softplc_io::modbus::{Progress, ReplyAssembler};
 /// use softplc_io::modbus::{Request, Response};
 ///
 /// let req = Request::ReadHoldingRegisters { addr: 0x6B, count: 3 };
@@ -153,7 +153,7 @@ impl ReplyAssembler {
     /// An assembler for the reply to `req` sent to `unit`. For a Collect the address of the
     /// reply is checked against the window `first..=last` instead of `unit` (a broadcast
     /// Collect is answered by a device in the window). A broadcast of anything else gets no
-    /// reply ([`super::expects_reply`]); any byte then fails as [`ReplyError::WrongUnit`].
+    /// reply (`super::expects_reply`); any byte then fails as [`ReplyError::WrongUnit`].
     pub fn new(unit: u8, req: &Request) -> Self {
         Self {
             unit,

@@ -2,7 +2,7 @@
 //! (both floors and what they include), and what `tune: reply_delay` set
 //! (`project/line_plan/`).
 
-use softplc_io::line::budget::AdapterTiming;
+use softplc_io::line::AdapterTiming;
 
 use crate::project::line_plan::event_mode::{Choice, InputPlan};
 use crate::project::line_plan::tune::Tuned;

@@ -4,8 +4,7 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use softplc_io::line::budget::LineBudget;
-use softplc_io::line::tcp::{NetFraming, TcpEndpoint, CONNECT_TIMEOUT};
+use softplc_io::line::{LineBudget, NetFraming, TcpEndpoint, CONNECT_TIMEOUT};
 
 use crate::project::{BusConfig, ModuleConfig};
 use crate::scan::fmt_duration;

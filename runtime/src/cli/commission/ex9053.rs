@@ -17,10 +17,9 @@
 //!   accepted. **Reply delay**: the manual gives none and no command sets one: refused.
 
 use anyhow::{bail, Context};
-use softplc_io::devices::ex9053::dcon::{check_line, Answer, AnswerError, Command};
-use softplc_io::devices::ex9053::tables::{
-    baud_of_code, code_of_baud, BAUD_CODES, FF_CHECKSUM, INIT_ADDRESS, INIT_BAUD_CODE, LINE_FORMAT,
-    TYPE_DIO,
+use softplc_io::devices::ex9053::{
+    baud_of_code, check_line, code_of_baud, Answer, AnswerError, Command, BAUD_CODES, FF_CHECKSUM,
+    INIT_ADDRESS, INIT_BAUD_CODE, LINE_FORMAT, TYPE_DIO,
 };
 use softplc_io::line::LineSettings;
 

@@ -10,8 +10,9 @@
 //! write-only, "Read commands table").
 
 use anyhow::bail;
-use softplc_io::devices::minimod::serial_config::{LineMode, BAUD_RATES, MAX_RDELAY};
-use softplc_io::devices::minimod::text::{write_command, TextId, WriteValue};
+use softplc_io::devices::minimod::{
+    write_command, LineMode, TextId, WriteValue, BAUD_RATES, MAX_RDELAY,
+};
 use softplc_io::line::LineSettings;
 
 use super::{CommissionArgs, Expect, Plan, Step};

@@ -21,8 +21,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
-use softplc_io::line::transport::SerialTransport;
-use softplc_io::line::{LineSettings, SerialFormat};
+use softplc_io::line::{LineSettings, SerialFormat, SerialTransport};
 use softplc_io::time::{Clock, MonotonicClock};
 
 use super::discover::{ask, Family};

@@ -20,11 +20,8 @@
 //! and project files take RESI units 1..=247 (Modbus), so commissioning does too.
 
 use anyhow::{bail, Context};
-use softplc_io::devices::resi::ascii::command::{find, Command, COMMON};
-use softplc_io::devices::resi::driver::ascii::{answer_values, is_ok, request};
-use softplc_io::devices::resi::model::{Model, Series};
-use softplc_io::devices::resi::models::by_name;
-use softplc_io::devices::resi::value::Num;
+use softplc_io::devices::resi::ascii::{answer_values, find, is_ok, request, Command, COMMON};
+use softplc_io::devices::resi::{by_name, Model, Num, Series};
 use softplc_io::driver::Outgoing;
 
 use super::{CommissionArgs, Expect, Plan, Session, Step};
@@ -57,7 +54,7 @@ fn numbers(reply: &str, address: u8, cmd: &Command) -> Option<Vec<i64>> {
     let values = answer_values(reply.as_bytes(), address, cmd, 0).ok()?;
     values
         .iter()
-        .map(|v| softplc_io::devices::resi::ascii::frame::parse_number(v).map(|n| n.int()))
+        .map(|v| softplc_io::devices::resi::ascii::parse_number(v).map(|n| n.int()))
         .collect()
 }
 

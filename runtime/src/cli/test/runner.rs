@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use softplc_io::point::Value;
-use softplc_io::sim::line::SharedWorld;
+use softplc_io::sim::SharedWorld;
 
 use super::scenario::{Expect, ProgramSpec, Scenario, SetInput};
 use super::trace::Change;
@@ -17,7 +17,7 @@ use crate::scan::{ScanEngine, StopReason};
 
 /// What one run found.
 #[derive(Debug, Clone, Default)]
-pub struct RunResult {
+pub(crate) struct RunResult {
     /// The trace of the watched tags.
     pub trace: Vec<Change>,
     /// Failed expectations and other failures, one line each.
@@ -109,7 +109,7 @@ impl HookState {
 }
 
 /// `12.3s`.
-pub fn secs(d: Duration) -> String {
+pub(crate) fn secs(d: Duration) -> String {
     format!("{}s", d.as_secs_f64())
 }
 
@@ -124,7 +124,7 @@ fn temp_retain() -> PathBuf {
 }
 
 /// Runs `sc` with `program` (or the project's own).
-pub fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
+pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
     let mut project = sc.project.clone();
     if let Some(p) = program {
         project.program = ProgramConfig {

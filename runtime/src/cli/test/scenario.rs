@@ -79,7 +79,7 @@ struct RawStep {
 }
 
 /// The JSON Schema of a scenario file (`softplc schema scenario`).
-pub fn file_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+pub(crate) fn file_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
     generator.root_schema_for::<RawScenario>()
 }
 
@@ -156,7 +156,7 @@ impl std::fmt::Display for ScenarioErrors {
 }
 
 /// The language of a program file, by its name.
-pub fn kind_of(path: &Path) -> Option<ProgramKind> {
+pub(crate) fn kind_of(path: &Path) -> Option<ProgramKind> {
     let name = path.file_name()?.to_str()?;
     if name.ends_with(".rhai") {
         Some(ProgramKind::Rhai)
@@ -170,7 +170,7 @@ pub fn kind_of(path: &Path) -> Option<ProgramKind> {
 }
 
 /// Reads and validates a scenario file; every error found.
-pub fn load(file: &Path) -> Result<Scenario, ScenarioErrors> {
+pub(crate) fn load(file: &Path) -> Result<Scenario, ScenarioErrors> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| ScenarioErrors(vec![format!("{}: error: {e}", file.display())]))?;
     parse(&text, file)

@@ -7,7 +7,7 @@ use softplc_io::point::Value;
 
 /// One change of a watched tag.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Change {
+pub(crate) struct Change {
     /// Scan time.
     pub at: Duration,
     /// The tag.
@@ -32,7 +32,7 @@ impl std::fmt::Display for Change {
 const MAX_LINES: usize = 400;
 
 /// The trace, one change per line, indented.
-pub fn render(trace: &[Change]) -> String {
+pub(crate) fn render(trace: &[Change]) -> String {
     let mut out = String::new();
     for c in trace.iter().take(MAX_LINES) {
         let _ = writeln!(out, "      {c}");
@@ -45,7 +45,7 @@ pub fn render(trace: &[Change]) -> String {
 
 /// A line diff of two traces (longest common subsequence): `-` only in `a`, `+` only in `b`,
 /// with two lines of context around each difference.
-pub fn diff(a: &[Change], b: &[Change]) -> String {
+pub(crate) fn diff(a: &[Change], b: &[Change]) -> String {
     let a: Vec<String> = a.iter().take(MAX_LINES).map(ToString::to_string).collect();
     let b: Vec<String> = b.iter().take(MAX_LINES).map(ToString::to_string).collect();
     let (n, m) = (a.len(), b.len());

@@ -4,52 +4,52 @@ use super::Edge;
 
 /// Set-dominant latch: `Q := S1 or (Q and not R)`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Sr {
+pub(crate) struct Sr {
     q: bool,
 }
 
 impl Sr {
     /// One call; returns `Q`.
-    pub fn call(&mut self, set: bool, reset: bool) -> bool {
+    pub(crate) fn call(&mut self, set: bool, reset: bool) -> bool {
         self.q = set || (self.q && !reset);
         self.q
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 }
 
 /// Reset-dominant latch: `Q := not R1 and (S or Q)`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Rs {
+pub(crate) struct Rs {
     q: bool,
 }
 
 impl Rs {
     /// One call; returns `Q`.
-    pub fn call(&mut self, set: bool, reset: bool) -> bool {
+    pub(crate) fn call(&mut self, set: bool, reset: bool) -> bool {
         self.q = !reset && (set || self.q);
         self.q
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 }
 
 /// Impulse relay: each rising edge of the input flips `Q`; the reset input clears it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Toggle {
+pub(crate) struct Toggle {
     edge: Edge,
     q: bool,
 }
 
 impl Toggle {
     /// One call; returns `Q`.
-    pub fn call(&mut self, input: bool, reset: bool) -> bool {
+    pub(crate) fn call(&mut self, input: bool, reset: bool) -> bool {
         let edge = self.edge.rising(input);
         if reset {
             self.q = false;
@@ -60,7 +60,7 @@ impl Toggle {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 }

@@ -24,7 +24,7 @@ pub enum PatternError {
     /// A character other than 0 or 1.
     #[error("a blink pattern is written with 0 and 1 only")]
     NotBinary,
-    /// More than [`MAX_PATTERN_BITS`] bits.
+    /// More than `MAX_PATTERN_BITS` bits.
     #[error("a blink pattern has at most {MAX_PATTERN_BITS} bits")]
     TooLong,
 }
@@ -73,14 +73,20 @@ impl fmt::Display for Pattern {
 /// A blinker. While enabled it starts with the output on at the scan that enabled it; while
 /// disabled the output is off and the phase restarts on the next enable.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Blink {
+pub(crate) struct Blink {
     start: Option<Duration>,
     q: bool,
 }
 
 impl Blink {
     /// One call with on/off times; returns `Q`. A zero period keeps the output on.
-    pub fn call(&mut self, enable: bool, on: Duration, off: Duration, now: Duration) -> bool {
+    pub(crate) fn call(
+        &mut self,
+        enable: bool,
+        on: Duration,
+        off: Duration,
+        now: Duration,
+    ) -> bool {
         let Some(t) = self.phase(enable, now) else {
             return self.q;
         };
@@ -91,7 +97,7 @@ impl Blink {
 
     /// One call playing `pattern`, one bit per `step`; returns `Q`. A zero step holds the
     /// first bit.
-    pub fn call_pattern(
+    pub(crate) fn call_pattern(
         &mut self,
         enable: bool,
         pattern: Pattern,
@@ -118,7 +124,7 @@ impl Blink {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 }

@@ -4,7 +4,7 @@ use super::Edge;
 
 /// Up counter: each rising edge of `CU` adds one; `R` clears; `Q` is `CV >= PV`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Ctu {
+pub(crate) struct Ctu {
     edge: Edge,
     cv: i32,
     q: bool,
@@ -12,7 +12,7 @@ pub struct Ctu {
 
 impl Ctu {
     /// One call; returns `Q`.
-    pub fn call(&mut self, cu: bool, reset: bool, pv: i32) -> bool {
+    pub(crate) fn call(&mut self, cu: bool, reset: bool, pv: i32) -> bool {
         let up = self.edge.rising(cu);
         if reset {
             self.cv = 0;
@@ -24,24 +24,25 @@ impl Ctu {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 
     /// The count.
-    pub fn cv(&self) -> i32 {
+    pub(crate) fn cv(&self) -> i32 {
         self.cv
     }
 
     /// Sets the count (a retained or restored value).
-    pub fn set_cv(&mut self, cv: i32) {
+    #[cfg(test)]
+    pub(crate) fn set_cv(&mut self, cv: i32) {
         self.cv = cv;
     }
 }
 
 /// Down counter: `LD` loads `PV`; each rising edge of `CD` subtracts one; `Q` is `CV <= 0`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Ctd {
+pub(crate) struct Ctd {
     edge: Edge,
     cv: i32,
     q: bool,
@@ -49,7 +50,7 @@ pub struct Ctd {
 
 impl Ctd {
     /// One call; returns `Q`.
-    pub fn call(&mut self, cd: bool, load: bool, pv: i32) -> bool {
+    pub(crate) fn call(&mut self, cd: bool, load: bool, pv: i32) -> bool {
         let down = self.edge.rising(cd);
         if load {
             self.cv = pv;
@@ -61,12 +62,12 @@ impl Ctd {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 
     /// The count.
-    pub fn cv(&self) -> i32 {
+    pub(crate) fn cv(&self) -> i32 {
         self.cv
     }
 }
@@ -74,7 +75,7 @@ impl Ctd {
 /// Up-down counter: `R` clears (it wins over `LD`), `LD` loads `PV`, otherwise a rising edge
 /// of `CU` adds one and one of `CD` subtracts one. `QU` is `CV >= PV`, `QD` is `CV <= 0`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Ctud {
+pub(crate) struct Ctud {
     up: Edge,
     down: Edge,
     cv: i32,
@@ -84,7 +85,7 @@ pub struct Ctud {
 
 impl Ctud {
     /// One call; returns `QU`.
-    pub fn call(&mut self, cu: bool, cd: bool, reset: bool, load: bool, pv: i32) -> bool {
+    pub(crate) fn call(&mut self, cu: bool, cd: bool, reset: bool, load: bool, pv: i32) -> bool {
         let up = self.up.rising(cu);
         let down = self.down.rising(cd);
         if reset {
@@ -105,17 +106,17 @@ impl Ctud {
     }
 
     /// Counted up to the preset.
-    pub fn qu(&self) -> bool {
+    pub(crate) fn qu(&self) -> bool {
         self.qu
     }
 
     /// Counted down to zero.
-    pub fn qd(&self) -> bool {
+    pub(crate) fn qd(&self) -> bool {
         self.qd
     }
 
     /// The count.
-    pub fn cv(&self) -> i32 {
+    pub(crate) fn cv(&self) -> i32 {
         self.cv
     }
 }

@@ -2,28 +2,28 @@
 
 /// Edge detector. The first call has no previous input and sees no edge.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Edge {
+pub(crate) struct Edge {
     prev: Option<bool>,
     q: bool,
 }
 
 impl Edge {
     /// True on the call where `x` is true and was false on the previous call.
-    pub fn rising(&mut self, x: bool) -> bool {
+    pub(crate) fn rising(&mut self, x: bool) -> bool {
         self.q = x && self.prev == Some(false);
         self.prev = Some(x);
         self.q
     }
 
     /// True on the call where `x` is false and was true on the previous call.
-    pub fn falling(&mut self, x: bool) -> bool {
+    pub(crate) fn falling(&mut self, x: bool) -> bool {
         self.q = !x && self.prev == Some(true);
         self.prev = Some(x);
         self.q
     }
 
     /// The last result.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 }

@@ -26,11 +26,12 @@ mod timer;
 use std::fmt;
 use std::time::Duration;
 
-pub use bistable::{Rs, Sr, Toggle};
-pub use blink::{Blink, Pattern, PatternError};
-pub use counter::{Ctd, Ctu, Ctud};
-pub use edge::Edge;
-pub use timer::{Stair, Tof, Ton, Tp};
+pub(crate) use bistable::{Rs, Sr, Toggle};
+pub(crate) use blink::Blink;
+pub use blink::{Pattern, PatternError};
+pub(crate) use counter::{Ctd, Ctu, Ctud};
+pub(crate) use edge::Edge;
+pub(crate) use timer::{Stair, Tof, Ton, Tp};
 
 /// The block types, as programs name them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -180,7 +181,7 @@ impl fmt::Display for Member {
 
 /// One instance of any block, for engines that keep instances of mixed kinds in one table.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Instance {
+pub(crate) enum Instance {
     /// See [`Ton`].
     Ton(Ton),
     /// See [`Tof`].
@@ -211,7 +212,7 @@ pub enum Instance {
 
 impl Instance {
     /// A fresh instance of `kind`.
-    pub fn new(kind: Kind) -> Self {
+    pub(crate) fn new(kind: Kind) -> Self {
         match kind {
             Kind::Ton => Instance::Ton(Ton::default()),
             Kind::Tof => Instance::Tof(Tof::default()),
@@ -230,7 +231,7 @@ impl Instance {
     }
 
     /// Its kind.
-    pub fn kind(&self) -> Kind {
+    pub(crate) fn kind(&self) -> Kind {
         match self {
             Instance::Ton(_) => Kind::Ton,
             Instance::Tof(_) => Kind::Tof,
@@ -249,7 +250,7 @@ impl Instance {
     }
 
     /// A boolean output (`false` for a member the kind does not have).
-    pub fn bool_output(&self, member: Member) -> bool {
+    pub(crate) fn bool_output(&self, member: Member) -> bool {
         match (self, member) {
             (Instance::Ton(t), Member::Q) => t.q(),
             (Instance::Tof(t), Member::Q) => t.q(),
@@ -269,7 +270,7 @@ impl Instance {
     }
 
     /// An output as a number: booleans as 0/1, `ET` in milliseconds, `CV` as is.
-    pub fn number_output(&self, member: Member) -> f64 {
+    pub(crate) fn number_output(&self, member: Member) -> f64 {
         match self.output(member) {
             OutputValue::Bool(b) => f64::from(u8::from(b)),
             OutputValue::Time(d) => millis(d),
@@ -279,7 +280,7 @@ impl Instance {
 
     /// An output, typed: `ET` a duration, `CV` a count, the others booleans (`false`, zero
     /// for a member the kind does not have).
-    pub fn output(&self, member: Member) -> OutputValue {
+    pub(crate) fn output(&self, member: Member) -> OutputValue {
         match (self, member) {
             (Instance::Ton(t), Member::Et) => OutputValue::Time(t.et()),
             (Instance::Tof(t), Member::Et) => OutputValue::Time(t.et()),
@@ -295,7 +296,7 @@ impl Instance {
     }
 }
 
-/// The value of one output of an instance ([`Instance::output`]).
+/// The value of one output of an instance (`Instance::output`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutputValue {
     /// `Q`, `QU`, `QD`.
@@ -307,12 +308,12 @@ pub enum OutputValue {
 }
 
 /// A duration in (fractional) milliseconds.
-pub fn millis(d: Duration) -> f64 {
+pub(crate) fn millis(d: Duration) -> f64 {
     d.as_secs_f64() * 1000.0
 }
 
 /// A number of milliseconds as a duration: negative and NaN give zero, huge values saturate.
-pub fn from_millis(ms: f64) -> Duration {
+pub(crate) fn from_millis(ms: f64) -> Duration {
     if ms.is_nan() || ms <= 0.0 {
         return Duration::ZERO;
     }

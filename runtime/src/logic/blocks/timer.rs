@@ -7,7 +7,7 @@ use super::{elapsed, Edge};
 /// On-delay: `Q` once the input has been true for `PT`; false as soon as it is false.
 /// `ET` counts while the input is true, up to `PT`; zero when the input is false.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Ton {
+pub(crate) struct Ton {
     running: bool,
     start: Duration,
     q: bool,
@@ -16,7 +16,7 @@ pub struct Ton {
 
 impl Ton {
     /// One call; returns `Q`.
-    pub fn call(&mut self, input: bool, pt: Duration, now: Duration) -> bool {
+    pub(crate) fn call(&mut self, input: bool, pt: Duration, now: Duration) -> bool {
         if input {
             if !self.running {
                 self.running = true;
@@ -34,12 +34,12 @@ impl Ton {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 
     /// Elapsed time.
-    pub fn et(&self) -> Duration {
+    pub(crate) fn et(&self) -> Duration {
         self.et
     }
 }
@@ -47,7 +47,7 @@ impl Ton {
 /// Off-delay: `Q` while the input is true and until it has been false for `PT`; false before
 /// the input was ever true. `ET` counts from the falling input up to `PT`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Tof {
+pub(crate) struct Tof {
     running: bool,
     start: Duration,
     q: bool,
@@ -56,7 +56,7 @@ pub struct Tof {
 
 impl Tof {
     /// One call; returns `Q`.
-    pub fn call(&mut self, input: bool, pt: Duration, now: Duration) -> bool {
+    pub(crate) fn call(&mut self, input: bool, pt: Duration, now: Duration) -> bool {
         if input {
             self.running = false;
             self.q = true;
@@ -77,12 +77,12 @@ impl Tof {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 
     /// Elapsed time.
-    pub fn et(&self) -> Duration {
+    pub(crate) fn et(&self) -> Duration {
         self.et
     }
 }
@@ -90,7 +90,7 @@ impl Tof {
 /// Pulse: a rising edge of the input starts a pulse of `PT`, true on the scans with
 /// `now - start < PT` whatever the input does; edges during a pulse are ignored.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Tp {
+pub(crate) struct Tp {
     edge: Edge,
     running: bool,
     start: Duration,
@@ -100,7 +100,7 @@ pub struct Tp {
 
 impl Tp {
     /// One call; returns `Q`.
-    pub fn call(&mut self, input: bool, pt: Duration, now: Duration) -> bool {
+    pub(crate) fn call(&mut self, input: bool, pt: Duration, now: Duration) -> bool {
         let edge = self.edge.rising(input);
         if self.running && elapsed(&mut self.start, now) >= pt {
             self.running = false;
@@ -120,12 +120,12 @@ impl Tp {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 
     /// Elapsed time.
-    pub fn et(&self) -> Duration {
+    pub(crate) fn et(&self) -> Duration {
         self.et
     }
 }
@@ -133,7 +133,7 @@ impl Tp {
 /// Staircase timer: every rising edge of the input (re)starts a pulse of `PT`, so a press during
 /// the pulse extends it; the reset input ends it at once.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Stair {
+pub(crate) struct Stair {
     edge: Edge,
     running: bool,
     start: Duration,
@@ -143,7 +143,7 @@ pub struct Stair {
 
 impl Stair {
     /// One call; returns `Q`.
-    pub fn call(&mut self, input: bool, reset: bool, pt: Duration, now: Duration) -> bool {
+    pub(crate) fn call(&mut self, input: bool, reset: bool, pt: Duration, now: Duration) -> bool {
         let edge = self.edge.rising(input);
         if reset {
             self.running = false;
@@ -165,12 +165,12 @@ impl Stair {
     }
 
     /// The output.
-    pub fn q(&self) -> bool {
+    pub(crate) fn q(&self) -> bool {
         self.q
     }
 
     /// Elapsed time of the running pulse.
-    pub fn et(&self) -> Duration {
+    pub(crate) fn et(&self) -> Duration {
         self.et
     }
 }

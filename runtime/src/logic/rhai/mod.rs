@@ -32,7 +32,7 @@
 //!
 //! # Blocks
 //!
-//! The library of [`crate::logic::blocks`], instance state keyed by name:
+//! The library of `crate::logic::blocks`, instance state keyed by name:
 //! `ton/tof/tp(name, in, pt)`, `stair(name, in, pt [, reset])`, `ctu(name, cu, reset, pv)`,
 //! `ctd(name, cd, load, pv)`, `ctud(name, cu, cd, reset, load, pv)`, `r_trig/f_trig(name, x)`,
 //! `sr(name, s1, r)`, `rs(name, s, r1)`, `toggle(name, x [, reset])`,

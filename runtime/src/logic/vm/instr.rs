@@ -47,7 +47,7 @@ pub enum Instr {
     /// Replace the top with "it is false and was true last scan"; edge slot.
     Falling(u32),
     /// On-delay timer on the top, with a constant preset; instance index (a
-    /// [`Instance::Ton`](crate::logic::blocks::Instance::Ton)).
+    /// `Instance::Ton`).
     Ton {
         /// Instance index.
         timer: u32,
@@ -55,14 +55,14 @@ pub enum Instr {
         preset: Duration,
     },
     /// Off-delay timer on the top (a
-    /// [`Instance::Tof`](crate::logic::blocks::Instance::Tof)).
+    /// `Instance::Tof`).
     Tof {
         /// Instance index.
         timer: u32,
         /// Preset time.
         preset: Duration,
     },
-    /// Pulse timer on the top (a [`Instance::Tp`](crate::logic::blocks::Instance::Tp)).
+    /// Pulse timer on the top (a `Instance::Tp`).
     Tp {
         /// Instance index.
         timer: u32,

@@ -117,7 +117,7 @@ impl std::fmt::Display for SlowTurn {
 }
 
 /// Whether bus `bus` turns round within a character.
-pub fn turnaround(bus: &BusConfig) -> Result<FastTurn, SlowTurn> {
+pub(crate) fn turnaround(bus: &BusConfig) -> Result<FastTurn, SlowTurn> {
     match &bus.port {
         PortConfig::Sim => Ok(FastTurn::Simulated),
         PortConfig::Tcp(_) => Err(SlowTurn::Network),

@@ -7,7 +7,7 @@
 //! address of the window and 1 ms ("The Modbus function Collect"), where polling costs each
 //! module a request, its reply delay (10 ms from the factory) and its reply. So the choice is
 //! made per line from the two floors, with the timing model `check` uses
-//! (`softplc_io::line::budget::input_floor`: every reply delay, the adapter's latency per
+//! (`softplc_io::line::input_floor`: every reply delay, the adapter's latency per
 //! transaction and per Collect):
 //! - the candidates are the MiniMods (Modbus protocol) whose settings do not say `events:`;
 //!   a module that says `events: true` or `events: false` keeps it (that is how a project pins
@@ -21,14 +21,14 @@
 //! slave hears a Collect broadcast, and only the MiniMod's manual says what it does with
 //! FC 70), a Modbus TCP bus (a gateway answers a broadcast with nothing), and text-protocol
 //! MiniMods (the project chose to talk to them in text). A round with events costs more than
-//! an idle one ([`softplc_io::line::collect::floor::CollectFloor::per_event`]); `check` says
+//! an idle one ([`softplc_io::line::CollectFloor::per_event`]); `check` says
 //! up to how many events a round Collect stays the cheaper.
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::settings::Setting;
+use softplc_io::devices::minimod::Setting;
 use softplc_io::devices::{ModuleSettings, Protocol};
-use softplc_io::line::collect::floor::CollectFloor;
+use softplc_io::line::CollectFloor;
 
 use super::super::model::Project;
 

@@ -7,19 +7,21 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::settings::Settings as MiniModSettings;
+use softplc_io::devices::minimod::Settings as MiniModSettings;
 use softplc_io::devices::ModuleSettings;
 use softplc_io::driver::Driver;
-use softplc_io::line::budget::{input_floor, AdapterTiming};
-use softplc_io::line::latency::SysfsRoot;
+use softplc_io::line::SysfsRoot;
+use softplc_io::line::{input_floor, AdapterTiming};
 
 use super::model::{ModuleConfig, Project};
 
-pub mod direction;
-pub mod event_mode;
-pub mod tune;
+pub(crate) mod direction;
+pub(crate) mod event_mode;
+pub(crate) mod tune;
 
-pub use direction::Direction;
+pub use direction::{Direction, FastTurn, SlowTurn};
+pub use event_mode::{Choice, InputPlan};
+pub use tune::Tuned;
 
 /// What was planned for one bus.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -31,7 +33,7 @@ pub struct LinePlan {
 }
 
 /// Plans every bus: tuning first (it changes the polls' floor), then the input mode.
-pub fn apply(project: &mut Project) {
+pub(crate) fn apply(project: &mut Project) {
     for b in 0..project.buses.len() {
         let mut tuned = tune::apply(project, b);
         let inputs = event_mode::apply(project, b);
@@ -87,7 +89,7 @@ fn driver_with(project: &Project, m: usize, edit: Edit<'_>) -> Box<dyn Driver> {
     (module.model.driver)(&device)
 }
 
-/// The input floor of bus `b` (`softplc_io::line::budget::input_floor`) with each module's
+/// The input floor of bus `b` (`softplc_io::line::input_floor`) with each module's
 /// settings as `edit` leaves a copy of them.
 pub(crate) fn floor_with(project: &Project, b: usize, edit: Edit<'_>) -> Duration {
     let Some(bus) = project.buses.get(b) else {
@@ -126,6 +128,6 @@ pub(crate) fn change_write_with(project: &Project, m: usize, edit: Edit<'_>) -> 
     let delay = driver.reply_delay();
     let timing = adapter(project, module.bus);
     plan.iter()
-        .map(|tx| softplc_io::line::budget::transaction_time_on(bus.settings, timing, tx, delay))
+        .map(|tx| softplc_io::line::transaction_time_on(bus.settings, timing, tx, delay))
         .sum()
 }

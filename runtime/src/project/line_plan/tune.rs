@@ -17,14 +17,14 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::settings::Setting;
+use softplc_io::devices::minimod::Setting;
 use softplc_io::devices::ModuleSettings;
 
 use super::super::model::Project;
 use super::direction::{turnaround, FastTurn};
 
 /// The one tuning there is.
-pub const REPLY_DELAY: &str = "reply_delay";
+pub(crate) const REPLY_DELAY: &str = "reply_delay";
 
 /// What tuning did on one bus.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -83,7 +83,7 @@ pub(super) fn floors(project: &Project, b: usize, tuned: &mut Tuned) {
     let modules = tuned.modules.clone();
     let untuned = move |m: usize, settings: &mut ModuleSettings| {
         if let (true, ModuleSettings::MiniMod(s)) = (modules.contains(&m), settings) {
-            let factory = softplc_io::devices::minimod::serial_config::FACTORY_RDELAYT;
+            let factory = softplc_io::devices::minimod::FACTORY_RDELAYT;
             s.push(Setting::ReplyDelay(factory));
         }
     };

@@ -1,4 +1,4 @@
-//! Device profile files: any Modbus device described in YAML (see [`raw`] for the format),
+//! Device profile files: any Modbus device described in YAML (see `raw` for the format),
 //! read into a typed [`Profile`] once, with every error at its file:line:col as for the
 //! project file.
 //!
@@ -7,7 +7,7 @@
 //! to the profile's points by name, as to a built-in model's.
 
 mod error;
-pub mod raw;
+pub(crate) mod raw;
 pub(crate) mod schema;
 mod validate;
 

@@ -53,7 +53,7 @@ use crate::project::raw::{DurationText, Int};
     expecting = "a device profile: a mapping with model, summary, source, addresses, max_baud, \
                  timing, requests, poll, points and simulate"
 )]
-pub struct RawProfile {
+pub(crate) struct RawProfile {
     /// The device model's name (`sdm120`).
     pub model: String,
     /// One line on what the device is.
@@ -86,7 +86,7 @@ pub struct RawProfile {
 /// `addresses:`.
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, expecting = "a mapping with min and max")]
-pub struct RawAddresses {
+pub(crate) struct RawAddresses {
     /// Lowest unit address (1..=247).
     pub min: Int,
     /// Highest unit address (1..=247).
@@ -99,7 +99,7 @@ pub struct RawAddresses {
     deny_unknown_fields,
     expecting = "a mapping with reply_timeout, frame_gap and reply_delay"
 )]
-pub struct RawTiming {
+pub(crate) struct RawTiming {
     /// How long to wait for its reply (default: the line's response_timeout).
     #[serde(default)]
     pub reply_timeout: Option<DurationText>,
@@ -117,7 +117,7 @@ pub struct RawTiming {
     deny_unknown_fields,
     expecting = "a mapping with max_registers, max_bits, read_gaps and write_multiple"
 )]
-pub struct RawRequests {
+pub(crate) struct RawRequests {
     /// Registers per FC 3/4 read, 1..=125 (default 125).
     #[serde(default)]
     pub max_registers: Option<Int>,
@@ -138,7 +138,7 @@ pub struct RawRequests {
     deny_unknown_fields,
     expecting = "a poll group: a mapping with name and period"
 )]
-pub struct RawGroup {
+pub(crate) struct RawGroup {
     /// Its name.
     pub name: String,
     /// `cycle` (every scan) or a duration (`10s`).
@@ -152,7 +152,7 @@ pub struct RawGroup {
     expecting = "a point: a mapping with name, table, address, type, order, scale, offset, \
                  unit, access, manual, poll, write, initial and bits"
 )]
-pub struct RawPoint {
+pub(crate) struct RawPoint {
     /// Its name in the project.
     pub name: String,
     /// `coil`, `discrete`, `input` or `holding`.
@@ -205,7 +205,7 @@ pub struct RawPoint {
     deny_unknown_fields,
     expecting = "a bit field: a mapping with name, bit, width and manual"
 )]
-pub struct RawBits {
+pub(crate) struct RawBits {
     /// Its point name.
     pub name: String,
     /// Lowest bit, 0 = least significant.
@@ -224,7 +224,7 @@ pub struct RawBits {
     deny_unknown_fields,
     expecting = "a behaviour: a mapping with point, follows and time_constant"
 )]
-pub struct RawBehaviour {
+pub(crate) struct RawBehaviour {
     /// The point that moves.
     pub point: String,
     /// The point it follows.

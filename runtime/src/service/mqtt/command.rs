@@ -16,7 +16,7 @@ use super::spb::Payload;
 
 /// Why a command metric is not carried out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum Refusal {
+pub(crate) enum Refusal {
     /// `service.mqtt.writes` is off.
     #[error("writes are off (service.mqtt.writes: false)")]
     WritesOff,
@@ -33,7 +33,7 @@ pub enum Refusal {
 
 /// What one command message asks.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Command {
+pub(crate) struct Command {
     /// `Node Control/Rebirth` = true.
     pub rebirth: bool,
     /// Writes to carry out: tag index and value.
@@ -44,7 +44,7 @@ pub struct Command {
 
 /// Why a message on a command topic is not a command at all.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum BadCommand {
+pub(crate) enum BadCommand {
     /// Not this node's NCMD or one of its devices' DCMD.
     #[error("not a command topic of this node: {0}")]
     Topic(String),
@@ -63,7 +63,7 @@ pub enum BadCommand {
 
 /// Decodes and checks a command published on `topic`; `writes` is `service.mqtt.writes`,
 /// `writable` each tag's `scada: write`.
-pub fn decode(
+pub(crate) fn decode(
     node: &EdgeNode,
     topic: &str,
     payload: &[u8],

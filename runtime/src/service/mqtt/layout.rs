@@ -11,13 +11,13 @@ use crate::project::{Binding, Project};
 
 /// The name of the rebirth command metric (Sparkplug B 3.0, "Operational Behavior" ›
 /// "Commands"); it has no alias, as the specification requires.
-pub const REBIRTH: &str = "Node Control/Rebirth";
+pub(crate) const REBIRTH: &str = "Node Control/Rebirth";
 /// The birth/death sequence metric.
-pub const BD_SEQ: &str = "bdSeq";
+pub(crate) const BD_SEQ: &str = "bdSeq";
 
 /// The PLC's own node metrics, in alias order after the tags.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PlcMetric {
+pub(crate) enum PlcMetric {
     /// Completed scans (UInt64).
     Scans,
     /// Overruns (UInt64).
@@ -32,7 +32,7 @@ pub enum PlcMetric {
 
 impl PlcMetric {
     /// Every PLC metric.
-    pub const ALL: [PlcMetric; 5] = [
+    pub(crate) const ALL: [PlcMetric; 5] = [
         PlcMetric::Scans,
         PlcMetric::Overruns,
         PlcMetric::CycleP99,
@@ -41,7 +41,7 @@ impl PlcMetric {
     ];
 
     /// Its metric name.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             PlcMetric::Scans => "PLC/Scans",
             PlcMetric::Overruns => "PLC/Overruns",
@@ -54,7 +54,7 @@ impl PlcMetric {
 
 /// One tag as a metric.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TagMetric {
+pub(crate) struct TagMetric {
     /// Index into the project's tags (and the snapshot's values).
     pub tag: usize,
     /// The metric name (the tag's name).
@@ -69,7 +69,7 @@ pub struct TagMetric {
 
 /// The whole metric set.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Layout {
+pub(crate) struct Layout {
     /// Every tag, in tag order (alias = tag index + 1).
     pub tags: Vec<TagMetric>,
     /// Device ids (module names), in module order.
@@ -78,7 +78,7 @@ pub struct Layout {
 
 impl Layout {
     /// The layout of `project`.
-    pub fn of(project: &Project) -> Self {
+    pub(crate) fn of(project: &Project) -> Self {
         let tags = project
             .tags
             .iter()
@@ -99,18 +99,18 @@ impl Layout {
     }
 
     /// The alias of a PLC metric (after every tag's).
-    pub fn plc_alias(&self, m: PlcMetric) -> u64 {
+    pub(crate) fn plc_alias(&self, m: PlcMetric) -> u64 {
         let at = PlcMetric::ALL.iter().position(|&x| x == m).unwrap_or(0);
         self.tags.len() as u64 + 1 + at as u64
     }
 
     /// The tags of device `device` (`None`: the node's own).
-    pub fn tags_of(&self, device: Option<usize>) -> impl Iterator<Item = &TagMetric> {
+    pub(crate) fn tags_of(&self, device: Option<usize>) -> impl Iterator<Item = &TagMetric> {
         self.tags.iter().filter(move |t| t.device == device)
     }
 
     /// The tag a CMD names, by alias or by name, on `device`.
-    pub fn find(
+    pub(crate) fn find(
         &self,
         device: Option<usize>,
         alias: Option<u64>,

@@ -15,7 +15,7 @@
 
 use std::collections::VecDeque;
 
-use softplc_io::point::{Quality, Value, ValueType};
+use softplc_io::point::{Quality, Value};
 
 use super::layout::{Layout, PlcMetric, REBIRTH};
 use super::payload::{self, bd_seq_metric, datatype, metric_value, MetricSpec};
@@ -25,13 +25,13 @@ use crate::service::snapshot::ServiceSnapshot;
 
 /// How often the PLC's own metrics (scans, cycle p99, ...) go out in NDATA at most, in ms: they
 /// change every scan, and a host trends them, it does not react to them.
-pub const PLC_METRICS_EVERY_MS: u64 = 1000;
+pub(crate) const PLC_METRICS_EVERY_MS: u64 = 1000;
 /// The most metrics in one historical DATA message.
-pub const HISTORICAL_CHUNK: usize = 500;
+pub(crate) const HISTORICAL_CHUNK: usize = 500;
 
 /// One message to publish.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Outgoing {
+pub(crate) struct Outgoing {
     /// Its topic.
     pub topic: String,
     /// The Sparkplug payload.
@@ -42,14 +42,14 @@ pub struct Outgoing {
 
 /// The topic namespace of one edge node ("Topics": `spBv1.0/GROUP/VERB/NODE[/DEVICE]`).
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Topics {
+pub(crate) struct Topics {
     group: String,
     node: String,
 }
 
 impl Topics {
     /// The topics of `node` in `group`.
-    pub fn new(group: &str, node: &str) -> Self {
+    pub(crate) fn new(group: &str, node: &str) -> Self {
         Self {
             group: group.into(),
             node: node.into(),
@@ -57,18 +57,18 @@ impl Topics {
     }
 
     /// A node topic (`NBIRTH`, `NDEATH`, `NDATA`, `NCMD`).
-    pub fn node(&self, verb: &str) -> String {
+    pub(crate) fn node(&self, verb: &str) -> String {
         format!("spBv1.0/{}/{verb}/{}", self.group, self.node)
     }
 
     /// A device topic (`DBIRTH`, `DDEATH`, `DDATA`, `DCMD`).
-    pub fn device(&self, verb: &str, device: &str) -> String {
+    pub(crate) fn device(&self, verb: &str, device: &str) -> String {
         format!("spBv1.0/{}/{verb}/{}/{device}", self.group, self.node)
     }
 
     /// Whom a command topic addresses: `Some(None)` the node (`NCMD`), `Some(Some(device))`
     /// a device (`DCMD`), `None` a topic that is neither.
-    pub fn command_target<'a>(&self, topic: &'a str) -> Option<Option<&'a str>> {
+    pub(crate) fn command_target<'a>(&self, topic: &'a str) -> Option<Option<&'a str>> {
         if topic == self.node("NCMD") {
             return Some(None);
         }
@@ -88,7 +88,7 @@ struct Kept {
 
 /// The edge node (see the module docs).
 #[derive(Debug)]
-pub struct EdgeNode {
+pub(crate) struct EdgeNode {
     layout: Layout,
     topics: Topics,
     /// Per tag: the smallest change sent (0: any).
@@ -124,7 +124,12 @@ fn changed(old: Value, new: Value, deadband: f64) -> bool {
 impl EdgeNode {
     /// An edge node for `layout` publishing under `topics`, with a per-tag `deadband` and a
     /// buffer of `capacity` changes.
-    pub fn new(layout: Layout, topics: Topics, deadband: &[(usize, f64)], capacity: usize) -> Self {
+    pub(crate) fn new(
+        layout: Layout,
+        topics: Topics,
+        deadband: &[(usize, f64)],
+        capacity: usize,
+    ) -> Self {
         let mut db = vec![0.0; layout.tags.len()];
         for &(tag, d) in deadband {
             if let Some(slot) = db.get_mut(tag) {
@@ -148,22 +153,23 @@ impl EdgeNode {
     }
 
     /// The topics.
-    pub fn topics(&self) -> &Topics {
+    pub(crate) fn topics(&self) -> &Topics {
         &self.topics
     }
 
     /// The metric set.
-    pub fn layout(&self) -> &Layout {
+    pub(crate) fn layout(&self) -> &Layout {
         &self.layout
     }
 
     /// Changes dropped from the buffer so far.
-    pub fn dropped(&self) -> u64 {
+    #[cfg(test)]
+    pub(crate) fn dropped(&self) -> u64 {
         self.dropped
     }
 
     /// Changes in the buffer.
-    pub fn buffered(&self) -> usize {
+    pub(crate) fn buffered(&self) -> usize {
         self.buffer.len()
     }
 
@@ -239,7 +245,12 @@ impl EdgeNode {
 
     /// Births for a new session or a rebirth: NBIRTH (seq 0, carrying `bd_seq`), a DBIRTH per
     /// live device, then the buffer as historical DATA.
-    pub fn birth(&mut self, snap: &ServiceSnapshot, wall_ms: u64, bd_seq: u8) -> Vec<Outgoing> {
+    pub(crate) fn birth(
+        &mut self,
+        snap: &ServiceSnapshot,
+        wall_ms: u64,
+        bd_seq: u8,
+    ) -> Vec<Outgoing> {
         self.seq = 0;
         let now = self.utc(snap, wall_ms, snap.now);
         let mut out = Vec::new();
@@ -371,7 +382,12 @@ impl EdgeNode {
 
     /// What changed since the last call, as NDATA/DDATA/DDEATH/DBIRTH (`online`), or kept in
     /// the buffer (not `online`: nothing is returned).
-    pub fn update(&mut self, snap: &ServiceSnapshot, wall_ms: u64, online: bool) -> Vec<Outgoing> {
+    pub(crate) fn update(
+        &mut self,
+        snap: &ServiceSnapshot,
+        wall_ms: u64,
+        online: bool,
+    ) -> Vec<Outgoing> {
         let mut out = Vec::new();
         if online {
             for d in 0..self.layout.devices.len() {
@@ -457,11 +473,6 @@ impl EdgeNode {
             }
         }
         out
-    }
-
-    /// The type of tag `tag`.
-    pub fn tag_type(&self, tag: usize) -> Option<ValueType> {
-        self.layout.tags.get(tag).map(|t| t.ty)
     }
 }
 

@@ -10,7 +10,7 @@ use super::spb::payload::{Metric, PropertySet, PropertyValue};
 use super::spb::{DataType, Payload};
 
 /// The Sparkplug datatype of a PLC type ("Datatype Details": Boolean, UInt16, Int32, Float).
-pub fn datatype(ty: ValueType) -> DataType {
+pub(crate) fn datatype(ty: ValueType) -> DataType {
     match ty {
         ValueType::Bool => DataType::Boolean,
         ValueType::U16 => DataType::UInt16,
@@ -21,7 +21,7 @@ pub fn datatype(ty: ValueType) -> DataType {
 
 /// A PLC value as a metric value. Int32 travels as its two's complement in `int_value`, as
 /// Eclipse Tahu's encoder writes it.
-pub fn metric_value(v: Value) -> MetricValue {
+pub(crate) fn metric_value(v: Value) -> MetricValue {
     match v {
         Value::Bool(b) => MetricValue::BooleanValue(b),
         Value::U16(u) => MetricValue::IntValue(u32::from(u)),
@@ -32,7 +32,7 @@ pub fn metric_value(v: Value) -> MetricValue {
 
 /// Why a command's value cannot be a tag's.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum ValueError {
+pub(crate) enum ValueError {
     /// No value in the metric.
     #[error("the metric carries no value")]
     Missing,
@@ -53,7 +53,7 @@ pub enum ValueError {
 /// A command's metric value as a value of type `ty`. Integers are accepted from any integer
 /// field that holds them exactly (hosts differ in which one they fill); floats from float or
 /// double.
-pub fn tag_value(ty: ValueType, v: Option<&MetricValue>) -> Result<Value, ValueError> {
+pub(crate) fn tag_value(ty: ValueType, v: Option<&MetricValue>) -> Result<Value, ValueError> {
     let v = v.ok_or(ValueError::Missing)?;
     let wrong = ValueError::WrongKind { ty };
     let range = ValueError::OutOfRange { ty };
@@ -82,7 +82,7 @@ pub fn tag_value(ty: ValueType, v: Option<&MetricValue>) -> Result<Value, ValueE
 }
 
 /// The Sparkplug quality code of a PLC quality ("Quality Codes": 0 bad, 192 good, 500 stale).
-pub fn quality_code(q: Quality) -> i32 {
+pub(crate) fn quality_code(q: Quality) -> i32 {
     match q {
         Quality::Good => 192,
         Quality::Stale => 500,
@@ -92,7 +92,7 @@ pub fn quality_code(q: Quality) -> i32 {
 
 /// The `Quality` property set (type Int32). Sent on every tag metric, good included: whether a
 /// host resets a metric to good when the property is left out is not specified.
-pub fn quality_property(q: Quality) -> PropertySet {
+pub(crate) fn quality_property(q: Quality) -> PropertySet {
     PropertySet {
         keys: vec!["Quality".into()],
         values: vec![PropertyValue {
@@ -105,7 +105,7 @@ pub fn quality_property(q: Quality) -> PropertySet {
 
 /// What one metric of a message says.
 #[derive(Debug, Clone, PartialEq)]
-pub struct MetricSpec<'a> {
+pub(crate) struct MetricSpec<'a> {
     /// Its name, in BIRTH messages only (DATA carries the alias alone).
     pub name: Option<&'a str>,
     /// Its alias.
@@ -124,7 +124,7 @@ pub struct MetricSpec<'a> {
 
 impl MetricSpec<'_> {
     /// The protobuf metric.
-    pub fn encode(&self) -> Metric {
+    pub(crate) fn encode(&self) -> Metric {
         Metric {
             name: self.name.map(str::to_owned),
             alias: self.alias,
@@ -139,7 +139,7 @@ impl MetricSpec<'_> {
 }
 
 /// A payload of `metrics`, at `timestamp` (UTC ms), with `seq`.
-pub fn encode(timestamp: u64, seq: Option<u8>, metrics: &[MetricSpec<'_>]) -> Vec<u8> {
+pub(crate) fn encode(timestamp: u64, seq: Option<u8>, metrics: &[MetricSpec<'_>]) -> Vec<u8> {
     Payload {
         timestamp: Some(timestamp),
         metrics: metrics.iter().map(MetricSpec::encode).collect(),
@@ -150,7 +150,7 @@ pub fn encode(timestamp: u64, seq: Option<u8>, metrics: &[MetricSpec<'_>]) -> Ve
 }
 
 /// The bdSeq metric (Int64; "Payloads" › "NBIRTH" and "NDEATH").
-pub fn bd_seq_metric(bd_seq: u8, timestamp: u64) -> MetricSpec<'static> {
+pub(crate) fn bd_seq_metric(bd_seq: u8, timestamp: u64) -> MetricSpec<'static> {
     MetricSpec {
         name: Some(super::layout::BD_SEQ),
         alias: None,
@@ -164,7 +164,7 @@ pub fn bd_seq_metric(bd_seq: u8, timestamp: u64) -> MetricSpec<'static> {
 
 /// The NDEATH payload: the bdSeq metric only, no seq ("Payloads" › "NDEATH"); the same bytes
 /// serve as the MQTT Will and as the death published at a clean stop.
-pub fn ndeath(bd_seq: u8, timestamp: u64) -> Vec<u8> {
+pub(crate) fn ndeath(bd_seq: u8, timestamp: u64) -> Vec<u8> {
     encode(timestamp, None, &[bd_seq_metric(bd_seq, timestamp)])
 }
 

@@ -18,8 +18,8 @@
 //! a client certificate the server does not know yet is put in `opcua-pki/rejected/` and is
 //! trusted once moved to `opcua-pki/trusted/`.
 
-pub mod space;
-pub mod write;
+pub(crate) mod space;
+pub(crate) mod write;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -46,7 +46,7 @@ const USER_TOKEN: &str = "project-user";
 
 /// Why the server could not start.
 #[derive(Debug, thiserror::Error)]
-pub enum OpcUaStartError {
+pub(crate) enum OpcUaStartError {
     /// The address could not be bound.
     #[error("OPC UA server: cannot listen on {addr}: {source}")]
     Bind {
@@ -73,15 +73,14 @@ pub enum OpcUaStartError {
 
 /// A running server; it lives as long as the process.
 #[derive(Debug)]
-pub struct OpcUaServer {
-    addr: SocketAddr,
+pub(crate) struct OpcUaServer {
     url: String,
     security: OpcUaSecurity,
     login: String,
 }
 
 /// The folder of the server's certificates: in the PLC's state folder.
-pub fn pki_folder(project: &Project) -> PathBuf {
+pub(crate) fn pki_folder(project: &Project) -> PathBuf {
     crate::project::state::default_state_folder(&project.source).join("opcua-pki")
 }
 
@@ -176,7 +175,7 @@ fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<wr
 impl OpcUaServer {
     /// Starts the server `project` configures (`None` when it configures none), reading
     /// `snapshot` and sending writes to `scan`.
-    pub fn start(
+    pub(crate) fn start(
         project: &Project,
         snapshot: &SnapshotCell,
         scan: &Sender<Envelope>,
@@ -260,20 +259,14 @@ impl OpcUaServer {
             .spawn(move || updater.run())
             .map_err(OpcUaStartError::Thread)?;
         Ok(Some(Self {
-            addr,
             url: cfg.endpoint_url(addr.port()),
             security: cfg.security,
             login: cfg.login(),
         }))
     }
 
-    /// The address it listens on (the bound port when the configured one was 0).
-    pub fn local_addr(&self) -> SocketAddr {
-        self.addr
-    }
-
     /// What the log says of it: the endpoint, its security and who may log in.
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         format!(
             "{} ({}, {})",
             self.url,

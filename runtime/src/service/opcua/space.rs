@@ -20,10 +20,10 @@ use crate::project::Project;
 use crate::service::snapshot::ServiceSnapshot;
 
 /// The namespace URI of a project's nodes: this + the project's name.
-pub const NAMESPACE_PREFIX: &str = "urn:softplc:";
+pub(crate) const NAMESPACE_PREFIX: &str = "urn:softplc:";
 
 /// The StatusCode of a value of quality `q`.
-pub fn status_of(q: Quality) -> StatusCode {
+pub(crate) fn status_of(q: Quality) -> StatusCode {
     match q {
         Quality::Good => StatusCode::Good,
         Quality::Stale => StatusCode::UncertainLastUsableValue,
@@ -32,7 +32,7 @@ pub fn status_of(q: Quality) -> StatusCode {
 }
 
 /// A tag's value as an OPC UA Variant of its exact type.
-pub fn variant(v: Value) -> Variant {
+pub(crate) fn variant(v: Value) -> Variant {
     match v {
         Value::Bool(b) => Variant::Boolean(b),
         Value::U16(u) => Variant::UInt16(u),
@@ -43,7 +43,7 @@ pub fn variant(v: Value) -> Variant {
 
 /// The value a Variant written by a client gives a tag of type `ty`, when it is of that exact
 /// type (the server has checked it against the node's DataType already).
-pub fn value_of(ty: ValueType, v: &Variant) -> Option<Value> {
+pub(crate) fn value_of(ty: ValueType, v: &Variant) -> Option<Value> {
     match (ty, v) {
         (ValueType::Bool, Variant::Boolean(b)) => Some(Value::Bool(*b)),
         (ValueType::U16, Variant::UInt16(u)) => Some(Value::U16(*u)),
@@ -54,7 +54,7 @@ pub fn value_of(ty: ValueType, v: &Variant) -> Option<Value> {
 }
 
 /// A tag type's DataType.
-pub fn data_type(ty: ValueType) -> DataTypeId {
+pub(crate) fn data_type(ty: ValueType) -> DataTypeId {
     match ty {
         ValueType::Bool => DataTypeId::Boolean,
         ValueType::U16 => DataTypeId::UInt16,
@@ -65,7 +65,7 @@ pub fn data_type(ty: ValueType) -> DataTypeId {
 
 /// A module's diagnostic variable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ModuleField {
+pub(crate) enum ModuleField {
     /// Its last read's quality: "good", "stale" or "bad" (String).
     Quality,
     /// Requests sent (UInt64).
@@ -78,7 +78,7 @@ pub enum ModuleField {
 
 impl ModuleField {
     /// Every field, in browse order.
-    pub const ALL: [ModuleField; 4] = [
+    pub(crate) const ALL: [ModuleField; 4] = [
         ModuleField::Quality,
         ModuleField::Requests,
         ModuleField::Errors,
@@ -86,7 +86,7 @@ impl ModuleField {
     ];
 
     /// Its browse name.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Self::Quality => "Quality",
             Self::Requests => "Requests",
@@ -106,7 +106,7 @@ impl ModuleField {
 
 /// The PLC's diagnostic variables.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PlcField {
+pub(crate) enum PlcField {
     /// "running" or "stopped" (String).
     State,
     /// Completed scans (UInt64).
@@ -123,7 +123,7 @@ pub enum PlcField {
 
 impl PlcField {
     /// Every field, in browse order.
-    pub const ALL: [PlcField; 6] = [
+    pub(crate) const ALL: [PlcField; 6] = [
         PlcField::State,
         PlcField::Scans,
         PlcField::Overruns,
@@ -133,7 +133,7 @@ impl PlcField {
     ];
 
     /// Its browse name.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Self::State => "State",
             Self::Scans => "Scans",
@@ -155,7 +155,7 @@ impl PlcField {
 
 /// A variable of the address space.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Node {
+pub(crate) struct Node {
     /// Its node id (string part).
     pub id: String,
     /// Its browse and display name.
@@ -170,7 +170,7 @@ pub struct Node {
 
 /// An exposed tag.
 #[derive(Debug, Clone, PartialEq)]
-pub struct TagNode {
+pub(crate) struct TagNode {
     /// Index into the project's tags.
     pub tag: usize,
     /// Its type.
@@ -181,7 +181,7 @@ pub struct TagNode {
 
 /// The whole address space of a project.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Layout {
+pub(crate) struct Layout {
     /// Folders: id, name, parent (`None`: the Objects folder), in creation order.
     pub folders: Vec<(String, String, Option<String>)>,
     /// Tags, in project order.
@@ -204,7 +204,7 @@ fn node(folder: &str, name: &str, data_type: DataTypeId) -> Node {
 
 impl Layout {
     /// The address space of `project`; `writes` is the server's switch.
-    pub fn of(project: &Project, writes: bool) -> Self {
+    pub(crate) fn of(project: &Project, writes: bool) -> Self {
         let mut folders = vec![
             ("Tags".to_string(), "Tags".to_string(), None),
             ("Modules".to_string(), "Modules".to_string(), None),
@@ -260,7 +260,7 @@ fn ms(d: std::time::Duration) -> Variant {
 /// Turns snapshots into the values of the address space's variables, sending only what
 /// changed.
 #[derive(Debug)]
-pub struct Updates {
+pub(crate) struct Updates {
     /// Per exposed tag (in [`Layout::tags`] order): what clients were last given.
     last: Vec<Option<(Value, Quality)>>,
     /// What the diagnostics were last given, per variable id.
@@ -271,7 +271,7 @@ pub struct Updates {
 
 impl Updates {
     /// Nothing sent yet.
-    pub fn new(layout: &Layout) -> Self {
+    pub(crate) fn new(layout: &Layout) -> Self {
         Self {
             last: vec![None; layout.tags.len()],
             diagnostics: Default::default(),
@@ -290,7 +290,7 @@ impl Updates {
     /// The variables `snap` changes (node id string, value), with `now` as the server
     /// timestamp. Tags: when the value or the quality changed; diagnostics: when their value
     /// changed.
-    pub fn changes(
+    pub(crate) fn changes(
         &mut self,
         layout: &Layout,
         snap: &ServiceSnapshot,
@@ -363,7 +363,7 @@ impl Updates {
 }
 
 /// The value a variable holds before the first snapshot: zero of its type, waiting.
-pub fn initial(data_type: DataTypeId) -> DataValue {
+pub(crate) fn initial(data_type: DataTypeId) -> DataValue {
     let value = match data_type {
         DataTypeId::Boolean => Variant::Boolean(false),
         DataTypeId::UInt16 => Variant::UInt16(0),

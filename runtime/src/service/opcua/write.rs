@@ -26,11 +26,11 @@ use crate::service::control::{Envelope, Request, TagValue};
 use crate::service::snapshot::SnapshotCell;
 
 /// How long a write waits for the scan to take and answer it.
-pub const WRITE_WAIT: Duration = Duration::from_secs(2);
+pub(crate) const WRITE_WAIT: Duration = Duration::from_secs(2);
 
 /// What a write needs (shared by every writable tag's callback).
 #[derive(Debug)]
-pub struct Writer {
+pub(crate) struct Writer {
     names: Vec<String>,
     snapshot: SnapshotCell,
     scan: Sender<Envelope>,
@@ -39,7 +39,7 @@ pub struct Writer {
 impl Writer {
     /// Writes name their tags from `names` (in tag order), check forces in `snapshot`, and go
     /// to `scan`.
-    pub fn new(names: Vec<String>, snapshot: SnapshotCell, scan: Sender<Envelope>) -> Self {
+    pub(crate) fn new(names: Vec<String>, snapshot: SnapshotCell, scan: Sender<Envelope>) -> Self {
         Self {
             names,
             snapshot,
@@ -48,7 +48,7 @@ impl Writer {
     }
 
     /// Writes `dv` to tag `tag` of type `ty` (see the module docs).
-    pub fn write(&self, tag: usize, ty: ValueType, dv: &DataValue) -> StatusCode {
+    pub(crate) fn write(&self, tag: usize, ty: ValueType, dv: &DataValue) -> StatusCode {
         let Some(name) = self.names.get(tag) else {
             return StatusCode::BadNodeIdUnknown;
         };

@@ -17,7 +17,7 @@ use crate::project::WebToken;
 
 /// Why a write is refused (each is a 403 with this text).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum Refusal {
+pub(crate) enum Refusal {
     /// The project does not allow writes.
     #[error("writes are off in this project (service.web.writes: false)")]
     WritesOff,
@@ -37,24 +37,24 @@ pub enum Refusal {
 
 /// The write policy of a running page.
 #[derive(Debug, Clone)]
-pub struct WriteAuth {
+pub(crate) struct WriteAuth {
     writes: bool,
     token: Option<WebToken>,
 }
 
 impl WriteAuth {
     /// The policy: `writes` from the project, `token` the one it configured.
-    pub fn new(writes: bool, token: Option<WebToken>) -> Self {
+    pub(crate) fn new(writes: bool, token: Option<WebToken>) -> Self {
         Self { writes, token }
     }
 
     /// Whether writes are possible at all (the page shows its force buttons).
-    pub fn enabled(&self) -> bool {
+    pub(crate) fn enabled(&self) -> bool {
         self.writes && self.token.is_some()
     }
 
     /// Whether `req` may write.
-    pub fn authorize(&self, req: &Request) -> Result<(), Refusal> {
+    pub(crate) fn authorize(&self, req: &Request) -> Result<(), Refusal> {
         let Some(token) = self.token.as_ref().filter(|_| self.writes) else {
             return Err(Refusal::WritesOff);
         };
@@ -97,7 +97,7 @@ impl WriteAuth {
 
 /// Whether a request with this `Host` header is answered by a server bound to `bind` (see the
 /// module docs): any host beyond loopback, only the loopback names on a loopback bind.
-pub fn host_allowed(bind: SocketAddr, port: u16, host: Option<&str>) -> bool {
+pub(crate) fn host_allowed(bind: SocketAddr, port: u16, host: Option<&str>) -> bool {
     if !bind.ip().is_loopback() {
         return true;
     }

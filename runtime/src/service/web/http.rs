@@ -18,13 +18,13 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Longest request head (request line and headers), in bytes.
-pub const MAX_HEAD: usize = 8 * 1024;
+pub(crate) const MAX_HEAD: usize = 8 * 1024;
 /// Longest request body, in bytes (a force request is a few dozen).
-pub const MAX_BODY: usize = 4 * 1024;
+pub(crate) const MAX_BODY: usize = 4 * 1024;
 /// Most header lines.
-pub const MAX_HEADERS: usize = 64;
+pub(crate) const MAX_HEADERS: usize = 64;
 /// Longest request target.
-pub const MAX_TARGET: usize = 2048;
+pub(crate) const MAX_TARGET: usize = 2048;
 
 /// The methods served.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,13 +71,13 @@ pub enum HttpError {
     /// A method other than GET, HEAD and POST.
     #[error("405 Method Not Allowed")]
     MethodNotAllowed,
-    /// A body larger than [`MAX_BODY`].
+    /// A body larger than `MAX_BODY`.
     #[error("413 Content Too Large")]
     BodyTooLarge,
-    /// A target longer than [`MAX_TARGET`].
+    /// A target longer than `MAX_TARGET`.
     #[error("414 URI Too Long")]
     TargetTooLong,
-    /// A head longer than [`MAX_HEAD`] or with more than [`MAX_HEADERS`] lines.
+    /// A head longer than `MAX_HEAD` or with more than `MAX_HEADERS` lines.
     #[error("431 Request Header Fields Too Large")]
     HeadTooLarge,
     /// `Transfer-Encoding` (chunked bodies are not accepted).
@@ -220,7 +220,7 @@ fn header_line(line: &str) -> Result<(String, String), HttpError> {
 
 /// A response; every one closes the connection.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Response {
+pub(crate) struct Response {
     /// Status code.
     pub status: u16,
     /// `Content-Type`.
@@ -233,7 +233,7 @@ pub struct Response {
 
 impl Response {
     /// A response with a body.
-    pub fn new(status: u16, content_type: &'static str, body: impl Into<Vec<u8>>) -> Self {
+    pub(crate) fn new(status: u16, content_type: &'static str, body: impl Into<Vec<u8>>) -> Self {
         Self {
             status,
             content_type,
@@ -243,12 +243,12 @@ impl Response {
     }
 
     /// A JSON response.
-    pub fn json(status: u16, body: impl Into<Vec<u8>>) -> Self {
+    pub(crate) fn json(status: u16, body: impl Into<Vec<u8>>) -> Self {
         Self::new(status, "application/json", body)
     }
 
     /// A plain-text error response for `status`, saying `why`.
-    pub fn error(status: u16, why: &str) -> Self {
+    pub(crate) fn error(status: u16, why: &str) -> Self {
         Self::new(
             status,
             "text/plain; charset=utf-8",
@@ -257,13 +257,13 @@ impl Response {
     }
 
     /// Adds a header.
-    pub fn with(mut self, name: &'static str, value: impl Into<String>) -> Self {
+    pub(crate) fn with(mut self, name: &'static str, value: impl Into<String>) -> Self {
         self.headers.push((name, value.into()));
         self
     }
 
     /// The bytes to send; the body only when `with_body` (not for HEAD).
-    pub fn to_bytes(&self, with_body: bool) -> Vec<u8> {
+    pub(crate) fn to_bytes(&self, with_body: bool) -> Vec<u8> {
         let mut head = String::with_capacity(512);
         let _ = write!(
             head,
@@ -291,7 +291,7 @@ impl Response {
 
 /// Sent with every response: the page loads nothing from elsewhere and may not be framed
 /// (clickjacking of the force buttons), nothing is sniffed, no referrer leaves.
-pub const SECURITY_HEADERS: &str = "Content-Security-Policy: default-src 'self'; \
+pub(crate) const SECURITY_HEADERS: &str = "Content-Security-Policy: default-src 'self'; \
     img-src 'self' data:; style-src 'self'; script-src 'self'; connect-src 'self'; \
     frame-ancestors 'none'; base-uri 'none'; form-action 'none'\r\n\
     X-Content-Type-Options: nosniff\r\n\
@@ -300,7 +300,7 @@ pub const SECURITY_HEADERS: &str = "Content-Security-Policy: default-src 'self';
     Cache-Control: no-store\r\n";
 
 /// The reason phrase of a status code.
-pub fn reason(status: u16) -> &'static str {
+pub(crate) fn reason(status: u16) -> &'static str {
     match status {
         200 => "OK",
         400 => "Bad Request",
@@ -323,7 +323,7 @@ pub fn reason(status: u16) -> &'static str {
 
 /// The bounds of a server.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Limits {
+pub(crate) struct Limits {
     /// Connections served at once; more are answered 503 at once.
     pub clients: usize,
     /// How long a client may take to send its whole request, from its connection.
@@ -334,7 +334,7 @@ pub struct Limits {
 
 /// A server's name (its threads' and its log lines'), bounds and the methods it serves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ServerConfig {
+pub(crate) struct ServerConfig {
     /// Thread name of the accepting thread; client threads get `-client` appended.
     pub name: &'static str,
     /// Its bounds.
@@ -347,7 +347,11 @@ pub struct ServerConfig {
 /// read and parsed within the limits (errors answered here: 400, 405, 408, 413, 414, 431,
 /// 501, 503), and `handler` answers the request on the connection (a whole [`Response`], or a
 /// stream); the connection is then closed.
-pub fn spawn<H>(listener: TcpListener, config: ServerConfig, handler: H) -> std::io::Result<()>
+pub(crate) fn spawn<H>(
+    listener: TcpListener,
+    config: ServerConfig,
+    handler: H,
+) -> std::io::Result<()>
 where
     H: Fn(&Request, &mut TcpStream) -> std::io::Result<()> + Send + Sync + 'static,
 {

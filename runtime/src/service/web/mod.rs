@@ -10,7 +10,7 @@
 //! that in a few hundred lines that can be read whole and fuzzed ([`http::parse`] is a total
 //! function over bytes), adds no dependency (axum would bring hyper, tower and their
 //! transitive crates into a PLC runtime), and shares nothing with the scan but the snapshot it
-//! publishes without waiting ([`crate::service::snapshot`]) and the control channel that
+//! publishes without waiting (`crate::service::snapshot`) and the control channel that
 //! applies forces at cycle boundaries ([`crate::service::control`]).
 //!
 //! Bounds: [`MAX_CLIENTS`] connections at once (a 503 beyond), a request head of 8 KiB and a
@@ -18,19 +18,23 @@
 //! each write, event streams that end after 10 minutes (the browser reconnects). Every asset
 //! is embedded in the binary: the page works without internet.
 //!
-//! Files: [`http`] (parsing, responses), [`routes`] (what each path answers, writes),
-//! [`auth`] (who may write), [`sse`] (the event stream), [`info`] and [`program`] (what does
-//! not change), [`view`] (the live JSON), [`trend`] (the trend's history), `assets/` (the page).
+//! Files: `http` (parsing, responses), `routes` (what each path answers, writes),
+//! `auth` (who may write), `sse` (the event stream), `info` and `program` (what does
+//! not change), `view` (the live JSON), `trend` (the trend's history), `assets/` (the page).
 
-pub mod auth;
-pub mod http;
-pub mod info;
-pub mod program;
-pub mod routes;
-pub mod sse;
-pub mod trace;
-pub mod trend;
-pub mod view;
+pub(crate) mod auth;
+pub(crate) mod http;
+pub(crate) mod info;
+pub(crate) mod program;
+pub(crate) mod routes;
+pub(crate) mod sse;
+pub(crate) mod trace;
+pub(crate) mod trend;
+pub(crate) mod view;
+
+pub use http::{parse as parse_http, HttpError, Method, Request};
+pub use info::{BusInfo, ModuleInfo, TagInfo, WebInfo};
+pub use program::{Line, Part, ProgramView, RungMark};
 
 use std::io::Write;
 use std::net::{SocketAddr, TcpListener, TcpStream};
@@ -40,8 +44,7 @@ use std::time::Duration;
 use crossbeam_channel::Sender;
 
 use self::auth::WriteAuth;
-use self::http::{Limits, Method, Request, Response, ServerConfig};
-use self::info::WebInfo;
+use self::http::{Limits, Response, ServerConfig};
 use self::routes::Route;
 use self::trend::Trend;
 use super::control::Envelope;

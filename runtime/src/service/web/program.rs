@@ -77,7 +77,7 @@ pub struct ProgramView {
 }
 
 /// The program of `project`, read now, with `plan`'s placements.
-pub fn view(project: &Project, plan: &Plan) -> ProgramView {
+pub(crate) fn view(project: &Project, plan: &Plan) -> ProgramView {
     let path = &project.program.path;
     let kind = crate::offload::engine_name(project.program.kind);
     let file = path.file_name().map_or_else(
@@ -149,7 +149,7 @@ fn ladder_diagram(project: &Project, text: &str) -> Result<Vec<RungDiagram>, Str
 }
 
 /// Cuts `text` (a program of `kind`) into lines of parts, recognising the names in `tags`.
-pub fn annotate(text: &str, kind: ProgramKind, tags: &[&str]) -> Vec<Line> {
+pub(crate) fn annotate(text: &str, kind: ProgramKind, tags: &[&str]) -> Vec<Line> {
     let line_comment: &[char] = match kind {
         ProgramKind::Expr | ProgramKind::Ladder => &['#'],
         ProgramKind::Rhai => &['/', '/'],

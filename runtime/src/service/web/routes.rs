@@ -28,13 +28,13 @@ use super::http::{Method, Request, Response};
 use crate::service::control::{Envelope, Request as Control, Response as ControlResponse};
 
 /// The page's script.
-pub const APP_JS: &str = include_str!("assets/app.js");
+pub(crate) const APP_JS: &str = include_str!("assets/app.js");
 /// The page's ladder diagrams.
-pub const LADDER_JS: &str = include_str!("assets/ladder.js");
+pub(crate) const LADDER_JS: &str = include_str!("assets/ladder.js");
 /// The page's style.
-pub const STYLE_CSS: &str = include_str!("assets/style.css");
+pub(crate) const STYLE_CSS: &str = include_str!("assets/style.css");
 /// The page.
-pub const INDEX_HTML: &str = include_str!("assets/index.html");
+pub(crate) const INDEX_HTML: &str = include_str!("assets/index.html");
 
 /// How long a write waits for room in the scan's request queue.
 const QUEUE_WAIT: Duration = Duration::from_secs(1);
@@ -45,7 +45,7 @@ const MAX_FIELD: usize = 256;
 
 /// What a request asks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Route {
+pub(crate) enum Route {
     /// The page.
     Index,
     /// Its script.
@@ -74,7 +74,7 @@ pub enum Route {
 
 /// The route of `method` on `path`: `Err(404)` for an unknown path, `Err(405)` for a known
 /// path with the wrong method.
-pub fn route(method: Method, path: &str) -> Result<Route, u16> {
+pub(crate) fn route(method: Method, path: &str) -> Result<Route, u16> {
     let (route, write) = match path {
         "/" | "/index.html" => (Route::Index, false),
         "/app.js" => (Route::Script, false),
@@ -99,7 +99,7 @@ pub fn route(method: Method, path: &str) -> Result<Route, u16> {
 }
 
 /// The methods `path` answers to (for a 405's `Allow`).
-pub fn allowed(path: &str) -> &'static str {
+pub(crate) fn allowed(path: &str) -> &'static str {
     match route(Method::Post, path) {
         Ok(_) => "POST",
         Err(_) => "GET, HEAD",
@@ -130,7 +130,7 @@ fn refused(status: u16, error: &str) -> Response {
 }
 
 /// The control request a write body asks for, or the response refusing it.
-pub fn write_request(route: Route, body: &[u8]) -> Result<Control, Response> {
+pub(crate) fn write_request(route: Route, body: &[u8]) -> Result<Control, Response> {
     let bad = |e: String| refused(400, &format!("bad request body: {e}"));
     let long = |what: &str| refused(400, &format!("the {what} is longer than {MAX_FIELD}"));
     match route {
@@ -166,7 +166,12 @@ pub fn write_request(route: Route, body: &[u8]) -> Result<Control, Response> {
 }
 
 /// Checks and carries out a write: authorisation, body, then the scan.
-pub fn write(auth: &WriteAuth, scan: &Sender<Envelope>, route: Route, req: &Request) -> Response {
+pub(crate) fn write(
+    auth: &WriteAuth,
+    scan: &Sender<Envelope>,
+    route: Route,
+    req: &Request,
+) -> Response {
     if let Err(why) = auth.authorize(req) {
         return refused(403, &why.to_string());
     }

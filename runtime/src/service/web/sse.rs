@@ -12,16 +12,16 @@ use super::view;
 use crate::service::snapshot::SnapshotCell;
 
 /// How often a stream looks for a new cycle.
-pub const TICK: Duration = Duration::from_millis(100);
+pub(crate) const TICK: Duration = Duration::from_millis(100);
 /// The longest silence on a stream.
-pub const KEEPALIVE: Duration = Duration::from_secs(15);
+pub(crate) const KEEPALIVE: Duration = Duration::from_secs(15);
 /// How long one stream lasts before the browser is asked to reconnect.
-pub const LIFETIME: Duration = Duration::from_secs(600);
+pub(crate) const LIFETIME: Duration = Duration::from_secs(600);
 /// How long the browser waits before reconnecting, in ms.
-pub const RETRY_MS: u32 = 1000;
+pub(crate) const RETRY_MS: u32 = 1000;
 
 /// The response head of a stream.
-pub fn head() -> String {
+pub(crate) fn head() -> String {
     format!(
         "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream; charset=utf-8\r\n{}\
          X-Accel-Buffering: no\r\nConnection: close\r\n\r\nretry: {RETRY_MS}\n\n",
@@ -32,7 +32,7 @@ pub fn head() -> String {
 /// One event: `event: NAME`, then `data:` lines (a newline in `data` starts another `data:`
 /// line, as the format requires), then a blank line. A name with a line break or a colon
 /// would corrupt the stream, so such characters are dropped from it.
-pub fn event(name: &str, data: &str) -> String {
+pub(crate) fn event(name: &str, data: &str) -> String {
     let name: String = name
         .chars()
         .filter(|c| !matches!(c, '\r' | '\n' | ':'))
@@ -51,12 +51,12 @@ pub fn event(name: &str, data: &str) -> String {
 }
 
 /// A comment line (ignored by the browser; keeps proxies and the connection awake).
-pub fn comment(text: &str) -> String {
+pub(crate) fn comment(text: &str) -> String {
     format!(": {}\n\n", text.replace(['\r', '\n'], " "))
 }
 
 /// Streams `snapshot` to `out` until the client goes away or [`LIFETIME`] passes.
-pub fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::Result<()> {
+pub(crate) fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::Result<()> {
     out.write_all(head().as_bytes())?;
     out.flush()?;
     let begin = Instant::now();

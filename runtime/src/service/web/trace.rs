@@ -31,7 +31,7 @@ const SCAN_ANSWER: Duration = Duration::from_secs(3);
 
 /// The trace routes, by path.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TraceRoute {
+pub(crate) enum TraceRoute {
     /// `GET /api/trace`.
     List,
     /// `GET /api/trace/data`.
@@ -48,7 +48,7 @@ pub enum TraceRoute {
 
 impl TraceRoute {
     /// The route of `path`, and whether it is a write.
-    pub fn of(path: &str) -> Option<(Self, bool)> {
+    pub(crate) fn of(path: &str) -> Option<(Self, bool)> {
         Some(match path {
             "/api/trace" => (Self::List, false),
             "/api/trace/data" => (Self::Data, false),
@@ -110,7 +110,7 @@ fn name_of(query: &str) -> Option<String> {
 }
 
 /// Answers a trace route.
-pub fn answer(
+pub(crate) fn answer(
     auth: &WriteAuth,
     scan: &Sender<Envelope>,
     route: TraceRoute,

@@ -10,12 +10,12 @@ use softplc_io::point::Value;
 use crate::service::snapshot::SnapshotCell;
 
 /// Samples kept: a minute at the fastest sampling.
-pub const TREND_SAMPLES: usize = 600;
+pub(crate) const TREND_SAMPLES: usize = 600;
 /// The fastest sampling; a slower scan is sampled once per cycle.
-pub const FASTEST: Duration = Duration::from_millis(100);
+pub(crate) const FASTEST: Duration = Duration::from_millis(100);
 
 /// A value as a number for a plot (bools 0/1); `None` when not finite.
-pub fn number(v: Value) -> Option<f64> {
+pub(crate) fn number(v: Value) -> Option<f64> {
     let x = match v {
         Value::Bool(b) => f64::from(u8::from(b)),
         Value::U16(x) => f64::from(x),
@@ -27,7 +27,7 @@ pub fn number(v: Value) -> Option<f64> {
 
 /// The ring of samples of the trend's tags.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct Trend {
+pub(crate) struct Trend {
     /// The tags sampled (indexes into the project's tags).
     pub tags: Vec<usize>,
     /// Samples, oldest first: scan time and one value per tag.
@@ -38,7 +38,7 @@ pub struct Trend {
 
 impl Trend {
     /// An empty trend of `tags`.
-    pub fn new(tags: Vec<usize>) -> Self {
+    pub(crate) fn new(tags: Vec<usize>) -> Self {
         Self {
             tags,
             samples: VecDeque::with_capacity(TREND_SAMPLES),
@@ -48,7 +48,7 @@ impl Trend {
 
     /// Adds a sample of `values` (all tags, in tag order) taken at `now` after `cycles`
     /// cycles, unless no cycle completed since the last one.
-    pub fn sample(&mut self, cycles: u64, now: Duration, values: &[Value]) {
+    pub(crate) fn sample(&mut self, cycles: u64, now: Duration, values: &[Value]) {
         if self.last_cycle == Some(cycles) {
             return;
         }
@@ -67,7 +67,7 @@ impl Trend {
 
 /// Samples `snapshot` into `trend` every `every` (at least [`FASTEST`]) on a thread of its own,
 /// for the life of the process.
-pub fn spawn_sampler(
+pub(crate) fn spawn_sampler(
     snapshot: SnapshotCell,
     trend: Arc<Mutex<Trend>>,
     every: Duration,

@@ -64,7 +64,7 @@ fn blocks(outputs: &[InstanceOutput]) -> Json {
 /// The state: cycle figures and every tag's value, quality, age and force, and the block
 /// outputs (`b`) when the program has blocks (ladder; expr and Rhai programs publish none,
 /// and their state stays as small as it was).
-pub fn state(s: &ServiceSnapshot) -> Json {
+pub(crate) fn state(s: &ServiceSnapshot) -> Json {
     let age: Vec<f64> = s
         .timestamps
         .iter()
@@ -95,7 +95,7 @@ pub fn state(s: &ServiceSnapshot) -> Json {
 }
 
 /// The statistics: each phase's percentiles and histogram, each module's counters.
-pub fn stats(s: &ServiceSnapshot) -> Json {
+pub(crate) fn stats(s: &ServiceSnapshot) -> Json {
     let phases: Vec<Json> = Phase::ALL
         .iter()
         .zip(&s.phases)
@@ -141,7 +141,7 @@ pub fn stats(s: &ServiceSnapshot) -> Json {
 }
 
 /// The trend's history, column by column: times (ms of scan time) and one series per tag.
-pub fn trend(t: &Trend) -> Json {
+pub(crate) fn trend(t: &Trend) -> Json {
     let times: Vec<f64> = t.samples.iter().map(|(at, _)| ms(*at)).collect();
     let series: Vec<Vec<Option<f64>>> = (0..t.tags.len())
         .map(|k| {

@@ -8,7 +8,7 @@
 //!
 //! ```
 //! use std::time::Duration;
-//! use softplc::trace::export::{Sample, Signal, VcdWriter};
+//! use softplc::trace::{Sample, Signal, VcdWriter};
 //! use softplc_io::point::{Value, ValueType};
 //!
 //! let signals = [Signal::new("x1", ValueType::Bool), Signal::new("speed", ValueType::F32)];
@@ -27,15 +27,15 @@
 //! assert!(at_10ms.lines().any(|l| l == format!("1{id}")), "{text}");
 //! ```
 
-pub mod csv;
-pub mod vcd;
+pub(crate) mod csv;
+pub(crate) mod vcd;
 
 use std::time::Duration;
 
 use softplc_io::point::{Value, ValueType};
 
 pub use csv::CsvWriter;
-pub use vcd::VcdWriter;
+pub use vcd::{Timescale, VcdWriter};
 
 /// One recorded signal: a tag, a module counter, a phase time.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -112,8 +112,6 @@ use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
-pub use super::settings::SettingError;
-
 mod logic;
 pub use logic::CLEARED as LOGIC_CLEARED_AT_STARTUP;
 mod plan;
@@ -131,7 +129,7 @@ use settings::{runs, setup_steps, SetupStep};
 /// ([`super::push_down::PushDown::settings`]). A configuration of another family (never built by project validation, which parses the
 /// settings with this model) gives the module's defaults. An address that is no Modbus unit
 /// (refused by the model's range, 1..=247) gives a driver that plans nothing.
-pub fn build(config: &DeviceConfig) -> Box<dyn Driver> {
+pub(crate) fn build(config: &DeviceConfig) -> Box<dyn Driver> {
     let own = match &config.settings {
         ModuleSettings::MiniMod(s) => s.clone(),
         _ => Settings::default(),

@@ -67,7 +67,7 @@ pub enum Fmt {
     Reals,
     /// A 2RTD SENSOR_TYPE word by its names, `<Type>,<Current>,<Linearisation>,<Unit>`, and
     /// for both channels `S1,...,S2,...` (`GSCS`, L6416; see
-    /// [`super::sensor_config`]). Not numbers: the driver never plans a read through it.
+    /// `super::sensor_config`). Not numbers: the driver never plans a read through it.
     SensorConfig,
 }
 

@@ -13,7 +13,7 @@ use super::super::value::Num;
 /// Why a frame is not a RESI ASCII frame. The simulator stays silent on all of them: the
 /// manual documents no error answer (resi-spec §2.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum FrameError {
+pub(crate) enum FrameError {
     /// No `#`.
     #[error("no start character #")]
     NoStart,
@@ -36,7 +36,7 @@ pub enum FrameError {
 
 /// A bus address as it arrived.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Address<'a> {
+pub(crate) struct Address<'a> {
     /// Its spelling (`43`, `0x2B`).
     pub text: &'a str,
     /// Its value (may exceed 255; then it addresses nobody).
@@ -45,7 +45,7 @@ pub struct Address<'a> {
 
 /// A parsed request or answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Frame<'a> {
+pub(crate) struct Frame<'a> {
     /// The address, if the frame has one.
     pub address: Option<Address<'a>>,
     /// The command (or the answer's keyword), spaces included.
@@ -58,7 +58,7 @@ impl<'a> Frame<'a> {
     /// Parses a whole frame, CR included. A frame cut short by a new `#` is dropped: parsing
     /// starts at the last `#` (resi-spec §2.4: "discard a partial frame when a new `#`
     /// arrives"). An LF after the CR is tolerated, as terminals send CR LF.
-    pub fn parse(bytes: &'a [u8]) -> Result<Self, FrameError> {
+    pub(crate) fn parse(bytes: &'a [u8]) -> Result<Self, FrameError> {
         let start = bytes
             .iter()
             .rposition(|&b| b == b'#')
@@ -71,7 +71,7 @@ impl<'a> Frame<'a> {
 
     /// Parses the text between `#` and CR (an answer as the bus owner hands it over, with its
     /// `#` and without CR, goes through [`Frame::parse_answer`]).
-    pub fn parse_body(body: &'a [u8]) -> Result<Self, FrameError> {
+    pub(crate) fn parse_body(body: &'a [u8]) -> Result<Self, FrameError> {
         if let Some(at) = body.iter().position(|b| !(0x20..0x7F).contains(b)) {
             return Err(FrameError::NotPrintable { at });
         }
@@ -99,7 +99,7 @@ impl<'a> Frame<'a> {
 
     /// Parses an answer as the bus owner hands it over: `#...` with the CR stripped; spaces
     /// after the `:` are tolerated (printed so at L11470).
-    pub fn parse_answer(bytes: &'a [u8]) -> Result<Self, FrameError> {
+    pub(crate) fn parse_answer(bytes: &'a [u8]) -> Result<Self, FrameError> {
         let start = bytes
             .iter()
             .rposition(|&b| b == b'#')
@@ -110,7 +110,7 @@ impl<'a> Frame<'a> {
     }
 
     /// The parameters split at `,`, trimmed; empty without `:`.
-    pub fn values(&self) -> Vec<&'a str> {
+    pub(crate) fn values(&self) -> Vec<&'a str> {
         match self.params {
             None => Vec::new(),
             Some(p) => p.split(',').map(str::trim).collect(),
@@ -154,7 +154,7 @@ pub fn parse_number(text: &str) -> Option<Num> {
 
 /// `0x` + upper-case hex without padding (`0x1`, `0x7B`); negative numbers as their 32-bit
 /// two's complement.
-pub fn hex(v: i64) -> String {
+pub(crate) fn hex(v: i64) -> String {
     if v < 0 {
         format!("0x{:X}", v as i32 as u32)
     } else {
@@ -164,7 +164,7 @@ pub fn hex(v: i64) -> String {
 
 /// A real number with a `.` and at most five decimals (the registers carry 1/100000), at
 /// least one (`21.5`, `-999.0`).
-pub fn real(v: f64) -> String {
+pub(crate) fn real(v: f64) -> String {
     let s = format!("{v:.5}");
     let s = s.trim_end_matches('0');
     if s.ends_with('.') {

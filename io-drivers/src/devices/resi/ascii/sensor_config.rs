@@ -37,7 +37,7 @@ const UNITS: [&str; 3] = ["CELSIUS", "FAHRENHEIT", "KELVIN"];
 const NIBBLES: [&[&str]; 4] = [&TYPES, &CURRENTS, &LINEARISATIONS, &UNITS];
 
 /// `<Type>,<Current>,<Linearisation>,<Unit>` of a SENSOR_TYPE word.
-pub fn format(word: u16) -> String {
+pub(crate) fn format(word: u16) -> String {
     let names: Vec<String> = NIBBLES
         .iter()
         .enumerate()
@@ -55,7 +55,7 @@ pub fn format(word: u16) -> String {
 
 /// The SENSOR_TYPE word of four names (`PT100,1MA,EUROPE,CELSIUS`), or `None` for anything
 /// else.
-pub fn parse(parts: &[&str]) -> Option<u16> {
+pub(crate) fn parse(parts: &[&str]) -> Option<u16> {
     if parts.len() != NIBBLES.len() {
         return None;
     }
@@ -76,7 +76,7 @@ pub fn parse(parts: &[&str]) -> Option<u16> {
 }
 
 /// The answer of `GSCS`: `S1,<config 1>,S2,<config 2>` (L6420).
-pub fn format_both(words: &[u16]) -> String {
+pub(crate) fn format_both(words: &[u16]) -> String {
     words
         .iter()
         .enumerate()
@@ -86,7 +86,7 @@ pub fn format_both(words: &[u16]) -> String {
 }
 
 /// The parameters of `SSCS` (`S1,<config 1>,S2,<config 2>`, L6493) as two words.
-pub fn parse_both(parts: &[&str]) -> Option<[u16; 2]> {
+pub(crate) fn parse_both(parts: &[&str]) -> Option<[u16; 2]> {
     let [s1, a, b, c, d, s2, e, f, g, h] = parts else {
         return None;
     };

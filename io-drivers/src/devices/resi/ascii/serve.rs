@@ -20,7 +20,7 @@ use crate::devices::resi::state::Module;
 use crate::devices::resi::value::Num;
 
 /// The answer to `request` (a whole frame, CR included), if the module gives one.
-pub fn answer(m: &mut Module, request: &[u8]) -> Option<Vec<u8>> {
+pub(crate) fn answer(m: &mut Module, request: &[u8]) -> Option<Vec<u8>> {
     let f = Frame::parse(request).ok()?;
     let broadcast = match f.address {
         None => true,
@@ -121,7 +121,7 @@ fn execute(m: &mut Module, cmd: &Command, x: u8, params: Option<&str>) -> Option
 }
 
 /// The numbers of a get answer.
-pub fn format_values(values: &[Num], fmt: Fmt) -> String {
+pub(crate) fn format_values(values: &[Num], fmt: Fmt) -> String {
     let dec = |v: &Num| v.int().to_string();
     let hx = |v: &Num| hex(v.int());
     let parts: Vec<String> = match fmt {

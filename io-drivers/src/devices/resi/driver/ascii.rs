@@ -64,7 +64,7 @@ pub fn is_ok(answer: &[u8], address: u8) -> bool {
 }
 
 /// The number at `at` of an answer's values, or a part of it (first bit, width).
-pub fn value(values: &[String], at: usize, part: Option<(u8, u8)>) -> Option<Num> {
+pub(crate) fn value(values: &[String], at: usize, part: Option<(u8, u8)>) -> Option<Num> {
     let n = parse_number(values.get(at)?)?;
     Some(match part {
         None => n,
@@ -76,7 +76,7 @@ pub fn value(values: &[String], at: usize, part: Option<(u8, u8)>) -> Option<Num
 }
 
 /// The set command that writes `item` alone: (command, x).
-pub fn ascii_set(model: &'static Model, item: Item) -> Option<(&'static Command, u8)> {
+pub(crate) fn ascii_set(model: &'static Model, item: Item) -> Option<(&'static Command, u8)> {
     model
         .commands
         .iter()
@@ -94,7 +94,7 @@ pub fn ascii_set(model: &'static Model, item: Item) -> Option<(&'static Command,
 }
 
 /// The command that performs `op`.
-pub fn ascii_op(model: &'static Model, op: Op) -> Option<&'static Command> {
+pub(crate) fn ascii_op(model: &'static Model, op: Op) -> Option<&'static Command> {
     model
         .commands
         .iter()

@@ -53,9 +53,9 @@
 //! 8CO PULSE ROn) have one address each in the manual. The 1RO's `SOFFDLY` is in ms in both
 //! places that give it (`SOFFDLY`, L4096–L4110; 4x00005 OFFDLY, L4291–L4295).
 
-pub mod ascii;
-pub mod plan;
-pub mod settings;
+pub(crate) mod ascii;
+pub(crate) mod plan;
+pub(crate) mod settings;
 mod startup;
 mod write;
 
@@ -78,7 +78,7 @@ use crate::point::Value;
 /// what the push-down planner added ([`super::push_down::LogicTable::settings`]). A
 /// configuration of another family (never built by project validation, which parses the
 /// settings with this model) gives the model's defaults.
-pub fn build(model: &'static Model, config: &DeviceConfig) -> Box<dyn Driver> {
+pub(crate) fn build(model: &'static Model, config: &DeviceConfig) -> Box<dyn Driver> {
     let own = match &config.settings {
         ModuleSettings::Resi(s) => s.clone(),
         _ => settings::Settings::default(),
@@ -160,7 +160,7 @@ struct Step {
 
 /// The RESI driver.
 #[derive(Debug, Clone)]
-pub struct ResiDriver {
+pub(crate) struct ResiDriver {
     model: &'static Model,
     protocol: Protocol,
     address: u8,
@@ -178,7 +178,7 @@ pub struct ResiDriver {
 
 impl ResiDriver {
     /// A driver for the module of `model` at `address`, speaking `protocol`.
-    pub fn new(
+    pub(crate) fn new(
         model: &'static Model,
         protocol: Protocol,
         address: u8,

@@ -21,7 +21,7 @@ const MAX_GAP_REGS: u16 = 16;
 
 /// Where a point's value is in a reply.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Target {
+pub(crate) struct Target {
     /// The point's index.
     pub point: usize,
     /// Modbus: the address offset in the read; ASCII: the index of the value.
@@ -34,7 +34,7 @@ pub struct Target {
 
 /// One read exchange.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Read {
+pub(crate) enum Read {
     /// FC 1 (coils) or FC 2.
     Bits {
         /// First protocol address.
@@ -67,7 +67,7 @@ pub enum Read {
 }
 
 /// The Modbus reads of `points`.
-pub fn modbus(model: &'static Model, points: &[usize]) -> Vec<Read> {
+pub(crate) fn modbus(model: &'static Model, points: &[usize]) -> Vec<Read> {
     let mut entries: Vec<_> = points
         .iter()
         .filter_map(|&p| {
@@ -149,7 +149,7 @@ fn gets(model: &'static Model) -> impl Iterator<Item = (&'static Command, u8)> {
 }
 
 /// The position of value `k` in a get answer.
-pub fn position(fmt: Fmt, k: usize) -> usize {
+pub(crate) fn position(fmt: Fmt, k: usize) -> usize {
     match fmt {
         Fmt::Pairs => 2 * k,
         Fmt::DecsThenHexes | Fmt::Reals => k,
@@ -159,7 +159,10 @@ pub fn position(fmt: Fmt, k: usize) -> usize {
 }
 
 /// The get command that reads `item`: (command, x, index of the value).
-pub fn ascii_get(model: &'static Model, item: Item) -> Option<(&'static Command, u8, usize)> {
+pub(crate) fn ascii_get(
+    model: &'static Model,
+    item: Item,
+) -> Option<(&'static Command, u8, usize)> {
     gets(model)
         .filter_map(|(c, x)| {
             let Action::Get { fields, .. } = c.action else {
@@ -175,7 +178,7 @@ pub fn ascii_get(model: &'static Model, item: Item) -> Option<(&'static Command,
 }
 
 /// The ASCII reads of `points`; the points no command reads are left out (and returned).
-pub fn ascii(model: &'static Model, points: &[usize]) -> (Vec<Read>, Vec<usize>) {
+pub(crate) fn ascii(model: &'static Model, points: &[usize]) -> (Vec<Read>, Vec<usize>) {
     let mut out: Vec<Read> = Vec::new();
     let mut unreadable = Vec::new();
     for &p in points {

@@ -29,7 +29,7 @@ use crate::devices::resi::model::Model;
 use crate::devices::resi::value::Num;
 use crate::point::Access;
 
-pub use crate::devices::config::SettingError;
+pub(crate) use crate::devices::config::SettingError;
 
 /// One validated setting.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,10 +57,10 @@ pub enum Setting {
 }
 
 /// The key prefix of a relay's initial value (`initial_RO4: 0`).
-pub const INITIAL_PREFIX: &str = "initial_";
+pub(crate) const INITIAL_PREFIX: &str = "initial_";
 
 /// Whether `name` matches `pattern` (`NAME` or `NAME*`, `*` = one or more digits).
-pub fn matches(pattern: &str, name: &str) -> bool {
+pub(crate) fn matches(pattern: &str, name: &str) -> bool {
     match pattern.strip_suffix('*') {
         Some(prefix) => name
             .strip_prefix(prefix)
@@ -70,7 +70,7 @@ pub fn matches(pattern: &str, name: &str) -> bool {
 }
 
 /// Indexes of the points `patterns` name.
-pub fn select(model: &'static Model, patterns: &[&str]) -> Result<Vec<usize>, SettingError> {
+pub(crate) fn select(model: &'static Model, patterns: &[&str]) -> Result<Vec<usize>, SettingError> {
     let mut out = Vec::new();
     for pattern in patterns {
         let p = pattern.trim().to_ascii_uppercase().replace(' ', "_");
@@ -125,7 +125,11 @@ fn writable(model: &'static Model, key: &str) -> Option<Entry> {
 }
 
 /// Parses one `key: value` of a module's `settings`.
-pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, SettingError> {
+pub(crate) fn parse(
+    model: &'static Model,
+    key: &str,
+    value: &str,
+) -> Result<Setting, SettingError> {
     if key.eq_ignore_ascii_case("poll") {
         // Each pattern with its byte offset in the value, for the error.
         let mut patterns: Vec<(usize, &str)> = Vec::new();
@@ -241,7 +245,7 @@ pub fn parse(model: &'static Model, key: &str, value: &str) -> Result<Setting, S
 
 /// Every key of `model` (the catalog's `setting_keys`): `poll`, `reply_delay`, 1RO `SOFFDLY`,
 /// then each register a setting writes.
-pub fn keys(model: &'static Model) -> Vec<&'static str> {
+pub(crate) fn keys(model: &'static Model) -> Vec<&'static str> {
     let mut out = vec!["poll", "reply_delay"];
     if model.hw.one_relay {
         out.push("SOFFDLY");

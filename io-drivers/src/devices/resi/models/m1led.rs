@@ -113,7 +113,7 @@ static POINTS: &[crate::point::PointSpec] = points![
 ];
 
 /// The model.
-pub static MODEL: Model = Model {
+pub(crate) static MODEL: Model = Model {
     name: "resi-1led",
     type_name: "RESI-1LED-ASCII",
     copyright: "2015-16 BY RESI AND DI HC SIGL,MSC WWW.RESI.CC",

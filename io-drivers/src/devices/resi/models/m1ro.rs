@@ -91,7 +91,7 @@ static POINTS: &[crate::point::PointSpec] = points![
 ];
 
 /// The model.
-pub static MODEL: Model = Model {
+pub(crate) static MODEL: Model = Model {
     name: "resi-1ro",
     type_name: "RESI-1RO-ASCII",
     copyright: "2015 BY RESI AND DI HC SIGL,MSC WWW.RESI.CC",

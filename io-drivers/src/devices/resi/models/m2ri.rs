@@ -88,7 +88,7 @@ static POINTS: &[crate::point::PointSpec] = points![
 ];
 
 /// The model.
-pub static MODEL: Model = Model {
+pub(crate) static MODEL: Model = Model {
     name: "resi-2ri",
     type_name: "RESI-2RI-ASCII",
     copyright: "2015 BY RESI AND DI HC SIGL,MSC WWW.RESI.CC",

@@ -441,7 +441,7 @@ static POINTS: &[crate::point::PointSpec] = points![
 ];
 
 /// The model.
-pub static MODEL: Model = Model {
+pub(crate) static MODEL: Model = Model {
     name: "resi-2rtd",
     type_name: "RESI-2RTD-ASCII",
     copyright: "2016 BY RESI AND DI HC SIGL,MSC WWW.RESI.CC",

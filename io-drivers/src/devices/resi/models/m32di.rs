@@ -98,7 +98,7 @@ static POINTS: &[crate::point::PointSpec] = points![
 ];
 
 /// The model.
-pub static MODEL: Model = Model {
+pub(crate) static MODEL: Model = Model {
     name: "resi-32di",
     type_name: "RESI-32DI-ASCII",
     copyright: "2015-16 BY RESI AND DI HC SIGL,MSC WWW.RESI.CC",

@@ -2,18 +2,18 @@
 //! points and its hardware, and ends with `catalog_entry!` (defined in `resi/mod.rs`), which
 //! makes its catalog entry `SPEC` from them.
 
-pub mod m14ri;
+pub(crate) mod m14ri;
 pub mod m16di8ro;
-pub mod m1led;
-pub mod m1ro;
-pub mod m2ri;
-pub mod m2rtd;
-pub mod m32di;
-pub mod m4led;
-pub mod m8co;
+pub(crate) mod m1led;
+pub(crate) mod m1ro;
+pub(crate) mod m2ri;
+pub(crate) mod m2rtd;
+pub(crate) mod m32di;
+pub(crate) mod m4led;
+pub(crate) mod m8co;
 
 /// Every RESI model.
-pub static ALL: [&super::model::Model; 9] = [
+pub(crate) static ALL: [&super::model::Model; 9] = [
     &m16di8ro::MODEL,
     &m32di::MODEL,
     &m14ri::MODEL,

@@ -41,13 +41,13 @@ static SYSTEM: &[Block] = &[
 
 /// A module seen through its register map.
 #[derive(Debug)]
-pub struct Bank<'a> {
+pub(crate) struct Bank<'a> {
     m: &'a mut Module,
 }
 
 impl<'a> Bank<'a> {
     /// The bank of `m`.
-    pub fn new(m: &'a mut Module) -> Self {
+    pub(crate) fn new(m: &'a mut Module) -> Self {
         Self { m }
     }
 

@@ -9,7 +9,7 @@ use crate::line::Parity;
 use crate::sim::SimError;
 
 /// Help text.
-pub const HELP: &str = "\
+pub(crate) const HELP: &str = "\
 resi commands (DEVICE COMMAND ...):
   dip VALUE               set all DIP switches at once, bit n = DIP(n+1) (0x.., 0b.. or
                           decimal); the module restarts, as after any DIP change
@@ -56,7 +56,7 @@ fn bits(v: u32, n: u8) -> String {
 }
 
 /// Runs one command; the text to print.
-pub fn command(m: &mut Module, words: &[&str]) -> Result<String, SimError> {
+pub(crate) fn command(m: &mut Module, words: &[&str]) -> Result<String, SimError> {
     let series = m.model().series;
     match words {
         ["dip", value] => {
@@ -174,7 +174,7 @@ fn channel(ch: &str) -> Result<u8, SimError> {
 }
 
 /// The switches and what they select.
-pub fn switches(m: &Module) -> String {
+pub(crate) fn switches(m: &Module) -> String {
     let s = m.system();
     let parity = match s.parity() {
         Parity::None => 'N',

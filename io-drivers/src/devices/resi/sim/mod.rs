@@ -16,8 +16,8 @@
 //!   format, is not heard. A module installed for a line ([`SimDevice::set_uart`]) gets its
 //!   switches set to it.
 
-pub mod bank;
-pub mod console;
+pub(crate) mod bank;
+pub(crate) mod console;
 
 use std::time::Duration;
 
@@ -35,7 +35,7 @@ use crate::sim::{SimDevice, SimError, SimReply};
 
 /// A simulated RESI module.
 #[derive(Debug, Clone)]
-pub struct ResiSim {
+pub(crate) struct ResiSim {
     m: Module,
     /// The master's baud and format on a served line, when known.
     master: crate::sim::device::MasterLine,
@@ -55,7 +55,7 @@ fn is_ascii(frame: &[u8]) -> bool {
 impl ResiSim {
     /// A module of `model` just powered on, at FLASH address `address` with the address
     /// switches at 0.
-    pub fn new(model: &'static Model, address: u8) -> Self {
+    pub(crate) fn new(model: &'static Model, address: u8) -> Self {
         Self {
             m: Module::new(model, address),
             master: None,
@@ -63,7 +63,7 @@ impl ResiSim {
     }
 
     /// The baud and format the DIP switches select now.
-    pub fn uart(&self) -> LineSettings {
+    pub(crate) fn uart(&self) -> LineSettings {
         let s = self.m.system();
         LineSettings {
             baud: s.baud(),
@@ -80,13 +80,9 @@ impl ResiSim {
         crate::sim::device::hears(self.uart(), self.master)
     }
 
-    /// The module.
-    pub fn module(&self) -> &Module {
-        &self.m
-    }
-
     /// The module, to change it directly (tests, options).
-    pub fn module_mut(&mut self) -> &mut Module {
+    #[cfg(test)]
+    pub(crate) fn module_mut(&mut self) -> &mut Module {
         &mut self.m
     }
 

@@ -5,7 +5,7 @@
 
 /// What one sampling instant saw.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Sample {
+pub(crate) struct Sample {
     /// The levels now, bit n = DI(n+1).
     pub now: u32,
     /// The levels at the previous sample.
@@ -18,7 +18,7 @@ pub struct Sample {
 
 /// The inputs of a module.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Inputs {
+pub(crate) struct Inputs {
     count: u8,
     terminals: u32,
     sampled: u32,
@@ -28,7 +28,7 @@ pub struct Inputs {
 
 impl Inputs {
     /// `count` inputs (at most 32), all low.
-    pub fn new(count: u8) -> Self {
+    pub(crate) fn new(count: u8) -> Self {
         Self {
             count: count.min(32),
             terminals: 0,
@@ -39,7 +39,7 @@ impl Inputs {
     }
 
     /// How many inputs.
-    pub fn count(&self) -> u8 {
+    pub(crate) fn count(&self) -> u8 {
         self.count
     }
 
@@ -52,7 +52,7 @@ impl Inputs {
     }
 
     /// Sets the level at terminal DI(n+1); seen at the next sampling instant.
-    pub fn set_terminal(&mut self, n: u8, high: bool) {
+    pub(crate) fn set_terminal(&mut self, n: u8, high: bool) {
         if n < self.count {
             let bit = 1u32 << n;
             self.terminals = if high {
@@ -63,13 +63,8 @@ impl Inputs {
         }
     }
 
-    /// The level at terminal DI(n+1).
-    pub fn terminal(&self, n: u8) -> bool {
-        n < self.count && self.terminals & (1 << n) != 0
-    }
-
     /// One sampling instant: new levels, edges counted.
-    pub fn sample(&mut self) -> Sample {
+    pub(crate) fn sample(&mut self) -> Sample {
         let now = self.terminals & self.mask();
         let before = self.sampled;
         let rise = now & !before;
@@ -97,31 +92,31 @@ impl Inputs {
 
     /// Power-on or soft reset: counters at 0, and the levels taken as they are, so an input
     /// already high is not counted as a rising edge (resi-spec §4.5).
-    pub fn boot(&mut self) {
+    pub(crate) fn boot(&mut self) {
         self.sampled = self.terminals & self.mask();
         self.reset_counters();
     }
 
     /// RESET COUNTER / `RC`.
-    pub fn reset_counters(&mut self) {
+    pub(crate) fn reset_counters(&mut self) {
         self.rise = [0; 32];
         self.fall = [0; 32];
     }
 
     /// The sampled levels, bit n = DI(n+1).
-    pub fn levels(&self) -> u32 {
+    pub(crate) fn levels(&self) -> u32 {
         self.sampled
     }
 
     /// Rising edges of DI(n+1).
-    pub fn rises(&self, n: u8) -> Option<u16> {
+    pub(crate) fn rises(&self, n: u8) -> Option<u16> {
         (n < self.count)
             .then(|| self.rise.get(usize::from(n)).copied())
             .flatten()
     }
 
     /// Falling edges of DI(n+1).
-    pub fn falls(&self, n: u8) -> Option<u16> {
+    pub(crate) fn falls(&self, n: u8) -> Option<u16> {
         (n < self.count)
             .then(|| self.fall.get(usize::from(n)).copied())
             .flatten()

@@ -13,14 +13,14 @@
 //! kept (undocumented).
 
 /// The largest set point (0x0FFF = 100 %, L11700).
-pub const MAX_LO: u16 = 4095;
+pub(crate) const MAX_LO: u16 = 4095;
 
 /// The highest MODE.
-pub const MAX_MODE: u16 = 5;
+pub(crate) const MAX_MODE: u16 = 5;
 
 /// The LED channels of a module.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Leds {
+pub(crate) struct Leds {
     groups: u8,
     lo: [u16; 12],
     mode: [u16; 4],
@@ -37,11 +37,11 @@ pub struct Leds {
 
 /// A value the LED registers refuse.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct OutOfRange;
+pub(crate) struct OutOfRange;
 
 /// A group setting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum GroupSetting {
+pub(crate) enum GroupSetting {
     /// MODE.
     Mode,
     /// FADESPEED.
@@ -54,7 +54,7 @@ pub enum GroupSetting {
 
 impl Leds {
     /// `groups` groups of three channels (at most 4).
-    pub fn new(groups: u8) -> Self {
+    pub(crate) fn new(groups: u8) -> Self {
         Self {
             groups: groups.min(4),
             lo: [0; 12],
@@ -73,14 +73,14 @@ impl Leds {
     }
 
     /// LOn (n 0-based).
-    pub fn lo(&self, n: u8) -> Option<u16> {
+    pub(crate) fn lo(&self, n: u8) -> Option<u16> {
         (n < self.channels())
             .then(|| self.lo.get(usize::from(n)).copied())
             .flatten()
     }
 
     /// A group setting of group g (0-based).
-    pub fn group(&self, s: GroupSetting, g: u8) -> Option<u16> {
+    pub(crate) fn group(&self, s: GroupSetting, g: u8) -> Option<u16> {
         if g >= self.groups {
             return None;
         }
@@ -94,7 +94,7 @@ impl Leds {
     }
 
     /// CLOn at `now`.
-    pub fn clo(&self, n: u8, now: u64) -> Option<u16> {
+    pub(crate) fn clo(&self, n: u8, now: u64) -> Option<u16> {
         let lo = self.lo(n)?;
         let i = usize::from(n);
         let g = usize::from(n / 3);
@@ -127,7 +127,7 @@ impl Leds {
     }
 
     /// ISFADING of group g at `now`.
-    pub fn is_fading(&self, g: u8, now: u64) -> Option<bool> {
+    pub(crate) fn is_fading(&self, g: u8, now: u64) -> Option<bool> {
         let mode = self.group(GroupSetting::Mode, g)?;
         Some(mode == 3 && (g * 3..g * 3 + 3).any(|n| self.clo(n, now) != self.lo(n)))
     }
@@ -142,7 +142,7 @@ impl Leds {
     }
 
     /// Writes LOn at `now`.
-    pub fn set_lo(&mut self, n: u8, value: u16, now: u64) -> Result<(), OutOfRange> {
+    pub(crate) fn set_lo(&mut self, n: u8, value: u16, now: u64) -> Result<(), OutOfRange> {
         if n >= self.channels() || value > MAX_LO {
             return Err(OutOfRange);
         }
@@ -154,7 +154,7 @@ impl Leds {
     }
 
     /// Writes a group setting of group g at `now`.
-    pub fn set_group(
+    pub(crate) fn set_group(
         &mut self,
         s: GroupSetting,
         g: u8,
@@ -192,7 +192,7 @@ impl Leds {
     }
 
     /// Reset: every group in mode ON.
-    pub fn boot(&mut self, now: u64) {
+    pub(crate) fn boot(&mut self, now: u64) {
         self.mode = [1; 4];
         self.mode_since = [now; 4];
     }

@@ -11,12 +11,12 @@
 //!   L16434; FLASH unit address) and resets the rest (edge counters, L20312; pulse timers;
 //!   monostable relays).
 
-pub mod inputs;
-pub mod led;
-pub mod one_ro;
-pub mod relays;
-pub mod rtd;
-pub mod system;
+pub(crate) mod inputs;
+pub(crate) mod led;
+pub(crate) mod one_ro;
+pub(crate) mod relays;
+pub(crate) mod rtd;
+pub(crate) mod system;
 
 use super::item::{Item, Kind, Temp};
 use super::logic::Logic;
@@ -31,11 +31,11 @@ use rtd::Channel;
 use system::System;
 
 /// The input sampling period, ms (L16833).
-pub const SAMPLE_MS: u64 = 10;
+pub(crate) const SAMPLE_MS: u64 = 10;
 
 /// Why an access was refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum AccessError {
+pub(crate) enum AccessError {
     /// The model has no such item.
     #[error("no such item on this model")]
     Absent,
@@ -49,7 +49,7 @@ pub enum AccessError {
 
 /// A simulated RESI module.
 #[derive(Debug, Clone)]
-pub struct Module {
+pub(crate) struct Module {
     model: &'static Model,
     /// The simulator options.
     pub opts: Options,
@@ -83,7 +83,7 @@ fn bit(v: u32, n: u8) -> i64 {
 
 impl Module {
     /// A module of `model` just powered on, with FLASH address `address`.
-    pub fn new(model: &'static Model, address: u8) -> Self {
+    pub(crate) fn new(model: &'static Model, address: u8) -> Self {
         let opts = Options {
             system_registers: model.system_registers,
             ..Options::default()
@@ -108,22 +108,22 @@ impl Module {
     }
 
     /// The model.
-    pub fn model(&self) -> &'static Model {
+    pub(crate) fn model(&self) -> &'static Model {
         self.model
     }
 
     /// Module time, ms.
-    pub fn now(&self) -> u64 {
+    pub(crate) fn now(&self) -> u64 {
         self.now
     }
 
     /// DIP switches and addresses.
-    pub fn system(&self) -> &System {
+    pub(crate) fn system(&self) -> &System {
         &self.sys
     }
 
     /// The address the module answers at.
-    pub fn address(&self) -> u8 {
+    pub(crate) fn address(&self) -> u8 {
         self.sys.address()
     }
 
@@ -146,18 +146,18 @@ impl Module {
     }
 
     /// Switches the module off and on again.
-    pub fn power_cycle(&mut self) {
+    pub(crate) fn power_cycle(&mut self) {
         self.boot();
     }
 
     /// Sets the DIP switches; the module restarts (L17759).
-    pub fn set_dip(&mut self, dip: u8) {
+    pub(crate) fn set_dip(&mut self, dip: u8) {
         self.sys.set_dip(dip);
         self.boot();
     }
 
     /// The DIP switches for changes of address, baud or parity; the module restarts after.
-    pub fn change_switches(&mut self, change: impl FnOnce(&mut System) -> bool) -> bool {
+    pub(crate) fn change_switches(&mut self, change: impl FnOnce(&mut System) -> bool) -> bool {
         let ok = change(&mut self.sys);
         if ok {
             self.boot();
@@ -166,25 +166,20 @@ impl Module {
     }
 
     /// Sets the level at terminal DI(n+1); seen at the next 10 ms sample.
-    pub fn set_terminal(&mut self, n: u8, high: bool) {
+    pub(crate) fn set_terminal(&mut self, n: u8, high: bool) {
         self.inputs.set_terminal(n, high);
         self.dirty = true;
     }
 
-    /// The level at terminal DI(n+1).
-    pub fn terminal(&self, n: u8) -> bool {
-        self.inputs.terminal(n)
-    }
-
     /// Sets the temperature at sensor `ch` (0-based), °C.
-    pub fn set_temperature(&mut self, ch: u8, celsius: f64) -> Result<(), AccessError> {
+    pub(crate) fn set_temperature(&mut self, ch: u8, celsius: f64) -> Result<(), AccessError> {
         let c = self.channel_mut(ch)?;
         c.set_celsius(celsius);
         Ok(())
     }
 
     /// Injects a sensor fault (STATUS bits) on channel `ch`, 0 to clear.
-    pub fn set_sensor_fault(&mut self, ch: u8, bits: u16) -> Result<(), AccessError> {
+    pub(crate) fn set_sensor_fault(&mut self, ch: u8, bits: u16) -> Result<(), AccessError> {
         self.channel_mut(ch)?.set_fault(bits);
         Ok(())
     }
@@ -233,7 +228,7 @@ impl Module {
     }
 
     /// Runs the module up to `t` ms; earlier times are ignored.
-    pub fn advance_to(&mut self, t: u64) {
+    pub(crate) fn advance_to(&mut self, t: u64) {
         // At the end of time (saturated arithmetic) a sample may fall on the last one: stop.
         while let Some(due) = self
             .sample_due()
@@ -264,7 +259,7 @@ impl Module {
     }
 
     /// Reads an item as the host would.
-    pub fn read(&self, item: Item) -> Result<Num, AccessError> {
+    pub(crate) fn read(&self, item: Item) -> Result<Num, AccessError> {
         let n = item.index;
         let hw = self.model.hw;
         let levels = self.inputs.levels();
@@ -426,7 +421,7 @@ impl Module {
     }
 
     /// Writes an item as the host would (Modbus or ASCII).
-    pub fn write(&mut self, item: Item, value: Num) -> Result<(), AccessError> {
+    pub(crate) fn write(&mut self, item: Item, value: Num) -> Result<(), AccessError> {
         // Whether the item exists decides between "absent" and the checks below.
         self.read(item)?;
         let n = item.index;
@@ -526,14 +521,14 @@ impl Module {
     }
 
     /// `RC` / RESET COUNTER.
-    pub fn reset_counters(&mut self) -> Result<(), AccessError> {
+    pub(crate) fn reset_counters(&mut self) -> Result<(), AccessError> {
         self.need(self.model.hw.inputs > 0)?;
         self.inputs.reset_counters();
         Ok(())
     }
 
     /// `RSTSPCMODE` / CLEAR ALL LOGIC FUNCTIONS.
-    pub fn clear_logic(&mut self) -> Result<(), AccessError> {
+    pub(crate) fn clear_logic(&mut self) -> Result<(), AccessError> {
         self.need(self.model.hw.logic)?;
         self.logic.clear(&self.opts);
         self.dirty = true;
@@ -541,7 +536,7 @@ impl Module {
     }
 
     /// `RST`: a soft reset.
-    pub fn reset(&mut self) {
+    pub(crate) fn reset(&mut self) {
         self.boot();
     }
 }

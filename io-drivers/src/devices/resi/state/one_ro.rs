@@ -8,7 +8,7 @@
 
 /// DO1 and its off-delay.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct OneRelay {
+pub(crate) struct OneRelay {
     do1: bool,
     /// End of the off-delay, ms of module time.
     until: Option<u64>,
@@ -16,46 +16,46 @@ pub struct OneRelay {
 
 impl OneRelay {
     /// DO1, the commanded output.
-    pub fn output(&self) -> bool {
+    pub(crate) fn output(&self) -> bool {
         self.do1
     }
 
     /// Commands DO1 (`SDO1`: "!=0: Digital output 1 is ON", L4092).
-    pub fn set_output(&mut self, on: bool) {
+    pub(crate) fn set_output(&mut self, on: bool) {
         self.do1 = on;
     }
 
     /// Starts (or restarts, or with 0 ends) the off-delay at `now`.
-    pub fn set_off_delay(&mut self, ms: u16, now: u64) {
+    pub(crate) fn set_off_delay(&mut self, ms: u16, now: u64) {
         self.until = (ms > 0).then(|| now.saturating_add(u64::from(ms)));
     }
 
     /// Remaining off-delay at `now`, ms.
-    pub fn off_delay(&self, now: u64) -> u16 {
+    pub(crate) fn off_delay(&self, now: u64) -> u16 {
         self.until.map_or(0, |u| {
             u16::try_from(u.saturating_sub(now)).unwrap_or(u16::MAX)
         })
     }
 
     /// Whether the off-delay runs at `now`.
-    pub fn delaying(&self, now: u64) -> bool {
+    pub(crate) fn delaying(&self, now: u64) -> bool {
         self.off_delay(now) > 0
     }
 
     /// The true relay state at `now`.
-    pub fn relay(&self, now: u64) -> bool {
+    pub(crate) fn relay(&self, now: u64) -> bool {
         self.do1 || self.delaying(now)
     }
 
     /// Forgets a timer that has run out by `now`.
-    pub fn expire(&mut self, now: u64) {
+    pub(crate) fn expire(&mut self, now: u64) {
         if !self.delaying(now) {
             self.until = None;
         }
     }
 
     /// Power-on: the relay is monostable and nothing is remembered.
-    pub fn boot(&mut self) {
+    pub(crate) fn boot(&mut self) {
         *self = Self::default();
     }
 }

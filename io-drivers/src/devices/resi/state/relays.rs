@@ -9,7 +9,7 @@
 
 /// The relays of a module.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Relays {
+pub(crate) struct Relays {
     count: u8,
     state: u8,
     counters: [u32; 8],
@@ -19,7 +19,7 @@ pub struct Relays {
 
 impl Relays {
     /// `count` relays (at most 8), all off.
-    pub fn new(count: u8) -> Self {
+    pub(crate) fn new(count: u8) -> Self {
         Self {
             count: count.min(8),
             state: 0,
@@ -29,7 +29,7 @@ impl Relays {
     }
 
     /// How many relays.
-    pub fn count(&self) -> u8 {
+    pub(crate) fn count(&self) -> u8 {
         self.count
     }
 
@@ -42,17 +42,17 @@ impl Relays {
     }
 
     /// Every relay, bit n = RO(n+1).
-    pub fn bits(&self) -> u8 {
+    pub(crate) fn bits(&self) -> u8 {
         self.state
     }
 
     /// Whether RO(n+1) is on.
-    pub fn is_on(&self, n: u8) -> bool {
+    pub(crate) fn is_on(&self, n: u8) -> bool {
         n < self.count && self.state & (1 << n) != 0
     }
 
     /// Switches RO(n+1); counts a cycle if it changed.
-    pub fn set(&mut self, n: u8, on: bool) {
+    pub(crate) fn set(&mut self, n: u8, on: bool) {
         if n >= self.count || self.is_on(n) == on {
             return;
         }
@@ -63,7 +63,7 @@ impl Relays {
     }
 
     /// Sets every relay from a bit pattern (bits above the relay count are ignored).
-    pub fn set_bits(&mut self, bits: u8) {
+    pub(crate) fn set_bits(&mut self, bits: u8) {
         for n in 0..self.count {
             self.set(n, bits & (1 << n) != 0);
         }
@@ -71,14 +71,14 @@ impl Relays {
     }
 
     /// Switching cycles of RO(n+1).
-    pub fn counter(&self, n: u8) -> Option<u32> {
+    pub(crate) fn counter(&self, n: u8) -> Option<u32> {
         (n < self.count)
             .then(|| self.counters.get(usize::from(n)).copied())
             .flatten()
     }
 
     /// Starts an 8CO pulse: RO(n+1) on until `until` (ms); `None` cancels and switches off.
-    pub fn pulse(&mut self, n: u8, until: Option<u64>) {
+    pub(crate) fn pulse(&mut self, n: u8, until: Option<u64>) {
         if n >= self.count {
             return;
         }
@@ -89,14 +89,14 @@ impl Relays {
     }
 
     /// Forgets a running pulse of RO(n+1) without switching (a host write took over).
-    pub fn cancel_pulse(&mut self, n: u8) {
+    pub(crate) fn cancel_pulse(&mut self, n: u8) {
         if let Some(slot) = self.pulse_until.get_mut(usize::from(n)) {
             *slot = None;
         }
     }
 
     /// Remaining pulse time of RO(n+1) at `now`, ms.
-    pub fn pulse_left(&self, n: u8, now: u64) -> u64 {
+    pub(crate) fn pulse_left(&self, n: u8, now: u64) -> u64 {
         self.pulse_until
             .get(usize::from(n))
             .copied()
@@ -105,7 +105,7 @@ impl Relays {
     }
 
     /// Ends the pulses due by `now`.
-    pub fn expire(&mut self, now: u64) {
+    pub(crate) fn expire(&mut self, now: u64) {
         for n in 0..self.count {
             let due = self
                 .pulse_until
@@ -121,7 +121,7 @@ impl Relays {
 
     /// Power loss of monostable relays: all off, pulses gone. Not a switching cycle of the
     /// module's doing, but the contacts do open, so it counts like any other change.
-    pub fn drop_all(&mut self) {
+    pub(crate) fn drop_all(&mut self) {
         self.pulse_until = [None; 8];
         self.set_bits(0);
     }

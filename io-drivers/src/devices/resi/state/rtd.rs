@@ -13,17 +13,17 @@
 //!   from the next boot on.
 
 /// The sentinel for "no value" (L6792).
-pub const NO_VALUE: f64 = -999.0;
+pub(crate) const NO_VALUE: f64 = -999.0;
 
 /// STATUS bit 0: the measurement is valid (L6921).
-pub const STATUS_VALID: u16 = 1;
+pub(crate) const STATUS_VALID: u16 = 1;
 
 /// STATUS bit 7: SENSOR HARD FAULT (L6970).
-pub const STATUS_HARD_FAULT: u16 = 0x80;
+pub(crate) const STATUS_HARD_FAULT: u16 = 0x80;
 
 /// One channel's FLASH configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Config {
+pub(crate) struct Config {
     /// SENSOR_TYPE bitfields: TYPE 0..3, CURRENT 4..7, LINEARISATION 8..11, UNIT 12..15.
     pub sensor_type: u16,
     /// ZERO_OFFSET, °C.
@@ -34,7 +34,7 @@ pub struct Config {
 
 /// One channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Channel {
+pub(crate) struct Channel {
     celsius: f64,
     fault: u16,
     last_valid: f64,
@@ -65,19 +65,19 @@ impl Channel {
     }
 
     /// Sets the temperature at the sensor, °C; clears a fault.
-    pub fn set_celsius(&mut self, celsius: f64) {
+    pub(crate) fn set_celsius(&mut self, celsius: f64) {
         self.celsius = celsius;
         self.fault = 0;
         self.last_valid = celsius;
     }
 
     /// Injects a fault (STATUS bits other than VALID), or clears it with 0.
-    pub fn set_fault(&mut self, bits: u16) {
+    pub(crate) fn set_fault(&mut self, bits: u16) {
         self.fault = bits & !STATUS_VALID;
     }
 
     /// REAL_TEMP in the channel's unit.
-    pub fn real(&self) -> f64 {
+    pub(crate) fn real(&self) -> f64 {
         if self.fault != 0 {
             NO_VALUE
         } else {
@@ -86,12 +86,12 @@ impl Channel {
     }
 
     /// VALID_TEMP in the channel's unit.
-    pub fn valid(&self) -> f64 {
+    pub(crate) fn valid(&self) -> f64 {
         self.in_unit(self.last_valid + self.active.offset)
     }
 
     /// AVG_TEMP `since_boot_s` seconds after boot.
-    pub fn avg(&self, since_boot_s: u64) -> f64 {
+    pub(crate) fn avg(&self, since_boot_s: u64) -> f64 {
         if since_boot_s < u64::from(self.active.interval) {
             NO_VALUE
         } else {
@@ -100,7 +100,7 @@ impl Channel {
     }
 
     /// AVG_COUNT: measurements in the running window (one per second).
-    pub fn avg_count(&self, since_boot_s: u64) -> u32 {
+    pub(crate) fn avg_count(&self, since_boot_s: u64) -> u32 {
         match self.active.interval {
             0 => 0,
             i => u32::try_from(since_boot_s % u64::from(i)).unwrap_or(u32::MAX),
@@ -108,12 +108,12 @@ impl Channel {
     }
 
     /// AVG_SUM: the sum of the running window.
-    pub fn avg_sum(&self, since_boot_s: u64) -> f64 {
+    pub(crate) fn avg_sum(&self, since_boot_s: u64) -> f64 {
         f64::from(self.avg_count(since_boot_s)) * self.valid()
     }
 
     /// STATUS.
-    pub fn status(&self) -> u16 {
+    pub(crate) fn status(&self) -> u16 {
         if self.fault != 0 {
             self.fault
         } else {
@@ -122,7 +122,7 @@ impl Channel {
     }
 
     /// Boot: the FLASH configuration becomes active.
-    pub fn boot(&mut self) {
+    pub(crate) fn boot(&mut self) {
         self.active = self.flash;
     }
 }

@@ -26,7 +26,7 @@ const SLIM_BAUD: [u32; 4] = [9600, 19200, 38400, 57600];
 
 /// DIP switches and addresses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct System {
+pub(crate) struct System {
     series: Series,
     dip: u8,
     flash: u8,
@@ -37,7 +37,7 @@ pub struct System {
 
 impl System {
     /// A module whose FLASH address is `flash`, with the default switches.
-    pub fn new(series: Series, flash: u8) -> Self {
+    pub(crate) fn new(series: Series, flash: u8) -> Self {
         let dip = match series {
             Series::Compact => 0b1010_0000, // BR = 010 (19200 Bd), PARITY = EVEN, ADR = 0
             Series::Slim => 0b0101,         // BR = 19200 Bd, RS485
@@ -54,13 +54,13 @@ impl System {
     }
 
     /// The switches, bit n = DIP(n+1).
-    pub fn dip(&self) -> u8 {
+    pub(crate) fn dip(&self) -> u8 {
         self.dip
     }
 
     /// Sets the switches (bits beyond the series' count are dropped). The caller restarts
     /// the module.
-    pub fn set_dip(&mut self, dip: u8) {
+    pub(crate) fn set_dip(&mut self, dip: u8) {
         self.dip = match self.series {
             Series::Compact => dip,
             Series::Slim => dip & 0x0F,
@@ -68,12 +68,12 @@ impl System {
     }
 
     /// The address in use.
-    pub fn address(&self) -> u8 {
+    pub(crate) fn address(&self) -> u8 {
         self.address
     }
 
     /// The FLASH address.
-    pub fn flash(&self) -> u8 {
+    pub(crate) fn flash(&self) -> u8 {
         self.flash
     }
 
@@ -85,7 +85,7 @@ impl System {
     }
 
     /// `SMBADR`: stores the FLASH address and uses it at once where the manual says so.
-    pub fn smbadr(&mut self, address: u8) {
+    pub(crate) fn smbadr(&mut self, address: u8) {
         self.flash = address;
         // "affect the MODBUS/RTU communication immediately" (slim, L2383) unless DIP4 forces
         // 255; compact modules only when their ADR switches are 0 (L19908).
@@ -96,17 +96,17 @@ impl System {
 
     /// MODBUS UNIT ADDRESS (4x65222) written: stored, used after the next boot; "All values
     /// above unit ID 255 define also the unit ID 255" (L2726).
-    pub fn set_unit_address(&mut self, value: u16) {
+    pub(crate) fn set_unit_address(&mut self, value: u16) {
         self.flash = u8::try_from(value).unwrap_or(u8::MAX);
     }
 
     /// Boot: the address from the switches or FLASH.
-    pub fn boot(&mut self) {
+    pub(crate) fn boot(&mut self) {
         self.address = self.dip_address().unwrap_or(self.flash);
     }
 
     /// The baud rate the switches select.
-    pub fn baud(&self) -> u32 {
+    pub(crate) fn baud(&self) -> u32 {
         match self.series {
             Series::Compact => COMPACT_BAUD[usize::from((self.dip >> 4) & 7)],
             Series::Slim => SLIM_BAUD[usize::from(self.dip & 3)],
@@ -114,7 +114,7 @@ impl System {
     }
 
     /// The parity: DIP8 on compact modules (L17754), the configured one on slim modules.
-    pub fn parity(&self) -> Parity {
+    pub(crate) fn parity(&self) -> Parity {
         match self.series {
             Series::Compact if self.dip & 0x80 != 0 => Parity::Even,
             Series::Compact => Parity::None,
@@ -123,7 +123,7 @@ impl System {
     }
 
     /// The switch bits that select `baud`, if the series has it.
-    pub fn baud_bits(&self, baud: u32) -> Option<u8> {
+    pub(crate) fn baud_bits(&self, baud: u32) -> Option<u8> {
         match self.series {
             Series::Compact => COMPACT_BAUD
                 .iter()
@@ -134,7 +134,7 @@ impl System {
     }
 
     /// Mask of the switch bits that select the baud rate.
-    pub fn baud_mask(&self) -> u8 {
+    pub(crate) fn baud_mask(&self) -> u8 {
         match self.series {
             Series::Compact => 0x70,
             Series::Slim => 0x03,
@@ -143,7 +143,7 @@ impl System {
 
     /// Sets the parity: DIP8 on compact modules, the stored setting on slim ones (odd only
     /// there, L754).
-    pub fn set_parity(&mut self, parity: Parity) -> bool {
+    pub(crate) fn set_parity(&mut self, parity: Parity) -> bool {
         match (self.series, parity) {
             (Series::Compact, Parity::Odd) => false,
             (Series::Compact, p) => {
@@ -162,7 +162,7 @@ impl System {
     }
 
     /// Sets the address switches (compact: ADR0..3 = `address` 0..15; slim: FD for 255).
-    pub fn set_address_switches(&mut self, address: u8) -> bool {
+    pub(crate) fn set_address_switches(&mut self, address: u8) -> bool {
         match (self.series, address) {
             (Series::Compact, 0..=15) => {
                 self.dip = (self.dip & 0xF0) | address;
