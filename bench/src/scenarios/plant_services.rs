@@ -704,6 +704,8 @@ fn asyncua_client(
     }
     let mut child = Command::new(python)
         .arg(bench.join("py").join(script))
+        // Its import of opcua_connect.py would leave a __pycache__ in the source tree.
+        .env("PYTHONDONTWRITEBYTECODE", "1")
         .arg(format!("opc.tcp://127.0.0.1:{port}/"))
         .arg(format!("urn:softplc:{project}"))
         .args(args)
