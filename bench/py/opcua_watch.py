@@ -7,9 +7,10 @@ Prints "READY" once the subscription is created, then "CHANGE <value>" per notif
 
 import asyncio
 import sys
-import time
 
-from asyncua import Client, ua
+from asyncua import ua
+
+from opcua_connect import connect
 
 URL, NS_URI, TAG, PUBLISHING_MS = sys.argv[1], sys.argv[2], sys.argv[3], float(sys.argv[4])
 
@@ -20,17 +21,9 @@ class Printer:
 
 
 async def main():
-    deadline = time.monotonic() + 30
-    while True:
-        client = Client(url=URL, timeout=5)
-        try:
-            await client.connect()
-            break
-        except (OSError, asyncio.TimeoutError, ua.UaError):
-            if time.monotonic() > deadline:
-                print(f"FAIL cannot connect to {URL}", flush=True)
-                return
-            await asyncio.sleep(0.1)
+    client = await connect(URL)
+    if client is None:
+        return
     ns = await client.get_namespace_index(NS_URI)
     node = client.get_node(ua.NodeId(f"Tags.{TAG}", ns))
     sub = await client.create_subscription(PUBLISHING_MS, Printer())

@@ -5,7 +5,9 @@
 //! The consumer drives the scenario: births (datatypes, aliases, bdSeq, seq), a DDATA after the
 //! plant changes an input, a write applied, writes refused (read-only tag, forced tag), a
 //! rebirth on command, a broker restart in the middle of the run, NDEATH with the matching
-//! bdSeq when softplc is killed, and a clean stop. `scripts/test` installs mosquitto and the
+//! bdSeq when softplc is killed, and a clean stop. A broker that wants a password takes the
+//! project's user and refuses a wrong password; TLS to a broker signed by the project's CA
+//! connects, and by another CA is refused. `scripts/test` installs mosquitto and the
 //! Python environment (`target/py-venv`, pinned in `runtime/tests/mqtt/requirements.txt`);
 //! without them this test fails and says so.
 
@@ -43,12 +45,16 @@ impl Broker {
         Self::start_with(dir, port, "")
     }
 
-    /// With `extra` configuration lines for the listener (TLS).
+    /// With `extra` configuration lines for the listener (TLS, a password file: then no
+    /// anonymous access).
     fn start_with(dir: &Path, port: u16, extra: &str) -> Self {
         let conf = dir.join("mosquitto.conf");
+        let anonymous = !extra.contains("password_file");
         std::fs::write(
             &conf,
-            format!("listener {port} 127.0.0.1\n{extra}allow_anonymous true\npersistence false\n"),
+            format!(
+                "listener {port} 127.0.0.1\n{extra}allow_anonymous {anonymous}\npersistence false\n"
+            ),
         )
         .unwrap();
         let child = Command::new("mosquitto")
@@ -485,6 +491,68 @@ fn tls_to_a_broker_signed_by_the_projects_ca_and_a_refusal_by_another_ca() {
                 "{text}"
             );
         }
+    }
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
+fn a_broker_that_wants_a_password_takes_the_projects_user_and_refuses_a_wrong_password() {
+    let dir = std::env::temp_dir().join(format!("softplc-mqtt-user-{}", std::process::id()));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    std::fs::create_dir_all(&dir).unwrap();
+    let passwords = dir.join("passwords");
+    let out = Command::new("mosquitto_passwd")
+        .args(["-b", "-c"])
+        .arg(&passwords)
+        .args(["plc", "right-pass"])
+        .output()
+        .expect("mosquitto_passwd (Debian's mosquitto) is installed by scripts/test");
+    assert!(out.status.success(), "mosquitto_passwd: {out:?}");
+    let port = free_port();
+    let _broker = Broker::start_with(
+        &dir,
+        port,
+        &format!("password_file {}\n", passwords.display()),
+    );
+    for (case, password, connects) in [
+        ("right", "right-pass", true),
+        ("wrong", "wrong-pass", false),
+    ] {
+        let text = std::fs::read_to_string(project(&dir, port)).unwrap();
+        let path = dir.join(format!("user-{case}.yaml"));
+        std::fs::write(
+            &path,
+            text.replace(
+                "    buffer: 1000\n",
+                &format!("    buffer: 1000\n    username: plc\n    password: {password}\n"),
+            ),
+        )
+        .unwrap();
+        let log = dir.join(format!("user-{case}.log"));
+        let mut plc = softplc(&path, &dir.join(format!("{case}.sock")), "2s", &log);
+        let end = Instant::now() + Duration::from_secs(20);
+        while plc.try_wait().unwrap().is_none() {
+            assert!(Instant::now() < end, "softplc did not stop");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let text = std::fs::read_to_string(&log).unwrap();
+        assert_eq!(
+            text.contains("MQTT: NBIRTH (bdSeq 0)"),
+            connects,
+            "{case} password: {text}"
+        );
+        if !connects {
+            assert!(
+                text.contains(&format!("MQTT: cannot connect to 127.0.0.1:{port}: ")),
+                "{text}"
+            );
+        }
+        assert!(
+            !text.contains(password),
+            "the log shows no password: {text}"
+        );
     }
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));

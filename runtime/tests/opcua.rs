@@ -9,6 +9,12 @@
 //! the server's writes are off. `scripts/test` installs the Python environment
 //! (`target/py-venv`, pinned in `runtime/tests/opcua/requirements.txt`).
 //!
+//! On a Basic256Sha256 Sign & Encrypt endpoint with a user, the client is refused with
+//! SecurityPolicy None, with an untrusted certificate (until the test moves it out of the
+//! server's `rejected/` folder, as an operator would), and with a wrong password or user; with
+//! the right ones it reads over the encrypted channel; the server's certificate, made in the
+//! state folder at first start, is the same after a second start.
+//!
 //! `check` refuses a server beyond loopback without security, at the key to fix.
 
 use std::io::Write;
@@ -75,7 +81,16 @@ impl Drop for DeadLine {
     }
 }
 
-fn project(dir: &Path, port: u16, writes: bool, dead: &str) -> PathBuf {
+/// The secure case's user and password.
+const USER: &str = "operator";
+const PASSWORD: &str = "s3cret-pass";
+
+fn project(dir: &Path, port: u16, writes: bool, secure: bool, dead: &str) -> PathBuf {
+    let security = if secure {
+        format!("    security: basic256sha256\n    username: {USER}\n    password: {PASSWORD}\n")
+    } else {
+        String::new()
+    };
     let programs = workspace().join("programs");
     let text = format!(
         r#"project: opcua_test
@@ -107,7 +122,7 @@ service:
   opcua:
     port: {port}
     writes: {writes}
-"#,
+{security}"#,
         programs.join("conveyor.expr").display()
     );
     let path = dir.join("project.yaml");
@@ -127,21 +142,27 @@ fn softplc(project: &Path, socket: &Path, log: &Path) -> Child {
         .unwrap()
 }
 
-/// Runs the client in `mode` against a softplc serving `writes`; the steps it passed.
+/// Runs the client in `mode` against a softplc serving `writes` (on Basic256Sha256 with a
+/// user when `mode` is "secure"); the steps it passed.
 fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
+    let secure = mode == "secure";
     let dir = scratch(name);
     let dead = DeadLine::open();
     let port = free_port();
-    let project = project(&dir, port, writes, &dead.path);
+    let project = project(&dir, port, writes, secure, &dead.path);
     let socket = dir.join("control.sock");
     let log = dir.join("softplc.log");
     let mut plc = softplc(&project, &socket, &log);
-    let mut client = Command::new(python())
-        .arg(workspace().join("runtime/tests/opcua/client.py"))
+    let mut cmd = Command::new(python());
+    cmd.arg(workspace().join("runtime/tests/opcua/client.py"))
         .arg(format!("opc.tcp://127.0.0.1:{port}/"))
         .arg("urn:softplc:opcua_test")
         .arg(PERIOD_MS.to_string())
-        .arg(mode)
+        .arg(mode);
+    if secure {
+        cmd.arg(&dir).args([USER, PASSWORD]);
+    }
+    let mut client = cmd
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
@@ -190,6 +211,19 @@ fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
                 .unwrap();
             assert!(out.status.success(), "force: {out:?}");
             writeln!(to_client, "done").unwrap();
+        } else if line == "NEED trust" {
+            // What an operator does: trust the client's certificate the server rejected.
+            let pki = dir.join("opcua-pki");
+            let rejected: Vec<_> = std::fs::read_dir(pki.join("rejected"))
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .collect();
+            assert_eq!(rejected.len(), 1, "one rejected client certificate");
+            for cert in rejected {
+                std::fs::rename(&cert, pki.join("trusted").join(cert.file_name().unwrap()))
+                    .unwrap();
+            }
+            writeln!(to_client, "done").unwrap();
         }
     }
     assert!(client.wait().unwrap().success());
@@ -197,16 +231,43 @@ fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
     drop(plc.kill());
     drop(plc.wait());
     let text = std::fs::read_to_string(&log).unwrap();
+    let security = if secure {
+        format!("SecurityPolicy Basic256Sha256, Sign & Encrypt, user {USER} with password")
+    } else {
+        "SecurityPolicy None, anonymous".into()
+    };
+    let started = format!("OPC UA server at opc.tcp://127.0.0.1:{port}/ ({security})");
+    assert!(text.contains(&started), "{text}");
     assert!(
-        text.contains(&format!(
-            "OPC UA server at opc.tcp://127.0.0.1:{port}/ (SecurityPolicy None, anonymous)"
-        )),
-        "{text}"
+        !text.contains(PASSWORD),
+        "the log shows no password: {text}"
     );
+    let cert = dir.join("opcua-pki/own/cert.der");
     assert!(
-        dir.join("opcua-pki/own/cert.der").exists() && dir.join("opcua-pki/private").exists(),
+        cert.exists() && dir.join("opcua-pki/private/private.pem").exists(),
         "the server's certificate is made in the state folder at first start"
     );
+    if secure {
+        // A second start keeps the certificate the clients trust.
+        let first = std::fs::read(&cert).unwrap();
+        let mut again = softplc(&project, &socket, &log);
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while !std::fs::read_to_string(&log)
+            .unwrap_or_default()
+            .contains(&started)
+        {
+            assert!(Instant::now() < deadline, "no second start within 30 s");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        // The child may have exited already; then there is nothing to stop.
+        drop(again.kill());
+        drop(again.wait());
+        assert_eq!(
+            std::fs::read(&cert).unwrap(),
+            first,
+            "the second start reuses the certificate"
+        );
+    }
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
     passed
@@ -216,6 +277,15 @@ fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
 fn an_asyncua_client_browses_reads_subscribes_writes_and_is_refused_where_it_must_be() {
     let passed = run_client("full", true, "full");
     assert_eq!(passed.len(), 6, "every step passed: {passed:?}");
+}
+
+#[test]
+fn on_basic256sha256_only_a_trusted_client_with_the_right_password_reads() {
+    let passed = run_client("secure", false, "secure");
+    assert_eq!(
+        passed,
+        ["none refused", "encrypted read", "wrong password refused"]
+    );
 }
 
 #[test]

@@ -9,7 +9,13 @@
 //!   timestamps the DDATA that carries the new value: terminal → broker → consumer.
 //! - **CPU**: a memory-only project of 1,000 bool tags, each toggled every 100 ms cycle (10,000
 //!   metric changes per second), run with and without the edge node; the softplc process's
-//!   CPU time per second of run (`/proc/PID/stat` utime + stime) in both, side by side.
+//!   CPU time per second of run (`/proc/PID/stat` utime + stime) in both, side by side; and
+//!   once more with the OPC UA server instead, an asyncua client subscribed to every tag.
+//! - **Lateness**: 100 bool tags toggled every 10 ms cycle, run without services and with OPC
+//!   UA + MQTT under a client load (asyncua subscribed to every tag and reading them all in a
+//!   loop, the harness's MQTT subscriber); the scan's wake-up lateness as the scan records it,
+//!   from `softplc status --json` on the run's control socket, the second as a ratio to the
+//!   first.
 //!
 //! Without `mosquitto` on the machine (`bench/setup` installs it) the rows say so.
 
@@ -21,8 +27,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use prost::Message;
-use softplc::scan::DurationHistogram;
+use softplc::scan::{DurationHistogram, Percentiles};
 use softplc::service::mqtt::spb;
+use softplc::service::StatusReport;
 
 use super::{Ctx, Scenario};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
@@ -32,7 +39,7 @@ use crate::softplc_sim::{softplc_binary, ServedSim};
 pub(crate) const SCENARIO: Scenario = Scenario {
     number: 11,
     name: "plant-services",
-    title: "Plant services: terminal → MQTT consumer and OPC UA client, the edge node's CPU cost",
+    title: "Plant services: terminal → MQTT consumer and OPC UA client, their CPU cost, the scan's lateness",
     summary: "Latency: one MiniMod served by `softplc sim --pty` (reply delay 0, X1 input filter \
               1 ms), scanned every 10 ms at 19200 8E1 by `softplc run`, a Sparkplug B edge node on \
               a local mosquitto, and an OPC UA server; X1 flipped at the simulator's console at random \
@@ -40,7 +47,11 @@ pub(crate) const SCENARIO: Scenario = Scenario {
               and an asyncua client (bench/py/opcua_watch.py) its data-change notification \
               (includes the filter, the wait for the next input phase, the scan, the publish, \
               the broker or the server's publishing interval of 10 ms, and the client). CPU: 1,000 bool memory tags toggled every 100 ms cycle, \
-              the softplc process's CPU time per second of run, with and without the edge node.",
+              the softplc process's CPU time per second of run, without services, with the edge node, and \
+              with the OPC UA server and an asyncua client subscribed to every tag. Lateness: 100 \
+              bool tags toggled every 10 ms cycle, the scan's wake-up lateness (`softplc status \
+              --json`) without services and with both under a client load (asyncua subscribed to \
+              every tag and reading them all in a loop, an MQTT subscriber).",
     run,
 };
 
@@ -139,6 +150,27 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
                         extra_ms * 1e3 / rate
                     )),
             );
+            match &f.opcua {
+                Ok(hist) => {
+                    let ua = hist.percentiles();
+                    let extra_ms = (ua.p50.as_secs_f64() - wo.p50.as_secs_f64()) * 1e3;
+                    out.rows.push(
+                        Row::measured("1,000 tags via OPC UA", "CPU per second", ua)
+                            .bound(Bound::baseline("no services", &wo))
+                            .value("extra_cpu_ms_per_s", extra_ms)
+                            .note(format!(
+                                "the OPC UA server with one asyncua client subscribed to every \
+                                 tag (publishing interval 10 ms): {extra_ms:.1} ms of CPU per \
+                                 second at p50 for {rate:.0} value changes/s"
+                            )),
+                    );
+                }
+                Err(why) => out.rows.push(Row::unavailable(
+                    "1,000 tags via OPC UA",
+                    "CPU per second",
+                    why.clone(),
+                )),
+            }
             out.rows.push(
                 Row::measured(
                     "mosquitto, same run",
@@ -166,7 +198,130 @@ fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
             format!("{e:#}"),
         )),
     }
+    match lateness(ctx, &binary) {
+        Ok(l) => {
+            out.rows.push(
+                Row::measured("no services", "wake-up lateness", l.without).note(format!(
+                    "baseline: {LOAD_TAGS} bool tags toggled every 10 ms cycle"
+                )),
+            );
+            out.rows.push(
+                Row::measured(
+                    "OPC UA + MQTT under a client load",
+                    "wake-up lateness",
+                    l.with,
+                )
+                .bound(Bound::baseline("no services", &l.without))
+                .note(format!(
+                    "same project with both services; an asyncua client subscribed to every \
+                         tag and reading them all in a loop ({} reads), the harness's MQTT \
+                         subscriber ({} DDATA/NDATA messages)",
+                    l.reads, l.messages
+                )),
+            );
+        }
+        Err(e) => out.rows.push(Row::unavailable(
+            "OPC UA + MQTT under a client load",
+            "wake-up lateness",
+            format!("{e:#}"),
+        )),
+    }
     Ok(out)
+}
+
+/// Tags of the lateness case, each toggled every 10 ms cycle.
+const LOAD_TAGS: usize = 100;
+
+/// The lateness case's figures.
+struct LatenessFigures {
+    without: Percentiles,
+    with: Percentiles,
+    /// Read passes the asyncua client made over every tag.
+    reads: u64,
+    /// DATA messages the MQTT subscriber received.
+    messages: usize,
+}
+
+/// The scan's wake-up lateness of a 10 ms project of [`LOAD_TAGS`] toggled tags, as the scan
+/// records it (`softplc status --json` on its control socket at the end of the run), without
+/// services and with OPC UA + MQTT under a client load.
+fn lateness(ctx: &Ctx, binary: &Path) -> anyhow::Result<LatenessFigures> {
+    let dir = scratch(ctx, "plant-lateness")?;
+    let broker = Broker::start(&dir)?;
+    let base = toggle_project(&dir, "plant_load", "10ms", LOAD_TAGS)?;
+    let without = dir.join("without.yaml");
+    std::fs::write(&without, &base)?;
+    let opcua_port = free_port()?;
+    let with = dir.join("with.yaml");
+    std::fs::write(
+        &with,
+        format!(
+            "{base}{}  opcua: {{ port: {opcua_port} }}\n",
+            mqtt_section(broker.port)
+        ),
+    )?;
+    let rx = subscribe(broker.port)?;
+    let seconds = if ctx.quick { 5 } else { 30 };
+    let socket = dir.join("control.sock");
+    let (without, _) = scan_lateness(binary, &without, &socket, seconds, || Ok(None))?;
+    let (with, reads) = scan_lateness(binary, &with, &socket, seconds, || {
+        OpcUaLoad::start(opcua_port, "plant_load", LOAD_TAGS, true).map(Some)
+    })?;
+    let messages = rx
+        .try_iter()
+        .filter(|(_, topic, _, _)| topic.contains("DATA/"))
+        .count();
+    drop(broker);
+    Ok(LatenessFigures {
+        without,
+        with,
+        reads,
+        messages,
+    })
+}
+
+/// Runs `project` with its control socket at `socket`, `client` started once it is up, for
+/// `seconds`; the scan's lateness from `softplc status --json` just before the end, and the
+/// read passes the client made.
+fn scan_lateness(
+    binary: &Path,
+    project: &Path,
+    socket: &Path,
+    seconds: u32,
+    client: impl FnOnce() -> Result<Option<OpcUaLoad>, String>,
+) -> anyhow::Result<(Percentiles, u64)> {
+    let run_for = Duration::from_secs(u64::from(seconds) + 50);
+    let plc = Running::start_with(binary, project, run_for, Some(socket))?;
+    std::thread::sleep(Duration::from_secs(1));
+    let client = client()
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("softplc said: {}", plc.said()))?;
+    std::thread::sleep(Duration::from_secs(u64::from(seconds)));
+    let out = Command::new(binary)
+        .args(["status", "--json", "--socket"])
+        .arg(socket)
+        .output()
+        .context("cannot run softplc status")?;
+    if !out.status.success() {
+        bail!(
+            "softplc status failed: {}; softplc said: {}",
+            String::from_utf8_lossy(&out.stderr).trim(),
+            plc.said()
+        );
+    }
+    let report: StatusReport =
+        serde_json::from_slice(&out.stdout).context("unreadable softplc status --json")?;
+    let l = report.lateness;
+    let us = Duration::from_micros;
+    let p = Percentiles {
+        count: l.count,
+        p50: us(l.p50_us),
+        p99: us(l.p99_us),
+        p999: us(l.p999_us),
+        max: us(l.max_us),
+    };
+    // The client stops while the server still runs, so it can say what it did.
+    Ok((p, client.map_or(0, OpcUaLoad::finish)))
 }
 
 /// A mosquitto of the harness: loopback only, anonymous, no persistence.
@@ -215,29 +370,79 @@ fn free_port() -> anyhow::Result<u16> {
     Ok(l.local_addr()?.port())
 }
 
-/// `softplc run` of `project` for `run_for`, killed when dropped.
-struct Running(Child);
+/// `softplc run` of `project` for `run_for`, killed when dropped; its standard error goes to
+/// `softplc.log` beside the project, so a run that stops early can say why.
+struct Running {
+    child: Child,
+    log: PathBuf,
+}
 
 impl Running {
     fn start(binary: &Path, project: &Path, run_for: Duration) -> anyhow::Result<Self> {
-        let child = Command::new(binary)
-            .args(["run", "--quiet", "--no-socket", "--for"])
+        Self::start_with(binary, project, run_for, None)
+    }
+
+    /// As [`Running::start`], with the control socket at `socket` when given.
+    fn start_with(
+        binary: &Path,
+        project: &Path,
+        run_for: Duration,
+        socket: Option<&Path>,
+    ) -> anyhow::Result<Self> {
+        let log = project.with_file_name("softplc.log");
+        let mut cmd = Command::new(binary);
+        cmd.args(["run", "--quiet"]);
+        match socket {
+            Some(path) => cmd.arg("--socket").arg(path),
+            None => cmd.arg("--no-socket"),
+        };
+        let child = cmd
+            .arg("--for")
             .arg(format!("{}ms", run_for.as_millis()))
             .arg(project)
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(std::fs::File::create(&log).context("cannot create softplc.log")?)
             .spawn()
             .context("cannot start softplc run")?;
-        Ok(Self(child))
+        Ok(Self { child, log })
+    }
+
+    /// The last lines softplc wrote to its standard error.
+    fn said(&self) -> String {
+        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+        let lines: Vec<&str> = text.lines().collect();
+        let tail = lines[lines.len().saturating_sub(3)..].join(" | ");
+        if tail.is_empty() {
+            "nothing".into()
+        } else {
+            tail
+        }
     }
 }
 
 impl Drop for Running {
     fn drop(&mut self) {
         // It may have stopped at the end of its run time; the wait reaps it either way.
-        drop(self.0.kill());
-        drop(self.0.wait());
+        drop(self.child.kill());
+        drop(self.child.wait());
     }
+}
+
+/// A memory-only project `name` of `tags` bool tags `b0..`, each toggled every cycle of
+/// `period` by `toggle.expr` (written into `dir`); its text, without a service section.
+fn toggle_project(dir: &Path, name: &str, period: &str, tags: usize) -> anyhow::Result<String> {
+    let program: String = (0..tags).map(|i| format!("b{i} = !b{i}\n")).collect();
+    std::fs::write(dir.join("toggle.expr"), program)?;
+    let tags: String = (0..tags)
+        .map(|i| format!("  - {{ name: b{i}, type: bool }}\n"))
+        .collect();
+    Ok(format!(
+        "project: {name}\nscan: {{ period: {period} }}\ntags:\n{tags}program: {{ file: toggle.expr, kind: expr }}\n"
+    ))
+}
+
+fn opcua_section(port: u16) -> String {
+    format!("service:\n  opcua: {{ port: {port} }}\n")
 }
 
 fn mqtt_section(port: u16) -> String {
@@ -335,22 +540,26 @@ fn latency(ctx: &Ctx, binary: &Path) -> anyhow::Result<Latencies> {
     let mut sim = ServedSim::start(binary, &["minimod@1"])?;
     let opcua_port = free_port()?;
     let project = dir.join("project.yaml");
+    // A project needs a program; this one has nothing to do, so the tags are only the input.
+    std::fs::write(dir.join("idle.expr"), "")?;
     std::fs::write(
         &project,
         format!(
             "project: plant_latency\nscan: {{ period: 10ms }}\nbuses:\n  - {{ name: line1, port: {}, \
              baud: 19200, format: 8E1 }}\nmodules:\n  - {{ name: mm1, bus: line1, model: minimod, \
              address: 1, settings: {{ RDELAYT: 0, XLATUP1: 1, XLATDN1: 1 }} }}\ntags:\n  - {{ \
-             name: x1, point: mm1.X1 }}\n{}  opcua: {{ port: {opcua_port} }}\n",
+             name: x1, point: mm1.X1 }}\nprogram: {{ file: idle.expr, kind: expr }}\n{}  opcua: {{ \
+             port: {opcua_port} }}\n",
             sim.path.display(),
             mqtt_section(broker.port)
         ),
     )?;
     let rx = subscribe(broker.port)?;
     let flips = if ctx.quick { 30 } else { 300 };
-    let _plc = Running::start(binary, &project, Duration::from_secs(600))?;
+    let plc = Running::start(binary, &project, Duration::from_secs(600))?;
     // The DBIRTH (X1 false) says the node is up and the module is read.
-    wait_for(&rx, "x1", false, Duration::from_secs(20)).context("no DDATA/DBIRTH baseline")?;
+    wait_for(&rx, "x1", false, Duration::from_secs(20))
+        .with_context(|| format!("no DDATA/DBIRTH baseline; softplc said: {}", plc.said()))?;
     let mut opcua = OpcUaWatch::start(opcua_port, "plant_latency", "x1");
     let mut mqtt = DurationHistogram::new();
     let mut ua = DurationHistogram::new();
@@ -396,49 +605,19 @@ struct OpcUaWatch {
 impl OpcUaWatch {
     /// The client, subscribed; why not when the environment is missing or it cannot connect.
     fn start(port: u16, project: &str, tag: &str) -> Result<Self, String> {
-        let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let python = bench.join("../target/bench-venv/bin/python");
-        if !python.exists() {
-            return Err("no target/bench-venv with asyncua: run bench/setup".into());
-        }
-        let mut child = Command::new(python)
-            .arg(bench.join("py/opcua_watch.py"))
-            .arg(format!("opc.tcp://127.0.0.1:{port}/"))
-            .arg(format!("urn:softplc:{project}"))
-            .arg(tag)
-            .arg(PERIOD.as_millis().to_string())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .map_err(|e| format!("cannot start the asyncua client: {e}"))?;
-        let stdout = child
-            .stdout
-            .take()
-            .ok_or("no stdout from the asyncua client")?;
+        let period = PERIOD.as_millis().to_string();
+        let (child, lines) = asyncua_client("opcua_watch.py", port, project, &[tag, &period])?;
         let (tx, rx) = mpsc::channel();
-        let (ready_tx, ready_rx) = mpsc::channel();
         std::thread::spawn(move || {
-            use std::io::BufRead;
-            for line in std::io::BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                let at = Instant::now();
-                if line == "READY" || line.starts_with("FAIL") {
-                    // Nobody waits any more once the harness gave up.
-                    ready_tx.send(line).ok();
-                } else if let Some(v) = line.strip_prefix("CHANGE ") {
+            for (at, line) in lines {
+                if let Some(v) = line.strip_prefix("CHANGE ") {
                     if tx.send((at, v == "True")).is_err() {
                         break;
                     }
                 }
             }
         });
-        let watch = Self { child, changes: rx };
-        match ready_rx.recv_timeout(Duration::from_secs(40)) {
-            Ok(line) if line == "READY" => Ok(watch),
-            Ok(line) => Err(format!("the asyncua client: {line}")),
-            Err(_) => Err("the asyncua client did not subscribe within 40 s".into()),
-        }
+        Ok(Self { child, changes: rx })
     }
 
     /// The arrival of the notification with `value`.
@@ -458,12 +637,111 @@ impl OpcUaWatch {
 
 impl Drop for OpcUaWatch {
     fn drop(&mut self) {
-        // Closing its standard input ends the client; kill it if it lingers.
-        drop(self.child.stdin.take());
-        std::thread::sleep(Duration::from_millis(200));
-        drop(self.child.kill());
-        drop(self.child.wait());
+        stop_client(&mut self.child);
     }
+}
+
+/// `bench/py/opcua_load.py`: an asyncua client subscribed to tags `b0..b{n-1}` (publishing
+/// interval 10 ms), reading them all in a loop when asked; stopped when dropped.
+struct OpcUaLoad {
+    child: Child,
+    lines: mpsc::Receiver<(Instant, String)>,
+}
+
+impl OpcUaLoad {
+    /// Stops the client; the read passes it made (0 if it did not say).
+    fn finish(mut self) -> u64 {
+        drop(self.child.stdin.take());
+        // A client that died says nothing: 0 then.
+        while let Ok((_, line)) = self.lines.recv_timeout(Duration::from_secs(10)) {
+            if let Some(rest) = line.strip_prefix("DONE ") {
+                return rest
+                    .split(' ')
+                    .nth(1)
+                    .and_then(|n| n.parse().ok())
+                    .unwrap_or(0);
+            }
+        }
+        0
+    }
+
+    fn start(port: u16, project: &str, tags: usize, read: bool) -> Result<Self, String> {
+        let (n, period) = (tags.to_string(), PERIOD.as_millis().to_string());
+        let mode = if read { "read" } else { "subscribe" };
+        let (child, lines) =
+            asyncua_client("opcua_load.py", port, project, &["b", &n, &period, mode])?;
+        Ok(Self { child, lines })
+    }
+}
+
+impl Drop for OpcUaLoad {
+    fn drop(&mut self) {
+        stop_client(&mut self.child);
+    }
+}
+
+/// Closing its standard input ends an asyncua client; killed if it lingers.
+fn stop_client(child: &mut Child) {
+    drop(child.stdin.take());
+    std::thread::sleep(Duration::from_millis(200));
+    drop(child.kill());
+    drop(child.wait());
+}
+
+/// Starts `bench/py/SCRIPT URL NAMESPACE_URI ARGS...` with the harness's asyncua and waits
+/// for its "READY"; the child and its later lines, each timestamped when read. Why not when
+/// the environment is missing or the client cannot connect.
+fn asyncua_client(
+    script: &str,
+    port: u16,
+    project: &str,
+    args: &[&str],
+) -> Result<(Child, mpsc::Receiver<(Instant, String)>), String> {
+    let bench = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let python = bench.join("../target/bench-venv/bin/python");
+    if !python.exists() {
+        return Err("no target/bench-venv with asyncua: run bench/setup".into());
+    }
+    let mut child = Command::new(python)
+        .arg(bench.join("py").join(script))
+        // Its import of opcua_connect.py would leave a __pycache__ in the source tree.
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .arg(format!("opc.tcp://127.0.0.1:{port}/"))
+        .arg(format!("urn:softplc:{project}"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("cannot start the asyncua client: {e}"))?;
+    let stdout = child
+        .stdout
+        .take()
+        .ok_or("no stdout from the asyncua client")?;
+    let (tx, rx) = mpsc::channel();
+    let (ready_tx, ready_rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        use std::io::BufRead;
+        for line in std::io::BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            let at = Instant::now();
+            if line == "READY" || line.starts_with("FAIL") {
+                // Nobody waits any more once the harness gave up.
+                ready_tx.send(line).ok();
+            } else if tx.send((at, line)).is_err() {
+                break;
+            }
+        }
+    });
+    let ready = ready_rx.recv_timeout(Duration::from_secs(40));
+    let why = match ready {
+        Ok(line) if line == "READY" => return Ok((child, rx)),
+        Ok(line) => format!("the asyncua client: {line}"),
+        Err(_) => "the asyncua client did not subscribe within 40 s".into(),
+    };
+    drop(child.kill());
+    drop(child.wait());
+    Err(why)
 }
 
 /// Waits for a DDATA that carries `tag = value`; its arrival time.
@@ -489,6 +767,9 @@ struct CpuFigures {
     with: DurationHistogram,
     /// softplc's CPU time per second, without it.
     without: DurationHistogram,
+    /// softplc's CPU time per second with the OPC UA server (no edge node) and an asyncua
+    /// client subscribed to every tag; `Err` when the client could not run.
+    opcua: Result<DurationHistogram, String>,
     /// mosquitto's CPU time per second while the edge node published.
     broker: DurationHistogram,
     /// Metric changes the harness's subscriber received per second (every window).
@@ -501,24 +782,21 @@ struct CpuFigures {
 fn cpu(ctx: &Ctx, binary: &Path) -> anyhow::Result<CpuFigures> {
     let dir = scratch(ctx, "plant-cpu")?;
     let broker = Broker::start(&dir)?;
-    let program: String = (0..TAGS).map(|i| format!("b{i} = !b{i}\n")).collect();
-    std::fs::write(dir.join("toggle.expr"), program)?;
-    let tags: String = (0..TAGS)
-        .map(|i| format!("  - {{ name: b{i}, type: bool }}\n"))
-        .collect();
-    let base = format!(
-        "project: plant_cpu\nscan: {{ period: 100ms }}\ntags:\n{tags}program: {{ file: toggle.expr, kind: expr }}\n"
-    );
+    let base = toggle_project(&dir, "plant_cpu", "100ms", TAGS)?;
     let without = dir.join("without.yaml");
     std::fs::write(&without, &base)?;
     let with = dir.join("with.yaml");
     std::fs::write(&with, format!("{base}{}", mqtt_section(broker.port)))?;
+    let opcua_port = free_port()?;
+    let with_opcua = dir.join("with_opcua.yaml");
+    std::fs::write(&with_opcua, format!("{base}{}", opcua_section(opcua_port)))?;
     // The subscriber makes the broker forward every NDATA, as a SCADA would have it.
     let rx = subscribe(broker.port)?;
-    let seconds = if ctx.quick { 4 } else { 20 };
+    let seconds = if ctx.quick { 8 } else { 24 };
     let mut figures = CpuFigures {
         with: DurationHistogram::new(),
         without: DurationHistogram::new(),
+        opcua: Ok(DurationHistogram::new()),
         broker: DurationHistogram::new(),
         delivered: Vec::new(),
         bytes: Vec::new(),
@@ -526,7 +804,7 @@ fn cpu(ctx: &Ctx, binary: &Path) -> anyhow::Result<CpuFigures> {
     let broker_pid = broker.child.id();
     // Turns, so a slow spell of the machine falls on both.
     for _ in 0..2 {
-        let mut on_second = |_: u32| {
+        let mut on_window = |_: u32| {
             let (mut changes, mut bytes) = (0usize, 0usize);
             while let Ok((_, topic, values, len)) = rx.try_recv() {
                 if topic.contains("/NDATA/") {
@@ -542,12 +820,24 @@ fn cpu(ctx: &Ctx, binary: &Path) -> anyhow::Result<CpuFigures> {
             seconds,
             &mut figures.with,
             Some((broker_pid, &mut figures.broker)),
-            &mut on_second,
+            &mut on_window,
         )?;
+        if let Ok(hist) = &mut figures.opcua {
+            // The client's start-up falls in the 2 s sample_cpu does not count.
+            let mut client = None;
+            let started = sample_cpu_then(binary, &with_opcua, seconds, hist, || {
+                client = Some(OpcUaLoad::start(opcua_port, "plant_cpu", TAGS, false)?);
+                Ok(())
+            });
+            if let Err(e) = started {
+                figures.opcua = Err(format!("{e:#}"));
+            }
+            drop(client);
+        }
         // The first window holds the births' backlog; the rest are steady state.
         for &(changes, bytes) in delivered.iter().skip(1) {
-            figures.delivered.push(changes as f64);
-            figures.bytes.push(bytes as f64);
+            figures.delivered.push(changes as f64 / f64::from(WINDOW_S));
+            figures.bytes.push(bytes as f64 / f64::from(WINDOW_S));
         }
         sample_cpu(
             binary,
@@ -562,20 +852,61 @@ fn cpu(ctx: &Ctx, binary: &Path) -> anyhow::Result<CpuFigures> {
     Ok(figures)
 }
 
-/// Runs `project` for `seconds` (+ 2 s of start-up not counted), recording its CPU time of
-/// every whole second (and `also`'s, another process); `each` runs at the end of every second
-/// and its results are returned.
+/// Runs `project` for `seconds` (+ 2 s of start-up not counted), recording its CPU time per
+/// second of every [`WINDOW_S`] (and `also`'s, another process); `each` runs at the end of
+/// every window and its results are returned.
 fn sample_cpu(
+    binary: &Path,
+    project: &Path,
+    seconds: u32,
+    into: &mut DurationHistogram,
+    also: Option<(u32, &mut DurationHistogram)>,
+    each: &mut dyn FnMut(u32) -> (usize, usize),
+) -> anyhow::Result<Vec<(usize, usize)>> {
+    sample_cpu_with(binary, project, seconds, into, also, each, &mut || Ok(()))
+}
+
+/// [`sample_cpu`] of `project` alone, `start` run once softplc is up (a client connecting).
+fn sample_cpu_then(
+    binary: &Path,
+    project: &Path,
+    seconds: u32,
+    into: &mut DurationHistogram,
+    mut start: impl FnMut() -> Result<(), String>,
+) -> anyhow::Result<()> {
+    let mut start = || start().map_err(anyhow::Error::msg);
+    sample_cpu_with(
+        binary,
+        project,
+        seconds,
+        into,
+        None,
+        &mut |_| (0, 0),
+        &mut start,
+    )?;
+    Ok(())
+}
+
+/// [`sample_cpu`], with `start` run after softplc started and before the samples.
+fn sample_cpu_with(
     binary: &Path,
     project: &Path,
     seconds: u32,
     into: &mut DurationHistogram,
     mut also: Option<(u32, &mut DurationHistogram)>,
     each: &mut dyn FnMut(u32) -> (usize, usize),
+    start: &mut dyn FnMut() -> anyhow::Result<()>,
 ) -> anyhow::Result<Vec<(usize, usize)>> {
-    let plc = Running::start(binary, project, Duration::from_secs(u64::from(seconds) + 4))?;
-    let pid = plc.0.id();
-    std::thread::sleep(Duration::from_secs(2));
+    // Time for a client to connect (up to 40 s) comes on top of the run.
+    let plc = Running::start(
+        binary,
+        project,
+        Duration::from_secs(u64::from(seconds) + 50),
+    )?;
+    let pid = plc.child.id();
+    std::thread::sleep(Duration::from_secs(1));
+    start().with_context(|| format!("softplc said: {}", plc.said()))?;
+    std::thread::sleep(Duration::from_secs(1));
     each(0);
     let tick = clock_tick();
     let mut last = cpu_ticks(pid)?;
@@ -585,8 +916,8 @@ fn sample_cpu(
     };
     let mut at = Instant::now();
     let mut results = Vec::new();
-    for second in 0..seconds {
-        std::thread::sleep(Duration::from_secs(1));
+    for second in 0..seconds / WINDOW_S {
+        std::thread::sleep(Duration::from_secs(u64::from(WINDOW_S)));
         let now = cpu_ticks(pid)?;
         let wall = at.elapsed().as_secs_f64();
         at = Instant::now();
@@ -604,6 +935,10 @@ fn sample_cpu(
     }
     Ok(results)
 }
+
+/// The CPU samples' window, s: `/proc/PID/stat` counts in clock ticks (10 ms at 100 Hz), so
+/// one second would resolve only 1 % of a CPU.
+const WINDOW_S: u32 = 4;
 
 /// utime + stime of process `pid`, in clock ticks.
 fn cpu_ticks(pid: u32) -> anyhow::Result<u64> {

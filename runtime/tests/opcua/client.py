@@ -1,8 +1,12 @@
 """A third-party OPC UA client (asyncua) against softplc's OPC UA server.
 
-Usage: client.py URL NAMESPACE_URI PERIOD_MS MODE
+Usage: client.py URL NAMESPACE_URI PERIOD_MS MODE [CERT_DIR USER PASSWORD]
 MODE "full": browse, read (types, status codes, timestamps), subscribe, write, refusals.
 MODE "writes-off": a write to a `scada: write` tag is refused when the server's writes are off.
+MODE "secure": against a Basic256Sha256 Sign & Encrypt endpoint with a user: SecurityPolicy
+None is refused, the client's own certificate (made in CERT_DIR) is trusted by the server once
+the test moves it out of the server's rejected/ folder, then USER with PASSWORD reads and a
+wrong password is refused.
 
 Speaks to the test on stdout: "PASS step", "FAIL why", "NEED action" (then waits for a line
 on stdin once the test has done it), "DONE".
@@ -12,7 +16,12 @@ import asyncio
 import sys
 import time
 
+from pathlib import Path
+
 from asyncua import Client, ua
+from asyncua.crypto.cert_gen import setup_self_signed_certificate
+from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+from cryptography.x509.oid import ExtendedKeyUsageOID
 
 URL, NS_URI, PERIOD_MS, MODE = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 PERIOD = PERIOD_MS / 1000.0
@@ -209,7 +218,72 @@ async def writes_off(c):
     say("PASS writes off")
 
 
+CLIENT_URI = "urn:softplc:test:asyncua"
+
+
+async def secure_client(cert_dir, user, password):
+    """A client on Basic256Sha256 Sign & Encrypt with its own certificate and `user`."""
+    key, cert = cert_dir / "client-key.pem", cert_dir / "client-cert.der"
+    await setup_self_signed_certificate(
+        key, cert, CLIENT_URI, "localhost", [ExtendedKeyUsageOID.CLIENT_AUTH], {"commonName": "softplc test"}
+    )
+    c = Client(url=URL, timeout=5)
+    c.application_uri = CLIENT_URI
+    await c.set_security(
+        SecurityPolicyBasic256Sha256, str(cert), str(key), mode=ua.MessageSecurityMode.SignAndEncrypt
+    )
+    c.set_user(user)
+    c.set_password(password)
+    return c
+
+
+async def refused(c):
+    """Whether connecting `c` fails; never leaves it connected."""
+    try:
+        await c.connect()
+    except (OSError, asyncio.TimeoutError, ua.UaError, ConnectionError):
+        return True
+    await c.disconnect()
+    return False
+
+
+async def secure(cert_dir, user, password):
+    # The server is up once its endpoints answer (GetEndpoints needs no secure channel).
+    deadline = time.monotonic() + 20
+    while True:
+        try:
+            endpoints = await Client(url=URL, timeout=5).connect_and_get_server_endpoints()
+            break
+        except (OSError, asyncio.TimeoutError, ua.UaError):
+            check(time.monotonic() < deadline, f"no endpoints at {URL}")
+            await asyncio.sleep(0.1)
+    policies = {(e.SecurityPolicyUri.split("#")[-1], e.SecurityMode.name) for e in endpoints}
+    check(policies == {("Basic256Sha256", "SignAndEncrypt")}, f"endpoints: {policies}")
+    check(await refused(Client(url=URL, timeout=5)), "SecurityPolicy None was accepted")
+    say("PASS none refused")
+    c = await secure_client(cert_dir, user, password)
+    if await refused(c):
+        # A certificate the server does not know yet goes to its rejected/ folder.
+        await need("trust")
+        c = await secure_client(cert_dir, user, password)
+        await c.connect()
+    try:
+        ns = await c.get_namespace_index(NS_URI)
+        gain = await first_value(c.get_node(ua.NodeId("Tags.gain", ns)))
+        check(abs(gain - 1.5) < 1e-6, f"gain = {gain} over the encrypted channel")
+    finally:
+        await c.disconnect()
+    say("PASS encrypted read")
+    check(await refused(await secure_client(cert_dir, user, password + "x")), "a wrong password was accepted")
+    check(await refused(await secure_client(cert_dir, user + "x", password)), "an unknown user was accepted")
+    say("PASS wrong password refused")
+
+
 async def main():
+    if MODE == "secure":
+        await secure(Path(sys.argv[5]), sys.argv[6], sys.argv[7])
+        say("DONE")
+        return
     c = await connect_with_retries()
     try:
         await (full(c) if MODE == "full" else writes_off(c))
