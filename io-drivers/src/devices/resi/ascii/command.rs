@@ -161,16 +161,15 @@ impl Command {
         fields: &'static [Field],
         fmt: Fmt,
     ) -> Self {
-        Self {
+        Self::new(
             short,
             long,
-            x: None,
-            action: Action::Get {
+            Action::Get {
                 fields,
                 fmt,
                 reply: None,
             },
-        }
+        )
     }
 
     /// A set command without a channel.
@@ -179,12 +178,7 @@ impl Command {
         long: &'static [&'static str],
         fields: &'static [Field],
     ) -> Self {
-        Self {
-            short,
-            long,
-            x: None,
-            action: Action::Set { fields },
-        }
+        Self::new(short, long, Action::Set { fields })
     }
 
     /// A set command taking sensor configurations by name.
@@ -193,21 +187,21 @@ impl Command {
         long: &'static [&'static str],
         fields: &'static [Field],
     ) -> Self {
-        Self {
-            short,
-            long,
-            x: None,
-            action: Action::SetSensorConfig { fields },
-        }
+        Self::new(short, long, Action::SetSensorConfig { fields })
     }
 
     /// An action.
     pub const fn op(short: &'static str, long: &'static [&'static str], op: Op) -> Self {
+        Self::new(short, long, Action::Do(op))
+    }
+
+    /// A command without a channel: what the constructors above share.
+    const fn new(short: &'static str, long: &'static [&'static str], action: Action) -> Self {
         Self {
             short,
             long,
             x: None,
-            action: Action::Do(op),
+            action,
         }
     }
 
