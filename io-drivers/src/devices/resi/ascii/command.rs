@@ -41,6 +41,19 @@ impl Field {
         }
     }
 
+    /// The fixed items `0..N` of `kind`, in order: a command that lists every channel's value
+    /// (4LED `GLOS`: LO 1..12).
+    pub const fn run<const N: usize>(kind: Kind) -> [Self; N] {
+        let mut out = [Self::at(kind, 0); N];
+        let mut i = 0;
+        while i < N {
+            // N is a channel count, well below 256.
+            out[i] = Self::at(kind, i as u8);
+            i += 1;
+        }
+        out
+    }
+
     /// An item of a group of `step` (4LED `SALLx`: LO channel `3(x − 1) + add`).
     pub const fn group(kind: Kind, step: u8, add: u8) -> Self {
         Self { kind, step, add }
