@@ -398,4 +398,19 @@ mod tests {
         assert_eq!(Field::group(Kind::Lo, 3, 2).index(2), 5);
         assert_eq!(Field::at(Kind::Lo, 2).index(4), 2);
     }
+
+    /// A listing command's fields are the channels' items in channel order, whatever `x` is.
+    #[test]
+    fn a_run_is_every_channel_in_order() {
+        let run: [Field; 3] = Field::run(Kind::Clo);
+        assert_eq!(
+            run,
+            [
+                Field::at(Kind::Clo, 0),
+                Field::at(Kind::Clo, 1),
+                Field::at(Kind::Clo, 2)
+            ]
+        );
+        assert_eq!(run.map(|f| f.index(5)), [0, 1, 2]);
+    }
 }
