@@ -21,6 +21,7 @@ mod python;
 mod report;
 mod scenarios;
 mod sim_line;
+mod sim_scan;
 mod softplc_sim;
 mod table;
 mod terminal;

@@ -13,8 +13,8 @@ use softplc_io::devices::minimod::{self, MiniModSim};
 use softplc_io::devices::{ModelSpec, Protocol};
 use softplc_io::driver::{Driver, Outgoing, Transaction};
 use softplc_io::line::{
-    line_budget, modbus_reply_len, transaction_time, BusOwner, Discipline, LineBudget,
-    LineSettings, Module, OutputFrame,
+    line_budget, modbus_reply_len, transaction_time, BusCommand, BusEvent, BusOwner, BusThread,
+    Discipline, LineBudget, LineSettings, Module, OutputFrame,
 };
 use softplc_io::point::{Access, Value};
 use softplc_io::sim::{SharedWorld, SimWorld, VirtualPort};
@@ -203,4 +203,18 @@ pub(crate) fn write_round_trip(
 ) -> Duration {
     let (plan, delay) = planned_write(&minimod::MODEL, settings, point);
     round_trip(line, delay, &plan)
+}
+
+/// One read of every module on `bus`: how many of them failed it. An error when the bus thread
+/// does not answer within `wait`.
+pub(crate) fn read_failures(bus: &mut BusThread, wait: Duration) -> anyhow::Result<u64> {
+    bus.send(BusCommand::Read);
+    match bus.recv(wait) {
+        Some(BusEvent::Inputs(frame)) => Ok(frame
+            .modules
+            .iter()
+            .filter(|m| m.last_error.is_some())
+            .count() as u64),
+        _ => anyhow::bail!("the bus thread did not answer a read within {wait:?}"),
+    }
 }

@@ -111,17 +111,7 @@ fn measure(
             break;
         }
         let start = clock.now();
-        bus.send(BusCommand::Read);
-        match bus.recv(wait) {
-            Some(BusEvent::Inputs(frame)) => {
-                failures += frame
-                    .modules
-                    .iter()
-                    .filter(|m| m.last_error.is_some())
-                    .count() as u64;
-            }
-            _ => anyhow::bail!("the bus thread did not answer a read within {wait:?}"),
-        }
+        failures += sim_line::read_failures(&mut bus, wait)?;
         if write {
             bus.send(BusCommand::Write(sim_line::all_y1(
                 usize::from(n),

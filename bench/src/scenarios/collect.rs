@@ -18,9 +18,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc::scan::DurationHistogram;
-use softplc_io::line::{
-    AdapterTiming, BusCommand, BusEvent, BusThread, CollectFloor, CollectStats, LineSettings,
-};
+use softplc_io::line::{AdapterTiming, BusThread, CollectFloor, CollectStats, LineSettings};
 use softplc_io::point::Value;
 use softplc_io::sim::SharedWorld;
 use softplc_io::time::{Clock, MonotonicClock};
@@ -157,17 +155,7 @@ fn rounds(ctx: &Ctx, n: u8, settings: &[(&str, &str)], changes: bool) -> anyhow:
             }
         }
         let start = clock.now();
-        bus.send(BusCommand::Read);
-        match bus.recv(wait) {
-            Some(BusEvent::Inputs(frame)) => {
-                failures += frame
-                    .modules
-                    .iter()
-                    .filter(|m| m.last_error.is_some())
-                    .count() as u64;
-            }
-            _ => anyhow::bail!("the bus thread did not answer a read within {wait:?}"),
-        }
+        failures += sim_line::read_failures(&mut bus, wait)?;
         // The first cycle of event mode is a full refresh of every module.
         if k > 0 {
             hist.record(clock.now() - start);

@@ -164,13 +164,7 @@ fn measure(
             modules: y.iter().map(|&on| sim_line::y1_frame(on)).collect(),
         };
         let start = clock.now();
-        bus.send(BusCommand::Read);
-        match bus.recv(wait) {
-            Some(BusEvent::Inputs(f)) => {
-                failures += f.modules.iter().filter(|m| m.last_error.is_some()).count() as u64;
-            }
-            _ => anyhow::bail!("the bus thread did not answer a read within {wait:?}"),
-        }
+        failures += sim_line::read_failures(&mut bus, wait)?;
         bus.send(BusCommand::Write(frame));
         match bus.recv(wait) {
             Some(BusEvent::Written(report)) => failures += u64::from(report.failures),

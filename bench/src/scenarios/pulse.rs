@@ -10,17 +10,14 @@
 //!
 //! Y1 is sampled at the terminal every millisecond (so widths are good to about ±1 ms).
 
-use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::Context;
-use softplc::clock::MonotonicClock;
-use softplc::plc::Plc;
-use softplc::scan::{DurationHistogram, ScanEngine};
+use softplc::scan::DurationHistogram;
 
 use super::{Ctx, Scenario};
 use crate::project_file::{self, SimBus};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
+use crate::sim_scan::Scanning;
 use crate::terminal::PulseWatch;
 
 /// The scenario.
@@ -101,25 +98,12 @@ fn program(ctx: &Ctx, offload: &str) -> anyhow::Result<DurationHistogram> {
         program,
         offload,
     )?;
-    let plc = Plc::build(project, Arc::new(MonotonicClock::new()))?;
-    let clock = plc.clock().clone();
-    let world = plc
-        .world()
-        .cloned()
-        .context("the project has no simulated world")?;
-    let device = world
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .find("line1_m1")
-        .context("module line1_m1 is not in the world")?;
-    let begin = clock.now();
-    let scan = std::thread::Builder::new()
-        .name("scan-pulse".into())
-        .spawn(move || ScanEngine::new(plc).run_for(run_for).run())?;
-    let mut watch = PulseWatch::new(world, device, "Y1");
+    let scan = Scanning::start(project, "scan-pulse".to_string(), run_for)?;
+    let clock = scan.clock.clone();
+    let begin = scan.begin;
+    let mut watch = PulseWatch::new(scan.world.clone(), scan.device, "Y1");
     // Stop before the end so the shutdown's safe state does not cut a pulse short.
     watch.run_until(clock.as_ref(), begin + run_for.saturating_sub(PERIOD * 2));
-    scan.join()
-        .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
+    scan.join()?;
     Ok(watch.widths)
 }

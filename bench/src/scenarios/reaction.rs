@@ -15,19 +15,17 @@
 //! - RESI-16DI8RO TOGGLE: `y = y ^ rising(x)` (an impulse relay); pushed down as TOGGLE RO1 =
 //!   DI1. Only rising edges are timed (a falling edge leaves the relay alone).
 
-use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
-use softplc::clock::MonotonicClock;
-use softplc::plc::Plc;
-use softplc::scan::{DurationHistogram, ScanEngine};
+use softplc::scan::DurationHistogram;
 use softplc_io::line::LineSettings;
 
 use super::{Ctx, Scenario};
 use crate::project_file::{self, SimBus};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 use crate::sim_line;
+use crate::sim_scan::Scanning;
 use crate::terminal::{Follow, ReactionProbe};
 
 /// The scenario.
@@ -194,22 +192,16 @@ fn probe(ctx: &Ctx, case: &Case, in_module: bool) -> anyhow::Result<Probed> {
         case.program,
         offload,
     )?;
-    let plc = Plc::build(project, Arc::new(MonotonicClock::new()))?;
-    let clock = plc.clock().clone();
-    let world = plc
-        .world()
-        .cloned()
-        .context("the project has no simulated world")?;
-    let device = world
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .find("line1_m1")
-        .context("module line1_m1 is not in the world")?;
-    let begin = clock.now();
-    let scan = std::thread::Builder::new()
-        .name(format!("scan-{name}"))
-        .spawn(move || ScanEngine::new(plc).run_for(run_for).run())?;
-    let mut probe = ReactionProbe::new(world, device, case.input, case.output, case.follow);
+    let scan = Scanning::start(project, format!("scan-{name}"), run_for)?;
+    let clock = scan.clock.clone();
+    let begin = scan.begin;
+    let mut probe = ReactionProbe::new(
+        scan.world.clone(),
+        scan.device,
+        case.input,
+        case.output,
+        case.follow,
+    );
     let timeout = Duration::from_millis(500);
     // Gaps of 120..320 ms from a fixed LCG: edges fall anywhere in the scan's period.
     let mut seed: u32 = 0x2545_F491;
@@ -220,8 +212,7 @@ fn probe(ctx: &Ctx, case: &Case, in_module: bool) -> anyhow::Result<Probed> {
         clock.sleep_until(clock.now() + gap);
         probe.edge(clock.as_ref(), timeout);
     }
-    scan.join()
-        .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
+    scan.join()?;
     Ok(Probed {
         latencies: probe.latencies,
         missed: probe.missed,

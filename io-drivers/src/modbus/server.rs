@@ -206,6 +206,16 @@ fn execute(bank: &mut dyn RegisterBank, req: &Request) -> Result<Response, Excep
     })
 }
 
+/// The exception ADU a conforming device sends for the bad request `e`, with the unit it is
+/// addressed to: `None` when it must stay silent (see [`RequestError::exception_reply`]). A
+/// simulator sends it only when the unit is its own address.
+pub(crate) fn exception_frame(e: &RequestError) -> Option<(u8, Vec<u8>)> {
+    let (unit, resp) = e.exception_reply()?;
+    let mut out = Vec::new();
+    encode_response(unit, &resp, &mut out);
+    Some((unit, out))
+}
+
 /// Appends the whole reply ADU for `resp` from `unit` to `out`: address, PDU, CRC. An
 /// exception is sent as `unit, function | 0x80, code`. For a Collect reply the address byte
 /// is `unit` (set `slave` to the same). A read response longer than one frame can carry (2000

@@ -1,7 +1,7 @@
 //! Errors of a project file: every one found, each with `file:line:col`, printed like rustc.
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use softplc_io::point::{Access, ValueType};
 
@@ -31,6 +31,21 @@ impl ProjectErrors {
     pub fn iter(&self) -> std::slice::Iter<'_, ProjectError> {
         self.errors.iter()
     }
+}
+
+/// The text of the file at `path`; a failed read is the one error, at the file, so a project
+/// and a profile report it alike.
+pub(crate) fn read_text(path: &Path) -> Result<String, ProjectErrors> {
+    std::fs::read_to_string(path).map_err(|e| ProjectErrors {
+        errors: vec![ProjectError {
+            file: path.to_path_buf(),
+            line: 0,
+            column: 0,
+            kind: ErrorKind::Io {
+                message: e.to_string(),
+            },
+        }],
+    })
 }
 
 impl<'a> IntoIterator for &'a ProjectErrors {

@@ -68,19 +68,7 @@ pub use web::{TokenSource, WebConfig, WebError, WebToken, DEFAULT_WEB_BIND};
 /// Reads and validates the project file at `path`. The program file is resolved against the
 /// file's folder and must exist.
 pub fn load(path: &Path) -> Result<Project, ProjectErrors> {
-    match std::fs::read_to_string(path) {
-        Ok(text) => parse_str(&text, path),
-        Err(e) => Err(ProjectErrors {
-            errors: vec![ProjectError {
-                file: path.to_path_buf(),
-                line: 0,
-                column: 0,
-                kind: ErrorKind::Io {
-                    message: e.to_string(),
-                },
-            }],
-        }),
-    }
+    parse_str(&error::read_text(path)?, path)
 }
 
 /// Validates project text as if read from `file`: errors name `file`, and the program file is

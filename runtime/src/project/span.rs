@@ -315,10 +315,17 @@ impl<'de> DeserializeSeed<'de> for Node<'_, '_> {
     }
 }
 
-/// The scalar `visit_*` methods of a path-walking visitor: a scalar ends the walk, and
-/// `self.scalar()` says whether the path ended there (both visitors below share them).
+/// What the path-walking visitors below share: `expecting`, `visit_some` (an optional node is
+/// walked as itself) and the scalar `visit_*` methods, where a scalar ends the walk and
+/// `self.scalar()` says whether the path ended there.
 macro_rules! scalar_visits {
     () => {
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("any YAML node")
+        }
+        fn visit_some<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+            d.deserialize_any(self)
+        }
         fn visit_bool<E: de::Error>(self, _: bool) -> Result<(), E> {
             self.scalar()
         }
@@ -352,15 +359,7 @@ macro_rules! scalar_visits {
 impl<'de> Visitor<'de> for Node<'_, '_> {
     type Value = ();
 
-    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("any YAML node")
-    }
-
     scalar_visits!();
-
-    fn visit_some<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
-        d.deserialize_any(self)
-    }
 
     fn visit_enum<A: de::EnumAccess<'de>>(self, data: A) -> Result<(), A::Error> {
         // A tagged node (`!tag value`): the node under the tag.
@@ -520,15 +519,7 @@ impl PathVisitor<'_> {
 impl<'de> Visitor<'de> for PathVisitor<'_> {
     type Value = ();
 
-    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("any YAML node")
-    }
-
     scalar_visits!();
-
-    fn visit_some<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
-        d.deserialize_any(self)
-    }
 
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
         let Some((first, rest)) = self.0.split_first() else {

@@ -260,11 +260,13 @@ pub(crate) fn decode(ty: ValueType, words: &[u16]) -> Result<Value, Exception> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::project::ScadaEntry;
 
-    fn entry(tag: usize, ty: ValueType, address: u16, writable: bool) -> ScadaEntry {
+    /// A map entry of `tag` at `address` in the space and width its type takes, not pinned
+    /// (the Modbus TCP server's tests build their maps with it too).
+    pub(crate) fn entry(tag: usize, ty: ValueType, address: u16, writable: bool) -> ScadaEntry {
         let (space, width) = Space::of(ty);
         ScadaEntry {
             tag,

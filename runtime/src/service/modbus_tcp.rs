@@ -356,7 +356,8 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::project::{ScadaEntry, ScadaMap, Space};
+    use crate::project::ScadaMap;
+    use crate::service::modbus_map::tests::entry;
     use softplc_io::point::ValueType;
 
     fn setup(writes: bool) -> (ModbusTcpConfig, ModbusMap, ServiceSnapshot) {
@@ -366,18 +367,6 @@ mod tests {
             writes,
             idle_timeout: Duration::from_secs(60),
             send_timeout: Duration::from_secs(10),
-        };
-        let entry = |tag, ty, address, writable| {
-            let (space, width) = Space::of(ty);
-            ScadaEntry {
-                tag,
-                ty,
-                space,
-                address,
-                width,
-                writable,
-                pinned: false,
-            }
         };
         let map = ModbusMap::new(&ScadaMap {
             entries: vec![

@@ -271,6 +271,21 @@ impl Ex9053Driver {
         })
     }
 
+    /// Whether `response` is the echo of the write `step` sends: an FC 5 or FC 6 answer at the
+    /// address its request wrote.
+    fn echoes(&self, step: Step, response: &Response) -> bool {
+        matches!(
+            (self.request(step), response),
+            (
+                Some(Request::WriteSingleCoil { addr: sent, .. }),
+                Response::WriteSingleCoil { addr, .. },
+            ) | (
+                Some(Request::WriteSingleRegister { addr: sent, .. }),
+                Response::WriteSingleRegister { addr, .. },
+            ) if sent == *addr
+        )
+    }
+
     /// The Modbus request of a step (`None`: a DCON-only step, or the host OK frame).
     fn request(&self, step: Step) -> Option<Request> {
         let vv = u16::from(self.settings.watchdog.unwrap_or(0));
@@ -607,30 +622,12 @@ impl Ex9053Driver {
                 self.set_watchdog_status(timeout);
                 Ok(())
             }
-            (Step::EdgeWrite, Response::WriteSingleCoil { addr, .. })
-                if *addr == COIL_COUNT_EDGE =>
+            (_, Response::WriteSingleCoil { .. } | Response::WriteSingleRegister { .. })
+                if self.echoes(step, response) =>
             {
-                Ok(())
-            }
-            (Step::WdtClear, Response::WriteSingleCoil { addr, .. })
-                if *addr == COIL_WDT_STATUS =>
-            {
-                Ok(())
-            }
-            (Step::ClearLatches, Response::WriteSingleCoil { addr, .. })
-                if *addr == COIL_CLEAR_LATCHES =>
-            {
-                Ok(())
-            }
-            (Step::WdtValue, Response::WriteSingleRegister { addr, .. })
-                if *addr == HR_WDT_VALUE =>
-            {
-                Ok(())
-            }
-            (Step::WdtEnable, Response::WriteSingleCoil { addr, .. })
-                if *addr == COIL_WDT_ENABLE =>
-            {
-                self.recover = false;
+                if step == Step::WdtEnable {
+                    self.recover = false;
+                }
                 Ok(())
             }
             (Step::WdtVerify, Response::ReadHoldingRegisters(regs)) => {

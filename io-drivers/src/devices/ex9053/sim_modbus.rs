@@ -16,7 +16,7 @@
 //! silence, a broadcast acts without an answer, a refused request gets its exception.
 
 use crate::modbus::crc::{append_crc, check_crc};
-use crate::modbus::server::{decode_request, encode_response, serve};
+use crate::modbus::server::{decode_request, encode_response, exception_frame, serve};
 use crate::modbus::{ExceptionCode, Response};
 
 use super::map::{FC_MODULE, NAME_WORDS, REG_HOST_OK, SUB_READ_NAME, SUB_SET_ADDRESS};
@@ -54,11 +54,8 @@ pub(crate) fn answer(state: &mut Ex9053State, frame: &[u8]) -> Option<Vec<u8>> {
         }
         Ok(_) => None,
         Err(e) => {
-            let (unit, resp) = e.exception_reply()?;
-            for_me(unit).then(|| {
-                encode_response(unit, &resp, &mut out);
-                out
-            })
+            let (unit, out) = exception_frame(&e)?;
+            for_me(unit).then_some(out)
         }
     }
 }

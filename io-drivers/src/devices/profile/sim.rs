@@ -13,7 +13,9 @@ use std::time::Duration;
 use super::{value, Behaviour, Profile, Table};
 use crate::devices::ModelSpec;
 use crate::modbus::crc::check_crc;
-use crate::modbus::server::{decode_request, encode_response, serve, RegisterBank};
+use crate::modbus::server::{
+    decode_request, encode_response, exception_frame, serve, RegisterBank,
+};
 use crate::modbus::ExceptionCode;
 use crate::point::{PointSpec, Value};
 use crate::sim::{SimDevice, SimError, SimReply};
@@ -270,9 +272,7 @@ impl SimDevice for ProfileSim {
         let (unit, req) = match decode_request(frame) {
             Ok(decoded) => decoded,
             Err(e) => {
-                let (unit, resp) = e.exception_reply()?;
-                let mut out = Vec::new();
-                encode_response(unit, &resp, &mut out);
+                let (unit, out) = exception_frame(&e)?;
                 return (unit == self.address).then(|| self.reply(out));
             }
         };

@@ -153,41 +153,44 @@ fn written_latch(c: TagId, e: &Expr) -> Option<(BoolExpr, BoolExpr, bool)> {
     let is_c = |x: &Expr| matches!(x, Expr::Load(id) if *id == c);
     match e {
         Expr::And(items) => {
-            let hold = items
-                .iter()
-                .position(|i| matches!(i, Expr::Or(o) if o.iter().any(is_c)))?;
-            let Expr::Or(or) = &items[hold] else {
-                return None;
-            };
+            let (or, rest) = holding(items, is_c, |x| match x {
+                Expr::Or(o) => Some(o),
+                _ => None,
+            })?;
             let set = or_of(or.iter().filter(|x| !is_c(x)))?;
-            let keep = and_of(
-                items
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| *i != hold)
-                    .map(|(_, x)| x),
-            )?;
+            let keep = and_of(rest)?;
             (!set.reads(c) && !keep.reads(c)).then(|| (set, BoolExpr::negate(keep), true))
         }
         Expr::Or(items) => {
-            let hold = items
-                .iter()
-                .position(|i| matches!(i, Expr::And(a) if a.iter().any(is_c)))?;
-            let Expr::And(and) = &items[hold] else {
-                return None;
-            };
+            let (and, rest) = holding(items, is_c, |x| match x {
+                Expr::And(a) => Some(a),
+                _ => None,
+            })?;
             let keep = and_of(and.iter().filter(|x| !is_c(x)))?;
-            let set = or_of(
-                items
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| *i != hold)
-                    .map(|(_, x)| x),
-            )?;
+            let set = or_of(rest)?;
             (!set.reads(c) && !keep.reads(c)).then(|| (set, BoolExpr::negate(keep), false))
         }
         _ => None,
     }
+}
+
+/// The first operand of `items` that `inner` opens (an `Or` inside an `And`, or the other way
+/// round) and that holds the coil `c` itself, with its list, and the other operands.
+fn holding(
+    items: &[Expr],
+    is_c: impl Fn(&Expr) -> bool,
+    inner: impl Fn(&Expr) -> Option<&Vec<Expr>>,
+) -> Option<(&[Expr], impl Iterator<Item = &Expr>)> {
+    let hold = items
+        .iter()
+        .position(|i| inner(i).is_some_and(|list| list.iter().any(&is_c)))?;
+    let list = inner(&items[hold])?;
+    let rest = items
+        .iter()
+        .enumerate()
+        .filter(move |(i, _)| *i != hold)
+        .map(|(_, x)| x);
+    Some((list.as_slice(), rest))
 }
 
 fn or_of<'a>(items: impl Iterator<Item = &'a Expr>) -> Option<BoolExpr> {

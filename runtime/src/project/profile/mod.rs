@@ -17,7 +17,7 @@ pub use error::ProfileError;
 pub use softplc_io::devices::profile::Profile;
 use softplc_io::devices::profile::{PointAccess, Table, WriteMode};
 
-use super::error::{ErrorKind, ProjectError, ProjectErrors};
+use super::error::{read_text, ProjectErrors};
 
 /// The tables, in the order errors list them.
 pub(crate) const TABLES: [Table; 4] = [Table::Coil, Table::Discrete, Table::Input, Table::Holding];
@@ -35,19 +35,7 @@ pub(crate) const WRITES: [(&str, WriteMode); 2] = [
 
 /// Reads and checks the profile file at `path`.
 pub fn load(path: &Path) -> Result<Profile, ProjectErrors> {
-    match std::fs::read_to_string(path) {
-        Ok(text) => parse_str(&text, path),
-        Err(e) => Err(ProjectErrors {
-            errors: vec![ProjectError {
-                file: path.to_path_buf(),
-                line: 0,
-                column: 0,
-                kind: ErrorKind::Io {
-                    message: e.to_string(),
-                },
-            }],
-        }),
-    }
+    parse_str(&read_text(path)?, path)
 }
 
 /// Checks profile text as if read from `file` (errors name `file`).

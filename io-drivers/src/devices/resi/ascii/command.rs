@@ -41,6 +41,19 @@ impl Field {
         }
     }
 
+    /// The fixed items `0..N` of `kind`, in order: a command that lists every channel's value
+    /// (4LED `GLOS`: LO 1..12).
+    pub const fn run<const N: usize>(kind: Kind) -> [Self; N] {
+        let mut out = [Self::at(kind, 0); N];
+        let mut i = 0;
+        while i < N {
+            // N is a channel count, well below 256.
+            out[i] = Self::at(kind, i as u8);
+            i += 1;
+        }
+        out
+    }
+
     /// An item of a group of `step` (4LED `SALLx`: LO channel `3(x − 1) + add`).
     pub const fn group(kind: Kind, step: u8, add: u8) -> Self {
         Self { kind, step, add }
@@ -161,16 +174,15 @@ impl Command {
         fields: &'static [Field],
         fmt: Fmt,
     ) -> Self {
-        Self {
+        Self::new(
             short,
             long,
-            x: None,
-            action: Action::Get {
+            Action::Get {
                 fields,
                 fmt,
                 reply: None,
             },
-        }
+        )
     }
 
     /// A set command without a channel.
@@ -179,12 +191,7 @@ impl Command {
         long: &'static [&'static str],
         fields: &'static [Field],
     ) -> Self {
-        Self {
-            short,
-            long,
-            x: None,
-            action: Action::Set { fields },
-        }
+        Self::new(short, long, Action::Set { fields })
     }
 
     /// A set command taking sensor configurations by name.
@@ -193,21 +200,21 @@ impl Command {
         long: &'static [&'static str],
         fields: &'static [Field],
     ) -> Self {
-        Self {
-            short,
-            long,
-            x: None,
-            action: Action::SetSensorConfig { fields },
-        }
+        Self::new(short, long, Action::SetSensorConfig { fields })
     }
 
     /// An action.
     pub const fn op(short: &'static str, long: &'static [&'static str], op: Op) -> Self {
+        Self::new(short, long, Action::Do(op))
+    }
+
+    /// A command without a channel: what the constructors above share.
+    const fn new(short: &'static str, long: &'static [&'static str], action: Action) -> Self {
         Self {
             short,
             long,
             x: None,
-            action: Action::Do(op),
+            action,
         }
     }
 
@@ -390,5 +397,20 @@ mod tests {
         assert_eq!(c.reply_keyword(x), "GDIP");
         assert_eq!(Field::group(Kind::Lo, 3, 2).index(2), 5);
         assert_eq!(Field::at(Kind::Lo, 2).index(4), 2);
+    }
+
+    /// A listing command's fields are the channels' items in channel order, whatever `x` is.
+    #[test]
+    fn a_run_is_every_channel_in_order() {
+        let run: [Field; 3] = Field::run(Kind::Clo);
+        assert_eq!(
+            run,
+            [
+                Field::at(Kind::Clo, 0),
+                Field::at(Kind::Clo, 1),
+                Field::at(Kind::Clo, 2)
+            ]
+        );
+        assert_eq!(run.map(|f| f.index(5)), [0, 1, 2]);
     }
 }

@@ -48,9 +48,9 @@ const D: Fmt = Fmt::DecsThenHexes;
 const fn at(kind: Kind, i: u8) -> Field {
     Field::at(kind, i)
 }
-const LOS: [Field; 3] = [at(Kind::Lo, 0), at(Kind::Lo, 1), at(Kind::Lo, 2)];
-const CLOS: [Field; 3] = [at(Kind::Clo, 0), at(Kind::Clo, 1), at(Kind::Clo, 2)];
-const RLOS: [Field; 3] = [at(Kind::Rlo, 0), at(Kind::Rlo, 1), at(Kind::Rlo, 2)];
+const LOS: [Field; 3] = Field::run(Kind::Lo);
+const CLOS: [Field; 3] = Field::run(Kind::Clo);
+const RLOS: [Field; 3] = Field::run(Kind::Rlo);
 const TIMES: [Field; 2] = [at(Kind::MinTime, 0), at(Kind::MaxTime, 0)];
 const ALL: [Field; 7] = [
     at(Kind::Mode, 0),

@@ -84,54 +84,12 @@ static MAP: &[Block] = &[
 
 const P: Fmt = Fmt::Pairs;
 const D: Fmt = Fmt::DecsThenHexes;
-const fn at(kind: Kind, i: u8) -> Field {
-    Field::at(kind, i)
-}
 const fn abc(kind: Kind, k: u8) -> Field {
     Field::group(kind, 3, k)
 }
-const LOS: [Field; 12] = [
-    at(Kind::Lo, 0),
-    at(Kind::Lo, 1),
-    at(Kind::Lo, 2),
-    at(Kind::Lo, 3),
-    at(Kind::Lo, 4),
-    at(Kind::Lo, 5),
-    at(Kind::Lo, 6),
-    at(Kind::Lo, 7),
-    at(Kind::Lo, 8),
-    at(Kind::Lo, 9),
-    at(Kind::Lo, 10),
-    at(Kind::Lo, 11),
-];
-const CLOS: [Field; 12] = [
-    at(Kind::Clo, 0),
-    at(Kind::Clo, 1),
-    at(Kind::Clo, 2),
-    at(Kind::Clo, 3),
-    at(Kind::Clo, 4),
-    at(Kind::Clo, 5),
-    at(Kind::Clo, 6),
-    at(Kind::Clo, 7),
-    at(Kind::Clo, 8),
-    at(Kind::Clo, 9),
-    at(Kind::Clo, 10),
-    at(Kind::Clo, 11),
-];
-const RLOS: [Field; 12] = [
-    at(Kind::Rlo, 0),
-    at(Kind::Rlo, 1),
-    at(Kind::Rlo, 2),
-    at(Kind::Rlo, 3),
-    at(Kind::Rlo, 4),
-    at(Kind::Rlo, 5),
-    at(Kind::Rlo, 6),
-    at(Kind::Rlo, 7),
-    at(Kind::Rlo, 8),
-    at(Kind::Rlo, 9),
-    at(Kind::Rlo, 10),
-    at(Kind::Rlo, 11),
-];
+const LOS: [Field; 12] = Field::run(Kind::Lo);
+const CLOS: [Field; 12] = Field::run(Kind::Clo);
+const RLOS: [Field; 12] = Field::run(Kind::Rlo);
 const TIMES: [Field; 2] = [Field::x(Kind::MinTime), Field::x(Kind::MaxTime)];
 const ALL: [Field; 7] = [
     Field::x(Kind::Mode),

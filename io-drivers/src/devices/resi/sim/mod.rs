@@ -28,7 +28,7 @@ use super::state::Module;
 use super::value::Num;
 use crate::line::settings::{LineSettings, SerialFormat};
 use crate::modbus::crc::check_crc;
-use crate::modbus::server::{decode_request, encode_response, serve};
+use crate::modbus::server::{decode_request, encode_response, exception_frame, serve};
 use crate::modbus::{ExceptionCode, Request, Response};
 use crate::point::{PointSpec, Value};
 use crate::sim::{SimDevice, SimError, SimReply};
@@ -98,9 +98,7 @@ impl ResiSim {
         let (unit, req) = match decode_request(frame) {
             Ok(decoded) => decoded,
             Err(e) => {
-                let (unit, resp) = e.exception_reply()?;
-                let mut out = Vec::new();
-                encode_response(unit, &resp, &mut out);
+                let (unit, out) = exception_frame(&e)?;
                 return (unit == me).then(|| self.reply(out));
             }
         };
