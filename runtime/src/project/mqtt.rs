@@ -278,20 +278,16 @@ pub(crate) fn validate(
             0
         }
     };
-    let password = match super::secret::password(&raw.password, &raw.password_env) {
-        Ok(p) => p,
-        Err(super::secret::PasswordError::Both) => {
-            errors.push((
-                "password",
-                MqttError::Credentials("give password or password_env, not both"),
-            ));
-            None
-        }
-        Err(super::secret::PasswordError::Unset(name)) => {
-            errors.push(("password_env", MqttError::PasswordEnv { name }));
-            None
-        }
-    };
+    let password = super::secret::password_at(
+        &raw.password,
+        &raw.password_env,
+        MqttError::Credentials("give password or password_env, not both"),
+        |name| MqttError::PasswordEnv { name },
+    )
+    .unwrap_or_else(|e| {
+        errors.push(e);
+        None
+    });
     let credentials = match (&raw.username, password) {
         (Some(u), Some(p)) => Some((u.clone(), p)),
         (Some(u), None) => Some((u.clone(), MqttPassword(String::new()))),

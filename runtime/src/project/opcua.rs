@@ -203,20 +203,16 @@ pub(crate) fn validate(
             0
         }),
     };
-    let password = match super::secret::password(&raw.password, &raw.password_env) {
-        Ok(p) => p,
-        Err(super::secret::PasswordError::Both) => {
-            errors.push((
-                "password",
-                OpcUaError::Credentials("give password or password_env, not both"),
-            ));
-            None
-        }
-        Err(super::secret::PasswordError::Unset(name)) => {
-            errors.push(("password_env", OpcUaError::PasswordEnv { name }));
-            None
-        }
-    };
+    let password = super::secret::password_at(
+        &raw.password,
+        &raw.password_env,
+        OpcUaError::Credentials("give password or password_env, not both"),
+        |name| OpcUaError::PasswordEnv { name },
+    )
+    .unwrap_or_else(|e| {
+        errors.push(e);
+        None
+    });
     let given_password = raw.password.is_some() || raw.password_env.is_some();
     let user = match (&raw.username, password) {
         (Some(u), Some(p)) => Some((u.clone(), p)),

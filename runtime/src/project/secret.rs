@@ -35,3 +35,18 @@ pub(crate) fn password(
         (None, None) => Ok(None),
     }
 }
+
+/// [`password`] with its refusal as a service's own error at the key it names: `both` at
+/// `password` when both keys are set, `unset(name)` at `password_env` when the variable is not
+/// set. One mapping for every service that takes a password.
+pub(crate) fn password_at<E>(
+    given: &Option<String>,
+    given_env: &Option<String>,
+    both: E,
+    unset: impl FnOnce(String) -> E,
+) -> Result<Option<Password>, (&'static str, E)> {
+    password(given, given_env).map_err(|e| match e {
+        PasswordError::Both => ("password", both),
+        PasswordError::Unset(name) => ("password_env", unset(name)),
+    })
+}
