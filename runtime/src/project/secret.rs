@@ -50,3 +50,27 @@ pub(crate) fn password_at<E>(
         PasswordError::Unset(name) => ("password_env", unset(name)),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refused_password_is_the_services_error_at_the_key_it_names() {
+        let some = |s: &str| Some(s.to_string());
+        let at = |p: &Option<String>, e: &Option<String>| {
+            password_at(p, e, "both".to_string(), |name| format!("unset {name}"))
+        };
+        assert_eq!(
+            at(&some("x"), &some("V")),
+            Err(("password", "both".to_string()))
+        );
+        let unset = "SOFTPLC_TEST_PASSWORD_THAT_IS_NEVER_SET";
+        assert_eq!(
+            at(&None, &some(unset)),
+            Err(("password_env", format!("unset {unset}")))
+        );
+        assert_eq!(at(&some("x"), &None), Ok(Some(Password("x".into()))));
+        assert_eq!(at(&None, &None), Ok(None));
+    }
+}
