@@ -334,6 +334,23 @@ fn scans_go_on(socket: &Path) {
     }
 }
 
+/// A 2 s run of the test project with `mqtt_keys` added to its `mqtt:` section, named `case`
+/// in `dir`; what it logged.
+fn short_run(dir: &Path, port: u16, case: &str, mqtt_keys: &str) -> String {
+    let text = std::fs::read_to_string(project(dir, port)).unwrap();
+    let path = dir.join(format!("{case}.yaml"));
+    let keys = format!("    buffer: 1000\n{mqtt_keys}");
+    std::fs::write(&path, text.replace("    buffer: 1000\n", &keys)).unwrap();
+    let log = dir.join(format!("{case}.log"));
+    let mut plc = softplc(&path, &dir.join(format!("{case}.sock")), "2s", &log);
+    let end = Instant::now() + Duration::from_secs(20);
+    while plc.try_wait().unwrap().is_none() {
+        assert!(Instant::now() < end, "softplc did not stop");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::fs::read_to_string(&log).unwrap()
+}
+
 /// A fresh folder of this test.
 fn tempfile_dir() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-mqtt-{}", std::process::id()));
@@ -496,24 +513,12 @@ fn tls_to_a_broker_signed_by_the_projects_ca_and_a_refusal_by_another_ca() {
         &format!("cafile {d}/ca.pem\ncertfile {d}/server.pem\nkeyfile {d}/server.key\n"),
     );
     for (ca, connects) in [("ca.pem", true), ("other-ca.pem", false)] {
-        let text = std::fs::read_to_string(project(&dir, port)).unwrap();
-        let path = dir.join(format!("tls-{ca}.yaml"));
-        std::fs::write(
-            &path,
-            text.replace(
-                "    buffer: 1000\n",
-                &format!("    buffer: 1000\n    tls: {{ ca_file: {ca} }}\n"),
-            ),
-        )
-        .unwrap();
-        let log = dir.join(format!("tls-{ca}.log"));
-        let mut plc = softplc(&path, &dir.join(format!("{ca}.sock")), "2s", &log);
-        let end = Instant::now() + Duration::from_secs(20);
-        while plc.try_wait().unwrap().is_none() {
-            assert!(Instant::now() < end, "softplc did not stop");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let text = std::fs::read_to_string(&log).unwrap();
+        let text = short_run(
+            &dir,
+            port,
+            &format!("tls-{ca}"),
+            &format!("    tls: {{ ca_file: {ca} }}\n"),
+        );
         assert_eq!(
             text.contains(&format!("MQTT: connected to 127.0.0.1:{port}")),
             connects,
@@ -561,24 +566,12 @@ fn a_broker_that_wants_a_password_takes_the_projects_user_and_refuses_a_wrong_pa
         ("right", "right-pass", true),
         ("wrong", "wrong-pass", false),
     ] {
-        let text = std::fs::read_to_string(project(&dir, port)).unwrap();
-        let path = dir.join(format!("user-{case}.yaml"));
-        std::fs::write(
-            &path,
-            text.replace(
-                "    buffer: 1000\n",
-                &format!("    buffer: 1000\n    username: plc\n    password: {password}\n"),
-            ),
-        )
-        .unwrap();
-        let log = dir.join(format!("user-{case}.log"));
-        let mut plc = softplc(&path, &dir.join(format!("{case}.sock")), "2s", &log);
-        let end = Instant::now() + Duration::from_secs(20);
-        while plc.try_wait().unwrap().is_none() {
-            assert!(Instant::now() < end, "softplc did not stop");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let text = std::fs::read_to_string(&log).unwrap();
+        let text = short_run(
+            &dir,
+            port,
+            &format!("user-{case}"),
+            &format!("    username: plc\n    password: {password}\n"),
+        );
         assert_eq!(
             text.contains("MQTT: NBIRTH (bdSeq 0)"),
             connects,
