@@ -9,7 +9,9 @@
 //!
 //! - MiniMod AON/AOFF: `y = x` (X1 → Y1), reply delay 10 ms; pushed down as Y1AON1 = X1,
 //!   Y1AOFF1 = -X1 ("Automatic output management"). Both include the module's power-on input
-//!   filter (XLATUP/XLATDN = 20 ms).
+//!   filter (XLATUP/XLATDN = 20 ms). The same with X1's latencies set to 1 ms (XLATUP1 =
+//!   XLATDN1 = 1), against the 2 ms goal: the filter, the module's 1 ms tick and the 1 ms
+//!   sampling of the terminal are what is left.
 //! - RESI-16DI8RO SWITCH: `y = x` (DI1 → RO1), reply delay 2 ms; pushed down as SWITCH RO1 =
 //!   DI1. The module samples its inputs every 10 ms.
 //! - RESI-16DI8RO TOGGLE: `y = y ^ rising(x)` (an impulse relay); pushed down as TOGGLE RO1 =
@@ -36,7 +38,7 @@ pub(crate) const SCENARIO: Scenario = Scenario {
     summary: "An input flipped at the simulated module's terminal at pseudo-random times, the \
               output sampled every 1 ms. 19200 8E1, scan period 50 ms. MiniMod (X1 → Y1): \
               reply delay 10 ms; both cases include the module's 20 ms power-on input filter \
-              (XLATUP/XLATDN). RESI-16DI8RO (DI1 → RO1): reply delay 2 ms, inputs sampled \
+              (XLATUP/XLATDN), and again with X1's filter set to 1 ms (goal 2 ms). RESI-16DI8RO (DI1 → RO1): reply delay 2 ms, inputs sampled \
               every 10 ms; TOGGLE rows time rising edges only. Bus cycle floor = one read \
               cycle + one write of the output (MiniMod FC 2 + FC 5, RESI FC 1 + FC 5).",
     run,
@@ -50,6 +52,8 @@ struct Case {
     file: &'static str,
     /// Catalog model of the module.
     model: &'static str,
+    /// The module's `settings:` mapping in the project, empty for its power-on settings.
+    settings: &'static str,
     /// Input and output terminals, bound to tags `x` and `y`.
     input: &'static str,
     output: &'static str,
@@ -70,10 +74,11 @@ struct Case {
 
 const RESI_SAMPLE: (&str, Duration) = ("RESI input sample", Duration::from_millis(10));
 
-const CASES: [Case; 3] = [
+const CASES: [Case; 4] = [
     Case {
         file: "reaction_minimod",
         model: "minimod",
+        settings: "",
         input: "X1",
         output: "Y1",
         program: "beat = !beat\ny = x\n",
@@ -86,8 +91,24 @@ const CASES: [Case; 3] = [
         labels: ["central, scan 50 ms", "MiniMod AON/AOFF"],
     },
     Case {
+        file: "reaction_minimod_fast",
+        model: "minimod",
+        settings: "{ XLATUP1: 1, XLATDN1: 1 }",
+        input: "X1",
+        output: "Y1",
+        program: "beat = !beat\ny = x\n",
+        follow: Follow::Level,
+        central: "central: y = x, scan 50 ms, X1 latency 1 ms",
+        module: "MiniMod Y1AON1 = X1, Y1AOFF1 = -X1, X1 latency 1 ms",
+        metric: "X1 edge → Y1 edge",
+        note: "pushed down by the planner (offload: auto); XLATUP1 = XLATDN1 = 1 ms set at start-up; goal 2 ms",
+        module_bound: Some(("goal", Duration::from_millis(2))),
+        labels: ["central, X1 latency 1 ms", "MiniMod AON/AOFF, X1 latency 1 ms"],
+    },
+    Case {
         file: "reaction_resi_switch",
         model: "resi-16di8ro",
+        settings: "",
         input: "DI1",
         output: "RO1",
         program: "beat = !beat\ny = x\n",
@@ -102,6 +123,7 @@ const CASES: [Case; 3] = [
     Case {
         file: "reaction_resi_toggle",
         model: "resi-16di8ro",
+        settings: "",
         input: "DI1",
         output: "RO1",
         program: "beat = !beat\ny = y ^ rising(x)\n",
@@ -170,6 +192,7 @@ fn probe(ctx: &Ctx, case: &Case, in_module: bool) -> anyhow::Result<Probed> {
     let run_for = ctx.pick(Duration::from_secs(12), Duration::from_millis(2500));
     let mut bus = SimBus::new("line1", 19200, [1]);
     bus.model = case.model;
+    bus.settings = case.settings.to_string();
     let tags = [
         format!("{{ name: x, point: line1_m1.{} }}", case.input),
         "{ name: beat, type: bool }".to_string(),
