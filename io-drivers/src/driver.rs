@@ -45,6 +45,26 @@ pub enum Outgoing {
     },
 }
 
+/// A module's place in its line's FC 70 Collect round ([`Driver::collect_membership`]) and
+/// the two periods of its full refresh ([`Driver::plan_refresh`]).
+///
+/// An idle Collect round is silence whether the module is there or not, and a module whose
+/// event recording was switched off (a power cycle back to saved settings that do not enable
+/// it) stays silent too. So the bus owner reads a member in full when nothing addressed to it
+/// has been answered for `answer_within` (a write's echo counts: it proves the module is there
+/// and hears its address, which also feeds a watchdog that counts only such messages), and at
+/// least every `resync` whatever answered (the bound on how long inputs can stay wrong after
+/// events were lost without a gap in SLVSEQ).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Membership {
+    /// The unit that answers in the round.
+    pub unit: UnitId,
+    /// The longest the module goes without an answered exchange addressed to it.
+    pub answer_within: Duration,
+    /// The longest it goes without a full read.
+    pub resync: Duration,
+}
+
 /// A reply to a transaction, as the bus owner hands it to the driver.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Reply {
@@ -98,6 +118,14 @@ pub trait Driver: Send + Debug {
     /// when `refresh` is set, everything again.
     fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>);
 
+    /// Whether the writes the last [`Driver::plan_write`] planned bring every output the
+    /// program owns to its desired value (a write on change that happens to cover them all,
+    /// or a refresh): the bus owner then counts them as the module's output refresh, and the
+    /// periodic rewrite of that module waits a full period again.
+    fn planned_full_write(&self) -> bool {
+        false
+    }
+
     /// Applies a reply to one of this driver's transactions.
     fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError>;
 
@@ -121,19 +149,20 @@ pub trait Driver: Send + Debug {
         false
     }
 
-    /// Whether the module takes part in its line's FC 70 Collect round, and as which unit,
-    /// with the period of its full refresh (`crate::line::collect`). A member's
+    /// Whether the module takes part in its line's FC 70 Collect round, as which unit and with
+    /// which refresh periods ([`Membership`], `crate::line::collect`). A member's
     /// [`Driver::plan_read`] then holds only what it reads every cycle; the bus owner asks
     /// [`Driver::plan_refresh`] for the rest when a refresh is due, and hands every event of
     /// the module to [`Driver::on_reply`] as a [`Response::Collect`] under
     /// `crate::line::collect::EVENT_TAG`.
-    fn collect_membership(&self) -> Option<(UnitId, Duration)> {
+    fn collect_membership(&self) -> Option<Membership> {
         None
     }
 
     /// A Collect member's full refresh (its inputs and read-back, whatever the events said),
-    /// planned after this cycle's [`Driver::plan_read`]; run on the first cycle, every refresh
-    /// period and after anything that may have lost an event. Never asked of a non-member.
+    /// planned after this cycle's [`Driver::plan_read`]; run on the first cycle, when a period
+    /// of its [`Membership`] is up and after anything that may have lost an event. Never asked
+    /// of a non-member.
     fn plan_refresh(&mut self, out: &mut Vec<Transaction>) {
         let _ = out;
     }

@@ -704,7 +704,7 @@ fn a_misspelt_setting_gets_the_models_close_keys() {
     assert_eq!(at(&e), (16, 15), "at the value");
     assert!(
         e.to_string()
-            .ends_with("setting `RDELAY`: not a minimod setting; accepted: readback, counters, status, events, event_refresh, RDELAYT, RDELAYM, XLATUP1..3, XLATDN1..3, XCOUNT1..3, Y1AON1..Y4AON3, Y1AOFF1..Y4AOFF3, YLAMP1..4, WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2, EVFB1..2, XEVMASK, YEVMASK; did you mean RDELAYT, RDELAYM?"),
+            .ends_with("setting `RDELAY`: not a minimod setting; accepted: readback, counters, status, events, event_refresh, event_resync, RDELAYT, RDELAYM, XLATUP1..3, XLATDN1..3, XCOUNT1..3, Y1AON1..Y4AON3, Y1AOFF1..Y4AOFF3, YLAMP1..4, WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2, EVFB1..2, XEVMASK, YEVMASK; did you mean RDELAYT, RDELAYM?"),
         "{e}"
     );
     // A value out of range names the range; a condition names where it goes wrong.

@@ -564,7 +564,11 @@ fn pulses_run_in_the_minimod_pulser_exactly() {
         name: "pulses",
         period_ms: 100,
         tick_ms: 1,
-        modules: &["name: mm1, model: minimod, address: 1"],
+        // Polled: in event mode a round takes one event a slave, so inputs that change
+        // together reach the program a cycle apart, and which cycle depends on the module's
+        // full reads, which differ between the two builds (the central build's writes answer
+        // for the module, `line/housekeeping.rs`). What is compared here is the pulser.
+        modules: &["name: mm1, model: minimod, address: 1, settings: {events: false}"],
         tags: &[
             "name: a, point: mm1.X1",
             "name: b, point: mm1.X2",

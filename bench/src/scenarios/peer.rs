@@ -52,9 +52,13 @@ pub(crate) const SCENARIO: Scenario = Scenario {
 };
 
 const UNITS: [u8; 4] = [1, 2, 3, 4];
-/// Event mode with Collect rounds only: the periodic full refresh (`event_refresh`) out of
-/// the way of the cycles measured.
-const EVENT_MODE: [(&str, &str); 2] = [("events", "true"), ("event_refresh", "60s")];
+/// Event mode with Collect rounds only: the periodic full reads (`event_refresh`,
+/// `event_resync`) out of the way of the cycles measured.
+const EVENT_MODE: [(&str, &str); 3] = [
+    ("events", "true"),
+    ("event_refresh", "60s"),
+    ("event_resync", "60s"),
+];
 
 fn run(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let line = LineSettings::DEFAULT;

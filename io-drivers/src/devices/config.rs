@@ -173,7 +173,7 @@ impl fmt::Display for Accepted {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Accepted::MiniMod => f.write_str(
-                "readback, counters, status, events, event_refresh, RDELAYT, RDELAYM, \
+                "readback, counters, status, events, event_refresh, event_resync, RDELAYT, RDELAYM, \
                  XLATUP1..3, XLATDN1..3, XCOUNT1..3, Y1AON1..Y4AON3, Y1AOFF1..Y4AOFF3, \
                  YLAMP1..4, WDTTIME, WDTYMASK, FBENABLE, WDTFB1..2, EVFB1..2, XEVMASK, YEVMASK",
             ),

@@ -169,11 +169,11 @@ pub fn line_budget_on(
         let gap = frame_gap_excess(settings, driver.as_ref());
         plan.clear();
         driver.plan_read(&mut plan);
-        if let Some((unit, _)) = driver.collect_membership() {
+        if let Some(membership) = driver.collect_membership() {
             // A member's full refresh (a cycle that refreshes is the longest); its share of
             // the line's Collect round is counted once for the line, below.
             driver.plan_refresh(&mut plan);
-            members.push(unit.get());
+            members.push(membership.unit.get());
         }
         let read_transactions = plan.len();
         let read_time = plan
@@ -242,7 +242,7 @@ pub fn input_floor(
             .iter()
             .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
             .sum::<Duration>();
-        members.extend(driver.collect_membership().map(|(unit, _)| unit.get()));
+        members.extend(driver.collect_membership().map(|m| m.unit.get()));
     }
     total + CollectFloor::over(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle())
 }

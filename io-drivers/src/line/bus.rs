@@ -22,6 +22,7 @@ use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
 use crate::line::collect::CollectState;
 use crate::line::echo::{self, EchoFault};
 use crate::line::health::{Health, HealthEvent, HealthLimits};
+use crate::line::housekeeping::{Pick, Urgency};
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, LineFault, Transport};
 use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError};
@@ -283,6 +284,12 @@ pub struct Module {
     /// A write failed or was refused and has not been made good since.
     output_fault: bool,
     pub(crate) last_error: Option<TxError>,
+    /// When the module last answered an exchange addressed to it (a reply or an exception:
+    /// it is there and hears its address), on the line's time.
+    pub(crate) last_answered: Option<Duration>,
+    /// When every output it owns was last written (a refresh, or a write on change that
+    /// covered them all): its periodic rewrite runs from there (`line/housekeeping.rs`).
+    last_full_write: Option<Duration>,
 }
 
 impl Module {
@@ -297,6 +304,8 @@ impl Module {
             startup_pending: false,
             output_fault: false,
             last_error: None,
+            last_answered: None,
+            last_full_write: None,
         }
     }
 
@@ -334,7 +343,6 @@ pub struct BusOwner {
     pub(crate) collect: CollectState,
     /// The port's own health: a failed port is reopened with a backoff.
     port_health: Health,
-    last_refresh: Option<Duration>,
     /// Modules the last [`BusOwner::read_answering`] left for [`BusOwner::read_deferred`].
     deferred: Vec<usize>,
     plan: Vec<Transaction>,
@@ -372,7 +380,6 @@ impl BusOwner {
             line_free_at: Duration::ZERO,
             collect: CollectState::default(),
             port_health: Health::default(),
-            last_refresh: None,
             deferred: Vec::new(),
             plan: Vec::new(),
             tx_buf: Vec::with_capacity(256),
@@ -687,7 +694,8 @@ impl BusOwner {
         }
     }
 
-    /// Writes outputs that changed (and all of them when the refresh period has passed).
+    /// Writes outputs that changed, and every output of a module whose refresh period has
+    /// passed (`Discipline::output_refresh`, spread over cycles: `line/housekeeping.rs`).
     pub fn write_outputs(&mut self, frame: &OutputFrame) -> WriteReport {
         self.write(frame, false)
     }
@@ -695,19 +703,34 @@ impl BusOwner {
     /// Writes the safe state: every output again (not only changes), and to lost modules too,
     /// once, in case they are back (stop, fault).
     pub fn write_safe(&mut self, frame: &OutputFrame) -> WriteReport {
-        self.last_refresh = None;
+        for module in &mut self.modules {
+            module.last_full_write = None;
+        }
         self.write(frame, true)
+    }
+
+    /// The modules whose outputs are all written again this cycle: those back from a loss or
+    /// a start-up, and the periodic rewrites `line/housekeeping.rs` chooses.
+    fn output_refreshes(&mut self, now: Duration) -> Vec<bool> {
+        let period = self.discipline.output_refresh;
+        let mut pick = Pick::default();
+        for (m, module) in self.modules.iter().enumerate() {
+            if module.refresh_pending {
+                pick.taken();
+            } else {
+                pick.offer(m, Urgency::of(module.last_full_write, period, now));
+            }
+        }
+        let mut refresh: Vec<bool> = self.modules.iter().map(|m| m.refresh_pending).collect();
+        for m in pick.chosen() {
+            refresh[m] = true;
+        }
+        refresh
     }
 
     fn write(&mut self, frame: &OutputFrame, include_lost: bool) -> WriteReport {
         let now = self.transport.now();
-        let refresh = match self.last_refresh {
-            Some(t) => now.saturating_sub(t) >= self.discipline.output_refresh,
-            None => true,
-        };
-        if refresh {
-            self.last_refresh = Some(now);
-        }
+        let refreshes = self.output_refreshes(now);
         let mut report = WriteReport {
             transactions: 0,
             failures: 0,
@@ -723,10 +746,11 @@ impl BusOwner {
             {
                 continue;
             }
-            let pending = std::mem::take(&mut module.refresh_pending);
-            let refresh_module = refresh || pending;
+            module.refresh_pending = false;
+            let refresh_module = refreshes[m];
             plan.clear();
             module.driver.plan_write(desired, refresh_module, &mut plan);
+            let full = refresh_module || module.driver.planned_full_write();
             let mut failed = false;
             let retries = self.retries_for(m);
             for tx in &plan {
@@ -758,6 +782,9 @@ impl BusOwner {
             } else if module.output_fault && (refresh_module || !plan.is_empty()) {
                 module.output_fault = false;
             }
+            if full && !failed && !module.startup_pending {
+                module.last_full_write = Some(now);
+            }
         }
         self.plan = plan;
         report.finished = self.transport.now();
@@ -785,7 +812,9 @@ impl BusOwner {
             match self.attempt(m, tx) {
                 Ok(None) => return Ok(()),
                 Ok(Some(reply)) => {
+                    let now = self.transport.now();
                     let module = &mut self.modules[m];
+                    module.last_answered = Some(now);
                     if let Reply::Modbus(Response::Exception { code, .. }) = &reply {
                         module.counters.exceptions += 1;
                         // The device answered: retrying the same request gets the same "no".

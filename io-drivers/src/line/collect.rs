@@ -16,11 +16,14 @@
 //!   The owner hands the module's events back to the driver under [`EVENT_TAG`], as
 //!   [`Response::Collect`] replies.
 //! - `BusOwner::collect_pass` runs the round at the start of a read cycle, on the bus owner's
-//!   line, and decides for each member whether its refresh runs this cycle: on its first
-//!   cycle, every refresh period (the membership's), after a gap in its SLVSEQ (lost
-//!   events), after a failed round, and after a cycle of its own that failed. A member that
-//!   delivered an event this round has its periodic refresh put off to a later cycle, so the
-//!   program sees the event before the refresh overwrites it with the present state.
+//!   line, and decides for each member whether its refresh runs this cycle: at once on its
+//!   first cycle, after a gap in its SLVSEQ (lost events), after a failed round, and after a
+//!   cycle of its own that failed; and when a period of its [`Membership`] is up: nothing
+//!   addressed to it answered for `answer_within`, or no full read for `resync`. Those
+//!   periodic refreshes are spread over cycles, one a cycle (`line/housekeeping.rs`), so a
+//!   line's modules never all refresh in the same cycle. A member that delivered an event
+//!   this round has its periodic refresh put off to a later cycle, so the program sees the
+//!   event before the refresh overwrites it with the present state.
 //!
 //! Choices where the manual is silent:
 //! - The window is the lowest to the highest member address; a round gives each slave at
@@ -46,8 +49,9 @@ use std::time::Duration;
 
 #[cfg(doc)]
 use crate::driver::Driver;
-use crate::driver::{Reply, Transaction};
+use crate::driver::{Membership, Reply, Transaction};
 use crate::line::bus::{line_err, BusOwner, Frame, Miss, Silence};
+use crate::line::housekeeping::{Pick, Urgency};
 use crate::line::settings::LineSettings;
 use crate::modbus::{Request, Response};
 
@@ -244,7 +248,7 @@ impl CollectState {
 struct Member {
     module: usize,
     unit: u8,
-    refresh: Duration,
+    periods: Membership,
     delivered: bool,
     gap: bool,
 }
@@ -289,11 +293,11 @@ impl BusOwner {
             plan.clear();
             self.modules[m].driver.plan_read(plan);
             self.collect.planned[m] = true;
-            if let Some((unit, refresh)) = self.modules[m].driver.collect_membership() {
+            if let Some(periods) = self.modules[m].driver.collect_membership() {
                 members.push(Member {
                     module: m,
-                    unit: unit.get(),
-                    refresh,
+                    unit: periods.unit.get(),
+                    periods,
                     delivered: false,
                     gap: false,
                 });
@@ -323,20 +327,39 @@ impl BusOwner {
         }
         self.collect.pending_ack = round.pending_ack();
         let after = self.transport.now();
+        let mut pick = Pick::default();
+        let mut now_refreshed = Vec::new();
         for member in &members {
             let m = member.module;
-            let periodic = match self.collect.last_refresh[m] {
-                None => true,
-                Some(t) => after.saturating_sub(t) >= member.refresh && !member.delivered,
-            };
-            let due =
-                periodic || round.failed() || member.gap || self.modules[m].last_error.is_some();
-            if due {
-                let plan = &mut self.collect.stash[m];
-                self.modules[m].driver.plan_refresh(plan);
-                self.collect.last_refresh[m] = Some(after);
-                self.collect.stats.refreshes += 1;
+            let last_full = self.collect.last_refresh[m];
+            // What may have lost an event is repaired at once.
+            if last_full.is_none()
+                || round.failed()
+                || member.gap
+                || self.modules[m].last_error.is_some()
+            {
+                now_refreshed.push(m);
+                pick.taken();
+                continue;
             }
+            // Its event first: the refresh would overwrite it before the program saw it.
+            if member.delivered {
+                continue;
+            }
+            let answered = self.modules[m].last_answered.max(last_full);
+            let urgency = Urgency::of(last_full, member.periods.resync, after).max(Urgency::of(
+                answered,
+                member.periods.answer_within,
+                after,
+            ));
+            pick.offer(m, urgency);
+        }
+        now_refreshed.extend(pick.chosen());
+        for m in now_refreshed {
+            let plan = &mut self.collect.stash[m];
+            self.modules[m].driver.plan_refresh(plan);
+            self.collect.last_refresh[m] = Some(after);
+            self.collect.stats.refreshes += 1;
         }
     }
 

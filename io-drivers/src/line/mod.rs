@@ -18,6 +18,7 @@ pub(crate) mod bus;
 pub(crate) mod collect;
 pub(crate) mod echo;
 pub(crate) mod health;
+pub(crate) mod housekeeping;
 pub(crate) mod latency;
 pub(crate) mod link;
 pub(crate) mod settings;

@@ -369,7 +369,7 @@ fn collect_floor_line(
 ) -> Option<String> {
     let members: Vec<u8> = drivers
         .iter()
-        .filter_map(|(_, d, _)| d.collect_membership().map(|(unit, _)| unit.get()))
+        .filter_map(|(_, d, _)| d.collect_membership().map(|m| m.unit.get()))
         .collect();
     let floor = CollectFloor::over(settings, adapter, &members)?;
     let (first, last) = floor.window();

@@ -31,8 +31,9 @@
 //!   Three periods cover a cycle that overruns and is skipped to the next deadline, and the
 //!   scan's own jitter. So a healthy line, or one with failing neighbours, never fires it,
 //!   while a dead host (or a dead line) gets the outputs safe within that time.
-//! - **Event mode** (`events: true`): the bus owner sends a broadcast Collect every cycle and
-//!   the module's full read only every `event_refresh` (default 1 s). The manual counts
+//! - **Event mode** (`events: true`): the bus owner sends a broadcast Collect every cycle, and
+//!   a message addressed to the module (a write, or its full read when nothing addressed to
+//!   it was answered) at least every `event_refresh` (default 1 s). The manual counts
 //!   "messages from the master", and a Collect is one (the simulator feeds the watchdog with
 //!   it), but it does not say a broadcast counts; so the time also covers one `event_refresh`,
 //!   and an idle event-mode line never fires it even on a module that counts only messages

@@ -10,7 +10,8 @@
 //! | `counters` | `off` \| `every` \| N | read XCOUNT1..3 every Nth cycle (default off) |
 //! | `status` | `off` \| `every` \| N | read the module status (WDTFIRED, WDTFB, WDTCOMM, EVENTSPRS, GENERICFAIL, FLASHFAIL, SW3, SW4) every Nth cycle (default off) |
 //! | `events` | `true` \| `false` | event mode: inputs from FC 70 Collect (not given: false for the driver; a project's validation chooses per line, Collect where its floor is lower) |
-//! | `event_refresh` | `500ms`, `2s`, or ms | full input read in event mode at least this often (default 1 s) |
+//! | `event_refresh` | `500ms`, `2s`, or ms | event mode: a full input read when nothing addressed to the module was answered for this long (default 1 s; a write's echo counts) |
+//! | `event_resync` | `500ms`, `30s`, or ms | event mode: a full input read at least this often, whatever answered (default 30 s) |
 //! | `RDELAYT` | 0..=200 | reply delay in 1/100 s, set at start-up with `>RDELAYT=` |
 //! | `RDELAYM` | 0..=200 | extra end-of-frame silence in 1/10 ms, set with `>RDELAYM=` |
 //! | `XLATUP1..3` / `X1LATUP..X3LATUP` | ms | rising-edge latency |
@@ -54,8 +55,16 @@ impl Readback {
     }
 }
 
-/// Default full-read period in event mode.
+/// Default longest time in event mode without an answered exchange addressed to the module.
 pub(crate) const DEFAULT_EVENT_REFRESH: Duration = Duration::from_secs(1);
+/// Default longest time in event mode without a full read. It bounds one case only: events
+/// lost with no gap in SLVSEQ to show it (event recording switched off by a power cycle shorter
+/// than `event_refresh`, the rarest failure of the round); a lost event with a gap, a failed
+/// round and a silent module are each handled at once or within `event_refresh`. A full read
+/// costs a cycle a whole exchange with the reply delay (20 ms on a factory-default MiniMod at
+/// 19200, 40 % of the manual's 50 ms cycle), so a period of seconds is what keeps it out of a
+/// line's p99.
+pub(crate) const DEFAULT_EVENT_RESYNC: Duration = Duration::from_secs(30);
 
 /// One validated setting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -70,6 +79,8 @@ pub enum Setting {
     Events(bool),
     /// `event_refresh`.
     EventRefresh(Duration),
+    /// `event_resync`.
+    EventResync(Duration),
     /// `RDELAYT`, hundredths of a second.
     ReplyDelay(u8),
     /// `RDELAYM`, tenths of a millisecond.
@@ -196,6 +207,14 @@ impl Setting {
                     },
                 )
             }
+            "event_resync" => {
+                return parse_duration(value).map(Setting::EventResync).ok_or(
+                    SettingError::BadValue {
+                        key: "event_resync",
+                        expected: "a duration from 10ms to 3600s (500ms, 30s, or ms)",
+                    },
+                )
+            }
             "rdelayt" | "rdelaym" => {
                 let (key, unit) = if lower == "rdelayt" {
                     ("RDELAYT", " (1/100 s)")
@@ -313,6 +332,7 @@ pub(crate) fn keys() -> Vec<&'static str> {
         "status",
         "events",
         "event_refresh",
+        "event_resync",
         "RDELAYT",
         "RDELAYM",
         "FBENABLE",
@@ -438,7 +458,7 @@ impl Settings {
         })
     }
 
-    /// The full-read period in event mode.
+    /// Event mode: the longest without an answered exchange addressed to the module.
     pub fn event_refresh(&self) -> Duration {
         self.items
             .iter()
@@ -448,6 +468,18 @@ impl Settings {
                 _ => None,
             })
             .unwrap_or(DEFAULT_EVENT_REFRESH)
+    }
+
+    /// Event mode: the longest without a full read.
+    pub fn event_resync(&self) -> Duration {
+        self.items
+            .iter()
+            .rev()
+            .find_map(|s| match *s {
+                Setting::EventResync(d) => Some(d),
+                _ => None,
+            })
+            .unwrap_or(DEFAULT_EVENT_RESYNC)
     }
 }
 
@@ -559,6 +591,7 @@ mod tests {
         assert_eq!(s.register("WDTTIME"), Some(50));
         assert!(s.events() && s.sets("WDTTIME") && !s.sets("WDTYMASK"));
         assert_eq!(s.event_refresh(), DEFAULT_EVENT_REFRESH);
+        assert_eq!(s.event_resync(), DEFAULT_EVENT_RESYNC);
     }
 
     #[test]
@@ -613,7 +646,12 @@ mod tests {
         );
         for bad in ["0", "5ms", "-1s", "NaNs", "infs", "2h", "99999s"] {
             assert!(Setting::parse("event_refresh", bad).is_err(), "{bad}");
+            assert!(Setting::parse("event_resync", bad).is_err(), "{bad}");
         }
+        assert_eq!(
+            Setting::parse("event_resync", "10s"),
+            Ok(Setting::EventResync(Duration::from_secs(10)))
+        );
         assert_eq!(
             Setting::parse("counters", "10"),
             Ok(Setting::Counters(Readback::Every(10)))

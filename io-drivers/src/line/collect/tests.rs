@@ -9,7 +9,7 @@ use crate::devices::minimod::settings::Setting;
 use crate::devices::minimod::MiniModDriver;
 use crate::devices::{self, Protocol};
 use crate::driver::Driver;
-use crate::line::bus::{BusOwner, Discipline, InputFrame, Module};
+use crate::line::bus::{BusOwner, Discipline, InputFrame, Module, OutputFrame};
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, Transport};
 use crate::modbus::crc::append_crc;
@@ -115,7 +115,11 @@ fn membership_is_the_drivers() {
     let member = MiniModDriver::new(Some(unit), &settings);
     assert_eq!(
         member.collect_membership(),
-        Some((unit, Duration::from_millis(1500)))
+        Some(Membership {
+            unit,
+            answer_within: Duration::from_millis(1500),
+            resync: Duration::from_secs(30),
+        })
     );
     let polled = MiniModDriver::new(Some(unit), &[]);
     assert_eq!(polled.collect_membership(), None, "polled, not a member");
@@ -334,9 +338,16 @@ fn event_mode_through_the_bus_owner() {
     let (f, _) = r.read_at(1600);
     assert_eq!(value(&f, 1, "X2"), Some(Value::Bool(false)));
 
-    // After a second, the periodic full read, unless an event came in the same round.
+    // From three quarters of a second after their full read on, one member a cycle is read
+    // in full again (nothing else addressed to them answered): 4 first, then 9, never both.
+    let (_, sent) = r.read_at(1700);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2)]);
+    let (_, sent) = r.read_at(1800);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2), fc2(4)]);
+    let (_, sent) = r.read_at(1900);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2), fc2(9)]);
     let (_, sent) = r.read_at(2000);
-    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2), fc2(4), fc2(9)]);
+    assert_eq!(sent, [collect(4, 9, 0, 0), fc2(2)]);
 
     let stats = r.owner.collect_stats();
     assert_eq!(stats.events, 4);
@@ -566,5 +577,152 @@ fn behind_a_usb_adapter_the_window_waits_for_its_latency_timer() {
     assert!(
         !heard(0),
         "without it, the reply is still in the adapter when the window ends"
+    );
+}
+
+/// The frames of `sent` that are full reads (FC 2), by unit.
+fn full_reads(sent: &[Vec<u8>]) -> Vec<u8> {
+    sent.iter()
+        .filter(|f| f.len() == 8 && f[1] == 0x02)
+        .map(|f| f[0])
+        .collect()
+}
+
+#[test]
+fn periodic_full_reads_are_spread_one_a_cycle_and_none_waits_past_its_period() {
+    // Four idle members and nothing written: every full read is for want of an answer.
+    let mut r = rig(&[
+        (1, Protocol::Modbus, EVENTS),
+        (2, Protocol::Modbus, EVENTS),
+        (3, Protocol::Modbus, EVENTS),
+        (4, Protocol::Modbus, EVENTS),
+    ]);
+    assert!(r.startup() < 2000);
+    let (_, sent) = r.read_at(2000);
+    assert_eq!(full_reads(&sent), [1, 2, 3, 4], "the first cycle reads all");
+    let mut last = [2000u64; 4];
+    // The first cycle's four full reads take it past 2100 ms.
+    for k in 1..=100u64 {
+        let t = 2100 + 50 * k;
+        let (f, sent) = r.read_at(t);
+        assert_eq!(
+            f.started,
+            Duration::from_millis(t),
+            "the line is free at each cycle"
+        );
+        let reads = full_reads(&sent);
+        assert!(reads.len() <= 1, "at {t} ms: {reads:?} in one cycle");
+        for unit in reads {
+            let i = usize::from(unit - 1);
+            assert!(
+                t - last[i] >= 750,
+                "unit {unit} read again after {} ms",
+                t - last[i]
+            );
+            last[i] = t;
+        }
+        for (i, l) in last.iter().enumerate() {
+            assert!(
+                t - l <= 1000,
+                "unit {} not read for {} ms at {t}",
+                i + 1,
+                t - l
+            );
+        }
+    }
+    assert!(
+        r.owner.collect_stats().refreshes >= 4 + 4 * 5,
+        "each about once a second"
+    );
+}
+
+/// An output frame that sets Y1 of every module to `on` (the only output the program owns).
+fn y1(modules: usize, on: bool) -> OutputFrame {
+    let model = devices::model("minimod").unwrap();
+    let mut desired = vec![None; model.points.len()];
+    desired[model.point_index("Y1").unwrap()] = Some(Value::Bool(on));
+    OutputFrame {
+        modules: vec![desired; modules],
+    }
+}
+
+#[test]
+fn a_member_that_answers_its_writes_is_read_in_full_only_every_resync() {
+    let settings = [
+        ("events", "true"),
+        ("event_resync", "2500ms"),
+        ("XLATUP1", "0"),
+    ];
+    let mut r = rig(&[(4, Protocol::Modbus, &settings)]);
+    r.startup();
+    let mut reads = Vec::new();
+    for k in 0..30u64 {
+        let t = 1000 + 100 * k;
+        let (_, sent) = r.read_at(t);
+        if !full_reads(&sent).is_empty() {
+            reads.push(t);
+        }
+        // Y1 flips every cycle: each write's echo is the module's answer.
+        let report = r.owner.write_outputs(&y1(1, k % 2 == 0));
+        assert_eq!((report.transactions, report.failures), (1, 0));
+        r.clock.advance_to(report.finished);
+    }
+    assert_eq!(
+        reads,
+        [1000, 2900],
+        "the first cycle, then from 1875 ms of the 2.5 s resync"
+    );
+
+    // The writes stop: a second without an answer brings the full read back.
+    let mut reads = Vec::new();
+    for k in 0..20u64 {
+        let t = 4000 + 100 * k;
+        let (_, sent) = r.read_at(t);
+        if !full_reads(&sent).is_empty() {
+            reads.push(t);
+        }
+    }
+    assert_eq!(reads, [4700, 5500], "from 750 ms after the last answer");
+}
+
+#[test]
+fn a_write_that_covers_every_owned_output_is_the_modules_output_refresh() {
+    let mut r = rig(&[(1, Protocol::Modbus, &[]), (2, Protocol::Modbus, &[])]);
+    r.startup();
+    r.at(1000);
+    r.owner.sync(r.clock.now());
+    let mut writes_per_cycle = Vec::new();
+    for k in 0..30u64 {
+        r.at(1000 + 100 * k);
+        r.owner.sync(r.clock.now());
+        r.log.lock().unwrap().clear();
+        // Only module 1's Y1 changes (every cycle); module 2's stays off.
+        let mut frame = y1(2, false);
+        let i = devices::model("minimod")
+            .unwrap()
+            .point_index("Y1")
+            .unwrap();
+        frame.modules[0][i] = Some(Value::Bool(k % 2 == 1));
+        let report = r.owner.write_outputs(&frame);
+        r.clock.advance_to(report.finished);
+        let sent = std::mem::take(&mut *r.log.lock().unwrap());
+        writes_per_cycle.push(sent.iter().map(|f| f[0]).collect::<Vec<u8>>());
+    }
+    assert_eq!(
+        writes_per_cycle[0],
+        [1, 2],
+        "the first write is every output"
+    );
+    for (k, units) in writes_per_cycle.iter().enumerate().skip(1) {
+        // Module 1's change is a full write of what it owns: it is never rewritten besides.
+        assert_eq!(units.iter().filter(|&&u| u == 1).count(), 1, "cycle {k}");
+    }
+    let module2: Vec<usize> = (0..30)
+        .filter(|&k| writes_per_cycle[k].contains(&2))
+        .collect();
+    assert_eq!(
+        module2,
+        [0, 8, 16, 24],
+        "module 2 rewritten from 750 ms, once a period"
     );
 }

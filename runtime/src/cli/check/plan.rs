@@ -55,9 +55,11 @@ fn chosen(c: &Choice, modules: &str, held: &str) -> String {
     if c.collect {
         format!(
             "input plan: event mode (Collect) for {modules}, chosen: {both}; each event adds {}, \
-             so a round stays cheaper than polling up to {} event(s); a full refresh every \
-             event_refresh, which is also when a silent module is seen (an idle round is \
-             silence either way); pin the mode with events: false",
+             so a round stays cheaper than polling up to {} event(s); a module is read in full \
+             when nothing addressed to it was answered for event_refresh (a write's echo \
+             counts), which is also when a silent module is seen (an idle round is silence \
+             either way), and at least every event_resync, one module a cycle; pin the mode \
+             with events: false",
             fmt_duration(c.per_event),
             c.break_even()
         )

@@ -53,8 +53,10 @@
 //! pulsers and blinkers, so they never feed the write phase's comparison). The read plan then
 //! holds the status and counter reads only; the full input read (FC 2, or `?XWORD`) and the
 //! read-back are the refresh ([`Driver::plan_refresh`]): the owner runs them on the first
-//! cycle, every `event_refresh` (default 1 s), after a lost event, a failed
-//! round or a failed cycle, so a lost event cannot leave the image wrong for long. At start-up
+//! cycle, after a lost event, a failed round or a failed cycle, when nothing addressed to the
+//! module was answered for `event_refresh` (default 1 s: a write's echo counts) and at least
+//! every `event_resync` (default 30 s), so a lost event cannot leave the image wrong for long
+//! (see [`Membership`]). At start-up
 //! event mode writes XEVMASK = 7 and EVFB1 = EVFB2 = 1 unless the project sets them.
 //!
 //! ## Start-up settings
@@ -106,9 +108,9 @@
 use std::time::Duration;
 
 use super::map::{self, POINTS};
-use super::settings::{Readback, Setting, Settings, DEFAULT_EVENT_REFRESH};
+use super::settings::{Readback, Setting, Settings, DEFAULT_EVENT_REFRESH, DEFAULT_EVENT_RESYNC};
 use crate::devices::{DeviceConfig, ModuleSettings, Protocol};
-use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
+use crate::driver::{DecodeError, Driver, Membership, Outgoing, Reply, Transaction};
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
@@ -239,6 +241,7 @@ pub struct MiniModDriver {
     status: Readback,
     events: bool,
     event_refresh: Duration,
+    event_resync: Duration,
     rdelayt: u8,
     rdelaym: u8,
     setup: Vec<SetupStep>,
@@ -247,6 +250,8 @@ pub struct MiniModDriver {
     y: [Option<bool>; 4],
     /// A write failed: write every owned output at the next write phase.
     rewrite: bool,
+    /// The last write plan covers every owned output ([`Driver::planned_full_write`]).
+    full_write: bool,
     cycle: u64,
     /// Whether the read-back is due in this cycle's full read (event mode plans it apart).
     refresh_readback: bool,
@@ -271,12 +276,14 @@ impl MiniModDriver {
             status: Readback::Off,
             events: false,
             event_refresh: DEFAULT_EVENT_REFRESH,
+            event_resync: DEFAULT_EVENT_RESYNC,
             rdelayt: super::state::POWER_ON_RDELAYT,
             rdelaym: 0,
             setup: Vec::new(),
             values: vec![None; POINTS.len()],
             y: [None; 4],
             rewrite: false,
+            full_write: false,
             cycle: 0,
             refresh_readback: false,
             restart: restart::Restart::default(),
@@ -288,6 +295,7 @@ impl MiniModDriver {
                 Setting::Status(r) => d.status = r,
                 Setting::Events(on) => d.events = on,
                 Setting::EventRefresh(t) => d.event_refresh = t,
+                Setting::EventResync(t) => d.event_resync = t,
                 Setting::ReplyDelay(n) => d.rdelayt = n,
                 Setting::FrameTimeout(n) => d.rdelaym = n,
                 Setting::Register { .. } | Setting::Coils { .. } => {}
@@ -375,10 +383,16 @@ impl Driver for MiniModDriver {
         self.plan_reads(unit, out);
     }
 
-    fn collect_membership(&self) -> Option<(UnitId, Duration)> {
-        self.unit
-            .filter(|_| self.events)
-            .map(|unit| (unit, self.event_refresh))
+    fn collect_membership(&self) -> Option<Membership> {
+        self.unit.filter(|_| self.events).map(|unit| Membership {
+            unit,
+            answer_within: self.event_refresh,
+            resync: self.event_resync,
+        })
+    }
+
+    fn planned_full_write(&self) -> bool {
+        self.full_write
     }
 
     fn plan_refresh(&mut self, out: &mut Vec<Transaction>) {
@@ -389,6 +403,7 @@ impl Driver for MiniModDriver {
     }
 
     fn plan_write(&mut self, desired: &[Option<Value>], refresh: bool, out: &mut Vec<Transaction>) {
+        self.full_write = false;
         let Some(unit) = self.unit else { return };
         self.plan_writes(unit, desired, refresh, out);
     }

@@ -790,7 +790,7 @@ fn event_mode_plans_a_membership_then_the_refresh() {
     d.plan_refresh(&mut plan);
     assert_eq!(plan.len(), 1);
     assert_eq!(
-        d.collect_membership(),
+        d.collect_membership().map(|m| (m.unit, m.answer_within)),
         Some((unit(), Duration::from_millis(250)))
     );
     assert_eq!(wire(&plan[0]), frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]));

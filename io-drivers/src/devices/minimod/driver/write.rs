@@ -60,6 +60,9 @@ impl MiniModDriver {
                 }
             }
         }
+        // Every owned output is in this plan (a YWORD write covers all four): the bus owner
+        // counts it as the module's output refresh.
+        self.full_write = write != 0 && (write == owned || owned == 0x0F);
         if write == 0 {
             return;
         }

@@ -60,9 +60,11 @@ fn four_factory_minimods_run_collect_by_default_and_check_says_why() {
           floor with them polled is 82.40ms (each module's reads: request, reply delay, reply, \
           t3.5), in event mode 19.59ms (one idle Collect round over window 1–4: request, 3 ms a \
           slot + 1 ms, t3.5, no reply delay; and what the modules read besides their inputs); \
-          each event adds 8.74ms, so a round stays cheaper than polling up to 7 event(s); a full \
-          refresh every event_refresh, which is also when a silent module is seen (an idle \
-          round is silence either way); pin the mode with events: false"
+          each event adds 8.74ms, so a round stays cheaper than polling up to 7 event(s); a \
+          module is read in full when nothing addressed to it was answered for event_refresh (a \
+          write's echo counts), which is also when a silent module is seen (an idle round is \
+          silence either way), and at least every event_resync, one module a cycle; pin the \
+          mode with events: false"
         ]
     );
 }
