@@ -377,3 +377,23 @@ fn a_released_rung_is_not_written_on_the_vm_either() {
     assert_eq!(image.get(id("y1")), Value::Bool(false));
     assert_eq!(image.get(id("y2")), Value::Bool(false));
 }
+
+#[test]
+fn an_image_too_small_faults_alike_both_ways() {
+    let script = "y1 = a && speed > 2.0;\n";
+    let ctx = ScanContext {
+        now: Duration::ZERO,
+        delta: Duration::from_millis(10),
+        cycle: 0,
+    };
+    let short = || ProcessImage::new(tags().into_iter().take(5).map(|(n, ty, _)| (n, ty.zero())));
+    let on_vm = compile_ok(script).scan(&mut short(), &ctx);
+    let interpreted = compile_ok(script).interpreted().scan(&mut short(), &ctx);
+    assert_eq!(on_vm, interpreted);
+    let fault = on_vm.unwrap_err();
+    assert!(
+        fault.message.starts_with("program uses tag `y1` (#"),
+        "{}",
+        fault.message
+    );
+}

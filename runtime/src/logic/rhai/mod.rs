@@ -209,6 +209,8 @@ pub struct RhaiProgram {
     /// The script on the logic VM when every statement is plain, or why it is interpreted
     /// (see `lower.rs`).
     on_vm: Result<on_vm::OnVm, lower::Interpreted>,
+    /// The number of tags the image must hold: one past the highest tag the script names.
+    needs_tags: usize,
 }
 
 impl std::fmt::Debug for RhaiProgram {
@@ -415,8 +417,10 @@ pub fn compile_with(
         .collect();
     let described = rungs::describe(&ast, tags, &written, file);
     let on_vm = lower::lower(&ast, tags, limits.operations, file).map(on_vm::OnVm::new);
+    let needs_tags = handles.iter().map(|h| h.id.index() + 1).max().unwrap_or(0);
     Ok(RhaiProgram {
         on_vm,
+        needs_tags,
         engine,
         statements: ast.statements().to_vec(),
         ast,
@@ -674,7 +678,13 @@ impl LogicEngine for RhaiProgram {
     }
 
     fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault> {
-        if let Some(h) = self.handles.iter().find(|h| h.id.index() >= image.len()) {
+        let short = image.len() < self.needs_tags;
+        if let Some(h) = self
+            .handles
+            .iter()
+            .filter(|_| short)
+            .find(|h| h.id.index() >= image.len())
+        {
             return Err(LogicFault {
                 message: format!(
                     "program uses tag `{}` (#{}) but the process image holds {} tags",
