@@ -111,6 +111,12 @@ impl ProcessImage {
         slot.timestamp = now;
     }
 
+    /// Puts a slot back as it was (a program that wrote a tag the value it held leaves the
+    /// slot as it found it).
+    pub(crate) fn restore(&mut self, id: TagId, slot: Slot) {
+        self.slots[id.index()] = slot;
+    }
+
     /// Records a read from a module: value and quality as the bus reported them.
     pub fn update(&mut self, id: TagId, value: Option<Value>, quality: Quality, now: Duration) {
         let slot = &mut self.slots[id.index()];

@@ -288,6 +288,33 @@ fn require_on_rhai_outputs_pushes_the_plain_forms_and_fails_the_others_with_the_
 }
 
 #[test]
+fn check_says_whether_a_rhai_program_runs_on_the_logic_vm() {
+    for (case, program, line) in [
+        (
+            "rhai-vm",
+            "pump1 = ton(\"t\", (x1 || pump1) && !demand, \"2s\");\n",
+            "  rhai: plain rungs, runs on the logic VM",
+        ),
+        (
+            "rhai-interpreted",
+            "pump1 = x1;\nif demand { n += 1; }\n",
+            "  rhai: runs in the Rhai interpreter (line 2: `if`)",
+        ),
+    ] {
+        let scratch = Scratch::new(case);
+        let path = project(&scratch, "pump.rhai", "rhai", program);
+        let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
+        assert_eq!(code, Some(0), "{case}: {stdout}{stderr}");
+        let lines: Vec<&str> = stdout.lines().collect();
+        let at = lines
+            .iter()
+            .position(|l| l.starts_with("program "))
+            .expect("the program line");
+        assert_eq!(lines.get(at + 1).copied(), Some(line), "{case}: {stdout}");
+    }
+}
+
+#[test]
 fn every_example_and_program_passes_check() {
     let mut checked = 0;
     for entry in std::fs::read_dir(root().join("examples")).expect("examples/") {

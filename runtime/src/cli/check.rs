@@ -45,7 +45,7 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     {
         module.device = device;
     }
-    super::out::out(&report(&planned))?;
+    super::out::out(&report(&planned, engine.execution().as_deref()))?;
     super::out::out(&crate::offload::report::report(&project, &plan))?;
     let failures = plan.require_failures();
     if !failures.is_empty() {
@@ -56,13 +56,19 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// The text `check` prints for a valid project: I/O map, budgets, warnings; adapter
-/// latencies are read from this machine's sysfs.
-pub(crate) fn report(project: &Project) -> String {
-    report_with(project, &SysfsRoot::default())
+/// latencies are read from this machine's sysfs. `execution` is the engine's line on how the
+/// program runs ([`crate::logic::LogicEngine::execution`]).
+pub(crate) fn report(project: &Project, execution: Option<&str>) -> String {
+    report_on(project, &SysfsRoot::default(), execution)
 }
 
 /// [`report`], with sysfs under `sysfs` (a fake tree in tests).
+#[cfg(test)]
 pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
+    report_on(project, sysfs, None)
+}
+
+fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let scan = &project.scan;
@@ -80,6 +86,9 @@ pub(crate) fn report_with(project: &Project, sysfs: &SysfsRoot) -> String {
         project.program.path.display(),
         project.program.kind
     );
+    if let Some(line) = execution {
+        let _ = writeln!(out, "  {line}");
+    }
     let mut worst = std::time::Duration::ZERO;
     let mut warnings = Vec::new();
     for (b, bus) in project.buses.iter().enumerate() {

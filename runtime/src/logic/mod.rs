@@ -88,6 +88,12 @@ pub trait LogicEngine: Send + Debug {
         let _ = coil;
     }
 
+    /// How the program runs, in one line for `check`, when the engine has more than one way
+    /// (a Rhai script on the logic VM or in the interpreter); `None` otherwise.
+    fn execution(&self) -> Option<String> {
+        None
+    }
+
     /// Replaces `out` with every output of every block instance, by instance index then in
     /// `blocks::Kind::outputs` order. Engines without numbered instances (expr, Rhai) leave
     /// it empty. Called when the service snapshot is published, not by the scan; it reuses

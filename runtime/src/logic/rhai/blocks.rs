@@ -90,6 +90,12 @@ impl Blocks {
         self.by_name.get(name).copied()
     }
 
+    /// The instance called `name`, if it was ever called.
+    #[cfg(test)]
+    pub(crate) fn named(&self, name: &str) -> Option<&Instance> {
+        self.slots.get(*self.by_name.get(name)?)?.as_ref()
+    }
+
     /// The instance `name` read at `at`, if it was ever called.
     fn find(&self, at: Position, name: &str) -> Option<&Instance> {
         self.slots.get(self.slot(at, name)?)?.as_ref()

@@ -75,6 +75,28 @@
 //! Block calls with a literal instance name are resolved to the instance's slot at compile
 //! time too (see `blocks.rs`). The scope is rewound after each scan, so `let`s do not pile up.
 //!
+//! # Plain scripts run on the logic VM
+//!
+//! Most of an interpreted scan is Rhai's own tree walk (evaluating each call's arguments,
+//! resolving and dispatching the function), not tag access. So a script whose every top-level
+//! statement is plain is lowered to the VM that `expr` and ladder share (see `lower.rs`) and
+//! runs there, at their cost per rung: `tag = CONDITION;` for a bool tag, or a block call as a
+//! statement, where a condition is made of bool tags, `true`/`false`, `!`, `&&`, `||`, `&`,
+//! `|`, `^`, `==`/`!=`, comparisons of numeric tags, literals and `cv(..)`, `good`/`bad`, block
+//! calls with a literal instance name and literal or tag presets, and `q`/`qu`/`qd`. The
+//! script means the same there: statements in order, each reading what the earlier ones
+//! wrote, a tag written only when its value changed (see `on_vm.rs`).
+//!
+//! The whole script stays in the interpreter when any part would mean something else on the
+//! VM, which evaluates every instruction every scan: a block call that `&&`/`||` may skip
+//! (`a || ton(..)`: Rhai does not run the timer while `a` holds), `good`/`bad` of a tag the
+//! script assigns (Rhai answers the start of the scan), `et(..)` (whole milliseconds in Rhai);
+//! and whatever the VM has no instruction for: `if`, loops, `let`, `fn`, arithmetic, numeric
+//! assignments, strings, other functions, an instance named by an expression. Faults are the
+//! interpreter's concern only: a plain script cannot raise one (its types are checked at
+//! compile time, and it is refused when its size could reach the operations limit). `check`
+//! prints which way the program runs, with the first reason when it is interpreted.
+//!
 //! # Sandbox
 //!
 //! A raw engine with the core language, math, arrays and maps only (no modules, no time, no
@@ -90,6 +112,10 @@ mod check;
 mod check_tests;
 mod engine;
 mod error;
+mod lower;
+#[cfg(test)]
+mod lower_tests;
+mod on_vm;
 mod quality;
 mod rungs;
 mod signatures;
@@ -180,6 +206,11 @@ pub struct RhaiProgram {
     statements: Vec<rhai::Stmt>,
     /// Indexes into `statements` of the rungs a module runs.
     released: std::collections::BTreeSet<usize>,
+    /// The script on the logic VM when every statement is plain, or why it is interpreted
+    /// (see `lower.rs`).
+    on_vm: Result<on_vm::OnVm, lower::Interpreted>,
+    /// The number of tags the image must hold: one past the highest tag the script names.
+    needs_tags: usize,
 }
 
 impl std::fmt::Debug for RhaiProgram {
@@ -385,7 +416,11 @@ pub fn compile_with(
         .filter_map(|h| h.assigned.map(|at| (h.id, at)))
         .collect();
     let described = rungs::describe(&ast, tags, &written, file);
+    let on_vm = lower::lower(&ast, tags, limits.operations, file).map(on_vm::OnVm::new);
+    let needs_tags = handles.iter().map(|h| h.id.index() + 1).max().unwrap_or(0);
     Ok(RhaiProgram {
+        on_vm,
+        needs_tags,
         engine,
         statements: ast.statements().to_vec(),
         ast,
@@ -493,6 +528,28 @@ impl RhaiProgram {
         self.handles.iter().map(|h| h.id)
     }
 
+    /// The same program kept in the interpreter (to compare the two ways in tests).
+    #[cfg(test)]
+    fn interpreted(mut self) -> Self {
+        self.on_vm = Err(lower::Interpreted {
+            line: None,
+            what: "kept for a test".into(),
+        });
+        self
+    }
+
+    /// The state of block instance `name` (`None`: never called).
+    #[cfg(test)]
+    fn instance(&self, name: &str) -> Option<crate::logic::blocks::Instance> {
+        match &self.on_vm {
+            Ok(vm) => vm.instance(name).cloned(),
+            Err(_) => match self.blocks.lock() {
+                Ok(b) => b.named(name).cloned(),
+                Err(p) => p.into_inner().named(name).cloned(),
+            },
+        }
+    }
+
     fn copy_in(&mut self, image: &ProcessImage) {
         self.qualities.copy_in(image);
         let mut stale = 0;
@@ -586,6 +643,13 @@ impl RhaiProgram {
 }
 
 impl LogicEngine for RhaiProgram {
+    fn execution(&self) -> Option<String> {
+        Some(match &self.on_vm {
+            Ok(_) => "rhai: plain rungs, runs on the logic VM".to_string(),
+            Err(why) => format!("rhai: runs in the Rhai interpreter ({why})"),
+        })
+    }
+
     /// Every output the script assigns, at its first assignment: the plain forms with their
     /// shapes, the others opaque with the reason (see `rungs.rs`).
     fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
@@ -599,6 +663,9 @@ impl LogicEngine for RhaiProgram {
             return;
         };
         self.released.insert(i);
+        if let Ok(vm) = &mut self.on_vm {
+            vm.release(coil);
+        }
         let kept: Vec<rhai::Stmt> = self
             .statements
             .iter()
@@ -611,7 +678,13 @@ impl LogicEngine for RhaiProgram {
     }
 
     fn scan(&mut self, image: &mut ProcessImage, ctx: &ScanContext) -> Result<(), LogicFault> {
-        if let Some(h) = self.handles.iter().find(|h| h.id.index() >= image.len()) {
+        let short = image.len() < self.needs_tags;
+        if let Some(h) = self
+            .handles
+            .iter()
+            .filter(|_| short)
+            .find(|h| h.id.index() >= image.len())
+        {
             return Err(LogicFault {
                 message: format!(
                     "program uses tag `{}` (#{}) but the process image holds {} tags",
@@ -625,6 +698,9 @@ impl LogicEngine for RhaiProgram {
                     column: 1,
                 },
             });
+        }
+        if let Ok(vm) = &mut self.on_vm {
+            return vm.scan(image, ctx);
         }
         self.copy_in(image);
         match self.blocks.lock() {

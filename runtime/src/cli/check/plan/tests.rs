@@ -34,7 +34,7 @@ fn minimods(bus: &str, addresses: &[u8], settings: &str) -> String {
 
 /// The report's lines that start with `prefix`, trimmed.
 fn lines_of(project: &crate::project::Project, prefix: &str) -> Vec<String> {
-    super::super::report(project)
+    super::super::report(project, None)
         .lines()
         .map(str::trim_start)
         .filter(|l| l.starts_with(prefix))

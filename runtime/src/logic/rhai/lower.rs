@@ -1,0 +1,742 @@
+//! A plain script as a logic-VM program: every top-level statement is `tag = CONDITION;` (or a
+//! block call for its effect), so the script means exactly what the VM's flat [`Instr`] list
+//! computes, and the scan runs that instead of Rhai's tree walker.
+//!
+//! A condition is built from bool tags, `true`/`false`, `!`, `&&`, `||`, `&`, `|`, `^`, `==`
+//! and `!=` of conditions, comparisons of numbers (numeric tags, literals, `cv(..)`),
+//! `good(tag)`/`bad(tag)`, the block calls with a literal instance name (`ton("t", x, 100)`)
+//! and the output reads `q`, `qu`, `qd`. The VM evaluates every instruction every scan, in
+//! order, so the lowering keeps the script's meaning only where Rhai evaluates everything too;
+//! anything else leaves the whole script in the interpreter, with the first reason found:
+//!
+//! - a block call that `&&`/`||` may skip (`a || ton(..)`): Rhai does not run the timer when
+//!   `a` is true, the VM would. Reads under `&&`/`||` are fine: skipping a read changes
+//!   nothing;
+//! - `good`/`bad` of a tag the script assigns: Rhai answers the quality at the start of the
+//!   scan, the VM the current one (a write makes it Good);
+//! - an output read (`q("c")`) before its block's call, should a fresh instance's output not
+//!   be the `false`/`0` Rhai gives for an instance not created yet (none is today);
+//! - `et(..)`: Rhai reads whole milliseconds, the VM the exact time;
+//! - control flow, `let`, script functions, arithmetic, strings, other functions, a block
+//!   named by an expression, a preset the interpreter would convert at run time;
+//! - a script so large that Rhai's operations limit could stop it.
+//!
+//! Tags are read and written in the image in statement order, which is what the interpreter's
+//! scope shows the script: forces are applied after the logic, and a bool is stored exactly,
+//! so a statement reads what an earlier one wrote in both. Only the stamp of a write differs
+//! (the interpreter writes a tag only when its value changed); `on_vm.rs` puts that back.
+
+use std::collections::{HashMap, HashSet};
+use std::fmt;
+use std::path::Path;
+use std::time::Duration;
+
+use rhai::{ASTNode, Expr, FnCallExpr, Position, Stmt, AST};
+use softplc_io::point::ValueType;
+
+use super::blocks::{FUNCTIONS, MAX_INSTANCES};
+use super::error::user_pos;
+use crate::image::TagId;
+use crate::logic::blocks::{from_millis, millis, Instance, Kind, Member, OutputValue, Pattern};
+use crate::logic::expr::TagTable;
+use crate::logic::vm::{self, Call, CallSite, CmpOp, Instr, Num};
+
+/// Operations Rhai may count per AST node at most (a statement, an expression, each call
+/// argument, the call): a script whose nodes times this fit the limit never reaches it.
+const OPERATIONS_PER_NODE: u64 = 4;
+
+/// A plain script lowered for the VM.
+#[derive(Debug)]
+pub(crate) struct Lowered {
+    /// The program's parts.
+    pub parts: vm::Parts,
+    /// Every tag the script assigns, once each, in order of first assignment.
+    pub coils: Vec<TagId>,
+    /// Every block instance by name, with its index in `parts.instances`.
+    pub instances: Vec<(String, u32)>,
+}
+
+/// Why a script stays in the interpreter: the first statement or expression the VM cannot
+/// run with the same meaning.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct Interpreted {
+    /// The user's line, when the reason has one.
+    pub line: Option<u32>,
+    /// What is there, in words (``` `if` ```, ``` `ton(..)` under `||` ```).
+    pub what: String,
+}
+
+impl fmt::Display for Interpreted {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "line {line}: {}", self.what),
+            None => f.write_str(&self.what),
+        }
+    }
+}
+
+type Res<T> = Result<T, Interpreted>;
+
+fn refuse<T>(pos: Position, what: impl Into<String>) -> Res<T> {
+    Err(Interpreted {
+        line: pos
+            .line()
+            .map(|l| u32::try_from(l.saturating_sub(1).max(1)).unwrap_or(u32::MAX)),
+        what: what.into(),
+    })
+}
+
+/// Lowers `ast` (the user's statements, compiled and checked) if every statement is plain.
+/// `operations` is the engine's limit per scan.
+pub(crate) fn lower(ast: &AST, tags: &TagTable, operations: u64, file: &Path) -> Res<Lowered> {
+    if let Some(f) = ast.iter_functions().next() {
+        return Err(Interpreted {
+            line: None,
+            what: format!("script function `fn {}`", f.name),
+        });
+    }
+    let mut l = Lowerer::new(tags);
+    for stmt in ast.statements() {
+        l.plan(stmt)?;
+    }
+    l.name_instances(ast)?;
+    let mut nodes = 0u64;
+    ast.walk(&mut |_| {
+        nodes += 1;
+        true
+    });
+    if nodes.saturating_mul(OPERATIONS_PER_NODE) > operations {
+        return Err(Interpreted {
+            line: None,
+            what: format!("{nodes} expressions, near the operations limit ({operations})"),
+        });
+    }
+    for stmt in ast.statements() {
+        l.statement(stmt)?;
+    }
+    let max_depth = vm::max_depth(&l.code, &l.calls).unwrap_or(0);
+    let highest_tag = l.highest.map(|(id, pos)| (id, user_pos(file, pos)));
+    let mut instances: Vec<(String, u32)> = l
+        .named
+        .iter()
+        .map(|(name, &(i, _))| (name.to_string(), i))
+        .collect();
+    instances.sort_by_key(|&(_, i)| i);
+    Ok(Lowered {
+        parts: vm::Parts {
+            code: l.code,
+            calls: l.calls,
+            boxes: Vec::new(),
+            edges: 0,
+            max_depth,
+            instances: l.instances,
+            types: vm::tag_types(tags),
+            highest_tag,
+            rung_pos: Vec::new(),
+            file: file.to_path_buf(),
+        },
+        coils: l.coils,
+        instances,
+    })
+}
+
+/// A timer preset: fixed when the script is compiled, or a numeric tag read when it runs.
+enum Time {
+    Fixed(Duration),
+    Tag(TagId),
+}
+
+struct Lowerer<'a> {
+    tags: &'a TagTable,
+    /// The tags the script assigns, in order of first assignment.
+    coils: Vec<TagId>,
+    assigned: HashSet<TagId>,
+    /// Instance index and kind by name (one call site per instance: the checker's rule).
+    named: HashMap<String, (u32, Kind)>,
+    /// Instances whose call is already lowered (so runs, every scan, before what follows).
+    called: Vec<bool>,
+    instances: Vec<Instance>,
+    code: Vec<Instr>,
+    calls: Vec<CallSite>,
+    highest: Option<(TagId, Position)>,
+}
+
+impl<'a> Lowerer<'a> {
+    fn new(tags: &'a TagTable) -> Self {
+        Self {
+            tags,
+            coils: Vec::new(),
+            assigned: HashSet::new(),
+            named: HashMap::new(),
+            called: Vec::new(),
+            instances: Vec::new(),
+            code: Vec::new(),
+            calls: Vec::new(),
+            highest: None,
+        }
+    }
+
+    /// First pass over a top-level statement: is it plain, and which tag does it assign.
+    fn plan(&mut self, stmt: &Stmt) -> Res<()> {
+        let what = match stmt {
+            Stmt::Noop(_) | Stmt::FnCall(..) | Stmt::Expr(_) => return Ok(()),
+            Stmt::Assignment(a) => {
+                let (op, bin) = &**a;
+                if op.is_op_assignment() {
+                    return refuse(op.position(), "a compound assignment");
+                }
+                let Expr::Variable(v, _, pos) = &bin.lhs else {
+                    return refuse(bin.lhs.position(), "an assignment to an element");
+                };
+                return match self.tags.get(v.1.as_str()) {
+                    Some(t) if t.writable && t.ty == ValueType::Bool => {
+                        if self.assigned.insert(t.id) {
+                            self.coils.push(t.id);
+                        }
+                        Ok(())
+                    }
+                    Some(t) => refuse(*pos, format!("an assignment to {} tag `{}`", t.ty, t.name)),
+                    None => refuse(*pos, format!("an assignment to `{}`", v.1)),
+                };
+            }
+            Stmt::If(..) => "`if`",
+            Stmt::Switch(..) => "`switch`",
+            Stmt::While(..) => "`while`",
+            Stmt::Do(..) => "`do`",
+            Stmt::For(..) => "`for`",
+            Stmt::Var(..) => "`let`",
+            Stmt::Block(..) => "a block `{ .. }`",
+            Stmt::TryCatch(..) => "`try`",
+            Stmt::BreakLoop(..) => "`break`",
+            Stmt::Return(..) => "`return`",
+            _ => "a statement other than an assignment",
+        };
+        refuse(stmt.position(), what)
+    }
+
+    /// Gives every block call with a literal instance name its instance, in script order.
+    fn name_instances(&mut self, ast: &AST) -> Res<()> {
+        let mut kinds: Vec<(String, Kind)> = Vec::new();
+        ast.walk(&mut |path: &[ASTNode]| {
+            if let Some(ASTNode::Expr(Expr::FnCall(call, _))) = path.last() {
+                let kind = FUNCTIONS.iter().find(|(f, _)| *f == call.name).map(|f| f.1);
+                if let (Some(kind), Some(Expr::StringConstant(name, _))) = (kind, call.args.first())
+                {
+                    kinds.push((name.to_string(), kind));
+                }
+            }
+            true
+        });
+        if kinds.len() > MAX_INSTANCES {
+            return refuse(
+                Position::NONE,
+                format!("more than {MAX_INSTANCES} instances"),
+            );
+        }
+        for (name, kind) in kinds {
+            if self.named.contains_key(&name) {
+                continue;
+            }
+            let index = self.instances.len() as u32;
+            self.named.insert(name, (index, kind));
+            self.instances.push(Instance::new(kind));
+            self.called.push(false);
+        }
+        Ok(())
+    }
+
+    fn use_tag(&mut self, id: TagId, pos: Position) {
+        if self.highest.is_none_or(|(h, _)| id > h) {
+            self.highest = Some((id, pos));
+        }
+    }
+
+    fn statement(&mut self, stmt: &Stmt) -> Res<()> {
+        match stmt {
+            Stmt::Assignment(a) => {
+                let bin = &a.1;
+                let Expr::Variable(v, _, pos) = &bin.lhs else {
+                    return refuse(bin.lhs.position(), "an assignment to an element");
+                };
+                let Some(tag) = self.tags.get(v.1.as_str()) else {
+                    return refuse(*pos, format!("an assignment to `{}`", v.1));
+                };
+                let id = tag.id;
+                self.condition(&bin.rhs, None)?;
+                self.use_tag(id, *pos);
+                self.code.push(Instr::Store(id));
+            }
+            Stmt::FnCall(call, pos) => {
+                self.call(call, *pos, None)?;
+                self.code.push(Instr::Pop);
+            }
+            Stmt::Expr(e) => {
+                self.condition(e, None)?;
+                self.code.push(Instr::Pop);
+            }
+            Stmt::Noop(_) => {}
+            other => return refuse(other.position(), "a statement other than an assignment"),
+        }
+        Ok(())
+    }
+
+    /// Lowers a bool expression. `skippable` names the `&&`/`||` that may skip it.
+    fn condition(&mut self, e: &Expr, skippable: Option<&'static str>) -> Res<()> {
+        match e {
+            Expr::BoolConstant(b, _) => self.code.push(Instr::Const(*b)),
+            Expr::Variable(v, _, pos) => {
+                let id = self.tag(&v.1, *pos)?;
+                if self.tags.get(v.1.as_str()).map(|t| t.ty) != Some(ValueType::Bool) {
+                    return refuse(*pos, format!("`{}`, a number, as a condition", v.1));
+                }
+                self.code.push(Instr::Load(id));
+            }
+            Expr::And(items, _) => self.short_circuit(items, Instr::And, "`&&`", skippable)?,
+            Expr::Or(items, _) => self.short_circuit(items, Instr::Or, "`||`", skippable)?,
+            Expr::FnCall(call, pos) => self.call(call, *pos, skippable)?,
+            other => return refuse(other.start_position(), describe(other)),
+        }
+        Ok(())
+    }
+
+    /// `a && b && c`: Rhai evaluates `b` and `c` only when needed, so nothing after the first
+    /// item may have an effect.
+    fn short_circuit(
+        &mut self,
+        items: &[Expr],
+        op: Instr,
+        symbol: &'static str,
+        skippable: Option<&'static str>,
+    ) -> Res<()> {
+        for (i, item) in items.iter().enumerate() {
+            self.condition(item, if i == 0 { skippable } else { Some(symbol) })?;
+            if i > 0 {
+                self.code.push(op);
+            }
+        }
+        Ok(())
+    }
+
+    fn call(
+        &mut self,
+        call: &FnCallExpr,
+        pos: Position,
+        skippable: Option<&'static str>,
+    ) -> Res<()> {
+        let args = call.args.as_slice();
+        let name = call.name.as_str();
+        if call.is_operator_call() {
+            return self.operator(name, args, pos, skippable);
+        }
+        match (name, args) {
+            ("good" | "bad", [Expr::Variable(v, _, at)]) => {
+                let id = self.tag(&v.1, *at)?;
+                if self.assigned.contains(&id) {
+                    return refuse(
+                        pos,
+                        format!("`{name}({})` of a tag the script assigns", v.1),
+                    );
+                }
+                self.code.push(if name == "good" {
+                    Instr::Good(id)
+                } else {
+                    Instr::Bad(id)
+                });
+                Ok(())
+            }
+            ("q" | "qu" | "qd", [Expr::StringConstant(instance, _)]) => {
+                let (i, kind) = self.instance(instance, pos)?;
+                let member = match name {
+                    "qu" => Member::Qu,
+                    "qd" => Member::Qd,
+                    _ if kind.main_output() == Member::Qu => Member::Qu,
+                    _ => Member::Q,
+                };
+                self.read_before_call(i, member, name, instance, pos)?;
+                self.code.push(Instr::LoadOut(i, member));
+                Ok(())
+            }
+            _ if FUNCTIONS.iter().any(|(f, _)| *f == name) => {
+                self.block(name, args, pos, skippable)
+            }
+            _ => refuse(pos, format!("`{name}(..)`")),
+        }
+    }
+
+    fn operator(
+        &mut self,
+        op: &str,
+        args: &[Expr],
+        pos: Position,
+        skippable: Option<&'static str>,
+    ) -> Res<()> {
+        match (op, args) {
+            ("!", [a]) => {
+                self.condition(a, skippable)?;
+                self.code.push(Instr::Not);
+            }
+            ("&" | "|" | "^", [a, b]) => {
+                self.condition(a, skippable)?;
+                self.condition(b, skippable)?;
+                self.code.push(match op {
+                    "&" => Instr::And,
+                    "|" => Instr::Or,
+                    _ => Instr::Xor,
+                });
+            }
+            ("==" | "!=", [a, b]) if !self.is_number(a) && !self.is_number(b) => {
+                self.condition(a, skippable)?;
+                self.condition(b, skippable)?;
+                self.code.push(Instr::Xor);
+                if op == "==" {
+                    self.code.push(Instr::Not);
+                }
+            }
+            ("<" | "<=" | ">" | ">=" | "==" | "!=", [a, b]) => {
+                let op = match op {
+                    "<" => CmpOp::Lt,
+                    "<=" => CmpOp::Le,
+                    ">" => CmpOp::Gt,
+                    ">=" => CmpOp::Ge,
+                    "==" => CmpOp::Eq,
+                    _ => CmpOp::Ne,
+                };
+                let lhs = self.number(a)?;
+                let rhs = self.number(b)?;
+                self.code.push(Instr::Cmp { lhs, op, rhs });
+            }
+            _ => return refuse(pos, format!("`{op}`")),
+        }
+        Ok(())
+    }
+
+    /// Whether `e` is written as a number (a comparison's operand rather than a condition).
+    fn is_number(&self, e: &Expr) -> bool {
+        match e {
+            Expr::IntegerConstant(..) | Expr::FloatConstant(..) => true,
+            Expr::Variable(v, _, _) => self
+                .tags
+                .get(v.1.as_str())
+                .is_some_and(|t| t.ty != ValueType::Bool),
+            Expr::FnCall(call, _) => {
+                matches!(call.name.as_str(), "cv" | "et")
+                    || (call.is_operator_call() && call.name == "-" && call.args.len() == 1)
+            }
+            _ => false,
+        }
+    }
+
+    /// A comparison's operand: Rhai compares integers and floats as the VM's `f64` does, as
+    /// long as an integer is exact in `f64` (tags are; literals are checked).
+    fn number(&mut self, e: &Expr) -> Res<Num> {
+        match e {
+            Expr::IntegerConstant(i, pos) => Ok(Num::Const(exact(*i, *pos)?)),
+            Expr::FloatConstant(f, _) => Ok(Num::Const(**f)),
+            Expr::Variable(v, _, pos) => {
+                let id = self.tag(&v.1, *pos)?;
+                match self.tags.get(v.1.as_str()).map(|t| t.ty) {
+                    Some(ValueType::Bool) | None => {
+                        refuse(*pos, format!("`{}`, a bool, compared as a number", v.1))
+                    }
+                    Some(_) => Ok(Num::Tag(id)),
+                }
+            }
+            Expr::FnCall(call, pos) if call.is_operator_call() => {
+                match (call.name.as_str(), call.args.as_slice()) {
+                    ("-", [Expr::IntegerConstant(i, at)]) => Ok(Num::Const(-exact(*i, *at)?)),
+                    ("-", [Expr::FloatConstant(f, _)]) => Ok(Num::Const(-**f)),
+                    (op, _) => refuse(*pos, format!("`{op}`")),
+                }
+            }
+            Expr::FnCall(call, pos) => match (call.name.as_str(), call.args.as_slice()) {
+                ("cv", [Expr::StringConstant(instance, _)]) => {
+                    let (i, _) = self.instance(instance, *pos)?;
+                    self.read_before_call(i, Member::Cv, "cv", instance, *pos)?;
+                    Ok(Num::Out(i, Member::Cv))
+                }
+                ("et", _) => refuse(*pos, "`et(..)` (the interpreter reads whole milliseconds)"),
+                (name, _) => refuse(*pos, format!("`{name}(..)`")),
+            },
+            other => refuse(other.start_position(), describe(other)),
+        }
+    }
+
+    fn tag(&mut self, name: &str, pos: Position) -> Res<TagId> {
+        match self.tags.get(name) {
+            Some(t) => {
+                self.use_tag(t.id, pos);
+                Ok(t.id)
+            }
+            None => refuse(pos, format!("`{name}`, not a tag")),
+        }
+    }
+
+    fn instance(&self, name: &str, pos: Position) -> Res<(u32, Kind)> {
+        match self.named.get(name) {
+            Some(&found) => Ok(found),
+            None => refuse(pos, format!("instance \"{name}\" without a call")),
+        }
+    }
+
+    /// An output read before its block's call, on the first scan, finds no instance in the
+    /// interpreter (`false`, `0`) and a fresh one in the VM: the same only if the fresh
+    /// instance's output is `false`/`0`.
+    fn read_before_call(
+        &self,
+        i: u32,
+        member: Member,
+        reader: &str,
+        name: &str,
+        pos: Position,
+    ) -> Res<()> {
+        let called = self.called.get(i as usize).copied().unwrap_or(false);
+        let fresh = self
+            .instances
+            .get(i as usize)
+            .map(|inst| inst.output(member));
+        let unset = matches!(
+            fresh,
+            Some(OutputValue::Bool(false) | OutputValue::Count(0))
+        );
+        if called || unset {
+            Ok(())
+        } else {
+            refuse(
+                pos,
+                format!(
+                    "`{reader}(\"{name}\")` before the block's call (a fresh one reads otherwise)"
+                ),
+            )
+        }
+    }
+
+    /// A block call: its bool arguments in order, then the call.
+    fn block(
+        &mut self,
+        function: &str,
+        args: &[Expr],
+        pos: Position,
+        skippable: Option<&'static str>,
+    ) -> Res<()> {
+        if let Some(op) = skippable {
+            return refuse(
+                pos,
+                format!("`{function}(..)` under {op} (the interpreter skips the call when {op} is decided)"),
+            );
+        }
+        let Some((Expr::StringConstant(name, _), rest)) = args.split_first() else {
+            return refuse(
+                pos,
+                format!("`{function}(..)` with an instance named by an expression"),
+            );
+        };
+        let (inst, _) = self.instance(name, pos)?;
+        let site = |call: Call, bools: u8| CallSite { inst, call, bools };
+        let instr = match (function, rest) {
+            ("ton" | "tof" | "tp", [x, pt]) => {
+                self.condition(x, None)?;
+                match self.time(pt)? {
+                    Time::Fixed(preset) => match function {
+                        "ton" => Instr::Ton {
+                            timer: inst,
+                            preset,
+                        },
+                        "tof" => Instr::Tof {
+                            timer: inst,
+                            preset,
+                        },
+                        _ => Instr::Tp {
+                            timer: inst,
+                            preset,
+                        },
+                    },
+                    Time::Tag(id) => {
+                        let pt = Num::Tag(id);
+                        let call = match function {
+                            "ton" => Call::Ton { pt },
+                            "tof" => Call::Tof { pt },
+                            _ => Call::Tp { pt },
+                        };
+                        self.site(site(call, 0))
+                    }
+                }
+            }
+            ("stair", [x, pt, reset @ ..]) if reset.len() <= 1 => {
+                self.condition(x, None)?;
+                self.optional(reset)?;
+                let pt = self.time_num(pt)?;
+                self.site(site(Call::Stair { pt }, 1))
+            }
+            ("ctu" | "ctd", [x, y, pv]) => {
+                self.condition(x, None)?;
+                self.condition(y, None)?;
+                let pv = self.count(pv)?;
+                let call = if function == "ctu" {
+                    Call::Ctu { pv }
+                } else {
+                    Call::Ctd { pv }
+                };
+                self.site(site(call, 1))
+            }
+            ("ctud", [cu, cd, reset, load, pv]) => {
+                for x in [cu, cd, reset, load] {
+                    self.condition(x, None)?;
+                }
+                let pv = self.count(pv)?;
+                self.site(site(Call::Ctud { pv }, 3))
+            }
+            ("r_trig" | "f_trig", [x]) => {
+                self.condition(x, None)?;
+                let call = if function == "r_trig" {
+                    Call::RTrig
+                } else {
+                    Call::FTrig
+                };
+                self.site(site(call, 0))
+            }
+            ("sr" | "rs", [s, r]) => {
+                self.condition(s, None)?;
+                self.condition(r, None)?;
+                self.site(site(if function == "sr" { Call::Sr } else { Call::Rs }, 1))
+            }
+            ("toggle", [x, reset @ ..]) if reset.len() <= 1 => {
+                self.condition(x, None)?;
+                self.optional(reset)?;
+                self.site(site(Call::Toggle, 1))
+            }
+            ("blink", [en, on, off]) => {
+                self.condition(en, None)?;
+                let (on, off) = (self.time_num(on)?, self.time_num(off)?);
+                self.site(site(Call::Blink { on, off }, 0))
+            }
+            ("blink_pattern", [en, Expr::StringConstant(bits, at), step]) => {
+                self.condition(en, None)?;
+                let Ok(pattern) = Pattern::parse(bits) else {
+                    return refuse(*at, format!("pattern \"{bits}\""));
+                };
+                let step = self.time_num(step)?;
+                self.site(site(Call::BlinkPattern { pattern, step }, 0))
+            }
+            _ => return refuse(pos, format!("`{function}(..)` with these arguments")),
+        };
+        self.code.push(instr);
+        if let Some(c) = self.called.get_mut(inst as usize) {
+            *c = true;
+        }
+        Ok(())
+    }
+
+    /// An optional bool argument (`toggle`'s, `stair`'s reset): `false` when left out, as the
+    /// shorter Rhai function passes.
+    fn optional(&mut self, arg: &[Expr]) -> Res<()> {
+        match arg.first() {
+            Some(x) => self.condition(x, None),
+            None => {
+                self.code.push(Instr::Const(false));
+                Ok(())
+            }
+        }
+    }
+
+    fn site(&mut self, site: CallSite) -> Instr {
+        self.calls.push(site);
+        Instr::Call((self.calls.len() - 1) as u32)
+    }
+
+    /// A time argument as the interpreter reads it (`blocks::time`): milliseconds, a
+    /// duration string, or a numeric tag's value in milliseconds.
+    fn time(&mut self, e: &Expr) -> Res<Time> {
+        match e {
+            Expr::IntegerConstant(i, _) => Ok(Time::Fixed(from_millis(*i as f64))),
+            Expr::FloatConstant(f, _) => Ok(Time::Fixed(from_millis(**f))),
+            Expr::StringConstant(s, pos) => match crate::project::parse_duration(s) {
+                Ok(d) => Ok(Time::Fixed(d)),
+                Err(_) => refuse(*pos, format!("duration \"{s}\"")),
+            },
+            Expr::FnCall(call, _)
+                if call.is_operator_call()
+                    && call.name == "-"
+                    && matches!(
+                        call.args.as_slice(),
+                        [Expr::IntegerConstant(..) | Expr::FloatConstant(..)]
+                    ) =>
+            {
+                Ok(Time::Fixed(Duration::ZERO))
+            }
+            Expr::Variable(v, _, pos) => {
+                let id = self.tag(&v.1, *pos)?;
+                match self.tags.get(v.1.as_str()).map(|t| t.ty) {
+                    Some(ValueType::Bool) | None => {
+                        refuse(*pos, format!("`{}`, a bool, as a time", v.1))
+                    }
+                    Some(_) => Ok(Time::Tag(id)),
+                }
+            }
+            other => refuse(
+                other.start_position(),
+                format!("{} as a time", describe(other)),
+            ),
+        }
+    }
+
+    /// A time argument as a number of milliseconds for a block call site, which the VM turns
+    /// back into a duration: only where that gives the interpreter's duration exactly.
+    fn time_num(&mut self, e: &Expr) -> Res<Num> {
+        match self.time(e)? {
+            Time::Tag(id) => Ok(Num::Tag(id)),
+            Time::Fixed(d) if from_millis(millis(d)) == d => Ok(Num::Const(millis(d))),
+            Time::Fixed(_) => refuse(
+                e.start_position(),
+                "a time finer than the VM's milliseconds keep",
+            ),
+        }
+    }
+
+    /// A counter's preset: Rhai takes an integer only, saturated into `i32`.
+    fn count(&mut self, e: &Expr) -> Res<Num> {
+        match e {
+            Expr::IntegerConstant(i, _) => Ok(Num::Const(f64::from(
+                (*i).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+            ))),
+            Expr::Variable(v, _, pos) => {
+                let id = self.tag(&v.1, *pos)?;
+                match self.tags.get(v.1.as_str()).map(|t| t.ty) {
+                    Some(ValueType::U16 | ValueType::I32) => Ok(Num::Tag(id)),
+                    _ => refuse(*pos, format!("`{}` as a count", v.1)),
+                }
+            }
+            other => refuse(
+                other.start_position(),
+                format!("{} as a count", describe(other)),
+            ),
+        }
+    }
+}
+
+/// An integer literal as an exact `f64`.
+fn exact(i: i64, pos: Position) -> Res<f64> {
+    const EXACT: i64 = 1 << 53;
+    if (-EXACT..=EXACT).contains(&i) {
+        Ok(i as f64)
+    } else {
+        refuse(pos, format!("{i}, larger than a float holds exactly"))
+    }
+}
+
+/// An expression the lowering does not take, in words.
+fn describe(e: &Expr) -> String {
+    match e {
+        Expr::IntegerConstant(..) | Expr::FloatConstant(..) => "a number as a condition".into(),
+        Expr::StringConstant(..) | Expr::InterpolatedString(..) | Expr::CharConstant(..) => {
+            "a string".into()
+        }
+        Expr::Array(..) => "an array".into(),
+        Expr::Map(..) => "a map".into(),
+        Expr::Unit(..) => "`()`".into(),
+        Expr::Stmt(..) => "a block expression".into(),
+        Expr::Index(..) => "indexing".into(),
+        Expr::Dot(..) | Expr::MethodCall(..) | Expr::Property(..) => "a method call".into(),
+        Expr::FnCall(call, _) => format!("`{}`", call.name),
+        _ => "an expression other than a condition".into(),
+    }
+}
