@@ -822,13 +822,31 @@ impl BusOwner {
                         let _ = module.driver.on_reply(tx.tag, &reply);
                         return Err(e);
                     }
-                    return match module.driver.on_reply(tx.tag, &reply) {
-                        Ok(()) => Ok(()),
+                    match module.driver.on_reply(tx.tag, &reply) {
+                        Ok(()) => return Ok(()),
+                        // A reply that passed every frame check but does not fit the
+                        // transaction (a duplicate of an earlier reply of the same function
+                        // and length, heard after the flush) is noise like a CRC error: the
+                        // guard time and a flush, then the retry. What the device really
+                        // holds (a read-back mismatch) is an answer: no retry changes it.
+                        Err(e @ DecodeError::Unexpected { .. }) => {
+                            module.counters.decode_errors += 1;
+                            last = TxError::Decode(e);
+                            let now = self.transport.now();
+                            let timeout = self.discipline.response_timeout;
+                            match self.recover(now, timeout) {
+                                Ok(n) => self.modules[m].counters.dropped_bytes += n as u64,
+                                Err(e) => {
+                                    self.modules[m].counters.flush_failures += 1;
+                                    return Err(line_err(&e));
+                                }
+                            }
+                        }
                         Err(e) => {
                             module.counters.decode_errors += 1;
-                            Err(TxError::Decode(e))
+                            return Err(TxError::Decode(e));
                         }
-                    };
+                    }
                 }
                 Err(e @ TxError::Line(_)) => return Err(e),
                 Err(e) => last = e,

@@ -292,6 +292,13 @@ impl BusOwner {
             let plan = &mut self.collect.stash[m];
             plan.clear();
             self.modules[m].driver.plan_read(plan);
+            // Its driver found the module lost its settings (event recording off after a
+            // power cycle): its start-up runs in this cycle's read, and it joins the next round.
+            if self.modules[m].driver.wants_restart() {
+                self.modules[m].startup_pending = true;
+                plan.clear();
+                continue;
+            }
             self.collect.planned[m] = true;
             if let Some(periods) = self.modules[m].driver.collect_membership() {
                 members.push(Member {

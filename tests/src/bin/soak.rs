@@ -31,6 +31,14 @@ const TOGGLE_EVERY: Duration = Duration::from_secs(12);
 /// Longest time an input change may take to show as a good value: the module's 20 ms input
 /// latency plus two cycles (one may fail and be retried next cycle).
 const SETTLE: Duration = Duration::from_millis(20 + 2 * 100 + 100);
+/// The same where a line in event mode (the MiniMods' default plan) hears silence it cannot
+/// tell from an idle round (README, "Event mode"): a change while the line is dead shows as
+/// stale only at the next write or full read, within `event_refresh` (1 s); and after a power
+/// cycle too short to be seen as a loss the module is back on its saved settings, event
+/// recording off, so its next change shows at its next full read, within `event_refresh`, and
+/// one round later its start-up runs again (`devices/minimod/driver/lost_events.rs`). That is
+/// the bound of event mode, checked here.
+const SETTLE_IN_SILENCE: Duration = Duration::from_millis(20 + 1000 + 3 * 100 + 100);
 /// Longest time an output change may take to reach the module under faults: a lost module is
 /// retried after at most a few seconds of backoff at these rates.
 const DELIVER: Duration = Duration::from_secs(10);
@@ -230,8 +238,20 @@ fn main() -> anyhow::Result<()> {
                     .is_some_and(|t| now.saturating_sub(t) < SETTLE);
                 if slot.quality == Quality::Good && !powering_up {
                     t.checked_values += 1;
+                    // The first change after the module's last power cycle (the next toggle
+                    // comes within TOGGLE_EVERY) or while the line is dead may take longer.
+                    let after_cycle = cycled.lock().unwrap_or_else(|e| e.into_inner())[k]
+                        .is_some_and(|c| since >= c && since - c < TOGGLE_EVERY);
+                    let in_death = (since.as_millis() % LINE_DEATH_EVERY.as_millis())
+                        .checked_sub(60_000)
+                        .is_some_and(|into| into < LINE_DEAD_FOR.as_millis());
+                    let settle = if after_cycle || in_death {
+                        SETTLE_IN_SILENCE
+                    } else {
+                        SETTLE
+                    };
                     let ok = slot.value == Value::Bool(level)
-                        || (now.saturating_sub(since) < SETTLE
+                        || (now.saturating_sub(since) < settle
                             && slot.value == Value::Bool(before));
                     if !ok {
                         t.wrong_values += 1;

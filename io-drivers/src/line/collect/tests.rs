@@ -356,14 +356,16 @@ fn event_mode_through_the_bus_owner() {
     assert_eq!(stats.refreshes, 4);
 }
 
+/// One event-mode member, read in full when nothing answered for 300 ms, X1 unfiltered.
+const FAST_REFRESH: &[(&str, &str)] = &[
+    ("events", "true"),
+    ("event_refresh", "300ms"),
+    ("XLATUP1", "0"),
+];
+
 #[test]
 fn periodic_refresh_repairs_a_lost_event() {
-    let settings = [
-        ("events", "true"),
-        ("event_refresh", "300ms"),
-        ("XLATUP1", "0"),
-    ];
-    let mut r = rig(&[(4, Protocol::Modbus, &settings)]);
+    let mut r = rig(&[(4, Protocol::Modbus, FAST_REFRESH)]);
     r.startup();
     let (_, sent) = r.read_at(1000);
     assert_eq!(sent, [collect(4, 4, 0, 0), fc2(4)]);
@@ -725,4 +727,108 @@ fn a_write_that_covers_every_owned_output_is_the_modules_output_refresh() {
         [0, 8, 16, 24],
         "module 2 rewritten from 750 ms, once a period"
     );
+}
+
+#[test]
+fn with_every_module_written_in_turn_only_the_resync_reads_remain_one_a_cycle() {
+    // The bench's full-cycle workload (scenario 12) on the virtual clock: four factory-default
+    // members, Y1 of one module flipped each cycle in turn. Every write's echo answers for its
+    // module and covers every output it owns, so after the first cycle the only extra exchanges
+    // are each module's `event_resync` read (30 s, from 22.5 s on), never two in one cycle.
+    let members: Vec<Spec<'_>> = (1..=4)
+        .map(|a| (a, Protocol::Modbus, &[("events", "true")][..]))
+        .collect();
+    let mut r = rig(&members);
+    r.startup();
+    let yi = devices::model("minimod")
+        .unwrap()
+        .point_index("Y1")
+        .unwrap();
+    let mut y = [false; 4];
+    let mut t = 2000u64;
+    let mut first = None;
+    let mut resyncs = Vec::new();
+    for k in 0..700usize {
+        let (f, sent) = r.read_at(t);
+        y[k % 4] = !y[k % 4];
+        let mut frame = y1(4, false);
+        for (m, on) in y.iter().enumerate() {
+            frame.modules[m][yi] = Some(Value::Bool(*on));
+        }
+        r.log.lock().unwrap().clear();
+        let report = r.owner.write_outputs(&frame);
+        r.clock.advance_to(report.finished);
+        let writes = r.log.lock().unwrap().len();
+        let reads = full_reads(&sent);
+        if k == 0 {
+            assert_eq!((reads.len(), writes), (4, 4), "the first cycle: everything");
+            first = Some(f.started);
+        } else {
+            assert_eq!(writes, 1, "cycle {k}: the changed output only");
+            assert!(reads.len() <= 1, "cycle {k}: {reads:?}");
+            for unit in reads {
+                resyncs.push((unit, f.started - first.unwrap_or_default()));
+            }
+        }
+        t = report.finished.as_millis() as u64 + 1;
+    }
+    assert!(
+        r.clock.now() > Duration::from_secs(30),
+        "the run passes the first resync"
+    );
+    assert_eq!(
+        resyncs.iter().map(|r| r.0).collect::<Vec<_>>(),
+        [1, 2, 3, 4],
+        "{resyncs:?}"
+    );
+    for (unit, after) in resyncs {
+        let window = Duration::from_millis(22_500)..Duration::from_secs(30);
+        assert!(
+            window.contains(&after),
+            "unit {unit} resynced after {after:?}"
+        );
+    }
+}
+
+#[test]
+fn a_short_power_cycle_that_turned_events_off_is_found_and_the_start_up_runs_again() {
+    let mut r = rig(&[(4, Protocol::Modbus, FAST_REFRESH)]);
+    r.startup();
+    r.read_at(1000);
+    // A power cycle between two cycles, too short to be seen as a loss: the module is back
+    // on its saved settings, without event recording (the start-up enabled it unsaved).
+    r.at(1050);
+    {
+        let mut w = r.world.lock().unwrap();
+        w.advance_to(r.clock.now());
+        w.device_mut(0).unwrap().command(&["power-cycle"]).unwrap();
+    }
+    r.at(1100);
+    r.set(0, "X1", true);
+    let mut restarted_at = None;
+    let mut seen_at = None;
+    for k in 0..12u64 {
+        let t = 1200 + 100 * k;
+        let (f, sent) = r.read_at(t);
+        if seen_at.is_none() && value(&f, 0, "X1") == Some(Value::Bool(true)) {
+            seen_at = Some(t);
+        }
+        // The start-up writes the event mask again (FC 16 over XEVMASK, or FC 6).
+        let writes_xevmask = sent
+            .iter()
+            .any(|f| f[0] == 4 && (f[1] == 0x10 || f[1] == 0x06));
+        if restarted_at.is_none() && writes_xevmask {
+            restarted_at = Some(t);
+        }
+    }
+    let seen = seen_at.expect("the full read brings the change");
+    let restarted = restarted_at.expect("the start-up runs again");
+    assert!(seen <= 1400, "within event_refresh: {seen}");
+    assert_eq!(restarted, seen + 200, "after one round with no event");
+    // Events flow again: the next change comes by the round, with no full read.
+    r.at(2500);
+    r.set(0, "X1", false);
+    let (f, sent) = r.read_at(2600);
+    assert_eq!(value(&f, 0, "X1"), Some(Value::Bool(false)));
+    assert!(full_reads(&sent).is_empty(), "{sent:?}");
 }

@@ -115,6 +115,7 @@ use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
 mod logic;
+mod lost_events;
 pub use logic::CLEARED as LOGIC_CLEARED_AT_STARTUP;
 mod plan;
 mod restart;
@@ -257,6 +258,8 @@ pub struct MiniModDriver {
     refresh_readback: bool,
     /// Refused writes, restarts and the watchdog's status at start-up (see `restart`).
     restart: restart::Restart,
+    /// Event mode: whether its event recording is still on (see `lost_events`).
+    event_watch: lost_events::EventWatch,
 }
 
 impl MiniModDriver {
@@ -287,6 +290,7 @@ impl MiniModDriver {
             cycle: 0,
             refresh_readback: false,
             restart: restart::Restart::default(),
+            event_watch: lost_events::EventWatch::default(),
         };
         for s in settings {
             match *s {

@@ -20,6 +20,7 @@ const XCOUNT: [&str; 3] = ["XCOUNT1", "XCOUNT2", "XCOUNT3"];
 impl MiniModDriver {
     /// This cycle's reads.
     pub(super) fn plan_reads(&mut self, unit: UnitId, out: &mut Vec<Transaction>) {
+        self.watch_cycle();
         let cycle = self.cycle;
         self.cycle = self.cycle.wrapping_add(1);
         let text = self.protocol == Protocol::Text;
@@ -106,6 +107,7 @@ impl MiniModDriver {
             .iter()
             .enumerate()
             .fold(0u16, |acc, (i, &b)| acc | (u16::from(b) << i));
+        self.watch_full_read(word);
         self.apply_input_word(word);
         Ok(())
     }
@@ -136,7 +138,10 @@ impl MiniModDriver {
     /// An event from the Collect round.
     pub(super) fn apply_event(&mut self, tag: u32, kind: u8, data: u16) -> Result<(), DecodeError> {
         match kind {
-            super::super::events::KIND_INPUTS => self.apply_input_word(data),
+            super::super::events::KIND_INPUTS => {
+                self.watch_event();
+                self.apply_input_word(data);
+            }
             super::super::events::KIND_OUTPUTS => {
                 for (y, &i) in IDX_Y.iter().enumerate() {
                     self.set_value(i, Value::Bool(data & (1 << y) != 0));
@@ -186,6 +191,7 @@ impl MiniModDriver {
     ) -> Result<(), DecodeError> {
         match (read, reply) {
             (Tag::Inputs, TextReply::Value(TextId::Xword, w)) => {
+                self.watch_full_read(w);
                 self.apply_input_word(w);
                 Ok(())
             }

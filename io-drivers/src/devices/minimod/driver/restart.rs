@@ -73,6 +73,8 @@ pub(super) struct Restart {
     logged: bool,
     /// Why the driver was last restarted (for the log's wording).
     reason: Option<Reason>,
+    /// The pending request is for settings the module lost, not for a refused write.
+    lost_settings: bool,
 }
 
 /// Why the bus owner restarted the module.
@@ -88,6 +90,13 @@ impl Restart {
     /// Whether the driver asks for its start-up again.
     pub(super) fn wants(&self) -> bool {
         self.requested
+    }
+
+    /// Asks for the start-up again for a reason other than a refused write (the module lost
+    /// its event recording): the watchdog is reset by the start-up as ever, not read first.
+    pub(super) fn request(&mut self) {
+        self.requested = true;
+        self.lost_settings = true;
     }
 }
 
@@ -130,13 +139,14 @@ impl MiniModDriver {
         self.rewrite = true;
         self.cycle = 0;
         let r = &mut self.restart;
-        r.reason = Some(if r.requested {
+        r.reason = Some(if r.requested && !r.lost_settings {
             Reason::Refused
         } else {
             Reason::Back
         });
-        r.reset_needed |= r.requested;
+        r.reset_needed |= r.requested && !r.lost_settings;
         r.requested = false;
+        r.lost_settings = false;
     }
 
     /// The first transactions of the start-up: why the watchdog fired, before it is reset.
