@@ -432,15 +432,11 @@ impl<'a> Lowerer<'a> {
         match e {
             Expr::IntegerConstant(i, pos) => Ok(Num::Const(exact(*i, *pos)?)),
             Expr::FloatConstant(f, _) => Ok(Num::Const(**f)),
-            Expr::Variable(v, _, pos) => {
-                let id = self.tag(&v.1, *pos)?;
-                match self.tags.get(v.1.as_str()).map(|t| t.ty) {
-                    Some(ValueType::Bool) | None => {
-                        refuse(*pos, format!("`{}`, a bool, compared as a number", v.1))
-                    }
-                    Some(_) => Ok(Num::Tag(id)),
-                }
-            }
+            Expr::Variable(v, _, pos) => Ok(Num::Tag(self.numeric_tag(
+                &v.1,
+                *pos,
+                "compared as a number",
+            )?)),
             Expr::FnCall(call, pos) if call.is_operator_call() => {
                 match (call.name.as_str(), call.args.as_slice()) {
                     ("-", [Expr::IntegerConstant(i, at)]) => Ok(Num::Const(-exact(*i, *at)?)),
@@ -468,6 +464,15 @@ impl<'a> Lowerer<'a> {
                 Ok(t.id)
             }
             None => refuse(pos, format!("`{name}`, not a tag")),
+        }
+    }
+
+    /// A tag used as a number (`use_as` says how, for the refusal): a bool tag is refused.
+    fn numeric_tag(&mut self, name: &str, pos: Position, use_as: &str) -> Res<TagId> {
+        let id = self.tag(name, pos)?;
+        match self.tags.get(name).map(|t| t.ty) {
+            Some(ValueType::Bool) | None => refuse(pos, format!("`{name}`, a bool, {use_as}")),
+            Some(_) => Ok(id),
         }
     }
 
@@ -664,13 +669,7 @@ impl<'a> Lowerer<'a> {
                 Ok(Time::Fixed(Duration::ZERO))
             }
             Expr::Variable(v, _, pos) => {
-                let id = self.tag(&v.1, *pos)?;
-                match self.tags.get(v.1.as_str()).map(|t| t.ty) {
-                    Some(ValueType::Bool) | None => {
-                        refuse(*pos, format!("`{}`, a bool, as a time", v.1))
-                    }
-                    Some(_) => Ok(Time::Tag(id)),
-                }
+                Ok(Time::Tag(self.numeric_tag(&v.1, *pos, "as a time")?))
             }
             other => refuse(
                 other.start_position(),

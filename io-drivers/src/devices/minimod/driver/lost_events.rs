@@ -12,11 +12,9 @@
 //! start-up again ([`crate::driver::Driver::wants_restart`]), which sets every setting again
 //! and writes every output.
 
+use super::plan::XWORD_BITS;
 use super::MiniModDriver;
 use crate::point::Value;
-
-/// The bits of the input word events report (X1..X3, X9/X10 = FB1/FB2).
-const EVENT_BITS: u16 = 0x0307;
 
 /// What the driver keeps between a suspicious full read and the next round.
 #[derive(Debug, Clone, Copy, Default)]
@@ -38,7 +36,7 @@ impl MiniModDriver {
             .copied()
             .flatten();
         if let Some(Value::U16(known)) = known {
-            if known & EVENT_BITS != word & EVENT_BITS {
+            if known & XWORD_BITS != word & XWORD_BITS {
                 self.event_watch.suspect = Some(0);
             }
         }

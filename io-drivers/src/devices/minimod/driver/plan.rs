@@ -17,6 +17,9 @@ const DI_STATUS_COUNT: u16 = map::SW4.addr - map::EVENTSPRS.addr + 1;
 /// The counters' names, XCOUNT1..3 (holding registers 11..=13).
 const XCOUNT: [&str; 3] = ["XCOUNT1", "XCOUNT2", "XCOUNT3"];
 
+/// The bits of the input word that XWORD holds and events report (X1..X3, X9/X10 = FB1/FB2).
+pub(super) const XWORD_BITS: u16 = 0x0307;
+
 impl MiniModDriver {
     /// This cycle's reads.
     pub(super) fn plan_reads(&mut self, unit: UnitId, out: &mut Vec<Transaction>) {
@@ -96,7 +99,7 @@ impl MiniModDriver {
         self.set_value(IDX_FB1, Value::Bool(x9));
         self.set_value(IDX_X10, Value::Bool(x10));
         self.set_value(IDX_FB2, Value::Bool(x10));
-        self.set_named("XWORD", Value::U16(word & 0x0307));
+        self.set_named("XWORD", Value::U16(word & XWORD_BITS));
     }
 
     fn apply_inputs(&mut self, tag: u32, bits: &[bool]) -> Result<(), DecodeError> {
