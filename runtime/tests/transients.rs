@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use softplc::clock::{Clock, VirtualClock};
-use softplc::plc::Plc;
+use softplc::plc::{CycleWork, Plc};
 use softplc::project::parse_str;
 use softplc::scan::{ScanEngine, StopReason};
 use softplc_io::point::{Quality, Value};
@@ -65,6 +65,9 @@ struct Cycle {
     mm1_requests: u64,
     /// Whether mm2 holds what the program asked of its outputs.
     mm2_outputs: Quality,
+    /// Whether the line was still writing when the cycle's period ended: the cycle overran
+    /// (the scan itself kept its grid).
+    writes_late: bool,
 }
 
 /// What to do to the world before the cycle starting at a time.
@@ -100,6 +103,11 @@ fn run(plc: Plc, run_for: Duration, mut script: Script) -> (Vec<Cycle>, StopReas
                 io_wait: plc.io_wait(),
                 mm1_requests: status[0].counters.requests,
                 mm2_outputs: status[1].outputs,
+                writes_late: match plc.cycle_work() {
+                    CycleWork::Done => false,
+                    CycleWork::At(t) => t > ctx.now + PERIOD,
+                    CycleWork::Later => true,
+                },
             });
             script(ctx.now - begin + PERIOD, &world);
         }));
@@ -111,6 +119,19 @@ fn run(plc: Plc, run_for: Duration, mut script: Script) -> (Vec<Cycle>, StopReas
         }
     }
     (cycles, outcome.reason, outcome.stats.overruns)
+}
+
+/// The times of the cycles that overran, after checking that every overrun counted is one
+/// of them: a cycle whose line was still writing (retries, probes, time-outs) when its period
+/// ended. The scan itself never falls behind its grid on a line fault.
+fn overran(cycles: &[Cycle], overruns: u64) -> Vec<Duration> {
+    let late: Vec<Duration> = cycles
+        .iter()
+        .filter(|c| c.writes_late)
+        .map(|c| c.now)
+        .collect();
+    assert_eq!(overruns, late.len() as u64, "every overrun is a late write");
+    late
 }
 
 fn set(world: &SharedWorld, module: &str, point: &str, on: bool) {
@@ -142,7 +163,16 @@ fn a_dead_line_leaves_the_scan_on_its_grid_and_its_modules_come_back() {
         StopReason::TimeUp,
         "the PLC never stops on a line fault"
     );
-    assert_eq!(overruns, 0, "every deadline kept");
+    // The line's time-outs and probes outlast the period, so the cycles that carry them
+    // overrun (their writes end after it), during the outage and its recovery only; the scan
+    // keeps every deadline all the same.
+    let late = overran(&cycles, overruns);
+    assert!(!late.is_empty(), "an outage costs the line its period");
+    assert!(
+        late.iter()
+            .all(|&t| t >= dead_from && t < dead_until + Duration::from_secs(4)),
+        "overruns only during the outage and the modules' return: {late:?}"
+    );
     assert_eq!(cycles.len(), 120, "one cycle per period for 12 s");
     for (k, c) in cycles.iter().enumerate() {
         assert_eq!(c.now, PERIOD * k as u32, "on the grid: {c:?}");
@@ -231,7 +261,7 @@ fn modules_absent_at_start_are_lost_not_fatal_and_start_up_when_they_answer() {
         }),
     );
     assert_eq!(reason, StopReason::TimeUp);
-    assert_eq!(overruns, 0);
+    let late = overran(&cycles, overruns);
     let start = cycles.first().unwrap();
     assert_eq!(start.x, Quality::Bad, "bad from the first cycle: {start:?}");
     let back = cycles
@@ -244,6 +274,11 @@ fn modules_absent_at_start_are_lost_not_fatal_and_start_up_when_they_answer() {
     let last = cycles.last().unwrap();
     assert_eq!(last.x, Quality::Good);
     assert!(last.y_terminal, "x drives mm2 once it is up");
+    assert!(
+        late.iter().all(|&t| t <= back.now),
+        "overruns only while the modules are probed: {late:?}"
+    );
+    assert_eq!(cycles.len(), 80, "the scan keeps its grid");
 }
 
 #[test]
@@ -267,7 +302,8 @@ fn a_lost_module_costs_its_line_one_request_per_probe() {
         }),
     );
     assert_eq!(reason, StopReason::TimeUp);
-    assert_eq!(overruns, 0);
+    let late = overran(&cycles, overruns);
+    assert_eq!(cycles.len(), 200, "the scan keeps its grid");
     // mm2 keeps being scanned: mm1's first failed read delays the line once (stale), then
     // mm1 is read after mm2's inputs have gone to the scan, and its probes never delay them.
     let lost_at = cycles
@@ -297,6 +333,12 @@ fn a_lost_module_costs_its_line_one_request_per_probe() {
     for pair in gaps.windows(2) {
         assert!(pair[1] > pair[0], "the backoff grows: {gaps:?}");
     }
+    // Each probe's cycle (or its failed reads before the loss) overran, and no other.
+    let probe_cycles = cycles[lost_at..].iter().filter(|c| c.writes_late).count();
+    assert!(
+        probe_cycles <= probes.len(),
+        "one overrun at most per probe: {late:?} {probes:?}"
+    );
 }
 
 #[test]

@@ -46,6 +46,21 @@ pub struct Delivery<T> {
     pub at: Duration,
 }
 
+/// The end of a write the scan stopped waiting for at its cycle's end (the period was over):
+/// that cycle's work ran past its period.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WriteEnd {
+    /// Known now: a line the scan runs itself ends it at this time, on the PLC's clock.
+    At(Duration),
+    /// The line's thread is still at it: its end comes with the answer to the first write
+    /// from this sequence number on ([`LineLink::late_write_end`]).
+    Later(u64),
+}
+
+/// How many write answers a threaded line keeps for [`LineLink::late_write_end`]: more than
+/// the cycles a scan keeps open waiting for them.
+const KEPT_WRITE_ENDS: usize = 64;
+
 /// One line as the scan sees it.
 #[derive(Debug)]
 pub struct LineLink {
@@ -90,6 +105,8 @@ struct Threaded {
     read: Option<InputFrame>,
     /// A write's answer not yet delivered.
     written: Option<WriteReport>,
+    /// The last write answers: sequence number and end, oldest first.
+    write_ends: std::collections::VecDeque<(u64, Duration)>,
 }
 
 impl LineLink {
@@ -119,6 +136,7 @@ impl LineLink {
                 write_seq: None,
                 read: None,
                 written: None,
+                write_ends: std::collections::VecDeque::new(),
             })),
             pending: None,
         })
@@ -280,6 +298,42 @@ impl LineLink {
         }
     }
 
+    /// After [`LineLink::finish_write`]: the write it did not deliver by its deadline, when
+    /// the line is still at one (a write waiting behind it included), with its end when
+    /// known. The scan counts the cycle's work as running until then, on either clock: the
+    /// real clock waits for it up to the deadline and wakes just after, the virtual clock at
+    /// the deadline itself, so only this, not the instant of waking, can say the same thing on
+    /// both.
+    pub fn unfinished_write(&self) -> Option<WriteEnd> {
+        match &self.kind {
+            Kind::Inline(l) => l.written.as_ref().map(|w| WriteEnd::At(w.finished)),
+            Kind::Thread(t) => match t.write_seq {
+                Some(seq) => Some(WriteEnd::Later(seq)),
+                // A write waiting in the link goes out later, under a later number.
+                None => self
+                    .pending
+                    .is_some()
+                    .then(|| WriteEnd::Later(t.thread.last_sent() + 1)),
+            },
+            Kind::Stopped => None,
+        }
+    }
+
+    /// When the first write from sequence number `seq` on ended ([`WriteEnd::Later`]), once
+    /// its answer has come (never waits).
+    pub fn late_write_end(&mut self, seq: u64) -> Option<Duration> {
+        match &mut self.kind {
+            Kind::Thread(t) => {
+                t.drain();
+                t.write_ends
+                    .iter()
+                    .find(|(s, _)| *s >= seq)
+                    .map(|(_, end)| *end)
+            }
+            Kind::Inline(_) | Kind::Stopped => None,
+        }
+    }
+
     /// Stops the line's thread, waiting at most `timeout` (a stuck port leaves it behind).
     pub fn stop(&mut self, timeout: Duration) {
         if let Kind::Thread(t) = std::mem::replace(&mut self.kind, Kind::Stopped) {
@@ -354,6 +408,10 @@ impl Threaded {
                 if self.write_seq == Some(seq) {
                     self.write_seq = None;
                 }
+                if self.write_ends.len() == KEPT_WRITE_ENDS {
+                    self.write_ends.pop_front();
+                }
+                self.write_ends.push_back((seq, report.finished));
                 self.written = Some(report);
             }
         }

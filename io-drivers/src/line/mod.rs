@@ -42,7 +42,7 @@ pub use latency::{
     AdapterLatency, Assumed, LatencyRefused, LowLatencyRefused, Lowered, NoTimer, Probe, Source,
     SysfsRoot,
 };
-pub use link::{Delivery, LineLink};
+pub use link::{Delivery, LineLink, WriteEnd};
 pub use settings::{BadFormat, LineSettings, Parity, SerialFormat};
 pub use tcp::{
     EndpointError, ModbusTcpTransport, NetFraming, RtuOverTcpTransport, TcpEndpoint,

@@ -18,11 +18,12 @@ impl Plc {
     /// in its own time (see [`softplc_io::line::LineLink`]).
     pub fn read_inputs(&mut self) {
         let start = self.clock.now();
-        self.cycle_start = start;
+        let grid = self.cycle_grid.take().unwrap_or(start).min(start);
+        self.cycle_start = grid;
         for line in &mut self.lines {
             line.start_read(start);
         }
-        let deadline = start + self.read_budget;
+        let deadline = (grid + self.read_budget).max(start);
         let mut frames: Vec<Option<InputFrame>> = Vec::with_capacity(self.lines.len());
         let mut dead = vec![false; self.lines.len()];
         let mut latest = start;
@@ -187,8 +188,34 @@ impl Plc {
         for line in &mut self.lines {
             latest = latest.max(line.finish_write(deadline).at);
         }
+        if !safe {
+            self.note_unfinished_writes();
+        }
         self.clock.sleep_until(latest);
         self.io_wait += self.clock.now().saturating_sub(start);
+    }
+
+    /// Keeps which lines were still writing when the scan stopped waiting for them
+    /// ([`Plc::cycle_work`]).
+    fn note_unfinished_writes(&mut self) {
+        use softplc_io::line::WriteEnd;
+        let mut unfinished = super::Unfinished {
+            since: self.clock.now(),
+            ..Default::default()
+        };
+        for (b, line) in self.lines.iter().enumerate() {
+            match line.unfinished_write() {
+                Some(WriteEnd::At(t)) => {
+                    unfinished.known = Some(unfinished.known.map_or(t, |k| k.max(t)));
+                }
+                Some(WriteEnd::Later(seq)) => unfinished.later.push((b, seq)),
+                None => {}
+            }
+        }
+        if unfinished.work() == super::CycleWork::Later {
+            self.open_work.push_back(unfinished.clone());
+        }
+        self.unfinished = unfinished;
     }
 
     /// Logs, at most once a minute per line, that a line did not deliver in time.

@@ -147,8 +147,15 @@ pub struct Plc {
     read_budget: Duration,
     /// When the current cycle's input phase started.
     cycle_start: Duration,
+    /// The current cycle's deadline on the scan's grid ([`Plc::begin_cycle`]), when the scan
+    /// gave one: its phases' deadlines count from it, not from when the scan woke.
+    cycle_grid: Option<Duration>,
     /// Time the last cycle spent waiting for lines (not counted by the task watchdog).
     io_wait: Duration,
+    /// The last cycle's writes still running when the scan stopped waiting for them.
+    unfinished: Unfinished,
+    /// Cycles whose work ends with a line's answer still to come ([`CycleWork::Later`]).
+    open_work: std::collections::VecDeque<Unfinished>,
     /// Per line: when its lateness was last logged.
     late_logged: Vec<Option<Duration>>,
     /// Retained tags and their writer, when the project retains any.
@@ -220,9 +227,91 @@ impl Plc {
         self.io_wait
     }
 
+    /// Starts a cycle whose deadline on the scan's grid is `grid`: the lines' deadlines in it
+    /// (inputs by nine tenths of the period, writes by its end) count from there, so a scan
+    /// that woke late does not also wait later.
+    pub fn begin_cycle(&mut self, grid: Duration) {
+        self.cycle_grid = Some(grid);
+    }
+
+    /// Whether the last cycle's writes were all answered by its end, or when its work (the
+    /// lines' included) ended past it: see [`CycleWork`].
+    pub fn cycle_work(&self) -> CycleWork {
+        self.unfinished.work()
+    }
+
+    /// The ends of the work of earlier cycles that ended [`CycleWork::Later`], oldest first,
+    /// as far as they are known at `now`: each once every line still writing then has
+    /// answered that write. One still open after the longest wait for a line's safe state
+    /// (the watchdog's time × sensitivity), or when more than 16 are open, ends as "at least
+    /// until `now`", and so does every one when `all` (the run ends). Never waits.
+    pub fn late_work_ends(&mut self, now: Duration, all: bool, out: &mut Vec<Duration>) {
+        while let Some(open) = self.open_work.front() {
+            let mut end = open.known;
+            let mut answered = true;
+            for &(b, seq) in &open.later {
+                match self.lines[b].late_write_end(seq) {
+                    Some(t) => end = Some(end.map_or(t, |k| k.max(t))),
+                    None => answered = false,
+                }
+            }
+            let give_up = all
+                || self.open_work.len() > MAX_OPEN_CYCLES
+                || now.saturating_sub(open.since) > self.line_wait;
+            if !answered && !give_up {
+                break;
+            }
+            let end = if answered { end.unwrap_or(now) } else { now };
+            out.push(end);
+            self.open_work.pop_front();
+        }
+    }
+
     /// Total bus errors over all modules.
     pub fn bus_errors(&self) -> u64 {
         self.status.iter().map(|s| s.counters.errors()).sum()
+    }
+}
+
+/// Where a cycle's work stood when the scan stopped waiting for its lines' writes (the end
+/// of its period).
+///
+/// A cycle's time runs from its start to the end of all its work, its outputs acknowledged
+/// by the lines included, on either clock: the scan stops waiting for a write at the period's
+/// end (a dead line must not hold it), but the cycle did not fit its period, and counts as
+/// an overrun, whether the scan woke at the deadline (virtual clock) or just after (real).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CycleWork {
+    /// Every write was answered by the time the scan went on.
+    Done,
+    /// The last write ends at this time, known now (lines the scan runs itself).
+    At(Duration),
+    /// A line's thread is still writing; [`Plc::take_late_work_end`] gives its end later.
+    Later,
+}
+
+/// How many cycles whose work is still running the PLC follows at once: a line that falls
+/// further behind than this has its cycles' ends taken as "at least until now".
+pub(crate) const MAX_OPEN_CYCLES: usize = 16;
+
+/// The lines whose writes were unfinished at a cycle's end.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Unfinished {
+    /// The latest known end (lines run inline).
+    known: Option<Duration>,
+    /// Lines whose end comes with their answer: the line and the write's sequence number.
+    later: Vec<(usize, u64)>,
+    /// When the scan stopped waiting for them.
+    since: Duration,
+}
+
+impl Unfinished {
+    pub(crate) fn work(&self) -> CycleWork {
+        match (self.known, self.later.is_empty()) {
+            (_, false) => CycleWork::Later,
+            (Some(t), true) => CycleWork::At(t),
+            (None, true) => CycleWork::Done,
+        }
     }
 }
 

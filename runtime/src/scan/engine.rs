@@ -5,7 +5,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use crate::logic::{LogicFault, ScanContext};
-use crate::plc::{ModuleStatus, Plc};
+use crate::plc::{CycleWork, ModuleStatus, Plc};
 use crate::scan::boundary::CycleBoundary;
 use crate::scan::overrun::OverrunLog;
 use crate::scan::stats::{LastCycle, Percentiles, ScanStats};
@@ -161,6 +161,9 @@ impl ScanEngine {
         let mut previous: Option<Duration> = None;
         let mut last_published = begin;
         let mut overruns = OverrunLog::new(period);
+        // Cycles whose work outlasted them on a line's thread, until that line answers.
+        let mut open: std::collections::VecDeque<Phases> = std::collections::VecDeque::new();
+        let mut ends = Vec::new();
         for b in &mut self.boundaries {
             b.started(&mut self.plc);
         }
@@ -175,10 +178,19 @@ impl ScanEngine {
             }
             clock.sleep_until(deadline);
             let start = clock.now();
+            self.plc.begin_cycle(deadline);
             stats.lateness.record(start.saturating_sub(deadline));
 
             self.plc.read_inputs();
             let read_end = clock.now();
+            // Cycles before that ran past their period on a line's thread: each one's time is
+            // known once that line has answered its write.
+            self.plc.late_work_ends(read_end, false, &mut ends);
+            for work_end in ends.drain(..) {
+                if let Some(phases) = open.pop_front() {
+                    phases.record(&mut stats, work_end);
+                }
+            }
             let ctx = ScanContext {
                 now: deadline,
                 delta: previous.map_or(period, |p| deadline - p),
@@ -209,18 +221,25 @@ impl ScanEngine {
             self.plc.write_outputs();
             let end = clock.now();
 
-            stats.read.record(read_end - start);
-            stats.logic.record(logic_end - read_end);
-            stats.write.record(end - logic_end);
-            let cycle = end - start;
-            stats.cycle.record(cycle);
+            let phases = Phases {
+                start,
+                read_end,
+                logic_end,
+                end,
+            };
             stats.last = LastCycle {
                 start: deadline,
                 read: read_end - start,
                 logic: logic_end - read_end,
                 write: end - logic_end,
-                cycle,
+                cycle: end - start,
             };
+            let work = self.plc.cycle_work();
+            match work {
+                CycleWork::Done => phases.record(&mut stats, end),
+                CycleWork::At(t) => phases.record(&mut stats, t.max(end)),
+                CycleWork::Later => open.push_back(phases),
+            }
             stats.cycles += 1;
             stats.bus_errors = self.plc.bus_errors();
             if let Some(hook) = self.on_cycle.as_mut() {
@@ -228,7 +247,7 @@ impl ScanEngine {
             }
             // The scan's own work: waits for lines are bounded by the period and never trip it,
             // so a dead line cannot stop the PLC.
-            if let Err(trip) = watchdog.check(cycle.saturating_sub(self.plc.io_wait())) {
+            if let Err(trip) = watchdog.check((end - start).saturating_sub(self.plc.io_wait())) {
                 break StopReason::Watchdog(trip);
             }
             for b in &mut self.boundaries {
@@ -237,21 +256,39 @@ impl ScanEngine {
 
             previous = Some(deadline);
             deadline += period;
-            if end > deadline {
-                // Skip every deadline already passed; the next cycle starts on the grid.
-                let behind = (end - deadline).as_nanos() / period.as_nanos().max(1) + 1;
+            // A cycle whose writes were still running at its period's end overran, even when
+            // the scan itself went on in time (CycleWork): so both clocks count it alike.
+            let work_late = match work {
+                CycleWork::Done => false,
+                CycleWork::At(t) => t > deadline,
+                CycleWork::Later => true,
+            };
+            if end > deadline || work_late {
+                // Skip every deadline the scan itself has passed; the next cycle starts on the
+                // grid. One it only waited at for a line still writing (and woke on, or just
+                // after, by its clock's lateness) is not passed: the next cycle starts then.
+                let past = end.saturating_sub(deadline).as_nanos() / period.as_nanos().max(1);
+                let skipped = if work_late || end <= deadline {
+                    past
+                } else {
+                    past + 1
+                };
                 stats.overruns = stats
                     .overruns
-                    .saturating_add(u64::try_from(behind).unwrap_or(u64::MAX));
-                let skip = period.as_nanos().saturating_mul(behind);
+                    .saturating_add(u64::try_from(skipped.max(1)).unwrap_or(u64::MAX));
+                let skip = period.as_nanos().saturating_mul(skipped);
                 deadline += Duration::from_nanos(u64::try_from(skip).unwrap_or(u64::MAX));
+                let outputs_end = match work {
+                    CycleWork::At(t) => t.max(end),
+                    CycleWork::Done | CycleWork::Later => end,
+                };
                 overruns.note(
                     end,
-                    behind,
+                    skipped,
                     [
                         ("inputs", read_end - start),
                         ("logic", logic_end - read_end),
-                        ("outputs", end - logic_end),
+                        ("outputs", outputs_end - logic_end),
                     ],
                 );
             }
@@ -260,6 +297,10 @@ impl ScanEngine {
                 self.publish(&stats, end);
             }
         };
+        self.plc.late_work_ends(clock.now(), true, &mut ends);
+        for (phases, work_end) in open.drain(..).zip(ends.drain(..)) {
+            phases.record(&mut stats, work_end);
+        }
         for b in &mut self.boundaries {
             b.stopping(&reason);
         }
@@ -295,5 +336,28 @@ impl ScanEngine {
                 now,
             };
         }
+    }
+}
+
+/// When a cycle's phases ended, on the PLC's clock.
+#[derive(Debug, Clone, Copy)]
+struct Phases {
+    start: Duration,
+    read_end: Duration,
+    logic_end: Duration,
+    /// When the scan went on to the next cycle.
+    end: Duration,
+}
+
+impl Phases {
+    /// Records the cycle, whose work (its lines' writes included) ended at `work_end`: the
+    /// output phase and the cycle run until then, so a cycle that outlasted its period shows
+    /// its real length, not the period it was cut at.
+    fn record(&self, stats: &mut ScanStats, work_end: Duration) {
+        let work_end = work_end.max(self.end);
+        stats.read.record(self.read_end - self.start);
+        stats.logic.record(self.logic_end - self.read_end);
+        stats.write.record(work_end - self.logic_end);
+        stats.cycle.record(work_end - self.start);
     }
 }

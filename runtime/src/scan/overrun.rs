@@ -55,9 +55,14 @@ impl OverrunLog {
         } else {
             String::new()
         };
+        let skipped = if skipped == 0 {
+            "no deadline skipped (a line was still writing when the period ended)".to_string()
+        } else {
+            format!("{skipped} deadline(s) skipped")
+        };
         let line = format!(
-            "overrun: the cycle took {} against a period of {}, {skipped} deadline(s) skipped; \
-             longest phase {worst} {} ({detail}){since}",
+            "overrun: the cycle took {} against a period of {}, {skipped}; longest phase \
+             {worst} {} ({detail}){since}",
             fmt_duration(cycle),
             fmt_duration(self.period),
             fmt_duration(took),
@@ -92,6 +97,26 @@ mod tests {
             "overrun: the cycle took 155.00ms against a period of 100.00ms, 1 deadline(s) \
              skipped; longest phase logic 130.00ms (inputs 20.00ms, logic 130.00ms, outputs \
              5.00ms)"
+        );
+    }
+
+    #[test]
+    fn an_overrun_whose_line_was_still_writing_skips_no_deadline() {
+        let mut log = OverrunLog::new(ms(20));
+        let line = log
+            .note(
+                ms(1_000),
+                0,
+                [("inputs", ms(13)), ("logic", ms(0)), ("outputs", ms(21))],
+            )
+            .expect("logged");
+        assert!(
+            line.starts_with(
+                "overrun: the cycle took 34.00ms against a period of 20.00ms, no deadline \
+                 skipped (a line was still writing when the period ended); longest phase \
+                 outputs 21.00ms"
+            ),
+            "{line}"
         );
     }
 
