@@ -44,7 +44,8 @@ struct Args {
     #[arg(long)]
     quick: bool,
     /// Run only this scenario (repeatable): scheduler, logic-cost, bus-cycle, collect,
-    /// reaction, pulse, serial-path, scale, trace-cost, peer, plant-services.
+    /// reaction, pulse, serial-path, scale, trace-cost, peer, plant-services, full-cycle,
+    /// virtual-truth.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
     /// Results folder [default: bench/results for a full run, bench/results/partial for

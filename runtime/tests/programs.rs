@@ -1,30 +1,10 @@
 //! Every scenario under `programs/` passes in every program it names (ladder and Rhai), with
 //! the same trace; a failing scenario exits non-zero and shows what differs.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+#[path = "common/host.rs"]
+mod host;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("the workspace")
-        .to_path_buf()
-}
-
-fn softplc(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .args(args)
-        .current_dir(repo())
-        .env("SOFTPLC_LOG", "warn")
-        .output()
-        .expect("softplc runs");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.success(), text)
-}
+use host::{repo, softplc};
 
 #[test]
 fn every_program_scenario_passes_in_both_engines() {

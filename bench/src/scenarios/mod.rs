@@ -13,6 +13,7 @@ pub(crate) mod scale;
 pub(crate) mod scheduler;
 pub(crate) mod serial_path;
 pub(crate) mod trace_cost;
+pub(crate) mod virtual_truth;
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -86,5 +87,6 @@ pub(crate) fn all() -> Vec<Scenario> {
         peer::SCENARIO,
         plant_services::SCENARIO,
         full_cycle::SCENARIO,
+        virtual_truth::SCENARIO,
     ]
 }

@@ -165,8 +165,6 @@ pub fn line_budget_on(
     let mut plan = Vec::new();
     let mut members = Vec::new();
     for (name, driver, access) in drivers.iter_mut() {
-        let delay = driver.reply_delay();
-        let gap = frame_gap_excess(settings, driver.as_ref());
         plan.clear();
         driver.plan_read(&mut plan);
         if let Some(membership) = driver.collect_membership() {
@@ -176,10 +174,7 @@ pub fn line_budget_on(
             members.push(membership.unit.get());
         }
         let read_transactions = plan.len();
-        let read_time = plan
-            .iter()
-            .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
-            .sum();
+        let read_time = plan_time(settings, adapter, driver.as_ref(), &plan);
         let desired: Vec<_> = access
             .iter()
             .map(|a| (*a == Access::Output).then_some(crate::point::Value::Bool(false)))
@@ -187,10 +182,7 @@ pub fn line_budget_on(
         plan.clear();
         driver.plan_write(&desired, true, &mut plan);
         let write_transactions = plan.len();
-        let write_time = plan
-            .iter()
-            .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
-            .sum();
+        let write_time = plan_time(settings, adapter, driver.as_ref(), &plan);
         modules.push(ModuleBudget {
             name: name.clone(),
             read_transactions,
@@ -230,21 +222,40 @@ pub fn input_floor(
     adapter: AdapterTiming,
     drivers: &mut [Box<dyn Driver>],
 ) -> Duration {
+    input_floor_of(settings, adapter, drivers.iter_mut().map(|d| d.as_mut()))
+}
+
+/// [`input_floor`] over drivers held elsewhere (a line's modules with their names).
+pub(crate) fn input_floor_of<'a>(
+    settings: LineSettings,
+    adapter: AdapterTiming,
+    drivers: impl Iterator<Item = &'a mut (dyn Driver + 'static)>,
+) -> Duration {
     let mut plan = Vec::new();
     let mut members = Vec::new();
     let mut total = Duration::ZERO;
-    for driver in drivers.iter_mut() {
-        let delay = driver.reply_delay();
-        let gap = frame_gap_excess(settings, driver.as_ref());
+    for driver in drivers {
         plan.clear();
         driver.plan_read(&mut plan);
-        total += plan
-            .iter()
-            .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
-            .sum::<Duration>();
+        total += plan_time(settings, adapter, driver, &plan);
         members.extend(driver.collect_membership().map(|m| m.unit.get()));
     }
     total + CollectFloor::over(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle())
+}
+
+/// Time of `plan`, one module's transactions, on the line: each with the module's reply delay
+/// and the silence it needs beyond t3.5.
+pub(crate) fn plan_time(
+    settings: LineSettings,
+    adapter: AdapterTiming,
+    driver: &dyn Driver,
+    plan: &[Transaction],
+) -> Duration {
+    let delay = driver.reply_delay();
+    let gap = frame_gap_excess(settings, driver);
+    plan.iter()
+        .map(|tx| transaction_time_on(settings, adapter, tx, delay) + gap)
+        .sum()
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@
 pub(crate) mod budget;
 pub(crate) mod bus;
 pub(crate) mod collect;
+pub(crate) mod cycle_mix;
 pub(crate) mod echo;
 pub(crate) mod health;
 pub(crate) mod housekeeping;
@@ -37,6 +38,7 @@ pub use collect::{
     floor::{CollectFloor, REPLY_LEN as COLLECT_REPLY_LEN, REQUEST_LEN as COLLECT_REQUEST_LEN},
     CollectStats,
 };
+pub use cycle_mix::{CycleMix, DrivenModule, FullRead, ModuleMix, Prediction};
 pub use echo::{echo_margin, BadEchoMode, EchoDiscard, EchoFault, EchoMode};
 pub use latency::{
     AdapterLatency, Assumed, LatencyRefused, LowLatencyRefused, Lowered, NoTimer, Probe, Source,

@@ -184,6 +184,7 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
             out.push_str(&tcp::budget(bus, &budget, scan.period));
             continue;
         }
+        let mix = project.cycle_mix(b, adapter);
         let held = latency_clause(adapter, "each with ");
         // A line in event mode: its longest input phase is a refresh after the round.
         let round = if budget.collect_round.is_zero() {
@@ -272,21 +273,11 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
                 fmt_duration(scan.period)
             );
         }
-        if budget.read_floor > scan.period {
-            warnings.push(format!(
-                "warning: bus {}: reading the inputs takes at least {} on the wire, longer than the scan period {}: every cycle will overrun",
-                bus.name,
-                fmt_duration(budget.read_floor),
-                fmt_duration(scan.period)
-            ));
-        } else if budget.cycle_floor() > scan.period {
-            warnings.push(format!(
-                "warning: bus {}: a cycle that also refreshes every output takes at least {}, longer than the scan period {}: refresh cycles will overrun",
-                bus.name,
-                fmt_duration(budget.cycle_floor()),
-                fmt_duration(scan.period)
-            ));
+        let prediction = mix.predict(scan.period);
+        for line in cycle_mix::lines(&mix, &prediction) {
+            let _ = writeln!(out, "  {line}");
         }
+        warnings.extend(cycle_mix::warning(&bus.name, &prediction));
     }
     let memory: Vec<_> = project
         .tags
@@ -410,6 +401,7 @@ fn latency_clause(adapter: AdapterTiming, each: &str) -> String {
     }
 }
 
+mod cycle_mix;
 mod plan;
 mod tcp;
 #[cfg(test)]

@@ -17,6 +17,7 @@
 //! missing).
 
 mod adapter;
+mod cycle_mix;
 mod dcon_neighbours;
 pub(crate) mod error;
 pub(crate) mod line_plan;

@@ -1,5 +1,7 @@
 //! What the end-to-end tests that run servers and third-party clients share: the workspace's
 //! folder, a free loopback port, a child's output as lines.
+// Each test binary uses its own share of these.
+#![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
 use std::net::TcpListener;
@@ -12,6 +14,23 @@ pub(crate) fn repo() -> PathBuf {
         .parent()
         .unwrap()
         .to_path_buf()
+}
+
+/// Runs the `softplc` binary with `args` from the workspace's folder (log level warn) and
+/// returns whether it succeeded and what it printed (standard output, then standard error).
+pub(crate) fn softplc(args: &[&str]) -> (bool, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(args)
+        .current_dir(repo())
+        .env("SOFTPLC_LOG", "warn")
+        .output()
+        .expect("softplc runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
 }
 
 /// A port nobody listens on now (bound, then released).
