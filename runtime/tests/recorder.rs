@@ -138,7 +138,8 @@ fn a_recorded_quickstart_replays_with_identical_outputs() {
         .filter(|c| !c.events.is_empty())
         .map(|c| c.cycle)
         .collect();
-    assert_eq!(forced, [20, 26, 60, 71]);
+    // Applied after scan N, a request goes with scan N + 1's record (the first scan is 1).
+    assert_eq!(forced, [21, 27, 61, 72]);
 
     let project = softplc::project::load(&quickstart()).unwrap();
     let mut cycles = 0;
@@ -266,7 +267,7 @@ fn the_cli_replays_a_record_and_exports_both_outputs() {
     let stdout = String::from_utf8_lossy(&replayed.stdout);
     assert_eq!(replayed.status.code(), Some(1), "{stdout}");
     assert!(
-        stdout.contains("first difference at cycle 0 (t=")
+        stdout.contains("first difference at cycle 1 (t=")
             && stdout.contains("lamp  recorded 0  replayed 1"),
         "{stdout}"
     );
@@ -535,10 +536,7 @@ fn the_cycle_a_program_faults_in_is_recorded_and_replayed() {
         last.cycle, first_exit.0,
         "the cycle that first saw the box at the exit"
     );
-    assert_eq!(
-        record.segments[0].end.map(|e| e.cycles),
-        Some(last.cycle + 1)
-    );
+    assert_eq!(record.segments[0].end.map(|e| e.cycles), Some(last.cycle));
 
     // The same program faults at the same cycle: that is a match.
     let loaded = softplc::project::load(&project).unwrap();

@@ -27,7 +27,8 @@ pub struct ScanContext {
     pub now: Duration,
     /// Time since the previous cycle's start (the period on the first cycle).
     pub delta: Duration,
-    /// Cycle number, from 0.
+    /// The cycle's number: the N-th scan is N, the first is 1 (the scan count once it is
+    /// done), as status, trace, record and replay number it.
     pub cycle: u64,
 }
 

@@ -53,7 +53,7 @@ impl Plc {
             tags: tag_table(&self.project, |id| self.plan.is_pushed(id)),
         };
         let keyframe = Keyframe {
-            next_cycle: 0,
+            next_cycle: 1,
             now,
             slots: self
                 .image

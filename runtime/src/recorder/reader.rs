@@ -49,7 +49,7 @@ pub enum SegmentError {
     #[error("not a softplc record segment")]
     NotASegment,
     /// It is of another format version.
-    #[error("a record of format version {0}; this softplc reads version {v}", v = format::VERSION)]
+    #[error("a record of format version {0}; this softplc reads versions {from} and {v}", from = format::VERSION_FROM_ZERO, v = format::VERSION)]
     Version(u16),
     /// Its header or keyframe is missing or damaged (a file cut right after its creation).
     #[error("its header or keyframe is incomplete or damaged")]
@@ -91,7 +91,7 @@ fn parse_segment(path: &Path, bytes: &[u8]) -> Result<Segment, SegmentError> {
         return Err(SegmentError::NotASegment);
     }
     let version = u16::from_le_bytes([bytes[8], bytes[9]]);
-    if version != format::VERSION {
+    if version != format::VERSION && version != format::VERSION_FROM_ZERO {
         return Err(SegmentError::Version(version));
     }
     let mut at = format::PREAMBLE;
@@ -142,6 +142,13 @@ fn parse_segment(path: &Path, bytes: &[u8]) -> Result<Segment, SegmentError> {
                 });
                 break;
             }
+        }
+    }
+    if version == format::VERSION_FROM_ZERO {
+        // Version 1 numbered a run's first cycle 0; cycle N is the N-th scan now.
+        segment.keyframe.next_cycle += 1;
+        for c in &mut segment.cycles {
+            c.cycle += 1;
         }
     }
     Ok(segment)
@@ -231,5 +238,62 @@ impl Record {
     /// Every cycle record, in order.
     pub fn cycles(&self) -> impl Iterator<Item = &CycleRecord> {
         self.segments.iter().flat_map(|s| s.cycles.iter())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+    use std::time::Duration;
+
+    use super::parse_segment;
+    use crate::recorder::format::{
+        frame, preamble, BlockKind, CycleRecord, Enc, Header, Keyframe, VERSION_FROM_ZERO,
+    };
+
+    /// A segment whose one cycle is numbered 5, its keyframe's next cycle 5.
+    fn segment() -> Vec<u8> {
+        let header = Header {
+            project: "p".into(),
+            project_hash: crate::recorder::format::digest(b"project"),
+            program_hash: crate::recorder::format::digest(b"program"),
+            program_file: "p.expr".into(),
+            period: Duration::from_millis(10),
+            virtual_clock: true,
+            run_id: 1,
+            wall_origin: 0,
+            segment: 0,
+            tags: vec![],
+        };
+        let keyframe = Keyframe {
+            next_cycle: 5,
+            now: Duration::from_millis(40),
+            slots: vec![],
+            forces: vec![],
+        };
+        let record = CycleRecord {
+            cycle: 5,
+            now: Duration::from_millis(40),
+            ..CycleRecord::default()
+        };
+        let mut block = Enc::cycles_block(5, record.now);
+        block.cycle(&record, (5, record.now));
+        let mut bytes = preamble();
+        bytes.extend(frame(BlockKind::Header, &Enc::header(&header)));
+        bytes.extend(frame(BlockKind::Keyframe, &Enc::keyframe(&keyframe)));
+        bytes.extend(frame(BlockKind::Cycles, &block.0));
+        bytes
+    }
+
+    #[test]
+    fn a_version_1_record_numbered_from_0_is_read_numbered_from_1() {
+        let now = parse_segment(Path::new("s"), &segment()).unwrap();
+        assert_eq!(now.keyframe.next_cycle, 5);
+        assert_eq!(now.cycles[0].cycle, 5);
+        let mut old = segment();
+        old[8..10].copy_from_slice(&VERSION_FROM_ZERO.to_le_bytes());
+        let old = parse_segment(Path::new("s"), &old).unwrap();
+        assert_eq!(old.keyframe.next_cycle, 6);
+        assert_eq!(old.cycles[0].cycle, 6, "its first cycle 0 is cycle 1 now");
     }
 }

@@ -202,7 +202,8 @@ impl Writer {
             }
             self.flush()?;
             let end = End {
-                cycles: self.next_cycle,
+                // The last cycle's number is the count of cycles (the first is 1).
+                cycles: self.next_cycle.saturating_sub(1),
                 dropped: self.dropped(),
             };
             self.write(&format::frame(BlockKind::End, &Enc::end(&end)))

@@ -194,7 +194,9 @@ impl ScanEngine {
             let ctx = ScanContext {
                 now: deadline,
                 delta: previous.map_or(period, |p| deadline - p),
-                cycle: stats.cycles,
+                // The N-th scan is cycle N (the first is 1): the scan count once it is done,
+                // the number status, trace, record, replay and the services all give it.
+                cycle: stats.cycles + 1,
             };
             // A panic in a program engine is a bug, but the machine still gets its safe state.
             let logic =

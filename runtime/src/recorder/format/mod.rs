@@ -1,4 +1,5 @@
-//! The record's binary format, version 1.
+//! The record's binary format, version 2 (version 1, which numbered a run's first cycle 0,
+//! is read too, its numbers moved up by one).
 //!
 //! A record is a folder of segment files. Every segment stands on its own:
 //!
@@ -47,7 +48,9 @@ pub use frame::{frame, next_block, preamble, Framed};
 /// The first bytes of every segment.
 pub const MAGIC: &[u8; 8] = b"SPLCREC\n";
 /// The format version this code writes and reads.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
+/// The format version before cycles were numbered from 1 (the reader shifts its numbers).
+pub const VERSION_FROM_ZERO: u16 = 1;
 /// Bytes before the first block: magic and version.
 pub const PREAMBLE: usize = MAGIC.len() + 2;
 /// Bytes of a block's frame before its kind byte: length and CRC.
@@ -230,7 +233,7 @@ pub struct Change {
 /// What one cycle saw and did.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct CycleRecord {
-    /// The cycle number (0 = the run's first).
+    /// The cycle number (1 = the run's first, as the scan numbers it).
     pub cycle: u64,
     /// The cycle's timestamp: what the logic saw as `now`.
     pub now: Duration,
