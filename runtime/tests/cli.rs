@@ -153,7 +153,7 @@ fn check_accepts_the_quick_start_and_prints_its_budget() {
         "{text}"
     );
     assert!(
-        text.contains("the input phase can be no shorter than 54.79ms"),
+        text.contains("an ordinary cycle's input phase can be no shorter than 13.59ms"),
         "{text}"
     );
     assert!(!text.contains("warning"), "{text}");

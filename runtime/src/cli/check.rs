@@ -234,7 +234,7 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
                 m.write_transactions
             );
         }
-        worst = worst.max(budget.read_floor);
+        worst = worst.max(mix.ordinary);
         // What a module that stops answering costs (bus.rs: its first failed cycle with the
         // line's retries, then one attempt per cycle until lost, then one probe per backoff),
         // against how long the scan waits for a line's inputs.
@@ -292,7 +292,9 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
     }
     let _ = writeln!(
         out,
-        "\nlines are polled in parallel: the input phase can be no shorter than {}",
+        "\nlines are polled in parallel: an ordinary cycle's input phase can be no shorter \
+         than {} (the slowest line's; a refresh or an input change makes a cycle longer: each \
+         line's cycle mix says by how much)",
         fmt_duration(worst)
     );
     out.push_str(&crate::service::network::report(project));

@@ -79,7 +79,9 @@ fn a_16_ms_latency_timer_is_counted_in_every_transaction_of_the_budget() {
              156.59ms per cycle until lost (3 cycles), then one probe of 156.59ms per backoff \
              (1 s to 30 s); the scan waits 45.00ms for inputs, then goes on with the line's last \
              values (stale)",
-            "lines are polled in parallel: the input phase can be no shorter than 36.60ms",
+            "lines are polled in parallel: an ordinary cycle's input phase can be no shorter than \
+             36.60ms (the slowest line's; a refresh or an input change makes a cycle longer: \
+             each line's cycle mix says by how much)",
         ]
     );
     assert!(
@@ -113,7 +115,9 @@ fn without_a_latency_timer_the_budget_is_the_wire_time() {
              156.59ms per cycle until lost (3 cycles), then one probe of 156.59ms per backoff \
              (1 s to 30 s); the scan waits 45.00ms for inputs, then goes on with the line's last \
              values (stale)",
-            "lines are polled in parallel: the input phase can be no shorter than 20.60ms",
+            "lines are polled in parallel: an ordinary cycle's input phase can be no shorter than \
+             20.60ms (the slowest line's; a refresh or an input change makes a cycle longer: \
+             each line's cycle mix says by how much)",
         ]
     );
     let sim = Fixture::new("sim", "sim", ", echo: discard", "16\n");
