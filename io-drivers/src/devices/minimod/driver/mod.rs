@@ -180,6 +180,8 @@ enum Tag {
     WdtTimeByName(u16),
     /// Text `>WDTMASK=v` command: index = v.
     WdtMaskByName(u16),
+    /// FC 3 XEVMASK read back after an input change no event reported (see `lost_events`).
+    EventMaskProbe,
 }
 
 impl Tag {
@@ -199,6 +201,7 @@ impl Tag {
             Tag::WriteRegister(a) => (12, a),
             Tag::WdtTimeByName(v) => (13, v),
             Tag::WdtMaskByName(v) => (14, v),
+            Tag::EventMaskProbe => (15, 0),
         };
         (kind << 16) | u32::from(index)
     }
@@ -220,6 +223,7 @@ impl Tag {
             12 => Tag::WriteRegister(index),
             13 => Tag::WdtTimeByName(index),
             14 => Tag::WdtMaskByName(index),
+            15 => Tag::EventMaskProbe,
             _ => return None,
         })
     }
