@@ -34,7 +34,9 @@
 //!   way when the ordinary polls start (on the virtual line a slave cannot hear another one's
 //!   reply, so a slave that a real line would have blocked may answer an earlier Collect too).
 //! - The wait for a reply is the window's slots (3 ms each) plus 1 ms, the manual's "nominal
-//!   timeout", plus one character time ([`first_char_margin`]): a reply that starts at the
+//!   timeout", plus the members' largest [`Membership::frame_timeout`] (a MiniMod's RDELAYM:
+//!   a slave that waits longer for the end of a request starts its slot that much later),
+//!   plus one character time ([`first_char_margin`]): a reply that starts at the
 //!   window's last instant is heard once its first character is in. The floor of a round
 //!   ([`floor::CollectFloor`]) counts the window alone, so the owner's idle round is that
 //!   floor and one character above it. Each Collect is one exchange of the owner's (`BusOwner::exchange`), with
@@ -315,8 +317,14 @@ impl BusOwner {
             return;
         };
         self.collect.stats.rounds += 1;
+        // A member that waits longer for the end of a request answers that much later.
+        let late = members
+            .iter()
+            .map(|m| m.periods.frame_timeout)
+            .max()
+            .unwrap_or_default();
         while let Some(request) = round.request() {
-            match self.collect_exchange(&request, round.reply_window()) {
+            match self.collect_exchange(&request, round.reply_window() + late) {
                 Ok(heard) => {
                     let slot_end = round.slot_end(heard.slave);
                     round.on_reply(heard.slave, heard.seq);

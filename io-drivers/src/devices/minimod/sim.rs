@@ -178,9 +178,11 @@ impl MiniModSim {
             };
             let mut bytes = Vec::with_capacity(9);
             encode_response(me, &resp, &mut bytes);
+            // Its slot starts once it has taken the Collect as ended: RDELAYM later than a
+            // module at 0 ("Setting the Modbus communication timeout").
             return Some(SimReply {
                 bytes,
-                delay: Duration::from_millis(delay_ms),
+                delay: Duration::from_millis(delay_ms) + self.state.frame_timeout(),
             });
         }
         let mut bank = Bank {
@@ -417,6 +419,12 @@ impl SimDevice for MiniModSim {
     /// Modbus function Collect").
     fn yields_to_earlier_reply(&self, frame: &[u8]) -> bool {
         frame.len() == 8 && frame.get(1) == Some(&70)
+    }
+
+    /// 28 bit times and RDELAYM ("Setting the Modbus communication timeout"): a master's
+    /// pause inside a request shorter than that is part of it; a longer one ends it.
+    fn frame_silence(&self, settings: crate::line::settings::LineSettings) -> Option<Duration> {
+        Some(self.state.frame_silence(settings.baud))
     }
 
     /// The master's baud (and format, when known) on a served line: the module listens only

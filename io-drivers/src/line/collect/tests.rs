@@ -119,6 +119,7 @@ fn membership_is_the_drivers() {
             unit,
             answer_within: Duration::from_millis(1500),
             resync: Duration::from_secs(30),
+            frame_timeout: Duration::ZERO,
         })
     );
     let polled = MiniModDriver::new(Some(unit), &[]);
@@ -961,5 +962,38 @@ fn a_power_cycle_on_a_lossy_line_is_found_within_its_bound() {
         r.world.lock().unwrap().get(0, "XEVMASK").ok(),
         Some(Value::U16(0b111)),
         "event recording is on again"
+    );
+}
+
+#[test]
+fn a_member_that_waits_longer_for_the_end_of_a_request_is_heard_in_its_late_slot() {
+    // RDELAYM = 100: the module takes a request as ended 10 ms after 28 bit times (manual,
+    // "Setting the Modbus communication timeout"), so its Collect slot starts 10 ms later;
+    // the owner listens that much longer.
+    const LATE: &[(&str, &str)] = &[("events", "true"), ("XLATUP1", "0"), ("RDELAYM", "100")];
+    let mut r = rig(&[(4, Protocol::Modbus, LATE)]);
+    r.startup();
+    r.read_at(1000);
+    r.at(1050);
+    r.set(0, "X1", true);
+    let (f, sent) = r.read_at(1100);
+    assert_eq!(
+        value(&f, 0, "X1"),
+        Some(Value::Bool(true)),
+        "from the event"
+    );
+    assert_eq!(
+        sent,
+        [collect(4, 4, 0, 0)],
+        "no full read: the event was heard"
+    );
+    assert_eq!(r.owner.collect_stats().events, 1);
+    // An idle round lasts its floor with the 10 ms, and a character.
+    let floor = floor::CollectFloor::over(LineSettings::DEFAULT, Default::default(), &[4])
+        .unwrap()
+        .with_frame_timeout(Duration::from_millis(10));
+    assert_eq!(
+        idle_round_time(&[(4, Protocol::Modbus, LATE)]),
+        floor.idle() + LineSettings::DEFAULT.char_time()
     );
 }

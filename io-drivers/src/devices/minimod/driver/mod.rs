@@ -313,6 +313,12 @@ impl MiniModDriver {
         d
     }
 
+    /// RDELAYM tenths of a millisecond: how much longer than 28 bit times the module waits
+    /// for the end of a request ("Setting the Modbus communication timeout").
+    fn frame_timeout(&self) -> Duration {
+        Duration::from_micros(100 * u64::from(self.rdelaym))
+    }
+
     /// Whether the driver runs in event mode.
     pub fn event_mode(&self) -> bool {
         self.events
@@ -396,6 +402,7 @@ impl Driver for MiniModDriver {
             unit,
             answer_within: self.event_refresh,
             resync: self.event_resync,
+            frame_timeout: self.frame_timeout(),
         })
     }
 
@@ -451,9 +458,10 @@ impl Driver for MiniModDriver {
         &self.values
     }
 
+    /// RDELAYT ("Setting the reply delay") and RDELAYM: the module waits RDELAYM longer for
+    /// the end of a request, so it turns round that much later.
     fn reply_delay(&self) -> Duration {
-        Duration::from_millis(10 * u64::from(self.rdelayt))
-            + Duration::from_micros(100 * u64::from(self.rdelaym))
+        Duration::from_millis(10 * u64::from(self.rdelayt)) + self.frame_timeout()
     }
 }
 
