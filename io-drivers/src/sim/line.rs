@@ -178,6 +178,11 @@ impl SimWorld {
         d.own_uart
     }
 
+    /// The baud and format `line`'s master talks at, as the world knows them.
+    pub fn master_settings(&self, line: usize) -> Option<LineSettings> {
+        self.line_settings.get(line).copied()
+    }
+
     /// The baud and format of `line`'s master from now on (a served pty follows the settings
     /// the master program gave its end).
     pub fn set_master_settings(&mut self, line: usize, settings: LineSettings) {

@@ -119,16 +119,9 @@ pub fn serve_following(
     stop: &AtomicBool,
     master: Option<MasterSettings<'_>>,
 ) -> Result<ServeStats, LineError> {
-    let follow = |settings: LineSettings| match master.and_then(|m| m()) {
-        Some(m) => {
-            lock(&world).follow_master_baud(SERVED_LINE, m.baud);
-            LineSettings {
-                baud: m.baud,
-                format: settings.format,
-            }
-        }
-        None => settings,
-    };
+    let mut follower = MasterFollower::default();
+    let mut follow =
+        |settings: LineSettings| follower.frame(&world, master.and_then(|m| m()), settings);
     let mut stats = ServeStats::default();
     let mut buf: Vec<u8> = Vec::with_capacity(512);
     let mut chunk = [0u8; 256];
@@ -180,6 +173,33 @@ pub fn serve_following(
         }
     }
     Ok(stats)
+}
+
+/// What the served line's master talks at, frame by frame. The port's own settings (a pty's
+/// baud, as the master program set its end) are followed when they change; in between, what
+/// the world was told last stands, so a console's `DEVICE line 9600E` (a master said to talk
+/// at other settings) holds until the master program changes its port.
+#[derive(Debug, Default)]
+struct MasterFollower {
+    /// The port's settings when last looked at.
+    seen: Option<LineSettings>,
+}
+
+impl MasterFollower {
+    /// The settings of the next frame, given the port's now (`None`: not known).
+    fn frame(
+        &mut self,
+        world: &SharedWorld,
+        port: Option<LineSettings>,
+        settings: LineSettings,
+    ) -> LineSettings {
+        let mut w = lock(world);
+        if let Some(port) = port.filter(|p| self.seen != Some(*p)) {
+            self.seen = Some(port);
+            w.follow_master_baud(SERVED_LINE, port.baud);
+        }
+        w.master_settings(SERVED_LINE).unwrap_or(settings)
+    }
 }
 
 pub(crate) fn lock(world: &SharedWorld) -> std::sync::MutexGuard<'_, crate::sim::line::SimWorld> {
@@ -255,6 +275,41 @@ pub(crate) fn answer_frame_ended<W: Write>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::SimWorld;
+
+    #[test]
+    fn the_masters_settings_said_on_the_console_stand_until_the_port_changes() {
+        let at = |baud, format: &str| LineSettings {
+            baud,
+            format: format.parse().unwrap(),
+        };
+        let model = crate::devices::model("minimod").unwrap();
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        world.add_device(SERVED_LINE, "minimod@5", (model.simulator)(5));
+        let world = world.shared();
+        let mut follower = MasterFollower::default();
+        let pty = Some(at(19200, "8N1"));
+        let first = follower.frame(&world, pty, LineSettings::DEFAULT);
+        assert_eq!(first.baud, 19200);
+        // The console: the master now talks at 9600E.
+        lock(&world).set_master_settings(SERVED_LINE, at(9600, "8E1"));
+        for _ in 0..3 {
+            assert_eq!(
+                follower.frame(&world, pty, LineSettings::DEFAULT),
+                at(9600, "8E1"),
+                "the port has not changed: the console's word stands"
+            );
+        }
+        // The master program sets its end to 38400: that is followed.
+        let changed = follower.frame(&world, Some(at(38400, "8N1")), LineSettings::DEFAULT);
+        assert_eq!(changed.baud, 38400);
+        // A port whose settings are not known (a real device served by --port) leaves them.
+        lock(&world).set_master_settings(SERVED_LINE, at(4800, "8O1"));
+        assert_eq!(
+            follower.frame(&world, None, LineSettings::DEFAULT),
+            at(4800, "8O1")
+        );
+    }
 
     #[test]
     fn splits_rtu_requests_and_text_lines() {

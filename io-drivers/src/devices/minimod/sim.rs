@@ -387,7 +387,9 @@ minimod commands:
   switch 3|4 on|off             flip a dip switch; 3 going on restores 19200 8E1 until the
                                 next power-up
   line BAUD[E|O|N|X]            the master now talks at these settings (e.g. `line 9600N`);
-                                the module hears it only while its SERLINE matches
+                                the module hears it only while its SERLINE matches; in
+                                `softplc sim` it holds for every module of the line until
+                                the served port's own settings change
   flash ok|broken               break the flash: >WCONF=1 answers \"Error 1\", FLASHFAIL = 1
   events                        the Collect event queue
   options                       the simulator's choices where the manual gives two readings
