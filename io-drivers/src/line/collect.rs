@@ -317,6 +317,7 @@ impl BusOwner {
             return;
         };
         self.collect.stats.rounds += 1;
+        let requests_before = self.collect.stats.requests;
         // A member that waits longer for the end of a request answers that much later.
         let late = members
             .iter()
@@ -341,6 +342,11 @@ impl BusOwner {
             }
         }
         self.collect.pending_ack = round.pending_ack();
+        // The round's broadcasts, on the member that opens its window (see `Counters`).
+        if let Some(first) = members.iter().min_by_key(|m| m.unit) {
+            self.modules[first.module].counters.collect_requests +=
+                self.collect.stats.requests - requests_before;
+        }
         let after = self.transport.now();
         let mut pick = Pick::default();
         let mut now_refreshed = Vec::new();

@@ -997,3 +997,48 @@ fn a_member_that_waits_longer_for_the_end_of_a_request_is_heard_in_its_late_slot
         floor.idle() + LineSettings::DEFAULT.char_time()
     );
 }
+
+#[test]
+fn a_lines_modules_count_every_request_on_its_wire_collect_broadcasts_included() {
+    // mm2 polled, mm4 and mm9 in event mode: the broadcasts count on mm4, which opens the
+    // window, so the line's requests add up to the frames on the wire.
+    let mut r = rig(&[
+        (2, Protocol::Modbus, &[]),
+        (4, Protocol::Modbus, EVENTS),
+        (9, Protocol::Modbus, EVENTS),
+    ]);
+    r.startup();
+    let total = |f: &InputFrame| -> u64 {
+        f.modules
+            .iter()
+            .map(|m| m.counters.requests + m.counters.collect_requests)
+            .sum()
+    };
+    let (first, _) = r.read_at(1000);
+    let before = total(&first);
+    let mut on_wire = 0;
+    let mut last = first;
+    for k in 1..30u64 {
+        if k % 5 == 2 {
+            r.at(1000 + 100 * k - 50);
+            r.set(1, "X1", k % 10 == 2);
+        }
+        let (f, sent) = r.read_at(1000 + 100 * k);
+        on_wire += sent.len() as u64;
+        last = f;
+    }
+    let counters: Vec<_> = last.modules.iter().map(|m| m.counters).collect();
+    assert_eq!(total(&last) - before, on_wire);
+    assert_eq!(
+        counters[1].collect_requests,
+        r.owner.collect_stats().requests
+    );
+    assert_eq!(
+        (counters[0].collect_requests, counters[2].collect_requests),
+        (0, 0)
+    );
+    assert!(
+        counters[1].collect_requests >= 30,
+        "a round a cycle, and the events' Collects"
+    );
+}

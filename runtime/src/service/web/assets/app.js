@@ -826,8 +826,19 @@
       const dt = (now - app.rate.at) / 1000;
       return dt > 0.1 ? (st.modules[i].requests - app.rate.requests[i]) / dt : null;
     });
-    if (!app.rate || now - app.rate.at > 2000) app.rate = { at: now, requests: st.modules.map((m) => m.requests), shown: rates };
+    // A line's Collect broadcasts (event mode) are addressed to no module: the line's rate
+    // counts them beside its modules' requests.
+    const sent = (m) => m.requests + (m.collect || 0);
+    const lineRates = info.modules.map((m, i) => {
+      if (!app.rate || !st.modules[i]) return null;
+      const dt = (now - app.rate.at) / 1000;
+      return dt > 0.1 ? (sent(st.modules[i]) - app.rate.sent[i]) / dt : null;
+    });
+    if (!app.rate || now - app.rate.at > 2000) {
+      app.rate = { at: now, requests: st.modules.map((m) => m.requests), sent: st.modules.map(sent), shown: rates, lineShown: lineRates };
+    }
     const shown = app.rate.shown || rates;
+    const lineShown = app.rate.lineShown || lineRates;
     const cols = ["Module", "Line", "Model", "Quality", "Requests", "Req/s", "Timeouts", "CRC", "Bad replies", "Exceptions", "Error rate", "Round trip", "Last error"];
     const head = el("tr", {}, ...cols.map((c, i) => el("th", { class: i >= 4 && i <= 11 ? "num" : "", text: c })));
     const rows = info.modules.map((m, i) => {
@@ -851,7 +862,7 @@
     $("bus-table").replaceChildren(el("thead", {}, head), el("tbody", {}, ...rows));
     $("bus-lines").replaceChildren(...info.buses.map((bus, b) => {
       const mods = info.modules.map((m, i) => i).filter((i) => info.modules[i].bus === b);
-      const rate = mods.reduce((a, i) => a + (shown[i] || 0), 0);
+      const rate = mods.reduce((a, i) => a + (lineShown[i] || 0), 0);
       const errors = mods.reduce((a, i) => {
         const c = st.modules[i];
         return a + (c ? c.timeouts + c.crc + c.bad + c.exceptions : 0);
