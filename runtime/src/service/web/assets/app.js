@@ -665,13 +665,17 @@
     const box = $("trace-plot");
     $("trace-plot-title").textContent = "Trace " + d.name + " · " + d.state + " · " + d.time_ns.length + " samples";
     if (!d.time_ns.length) {
+      $("trace-plot-hint").textContent = "";
       box.replaceChildren(el("div", { class: "empty", text: "No samples yet." }));
       return;
     }
     const t = d.time_ns.map((ns) => ns / 1e6);
     const t0 = t[0];
     const span = Math.max(t[t.length - 1] - t0, 1e-3);
-    const origin = d.trigger !== undefined && d.trigger !== null ? t[d.trigger] : t0;
+    const triggered = d.trigger !== undefined && d.trigger !== null;
+    const origin = triggered ? t[d.trigger] : t0;
+    // Say what the times count from: the trigger only once there is one.
+    $("trace-plot-hint").textContent = triggered ? "times from the trigger" : "times from the first sample";
     const signals = d.signals.map((s, k) => ({ name: s.name, type: s.type, values: d.values.map((row) => row[k]) }));
     // Times from the trigger sample (from the first sample before a trigger).
     const tick = (k) => {
@@ -694,7 +698,8 @@
       e.preventDefault();
       const num = (id) => ($(id).value === "" ? undefined : Number($(id).value));
       const spec = {
-        name: $("trace-name").value.trim() || "web",
+        // Empty: the server names it as the command line does.
+        name: $("trace-name").value.trim(),
         tags: $("trace-tags").value.split(",").map((s) => s.trim()).filter(Boolean),
         pre: num("trace-pre"),
         post: num("trace-post"),
