@@ -63,6 +63,11 @@ pub struct Membership {
     pub answer_within: Duration,
     /// The longest it goes without a full read.
     pub resync: Duration,
+    /// How much longer than the line's own end-of-request silence the module waits before it
+    /// takes a request as ended (MiniMod RDELAYM, "Setting the Modbus communication timeout"):
+    /// its slot in a Collect window starts that much later, so the owner listens that much
+    /// longer.
+    pub frame_timeout: Duration,
 }
 
 /// A reply to a transaction, as the bus owner hands it to the driver.

@@ -90,7 +90,9 @@ fn a_failing_scenario_exits_non_zero_with_a_readable_diff() {
     let (ok, text) = softplc(&["test", scenario.to_str().unwrap()]);
     assert!(!ok, "{text}");
     assert!(
-        text.contains("wrong.scenario.yaml:3:22: error: unknown tag `lihgt`"),
+        text.contains(
+            "wrong.scenario.yaml:3:22: error: unknown tag `lihgt`; did you mean `light`?"
+        ),
         "{text}"
     );
     assert!(

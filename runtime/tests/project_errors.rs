@@ -366,7 +366,23 @@ fn every_unknown_key_comes_with_the_other_errors() {
 fn unknown_key_at_the_top_level() {
     let e = one(&format!("{HEAD}modles: []\n"));
     assert_eq!(at(&e), (7, 1));
-    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `buses`, `modules`, `tags`, `program`, `plant`, `service`, `retain`, `offload`, `recorder`, `traces`"), "{e}");
+    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `buses`, `modules`, `tags`, `program`, `plant`, `service`, `retain`, `offload`, `recorder`, `traces`; did you mean `modules`?"), "{e}");
+}
+
+#[test]
+fn an_unknown_key_one_edit_from_a_known_one_gets_it_suggested() {
+    // Two neighbours swapped are one edit (suggest.rs).
+    let text = format!(
+        "{HEAD}{BUS}modules:\n  - {{ name: m1, bus: line1, model: minimod, address: 1 }}\n\
+         tags:\n  - {{ name: t, point: m1.X1, retian: true }}\n"
+    );
+    let e = one(&text);
+    let message = e.to_string();
+    assert!(
+        message.contains("unknown key `retian` in tags[0]; expected one of"),
+        "{message}"
+    );
+    assert!(message.ends_with("; did you mean `retain`?"), "{message}");
 }
 
 #[test]

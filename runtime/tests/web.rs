@@ -122,6 +122,43 @@ fn screenshots() -> PathBuf {
     dir
 }
 
+/// The quick start's tags and program, in a project file.
+const CONVEYOR_TAGS: &str = "tags:\n\
+  - { name: box_at_entry, point: mm1.X1 }\n\
+  - { name: start,        point: mm1.X2 }\n\
+  - { name: stop,         point: mm1.X3 }\n\
+  - { name: motor,        point: mm1.Y1, safe: false }\n\
+  - { name: box_at_exit,  point: mm2.X1 }\n\
+  - { name: lamp,         point: mm2.Y1, safe: false }\n\
+program: { file: conveyor.expr, kind: expr }\n";
+
+/// A fresh scratch folder `NAME-PID` with the quick start's program in it.
+fn conveyor_folder(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo().join("programs/conveyor.expr"),
+        dir.join("conveyor.expr"),
+    )
+    .unwrap();
+    dir
+}
+
+/// Signs in on the page with the project's token, as a person types it.
+fn sign_in(b: &mut Browser) {
+    b.eval(&format!(
+        "document.getElementById('token').value = '{TOKEN}'; \
+         document.getElementById('login').requestSubmit(); true"
+    ));
+    b.wait_for(
+        "document.querySelector('#auth .who') !== null",
+        Duration::from_secs(10),
+    )
+    .expect("signed in");
+}
+
 /// `softplc run` on `project`, once its page answers on `port`.
 fn run_plc(project: &Path, socket: &Path, port: u16) -> Plc {
     let mut plc = Plc(Command::new(BIN)
@@ -151,15 +188,7 @@ fn run_plc(project: &Path, socket: &Path, port: u16) -> Plc {
 fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     chromium_available();
     let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
-    let dir = std::env::temp_dir().join(format!("softplc-web-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(
-        repo().join("programs/conveyor.expr"),
-        dir.join("conveyor.expr"),
-    )
-    .unwrap();
+    let dir = conveyor_folder("softplc-web");
     let port = free_port();
     // The quick start's machine on the pty; `offload: auto` lets the planner push the lamp's
     // rung (mm2.X1 → mm2.Y1) into mm2, so the program view has a rung to mark.
@@ -169,14 +198,7 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
          offload: auto\n\
          buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 200ms, retries: 1 }}\n\
          modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2 }}\n\
-         tags:\n\
-         \x20 - {{ name: box_at_entry, point: mm1.X1 }}\n\
-         \x20 - {{ name: start,        point: mm1.X2 }}\n\
-         \x20 - {{ name: stop,         point: mm1.X3 }}\n\
-         \x20 - {{ name: motor,        point: mm1.Y1, safe: false }}\n\
-         \x20 - {{ name: box_at_exit,  point: mm2.X1 }}\n\
-         \x20 - {{ name: lamp,         point: mm2.Y1, safe: false }}\n\
-         program: {{ file: conveyor.expr, kind: expr }}\n\
+         {CONVEYOR_TAGS}\
          service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, token: {TOKEN}, trend: [start, stop, motor, box_at_exit, lamp] }}\n"
     );
     std::fs::write(dir.join("project.yaml"), project).unwrap();
@@ -279,15 +301,7 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     assert_eq!(anonymous, 403);
 
     // Sign in with the token, click "Force 1" on motor: the simulator's Y1 turns on.
-    b.eval(&format!(
-        "document.getElementById('token').value = '{TOKEN}'; \
-         document.getElementById('login').requestSubmit(); true"
-    ));
-    b.wait_for(
-        "document.querySelector('#auth .who') !== null",
-        Duration::from_secs(10),
-    )
-    .expect("signed in");
+    sign_in(&mut b);
     b.wait_for(
         "!document.querySelector('button[data-force=motor][data-value=\"1\"]').disabled",
         Duration::from_secs(5),
@@ -451,7 +465,8 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
          \x20 - motor -> TON run(300ms) -> running    # a block, its Q on a coil\n\
          \x20 - (start | box_at_exit) -> set seen\n\
          \x20 - start -> TON jam(3s)                  # a block driving no coil\n\
-         \x20 - jam.Q -> jammed                       # its Q read by a contact\n",
+         \x20 - jam.Q -> jammed                       # its Q read by a contact\n\
+         \x20 - stop -> BLINK flash(500ms, 500ms)     # BLINK's rung input is EN\n",
     )
     .unwrap();
     let port = free_port();
@@ -507,7 +522,14 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
     // The pushed-down rungs keep their mark (rungs 1 and 2 are plain logic on one module's
     // points); the timer and the latch of a memory tag run in the scan.
     let pushed = b.eval("[...document.querySelectorAll('#ladder .lad-rung')].map(r => r.querySelector('[data-pushed]')?.dataset.pushed || '-').join(',')");
-    assert_eq!(pushed.as_str(), Some("mm1,mm2,-,-,-,-"));
+    assert_eq!(pushed.as_str(), Some("mm1,mm2,-,-,-,-,-"));
+    // Each block's rung input by its name in the block table (docs/programming.md).
+    let flash =
+        "document.querySelector('#ladder svg[data-rung=\"7\"] .lad-block .lad-pin').textContent";
+    assert_eq!(b.eval(flash), "EN", "BLINK's input");
+    let run =
+        "document.querySelector('#ladder svg[data-rung=\"3\"] .lad-block .lad-pin').textContent";
+    assert_eq!(b.eval(run), "IN", "TON's input");
     // The contact on `jam.Q` is read from the live block outputs (no coil says what it is):
     // known and open, not grey.
     let jam_contact =
@@ -613,6 +635,115 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
     drop(b);
     drop(plc);
     sim.send("set minimod@1.X2 0");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+/// Whether an element is cut: its content wider than its box, or its box past `right`.
+const CUT: &str = "(e, right) => e.scrollWidth > e.clientWidth + 1 || e.getBoundingClientRect().right > right + 0.5";
+
+/// At 800 px the I/O view shows its headers and a FORCED badge whole; the Bus view's line rate
+/// counts the Collect broadcasts of event mode; a trace armed from the page with no name is
+/// `adhoc`, and before any trigger its plot does not speak of one.
+#[test]
+fn the_page_at_800_px_and_its_bus_rate_and_trace_words() {
+    chromium_available();
+    let dir = conveyor_folder("softplc-web-800");
+    let port = free_port();
+    // The quick start's two MiniMods on the simulated line, event mode by default.
+    let project = format!(
+        "project: web800\n\
+         scan: {{ period: 100ms, watchdog: {{ time: 1s, sensitivity: 3 }} }}\n\
+         buses:\n  - {{ name: line1, port: sim, baud: 19200, format: 8E1, response_timeout: 50ms, retries: 1 }}\n\
+         modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2 }}\n\
+         {CONVEYOR_TAGS}\
+         service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, token: {TOKEN} }}\n"
+    );
+    std::fs::write(dir.join("project.yaml"), project).unwrap();
+    let socket = dir.join("ctl.sock");
+    let plc = run_plc(&dir.join("project.yaml"), &socket, port);
+    let forced = Command::new(BIN)
+        .args(["force", "--socket"])
+        .arg(&socket)
+        .args(["motor", "1"])
+        .output()
+        .unwrap();
+    assert!(forced.status.success(), "{forced:?}");
+
+    let mut b = Browser::start(&dir.join("chromium"));
+    b.page(
+        "Emulation.setDeviceMetricsOverride",
+        serde_json::json!({ "width": 800, "height": 900, "deviceScaleFactor": 1, "mobile": false }),
+    );
+    b.open(&format!("http://127.0.0.1:{port}/#io"));
+    b.wait_for(
+        "document.querySelector('#io-tables tr[data-tag=motor].forced') !== null",
+        Duration::from_secs(30),
+    )
+    .expect("the I/O view shows the force");
+    assert_eq!(b.eval("window.innerWidth"), 800);
+    let cut_headers = b.eval(&format!(
+        "[...document.querySelectorAll('#io-tables th')].filter(th => ({CUT})(th, 800)).map(th => th.textContent).join(',')"
+    ));
+    assert_eq!(cut_headers.as_str(), Some(""), "headers cut at 800 px");
+    let badge = "document.querySelector('#io-tables tr[data-tag=motor] .badge.forced')";
+    let badge_cut = b.eval(&format!(
+        "(() => {{ const b = {badge}; const td = b.closest('td'); \
+           return ({CUT})(td, 800) || b.getBoundingClientRect().right > td.getBoundingClientRect().right; }})()"
+    ));
+    assert_eq!(badge_cut, false, "the FORCED badge is cut at 800 px");
+    let shown = b.eval(
+        "[...document.querySelectorAll('#io-tables .badge.forced')].filter(b => b.offsetWidth > 0).map(b => b.closest('tr').dataset.tag).join(',')",
+    );
+    assert_eq!(
+        shown.as_str(),
+        Some("motor"),
+        "only the forced tag says FORCED"
+    );
+    b.screenshot(&screenshots().join("io-800.png"));
+
+    // The Bus view: the line's rate holds the Collect rounds its modules' rates do not.
+    b.eval("location.hash = '#bus'; true");
+    let rates = "(() => { const line = parseFloat(document.querySelector('#bus-lines .card .big').textContent); \
+                 const mods = [...document.querySelectorAll('#bus-table tr[data-module] td:nth-child(6)')].map(td => parseFloat(td.textContent) || 0).reduce((a, x) => a + x, 0); \
+                 return [line, mods]; })()";
+    let settled = b.wait_for(
+        &format!(
+            "(() => {{ const [line, mods] = {rates}; return line > 0 && line >= mods + 5; }})()"
+        ),
+        Duration::from_secs(15),
+    );
+    assert!(
+        settled.is_some(),
+        "a round a cycle (10/s) is in the line's rate: [line, modules] = {}",
+        b.eval(rates)
+    );
+
+    // Sign in, arm a continuous trace with no name: it is adhoc, and its plot's times count
+    // from its first sample.
+    b.eval("location.hash = '#trace'; true");
+    sign_in(&mut b);
+    assert_eq!(b.eval("document.getElementById('trace-name').value"), "");
+    b.eval(
+        "document.getElementById('trace-tags').value = 'start, motor'; \
+         document.getElementById('trace-trigger').value = ''; \
+         document.getElementById('trace-form').requestSubmit(); true",
+    );
+    b.wait_for(
+        "document.querySelector('#trace-table tr[data-trace=adhoc]') !== null",
+        Duration::from_secs(15),
+    )
+    .expect("the unnamed trace is adhoc");
+    let hint = b.wait_for(
+        "document.getElementById('trace-plot-hint').textContent",
+        Duration::from_secs(15),
+    );
+    assert_eq!(
+        hint.map(|h| h.0),
+        Some(serde_json::json!("times from the first sample"))
+    );
+    drop(b);
+    drop(plc);
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }

@@ -29,6 +29,27 @@ struct Server {
 }
 
 impl Server {
+    /// Serves `world` on the pty's master end on a thread of its own.
+    fn start(
+        master: serialport::TTYPort,
+        path: &str,
+        world: SharedWorld,
+        clock: Arc<dyn Clock>,
+    ) -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let handle = {
+            let stop = stop.clone();
+            std::thread::Builder::new()
+                .name(format!("serve {path}"))
+                .spawn(move || serve(master, world, LINE, clock, &stop))
+                .expect("the server thread starts")
+        };
+        Server {
+            stop,
+            handle: Some(handle),
+        }
+    }
+
     fn finish(mut self) -> ServeStats {
         self.stop.store(true, Ordering::Relaxed);
         let handle = self.handle.take().expect("server running");
@@ -65,18 +86,7 @@ fn rig() -> Rig {
     let world = world.shared();
     let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
 
-    let stop = Arc::new(AtomicBool::new(false));
-    let handle = {
-        let (world, clock, stop) = (world.clone(), clock.clone(), stop.clone());
-        std::thread::Builder::new()
-            .name(format!("serve {path}"))
-            .spawn(move || serve(master, world, LINE, clock, &stop))
-            .expect("the server thread starts")
-    };
-    let server = Server {
-        stop,
-        handle: Some(handle),
-    };
+    let server = Server::start(master, &path, world.clone(), clock.clone());
 
     let transport = SerialTransport::from_port(slave, LINE, clock.clone());
     let discipline = Discipline {
@@ -173,4 +183,73 @@ fn inputs_and_outputs_cross_a_real_pty() {
     assert_eq!(stats.noise_bytes, 0, "every byte was part of a frame");
     assert_eq!(stats.replies, stats.frames, "every request was answered");
     assert!(stats.frames >= 5, "{stats:?}");
+}
+
+/// A MiniMod at 5 served on a pty's master end, with RDELAYM set through its own text
+/// command; the slave end, as a third-party master would hold it.
+fn served_minimod(rdelaym: u8) -> (serialport::TTYPort, Server) {
+    use std::io::Write;
+    let (master, mut slave, path) = pty_pair().expect("a pty pair");
+    let mut world = SimWorld::new(vec![LINE]);
+    world.add_device(SERVED_LINE, "minimod@5", (model().simulator)(5));
+    let world = world.shared();
+    let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
+    let server = Server::start(master, &path, world, clock);
+    slave
+        .write_all(format!("@5>RDELAYM={rdelaym}\r").as_bytes())
+        .expect("the pty takes the command");
+    assert_eq!(read_for(&mut slave, Duration::from_millis(500)), b"OK\r");
+    (slave, server)
+}
+
+/// Whatever the slave end reads in `wait`.
+fn read_for(port: &mut serialport::TTYPort, wait: Duration) -> Vec<u8> {
+    use std::io::Read;
+    let end = std::time::Instant::now() + wait;
+    let mut got = Vec::new();
+    let mut chunk = [0u8; 64];
+    while let Some(left) = end.checked_duration_since(std::time::Instant::now()) {
+        if serialport::SerialPort::set_timeout(port, left.max(Duration::from_millis(1))).is_err() {
+            break;
+        }
+        match port.read(&mut chunk) {
+            Ok(n) => got.extend_from_slice(&chunk[..n]),
+            Err(_) => break,
+        }
+    }
+    got
+}
+
+/// The driver's FC 2 input read of unit 5 sent in two halves `gap` apart; what comes back.
+fn split_request(port: &mut serialport::TTYPort, gap: Duration) -> Vec<u8> {
+    use std::io::Write;
+    let request = [5u8, 0x02, 0x00, 0x00, 0x00, 0x0A, 0xF9, 0x89];
+    port.write_all(&request[..4]).expect("first half");
+    std::thread::sleep(gap);
+    port.write_all(&request[4..]).expect("second half");
+    read_for(port, Duration::from_millis(400))
+}
+
+/// MiniMod manual, "Setting the Modbus communication timeout": a request ends after a silence
+/// of 28 bit times + RDELAYM. A pty gives no byte timing, so only the wide margins are
+/// asserted (sim/serve.rs): a pause under half the silence is one request, one over twice it
+/// two (which the module does not answer: neither half passes the CRC).
+#[test]
+fn a_served_minimod_frames_requests_by_its_own_silence() {
+    // RDELAYM=200: 1.46 ms + 20 ms. Halves 5 ms apart are one request...
+    let (mut port, server) = served_minimod(200);
+    let reply = split_request(&mut port, Duration::from_millis(5));
+    assert_eq!(reply.get(..3), Some(&[5u8, 0x02, 0x02][..]), "{reply:02X?}");
+    // ... halves 60 ms apart are two.
+    let reply = split_request(&mut port, Duration::from_millis(60));
+    assert!(reply.is_empty(), "{reply:02X?}");
+    drop(server);
+    // RDELAYM=0 at 19200: 1.46 ms; halves 10 ms apart are two requests.
+    let (mut port, server) = served_minimod(0);
+    let reply = split_request(&mut port, Duration::from_millis(10));
+    assert!(reply.is_empty(), "{reply:02X?}");
+    // The whole request is answered.
+    let reply = split_request(&mut port, Duration::ZERO);
+    assert_eq!(reply.len(), 7, "{reply:02X?}");
+    drop(server);
 }

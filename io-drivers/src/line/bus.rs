@@ -104,6 +104,11 @@ pub struct Counters {
     pub echo_errors: u64,
     /// Round trip of the last good transaction: end of request to end of reply.
     pub last_round_trip: Duration,
+    /// FC 70 Collect broadcasts of its line's rounds (event mode). A broadcast is addressed to
+    /// no module: each is counted once, on the member with the lowest address of its round,
+    /// so that a line's modules' `requests` and `collect_requests` add up to every request on
+    /// its wire.
+    pub collect_requests: u64,
 }
 
 impl Counters {
@@ -273,7 +278,7 @@ pub struct Module {
     pub name: String,
     /// Its driver.
     pub driver: Box<dyn Driver>,
-    counters: Counters,
+    pub(crate) counters: Counters,
     pub(crate) health: Health,
     /// Came back after being lost: write every output again.
     refresh_pending: bool,

@@ -34,7 +34,9 @@
 //!   way when the ordinary polls start (on the virtual line a slave cannot hear another one's
 //!   reply, so a slave that a real line would have blocked may answer an earlier Collect too).
 //! - The wait for a reply is the window's slots (3 ms each) plus 1 ms, the manual's "nominal
-//!   timeout", plus one character time ([`first_char_margin`]): a reply that starts at the
+//!   timeout", plus the members' largest [`Membership::frame_timeout`] (a MiniMod's RDELAYM:
+//!   a slave that waits longer for the end of a request starts its slot that much later),
+//!   plus one character time ([`first_char_margin`]): a reply that starts at the
 //!   window's last instant is heard once its first character is in. The floor of a round
 //!   ([`floor::CollectFloor`]) counts the window alone, so the owner's idle round is that
 //!   floor and one character above it. Each Collect is one exchange of the owner's (`BusOwner::exchange`), with
@@ -315,8 +317,15 @@ impl BusOwner {
             return;
         };
         self.collect.stats.rounds += 1;
+        let requests_before = self.collect.stats.requests;
+        // A member that waits longer for the end of a request answers that much later.
+        let late = members
+            .iter()
+            .map(|m| m.periods.frame_timeout)
+            .max()
+            .unwrap_or_default();
         while let Some(request) = round.request() {
-            match self.collect_exchange(&request, round.reply_window()) {
+            match self.collect_exchange(&request, round.reply_window() + late) {
                 Ok(heard) => {
                     let slot_end = round.slot_end(heard.slave);
                     round.on_reply(heard.slave, heard.seq);
@@ -333,6 +342,11 @@ impl BusOwner {
             }
         }
         self.collect.pending_ack = round.pending_ack();
+        // The round's broadcasts, on the member that opens its window (see `Counters`).
+        if let Some(first) = members.iter().min_by_key(|m| m.unit) {
+            self.modules[first.module].counters.collect_requests +=
+                self.collect.stats.requests - requests_before;
+        }
         let after = self.transport.now();
         let mut pick = Pick::default();
         let mut now_refreshed = Vec::new();

@@ -83,6 +83,15 @@ pub trait SimDevice: Send + Debug {
         Err(SimError::UnknownCommand(words.join(" ")))
     }
 
+    /// The silence on a line at `settings` that ends a request for this module, when it frames
+    /// requests by silence as an RTU slave does (MiniMod: 28 bit times and RDELAYM). The world
+    /// then joins what the master sends with shorter pauses into one request and hands it over
+    /// once the silence has passed. `None`: every frame the master writes is one request.
+    fn frame_silence(&self, settings: crate::line::settings::LineSettings) -> Option<Duration> {
+        let _ = settings;
+        None
+    }
+
     /// Whether this device's reply to `frame` gives way to an earlier reply to the same frame
     /// (it listens before talking: MiniMod Collect slots, where a slave that hears an earlier
     /// slave answer stays silent until the next Collect).

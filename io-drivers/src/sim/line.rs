@@ -18,6 +18,7 @@ use crate::line::transport::{LineError, Transport};
 use crate::point::Value;
 use crate::sim::device::{SimDevice, SimError};
 use crate::sim::fault::LineFaults;
+use crate::sim::framing::{Assembly, Heard};
 use crate::sim::plant::{Plant, PlantIo};
 use crate::time::Clock;
 
@@ -35,6 +36,8 @@ struct Placed {
     /// The module models its own UART ([`SimDevice::set_uart`]): it is told the master's
     /// settings before every frame and compares them itself.
     own_uart: bool,
+    /// The request it is hearing, when it frames by silence ([`SimDevice::frame_silence`]).
+    assembly: Option<Assembly>,
 }
 
 /// The plant and its wiring: per role, the device index and point name.
@@ -147,6 +150,7 @@ impl SimWorld {
             device,
             settings: None,
             own_uart: false,
+            assembly: None,
         });
         self.devices.len() - 1
     }
@@ -172,6 +176,11 @@ impl SimWorld {
         };
         d.own_uart = d.device.set_uart(settings);
         d.own_uart
+    }
+
+    /// The baud and format `line`'s master talks at, as the world knows them.
+    pub fn master_settings(&self, line: usize) -> Option<LineSettings> {
+        self.line_settings.get(line).copied()
     }
 
     /// The baud and format of `line`'s master from now on (a served pty follows the settings
@@ -294,26 +303,24 @@ impl SimWorld {
     }
 
     /// A frame from the master of `line` has ended on the wire at `t`: every device on the line
-    /// sees it; the replies are queued to arrive at the master byte by byte.
+    /// hears it; the replies are queued to arrive at the master byte by byte. A device that
+    /// frames by silence ([`SimDevice::frame_silence`]) takes it as part of the request it is
+    /// hearing when the pause before it was shorter than its silence, and gets that request
+    /// once the silence has passed ([`Self::settle`]).
     pub fn deliver(&mut self, line: usize, frame: &[u8], t: Duration) {
         self.advance_to(t);
         let Some(settings) = self.line_settings.get(line).copied() else {
             return;
         };
-        let char_time = settings.char_time();
         let format_known = self.format_known.get(line).copied().unwrap_or(true);
         // The adapter hears the frame even when nothing else on the line is alive.
         self.queue_echo(line, frame, settings, t);
         if self.faults.is_dead(line) {
             return;
         }
-        let mut replies = Vec::new();
-        for (i, d) in self
-            .devices
-            .iter_mut()
-            .enumerate()
-            .filter(|(_, d)| d.line == line)
-        {
+        let start = t.saturating_sub(settings.chars(frame.len()));
+        let mut requests = Vec::new();
+        for (i, d) in on_line(&mut self.devices, line) {
             if d.own_uart {
                 d.device
                     .master_line(settings.baud, format_known.then_some(settings.format));
@@ -329,24 +336,84 @@ impl SimWorld {
                 }
                 _ => frame.to_vec(),
             };
-            if let Some(reply) = d.device.on_frame(&heard, t) {
-                replies.push((i, reply));
+            match d.device.frame_silence(settings) {
+                None => requests.push((i, heard, t)),
+                Some(silence) => {
+                    if let Heard::Ended(bytes, end) =
+                        Assembly::hear(&mut d.assembly, &heard, start, t, silence)
+                    {
+                        requests.push((i, bytes, end));
+                    }
+                }
+            }
+        }
+        self.hand_over(line, settings, requests);
+    }
+
+    /// The longest end-of-request silence of the devices on `line` that frame by silence
+    /// ([`SimDevice::frame_silence`]); `None` when none does.
+    pub fn frame_silence(&self, line: usize) -> Option<Duration> {
+        let settings = self.line_settings.get(line).copied()?;
+        self.devices
+            .iter()
+            .filter(|d| d.line == line)
+            .filter_map(|d| d.device.frame_silence(settings))
+            .max()
+    }
+
+    /// The master of `line` has kept silent until `t`: every device whose end-of-request
+    /// silence has passed gets the request it was hearing.
+    pub fn settle(&mut self, line: usize, t: Duration) {
+        let Some(settings) = self.line_settings.get(line).copied() else {
+            return;
+        };
+        let mut requests = Vec::new();
+        for (i, d) in on_line(&mut self.devices, line) {
+            let Some(silence) = d.device.frame_silence(settings) else {
+                continue;
+            };
+            if let Some((bytes, end)) = Assembly::complete(&mut d.assembly, t, silence) {
+                requests.push((i, bytes, end));
+            }
+        }
+        if !requests.is_empty() {
+            self.hand_over(line, settings, requests);
+        }
+    }
+
+    /// Requests as the devices have framed them, `(device, bytes, end on the wire)`: each
+    /// device acts on its own, and the replies go on the wire.
+    fn hand_over(
+        &mut self,
+        line: usize,
+        settings: LineSettings,
+        requests: Vec<(usize, Vec<u8>, Duration)>,
+    ) {
+        let char_time = settings.char_time();
+        let mut replies = Vec::new();
+        for (i, bytes, end) in requests {
+            let Some(d) = self.devices.get_mut(i) else {
+                continue;
+            };
+            d.device.advance_to(end);
+            if let Some(reply) = d.device.on_frame(&bytes, end) {
+                let polite = d.device.yields_to_earlier_reply(&bytes);
+                replies.push((i, reply, end, polite));
             }
         }
         // Devices that listen before talking drop out when an earlier one answers.
         let earliest_polite = replies
             .iter()
-            .filter(|(i, _)| self.devices[*i].device.yields_to_earlier_reply(frame))
-            .map(|(_, r)| r.delay)
+            .filter(|r| r.3)
+            .map(|(_, r, end, _)| *end + r.delay)
             .min();
         if let Some(first) = earliest_polite {
-            let devices = &self.devices;
             let mut kept_first = false;
-            replies.retain(|(i, r)| {
-                if !devices[*i].device.yields_to_earlier_reply(frame) {
+            replies.retain(|(_, r, end, polite)| {
+                if !polite {
                     return true;
                 }
-                let keep = r.delay == first && !kept_first;
+                let keep = *end + r.delay == first && !kept_first;
                 kept_first |= keep;
                 keep
             });
@@ -354,13 +421,13 @@ impl SimWorld {
         let Some(inbound) = self.inbound.get_mut(line) else {
             return;
         };
-        for (device, reply) in replies {
+        for (device, reply, end, _) in replies {
             let wire = self
                 .faults
                 .apply(device, reply.bytes, reply.delay, char_time);
             for (offset, bytes) in wire.bursts {
                 for (i, b) in bytes.iter().enumerate() {
-                    let at = t + offset + settings.chars(i + 1);
+                    let at = end + offset + settings.chars(i + 1);
                     inbound.bytes.push_back((at, *b));
                 }
             }
@@ -388,6 +455,13 @@ impl SimWorld {
 
     /// Moves every byte of `line` that has arrived by `t` into `buf`; returns how many.
     pub fn take_arrived(&mut self, line: usize, t: Duration, buf: &mut Vec<u8>) -> usize {
+        // Taking what came by `t` means the master kept silent until then.
+        self.settle(line, t);
+        self.take_arrived_by(line, t, buf)
+    }
+
+    /// [`Self::take_arrived`] without settling the requests being heard.
+    fn take_arrived_by(&mut self, line: usize, t: Duration, buf: &mut Vec<u8>) -> usize {
         let Some(inbound) = self.inbound.get_mut(line) else {
             return 0;
         };
@@ -404,10 +478,19 @@ impl SimWorld {
     }
 
     /// Drops the bytes of `line` that have arrived by `t`; returns how many.
+    /// (A master that transmits until `t` has not kept silent: nothing is settled here.)
     pub fn drop_arrived(&mut self, line: usize, t: Duration) -> usize {
         let mut sink = Vec::new();
-        self.take_arrived(line, t, &mut sink)
+        self.take_arrived_by(line, t, &mut sink)
     }
+}
+
+/// The devices on `line`, with their indexes in the world.
+fn on_line(devices: &mut [Placed], line: usize) -> impl Iterator<Item = (usize, &mut Placed)> {
+    devices
+        .iter_mut()
+        .enumerate()
+        .filter(move |(_, d)| d.line == line)
 }
 
 /// What a UART at the wrong baud or format makes of `frame`, deterministically: every byte
@@ -514,10 +597,14 @@ impl Transport for VirtualPort {
     }
 
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
-        let end = self.now() + self.settings.chars(frame.len());
+        let start = self.now();
+        let end = start + self.settings.chars(frame.len());
         self.sleep_until(end);
         let line = self.line;
         let mut world = self.lock();
+        // The line was silent until this frame began: what the modules heard before it and
+        // whose silence is over by then are requests, answered before this one collides.
+        world.settle(line, start);
         // A reply still on the wire while the master transmits collides with the request: the
         // master hears neither, so it cannot later take those bytes for the new reply.
         world.drop_arrived(line, end);
@@ -527,7 +614,13 @@ impl Transport for VirtualPort {
 
     fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
         let line = self.line;
-        let first = self.lock().next_arrival(line);
+        // The master listens: it sends nothing before `deadline`, so every request whose
+        // silence ends by then is complete.
+        let first = {
+            let mut world = self.lock();
+            world.settle(line, deadline);
+            world.next_arrival(line)
+        };
         match first {
             Some(at) if at <= deadline => {
                 let at = at.max(self.now());
@@ -544,11 +637,15 @@ impl Transport for VirtualPort {
 
     fn wait_until(&mut self, t: Duration) {
         self.sleep_until(t);
+        let (line, now) = (self.line, self.now());
+        self.lock().settle(line, now);
     }
 
     fn flush_input(&mut self) -> Result<usize, LineError> {
         let (line, now) = (self.line, self.now());
-        Ok(self.lock().drop_arrived(line, now))
+        let mut world = self.lock();
+        world.settle(line, now);
+        Ok(world.drop_arrived(line, now))
     }
 }
 

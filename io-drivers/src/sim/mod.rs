@@ -7,6 +7,7 @@
 
 pub(crate) mod device;
 pub(crate) mod fault;
+pub(crate) mod framing;
 pub(crate) mod line;
 pub mod plant;
 pub(crate) mod serve;

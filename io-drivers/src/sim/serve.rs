@@ -1,10 +1,19 @@
 //! Serving simulated modules on a real serial device, so any Modbus master or a terminal can
 //! talk to them (`softplc sim --port /dev/pts/N ...`).
 //!
-//! Framing follows the devices' own rule, silence on the line, with a fast path: bytes that
-//! already form a complete RTU request with a good CRC, or a text line ended by CR or LF, are
-//! handled at once. A pty does not enforce baud, so replies are written as a whole after the
-//! device's reply delay and the server then keeps quiet for the reply's wire time.
+//! Framing follows the devices' own rule, silence on the line. Where a module on the line
+//! frames by silence itself (MiniMod: 28 bit times + RDELAYM, manual "Setting the Modbus
+//! communication timeout"; [`crate::sim::SimDevice::frame_silence`]), a request ends when the
+//! line has been silent that long (the longest of the line's modules), and nothing else ends
+//! it: a pause inside a request shorter than the silence is part of it, a longer one makes two
+//! requests, as the module would hear them. A pty gives no byte timing, so the gap is measured
+//! between reads (1 ms read timeout) on the host's clock: a gap shorter than half the silence
+//! is one request, one longer than twice the silence (and than 2 ms) is two; in between it
+//! depends on scheduling. Otherwise (no such module) the silence is t3.5, at least 5 ms for a
+//! pty's jitter, with a fast path: bytes that already form a complete RTU request with a good
+//! CRC, or a text line ended by CR or LF, are handled at once. A pty does not enforce baud,
+//! so replies are written as a whole after the device's reply delay and the server then keeps
+//! quiet for the reply's wire time.
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -110,22 +119,16 @@ pub fn serve_following(
     stop: &AtomicBool,
     master: Option<MasterSettings<'_>>,
 ) -> Result<ServeStats, LineError> {
-    let follow = |settings: LineSettings| match master.and_then(|m| m()) {
-        Some(m) => {
-            lock(&world).follow_master_baud(SERVED_LINE, m.baud);
-            LineSettings {
-                baud: m.baud,
-                format: settings.format,
-            }
-        }
-        None => settings,
-    };
+    let mut follower = MasterFollower::default();
+    let mut follow =
+        |settings: LineSettings| follower.frame(&world, master.and_then(|m| m()), settings);
     let mut stats = ServeStats::default();
     let mut buf: Vec<u8> = Vec::with_capacity(512);
     let mut chunk = [0u8; 256];
     let mut last_byte = clock.now();
-    // Silence that ends a frame: t3.5, but a pty's scheduling jitter is larger than that.
-    let silence = settings.t3_5().max(Duration::from_millis(5));
+    // Silence that ends a frame without a module's own: t3.5, but a pty's scheduling jitter
+    // is larger than that.
+    let t3_5_silence = settings.t3_5().max(Duration::from_millis(5));
     port.set_timeout(Duration::from_millis(1))
         .map_err(|e| std::io::Error::other(e.description))?;
     while !stop.load(Ordering::Relaxed) {
@@ -140,8 +143,13 @@ pub fn serve_following(
             Err(e) => return Err(e.into()),
         }
         let now = clock.now();
-        lock(&world).advance_to(now);
-        while let Some(n) = complete_frame(&buf) {
+        let modules_silence = {
+            let mut w = lock(&world);
+            w.advance_to(now);
+            w.frame_silence(SERVED_LINE)
+        };
+        // A module that frames by silence hears a request end only by silence.
+        while let Some(n) = complete_frame(&buf).filter(|_| modules_silence.is_none()) {
             let frame: Vec<u8> = buf.drain(..n).collect();
             stats.frames += 1;
             let settings = follow(settings);
@@ -149,13 +157,15 @@ pub fn serve_following(
                 stats.replies += 1;
             }
         }
+        let silence = modules_silence.unwrap_or(t3_5_silence);
         if !buf.is_empty() && now.saturating_sub(last_byte) >= silence {
             // A silence ended an incomplete frame: give it to the devices as the real ones
             // would get it (they drop it on a bad CRC), and start afresh.
             let frame: Vec<u8> = std::mem::take(&mut buf);
             stats.frames += 1;
             let settings = follow(settings);
-            if answer(&mut port, &world, &frame, settings, clock.as_ref())? {
+            let heard = (frame.as_slice(), last_byte);
+            if answer_frame_ended(&mut port, &world, heard, settings, clock.as_ref())? {
                 stats.replies += 1;
             } else {
                 stats.noise_bytes += frame.len() as u64;
@@ -163,6 +173,33 @@ pub fn serve_following(
         }
     }
     Ok(stats)
+}
+
+/// What the served line's master talks at, frame by frame. The port's own settings (a pty's
+/// baud, as the master program set its end) are followed when they change; in between, what
+/// the world was told last stands, so a console's `DEVICE line 9600E` (a master said to talk
+/// at other settings) holds until the master program changes its port.
+#[derive(Debug, Default)]
+struct MasterFollower {
+    /// The port's settings when last looked at.
+    seen: Option<LineSettings>,
+}
+
+impl MasterFollower {
+    /// The settings of the next frame, given the port's now (`None`: not known).
+    fn frame(
+        &mut self,
+        world: &SharedWorld,
+        port: Option<LineSettings>,
+        settings: LineSettings,
+    ) -> LineSettings {
+        let mut w = lock(world);
+        if let Some(port) = port.filter(|p| self.seen != Some(*p)) {
+            self.seen = Some(port);
+            w.follow_master_baud(SERVED_LINE, port.baud);
+        }
+        w.master_settings(SERVED_LINE).unwrap_or(settings)
+    }
 }
 
 pub(crate) fn lock(world: &SharedWorld) -> std::sync::MutexGuard<'_, crate::sim::line::SimWorld> {
@@ -177,8 +214,24 @@ pub(crate) fn answer<W: Write>(
     settings: LineSettings,
     clock: &dyn Clock,
 ) -> Result<bool, LineError> {
-    let now = clock.now();
-    lock(world).deliver(SERVED_LINE, frame, now);
+    answer_frame_ended(port, world, (frame, clock.now()), settings, clock)
+}
+
+/// [`answer`] for a frame whose last byte came at `ended` (a module's reply delay counts from
+/// there, not from when the silence after it was over).
+pub(crate) fn answer_frame_ended<W: Write>(
+    port: &mut W,
+    world: &SharedWorld,
+    (frame, ended): (&[u8], Duration),
+    settings: LineSettings,
+    clock: &dyn Clock,
+) -> Result<bool, LineError> {
+    {
+        let mut w = lock(world);
+        w.deliver(SERVED_LINE, frame, ended);
+        // The server hands over a request it has framed: the line is silent after it.
+        w.settle(SERVED_LINE, Duration::MAX);
+    }
     let char_time = settings.char_time();
     let mut wrote = false;
     // Each burst (a reply, a duplicate of it, noise) goes out when it is due, so a master on
@@ -222,6 +275,41 @@ pub(crate) fn answer<W: Write>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::SimWorld;
+
+    #[test]
+    fn the_masters_settings_said_on_the_console_stand_until_the_port_changes() {
+        let at = |baud, format: &str| LineSettings {
+            baud,
+            format: format.parse().unwrap(),
+        };
+        let model = crate::devices::model("minimod").unwrap();
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        world.add_device(SERVED_LINE, "minimod@5", (model.simulator)(5));
+        let world = world.shared();
+        let mut follower = MasterFollower::default();
+        let pty = Some(at(19200, "8N1"));
+        let first = follower.frame(&world, pty, LineSettings::DEFAULT);
+        assert_eq!(first.baud, 19200);
+        // The console: the master now talks at 9600E.
+        lock(&world).set_master_settings(SERVED_LINE, at(9600, "8E1"));
+        for _ in 0..3 {
+            assert_eq!(
+                follower.frame(&world, pty, LineSettings::DEFAULT),
+                at(9600, "8E1"),
+                "the port has not changed: the console's word stands"
+            );
+        }
+        // The master program sets its end to 38400: that is followed.
+        let changed = follower.frame(&world, Some(at(38400, "8N1")), LineSettings::DEFAULT);
+        assert_eq!(changed.baud, 38400);
+        // A port whose settings are not known (a real device served by --port) leaves them.
+        lock(&world).set_master_settings(SERVED_LINE, at(4800, "8O1"));
+        assert_eq!(
+            follower.frame(&world, None, LineSettings::DEFAULT),
+            at(4800, "8O1")
+        );
+    }
 
     #[test]
     fn splits_rtu_requests_and_text_lines() {

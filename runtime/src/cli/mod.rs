@@ -5,6 +5,7 @@ mod check;
 mod commission;
 mod control;
 mod discover;
+mod error_line;
 mod journal;
 mod models;
 mod monitor;
@@ -104,7 +105,7 @@ pub fn main() -> ExitCode {
         // The reader of stdout went away (`softplc check p.yaml | head`): end quietly.
         Err(e) if out::is_closed(&e) => ExitCode::from(out::CLOSED_STATUS),
         Err(e) => {
-            out::errln(&format!("error: {e:#}"));
+            out::errln(&format!("error: {}", error_line::error_line(&e)));
             ExitCode::from(2)
         }
     }

@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context};
 use softplc_io::devices;
+use softplc_io::devices::minimod::{LineMode, SerialParams};
 use softplc_io::line::{
     open_tty, pty_pair, LineSettings, NetFraming, Parity, SerialFormat, TTYPort, TcpEndpoint,
 };
@@ -494,6 +495,24 @@ pub(crate) fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> any
             w.corrupt_next_echoes(SERVED_LINE, n);
             format!("the next {n} echo(es) come back corrupted")
         }
+        [dev, "line", spec] if dev.contains('@') => {
+            let i = find(&w, dev)?;
+            let current = w
+                .master_settings(SERVED_LINE)
+                .unwrap_or(LineSettings::DEFAULT);
+            // The model checks the words and says what its module makes of them.
+            let text = w
+                .device_mut(i)
+                .context("device vanished")?
+                .command(&["line", spec])?;
+            // The master's settings are the line's: every module hears every frame at them
+            // from now on, until the served port's own settings change (`sim/serve.rs`).
+            let mode = LineMode::of_format(current.format).unwrap_or(LineMode::Even);
+            let params = SerialParams::parse(spec, mode)
+                .map_err(|e| anyhow::anyhow!("{dev} line {spec}: {e}"))?;
+            w.set_master_settings(SERVED_LINE, params.line_settings());
+            text
+        }
         [dev, rest @ ..] if dev.contains('@') => {
             let i = find(&w, dev)?;
             let d = w.device_mut(i).context("device vanished")?;
@@ -537,4 +556,73 @@ fn find(world: &SimWorld, dev: &str) -> anyhow::Result<usize> {
     world
         .find(dev)
         .ok_or_else(|| anyhow::anyhow!("no device {dev:?} (devices: {})", world.names().join(", ")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use softplc_io::modbus::append_crc;
+    use std::time::Duration;
+
+    /// `minimod@5 line 9600E` said on the console still holds after the next frames, which
+    /// the served line hands the modules at its master's settings.
+    #[test]
+    fn the_line_command_stands_over_the_next_frames() {
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        let model = devices::model("minimod").expect("the MiniMod model");
+        let i = world.add_device(SERVED_LINE, "minimod@5", model.simulate(5));
+        world.install_device_uart(i, LineSettings::DEFAULT);
+        let world = world.shared();
+        let clock = MonotonicClock::new();
+        let said = match execute(&world, &clock, "minimod@5 line 9600E").expect("a command") {
+            Reply::Text(t) => t,
+            Reply::Quit => String::new(),
+        };
+        assert!(
+            said.starts_with("master at 9600E; module at 19200E"),
+            "{said}"
+        );
+        let mut fc2 = vec![5, 0x02, 0x00, 0x00, 0x00, 0x0A];
+        append_crc(&mut fc2);
+        for k in 1..=3u64 {
+            let mut w = world.lock().expect("the world");
+            let t = w.now() + Duration::from_millis(100 * k);
+            w.deliver(SERVED_LINE, &fc2, t);
+            w.settle(SERVED_LINE, t + Duration::from_millis(50));
+            assert_eq!(
+                w.next_arrival(SERVED_LINE),
+                None,
+                "a deaf module answers nothing"
+            );
+        }
+        let status = match execute(&world, &clock, "minimod@5 status").expect("a command") {
+            Reply::Text(t) => t,
+            Reply::Quit => String::new(),
+        };
+        assert!(status.contains("master 9600E (mismatch: deaf)"), "{status}");
+        // Back at the module's own settings, it answers again.
+        execute(&world, &clock, "minimod@5 line 19200E").expect("a command");
+        let mut w = world.lock().expect("the world");
+        let t = w.now() + Duration::from_millis(100);
+        w.deliver(SERVED_LINE, &fc2, t);
+        let mut reply = Vec::new();
+        w.take_arrived(SERVED_LINE, t + Duration::from_millis(100), &mut reply);
+        assert_eq!(reply.len(), 7, "{reply:02X?}");
+    }
+
+    #[test]
+    fn a_line_command_the_model_does_not_take_is_refused_with_its_reason() {
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        let model = devices::model("minimod").expect("the MiniMod model");
+        world.add_device(SERVED_LINE, "minimod@5", model.simulate(5));
+        let world = world.shared();
+        let e = execute(&world, &MonotonicClock::new(), "minimod@5 line 9600Q")
+            .expect_err("no such parity letter");
+        assert!(e.to_string().contains("9600Q"), "{e}");
+        let master = world
+            .lock()
+            .expect("the world")
+            .master_settings(SERVED_LINE);
+        assert_eq!(master, Some(LineSettings::DEFAULT), "the line is as it was");
+    }
 }

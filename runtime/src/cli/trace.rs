@@ -125,7 +125,7 @@ fn arm(a: ArmArgs) -> anyhow::Result<ExitCode> {
         TraceRequest::Arm {
             name: None,
             spec: Some(RawTrace {
-                name: a.name.unwrap_or_else(|| "adhoc".to_owned()),
+                name: crate::project::trace::name_or_default(a.name),
                 tags: a.tags,
                 trigger: a.trigger,
                 pre: a.pre,

@@ -151,7 +151,11 @@ pub enum ErrorKind {
         limit: usize,
     },
     /// A key the schema does not have (a typo?).
-    #[error("unknown key `{key}`{}; expected {expected}", within(section))]
+    #[error(
+        "unknown key `{key}`{}; expected {expected}{}",
+        within(section),
+        key_hint(key, expected)
+    )]
     UnknownKey {
         /// Where (`buses[0]`; empty at the top level).
         section: String,
@@ -695,6 +699,13 @@ fn within(section: &str) -> String {
     } else {
         format!(" in {section}")
     }
+}
+
+/// `; did you mean `retain`?` for an unknown key close to one the reader expected (its list
+/// names them in backquotes); empty when none is.
+fn key_hint(key: &str, expected: &str) -> String {
+    let keys = expected.split('`').skip(1).step_by(2);
+    crate::suggest::did_you_mean(key, keys)
 }
 
 fn prefix(key: &str) -> String {

@@ -23,6 +23,12 @@ pub(crate) const DURATION_PATTERN: &str =
 /// A serial character format as `SerialFormat::from_str` reads it: data bits, parity, stop bits.
 pub(crate) const SERIAL_FORMAT_PATTERN: &str = "^[78][NEOneo][12]$";
 
+/// The formats an editor offers for `format:`, the usual first (the pattern also takes them in
+/// lower case).
+pub(crate) const SERIAL_FORMATS: &[&str] = &[
+    "8E1", "8N1", "8O1", "8N2", "8E2", "8O2", "7E1", "7O1", "7N2", "7E2", "7O2", "7N1",
+];
+
 /// The words of `offload:` and a tag's `offload:` (`OffloadMode`).
 pub(crate) const OFFLOAD_MODES: &[&str] = &["never", "auto", "require"];
 
@@ -171,20 +177,25 @@ impl JsonSchema for RawOffload {
 pub(crate) mod field {
     use schemars::{json_schema, Schema, SchemaGenerator};
 
-    use super::{nullable, words, OFFLOAD_MODES, SERIAL_FORMAT_PATTERN};
+    use super::{nullable, words, OFFLOAD_MODES, SERIAL_FORMATS, SERIAL_FORMAT_PATTERN};
 
-    /// `buses[].format`. Unquoted, `8E1` and `7E2` are numbers to a YAML reader that resolves
-    /// types, as an editor's does (8×10¹ = 80); the runtime reads the text as written, so the
-    /// numbers the even-parity formats spell are accepted too.
+    /// `buses[].format`. An editor completes from `enum`s, so the formats are one (and the
+    /// pattern takes the lower-case spellings). Unquoted, `8E1` and `7E2` are numbers to a YAML
+    /// reader that resolves types, as an editor's does (8×10¹ = 80); the runtime reads the text
+    /// as written, so the numbers the even-parity formats spell are accepted too, by ranges
+    /// rather than an `enum`, so that completion never offers `80` for a format.
     pub(crate) fn serial_format(_: &mut SchemaGenerator) -> Schema {
         nullable(json_schema!({
             "anyOf": [
+                { "type": "string", "enum": SERIAL_FORMATS },
+                { "type": "string", "pattern": SERIAL_FORMAT_PATTERN },
                 {
-                    "type": "string",
-                    "pattern": SERIAL_FORMAT_PATTERN,
-                    "examples": ["8E1", "8N1", "8N2", "7E1"]
-                },
-                { "enum": [70, 80, 700, 800] }
+                    "type": "integer",
+                    "anyOf": [
+                        { "minimum": 70, "maximum": 80, "multipleOf": 10 },
+                        { "minimum": 700, "maximum": 800, "multipleOf": 100 }
+                    ]
+                }
             ]
         }))
     }
@@ -374,9 +385,42 @@ mod tests {
             assert_eq!(accepts(&schema, json!(text)), parsed, "{text:?}");
         }
         // `format: 8E1` unquoted, as a YAML reader that resolves types sees it.
-        let read: Value = yaml_serde::from_str("8E1").unwrap();
-        assert!(accepts(&schema, read));
-        assert!(!accepts(&schema, json!(19200)));
+        for unquoted in ["8E1", "7E1", "8E2", "7E2"] {
+            let read: Value = yaml_serde::from_str(unquoted).unwrap();
+            assert!(accepts(&schema, read), "{unquoted}");
+        }
+        for number in [19200, 75, 90, 750] {
+            assert!(!accepts(&schema, json!(number)), "{number}");
+        }
+    }
+
+    /// Every value an `enum` anywhere in `schema` lists: what an editor's completion offers.
+    fn offered(schema: &Value, into: &mut Vec<Value>) {
+        match schema {
+            Value::Object(map) => {
+                if let Some(Value::Array(values)) = map.get("enum") {
+                    into.extend(values.iter().cloned());
+                }
+                map.values().for_each(|v| offered(v, into));
+            }
+            Value::Array(items) => items.iter().for_each(|v| offered(v, into)),
+            _ => {}
+        }
+    }
+
+    #[test]
+    fn completion_offers_real_formats_for_format() {
+        let schema = field::serial_format(&mut SchemaGenerator::default());
+        let mut values = Vec::new();
+        offered(&schema.to_value(), &mut values);
+        assert_eq!(values.first(), Some(&json!("8E1")), "the default first");
+        assert_eq!(values.len(), SERIAL_FORMATS.len());
+        for v in values {
+            let text = v
+                .as_str()
+                .unwrap_or_else(|| panic!("{v} is offered, not a format"));
+            assert!(SerialFormat::from_str(text).is_ok(), "{text}");
+        }
     }
 
     #[test]

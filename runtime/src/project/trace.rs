@@ -40,6 +40,17 @@ pub(crate) const DEFAULT_PRE: u32 = 100;
 /// Default `post`.
 pub(crate) const DEFAULT_POST: u32 = 400;
 
+/// The name of a trace armed at run time without one, from the command line (`softplc trace
+/// arm --tags ...`) or the web page alike.
+pub(crate) const UNNAMED: &str = "adhoc";
+
+/// `name` as given, or [`UNNAMED`] when none (or only blanks) was.
+pub(crate) fn name_or_default(name: Option<String>) -> String {
+    name.map(|n| n.trim().to_owned())
+        .filter(|n| !n.is_empty())
+        .unwrap_or_else(|| UNNAMED.to_owned())
+}
+
 /// One `traces:` entry as written (also the body of a run-time `trace arm`).
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(

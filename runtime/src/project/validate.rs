@@ -25,7 +25,6 @@ use super::raw::{
 };
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
-use crate::suggest::edit_distance;
 use softplc_io::devices::{DeviceConfig, ModuleAddress, ModuleSettings, PushDown, SettingError};
 
 /// Default watchdog time, in periods.
@@ -1349,24 +1348,7 @@ impl Validator<'_> {
 /// Names in `all` that look like `wanted`: same letters ignoring case, or within an edit
 /// distance of 1 (2 for names longer than 4), best first.
 fn close_matches(wanted: &str, all: &[&'static str]) -> Vec<&'static str> {
-    if let Some(&same) = all.iter().find(|n| n.eq_ignore_ascii_case(wanted)) {
-        return vec![same];
-    }
-    let limit = if wanted.chars().count() > 4 { 2 } else { 1 };
-    let upper = wanted.to_ascii_uppercase();
-    let mut scored: Vec<(usize, &'static str)> = all
-        .iter()
-        .filter_map(|&name| {
-            let d = edit_distance(&upper, &name.to_ascii_uppercase());
-            (d <= limit).then_some((d, name))
-        })
-        .collect();
-    scored.sort_by_key(|&(d, _)| d);
-    scored
-        .into_iter()
-        .take(MAX_SUGGESTIONS)
-        .map(|(_, n)| n)
-        .collect()
+    crate::suggest::close_to(wanted, all.iter().copied(), MAX_SUGGESTIONS)
 }
 
 #[cfg(test)]
@@ -1390,7 +1372,5 @@ mod tests {
         assert_eq!(close_matches("y1", &all), vec!["Y1"]);
         assert_eq!(close_matches("XCOUNT", &all), vec!["XCOUNT1"]);
         assert!(close_matches("ZZZZZZZZ", &all).is_empty());
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
-        assert_eq!(edit_distance("", "abc"), 3);
     }
 }

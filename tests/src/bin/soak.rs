@@ -35,9 +35,13 @@ const SETTLE: Duration = Duration::from_millis(20 + 2 * 100 + 100);
 /// tell from an idle round (README, "Event mode"): a change while the line is dead shows as
 /// stale only at the next write or full read, within `event_refresh` (1 s); and after a power
 /// cycle too short to be seen as a loss the module is back on its saved settings, event
-/// recording off, so its next change shows at its next full read, within `event_refresh`, and
-/// one round later its start-up runs again (`devices/minimod/driver/lost_events.rs`). That is
-/// the bound of event mode, checked here.
+/// recording off, so its next change shows at its next full read, within `event_refresh`.
+/// The start-up then runs again only on the module's own evidence of a power-up (its XEVMASK
+/// read back the next cycle at the power-on value, `devices/minimod/driver/lost_events.rs`),
+/// two cycles after that read, so it never holds the value back: the bound is the latency,
+/// `event_refresh`, and three cycles in which a faulty line may fail that full read and its
+/// repeat. That is the bound of event mode, checked here; the same change on a line that
+/// merely lost the event is repaired by the same full read, with no start-up.
 const SETTLE_IN_SILENCE: Duration = Duration::from_millis(20 + 1000 + 3 * 100 + 100);
 /// Longest time an output change may take to reach the module under faults: a lost module is
 /// retried after at most a few seconds of backoff at these rates.

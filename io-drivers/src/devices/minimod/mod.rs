@@ -33,6 +33,9 @@ pub(crate) mod text;
 pub(crate) mod watchdog;
 
 #[cfg(test)]
+#[path = "tests/framing.rs"]
+mod framing_tests;
+#[cfg(test)]
 #[path = "tests/line.rs"]
 pub(crate) mod line_tests;
 

@@ -458,6 +458,21 @@ impl Settings {
         })
     }
 
+    /// `RDELAYM` as the project sets it (0 when it does not): how much longer than 28 bit
+    /// times the module waits for the end of a request.
+    pub fn frame_timeout(&self) -> Duration {
+        let tenths = self
+            .items
+            .iter()
+            .rev()
+            .find_map(|s| match *s {
+                Setting::FrameTimeout(n) => Some(n),
+                _ => None,
+            })
+            .unwrap_or(0);
+        Duration::from_micros(100 * u64::from(tenths))
+    }
+
     /// Event mode: the longest without an answered exchange addressed to the module.
     pub fn event_refresh(&self) -> Duration {
         self.items

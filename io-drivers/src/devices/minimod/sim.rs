@@ -178,9 +178,11 @@ impl MiniModSim {
             };
             let mut bytes = Vec::with_capacity(9);
             encode_response(me, &resp, &mut bytes);
+            // Its slot starts once it has taken the Collect as ended: RDELAYM later than a
+            // module at 0 ("Setting the Modbus communication timeout").
             return Some(SimReply {
                 bytes,
-                delay: Duration::from_millis(delay_ms),
+                delay: Duration::from_millis(delay_ms) + self.state.frame_timeout(),
             });
         }
         let mut bank = Bank {
@@ -385,7 +387,9 @@ minimod commands:
   switch 3|4 on|off             flip a dip switch; 3 going on restores 19200 8E1 until the
                                 next power-up
   line BAUD[E|O|N|X]            the master now talks at these settings (e.g. `line 9600N`);
-                                the module hears it only while its SERLINE matches
+                                the module hears it only while its SERLINE matches; in
+                                `softplc sim` it holds for every module of the line until
+                                the served port's own settings change
   flash ok|broken               break the flash: >WCONF=1 answers \"Error 1\", FLASHFAIL = 1
   events                        the Collect event queue
   options                       the simulator's choices where the manual gives two readings
@@ -417,6 +421,12 @@ impl SimDevice for MiniModSim {
     /// Modbus function Collect").
     fn yields_to_earlier_reply(&self, frame: &[u8]) -> bool {
         frame.len() == 8 && frame.get(1) == Some(&70)
+    }
+
+    /// 28 bit times and RDELAYM ("Setting the Modbus communication timeout"): a master's
+    /// pause inside a request shorter than that is part of it; a longer one ends it.
+    fn frame_silence(&self, settings: crate::line::settings::LineSettings) -> Option<Duration> {
+        Some(self.state.frame_silence(settings.baud))
     }
 
     /// The master's baud (and format, when known) on a served line: the module listens only

@@ -53,6 +53,9 @@ use super::map::{condition_holds, Item};
 use super::serial_config::{FlashError, Preferences, SerialConfig, SerialParams};
 use super::watchdog::{Cause, Watchdog, WFLAGS_FIRED};
 
+/// Bit times of silence that end a Modbus request ("Setting the Modbus communication
+/// timeout"), before RDELAYM.
+pub(crate) const FRAME_SILENCE_BITS: u64 = 28;
 /// Length of one tick of the module's sampling clock, in ms.
 pub(crate) const TICK_MS: u64 = 1;
 /// Length of one blinker step, in ticks ("about a tenth of a second").
@@ -217,8 +220,20 @@ impl MiniModState {
     /// the request ("Setting the Modbus communication timeout").
     pub fn reply_delay(&self) -> Duration {
         let p = self.serial.active();
-        Duration::from_millis(10 * u64::from(p.rdelayt))
-            + Duration::from_micros(100 * u64::from(p.rdelaym))
+        Duration::from_millis(10 * u64::from(p.rdelayt)) + self.frame_timeout()
+    }
+
+    /// The silence that ends a request on a line at `baud` (manual, "Setting the Modbus
+    /// communication timeout": "a silence on the line, lasting 28 bits or more", enlarged "by
+    /// a number of tenths of milliseconds comprised between 0 and 200", RDELAYM).
+    pub fn frame_silence(&self, baud: u32) -> Duration {
+        Duration::from_nanos(FRAME_SILENCE_BITS * 1_000_000_000 / u64::from(baud.max(1)))
+            + self.frame_timeout()
+    }
+
+    /// RDELAYM: how much longer than 28 bit times the module waits for the end of a request.
+    pub fn frame_timeout(&self) -> Duration {
+        Duration::from_micros(100 * u64::from(self.serial.active().rdelaym))
     }
 
     /// The preferences and the flash.

@@ -20,7 +20,10 @@
 //!   1 ms in). Then an event costs the same wherever its slave sits in the window (one more
 //!   request, its reply and t3.5, less the slot it answered in), except one from the window's
 //!   last address, which needs no silent Collect after it.
-//! - Reply delays (RDELAYT) do not apply: a Collect reply has its slot instead.
+//! - Reply delays (RDELAYT) do not apply: a Collect reply has its slot instead. RDELAYM does
+//!   ([`CollectFloor::with_frame_timeout`]): a slave that waits longer for the end of the
+//!   request ("Setting the Modbus communication timeout") starts its slot that much later,
+//!   so every Collect lasts the members' largest RDELAYM more.
 //! - An adapter's latency timer (`line/latency.rs`) counts once per Collect: a reply may be
 //!   held back by that much, so a master cannot know a window silent before it has passed.
 
@@ -39,6 +42,9 @@ pub struct CollectFloor {
     adapter: AdapterTiming,
     first: u8,
     last: u8,
+    /// The members' largest [`crate::driver::Membership::frame_timeout`]: every slot starts
+    /// that much later.
+    frame_timeout: Duration,
 }
 
 impl CollectFloor {
@@ -51,7 +57,18 @@ impl CollectFloor {
             adapter,
             first: round.next,
             last: round.last,
+            frame_timeout: Duration::ZERO,
         })
+    }
+
+    /// The same floor where a member waits `frame_timeout` longer for the end of a request
+    /// (a MiniMod's RDELAYM): each Collect's slots start that much later, whether a slave
+    /// answers or the window passes in silence.
+    pub fn with_frame_timeout(self, frame_timeout: Duration) -> Self {
+        Self {
+            frame_timeout,
+            ..self
+        }
     }
 
     /// The window: first and last address.
@@ -78,7 +95,10 @@ impl CollectFloor {
         };
         let mut total = Duration::ZERO;
         while let Some(request) = round.request() {
-            total += s.chars(request_len(&request)) + self.adapter.latency + s.t3_5();
+            total += s.chars(request_len(&request))
+                + self.adapter.latency
+                + s.t3_5()
+                + self.frame_timeout;
             let answer = replying
                 .iter()
                 .copied()
@@ -104,6 +124,7 @@ impl CollectFloor {
     pub fn per_event(&self) -> Duration {
         let s = self.settings;
         s.chars(REQUEST_LEN) + s.chars(REPLY_LEN) + self.adapter.latency + s.t3_5() - SLOT
+            + self.frame_timeout
     }
 }
 
@@ -228,5 +249,15 @@ mod tests {
         assert_eq!(usb.idle(), plain.idle() + US(1_000));
         assert_eq!(usb.round(&[2]), plain.round(&[2]) + US(2_000));
         assert_eq!(usb.per_event(), plain.per_event() + US(1_000));
+    }
+
+    #[test]
+    fn a_members_rdelaym_counts_once_per_collect() {
+        // RDELAYM = 50: 5 ms more before any slot, in each Collect of the round.
+        let plain = floor(LineSettings::DEFAULT, &[1, 2, 3, 4]);
+        let late = plain.with_frame_timeout(US(5_000));
+        assert_eq!(late.idle(), plain.idle() + US(5_000));
+        assert_eq!(late.round(&[2]), plain.round(&[2]) + US(10_000));
+        assert_eq!(late.per_event(), plain.per_event() + US(5_000));
     }
 }

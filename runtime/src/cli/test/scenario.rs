@@ -205,6 +205,13 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         }
     };
     let tag = |name: &str| project.tags.iter().position(|t| t.name == name);
+    let unknown = |name: &str| {
+        let names = project.tags.iter().map(|t| t.name.as_str());
+        format!(
+            "unknown tag `{name}`{}",
+            crate::suggest::did_you_mean(name, names)
+        )
+    };
 
     let mut programs = Vec::new();
     for (i, p) in raw.programs.iter().enumerate() {
@@ -235,7 +242,7 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         for (name, text) in step.set.iter().flat_map(|s| &s.0) {
             let kpath = spath.key("set").key_itself(name);
             let Some(t) = tag(name) else {
-                error(kpath, format!("unknown tag `{name}`"));
+                error(kpath, unknown(name));
                 continue;
             };
             let cfg = &project.tags[t];
@@ -275,7 +282,7 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         for (name, text) in step.expect.iter().flat_map(|s| &s.0) {
             let kpath = spath.key("expect").key_itself(name);
             let Some(t) = tag(name) else {
-                error(kpath, format!("unknown tag `{name}`"));
+                error(kpath, unknown(name));
                 continue;
             };
             let line = loc.line(&kpath);
@@ -305,14 +312,14 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
                 kpath,
                 format!("tag `{name}` is not retained (`retain: true`)"),
             ),
-            None => error(kpath, format!("unknown tag `{name}`")),
+            None => error(kpath, unknown(name)),
         }
     }
     let mut watch = Vec::new();
     for (i, name) in raw.watch.iter().enumerate() {
         match tag(name) {
             Some(t) => watch.push(t),
-            None => error(root.key("watch").index(i), format!("unknown tag `{name}`")),
+            None => error(root.key("watch").index(i), unknown(name)),
         }
     }
     if raw.watch.is_empty() {

@@ -118,6 +118,21 @@ impl Kind {
         }
     }
 
+    /// The input the rung's power flow feeds, by its IEC name as docs/programming.md's table
+    /// gives it: `IN` (timers, STAIR, TOGGLE), `CU` (CTU, CTUD), `CD`, `CLK` (edges), `S1`
+    /// (SR), `S` (RS), `EN` (BLINK).
+    pub fn main_input(self) -> &'static str {
+        match self {
+            Kind::Ton | Kind::Tof | Kind::Tp | Kind::Stair | Kind::Toggle => "IN",
+            Kind::Ctu | Kind::Ctud => "CU",
+            Kind::Ctd => "CD",
+            Kind::RTrig | Kind::FTrig => "CLK",
+            Kind::Sr => "S1",
+            Kind::Rs => "S",
+            Kind::Blink => "EN",
+        }
+    }
+
     /// The output that a block passes on along its rung (`Q`; `QU` for CTUD).
     pub fn main_output(self) -> Member {
         match self {

@@ -161,6 +161,8 @@ pub struct BlockBox {
     pub instance: String,
     /// Its index among the program's instances.
     pub inst: u32,
+    /// The input the power flow feeds: `IN`, `CU`, `EN`, ... ([`crate::logic::blocks::Kind::main_input`]).
+    pub input: &'static str,
     /// Inputs besides the power flow, as given.
     pub inputs: Vec<BlockInput>,
     /// Its outputs: `Q`, `ET`, `CV`, `QU`, `QD`.
@@ -361,6 +363,7 @@ impl Names<'_> {
             kind: kind.name(),
             instance: call.instance.text.clone(),
             inst,
+            input: kind.main_input(),
             inputs,
             outputs: kind.outputs().iter().map(|m| m.name()).collect(),
             main: kind.main_output().name(),
@@ -533,13 +536,32 @@ mod tests {
                      "lhs": {"k": "member", "instance": "t", "inst": 0, "member": "ET"},
                      "rhs": {"k": "literal", "text": "2s"}},
                 ]},
-                "block": {"kind": "TON", "instance": "t", "inst": 0,
+                "block": {"kind": "TON", "instance": "t", "inst": 0, "input": "IN",
                           "inputs": [{"k": "value", "pin": "PT", "of": {"k": "literal", "text": "5s"}}],
                           "outputs": ["Q", "ET"], "main": "Q",
                           "coils": [{"kind": "normal", "of": {"k": "tag", "name": "lamp", "tag": 6}}]},
                 "outputs": [],
             })
         );
+    }
+
+    #[test]
+    fn each_block_names_the_input_its_rung_feeds_as_the_docs_do() {
+        // docs/programming.md, the block table's second column.
+        for (rung, input) in [
+            ("start -> BLINK b(500ms, 250ms)", "EN"),
+            ("start -> CTU c(10)", "CU"),
+            ("start -> CTD c(10)", "CD"),
+            ("start -> R_TRIG e", "CLK"),
+            ("start -> SR l(r=stop)", "S1"),
+            ("start -> RS l(r=stop)", "S"),
+            ("start -> TOF t(1s)", "IN"),
+        ] {
+            let text = format!("rungs:\n  - {rung}\n");
+            let d = diagram(&text, Path::new("p.yaml"), &tags()).unwrap();
+            let block = d[0].block.as_ref().unwrap();
+            assert_eq!(block.input, input, "{rung}");
+        }
     }
 
     #[test]

@@ -118,12 +118,16 @@ pub(super) fn apply(project: &mut Project, b: usize) -> InputPlan {
         }
     };
     let event_mode = super::floor_with(project, b, &with_events);
-    let members: Vec<u8> = modules
+    let member_modules: Vec<usize> = modules
         .iter()
-        .filter(|&&m| {
+        .copied()
+        .filter(|&m| {
             candidates.contains(&m)
                 || super::minimod(&project.modules[m]).is_some_and(|s| s.events())
         })
+        .collect();
+    let members: Vec<u8> = member_modules
+        .iter()
         .map(|&m| {
             project.modules[m]
                 .device
@@ -132,10 +136,17 @@ pub(super) fn apply(project: &mut Project, b: usize) -> InputPlan {
                 .map_or(0, |u| u.get())
         })
         .collect();
-    let floor = project
-        .buses
-        .get(b)
-        .and_then(|bus| CollectFloor::over(bus.settings, super::adapter(project, b), &members));
+    // A member's RDELAYM starts every slot later ("Setting the Modbus communication timeout").
+    let frame_timeout = member_modules
+        .iter()
+        .filter_map(|&m| super::minimod(&project.modules[m]))
+        .map(|s| s.frame_timeout())
+        .max()
+        .unwrap_or_default();
+    let floor = project.buses.get(b).and_then(|bus| {
+        CollectFloor::over(bus.settings, super::adapter(project, b), &members)
+            .map(|f| f.with_frame_timeout(frame_timeout))
+    });
     let per_event = floor.map_or(Duration::ZERO, |f| f.per_event());
     let collect = event_mode + per_event < polling;
     if collect {

@@ -76,6 +76,19 @@ struct NameBody {
     name: String,
 }
 
+/// The request a `POST /api/trace/arm` body makes. A trace armed from the page without a name
+/// gets the one the command line gives it ([`crate::project::trace::UNNAMED`]).
+fn arm_request(body: &[u8]) -> Result<TraceRequest, serde_json::Error> {
+    let b = serde_json::from_slice::<ArmBody>(body)?;
+    Ok(TraceRequest::Arm {
+        name: b.name,
+        spec: b.spec.map(|s| RawTrace {
+            name: crate::project::trace::name_or_default(Some(s.name)),
+            ..s
+        }),
+    })
+}
+
 fn refused(status: u16, error: &str) -> Response {
     Response::json(
         status,
@@ -128,11 +141,8 @@ pub(crate) fn answer(
             }
             let bad = |e: serde_json::Error| refused(400, &format!("bad request body: {e}"));
             if route == TraceRoute::Arm {
-                match serde_json::from_slice::<ArmBody>(&req.body) {
-                    Ok(b) => TraceRequest::Arm {
-                        name: b.name,
-                        spec: b.spec,
-                    },
+                match arm_request(&req.body) {
+                    Ok(request) => request,
                     Err(e) => return bad(e),
                 }
             } else {
@@ -217,6 +227,24 @@ fn ask(scan: &Sender<Envelope>, t: TraceRequest) -> Result<ControlResponse, Resp
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_trace_armed_without_a_name_is_named_as_the_command_line_names_it() {
+        let name = |body: &str| match arm_request(body.as_bytes()) {
+            Ok(TraceRequest::Arm {
+                spec: Some(spec), ..
+            }) => spec.name,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(name(r#"{"spec": {"name": "", "tags": ["x1"]}}"#), "adhoc");
+        assert_eq!(name(r#"{"spec": {"name": "  ", "tags": ["x1"]}}"#), "adhoc");
+        assert_eq!(name(r#"{"spec": {"name": "jam", "tags": ["x1"]}}"#), "jam");
+        assert_eq!(
+            crate::project::trace::name_or_default(None),
+            "adhoc",
+            "the CLI's"
+        );
+    }
 
     #[test]
     fn names_come_from_the_query_decoded() {

@@ -128,6 +128,7 @@ pub(crate) fn stats(s: &ServiceSnapshot) -> Json {
             json!({
                 "q": quality(m.quality),
                 "requests": c.requests,
+                "collect": c.collect_requests,
                 "timeouts": c.timeouts,
                 "crc": c.crc_errors,
                 "bad": c.bad_replies,

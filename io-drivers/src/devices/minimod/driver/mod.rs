@@ -180,6 +180,8 @@ enum Tag {
     WdtTimeByName(u16),
     /// Text `>WDTMASK=v` command: index = v.
     WdtMaskByName(u16),
+    /// FC 3 XEVMASK read back after an input change no event reported (see `lost_events`).
+    EventMaskProbe,
 }
 
 impl Tag {
@@ -199,6 +201,7 @@ impl Tag {
             Tag::WriteRegister(a) => (12, a),
             Tag::WdtTimeByName(v) => (13, v),
             Tag::WdtMaskByName(v) => (14, v),
+            Tag::EventMaskProbe => (15, 0),
         };
         (kind << 16) | u32::from(index)
     }
@@ -220,6 +223,7 @@ impl Tag {
             12 => Tag::WriteRegister(index),
             13 => Tag::WdtTimeByName(index),
             14 => Tag::WdtMaskByName(index),
+            15 => Tag::EventMaskProbe,
             _ => return None,
         })
     }
@@ -309,6 +313,12 @@ impl MiniModDriver {
         d
     }
 
+    /// RDELAYM tenths of a millisecond: how much longer than 28 bit times the module waits
+    /// for the end of a request ("Setting the Modbus communication timeout").
+    fn frame_timeout(&self) -> Duration {
+        Duration::from_micros(100 * u64::from(self.rdelaym))
+    }
+
     /// Whether the driver runs in event mode.
     pub fn event_mode(&self) -> bool {
         self.events
@@ -392,6 +402,7 @@ impl Driver for MiniModDriver {
             unit,
             answer_within: self.event_refresh,
             resync: self.event_resync,
+            frame_timeout: self.frame_timeout(),
         })
     }
 
@@ -447,9 +458,10 @@ impl Driver for MiniModDriver {
         &self.values
     }
 
+    /// RDELAYT ("Setting the reply delay") and RDELAYM: the module waits RDELAYM longer for
+    /// the end of a request, so it turns round that much later.
     fn reply_delay(&self) -> Duration {
-        Duration::from_millis(10 * u64::from(self.rdelayt))
-            + Duration::from_micros(100 * u64::from(self.rdelaym))
+        Duration::from_millis(10 * u64::from(self.rdelayt)) + self.frame_timeout()
     }
 }
 

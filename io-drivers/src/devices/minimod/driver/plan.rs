@@ -23,7 +23,7 @@ pub(super) const XWORD_BITS: u16 = 0x0307;
 impl MiniModDriver {
     /// This cycle's reads.
     pub(super) fn plan_reads(&mut self, unit: UnitId, out: &mut Vec<Transaction>) {
-        self.watch_cycle();
+        self.plan_event_watch(unit, out);
         let cycle = self.cycle;
         self.cycle = self.cycle.wrapping_add(1);
         let text = self.protocol == Protocol::Text;
@@ -177,6 +177,10 @@ impl MiniModDriver {
                 Ok(())
             }
             (Tag::Status, Response::ReadDiscreteInputs(bits)) => self.apply_status(tag, bits),
+            (Tag::EventMaskProbe, Response::ReadHoldingRegisters(regs)) if regs.len() == 1 => {
+                self.on_event_mask(regs[0]);
+                Ok(())
+            }
             (Tag::StatusFired, Response::ReadCoils(bits)) if bits.len() == 1 => {
                 self.set_named("WDTFIRED", Value::Bool(bits[0]));
                 Ok(())

@@ -92,8 +92,8 @@ impl Restart {
         self.requested
     }
 
-    /// Asks for the start-up again for a reason other than a refused write (the module lost
-    /// its event recording): the watchdog is reset by the start-up as ever, not read first.
+    /// Asks for the start-up again for a reason other than a refused write (the module was
+    /// powered up again on its saved settings, `lost_events`): the watchdog is reset by the start-up as ever, not read first.
     pub(super) fn request(&mut self) {
         self.requested = true;
         self.lost_settings = true;
@@ -138,6 +138,7 @@ impl MiniModDriver {
         }
         self.rewrite = true;
         self.cycle = 0;
+        self.forget_event_watch();
         let r = &mut self.restart;
         r.reason = Some(if r.requested && !r.lost_settings {
             Reason::Refused

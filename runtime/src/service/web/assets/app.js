@@ -665,13 +665,17 @@
     const box = $("trace-plot");
     $("trace-plot-title").textContent = "Trace " + d.name + " · " + d.state + " · " + d.time_ns.length + " samples";
     if (!d.time_ns.length) {
+      $("trace-plot-hint").textContent = "";
       box.replaceChildren(el("div", { class: "empty", text: "No samples yet." }));
       return;
     }
     const t = d.time_ns.map((ns) => ns / 1e6);
     const t0 = t[0];
     const span = Math.max(t[t.length - 1] - t0, 1e-3);
-    const origin = d.trigger !== undefined && d.trigger !== null ? t[d.trigger] : t0;
+    const triggered = d.trigger !== undefined && d.trigger !== null;
+    const origin = triggered ? t[d.trigger] : t0;
+    // Say what the times count from: the trigger only once there is one.
+    $("trace-plot-hint").textContent = triggered ? "times from the trigger" : "times from the first sample";
     const signals = d.signals.map((s, k) => ({ name: s.name, type: s.type, values: d.values.map((row) => row[k]) }));
     // Times from the trigger sample (from the first sample before a trigger).
     const tick = (k) => {
@@ -694,7 +698,8 @@
       e.preventDefault();
       const num = (id) => ($(id).value === "" ? undefined : Number($(id).value));
       const spec = {
-        name: $("trace-name").value.trim() || "web",
+        // Empty: the server names it as the command line does.
+        name: $("trace-name").value.trim(),
         tags: $("trace-tags").value.split(",").map((s) => s.trim()).filter(Boolean),
         pre: num("trace-pre"),
         post: num("trace-post"),
@@ -826,8 +831,19 @@
       const dt = (now - app.rate.at) / 1000;
       return dt > 0.1 ? (st.modules[i].requests - app.rate.requests[i]) / dt : null;
     });
-    if (!app.rate || now - app.rate.at > 2000) app.rate = { at: now, requests: st.modules.map((m) => m.requests), shown: rates };
+    // A line's Collect broadcasts (event mode) are addressed to no module: the line's rate
+    // counts them beside its modules' requests.
+    const sent = (m) => m.requests + (m.collect || 0);
+    const lineRates = info.modules.map((m, i) => {
+      if (!app.rate || !st.modules[i]) return null;
+      const dt = (now - app.rate.at) / 1000;
+      return dt > 0.1 ? (sent(st.modules[i]) - app.rate.sent[i]) / dt : null;
+    });
+    if (!app.rate || now - app.rate.at > 2000) {
+      app.rate = { at: now, requests: st.modules.map((m) => m.requests), sent: st.modules.map(sent), shown: rates, lineShown: lineRates };
+    }
     const shown = app.rate.shown || rates;
+    const lineShown = app.rate.lineShown || lineRates;
     const cols = ["Module", "Line", "Model", "Quality", "Requests", "Req/s", "Timeouts", "CRC", "Bad replies", "Exceptions", "Error rate", "Round trip", "Last error"];
     const head = el("tr", {}, ...cols.map((c, i) => el("th", { class: i >= 4 && i <= 11 ? "num" : "", text: c })));
     const rows = info.modules.map((m, i) => {
@@ -851,7 +867,7 @@
     $("bus-table").replaceChildren(el("thead", {}, head), el("tbody", {}, ...rows));
     $("bus-lines").replaceChildren(...info.buses.map((bus, b) => {
       const mods = info.modules.map((m, i) => i).filter((i) => info.modules[i].bus === b);
-      const rate = mods.reduce((a, i) => a + (shown[i] || 0), 0);
+      const rate = mods.reduce((a, i) => a + (lineShown[i] || 0), 0);
       const errors = mods.reduce((a, i) => {
         const c = st.modules[i];
         return a + (c ? c.timeouts + c.crc + c.bad + c.exceptions : 0);

@@ -437,7 +437,7 @@ window.softplcLadder = (() => {
       p.group.append(svg("text", { x: bx + bw / 2, y: y + 32, class: "lad-letter" }, b.kind));
       p.inWire = wire(p.group, x + leftW * CW, y + MID, bx, y + MID);
       // Pins: the power flow's, each power input's (at its own row), each value's.
-      p.group.append(svg("text", { x: bx + 4, y: y + MID + 14, class: "lad-pin" }, "IN"));
+      p.group.append(svg("text", { x: bx + 4, y: y + MID + 14, class: "lad-pin" }, b.input));
       p.powerWires = powerInputs.map((pi, k) => {
         const py = y + (k + 1) * RH + MID;
         const iy = y + pi.row * RH + MID;
