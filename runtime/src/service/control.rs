@@ -198,13 +198,17 @@ pub struct ControlServer {
 impl ControlServer {
     /// Binds `path` and serves it on a thread, forwarding requests to `scan`.
     pub fn start(path: &Path, scan: Sender<Envelope>) -> std::io::Result<Self> {
-        if let Some(dir) = path.parent() {
-            if !dir.exists() {
-                std::fs::create_dir_all(dir)?;
-                std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
-            }
-            check_folder(dir)?;
+        // A bare file name (`--socket ctl.sock`) has the empty path as its parent, which no
+        // folder call accepts: it is the working folder.
+        let dir = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        if !dir.exists() {
+            std::fs::create_dir_all(dir)?;
+            std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
         }
+        check_folder(dir)?;
         if path.exists() {
             if UnixStream::connect(path).is_ok() {
                 return Err(std::io::Error::new(
