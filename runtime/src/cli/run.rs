@@ -232,8 +232,16 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if let Some(r) = recorder {
         let dropped = r.dropped();
         // The PLC is gone with the scan thread: the writer has its last records.
-        if let Some(e) = r.finish().error {
-            super::out::errln(&e);
+        let outcome = r.finish();
+        if let Some(e) = &outcome.error {
+            super::out::errln(e);
+        }
+        if outcome.gaps > 0 {
+            super::out::errln(&format!(
+                "flight recorder: {} cycle(s) not recorded in {} gap(s) (the disk was full); \
+                 replay names them",
+                outcome.lost, outcome.gaps
+            ));
         }
         if dropped > 0 {
             super::out::errln(&format!(
