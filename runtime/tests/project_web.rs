@@ -327,6 +327,7 @@ fn server(writes: bool, ok: bool) -> (WebServer, SnapshotCell, Arc<Mutex<Vec<Req
         cell.clone(),
         tx,
         Duration::from_millis(100),
+        &softplc::service::Health::new(),
     )
     .unwrap();
     (s, cell, seen)

@@ -731,7 +731,7 @@ fn tmpfs_allowed() -> bool {
 }
 
 #[test]
-fn a_real_tmpfs_filled_for_three_seconds_loses_nothing_and_recording_resumes() {
+fn a_real_tmpfs_filled_for_three_seconds_is_reported_loses_nothing_and_recording_resumes() {
     let dir = tempdir("tmpfs");
     let project = quickstart_copy(&dir, None);
     if !tmpfs_allowed() {
@@ -753,12 +753,16 @@ fn a_real_tmpfs_filled_for_three_seconds_loses_nothing_and_recording_resumes() {
     let script = format!(
         "set -e
 mount -t tmpfs -o size=1536k tmpfs {d}/disk
-{bin} run {d}/project.yaml --quiet --no-control --for 9s 2>{d}/log &
+{bin} run {d}/project.yaml --quiet --socket {d}/ctl.sock --for 11s 2>{d}/log &
 pid=$!
 sleep 2
 dd if=/dev/zero of={d}/disk/filler bs=4k 2>/dev/null || true
-sleep 3
+sleep 1.5
+{bin} status --json --socket {d}/ctl.sock >{d}/status-full.json
+sleep 1.5
 rm {d}/disk/filler
+sleep 3
+{bin} status --json --socket {d}/ctl.sock >{d}/status-after.json
 wait $pid
 cp -r {d}/disk/rec {d}/rec-copy",
         d = dir.display(),
@@ -776,11 +780,31 @@ cp -r {d}/disk/rec {d}/rec-copy",
             && log.contains("nothing lost (the records were held in memory)"),
         "{log}"
     );
+    // What `status` said of the recorder while the disk was full, and after.
+    let recorder = |file: &str| {
+        let text = std::fs::read_to_string(dir.join(file)).unwrap();
+        let status: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let services = status["services"].as_array().unwrap().clone();
+        services
+            .into_iter()
+            .find(|s| s["service"] == "recorder")
+            .unwrap()
+    };
+    let full = recorder("status-full.json");
+    assert_eq!(full["state"], "degraded", "{full}");
+    assert!(
+        full["reason"]
+            .as_str()
+            .unwrap()
+            .starts_with("cannot write (No space left on device (os error 28)); "),
+        "{full}"
+    );
+    assert_eq!(recorder("status-after.json")["state"], "running");
     let record = read_record(&dir.join("rec-copy")).unwrap();
     let cycles: Vec<u64> = record.cycles().map(|c| c.cycle).collect();
     let expected: Vec<u64> = (cycles[0]..cycles[0] + cycles.len() as u64).collect();
     assert_eq!(cycles, expected, "no cycle missing");
-    assert!(cycles.len() >= 80, "{} cycles in 9 s", cycles.len());
+    assert!(cycles.len() >= 80, "{} cycles in 11 s", cycles.len());
     assert!(record.segments.last().unwrap().end.is_some(), "a clean end");
     let loaded = softplc::project::load(&project).unwrap();
     let report = replay(&record, &loaded, ReplayOptions::default(), |_| {}).unwrap();

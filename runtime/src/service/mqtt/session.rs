@@ -24,6 +24,7 @@ use super::node::{EdgeNode, Outgoing};
 use super::payload;
 use crate::project::mqtt::MqttConfig;
 use crate::service::control::{Envelope, Request, Response, TagValue};
+use crate::service::health::{Health, Service, ServiceState};
 use crate::service::snapshot::SnapshotCell;
 
 /// The first wait before reconnecting.
@@ -85,6 +86,8 @@ pub(super) struct Session {
     pub(super) snapshot: SnapshotCell,
     pub(super) scan: Sender<Envelope>,
     pub(super) period: Duration,
+    /// Where the service's state goes (connected, or why not).
+    pub(super) health: Health,
 }
 
 struct Pending {
@@ -151,6 +154,13 @@ impl Session {
                             }
                         }
                         Ok(Err(e)) => {
+                            self.health.set(
+                                Service::Mqtt,
+                                ServiceState::Degraded(format!(
+                                    "no connection to the broker {}:{}: {e}; buffering changes",
+                                    self.cfg.host, self.cfg.port
+                                )),
+                            );
                             if online {
                                 tracing::warn!(
                                     "MQTT: connection to {}:{} lost: {e}; buffering changes",
@@ -266,6 +276,7 @@ impl Session {
                     }
                 }
                 tracing::info!("MQTT: connected to {}:{}", self.cfg.host, self.cfg.port);
+                self.health.set(Service::Mqtt, ServiceState::Running);
                 Some(true)
             }
             Event::Incoming(Packet::Publish(p)) => {

@@ -36,6 +36,7 @@ pub use http::{parse as parse_http, HttpError, Method, Request};
 pub use info::{BusInfo, ModuleInfo, TagInfo, WebInfo};
 pub use program::{Line, Part, ProgramView, RungMark};
 
+use crate::service::health::Health;
 use std::io::Write;
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::{Arc, Mutex};
@@ -62,6 +63,8 @@ pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
 #[derive(Debug)]
 struct Shared {
     info_json: String,
+    /// The services' states, for the overview.
+    health: Health,
     snapshot: SnapshotCell,
     scan: Sender<Envelope>,
     auth: WriteAuth,
@@ -78,14 +81,16 @@ pub struct WebServer {
 }
 
 impl WebServer {
-    /// Binds `config.bind` and serves `info` and the live `snapshot` on threads; writes go to
-    /// `scan`. `period` is the scan period (the trend samples at most once per cycle).
+    /// Binds `config.bind` and serves `info`, the live `snapshot` and the services' states
+    /// `health` on threads; writes go to `scan`. `period` is the scan period (the trend
+    /// samples at most once per cycle).
     pub fn start(
         config: &WebConfig,
         info: &WebInfo,
         snapshot: SnapshotCell,
         scan: Sender<Envelope>,
         period: Duration,
+        health: &Health,
     ) -> std::io::Result<Self> {
         let listener = TcpListener::bind(config.bind)?;
         let addr = listener.local_addr()?;
@@ -95,6 +100,7 @@ impl WebServer {
         let writes = auth.enabled();
         let shared = Arc::new(Shared {
             info_json: serde_json::to_string(info).map_err(std::io::Error::other)?,
+            health: health.clone(),
             snapshot,
             scan,
             auth,
@@ -139,7 +145,7 @@ fn answer(req: &Request, stream: &mut TcpStream, shared: &Shared) -> std::io::Re
     match respond(req, shared) {
         Reply::Full(r) => stream.write_all(&r.to_bytes(with_body)),
         Reply::Events if !with_body => stream.write_all(sse::head().as_bytes()),
-        Reply::Events => sse::stream(stream, &shared.snapshot),
+        Reply::Events => sse::stream(stream, &shared.snapshot, &shared.health),
     }
 }
 
@@ -176,7 +182,7 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
         Route::Info => Reply::Full(Response::json(200, shared.info_json.clone())),
         Route::State => {
             let s = shared.snapshot.get();
-            let body = serde_json::json!({ "state": view::state(&s), "stats": view::stats(&s) });
+            let body = serde_json::json!({ "state": view::state(&s), "stats": view::stats(&s, &shared.health) });
             Reply::Full(Response::json(200, body.to_string()))
         }
         Route::Trend => {

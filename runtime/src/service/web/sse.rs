@@ -56,7 +56,11 @@ pub(crate) fn comment(text: &str) -> String {
 }
 
 /// Streams `snapshot` to `out` until the client goes away or [`LIFETIME`] passes.
-pub(crate) fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::Result<()> {
+pub(crate) fn stream(
+    out: &mut impl Write,
+    snapshot: &SnapshotCell,
+    health: &crate::service::health::Health,
+) -> std::io::Result<()> {
     out.write_all(head().as_bytes())?;
     out.flush()?;
     let begin = Instant::now();
@@ -73,7 +77,7 @@ pub(crate) fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::
         }
         if s.published && stats_seq != Some(s.stats_seq) {
             stats_seq = Some(s.stats_seq);
-            chunk.push_str(&event("stats", &view::stats(&s).to_string()));
+            chunk.push_str(&event("stats", &view::stats(&s, health).to_string()));
         }
         if chunk.is_empty() && last_sent.elapsed() >= KEEPALIVE {
             chunk = comment("waiting for the scan");
@@ -121,7 +125,7 @@ mod tests {
             ..ServiceSnapshot::default()
         });
         let mut out = Vec::new();
-        stream(&mut out, &cell).unwrap();
+        stream(&mut out, &cell, &crate::service::health::Health::new()).unwrap();
         let text = String::from_utf8(out).unwrap();
         let body = text.split("\r\n\r\n").nth(1).unwrap();
         assert!(
