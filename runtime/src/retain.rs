@@ -17,6 +17,7 @@
 //!
 //! The file is JSON: `{"softplc_retain": 1, "values": {"run_seconds": 5321, "alarm": false}}`.
 
+use crate::log_limit::{limited, Site};
 use std::collections::BTreeMap;
 use std::fs::{self, File};
 use std::io::Write;
@@ -292,6 +293,9 @@ fn spawn_writer(path: PathBuf, failing: SaveFailure) -> Option<(Sender<Snapshot>
     }
 }
 
+/// A log site a full disk repeats at every save (see [`crate::log_limit`]).
+const SAVE_FAILED: Site = Site::new("retain.save", "retain: failed saves");
+
 /// Writes `values` to `path`, keeping `failing` up to date; whether it was written.
 fn save(path: &Path, values: &Snapshot, failing: &SaveFailure) -> bool {
     let result = write_atomic(path, values);
@@ -304,8 +308,9 @@ fn save(path: &Path, values: &Snapshot, failing: &SaveFailure) -> bool {
             true
         }
         Err(e) => {
-            tracing::error!("retain: cannot save: {e}");
-            *failing = Some(e.to_string());
+            let why = e.to_string();
+            limited!(ERROR, SAVE_FAILED, why, "retain: cannot save: {e}");
+            *failing = Some(why);
             false
         }
     }

@@ -15,6 +15,7 @@
 //! The socket thread only parses and forwards: the scan thread applies each request at a
 //! cycle boundary and answers, so a request never races a scan.
 
+use crate::log_limit::{limited, Site};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -189,6 +190,9 @@ fn check_folder(dir: &Path) -> std::io::Result<()> {
     Ok(())
 }
 
+/// A log site a flood of connections repeats (see [`crate::log_limit`]).
+const CANNOT_SERVE: Site = Site::new("control.cannot_serve", "control socket: clients not served");
+
 /// The listening side; dropping it removes the socket file.
 #[derive(Debug)]
 pub struct ControlServer {
@@ -233,7 +237,12 @@ impl ControlServer {
                         .name("control-client".into())
                         .spawn(move || serve_client(stream, &scan))
                     {
-                        tracing::warn!("control socket: cannot serve a client: {e}");
+                        limited!(
+                            WARN,
+                            CANNOT_SERVE,
+                            e.to_string(),
+                            "control socket: cannot serve a client: {e}"
+                        );
                     }
                 }
             })?;

@@ -16,6 +16,7 @@
 //! sends requests without reading the answers fills the socket's buffers and would otherwise
 //! hold its slot for good. See [`super::modbus_guard`].
 
+use crate::log_limit::{limited, Site};
 use std::future::Future;
 use std::net::SocketAddr;
 use std::pin::Pin;
@@ -158,10 +159,8 @@ impl Shared {
             .recv_deadline(deadline)
             .map_err(|_| Exception::ServerDeviceFailure)?;
         if !response.ok {
-            tracing::info!(
-                "Modbus TCP write refused: {}",
-                response.error.unwrap_or_default()
-            );
+            let why = response.error.unwrap_or_default();
+            limited!(INFO, WRITE_REFUSED, why, "Modbus TCP write refused: {why}");
             return Err(Exception::ServerDeviceFailure);
         }
         // The scan applied the write before publishing at that boundary; a publication of a
@@ -312,6 +311,11 @@ fn bound_buffers(stream: &tokio::net::TcpStream) {
     }
 }
 
+/// Log sites a peer or the system can repeat (see [`crate::log_limit`]).
+const REFUSED: Site = Site::new("modbus_tcp.refused", "Modbus TCP: refused connections");
+const ACCEPT_FAILED: Site = Site::new("modbus_tcp.accept", "Modbus TCP: failed accepts");
+const WRITE_REFUSED: Site = Site::new("modbus_tcp.write_refused", "Modbus TCP: refused writes");
+
 async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
     let listener = match tokio::net::TcpListener::from_std(listener) {
         Ok(l) => l,
@@ -332,7 +336,12 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
         let clients = clients.clone();
         async move {
             let Some(slot) = ClientSlot::take(&clients, MAX_CLIENTS) else {
-                tracing::warn!("Modbus TCP: {peer} refused: {MAX_CLIENTS} clients connected");
+                limited!(
+                    WARN,
+                    REFUSED,
+                    format!("from {}", peer.ip()),
+                    "Modbus TCP: {peer} refused: {MAX_CLIENTS} clients connected"
+                );
                 return Ok(None);
             };
             // Small request/response frames: do not wait to coalesce them.
@@ -347,7 +356,12 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
         // serve() returns only when accept() fails (e.g. out of file descriptors): wait a
         // little and listen again rather than leave SCADA without a server.
         if let Err(e) = server.serve(&on_connected, on_process_error).await {
-            tracing::warn!("Modbus TCP accept failed: {e}; retrying");
+            limited!(
+                WARN,
+                ACCEPT_FAILED,
+                e.to_string(),
+                "Modbus TCP accept failed: {e}; retrying"
+            );
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
     }

@@ -12,6 +12,7 @@
 //! do not all reconnect and birth in the same instant after a broker restart.
 //! A clean stop publishes NDEATH, then DISCONNECT (which makes the broker drop the Will).
 
+use crate::log_limit::{limited, Site};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use crossbeam_channel::{Receiver, Sender};
@@ -76,6 +77,11 @@ fn options(cfg: &MqttConfig) -> MqttOptions {
     }
     o
 }
+
+/// Log sites a flood of commands repeats (see [`crate::log_limit`]).
+const COMMAND_IGNORED: Site = Site::new("mqtt.command_ignored", "MQTT: ignored commands");
+const WRITE_REFUSED: Site = Site::new("mqtt.write_refused", "MQTT: refused writes");
+const WRITE_APPLIED: Site = Site::new("mqtt.write_applied", "MQTT: applied writes");
 
 /// The running session (see the module docs).
 pub(super) struct Session {
@@ -287,10 +293,21 @@ impl Session {
                     self.cfg.writes,
                     &self.writable,
                 ) {
-                    Err(e) => tracing::warn!("MQTT: command ignored: {e}"),
+                    Err(e) => limited!(
+                        WARN,
+                        COMMAND_IGNORED,
+                        format!("on {}", p.topic),
+                        "MQTT: command ignored: {e}"
+                    ),
                     Ok(cmd) => {
                         for (tag, why) in &cmd.refused {
-                            tracing::warn!("MQTT: {}: write to {tag} refused: {why}", p.topic);
+                            limited!(
+                                WARN,
+                                WRITE_REFUSED,
+                                format!("on {}", p.topic),
+                                "MQTT: {}: write to {tag} refused: {why}",
+                                p.topic
+                            );
                         }
                         if !cmd.writes.is_empty() {
                             self.write(&p.topic, &cmd.writes, pending);
@@ -331,7 +348,10 @@ impl Session {
                 answer,
                 deadline: Instant::now() + WRITE_WAIT,
             }),
-            Err(_) => tracing::warn!(
+            Err(_) => limited!(
+                WARN,
+                WRITE_REFUSED,
+                format!("on {topic}"),
                 "MQTT: {topic}: write to {} refused: the scan's request queue is full",
                 tags.join(", ")
             ),
@@ -341,11 +361,20 @@ impl Session {
     fn answers(&self, pending: &mut Vec<Pending>) {
         pending.retain(|p| match p.answer.try_recv() {
             Ok(r) if r.ok => {
-                tracing::info!("MQTT: write to {} applied", p.tags.join(", "));
+                limited!(
+                    INFO,
+                    WRITE_APPLIED,
+                    "",
+                    "MQTT: write to {} applied",
+                    p.tags.join(", ")
+                );
                 false
             }
             Ok(r) => {
-                tracing::warn!(
+                limited!(
+                    WARN,
+                    WRITE_REFUSED,
+                    "",
                     "MQTT: write to {} refused: {}",
                     p.tags.join(", "),
                     r.error.unwrap_or_default()
@@ -353,7 +382,10 @@ impl Session {
                 false
             }
             Err(_) if Instant::now() >= p.deadline => {
-                tracing::warn!(
+                limited!(
+                    WARN,
+                    WRITE_REFUSED,
+                    "",
                     "MQTT: write to {} refused: the scan did not answer within {WRITE_WAIT:?}",
                     p.tags.join(", ")
                 );
