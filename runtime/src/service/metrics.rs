@@ -38,6 +38,7 @@ pub(crate) const LIMITS: Limits = Limits {
     clients: 16,
     request: Duration::from_secs(5),
     write: Duration::from_secs(5),
+    streams: 0,
 };
 
 /// The names the metrics carry; fixed for the life of the process.
@@ -312,7 +313,7 @@ impl MetricsServer {
             limits: LIMITS,
             allow: "GET, HEAD",
         };
-        http::spawn(listener, config, move |req, stream| {
+        http::spawn(listener, config, move |req, stream, _| {
             let response = respond(&info, &snapshot, req);
             stream.write_all(&response.to_bytes(req.method != Method::Head))
         })?;

@@ -282,34 +282,7 @@ impl ModbusTcpServer {
 /// for a client that floods requests or does not read its replies (so such a client is
 /// noticed, by the send timeout, after a few hundred replies rather than a few hundred
 /// thousand).
-const SOCKET_BUFFER: libc::c_int = 16 * 1024;
-
-/// Caps the kernel buffers of `stream` at [`SOCKET_BUFFER`]; best effort.
-#[allow(unsafe_code)]
-fn bound_buffers(stream: &tokio::net::TcpStream) {
-    use std::os::fd::AsRawFd;
-    let fd = stream.as_raw_fd();
-    for option in [libc::SO_SNDBUF, libc::SO_RCVBUF] {
-        let size = SOCKET_BUFFER;
-        // SAFETY: `fd` is the open socket `stream` owns for the duration of the call, and the
-        // option value is a valid `c_int` of the length given.
-        let rc = unsafe {
-            libc::setsockopt(
-                fd,
-                libc::SOL_SOCKET,
-                option,
-                std::ptr::from_ref(&size).cast(),
-                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-            )
-        };
-        if rc != 0 {
-            tracing::debug!(
-                "Modbus TCP: cannot cap a socket buffer: {}",
-                std::io::Error::last_os_error()
-            );
-        }
-    }
-}
+const SOCKET_BUFFER: usize = 16 * 1024;
 
 /// Log sites a peer or the system can repeat (see [`crate::log_limit`]).
 const REFUSED: Site = Site::new("modbus_tcp.refused", "Modbus TCP: refused connections");
@@ -346,7 +319,7 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
             };
             // Small request/response frames: do not wait to coalesce them.
             drop(stream.set_nodelay(true));
-            bound_buffers(&stream);
+            crate::service::socket::bound_buffers(&stream, SOCKET_BUFFER);
             tracing::debug!("Modbus TCP: {peer} connected");
             Ok(Some((service, FrameGuard::new(stream, slot, patience))))
         }

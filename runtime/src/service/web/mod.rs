@@ -52,8 +52,11 @@ use super::control::Envelope;
 use super::snapshot::SnapshotCell;
 use crate::project::WebConfig;
 
-/// Connections served at once; more are answered 503 at once.
+/// Connections served at once; past it the client waiting longest for its request gives way,
+/// and 503 is the answer only when every connection is being served.
 pub const MAX_CLIENTS: usize = 16;
+/// Of the connections, event streams at once: the other half stays for the page's requests.
+pub const MAX_STREAMS: usize = 8;
 /// How long a client may take to send its request.
 pub const REQUEST_DEADLINE: Duration = Duration::from_secs(5);
 /// How long one write to a client may block.
@@ -114,11 +117,12 @@ impl WebServer {
                 clients: MAX_CLIENTS,
                 request: REQUEST_DEADLINE,
                 write: WRITE_TIMEOUT,
+                streams: MAX_STREAMS,
             },
             allow: "GET, HEAD, POST",
         };
-        http::spawn(listener, server, move |req, stream| {
-            answer(req, stream, &shared)
+        http::spawn(listener, server, move |req, stream, held| {
+            answer(req, stream, &shared, held)
         })?;
         Ok(Self { addr, writes })
     }
@@ -140,12 +144,26 @@ impl WebServer {
 }
 
 /// Answers one request (read and checked by [`http::spawn`]) on its connection.
-fn answer(req: &Request, stream: &mut TcpStream, shared: &Shared) -> std::io::Result<()> {
+fn answer(
+    req: &Request,
+    stream: &mut TcpStream,
+    shared: &Shared,
+    held: &http::Held,
+) -> std::io::Result<()> {
     let with_body = req.method != Method::Head;
     match respond(req, shared) {
         Reply::Full(r) => stream.write_all(&r.to_bytes(with_body)),
         Reply::Events if !with_body => stream.write_all(sse::head().as_bytes()),
-        Reply::Events => sse::stream(stream, &shared.snapshot, &shared.health),
+        Reply::Events if !held.stream() => {
+            // The browser retries after `Retry-After`; the slots stay for requests.
+            let busy =
+                Response::error(503, "too many event streams; try again").with("Retry-After", "1");
+            stream.write_all(&busy.to_bytes(true))
+        }
+        Reply::Events => {
+            crate::service::socket::bound_send_buffer(stream, sse::SEND_BUFFER);
+            sse::stream(stream, &shared.snapshot, &shared.health)
+        }
     }
 }
 

@@ -17,6 +17,9 @@ pub(crate) const TICK: Duration = Duration::from_millis(100);
 pub(crate) const KEEPALIVE: Duration = Duration::from_secs(15);
 /// How long one stream lasts before the browser is asked to reconnect.
 pub(crate) const LIFETIME: Duration = Duration::from_secs(600);
+/// The kernel's send buffer of a stream: a few seconds of events, so a stream nobody reads
+/// fills it soon and is dropped by the write deadline (rather than after megabytes).
+pub(crate) const SEND_BUFFER: usize = 32 * 1024;
 /// How long the browser waits before reconnecting, in ms.
 pub(crate) const RETRY_MS: u32 = 1000;
 
