@@ -29,6 +29,7 @@
 pub mod cli;
 pub mod clock;
 pub mod image;
+pub(crate) mod log_limit;
 pub mod logic;
 pub mod offload;
 pub mod plc;

@@ -17,10 +17,12 @@
 //!
 //! The file is JSON: `{"softplc_retain": 1, "values": {"run_seconds": 5321, "alarm": false}}`.
 
+use crate::log_limit::{limited, Site};
 use std::collections::BTreeMap;
 use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -138,7 +140,13 @@ pub struct Retainer {
     pending: Option<Vec<Value>>,
     last: Option<Duration>,
     writer: Option<(Sender<Snapshot>, JoinHandle<()>)>,
+    /// Why the last save failed; `None` once one succeeds.
+    failing: SaveFailure,
 }
+
+/// Why the last save of the retained values failed (`None`: it did not), shared with whoever
+/// reports the PLC's state.
+pub type SaveFailure = Arc<Mutex<Option<String>>>;
 
 /// The values to write, by tag name.
 type Snapshot = BTreeMap<String, Value>;
@@ -160,7 +168,8 @@ impl Retainer {
         let path = project.retain.file.clone();
         let notes = load_into(&path, &tags, image);
         let saved = tags.iter().map(|(id, _)| image.get(*id)).collect();
-        let writer = spawn_writer(path.clone());
+        let failing = SaveFailure::default();
+        let writer = spawn_writer(path.clone(), failing.clone());
         (
             Some(Self {
                 path,
@@ -170,6 +179,7 @@ impl Retainer {
                 pending: None,
                 last: None,
                 writer,
+                failing,
             }),
             notes,
         )
@@ -178,6 +188,11 @@ impl Retainer {
     /// The file.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Why the last save failed, while it does.
+    pub fn save_failure(&self) -> SaveFailure {
+        self.failing.clone()
     }
 
     /// Called between cycles with the scan time: at most once per period, hands the values to
@@ -228,9 +243,8 @@ impl Retainer {
     }
 
     fn write_now(&mut self, values: &[Value]) {
-        match write_atomic(&self.path, &self.snapshot(values)) {
-            Ok(()) => self.saved = values.to_vec(),
-            Err(e) => tracing::error!("retain: cannot save: {e}"),
+        if save(&self.path, &self.snapshot(values), &self.failing) {
+            self.saved = values.to_vec();
         }
     }
 
@@ -261,15 +275,13 @@ impl Drop for Retainer {
 }
 
 /// The writer thread: writes each snapshot it receives; ends when the sender is dropped.
-fn spawn_writer(path: PathBuf) -> Option<(Sender<Snapshot>, JoinHandle<()>)> {
+fn spawn_writer(path: PathBuf, failing: SaveFailure) -> Option<(Sender<Snapshot>, JoinHandle<()>)> {
     let (tx, rx) = crossbeam_channel::bounded::<Snapshot>(1);
     let spawned = std::thread::Builder::new()
         .name("retain".into())
         .spawn(move || {
             for snap in rx {
-                if let Err(e) = write_atomic(&path, &snap) {
-                    tracing::error!("retain: cannot save: {e}");
-                }
+                save(&path, &snap, &failing);
             }
         });
     match spawned {
@@ -277,6 +289,29 @@ fn spawn_writer(path: PathBuf) -> Option<(Sender<Snapshot>, JoinHandle<()>)> {
         Err(e) => {
             tracing::error!("retain: cannot start the writer thread ({e}); saving from the scan");
             None
+        }
+    }
+}
+
+/// A log site a full disk repeats at every save (see [`crate::log_limit`]).
+const SAVE_FAILED: Site = Site::new("retain.save", "retain: failed saves");
+
+/// Writes `values` to `path`, keeping `failing` up to date; whether it was written.
+fn save(path: &Path, values: &Snapshot, failing: &SaveFailure) -> bool {
+    let result = write_atomic(path, values);
+    let mut failing = failing.lock().unwrap_or_else(PoisonError::into_inner);
+    match result {
+        Ok(()) => {
+            if failing.take().is_some() {
+                tracing::warn!("retain: saving to {} again", path.display());
+            }
+            true
+        }
+        Err(e) => {
+            let why = e.to_string();
+            limited!(ERROR, SAVE_FAILED, why, "retain: cannot save: {e}");
+            *failing = Some(why);
+            false
         }
     }
 }

@@ -821,3 +821,47 @@ fn check_answers_a_deeply_nested_project_at_once() {
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(dir));
 }
+
+#[test]
+fn a_control_socket_named_without_a_folder_opens_in_the_working_folder() {
+    let dir = big_quickstart("relsocket", 0);
+    let mut plc = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args([
+            "run",
+            "project.yaml",
+            "--virtual",
+            "--for",
+            "10000h",
+            "--quiet",
+        ])
+        .args(["--socket", "ctl.sock"])
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("softplc run starts");
+    let begin = Instant::now();
+    while !dir.join("ctl.sock").exists() {
+        if let Some(exit) = plc.try_wait().unwrap() {
+            let mut err = String::new();
+            drop(plc.stderr.take().map(|mut e| e.read_to_string(&mut err)));
+            panic!("softplc run --socket ctl.sock stopped ({exit}): {err}");
+        }
+        assert!(begin.elapsed() < PATIENCE, "no control socket");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(["status", "--json", "--socket", "ctl.sock"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(status["project"], "relsocket", "{status}");
+    // The child may have exited already; then there is nothing to stop.
+    drop(plc.kill());
+    drop(plc.wait());
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
+}

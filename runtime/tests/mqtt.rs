@@ -591,3 +591,97 @@ fn a_broker_that_wants_a_password_takes_the_projects_user_and_refuses_a_wrong_pa
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }
+
+#[path = "common/sim.rs"]
+mod sim;
+
+/// Waits (bounded) for a line of `log` containing `what`; that line.
+fn wait_in_log(log: &Path, what: &str, within: Duration) -> String {
+    let begin = Instant::now();
+    loop {
+        let text = std::fs::read_to_string(log).unwrap_or_default();
+        if let Some(line) = text.lines().find(|l| l.contains(what)) {
+            return line.to_owned();
+        }
+        assert!(begin.elapsed() < within, "no {what:?} in the log:\n{text}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {
+    let (mut sim, pty) = sim::Sim::start(BIN, &["minimod@1", "minimod@2"]);
+    let dir = tempfile_dir().join("flood");
+    std::fs::create_dir_all(&dir).unwrap();
+    let port = free_port();
+    let _broker = Broker::start(&dir, port);
+    std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
+    let project = dir.join("project.yaml");
+    std::fs::write(
+        &project,
+        format!(
+            "project: flood\n\
+             scan: {{ period: 50ms }}\n\
+             buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 50ms, retries: 1 }}\n\
+             modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1, settings: {{ events: false }} }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2, settings: {{ events: false }} }}\n\
+             tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: lamp, point: mm2.Y1, safe: false }}\n\
+             program: {{ file: follow.expr, kind: expr }}\n\
+             service:\n  mqtt: {{ host: 127.0.0.1, port: {port}, group: plant1, node: line1 }}\n"
+        ),
+    )
+    .unwrap();
+    let log = dir.join("softplc.log");
+    let mut plc = softplc(&project, &dir.join("ctl.sock"), "60s", &log);
+    wait_in_log(&log, "MQTT: connected", Duration::from_secs(30));
+    sim.send("set minimod@1.X1 1");
+    assert!(
+        sim.wait_for("minimod@2.Y1", "1", Duration::from_secs(10))
+            .is_some(),
+        "the PLC runs and drives mm2"
+    );
+    // 20,000 commands that are not Sparkplug payloads, as fast as the broker takes them, and
+    // the line dies meanwhile.
+    let mut flood = Command::new("mosquitto_pub")
+        .args(["-h", "127.0.0.1", "-p", &port.to_string()])
+        .args(["-t", "spBv1.0/plant1/NCMD/line1", "-l"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("mosquitto_pub (Debian's mosquitto-clients)");
+    let mut input = flood.stdin.take().unwrap();
+    for i in 0..20_000 {
+        if i == 10_000 {
+            sim.send("line dead");
+        }
+        writeln!(input, "not a sparkplug payload {i}").unwrap();
+    }
+    drop(input);
+    assert!(flood.wait().unwrap().success());
+    let lost = wait_in_log(&log, "module mm1 lost", Duration::from_secs(10));
+    let summary = wait_in_log(&log, "MQTT: ignored commands: … ", Duration::from_secs(15));
+    // The child may have exited already; then there is nothing to stop.
+    drop(plc.kill());
+    drop(plc.wait());
+    let text = std::fs::read_to_string(&log).unwrap();
+    let lines = text
+        .lines()
+        .filter(|l| l.contains("MQTT: command ignored"))
+        .count();
+    assert!(
+        (1..=10).contains(&lines),
+        "{lines} lines of ignored commands"
+    );
+    assert!(
+        summary.ends_with(" more in the last 10 s (on spBv1.0/plant1/NCMD/line1)"),
+        "{summary}"
+    );
+    let held_back: usize = summary
+        .split("… ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .map(|n| n.replace(',', "").parse().unwrap())
+        .unwrap();
+    assert!(held_back >= 10_000, "{held_back} held back: {summary}");
+    assert!(!lost.is_empty());
+}

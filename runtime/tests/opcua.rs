@@ -13,7 +13,9 @@
 //! SecurityPolicy None, with an untrusted certificate (until the test moves it out of the
 //! server's `rejected/` folder, as an operator would), and with a wrong password or user; with
 //! the right ones it reads over the encrypted channel; the server's certificate, made in the
-//! state folder at first start, is the same after a second start.
+//! state folder at first start, is the same after a second start. A pair torn at first start
+//! (an empty certificate, a key cut to 300 bytes) is kept aside, a new one made and logged,
+//! and the secure client reads all the same; `status --json` says the server runs.
 //!
 //! `check` refuses a server beyond loopback without security, at the key to fix.
 
@@ -142,11 +144,26 @@ fn softplc(project: &Path, socket: &Path, log: &Path) -> Child {
         .unwrap()
 }
 
+/// What a power cut at first start leaves of the server's pair: an empty certificate and a key
+/// torn to 300 bytes.
+fn tear_the_servers_pair(dir: &Path) {
+    let pki = dir.join("opcua-pki");
+    std::fs::create_dir_all(pki.join("own")).unwrap();
+    std::fs::create_dir_all(pki.join("private")).unwrap();
+    std::fs::write(pki.join("own/cert.der"), b"").unwrap();
+    let torn = format!("-----BEGIN PRIVATE KEY-----\n{}", "M".repeat(300 - 28));
+    std::fs::write(pki.join("private/private.pem"), torn).unwrap();
+}
+
 /// Runs the client in `mode` against a softplc serving `writes` (on Basic256Sha256 with a
-/// user when `mode` is "secure"); the steps it passed.
-fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
+/// user when `mode` is "secure"), its certificate and key torn before the start when `torn`;
+/// the steps it passed.
+fn run_client(name: &str, writes: bool, mode: &str, torn: bool) -> Vec<String> {
     let secure = mode == "secure";
     let dir = scratch(name);
+    if torn {
+        tear_the_servers_pair(&dir);
+    }
     let dead = DeadLine::open();
     let port = free_port();
     let project = project(&dir, port, writes, secure, &dead.path);
@@ -227,10 +244,42 @@ fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
         }
     }
     assert!(client.wait().unwrap().success());
+    let status = Command::new(BIN)
+        .args(["status", "--json", "--socket"])
+        .arg(&socket)
+        .output()
+        .unwrap();
+    let status: serde_json::Value = serde_json::from_slice(&status.stdout).unwrap();
+    let opcua = status["services"]
+        .as_array()
+        .and_then(|s| s.iter().find(|s| s["service"] == "opcua"))
+        .cloned();
+    assert_eq!(
+        opcua,
+        Some(serde_json::json!({"service": "opcua", "state": "running"})),
+        "{status}"
+    );
     // The child may have exited already; then there is nothing to stop.
     drop(plc.kill());
     drop(plc.wait());
     let text = std::fs::read_to_string(&log).unwrap();
+    if torn {
+        assert!(
+            text.contains(
+                "OPC UA server: its certificate or private key was damaged (the \
+                           certificate does not read"
+            ) && text.contains("a new pair was made (certificate thumbprint ")
+                && text.contains("clients must trust the new certificate"),
+            "{text}"
+        );
+        let kept: Vec<String> = ["own", "private"]
+            .iter()
+            .flat_map(|d| std::fs::read_dir(dir.join("opcua-pki").join(d)).unwrap())
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains(".damaged-"))
+            .collect();
+        assert_eq!(kept.len(), 2, "both damaged files kept aside: {kept:?}");
+    }
     let security = if secure {
         format!("SecurityPolicy Basic256Sha256, Sign & Encrypt, user {USER} with password")
     } else {
@@ -275,13 +324,22 @@ fn run_client(name: &str, writes: bool, mode: &str) -> Vec<String> {
 
 #[test]
 fn an_asyncua_client_browses_reads_subscribes_writes_and_is_refused_where_it_must_be() {
-    let passed = run_client("full", true, "full");
+    let passed = run_client("full", true, "full", false);
     assert_eq!(passed.len(), 6, "every step passed: {passed:?}");
 }
 
 #[test]
 fn on_basic256sha256_only_a_trusted_client_with_the_right_password_reads() {
-    let passed = run_client("secure", false, "secure");
+    let passed = run_client("secure", false, "secure", false);
+    assert_eq!(
+        passed,
+        ["none refused", "encrypted read", "wrong password refused"]
+    );
+}
+
+#[test]
+fn a_torn_server_key_is_kept_aside_a_new_pair_made_and_a_secure_client_reads() {
+    let passed = run_client("torn", false, "secure", true);
     assert_eq!(
         passed,
         ["none refused", "encrypted read", "wrong password refused"]
@@ -290,7 +348,7 @@ fn on_basic256sha256_only_a_trusted_client_with_the_right_password_reads() {
 
 #[test]
 fn with_writes_off_an_asyncua_client_cannot_write() {
-    let passed = run_client("off", false, "writes-off");
+    let passed = run_client("off", false, "writes-off", false);
     assert_eq!(passed, ["writes off"]);
 }
 

@@ -1,6 +1,7 @@
 //! The flight recorder and replay, end to end: the quick start with its simulated plant is
 //! recorded on the virtual clock, read back and replayed, against its own program and against
-//! one with a rung changed; a torn tail, rotation, and `kill -9` of a real-clock run.
+//! one with a rung changed; a torn tail, rotation, and `kill -9` of a real-clock run; a full
+//! disk, through the fault-injecting disk and as a real tmpfs filled by another program.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -11,7 +12,8 @@ use softplc::clock::VirtualClock;
 use softplc::plc::Plc;
 use softplc::recorder::format::{self, BlockKind, Framed};
 use softplc::recorder::{
-    read_record, replay, segments_in, Record, ReplayError, ReplayOptions, Settings,
+    read_record, replay, segments_in, FaultDisk, Record, ReplayError, ReplayOptions, Settings,
+    WriterState,
 };
 use softplc::scan::{CycleBoundary, ScanEngine, ScanStats};
 use softplc_io::point::Value;
@@ -93,6 +95,18 @@ fn record_in(project: &Path, dir: &Path, secs: u64) -> Record {
         settings(&dir.join("rec")),
         Duration::from_secs(secs),
     )
+}
+
+/// `softplc replay FOLDER PROJECT`: how it ended, and what it printed.
+fn replay_cli(folder: &Path, project: &Path) -> (std::process::Output, String) {
+    let out = Command::new(BIN)
+        .arg("replay")
+        .arg(folder)
+        .arg(project)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    (out, stdout)
 }
 
 fn settings(folder: &Path) -> Settings {
@@ -258,13 +272,7 @@ fn the_cli_replays_a_record_and_exports_both_outputs() {
         "motor = (rising(start) | motor) & !stop & !box_at_exit\nlamp = !box_at_exit\n",
     )
     .unwrap();
-    let replayed = Command::new(BIN)
-        .arg("replay")
-        .arg(&folder)
-        .arg(&project)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&replayed.stdout);
+    let (replayed, stdout) = replay_cli(&folder, &project);
     assert_eq!(replayed.status.code(), Some(1), "{stdout}");
     assert!(
         stdout.contains("first difference at cycle 1 (t=")
@@ -607,4 +615,196 @@ fn replay_names_what_it_cannot_read() {
         )),
         "{err}"
     );
+}
+
+/// Fills the recorder's disk at cycle 100 and, once the recorder has had to let cycles go,
+/// frees it at cycle 400, waiting (real time) until it writes again.
+struct DiskFiller {
+    full: Arc<std::sync::atomic::AtomicBool>,
+    state: Arc<std::sync::Mutex<WriterState>>,
+}
+
+impl DiskFiller {
+    fn wait_for(&self, what: &str, ok: impl Fn(&WriterState) -> bool) {
+        let begin = Instant::now();
+        loop {
+            let state = self.state.lock().unwrap().clone();
+            if ok(&state) {
+                return;
+            }
+            assert!(
+                begin.elapsed() < Duration::from_secs(60),
+                "never {what}: {state:?}"
+            );
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
+impl CycleBoundary for DiskFiller {
+    fn between_cycles(&mut self, _plc: &mut Plc, stats: &ScanStats, _now: Duration) {
+        use std::sync::atomic::Ordering;
+        match stats.cycles {
+            100 => self.full.store(true, Ordering::SeqCst),
+            400 => {
+                self.wait_for("losing cycles", |s| {
+                    matches!(s, WriterState::Held { losing: true, .. })
+                });
+                self.full.store(false, Ordering::SeqCst);
+                self.wait_for("writing again", |s| *s == WriterState::Writing);
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The quick start recorded for 60 s of virtual time on a disk full from cycle 100 until
+/// the recorder has lost cycles; the record's folder.
+fn record_through_a_full_disk(dir: &Path, project: &Path) -> PathBuf {
+    let folder = dir.join("rec");
+    let mut s = settings(&folder);
+    s.block_bytes = 128;
+    s.hold_bytes = 256;
+    let disk = FaultDisk::new(&folder, 1 << 30);
+    let full = disk.full_switch();
+    let loaded = softplc::project::load(project).unwrap();
+    let mut plc = Plc::build(loaded, Arc::new(VirtualClock::new())).unwrap();
+    let handle = plc.record_on(s, Box::new(disk)).unwrap();
+    let filler = DiskFiller {
+        full,
+        state: handle.state_cell(),
+    };
+    let mut engine = ScanEngine::new(plc)
+        .run_for(Duration::from_secs(60))
+        .with_boundary(filler);
+    engine.run();
+    drop(engine);
+    let outcome = handle.finish();
+    assert_eq!((outcome.error, outcome.gaps), (None, 1));
+    folder
+}
+
+#[test]
+fn a_full_disk_leaves_a_gap_that_replay_names_and_the_record_resumes() {
+    let dir = tempdir("fulldisk");
+    let project = quickstart_copy(&dir, None);
+    let folder = record_through_a_full_disk(&dir, &project);
+    let record = read_record(&folder).unwrap();
+    let gap = record
+        .segments
+        .iter()
+        .find_map(|s| s.gap)
+        .expect("a gap block");
+    // The writer lags the scan a little: its first refused block may hold cycles before 100.
+    assert!(gap.first <= gap.last && gap.last < 400, "{gap:?}");
+    let cycles: Vec<u64> = record.cycles().map(|c| c.cycle).collect();
+    assert_eq!(*cycles.last().unwrap(), 599, "recording resumed to the end");
+    assert!(!cycles.contains(&gap.first) && !cycles.contains(&gap.last));
+    assert!(cycles.contains(&(gap.last + 1)));
+
+    let (_, stdout) = replay_cli(&folder, &project);
+    let note = format!(
+        "note: no record from cycle {} to {}: the recorder could not write them (a full disk); \
+         replay goes on from cycle {}",
+        gap.first,
+        gap.last,
+        gap.last + 1
+    );
+    assert!(stdout.contains(&note), "{note}\nin\n{stdout}");
+    assert!(
+        stdout.contains(&format!("{} cycles, ", cycles.len())),
+        "every recorded cycle replayed: {stdout}"
+    );
+}
+
+/// Whether this machine lets an unprivileged test mount a tmpfs in a mount namespace of its
+/// own.
+fn tmpfs_allowed() -> bool {
+    Command::new("unshare")
+        .args(["-rm", "sh", "-c", "mount -t tmpfs -o size=64k tmpfs /mnt"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+#[test]
+fn a_real_tmpfs_filled_for_three_seconds_is_reported_loses_nothing_and_recording_resumes() {
+    let dir = tempdir("tmpfs");
+    let project = quickstart_copy(&dir, None);
+    if !tmpfs_allowed() {
+        // The seam's full disk instead, so the case never goes untested.
+        eprintln!("no tmpfs in a mount namespace on this machine: the fault-injecting disk runs");
+        let folder = record_through_a_full_disk(&dir, &project);
+        assert!(read_record(&folder).is_ok());
+        return;
+    }
+    // 2 ms cycles: a tmpfs page (4 KiB) of records in well under a second, so the full
+    // tmpfs refuses the next one (a write into a page the file has already goes through).
+    let mut yaml = std::fs::read_to_string(&project)
+        .unwrap()
+        .replace("period: 100ms", "period: 2ms");
+    yaml.push_str("recorder: { keep: 10m, size: 1MiB, folder: disk/rec }\n");
+    std::fs::write(&project, yaml).unwrap();
+    std::fs::create_dir_all(dir.join("disk")).unwrap();
+    // The run, the filler and the copy out all inside the namespace, where the tmpfs is.
+    let script = format!(
+        "set -e
+mount -t tmpfs -o size=1536k tmpfs {d}/disk
+{bin} run {d}/project.yaml --quiet --socket {d}/ctl.sock --for 11s 2>{d}/log &
+pid=$!
+sleep 2
+dd if=/dev/zero of={d}/disk/filler bs=4k 2>/dev/null || true
+sleep 1.5
+{bin} status --json --socket {d}/ctl.sock >{d}/status-full.json
+sleep 1.5
+rm {d}/disk/filler
+sleep 3
+{bin} status --json --socket {d}/ctl.sock >{d}/status-after.json
+wait $pid
+cp -r {d}/disk/rec {d}/rec-copy",
+        d = dir.display(),
+        bin = BIN
+    );
+    let out = Command::new("unshare")
+        .args(["-rm", "sh", "-c", &script])
+        .output()
+        .unwrap();
+    let log = std::fs::read_to_string(dir.join("log")).unwrap_or_default();
+    assert!(out.status.success(), "{out:?}\n{log}");
+    assert!(log.contains("No space left on device"), "{log}");
+    assert!(
+        log.contains("again after")
+            && log.contains("nothing lost (the records were held in memory)"),
+        "{log}"
+    );
+    // What `status` said of the recorder while the disk was full, and after.
+    let recorder = |file: &str| {
+        let text = std::fs::read_to_string(dir.join(file)).unwrap();
+        let status: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let services = status["services"].as_array().unwrap().clone();
+        services
+            .into_iter()
+            .find(|s| s["service"] == "recorder")
+            .unwrap()
+    };
+    let full = recorder("status-full.json");
+    assert_eq!(full["state"], "degraded", "{full}");
+    assert!(
+        full["reason"]
+            .as_str()
+            .unwrap()
+            .starts_with("cannot write (No space left on device (os error 28)); "),
+        "{full}"
+    );
+    assert_eq!(recorder("status-after.json")["state"], "running");
+    let record = read_record(&dir.join("rec-copy")).unwrap();
+    let cycles: Vec<u64> = record.cycles().map(|c| c.cycle).collect();
+    let expected: Vec<u64> = (cycles[0]..cycles[0] + cycles.len() as u64).collect();
+    assert_eq!(cycles, expected, "no cycle missing");
+    assert!(cycles.len() >= 80, "{} cycles in 11 s", cycles.len());
+    assert!(record.segments.last().unwrap().end.is_some(), "a clean end");
+    let loaded = softplc::project::load(&project).unwrap();
+    let report = replay(&record, &loaded, ReplayOptions::default(), |_| {}).unwrap();
+    assert!(report.identical(), "{:?}", report.differences);
 }

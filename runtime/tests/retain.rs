@@ -237,3 +237,73 @@ fn under_systemd_retained_values_go_to_the_state_directory() {
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(dir));
 }
+
+#[test]
+fn saves_that_fail_every_100_ms_log_a_few_lines_and_a_count_and_status_says_so() {
+    let dir = temp("flood");
+    let project = project(&dir, "rhai");
+    // The retain folder is a file: every save fails (as on a full disk), every 100 ms.
+    std::fs::write(dir.join("state"), "in the way").unwrap();
+    let socket = dir.join("ctl.sock");
+    let log = dir.join("log");
+    let mut child = softplc(&["run", project.to_str().unwrap(), "--for", "14s", "--socket"])
+        .arg(&socket)
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .unwrap();
+    let status = |socket: &Path| -> serde_json::Value {
+        let out = softplc(&["status", "--json", "--socket", socket.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+        status["services"]
+            .as_array()
+            .and_then(|s| s.iter().find(|s| s["service"] == "retain").cloned())
+            .unwrap_or_default()
+    };
+    std::thread::sleep(Duration::from_secs(3));
+    let failing = status(&socket);
+    assert_eq!(failing["state"], "degraded", "{failing}");
+    assert!(
+        failing["reason"]
+            .as_str()
+            .unwrap()
+            .starts_with("cannot save: "),
+        "{failing}"
+    );
+    // Room again: the saves go through, and say so.
+    std::fs::remove_file(dir.join("state")).unwrap();
+    std::fs::create_dir_all(dir.join("state")).unwrap();
+    let begin = Instant::now();
+    while status(&socket)["state"] != "running" {
+        assert!(
+            begin.elapsed() < Duration::from_secs(5),
+            "retain never recovered"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(child.wait().unwrap().success());
+    let text = std::fs::read_to_string(&log).unwrap();
+    let lines = text
+        .lines()
+        .filter(|l| l.contains("retain: cannot save"))
+        .count();
+    // About 30 failed saves in 3 s: 5 written, the rest counted in one summary.
+    assert_eq!(lines, 5, "{text}");
+    let summary = text
+        .lines()
+        .find(|l| l.contains("retain: failed saves: … "))
+        .unwrap_or_else(|| panic!("no summary:\n{text}"));
+    let held_back: u64 = summary
+        .split("… ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .map(|n| n.replace(',', "").parse().unwrap())
+        .unwrap();
+    assert!((10..40).contains(&held_back), "{summary}");
+    assert!(text.contains("retain: saving to "), "{text}");
+    assert!(saved(&dir.join("state/count.json")).is_some_and(|n| n > 0));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
+}

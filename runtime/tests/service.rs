@@ -55,6 +55,21 @@ fn the_unit_file_verifies_clean_and_rates_ok() {
         ok && text.trim().is_empty(),
         "systemd-analyze verify printed:\n{text}"
     );
+    // A second line of defence: a leak is contained by systemd, sized for the PLC (verify
+    // above has checked the keys and values are valid for this systemd).
+    let unit_text = std::fs::read_to_string(&unit).unwrap();
+    for (key, value) in [
+        ("MemoryHigh", "192M"),
+        ("MemoryMax", "256M"),
+        ("MemorySwapMax", "0"),
+        ("TasksMax", "512"),
+        ("LimitNOFILE", "4096"),
+    ] {
+        assert!(
+            unit_text.lines().any(|l| l == format!("{key}={value}")),
+            "{key}={value} missing"
+        );
+    }
     let (_, text) = systemd_analyze(&["security", "--offline=true", unit.to_str().unwrap()]);
     let overall = text
         .lines()

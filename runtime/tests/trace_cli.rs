@@ -72,12 +72,16 @@ impl Drop for Running {
 }
 
 fn start(dir: &Path) -> (Running, PathBuf) {
+    start_with(dir, PROJECT)
+}
+
+fn start_with(dir: &Path, project: &str) -> (Running, PathBuf) {
     std::fs::write(
         dir.join("count.rhai"),
         "n = n + 1;\npulse = n % 4 == 0;\nlevel = level + 0.5;\nif level > 4.0 { level = 0.0; }\n",
     )
     .unwrap();
-    std::fs::write(dir.join("project.yaml"), PROJECT).unwrap();
+    std::fs::write(dir.join("project.yaml"), project).unwrap();
     let socket = dir.join("ctl.sock");
     let child = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .arg("run")
@@ -248,6 +252,104 @@ fn a_trace_given_with_tags_is_checked_like_the_project_and_refusals_name_the_fau
         assert_eq!(o.status.code(), Some(1), "{args:?}: {o:?}");
         assert_eq!(text(&o).1, expected, "{args:?}");
     }
+}
+
+/// Arms `name` with `tags` and `pre`/`post` samples around `n > 0`; the command's output.
+fn arm(s: &str, name: &str, tags: &str, around: u32) -> Output {
+    let around = around.to_string();
+    softplc(&[
+        "trace",
+        "arm",
+        name,
+        "--tags",
+        tags,
+        "--trigger",
+        "n > 0",
+        "--pre",
+        &around,
+        "--post",
+        &around,
+        "--socket",
+        s,
+    ])
+}
+
+#[test]
+fn arming_past_the_projects_trace_budget_is_refused_with_what_is_left() {
+    let dir = folder("budget");
+    let project = format!("{PROJECT}trace_budget: {{ armed: 3, memory: 1MiB }}\n");
+    let (_run, socket) = start_with(&dir, &project);
+    let s = socket.to_str().unwrap();
+
+    // One signal: 8 bytes a value, 16 the time, 8 the cycle. boot (3 samples) is armed at
+    // start: 96 bytes. big takes 20,001 samples: 640,032 bytes.
+    let o = arm(s, "big", "n", 10_000);
+    assert!(o.status.success(), "{o:?}");
+    let o = arm(s, "big2", "n", 10_000);
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert_eq!(
+        text(&o).1,
+        "error: trace big2 needs 625 KiB for its samples; 398.8 KiB of the 1 MiB trace budget \
+         is left: disarm a trace, record fewer signals or samples, or raise \
+         trace_budget.memory\n"
+    );
+    // Armed again, big replaces itself: its own memory counts as free.
+    let o = arm(s, "big", "n", 10_000);
+    assert!(o.status.success(), "{o:?}");
+
+    let o = arm(s, "small", "n", 1);
+    assert!(o.status.success(), "{o:?}");
+    let o = arm(s, "small2", "n", 1);
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    assert_eq!(
+        text(&o).1,
+        "error: 3 traces are armed, as many as the project allows (trace_budget.armed); \
+         disarm one first\n"
+    );
+    let o = softplc(&["trace", "disarm", "small", "--socket", s]);
+    assert!(o.status.success(), "{o:?}");
+    let o = arm(s, "small2", "n", 1);
+    assert!(o.status.success(), "disarming gave its place back: {o:?}");
+    let o = softplc(&["trace", "status", "--socket", s]);
+    let listed: Vec<String> = text(&o)
+        .0
+        .lines()
+        .map(|l| l.split(':').next().unwrap().to_owned())
+        .collect();
+    assert_eq!(listed, ["boot", "big", "small2", "pulses"]);
+}
+
+/// Resident memory of a process, from /proc.
+fn rss_bytes(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let line = status.lines().find(|l| l.starts_with("VmRSS:")).unwrap();
+    let kib: u64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+    kib * 1024
+}
+
+#[test]
+fn forty_of_the_largest_traces_armed_leave_the_plc_within_the_default_budget() {
+    let dir = folder("flood");
+    let (run, socket) = start(&dir);
+    let s = socket.to_str().unwrap();
+    let before = rss_bytes(run.0.id());
+    // 5 signals × 99,999 samples, 64 bytes each: 6.4 MB a trace, so 10 fit the default 64 MiB.
+    let tags = "n,pulse,level,phase.logic,phase.read";
+    let mut accepted = 0;
+    for i in 0..40 {
+        let o = arm(s, &format!("t{i}"), tags, 49_999);
+        match o.status.code() {
+            Some(0) => accepted += 1,
+            _ => assert!(
+                text(&o).1.contains("of the 64 MiB trace budget is left"),
+                "{o:?}"
+            ),
+        }
+    }
+    assert_eq!(accepted, 10);
+    let grown = rss_bytes(run.0.id()).saturating_sub(before);
+    // Unbounded, the 40 rings would be 256 MB; the budget holds them to 64 MiB.
+    assert!(grown < 80 << 20, "resident memory grew by {grown} bytes");
 }
 
 #[test]

@@ -16,7 +16,8 @@ use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::control::{default_socket_path, ControlServer};
 use crate::service::notify::Notifier;
-use crate::service::{network, snapshot};
+use crate::service::opcua::OpcUaServer;
+use crate::service::{network, snapshot, Health, Service, ServiceState};
 
 /// Arguments of `softplc run`.
 #[derive(Debug, clap::Args)]
@@ -94,6 +95,8 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if args.keep_forces {
         plc.keep_forces(crate::plc::forces_path(&args.project));
     }
+    // Every service's state, for status, metrics and the page.
+    let health = Health::new();
     // After the kept forces: the record's first keyframe is the state the first cycle sees.
     let recorder = match Settings::for_run(plc.project(), args.record) {
         Some(settings) => {
@@ -103,10 +106,16 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
                 fmt_duration(settings.keep),
                 settings.max_bytes >> 20
             );
-            Some(plc.record(settings)?)
+            let handle = plc.record(settings)?;
+            health.watch_recorder(handle.state_cell());
+            Some(handle)
         }
         None => None,
     };
+    if let Some(r) = plc.retainer() {
+        health.watch_retain(r.save_failure());
+    }
+    health.set(Service::Trace, ServiceState::Running);
     let mut engine = ScanEngine::new(plc);
     if let Some(d) = args.run_for {
         engine = engine.run_for(d);
@@ -117,7 +126,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     // Requests to the scan: from the control socket and from the Modbus TCP server's writes.
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
-    let mut boundary = ServiceBoundary::new().with_control(requests_rx);
+    let mut boundary = ServiceBoundary::new()
+        .with_control(requests_rx)
+        .with_health(health.clone());
     signal_hook::flag::register(signal_hook::consts::SIGHUP, boundary.reload_flag())
         .context("cannot install the SIGHUP handler")?;
     let _control = if args.no_control {
@@ -133,11 +144,20 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         Some(server)
     };
     let published = snapshot::SnapshotCell::new();
-    let mut services = network::start(engine.plc().project(), &published, &requests)?;
-    let mqtt = crate::service::mqtt::MqttNode::start(engine.plc().project(), &published, &requests)
+    let project = engine.plc().project();
+    let mut services = network::start(project, &published, &requests, &health)?;
+    let mqtt = crate::service::mqtt::MqttNode::start(project, &published, &requests, &health)
         .context("cannot start the MQTT edge node")?;
-    let opcua =
-        crate::service::opcua::OpcUaServer::start(engine.plc().project(), &published, &requests)?;
+    let opcua = match OpcUaServer::start(project, &published, &requests, &health) {
+        Ok(server) => server,
+        Err(e) if e.is_fatal() => return Err(e.into()),
+        Err(e) => {
+            // The PLC runs without it, and says why.
+            tracing::error!("{e}; the PLC runs without it");
+            health.set(Service::Opcua, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    };
     if let Some(server) = &opcua {
         tracing::info!("OPC UA server at {}", server.describe());
     }
@@ -146,7 +166,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
         }
     } else {
-        services.web = network::start_web(engine.plc(), &published, &requests);
+        services.web = network::start_web(engine.plc(), &published, &requests, &health);
     }
     if services.any() || mqtt.is_some() || opcua.is_some() {
         let mut publisher = snapshot::Publisher::new(published);
@@ -232,8 +252,16 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if let Some(r) = recorder {
         let dropped = r.dropped();
         // The PLC is gone with the scan thread: the writer has its last records.
-        if let Some(e) = r.finish().error {
-            super::out::errln(&e);
+        let outcome = r.finish();
+        if let Some(e) = &outcome.error {
+            super::out::errln(e);
+        }
+        if outcome.gaps > 0 {
+            super::out::errln(&format!(
+                "flight recorder: {} cycle(s) not recorded in {} gap(s) (the disk was full); \
+                 replay names them",
+                outcome.lost, outcome.gaps
+            ));
         }
         if dropped > 0 {
             super::out::errln(&format!(

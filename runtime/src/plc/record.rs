@@ -9,7 +9,7 @@ use crate::image::TagId;
 use crate::recorder::format::{self, Event, Header, Keyframe};
 use crate::recorder::replay::tag_table;
 use crate::recorder::tap::{Tap, TapCounters};
-use crate::recorder::{writer, RecorderHandle, Settings};
+use crate::recorder::{writer, Disk, FileDisk, RecorderHandle, Settings};
 
 use super::Plc;
 
@@ -28,6 +28,15 @@ impl Plc {
     /// waits for the writer once the PLC is gone. Call it before the scan starts, after kept
     /// forces are applied: the first keyframe is the state the first cycle starts from.
     pub fn record(&mut self, settings: Settings) -> Result<RecorderHandle, RecordError> {
+        self.record_on(settings, Box::new(FileDisk))
+    }
+
+    /// [`Plc::record`] through `disk` (a test's full disk).
+    pub fn record_on(
+        &mut self,
+        settings: Settings,
+        disk: Box<dyn Disk>,
+    ) -> Result<RecorderHandle, RecordError> {
         let folder = settings.folder.clone();
         let fail = |source| RecordError {
             folder: folder.clone(),
@@ -68,7 +77,7 @@ impl Plc {
         let counters = Arc::new(TapCounters::default());
         let (tx, rx) = crossbeam_channel::bounded(settings.channel);
         self.recorder = Some(Tap::new(tx, &self.image, counters.clone()));
-        writer::start(settings, header, keyframe, rx, counters).map_err(|e| {
+        writer::start(settings, header, keyframe, rx, counters, disk).map_err(|e| {
             self.recorder = None;
             fail(e)
         })

@@ -691,6 +691,9 @@ pub enum ErrorKind {
     /// A `traces:` entry.
     #[error("{0}")]
     Trace(#[from] super::trace::TraceError),
+    /// The `trace_budget:` section, or start traces past it.
+    #[error("{0}")]
+    TraceBudget(#[from] super::trace_budget::TraceBudgetError),
 }
 
 fn within(section: &str) -> String {

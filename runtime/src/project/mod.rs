@@ -37,6 +37,7 @@ pub(crate) mod service;
 pub(crate) mod span;
 pub(crate) mod state;
 pub(crate) mod trace;
+pub(crate) mod trace_budget;
 mod unknown_keys;
 mod validate;
 pub(crate) mod watchdog;
@@ -63,6 +64,7 @@ pub use trace::{
     CompareOp, Condition, Counter, Phase, Probe, RawTrace, TraceConfig, TraceError, TraceMode,
     Trigger,
 };
+pub use trace_budget::{Bytes, TraceBudget, TraceBudgetError};
 pub use watchdog::{Armed, Derivation, ModuleWatchdog, Origin, WatchdogPolicy};
 pub use web::{TokenSource, WebConfig, WebError, WebToken, DEFAULT_WEB_BIND};
 

@@ -37,6 +37,8 @@ pub struct Project {
     pub recorder: Option<super::recorder::RecorderConfig>,
     /// Trace definitions, in file order (see `super::trace`).
     pub traces: Vec<super::trace::TraceConfig>,
+    /// How many traces may be armed at once and how much memory they take.
+    pub trace_budget: super::trace_budget::TraceBudget,
 }
 
 /// The scan task.

@@ -72,6 +72,7 @@
 //!   wiring: { motor: mm1.Y1, sensor_entry: mm1.X1, sensor_exit: mm1.X2 }
 //! offload: auto                # optional; never (default) | auto | require; see `offload.rs`
 //! recorder: { keep: 10m, size: 256MiB, folder: records }   # optional; see `recorder.rs`
+//! trace_budget: { armed: 16, memory: 64MiB }   # optional; see `trace_budget.rs`
 //! service:                     # optional; see `service.rs` (schema) and `scada.rs` (the map)
 //!   metrics: 127.0.0.1:9464    # Prometheus text endpoint; off when absent
 //!   modbus_tcp: { bind: 127.0.0.1:5020, unit: 1, writes: false, allow_remote_writes: false,
@@ -162,6 +163,10 @@ pub(crate) struct RawProject {
     /// Traces that can be armed at run time (see [`super::trace`]).
     #[serde(default)]
     pub traces: Vec<super::trace::RawTrace>,
+    /// How many traces may be armed and how much memory they take (see
+    /// [`super::trace_budget`]).
+    #[serde(default)]
+    pub trace_budget: Option<super::trace_budget::RawTraceBudget>,
 }
 
 /// `scan:`.

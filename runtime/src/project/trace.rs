@@ -118,6 +118,15 @@ impl TraceConfig {
             around
         }
     }
+
+    /// The bytes its ring takes once armed: per sample, a value of each signal, the time
+    /// and the cycle (what `trace::Capture` allocates).
+    pub fn ring_bytes(&self) -> u64 {
+        let per_sample = self.probes.len() * std::mem::size_of::<softplc_io::point::Value>()
+            + std::mem::size_of::<std::time::Duration>()
+            + std::mem::size_of::<u64>();
+        (self.depth() * per_sample) as u64
+    }
 }
 
 /// What one signal of a trace reads.

@@ -113,6 +113,15 @@ pub(crate) fn validate(
         config
     };
     let traces = super::trace::validate_all(raw, &tags, |path, e| v.error(path, e.into()));
+    let trace_budget = {
+        let (budget, errors) = super::trace_budget::validate(raw.trace_budget.as_ref());
+        let names: Vec<&str> = raw.traces.iter().map(|t| t.name.as_str()).collect();
+        let start = super::trace_budget::check_start_traces(budget, &traces, &names);
+        for (path, e) in errors.into_iter().chain(start) {
+            v.error(path, e);
+        }
+        budget
+    };
     let recorder = {
         let (config, errors) = super::recorder::validate(raw.recorder.as_ref(), file);
         for (path, e) in errors {
@@ -144,6 +153,7 @@ pub(crate) fn validate(
             offload: offload?,
             recorder,
             traces,
+            trace_budget,
         })
     })();
     match built {

@@ -24,4 +24,7 @@ pub use replay::{
     replay, CycleOutputs, Difference, ReplayError, ReplayOptions, ReplayReport, TagDifference,
 };
 pub use tap::Tap;
-pub use writer::{segments_in, RecorderHandle, SegmentFile, Settings, WriterOutcome};
+pub use writer::{
+    segments_in, Disk, FaultDisk, FileDisk, RecorderHandle, SegmentFile, Settings, WriterOutcome,
+    WriterState, MAX_BACKOFF,
+};

@@ -9,7 +9,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::recorder::format::{
-    self, BlockKind, CycleRecord, Dec, DecodeError, End, Framed, Header, Keyframe,
+    self, BlockKind, CycleRecord, Dec, DecodeError, End, Framed, Gap, Header, Keyframe,
 };
 use crate::recorder::writer::{segments_in, SEGMENT_EXT};
 
@@ -31,6 +31,8 @@ pub struct Segment {
     pub header: Header,
     /// The state at its start.
     pub keyframe: Keyframe,
+    /// The cycles missing just before it (the recorder could not write them).
+    pub gap: Option<Gap>,
     /// Its cycles, in order.
     pub cycles: Vec<CycleRecord>,
     /// The run's clean end, when the run ended in this segment.
@@ -107,10 +109,16 @@ fn parse_segment(path: &Path, bytes: &[u8]) -> Result<Segment, SegmentError> {
         .keyframe(header.tags.len())
         .map_err(SegmentError::BadStart)?;
     at = next;
+    let mut gap = None;
+    if let Framed::Block(BlockKind::Gap, g, next) = format::next_block(bytes, at) {
+        gap = Some(Dec::new(g).gap().map_err(SegmentError::BadStart)?);
+        at = next;
+    }
     let mut segment = Segment {
         path: path.to_path_buf(),
         header,
         keyframe,
+        gap,
         cycles: Vec::new(),
         end: None,
         torn: None,
@@ -215,7 +223,8 @@ pub fn read_record(path: &Path) -> Result<Record, RecordError> {
 
 impl Record {
     /// The record cut where replay must start afresh: a new run (the PLC restarted), a
-    /// segment missing, or a torn segment before the next one. Each part is consecutive
+    /// segment missing, a gap (cycles the recorder could not write), or a torn segment before
+    /// the next one. Each part is consecutive
     /// segments of one run, the first of them starting from its keyframe.
     pub fn parts(&self) -> Vec<&[Segment]> {
         let mut parts = Vec::new();
@@ -225,6 +234,7 @@ impl Record {
                 let (a, b) = (&self.segments[i - 1], &self.segments[i]);
                 a.header.run_id != b.header.run_id
                     || b.header.segment != a.header.segment + 1
+                    || b.gap.is_some()
                     || a.torn.is_some()
             };
             if cut {

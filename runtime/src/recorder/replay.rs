@@ -27,7 +27,9 @@
 //! oldest segments were rotated out starts from the image its first keyframe holds, but the
 //! program's function blocks (timers, counters, edge memories) start fresh there; the summary
 //! says so. Records dropped by a writer that fell behind are gaps: replay goes on across them
-//! (the program sees one long cycle) and lists them.
+//! (the program sees one long cycle) and lists them. Cycles the writer could not write at all
+//! (a full disk, longer than it could hold them) are a gap block before a new keyframe: replay
+//! reports "no record from cycle A to B" and starts afresh from that keyframe.
 
 use std::time::Duration;
 
@@ -286,6 +288,14 @@ pub fn replay(
                 part[0].keyframe.next_cycle
             ));
         }
+        if let Some(gap) = part[0].gap {
+            report.notes.push(format!(
+                "no record from cycle {} to {}: the recorder could not write them (a full \
+                 disk); replay goes on from cycle {}, where the program's function blocks \
+                 (timers, counters, edges) start fresh",
+                gap.first, gap.last, part[0].keyframe.next_cycle
+            ));
+        }
         let mut run = PartReplay::new(part, project, &mut report)?;
         if !run.go(options, &mut report, &mut sink) {
             break;
@@ -335,7 +345,7 @@ impl<'a> PartReplay<'a> {
         for &(tag, v) in &k.forces {
             image.force(TagId(tag), v);
         }
-        if seg.header.segment > 0 {
+        if seg.header.segment > 0 && seg.gap.is_none() {
             report.notes.push(format!(
                 "cycle {} (t={:.2}s): replay starts within a run whose earlier segments are gone \
                  (rotated out): the image is as recorded, the program's function blocks \

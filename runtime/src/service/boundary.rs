@@ -35,6 +35,8 @@ pub struct ServiceBoundary {
     reload_waiters: Vec<Sender<Response>>,
     /// Armed traces, sampled at every boundary (see [`crate::trace`]).
     traces: crate::trace::TraceSet,
+    /// The services' states, for the status report.
+    health: Option<super::health::Health>,
 }
 
 impl ServiceBoundary {
@@ -62,6 +64,12 @@ impl ServiceBoundary {
         self
     }
 
+    /// Reports the states `health` holds in the status.
+    pub fn with_health(mut self, health: super::health::Health) -> Self {
+        self.health = Some(health);
+        self
+    }
+
     /// The flag that reloads the program at the next cycle boundary (give it to SIGHUP).
     pub fn reload_flag(&self) -> Arc<AtomicBool> {
         self.reload.clone()
@@ -79,7 +87,14 @@ impl ServiceBoundary {
             let response = match env.request {
                 Request::Status => Response {
                     ok: true,
-                    status: Some(StatusReport::of(plc, stats)),
+                    status: Some(StatusReport {
+                        services: self
+                            .health
+                            .as_ref()
+                            .map(super::health::Health::report)
+                            .unwrap_or_default(),
+                        ..StatusReport::of(plc, stats)
+                    }),
                     ..Response::default()
                 },
                 Request::Force { tag, value } => match plc.force(&tag, &value) {

@@ -15,11 +15,13 @@
 //! The socket thread only parses and forwards: the scan thread applies each request at a
 //! cycle boundary and answers, so a request never races a scan.
 
+use crate::log_limit::{limited, Site};
+use crate::service::slots::{Caps, Evict, Held, Slots};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
 use serde::{Deserialize, Serialize};
@@ -189,6 +191,19 @@ fn check_folder(dir: &Path) -> std::io::Result<()> {
     Ok(())
 }
 
+/// Control-socket clients at once (a thread each); past it the one waiting longest for its
+/// next request gives way, so 2,000 idle connections hold 32 threads and `softplc status`
+/// still gets through.
+const CONTROL_CAPS: Caps = Caps {
+    clients: 32,
+    streams: 0,
+};
+/// How long a control client may stay silent before its connection is closed.
+const CONTROL_IDLE: Duration = Duration::from_secs(60);
+
+/// A log site a flood of connections repeats (see [`crate::log_limit`]).
+const CANNOT_SERVE: Site = Site::new("control.cannot_serve", "control socket: clients not served");
+
 /// The listening side; dropping it removes the socket file.
 #[derive(Debug)]
 pub struct ControlServer {
@@ -198,13 +213,17 @@ pub struct ControlServer {
 impl ControlServer {
     /// Binds `path` and serves it on a thread, forwarding requests to `scan`.
     pub fn start(path: &Path, scan: Sender<Envelope>) -> std::io::Result<Self> {
-        if let Some(dir) = path.parent() {
-            if !dir.exists() {
-                std::fs::create_dir_all(dir)?;
-                std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
-            }
-            check_folder(dir)?;
+        // A bare file name (`--socket ctl.sock`) has the empty path as its parent, which no
+        // folder call accepts: it is the working folder.
+        let dir = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        if !dir.exists() {
+            std::fs::create_dir_all(dir)?;
+            std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
         }
+        check_folder(dir)?;
         if path.exists() {
             if UnixStream::connect(path).is_ok() {
                 return Err(std::io::Error::new(
@@ -220,16 +239,33 @@ impl ControlServer {
         std::thread::Builder::new()
             .name("control".into())
             .spawn(move || {
+                let slots = Slots::new(CONTROL_CAPS);
                 for stream in listener.incoming() {
                     let Ok(stream) = stream else { continue };
+                    let handle = stream.try_clone();
+                    let evict: Evict = Box::new(move || {
+                        if let Ok(s) = &handle {
+                            // Best effort: the client may be gone already.
+                            drop(s.shutdown(std::net::Shutdown::Both));
+                        }
+                    });
+                    let Some(held) = slots.admit(Instant::now(), evict) else {
+                        refuse_busy(stream);
+                        continue;
+                    };
                     let scan = scan.clone();
                     // Out of threads: this client's connection closes unanswered, and
                     // whoever runs the PLC should learn why `softplc control` saw nothing.
                     if let Err(e) = std::thread::Builder::new()
                         .name("control-client".into())
-                        .spawn(move || serve_client(stream, &scan))
+                        .spawn(move || serve_client(stream, &scan, &held))
                     {
-                        tracing::warn!("control socket: cannot serve a client: {e}");
+                        limited!(
+                            WARN,
+                            CANNOT_SERVE,
+                            e.to_string(),
+                            "control socket: cannot serve a client: {e}"
+                        );
                     }
                 }
             })?;
@@ -251,7 +287,23 @@ impl Drop for ControlServer {
     }
 }
 
-fn serve_client(stream: UnixStream, scan: &Sender<Envelope>) {
+/// Tells a client that every slot is being served, without waiting on it.
+fn refuse_busy(mut stream: UnixStream) {
+    // Best effort: the answer is for a client that may not read it.
+    drop(stream.set_nonblocking(true));
+    drop(write_response(
+        &mut stream,
+        &Response::refused(format!(
+            "{} control clients are being served; try again",
+            CONTROL_CAPS.clients
+        )),
+    ));
+}
+
+fn serve_client(stream: UnixStream, scan: &Sender<Envelope>, held: &Held) {
+    // A client that says nothing for this long gives its thread back.
+    drop(stream.set_read_timeout(Some(CONTROL_IDLE)));
+    drop(stream.set_write_timeout(Some(CONTROL_IDLE)));
     let Ok(mut out) = stream.try_clone() else {
         return;
     };
@@ -275,6 +327,7 @@ fn serve_client(stream: UnixStream, scan: &Sender<Envelope>) {
         } else if line.trim().is_empty() {
             continue;
         } else {
+            held.busy();
             match parse_request(&line) {
                 Ok(request) => forward(scan, request),
                 Err(e) => Response::refused(e),
@@ -283,6 +336,7 @@ fn serve_client(stream: UnixStream, scan: &Sender<Envelope>) {
         if write_response(&mut out, &response).is_err() {
             return;
         }
+        held.waiting(Instant::now());
     }
 }
 

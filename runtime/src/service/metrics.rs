@@ -21,6 +21,7 @@
 //!
 //! Statistics are refreshed every 250 ms of scan time, tag values every cycle.
 
+use crate::service::health::Health;
 use std::fmt::Write as _;
 use std::io::Write;
 use std::net::{SocketAddr, TcpListener};
@@ -37,10 +38,11 @@ pub(crate) const LIMITS: Limits = Limits {
     clients: 16,
     request: Duration::from_secs(5),
     write: Duration::from_secs(5),
+    streams: 0,
 };
 
 /// The names the metrics carry; fixed for the life of the process.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default)]
 pub(crate) struct MetricsInfo {
     /// Project name.
     pub project: String,
@@ -50,6 +52,8 @@ pub(crate) struct MetricsInfo {
     pub tags: Vec<String>,
     /// Modules: (name, bus), in project order.
     pub modules: Vec<(String, String)>,
+    /// The services' states.
+    pub health: Health,
 }
 
 /// How this endpoint reads a request: the shared parser, [`http::parse`]. Kept under this name
@@ -117,9 +121,31 @@ fn family(out: &mut String, name: &str, kind: &str, help: &str) {
     let _ = writeln!(out, "# TYPE {name} {kind}");
 }
 
+/// Every service's state, one series per state word with 1 on the service's own (the
+/// reason is in `softplc status` and the log).
+fn services(out: &mut String, health: &Health) {
+    family(
+        out,
+        "softplc_service_state",
+        "gauge",
+        "1 on the service's state: off (not configured), running, degraded or stopped.",
+    );
+    for r in health.report() {
+        for word in ["off", "running", "degraded", "stopped"] {
+            let _ = writeln!(
+                out,
+                "softplc_service_state{{service=\"{}\",state=\"{word}\"}} {}",
+                r.service.name(),
+                u8::from(r.state.word() == word)
+            );
+        }
+    }
+}
+
 /// The exposition text for `snapshot`.
 pub(crate) fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
     let mut out = String::with_capacity(4096 + 160 * info.tags.len());
+    services(&mut out, &info.health);
     family(&mut out, "softplc_info", "gauge", "The running project.");
     let _ = writeln!(
         out,
@@ -287,7 +313,7 @@ impl MetricsServer {
             limits: LIMITS,
             allow: "GET, HEAD",
         };
-        http::spawn(listener, config, move |req, stream| {
+        http::spawn(listener, config, move |req, stream, _| {
             let response = respond(&info, &snapshot, req);
             stream.write_all(&response.to_bytes(req.method != Method::Head))
         })?;
@@ -311,6 +337,7 @@ mod tests {
             period: Duration::from_millis(100),
             tags: vec!["motor".into(), "level".into(), "we\"ird".into()],
             modules: vec![("mm1".into(), "line1".into())],
+            health: Health::new(),
         };
         let mut s = ServiceSnapshot {
             published: true,
@@ -340,6 +367,10 @@ mod tests {
     #[test]
     fn renders_the_exposition_format() {
         let (info, s) = sample();
+        info.health.set(
+            crate::service::health::Service::Recorder,
+            crate::service::health::ServiceState::Degraded("disk full".into()),
+        );
         let text = render(&info, &s);
         for line in [
             "softplc_info{project=\"demo\"} 1",
@@ -362,6 +393,9 @@ mod tests {
             "softplc_tag_value{tag=\"we\\\"ird\"} -5",
             "softplc_tag_quality{tag=\"level\"} 1",
             "softplc_tag_forced{tag=\"motor\"} 1",
+            "softplc_service_state{service=\"recorder\",state=\"degraded\"} 1",
+            "softplc_service_state{service=\"recorder\",state=\"running\"} 0",
+            "softplc_service_state{service=\"web\",state=\"off\"} 1",
         ] {
             assert!(
                 text.lines().any(|l| l == line),

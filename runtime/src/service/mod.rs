@@ -11,7 +11,8 @@
 //!   boundary, so they never race a scan.
 //! - `notify`: `sd_notify` (READY after the first complete scan, WATCHDOG after each
 //!   completed scan, STATUS, STOPPING).
-//! - `status`: the status a running instance reports.
+//! - `status`: the status a running instance reports; `health`: the state of every service
+//!   (running, degraded, stopped, with the reason) it includes, as do the metrics and the page.
 //! - `trace`: the control socket's trace requests (arm, status, save).
 //! - `snapshot`: what the scan publishes, without blocking, for the two network services:
 //!   `metrics` (a Prometheus text endpoint) and `modbus_tcp` (a Modbus TCP server for
@@ -22,6 +23,7 @@
 
 pub(crate) mod boundary;
 pub mod control;
+pub(crate) mod health;
 pub(crate) mod metrics;
 pub(crate) mod modbus_guard;
 pub(crate) mod modbus_map;
@@ -30,12 +32,15 @@ pub mod mqtt;
 pub(crate) mod network;
 pub(crate) mod notify;
 pub(crate) mod opcua;
+pub(crate) mod slots;
 pub(crate) mod snapshot;
+pub(crate) mod socket;
 pub(crate) mod status;
 pub(crate) mod trace;
 pub mod web;
 
 pub use boundary::ServiceBoundary;
+pub use health::{Health, Service, ServiceReport, ServiceState};
 pub use metrics::parse_head as parse_metrics_head;
 pub use modbus_guard::{check_pdu, whole_frames, Malformed};
 pub use notify::Notifier;

@@ -16,6 +16,7 @@
 //! sends requests without reading the answers fills the socket's buffers and would otherwise
 //! hold its slot for good. See [`super::modbus_guard`].
 
+use crate::log_limit::{limited, Site};
 use std::future::Future;
 use std::net::SocketAddr;
 use std::pin::Pin;
@@ -158,10 +159,8 @@ impl Shared {
             .recv_deadline(deadline)
             .map_err(|_| Exception::ServerDeviceFailure)?;
         if !response.ok {
-            tracing::info!(
-                "Modbus TCP write refused: {}",
-                response.error.unwrap_or_default()
-            );
+            let why = response.error.unwrap_or_default();
+            limited!(INFO, WRITE_REFUSED, why, "Modbus TCP write refused: {why}");
             return Err(Exception::ServerDeviceFailure);
         }
         // The scan applied the write before publishing at that boundary; a publication of a
@@ -283,34 +282,12 @@ impl ModbusTcpServer {
 /// for a client that floods requests or does not read its replies (so such a client is
 /// noticed, by the send timeout, after a few hundred replies rather than a few hundred
 /// thousand).
-const SOCKET_BUFFER: libc::c_int = 16 * 1024;
+const SOCKET_BUFFER: usize = 16 * 1024;
 
-/// Caps the kernel buffers of `stream` at [`SOCKET_BUFFER`]; best effort.
-#[allow(unsafe_code)]
-fn bound_buffers(stream: &tokio::net::TcpStream) {
-    use std::os::fd::AsRawFd;
-    let fd = stream.as_raw_fd();
-    for option in [libc::SO_SNDBUF, libc::SO_RCVBUF] {
-        let size = SOCKET_BUFFER;
-        // SAFETY: `fd` is the open socket `stream` owns for the duration of the call, and the
-        // option value is a valid `c_int` of the length given.
-        let rc = unsafe {
-            libc::setsockopt(
-                fd,
-                libc::SOL_SOCKET,
-                option,
-                std::ptr::from_ref(&size).cast(),
-                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-            )
-        };
-        if rc != 0 {
-            tracing::debug!(
-                "Modbus TCP: cannot cap a socket buffer: {}",
-                std::io::Error::last_os_error()
-            );
-        }
-    }
-}
+/// Log sites a peer or the system can repeat (see [`crate::log_limit`]).
+const REFUSED: Site = Site::new("modbus_tcp.refused", "Modbus TCP: refused connections");
+const ACCEPT_FAILED: Site = Site::new("modbus_tcp.accept", "Modbus TCP: failed accepts");
+const WRITE_REFUSED: Site = Site::new("modbus_tcp.write_refused", "Modbus TCP: refused writes");
 
 async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
     let listener = match tokio::net::TcpListener::from_std(listener) {
@@ -332,12 +309,17 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
         let clients = clients.clone();
         async move {
             let Some(slot) = ClientSlot::take(&clients, MAX_CLIENTS) else {
-                tracing::warn!("Modbus TCP: {peer} refused: {MAX_CLIENTS} clients connected");
+                limited!(
+                    WARN,
+                    REFUSED,
+                    format!("from {}", peer.ip()),
+                    "Modbus TCP: {peer} refused: {MAX_CLIENTS} clients connected"
+                );
                 return Ok(None);
             };
             // Small request/response frames: do not wait to coalesce them.
             drop(stream.set_nodelay(true));
-            bound_buffers(&stream);
+            crate::service::socket::bound_buffers(&stream, SOCKET_BUFFER);
             tracing::debug!("Modbus TCP: {peer} connected");
             Ok(Some((service, FrameGuard::new(stream, slot, patience))))
         }
@@ -347,7 +329,12 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
         // serve() returns only when accept() fails (e.g. out of file descriptors): wait a
         // little and listen again rather than leave SCADA without a server.
         if let Err(e) = server.serve(&on_connected, on_process_error).await {
-            tracing::warn!("Modbus TCP accept failed: {e}; retrying");
+            limited!(
+                WARN,
+                ACCEPT_FAILED,
+                e.to_string(),
+                "Modbus TCP accept failed: {e}; retrying"
+            );
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
     }

@@ -4,6 +4,7 @@
 use crossbeam_channel::Sender;
 
 use super::control::Envelope;
+use super::health::{Health, Service, ServiceState};
 use super::metrics::{MetricsInfo, MetricsServer};
 use super::modbus_map::ModbusMap;
 use super::modbus_tcp::{ModbusTcpServer, StartError};
@@ -55,6 +56,7 @@ pub(crate) fn start_web(
     plc: &Plc,
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
+    health: &Health,
 ) -> Option<WebServer> {
     let project = plc.project();
     let config = project.service.web.as_ref()?;
@@ -65,8 +67,10 @@ pub(crate) fn start_web(
         snapshot.clone(),
         scan.clone(),
         project.scan.period,
+        health,
     ) {
         Ok(server) => {
+            health.set(Service::Web, ServiceState::Running);
             tracing::info!(
                 "web page: {} ({})",
                 server.url(),
@@ -83,6 +87,10 @@ pub(crate) fn start_web(
                 "web page: cannot listen on {}: {e}; running without it",
                 config.bind
             );
+            health.set(
+                Service::Web,
+                ServiceState::Stopped(format!("cannot listen on {}: {e}", config.bind)),
+            );
             None
         }
     }
@@ -94,6 +102,7 @@ pub(crate) fn start(
     project: &Project,
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
+    health: &Health,
 ) -> Result<NetworkServices, NetworkError> {
     let service = &project.service;
     let names: Vec<String> = project.tags.iter().map(|t| t.name.clone()).collect();
@@ -111,11 +120,13 @@ pub(crate) fn start(
                     (m.name.clone(), bus.unwrap_or_default())
                 })
                 .collect(),
+            health: health.clone(),
         };
         let server = MetricsServer::start(addr, info, snapshot.clone())
             .map_err(|source| NetworkError::Metrics { addr, source })?;
         tracing::info!("metrics at http://{}/metrics", server.local_addr());
         out.metrics = Some(server);
+        health.set(Service::Metrics, ServiceState::Running);
     }
     if let Some(cfg) = service.modbus_tcp {
         let map = ModbusMap::new(&service.scada);
@@ -134,6 +145,7 @@ pub(crate) fn start(
             }
         );
         out.modbus = Some(server);
+        health.set(Service::ModbusTcp, ServiceState::Running);
     }
     Ok(out)
 }

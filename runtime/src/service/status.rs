@@ -98,6 +98,9 @@ pub struct StatusReport {
     pub modules: Vec<ModuleReport>,
     /// Tags.
     pub tags: Vec<TagReport>,
+    /// Every service's state.
+    #[serde(default)]
+    pub services: Vec<super::health::ServiceReport>,
 }
 
 impl StatusReport {
@@ -142,6 +145,7 @@ impl StatusReport {
                     }
                 })
                 .collect(),
+            services: Vec::new(),
         }
     }
 }
@@ -165,6 +169,15 @@ impl std::fmt::Display for StatusReport {
             micros(self.cycle.p99_us),
             micros(self.cycle.max_us)
         )?;
+        let services: Vec<String> = self
+            .services
+            .iter()
+            .filter(|s| s.state != super::health::ServiceState::Off)
+            .map(ToString::to_string)
+            .collect();
+        if !services.is_empty() {
+            writeln!(f, "  services: {}", services.join(", "))?;
+        }
         for m in &self.modules {
             writeln!(
                 f,

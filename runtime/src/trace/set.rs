@@ -14,7 +14,7 @@ use crate::plc::Plc;
 use crate::project::trace::{
     self, Counter, Phase, Probe, RawTrace, SignalNames, TraceConfig, TraceError,
 };
-use crate::project::Project;
+use crate::project::{Bytes, Project};
 use crate::scan::ScanStats;
 
 /// Why a trace request was refused.
@@ -48,13 +48,32 @@ pub enum TraceRefusal {
     /// Neither a name nor a definition.
     #[error("arm a trace by name, or give its tags (and trigger)")]
     Nothing,
-    /// Too many traces armed at once.
-    #[error("{MAX_ARMED} traces are armed already; disarm one first")]
-    TooMany,
+    /// As many traces armed as the project's budget allows.
+    #[error(
+        "{armed} traces are armed, as many as the project allows (trace_budget.armed); \
+         disarm one first"
+    )]
+    TooMany {
+        /// The budget's count.
+        armed: usize,
+    },
+    /// The trace's samples do not fit what is left of the project's memory budget.
+    #[error(
+        "trace {name} needs {} for its samples; {} of the {} trace budget is left: disarm a \
+         trace, record fewer signals or samples, or raise trace_budget.memory",
+        Bytes(*needs), Bytes(*left), Bytes(*memory)
+    )]
+    OverBudget {
+        /// The trace.
+        name: String,
+        /// Bytes its ring takes.
+        needs: u64,
+        /// Bytes left by the traces armed.
+        left: u64,
+        /// The budget.
+        memory: u64,
+    },
 }
-
-/// Most traces armed at once: each holds up to 8 MB.
-pub(crate) const MAX_ARMED: usize = 16;
 
 fn known(defined: &[String]) -> String {
     if defined.is_empty() {
@@ -167,6 +186,7 @@ impl TraceSet {
                 .ok_or_else(|| self.unknown(project, name))?,
             (None, None) => return Err(TraceRefusal::Nothing),
         };
+        self.fits(project, &config)?;
         let signals = signals(project, &config);
         self.armed
             .retain(|a| a.capture.config().name != config.name);
@@ -177,6 +197,36 @@ impl TraceSet {
         let armed_status = status(&armed);
         self.armed.push(armed);
         Ok(armed_status)
+    }
+
+    /// Whether `config` fits the project's budget beside the traces armed (one of its own
+    /// name is replaced, so its memory counts as free). Checked before anything is
+    /// allocated, so a refused arm costs nothing.
+    fn fits(&self, project: &Project, config: &TraceConfig) -> Result<(), TraceRefusal> {
+        let budget = project.trace_budget;
+        let others = self
+            .armed
+            .iter()
+            .filter(|a| a.capture.config().name != config.name);
+        let (count, used) = others.fold((0usize, 0u64), |(n, bytes), a| {
+            (n + 1, bytes + a.capture.config().ring_bytes())
+        });
+        if count >= budget.armed {
+            return Err(TraceRefusal::TooMany {
+                armed: budget.armed,
+            });
+        }
+        let left = budget.memory.saturating_sub(used);
+        let needs = config.ring_bytes();
+        if needs > left {
+            return Err(TraceRefusal::OverBudget {
+                name: config.name.clone(),
+                needs,
+                left,
+                memory: budget.memory,
+            });
+        }
+        Ok(())
     }
 
     /// Arms every trace of the project marked `arm: start` (the default), before the first

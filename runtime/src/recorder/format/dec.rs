@@ -6,8 +6,8 @@ use std::time::Duration;
 use softplc_io::point::{Quality, Value};
 
 use super::{
-    type_from, Change, CycleRecord, DecodeError, Digest, End, Event, Header, Keyframe, TagInfo,
-    TagRole,
+    type_from, Change, CycleRecord, DecodeError, Digest, End, Event, Gap, Header, Keyframe,
+    TagInfo, TagRole,
 };
 
 /// Reads items from a block's payload.
@@ -202,6 +202,14 @@ impl<'a> Dec<'a> {
         Ok(End {
             cycles: self.varint()?,
             dropped: self.varint()?,
+        })
+    }
+
+    /// A gap payload.
+    pub fn gap(mut self) -> Result<Gap, DecodeError> {
+        Ok(Gap {
+            first: self.varint()?,
+            last: self.varint()?,
         })
     }
 

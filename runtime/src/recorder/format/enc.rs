@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use softplc_io::point::{Quality, Value};
 
-use super::{type_code, Change, CycleRecord, End, Event, Header, Keyframe};
+use super::{type_code, Change, CycleRecord, End, Event, Gap, Header, Keyframe};
 
 /// A growing encoded block.
 #[derive(Debug, Default, Clone)]
@@ -110,6 +110,14 @@ impl Enc {
         let mut e = Enc::default();
         e.varint(end.cycles);
         e.varint(end.dropped);
+        e.0
+    }
+
+    /// The gap block's payload.
+    pub fn gap(gap: &Gap) -> Vec<u8> {
+        let mut e = Enc::default();
+        e.varint(gap.first);
+        e.varint(gap.last);
         e.0
     }
 

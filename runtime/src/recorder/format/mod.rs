@@ -11,9 +11,13 @@
 //!            2 keyframe  the whole image (value and quality of every tag) and the forces
 //!            3 cycles    cycle records, each relative to the one before it
 //!            4 end       the run ended cleanly (its cycle count and dropped records)
+//!            5 gap       cycles the recorder could not write (a full disk): the first and
+//!                        the last missing; only right after a segment's keyframe
 //! ```
 //!
-//! A segment opens with a header and a keyframe, written together; cycle blocks follow. A
+//! A segment opens with a header and a keyframe, written together (with a gap block when the
+//! cycles before it could not be written); cycle blocks follow. A reader of a version without
+//! the gap block stops at it as at a torn tail, which loses nothing before it. A
 //! block is written whole or not at all as far as a reader can tell: a block whose length runs
 //! past the end of the file or whose CRC does not match is a torn tail (a `kill -9`, a power
 //! cut in the middle of a write), and the reader stops there, keeping every block before it.
@@ -83,6 +87,8 @@ pub enum BlockKind {
     Cycles = 3,
     /// [`End`].
     End = 4,
+    /// [`Gap`].
+    Gap = 5,
 }
 
 impl BlockKind {
@@ -92,6 +98,7 @@ impl BlockKind {
             2 => Self::Keyframe,
             3 => Self::Cycles,
             4 => Self::End,
+            5 => Self::Gap,
             _ => return None,
         })
     }
@@ -257,6 +264,16 @@ pub struct End {
     pub cycles: u64,
     /// Records dropped over the run.
     pub dropped: u64,
+}
+
+/// Cycles missing from the record before a segment: the recorder could not write them (a
+/// full disk) and resumed with this segment's keyframe.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Gap {
+    /// The first cycle missing.
+    pub first: u64,
+    /// The last cycle missing.
+    pub last: u64,
 }
 
 /// Why bytes did not decode.

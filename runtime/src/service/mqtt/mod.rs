@@ -30,6 +30,7 @@ use std::time::Duration;
 use crossbeam_channel::Sender;
 
 use super::control::Envelope;
+use super::health::{Health, Service, ServiceState};
 use super::snapshot::SnapshotCell;
 use crate::project::Project;
 
@@ -46,6 +47,7 @@ impl MqttNode {
         project: &Project,
         snapshot: &SnapshotCell,
         scan: &Sender<Envelope>,
+        health: &Health,
     ) -> std::io::Result<Option<Self>> {
         let Some(cfg) = project.service.mqtt.clone() else {
             return Ok(None);
@@ -67,7 +69,15 @@ impl MqttNode {
             snapshot: snapshot.clone(),
             scan: scan.clone(),
             period: project.scan.period,
+            health: health.clone(),
         };
+        health.set(
+            Service::Mqtt,
+            ServiceState::Degraded(format!(
+                "connecting to {}:{}",
+                session.cfg.host, session.cfg.port
+            )),
+        );
         let thread = std::thread::Builder::new()
             .name("mqtt".into())
             .spawn(move || session.run())?;

@@ -12,6 +12,7 @@
 //! do not all reconnect and birth in the same instant after a broker restart.
 //! A clean stop publishes NDEATH, then DISCONNECT (which makes the broker drop the Will).
 
+use crate::log_limit::{limited, Site};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use crossbeam_channel::{Receiver, Sender};
@@ -24,6 +25,7 @@ use super::node::{EdgeNode, Outgoing};
 use super::payload;
 use crate::project::mqtt::MqttConfig;
 use crate::service::control::{Envelope, Request, Response, TagValue};
+use crate::service::health::{Health, Service, ServiceState};
 use crate::service::snapshot::SnapshotCell;
 
 /// The first wait before reconnecting.
@@ -76,6 +78,11 @@ fn options(cfg: &MqttConfig) -> MqttOptions {
     o
 }
 
+/// Log sites a flood of commands repeats (see [`crate::log_limit`]).
+const COMMAND_IGNORED: Site = Site::new("mqtt.command_ignored", "MQTT: ignored commands");
+const WRITE_REFUSED: Site = Site::new("mqtt.write_refused", "MQTT: refused writes");
+const WRITE_APPLIED: Site = Site::new("mqtt.write_applied", "MQTT: applied writes");
+
 /// The running session (see the module docs).
 pub(super) struct Session {
     pub(super) cfg: MqttConfig,
@@ -85,6 +92,8 @@ pub(super) struct Session {
     pub(super) snapshot: SnapshotCell,
     pub(super) scan: Sender<Envelope>,
     pub(super) period: Duration,
+    /// Where the service's state goes (connected, or why not).
+    pub(super) health: Health,
 }
 
 struct Pending {
@@ -151,6 +160,13 @@ impl Session {
                             }
                         }
                         Ok(Err(e)) => {
+                            self.health.set(
+                                Service::Mqtt,
+                                ServiceState::Degraded(format!(
+                                    "no connection to the broker {}:{}: {e}; buffering changes",
+                                    self.cfg.host, self.cfg.port
+                                )),
+                            );
                             if online {
                                 tracing::warn!(
                                     "MQTT: connection to {}:{} lost: {e}; buffering changes",
@@ -266,6 +282,7 @@ impl Session {
                     }
                 }
                 tracing::info!("MQTT: connected to {}:{}", self.cfg.host, self.cfg.port);
+                self.health.set(Service::Mqtt, ServiceState::Running);
                 Some(true)
             }
             Event::Incoming(Packet::Publish(p)) => {
@@ -276,10 +293,21 @@ impl Session {
                     self.cfg.writes,
                     &self.writable,
                 ) {
-                    Err(e) => tracing::warn!("MQTT: command ignored: {e}"),
+                    Err(e) => limited!(
+                        WARN,
+                        COMMAND_IGNORED,
+                        format!("on {}", p.topic),
+                        "MQTT: command ignored: {e}"
+                    ),
                     Ok(cmd) => {
                         for (tag, why) in &cmd.refused {
-                            tracing::warn!("MQTT: {}: write to {tag} refused: {why}", p.topic);
+                            limited!(
+                                WARN,
+                                WRITE_REFUSED,
+                                format!("on {}", p.topic),
+                                "MQTT: {}: write to {tag} refused: {why}",
+                                p.topic
+                            );
                         }
                         if !cmd.writes.is_empty() {
                             self.write(&p.topic, &cmd.writes, pending);
@@ -320,7 +348,10 @@ impl Session {
                 answer,
                 deadline: Instant::now() + WRITE_WAIT,
             }),
-            Err(_) => tracing::warn!(
+            Err(_) => limited!(
+                WARN,
+                WRITE_REFUSED,
+                format!("on {topic}"),
                 "MQTT: {topic}: write to {} refused: the scan's request queue is full",
                 tags.join(", ")
             ),
@@ -330,11 +361,20 @@ impl Session {
     fn answers(&self, pending: &mut Vec<Pending>) {
         pending.retain(|p| match p.answer.try_recv() {
             Ok(r) if r.ok => {
-                tracing::info!("MQTT: write to {} applied", p.tags.join(", "));
+                limited!(
+                    INFO,
+                    WRITE_APPLIED,
+                    "",
+                    "MQTT: write to {} applied",
+                    p.tags.join(", ")
+                );
                 false
             }
             Ok(r) => {
-                tracing::warn!(
+                limited!(
+                    WARN,
+                    WRITE_REFUSED,
+                    "",
                     "MQTT: write to {} refused: {}",
                     p.tags.join(", "),
                     r.error.unwrap_or_default()
@@ -342,7 +382,10 @@ impl Session {
                 false
             }
             Err(_) if Instant::now() >= p.deadline => {
-                tracing::warn!(
+                limited!(
+                    WARN,
+                    WRITE_REFUSED,
+                    "",
                     "MQTT: write to {} refused: the scan did not answer within {WRITE_WAIT:?}",
                     p.tags.join(", ")
                 );

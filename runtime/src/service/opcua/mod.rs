@@ -16,8 +16,11 @@
 //! project's user and password. The server's certificate and private key are made at first
 //! start in the PLC's state folder (`opcua-pki/own/cert.der`, `opcua-pki/private/private.pem`);
 //! a client certificate the server does not know yet is put in `opcua-pki/rejected/` and is
-//! trusted once moved to `opcua-pki/trusted/`.
+//! trusted once moved to `opcua-pki/trusted/`. A pair that does not read (a power cut at first
+//! start) is moved aside and made again (see [`pki`]); the server's state (running, or stopped
+//! and why) is in the service's [`Health`].
 
+pub(crate) mod pki;
 pub(crate) mod space;
 pub(crate) mod write;
 
@@ -36,6 +39,7 @@ use opcua::server::{
 use opcua::types::{DateTime, NodeId, QualifiedName};
 
 use super::control::Envelope;
+use super::health::{Health, Service, ServiceState};
 use super::snapshot::SnapshotCell;
 use crate::project::opcua::{OpcUaConfig, OpcUaSecurity};
 use crate::project::Project;
@@ -69,6 +73,22 @@ pub(crate) enum OpcUaStartError {
     /// A thread or the runtime could not be made.
     #[error("OPC UA server: cannot start its threads: {0}")]
     Thread(std::io::Error),
+    /// No usable certificate and key, even after making a new pair.
+    #[error("OPC UA server: no usable certificate in {}: {reason}", path.display())]
+    NoCertificate {
+        /// The PKI folder.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+impl OpcUaStartError {
+    /// Whether the start-up must stop: the address is the plant's interface (a wrong one is a
+    /// configuration to fix); anything else leaves the PLC running with OPC UA stopped.
+    pub(crate) fn is_fatal(&self) -> bool {
+        matches!(self, OpcUaStartError::Bind { .. })
+    }
 }
 
 /// A running server; it lives as long as the process.
@@ -179,6 +199,7 @@ impl OpcUaServer {
         project: &Project,
         snapshot: &SnapshotCell,
         scan: &Sender<Envelope>,
+        health: &Health,
     ) -> Result<Option<Self>, OpcUaStartError> {
         let Some(cfg) = project.service.opcua.clone() else {
             return Ok(None);
@@ -195,6 +216,10 @@ impl OpcUaServer {
             path: pki.clone(),
             source,
         })?;
+        let checked = pki::check_own_pair(&pki).map_err(|source| OpcUaStartError::Pki {
+            path: pki.clone(),
+            source,
+        })?;
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(2)
             .thread_name("opcua")
@@ -204,7 +229,7 @@ impl OpcUaServer {
         // async-opcua starts tasks of its own while it is built.
         let _in_runtime = runtime.enter();
         let namespace = format!("{}{}", space::NAMESPACE_PREFIX, project.name);
-        let (server, handle) = builder(project, &cfg, addr.port(), pki)
+        let (server, handle) = builder(project, &cfg, addr.port(), pki.clone())
             .with_node_manager(simple_node_manager(
                 NamespaceMetadata {
                     namespace_uri: namespace.clone(),
@@ -214,6 +239,30 @@ impl OpcUaServer {
             ))
             .build()
             .map_err(OpcUaStartError::Config)?;
+        // async-opcua made the pair if there was none; whatever it has now must be sound.
+        match pki::check_own_pair(&pki) {
+            Ok(pki::OwnPair::Sound) => {}
+            Ok(pki::OwnPair::MovedAside { reason, .. }) => {
+                return Err(OpcUaStartError::NoCertificate { path: pki, reason })
+            }
+            Ok(pki::OwnPair::Absent) => {
+                return Err(OpcUaStartError::NoCertificate {
+                    path: pki,
+                    reason: "no pair could be made".into(),
+                })
+            }
+            Err(source) => return Err(OpcUaStartError::Pki { path: pki, source }),
+        }
+        if let pki::OwnPair::MovedAside { reason, kept } = &checked {
+            let kept: Vec<String> = kept.iter().map(|p| p.display().to_string()).collect();
+            tracing::warn!(
+                "OPC UA server: its certificate or private key was damaged ({reason}); kept \
+                 aside as {}; a new pair was made (certificate thumbprint {}): clients must \
+                 trust the new certificate",
+                kept.join(", "),
+                pki::thumbprint(&pki).unwrap_or_default()
+            );
+        }
         let nm = handle
             .node_managers()
             .get_of_type::<SimpleNodeManager>()
@@ -228,21 +277,23 @@ impl OpcUaServer {
             scan.clone(),
         ));
         build_space(&nm, ns, &layout, &writer);
+        let server_health = health.clone();
         std::thread::Builder::new()
             .name("opcua".into())
             .spawn(move || {
-                runtime.block_on(async move {
+                let stopped = runtime.block_on(async move {
                     match tokio::net::TcpListener::from_std(listener) {
-                        Ok(l) => {
-                            if let Err(e) = server.run_with(l).await {
-                                tracing::error!("OPC UA server stopped: {e}");
-                            }
-                        }
-                        Err(e) => tracing::error!("OPC UA server: cannot listen: {e}"),
+                        Ok(l) => server.run_with(l).await.err().map(|e| e.to_string()),
+                        Err(e) => Some(format!("cannot listen: {e}")),
                     }
                 });
+                if let Some(why) = stopped {
+                    tracing::error!("OPC UA server stopped: {why}");
+                    server_health.set(Service::Opcua, ServiceState::Stopped(why));
+                }
             })
             .map_err(OpcUaStartError::Thread)?;
+        health.set(Service::Opcua, ServiceState::Running);
         let updater = Updater {
             nm,
             subscriptions: handle.subscriptions().clone(),

@@ -15,6 +15,7 @@
 //! [`WRITE_WAIT`] at most) holds up the updates and other clients' requests meanwhile, never
 //! the scan.
 
+use crate::log_limit::{limited, Site};
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::Sender;
@@ -59,7 +60,12 @@ impl Writer {
             .snapshot
             .with(|s| s.forced.get(tag).copied().unwrap_or(false))
         {
-            tracing::info!("OPC UA: write to {name} refused: {name} is forced");
+            limited!(
+                INFO,
+                REFUSED,
+                name,
+                "OPC UA: write to {name} refused: {name} is forced"
+            );
             return StatusCode::BadLocked;
         }
         let deadline = Instant::now() + WRITE_WAIT;
@@ -70,26 +76,45 @@ impl Writer {
         }];
         let env = Envelope::new(Request::Write { values }, reply, WRITE_WAIT);
         if self.scan.send_deadline(env, deadline).is_err() {
-            tracing::warn!("OPC UA: write to {name} refused: the scan did not take it in time");
+            limited!(
+                WARN,
+                REFUSED,
+                name,
+                "OPC UA: write to {name} refused: the scan did not take it in time"
+            );
             return StatusCode::BadTimeout;
         }
         match answer.recv_deadline(deadline) {
             Ok(r) if r.ok => {
-                tracing::info!("OPC UA: {name} written: {value}");
+                limited!(INFO, WRITTEN, name, "OPC UA: {name} written: {value}");
                 StatusCode::Good
             }
             Ok(r) => {
                 let why = r.error.unwrap_or_default();
-                tracing::info!("OPC UA: write to {name} refused: {why}");
+                limited!(
+                    INFO,
+                    REFUSED,
+                    name,
+                    "OPC UA: write to {name} refused: {why}"
+                );
                 StatusCode::BadNotWritable
             }
             Err(_) => {
-                tracing::warn!("OPC UA: write to {name}: the scan did not answer in time");
+                limited!(
+                    WARN,
+                    REFUSED,
+                    name,
+                    "OPC UA: write to {name}: the scan did not answer in time"
+                );
                 StatusCode::BadTimeout
             }
         }
     }
 }
+
+/// Log sites a client's writes repeat (see [`crate::log_limit`]).
+const REFUSED: Site = Site::new("opcua.write_refused", "OPC UA: refused writes");
+const WRITTEN: Site = Site::new("opcua.written", "OPC UA: writes applied");
 
 #[cfg(test)]
 mod tests {

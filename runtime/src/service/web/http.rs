@@ -1,9 +1,11 @@
 //! HTTP/1.1 as far as the web page and the metrics endpoint need it: one request per
 //! connection, a bounded head and body, `Connection: close` on every response, and the server
-//! that runs them ([`spawn`]): a thread per connection, at most [`Limits::clients`] at once (a
-//! 503 beyond), [`Limits::request`] for a client to send its request (a 408 after), a timeout
-//! on every write to it. A slow or silent client holds one connection and its thread, never
-//! the server.
+//! that runs them ([`spawn`]): a thread per connection, at most [`Limits::clients`] at once,
+//! [`Limits::request`] for a client to send its request (a 408 after), a timeout on every write
+//! to it. When every slot is taken, the client that has waited longest without sending its
+//! request gives its slot to the newcomer (a 503 only when every slot is being served), and
+//! streams take at most [`Limits::streams`] of them (see [`crate::service::slots`]): slow or
+//! silent clients never lock out the page or a scrape.
 //!
 //! Parsing is a total function over bytes ([`parse`]): it never panics, never allocates beyond
 //! [`MAX_HEAD`] + [`MAX_BODY`], and refuses what it does not understand (chunked bodies, folded
@@ -13,9 +15,11 @@
 use std::fmt::Write as _;
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+pub(crate) use crate::service::slots::Held;
+use crate::service::slots::{Caps, Evict, Slots};
 
 /// Longest request head (request line and headers), in bytes.
 pub(crate) const MAX_HEAD: usize = 8 * 1024;
@@ -330,6 +334,8 @@ pub(crate) struct Limits {
     pub request: Duration,
     /// How long one write to a client may block.
     pub write: Duration,
+    /// Of the clients, streams at once (see [`crate::service::slots`]).
+    pub streams: usize,
 }
 
 /// A server's name (its threads' and its log lines'), bounds and the methods it serves.
@@ -353,12 +359,15 @@ pub(crate) fn spawn<H>(
     handler: H,
 ) -> std::io::Result<()>
 where
-    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()> + Send + Sync + 'static,
+    H: Fn(&Request, &mut TcpStream, &Held) -> std::io::Result<()> + Send + Sync + 'static,
 {
     let shared = Arc::new(Served {
         config,
         handler,
-        clients: AtomicUsize::new(0),
+        slots: Slots::new(Caps {
+            clients: config.limits.clients,
+            streams: config.limits.streams,
+        }),
     });
     std::thread::Builder::new()
         .name(config.name.into())
@@ -370,21 +379,23 @@ where
 struct Served<H> {
     config: ServerConfig,
     handler: H,
-    clients: AtomicUsize,
+    slots: Slots,
 }
 
-/// Gives a client's slot back when its thread ends, however it ends.
-struct Slot<H>(Arc<Served<H>>);
-
-impl<H> Drop for Slot<H> {
-    fn drop(&mut self) {
-        self.0.clients.fetch_sub(1, Ordering::AcqRel);
-    }
+/// Shuts `stream` when called: its thread's next read or write fails, and it ends.
+fn evict_of(stream: &TcpStream) -> Evict {
+    let handle = stream.try_clone();
+    Box::new(move || {
+        if let Ok(s) = &handle {
+            // Best effort: the client may be gone already.
+            drop(s.shutdown(std::net::Shutdown::Both));
+        }
+    })
 }
 
 fn accept<H>(listener: &TcpListener, shared: &Arc<Served<H>>)
 where
-    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()> + Send + Sync + 'static,
+    H: Fn(&Request, &mut TcpStream, &Held) -> std::io::Result<()> + Send + Sync + 'static,
 {
     let name = shared.config.name;
     for stream in listener.incoming() {
@@ -393,17 +404,15 @@ where
             std::thread::sleep(Duration::from_millis(10));
             continue;
         };
-        if shared.clients.fetch_add(1, Ordering::AcqRel) >= shared.config.limits.clients {
-            shared.clients.fetch_sub(1, Ordering::AcqRel);
+        let Some(held) = shared.slots.admit(Instant::now(), evict_of(&stream)) else {
             busy(stream);
             continue;
-        }
-        let slot = Slot(shared.clone());
+        };
+        let served = shared.clone();
         let spawned = std::thread::Builder::new()
             .name(format!("{name}-client"))
             .spawn(move || {
-                let slot = slot;
-                if let Err(e) = serve(stream, &slot.0) {
+                if let Err(e) = serve(stream, &served, &held) {
                     tracing::debug!("{name} client: {e}");
                 }
             });
@@ -479,23 +488,25 @@ fn close(mut stream: TcpStream) {
     }
 }
 
-fn serve<H>(mut stream: TcpStream, shared: &Served<H>) -> std::io::Result<()>
+fn serve<H>(mut stream: TcpStream, shared: &Served<H>, held: &Held) -> std::io::Result<()>
 where
-    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()>,
+    H: Fn(&Request, &mut TcpStream, &Held) -> std::io::Result<()>,
 {
-    let result = answer(&mut stream, shared);
+    let result = answer(&mut stream, shared, held);
     close(stream);
     result
 }
 
-fn answer<H>(stream: &mut TcpStream, shared: &Served<H>) -> std::io::Result<()>
+fn answer<H>(stream: &mut TcpStream, shared: &Served<H>, held: &Held) -> std::io::Result<()>
 where
-    H: Fn(&Request, &mut TcpStream) -> std::io::Result<()>,
+    H: Fn(&Request, &mut TcpStream, &Held) -> std::io::Result<()>,
 {
     let limits = shared.config.limits;
     stream.set_write_timeout(Some(limits.write))?;
-    match read_request(stream, limits.request) {
-        Ok(Some(Ok(req))) => (shared.handler)(&req, stream),
+    let request = read_request(stream, limits.request);
+    held.busy();
+    match request {
+        Ok(Some(Ok(req))) => (shared.handler)(&req, stream, held),
         Ok(Some(Err(e))) => {
             let mut r = Response::error(e.status(), &e.to_string());
             if e == HttpError::MethodNotAllowed {

@@ -36,6 +36,7 @@ pub use http::{parse as parse_http, HttpError, Method, Request};
 pub use info::{BusInfo, ModuleInfo, TagInfo, WebInfo};
 pub use program::{Line, Part, ProgramView, RungMark};
 
+use crate::service::health::Health;
 use std::io::Write;
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::{Arc, Mutex};
@@ -51,8 +52,11 @@ use super::control::Envelope;
 use super::snapshot::SnapshotCell;
 use crate::project::WebConfig;
 
-/// Connections served at once; more are answered 503 at once.
+/// Connections served at once; past it the client waiting longest for its request gives way,
+/// and 503 is the answer only when every connection is being served.
 pub const MAX_CLIENTS: usize = 16;
+/// Of the connections, event streams at once: the other half stays for the page's requests.
+pub const MAX_STREAMS: usize = 8;
 /// How long a client may take to send its request.
 pub const REQUEST_DEADLINE: Duration = Duration::from_secs(5);
 /// How long one write to a client may block.
@@ -62,6 +66,8 @@ pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
 #[derive(Debug)]
 struct Shared {
     info_json: String,
+    /// The services' states, for the overview.
+    health: Health,
     snapshot: SnapshotCell,
     scan: Sender<Envelope>,
     auth: WriteAuth,
@@ -78,14 +84,16 @@ pub struct WebServer {
 }
 
 impl WebServer {
-    /// Binds `config.bind` and serves `info` and the live `snapshot` on threads; writes go to
-    /// `scan`. `period` is the scan period (the trend samples at most once per cycle).
+    /// Binds `config.bind` and serves `info`, the live `snapshot` and the services' states
+    /// `health` on threads; writes go to `scan`. `period` is the scan period (the trend
+    /// samples at most once per cycle).
     pub fn start(
         config: &WebConfig,
         info: &WebInfo,
         snapshot: SnapshotCell,
         scan: Sender<Envelope>,
         period: Duration,
+        health: &Health,
     ) -> std::io::Result<Self> {
         let listener = TcpListener::bind(config.bind)?;
         let addr = listener.local_addr()?;
@@ -95,6 +103,7 @@ impl WebServer {
         let writes = auth.enabled();
         let shared = Arc::new(Shared {
             info_json: serde_json::to_string(info).map_err(std::io::Error::other)?,
+            health: health.clone(),
             snapshot,
             scan,
             auth,
@@ -108,11 +117,12 @@ impl WebServer {
                 clients: MAX_CLIENTS,
                 request: REQUEST_DEADLINE,
                 write: WRITE_TIMEOUT,
+                streams: MAX_STREAMS,
             },
             allow: "GET, HEAD, POST",
         };
-        http::spawn(listener, server, move |req, stream| {
-            answer(req, stream, &shared)
+        http::spawn(listener, server, move |req, stream, held| {
+            answer(req, stream, &shared, held)
         })?;
         Ok(Self { addr, writes })
     }
@@ -134,12 +144,26 @@ impl WebServer {
 }
 
 /// Answers one request (read and checked by [`http::spawn`]) on its connection.
-fn answer(req: &Request, stream: &mut TcpStream, shared: &Shared) -> std::io::Result<()> {
+fn answer(
+    req: &Request,
+    stream: &mut TcpStream,
+    shared: &Shared,
+    held: &http::Held,
+) -> std::io::Result<()> {
     let with_body = req.method != Method::Head;
     match respond(req, shared) {
         Reply::Full(r) => stream.write_all(&r.to_bytes(with_body)),
         Reply::Events if !with_body => stream.write_all(sse::head().as_bytes()),
-        Reply::Events => sse::stream(stream, &shared.snapshot),
+        Reply::Events if !held.stream() => {
+            // The browser retries after `Retry-After`; the slots stay for requests.
+            let busy =
+                Response::error(503, "too many event streams; try again").with("Retry-After", "1");
+            stream.write_all(&busy.to_bytes(true))
+        }
+        Reply::Events => {
+            crate::service::socket::bound_send_buffer(stream, sse::SEND_BUFFER);
+            sse::stream(stream, &shared.snapshot, &shared.health)
+        }
     }
 }
 
@@ -176,7 +200,7 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
         Route::Info => Reply::Full(Response::json(200, shared.info_json.clone())),
         Route::State => {
             let s = shared.snapshot.get();
-            let body = serde_json::json!({ "state": view::state(&s), "stats": view::stats(&s) });
+            let body = serde_json::json!({ "state": view::state(&s), "stats": view::stats(&s, &shared.health) });
             Reply::Full(Response::json(200, body.to_string()))
         }
         Route::Trend => {

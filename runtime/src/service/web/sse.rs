@@ -17,6 +17,9 @@ pub(crate) const TICK: Duration = Duration::from_millis(100);
 pub(crate) const KEEPALIVE: Duration = Duration::from_secs(15);
 /// How long one stream lasts before the browser is asked to reconnect.
 pub(crate) const LIFETIME: Duration = Duration::from_secs(600);
+/// The kernel's send buffer of a stream: a few seconds of events, so a stream nobody reads
+/// fills it soon and is dropped by the write deadline (rather than after megabytes).
+pub(crate) const SEND_BUFFER: usize = 32 * 1024;
 /// How long the browser waits before reconnecting, in ms.
 pub(crate) const RETRY_MS: u32 = 1000;
 
@@ -56,7 +59,11 @@ pub(crate) fn comment(text: &str) -> String {
 }
 
 /// Streams `snapshot` to `out` until the client goes away or [`LIFETIME`] passes.
-pub(crate) fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::Result<()> {
+pub(crate) fn stream(
+    out: &mut impl Write,
+    snapshot: &SnapshotCell,
+    health: &crate::service::health::Health,
+) -> std::io::Result<()> {
     out.write_all(head().as_bytes())?;
     out.flush()?;
     let begin = Instant::now();
@@ -73,7 +80,7 @@ pub(crate) fn stream(out: &mut impl Write, snapshot: &SnapshotCell) -> std::io::
         }
         if s.published && stats_seq != Some(s.stats_seq) {
             stats_seq = Some(s.stats_seq);
-            chunk.push_str(&event("stats", &view::stats(&s).to_string()));
+            chunk.push_str(&event("stats", &view::stats(&s, health).to_string()));
         }
         if chunk.is_empty() && last_sent.elapsed() >= KEEPALIVE {
             chunk = comment("waiting for the scan");
@@ -121,7 +128,7 @@ mod tests {
             ..ServiceSnapshot::default()
         });
         let mut out = Vec::new();
-        stream(&mut out, &cell).unwrap();
+        stream(&mut out, &cell, &crate::service::health::Health::new()).unwrap();
         let text = String::from_utf8(out).unwrap();
         let body = text.split("\r\n\r\n").nth(1).unwrap();
         assert!(

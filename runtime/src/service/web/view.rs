@@ -4,6 +4,7 @@
 //! milliseconds as numbers, values are JSON booleans and numbers (`null` for a float that is
 //! not finite), qualities 0 good, 1 stale, 2 bad.
 
+use crate::service::health::Health;
 use serde_json::{json, Value as Json};
 use softplc_io::point::{Quality, Value};
 
@@ -95,7 +96,7 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
 }
 
 /// The statistics: each phase's percentiles and histogram, each module's counters.
-pub(crate) fn stats(s: &ServiceSnapshot) -> Json {
+pub(crate) fn stats(s: &ServiceSnapshot, health: &Health) -> Json {
     let phases: Vec<Json> = Phase::ALL
         .iter()
         .zip(&s.phases)
@@ -138,7 +139,12 @@ pub(crate) fn stats(s: &ServiceSnapshot) -> Json {
             })
         })
         .collect();
-    json!({ "seq": s.stats_seq, "phases": phases, "modules": modules })
+    json!({
+        "seq": s.stats_seq,
+        "phases": phases,
+        "modules": modules,
+        "services": health.report(),
+    })
 }
 
 /// The trend's history, column by column: times (ms of scan time) and one series per tag.
@@ -189,7 +195,7 @@ mod tests {
         assert_eq!(j["age"], json!([50.0, 700.0, 700.0]));
         assert_eq!(j["forced"], json!([2]));
         assert!(j.get("b").is_none(), "no blocks, no `b`: {j}");
-        let j = stats(&s);
+        let j = stats(&s, &Health::new());
         assert_eq!(j["phases"][0]["name"], "cycle");
         assert_eq!(j["phases"][0]["hist"]["lo"], json!(1.5));
         assert_eq!(j["phases"][1]["hist"], Json::Null);

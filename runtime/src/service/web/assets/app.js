@@ -19,6 +19,8 @@
     lateness: ["Wake-up lateness", "start of a cycle after its deadline"],
   };
   const QUALITY = ["good", "stale", "bad"];
+  // A service's state drawn as a quality: running good, degraded stale, stopped bad.
+  const SERVICE_QUALITY = { running: "good", degraded: "stale", stopped: "bad" };
 
   const app = {
     info: null,
@@ -468,6 +470,16 @@
     cards.push(card("Forces", String(forcedNames.length), forcedNames.length ? forcedNames.join(", ") : "none"));
     const bus = busTotals();
     cards.push(card("Bus", bus.requests.toLocaleString("en"), "requests · " + bus.errors + " errors"));
+    const services = ((st && st.services) || []).filter((v) => v.state !== "off");
+    if (services.length) {
+      const slist = el("ul");
+      for (const v of services) {
+        const li = el("li", {}, el("span", { class: "q " + SERVICE_QUALITY[v.state], text: v.service }), el("span", { class: "doc", text: v.state }));
+        if (v.reason) li.title = v.reason;
+        slist.append(li);
+      }
+      cards.push(card("Services", null, slist));
+    }
     $("overview-cards").replaceChildren(...cards);
     renderFaults();
   }
@@ -483,6 +495,9 @@
         const mm = st.modules[i];
         if (mm && mm.q !== 0) add(mm.q === 2 ? "bad" : "warn", "Module " + m.name + " (line " + info.buses[m.bus].name + ") is " + QUALITY[mm.q] + (mm.error ? ": " + mm.error : ""));
       });
+      for (const v of st.services || []) {
+        if (v.state === "degraded" || v.state === "stopped") add(v.state === "stopped" ? "bad" : "warn", "Service " + v.service + " is " + v.state + ": " + v.reason);
+      }
       const bus = busTotals();
       if (bus.errors > 0) add("warn", bus.errors + " bus errors since start: " + bus.timeouts + " timeouts, " + bus.crc + " CRC, " + bus.bad + " bad replies, " + bus.exceptions + " exceptions.");
     }
