@@ -1,0 +1,280 @@
+//! What the plant's clients see of the scan (issue #25), against third-party clients: Python
+//! asyncua for OPC UA, and a Sparkplug host (paho-mqtt with Eclipse Tahu's
+//! `sparkplug_b.proto`) through a real mosquitto, both in `runtime/tests/plant_view/client.py`.
+//!
+//! - An output no program writes, on a healthy module, is good: in `softplc status`, at the OPC
+//!   UA client and in the Sparkplug host's view (its DBIRTH, and every DDATA after it).
+//!
+//! `scripts/test` installs mosquitto and the Python environment (`target/py-venv`).
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+#[path = "common/host.rs"]
+mod host;
+use host::{free_port, lines_of, repo as workspace};
+#[path = "common/broker.rs"]
+#[allow(dead_code)] // Broker::restart_after serves the MQTT test only.
+mod broker;
+use broker::{sparkplug_pb2, Broker};
+
+const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+const NAMESPACE: &str = "urn:softplc:plant_view";
+
+fn python() -> PathBuf {
+    let py = workspace().join("target/py-venv/bin/python");
+    assert!(
+        py.exists(),
+        "{} is missing: run scripts/test, which creates it (asyncua, paho-mqtt, protobuf, \
+         grpcio-tools)",
+        py.display()
+    );
+    py
+}
+
+/// A fresh folder of this test.
+fn scratch(name: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("softplc-plant-view-{name}-{}", std::process::id()));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The ports of a run's services.
+#[derive(Debug, Clone, Copy)]
+struct Ports {
+    opcua: u16,
+    mqtt: u16,
+}
+
+/// The issue's project: `y1` bound to `mm1.Y1` and never written, `y2` written by the
+/// program, and `counter`, a memory tag the program steps every scan.
+fn project(dir: &Path, period_ms: u64, ports: Ports) -> PathBuf {
+    let program = dir.join("program.rhai");
+    std::fs::write(&program, "y2 = true;\ncounter += 1;\n").unwrap();
+    let text = format!(
+        r#"project: plant_view
+scan:
+  period: {period_ms}ms
+buses:
+  - {{ name: line1, port: sim, baud: 57600, format: 8E1, response_timeout: 30ms, retries: 1 }}
+modules:
+  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}
+tags:
+  - {{ name: y1, point: mm1.Y1, safe: false }}
+  - {{ name: y2, point: mm1.Y2, safe: false }}
+  - {{ name: counter, type: i32 }}
+program: {{ file: {}, kind: rhai }}
+service:
+  opcua:
+    port: {opcua}
+  mqtt:
+    host: 127.0.0.1
+    port: {mqtt}
+    group: plant1
+    node: edge1
+"#,
+        program.display(),
+        opcua = ports.opcua,
+        mqtt = ports.mqtt,
+    );
+    let path = dir.join("project.yaml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// A running softplc, killed when dropped.
+struct Plc {
+    child: Child,
+    socket: PathBuf,
+    log: PathBuf,
+}
+
+impl Plc {
+    fn start(dir: &Path, project: &Path) -> Self {
+        let socket = dir.join("control.sock");
+        let log = dir.join("softplc.log");
+        let child = Command::new(BIN)
+            .args(["run", "--quiet", "--for", "120s", "--socket"])
+            .arg(&socket)
+            .arg(project)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .unwrap();
+        Self { child, socket, log }
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// `softplc status --json`, once the control socket answers.
+    fn status(&self) -> serde_json::Value {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            let out = Command::new(BIN)
+                .args(["status", "--json", "--socket"])
+                .arg(&self.socket)
+                .output()
+                .unwrap();
+            if out.status.success() {
+                return serde_json::from_slice(&out.stdout).unwrap();
+            }
+            assert!(
+                Instant::now() < deadline,
+                "status: {out:?}; log:\n{}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    /// A tag's quality in `softplc status`.
+    fn tag_quality(&self, tag: &str) -> String {
+        let status = self.status();
+        status["tags"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|t| t["name"] == tag)
+            .unwrap_or_else(|| panic!("{tag} in {status}"))["quality"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    }
+
+    /// Waits until the scan has run `n` cycles.
+    fn wait_scans(&self, n: u64) {
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while self.status()["scans"].as_u64().unwrap() < n {
+            assert!(
+                Instant::now() < deadline,
+                "no {n} scans; log:\n{}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Plc {
+    fn drop(&mut self) {
+        // The child may have exited already; then there is nothing to stop.
+        drop(self.child.kill());
+        drop(self.child.wait());
+    }
+}
+
+/// Runs the client in `mode` with `args`; the lines it printed before DONE (a FAIL panics with
+/// softplc's log, at `log`).
+fn client(log: &Path, mode: &str, args: &[String], within: Duration) -> Vec<String> {
+    let log = || std::fs::read_to_string(log).unwrap_or_default();
+    let mut child = Command::new(python())
+        .arg(workspace().join("runtime/tests/plant_view/client.py"))
+        .arg(mode)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let lines = lines_of(child.stdout.take().unwrap());
+    let deadline = Instant::now() + within;
+    let mut out = Vec::new();
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let Ok(line) = lines.recv_timeout(left) else {
+            // The child may have exited already; then there is nothing to stop.
+            drop(child.kill());
+            panic!("client {mode}: no DONE after {out:?}; log:\n{}", log());
+        };
+        eprintln!("client {mode}: {line}");
+        if line == "DONE" {
+            break;
+        }
+        assert!(
+            !line.starts_with("FAIL"),
+            "client {mode}: {line}; log:\n{}",
+            log()
+        );
+        out.push(line);
+    }
+    assert!(child.wait().unwrap().success());
+    out
+}
+
+/// The value of `KEY tag value` lines.
+fn keyed<'a>(lines: &'a [String], key: &str, tag: &str) -> Option<&'a str> {
+    let prefix = format!("{key} {tag} ");
+    lines.iter().find_map(|l| l.strip_prefix(&prefix))
+}
+
+#[test]
+fn an_output_no_program_writes_is_good_in_status_at_an_opcua_client_and_at_a_sparkplug_host() {
+    let dir = scratch("quality");
+    let ports = Ports {
+        opcua: free_port(),
+        mqtt: free_port(),
+    };
+    let _broker = Broker::start(&dir, ports.mqtt);
+    let pb2 = sparkplug_pb2(&python(), &dir);
+    let project = project(&dir, 50, ports);
+    let plc = Plc::start(&dir, &project);
+    // Before the module has acknowledged its outputs nobody can say they hold: the birth may
+    // show that, so the host is listening from the start and its view is taken at the end.
+    let host_args: Vec<String> = [
+        ports.mqtt.to_string(),
+        "plant1".into(),
+        "edge1".into(),
+        pb2.display().to_string(),
+        "mm1".into(),
+        "y1".into(),
+        "y2".into(),
+    ]
+    .into();
+    let host = {
+        let log = plc.log.clone();
+        std::thread::spawn(move || {
+            client(
+                &log,
+                "sparkplug-quality",
+                &host_args,
+                Duration::from_secs(40),
+            )
+        })
+    };
+    plc.wait_scans(20);
+    assert_eq!(plc.tag_quality("y1"), "good", "y1 in softplc status");
+    assert_eq!(plc.tag_quality("y2"), "good", "y2 in softplc status");
+    let module = &plc.status()["modules"][0];
+    assert_eq!(module["quality"], "good", "{module}");
+    assert_eq!(module["outputs"], "good", "{module}");
+
+    let seen = client(
+        &plc.log,
+        "opcua-quality",
+        &[
+            format!("opc.tcp://127.0.0.1:{}/", ports.opcua),
+            NAMESPACE.into(),
+            "y1".into(),
+            "y2".into(),
+        ],
+        Duration::from_secs(40),
+    );
+    assert_eq!(keyed(&seen, "QUALITY", "y1"), Some("Good"), "{seen:?}");
+    assert_eq!(keyed(&seen, "QUALITY", "y2"), Some("Good"), "{seen:?}");
+
+    let seen = host.join().unwrap();
+    assert_eq!(
+        keyed(&seen, "QUALITY", "y1"),
+        Some("192"),
+        "y1 as the Sparkplug host holds it: {seen:?}"
+    );
+    assert_eq!(keyed(&seen, "QUALITY", "y2"), Some("192"), "{seen:?}");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}

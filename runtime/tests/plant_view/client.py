@@ -1,0 +1,233 @@
+"""Third-party clients for runtime/tests/plant_view.rs: what a SCADA (OPC UA, asyncua) and a
+Sparkplug host (paho-mqtt with Eclipse Tahu's sparkplug_b.proto) see of softplc's tags.
+
+Usage:
+  client.py opcua-quality URL NAMESPACE_URI TAG...
+      each TAG's status once the server has values: prints "QUALITY tag StatusName".
+  client.py opcua-count URL NAMESPACE_URI TAG PERIOD_MS SECONDS
+      subscribes to TAG (sampling interval 0, queue 100, publishing every PERIOD_MS), collects
+      its notifications for SECONDS and prints "COUNT received first last missing overflow".
+  client.py sparkplug-quality PORT GROUP NODE PB2_DIR DEVICE TAG...
+      follows the births and DATA of the node for a few seconds: "QUALITY tag code" for the
+      quality each TAG has in the host's view at the end, and "BIRTH tag code" as the DBIRTH
+      gave it.
+  client.py sparkplug-count PORT GROUP NODE PB2_DIR TAG SECONDS
+      counts every value of TAG in NDATA (and the historical ones after a birth) for SECONDS:
+      "COUNT received first last missing out_of_order".
+
+Speaks on stdout: "READY" once subscribed, result lines, "FAIL why" (exit 1).
+"""
+
+import asyncio
+import sys
+import time
+
+
+def say(line):
+    print(line, flush=True)
+
+
+def fail(why):
+    say(f"FAIL {why}")
+    sys.exit(1)
+
+
+def gaps(values):
+    """(missing, out_of_order) in a run of consecutive integers."""
+    missing = out_of_order = 0
+    for a, b in zip(values, values[1:]):
+        if b > a + 1:
+            missing += b - a - 1
+        elif b <= a:
+            out_of_order += 1
+    return missing, out_of_order
+
+
+async def opcua_connect(url):
+    from asyncua import Client, ua
+
+    deadline = time.monotonic() + 20
+    while True:
+        c = Client(url=url, timeout=5)
+        try:
+            await c.connect()
+            return c
+        except (OSError, asyncio.TimeoutError, ua.UaError):
+            if time.monotonic() > deadline:
+                fail(f"cannot connect to {url}")
+            await asyncio.sleep(0.1)
+
+
+async def opcua_quality(url, ns_uri, tags):
+    from asyncua import ua
+
+    c = await opcua_connect(url)
+    try:
+        ns = await c.get_namespace_index(ns_uri)
+        for tag in tags:
+            node = c.get_node(ua.NodeId(f"Tags.{tag}", ns))
+            deadline = time.monotonic() + 20
+            while True:
+                dv = await node.read_data_value(raise_on_bad_status=False)
+                if dv.StatusCode.value != ua.StatusCodes.BadWaitingForInitialData:
+                    break
+                if time.monotonic() > deadline:
+                    fail(f"{tag}: no value from the scan within 20 s")
+                await asyncio.sleep(0.05)
+            say(f"QUALITY {tag} {dv.StatusCode.name}")
+    finally:
+        await c.disconnect()
+
+
+class Collect:
+    def __init__(self):
+        self.values = []
+        self.overflow = 0
+
+    def datachange_notification(self, node, val, data):
+        status = data.monitored_item.Value.StatusCode
+        # The Overflow InfoBit (OPC 10000-4 §7.39.1): bits 10 (InfoType DataValue) and 7.
+        if status.value & 0x480 == 0x480:
+            self.overflow += 1
+        if isinstance(val, int):
+            self.values.append(val)
+
+
+async def opcua_count(url, ns_uri, tag, period_ms, seconds):
+    from asyncua import ua
+
+    c = await opcua_connect(url)
+    try:
+        ns = await c.get_namespace_index(ns_uri)
+        node = c.get_node(ua.NodeId(f"Tags.{tag}", ns))
+        handler = Collect()
+        sub = await c.create_subscription(period_ms, handler)
+        await sub.subscribe_data_change([node], sampling_interval=0, queuesize=100)
+        say("READY")
+        await asyncio.sleep(seconds)
+        await sub.delete()
+        values = handler.values[1:]  # the first is the value at subscription
+        if len(values) < 2:
+            fail(f"{tag}: {len(values)} notifications in {seconds} s")
+        missing, _ = gaps(values)
+        say(f"COUNT {len(values)} {values[0]} {values[-1]} {missing} {handler.overflow}")
+    finally:
+        await c.disconnect()
+
+
+def sparkplug(port, group, node, pb2_dir):
+    """A connected paho client subscribed to the node's topics, and the queue of messages."""
+    import queue
+
+    sys.path.insert(0, pb2_dir)
+    import paho.mqtt.client as mqtt
+    import sparkplug_b_pb2 as spb
+
+    messages = queue.Queue()
+
+    def on_connect(client, userdata, flags, reason, properties):
+        client.subscribe(f"spBv1.0/{group}/#", qos=1)
+        messages.put(("CONNECTED", None))
+
+    def on_message(client, userdata, msg):
+        p = spb.Payload()
+        p.ParseFromString(msg.payload)
+        messages.put((msg.topic, p))
+
+    client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"plant-view-{time.time_ns()}")
+    client.on_connect = on_connect
+    client.on_message = on_message
+    client.connect("127.0.0.1", port, keepalive=5)
+    client.loop_start()
+    topic, _ = messages.get(timeout=20)
+    if topic != "CONNECTED":
+        fail("no connection to the broker")
+    return client, messages
+
+
+def until(messages, seconds):
+    """The (topic, payload) messages that arrive within `seconds`."""
+    import queue
+
+    deadline = time.monotonic() + seconds
+    while (left := deadline - time.monotonic()) > 0:
+        try:
+            yield messages.get(timeout=left)
+        except queue.Empty:
+            return
+
+
+def quality_of(m):
+    for k, v in zip(m.properties.keys, m.properties.values):
+        if k == "Quality":
+            return v.int_value
+    return None
+
+
+def metric_value(m):
+    kind = m.WhichOneof("value")
+    return getattr(m, kind) if kind else None
+
+
+def sparkplug_quality(port, group, node, pb2_dir, device, tags):
+    client, messages = sparkplug(port, group, node, pb2_dir)
+    say("READY")
+    aliases, view, birth = {}, {}, {}
+    for topic, p in until(messages, 8):
+        if topic == f"spBv1.0/{group}/DBIRTH/{node}/{device}":
+            for m in p.metrics:
+                aliases[m.alias] = m.name
+                if m.name in tags:
+                    view[m.name] = quality_of(m)
+                    birth.setdefault(m.name, quality_of(m))
+        elif topic == f"spBv1.0/{group}/DDATA/{node}/{device}":
+            for m in p.metrics:
+                name = aliases.get(m.alias)
+                if name in tags and quality_of(m) is not None:
+                    view[name] = quality_of(m)
+    client.loop_stop()
+    for tag in tags:
+        if tag not in birth:
+            fail(f"{tag}: no DBIRTH of {device} carried it")
+        say(f"BIRTH {tag} {birth[tag]}")
+        say(f"QUALITY {tag} {view[tag]}")
+
+
+def sparkplug_count(port, group, node, pb2_dir, tag, seconds):
+    client, messages = sparkplug(port, group, node, pb2_dir)
+    say("READY")
+    alias = None
+    values = []
+    for topic, p in until(messages, seconds):
+        if topic == f"spBv1.0/{group}/NBIRTH/{node}":
+            for m in p.metrics:
+                if m.name == tag:
+                    alias = m.alias
+        elif topic == f"spBv1.0/{group}/NDATA/{node}" and alias is not None:
+            values.extend(metric_value(m) for m in p.metrics if m.alias == alias)
+    client.loop_stop()
+    # Sparkplug carries an Int32 as its two's complement in a uint32.
+    values = [v - (1 << 32) if v >= 1 << 31 else v for v in values]
+    if len(values) < 2:
+        fail(f"{tag}: {len(values)} values in {seconds} s (alias {alias})")
+    missing, out_of_order = gaps(values)
+    say(f"COUNT {len(values)} {values[0]} {values[-1]} {missing} {out_of_order}")
+
+
+def main():
+    mode, args = sys.argv[1], sys.argv[2:]
+    if mode == "opcua-quality":
+        asyncio.run(opcua_quality(args[0], args[1], args[2:]))
+    elif mode == "opcua-count":
+        asyncio.run(opcua_count(args[0], args[1], args[2], float(args[3]), float(args[4])))
+    elif mode == "sparkplug-quality":
+        sparkplug_quality(int(args[0]), args[1], args[2], args[3], args[4], args[5:])
+    elif mode == "sparkplug-count":
+        sparkplug_count(int(args[0]), args[1], args[2], args[3], args[4], float(args[5]))
+    else:
+        fail(f"unknown mode {mode}")
+    say("DONE")
+
+
+if __name__ == "__main__":
+    main()
