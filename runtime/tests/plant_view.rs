@@ -4,6 +4,9 @@
 //!
 //! - An output no program writes, on a healthy module, is good: in `softplc status`, at the OPC
 //!   UA client and in the Sparkplug host's view (its DBIRTH, and every DDATA after it).
+//! - A memory tag the program steps every scan, at a 20 ms scan: the OPC UA client (sampling
+//!   interval 0, queue 100, publishing every scan period) and the Sparkplug host each get
+//!   every value, in order, none missing, and the PLC counts no change lost for either.
 //!
 //! `scripts/test` installs mosquitto and the Python environment (`target/py-venv`).
 
@@ -275,6 +278,79 @@ fn an_output_no_program_writes_is_good_in_status_at_an_opcua_client_and_at_a_spa
         "y1 as the Sparkplug host holds it: {seen:?}"
     );
     assert_eq!(keyed(&seen, "QUALITY", "y2"), Some("192"), "{seen:?}");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+/// `COUNT received first last missing extra` of a counting client, as numbers.
+fn counted(lines: &[String]) -> [i64; 5] {
+    let line = lines
+        .iter()
+        .find_map(|l| l.strip_prefix("COUNT "))
+        .unwrap_or_else(|| panic!("no COUNT in {lines:?}"));
+    let n: Vec<i64> = line.split(' ').map(|x| x.parse().unwrap()).collect();
+    [n[0], n[1], n[2], n[3], n[4]]
+}
+
+#[test]
+fn every_step_of_a_counter_at_a_20_ms_scan_reaches_an_opcua_client_and_a_sparkplug_host() {
+    let dir = scratch("every-change");
+    let ports = Ports {
+        opcua: free_port(),
+        mqtt: free_port(),
+    };
+    let _broker = Broker::start(&dir, ports.mqtt);
+    let pb2 = sparkplug_pb2(&python(), &dir);
+    let project = project(&dir, 20, ports);
+    let plc = Plc::start(&dir, &project);
+    plc.wait_scans(10);
+    let seconds = "6";
+    let host = {
+        let log = plc.log.clone();
+        let args: Vec<String> = [
+            ports.mqtt.to_string(),
+            "plant1".into(),
+            "edge1".into(),
+            pb2.display().to_string(),
+            "counter".into(),
+            seconds.into(),
+        ]
+        .into();
+        std::thread::spawn(move || client(&log, "sparkplug-count", &args, Duration::from_secs(60)))
+    };
+    let opcua = client(
+        &plc.log,
+        "opcua-count",
+        &[
+            format!("opc.tcp://127.0.0.1:{}/", ports.opcua),
+            NAMESPACE.into(),
+            "counter".into(),
+            "20".into(),
+            seconds.into(),
+        ],
+        Duration::from_secs(60),
+    );
+    let sparkplug = host.join().unwrap();
+    // Each client saw a run of the counter: every value from its first to its last, once.
+    let [received, first, last, missing, overflowed] = counted(&opcua);
+    assert_eq!(missing, 0, "OPC UA: {opcua:?}");
+    assert_eq!(overflowed, 0, "OPC UA: {opcua:?}");
+    assert_eq!(received, last - first + 1, "OPC UA: {opcua:?}");
+    // Six seconds at 20 ms is 300 scans; a loaded machine runs fewer, never none.
+    assert!(received >= 50, "OPC UA: {opcua:?}");
+    let [received, first, last, missing, out_of_order] = counted(&sparkplug);
+    assert_eq!((missing, out_of_order), (0, 0), "Sparkplug: {sparkplug:?}");
+    assert_eq!(received, last - first + 1, "Sparkplug: {sparkplug:?}");
+    assert!(received >= 50, "Sparkplug: {sparkplug:?}");
+    // The PLC lost none for either service, and says so.
+    let status = plc.status();
+    let lost = status["lost_changes"].as_array().unwrap();
+    let services: Vec<&str> = lost
+        .iter()
+        .map(|l| l["service"].as_str().unwrap())
+        .collect();
+    assert_eq!(services, ["mqtt", "opcua"], "{status}");
+    assert!(lost.iter().all(|l| l["lost"] == 0), "{status}");
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }

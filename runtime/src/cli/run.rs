@@ -14,6 +14,7 @@ use crate::project;
 use crate::recorder::Settings;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::boundary::ServiceBoundary;
+use crate::service::changes::ChangeFeed;
 use crate::service::control::{default_socket_path, ControlServer};
 use crate::service::notify::Notifier;
 use crate::service::{network, snapshot};
@@ -133,11 +134,22 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         Some(server)
     };
     let published = snapshot::SnapshotCell::new();
+    // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
+    let mut feed = ChangeFeed::new();
     let mut services = network::start(engine.plc().project(), &published, &requests)?;
-    let mqtt = crate::service::mqtt::MqttNode::start(engine.plc().project(), &published, &requests)
-        .context("cannot start the MQTT edge node")?;
-    let opcua =
-        crate::service::opcua::OpcUaServer::start(engine.plc().project(), &published, &requests)?;
+    let mqtt = crate::service::mqtt::MqttNode::start(
+        engine.plc().project(),
+        &published,
+        &mut feed,
+        &requests,
+    )
+    .context("cannot start the MQTT edge node")?;
+    let opcua = crate::service::opcua::OpcUaServer::start(
+        engine.plc().project(),
+        &published,
+        &mut feed,
+        &requests,
+    )?;
     if let Some(server) = &opcua {
         tracing::info!("OPC UA server at {}", server.describe());
     }
@@ -153,7 +165,10 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         if services.web.is_some() {
             publisher = publisher.with_details();
         }
-        boundary = boundary.with_publisher(publisher);
+        boundary = boundary.with_publisher(publisher.with_feeds(feed.counts()));
+    }
+    if !feed.is_empty() {
+        boundary = boundary.with_feed(feed);
     }
     let notifier = Notifier::from_env();
     if notifier.enabled() {

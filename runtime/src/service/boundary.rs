@@ -13,10 +13,11 @@ use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
 use crate::plc::{Plc, PreparedReload, ReloadError};
 use crate::scan::{CycleBoundary, ScanStats, StopReason};
+use crate::service::changes::ChangeFeed;
 use crate::service::control::{Envelope, Request, Response};
 use crate::service::notify::Notifier;
 use crate::service::snapshot::Publisher;
-use crate::service::status::StatusReport;
+use crate::service::status::{LostChanges, StatusReport};
 
 /// The service's side of the scan's cycle boundary (see the module docs).
 #[derive(Debug, Default)]
@@ -35,6 +36,8 @@ pub struct ServiceBoundary {
     reload_waiters: Vec<Sender<Response>>,
     /// Armed traces, sampled at every boundary (see [`crate::trace`]).
     traces: crate::trace::TraceSet,
+    /// Every cycle's changes, for the services that take them all (OPC UA, MQTT).
+    feed: ChangeFeed,
 }
 
 impl ServiceBoundary {
@@ -53,6 +56,12 @@ impl ServiceBoundary {
     /// `crate::service::snapshot`).
     pub fn with_publisher(mut self, publisher: Publisher) -> Self {
         self.publisher = Some(publisher);
+        self
+    }
+
+    /// Offers every cycle's changes to the consumers of `feed` (see `crate::service::changes`).
+    pub(crate) fn with_feed(mut self, feed: ChangeFeed) -> Self {
+        self.feed = feed;
         self
     }
 
@@ -77,11 +86,23 @@ impl ServiceBoundary {
                 continue;
             }
             let response = match env.request {
-                Request::Status => Response {
-                    ok: true,
-                    status: Some(StatusReport::of(plc, stats)),
-                    ..Response::default()
-                },
+                Request::Status => {
+                    let mut status = StatusReport::of(plc, stats);
+                    status.lost_changes = self
+                        .feed
+                        .counts()
+                        .into_iter()
+                        .map(|(service, c)| LostChanges {
+                            service: service.into(),
+                            lost: c.lost(),
+                        })
+                        .collect();
+                    Response {
+                        ok: true,
+                        status: Some(status),
+                        ..Response::default()
+                    }
+                }
                 Request::Force { tag, value } => match plc.force(&tag, &value) {
                     Ok(v) => Response::done(format!("{tag} forced to {v}")),
                     Err(e) => Response::refused(e.to_string()),
@@ -200,6 +221,7 @@ impl CycleBoundary for ServiceBoundary {
     fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
         // First, so a sample shows the cycle just ended, before any request changes the PLC.
         self.traces.sample(plc, stats);
+        self.feed.offer(plc.image(), stats.cycles, now);
         self.answer(plc, stats);
         if self.reload.swap(false, Ordering::Relaxed) {
             self.start_reload(plc, None);
@@ -220,6 +242,9 @@ impl CycleBoundary for ServiceBoundary {
     }
 
     fn stopped(&mut self, plc: &Plc, stats: &ScanStats, reason: &StopReason, now: Duration) {
+        // The safe state the outputs were left in, before the publication that tells the
+        // services the run is over.
+        self.feed.offer(plc.image(), stats.cycles, now);
         if let Some(p) = &mut self.publisher {
             p.set_stop_reason(match reason {
                 StopReason::Requested => "stopped on request".to_string(),

@@ -142,6 +142,14 @@ def sparkplug(port, group, node, pb2_dir):
     topic, _ = messages.get(timeout=20)
     if topic != "CONNECTED":
         fail("no connection to the broker")
+    # A host that comes after the node's birth asks for one, as a primary host does.
+    cmd = spb.Payload()
+    cmd.timestamp = int(time.time() * 1000)
+    m = cmd.metrics.add()
+    m.name = "Node Control/Rebirth"
+    m.datatype = 11  # Boolean
+    m.boolean_value = True
+    client.publish(f"spBv1.0/{group}/NCMD/{node}", cmd.SerializeToString(), qos=0)
     return client, messages
 
 

@@ -28,16 +28,19 @@ pub(crate) enum PlcMetric {
     State,
     /// Changes dropped from the buffer while the broker was away (UInt64).
     Dropped,
+    /// Changes the node could not take from the scan in time (UInt64).
+    Lost,
 }
 
 impl PlcMetric {
     /// Every PLC metric.
-    pub(crate) const ALL: [PlcMetric; 5] = [
+    pub(crate) const ALL: [PlcMetric; 6] = [
         PlcMetric::Scans,
         PlcMetric::Overruns,
         PlcMetric::CycleP99,
         PlcMetric::State,
         PlcMetric::Dropped,
+        PlcMetric::Lost,
     ];
 
     /// Its metric name.
@@ -48,6 +51,7 @@ impl PlcMetric {
             PlcMetric::CycleP99 => "PLC/Cycle p99 us",
             PlcMetric::State => "PLC/State",
             PlcMetric::Dropped => "MQTT/Dropped changes",
+            PlcMetric::Lost => "MQTT/Lost changes",
         }
     }
 }

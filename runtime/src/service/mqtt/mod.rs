@@ -29,6 +29,7 @@ use std::time::Duration;
 
 use crossbeam_channel::Sender;
 
+use super::changes::{ChangeFeed, QUEUE_CYCLES};
 use super::control::Envelope;
 use super::snapshot::SnapshotCell;
 use crate::project::Project;
@@ -42,9 +43,10 @@ pub struct MqttNode {
 impl MqttNode {
     /// Starts the edge node `project` configures (`None` when it configures none), reading
     /// `snapshot` and sending writes to `scan`.
-    pub fn start(
+    pub(crate) fn start(
         project: &Project,
         snapshot: &SnapshotCell,
+        feed: &mut ChangeFeed,
         scan: &Sender<Envelope>,
     ) -> std::io::Result<Option<Self>> {
         let Some(cfg) = project.service.mqtt.clone() else {
@@ -65,6 +67,8 @@ impl MqttNode {
             writable,
             names: project.tags.iter().map(|t| t.name.clone()).collect(),
             snapshot: snapshot.clone(),
+            changes: feed.subscribe("mqtt", QUEUE_CYCLES),
+            waiting: Vec::new(),
             scan: scan.clone(),
             period: project.scan.period,
         };

@@ -6,10 +6,13 @@
 //! - [`write`]: a client's write, under the Modbus TCP server's rules.
 //!
 //! Three threads: the server's (a tokio runtime with two workers: each connection and request
-//! is a task), and the updater's, which reads the snapshot the scan publishes once per scan
-//! period (at most every 100 ms, at least every 5 ms) and hands the variables that changed to
-//! the server's address space. The scan never waits on either: it publishes with `try_lock`,
-//! and a write reaches it through the control channel with `try_send`.
+//! is a task), and the updater's, which takes every cycle's tag changes from the scan's change
+//! feed (`crate::service::changes`), one cycle at a time and in order, and hands them to the
+//! server's address space with the cycle's scan time as their source timestamp, so each
+//! monitored item queues every change; the diagnostics come from the snapshot the scan
+//! publishes, read once per scan period (at most every 100 ms, at least every 5 ms). The scan
+//! never waits on either: it offers its changes and publishes without waiting, and a write
+//! reaches it through the control channel with `try_send`.
 //!
 //! One endpoint, at `opc.tcp://BIND:PORT/`: SecurityPolicy None with anonymous access (loopback
 //! only, enforced when the project is loaded), or Basic256Sha256 Sign & Encrypt with the
@@ -35,11 +38,16 @@ use opcua::server::{
 };
 use opcua::types::{DateTime, NodeId, QualifiedName};
 
+use super::changes::{ChangeFeed, ChangeStream, QUEUE_CYCLES};
 use super::control::Envelope;
 use super::snapshot::SnapshotCell;
 use crate::project::opcua::{OpcUaConfig, OpcUaSecurity};
 use crate::project::Project;
 use space::{Layout, Updates};
+
+/// The largest queue a monitored item may ask for (a client's `queueSize` is revised down to
+/// it): 10 s of changes at a 10 ms scan.
+const MONITORED_ITEM_QUEUE: usize = 1000;
 
 /// The user token id of the project's user.
 const USER_TOKEN: &str = "project-user";
@@ -124,6 +132,10 @@ fn builder(project: &Project, cfg: &OpcUaConfig, port: u16, pki: PathBuf) -> Ser
     let limits = &mut b.limits_mut().subscriptions;
     limits.min_sampling_interval_ms = 0.0;
     limits.min_publishing_interval_ms = tick.as_secs_f64() * 1e3;
+    // Every cycle's change is queued to each monitored item (sampling interval 0): a client's
+    // queue of 100 at a publishing interval of 10 cycles must be honoured, not cut to
+    // async-opcua's 10.
+    limits.max_monitored_item_queue_size = MONITORED_ITEM_QUEUE;
     b.subscription_poll_interval_ms(tick.as_millis() as u64)
 }
 
@@ -178,6 +190,7 @@ impl OpcUaServer {
     pub(crate) fn start(
         project: &Project,
         snapshot: &SnapshotCell,
+        feed: &mut ChangeFeed,
         scan: &Sender<Envelope>,
     ) -> Result<Option<Self>, OpcUaStartError> {
         let Some(cfg) = project.service.opcua.clone() else {
@@ -249,6 +262,7 @@ impl OpcUaServer {
             ns,
             layout,
             snapshot: snapshot.clone(),
+            changes: feed.subscribe("opcua", QUEUE_CYCLES),
             tick: project
                 .scan
                 .period
@@ -283,6 +297,7 @@ struct Updater {
     ns: u16,
     layout: Layout,
     snapshot: SnapshotCell,
+    changes: ChangeStream,
     tick: Duration,
 }
 
@@ -298,22 +313,38 @@ impl Updater {
             .chain(&self.layout.plc)
             .map(|n| (n.id.clone(), NodeId::new(self.ns, n.id.clone())))
             .collect();
-        let mut last_cycle = None;
-        loop {
-            std::thread::sleep(self.tick);
-            let snap = self.snapshot.get();
-            if !snap.published || last_cycle == Some((snap.cycles, snap.stats_seq, snap.stopped)) {
-                continue;
-            }
-            last_cycle = Some((snap.cycles, snap.stats_seq, snap.stopped));
-            let changes = updates.changes(&self.layout, &snap, DateTime::now());
-            let values = changes
+        let set = |values: Vec<(String, opcua::types::DataValue)>| {
+            let values = values
                 .into_iter()
                 .filter_map(|(id, dv)| Some((ids.get(&id)?, None, dv)));
             if let Err(e) = self.nm.set_values(&self.subscriptions, values) {
                 tracing::warn!("OPC UA: values not updated: {e}");
             }
+        };
+        let mut last_stats = None;
+        loop {
+            // Each cycle's changes as soon as they come, one cycle at a time and in order, so
+            // every monitored item queues every change with its cycle's time.
+            let first = match self.changes.receiver().recv_timeout(self.tick) {
+                Ok(d) => Some(d),
+                Err(crossbeam_channel::RecvTimeoutError::Timeout) => None,
+                Err(crossbeam_channel::RecvTimeoutError::Disconnected) => return,
+            };
+            let now = DateTime::now();
+            for d in first.into_iter().chain(self.changes.receiver().try_iter()) {
+                set(updates.tag_changes(&self.layout, &d, now));
+            }
+            let snap = self.snapshot.get();
+            if !snap.published || last_stats == Some((snap.cycles, snap.stats_seq, snap.stopped)) {
+                continue;
+            }
+            last_stats = Some((snap.cycles, snap.stats_seq, snap.stopped));
+            set(updates.diagnostics(&self.layout, &snap, DateTime::now()));
             if snap.stopped {
+                // The safe state went into the queue before the last publication.
+                for d in self.changes.receiver().try_iter() {
+                    set(updates.tag_changes(&self.layout, &d, DateTime::now()));
+                }
                 // The last publication (outputs safe, state stopped) is in the address space;
                 // clients read it until the process ends.
                 return;
