@@ -7,9 +7,13 @@
 //! - A memory tag the program steps every scan, at a 20 ms scan: the OPC UA client (sampling
 //!   interval 0, queue 100, publishing every scan period) and the Sparkplug host each get
 //!   every value, in order, none missing, and the PLC counts no change lost for either.
+//! - A module lost behind a Modbus TCP gateway (the simulator killed): a subscription without a
+//!   DataChangeFilter reports the tag's status change (OPC 10000-4 §7.22.2: STATUS_VALUE_1 is
+//!   the default), and so does one asking for StatusValueTimestamp.
 //!
 //! `scripts/test` installs mosquitto and the Python environment (`target/py-venv`).
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -176,15 +180,30 @@ impl Drop for Plc {
 /// Runs the client in `mode` with `args`; the lines it printed before DONE (a FAIL panics with
 /// softplc's log, at `log`).
 fn client(log: &Path, mode: &str, args: &[String], within: Duration) -> Vec<String> {
+    client_doing(log, mode, args, within, |need| {
+        panic!("client asks for {need}")
+    })
+}
+
+/// [`client`], doing what the client asks for (`NEED action`) with `act`, then telling it.
+fn client_doing(
+    log: &Path,
+    mode: &str,
+    args: &[String],
+    within: Duration,
+    mut act: impl FnMut(&str),
+) -> Vec<String> {
     let log = || std::fs::read_to_string(log).unwrap_or_default();
     let mut child = Command::new(python())
         .arg(workspace().join("runtime/tests/plant_view/client.py"))
         .arg(mode)
         .args(args)
+        .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
         .unwrap();
+    let mut to_client = child.stdin.take().unwrap();
     let lines = lines_of(child.stdout.take().unwrap());
     let deadline = Instant::now() + within;
     let mut out = Vec::new();
@@ -204,6 +223,11 @@ fn client(log: &Path, mode: &str, args: &[String], within: Duration) -> Vec<Stri
             "client {mode}: {line}; log:\n{}",
             log()
         );
+        if let Some(need) = line.strip_prefix("NEED ") {
+            act(need);
+            writeln!(to_client, "done").unwrap();
+            continue;
+        }
         out.push(line);
     }
     assert!(child.wait().unwrap().success());
@@ -351,6 +375,69 @@ fn every_step_of_a_counter_at_a_20_ms_scan_reaches_an_opcua_client_and_a_sparkpl
         .collect();
     assert_eq!(services, ["mqtt", "opcua"], "{status}");
     assert!(lost.iter().all(|l| l["lost"] == 0), "{status}");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
+fn a_subscription_without_a_filter_reports_a_module_lost_behind_a_gateway() {
+    let dir = scratch("status");
+    let mut sim = Command::new(BIN)
+        .args(["sim", "--tcp", "127.0.0.1:0", "minimod@1"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let _sim_stdin = sim.stdin.take().unwrap();
+    let said = lines_of(sim.stdout.take().unwrap());
+    let first = said.recv_timeout(Duration::from_secs(10)).unwrap();
+    let url = first
+        .split_whitespace()
+        .find(|w| w.starts_with("tcp://127.0.0.1:"))
+        .unwrap_or_else(|| panic!("{first}"))
+        .to_string();
+    let opcua = free_port();
+    let program = dir.join("program.expr");
+    std::fs::write(&program, "y1 = x1\n").unwrap();
+    let project = dir.join("project.yaml");
+    std::fs::write(
+        &project,
+        format!(
+            "project: plant_view\nscan: {{ period: 50ms }}\nbuses:\n  - {{ name: gw, port: \"{url}\", \
+             response_timeout: 100ms, retries: 0 }}\nmodules:\n  - {{ name: mm1, bus: gw, model: \
+             minimod, address: 1 }}\ntags:\n  - {{ name: x1, point: mm1.X1 }}\n  - {{ name: y1, \
+             point: mm1.Y1, safe: false }}\nprogram: {{ file: {}, kind: expr }}\nservice:\n  \
+             opcua:\n    port: {opcua}\n",
+            program.display()
+        ),
+    )
+    .unwrap();
+    let plc = Plc::start(&dir, &project);
+    let seen = client_doing(
+        &plc.log,
+        "opcua-status",
+        &[
+            format!("opc.tcp://127.0.0.1:{opcua}/"),
+            NAMESPACE.into(),
+            "x1".into(),
+        ],
+        Duration::from_secs(90),
+        |need| {
+            assert_eq!(need, "kill");
+            // The simulator may have exited already; then there is nothing to stop.
+            drop(sim.kill());
+            drop(sim.wait());
+        },
+    );
+    let lost = ["UncertainLastUsableValue", "BadCommunicationError"];
+    for subscription in ["filterless", "timestamp"] {
+        let status = keyed(&seen, "STATUS", subscription).unwrap_or("none");
+        assert!(
+            lost.contains(&status),
+            "{subscription}: {status} after the module was lost: {seen:?}"
+        );
+    }
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }

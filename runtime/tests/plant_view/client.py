@@ -7,6 +7,11 @@ Usage:
   client.py opcua-count URL NAMESPACE_URI TAG PERIOD_MS SECONDS
       subscribes to TAG (sampling interval 0, queue 100, publishing every PERIOD_MS), collects
       its notifications for SECONDS and prints "COUNT received first last missing overflow".
+  client.py opcua-status URL NAMESPACE_URI TAG
+      subscribes to TAG twice, without a filter and with a StatusValueTimestamp
+      DataChangeFilter; once both report Good it asks the test to kill the device ("NEED
+      kill") and prints "STATUS filterless Name" and "STATUS timestamp Name" with the first
+      status other than Good each reports after that.
   client.py sparkplug-quality PORT GROUP NODE PB2_DIR DEVICE TAG...
       follows the births and DATA of the node for a few seconds: "QUALITY tag code" for the
       quality each TAG has in the host's view at the end, and "BIRTH tag code" as the DBIRTH
@@ -111,6 +116,51 @@ async def opcua_count(url, ns_uri, tag, period_ms, seconds):
             fail(f"{tag}: {len(values)} notifications in {seconds} s")
         missing, _ = gaps(values)
         say(f"COUNT {len(values)} {values[0]} {values[-1]} {missing} {handler.overflow}")
+    finally:
+        await c.disconnect()
+
+
+class Statuses:
+    def __init__(self):
+        self.q = asyncio.Queue()
+
+    def datachange_notification(self, node, val, data):
+        self.q.put_nowait(data.monitored_item.Value.StatusCode)
+
+    async def first(self, want_good, within):
+        deadline = time.monotonic() + within
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                status = await asyncio.wait_for(self.q.get(), left)
+            except asyncio.TimeoutError:
+                break
+            if status.is_good() == want_good:
+                return status
+        return None
+
+
+async def opcua_status(url, ns_uri, tag):
+    from asyncua import ua
+
+    c = await opcua_connect(url)
+    try:
+        ns = await c.get_namespace_index(ns_uri)
+        node = c.get_node(ua.NodeId(f"Tags.{tag}", ns))
+        plain, stamped = Statuses(), Statuses()
+        sub = await c.create_subscription(50, plain)
+        await sub.subscribe_data_change([node], sampling_interval=0)
+        sub2 = await c.create_subscription(50, stamped)
+        trigger = ua.DataChangeFilter(Trigger=ua.DataChangeTrigger.StatusValueTimestamp)
+        await sub2._subscribe([node], ua.AttributeIds.Value, trigger, sampling_interval=0)
+        for name, h in [("filterless", plain), ("timestamp", stamped)]:
+            if await h.first(True, 20) is None:
+                fail(f"{name}: {tag} never reported Good")
+        say("READY")
+        say("NEED kill")
+        await asyncio.get_running_loop().run_in_executor(None, sys.stdin.readline)
+        for name, h in [("filterless", plain), ("timestamp", stamped)]:
+            status = await h.first(False, 30)
+            say(f"STATUS {name} {status.name if status else 'none'}")
     finally:
         await c.disconnect()
 
@@ -228,6 +278,8 @@ def main():
         asyncio.run(opcua_quality(args[0], args[1], args[2:]))
     elif mode == "opcua-count":
         asyncio.run(opcua_count(args[0], args[1], args[2], float(args[3]), float(args[4])))
+    elif mode == "opcua-status":
+        asyncio.run(opcua_status(args[0], args[1], args[2]))
     elif mode == "sparkplug-quality":
         sparkplug_quality(int(args[0]), args[1], args[2], args[3], args[4], args[5:])
     elif mode == "sparkplug-count":
