@@ -7,6 +7,7 @@
 //! - A memory tag the program steps every scan, at a 20 ms scan: the OPC UA client (sampling
 //!   interval 0, queue 100, publishing every scan period) and the Sparkplug host each get
 //!   every value, in order, none missing, and the PLC counts no change lost for either.
+//! - A read straight after a `Good` OPC UA write returns the written value, every time.
 //! - A module lost behind a Modbus TCP gateway (the simulator killed): a subscription without a
 //!   DataChangeFilter reports the tag's status change (OPC 10000-4 §7.22.2: STATUS_VALUE_1 is
 //!   the default), and so does one asking for StatusValueTimestamp.
@@ -74,10 +75,12 @@ tags:
   - {{ name: y1, point: mm1.Y1, safe: false }}
   - {{ name: y2, point: mm1.Y2, safe: false }}
   - {{ name: counter, type: i32 }}
+  - {{ name: setpoint, type: u16, scada: write }}
 program: {{ file: {}, kind: rhai }}
 service:
   opcua:
     port: {opcua}
+    writes: true
   mqtt:
     host: 127.0.0.1
     port: {mqtt}
@@ -438,6 +441,34 @@ fn a_subscription_without_a_filter_reports_a_module_lost_behind_a_gateway() {
             "{subscription}: {status} after the module was lost: {seen:?}"
         );
     }
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
+fn a_read_after_a_good_opcua_write_returns_the_written_value() {
+    let dir = scratch("read-after-write");
+    let ports = Ports {
+        opcua: free_port(),
+        mqtt: free_port(),
+    };
+    let _broker = Broker::start(&dir, ports.mqtt);
+    let project = project(&dir, 50, ports);
+    let plc = Plc::start(&dir, &project);
+    plc.wait_scans(5);
+    let seen = client(
+        &plc.log,
+        "opcua-write-read",
+        &[
+            format!("opc.tcp://127.0.0.1:{}/", ports.opcua),
+            NAMESPACE.into(),
+            "setpoint".into(),
+            "30".into(),
+        ],
+        Duration::from_secs(60),
+    );
+    assert!(seen.contains(&"WRITES 30 old 0".to_string()), "{seen:?}");
+    assert_eq!(plc.tag_quality("setpoint"), "good");
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }

@@ -120,7 +120,10 @@ impl ServiceBoundary {
                 Request::Write { values } => {
                     match plc.write_tags(values.iter().map(|v| (v.tag.as_str(), v.value.as_str())))
                     {
-                        Ok(n) => Response::done(format!("{n} tag(s) written")),
+                        Ok(n) => Response {
+                            applied_at: Some(stats.cycles),
+                            ..Response::done(format!("{n} tag(s) written"))
+                        },
                         Err(e) => Response::refused(e.to_string()),
                     }
                 }
@@ -221,8 +224,10 @@ impl CycleBoundary for ServiceBoundary {
     fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
         // First, so a sample shows the cycle just ended, before any request changes the PLC.
         self.traces.sample(plc, stats);
-        self.feed.offer(plc.image(), stats.cycles, now);
         self.answer(plc, stats);
+        // After the requests: a write applied at this boundary is part of what the services
+        // see of it, even when the next scan overwrites it.
+        self.feed.offer(plc.image(), stats.cycles, now);
         if self.reload.swap(false, Ordering::Relaxed) {
             self.start_reload(plc, None);
         }

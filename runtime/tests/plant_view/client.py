@@ -7,6 +7,9 @@ Usage:
   client.py opcua-count URL NAMESPACE_URI TAG PERIOD_MS SECONDS
       subscribes to TAG (sampling interval 0, queue 100, publishing every PERIOD_MS), collects
       its notifications for SECONDS and prints "COUNT received first last missing overflow".
+  client.py opcua-write-read URL NAMESPACE_URI TAG N
+      writes TAG (a UInt16) the values 1..=N, reading it straight after each Good answer:
+      "WRITES n old k", k the reads that returned anything but the value just written.
   client.py opcua-status URL NAMESPACE_URI TAG
       subscribes to TAG twice, without a filter and with a StatusValueTimestamp
       DataChangeFilter; once both report Good it asks the test to kill the device ("NEED
@@ -116,6 +119,23 @@ async def opcua_count(url, ns_uri, tag, period_ms, seconds):
             fail(f"{tag}: {len(values)} notifications in {seconds} s")
         missing, _ = gaps(values)
         say(f"COUNT {len(values)} {values[0]} {values[-1]} {missing} {handler.overflow}")
+    finally:
+        await c.disconnect()
+
+
+async def opcua_write_read(url, ns_uri, tag, n):
+    from asyncua import ua
+
+    c = await opcua_connect(url)
+    try:
+        ns = await c.get_namespace_index(ns_uri)
+        node = c.get_node(ua.NodeId(f"Tags.{tag}", ns))
+        old = 0
+        for v in range(1, n + 1):
+            await node.write_value(ua.DataValue(ua.Variant(v, ua.VariantType.UInt16)))
+            if await node.read_value() != v:
+                old += 1
+        say(f"WRITES {n} old {old}")
     finally:
         await c.disconnect()
 
@@ -278,6 +298,8 @@ def main():
         asyncio.run(opcua_quality(args[0], args[1], args[2:]))
     elif mode == "opcua-count":
         asyncio.run(opcua_count(args[0], args[1], args[2], float(args[3]), float(args[4])))
+    elif mode == "opcua-write-read":
+        asyncio.run(opcua_write_read(args[0], args[1], args[2], int(args[3])))
     elif mode == "opcua-status":
         asyncio.run(opcua_status(args[0], args[1], args[2]))
     elif mode == "sparkplug-quality":

@@ -38,7 +38,7 @@ use opcua::server::{
 };
 use opcua::types::{DateTime, NodeId, QualifiedName};
 
-use super::changes::{ChangeFeed, ChangeStream, QUEUE_CYCLES};
+use super::changes::{ChangeFeed, ChangeStream, Delivery, QUEUE_CYCLES};
 use super::control::Envelope;
 use super::snapshot::SnapshotCell;
 use crate::project::opcua::{OpcUaConfig, OpcUaSecurity};
@@ -263,6 +263,7 @@ impl OpcUaServer {
             layout,
             snapshot: snapshot.clone(),
             changes: feed.subscribe("opcua", QUEUE_CYCLES),
+            written: writer.written(),
             tick: project
                 .scan
                 .period
@@ -298,6 +299,8 @@ struct Updater {
     layout: Layout,
     snapshot: SnapshotCell,
     changes: ChangeStream,
+    /// Where the writes are noted (see [`write::WrittenAt`]).
+    written: write::WrittenAt,
     tick: Duration,
 }
 
@@ -321,6 +324,19 @@ impl Updater {
                 tracing::warn!("OPC UA: values not updated: {e}");
             }
         };
+        // A cycle's tag changes, but none older than a client's write of its tag: checked as
+        // async-opcua takes the values, under the address space's lock, which a write holds
+        // from its callback to its answer (see `write::WrittenAt`).
+        let set_cycle = |d: &Delivery, values: Vec<(usize, String, opcua::types::DataValue)>| {
+            let cycle = d.cycle.cycle;
+            let values = values
+                .into_iter()
+                .filter(|(tag, _, _)| !self.written.hides(*tag, cycle))
+                .filter_map(|(_, id, dv)| Some((ids.get(&id)?, None, dv)));
+            if let Err(e) = self.nm.set_values(&self.subscriptions, values) {
+                tracing::warn!("OPC UA: values not updated: {e}");
+            }
+        };
         let mut last_stats = None;
         loop {
             // Each cycle's changes as soon as they come, one cycle at a time and in order, so
@@ -332,7 +348,7 @@ impl Updater {
             };
             let now = DateTime::now();
             for d in first.into_iter().chain(self.changes.receiver().try_iter()) {
-                set(updates.tag_changes(&self.layout, &d, now));
+                set_cycle(&d, updates.tag_changes(&self.layout, &d, now));
             }
             let snap = self.snapshot.get();
             if !snap.published || last_stats == Some((snap.cycles, snap.stats_seq, snap.stopped)) {
@@ -343,7 +359,7 @@ impl Updater {
             if snap.stopped {
                 // The safe state went into the queue before the last publication.
                 for d in self.changes.receiver().try_iter() {
-                    set(updates.tag_changes(&self.layout, &d, DateTime::now()));
+                    set_cycle(&d, updates.tag_changes(&self.layout, &d, DateTime::now()));
                 }
                 // The last publication (outputs safe, state stopped) is in the address space;
                 // clients read it until the process ends.

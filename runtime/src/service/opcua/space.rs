@@ -301,7 +301,7 @@ impl Updates {
         DateTime::from(epoch.saturating_add(scan_ticks(scan)))
     }
 
-    /// The exposed tags one cycle changed (node id string, value), in the order to apply
+    /// The exposed tags one cycle changed (tag, node id string, value), in the order to apply
     /// them, with the cycle's scan time as the source timestamp and `now` as the server's; a
     /// value after changes the server lost carries the Overflow InfoBit (OPC 10000-4 §7.39.1,
     /// as a monitored item's queue does).
@@ -310,7 +310,7 @@ impl Updates {
         layout: &Layout,
         delivery: &Delivery,
         now: DateTime,
-    ) -> Vec<(String, DataValue)> {
+    ) -> Vec<(usize, String, DataValue)> {
         let at = delivery.cycle.at;
         let source = self.at(now, at, at);
         delivery
@@ -319,6 +319,7 @@ impl Updates {
                 let node = &layout.tags[(*self.exposed.get(c.tag)?)?].node;
                 let status = status_of(c.quality);
                 Some((
+                    c.tag,
                     node.id.clone(),
                     DataValue {
                         value: Some(variant(c.value)),
@@ -478,10 +479,11 @@ mod tests {
             (2, Value::U16(5), Quality::Good),
         ];
         let first = u.tag_changes(&l, &delivery(1, &all, &[]), t0);
-        let ids: Vec<&str> = first.iter().map(|(i, _)| i.as_str()).collect();
+        let ids: Vec<&str> = first.iter().map(|(_, i, _)| i.as_str()).collect();
         assert_eq!(ids, ["Tags.run", "Tags.speed"], "tag 1 is not exposed");
-        assert_eq!(first[1].1.value, Some(Variant::UInt16(5)));
-        assert_eq!(first[1].1.source_timestamp, Some(t0));
+        assert_eq!(first[1].0, 2);
+        assert_eq!(first[1].2.value, Some(Variant::UInt16(5)));
+        assert_eq!(first[1].2.source_timestamp, Some(t0));
         // The next cycle: speed went stale, 10 ms of scan time later.
         let next = u.tag_changes(
             &l,
@@ -489,9 +491,9 @@ mod tests {
             t0,
         );
         assert_eq!(next.len(), 1);
-        assert_eq!(next[0].1.status, Some(StatusCode::UncertainLastUsableValue));
+        assert_eq!(next[0].2.status, Some(StatusCode::UncertainLastUsableValue));
         assert_eq!(
-            next[0].1.source_timestamp.map(|t| t.ticks() - t0.ticks()),
+            next[0].2.source_timestamp.map(|t| t.ticks() - t0.ticks()),
             Some(100_000),
             "10 ms in 100 ns ticks"
         );
@@ -501,7 +503,7 @@ mod tests {
             &delivery(5, &[(2, Value::U16(9), Quality::Good)], &[2]),
             t0,
         );
-        let status = after[0].1.status.unwrap();
+        let status = after[0].2.status.unwrap();
         assert!(status.is_good() && status.overflow(), "{status}");
         assert_eq!(status_of(Quality::Bad), StatusCode::BadCommunicationError);
     }

@@ -381,6 +381,31 @@ impl SimpleNodeManagerImpl {
         if let Some(cb) = cbs.get(node.as_node().node_id()) {
             // If there is a callback registered, call that.
             write.set_status(cb(write.value().value.clone(), &write.value().index_range));
+            // The value a callback accepted is the node's value from now on, so a Read that
+            // follows the Write's Good answer returns it (the callback cannot set it: the
+            // address space is locked while it runs). The node keeps its status until the
+            // application sets one.
+            if write.status().is_good() {
+                if let (opcua_nodes::NodeType::Variable(v), Some(value)) =
+                    (&mut *node, write.value().value.value.clone())
+                {
+                    let status = v
+                        .value(
+                            TimestampsToReturn::Neither,
+                            &NumericRange::None,
+                            &opcua_types::DataEncoding::Binary,
+                            0.0,
+                        )
+                        .status
+                        .unwrap_or_default();
+                    let now = opcua_types::DateTime::now();
+                    if let Err(e) =
+                        v.set_value_range(value, &write.value().index_range, status, &now, &now)
+                    {
+                        write.set_status(e);
+                    }
+                }
+            }
         } else if write.value().value.value.is_some() {
             // If not, write the value to the node hierarchy.
             match write_node_value(node, write.value()) {
