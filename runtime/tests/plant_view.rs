@@ -8,6 +8,8 @@
 //!   interval 0, queue 100, publishing every scan period) and the Sparkplug host each get
 //!   every value, in order, none missing, and the PLC counts no change lost for either.
 //! - A read straight after a `Good` OPC UA write returns the written value, every time.
+//! - With `max_sessions: 3`, a fourth and fifth session are refused `BadTooManySessions`, and
+//!   the log says so once.
 //! - A module lost behind a Modbus TCP gateway (the simulator killed): a subscription without a
 //!   DataChangeFilter reports the tag's status change (OPC 10000-4 §7.22.2: STATUS_VALUE_1 is
 //!   the default), and so does one asking for StatusValueTimestamp.
@@ -61,6 +63,11 @@ struct Ports {
 /// The project: `y1` bound to `mm1.Y1` and never written, `y2` written by the
 /// program, and `counter`, a memory tag the program steps every scan.
 fn project(dir: &Path, period_ms: u64, ports: Ports) -> PathBuf {
+    project_with(dir, period_ms, ports, "")
+}
+
+/// [`project`] with `opcua_keys` added to its `opcua:` section.
+fn project_with(dir: &Path, period_ms: u64, ports: Ports, opcua_keys: &str) -> PathBuf {
     let program = dir.join("program.rhai");
     std::fs::write(&program, "y2 = true;\ncounter += 1;\n").unwrap();
     let text = format!(
@@ -81,7 +88,7 @@ service:
   opcua:
     port: {opcua}
     writes: true
-  mqtt:
+{opcua_keys}  mqtt:
     host: 127.0.0.1
     port: {mqtt}
     group: plant1
@@ -469,6 +476,38 @@ fn a_read_after_a_good_opcua_write_returns_the_written_value() {
     );
     assert!(seen.contains(&"WRITES 30 old 0".to_string()), "{seen:?}");
     assert_eq!(plc.tag_quality("setpoint"), "good");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
+fn sessions_beyond_max_sessions_are_refused_and_logged_once() {
+    let dir = scratch("sessions");
+    let ports = Ports {
+        opcua: free_port(),
+        mqtt: free_port(),
+    };
+    let _broker = Broker::start(&dir, ports.mqtt);
+    let project = project_with(&dir, 50, ports, "    max_sessions: 3\n");
+    let plc = Plc::start(&dir, &project);
+    plc.wait_scans(5);
+    let seen = client(
+        &plc.log,
+        "opcua-sessions",
+        &[format!("opc.tcp://127.0.0.1:{}/", ports.opcua), "5".into()],
+        Duration::from_secs(60),
+    );
+    assert!(
+        seen.contains(&"SESSIONS ok 3 refused 2".to_string()),
+        "{seen:?}"
+    );
+    let log = plc.log();
+    let lines: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("OPC UA: session refused (BadTooManySessions)"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{log}");
+    assert!(lines[0].contains("the limit is 3 (max_sessions)"), "{log}");
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }

@@ -10,6 +10,8 @@ Usage:
   client.py opcua-write-read URL NAMESPACE_URI TAG N
       writes TAG (a UInt16) the values 1..=N, reading it straight after each Good answer:
       "WRITES n old k", k the reads that returned anything but the value just written.
+  client.py opcua-sessions URL N
+      opens N sessions at once: "SESSIONS ok k refused r", r refused BadTooManySessions.
   client.py opcua-status URL NAMESPACE_URI TAG
       subscribes to TAG twice, without a filter and with a StatusValueTimestamp
       DataChangeFilter; once both report Good it asks the test to kill the device ("NEED
@@ -137,6 +139,25 @@ async def opcua_write_read(url, ns_uri, tag, n):
                 old += 1
         say(f"WRITES {n} old {old}")
     finally:
+        await c.disconnect()
+
+
+async def opcua_sessions(url, n):
+    from asyncua import Client, ua
+
+    opened, ok, refused = [], 0, 0
+    for _ in range(n):
+        c = Client(url=url, timeout=5)
+        try:
+            await c.connect()
+            opened.append(c)
+            ok += 1
+        except ua.UaStatusCodeError as e:
+            if e.code != ua.StatusCodes.BadTooManySessions:
+                fail(f"session refused with {ua.StatusCode(e.code).name}")
+            refused += 1
+    say(f"SESSIONS ok {ok} refused {refused}")
+    for c in opened:
         await c.disconnect()
 
 
@@ -300,6 +321,8 @@ def main():
         asyncio.run(opcua_count(args[0], args[1], args[2], float(args[3]), float(args[4])))
     elif mode == "opcua-write-read":
         asyncio.run(opcua_write_read(args[0], args[1], args[2], int(args[3])))
+    elif mode == "opcua-sessions":
+        asyncio.run(opcua_sessions(args[0], int(args[1])))
     elif mode == "opcua-status":
         asyncio.run(opcua_status(args[0], args[1], args[2]))
     elif mode == "sparkplug-quality":

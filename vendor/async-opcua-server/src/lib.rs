@@ -20,6 +20,7 @@ mod discovery;
 mod identity_token;
 mod info;
 pub mod node_manager;
+mod refusal_log;
 mod reverse_connect;
 mod server;
 mod server_handle;

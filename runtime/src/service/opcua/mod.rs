@@ -45,10 +45,6 @@ use crate::project::opcua::{OpcUaConfig, OpcUaSecurity};
 use crate::project::Project;
 use space::{Layout, Updates};
 
-/// The largest queue a monitored item may ask for (a client's `queueSize` is revised down to
-/// it): 10 s of changes at a 10 ms scan.
-const MONITORED_ITEM_QUEUE: usize = 1000;
-
 /// The user token id of the project's user.
 const USER_TOKEN: &str = "project-user";
 
@@ -135,7 +131,10 @@ fn builder(project: &Project, cfg: &OpcUaConfig, port: u16, pki: PathBuf) -> Ser
     // Every cycle's change is queued to each monitored item (sampling interval 0): a client's
     // queue of 100 at a publishing interval of 10 cycles must be honoured, not cut to
     // async-opcua's 10.
-    limits.max_monitored_item_queue_size = MONITORED_ITEM_QUEUE;
+    limits.max_monitored_item_queue_size = cfg.limits.queue_size;
+    limits.max_subscriptions_per_session = cfg.limits.subscriptions;
+    limits.max_monitored_items_per_sub = cfg.limits.monitored_items;
+    b.limits_mut().max_sessions = cfg.limits.sessions;
     b.subscription_poll_interval_ms(tick.as_millis() as u64)
 }
 

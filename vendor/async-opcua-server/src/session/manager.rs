@@ -68,6 +68,10 @@ impl SessionManager {
         request: &CreateSessionRequest,
     ) -> Result<CreateSessionResponse, StatusCode> {
         if self.sessions.len() >= self.info.config.limits.max_sessions {
+            crate::refusal_log::SESSIONS.refused(
+                StatusCode::BadTooManySessions,
+                self.info.config.limits.max_sessions,
+            );
             return Err(StatusCode::BadTooManySessions);
         }
 

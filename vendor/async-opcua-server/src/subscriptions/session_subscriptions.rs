@@ -137,6 +137,10 @@ impl SessionSubscriptions {
         info: &ServerInfo,
     ) -> Result<CreateSubscriptionResponse, StatusCode> {
         if self.subscriptions.len() >= self.limits.max_subscriptions_per_session {
+            crate::refusal_log::SUBSCRIPTIONS.refused(
+                StatusCode::BadTooManySubscriptions,
+                self.limits.max_subscriptions_per_session,
+            );
             return Err(StatusCode::BadTooManySubscriptions);
         }
         let subscription_id = info.subscription_id_handle.next();

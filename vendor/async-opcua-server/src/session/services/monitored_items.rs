@@ -170,6 +170,7 @@ pub(crate) async fn create_monitored_items(
         .subscriptions
         .max_monitored_items_per_sub;
     if max_per_sub > 0 && max_per_sub < len + items_to_create.len() {
+        crate::refusal_log::MONITORED_ITEMS.refused(StatusCode::BadTooManyMonitoredItems, max_per_sub);
         return service_fault!(request, StatusCode::BadTooManyMonitoredItems);
     }
 
