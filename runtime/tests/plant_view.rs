@@ -3,7 +3,8 @@
 //! `sparkplug_b.proto`) through a real mosquitto, both in `runtime/tests/plant_view/client.py`.
 //!
 //! - An output no program writes, on a healthy module, is good: in `softplc status`, at the OPC
-//!   UA client and in the Sparkplug host's view (its DBIRTH, and every DDATA after it).
+//!   UA client and in the Sparkplug host's view (its DBIRTH, and every DDATA after it); a
+//!   profile point's `unit:` is its metric's `engUnit` in the DBIRTH.
 //! - A memory tag the program steps every scan, at a 20 ms scan: the OPC UA client (sampling
 //!   interval 0, queue 100, publishing every scan period) and the Sparkplug host each get
 //!   every value, in order, none missing, and the PLC counts no change lost for either.
@@ -63,11 +64,32 @@ struct Ports {
 /// The project: `y1` bound to `mm1.Y1` and never written, `y2` written by the
 /// program, and `counter`, a memory tag the program steps every scan.
 fn project(dir: &Path, period_ms: u64, ports: Ports) -> PathBuf {
-    project_with(dir, period_ms, ports, "")
+    project_with(dir, period_ms, ports, "", false)
 }
 
-/// [`project`] with `opcua_keys` added to its `opcua:` section.
-fn project_with(dir: &Path, period_ms: u64, ports: Ports, opcua_keys: &str) -> PathBuf {
+/// [`project`] with `opcua_keys` added to its `opcua:` section, and with `meter` an SDM120
+/// energy meter (`examples/profiles/sdm120.yaml`) on a 9600 Bd line of its own, its voltage
+/// the tag `voltage`.
+fn project_with(
+    dir: &Path,
+    period_ms: u64,
+    ports: Ports,
+    opcua_keys: &str,
+    meter: bool,
+) -> PathBuf {
+    let (meter_bus, meter_module, meter_tag) = if meter {
+        (
+            "  - { name: line2, port: sim, baud: 9600, response_timeout: 100ms, retries: 1 }\n"
+                .to_string(),
+            format!(
+                "  - {{ name: meter, bus: line2, model: \"profile:{}\", address: 3 }}\n",
+                workspace().join("examples/profiles/sdm120.yaml").display()
+            ),
+            "  - { name: voltage, point: meter.voltage }\n",
+        )
+    } else {
+        (String::new(), String::new(), "")
+    };
     let program = dir.join("program.rhai");
     std::fs::write(&program, "y2 = true;\ncounter += 1;\n").unwrap();
     let text = format!(
@@ -76,12 +98,12 @@ scan:
   period: {period_ms}ms
 buses:
   - {{ name: line1, port: sim, baud: 57600, format: 8E1, response_timeout: 30ms, retries: 1 }}
-modules:
+{meter_bus}modules:
   - {{ name: mm1, bus: line1, model: minimod, address: 1 }}
-tags:
+{meter_module}tags:
   - {{ name: y1, point: mm1.Y1, safe: false }}
   - {{ name: y2, point: mm1.Y2, safe: false }}
-  - {{ name: counter, type: i32 }}
+{meter_tag}  - {{ name: counter, type: i32 }}
   - {{ name: setpoint, type: u16, scada: write }}
 program: {{ file: {}, kind: rhai }}
 service:
@@ -259,7 +281,7 @@ fn an_output_no_program_writes_is_good_in_status_at_an_opcua_client_and_at_a_spa
     };
     let _broker = Broker::start(&dir, ports.mqtt);
     let pb2 = sparkplug_pb2(&python(), &dir);
-    let project = project(&dir, 50, ports);
+    let project = project_with(&dir, 50, ports, "", true);
     let plc = Plc::start(&dir, &project);
     // Before the module has acknowledged its outputs nobody can say they hold: the birth may
     // show that, so the host is listening from the start and its view is taken at the end.
@@ -268,9 +290,9 @@ fn an_output_no_program_writes_is_good_in_status_at_an_opcua_client_and_at_a_spa
         "plant1".into(),
         "edge1".into(),
         pb2.display().to_string(),
-        "mm1".into(),
         "y1".into(),
         "y2".into(),
+        "voltage".into(),
     ]
     .into();
     let host = {
@@ -312,6 +334,9 @@ fn an_output_no_program_writes_is_good_in_status_at_an_opcua_client_and_at_a_spa
         "y1 as the Sparkplug host holds it: {seen:?}"
     );
     assert_eq!(keyed(&seen, "QUALITY", "y2"), Some("192"), "{seen:?}");
+    // A profile point's unit is the metric's engUnit in its DBIRTH.
+    assert_eq!(keyed(&seen, "ENGUNIT", "voltage"), Some("V"), "{seen:?}");
+    assert_eq!(keyed(&seen, "ENGUNIT", "y1"), None, "{seen:?}");
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }
@@ -488,7 +513,7 @@ fn sessions_beyond_max_sessions_are_refused_and_logged_once() {
         mqtt: free_port(),
     };
     let _broker = Broker::start(&dir, ports.mqtt);
-    let project = project_with(&dir, 50, ports, "    max_sessions: 3\n");
+    let project = project_with(&dir, 50, ports, "    max_sessions: 3\n", false);
     let plc = Plc::start(&dir, &project);
     plc.wait_scans(5);
     let seen = client(

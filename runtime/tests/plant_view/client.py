@@ -17,10 +17,10 @@ Usage:
       DataChangeFilter; once both report Good it asks the test to kill the device ("NEED
       kill") and prints "STATUS filterless Name" and "STATUS timestamp Name" with the first
       status other than Good each reports after that.
-  client.py sparkplug-quality PORT GROUP NODE PB2_DIR DEVICE TAG...
-      follows the births and DATA of the node for a few seconds: "QUALITY tag code" for the
-      quality each TAG has in the host's view at the end, and "BIRTH tag code" as the DBIRTH
-      gave it.
+  client.py sparkplug-quality PORT GROUP NODE PB2_DIR TAG...
+      follows the births and DATA of the node's devices for a few seconds: "QUALITY tag code"
+      for the quality each TAG has in the host's view at the end, "BIRTH tag code" as its
+      DBIRTH gave it, and "ENGUNIT tag unit" when the DBIRTH gave it an engUnit.
   client.py sparkplug-count PORT GROUP NODE PB2_DIR TAG SECONDS
       counts every value of TAG in NDATA (and the historical ones after a birth) for SECONDS:
       "COUNT received first last missing out_of_order".
@@ -268,18 +268,22 @@ def metric_value(m):
     return getattr(m, kind) if kind else None
 
 
-def sparkplug_quality(port, group, node, pb2_dir, device, tags):
+def sparkplug_quality(port, group, node, pb2_dir, tags):
     client, messages = sparkplug(port, group, node, pb2_dir)
     say("READY")
-    aliases, view, birth = {}, {}, {}
+    aliases, view, birth, eng = {}, {}, {}, {}
+    births, data = f"spBv1.0/{group}/DBIRTH/{node}/", f"spBv1.0/{group}/DDATA/{node}/"
     for topic, p in until(messages, 8):
-        if topic == f"spBv1.0/{group}/DBIRTH/{node}/{device}":
+        if topic.startswith(births):
             for m in p.metrics:
                 aliases[m.alias] = m.name
                 if m.name in tags:
                     view[m.name] = quality_of(m)
                     birth.setdefault(m.name, quality_of(m))
-        elif topic == f"spBv1.0/{group}/DDATA/{node}/{device}":
+                    props = dict(zip(m.properties.keys, m.properties.values))
+                    if "engUnit" in props:
+                        eng[m.name] = props["engUnit"].string_value
+        elif topic.startswith(data):
             for m in p.metrics:
                 name = aliases.get(m.alias)
                 if name in tags and quality_of(m) is not None:
@@ -287,9 +291,11 @@ def sparkplug_quality(port, group, node, pb2_dir, device, tags):
     client.loop_stop()
     for tag in tags:
         if tag not in birth:
-            fail(f"{tag}: no DBIRTH of {device} carried it")
+            fail(f"{tag}: no DBIRTH carried it")
         say(f"BIRTH {tag} {birth[tag]}")
         say(f"QUALITY {tag} {view[tag]}")
+        if tag in eng:
+            say(f"ENGUNIT {tag} {eng[tag]}")
 
 
 def sparkplug_count(port, group, node, pb2_dir, tag, seconds):
@@ -326,7 +332,7 @@ def main():
     elif mode == "opcua-status":
         asyncio.run(opcua_status(args[0], args[1], args[2]))
     elif mode == "sparkplug-quality":
-        sparkplug_quality(int(args[0]), args[1], args[2], args[3], args[4], args[5:])
+        sparkplug_quality(int(args[0]), args[1], args[2], args[3], args[4:])
     elif mode == "sparkplug-count":
         sparkplug_count(int(args[0]), args[1], args[2], args[3], args[4], float(args[5]))
     else:

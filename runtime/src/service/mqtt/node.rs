@@ -21,7 +21,7 @@ use std::collections::VecDeque;
 
 use softplc_io::point::{Quality, Value};
 
-use super::layout::{Layout, PlcMetric, REBIRTH};
+use super::layout::{Engineering, Layout, PlcMetric, REBIRTH};
 use super::payload::{self, bd_seq_metric, datatype, metric_value, MetricSpec};
 use super::spb::payload::metric::Value as MetricValue;
 use super::spb::DataType;
@@ -230,6 +230,7 @@ impl EdgeNode {
             value: metric_value(value),
             quality: Some(quality),
             historical: false,
+            eng: None,
         })
     }
 
@@ -278,6 +279,7 @@ impl EdgeNode {
                 value: MetricValue::BooleanValue(false),
                 quality: None,
                 historical: false,
+                eng: None,
             },
         ];
         let plc = self.plc_values(snap);
@@ -290,12 +292,14 @@ impl EdgeNode {
                 value: v.clone(),
                 quality: None,
                 historical: false,
+                eng: None,
             });
         }
         self.plc_last = plc.into_iter().map(|(_, _, v)| Some(v)).collect();
         self.plc_sent_at = wall_ms;
         let node_tags: Vec<usize> = self.layout.tags_of(None).map(|t| t.tag).collect();
         let names: Vec<String> = self.layout.tags.iter().map(|t| t.name.clone()).collect();
+        let engs: Vec<Engineering> = self.layout.tags.iter().map(|t| t.eng.clone()).collect();
         let tag_specs: Vec<(usize, MetricSpec<'static>)> = node_tags
             .iter()
             .filter_map(|&t| Some((t, self.tag_spec(snap, wall_ms, t, true)?)))
@@ -304,6 +308,7 @@ impl EdgeNode {
         for (t, spec) in &tag_specs {
             all.push(MetricSpec {
                 name: Some(names[*t].as_str()),
+                eng: Some(&engs[*t]),
                 ..spec.clone()
             });
         }
@@ -334,6 +339,7 @@ impl EdgeNode {
             .iter()
             .map(|(t, s)| MetricSpec {
                 name: Some(self.layout.tags[*t].name.as_str()),
+                eng: Some(&self.layout.tags[*t].eng),
                 ..s.clone()
             })
             .collect();
@@ -369,6 +375,7 @@ impl EdgeNode {
                         value: metric_value(k.value),
                         quality: Some(k.quality),
                         historical: true,
+                        eng: None,
                     })
                     .collect();
                 out.push(self.data_message(device, wall_ms, &metrics));
@@ -438,6 +445,7 @@ impl EdgeNode {
                         value: metric_value(c.value),
                         quality: Some(c.quality),
                         historical: false,
+                        eng: None,
                     });
                 } else {
                     if self.buffer.len() >= self.capacity {
@@ -501,6 +509,7 @@ impl EdgeNode {
                         value: v.clone(),
                         quality: None,
                         historical: false,
+                        eng: None,
                     });
                     self.plc_last[i] = Some(v);
                 }

@@ -7,7 +7,7 @@ use softplc_io::point::{Quality, Value, ValueType};
 
 use super::*;
 use crate::service::changes::{CycleChanges, TagChange};
-use crate::service::mqtt::layout::TagMetric;
+use crate::service::mqtt::layout::{Engineering, TagMetric};
 use crate::service::mqtt::spb::Payload;
 use crate::service::snapshot::ModuleSnapshot;
 
@@ -18,10 +18,18 @@ fn layout() -> Layout {
         ty,
         alias: tag as u64 + 1,
         device,
+        eng: Engineering::default(),
+    };
+    let level = TagMetric {
+        eng: Engineering {
+            unit: Some("m".into()),
+            range: Some((0.0, 4.5)),
+        },
+        ..tag(0, "level", ValueType::F32, Some(0))
     };
     Layout {
         tags: vec![
-            tag(0, "level", ValueType::F32, Some(0)),
+            level,
             tag(1, "pump", ValueType::Bool, Some(0)),
             tag(2, "setpoint", ValueType::U16, None),
         ],
@@ -276,6 +284,38 @@ fn every_value_of_a_metric_goes_out_in_order_each_with_its_cycles_time_and_losse
     assert_eq!(
         lost,
         Some(crate::service::mqtt::spb::payload::metric::Value::LongValue(4))
+    );
+}
+
+#[test]
+fn births_carry_a_profile_points_engineering_unit_and_range_and_data_does_not() {
+    let mut n = node(10);
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    let birth = n.birth(&s0, 1_000_000, 0);
+    let db = decoded(&birth[1]);
+    let props = |m: &crate::service::mqtt::spb::payload::Metric| {
+        let p = m.properties.clone().unwrap_or_default();
+        p.keys
+            .iter()
+            .zip(&p.values)
+            .map(|(k, v)| format!("{k}={:?}", v.value.as_ref().unwrap()))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        props(&db.metrics[0]),
+        [
+            "Quality=IntValue(192)",
+            "engUnit=StringValue(\"m\")",
+            "engLow=DoubleValue(0.0)",
+            "engHigh=DoubleValue(4.5)"
+        ]
+    );
+    assert_eq!(props(&db.metrics[1]), ["Quality=IntValue(192)"], "no unit");
+    let s1 = snap(2.0, false, 5, Quality::Good);
+    let data = step(&mut n, &s0, &s1, 1_000_050, true);
+    assert_eq!(
+        props(&decoded(&data[0]).metrics[0]),
+        ["Quality=IntValue(192)"]
     );
 }
 
