@@ -20,6 +20,9 @@ use std::time::{Duration, Instant};
 #[path = "common/host.rs"]
 mod host;
 use host::{free_port, lines_of, repo as workspace};
+#[path = "common/broker.rs"]
+mod broker;
+use broker::{sparkplug_pb2, Broker};
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
@@ -32,77 +35,6 @@ fn python() -> PathBuf {
         py.display()
     );
     py
-}
-
-/// A mosquitto of this test: loopback only, anonymous, no persistence.
-struct Broker {
-    child: Child,
-    port: u16,
-    conf: PathBuf,
-}
-
-impl Broker {
-    fn start(dir: &Path, port: u16) -> Self {
-        Self::start_with(dir, port, "")
-    }
-
-    /// With `extra` configuration lines for the listener (TLS, a password file: then no
-    /// anonymous access).
-    fn start_with(dir: &Path, port: u16, extra: &str) -> Self {
-        let conf = dir.join("mosquitto.conf");
-        let anonymous = !extra.contains("password_file");
-        std::fs::write(
-            &conf,
-            format!(
-                "listener {port} 127.0.0.1\n{extra}allow_anonymous {anonymous}\npersistence false\n"
-            ),
-        )
-        .unwrap();
-        let child = Command::new("mosquitto")
-            .arg("-c")
-            .arg(&conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap_or_else(|e| {
-                panic!("cannot start mosquitto ({e}): scripts/test installs it (apt: mosquitto)")
-            });
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-            assert!(
-                Instant::now() < deadline,
-                "mosquitto did not listen on {port}"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        Self { child, port, conf }
-    }
-
-    /// Stops the broker, runs `while_away`, and starts it again on the same port.
-    fn restart_after(&mut self, while_away: impl FnOnce()) {
-        // The child may have exited already; then there is nothing to stop.
-        drop(self.child.kill());
-        drop(self.child.wait());
-        while_away();
-        let dir = self.conf.parent().unwrap().to_path_buf();
-        let extra = std::fs::read_to_string(&self.conf).unwrap_or_default();
-        let extra: String = extra
-            .lines()
-            .filter(|l| {
-                l.starts_with("cafile") || l.starts_with("certfile") || l.starts_with("keyfile")
-            })
-            .map(|l| format!("{l}\n"))
-            .collect();
-        *self = Broker::start_with(&dir, self.port, &extra);
-    }
-}
-
-impl Drop for Broker {
-    fn drop(&mut self) {
-        // The child may have exited already; then there is nothing to stop.
-        drop(self.child.kill());
-        drop(self.child.wait());
-    }
 }
 
 fn project(dir: &Path, port: u16) -> PathBuf {
@@ -165,20 +97,7 @@ fn a_sparkplug_host_sees_births_data_commands_a_broker_restart_and_death() {
     let dir = tempfile_dir();
     let port = free_port();
     let mut broker = Broker::start(&dir, port);
-    let pb2 = dir.join("py");
-    std::fs::create_dir_all(&pb2).unwrap();
-    let proto = workspace().join("runtime/proto");
-    let gen = Command::new(python())
-        .args(["-m", "grpc_tools.protoc", "-I"])
-        .arg(&proto)
-        .arg(format!("--python_out={}", pb2.display()))
-        .arg(proto.join("sparkplug_b.proto"))
-        .status()
-        .unwrap();
-    assert!(
-        gen.success(),
-        "grpc_tools.protoc failed on sparkplug_b.proto"
-    );
+    let pb2 = sparkplug_pb2(&python(), &dir);
 
     let project = project(&dir, port);
     let socket = dir.join("control.sock");

@@ -421,6 +421,14 @@ fn check_refuses_a_server_beyond_loopback_without_security() {
         "{text}"
     );
     assert!(!text.contains("secret"), "{text}");
+    // A limit outside its range, at its key.
+    let out = check("    port: 4843\n    max_sessions: 0\n");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("p.yaml:14:19: error: service.opcua.max_sessions 0 is outside 1..=1000"),
+        "{err}"
+    );
     // On loopback, None and anonymous.
     let out = check("    port: 4842\n");
     let text = String::from_utf8_lossy(&out.stdout);

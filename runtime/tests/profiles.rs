@@ -97,11 +97,22 @@ simulate:
 }
 
 #[test]
+fn a_range_must_run_from_low_to_high() {
+    assert_eq!(
+        errors(
+            "model: m\nsource: s\npoints:\n  - { name: v, table: input, address: 0, unit: V, \
+             range: [300, 100] }\n"
+        ),
+        ["meter.yaml:4:58: error: range must be two finite numbers, low below high: [low, high]"]
+    );
+}
+
+#[test]
 fn yaml_errors_and_unknown_keys_are_placed_too() {
     assert_eq!(
         errors("model: m\nsource: s\npoints:\n  - { name: v, table: input, adress: 0 }\n"),
         [
-            "meter.yaml:4:30: error: unknown key `adress` in points[0]; expected one of `name`, `table`, `address`, `type`, `order`, `scale`, `offset`, `unit`, `access`, `manual`, `poll`, `write`, `initial`, `bits`",
+            "meter.yaml:4:30: error: unknown key `adress` in points[0]; expected one of `name`, `table`, `address`, `type`, `order`, `scale`, `offset`, `unit`, `range`, `access`, `manual`, `poll`, `write`, `initial`, `bits`",
             "meter.yaml:4:5: error: missing key `address` in points[0]",
         ]
     );

@@ -236,9 +236,12 @@ pub struct ModuleSnapshot {
     pub counters: Counters,
     /// The last failure, if the last cycle had one.
     pub last_error: Option<TxError>,
-    /// Whether the module holds what the program last asked of its outputs: bad while a write
-    /// failed or was refused and has not been made good, while the module waits for its
-    /// start-up sequence (back from a power cycle, a fired watchdog), and while it is lost.
+    /// Whether the module holds what the program last asked of its outputs: good once it
+    /// acknowledged them (its start-up's write of every output, a write, the periodic
+    /// rewrite); bad before that, while a write failed or was refused and has not been made
+    /// good, and while the module waits for its start-up sequence (back from a power cycle, a
+    /// fired watchdog); stale while it is lost after it had acknowledged them (the last values
+    /// it held, which nobody can confirm now).
     pub outputs: Quality,
 }
 
@@ -288,6 +291,10 @@ pub struct Module {
     pub(crate) startup_pending: bool,
     /// A write failed or was refused and has not been made good since.
     output_fault: bool,
+    /// It acknowledged every output it was given at least once (a write of every output, or a
+    /// write that made a failed one good): what lets its outputs be good, and stale rather
+    /// than bad once it is lost.
+    outputs_acknowledged: bool,
     pub(crate) last_error: Option<TxError>,
     /// When the module last answered an exchange addressed to it (a reply or an exception:
     /// it is there and hears its address), on the line's time.
@@ -308,6 +315,7 @@ impl Module {
             refresh_pending: false,
             startup_pending: false,
             output_fault: false,
+            outputs_acknowledged: false,
             last_error: None,
             last_answered: None,
             last_full_write: None,
@@ -327,7 +335,18 @@ impl Module {
 
     /// The quality of its outputs (see [`ModuleSnapshot::outputs`]).
     fn output_quality(&self) -> Quality {
-        if self.output_fault || self.startup_pending || self.health.is_lost() {
+        if self.health.is_lost() {
+            // What it held when it went away is the last usable value, if it held anything.
+            if self.outputs_acknowledged {
+                Quality::Stale
+            } else {
+                Quality::Bad
+            }
+        } else if self.output_fault
+            || self.startup_pending
+            || self.refresh_pending
+            || !self.outputs_acknowledged
+        {
             Quality::Bad
         } else {
             Quality::Good
@@ -786,6 +805,10 @@ impl BusOwner {
                 module.output_fault = true;
             } else if module.output_fault && (refresh_module || !plan.is_empty()) {
                 module.output_fault = false;
+                module.outputs_acknowledged = true;
+            } else if refresh_module {
+                // Every output written and answered: the module holds them all.
+                module.outputs_acknowledged = true;
             }
             if full && !failed && !module.startup_pending {
                 module.last_full_write = Some(now);

@@ -14,6 +14,7 @@ use crate::project;
 use crate::recorder::Settings;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::boundary::ServiceBoundary;
+use crate::service::changes::ChangeFeed;
 use crate::service::control::{default_socket_path, ControlServer};
 use crate::service::notify::Notifier;
 use crate::service::opcua::OpcUaServer;
@@ -145,10 +146,18 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     };
     let published = snapshot::SnapshotCell::new();
     let project = engine.plc().project();
+    // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
+    let mut feed = ChangeFeed::new();
     let mut services = network::start(project, &published, &requests, &health)?;
-    let mqtt = crate::service::mqtt::MqttNode::start(project, &published, &requests, &health)
-        .context("cannot start the MQTT edge node")?;
-    let opcua = match OpcUaServer::start(project, &published, &requests, &health) {
+    let mqtt = crate::service::mqtt::MqttNode::start(
+        project,
+        &published,
+        &mut feed,
+        &requests,
+        &health,
+    )
+    .context("cannot start the MQTT edge node")?;
+    let opcua = match OpcUaServer::start(project, &published, &mut feed, &requests, &health) {
         Ok(server) => server,
         Err(e) if e.is_fatal() => return Err(e.into()),
         Err(e) => {
@@ -173,7 +182,10 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         if services.web.is_some() {
             publisher = publisher.with_details();
         }
-        boundary = boundary.with_publisher(publisher);
+        boundary = boundary.with_publisher(publisher.with_feeds(feed.counts()));
+    }
+    if !feed.is_empty() {
+        boundary = boundary.with_feed(feed);
     }
     let notifier = Notifier::from_env();
     if notifier.enabled() {

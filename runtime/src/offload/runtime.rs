@@ -67,6 +67,9 @@ struct Pushed {
     tables: Vec<(usize, Value)>,
     /// The module's value as last known (restored after the logic).
     value: Value,
+    /// The quality of the last read-back of the output (read-back outputs only; a pulser is
+    /// never read).
+    read: Quality,
     source: Source,
 }
 
@@ -128,6 +131,7 @@ impl Offloaded {
                 safe: tag.safe.unwrap_or(tag.ty.zero()),
                 tables,
                 value: tag.initial,
+                read: Quality::Bad,
                 source,
             });
         }
@@ -168,12 +172,14 @@ impl Offloaded {
                             if let Some(v) = value {
                                 p.value = v;
                             }
+                            p.read = quality;
                             image.update(p.tag, value, quality, now);
                         }
                         None => {
-                            if image.slot(p.tag).quality == Quality::Good {
-                                image.set_quality(p.tag, Quality::Stale);
+                            if p.read == Quality::Good {
+                                p.read = Quality::Stale;
                             }
+                            image.set_quality(p.tag, p.read);
                         }
                     }
                 }
@@ -213,6 +219,25 @@ impl Offloaded {
             if image.get(p.tag) != p.value {
                 image.set(p.tag, p.value, now);
             }
+        }
+    }
+
+    /// Output phase, after the write: each pushed-down output's quality as for any output
+    /// (`outputs(bus, module)`: what its module holds of its outputs, see
+    /// [`softplc_io::line::ModuleSnapshot::outputs`]); a read-back output is good only while
+    /// its read-back is too, since that read is what shows the module's logic drives it.
+    pub(crate) fn set_qualities(
+        &self,
+        image: &mut ProcessImage,
+        outputs: impl Fn(usize, usize) -> Quality,
+    ) {
+        for p in &self.outputs {
+            let held = outputs(p.bus, p.module);
+            let quality = match (&p.source, held) {
+                (Source::ReadBack, Quality::Good) => p.read,
+                (_, held) => held,
+            };
+            image.set_quality(p.tag, quality);
         }
     }
 

@@ -121,15 +121,21 @@ impl Plc {
         }
         self.offload.commands(&mut self.frames);
         self.dispatch_writes();
-        // An output its module does not hold (a refused or failed write, a module lost or
-        // restarting) is bad until it is written again.
+        // An output tag's quality is what its module holds of it, whoever wrote the value:
+        // good once acknowledged, bad while a write is refused or fails (or not made yet),
+        // stale while the module is lost (`ModuleSnapshot::outputs`).
         for bind in &self.outputs {
             let m = self.bus_modules[bind.bus][bind.module];
-            let q = self.status[m].outputs;
-            if q != Quality::Good {
-                self.image.set_quality(bind.tag, q);
-            }
+            self.image.set_quality(bind.tag, self.status[m].outputs);
         }
+        let (status, bus_modules) = (&self.status, &self.bus_modules);
+        self.offload.set_qualities(&mut self.image, |b, k| {
+            bus_modules
+                .get(b)
+                .and_then(|mods| mods.get(k))
+                .and_then(|&m| status.get(m))
+                .map_or(Quality::Bad, |st| st.outputs)
+        });
         self.offload.clear_commands(&mut self.frames);
         // Between cycles: hand changed retained values to their writer (never waits).
         if let Some(r) = self.retain.as_mut() {

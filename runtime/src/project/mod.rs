@@ -51,7 +51,7 @@ pub use model::*;
 pub use mqtt::{MqttConfig, MqttError};
 pub use nesting::MAX_DEPTH;
 pub use offload::{OffloadConfig, OffloadError, OffloadMode, OnStop, TagOffload};
-pub use opcua::{OpcUaConfig, OpcUaError, OpcUaSecurity};
+pub use opcua::{OpcUaConfig, OpcUaError, OpcUaLimits, OpcUaSecurity};
 pub use raw::{parse_duration, DurationError};
 pub use recorder::{RecorderConfig, RecorderError};
 pub use retain::RetainConfig;

@@ -10,6 +10,10 @@
 //!     security: none               # none | basic256sha256 (Sign & Encrypt); default none
 //!     username: operator           # a user name clients log in with; password or
 //!     password_env: SOFTPLC_OPCUA_PASSWORD   # password_env with it
+//!     max_sessions: 20             # sessions at once; default 20
+//!     max_subscriptions: 10        # subscriptions per session; default 10
+//!     max_monitored_items: 1000    # monitored items per subscription; default 1000
+//!     max_queue_size: 1000         # a monitored item's queue, at most; default 1000
 //! ```
 //!
 //! SecurityPolicy None and anonymous access are for a server bound to loopback only: beyond
@@ -30,12 +34,46 @@ pub(crate) const DEFAULT_OPCUA_PORT: u16 = 4840;
 /// The address unless told.
 pub(crate) const DEFAULT_OPCUA_BIND: &str = "127.0.0.1";
 
+/// The server's limits (`max_*` keys): what a client may open, each with its default and
+/// its largest value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OpcUaLimits {
+    /// Sessions at once (more are refused `BadTooManySessions`).
+    pub sessions: usize,
+    /// Subscriptions per session (more are refused `BadTooManySubscriptions`).
+    pub subscriptions: usize,
+    /// Monitored items per subscription (more are refused `BadTooManyMonitoredItems`).
+    pub monitored_items: usize,
+    /// The largest queue a monitored item may have (a larger `queueSize` is revised to it).
+    pub queue_size: usize,
+}
+
+impl Default for OpcUaLimits {
+    fn default() -> Self {
+        Self {
+            sessions: 20,
+            subscriptions: 10,
+            monitored_items: 1000,
+            queue_size: 1000,
+        }
+    }
+}
+
+/// The largest value of each limit: `(key, largest)`.
+pub(crate) const LIMIT_MAX: [(&str, usize); 4] = [
+    ("max_sessions", 1000),
+    ("max_subscriptions", 1000),
+    ("max_monitored_items", 100_000),
+    ("max_queue_size", 100_000),
+];
+
 /// `service.opcua:` as written.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     expecting = "OPC UA settings: a mapping with bind, port, writes, security, username, \
-                 password and password_env"
+                 password, password_env, max_sessions, max_subscriptions, max_monitored_items \
+                 and max_queue_size"
 )]
 pub(crate) struct RawOpcUa {
     /// The address to listen on (an IP literal; default [`DEFAULT_OPCUA_BIND`]).
@@ -59,6 +97,18 @@ pub(crate) struct RawOpcUa {
     /// An environment variable holding the password.
     #[serde(default)]
     pub password_env: Option<String>,
+    /// Sessions at once (default 20).
+    #[serde(default)]
+    pub max_sessions: Option<Int>,
+    /// Subscriptions per session (default 10).
+    #[serde(default)]
+    pub max_subscriptions: Option<Int>,
+    /// Monitored items per subscription (default 1000).
+    #[serde(default)]
+    pub max_monitored_items: Option<Int>,
+    /// The largest queue a monitored item may ask for (default 1000).
+    #[serde(default)]
+    pub max_queue_size: Option<Int>,
 }
 
 /// The security of the server's one endpoint.
@@ -98,6 +148,8 @@ pub struct OpcUaConfig {
     pub security: OpcUaSecurity,
     /// The one user and its password (`None`: anonymous, loopback only).
     pub user: Option<(String, OpcUaPassword)>,
+    /// What clients may open.
+    pub limits: OpcUaLimits,
 }
 
 impl OpcUaConfig {
@@ -172,6 +224,16 @@ pub enum OpcUaError {
         /// The user name.
         name: String,
     },
+    /// A limit outside its range.
+    #[error("service.opcua.{key} {value} is outside 1..={max}")]
+    BadLimit {
+        /// The key.
+        key: &'static str,
+        /// The value given.
+        value: i64,
+        /// The largest allowed.
+        max: usize,
+    },
     /// A user on an endpoint without security: the password would travel in clear.
     #[error(
         "service.opcua.username needs security: basic256sha256: with SecurityPolicy None the \
@@ -232,6 +294,32 @@ pub(crate) fn validate(
         }
         (None, None) => None,
     };
+    let defaults = OpcUaLimits::default();
+    let given = [
+        (raw.max_sessions, defaults.sessions),
+        (raw.max_subscriptions, defaults.subscriptions),
+        (raw.max_monitored_items, defaults.monitored_items),
+        (raw.max_queue_size, defaults.queue_size),
+    ];
+    let mut limit = [0usize; 4];
+    for (i, ((value, default), (key, max))) in given.into_iter().zip(LIMIT_MAX).enumerate() {
+        limit[i] = match value {
+            None => default,
+            Some(Int(v)) => match usize::try_from(v) {
+                Ok(n) if (1..=max).contains(&n) => n,
+                _ => {
+                    errors.push((key, OpcUaError::BadLimit { key, value: v, max }));
+                    default
+                }
+            },
+        };
+    }
+    let limits = OpcUaLimits {
+        sessions: limit[0],
+        subscriptions: limit[1],
+        monitored_items: limit[2],
+        queue_size: limit[3],
+    };
     let security = raw.security.unwrap_or_default();
     if raw.username.is_some() && security == OpcUaSecurity::None {
         errors.push(("username", OpcUaError::UserWithoutSecurity));
@@ -260,6 +348,7 @@ pub(crate) fn validate(
         writes: raw.writes.unwrap_or(false),
         security,
         user,
+        limits,
     })
     .filter(|_| ok)
 }

@@ -13,10 +13,11 @@ use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
 use crate::plc::{Plc, PreparedReload, ReloadError};
 use crate::scan::{CycleBoundary, ScanStats, StopReason};
+use crate::service::changes::ChangeFeed;
 use crate::service::control::{Envelope, Request, Response};
 use crate::service::notify::Notifier;
 use crate::service::snapshot::Publisher;
-use crate::service::status::StatusReport;
+use crate::service::status::{LostChanges, StatusReport};
 
 /// The service's side of the scan's cycle boundary (see the module docs).
 #[derive(Debug, Default)]
@@ -37,6 +38,8 @@ pub struct ServiceBoundary {
     traces: crate::trace::TraceSet,
     /// The services' states, for the status report.
     health: Option<super::health::Health>,
+    /// Every cycle's changes, for the services that take them all (OPC UA, MQTT).
+    feed: ChangeFeed,
 }
 
 impl ServiceBoundary {
@@ -55,6 +58,12 @@ impl ServiceBoundary {
     /// `crate::service::snapshot`).
     pub fn with_publisher(mut self, publisher: Publisher) -> Self {
         self.publisher = Some(publisher);
+        self
+    }
+
+    /// Offers every cycle's changes to the consumers of `feed` (see `crate::service::changes`).
+    pub(crate) fn with_feed(mut self, feed: ChangeFeed) -> Self {
+        self.feed = feed;
         self
     }
 
@@ -85,18 +94,28 @@ impl ServiceBoundary {
                 continue;
             }
             let response = match env.request {
-                Request::Status => Response {
-                    ok: true,
-                    status: Some(StatusReport {
-                        services: self
-                            .health
-                            .as_ref()
-                            .map(super::health::Health::report)
-                            .unwrap_or_default(),
-                        ..StatusReport::of(plc, stats)
-                    }),
-                    ..Response::default()
-                },
+                Request::Status => {
+                    let mut status = StatusReport::of(plc, stats);
+                    status.services = self
+                        .health
+                        .as_ref()
+                        .map(super::health::Health::report)
+                        .unwrap_or_default();
+                    status.lost_changes = self
+                        .feed
+                        .counts()
+                        .into_iter()
+                        .map(|(service, c)| LostChanges {
+                            service: service.into(),
+                            lost: c.lost(),
+                        })
+                        .collect();
+                    Response {
+                        ok: true,
+                        status: Some(status),
+                        ..Response::default()
+                    }
+                }
                 Request::Force { tag, value } => match plc.force(&tag, &value) {
                     Ok(v) => Response::done(format!("{tag} forced to {v}")),
                     Err(e) => Response::refused(e.to_string()),
@@ -114,7 +133,10 @@ impl ServiceBoundary {
                 Request::Write { values } => {
                     match plc.write_tags(values.iter().map(|v| (v.tag.as_str(), v.value.as_str())))
                     {
-                        Ok(n) => Response::done(format!("{n} tag(s) written")),
+                        Ok(n) => Response {
+                            applied_at: Some(stats.cycles),
+                            ..Response::done(format!("{n} tag(s) written"))
+                        },
                         Err(e) => Response::refused(e.to_string()),
                     }
                 }
@@ -216,6 +238,9 @@ impl CycleBoundary for ServiceBoundary {
         // First, so a sample shows the cycle just ended, before any request changes the PLC.
         self.traces.sample(plc, stats);
         self.answer(plc, stats);
+        // After the requests: a write applied at this boundary is part of what the services
+        // see of it, even when the next scan overwrites it.
+        self.feed.offer(plc.image(), stats.cycles, now);
         if self.reload.swap(false, Ordering::Relaxed) {
             self.start_reload(plc, None);
         }
@@ -235,6 +260,9 @@ impl CycleBoundary for ServiceBoundary {
     }
 
     fn stopped(&mut self, plc: &Plc, stats: &ScanStats, reason: &StopReason, now: Duration) {
+        // The safe state the outputs were left in, before the publication that tells the
+        // services the run is over.
+        self.feed.offer(plc.image(), stats.cycles, now);
         if let Some(p) = &mut self.publisher {
             p.set_stop_reason(match reason {
                 StopReason::Requested => "stopped on request".to_string(),

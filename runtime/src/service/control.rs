@@ -89,6 +89,10 @@ pub struct Response {
     /// A trace's samples, for `trace save` and `trace read`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trace: Option<crate::trace::TraceData>,
+    /// For `write`: the cycle boundary it was applied at (the scan's count of completed
+    /// cycles then), the first whose published values hold it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub applied_at: Option<u64>,
 }
 
 impl Response {

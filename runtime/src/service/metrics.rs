@@ -18,6 +18,7 @@
 //! | `softplc_tag_value{tag}` | gauge | value (bools 0/1) |
 //! | `softplc_tag_quality{tag}` | gauge | 0 good, 1 stale, 2 bad |
 //! | `softplc_tag_forced{tag}` | gauge | 1 when forced |
+//! | `softplc_service_lost_changes_total{service}` | counter | changes a service (opcua, mqtt) could not take in time (`super::changes`) |
 //!
 //! Statistics are refreshed every 250 ms of scan time, tag values every cycle.
 
@@ -290,6 +291,20 @@ pub(crate) fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
             }
         }
     }
+    if !s.lost_changes.is_empty() {
+        family(
+            &mut out,
+            "softplc_service_lost_changes_total",
+            "counter",
+            "Tag changes a service could not take in time (it fell behind the scan).",
+        );
+        for (service, lost) in &s.lost_changes {
+            let _ = writeln!(
+                out,
+                "softplc_service_lost_changes_total{{service=\"{service}\"}} {lost}"
+            );
+        }
+    }
     out
 }
 
@@ -350,6 +365,7 @@ mod tests {
                 quality: Quality::Good,
                 ..ModuleSnapshot::default()
             }],
+            lost_changes: vec![("opcua", 0), ("mqtt", 17)],
             ..ServiceSnapshot::default()
         };
         s.modules[0].counters.requests = 114;
@@ -396,6 +412,9 @@ mod tests {
             "softplc_service_state{service=\"recorder\",state=\"degraded\"} 1",
             "softplc_service_state{service=\"recorder\",state=\"running\"} 0",
             "softplc_service_state{service=\"web\",state=\"off\"} 1",
+            "# TYPE softplc_service_lost_changes_total counter",
+            "softplc_service_lost_changes_total{service=\"opcua\"} 0",
+            "softplc_service_lost_changes_total{service=\"mqtt\"} 17",
         ] {
             assert!(
                 text.lines().any(|l| l == line),

@@ -19,9 +19,12 @@
 //!   SCADA/HMI, with its address map in `modbus_map` and its input checks in
 //!   `modbus_guard`) and [`web`] (the web page: live I/O, forcing, the program with live
 //!   values, timing plots); `network` starts them. [`mqtt`] (a Sparkplug B edge node) and
-//!   `opcua` (an OPC UA server) read the same snapshot.
+//!   `opcua` (an OPC UA server) read the same snapshot for births and diagnostics, and take
+//!   every cycle's tag changes, in order, from `changes` (a bounded queue each, fed at the
+//!   cycle boundary; a consumer that falls behind loses changes visibly).
 
 pub(crate) mod boundary;
+pub(crate) mod changes;
 pub mod control;
 pub(crate) mod health;
 pub(crate) mod metrics;
@@ -47,5 +50,5 @@ pub use notify::Notifier;
 pub use snapshot::{
     HistogramView, ModuleSnapshot, PhaseSummary, Publisher, ServiceSnapshot, SnapshotCell,
 };
-pub use status::{MicrosPercentiles, ModuleReport, StatusReport, TagReport};
+pub use status::{LostChanges, MicrosPercentiles, ModuleReport, StatusReport, TagReport};
 pub use trace::TraceRequest;

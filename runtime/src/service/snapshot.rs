@@ -14,6 +14,7 @@ use std::time::Duration;
 use softplc_io::line::Counters;
 use softplc_io::point::{Quality, Value};
 
+use super::changes::FeedCounts;
 use crate::plc::Plc;
 use crate::scan::{DurationHistogram, ScanStats};
 
@@ -205,6 +206,9 @@ pub struct ServiceSnapshot {
     pub stopped: bool,
     /// Why the run ended (with [`Self::stopped`]): a request, a program fault, the watchdog.
     pub stop_reason: Option<String>,
+    /// Per service fed every change (OPC UA, MQTT): its name and the changes it lost so far
+    /// (refreshed with the statistics).
+    pub lost_changes: Vec<(&'static str, u64)>,
 }
 
 /// The shared snapshot.
@@ -247,6 +251,7 @@ pub struct Publisher {
     stats_at: Option<Duration>,
     details: bool,
     stop_reason: Option<String>,
+    feeds: Vec<(&'static str, Arc<FeedCounts>)>,
 }
 
 impl Publisher {
@@ -257,7 +262,15 @@ impl Publisher {
             stats_at: None,
             details: false,
             stop_reason: None,
+            feeds: Vec::new(),
         }
+    }
+
+    /// Also publishes the lost changes of the services fed every change (see
+    /// `crate::service::changes`).
+    pub(crate) fn with_feeds(mut self, feeds: Vec<(&'static str, Arc<FeedCounts>)>) -> Self {
+        self.feeds = feeds;
+        self
     }
 
     /// Also publishes what only the web page shows: each phase's histogram and each module's
@@ -316,6 +329,9 @@ impl Publisher {
                     quality: m.quality,
                     counters: m.counters,
                 }));
+            s.lost_changes.clear();
+            s.lost_changes
+                .extend(self.feeds.iter().map(|(name, c)| (*name, c.lost())));
             s.stats_seq += 1;
             if self.details {
                 s.module_errors.clear();

@@ -101,6 +101,18 @@ pub struct StatusReport {
     /// Every service's state.
     #[serde(default)]
     pub services: Vec<super::health::ServiceReport>,
+    /// The services fed every change (OPC UA, MQTT) and the changes each lost so far.
+    #[serde(default)]
+    pub lost_changes: Vec<LostChanges>,
+}
+
+/// The changes a service fed every change could not take in time.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LostChanges {
+    /// The service: `opcua` or `mqtt`.
+    pub service: String,
+    /// Changes lost so far.
+    pub lost: u64,
 }
 
 impl StatusReport {
@@ -146,6 +158,7 @@ impl StatusReport {
                 })
                 .collect(),
             services: Vec::new(),
+            lost_changes: Vec::new(),
         }
     }
 }
@@ -214,6 +227,14 @@ impl std::fmt::Display for StatusReport {
                 .map(|v| format!("  FORCED {v}"))
                 .unwrap_or_default();
             writeln!(f, "  {:<16} {:>8} {}{forced}", t.name, t.value, t.quality)?;
+        }
+        if !self.lost_changes.is_empty() {
+            let each: Vec<String> = self
+                .lost_changes
+                .iter()
+                .map(|l| format!("{} {}", l.service, l.lost))
+                .collect();
+            writeln!(f, "  changes lost by services: {}", each.join(", "))?;
         }
         Ok(())
     }

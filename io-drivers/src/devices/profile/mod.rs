@@ -165,6 +165,8 @@ pub struct ProfilePoint {
     pub scaling: Option<Scaling>,
     /// Engineering unit (`V`, `Hz`, `kWh`).
     pub unit: Option<String>,
+    /// The measuring range in engineering units, low to high, when the profile gives it.
+    pub range: Option<(f64, f64)>,
     /// Read, write or both.
     pub access: PointAccess,
     /// The manual's name or description (`Voltage`, `30001`).

@@ -26,6 +26,7 @@ fn point(name: &str, table: Table, address: u16, data: DataType) -> ProfilePoint
         order: WordOrder::Abcd,
         scaling: None,
         unit: None,
+        range: None,
         access: PointAccess::Read,
         manual: None,
         group: 0,

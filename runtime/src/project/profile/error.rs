@@ -85,6 +85,10 @@ pub enum ProfileError {
     /// A scale of 0 (every raw value would read the same).
     #[error("scale must not be 0")]
     ZeroScale,
+    /// A range whose low end is not below its high end, or not finite (the place shows
+    /// the numbers).
+    #[error("range must be two finite numbers, low below high: [low, high]")]
+    BadRange,
     /// A bit field outside its register.
     #[error("bits {first}..={last} do not fit a {bits}-bit register")]
     BitsOutside {

@@ -27,7 +27,8 @@
 //!     order: ABCD                 # 32-bit word order: ABCD | CDAB | BADC | DCBA; default ABCD
 //!     scale: 0.1                  # engineering = raw × scale + offset; the point is then f32
 //!     offset: 0
-//!     unit: V
+//!     unit: V                     # engineering unit (Sparkplug's engUnit)
+//!     range: [0, 500]             # the measuring range, low to high (engLow, engHigh)
 //!     access: read                # read | write | read/write; default read
 //!     manual: "Voltage, 30001"    # the manual's name
 //!     poll: fast                  # its poll group; default the first
@@ -150,7 +151,7 @@ pub(crate) struct RawGroup {
 #[serde(
     deny_unknown_fields,
     expecting = "a point: a mapping with name, table, address, type, order, scale, offset, \
-                 unit, access, manual, poll, write, initial and bits"
+                 unit, range, access, manual, poll, write, initial and bits"
 )]
 pub(crate) struct RawPoint {
     /// Its name in the project.
@@ -177,6 +178,9 @@ pub(crate) struct RawPoint {
     /// Engineering unit.
     #[serde(default)]
     pub unit: Option<String>,
+    /// The measuring range in engineering units: `[low, high]`.
+    #[serde(default)]
+    pub range: Option<[f64; 2]>,
     /// `read`, `write` or `read/write`.
     #[serde(default)]
     #[schemars(schema_with = "super::schema::access")]

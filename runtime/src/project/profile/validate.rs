@@ -511,6 +511,11 @@ fn point(
     if rp.scale == Some(0.0) {
         c.error(&p.key("scale"), ProfileError::ZeroScale);
     }
+    if let Some([low, high]) = rp.range {
+        if !(low.is_finite() && high.is_finite() && low < high) {
+            c.error(&p.key("range"), ProfileError::BadRange);
+        }
+    }
     for (key, v) in [
         ("scale", rp.scale),
         ("offset", rp.offset),
@@ -554,6 +559,7 @@ fn point(
         order,
         scaling,
         unit: rp.unit.clone(),
+        range: rp.range.map(|[low, high]| (low, high)),
         access,
         manual: rp.manual.clone(),
         group,

@@ -28,16 +28,19 @@ pub(crate) enum PlcMetric {
     State,
     /// Changes dropped from the buffer while the broker was away (UInt64).
     Dropped,
+    /// Changes the node could not take from the scan in time (UInt64).
+    Lost,
 }
 
 impl PlcMetric {
     /// Every PLC metric.
-    pub(crate) const ALL: [PlcMetric; 5] = [
+    pub(crate) const ALL: [PlcMetric; 6] = [
         PlcMetric::Scans,
         PlcMetric::Overruns,
         PlcMetric::CycleP99,
         PlcMetric::State,
         PlcMetric::Dropped,
+        PlcMetric::Lost,
     ];
 
     /// Its metric name.
@@ -48,12 +51,13 @@ impl PlcMetric {
             PlcMetric::CycleP99 => "PLC/Cycle p99 us",
             PlcMetric::State => "PLC/State",
             PlcMetric::Dropped => "MQTT/Dropped changes",
+            PlcMetric::Lost => "MQTT/Lost changes",
         }
     }
 }
 
 /// One tag as a metric.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TagMetric {
     /// Index into the project's tags (and the snapshot's values).
     pub tag: usize,
@@ -65,10 +69,37 @@ pub(crate) struct TagMetric {
     pub alias: u64,
     /// Its device (module index), `None` for a node metric (a memory tag).
     pub device: Option<usize>,
+    /// What its profile point says of it in engineering terms (births only).
+    pub eng: Engineering,
+}
+
+/// A metric's engineering unit and range, from its device profile point's `unit:` and
+/// `range:` (Sparkplug's `engUnit`, `engLow`, `engHigh` properties, as Ignition reads them).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(crate) struct Engineering {
+    /// The unit (`V`, `Hz`).
+    pub unit: Option<String>,
+    /// Low and high end of the measuring range.
+    pub range: Option<(f64, f64)>,
+}
+
+impl Engineering {
+    /// What the profile point behind `point` of `model` says (nothing for a built-in model or
+    /// a bit field).
+    fn of(model: &softplc_io::devices::ModelSpec, point: usize) -> Self {
+        let found = model
+            .profile
+            .zip(model.points.get(point))
+            .and_then(|(profile, spec)| profile.points.iter().find(|p| p.name == spec.name));
+        found.map_or_else(Self::default, |p| Self {
+            unit: p.unit.clone(),
+            range: p.range,
+        })
+    }
 }
 
 /// The whole metric set.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Layout {
     /// Every tag, in tag order (alias = tag index + 1).
     pub tags: Vec<TagMetric>,
@@ -91,6 +122,12 @@ impl Layout {
                 device: match t.binding {
                     Binding::Point { module, .. } => Some(module),
                     Binding::Memory => None,
+                },
+                eng: match t.binding {
+                    Binding::Point { module, point } => {
+                        Engineering::of(project.modules[module].model, point)
+                    }
+                    Binding::Memory => Engineering::default(),
                 },
             })
             .collect();

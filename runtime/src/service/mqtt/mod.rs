@@ -29,6 +29,7 @@ use std::time::Duration;
 
 use crossbeam_channel::Sender;
 
+use super::changes::{ChangeFeed, QUEUE_CYCLES};
 use super::control::Envelope;
 use super::health::{Health, Service, ServiceState};
 use super::snapshot::SnapshotCell;
@@ -43,9 +44,10 @@ pub struct MqttNode {
 impl MqttNode {
     /// Starts the edge node `project` configures (`None` when it configures none), reading
     /// `snapshot` and sending writes to `scan`.
-    pub fn start(
+    pub(crate) fn start(
         project: &Project,
         snapshot: &SnapshotCell,
+        feed: &mut ChangeFeed,
         scan: &Sender<Envelope>,
         health: &Health,
     ) -> std::io::Result<Option<Self>> {
@@ -67,6 +69,8 @@ impl MqttNode {
             writable,
             names: project.tags.iter().map(|t| t.name.clone()).collect(),
             snapshot: snapshot.clone(),
+            changes: feed.subscribe("mqtt", QUEUE_CYCLES),
+            waiting: Vec::new(),
             scan: scan.clone(),
             period: project.scan.period,
             health: health.clone(),

@@ -4,9 +4,13 @@
 //! - A birth (a new MQTT session, or a rebirth command) is NBIRTH with seq 0 and every node
 //!   metric, then a DBIRTH per live device, each with every metric's name, alias, datatype and
 //!   current value, then what the buffer kept while the broker was away.
-//! - At each snapshot, only what changed goes out (by exception, a numeric tag beyond its
-//!   deadband, any quality change): one NDATA, one DDATA per device. A module that is lost
-//!   gets a DDEATH; when it answers again, a DBIRTH with its current values.
+//! - Every cycle's changes come from the scan's change feed (`crate::service::changes`), in
+//!   cycle order; what passes (by exception: a numeric tag beyond its deadband from the value
+//!   last sent, any quality change) goes out in one NDATA and one DDATA per device per tick,
+//!   where one metric may appear several times, each value with its cycle's timestamp (as
+//!   Sparkplug B 3.0 allows, "Payloads" › "Metric"). A module that is lost gets a DDEATH;
+//!   when it answers again, a DBIRTH with its current values. Changes the feed could not
+//!   queue are counted in `MQTT/Lost changes`.
 //! - While the broker is away the same changes go into a bounded buffer instead (the oldest is
 //!   dropped and counted in `MQTT/Dropped changes`). Sparkplug forbids sending them before the
 //!   new NBIRTH, and a host takes a birth's values as current, so the buffer is sent after the
@@ -17,17 +21,18 @@ use std::collections::VecDeque;
 
 use softplc_io::point::{Quality, Value};
 
-use super::layout::{Layout, PlcMetric, REBIRTH};
+use super::layout::{Engineering, Layout, PlcMetric, REBIRTH};
 use super::payload::{self, bd_seq_metric, datatype, metric_value, MetricSpec};
 use super::spb::payload::metric::Value as MetricValue;
 use super::spb::DataType;
+use crate::service::changes::Delivery;
 use crate::service::snapshot::ServiceSnapshot;
 
 /// How often the PLC's own metrics (scans, cycle p99, ...) go out in NDATA at most, in ms: they
 /// change every scan, and a host trends them, it does not react to them.
 pub(crate) const PLC_METRICS_EVERY_MS: u64 = 1000;
-/// The most metrics in one historical DATA message.
-pub(crate) const HISTORICAL_CHUNK: usize = 500;
+/// The most metrics in one DATA message (a long backlog goes out in several).
+pub(crate) const DATA_CHUNK: usize = 500;
 
 /// One message to publish.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -103,6 +108,8 @@ pub(crate) struct EdgeNode {
     buffer: VecDeque<Kept>,
     capacity: usize,
     dropped: u64,
+    /// Changes the scan's feed could not queue for this node (see [`Self::set_lost`]).
+    lost: u64,
     /// UTC ms minus scan ms, fixed at the first snapshot.
     epoch: Option<i128>,
 }
@@ -148,6 +155,7 @@ impl EdgeNode {
             buffer: VecDeque::new(),
             capacity: capacity.max(1),
             dropped: 0,
+            lost: 0,
             epoch: None,
         }
     }
@@ -166,6 +174,11 @@ impl EdgeNode {
     #[cfg(test)]
     pub(crate) fn dropped(&self) -> u64 {
         self.dropped
+    }
+
+    /// Sets what `MQTT/Lost changes` says: the changes the scan's feed could not queue.
+    pub(crate) fn set_lost(&mut self, lost: u64) {
+        self.lost = lost;
     }
 
     /// Changes in the buffer.
@@ -217,6 +230,7 @@ impl EdgeNode {
             value: metric_value(value),
             quality: Some(quality),
             historical: false,
+            eng: None,
         })
     }
 
@@ -239,6 +253,7 @@ impl EdgeNode {
                     ),
                 ),
                 PlcMetric::Dropped => (m, DataType::UInt64, MetricValue::LongValue(self.dropped)),
+                PlcMetric::Lost => (m, DataType::UInt64, MetricValue::LongValue(self.lost)),
             })
             .collect()
     }
@@ -264,6 +279,7 @@ impl EdgeNode {
                 value: MetricValue::BooleanValue(false),
                 quality: None,
                 historical: false,
+                eng: None,
             },
         ];
         let plc = self.plc_values(snap);
@@ -276,12 +292,14 @@ impl EdgeNode {
                 value: v.clone(),
                 quality: None,
                 historical: false,
+                eng: None,
             });
         }
         self.plc_last = plc.into_iter().map(|(_, _, v)| Some(v)).collect();
         self.plc_sent_at = wall_ms;
         let node_tags: Vec<usize> = self.layout.tags_of(None).map(|t| t.tag).collect();
         let names: Vec<String> = self.layout.tags.iter().map(|t| t.name.clone()).collect();
+        let engs: Vec<Engineering> = self.layout.tags.iter().map(|t| t.eng.clone()).collect();
         let tag_specs: Vec<(usize, MetricSpec<'static>)> = node_tags
             .iter()
             .filter_map(|&t| Some((t, self.tag_spec(snap, wall_ms, t, true)?)))
@@ -290,6 +308,7 @@ impl EdgeNode {
         for (t, spec) in &tag_specs {
             all.push(MetricSpec {
                 name: Some(names[*t].as_str()),
+                eng: Some(&engs[*t]),
                 ..spec.clone()
             });
         }
@@ -320,6 +339,7 @@ impl EdgeNode {
             .iter()
             .map(|(t, s)| MetricSpec {
                 name: Some(self.layout.tags[*t].name.as_str()),
+                eng: Some(&self.layout.tags[*t].eng),
                 ..s.clone()
             })
             .collect();
@@ -344,7 +364,7 @@ impl EdgeNode {
                 .iter()
                 .filter(|k| self.layout.tags[k.tag].device == device)
                 .collect();
-            for chunk in mine.chunks(HISTORICAL_CHUNK) {
+            for chunk in mine.chunks(DATA_CHUNK) {
                 let metrics: Vec<MetricSpec<'_>> = chunk
                     .iter()
                     .map(|k| MetricSpec {
@@ -355,6 +375,7 @@ impl EdgeNode {
                         value: metric_value(k.value),
                         quality: Some(k.quality),
                         historical: true,
+                        eng: None,
                     })
                     .collect();
                 out.push(self.data_message(device, wall_ms, &metrics));
@@ -380,11 +401,75 @@ impl EdgeNode {
         }
     }
 
-    /// What changed since the last call, as NDATA/DDATA/DDEATH/DBIRTH (`online`), or kept in
-    /// the buffer (not `online`: nothing is returned).
+    /// Keeps `changes` in the buffer, as history for after the next births.
+    pub(crate) fn keep(&mut self, snap: &ServiceSnapshot, changes: &[Delivery], wall_ms: u64) {
+        self.take_changes(snap, changes, wall_ms, false);
+    }
+
+    /// The tag changes of `changes` that pass the deadband: per slot (0 the node, d + 1
+    /// device d), the metrics to send (`online`), or kept in the buffer (not `online`).
+    fn take_changes(
+        &mut self,
+        snap: &ServiceSnapshot,
+        changes: &[Delivery],
+        wall_ms: u64,
+        online: bool,
+    ) -> Vec<Vec<MetricSpec<'static>>> {
+        let mut out: Vec<Vec<MetricSpec<'static>>> =
+            vec![Vec::new(); self.layout.devices.len() + 1];
+        for d in changes {
+            let timestamp = self.utc(snap, wall_ms, d.cycle.at);
+            for (c, _) in d.all() {
+                let Some(t) = self.layout.tags.get(c.tag) else {
+                    continue;
+                };
+                let (device, alias) = (t.device, t.alias);
+                // A device not born in this session gets its values in its DBIRTH.
+                if online && device.is_some_and(|d| !self.born[d]) {
+                    continue;
+                }
+                let due = match self.last[c.tag] {
+                    None => true,
+                    Some((v, q)) => q != c.quality || changed(v, c.value, self.deadband[c.tag]),
+                };
+                if !due {
+                    continue;
+                }
+                self.last[c.tag] = Some((c.value, c.quality));
+                if online {
+                    out[device.map_or(0, |d| d + 1)].push(MetricSpec {
+                        name: None,
+                        alias: Some(alias),
+                        datatype: None,
+                        timestamp,
+                        value: metric_value(c.value),
+                        quality: Some(c.quality),
+                        historical: false,
+                        eng: None,
+                    });
+                } else {
+                    if self.buffer.len() >= self.capacity {
+                        self.buffer.pop_front();
+                        self.dropped += 1;
+                    }
+                    self.buffer.push_back(Kept {
+                        tag: c.tag,
+                        value: c.value,
+                        quality: c.quality,
+                        timestamp,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The cycles' `changes` as NDATA/DDATA, with DDEATH/DBIRTH for modules lost or back
+    /// (`online`), or kept in the buffer (not `online`: nothing is returned).
     pub(crate) fn update(
         &mut self,
         snap: &ServiceSnapshot,
+        changes: &[Delivery],
         wall_ms: u64,
         online: bool,
     ) -> Vec<Outgoing> {
@@ -406,43 +491,7 @@ impl EdgeNode {
                 }
             }
         }
-        let mut changes: Vec<Vec<MetricSpec<'static>>> =
-            vec![Vec::new(); self.layout.devices.len() + 1];
-        for tag in 0..self.layout.tags.len() {
-            let Some((value, quality)) = Self::tag_now(snap, tag) else {
-                continue;
-            };
-            let device = self.layout.tags[tag].device;
-            if online && device.is_some_and(|d| !self.born[d]) {
-                continue;
-            }
-            let due = match self.last[tag] {
-                None => true,
-                Some((v, q)) => q != quality || changed(v, value, self.deadband[tag]),
-            };
-            if !due {
-                continue;
-            }
-            if online {
-                if let Some(spec) = self.tag_spec(snap, wall_ms, tag, false) {
-                    changes[device.map_or(0, |d| d + 1)].push(spec);
-                }
-            } else {
-                let at = snap.timestamps.get(tag).copied().unwrap_or(snap.now);
-                let timestamp = self.utc(snap, wall_ms, at);
-                self.last[tag] = Some((value, quality));
-                if self.buffer.len() >= self.capacity {
-                    self.buffer.pop_front();
-                    self.dropped += 1;
-                }
-                self.buffer.push_back(Kept {
-                    tag,
-                    value,
-                    quality,
-                    timestamp,
-                });
-            }
-        }
+        let mut changes = self.take_changes(snap, changes, wall_ms, online);
         if !online {
             return out;
         }
@@ -460,6 +509,7 @@ impl EdgeNode {
                         value: v.clone(),
                         quality: None,
                         historical: false,
+                        eng: None,
                     });
                     self.plc_last[i] = Some(v);
                 }
@@ -467,9 +517,9 @@ impl EdgeNode {
             self.plc_sent_at = wall_ms;
         }
         for (slot, metrics) in changes.iter().enumerate() {
-            if !metrics.is_empty() {
-                let device = slot.checked_sub(1);
-                out.push(self.data_message(device, wall_ms, metrics));
+            let device = slot.checked_sub(1);
+            for chunk in metrics.chunks(DATA_CHUNK) {
+                out.push(self.data_message(device, wall_ms, chunk));
             }
         }
         out

@@ -6,7 +6,8 @@ use prost::Message;
 use softplc_io::point::{Quality, Value, ValueType};
 
 use super::*;
-use crate::service::mqtt::layout::TagMetric;
+use crate::service::changes::{CycleChanges, TagChange};
+use crate::service::mqtt::layout::{Engineering, TagMetric};
 use crate::service::mqtt::spb::Payload;
 use crate::service::snapshot::ModuleSnapshot;
 
@@ -17,10 +18,18 @@ fn layout() -> Layout {
         ty,
         alias: tag as u64 + 1,
         device,
+        eng: Engineering::default(),
+    };
+    let level = TagMetric {
+        eng: Engineering {
+            unit: Some("m".into()),
+            range: Some((0.0, 4.5)),
+        },
+        ..tag(0, "level", ValueType::F32, Some(0))
     };
     Layout {
         tags: vec![
-            tag(0, "level", ValueType::F32, Some(0)),
+            level,
             tag(1, "pump", ValueType::Bool, Some(0)),
             tag(2, "setpoint", ValueType::U16, None),
         ],
@@ -43,6 +52,40 @@ fn snap(level: f32, pump: bool, setpoint: u16, module: Quality) -> ServiceSnapsh
         }],
         ..ServiceSnapshot::default()
     }
+}
+
+/// What a cycle changed against `before`, as the scan's feed hands it over (at scan 450 ms).
+fn changed_from(before: &ServiceSnapshot, after: &ServiceSnapshot) -> Vec<Delivery> {
+    let changes: Vec<TagChange> = (0..after.values.len())
+        .filter(|&t| {
+            (before.values[t], before.qualities[t]) != (after.values[t], after.qualities[t])
+        })
+        .map(|tag| TagChange {
+            tag,
+            value: after.values[tag],
+            quality: after.qualities[tag],
+        })
+        .collect();
+    vec![Delivery {
+        cycle: std::sync::Arc::new(CycleChanges {
+            cycle: after.cycles,
+            at: Duration::from_millis(450),
+            changes,
+        }),
+        catch_up: Vec::new(),
+        overflowed: Vec::new(),
+    }]
+}
+
+/// The node's update from `before` to `after`.
+fn step(
+    n: &mut EdgeNode,
+    before: &ServiceSnapshot,
+    after: &ServiceSnapshot,
+    wall_ms: u64,
+    online: bool,
+) -> Vec<Outgoing> {
+    n.update(after, &changed_from(before, after), wall_ms, online)
 }
 
 fn node(capacity: usize) -> EdgeNode {
@@ -101,7 +144,9 @@ fn a_birth_declares_everything_then_data_carries_only_changes_beyond_the_deadban
     assert_eq!(db.metrics[0].timestamp, Some(1_000_000 - 100));
 
     // 0.3 is within level's deadband of 0.5: nothing; the pump changes: one DDATA, by alias.
-    let out = n.update(&snap(1.3, true, 5, Quality::Good), 1_000_050, true);
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    let s1 = snap(1.3, true, 5, Quality::Good);
+    let out = step(&mut n, &s0, &s1, 1_000_050, true);
     let s = summary(&out);
     assert_eq!(s.len(), 1);
     assert_eq!(s[0].0, "spBv1.0/g/DDATA/n/mm1");
@@ -109,30 +154,31 @@ fn a_birth_declares_everything_then_data_carries_only_changes_beyond_the_deadban
     assert_eq!(s[0].2, [(Some(2), "BooleanValue(true)".into(), false)]);
     assert_eq!(decoded(&out[0]).metrics[0].name, None);
     // 1.6 is 0.6 from the 1.0 last sent: out; the setpoint goes in NDATA.
-    let s = summary(&n.update(&snap(1.6, true, 6, Quality::Good), 1_000_100, true));
+    let s2 = snap(1.6, true, 6, Quality::Good);
+    let s = summary(&step(&mut n, &s1, &s2, 1_000_100, true));
     assert_eq!(s.len(), 2);
     assert_eq!(s[0].0, "spBv1.0/g/NDATA/n");
     assert_eq!(s[0].2, [(Some(3), "IntValue(6)".into(), false)]);
     assert_eq!(s[1].2, [(Some(1), "FloatValue(1.6)".into(), false)]);
     assert_eq!((s[0].1, s[1].1), (Some(3), Some(4)));
     // Nothing changed: nothing sent.
-    assert!(n
-        .update(&snap(1.6, true, 6, Quality::Good), 1_000_150, true)
-        .is_empty());
+    assert!(step(&mut n, &s2, &s2, 1_000_150, true).is_empty());
 }
 
 #[test]
 fn a_lost_module_dies_and_is_born_again_when_it_answers() {
     let mut n = node(10);
-    n.birth(&snap(1.0, false, 5, Quality::Good), 0, 0);
-    let s = summary(&n.update(&snap(1.0, false, 5, Quality::Bad), 50, true));
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    n.birth(&s0, 0, 0);
+    let s1 = snap(1.0, false, 5, Quality::Bad);
+    let s = summary(&step(&mut n, &s0, &s1, 50, true));
     assert_eq!(s.len(), 1);
     assert_eq!(s[0].0, "spBv1.0/g/DDEATH/n/mm1");
     // Its tags are not sent while it is dead.
-    assert!(n
-        .update(&snap(9.0, true, 5, Quality::Bad), 100, true)
-        .is_empty());
-    let s = summary(&n.update(&snap(9.0, true, 5, Quality::Good), 150, true));
+    let s2 = snap(9.0, true, 5, Quality::Bad);
+    assert!(step(&mut n, &s1, &s2, 100, true).is_empty());
+    let s3 = snap(9.0, true, 5, Quality::Good);
+    let s = summary(&step(&mut n, &s2, &s3, 150, true));
     assert_eq!(s.len(), 1);
     assert_eq!(s[0].0, "spBv1.0/g/DBIRTH/n/mm1");
     assert_eq!(
@@ -147,17 +193,15 @@ fn a_lost_module_dies_and_is_born_again_when_it_answers() {
 #[test]
 fn changes_while_offline_are_buffered_oldest_dropped_and_sent_as_history_after_the_births() {
     let mut n = node(2);
-    n.birth(&snap(1.0, false, 5, Quality::Good), 0, 0);
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    n.birth(&s0, 0, 0);
     // Broker away: three changes, room for two.
-    assert!(n
-        .update(&snap(1.0, true, 5, Quality::Good), 50, false)
-        .is_empty());
-    assert!(n
-        .update(&snap(1.0, false, 5, Quality::Good), 100, false)
-        .is_empty());
-    assert!(n
-        .update(&snap(1.0, false, 7, Quality::Good), 150, false)
-        .is_empty());
+    let s1 = snap(1.0, true, 5, Quality::Good);
+    let s2 = snap(1.0, false, 5, Quality::Good);
+    let s3 = snap(1.0, false, 7, Quality::Good);
+    assert!(step(&mut n, &s0, &s1, 50, false).is_empty());
+    assert!(step(&mut n, &s1, &s2, 100, false).is_empty());
+    assert!(step(&mut n, &s2, &s3, 150, false).is_empty());
     assert_eq!((n.buffered(), n.dropped()), (2, 1));
     // Back: births with the current values, then the history (node first, then the device).
     let out = n.birth(&snap(1.0, false, 7, Quality::Good), 200, 1);
@@ -188,6 +232,91 @@ fn changes_while_offline_are_buffered_oldest_dropped_and_sent_as_history_after_t
         Some(crate::service::mqtt::spb::payload::metric::Value::LongValue(1))
     );
     assert_eq!(n.buffered(), 0);
+}
+
+#[test]
+fn every_value_of_a_metric_goes_out_in_order_each_with_its_cycles_time_and_losses_are_counted() {
+    let mut n = node(10);
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    n.birth(&s0, 1_000_000, 0);
+    // Three cycles of one tick: the setpoint 6, 7, 8, at 10 ms apart.
+    let cycles: Vec<Delivery> = (0..3u16)
+        .map(|k| Delivery {
+            cycle: std::sync::Arc::new(CycleChanges {
+                cycle: 11 + u64::from(k),
+                at: Duration::from_millis(510 + 10 * u64::from(k)),
+                changes: vec![TagChange {
+                    tag: 2,
+                    value: Value::U16(6 + k),
+                    quality: Quality::Good,
+                }],
+            }),
+            catch_up: Vec::new(),
+            overflowed: Vec::new(),
+        })
+        .collect();
+    let out = n.update(&s0, &cycles, 1_000_050, true);
+    let s = summary(&out);
+    assert_eq!(s.len(), 1, "one NDATA: {s:?}");
+    assert_eq!(
+        s[0].2,
+        [
+            (Some(3), "IntValue(6)".into(), false),
+            (Some(3), "IntValue(7)".into(), false),
+            (Some(3), "IntValue(8)".into(), false)
+        ]
+    );
+    let stamps: Vec<_> = decoded(&out[0])
+        .metrics
+        .iter()
+        .map(|m| m.timestamp)
+        .collect();
+    // Scan 500 ms was wall 1_000_000 at the birth.
+    assert_eq!(stamps, [Some(1_000_010), Some(1_000_020), Some(1_000_030)]);
+    // The feed lost changes: the next PLC figures say so.
+    n.set_lost(4);
+    let out = n.update(&s0, &[], 1_002_000, true);
+    let lost = decoded(&out[0])
+        .metrics
+        .iter()
+        .find(|m| m.alias == Some(n.layout().plc_alias(PlcMetric::Lost)))
+        .and_then(|m| m.value.clone());
+    assert_eq!(
+        lost,
+        Some(crate::service::mqtt::spb::payload::metric::Value::LongValue(4))
+    );
+}
+
+#[test]
+fn births_carry_a_profile_points_engineering_unit_and_range_and_data_does_not() {
+    let mut n = node(10);
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    let birth = n.birth(&s0, 1_000_000, 0);
+    let db = decoded(&birth[1]);
+    let props = |m: &crate::service::mqtt::spb::payload::Metric| {
+        let p = m.properties.clone().unwrap_or_default();
+        p.keys
+            .iter()
+            .zip(&p.values)
+            .map(|(k, v)| format!("{k}={:?}", v.value.as_ref().unwrap()))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        props(&db.metrics[0]),
+        [
+            "Quality=IntValue(192)",
+            "engUnit=StringValue(\"m\")",
+            "engLow=DoubleValue(0.0)",
+            "engHigh=DoubleValue(4.5)"
+        ]
+    );
+    assert_eq!(props(&db.metrics[1]), ["Quality=IntValue(192)"], "no unit");
+    let s1 = snap(2.0, false, 5, Quality::Good);
+    let data = step(&mut n, &s0, &s1, 1_000_050, true);
+    assert_eq!(
+        props(&decoded(&data[0]).metrics[0]),
+        ["Quality=IntValue(192)"]
+    );
 }
 
 #[test]

@@ -4,6 +4,7 @@
 use prost::Message;
 use softplc_io::point::{Quality, Value, ValueType};
 
+use super::layout::Engineering;
 use super::spb::payload::metric::Value as MetricValue;
 use super::spb::payload::property_value::Value as PropValue;
 use super::spb::payload::{Metric, PropertySet, PropertyValue};
@@ -120,6 +121,8 @@ pub(crate) struct MetricSpec<'a> {
     pub quality: Option<Quality>,
     /// A value kept while the broker was away, sent after the rebirth.
     pub historical: bool,
+    /// Its engineering unit and range, in BIRTH messages only.
+    pub eng: Option<&'a Engineering>,
 }
 
 impl MetricSpec<'_> {
@@ -131,10 +134,42 @@ impl MetricSpec<'_> {
             timestamp: Some(self.timestamp),
             datatype: self.datatype.map(|d| d as u32),
             is_historical: self.historical.then_some(true),
-            properties: self.quality.map(quality_property),
+            properties: self.properties(),
             value: Some(self.value.clone()),
             ..Metric::default()
         }
+    }
+}
+
+impl MetricSpec<'_> {
+    /// Its property set: `Quality` for a tag, then `engUnit` (String), `engLow` and `engHigh`
+    /// (Double) where its profile gives them (Sparkplug B 3.0, "Payloads" › "PropertySet";
+    /// the names are the specification's and Ignition's).
+    fn properties(&self) -> Option<PropertySet> {
+        let mut set = self.quality.map(quality_property)?;
+        let Some(eng) = self.eng else {
+            return Some(set);
+        };
+        let mut add = |key: &str, ty: DataType, value: PropValue| {
+            set.keys.push(key.into());
+            set.values.push(PropertyValue {
+                r#type: Some(ty as u32),
+                is_null: None,
+                value: Some(value),
+            });
+        };
+        if let Some(unit) = &eng.unit {
+            add(
+                "engUnit",
+                DataType::String,
+                PropValue::StringValue(unit.clone()),
+            );
+        }
+        if let Some((low, high)) = eng.range {
+            add("engLow", DataType::Double, PropValue::DoubleValue(low));
+            add("engHigh", DataType::Double, PropValue::DoubleValue(high));
+        }
+        Some(set)
     }
 }
 
@@ -159,6 +194,7 @@ pub(crate) fn bd_seq_metric(bd_seq: u8, timestamp: u64) -> MetricSpec<'static> {
         value: MetricValue::LongValue(u64::from(bd_seq)),
         quality: None,
         historical: false,
+        eng: None,
     }
 }
 
@@ -199,6 +235,7 @@ mod tests {
                     value: MetricValue::BooleanValue(false),
                     quality: None,
                     historical: false,
+                    eng: None,
                 },
                 MetricSpec {
                     name: Some("speed"),
@@ -208,6 +245,7 @@ mod tests {
                     value: metric_value(Value::U16(1500)),
                     quality: Some(Quality::Good),
                     historical: false,
+                    eng: None,
                 },
                 MetricSpec {
                     name: Some("offset"),
@@ -217,6 +255,7 @@ mod tests {
                     value: metric_value(Value::I32(-2)),
                     quality: Some(Quality::Stale),
                     historical: false,
+                    eng: None,
                 },
             ],
         )

@@ -24,6 +24,7 @@ use super::command;
 use super::node::{EdgeNode, Outgoing};
 use super::payload;
 use crate::project::mqtt::MqttConfig;
+use crate::service::changes::{ChangeStream, Delivery};
 use crate::service::control::{Envelope, Request, Response, TagValue};
 use crate::service::health::{Health, Service, ServiceState};
 use crate::service::snapshot::SnapshotCell;
@@ -90,6 +91,10 @@ pub(super) struct Session {
     pub(super) writable: Vec<bool>,
     pub(super) names: Vec<String>,
     pub(super) snapshot: SnapshotCell,
+    /// Every cycle's changes, from the scan.
+    pub(super) changes: ChangeStream,
+    /// Changes taken from the feed and not yet handed to the node.
+    pub(super) waiting: Vec<Delivery>,
     pub(super) scan: Sender<Envelope>,
     pub(super) period: Duration,
     /// Where the service's state goes (connected, or why not).
@@ -215,20 +220,38 @@ impl Session {
             }
             next_tick = Instant::now() + tick;
             self.answers(&mut pending);
+            // The snapshot first: every cycle it shows is in the feed already (the scan
+            // offers a cycle's changes before it publishes).
             let snap = self.snapshot.get();
-            if !snap.published || (snap.cycles == last_cycle && !want_birth && !snap.stopped) {
+            self.waiting.extend(self.changes.receiver().try_iter());
+            self.node.set_lost(self.changes.lost());
+            if !snap.published
+                || (snap.cycles == last_cycle
+                    && !want_birth
+                    && !snap.stopped
+                    && self.waiting.is_empty())
+            {
                 continue;
             }
             last_cycle = snap.cycles;
+            let changes = std::mem::take(&mut self.waiting);
             let out = if online && want_birth {
                 want_birth = false;
+                // What changed up to the births' snapshot is history by the time they go
+                // out: kept, and sent after them; what came after it is current.
+                let (before, after): (Vec<Delivery>, Vec<Delivery>) = changes
+                    .into_iter()
+                    .partition(|d| d.cycle.cycle <= snap.cycles);
+                self.node.keep(&snap, &before, wall_ms());
                 tracing::info!(
                     "MQTT: NBIRTH (bdSeq {bd_seq}) and DBIRTHs, {} buffered change(s) after them",
                     self.node.buffered()
                 );
-                self.node.birth(&snap, wall_ms(), bd_seq)
+                let mut out = self.node.birth(&snap, wall_ms(), bd_seq);
+                out.extend(self.node.update(&snap, &after, wall_ms(), true));
+                out
             } else {
-                self.node.update(&snap, wall_ms(), online)
+                self.node.update(&snap, &changes, wall_ms(), online)
             };
             if !self.send(&client, out) {
                 want_birth = true;

@@ -6,10 +6,13 @@
 //! - [`write`]: a client's write, under the Modbus TCP server's rules.
 //!
 //! Three threads: the server's (a tokio runtime with two workers: each connection and request
-//! is a task), and the updater's, which reads the snapshot the scan publishes once per scan
-//! period (at most every 100 ms, at least every 5 ms) and hands the variables that changed to
-//! the server's address space. The scan never waits on either: it publishes with `try_lock`,
-//! and a write reaches it through the control channel with `try_send`.
+//! is a task), and the updater's, which takes every cycle's tag changes from the scan's change
+//! feed (`crate::service::changes`), one cycle at a time and in order, and hands them to the
+//! server's address space with the cycle's scan time as their source timestamp, so each
+//! monitored item queues every change; the diagnostics come from the snapshot the scan
+//! publishes, read once per scan period (at most every 100 ms, at least every 5 ms). The scan
+//! never waits on either: it offers its changes and publishes without waiting, and a write
+//! reaches it through the control channel with `try_send`.
 //!
 //! One endpoint, at `opc.tcp://BIND:PORT/`: SecurityPolicy None with anonymous access (loopback
 //! only, enforced when the project is loaded), or Basic256Sha256 Sign & Encrypt with the
@@ -38,6 +41,7 @@ use opcua::server::{
 };
 use opcua::types::{DateTime, NodeId, QualifiedName};
 
+use super::changes::{ChangeFeed, ChangeStream, Delivery, QUEUE_CYCLES};
 use super::control::Envelope;
 use super::health::{Health, Service, ServiceState};
 use super::snapshot::SnapshotCell;
@@ -144,6 +148,13 @@ fn builder(project: &Project, cfg: &OpcUaConfig, port: u16, pki: PathBuf) -> Ser
     let limits = &mut b.limits_mut().subscriptions;
     limits.min_sampling_interval_ms = 0.0;
     limits.min_publishing_interval_ms = tick.as_secs_f64() * 1e3;
+    // Every cycle's change is queued to each monitored item (sampling interval 0): a client's
+    // queue of 100 at a publishing interval of 10 cycles must be honoured, not cut to
+    // async-opcua's 10.
+    limits.max_monitored_item_queue_size = cfg.limits.queue_size;
+    limits.max_subscriptions_per_session = cfg.limits.subscriptions;
+    limits.max_monitored_items_per_sub = cfg.limits.monitored_items;
+    b.limits_mut().max_sessions = cfg.limits.sessions;
     b.subscription_poll_interval_ms(tick.as_millis() as u64)
 }
 
@@ -198,6 +209,7 @@ impl OpcUaServer {
     pub(crate) fn start(
         project: &Project,
         snapshot: &SnapshotCell,
+        feed: &mut ChangeFeed,
         scan: &Sender<Envelope>,
         health: &Health,
     ) -> Result<Option<Self>, OpcUaStartError> {
@@ -300,6 +312,8 @@ impl OpcUaServer {
             ns,
             layout,
             snapshot: snapshot.clone(),
+            changes: feed.subscribe("opcua", QUEUE_CYCLES),
+            written: writer.written(),
             tick: project
                 .scan
                 .period
@@ -334,6 +348,9 @@ struct Updater {
     ns: u16,
     layout: Layout,
     snapshot: SnapshotCell,
+    changes: ChangeStream,
+    /// Where the writes are noted (see [`write::WrittenAt`]).
+    written: write::WrittenAt,
     tick: Duration,
 }
 
@@ -349,22 +366,51 @@ impl Updater {
             .chain(&self.layout.plc)
             .map(|n| (n.id.clone(), NodeId::new(self.ns, n.id.clone())))
             .collect();
-        let mut last_cycle = None;
-        loop {
-            std::thread::sleep(self.tick);
-            let snap = self.snapshot.get();
-            if !snap.published || last_cycle == Some((snap.cycles, snap.stats_seq, snap.stopped)) {
-                continue;
-            }
-            last_cycle = Some((snap.cycles, snap.stats_seq, snap.stopped));
-            let changes = updates.changes(&self.layout, &snap, DateTime::now());
-            let values = changes
+        let set = |values: Vec<(String, opcua::types::DataValue)>| {
+            let values = values
                 .into_iter()
                 .filter_map(|(id, dv)| Some((ids.get(&id)?, None, dv)));
             if let Err(e) = self.nm.set_values(&self.subscriptions, values) {
                 tracing::warn!("OPC UA: values not updated: {e}");
             }
+        };
+        // A cycle's tag changes, but none older than a client's write of its tag: checked as
+        // async-opcua takes the values, under the address space's lock, which a write holds
+        // from its callback to its answer (see `write::WrittenAt`).
+        let set_cycle = |d: &Delivery, values: Vec<(usize, String, opcua::types::DataValue)>| {
+            let cycle = d.cycle.cycle;
+            let values = values
+                .into_iter()
+                .filter(|(tag, _, _)| !self.written.hides(*tag, cycle))
+                .filter_map(|(_, id, dv)| Some((ids.get(&id)?, None, dv)));
+            if let Err(e) = self.nm.set_values(&self.subscriptions, values) {
+                tracing::warn!("OPC UA: values not updated: {e}");
+            }
+        };
+        let mut last_stats = None;
+        loop {
+            // Each cycle's changes as soon as they come, one cycle at a time and in order, so
+            // every monitored item queues every change with its cycle's time.
+            let first = match self.changes.receiver().recv_timeout(self.tick) {
+                Ok(d) => Some(d),
+                Err(crossbeam_channel::RecvTimeoutError::Timeout) => None,
+                Err(crossbeam_channel::RecvTimeoutError::Disconnected) => return,
+            };
+            let now = DateTime::now();
+            for d in first.into_iter().chain(self.changes.receiver().try_iter()) {
+                set_cycle(&d, updates.tag_changes(&self.layout, &d, now));
+            }
+            let snap = self.snapshot.get();
+            if !snap.published || last_stats == Some((snap.cycles, snap.stats_seq, snap.stopped)) {
+                continue;
+            }
+            last_stats = Some((snap.cycles, snap.stats_seq, snap.stopped));
+            set(updates.diagnostics(&self.layout, &snap, DateTime::now()));
             if snap.stopped {
+                // The safe state went into the queue before the last publication.
+                for d in self.changes.receiver().try_iter() {
+                    set_cycle(&d, updates.tag_changes(&self.layout, &d, DateTime::now()));
+                }
                 // The last publication (outputs safe, state stopped) is in the address space;
                 // clients read it until the process ends.
                 return;

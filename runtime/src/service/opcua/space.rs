@@ -17,6 +17,7 @@ use opcua::types::{DataTypeId, DataValue, DateTime, StatusCode, Variant};
 use softplc_io::point::{Quality, Value, ValueType};
 
 use crate::project::Project;
+use crate::service::changes::Delivery;
 use crate::service::snapshot::ServiceSnapshot;
 
 /// The namespace URI of a project's nodes: this + the project's name.
@@ -257,68 +258,95 @@ fn ms(d: std::time::Duration) -> Variant {
     Variant::Double(d.as_secs_f64() * 1e3)
 }
 
-/// Turns snapshots into the values of the address space's variables, sending only what
-/// changed.
+/// Turns the scan's changes and snapshots into the values of the address space's variables.
 #[derive(Debug)]
 pub(crate) struct Updates {
-    /// Per exposed tag (in [`Layout::tags`] order): what clients were last given.
-    last: Vec<Option<(Value, Quality)>>,
+    /// Per project tag: its place in [`Layout::tags`], when exposed.
+    exposed: Vec<Option<usize>>,
     /// What the diagnostics were last given, per variable id.
     diagnostics: std::collections::HashMap<String, Variant>,
-    /// OPC UA ticks (100 ns since 1601) minus scan ticks, fixed at the first snapshot.
+    /// OPC UA ticks (100 ns since 1601) minus scan ticks, fixed at the first call.
     epoch: Option<i64>,
 }
 
 impl Updates {
     /// Nothing sent yet.
     pub(crate) fn new(layout: &Layout) -> Self {
+        let mut exposed = Vec::new();
+        for (i, t) in layout.tags.iter().enumerate() {
+            if exposed.len() <= t.tag {
+                exposed.resize(t.tag + 1, None);
+            }
+            exposed[t.tag] = Some(i);
+        }
         Self {
-            last: vec![None; layout.tags.len()],
+            exposed,
             diagnostics: Default::default(),
             epoch: None,
         }
     }
 
-    fn at(&mut self, snap: &ServiceSnapshot, now: DateTime, scan: std::time::Duration) -> DateTime {
+    /// The OPC UA time of scan time `scan`; the first call fixes the relation: `now` is
+    /// scan time `reference`.
+    fn at(
+        &mut self,
+        now: DateTime,
+        reference: std::time::Duration,
+        scan: std::time::Duration,
+    ) -> DateTime {
         let scan_ticks = |d: std::time::Duration| (d.as_nanos() / 100).min(i64::MAX as u128) as i64;
         let epoch = *self
             .epoch
-            .get_or_insert_with(|| now.ticks().saturating_sub(scan_ticks(snap.now)));
+            .get_or_insert_with(|| now.ticks().saturating_sub(scan_ticks(reference)));
         DateTime::from(epoch.saturating_add(scan_ticks(scan)))
     }
 
-    /// The variables `snap` changes (node id string, value), with `now` as the server
-    /// timestamp. Tags: when the value or the quality changed; diagnostics: when their value
-    /// changed.
-    pub(crate) fn changes(
+    /// The exposed tags one cycle changed (tag, node id string, value), in the order to apply
+    /// them, with the cycle's scan time as the source timestamp and `now` as the server's; a
+    /// value after changes the server lost carries the Overflow InfoBit (OPC 10000-4 §7.39.1,
+    /// as a monitored item's queue does).
+    pub(crate) fn tag_changes(
+        &mut self,
+        layout: &Layout,
+        delivery: &Delivery,
+        now: DateTime,
+    ) -> Vec<(usize, String, DataValue)> {
+        let at = delivery.cycle.at;
+        let source = self.at(now, at, at);
+        delivery
+            .all()
+            .filter_map(|(c, overflow)| {
+                let node = &layout.tags[(*self.exposed.get(c.tag)?)?].node;
+                let status = status_of(c.quality);
+                Some((
+                    c.tag,
+                    node.id.clone(),
+                    DataValue {
+                        value: Some(variant(c.value)),
+                        status: Some(if overflow {
+                            status.set_overflow(true)
+                        } else {
+                            status
+                        }),
+                        source_timestamp: Some(source),
+                        server_timestamp: Some(now),
+                        ..Default::default()
+                    },
+                ))
+            })
+            .collect()
+    }
+
+    /// The diagnostic variables (modules, PLC) `snap` changes, with `now` as the server
+    /// timestamp.
+    pub(crate) fn diagnostics(
         &mut self,
         layout: &Layout,
         snap: &ServiceSnapshot,
         now: DateTime,
     ) -> Vec<(String, DataValue)> {
         let mut out = Vec::new();
-        for (i, t) in layout.tags.iter().enumerate() {
-            let (Some(&v), Some(&q)) = (snap.values.get(t.tag), snap.qualities.get(t.tag)) else {
-                continue;
-            };
-            if self.last[i] == Some((v, q)) {
-                continue;
-            }
-            self.last[i] = Some((v, q));
-            let at = snap.timestamps.get(t.tag).copied().unwrap_or(snap.now);
-            let source = self.at(snap, now, at);
-            out.push((
-                t.node.id.clone(),
-                DataValue {
-                    value: Some(variant(v)),
-                    status: Some(status_of(q)),
-                    source_timestamp: Some(source),
-                    server_timestamp: Some(now),
-                    ..Default::default()
-                },
-            ));
-        }
-        let source = self.at(snap, now, snap.now);
+        let source = self.at(now, snap.now, snap.now);
         let mut diag = |node: &Node, v: Variant, out: &mut Vec<(String, DataValue)>| {
             if self.diagnostics.get(&node.id) == Some(&v) {
                 return;
@@ -384,6 +412,7 @@ pub(crate) fn initial(data_type: DataTypeId) -> DataValue {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::service::changes::{CycleChanges, TagChange};
     use crate::service::snapshot::ModuleSnapshot;
     use std::time::Duration;
 
@@ -410,43 +439,86 @@ mod tests {
         }
     }
 
-    fn snap(cycle: u64, speed: u16, q: Quality) -> ServiceSnapshot {
+    fn snap(cycle: u64) -> ServiceSnapshot {
         ServiceSnapshot {
             published: true,
             cycles: cycle,
             now: Duration::from_millis(10 * cycle),
-            values: vec![Value::Bool(true), Value::I32(0), Value::U16(speed)],
-            qualities: vec![Quality::Good, Quality::Good, q],
-            timestamps: vec![Duration::from_millis(10 * cycle); 3],
-            forced: vec![false; 3],
             modules: vec![ModuleSnapshot::default()],
             ..ServiceSnapshot::default()
         }
     }
 
+    fn delivery(cycle: u64, changes: &[(usize, Value, Quality)], lost: &[usize]) -> Delivery {
+        Delivery {
+            cycle: std::sync::Arc::new(CycleChanges {
+                cycle,
+                at: Duration::from_millis(10 * cycle),
+                changes: changes
+                    .iter()
+                    .map(|&(tag, value, quality)| TagChange {
+                        tag,
+                        value,
+                        quality,
+                    })
+                    .collect(),
+            }),
+            catch_up: Vec::new(),
+            overflowed: lost.to_vec(),
+        }
+    }
+
     #[test]
-    fn only_changes_go_out_with_their_status_and_scan_time() {
+    fn each_cycles_changes_go_out_with_their_status_and_scan_time() {
         let l = layout();
         let mut u = Updates::new(&l);
         let t0 = DateTime::from(1_000_000_000_000_000i64);
-        let first = u.changes(&l, &snap(1, 5, Quality::Good), t0);
-        let ids: Vec<&str> = first.iter().map(|(i, _)| i.as_str()).collect();
-        assert_eq!(&ids[..2], ["Tags.run", "Tags.speed"]);
-        assert!(ids.contains(&"Modules.mm1.Quality") && ids.contains(&"PLC.Scans"));
-        assert_eq!(first[1].1.value, Some(Variant::UInt16(5)));
-        assert_eq!(first[1].1.source_timestamp, Some(t0));
-        // The next cycle: speed went stale, 10 ms of scan time later; only it and the scan
-        // count change.
-        let next = u.changes(&l, &snap(2, 5, Quality::Stale), t0);
-        let ids: Vec<&str> = next.iter().map(|(i, _)| i.as_str()).collect();
-        assert_eq!(ids, ["Tags.speed", "PLC.Scans"]);
-        assert_eq!(next[0].1.status, Some(StatusCode::UncertainLastUsableValue));
+        let all = [
+            (0, Value::Bool(true), Quality::Good),
+            (1, Value::I32(3), Quality::Good),
+            (2, Value::U16(5), Quality::Good),
+        ];
+        let first = u.tag_changes(&l, &delivery(1, &all, &[]), t0);
+        let ids: Vec<&str> = first.iter().map(|(_, i, _)| i.as_str()).collect();
+        assert_eq!(ids, ["Tags.run", "Tags.speed"], "tag 1 is not exposed");
+        assert_eq!(first[1].0, 2);
+        assert_eq!(first[1].2.value, Some(Variant::UInt16(5)));
+        assert_eq!(first[1].2.source_timestamp, Some(t0));
+        // The next cycle: speed went stale, 10 ms of scan time later.
+        let next = u.tag_changes(
+            &l,
+            &delivery(2, &[(2, Value::U16(5), Quality::Stale)], &[]),
+            t0,
+        );
+        assert_eq!(next.len(), 1);
+        assert_eq!(next[0].2.status, Some(StatusCode::UncertainLastUsableValue));
         assert_eq!(
-            next[0].1.source_timestamp.map(|t| t.ticks() - t0.ticks()),
+            next[0].2.source_timestamp.map(|t| t.ticks() - t0.ticks()),
             Some(100_000),
             "10 ms in 100 ns ticks"
         );
+        // After lost changes: the Overflow InfoBit on the tag's next value.
+        let after = u.tag_changes(
+            &l,
+            &delivery(5, &[(2, Value::U16(9), Quality::Good)], &[2]),
+            t0,
+        );
+        let status = after[0].2.status.unwrap();
+        assert!(status.is_good() && status.overflow(), "{status}");
         assert_eq!(status_of(Quality::Bad), StatusCode::BadCommunicationError);
+    }
+
+    #[test]
+    fn only_changed_diagnostics_go_out() {
+        let l = layout();
+        let mut u = Updates::new(&l);
+        let t0 = DateTime::from(1_000_000_000_000_000i64);
+        let first = u.diagnostics(&l, &snap(1), t0);
+        let ids: Vec<&str> = first.iter().map(|(i, _)| i.as_str()).collect();
+        assert!(ids.contains(&"Modules.mm1.Quality") && ids.contains(&"PLC.Scans"));
+        let next = u.diagnostics(&l, &snap(2), t0);
+        let ids: Vec<&str> = next.iter().map(|(i, _)| i.as_str()).collect();
+        assert_eq!(ids, ["PLC.Scans"]);
     }
 
     #[test]

@@ -10,7 +10,10 @@
 //! | the scan did not take or answer it in time        | `BadTimeout`          |
 //!
 //! The write goes through the same request as the control socket's and the Modbus TCP
-//! server's (`Request::Write`), applied by the scan thread between two cycles. async-opcua
+//! server's (`Request::Write`), applied by the scan thread between two cycles. On `Good` the
+//! server keeps the written value as the variable's (the vendored async-opcua-server's second
+//! change), so a Read that follows the answer returns it; the scan's change feed then brings
+//! the value that boundary left, with its time. async-opcua
 //! calls this holding its address space's lock, so the wait for the scan's answer (one cycle,
 //! [`WRITE_WAIT`] at most) holds up the updates and other clients' requests meanwhile, never
 //! the scan.
@@ -35,6 +38,30 @@ pub(crate) struct Writer {
     names: Vec<String>,
     snapshot: SnapshotCell,
     scan: Sender<Envelope>,
+    written: WrittenAt,
+}
+
+/// Per tag: the cycle boundary its last OPC UA write was applied at. The updater takes no
+/// older change of the tag after it: the server already holds the written value, and a change
+/// from before it, late from the feed, would hide it from a Read that follows the answer.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct WrittenAt(std::sync::Arc<std::sync::Mutex<Vec<u64>>>);
+
+impl WrittenAt {
+    fn set(&self, tag: usize, cycle: u64) {
+        // A writer that panicked left the list whole: keep using it.
+        let mut w = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if w.len() <= tag {
+            w.resize(tag + 1, 0);
+        }
+        w[tag] = w[tag].max(cycle);
+    }
+
+    /// Whether a change of `tag` at boundary `cycle` is older than its last write.
+    pub(crate) fn hides(&self, tag: usize, cycle: u64) -> bool {
+        let w = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        w.get(tag).is_some_and(|&at| cycle < at)
+    }
 }
 
 impl Writer {
@@ -45,7 +72,13 @@ impl Writer {
             names,
             snapshot,
             scan,
+            written: WrittenAt::default(),
         }
+    }
+
+    /// Where the writes are noted, for the updater.
+    pub(crate) fn written(&self) -> WrittenAt {
+        self.written.clone()
     }
 
     /// Writes `dv` to tag `tag` of type `ty` (see the module docs).
@@ -86,6 +119,9 @@ impl Writer {
         }
         match answer.recv_deadline(deadline) {
             Ok(r) if r.ok => {
+                if let Some(cycle) = r.applied_at {
+                    self.written.set(tag, cycle);
+                }
                 limited!(INFO, WRITTEN, name, "OPC UA: {name} written: {value}");
                 StatusCode::Good
             }
@@ -174,5 +210,17 @@ mod tests {
         );
         drop(w);
         assert_eq!(scan.join().unwrap(), ["speed=7", "speed=8"]);
+    }
+
+    #[test]
+    fn a_change_older_than_a_write_of_its_tag_is_hidden() {
+        let w = WrittenAt::default();
+        assert!(!w.hides(3, 1));
+        w.set(3, 10);
+        assert!(w.hides(3, 9), "from before the write");
+        assert!(!w.hides(3, 10), "the boundary that applied it");
+        assert!(!w.hides(2, 1), "another tag");
+        w.set(3, 5);
+        assert!(w.hides(3, 9), "an older answer does not move it back");
     }
 }
