@@ -94,7 +94,7 @@ fn softplc(project: &Path, socket: &Path, run_for: &str, log: &Path) -> Child {
 
 #[test]
 fn a_sparkplug_host_sees_births_data_commands_a_broker_restart_and_death() {
-    let dir = tempfile_dir();
+    let dir = tempfile_dir("host");
     let port = free_port();
     let mut broker = Broker::start(&dir, port);
     let pb2 = sparkplug_pb2(&python(), &dir);
@@ -271,8 +271,10 @@ fn short_run(dir: &Path, port: u16, case: &str, mqtt_keys: &str) -> String {
 }
 
 /// A fresh folder of this test.
-fn tempfile_dir() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("softplc-mqtt-{}", std::process::id()));
+/// A scratch folder of this test's own: tests run in parallel, and one that cleared a shared
+/// folder would take another's files (its log) from under it.
+fn tempfile_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-mqtt-{test}-{}", std::process::id()));
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
@@ -530,8 +532,7 @@ fn wait_in_log(log: &Path, what: &str, within: Duration) -> String {
 #[test]
 fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {
     let (mut sim, pty) = sim::Sim::start(BIN, &["minimod@1", "minimod@2"]);
-    let dir = tempfile_dir().join("flood");
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tempfile_dir("flood");
     let port = free_port();
     let _broker = Broker::start(&dir, port);
     std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();

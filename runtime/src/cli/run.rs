@@ -149,14 +149,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
     let mut feed = ChangeFeed::new();
     let mut services = network::start(project, &published, &requests, &health)?;
-    let mqtt = crate::service::mqtt::MqttNode::start(
-        project,
-        &published,
-        &mut feed,
-        &requests,
-        &health,
-    )
-    .context("cannot start the MQTT edge node")?;
+    let mqtt =
+        crate::service::mqtt::MqttNode::start(project, &published, &mut feed, &requests, &health)
+            .context("cannot start the MQTT edge node")?;
     let opcua = match OpcUaServer::start(project, &published, &mut feed, &requests, &health) {
         Ok(server) => server,
         Err(e) if e.is_fatal() => return Err(e.into()),
