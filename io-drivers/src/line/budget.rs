@@ -171,7 +171,7 @@ pub fn line_budget_on(
             // A member's full refresh (a cycle that refreshes is the longest); its share of
             // the line's Collect round is counted once for the line, below.
             driver.plan_refresh(&mut plan);
-            members.push(membership.unit.get());
+            members.push(membership);
         }
         let read_transactions = plan.len();
         let read_time = plan_time(settings, adapter, driver.as_ref(), &plan);
@@ -193,7 +193,7 @@ pub fn line_budget_on(
     }
     // One idle Collect round for the members, whose reply delays do not apply to it.
     let collect_round =
-        CollectFloor::over(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle());
+        members_floor(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle());
     let read_floor = modules.iter().map(|m| m.read_time).sum::<Duration>() + collect_round;
     let write_floor = modules.iter().map(|m| m.write_time).sum();
     LineBudget {
@@ -238,9 +238,26 @@ pub(crate) fn input_floor_of<'a>(
         plan.clear();
         driver.plan_read(&mut plan);
         total += plan_time(settings, adapter, driver, &plan);
-        members.extend(driver.collect_membership().map(|m| m.unit.get()));
+        members.extend(driver.collect_membership());
     }
-    total + CollectFloor::over(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle())
+    total + members_floor(settings, adapter, &members).map_or(Duration::ZERO, |f| f.idle())
+}
+
+/// The Collect rounds of a line whose event-mode members are `members`: over their window,
+/// each slot as late as the member that waits longest for the end of a request
+/// ([`CollectFloor::with_frame_timeout`], a MiniMod's RDELAYM); `None` without members.
+pub fn members_floor(
+    settings: LineSettings,
+    adapter: AdapterTiming,
+    members: &[crate::driver::Membership],
+) -> Option<CollectFloor> {
+    let units: Vec<u8> = members.iter().map(|m| m.unit.get()).collect();
+    let frame_timeout = members
+        .iter()
+        .map(|m| m.frame_timeout)
+        .max()
+        .unwrap_or_default();
+    CollectFloor::over(settings, adapter, &units).map(|f| f.with_frame_timeout(frame_timeout))
 }
 
 /// Time of `plan`, one module's transactions, on the line: each with the module's reply delay

@@ -20,8 +20,7 @@
 use std::time::Duration;
 
 use crate::driver::{Driver, Transaction};
-use crate::line::budget::{input_floor_of, plan_time, AdapterTiming};
-use crate::line::collect::floor::CollectFloor;
+use crate::line::budget::{input_floor_of, members_floor, plan_time, AdapterTiming};
 use crate::line::housekeeping::{Pick, Urgency};
 use crate::line::settings::LineSettings;
 use crate::point::Value;
@@ -116,7 +115,7 @@ impl CycleMix {
                 None
             };
             let full_read = driver.collect_membership().map(|membership| {
-                members.push(membership.unit.get());
+                members.push(membership);
                 plan.clear();
                 driver.plan_read(&mut plan);
                 let read_each_cycle = !plan.is_empty();
@@ -140,7 +139,7 @@ impl CycleMix {
             adapter,
             modules.iter_mut().map(|(_, d, _)| d.as_mut()),
         );
-        let per_event = CollectFloor::over(settings, adapter, &members).map(|f| f.per_event());
+        let per_event = members_floor(settings, adapter, &members).map(|f| f.per_event());
         Self {
             ordinary,
             per_event,

@@ -27,8 +27,8 @@ pub(crate) mod tcp;
 pub(crate) mod transport;
 
 pub use budget::{
-    failed_attempt, input_floor, line_budget, line_budget_on, modbus_reply_len, transaction_time,
-    transaction_time_on, AdapterTiming, LineBudget, ModuleBudget,
+    failed_attempt, input_floor, line_budget, line_budget_on, members_floor, modbus_reply_len,
+    transaction_time, transaction_time_on, AdapterTiming, LineBudget, ModuleBudget,
 };
 pub use bus::{
     BusCommand, BusEvent, BusOwner, BusThread, Counters, Discipline, InputFrame, Module,

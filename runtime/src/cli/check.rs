@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use softplc_io::line::{line_budget_on, AdapterTiming, CollectFloor, EchoMode, SysfsRoot};
+use softplc_io::line::{line_budget_on, members_floor, AdapterTiming, EchoMode, SysfsRoot};
 use softplc_io::point::Access;
 
 use crate::image::ProcessImage;
@@ -369,11 +369,11 @@ fn collect_floor_line(
     adapter: AdapterTiming,
     drivers: &[(String, Box<dyn softplc_io::driver::Driver>, Vec<Access>)],
 ) -> Option<String> {
-    let members: Vec<u8> = drivers
+    let members: Vec<_> = drivers
         .iter()
-        .filter_map(|(_, d, _)| d.collect_membership().map(|m| m.unit.get()))
+        .filter_map(|(_, d, _)| d.collect_membership())
         .collect();
-    let floor = CollectFloor::over(settings, adapter, &members)?;
+    let floor = members_floor(settings, adapter, &members)?;
     let (first, last) = floor.window();
     let held = latency_clause(adapter, "per Collect ");
     Some(format!(
