@@ -65,16 +65,23 @@ pub(crate) fn close_to<'a>(
     scored.into_iter().take(max).map(|(_, n)| n).collect()
 }
 
-/// `; did you mean `x`?` (or `x`, `y`) for the candidates close to `wanted`; empty when none is.
+/// `; did you mean `x`?` (or `x` or `y`, equally close) for the closest candidates to `wanted`
+/// that [`close_to`] finds; empty when none is.
 pub(crate) fn did_you_mean<'a>(
     wanted: &str,
     candidates: impl IntoIterator<Item = &'a str>,
 ) -> String {
+    let upper = wanted.to_ascii_uppercase();
+    let distance = |name: &str| edit_distance(&upper, &name.to_ascii_uppercase());
     let close = close_to(wanted, candidates, 3);
-    if close.is_empty() {
+    let Some(best) = close.first().map(|n| distance(n)) else {
         return String::new();
-    }
-    let names: Vec<String> = close.iter().map(|n| format!("`{n}`")).collect();
+    };
+    let names: Vec<String> = close
+        .iter()
+        .filter(|n| distance(n) == best)
+        .map(|n| format!("`{n}`"))
+        .collect();
     format!("; did you mean {}?", names.join(" or "))
 }
 
@@ -113,5 +120,14 @@ mod tests {
         assert!(close_to("xyz", keys, 3).is_empty());
         assert_eq!(did_you_mean("retian", keys), "; did you mean `retain`?");
         assert_eq!(did_you_mean("xyz", keys), "");
+        // Only the closest: `adress` is one edit from `address`, two from `access`.
+        assert_eq!(
+            did_you_mean("adress", ["address", "access"]),
+            "; did you mean `address`?"
+        );
+        assert_eq!(
+            did_you_mean("Y9", ["Y1", "Y2"]),
+            "; did you mean `Y1` or `Y2`?"
+        );
     }
 }

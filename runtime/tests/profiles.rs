@@ -112,7 +112,7 @@ fn yaml_errors_and_unknown_keys_are_placed_too() {
     assert_eq!(
         errors("model: m\nsource: s\npoints:\n  - { name: v, table: input, adress: 0 }\n"),
         [
-            "meter.yaml:4:30: error: unknown key `adress` in points[0]; expected one of `name`, `table`, `address`, `type`, `order`, `scale`, `offset`, `unit`, `range`, `access`, `manual`, `poll`, `write`, `initial`, `bits`",
+            "meter.yaml:4:30: error: unknown key `adress` in points[0]; expected one of `name`, `table`, `address`, `type`, `order`, `scale`, `offset`, `unit`, `range`, `access`, `manual`, `poll`, `write`, `initial`, `bits`; did you mean `address`?",
             "meter.yaml:4:5: error: missing key `address` in points[0]",
         ]
     );

@@ -240,13 +240,14 @@ fn a_served_minimod_frames_requests_by_its_own_silence() {
     let (mut port, server) = served_minimod(200);
     let reply = split_request(&mut port, Duration::from_millis(5));
     assert_eq!(reply.get(..3), Some(&[5u8, 0x02, 0x02][..]), "{reply:02X?}");
-    // ... halves 60 ms apart are two.
-    let reply = split_request(&mut port, Duration::from_millis(60));
+    // ... halves 100 ms apart are two (more than twice the silence, and long enough that a
+    // loaded machine's server has read the first half before the second comes).
+    let reply = split_request(&mut port, Duration::from_millis(100));
     assert!(reply.is_empty(), "{reply:02X?}");
     drop(server);
-    // RDELAYM=0 at 19200: 1.46 ms; halves 10 ms apart are two requests.
+    // RDELAYM=0 at 19200: 1.46 ms; halves 50 ms apart are two requests.
     let (mut port, server) = served_minimod(0);
-    let reply = split_request(&mut port, Duration::from_millis(10));
+    let reply = split_request(&mut port, Duration::from_millis(50));
     assert!(reply.is_empty(), "{reply:02X?}");
     // The whole request is answered.
     let reply = split_request(&mut port, Duration::ZERO);
