@@ -611,7 +611,10 @@ fn wait_in_log(log: &Path, what: &str, within: Duration) -> String {
 #[test]
 fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {
     let (mut sim, pty) = sim::Sim::start(BIN, &["minimod@1", "minimod@2"]);
-    let dir = tempfile_dir().join("flood");
+    // A folder of its own: `tempfile_dir` is shared, and emptied by every test that takes it.
+    let dir = std::env::temp_dir().join(format!("softplc-mqtt-flood-{}", std::process::id()));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     let port = free_port();
     let _broker = Broker::start(&dir, port);
@@ -684,4 +687,6 @@ fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {
         .unwrap();
     assert!(held_back >= 10_000, "{held_back} held back: {summary}");
     assert!(!lost.is_empty());
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
 }
