@@ -246,14 +246,16 @@ impl ControlServer {
                 let slots = Slots::new(CONTROL_CAPS);
                 for stream in listener.incoming() {
                     let Ok(stream) = stream else { continue };
-                    let handle = stream.try_clone();
-                    let evict: Evict = Box::new(move || {
-                        if let Ok(s) = &handle {
-                            // Best effort: the client may be gone already.
-                            drop(s.shutdown(std::net::Shutdown::Both));
-                        }
-                    });
-                    let Some(held) = slots.admit(Instant::now(), evict) else {
+                    let evict = || -> Evict {
+                        let handle = stream.try_clone();
+                        Box::new(move || {
+                            if let Ok(s) = &handle {
+                                // Best effort: the client may be gone already.
+                                drop(s.shutdown(std::net::Shutdown::Both));
+                            }
+                        })
+                    };
+                    let Some(held) = slots.admit_patiently(evict) else {
                         refuse_busy(stream);
                         continue;
                     };

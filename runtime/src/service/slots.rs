@@ -18,6 +18,9 @@ use std::time::{Duration, Instant};
 /// slot when every slot is taken.
 pub(crate) const MIN_WAIT: Duration = Duration::from_millis(100);
 
+/// How often at most the accepting thread waits [`MIN_WAIT`] for a slot.
+pub(crate) const PATIENCE_EVERY: Duration = Duration::from_secs(1);
+
 /// The caps of one server.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Caps {
@@ -55,6 +58,8 @@ struct Table {
     next: u64,
     entries: Vec<Entry>,
     evicted: u64,
+    /// When the accepting thread last waited for a client to become evictable.
+    waited: Option<Instant>,
 }
 
 /// The slots of one server; cloned handles share them.
@@ -129,6 +134,29 @@ impl Slots {
             slots: self.clone(),
             id,
         })
+    }
+
+    /// [`Slots::admit`], and when every slot is taken by clients too young to give way, once
+    /// more after [`MIN_WAIT`] (a burst of new silent clients is not yet evictable; a real
+    /// client waits that long rather than be refused). The accepting thread waits so at most
+    /// once per [`PATIENCE_EVERY`], so a burst of thousands of connections still drains at
+    /// once. `evict` makes the evict function.
+    pub(crate) fn admit_patiently(&self, evict: impl Fn() -> Evict) -> Option<Held> {
+        if let Some(held) = self.admit(Instant::now(), evict()) {
+            return Some(held);
+        }
+        let now = Instant::now();
+        {
+            let mut t = self.table();
+            if t.waited
+                .is_some_and(|at| now.duration_since(at) < PATIENCE_EVERY)
+            {
+                return None;
+            }
+            t.waited = Some(now);
+        }
+        std::thread::sleep(MIN_WAIT);
+        self.admit(Instant::now(), evict())
     }
 
     /// Clients evicted so far.

@@ -404,7 +404,7 @@ where
             std::thread::sleep(Duration::from_millis(10));
             continue;
         };
-        let Some(held) = shared.slots.admit(Instant::now(), evict_of(&stream)) else {
+        let Some(held) = shared.slots.admit_patiently(|| evict_of(&stream)) else {
             busy(stream);
             continue;
         };
