@@ -50,6 +50,10 @@ pub(crate) const WRITE_WAIT: Duration = Duration::from_secs(2);
 pub(crate) const KEEP_ALIVE: Duration = Duration::from_secs(5);
 /// Queued requests to the connection (births of many devices fit at once).
 const REQUEST_CAPACITY: usize = 4096;
+/// How long a connection attempt may take (TCP, TLS, CONNECT to CONNACK). The session's
+/// thread waits for it whole, so changes wait in the scan's feed meanwhile (up to
+/// `QUEUE_CYCLES` cycles: 5 s at a scan of 5 ms or longer).
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 /// Largest MQTT packet either way (a birth of thousands of tags).
 const MAX_PACKET: usize = 4 << 20;
 
@@ -114,6 +118,9 @@ impl Session {
         let mut opts = options(&self.cfg);
         opts.set_last_will(self.will(bd_seq));
         let (client, mut conn) = Client::new(opts, REQUEST_CAPACITY);
+        conn.eventloop
+            .network_options
+            .set_connection_timeout(CONNECT_TIMEOUT.as_secs());
         let mut online = false;
         let mut want_birth = false;
         let mut retry_at: Option<Instant> = None;
@@ -143,9 +150,17 @@ impl Session {
                 Some(at) if now < at => std::thread::sleep(at.min(next_tick) - now),
                 _ => {
                     retry_at = None;
-                    let wait = next_tick
-                        .saturating_duration_since(now)
-                        .max(Duration::from_millis(1));
+                    // While not connected, each wait is a connection attempt: it gets the whole
+                    // connect timeout. Cut short, rumqttc drops the half-open connection after
+                    // its CONNECT (and Will) reached the broker, which then publishes the Will:
+                    // an NDEATH before the session's NBIRTH.
+                    let wait = if online {
+                        next_tick
+                            .saturating_duration_since(now)
+                            .max(Duration::from_millis(1))
+                    } else {
+                        CONNECT_TIMEOUT + Duration::from_secs(1)
+                    };
                     match conn.recv_timeout(wait) {
                         Ok(Ok(event)) => {
                             if let Some(rebirth) =
