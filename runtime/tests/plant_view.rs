@@ -14,6 +14,9 @@
 //! - 50 starts of the node, one after the other, each on a broker started for it: every
 //!   NDEATH a host sees comes after an NBIRTH (none from a connection dropped before its
 //!   birth).
+//! - With `primary_host:`, the node births only once the host's STATE says online, publishes
+//!   NDEATH when it goes offline, births again (next bdSeq) when it is back, and ignores an
+//!   offline STATE older than the last online one.
 //! - A module lost behind a Modbus TCP gateway (the simulator killed): a subscription without a
 //!   DataChangeFilter reports the tag's status change (OPC 10000-4 §7.22.2: STATUS_VALUE_1 is
 //!   the default), and so does one asking for StatusValueTimestamp.
@@ -590,6 +593,66 @@ fn fifty_starts_on_a_fresh_broker_never_show_a_death_before_the_birth() {
     assert!(
         seen.contains(&format!("ORDER births {RUNS} deaths {RUNS} early 0")),
         "{seen:?}"
+    );
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
+fn with_a_primary_host_the_node_births_only_while_the_host_is_online() {
+    let dir = scratch("primary-host");
+    let ports = Ports {
+        opcua: free_port(),
+        mqtt: free_port(),
+    };
+    let _broker = Broker::start(&dir, ports.mqtt);
+    let pb2 = sparkplug_pb2(&python(), &dir);
+    let project = project(&dir, 50, ports);
+    let text = std::fs::read_to_string(&project).unwrap();
+    std::fs::write(
+        &project,
+        text.replace(
+            "    node: edge1\n",
+            "    node: edge1\n    primary_host: scada1\n",
+        ),
+    )
+    .unwrap();
+    let mut plc = None;
+    let log = dir.join("softplc.log");
+    let seen = client_doing(
+        &log,
+        "sparkplug-state",
+        &[
+            ports.mqtt.to_string(),
+            "plant1".into(),
+            "edge1".into(),
+            pb2.display().to_string(),
+            "scada1".into(),
+        ],
+        Duration::from_secs(90),
+        |need| {
+            assert_eq!(need, "start");
+            plc = Some(Plc::start(&dir, &project));
+        },
+    );
+    let plc = plc.expect("started");
+    let said = |key: &str| {
+        seen.iter()
+            .find_map(|l| l.strip_prefix(key))
+            .unwrap_or_else(|| panic!("no {key} in {seen:?}"))
+            .trim()
+            .to_string()
+    };
+    assert_eq!(said("BEFORE births"), "0", "{seen:?}");
+    let first: u64 = said("ONLINE birth").parse().unwrap();
+    assert_eq!(said("OFFLINE death"), first.to_string(), "{seen:?}");
+    let back: u64 = said("BACK birth").parse().unwrap();
+    assert_eq!(back, first + 1, "a new session, the next bdSeq: {seen:?}");
+    assert_eq!(said("STALE deaths"), "0", "{seen:?}");
+    assert!(
+        plc.log().contains("MQTT: primary host offline"),
+        "{}",
+        plc.log()
     );
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));

@@ -25,6 +25,11 @@ Usage:
       follows the node's births and deaths while the test starts softplc RUNS times, one
       after the other ("NEED runs", then a line back when they are over): "ORDER births b
       deaths d early e", e the NDEATHs that came while the node had no NBIRTH out.
+  client.py sparkplug-state PORT GROUP NODE PB2_DIR HOST_ID
+      plays the primary host HOST_ID: its STATE offline (the test then starts softplc: "NEED
+      start"), online, offline, online again, then offline with an older timestamp; prints
+      what the node did after each: "BEFORE births n", "ONLINE birth bdSeq", "OFFLINE death
+      bdSeq", "BACK birth bdSeq", "STALE deaths n".
   client.py sparkplug-count PORT GROUP NODE PB2_DIR TAG SECONDS
       counts every value of TAG in NDATA (and the historical ones after a birth) for SECONDS:
       "COUNT received first last missing out_of_order".
@@ -337,6 +342,52 @@ def sparkplug_order(port, group, node, pb2_dir, runs):
     say(f"ORDER births {births} deaths {deaths} early {early}")
 
 
+def bd_seq(p):
+    for m in p.metrics:
+        if m.name == "bdSeq":
+            return m.long_value
+    return None
+
+
+def sparkplug_state(port, group, node, pb2_dir, host_id):
+    import json
+
+    client, messages = sparkplug(port, group, node, pb2_dir, rebirth=False)
+    topic = f"spBv1.0/STATE/{host_id}"
+
+    def state(online, ts):
+        payload = json.dumps({"online": online, "timestamp": ts})
+        client.publish(topic, payload, qos=1, retain=True).wait_for_publish(5)
+
+    def first(verb, seconds):
+        for t, p in until(messages, seconds):
+            if t == f"spBv1.0/{group}/{verb}/{node}":
+                return p
+        return None
+
+    def count(verb, seconds):
+        return sum(1 for t, _ in until(messages, seconds) if t == f"spBv1.0/{group}/{verb}/{node}")
+
+    state(False, 1000)
+    say("READY")
+    say("NEED start")
+    sys.stdin.readline()
+    say(f"BEFORE births {count('NBIRTH', 3)}")
+    state(True, 2000)
+    p = first("NBIRTH", 10)
+    say(f"ONLINE birth {bd_seq(p) if p else 'none'}")
+    state(False, 3000)
+    p = first("NDEATH", 10)
+    say(f"OFFLINE death {bd_seq(p) if p else 'none'}")
+    state(True, 4000)
+    p = first("NBIRTH", 15)
+    say(f"BACK birth {bd_seq(p) if p else 'none'}")
+    state(False, 3500)
+    say(f"STALE deaths {count('NDEATH', 3)}")
+    client.publish(topic, b"", qos=1, retain=True).wait_for_publish(5)
+    client.loop_stop()
+
+
 def sparkplug_count(port, group, node, pb2_dir, tag, seconds):
     client, messages = sparkplug(port, group, node, pb2_dir)
     say("READY")
@@ -374,6 +425,8 @@ def main():
         sparkplug_quality(int(args[0]), args[1], args[2], args[3], args[4:])
     elif mode == "sparkplug-order":
         sparkplug_order(int(args[0]), args[1], args[2], args[3], int(args[4]))
+    elif mode == "sparkplug-state":
+        sparkplug_state(int(args[0]), args[1], args[2], args[3], args[4])
     elif mode == "sparkplug-count":
         sparkplug_count(int(args[0]), args[1], args[2], args[3], args[4], float(args[5]))
     else:

@@ -20,6 +20,7 @@ use rumqttc::{
 };
 
 use super::command;
+use super::host::{HostEvent, PrimaryHost};
 use super::node::{EdgeNode, Outgoing};
 use super::payload;
 use crate::project::mqtt::MqttConfig;
@@ -92,6 +93,10 @@ pub(super) struct Session {
     pub(super) changes: ChangeStream,
     /// Changes taken from the feed and not yet handed to the node.
     pub(super) waiting: Vec<Delivery>,
+    /// The primary host application, when the project names one.
+    pub(super) host: Option<PrimaryHost>,
+    /// Its offline STATE came: NDEATH and disconnect at once.
+    pub(super) host_left: bool,
     pub(super) scan: Sender<Envelope>,
     pub(super) period: Duration,
 }
@@ -169,6 +174,17 @@ impl Session {
                                 want_birth |= rebirth;
                                 backoff = BACKOFF_MIN;
                             }
+                            if std::mem::take(&mut self.host_left) && online {
+                                // Sparkplug 3.0: the primary host went offline: NDEATH,
+                                // disconnect, and births again only once it is back.
+                                if !want_birth {
+                                    self.die(&client, &mut conn, bd_seq, online);
+                                } else {
+                                    drop(client.try_disconnect());
+                                }
+                                online = false;
+                                want_birth = true;
+                            }
                         }
                         Ok(Err(e)) => {
                             if online {
@@ -234,7 +250,8 @@ impl Session {
             }
             last_cycle = snap.cycles;
             let changes = std::mem::take(&mut self.waiting);
-            let out = if online && want_birth {
+            let host_ready = self.host.as_ref().is_none_or(PrimaryHost::online);
+            let out = if online && want_birth && host_ready {
                 want_birth = false;
                 // What changed up to the births' snapshot is history by the time they go
                 // out: kept, and sent after them; what came after it is current.
@@ -250,7 +267,10 @@ impl Session {
                 out.extend(self.node.update(&snap, &after, wall_ms(), true));
                 out
             } else {
-                self.node.update(&snap, &changes, wall_ms(), online)
+                // Until the births are out (the primary host not online yet), changes are
+                // kept as they are while the broker is away.
+                self.node
+                    .update(&snap, &changes, wall_ms(), online && !want_birth)
             };
             if !self.send(&client, out) {
                 want_birth = true;
@@ -291,6 +311,7 @@ impl Session {
                 *online = true;
                 let topics = self.node.topics();
                 let mut subs = vec![topics.node("NCMD")];
+                subs.extend(self.host.as_ref().map(|h| h.topic().to_string()));
                 subs.extend(
                     self.node
                         .layout()
@@ -307,6 +328,25 @@ impl Session {
                 Some(true)
             }
             Event::Incoming(Packet::Publish(p)) => {
+                if let Some(host) = self.host.as_mut().filter(|h| h.topic() == p.topic) {
+                    match host.on_message(&p.topic, &p.payload) {
+                        Ok(HostEvent::Online) => {
+                            tracing::info!("MQTT: primary host online ({}): births", p.topic);
+                            return Some(true);
+                        }
+                        Ok(HostEvent::Offline) => {
+                            tracing::info!(
+                                "MQTT: primary host offline ({}): NDEATH and disconnect; \
+                                 births again once it is online",
+                                p.topic
+                            );
+                            self.host_left = true;
+                        }
+                        Ok(HostEvent::Nothing) => {}
+                        Err(e) => tracing::warn!("MQTT: {}: {e}", p.topic),
+                    }
+                    return Some(false);
+                }
                 match command::decode(
                     &self.node,
                     &p.topic,
