@@ -11,6 +11,12 @@
 //! - A read straight after a `Good` OPC UA write returns the written value, every time.
 //! - With `max_sessions: 3`, a fourth and fifth session are refused `BadTooManySessions`, and
 //!   the log says so once.
+//! - 50 starts of the node, one after the other, each on a broker started for it: every
+//!   NDEATH a host sees comes after an NBIRTH (none from a connection dropped before its
+//!   birth).
+//! - With `primary_host:`, the node births only once the host's STATE says online, publishes
+//!   NDEATH when it goes offline, births again (next bdSeq) when it is back, and ignores an
+//!   offline STATE older than the last online one.
 //! - A module lost behind a Modbus TCP gateway (the simulator killed): a subscription without a
 //!   DataChangeFilter reports the tag's status change (OPC 10000-4 §7.22.2: STATUS_VALUE_1 is
 //!   the default), and so does one asking for StatusValueTimestamp.
@@ -26,7 +32,6 @@ use std::time::{Duration, Instant};
 mod host;
 use host::{free_port, lines_of, repo as workspace};
 #[path = "common/broker.rs"]
-#[allow(dead_code)] // Broker::restart_after serves the MQTT test only.
 mod broker;
 use broker::{sparkplug_pb2, Broker};
 
@@ -533,6 +538,122 @@ fn sessions_beyond_max_sessions_are_refused_and_logged_once() {
         .collect();
     assert_eq!(lines.len(), 1, "{log}");
     assert!(lines[0].contains("the limit is 3 (max_sessions)"), "{log}");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
+fn fifty_starts_on_a_fresh_broker_never_show_a_death_before_the_birth() {
+    const RUNS: usize = 50;
+    let dir = scratch("starts");
+    let ports = Ports {
+        opcua: free_port(),
+        mqtt: free_port(),
+    };
+    let pb2 = sparkplug_pb2(&python(), &dir);
+    let project = project(&dir, 50, ports);
+    // Without the OPC UA server: only the edge node's start is under test.
+    let text = std::fs::read_to_string(&project).unwrap();
+    let start = text.find("  opcua:").unwrap();
+    let end = text.find("  mqtt:").unwrap();
+    std::fs::write(&project, format!("{}{}", &text[..start], &text[end..])).unwrap();
+    let log = dir.join("softplc.log");
+    let mut broker = Broker::start(&dir, ports.mqtt);
+    let seen = client_doing(
+        &log,
+        "sparkplug-order",
+        &[
+            ports.mqtt.to_string(),
+            "plant1".into(),
+            "edge1".into(),
+            pb2.display().to_string(),
+            RUNS.to_string(),
+        ],
+        Duration::from_secs(300),
+        |need| {
+            assert_eq!(need, "runs");
+            for _ in 0..RUNS {
+                // A fresh broker for each start (the host reconnects within 200 ms and
+                // subscribes again).
+                broker.restart_after(|| {});
+                std::thread::sleep(Duration::from_millis(800));
+                let out = Command::new(BIN)
+                    .args(["run", "--quiet", "--no-socket", "--for", "300ms"])
+                    .arg(&project)
+                    .env("RUST_LOG", "info")
+                    .stdout(Stdio::null())
+                    .stderr(std::fs::File::create(&log).unwrap())
+                    .status()
+                    .unwrap();
+                assert!(out.success(), "{}", std::fs::read_to_string(&log).unwrap());
+            }
+            std::thread::sleep(Duration::from_millis(500));
+        },
+    );
+    assert!(
+        seen.contains(&format!("ORDER births {RUNS} deaths {RUNS} early 0")),
+        "{seen:?}"
+    );
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
+fn with_a_primary_host_the_node_births_only_while_the_host_is_online() {
+    let dir = scratch("primary-host");
+    let ports = Ports {
+        opcua: free_port(),
+        mqtt: free_port(),
+    };
+    let _broker = Broker::start(&dir, ports.mqtt);
+    let pb2 = sparkplug_pb2(&python(), &dir);
+    let project = project(&dir, 50, ports);
+    let text = std::fs::read_to_string(&project).unwrap();
+    std::fs::write(
+        &project,
+        text.replace(
+            "    node: edge1\n",
+            "    node: edge1\n    primary_host: scada1\n",
+        ),
+    )
+    .unwrap();
+    let mut plc = None;
+    let log = dir.join("softplc.log");
+    let seen = client_doing(
+        &log,
+        "sparkplug-state",
+        &[
+            ports.mqtt.to_string(),
+            "plant1".into(),
+            "edge1".into(),
+            pb2.display().to_string(),
+            "scada1".into(),
+        ],
+        Duration::from_secs(90),
+        |need| {
+            assert_eq!(need, "start");
+            plc = Some(Plc::start(&dir, &project));
+        },
+    );
+    let plc = plc.expect("started");
+    let said = |key: &str| {
+        seen.iter()
+            .find_map(|l| l.strip_prefix(key))
+            .unwrap_or_else(|| panic!("no {key} in {seen:?}"))
+            .trim()
+            .to_string()
+    };
+    assert_eq!(said("BEFORE births"), "0", "{seen:?}");
+    let first: u64 = said("ONLINE birth").parse().unwrap();
+    assert_eq!(said("OFFLINE death"), first.to_string(), "{seen:?}");
+    let back: u64 = said("BACK birth").parse().unwrap();
+    assert_eq!(back, first + 1, "a new session, the next bdSeq: {seen:?}");
+    assert_eq!(said("STALE deaths"), "0", "{seen:?}");
+    assert!(
+        plc.log().contains("MQTT: primary host offline"),
+        "{}",
+        plc.log()
+    );
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use softplc::project::{
-    parse_str, ErrorKind, ModbusTcpConfig, Project, ProjectError, ServiceError, Space,
+    parse_str, ErrorKind, ModbusTcpConfig, Project, ProjectError, ReadGaps, ServiceError, Space,
 };
 use softplc_io::point::Access;
 
@@ -116,6 +116,7 @@ fn modbus_defaults_are_loopback_unit_1_and_no_writes() {
             writes: false,
             idle_timeout: Duration::from_secs(60),
             send_timeout: Duration::from_secs(10),
+            read_gaps: ReadGaps::Exception,
         })
     );
     let p = parse(&format!(

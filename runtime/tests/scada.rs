@@ -174,6 +174,37 @@ fn http_get(port: u16, path: &str) -> String {
 }
 
 #[test]
+fn with_read_gaps_zero_a_block_read_across_unmapped_addresses_answers_0_there() {
+    let modbus = free_port();
+    let dir = project(
+        "gaps",
+        &format!("  modbus_tcp: {{ bind: 127.0.0.1:{modbus}, read_gaps: zero }}\n"),
+    );
+    let mut child = start(&dir);
+    wait_until_serving(&mut child, modbus);
+    // speed at 0, level at 1-2, nothing at 3..=9, total at 10-11: one block of 12.
+    let (ok, text) = mbpoll(modbus, &["-t", "3", "-r", "0", "-c", "12"], &[]);
+    assert!(ok, "{text}");
+    let regs = values(&text);
+    assert_eq!(regs.len(), 12, "{text}");
+    assert_eq!(regs[0], (0, "120".to_string()), "{text}");
+    assert!(regs[3..10].iter().all(|(_, v)| v == "0"), "{text}");
+    // total = -7 as i32, high word first: 0xFFFF, 0xFFF9.
+    assert_eq!(regs[10].1, "65535 (-1)", "{text}");
+    assert_eq!(regs[11].1, "65529 (-7)", "{text}");
+    // Bits past the last bool tag, in a read that holds tags: 0.
+    let (ok, text) = mbpoll(modbus, &["-t", "1", "-r", "0", "-c", "9"], &[]);
+    assert!(ok && values(&text).len() == 9, "{text}");
+    assert_eq!(values(&text)[8], (8, "0".to_string()), "{text}");
+    // A read that holds no tag at all is still refused.
+    let (ok, text) = mbpoll(modbus, &["-t", "3", "-r", "3", "-c", "2"], &[]);
+    assert!(!ok && text.contains("Illegal data address"), "{text}");
+    drop(finish(child));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+#[test]
 fn a_third_party_master_reads_the_map_and_writes_only_writable_tags() {
     let (modbus, metrics) = (free_port(), free_port());
     let dir = project(

@@ -58,7 +58,8 @@ pub use retain::RetainConfig;
 pub use scada::ServiceError;
 pub use secret::Password;
 pub use service::{
-    ModbusTcpConfig, ScadaAccess, ScadaEntry, ScadaMap, ServiceConfig, Space, DEFAULT_MODBUS_BIND,
+    ModbusTcpConfig, ReadGaps, ScadaAccess, ScadaEntry, ScadaMap, ServiceConfig, Space,
+    DEFAULT_MODBUS_BIND,
 };
 pub use trace::{
     CompareOp, Condition, Counter, Phase, Probe, RawTrace, TraceConfig, TraceError, TraceMode,

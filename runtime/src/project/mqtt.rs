@@ -15,6 +15,8 @@
 //!     writes: false                # DCMD/NCMD writes to `scada: write` tags; default false
 //!     buffer: 10000                # changes kept while the broker is away; default 10000
 //!     deadband: { speed: 0.5 }     # per numeric tag: a change smaller than this is not sent
+//!     primary_host: scada1         # Sparkplug 3.0 primary host id: births only while its
+//!                                  # spBv1.0/STATE/scada1 says online; optional
 //! ```
 //!
 //! Group, node and client ids follow Sparkplug B 3.0 ("Topic Namespace Elements"): UTF-8,
@@ -45,7 +47,7 @@ pub(crate) const MAX_BUFFER: usize = 1_000_000;
 #[serde(
     deny_unknown_fields,
     expecting = "MQTT settings: a mapping with host, port, group, node, client_id, username, \
-                 password, password_env, tls, writes, buffer and deadband"
+                 password, password_env, tls, writes, buffer, deadband and primary_host"
 )]
 pub(crate) struct RawMqtt {
     /// The broker's host.
@@ -84,6 +86,9 @@ pub(crate) struct RawMqtt {
     /// Deadband per numeric tag.
     #[serde(default)]
     pub deadband: Option<BTreeMap<String, f64>>,
+    /// The Sparkplug 3.0 primary host application's id.
+    #[serde(default)]
+    pub primary_host: Option<String>,
 }
 
 /// `service.mqtt.tls:` as written.
@@ -123,6 +128,8 @@ pub struct MqttConfig {
     pub buffer: usize,
     /// Deadband per tag (index into the project's tags), numeric tags only.
     pub deadband: Vec<(usize, f64)>,
+    /// The primary host application's id: the node births only while its STATE says online.
+    pub primary_host: Option<String>,
 }
 
 /// What is wrong with `service.mqtt:`.
@@ -243,6 +250,9 @@ pub(crate) fn validate(
     if raw.client_id.is_some() {
         check_id("client_id", &client_id, &mut errors);
     }
+    if let Some(host) = &raw.primary_host {
+        check_id("primary_host", host, &mut errors);
+    }
     let tls_ca = raw.tls.as_ref().and_then(|t| {
         let at = file.parent().unwrap_or(Path::new(".")).join(&t.ca_file);
         match std::fs::read(&at) {
@@ -340,5 +350,6 @@ pub(crate) fn validate(
         writes: raw.writes.unwrap_or(false),
         buffer,
         deadband,
+        primary_host: raw.primary_host.clone(),
     })
 }

@@ -296,6 +296,7 @@ fn modbus_tcp(
         writes,
         idle_timeout: idle_timeout?,
         send_timeout: send_timeout?,
+        read_gaps: m.read_gaps.unwrap_or_default(),
     })
 }
 

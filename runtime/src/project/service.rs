@@ -14,6 +14,8 @@
 //!                                   # disconnected (counted from its last reply); default 60s
 //!     send_timeout: 10s             # a client that does not take a reply within this is
 //!                                   # disconnected (it does not read); default 10s
+//!     read_gaps: exception          # exception | zero: what a read spanning addresses no tag
+//!                                   # holds gets; default exception (02)
 //!   web: { bind: 127.0.0.1:8080 }   # the web page; off when absent (see `web.rs`)
 //!   mqtt: ...                       # MQTT Sparkplug B edge node (see `mqtt.rs`)
 //!   opcua: { port: 4840 }           # OPC UA server; off when absent (see `opcua.rs`)
@@ -66,7 +68,7 @@ pub(crate) struct RawService {
 #[serde(
     deny_unknown_fields,
     expecting = "Modbus TCP settings: a mapping with bind, unit, writes, allow_remote_writes, \
-                 idle_timeout and send_timeout"
+                 idle_timeout, send_timeout and read_gaps"
 )]
 pub(crate) struct RawModbusTcp {
     /// Listening address (default [`DEFAULT_MODBUS_BIND`]).
@@ -88,6 +90,21 @@ pub(crate) struct RawModbusTcp {
     /// How long a reply may wait for the client to take it (default [`DEFAULT_MODBUS_SEND`]).
     #[serde(default)]
     pub send_timeout: Option<DurationText>,
+    /// What a read spanning addresses no tag holds gets (default `exception`).
+    #[serde(default)]
+    pub read_gaps: Option<ReadGaps>,
+}
+
+/// What a Modbus TCP read spanning addresses no tag holds gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum ReadGaps {
+    /// Exception 02 (illegal data address), as the Modbus specification says.
+    #[default]
+    Exception,
+    /// 0 for each such address (false for a bit), for SCADA drivers that merge the addresses
+    /// they poll into blocks; a read that holds no tag at all still gets exception 02.
+    Zero,
 }
 
 /// What SCADA may do with a tag.
@@ -214,6 +231,8 @@ pub struct ModbusTcpConfig {
     /// A client that does not take a reply within this (it sends requests and does not read
     /// the answers) is disconnected.
     pub send_timeout: Duration,
+    /// What a read spanning addresses no tag holds gets.
+    pub read_gaps: ReadGaps,
 }
 
 /// The two Modbus address spaces of the map.

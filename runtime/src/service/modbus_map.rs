@@ -15,7 +15,7 @@
 use softplc_io::point::{Value, ValueType};
 
 use crate::image::convert;
-use crate::project::{ScadaMap, Space};
+use crate::project::{ReadGaps, ScadaMap, Space};
 
 /// Most bits one read returns (FC 1, 2: the spec's 2000).
 pub(crate) const MAX_READ_BITS: u16 = 2000;
@@ -88,6 +88,8 @@ pub(crate) struct ModbusMap {
     bits: Vec<Slot>,
     /// Numeric tags, by address.
     registers: Vec<Slot>,
+    /// Addresses no tag holds read 0 in a read that holds a tag (`read_gaps: zero`).
+    zero_gaps: bool,
 }
 
 impl ModbusMap {
@@ -110,6 +112,21 @@ impl ModbusMap {
         m.bits.sort_by_key(|s| s.address);
         m.registers.sort_by_key(|s| s.address);
         m
+    }
+
+    /// With `read_gaps` `zero`: a read that holds a tag answers 0 for the addresses between.
+    pub(crate) fn with_read_gaps(mut self, gaps: ReadGaps) -> Self {
+        self.zero_gaps = gaps == ReadGaps::Zero;
+        self
+    }
+
+    /// Whether a read of `range` answers 0 for an address no slot holds: gaps read as zero,
+    /// and a tag somewhere in the range (a read of nothing at all is still refused).
+    fn gap_reads_zero(&self, slots: &[Slot], range: &std::ops::Range<u32>) -> bool {
+        self.zero_gaps
+            && slots
+                .iter()
+                .any(|s| u32::from(s.address) < range.end && s.last() >= range.start)
     }
 
     /// The slot holding `address`.
@@ -137,9 +154,17 @@ impl ModbusMap {
         if qty == 0 || qty > MAX_READ_BITS {
             return Err(Exception::IllegalDataValue);
         }
-        Self::range(start, usize::from(qty))?
+        let range = Self::range(start, usize::from(qty))?;
+        let zero = self.gap_reads_zero(&self.bits, &range);
+        range
             .map(|a| {
-                let slot = Self::find(&self.bits, a).ok_or(Exception::IllegalDataAddress)?;
+                let Some(slot) = Self::find(&self.bits, a) else {
+                    return if zero {
+                        Ok(false)
+                    } else {
+                        Err(Exception::IllegalDataAddress)
+                    };
+                };
                 let v = values.get(slot.tag).ok_or(Exception::ServerDeviceFailure)?;
                 Ok(v.as_bool())
             })
@@ -156,9 +181,17 @@ impl ModbusMap {
         if qty == 0 || qty > MAX_READ_REGISTERS {
             return Err(Exception::IllegalDataValue);
         }
-        Self::range(start, usize::from(qty))?
+        let range = Self::range(start, usize::from(qty))?;
+        let zero = self.gap_reads_zero(&self.registers, &range);
+        range
             .map(|a| {
-                let slot = Self::find(&self.registers, a).ok_or(Exception::IllegalDataAddress)?;
+                let Some(slot) = Self::find(&self.registers, a) else {
+                    return if zero {
+                        Ok(0)
+                    } else {
+                        Err(Exception::IllegalDataAddress)
+                    };
+                };
                 let v = values.get(slot.tag).ok_or(Exception::ServerDeviceFailure)?;
                 let words = encode(convert(*v, slot.ty));
                 let k = (a - u32::from(slot.address)) as usize;

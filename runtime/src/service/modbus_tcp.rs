@@ -343,7 +343,7 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::project::ScadaMap;
+    use crate::project::{ReadGaps, ScadaMap};
     use crate::service::modbus_map::tests::entry;
     use softplc_io::point::ValueType;
 
@@ -354,6 +354,7 @@ mod tests {
             writes,
             idle_timeout: Duration::from_secs(60),
             send_timeout: Duration::from_secs(10),
+            read_gaps: ReadGaps::Exception,
         };
         let map = ModbusMap::new(&ScadaMap {
             entries: vec![

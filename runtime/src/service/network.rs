@@ -129,7 +129,7 @@ pub(crate) fn start(
         health.set(Service::Metrics, ServiceState::Running);
     }
     if let Some(cfg) = service.modbus_tcp {
-        let map = ModbusMap::new(&service.scada);
+        let map = ModbusMap::new(&service.scada).with_read_gaps(cfg.read_gaps);
         let entries = &service.scada.entries;
         let writable = entries.iter().filter(|e| e.writable).count();
         let server = ModbusTcpServer::start(cfg, map, names, snapshot.clone(), scan.clone())?;

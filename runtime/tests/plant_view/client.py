@@ -21,6 +21,15 @@ Usage:
       follows the births and DATA of the node's devices for a few seconds: "QUALITY tag code"
       for the quality each TAG has in the host's view at the end, "BIRTH tag code" as its
       DBIRTH gave it, and "ENGUNIT tag unit" when the DBIRTH gave it an engUnit.
+  client.py sparkplug-order PORT GROUP NODE PB2_DIR RUNS
+      follows the node's births and deaths while the test starts softplc RUNS times, one
+      after the other ("NEED runs", then a line back when they are over): "ORDER births b
+      deaths d early e", e the NDEATHs that came while the node had no NBIRTH out.
+  client.py sparkplug-state PORT GROUP NODE PB2_DIR HOST_ID
+      plays the primary host HOST_ID: its STATE offline (the test then starts softplc: "NEED
+      start"), online, offline, online again, then offline with an older timestamp; prints
+      what the node did after each: "BEFORE births n", "ONLINE birth bdSeq", "OFFLINE death
+      bdSeq", "BACK birth bdSeq", "STALE deaths n".
   client.py sparkplug-count PORT GROUP NODE PB2_DIR TAG SECONDS
       counts every value of TAG in NDATA (and the historical ones after a birth) for SECONDS:
       "COUNT received first last missing out_of_order".
@@ -206,7 +215,7 @@ async def opcua_status(url, ns_uri, tag):
         await c.disconnect()
 
 
-def sparkplug(port, group, node, pb2_dir):
+def sparkplug(port, group, node, pb2_dir, rebirth=True):
     """A connected paho client subscribed to the node's topics, and the queue of messages."""
     import queue
 
@@ -228,11 +237,15 @@ def sparkplug(port, group, node, pb2_dir):
     client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"plant-view-{time.time_ns()}")
     client.on_connect = on_connect
     client.on_message = on_message
+    # Back within a fraction of a second when a test restarts the broker.
+    client.reconnect_delay_set(min_delay=0.1, max_delay=0.2)
     client.connect("127.0.0.1", port, keepalive=5)
     client.loop_start()
     topic, _ = messages.get(timeout=20)
     if topic != "CONNECTED":
         fail("no connection to the broker")
+    if not rebirth:
+        return client, messages
     # A host that comes after the node's birth asks for one, as a primary host does.
     cmd = spb.Payload()
     cmd.timestamp = int(time.time() * 1000)
@@ -298,6 +311,83 @@ def sparkplug_quality(port, group, node, pb2_dir, tags):
             say(f"ENGUNIT {tag} {eng[tag]}")
 
 
+def sparkplug_order(port, group, node, pb2_dir, runs):
+    import threading
+
+    client, messages = sparkplug(port, group, node, pb2_dir, rebirth=False)
+    say("READY")
+    done = threading.Event()
+
+    def wait_for_test():
+        say("NEED runs")
+        sys.stdin.readline()
+        done.set()
+
+    threading.Thread(target=wait_for_test, daemon=True).start()
+    births = deaths = early = 0
+    born = False
+    while not (done.is_set() and messages.empty()):
+        for topic, p in until(messages, 0.2):
+            if topic == f"spBv1.0/{group}/NBIRTH/{node}":
+                births += 1
+                born = True
+            elif topic == f"spBv1.0/{group}/NDEATH/{node}":
+                deaths += 1
+                if not born:
+                    early += 1
+                born = False
+    client.loop_stop()
+    if births != runs:
+        fail(f"{births} NBIRTHs for {runs} runs ({deaths} NDEATHs, {early} early)")
+    say(f"ORDER births {births} deaths {deaths} early {early}")
+
+
+def bd_seq(p):
+    for m in p.metrics:
+        if m.name == "bdSeq":
+            return m.long_value
+    return None
+
+
+def sparkplug_state(port, group, node, pb2_dir, host_id):
+    import json
+
+    client, messages = sparkplug(port, group, node, pb2_dir, rebirth=False)
+    topic = f"spBv1.0/STATE/{host_id}"
+
+    def state(online, ts):
+        payload = json.dumps({"online": online, "timestamp": ts})
+        client.publish(topic, payload, qos=1, retain=True).wait_for_publish(5)
+
+    def first(verb, seconds):
+        for t, p in until(messages, seconds):
+            if t == f"spBv1.0/{group}/{verb}/{node}":
+                return p
+        return None
+
+    def count(verb, seconds):
+        return sum(1 for t, _ in until(messages, seconds) if t == f"spBv1.0/{group}/{verb}/{node}")
+
+    state(False, 1000)
+    say("READY")
+    say("NEED start")
+    sys.stdin.readline()
+    say(f"BEFORE births {count('NBIRTH', 3)}")
+    state(True, 2000)
+    p = first("NBIRTH", 10)
+    say(f"ONLINE birth {bd_seq(p) if p else 'none'}")
+    state(False, 3000)
+    p = first("NDEATH", 10)
+    say(f"OFFLINE death {bd_seq(p) if p else 'none'}")
+    state(True, 4000)
+    p = first("NBIRTH", 15)
+    say(f"BACK birth {bd_seq(p) if p else 'none'}")
+    state(False, 3500)
+    say(f"STALE deaths {count('NDEATH', 3)}")
+    client.publish(topic, b"", qos=1, retain=True).wait_for_publish(5)
+    client.loop_stop()
+
+
 def sparkplug_count(port, group, node, pb2_dir, tag, seconds):
     client, messages = sparkplug(port, group, node, pb2_dir)
     say("READY")
@@ -333,6 +423,10 @@ def main():
         asyncio.run(opcua_status(args[0], args[1], args[2]))
     elif mode == "sparkplug-quality":
         sparkplug_quality(int(args[0]), args[1], args[2], args[3], args[4:])
+    elif mode == "sparkplug-order":
+        sparkplug_order(int(args[0]), args[1], args[2], args[3], int(args[4]))
+    elif mode == "sparkplug-state":
+        sparkplug_state(int(args[0]), args[1], args[2], args[3], args[4])
     elif mode == "sparkplug-count":
         sparkplug_count(int(args[0]), args[1], args[2], args[3], args[4], float(args[5]))
     else:

@@ -21,6 +21,7 @@ use rumqttc::{
 };
 
 use super::command;
+use super::host::{HostEvent, PrimaryHost};
 use super::node::{EdgeNode, Outgoing};
 use super::payload;
 use crate::project::mqtt::MqttConfig;
@@ -52,6 +53,10 @@ pub(crate) const WRITE_WAIT: Duration = Duration::from_secs(2);
 pub(crate) const KEEP_ALIVE: Duration = Duration::from_secs(5);
 /// Queued requests to the connection (births of many devices fit at once).
 const REQUEST_CAPACITY: usize = 4096;
+/// How long a connection attempt may take (TCP, TLS, CONNECT to CONNACK). The session's
+/// thread waits for it whole, so changes wait in the scan's feed meanwhile (up to
+/// `QUEUE_CYCLES` cycles: 5 s at a scan of 5 ms or longer).
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 /// Largest MQTT packet either way (a birth of thousands of tags).
 const MAX_PACKET: usize = 4 << 20;
 
@@ -95,6 +100,10 @@ pub(super) struct Session {
     pub(super) changes: ChangeStream,
     /// Changes taken from the feed and not yet handed to the node.
     pub(super) waiting: Vec<Delivery>,
+    /// The primary host application, when the project names one.
+    pub(super) host: Option<PrimaryHost>,
+    /// Its offline STATE came: NDEATH and disconnect at once.
+    pub(super) host_left: bool,
     pub(super) scan: Sender<Envelope>,
     pub(super) period: Duration,
     /// Where the service's state goes (connected, or why not).
@@ -123,6 +132,9 @@ impl Session {
         let mut opts = options(&self.cfg);
         opts.set_last_will(self.will(bd_seq));
         let (client, mut conn) = Client::new(opts, REQUEST_CAPACITY);
+        conn.eventloop
+            .network_options
+            .set_connection_timeout(CONNECT_TIMEOUT.as_secs());
         let mut online = false;
         let mut want_birth = false;
         let mut retry_at: Option<Instant> = None;
@@ -152,9 +164,17 @@ impl Session {
                 Some(at) if now < at => std::thread::sleep(at.min(next_tick) - now),
                 _ => {
                     retry_at = None;
-                    let wait = next_tick
-                        .saturating_duration_since(now)
-                        .max(Duration::from_millis(1));
+                    // While not connected, each wait is a connection attempt: it gets the whole
+                    // connect timeout. Cut short, rumqttc drops the half-open connection after
+                    // its CONNECT (and Will) reached the broker, which then publishes the Will:
+                    // an NDEATH before the session's NBIRTH.
+                    let wait = if online {
+                        next_tick
+                            .saturating_duration_since(now)
+                            .max(Duration::from_millis(1))
+                    } else {
+                        CONNECT_TIMEOUT + Duration::from_secs(1)
+                    };
                     match conn.recv_timeout(wait) {
                         Ok(Ok(event)) => {
                             if let Some(rebirth) =
@@ -162,6 +182,17 @@ impl Session {
                             {
                                 want_birth |= rebirth;
                                 backoff = BACKOFF_MIN;
+                            }
+                            if std::mem::take(&mut self.host_left) && online {
+                                // Sparkplug 3.0: the primary host went offline: NDEATH,
+                                // disconnect, and births again only once it is back.
+                                if !want_birth {
+                                    self.die(&client, &mut conn, bd_seq, online);
+                                } else {
+                                    drop(client.try_disconnect());
+                                }
+                                online = false;
+                                want_birth = true;
                             }
                         }
                         Ok(Err(e)) => {
@@ -235,7 +266,8 @@ impl Session {
             }
             last_cycle = snap.cycles;
             let changes = std::mem::take(&mut self.waiting);
-            let out = if online && want_birth {
+            let host_ready = self.host.as_ref().is_none_or(PrimaryHost::online);
+            let out = if online && want_birth && host_ready {
                 want_birth = false;
                 // What changed up to the births' snapshot is history by the time they go
                 // out: kept, and sent after them; what came after it is current.
@@ -251,7 +283,10 @@ impl Session {
                 out.extend(self.node.update(&snap, &after, wall_ms(), true));
                 out
             } else {
-                self.node.update(&snap, &changes, wall_ms(), online)
+                // Until the births are out (the primary host not online yet), changes are
+                // kept as they are while the broker is away.
+                self.node
+                    .update(&snap, &changes, wall_ms(), online && !want_birth)
             };
             if !self.send(&client, out) {
                 want_birth = true;
@@ -292,6 +327,7 @@ impl Session {
                 *online = true;
                 let topics = self.node.topics();
                 let mut subs = vec![topics.node("NCMD")];
+                subs.extend(self.host.as_ref().map(|h| h.topic().to_string()));
                 subs.extend(
                     self.node
                         .layout()
@@ -309,6 +345,25 @@ impl Session {
                 Some(true)
             }
             Event::Incoming(Packet::Publish(p)) => {
+                if let Some(host) = self.host.as_mut().filter(|h| h.topic() == p.topic) {
+                    match host.on_message(&p.topic, &p.payload) {
+                        Ok(HostEvent::Online) => {
+                            tracing::info!("MQTT: primary host online ({}): births", p.topic);
+                            return Some(true);
+                        }
+                        Ok(HostEvent::Offline) => {
+                            tracing::info!(
+                                "MQTT: primary host offline ({}): NDEATH and disconnect; \
+                                 births again once it is online",
+                                p.topic
+                            );
+                            self.host_left = true;
+                        }
+                        Ok(HostEvent::Nothing) => {}
+                        Err(e) => tracing::warn!("MQTT: {}: {e}", p.topic),
+                    }
+                    return Some(false);
+                }
                 match command::decode(
                     &self.node,
                     &p.topic,
