@@ -360,6 +360,14 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
         std::thread::sleep(Duration::from_millis(400));
         b.screenshot(&shots.join(format!("{view}.png")));
     }
+    // The overview lists the services with their state (the page itself among them).
+    b.eval("location.hash = '#overview'; true");
+    b.wait_for(
+        "[...document.querySelectorAll('#overview-cards .card')].some(c => \
+         c.textContent.startsWith('Services') && c.textContent.includes('webrunning'))",
+        Duration::from_secs(15),
+    )
+    .expect("a Services card with the web page running");
     // The Trace view: arm a trace from the page (signed in), watch it fill and complete, see
     // its plot in the trend's look, download its CSV.
     b.eval("location.hash = '#trace'; true");
