@@ -388,31 +388,37 @@ impl Updater {
             }
         };
         let mut last_stats = None;
+        // Cycles taken from the feed and not applied yet: until the first snapshot is in the
+        // address space, so a client that sees a tag's first value sees the PLC's figures too.
+        let mut held: Vec<Delivery> = Vec::new();
         loop {
             // Each cycle's changes as soon as they come, one cycle at a time and in order, so
             // every monitored item queues every change with its cycle's time.
-            let first = match self.changes.receiver().recv_timeout(self.tick) {
-                Ok(d) => Some(d),
-                Err(crossbeam_channel::RecvTimeoutError::Timeout) => None,
-                Err(crossbeam_channel::RecvTimeoutError::Disconnected) => return,
-            };
-            let now = DateTime::now();
-            for d in first.into_iter().chain(self.changes.receiver().try_iter()) {
-                set_cycle(&d, updates.tag_changes(&self.layout, &d, now));
+            // The scan has ended when the feed is gone: one last pass, then stop.
+            let mut ended = false;
+            match self.changes.receiver().recv_timeout(self.tick) {
+                Ok(d) => held.push(d),
+                Err(crossbeam_channel::RecvTimeoutError::Timeout) => {}
+                Err(crossbeam_channel::RecvTimeoutError::Disconnected) => ended = true,
             }
+            // The snapshot before the rest of the queue: every cycle it shows is in the queue
+            // already (the scan offers a cycle's changes before it publishes).
             let snap = self.snapshot.get();
-            if !snap.published || last_stats == Some((snap.cycles, snap.stats_seq, snap.stopped)) {
+            held.extend(self.changes.receiver().try_iter());
+            if snap.published && last_stats != Some((snap.cycles, snap.stats_seq, snap.stopped)) {
+                last_stats = Some((snap.cycles, snap.stats_seq, snap.stopped));
+                set(updates.diagnostics(&self.layout, &snap, DateTime::now()));
+            }
+            if last_stats.is_none() && !ended {
                 continue;
             }
-            last_stats = Some((snap.cycles, snap.stats_seq, snap.stopped));
-            set(updates.diagnostics(&self.layout, &snap, DateTime::now()));
-            if snap.stopped {
-                // The safe state went into the queue before the last publication.
-                for d in self.changes.receiver().try_iter() {
-                    set_cycle(&d, updates.tag_changes(&self.layout, &d, DateTime::now()));
-                }
-                // The last publication (outputs safe, state stopped) is in the address space;
-                // clients read it until the process ends.
+            let now = DateTime::now();
+            for d in held.drain(..) {
+                set_cycle(&d, updates.tag_changes(&self.layout, &d, now));
+            }
+            if snap.stopped || ended {
+                // The last publication (outputs safe, state stopped) and the safe state's
+                // changes are in the address space; clients read them until the process ends.
                 return;
             }
         }
