@@ -10,10 +10,10 @@
 mod host;
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use host::softplc;
+use host::{softplc, Running};
 
 /// Far longer than any of these steps takes, even on a loaded machine.
 const PATIENCE: Duration = Duration::from_secs(60);
@@ -52,21 +52,6 @@ traces:
     let path = dir.join(format!("{name}.yaml"));
     std::fs::write(&path, text).unwrap();
     path
-}
-
-/// A running `softplc run --virtual`, stopped (SIGTERM) when dropped.
-struct Running(Child);
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        #[allow(unsafe_code)]
-        // SAFETY: kill has no memory preconditions; the pid is our own child's.
-        unsafe {
-            libc::kill(self.0.id() as i32, libc::SIGTERM)
-        };
-        // Only reaps the child: its exit status is not what this test checks.
-        drop(self.0.wait());
-    }
 }
 
 fn json(text: &str) -> serde_json::Value {

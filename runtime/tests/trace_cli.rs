@@ -3,9 +3,14 @@
 //! and VCD; a trace armed with --tags; the refusals, with their words. Also the `traces:`
 //! errors `check` reports, at their line and column.
 
+#[path = "common/host.rs"]
+mod host;
+
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
+
+use host::Running;
 
 /// Far longer than any of these steps takes, even on a loaded machine.
 const PATIENCE: Duration = Duration::from_secs(60);
@@ -54,21 +59,6 @@ fn text(o: &Output) -> (String, String) {
         String::from_utf8_lossy(&o.stdout).into_owned(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
     )
-}
-
-/// A running `softplc run --virtual`, stopped (SIGTERM) when dropped.
-struct Running(Child);
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        #[allow(unsafe_code)]
-        // SAFETY: kill has no memory preconditions; the pid is our own child's.
-        unsafe {
-            libc::kill(self.0.id() as i32, libc::SIGTERM)
-        };
-        // Only reaps the child: its exit status is not what this test checks.
-        drop(self.0.wait());
-    }
 }
 
 fn start(dir: &Path) -> (Running, PathBuf) {

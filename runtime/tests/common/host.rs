@@ -54,3 +54,18 @@ pub(crate) fn lines_of(r: impl std::io::Read + Send + 'static) -> Receiver<Strin
     });
     rx
 }
+
+/// A running `softplc run`, stopped (SIGTERM) when dropped.
+pub(crate) struct Running(pub(crate) std::process::Child);
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        #[allow(unsafe_code)]
+        // SAFETY: kill has no memory preconditions; the pid is our own child's.
+        unsafe {
+            libc::kill(self.0.id() as i32, libc::SIGTERM)
+        };
+        // Only reaps the child: its exit status is not what this test checks.
+        drop(self.0.wait());
+    }
+}
