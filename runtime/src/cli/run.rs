@@ -91,13 +91,32 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         false => None,
     };
     let tap = trace.as_ref().map(|(tap, _)| tap.clone() as _);
+    // Every service's state, for status, metrics and the page.
+    let health = Health::new();
+    // Requests to the scan: from the control socket and from the Modbus TCP server's writes.
+    let (requests, requests_rx) = crossbeam_channel::bounded(16);
+    let published = snapshot::SnapshotCell::new();
+    // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
+    let mut feed = ChangeFeed::new();
+    // The OPC UA server before the modules' start-up: making its key pair takes seconds on a
+    // small machine (more on a loaded one), and the start-up arms the modules' watchdogs, which
+    // would fire in that time before the first scan commands them. Clients see
+    // Bad_WaitingForInitialData until the first scan.
+    let opcua = match OpcUaServer::start(&project, &published, &mut feed, &requests, &health) {
+        Ok(server) => server,
+        Err(e) if e.is_fatal() => return Err(e.into()),
+        Err(e) => {
+            // The PLC runs without it, and says why.
+            tracing::error!("{e}; the PLC runs without it");
+            health.set(Service::Opcua, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    };
     let mut plc = Plc::build_traced(project, clock, None, tap).context("cannot start the PLC")?;
     let printer = trace.map(|(_, printer)| printer);
     if args.keep_forces {
         plc.keep_forces(crate::plc::forces_path(&args.project));
     }
-    // Every service's state, for status, metrics and the page.
-    let health = Health::new();
     // After the kept forces: the record's first keyframe is the state the first cycle sees.
     let recorder = match Settings::for_run(plc.project(), args.record) {
         Some(settings) => {
@@ -125,8 +144,6 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
     }
-    // Requests to the scan: from the control socket and from the Modbus TCP server's writes.
-    let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let mut boundary = ServiceBoundary::new()
         .with_control(requests_rx)
         .with_health(health.clone());
@@ -144,24 +161,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         tracing::info!("control socket {}", server.path().display());
         Some(server)
     };
-    let published = snapshot::SnapshotCell::new();
     let project = engine.plc().project();
-    // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
-    let mut feed = ChangeFeed::new();
     let mut services = network::start(project, &published, &requests, &health)?;
     let mqtt =
         crate::service::mqtt::MqttNode::start(project, &published, &mut feed, &requests, &health)
             .context("cannot start the MQTT edge node")?;
-    let opcua = match OpcUaServer::start(project, &published, &mut feed, &requests, &health) {
-        Ok(server) => server,
-        Err(e) if e.is_fatal() => return Err(e.into()),
-        Err(e) => {
-            // The PLC runs without it, and says why.
-            tracing::error!("{e}; the PLC runs without it");
-            health.set(Service::Opcua, ServiceState::Stopped(e.to_string()));
-            None
-        }
-    };
     if let Some(server) = &opcua {
         tracing::info!("OPC UA server at {}", server.describe());
     }
