@@ -137,7 +137,10 @@ impl ServiceBoundary {
                             applied_at: Some(stats.cycles),
                             ..Response::done(format!("{n} tag(s) written"))
                         },
-                        Err(e) => Response::refused(e.to_string()),
+                        Err(e) => Response {
+                            locked: matches!(e, crate::plc::TagError::Forced { .. }),
+                            ..Response::refused(e.to_string())
+                        },
                     }
                 }
             };

@@ -93,6 +93,11 @@ pub struct Response {
     /// cycles then), the first whose published values hold it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub applied_at: Option<u64>,
+    /// For `write`: refused because a tag is forced (the force wins until it is removed), so a
+    /// protocol that has a word for it says so (OPC UA's `BadLocked`) whenever the force came,
+    /// even after the snapshot the service last saw.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub locked: bool,
 }
 
 impl Response {

@@ -133,7 +133,12 @@ impl Writer {
                     name,
                     "OPC UA: write to {name} refused: {why}"
                 );
-                StatusCode::BadNotWritable
+                // Forced after the snapshot checked above: the scan knows.
+                if r.locked {
+                    StatusCode::BadLocked
+                } else {
+                    StatusCode::BadNotWritable
+                }
             }
             Err(_) => {
                 limited!(
@@ -185,6 +190,12 @@ mod tests {
                 seen.push(format!("{}={}", values[0].tag, values[0].value));
                 let r = if values[0].tag == "speed" && values[0].value == "7" {
                     Response::done("1 tag(s) written")
+                } else if values[0].value == "9" {
+                    // Forced at the boundary after the snapshot the writer looked at.
+                    Response {
+                        locked: true,
+                        ..Response::refused("speed is forced; unforce it to write it")
+                    }
                 } else {
                     Response::refused("pushed down")
                 };
@@ -208,8 +219,13 @@ mod tests {
             w.write(0, ValueType::U16, &dv(Variant::UInt16(8))),
             StatusCode::BadNotWritable
         );
+        assert_eq!(
+            w.write(0, ValueType::U16, &dv(Variant::UInt16(9))),
+            StatusCode::BadLocked,
+            "a force the snapshot did not show yet is still a lock"
+        );
         drop(w);
-        assert_eq!(scan.join().unwrap(), ["speed=7", "speed=8"]);
+        assert_eq!(scan.join().unwrap(), ["speed=7", "speed=8", "speed=9"]);
     }
 
     #[test]
