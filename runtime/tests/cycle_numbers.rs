@@ -10,13 +10,8 @@
 mod host;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
-use host::{softplc, Running};
-
-/// Far longer than any of these steps takes, even on a loaded machine.
-const PATIENCE: Duration = Duration::from_secs(60);
+use host::{run_virtual, softplc};
 
 fn folder() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-cycle-numbers-{}", std::process::id()));
@@ -63,22 +58,7 @@ fn one_event_has_one_cycle_number_in_status_web_trace_record_and_replay() {
     let dir = folder();
     let live = project(&dir, "live", 40);
     let socket = dir.join("ctl.sock");
-    let child = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .arg("run")
-        .arg(&live)
-        .args(["--virtual", "--for", "10000h", "--quiet", "--socket"])
-        .arg(&socket)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let _running = Running(child);
-    let begin = Instant::now();
-    while !socket.exists() {
-        assert!(begin.elapsed() < PATIENCE, "no control socket");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let _running = run_virtual(&live, &socket);
     let s = socket.to_str().unwrap();
 
     // Status: the scan count and the counter, from one snapshot, are the same number.

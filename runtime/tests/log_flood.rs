@@ -5,29 +5,18 @@
 
 use std::io::Read;
 use std::net::TcpStream;
-use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+#[path = "common/host.rs"]
+mod host;
 #[path = "common/sim.rs"]
 mod sim;
 
+use host::wait_in_log;
 use sim::Sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
-
-/// Waits (bounded) for a line of `log` containing `what`; that line.
-fn wait_in_log(log: &Path, what: &str, within: Duration) -> String {
-    let begin = Instant::now();
-    loop {
-        let text = std::fs::read_to_string(log).unwrap_or_default();
-        if let Some(line) = text.lines().find(|l| l.contains(what)) {
-            return line.to_owned();
-        }
-        assert!(begin.elapsed() < within, "no {what:?} in the log:\n{text}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
 
 #[test]
 fn a_flood_of_refused_connections_is_summarized_and_a_module_loss_still_logged() {

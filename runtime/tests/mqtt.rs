@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 #[path = "common/host.rs"]
 mod host;
-use host::{free_port, lines_of, repo as workspace};
+use host::{free_port, lines_of, repo as workspace, wait_in_log};
 #[path = "common/broker.rs"]
 mod broker;
 use broker::{sparkplug_pb2, Broker};
@@ -515,19 +515,6 @@ fn a_broker_that_wants_a_password_takes_the_projects_user_and_refuses_a_wrong_pa
 
 #[path = "common/sim.rs"]
 mod sim;
-
-/// Waits (bounded) for a line of `log` containing `what`; that line.
-fn wait_in_log(log: &Path, what: &str, within: Duration) -> String {
-    let begin = Instant::now();
-    loop {
-        let text = std::fs::read_to_string(log).unwrap_or_default();
-        if let Some(line) = text.lines().find(|l| l.contains(what)) {
-            return line.to_owned();
-        }
-        assert!(begin.elapsed() < within, "no {what:?} in the log:\n{text}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
 
 #[test]
 fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {

@@ -8,12 +8,8 @@ mod host;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
 
-use host::Running;
-
-/// Far longer than any of these steps takes, even on a loaded machine.
-const PATIENCE: Duration = Duration::from_secs(60);
+use host::{run_virtual, Running};
 
 fn folder(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("softplc-trace-cli-{}-{name}", std::process::id()));
@@ -73,22 +69,7 @@ fn start_with(dir: &Path, project: &str) -> (Running, PathBuf) {
     .unwrap();
     std::fs::write(dir.join("project.yaml"), project).unwrap();
     let socket = dir.join("ctl.sock");
-    let child = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .arg("run")
-        .arg(dir.join("project.yaml"))
-        .args(["--virtual", "--for", "10000h", "--quiet", "--socket"])
-        .arg(&socket)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let running = Running(child);
-    let begin = Instant::now();
-    while !socket.exists() {
-        assert!(begin.elapsed() < PATIENCE, "no control socket");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let running = run_virtual(&dir.join("project.yaml"), &socket);
     (running, socket)
 }
 

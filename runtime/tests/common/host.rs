@@ -69,3 +69,46 @@ impl Drop for Running {
         drop(self.0.wait());
     }
 }
+
+/// Waits (bounded) for a line of `log` containing `what`; that line.
+pub(crate) fn wait_in_log(
+    log: &std::path::Path,
+    what: &str,
+    within: std::time::Duration,
+) -> String {
+    let begin = std::time::Instant::now();
+    loop {
+        let text = std::fs::read_to_string(log).unwrap_or_default();
+        if let Some(line) = text.lines().find(|l| l.contains(what)) {
+            return line.to_owned();
+        }
+        assert!(begin.elapsed() < within, "no {what:?} in the log:\n{text}");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// `softplc run PROJECT --virtual` without end, its control socket at `socket`, once that
+/// socket is there (within a minute); stopped when the result is dropped.
+pub(crate) fn run_virtual(project: &std::path::Path, socket: &std::path::Path) -> Running {
+    use std::process::{Command, Stdio};
+    let child = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .arg("run")
+        .arg(project)
+        .args(["--virtual", "--for", "10000h", "--quiet", "--socket"])
+        .arg(socket)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let running = Running(child);
+    let begin = std::time::Instant::now();
+    while !socket.exists() {
+        assert!(
+            begin.elapsed() < std::time::Duration::from_secs(60),
+            "no control socket"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    running
+}
