@@ -189,6 +189,15 @@ class Statuses:
         return None
 
 
+def code_name(status):
+    """The name of a StatusCode's code, without its info bits (OPC UA Part 4, 7.39: the low 16
+    bits). With a queue of one, a status that changes twice within a publishing interval arrives
+    with the Overflow bit set, and asyncua names any code it cannot look up just "Bad"."""
+    from asyncua import ua
+
+    return ua.StatusCode(status.value & 0xFFFF0000).name
+
+
 async def opcua_status(url, ns_uri, tag):
     from asyncua import ua
 
@@ -210,7 +219,7 @@ async def opcua_status(url, ns_uri, tag):
         await asyncio.get_running_loop().run_in_executor(None, sys.stdin.readline)
         for name, h in [("filterless", plain), ("timestamp", stamped)]:
             status = await h.first(False, 30)
-            say(f"STATUS {name} {status.name if status else 'none'}")
+            say(f"STATUS {name} {code_name(status) if status else 'none'}")
     finally:
         await c.disconnect()
 
