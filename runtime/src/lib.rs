@@ -36,6 +36,7 @@ pub mod plc;
 pub mod project;
 pub mod recorder;
 pub mod retain;
+mod save_thread;
 pub mod scan;
 pub mod service;
 mod suggest;

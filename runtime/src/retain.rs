@@ -8,8 +8,8 @@
 //!   fit its type, keeps its initial value (reported).
 //! - **Save** ([`Retainer::tick`], [`Retainer::finish`]): between two cycles, at most once per
 //!   `retain.period`, the scan copies the retained values (a few words) when they changed and
-//!   hands them to a writer thread, without waiting: if the writer is still busy with the
-//!   previous copy, the scan tries again after the next cycle. On stop the last values are
+//!   hands them to a writer thread ([`crate::save_thread`]), without waiting: if the writer is
+//!   still busy with the previous copy, the scan hands the newest over after a later cycle. On stop the last values are
 //!   written before the process exits. A program reload keeps the image, so nothing is lost.
 //! - **Atomic write**: the writer writes `FILE.tmp`, fsyncs it, renames it over `FILE` and
 //!   fsyncs the folder. A crash or a power cut at any point leaves either the previous file or
@@ -23,15 +23,14 @@ use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
-use crossbeam_channel::{Sender, TrySendError};
 use serde_json::{Map, Number, Value as Json};
 use softplc_io::point::{Value, ValueType};
 
 use crate::image::{ProcessImage, TagId};
 use crate::project::Project;
+use crate::save_thread::{Handed, SaveThread};
 
 /// The format marker and version in every file.
 const MARKER: &str = "softplc_retain";
@@ -136,10 +135,8 @@ pub struct Retainer {
     tags: Vec<(TagId, String)>,
     /// Values last handed to the writer.
     saved: Vec<Value>,
-    /// Values waiting for the writer (it was busy).
-    pending: Option<Vec<Value>>,
     last: Option<Duration>,
-    writer: Option<(Sender<Snapshot>, JoinHandle<()>)>,
+    writer: SaveThread<Snapshot>,
     /// Why the last save failed; `None` once one succeeds.
     failing: SaveFailure,
 }
@@ -169,14 +166,17 @@ impl Retainer {
         let notes = load_into(&path, &tags, image);
         let saved = tags.iter().map(|(id, _)| image.get(*id)).collect();
         let failing = SaveFailure::default();
-        let writer = spawn_writer(path.clone(), failing.clone());
+        let (to, why) = (path.clone(), failing.clone());
+        let writer = SaveThread::new(
+            "retain",
+            Arc::new(move |snap: &Snapshot| save(&to, snap, &why)),
+        );
         (
             Some(Self {
                 path,
                 period: project.retain.period,
                 tags,
                 saved,
-                pending: None,
                 last: None,
                 writer,
                 failing,
@@ -196,8 +196,13 @@ impl Retainer {
     }
 
     /// Called between cycles with the scan time: at most once per period, hands the values to
-    /// the writer if they changed. Never waits.
+    /// the writer if they changed; hands over what waited for a busy writer. Never waits.
     pub fn tick(&mut self, image: &ProcessImage, now: Duration) {
+        if self.writer.flush() == Handed::Waiting {
+            if let Some(why) = self.writer.not_started() {
+                *self.failing.lock().unwrap_or_else(PoisonError::into_inner) = Some(why.into());
+            }
+        }
         if self
             .last
             .is_some_and(|l| now.saturating_sub(l) < self.period)
@@ -206,32 +211,12 @@ impl Retainer {
         }
         self.last = Some(now);
         let current: Vec<Value> = self.tags.iter().map(|(id, _)| image.get(*id)).collect();
-        if self.pending.is_none() && current == self.saved {
+        if current == self.saved {
             return;
         }
-        self.pending = Some(current);
-        self.flush_pending();
-    }
-
-    fn flush_pending(&mut self) {
-        let Some(values) = self.pending.take() else {
-            return;
-        };
-        let Some((tx, _)) = self.writer.as_ref() else {
-            // No writer thread (it could not start, or it stopped): save from here rather than
-            // not at all.
-            self.write_now(&values);
-            return;
-        };
-        match tx.try_send(self.snapshot(&values)) {
-            Ok(()) => self.saved = values,
-            Err(TrySendError::Full(_)) => self.pending = Some(values),
-            Err(TrySendError::Disconnected(_)) => {
-                tracing::error!("retain: the writer thread stopped; saving from the scan");
-                self.writer = None;
-                self.write_now(&values);
-            }
-        }
+        // Taken or waiting, these are the values the file gets next.
+        self.writer.offer(self.snapshot(&current));
+        self.saved = current;
     }
 
     fn snapshot(&self, values: &[Value]) -> Snapshot {
@@ -242,54 +227,12 @@ impl Retainer {
             .collect()
     }
 
-    fn write_now(&mut self, values: &[Value]) {
-        if save(&self.path, &self.snapshot(values), &self.failing) {
-            self.saved = values.to_vec();
-        }
-    }
-
     /// On stop: waits for the writer, then writes the current values (always, so the file
     /// holds the last scan's values).
     pub fn finish(&mut self, image: &ProcessImage) {
-        if let Some((tx, handle)) = self.writer.take() {
-            drop(tx);
-            // A writer that panicked has reported it already (panic hook), and the values
-            // are written again just below.
-            drop(handle.join());
-        }
         let current: Vec<Value> = self.tags.iter().map(|(id, _)| image.get(*id)).collect();
-        self.write_now(&current);
-        self.pending = None;
-    }
-}
-
-impl Drop for Retainer {
-    fn drop(&mut self) {
-        if let Some((tx, handle)) = self.writer.take() {
-            drop(tx);
-            // A writer that panicked has reported it already (panic hook); a drop has
-            // nothing left to write.
-            drop(handle.join());
-        }
-    }
-}
-
-/// The writer thread: writes each snapshot it receives; ends when the sender is dropped.
-fn spawn_writer(path: PathBuf, failing: SaveFailure) -> Option<(Sender<Snapshot>, JoinHandle<()>)> {
-    let (tx, rx) = crossbeam_channel::bounded::<Snapshot>(1);
-    let spawned = std::thread::Builder::new()
-        .name("retain".into())
-        .spawn(move || {
-            for snap in rx {
-                save(&path, &snap, &failing);
-            }
-        });
-    match spawned {
-        Ok(handle) => Some((tx, handle)),
-        Err(e) => {
-            tracing::error!("retain: cannot start the writer thread ({e}); saving from the scan");
-            None
-        }
+        self.writer.finish_with(&self.snapshot(&current));
+        self.saved = current;
     }
 }
 

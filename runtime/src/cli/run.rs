@@ -320,6 +320,7 @@ pub(crate) fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Du
     let _ = writeln!(out, "  inputs    {}", s.read.percentiles());
     let _ = writeln!(out, "  logic     {}", s.logic.percentiles());
     let _ = writeln!(out, "  outputs   {}", s.write.percentiles());
+    let _ = writeln!(out, "  boundary  {}", s.boundary.percentiles());
     let _ = writeln!(out, "  lateness  {}", s.lateness.percentiles());
     for m in &outcome.modules {
         let c = &m.counters;

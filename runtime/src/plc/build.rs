@@ -272,7 +272,7 @@ impl Plc {
             plan,
             offload,
             dead_lines: Vec::new(),
-            forces_file: None,
+            kept_forces: None,
             recorder: None,
         })
     }

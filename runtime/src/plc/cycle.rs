@@ -141,6 +141,9 @@ impl Plc {
         if let Some(r) = self.retain.as_mut() {
             r.tick(&self.image, self.clock.now());
         }
+        if let Some(f) = self.kept_forces.as_mut() {
+            f.flush();
+        }
         // What the cycle wrote, to the flight recorder (never waits either).
         if let Some(tap) = self.recorder.as_mut() {
             tap.wrote(&self.image);
@@ -245,6 +248,9 @@ impl Plc {
         self.write_safe_state();
         if let Some(r) = self.retain.as_mut() {
             r.finish(&self.image);
+        }
+        if let Some(f) = self.kept_forces.as_mut() {
+            f.finish();
         }
         for line in &mut self.lines {
             line.stop(self.line_wait);

@@ -1,12 +1,22 @@
 //! Forces that survive a restart, when asked (`softplc run --keep-forces`): every force and
 //! unforce rewrites a small file beside the project (under systemd: in its state directory)
-//! atomically, and the next start applies it
-//! before the first scan. Without the option forces are lost on restart, as on most PLCs.
+//! atomically, on a writer thread of its own (a force is applied at a cycle boundary, which
+//! must not wait for the disk), and the next start applies it before the first scan. Without
+//! the option forces are lost on restart, as on most PLCs.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use super::Plc;
+use crate::log_limit::{limited, Site};
+use crate::save_thread::SaveThread;
+
+/// A log site a full disk would repeat at every force (see [`crate::log_limit`]).
+const KEEP_FAILED: Site = Site::new("forces.keep", "forces: failed saves");
+
+/// The writer of the kept-forces file.
+pub(super) type ForcesWriter = SaveThread<Vec<u8>>;
 
 /// The file that keeps `project_file`'s forces: `PROJECT.forces.json` beside it, or in the
 /// unit's state directory under systemd (see `crate::project::state`).
@@ -38,15 +48,26 @@ impl Plc {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
             Err(e) => tracing::error!("{}: cannot read ({e}); no force applied", path.display()),
         }
-        self.forces_file = Some(path);
+        let to = path.clone();
+        self.kept_forces = Some(SaveThread::new(
+            "forces",
+            Arc::new(move |text: &Vec<u8>| {
+                crate::retain::write_file_atomic(&to, text)
+                    .map_err(|e| {
+                        let why = e.to_string();
+                        limited!(ERROR, KEEP_FAILED, why, "cannot keep forces: {e}");
+                    })
+                    .is_ok()
+            }),
+        ));
         self.save_forces();
     }
 
-    /// Writes the current forces to the kept-forces file, if there is one.
-    pub(super) fn save_forces(&self) {
-        let Some(path) = &self.forces_file else {
+    /// Hands the current forces to the kept-forces file's writer, if there is one.
+    pub(super) fn save_forces(&mut self) {
+        if self.kept_forces.is_none() {
             return;
-        };
+        }
         let forces: BTreeMap<String, String> = (0..self.image.len())
             .filter_map(|i| {
                 let id = crate::image::TagId(i as u32);
@@ -57,8 +78,8 @@ impl Plc {
             .collect();
         let mut text = serde_json::to_vec_pretty(&forces).unwrap_or_default();
         text.push(b'\n');
-        if let Err(e) = crate::retain::write_file_atomic(path, &text) {
-            tracing::error!("cannot keep forces: {e}");
+        if let Some(writer) = self.kept_forces.as_mut() {
+            writer.offer(text);
         }
     }
 }

@@ -167,7 +167,7 @@ pub struct Plc {
     /// Lines whose bus thread has ended (logged once).
     dead_lines: Vec<usize>,
     /// Where forces are kept across restarts, when asked.
-    forces_file: Option<std::path::PathBuf>,
+    kept_forces: Option<forces::ForcesWriter>,
     /// The flight recorder's tap, when the run is recorded.
     recorder: Option<crate::recorder::Tap>,
 }

@@ -73,11 +73,20 @@ mod tests {
     }
 
     fn plc() -> Plc {
-        let dir = std::env::temp_dir().join(format!("softplc-boundary-{}", std::process::id()));
+        plc_with("b", "")
+    }
+
+    /// The test's PLC at a 10 ms period, with `scan_extra` in its `scan:` map, in a folder of
+    /// its own named after `name`.
+    fn plc_with(name: &str, scan_extra: &str) -> Plc {
+        let dir =
+            std::env::temp_dir().join(format!("softplc-boundary-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         // seen follows what the boundary wrote into flag.
         std::fs::write(dir.join("b.expr"), "seen = flag\n").unwrap();
-        let yaml = "project: b\nscan:\n  period: 10ms\nbuses: []\nmodules: []\ntags:\n  - { name: flag, type: bool }\n  - { name: seen, type: bool }\nprogram: { file: b.expr, kind: expr }\n";
+        let yaml = format!(
+            "project: b\nscan:\n  period: 10ms\n{scan_extra}buses: []\nmodules: []\ntags:\n  - {{ name: flag, type: bool }}\n  - {{ name: seen, type: bool }}\nprogram: {{ file: b.expr, kind: expr }}\n"
+        );
         std::fs::write(dir.join("b.yaml"), yaml).unwrap();
         let project = crate::project::load(&dir.join("b.yaml")).unwrap();
         Plc::build(project, Arc::new(VirtualClock::new())).unwrap()
@@ -102,5 +111,60 @@ mod tests {
                 "stopped after 3 with seen=1",
             ]
         );
+    }
+
+    /// A boundary that takes `0` of the PLC's clock every time (a slow trace export, a control
+    /// client's large answer).
+    struct Slow(Duration);
+
+    impl CycleBoundary for Slow {
+        fn between_cycles(&mut self, plc: &mut Plc, _: &ScanStats, now: Duration) {
+            plc.clock().sleep_until(now + self.0);
+        }
+    }
+
+    #[test]
+    fn the_boundary_is_a_phase_of_the_cycle() {
+        // 4 ms of boundary in a 10 ms period: in time, and in the cycle's time.
+        let outcome = ScanEngine::new(plc_with("timed", ""))
+            .max_cycles(10)
+            .with_boundary(Slow(Duration::from_millis(4)))
+            .run();
+        let s = &outcome.stats;
+        assert_eq!((s.cycles, s.overruns), (10, 0));
+        let boundary = s.boundary.percentiles();
+        assert_eq!(boundary.count, 10);
+        assert!(boundary.max.as_micros().abs_diff(4000) <= 4, "{boundary:?}");
+        let cycle = s.cycle.percentiles();
+        assert!(cycle.p50 >= Duration::from_millis(4), "{cycle:?}");
+    }
+
+    #[test]
+    fn a_boundary_past_the_period_is_an_overrun() {
+        // 12 ms of boundary in a 10 ms period: each cycle passes its next deadline, which is
+        // skipped; the next cycle starts on the grid.
+        let outcome = ScanEngine::new(plc_with("overrun", ""))
+            .max_cycles(5)
+            .with_boundary(Slow(Duration::from_millis(12)))
+            .run();
+        assert_eq!((outcome.stats.cycles, outcome.stats.overruns), (5, 5));
+        assert_eq!(outcome.stats.last.start, Duration::from_millis(80));
+    }
+
+    #[test]
+    fn a_boundary_that_hangs_trips_the_task_watchdog() {
+        let outcome = ScanEngine::new(plc_with(
+            "watchdog",
+            "  watchdog: { time: 30ms, sensitivity: 1 }\n",
+        ))
+        .max_cycles(10)
+        .with_boundary(Slow(Duration::from_millis(50)))
+        .run();
+        assert!(
+            matches!(outcome.reason, StopReason::Watchdog(_)),
+            "{:?}",
+            outcome.reason
+        );
+        assert_eq!(outcome.stats.cycles, 1);
     }
 }

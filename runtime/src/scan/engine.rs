@@ -221,39 +221,49 @@ impl ScanEngine {
                 break StopReason::LogicFault(fault);
             }
             self.plc.write_outputs();
+            let outputs_end = clock.now();
+
+            stats.last = LastCycle {
+                start: deadline,
+                read: read_end - start,
+                logic: logic_end - read_end,
+                write: outputs_end - logic_end,
+                cycle: outputs_end - start,
+            };
+            let work = self.plc.cycle_work();
+            stats.cycles += 1;
+            stats.bus_errors = self.plc.bus_errors();
+            if let Some(hook) = self.on_cycle.as_mut() {
+                hook(&self.plc, &ctx);
+            }
+            // The boundary (traces, control answers, the services' feed, the reload poll, the
+            // status refresh) is the cycle's last phase: timed, and counted by the watchdog and
+            // the overrun check like the others, since it is time the next cycle does not have.
+            for b in &mut self.boundaries {
+                b.between_cycles(&mut self.plc, &stats, outputs_end);
+            }
+            if outputs_end.saturating_sub(last_published) >= Duration::from_millis(200) {
+                last_published = outputs_end;
+                self.publish(&stats, outputs_end);
+            }
             let end = clock.now();
 
             let phases = Phases {
                 start,
                 read_end,
                 logic_end,
+                outputs_end,
                 end,
             };
-            stats.last = LastCycle {
-                start: deadline,
-                read: read_end - start,
-                logic: logic_end - read_end,
-                write: end - logic_end,
-                cycle: end - start,
-            };
-            let work = self.plc.cycle_work();
             match work {
-                CycleWork::Done => phases.record(&mut stats, end),
-                CycleWork::At(t) => phases.record(&mut stats, t.max(end)),
+                CycleWork::Done => phases.record(&mut stats, outputs_end),
+                CycleWork::At(t) => phases.record(&mut stats, t),
                 CycleWork::Later => open.push_back(phases),
-            }
-            stats.cycles += 1;
-            stats.bus_errors = self.plc.bus_errors();
-            if let Some(hook) = self.on_cycle.as_mut() {
-                hook(&self.plc, &ctx);
             }
             // The scan's own work: waits for lines are bounded by the period and never trip it,
             // so a dead line cannot stop the PLC.
             if let Err(trip) = watchdog.check((end - start).saturating_sub(self.plc.io_wait())) {
                 break StopReason::Watchdog(trip);
-            }
-            for b in &mut self.boundaries {
-                b.between_cycles(&mut self.plc, &stats, end);
             }
 
             previous = Some(deadline);
@@ -280,9 +290,11 @@ impl ScanEngine {
                     .saturating_add(u64::try_from(skipped.max(1)).unwrap_or(u64::MAX));
                 let skip = period.as_nanos().saturating_mul(skipped);
                 deadline += Duration::from_nanos(u64::try_from(skip).unwrap_or(u64::MAX));
-                let outputs_end = match work {
-                    CycleWork::At(t) => t.max(end),
-                    CycleWork::Done | CycleWork::Later => end,
+                // The writes may end after the boundary (on a line's thread): the boundary's
+                // share is what it took beyond them, so the phases add up to the cycle.
+                let writes_end = match work {
+                    CycleWork::At(t) => t.max(outputs_end),
+                    CycleWork::Done | CycleWork::Later => outputs_end,
                 };
                 overruns.note(
                     end,
@@ -290,13 +302,10 @@ impl ScanEngine {
                     [
                         ("inputs", read_end - start),
                         ("logic", logic_end - read_end),
-                        ("outputs", outputs_end - logic_end),
+                        ("outputs", writes_end - logic_end),
+                        ("boundary", end.saturating_sub(writes_end)),
                     ],
                 );
-            }
-            if end.saturating_sub(last_published) >= Duration::from_millis(200) {
-                last_published = end;
-                self.publish(&stats, end);
             }
         };
         self.plc.late_work_ends(clock.now(), true, &mut ends);
@@ -347,19 +356,23 @@ struct Phases {
     start: Duration,
     read_end: Duration,
     logic_end: Duration,
-    /// When the scan went on to the next cycle.
+    /// When the scan had handed out its writes.
+    outputs_end: Duration,
+    /// When the boundary was done and the scan went on to the next cycle.
     end: Duration,
 }
 
 impl Phases {
-    /// Records the cycle, whose work (its lines' writes included) ended at `work_end`: the
-    /// output phase and the cycle run until then, so a cycle that outlasted its period shows
-    /// its real length, not the period it was cut at.
-    fn record(&self, stats: &mut ScanStats, work_end: Duration) {
-        let work_end = work_end.max(self.end);
+    /// Records the cycle, whose writes (its lines' acknowledgements included) ended at
+    /// `writes_end`: the output phase runs until then and the cycle until the later of its
+    /// writes and its boundary, so a cycle that outlasted its period shows its real length,
+    /// not the period it was cut at.
+    fn record(&self, stats: &mut ScanStats, writes_end: Duration) {
+        let writes_end = writes_end.max(self.outputs_end);
         stats.read.record(self.read_end - self.start);
         stats.logic.record(self.logic_end - self.read_end);
-        stats.write.record(work_end - self.logic_end);
-        stats.cycle.record(work_end - self.start);
+        stats.write.record(writes_end - self.logic_end);
+        stats.boundary.record(self.end - self.outputs_end);
+        stats.cycle.record(writes_end.max(self.end) - self.start);
     }
 }

@@ -29,11 +29,11 @@ impl OverrunLog {
 
     /// Records an overrun at `now` that skipped `skipped` deadlines, with the cycle's phases;
     /// returns the line it logged, if any.
-    pub(crate) fn note(
+    pub(crate) fn note<const N: usize>(
         &mut self,
         now: Duration,
         skipped: u128,
-        phases: [(&str, Duration); 3],
+        phases: [(&str, Duration); N],
     ) -> Option<String> {
         self.quiet += 1;
         if self.last.is_some_and(|t| now.saturating_sub(t) < EVERY) {

@@ -116,9 +116,11 @@ pub struct ScanStats {
     pub read: DurationHistogram,
     /// Logic phase.
     pub logic: DurationHistogram,
-    /// Output phase.
+    /// Output phase, to the lines' acknowledgement of the writes.
     pub write: DurationHistogram,
-    /// Whole cycle: start to end of the output phase.
+    /// The cycle boundary: traces, control answers, the services' feed, the reload poll.
+    pub boundary: DurationHistogram,
+    /// Whole cycle: start to the later of the writes' end and the boundary's.
     pub cycle: DurationHistogram,
     /// Bus errors counted over all modules (timeouts, CRC, bad replies, exceptions).
     pub bus_errors: u64,
@@ -135,9 +137,10 @@ pub struct LastCycle {
     pub read: Duration,
     /// Logic phase.
     pub logic: Duration,
-    /// Output phase.
+    /// Output phase, as far as the scan's hand-off of the writes.
     pub write: Duration,
-    /// The whole cycle.
+    /// The cycle up to the end of its output phase: its boundary, where a trace samples it,
+    /// comes after (the histogram `ScanStats::cycle` counts it).
     pub cycle: Duration,
 }
 

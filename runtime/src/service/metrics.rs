@@ -10,7 +10,7 @@
 //! | `softplc_info{project}` | gauge | always 1 |
 //! | `softplc_scan_period_seconds` | gauge | the configured period |
 //! | `softplc_scans_total`, `softplc_overruns_total` | counter | completed cycles, skipped deadlines |
-//! | `softplc_{cycle,read,logic,write,lateness}_seconds` | summary | quantiles 0.5, 0.99, 0.999, `_sum`, `_count` |
+//! | `softplc_{cycle,read,logic,write,boundary,lateness}_seconds` | summary | quantiles 0.5, 0.99, 0.999, `_sum`, `_count` |
 //! | `softplc_phase_max_seconds{phase}` | gauge | the longest sample of each phase |
 //! | `softplc_module_{requests,timeouts,crc_errors,bad_replies,exceptions,echo_errors}_total{module,bus}` | counter | bus counters |
 //! | `softplc_module_quality{module,bus}` | gauge | 0 good, 1 stale, 2 bad |

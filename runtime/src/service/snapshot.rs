@@ -121,17 +121,20 @@ pub(crate) enum Phase {
     Logic,
     /// Output phase.
     Write,
+    /// The cycle boundary (traces, control answers, the services' feed).
+    Boundary,
     /// Wake-up lateness.
     Lateness,
 }
 
 impl Phase {
     /// Every phase.
-    pub(crate) const ALL: [Phase; 5] = [
+    pub(crate) const ALL: [Phase; 6] = [
         Phase::Cycle,
         Phase::Read,
         Phase::Logic,
         Phase::Write,
+        Phase::Boundary,
         Phase::Lateness,
     ];
 
@@ -142,6 +145,7 @@ impl Phase {
             Phase::Read => "read",
             Phase::Logic => "logic",
             Phase::Write => "write",
+            Phase::Boundary => "boundary",
             Phase::Lateness => "lateness",
         }
     }
@@ -152,6 +156,7 @@ impl Phase {
             Phase::Read => &s.read,
             Phase::Logic => &s.logic,
             Phase::Write => &s.write,
+            Phase::Boundary => &s.boundary,
             Phase::Lateness => &s.lateness,
         }
     }
@@ -187,7 +192,7 @@ pub struct ServiceSnapshot {
     /// Whether each tag is forced, in tag order.
     pub forced: Vec<bool>,
     /// Phase summaries, in `Phase::ALL` order (refreshed every `STATS_EVERY`).
-    pub phases: [PhaseSummary; 5],
+    pub phases: [PhaseSummary; Phase::ALL.len()],
     /// Modules, in project order (refreshed with the phases).
     pub modules: Vec<ModuleSnapshot>,
     /// Each module's last failure, when its last read failed (refreshed with the phases; only

@@ -12,10 +12,11 @@
   const TREND_WINDOW_MS = 60000;
   const PALETTE = ["#2f6fde", "#17a34a", "#d98a06", "#a43fd1", "#d33a2c", "#0e9aa7", "#7a5c2e", "#db4fa0"];
   const PHASE_TITLES = {
-    cycle: ["Cycle time", "start of the input phase to the end of the output phase"],
+    cycle: ["Cycle time", "start of the input phase to the end of the boundary (or of the writes, if later)"],
     read: ["Input phase", "every line read, in parallel"],
     logic: ["Logic phase", "the program"],
-    write: ["Output phase", "changed outputs written"],
+    write: ["Output phase", "changed outputs written, to the modules' acknowledgement"],
+    boundary: ["Boundary", "traces, control requests, the services' changes, a reload"],
     lateness: ["Wake-up lateness", "start of a cycle after its deadline"],
   };
   const QUALITY = ["good", "stale", "bad"];
