@@ -9,46 +9,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
 
+use crate::common::host::repo as root;
+use crate::common::scratch::Scratch;
 use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("the workspace root")
-        .to_path_buf()
-}
-
-/// A project folder of its own, removed at the end.
-struct Scratch {
-    dir: PathBuf,
-}
-
-impl Scratch {
-    fn new(case: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!(
-            "softplc-check-catches-{}-{case}",
-            std::process::id()
-        ));
-        // Best effort: the test's scratch folder (it may not exist).
-        drop(std::fs::remove_dir_all(&dir));
-        std::fs::create_dir_all(&dir).expect("a scratch folder");
-        Self { dir }
-    }
-
-    fn write(&self, name: &str, text: &str) -> PathBuf {
-        let path = self.dir.join(name);
-        std::fs::write(&path, text).expect("write a scratch file");
-        path
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        // Best effort: the test's scratch folder (it may not exist).
-        drop(std::fs::remove_dir_all(&self.dir));
-    }
-}
 
 /// What `softplc ARGS` left: exit code, stdout, stderr.
 fn softplc(args: &[&str]) -> (Option<i32>, String, String) {
@@ -97,7 +61,7 @@ fn project(scratch: &Scratch, name: &str, kind: &str, program: &str) -> PathBuf 
 /// `check` on `program` fails with exactly `expected` (each `line:col: error: …`, after the
 /// program's path) and prints no report.
 fn check_fails(case: &str, name: &str, kind: &str, program: &str, expected: &[&str]) {
-    let scratch = Scratch::new(case);
+    let scratch = Scratch::new("check-catches", case);
     let path = project(&scratch, name, kind, program);
     let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
     assert_eq!(code, Some(1), "{case}: {stdout}{stderr}");
@@ -192,7 +156,7 @@ fn a_number_into_a_bool_is_a_type_error_in_every_language() {
 
 #[test]
 fn a_wrong_value_check_cannot_see_faults_naming_the_tag() {
-    let scratch = Scratch::new("run");
+    let scratch = Scratch::new("check-catches", "run");
     let path = project(&scratch, "pump.rhai", "rhai", "let v = 2;\npump1 = v;\n");
     let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
     assert_eq!(code, Some(0), "{stdout}{stderr}");
@@ -219,7 +183,7 @@ fn a_wrong_value_check_cannot_see_faults_naming_the_tag() {
 
 #[test]
 fn require_on_rhai_outputs_pushes_the_plain_forms_and_fails_the_others_with_the_reason() {
-    let scratch = Scratch::new("require");
+    let scratch = Scratch::new("check-catches", "require");
     let path = project(
         &scratch,
         "pump.rhai",
@@ -301,7 +265,7 @@ fn check_says_whether_a_rhai_program_runs_on_the_logic_vm() {
             "  rhai: runs in the Rhai interpreter (line 2: `if`)",
         ),
     ] {
-        let scratch = Scratch::new(case);
+        let scratch = Scratch::new("check-catches", case);
         let path = project(&scratch, "pump.rhai", "rhai", program);
         let (code, stdout, stderr) = softplc(&["check", path_str(&path)]);
         assert_eq!(code, Some(0), "{case}: {stdout}{stderr}");
@@ -347,7 +311,7 @@ fn every_example_and_program_passes_check() {
             } else {
                 continue;
             };
-            let scratch = Scratch::new(&format!("example-{name}"));
+            let scratch = Scratch::new("check-catches", &format!("example-{name}"));
             let kind_line = text
                 .lines()
                 .find(|l| l.trim_start().starts_with("kind: "))
@@ -366,7 +330,7 @@ fn every_example_and_program_passes_check() {
 
 #[test]
 fn a_reload_with_a_type_error_is_refused_and_the_running_program_kept() {
-    let scratch = Scratch::new("reload");
+    let scratch = Scratch::new("check-catches", "reload");
     let path = project(&scratch, "pump.rhai", "rhai", "pump1 = x1;\n");
     let project = softplc::project::load(&path).expect("the project loads");
     let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());

@@ -5,6 +5,8 @@
 //! (they do not skip) and say so. Processes run in real time here: every wait is generous and
 //! no test asserts how long something took, except that the virtual clock does not wait.
 
+use crate::common::host::repo as root;
+use crate::common::scratch::Scratch;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
@@ -13,13 +15,6 @@ use std::time::{Duration, Instant};
 
 /// Far longer than any of these commands takes, even on a loaded machine.
 const PATIENCE: Duration = Duration::from_secs(60);
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("the workspace root")
-        .to_path_buf()
-}
 
 fn quickstart() -> PathBuf {
     root().join("examples/quickstart/project.yaml")
@@ -159,35 +154,13 @@ fn check_accepts_the_quick_start_and_prints_its_budget() {
     assert!(!text.contains("warning"), "{text}");
 }
 
-/// A broken project in its own folder, with the quick start's program beside it.
-struct Scratch {
-    dir: PathBuf,
-}
-
-impl Scratch {
-    fn new(case: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("softplc-cli-{}-{case}", std::process::id()));
-        // Best effort: the test's scratch folder (it may not exist).
-        drop(std::fs::remove_dir_all(&dir));
-        std::fs::create_dir_all(&dir).expect("a scratch folder");
-        let program = std::fs::read_to_string(root().join("programs/conveyor.expr"))
-            .expect("programs/conveyor.expr");
-        std::fs::write(dir.join("conveyor.expr"), program).expect("write the program");
-        Self { dir }
-    }
-
-    fn write(&self, name: &str, text: &str) -> PathBuf {
-        let path = self.dir.join(name);
-        std::fs::write(&path, text).expect("write a scratch file");
-        path
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        // Best effort: the test's scratch folder (it may not exist).
-        drop(std::fs::remove_dir_all(&self.dir));
-    }
+/// A broken project's folder, with the quick start's program beside it.
+fn scratch(case: &str) -> Scratch {
+    let s = Scratch::new("cli", case);
+    let program = std::fs::read_to_string(root().join("programs/conveyor.expr"))
+        .expect("programs/conveyor.expr");
+    s.write("conveyor.expr", &program);
+    s
 }
 
 /// A valid project; the cases below break one line of it. Line numbers matter.
@@ -217,7 +190,7 @@ program:
 /// Runs `check` on `PROJECT` with `from` replaced by `to`; it must fail with exactly
 /// `expected` errors (`line:col: error: message`) on stderr, in order, naming the file.
 fn check_fails<S: AsRef<str>>(case: &str, from: &str, to: &str, expected: &[S]) {
-    let scratch = Scratch::new(case);
+    let scratch = scratch(case);
     assert!(
         PROJECT.contains(from),
         "{case}: {from:?} is not in the project"
@@ -236,7 +209,7 @@ fn check_fails<S: AsRef<str>>(case: &str, from: &str, to: &str, expected: &[S]) 
 
 #[test]
 fn check_names_file_line_column_and_fault() {
-    let base = Scratch::new("valid");
+    let base = scratch("valid");
     let valid = base.write("project.yaml", PROJECT);
     let out = softplc(&["check", path_str(&valid)]);
     assert_eq!(
@@ -309,7 +282,7 @@ fn check_names_file_line_column_and_fault() {
 
 #[test]
 fn check_names_the_program_line_and_fault() {
-    let scratch = Scratch::new("program");
+    let scratch = scratch("program");
     // Line 11 of conveyor.expr is the motor rung; `stop` misspelt.
     let program = std::fs::read_to_string(scratch.dir.join("conveyor.expr")).unwrap();
     let rung = "motor = (rising(start) | motor) & !stop & !box_at_exit";

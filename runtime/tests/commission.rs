@@ -4,9 +4,7 @@
 //! manual forbids is refused with its reason, before anything is written; nothing changes
 //! without `--yes`.
 
-#[path = "common/sim.rs"]
-#[allow(dead_code)]
-mod sim;
+use crate::common::sim;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Output, Stdio};

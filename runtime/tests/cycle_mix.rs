@@ -7,8 +7,7 @@
 //! cycle mix plays forward and what the virtual clock must cost like the wire. Both are the
 //! `softplc` binary as a user runs it; the virtual clock makes the run deterministic.
 
-#[path = "common/host.rs"]
-mod host;
+use crate::common::host;
 
 use std::path::{Path, PathBuf};
 

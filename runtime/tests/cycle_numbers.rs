@@ -6,8 +6,7 @@
 //! at 390 ms. The web page, the metrics, OPC UA's `PLC.Scans` and Sparkplug's `PLC/Scans`
 //! publish the scan count of the same snapshot status reads (`service/snapshot.rs`).
 
-#[path = "common/host.rs"]
-mod host;
+use crate::common::host;
 
 use std::path::{Path, PathBuf};
 

@@ -7,8 +7,7 @@
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::sim;
 
 use sim::Sim;
 

@@ -2,9 +2,7 @@
 //! their own bauds on one line are found, identified by their own means, and the project
 //! skeleton it writes passes `softplc check`.
 
-#[path = "common/sim.rs"]
-#[allow(dead_code)]
-mod sim;
+use crate::common::sim;
 
 use std::process::Command;
 use std::time::{Duration, Instant};

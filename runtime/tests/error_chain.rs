@@ -7,15 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::Arc;
 
+use crate::common::host::repo as root;
 use softplc_io::line::{pty_pair, LineSettings, SerialTransport};
 use softplc_io::time::{Clock, MonotonicClock};
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("the workspace root")
-        .to_path_buf()
-}
 
 /// Runs `softplc args`, which must fail; what it printed (standard output, then error).
 fn printed(args: &[&str]) -> String {
@@ -27,7 +21,7 @@ fn printed(args: &[&str]) -> String {
         .args(args)
         .output()
         .expect("the binary runs");
-    let text = String::from_utf8_lossy(&stdout).into_owned() + &String::from_utf8_lossy(&stderr);
+    let text = String::from_utf8_lossy(&stdout).into_owned() + &*String::from_utf8_lossy(&stderr);
     assert!(!status.success(), "softplc {args:?} failed: {text}");
     text
 }

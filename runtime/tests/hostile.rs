@@ -4,6 +4,8 @@
 //! `softplc status` still answer, and the process's threads stay bounded. The figures are in
 //! docs/robustness.md.
 
+use crate::common::host::http_get;
+use crate::common::host::repo as root;
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::os::unix::net::UnixStream;
@@ -15,10 +17,6 @@ const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 /// What a page or a scrape may take while the hostile clients hold on; generous for a loaded
 /// machine (they take milliseconds on a quiet one).
 const ANSWER_WITHIN: Duration = Duration::from_secs(3);
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 /// The quick start with its page and metrics on free loopback ports, running for a minute.
 struct Plc {
@@ -97,22 +95,6 @@ fn start(name: &str) -> Plc {
     }
 }
 
-/// One GET: its status and how long it took.
-fn get(addr: &str, path: &str) -> (u16, Duration) {
-    let begin = Instant::now();
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-    write!(s, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
-    let mut text = String::new();
-    drop(s.read_to_string(&mut text));
-    let status = text
-        .split(' ')
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    (status, begin.elapsed())
-}
-
 fn threads(child: &Child) -> usize {
     let status = std::fs::read_to_string(format!("/proc/{}/status", child.id())).unwrap();
     status
@@ -139,7 +121,7 @@ fn unread_event_streams_leave_the_page_answering_and_are_dropped() {
     let mut slowest = Duration::ZERO;
     for _ in 0..10 {
         for path in ["/", "/api/state", "/api/info"] {
-            let (status, took) = get(&plc.web, path);
+            let (status, took) = http_get(&plc.web, path);
             assert_eq!(status, 200, "{path} with 16 unread streams");
             slowest = slowest.max(took);
         }
@@ -185,7 +167,7 @@ fn slow_clients_on_the_metrics_port_never_keep_a_scrape_out() {
     std::thread::sleep(Duration::from_millis(300));
     let mut slowest = Duration::ZERO;
     for _ in 0..18 {
-        let (status, took) = get(&plc.metrics, "/metrics");
+        let (status, took) = http_get(&plc.metrics, "/metrics");
         assert_eq!(status, 200, "a scrape with 24 slow clients connected");
         slowest = slowest.max(took);
     }

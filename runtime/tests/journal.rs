@@ -14,17 +14,12 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 #[allow(dead_code)]
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("softplc-journal-{name}-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    crate::common::host::scratch_dir("journal", name)
 }
 
 fn namespaces_allowed() -> bool {

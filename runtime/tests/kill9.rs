@@ -8,8 +8,7 @@ use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::sim;
 
 use sim::Sim;
 

@@ -8,10 +8,8 @@ use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-#[path = "common/host.rs"]
-mod host;
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::host;
+use crate::common::sim;
 
 use host::wait_in_log;
 use sim::Sim;

@@ -7,7 +7,7 @@
 //! that does not). Every 5 s a scrape and the page must answer within 3 s. At the end the
 //! scan's cycles are counted against the time.
 //!
-//! Ten minutes by default: `cargo test -p softplc --test long_day -- --ignored` (it is left
+//! Ten minutes by default: `cargo test -p softplc --test integration long_day:: -- --ignored` (it is left
 //! out of the ordinary run for its length; `SOFTPLC_LONG_DAY_SECS` shortens or lengthens it).
 //! The last result is in docs/robustness.md.
 
@@ -19,8 +19,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::host::http_get;
+use crate::common::sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 const PERIOD_MS: u64 = 50;
@@ -43,24 +43,6 @@ fn log_value(log: &Path, prefix: &str) -> String {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
-}
-
-/// One GET: its status and how long it took.
-fn get(addr: &str, path: &str) -> (u16, Duration) {
-    let begin = Instant::now();
-    let Ok(mut s) = TcpStream::connect(addr) else {
-        return (0, begin.elapsed());
-    };
-    drop(s.set_read_timeout(Some(Duration::from_secs(10))));
-    drop(write!(s, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
-    let mut text = String::new();
-    drop(s.read_to_string(&mut text));
-    let status = text
-        .split(' ')
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    (status, begin.elapsed())
 }
 
 /// Sleeps `d`, or less once `stop` is set.
@@ -222,7 +204,7 @@ fn a_long_day_under_attack_and_line_faults_keeps_the_scan_and_the_outputs_right(
         if last_probe.elapsed() >= Duration::from_secs(5) {
             last_probe = Instant::now();
             for (addr, path) in [(&metrics, "/metrics"), (&web, "/")] {
-                let (status, took) = get(addr, path);
+                let (status, took) = http_get(addr, path);
                 assert_eq!(status, 200, "{path} at t={:?}", begin.elapsed());
                 assert!(took < Duration::from_secs(3), "{path} took {took:?}");
                 slowest = slowest.max(took);

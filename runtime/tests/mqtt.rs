@@ -17,12 +17,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-#[path = "common/host.rs"]
-mod host;
-use host::{free_port, lines_of, repo as workspace, wait_in_log};
-#[path = "common/broker.rs"]
-mod broker;
+use crate::common::broker;
+use crate::common::host;
 use broker::{sparkplug_pb2, Broker};
+use host::{free_port, lines_of, repo as workspace, wait_in_log};
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
@@ -317,7 +315,7 @@ service:
     let out = Command::new(BIN).arg("check").arg(&path).output().unwrap();
     assert!(!out.status.success());
     let text =
-        String::from_utf8_lossy(&out.stderr).to_string() + &String::from_utf8_lossy(&out.stdout);
+        String::from_utf8_lossy(&out.stderr).to_string() + &*String::from_utf8_lossy(&out.stdout);
     let f = path.display();
     for want in [
         format!("{f}:13:5: error: service.mqtt.node is required"),
@@ -513,8 +511,7 @@ fn a_broker_that_wants_a_password_takes_the_projects_user_and_refuses_a_wrong_pa
     drop(std::fs::remove_dir_all(&dir));
 }
 
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::sim;
 
 #[test]
 fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {

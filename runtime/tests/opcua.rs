@@ -24,8 +24,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-#[path = "common/host.rs"]
-mod host;
+use crate::common::host;
 use host::{free_port, lines_of, repo as workspace};
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
@@ -44,11 +43,7 @@ fn python() -> PathBuf {
 
 /// A fresh folder of this test.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("softplc-opcua-{name}-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    crate::common::host::scratch_dir("opcua", name)
 }
 
 /// A pseudo-terminal nobody answers on, held open by a child; its path.

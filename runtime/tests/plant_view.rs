@@ -28,12 +28,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-#[path = "common/host.rs"]
-mod host;
-use host::{free_port, lines_of, repo as workspace};
-#[path = "common/broker.rs"]
-mod broker;
+use crate::common::broker;
+use crate::common::host;
 use broker::{sparkplug_pb2, Broker};
+use host::{free_port, lines_of, repo as workspace};
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 const NAMESPACE: &str = "urn:softplc:plant_view";
@@ -51,12 +49,7 @@ fn python() -> PathBuf {
 
 /// A fresh folder of this test.
 fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("softplc-plant-view-{name}-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    crate::common::host::scratch_dir("plant-view", name)
 }
 
 /// The ports of a run's services.
@@ -572,23 +565,21 @@ fn fifty_starts_on_a_fresh_broker_never_show_a_death_before_the_birth() {
         ],
         Duration::from_secs(300),
         |need| {
-            assert_eq!(need, "runs");
-            for _ in 0..RUNS {
-                // A fresh broker for each start (the host reconnects within 200 ms and
-                // subscribes again).
-                broker.restart_after(|| {});
-                std::thread::sleep(Duration::from_millis(800));
-                let out = Command::new(BIN)
-                    .args(["run", "--quiet", "--no-socket", "--for", "300ms"])
-                    .arg(&project)
-                    .env("RUST_LOG", "info")
-                    .stdout(Stdio::null())
-                    .stderr(std::fs::File::create(&log).unwrap())
-                    .status()
-                    .unwrap();
-                assert!(out.success(), "{}", std::fs::read_to_string(&log).unwrap());
-            }
-            std::thread::sleep(Duration::from_millis(500));
+            // One start a time: the client asks for the next once it saw this one's NDEATH.
+            assert_eq!(need, "run");
+            // A fresh broker for each start (the host reconnects within 200 ms and subscribes
+            // again).
+            broker.restart_after(|| {});
+            std::thread::sleep(Duration::from_millis(800));
+            let out = Command::new(BIN)
+                .args(["run", "--quiet", "--no-socket", "--for", "300ms"])
+                .arg(&project)
+                .env("RUST_LOG", "info")
+                .stdout(Stdio::null())
+                .stderr(std::fs::File::create(&log).unwrap())
+                .status()
+                .unwrap();
+            assert!(out.success(), "{}", std::fs::read_to_string(&log).unwrap());
         },
     );
     assert!(

@@ -10,16 +10,12 @@ use std::time::Duration;
 
 use softplc::project::profile::parse_str;
 
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::sim;
 
+use crate::common::host::repo;
 use sim::Sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 /// Every error of profile `text`, one line each, as `check` prints them.
 fn errors(text: &str) -> Vec<String> {
@@ -128,11 +124,7 @@ fn yaml_errors_and_unknown_keys_are_placed_too() {
 
 /// A scratch folder of this test's own.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("softplc-profiles-{name}-{}", std::process::id()));
-    // Best effort: a folder left by an earlier run.
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    crate::common::host::scratch_dir("profiles", name)
 }
 
 #[test]

@@ -1,8 +1,7 @@
 //! Every scenario under `programs/` passes in every program it names (ladder and Rhai), with
 //! the same trace; a failing scenario exits non-zero and shows what differs.
 
-#[path = "common/host.rs"]
-mod host;
+use crate::common::host;
 
 use host::{repo, softplc};
 

@@ -4,9 +4,7 @@
 
 use std::process::Command;
 
-#[path = "common/sim.rs"]
-#[allow(dead_code)] // this test only starts the simulator
-mod sim;
+use crate::common::sim;
 
 use sim::Sim;
 

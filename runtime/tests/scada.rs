@@ -3,29 +3,14 @@
 //! project allows and is refused the others with the documented exceptions; `GET /metrics`
 //! answers the Prometheus text format. Everything listens on loopback, on free ports.
 
+use crate::common::host::{free_port, repo};
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
-
-/// A port nobody listens on now (bound, then released).
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 /// The quick start with four memory tags for SCADA and `service` (the YAML after
 /// `service:`), in a scratch folder; returns the folder.
@@ -114,7 +99,7 @@ fn mbpoll(port: u16, args: &[&str], values: &[&str]) -> (bool, String) {
             )
         });
     let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+        String::from_utf8_lossy(&out.stdout).to_string() + &*String::from_utf8_lossy(&out.stderr);
     (out.status.success(), text)
 }
 

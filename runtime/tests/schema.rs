@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::common::host::repo as root;
 use serde_json::Value;
 
 /// Whether a file (its path) is of a kind.
@@ -20,13 +21,6 @@ const KINDS: [(&str, IsKind); 4] = [
         path.contains("/examples/profiles/") && path.ends_with(".yaml")
     }),
 ];
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("the workspace root")
-        .to_path_buf()
-}
 
 fn schema_file(kind: &str) -> PathBuf {
     root().join("schema").join(format!("{kind}.schema.json"))

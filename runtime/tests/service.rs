@@ -2,6 +2,7 @@
 //! control interface (status, force, unforce, reload) against a running instance on the
 //! simulated default.
 
+use crate::common::host::repo;
 use std::os::unix::net::UnixDatagram;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -9,19 +10,8 @@ use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
-
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("softplc-service-{name}-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    crate::common::host::scratch_dir("service", name)
 }
 
 /// The unit as installed, with ExecStart pointing at the binary under test.
@@ -42,7 +32,7 @@ fn systemd_analyze(args: &[&str]) -> (bool, String) {
             )
         });
     let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+        String::from_utf8_lossy(&out.stdout).to_string() + &*String::from_utf8_lossy(&out.stderr);
     (out.status.success(), text)
 }
 
@@ -107,7 +97,7 @@ fn ctl(socket: &Path, args: &[&str]) -> (bool, String) {
         .output()
         .unwrap();
     let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+        String::from_utf8_lossy(&out.stdout).to_string() + &*String::from_utf8_lossy(&out.stderr);
     (out.status.success(), text)
 }
 

@@ -4,25 +4,19 @@
 //! one appear in it as what they are.
 //!
 //! Regenerate the golden file after an intended change with
-//! `UPDATE_GOLDEN=1 cargo test -p softplc --test trace_bus`, and review its diff.
+//! `UPDATE_GOLDEN=1 cargo test -p softplc --test integration trace_bus::`, and review its diff.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use crate::common::host::repo as root;
 use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
 use softplc::scan::ScanEngine;
 use softplc_io::sim::{Fault, FaultRule, Frequency};
 use softplc_io::wire::{format_event, WireEvent, WireTap};
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("the workspace root")
-        .to_path_buf()
-}
 
 fn quickstart() -> PathBuf {
     root().join("examples/quickstart/project.yaml")

@@ -3,8 +3,7 @@
 //! and VCD; a trace armed with --tags; the refusals, with their words. Also the `traces:`
 //! errors `check` reports, at their line and column.
 
-#[path = "common/host.rs"]
-mod host;
+use crate::common::host;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};

@@ -13,38 +13,21 @@
 //!
 //! Screenshots of each view are left in `target/web-screenshots/` (test artefacts).
 
-#[path = "web/cdp.rs"]
 mod cdp;
-#[path = "common/sim.rs"]
-mod sim;
+use crate::common::sim;
 
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::common::host::{free_port, repo};
 use cdp::Browser;
 use sim::Sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 const TOKEN: &str = "e2e-token-0123456789";
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
-
-/// A port nobody listens on now (bound, then released).
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 /// The running PLC; killed when dropped (the test ends it earlier on success).
 struct Plc(Child);

@@ -2,7 +2,7 @@
 //! is the expected one (a golden file), and every input phase is exactly the line's wire time.
 //!
 //! Regenerate the golden file after an intended change of behaviour with
-//! `UPDATE_GOLDEN=1 cargo test -p softplc-tests --test determinism`, and review its diff.
+//! `UPDATE_GOLDEN=1 cargo test -p softplc-tests --test system determinism::`, and review its diff.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -176,7 +176,7 @@ fn the_quick_start_replays_bit_for_bit_and_matches_its_golden_trace() {
     let expected = std::fs::read_to_string(&golden).unwrap_or_else(|e| {
         panic!(
             "{}: {e}; create it with UPDATE_GOLDEN=1 cargo test -p softplc-tests --test \
-             determinism",
+             system determinism::",
             golden.display()
         )
     });

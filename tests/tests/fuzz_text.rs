@@ -4,7 +4,7 @@
 //! cases reach past the first token. No input may panic.
 //!
 //! Bounded in the test suite; a long run: `PROPTEST_CASES=100000 cargo test --release -p
-//! softplc-tests --test fuzz_text`. Failing cases land in `proptest-regressions/`: commit them.
+//! softplc-tests --test system fuzz_text::`. Failing cases land in `proptest-regressions/`: commit them.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;

@@ -5,7 +5,7 @@
 //!
 //! Bounded runs are part of the test suite (proptest's 256 cases per property, a few seconds in
 //! all); a long run is `PROPTEST_CASES=200000 cargo test --release -p softplc-tests --test
-//! fuzz_wire`. A failing case is saved under `proptest-regressions/` and replayed first
+//! system fuzz_wire::`. A failing case is saved under `proptest-regressions/` and replayed first
 //! from then on: commit it, it is the regression test.
 
 use std::time::Duration;

@@ -1,7 +1,5 @@
 //! What the end-to-end tests that run servers and third-party clients share: the workspace's
 //! folder, a free loopback port, a child's output as lines.
-// Each test binary uses its own share of these.
-#![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
 use std::net::TcpListener;
@@ -31,6 +29,36 @@ pub(crate) fn softplc(args: &[&str]) -> (bool, String) {
         String::from_utf8_lossy(&out.stderr)
     );
     (out.status.success(), text)
+}
+
+/// A folder of its own for test `name` of `subject`, empty (removed first if an earlier run
+/// left it), named after the process so that runs side by side never share one.
+pub(crate) fn scratch_dir(subject: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("softplc-{subject}-{name}-{}", std::process::id()));
+    // Best effort: a folder left by an earlier run (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    std::fs::create_dir_all(&dir).expect("a scratch folder");
+    dir
+}
+
+/// One HTTP GET of `path` at `addr`: its status (0 when the connection or the answer failed)
+/// and how long it took.
+pub(crate) fn http_get(addr: &str, path: &str) -> (u16, std::time::Duration) {
+    use std::io::{Read, Write};
+    let begin = std::time::Instant::now();
+    let Ok(mut s) = std::net::TcpStream::connect(addr) else {
+        return (0, begin.elapsed());
+    };
+    drop(s.set_read_timeout(Some(std::time::Duration::from_secs(10))));
+    drop(write!(s, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
+    let mut text = String::new();
+    drop(s.read_to_string(&mut text));
+    let status = text
+        .split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    (status, begin.elapsed())
 }
 
 /// A port nobody listens on now (bound, then released).

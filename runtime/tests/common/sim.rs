@@ -74,7 +74,6 @@ impl Sim {
     }
 
     /// The next line of its output that starts with `prefix`, waiting at most `within`.
-    #[allow(dead_code)] // not every test binary that shares this file reads raw lines
     pub(crate) fn wait_line(&mut self, prefix: &str, within: Duration) -> Option<String> {
         let start = Instant::now();
         while let Some(left) = within.checked_sub(start.elapsed()) {

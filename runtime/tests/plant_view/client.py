@@ -321,22 +321,17 @@ def sparkplug_quality(port, group, node, pb2_dir, tags):
 
 
 def sparkplug_order(port, group, node, pb2_dir, runs):
-    import threading
-
+    """Counts NBIRTHs and NDEATHs over `runs` starts of the node, each on a fresh broker. The
+    test starts one when asked; the next is asked for once this one's NDEATH arrived (or ten
+    seconds passed), so restarting the broker never takes an undelivered death with it."""
     client, messages = sparkplug(port, group, node, pb2_dir, rebirth=False)
     say("READY")
-    done = threading.Event()
-
-    def wait_for_test():
-        say("NEED runs")
-        sys.stdin.readline()
-        done.set()
-
-    threading.Thread(target=wait_for_test, daemon=True).start()
     births = deaths = early = 0
     born = False
-    while not (done.is_set() and messages.empty()):
-        for topic, p in until(messages, 0.2):
+
+    def count(batch):
+        nonlocal births, deaths, early, born
+        for topic, p in batch:
             if topic == f"spBv1.0/{group}/NBIRTH/{node}":
                 births += 1
                 born = True
@@ -345,6 +340,15 @@ def sparkplug_order(port, group, node, pb2_dir, runs):
                 if not born:
                     early += 1
                 born = False
+
+    for _ in range(runs):
+        say("NEED run")
+        sys.stdin.readline()
+        want = deaths + 1
+        deadline = time.monotonic() + 10
+        while deaths < want and time.monotonic() < deadline:
+            count(until(messages, 0.2))
+    count(until(messages, 0.5))
     client.loop_stop()
     if births != runs:
         fail(f"{births} NBIRTHs for {runs} runs ({deaths} NDEATHs, {early} early)")
