@@ -8,7 +8,7 @@
 //!   fit its type, keeps its initial value (reported).
 //! - **Save** ([`Retainer::tick`], [`Retainer::finish`]): between two cycles, at most once per
 //!   `retain.period`, the scan copies the retained values (a few words) when they changed and
-//!   hands them to a writer thread ([`crate::save_thread`]), without waiting: if the writer is
+//!   hands them to a writer thread (`save_thread`), without waiting: if the writer is
 //!   still busy with the previous copy, the scan hands the newest over after a later cycle. On stop the last values are
 //!   written before the process exits. A program reload keeps the image, so nothing is lost.
 //! - **Atomic write**: the writer writes `FILE.tmp`, fsyncs it, renames it over `FILE` and

@@ -18,6 +18,7 @@ mod cycle_mix;
 mod cycle_numbers;
 mod dead_line;
 mod discover;
+mod docs;
 mod error_chain;
 mod hostile;
 mod journal;

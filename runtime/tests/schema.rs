@@ -146,6 +146,36 @@ fn every_example_and_program_names_its_schema_on_its_first_line() {
     }
 }
 
+/// `docs/project-file.md` is the reference `softplc schema project --markdown` writes from the
+/// schema, so the documentation of every key cannot drift from the code.
+#[test]
+fn the_project_file_reference_is_written_from_the_schema() {
+    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(["schema", "project", "--markdown"])
+        .output()
+        .expect("softplc runs");
+    assert!(out.status.success());
+    let generated = String::from_utf8(out.stdout).expect("UTF-8");
+    let committed =
+        std::fs::read_to_string(root().join("docs/project-file.md")).unwrap_or_default();
+    assert!(
+        generated == committed,
+        "docs/project-file.md differs from `softplc schema project --markdown`: regenerate it \
+         with `softplc schema project --markdown > docs/project-file.md` and review the diff"
+    );
+    // Every key of the schema has its row, every mapping its section.
+    for key in [
+        "`period`",
+        "`watchdog`",
+        "`rts_on_send`",
+        "`response_timeout`",
+        "`opcua`",
+    ] {
+        assert!(generated.contains(&format!("| {key} |")), "{key}");
+    }
+    assert!(generated.contains("\n## `buses[]`\n"));
+}
+
 /// The README's whole-file snippets (those that name a schema) pass it too.
 #[test]
 fn readme_snippets_that_name_a_schema_pass_it() {

@@ -13,6 +13,7 @@ mod out;
 mod replay;
 mod run;
 mod schema;
+mod schema_doc;
 mod sim;
 pub(crate) mod test;
 mod trace;

@@ -59,7 +59,7 @@ pub(crate) struct RunArgs {
     #[arg(long = "no-socket", alias = "no-control", conflicts_with = "control")]
     no_control: bool,
     /// Print every frame each bus sends and receives (and every timeout and discarded byte)
-    /// on stdout, with the line's time, hex and decoding (README, "Seeing the wire").
+    /// on stdout, with the line's time, hex and decoding (docs/buses.md, "Seeing the wire").
     #[arg(long)]
     trace_bus: bool,
 }

@@ -16,6 +16,9 @@ pub(crate) struct SchemaArgs {
     /// The file kind.
     #[arg(value_enum)]
     pub file: FileKind,
+    /// Print the reference in Markdown instead (`docs/project-file.md` is the project's).
+    #[arg(long)]
+    pub markdown: bool,
 }
 
 /// A file kind softplc reads.
@@ -32,6 +35,16 @@ pub(crate) enum FileKind {
 }
 
 impl FileKind {
+    /// What its reference is titled.
+    fn reference_title(self) -> &'static str {
+        match self {
+            FileKind::Project => "The project file",
+            FileKind::Ladder => "Ladder programs",
+            FileKind::Scenario => "Scenario files",
+            FileKind::Profile => "Device profiles",
+        }
+    }
+
     /// The schema's title, shown by editors.
     fn title(self) -> &'static str {
         match self {
@@ -45,9 +58,27 @@ impl FileKind {
 
 /// Prints the schema of `args.file`.
 pub(crate) fn schema(args: SchemaArgs) -> anyhow::Result<ExitCode> {
-    let text = schema_text(args.file)?;
+    let text = if args.markdown {
+        reference(args.file)?
+    } else {
+        schema_text(args.file)?
+    };
     super::out::out(&text)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The Markdown reference of `kind`, written from its schema.
+pub(crate) fn reference(kind: FileKind) -> serde_json::Result<String> {
+    let schema = serde_json::to_value(generate(kind))?;
+    let name = kind
+        .to_possible_value()
+        .map(|v| v.get_name().to_string())
+        .unwrap_or_default();
+    Ok(super::schema_doc::markdown(
+        &schema,
+        kind.reference_title(),
+        &format!("softplc schema {name} --markdown"),
+    ))
 }
 
 /// The schema of `kind`, as pretty JSON ending in a newline (the committed files' form).

@@ -286,7 +286,7 @@ pub enum CycleWork {
     Done,
     /// The last write ends at this time, known now (lines the scan runs itself).
     At(Duration),
-    /// A line's thread is still writing; [`Plc::take_late_work_end`] gives its end later.
+    /// A line's thread is still writing; [`Plc::late_work_ends`] gives its end later.
     Later,
 }
 

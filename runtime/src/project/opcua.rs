@@ -76,10 +76,10 @@ pub(crate) const LIMIT_MAX: [(&str, usize); 4] = [
                  and max_queue_size"
 )]
 pub(crate) struct RawOpcUa {
-    /// The address to listen on (an IP literal; default [`DEFAULT_OPCUA_BIND`]).
+    /// The address to listen on (an IP literal; default `127.0.0.1`).
     #[serde(default)]
     pub bind: Option<String>,
-    /// The port (default [`DEFAULT_OPCUA_PORT`]; 0 takes any free one).
+    /// The port (default 4840; 0 takes any free one).
     #[serde(default)]
     pub port: Option<Int>,
     /// Whether clients may write `scada: write` tags (default false).

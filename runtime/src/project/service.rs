@@ -71,7 +71,7 @@ pub(crate) struct RawService {
                  idle_timeout, send_timeout and read_gaps"
 )]
 pub(crate) struct RawModbusTcp {
-    /// Listening address (default [`DEFAULT_MODBUS_BIND`]).
+    /// Listening address (default `127.0.0.1:5020`).
     #[serde(default)]
     pub bind: Option<String>,
     /// Unit identifier (default 1).
@@ -84,10 +84,10 @@ pub(crate) struct RawModbusTcp {
     #[serde(default)]
     pub allow_remote_writes: Option<bool>,
     /// How long a client may go without completing a request, from its last reply (default
-    /// [`DEFAULT_MODBUS_IDLE`]).
+    /// 60 s).
     #[serde(default)]
     pub idle_timeout: Option<DurationText>,
-    /// How long a reply may wait for the client to take it (default [`DEFAULT_MODBUS_SEND`]).
+    /// How long a reply may wait for the client to take it (default 10 s).
     #[serde(default)]
     pub send_timeout: Option<DurationText>,
     /// What a read spanning addresses no tag holds gets (default `exception`).

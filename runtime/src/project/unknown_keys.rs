@@ -2,7 +2,7 @@
 //!
 //! The schema's structs deny unknown keys, so the YAML reader stops at the first one, and a
 //! project with a typo in `buses:` and a wrong address in `modules:` got one error per run of
-//! `check` (README: "all of them at once"). When the reader's error is an unknown key, that
+//! `check` (README, "Your first project": every error at once). When the reader's error is an unknown key, that
 //! key's entry is blanked out of the text and the text is read again, until the reader finds
 //! no more unknown keys; then the schema's own checks run on what is left.
 //!

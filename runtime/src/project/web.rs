@@ -49,7 +49,7 @@ pub(crate) const MAX_TOKEN: usize = 256;
                  and trend"
 )]
 pub(crate) struct RawWeb {
-    /// Listening address (default [`DEFAULT_WEB_BIND`]).
+    /// Listening address (default `127.0.0.1:8080`).
     #[serde(default)]
     pub bind: Option<String>,
     /// Whether the page may force tags (default false).

@@ -26,7 +26,7 @@ pub(crate) const MAX_WRITE_BITS: usize = 1968;
 /// Most registers one write sets (FC 16: 123).
 pub(crate) const MAX_WRITE_REGISTERS: usize = 123;
 
-/// A Modbus exception the server answers with (the protocol's codes; see README "SCADA and
+/// A Modbus exception the server answers with (the protocol's codes; see docs/plant-services.md "SCADA and
 /// metrics").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub(crate) enum Exception {

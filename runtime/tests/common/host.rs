@@ -17,9 +17,14 @@ pub(crate) fn repo() -> PathBuf {
 /// Runs the `softplc` binary with `args` from the workspace's folder (log level warn) and
 /// returns whether it succeeded and what it printed (standard output, then standard error).
 pub(crate) fn softplc(args: &[&str]) -> (bool, String) {
+    softplc_in(&repo(), args)
+}
+
+/// [`softplc`] from folder `dir`.
+pub(crate) fn softplc_in(dir: &Path, args: &[&str]) -> (bool, String) {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_softplc"))
         .args(args)
-        .current_dir(repo())
+        .current_dir(dir)
         .env("SOFTPLC_LOG", "warn")
         .output()
         .expect("softplc runs");

@@ -32,7 +32,7 @@ const TOGGLE_EVERY: Duration = Duration::from_secs(12);
 /// latency plus two cycles (one may fail and be retried next cycle).
 const SETTLE: Duration = Duration::from_millis(20 + 2 * 100 + 100);
 /// The same where a line in event mode (the MiniMods' default plan) hears silence it cannot
-/// tell from an idle round (README, "Event mode"): a change while the line is dead shows as
+/// tell from an idle round (docs/buses.md, "Event mode"): a change while the line is dead shows as
 /// stale only at the next write or full read, within `event_refresh` (1 s); and after a power
 /// cycle too short to be seen as a loss the module is back on its saved settings, event
 /// recording off, so its next change shows at its next full read, within `event_refresh`.

@@ -5,76 +5,10 @@
 //! the instruction set of the logic VM that ladder lowers to as well), and executed once per
 //! scan by [`ExprProgram`], a [`LogicEngine`].
 //!
-//! # Example
-//!
-//! ```text
-//! # Conveyor: a start press latches the motor; stop or a box at the exit drops it.
-//! motor = (rising(start) | motor) & !stop & !box_at_exit
-//! lamp  = box_at_exit                      # a box waits at the exit
-//! alarm = ton(motor & !box_at_entry, 30s)  # running empty for 30 s
-//! hot   = temperature > 80.5 or not cooling_ok
-//! alarm = !good(level_high)                # the level switch's module is lost
-//! ```
-//!
-//! # Language
-//!
-//! - **Lines.** One statement per line; `#` starts a comment; blank lines are ignored.
-//! - **Statement.** `COIL = EXPR` assigns the value of `EXPR` to the bool tag `COIL` every
-//!   scan. Each coil is assigned by one statement only, and only tags the program may write
-//!   (not module inputs). Only bool tags are assigned: numbers are for ladder or rhai programs.
-//! - **Names.** Tags are written `[A-Za-z_][A-Za-z0-9_]*`, case-sensitive. `and`, `or`, `not`,
-//!   `true`, `false` are reserved. A name followed by `(` is a function call; otherwise it is a
-//!   tag (so a tag may be called `ton`).
-//! - **Operators**, loosest first: `|` (or `or`), `^` (xor), `&` (or `and`), `!` (or `not`);
-//!   comparisons bind tighter still, so `!level > 5` is `!(level > 5)`; parentheses group.
-//!   `a | b ^ c & !d` is `a | (b ^ (c & (!d)))`.
-//! - **Literals.** `0`, `1`, `true`, `false`. Other numbers appear only in comparisons.
-//! - **Comparisons.** `<`, `<=`, `>`, `>=`, `==`, `!=` between a numeric tag (u16, i32, f32)
-//!   and a number (`5`, `-3`, `2.5`) or another numeric tag, giving a bool. A numeric tag is
-//!   used nowhere else. Values compare as exact `f64`; a literal compared with an `f32` tag is
-//!   first rounded to `f32`, so `temp == 0.1` holds when `temp` holds `0.1`.
-//! - **Edges.** `rising(E)` is true for the one scan where `E` is true and was false on the
-//!   previous scan; `falling(E)` likewise for true → false. The first scan has no previous
-//!   value and sees no edge: a button held down through start-up is not a press (unlike IEC
-//!   `R_TRIG`, which fires on the first scan; here the machine does not restart by itself).
-//! - **Timers** (IEC 61131-3 semantics, time from [`ScanContext::now`] only):
-//!   - `ton(E, PT)` on-delay: true once `E` has been true continuously for `PT`, measured from
-//!     the first scan that saw `E` true (`now - start >= PT`); false as soon as `E` is false.
-//!     With a 20 ms period, `ton(E, 100ms)` is true from the 6th consecutive scan with `E`.
-//!   - `tof(E, PT)` off-delay: true while `E` is true and until `E` has been false for `PT`,
-//!     measured the same way; false before `E` was ever true.
-//!   - `tp(E, PT)` pulse: a rising edge of `E` (same rule as `rising`) starts a pulse that is
-//!     true on the scans with `now - start < PT`, whatever `E` does meanwhile; edges during a
-//!     pulse are ignored. With a 20 ms period, `tp(E, 50ms)` is true for 3 scans.
-//!
-//!   `PT` is a duration literal: a number with a unit `us`, `ms` or `s` (`100us`, `250ms`,
-//!   `2s`, `1.5s`), greater than zero and at most 2³² − 1 ms (≈ 49.7 days).
-//! - **Quality.** `good(T)` is true while tag `T`'s quality is Good: read from its module in
-//!   the last cycle, or a memory tag, or a forced tag. It is false while `T` is Stale (its
-//!   module missed a cycle) or Bad (its module is lost after its line's fail limit, or was
-//!   never read). `bad(T)` is true only while `T` is Bad. The argument is a tag name of any
-//!   type (`good(level)` for a u16 tag too), not an expression: `good(a & b)` is an error.
-//!   The quality is the image's at the moment the statement runs (set by the input phase).
-//! - **State per call site.** Each `rising`, `falling`, `ton`, `tof`, `tp` written in the
-//!   program has its own memory; two `rising(start)` are two independent one-shots.
-//!
-//! # Execution
-//!
-//! Statements run in file order each scan; a statement reads the image as the statements
-//! before it left it (so `motor` on the right of its own assignment is the previous scan's
-//! value, a self-holding contact). Every part of every expression is evaluated every scan — no
-//! short-circuit — so timers and edges inside `&`/`|` always see their input. Tags are read with
-//! [`ProcessImage::get`] whatever their quality: a tag whose quality is Bad or Stale still reads
-//! its current (last good or initial) value; a program that must act on a lost module tests
-//! `good(T)` (its [`Slot::quality`], looked up by index like a value). Coils are written
-//! with [`ProcessImage::set`] stamped with the scan time. Same inputs and same scan times give
-//! the same outputs. A scan allocates nothing and looks up no names.
+//! The language (statements, operators, edges, timers, quality, how a scan runs a program) is
+//! documented for engineers in `docs/expr.md`; this module implements it as written there.
 //!
 //! [`LogicEngine`]: crate::logic::LogicEngine
-//! [`ScanContext::now`]: crate::logic::ScanContext::now
-//! [`ProcessImage::get`]: crate::image::ProcessImage::get
-//! [`Slot::quality`]: crate::image::Slot::quality
-//! [`ProcessImage::set`]: crate::image::ProcessImage::set
 
 mod check;
 mod error;
