@@ -60,8 +60,33 @@ fn finds_every_family_at_mixed_settings_and_its_skeleton_checks() {
     }
     assert!(!text.contains("address 4,"), "{text}");
     assert!(text.contains("3 module(s) found"), "{text}");
+    // One line has one baud and format: the skeleton's bus is at the settings most modules
+    // have, and the odd module gets the command that moves it there, in the report and in
+    // the skeleton. (A pty carries no parity: the MiniMod answers the first format asked.)
+    let commission = format!(
+        "softplc commission {pty} --address 5 --baud 19200 --format 8N1 --set-baud 9600 \
+         --set-format 8N1"
+    );
+    assert!(
+        text.contains(
+            "1 module(s) answer at other settings than the line's 9600 8N1: one line has one \
+             baud and format"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!("  minimod at address 5 (19200 8N1): {commission}")),
+        "{text}"
+    );
     let yaml = std::fs::read_to_string(&project).unwrap();
     assert!(yaml.contains("model: ex9053d, address: 2"), "{yaml}");
+    assert!(yaml.contains("model: resi-16di8ro, address: 3"), "{yaml}");
+    assert!(!yaml.contains("model: minimod, address: 5"), "{yaml}");
+    assert!(
+        yaml.contains(&format!("# {commission}")) || yaml.contains(&commission),
+        "{yaml}"
+    );
+    assert_eq!(yaml.matches(&format!("port: {pty}")).count(), 1, "{yaml}");
     let check = Command::new(BIN)
         .arg("check")
         .arg(&project)

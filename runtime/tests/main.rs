@@ -23,6 +23,7 @@ mod error_chain;
 mod hostile;
 mod journal;
 mod kill9;
+mod late_port;
 mod line_plan;
 mod log_flood;
 mod long_day;

@@ -1347,3 +1347,61 @@ modules:
         ]
     );
 }
+
+#[test]
+fn two_buses_on_one_serial_device_are_refused_at_the_second() {
+    // A device that is not on this machine: the written paths are compared.
+    let text = format!(
+        "{HEAD}buses:
+  - {{ name: fast, port: /dev/ttyUSB7, baud: 19200 }}
+  - {{ name: slow, port: /dev/ttyUSB7, baud: 9600 }}
+"
+    );
+    let e = one(&text);
+    assert_eq!(at(&e), (9, 25));
+    assert_eq!(
+        e.kind,
+        ErrorKind::DuplicateDevice {
+            port: "/dev/ttyUSB7".into(),
+            same: String::new(),
+            other: "fast".into(),
+            other_line: 8,
+        }
+    );
+    assert!(
+        e.to_string().ends_with(
+            ":9:25: error: /dev/ttyUSB7 is already bus fast's serial device (line 8): one line \
+             has one baud and format, so one bus; commission the odd modules to that bus's baud \
+             and format (softplc commission), or move them to a line of their own"
+        ),
+        "{e}"
+    );
+    // A device that exists, named twice: through a link (as /dev/serial/by-id/ names an
+    // adapter) and by its own name.
+    let dir = crate::common::host::scratch_dir("project-errors", "one-device");
+    let device = dir.join("ttyUSB0");
+    std::fs::write(&device, "").unwrap();
+    let link = dir.join("usb-FTDI_FT232R-if00-port0");
+    std::os::unix::fs::symlink(&device, &link).unwrap();
+    let text = format!(
+        "{HEAD}buses:
+  - {{ name: a, port: {} }}
+  - {{ name: b, port: {} }}
+",
+        link.display(),
+        device.display()
+    );
+    let e = one(&text);
+    let resolved = std::fs::canonicalize(&device).unwrap();
+    assert_eq!(
+        e.kind,
+        ErrorKind::DuplicateDevice {
+            port: device.display().to_string(),
+            same: format!(" (both are {})", resolved.display()),
+            other: "a".into(),
+            other_line: 8,
+        }
+    );
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}

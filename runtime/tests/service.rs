@@ -289,3 +289,96 @@ fn forces_are_lost_on_restart_unless_kept() {
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(dir));
 }
+
+/// The drop-in the package ships for the plant network is inert as installed, and once
+/// uncommented it is what systemd takes: its keys verify with the unit and allow the
+/// addresses it names beside the unit's localhost.
+#[test]
+fn the_plant_network_drop_in_is_commented_and_valid_once_uncommented() {
+    let dir = scratch("drop-in");
+    let text = std::fs::read_to_string(repo().join("deploy/plant-network.conf")).unwrap();
+    assert!(
+        text.lines().all(|l| l.is_empty() || l.starts_with('#')),
+        "{text}"
+    );
+    // Uncommented: the section and its IPAddressAllow= lines (their trailing comments go,
+    // as systemd takes no comment after a value).
+    let uncommented: Vec<String> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix('#'))
+        .filter(|l| l.starts_with('[') || l.starts_with("IPAddressAllow="))
+        .map(|l| l.split(" #").next().unwrap_or(l).trim().to_string())
+        .collect();
+    assert_eq!(uncommented[0], "[Service]", "{uncommented:?}");
+    assert!(uncommented.len() >= 2, "{uncommented:?}");
+    let unit = installed_unit(&dir);
+    // A section may come again in a unit file: the drop-in's [Service] after the unit's last.
+    let mut merged = std::fs::read_to_string(&unit).unwrap();
+    for line in &uncommented {
+        merged.push_str(line);
+        merged.push('\n');
+    }
+    std::fs::write(&unit, &merged).unwrap();
+    let (ok, out) = systemd_analyze(&["verify", unit.to_str().unwrap()]);
+    assert!(
+        ok && out.trim().is_empty(),
+        "systemd-analyze verify printed:\n{out}"
+    );
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
+}
+
+/// `check` names every listener and peer beyond this machine, with the drop-in that lets it
+/// through the shipped unit; a project on loopback gets no such note.
+#[test]
+fn check_names_the_addresses_the_unit_must_allow() {
+    let dir = scratch("unit-network");
+    std::fs::write(dir.join("p.expr"), "y = x\n").unwrap();
+    let head = "project: net\nscan: { period: 100ms }\nbuses:\n  - { name: line1, port: sim }\n\
+                modules:\n  - { name: mm1, bus: line1, model: minimod, address: 1 }\ntags:\n  \
+                - { name: x, point: mm1.X1 }\n  - { name: y, point: mm1.Y1, safe: false }\n\
+                program: { file: p.expr, kind: expr }\n";
+    let check = |name: &str, service: &str| {
+        let project = dir.join(name);
+        std::fs::write(&project, format!("{head}{service}")).unwrap();
+        let out = Command::new(BIN)
+            .arg("check")
+            .arg(&project)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    let remote = check(
+        "remote.yaml",
+        "service:\n  mqtt: { host: 192.168.10.20, group: plant, node: net }\n  modbus_tcp: { \
+         bind: \"0.0.0.0:5020\" }\n",
+    );
+    let drop_in = "/etc/systemd/system/softplc@.service.d/plant-network.conf";
+    for want in [
+        format!(
+            "note: service.mqtt's broker is 192.168.10.20:1883, beyond this machine: the shipped \
+             systemd unit allows loopback traffic only (IPAddressDeny=any); allow the broker's \
+             address with IPAddressAllow= in {drop_in}"
+        ),
+        format!(
+            "note: service.modbus_tcp listens on 0.0.0.0:5020, beyond this machine: the shipped \
+             systemd unit allows loopback traffic only (IPAddressDeny=any); allow the clients' \
+             addresses with IPAddressAllow= in {drop_in}"
+        ),
+    ] {
+        assert!(remote.contains(&want), "no {want:?} in\n{remote}");
+    }
+    let local = check(
+        "local.yaml",
+        "service:\n  mqtt: { host: 127.0.0.1, group: plant, node: net }\n  opcua: { port: \
+         4841 }\n",
+    );
+    assert!(!local.contains("IPAddressDeny"), "{local}");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
+}

@@ -447,6 +447,11 @@ impl BusOwner {
     /// bad, and its start-up runs when it first answers, like a module that comes back.
     pub fn startup(&mut self) -> Result<(), StartupError> {
         let limits = self.discipline.health_limits();
+        if self.port_health.is_lost() {
+            // The port is not there yet (`port_down_at_start`): the start-up sequences run
+            // once it opens.
+            return Ok(());
+        }
         for m in 0..self.modules.len() {
             match self.run_startup(m, self.discipline.retries) {
                 Ok(()) => {}
@@ -701,6 +706,31 @@ impl BusOwner {
                 false
             }
         }
+    }
+
+    /// The port could not be opened at start (`error`, a USB adapter not enumerated yet): the
+    /// line starts as an unplugged one does, every module lost and waiting for its start-up,
+    /// and the port is reopened with the backoff of a lost port until it opens. Said once.
+    pub fn port_down_at_start(&mut self, error: &LineError) {
+        let limits = HealthLimits {
+            fail_limit: 1,
+            ..self.discipline.health_limits()
+        };
+        let now = self.transport.now();
+        self.port_health.record(false, now, &limits);
+        for module in &mut self.modules {
+            module
+                .health
+                .mark_lost(now, &self.discipline.health_limits());
+            module.startup_pending = true;
+            module.last_error = Some(TxError::Line(LineFault::from(error)));
+        }
+        tracing::error!(
+            "line {}: {error}; its modules are lost until the port opens, tried every {:?} at \
+             first",
+            self.name,
+            limits.reconnect_min
+        );
     }
 
     pub(crate) fn port_failed(&mut self, error: &TxError) {

@@ -199,6 +199,23 @@ pub enum Source {
     Unreadable(PathBuf, std::io::ErrorKind),
 }
 
+/// The most an adapter holds a reply by default: an FTDI chip's latency timer since Linux
+/// 4.9.13. What a line whose port is not there yet counts until it opens (a late USB adapter
+/// is most likely one of these).
+pub(crate) const DEFAULT_FTDI_LATENCY: Duration = Duration::from_millis(16);
+
+impl AdapterLatency {
+    /// The latency to count for a port that could not be opened yet: a configured ceiling as
+    /// given, else an FTDI adapter's default ([`DEFAULT_FTDI_LATENCY`]), so that echo and
+    /// reply waits are long enough whatever adapter appears.
+    pub fn before_open(self) -> Duration {
+        match self {
+            AdapterLatency::AtMost(d) => d,
+            AdapterLatency::Auto => DEFAULT_FTDI_LATENCY,
+        }
+    }
+}
+
 /// The adapter latency a budget counts for one bus, and where the figure came from.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Assumed {
@@ -256,7 +273,8 @@ impl fmt::Display for Assumed {
             Source::Absent(port) => write!(
                 f,
                 "0 ms assumed: {} is not on this machine (set adapter_latency to the adapter's: \
-                 16 ms for an FTDI adapter without the udev rule, 1 ms with it)",
+                 16 ms for an FTDI adapter without the udev rule, 1 ms with it); `run` starts \
+                 with this line lost and takes the port when it appears",
                 port.display()
             ),
             Source::Unreadable(path, kind) => {

@@ -247,6 +247,26 @@ impl SerialTransport {
         Ok(t)
     }
 
+    /// A port that could not be opened at start (a USB adapter not enumerated yet): the line
+    /// starts down, and [`Transport::reopen`] opens `path` when it appears, applying `rs485`
+    /// and the adapter `latency` then, as a reopen after an unplug does.
+    pub fn open_later(
+        path: &Path,
+        settings: LineSettings,
+        clock: Arc<dyn Clock>,
+        rs485: Option<Rs485Mode>,
+        latency: (AdapterLatency, SysfsRoot),
+    ) -> Self {
+        Self {
+            port: None,
+            path: Some(path.to_path_buf()),
+            settings,
+            rs485,
+            latency: Some(latency),
+            clock,
+        }
+    }
+
     /// Wraps an already open port (one end of an in-process pty pair, in tests).
     pub fn from_port(
         mut port: serialport::TTYPort,

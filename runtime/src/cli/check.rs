@@ -298,6 +298,13 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         fmt_duration(worst)
     );
     out.push_str(&crate::service::network::report(project));
+    let notes = unit_network::notes(project);
+    if !notes.is_empty() {
+        out.push('\n');
+    }
+    for note in notes {
+        let _ = writeln!(out, "{note}");
+    }
     for w in warnings {
         let _ = writeln!(out, "{w}");
     }
@@ -408,3 +415,4 @@ mod plan;
 mod tcp;
 #[cfg(test)]
 mod tests;
+mod unit_network;

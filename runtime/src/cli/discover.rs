@@ -11,7 +11,6 @@
 //! The probe plan is every (baud, format) × address × family the family supports; its worst
 //! case (every probe timing out) is printed before the first probe, from the line timing model.
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -267,7 +266,11 @@ pub(super) fn discover(args: DiscoverArgs) -> anyhow::Result<ExitCode> {
         found.len(),
         crate::scan::fmt_duration(started.elapsed())
     ))?;
-    let yaml = skeleton(&args.port.display().to_string(), &found);
+    let port = args.port.display().to_string();
+    for line in odd_report(&port, &found) {
+        outln(&line)?;
+    }
+    let yaml = skeleton(&port, &found);
     outln("")?;
     outln(&yaml)?;
     if let Some(path) = &args.out {
@@ -321,51 +324,101 @@ pub(super) fn ask(
 /// The program file the skeleton names.
 const PROGRAM_FILE: &str = "program.expr";
 
-/// A project file with one bus per (baud, format) found and every module on it.
-pub(crate) fn skeleton(port: &str, found: &[Found]) -> String {
-    let mut buses: BTreeMap<(u32, String), Vec<&Found>> = BTreeMap::new();
+/// The settings of the line a skeleton makes: those most of the modules found have (the
+/// faster baud between equals), since one line has one baud and format.
+fn line_settings(found: &[Found]) -> Option<LineSettings> {
+    let mut count: Vec<(LineSettings, usize)> = Vec::new();
     for f in found {
-        buses
-            .entry((f.settings.baud, f.settings.format.to_string()))
-            .or_default()
-            .push(f);
+        match count.iter_mut().find(|(s, _)| *s == f.settings) {
+            Some((_, n)) => *n += 1,
+            None => count.push((f.settings, 1)),
+        }
     }
+    count
+        .into_iter()
+        .max_by_key(|(s, n)| (*n, s.baud))
+        .map(|(s, _)| s)
+}
+
+/// The modules found at other settings than `line`'s.
+fn odd_modules(found: &[Found], line: LineSettings) -> Vec<&Found> {
+    found.iter().filter(|f| f.settings != line).collect()
+}
+
+/// The command that moves `f` to `line`'s baud and format.
+fn commission_command(port: &str, f: &Found, line: LineSettings) -> String {
+    format!(
+        "softplc commission {port} --address {} --baud {} --format {} --set-baud {} --set-format {}",
+        f.address, f.settings.baud, f.settings.format, line.baud, line.format
+    )
+}
+
+/// What discover says of the modules that cannot share the line: one line each, with the
+/// command that would put it on the line's settings.
+fn odd_report(port: &str, found: &[Found]) -> Vec<String> {
+    let Some(line) = line_settings(found) else {
+        return Vec::new();
+    };
+    let odd = odd_modules(found, line);
+    if odd.is_empty() {
+        return Vec::new();
+    }
+    let mut out = vec![format!(
+        "{} module(s) answer at other settings than the line's {} {}: one line has one baud \
+         and format, so commission each to the line's (then add it to the project's modules):",
+        odd.len(),
+        line.baud,
+        line.format
+    )];
+    for f in odd {
+        out.push(format!(
+            "  {} at address {} ({} {}): {}",
+            f.model,
+            f.address,
+            f.settings.baud,
+            f.settings.format,
+            commission_command(port, f, line)
+        ));
+    }
+    out
+}
+
+/// A project file with one bus on the port, at the settings most modules have, and those
+/// modules on it; the others are listed with the command that commissions them to the line.
+pub(crate) fn skeleton(port: &str, found: &[Found]) -> String {
     let mut y = String::new();
     let _ = writeln!(
         y,
         "# Found by `softplc discover {port}`: edit names, add tags and a program."
     );
-    let _ = writeln!(
-        y,
-        "# Modules at different settings need separate lines (or commissioning)."
-    );
+    for line in odd_report(port, found) {
+        let _ = writeln!(y, "# {line}");
+    }
     let _ = writeln!(y, "project: discovered\n");
     let _ = writeln!(y, "scan:\n  period: 100ms\n");
     let _ = writeln!(
         y,
         "program:            # --out writes an empty one next to the project\n  file: {PROGRAM_FILE}\n  kind: expr\n"
     );
+    let line = line_settings(found).unwrap_or(LineSettings::DEFAULT);
     let _ = writeln!(y, "buses:");
-    for (baud, format) in buses.keys() {
-        let _ = writeln!(y, "  - name: line_{baud}_{}", format.to_ascii_lowercase());
-        let _ = writeln!(y, "    port: {port}");
-        let _ = writeln!(y, "    baud: {baud}");
-        let _ = writeln!(y, "    format: {format}");
-        let _ = writeln!(y, "    response_timeout: 50ms");
-    }
+    let _ = writeln!(y, "  - name: line1");
+    let _ = writeln!(y, "    port: {port}");
+    let _ = writeln!(y, "    baud: {}", line.baud);
+    let _ = writeln!(y, "    format: {}", line.format);
+    let _ = writeln!(y, "    response_timeout: 50ms");
     let _ = writeln!(y, "\nmodules:");
-    for ((baud, format), mods) in &buses {
-        for f in mods {
-            let short = f.model.replace('-', "_");
-            let _ = writeln!(
-                y,
-                "  - {{ name: {short}_{}, bus: line_{baud}_{}, model: {}, address: {} }}",
-                f.address,
-                format.to_ascii_lowercase(),
-                f.model,
-                f.address
-            );
-        }
+    let on_line: Vec<&Found> = found.iter().filter(|f| f.settings == line).collect();
+    if on_line.is_empty() {
+        let _ = writeln!(y, "  []");
+    }
+    for f in on_line {
+        let short = f.model.replace('-', "_");
+        let _ = writeln!(
+            y,
+            "  - {{ name: {short}_{}, bus: line1, model: {}, address: {} }}",
+            f.address, f.model, f.address
+        );
     }
     y
 }

@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use softplc_io::line::{
-    echo_margin, BusOwner, Counters, Discipline, EchoDiscard, EchoMode, LineLink,
+    echo_margin, BusOwner, Counters, Discipline, EchoDiscard, EchoMode, LineError, LineLink,
     ModbusTcpTransport, Module, NetFraming, OutputFrame, RtuOverTcpTransport, SerialTransport,
     SysfsRoot, Transport, CONNECT_TIMEOUT,
 };
@@ -87,6 +87,8 @@ impl Plc {
         for (b, bus) in project.buses.iter().enumerate() {
             // The adapter's latency timer holds an echo back as it holds a reply.
             let mut adapter_latency = Duration::ZERO;
+            // Why the port could not be opened, when it could not (the line starts lost).
+            let mut port_down = None;
             let transport: Box<dyn Transport> = match &bus.port {
                 PortConfig::Sim => {
                     // build_world makes a world whenever a bus is `port: sim`.
@@ -103,15 +105,33 @@ impl Plc {
                         bus: bus.name.clone(),
                         source,
                     };
-                    let mut port = SerialTransport::open(path, bus.settings, clock.clone())
-                        .map_err(port_error)?;
-                    if let Some(mode) = bus.rs485 {
-                        port.set_rs485(mode).map_err(port_error)?;
+                    match SerialTransport::open(path, bus.settings, clock.clone()) {
+                        Ok(mut port) => {
+                            if let Some(mode) = bus.rs485 {
+                                port.set_rs485(mode).map_err(port_error)?;
+                            }
+                            adapter_latency = port
+                                .set_adapter_latency(bus.adapter_latency, SysfsRoot::default())
+                                .map_err(port_error)?;
+                            Box::new(port)
+                        }
+                        // Absent or not openable yet (a USB adapter that enumerates late at
+                        // boot): the line starts lost, as an unplugged one is, and the bus
+                        // owner takes the port when it appears. What the port refuses once
+                        // open (RS-485 mode, a latency ceiling) is the project's error.
+                        Err(e @ LineError::Open { .. }) => {
+                            adapter_latency = bus.adapter_latency.before_open();
+                            port_down = Some(e);
+                            Box::new(SerialTransport::open_later(
+                                path,
+                                bus.settings,
+                                clock.clone(),
+                                bus.rs485,
+                                (bus.adapter_latency, SysfsRoot::default()),
+                            ))
+                        }
+                        Err(e) => return Err(port_error(e)),
                     }
-                    adapter_latency = port
-                        .set_adapter_latency(bus.adapter_latency, SysfsRoot::default())
-                        .map_err(port_error)?;
-                    Box::new(port)
                 }
                 // Nothing is connected here: a server that is not up yet leaves its modules
                 // lost at start-up, and the bus owner connects when its backoff allows.
@@ -168,6 +188,9 @@ impl Plc {
                 owner.set_wire_tap(tap.clone());
             }
             owner.sync(clock.now());
+            if let Some(e) = &port_down {
+                owner.port_down_at_start(e);
+            }
             owner.startup().map_err(|source| BuildError::Startup {
                 bus: bus.name.clone(),
                 source,

@@ -265,6 +265,22 @@ pub enum ErrorKind {
         /// What to do instead.
         hint: &'static str,
     },
+    /// Two buses on one serial device.
+    #[error(
+        "{port} is already bus {other}'s serial device{same} (line {other_line}): one line has one \
+         baud and format, so one bus; commission the odd modules to that bus's baud and format \
+         (softplc commission), or move them to a line of their own"
+    )]
+    DuplicateDevice {
+        /// The port as written.
+        port: String,
+        /// ` (both are /dev/ttyUSB0)` when the two paths differ but lead to one device.
+        same: String,
+        /// The bus that has it first.
+        other: String,
+        /// That bus's `port` line.
+        other_line: usize,
+    },
     /// Two buses with one network endpoint.
     #[error(
         "endpoint {endpoint} is already bus {other}'s (line {other_line}): one connection per \

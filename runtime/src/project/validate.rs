@@ -72,6 +72,7 @@ pub(crate) fn validate(
         .map(|(i, b)| v.bus(b, &root.key("buses").index(i)))
         .collect();
     v.duplicate_endpoints(&buses);
+    v.duplicate_devices(&buses);
     let bus_index = v.names(
         Item::Bus,
         raw.buses.iter().map(|b| b.name.as_str()),
@@ -525,6 +526,50 @@ impl Validator<'_> {
                     path.key(key),
                     ErrorKind::NotOnNetworkBus { key, scheme, hint },
                 );
+            }
+        }
+    }
+
+    /// Refuses a second bus on a serial device another bus has: one line has one baud and
+    /// format, and the second opener would find the port locked. Paths are compared resolved
+    /// where the device exists (a `/dev/serial/by-id/` link and its `ttyUSB0` are one device),
+    /// as written where it does not.
+    fn duplicate_devices(&mut self, buses: &[Option<BusConfig>]) {
+        let mut seen: Vec<(PathBuf, usize)> = Vec::new();
+        for (b, bus) in buses.iter().enumerate() {
+            let Some(BusConfig {
+                port: PortConfig::Serial(path),
+                ..
+            }) = bus
+            else {
+                continue;
+            };
+            let device = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
+            match seen.iter().find(|(d, _)| *d == device) {
+                Some(&(_, o)) => {
+                    let root = YPath::root().key("buses");
+                    let other_line = self.loc.line(&root.index(o).key("port"));
+                    let (other, other_path) = buses[o]
+                        .as_ref()
+                        .map(|c| (c.name.clone(), c.port.clone()))
+                        .unzip();
+                    let same = match other_path {
+                        Some(PortConfig::Serial(p)) if p != *path => {
+                            format!(" (both are {})", device.display())
+                        }
+                        _ => String::new(),
+                    };
+                    self.error(
+                        root.index(b).key("port"),
+                        ErrorKind::DuplicateDevice {
+                            port: path.display().to_string(),
+                            same,
+                            other: other.unwrap_or_default(),
+                            other_line,
+                        },
+                    );
+                }
+                None => seen.push((device, b)),
             }
         }
     }

@@ -130,7 +130,8 @@ fn what_check_assumes_says_where_it_came_from() {
     assert_eq!(
         auto("/dev/ttyUSB9").to_string(),
         "0 ms assumed: /dev/ttyUSB9 is not on this machine (set adapter_latency to the \
-         adapter's: 16 ms for an FTDI adapter without the udev rule, 1 ms with it)"
+         adapter's: 16 ms for an FTDI adapter without the udev rule, 1 ms with it); `run` \
+         starts with this line lost and takes the port when it appears"
     );
     let fixed = Assumed::for_port(
         AdapterLatency::AtMost(Duration::from_millis(2)),
