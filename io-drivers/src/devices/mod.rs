@@ -3,6 +3,7 @@
 
 mod config;
 pub mod ex9053;
+mod family;
 pub mod minimod;
 pub mod profile;
 pub mod resi;
@@ -16,6 +17,10 @@ use crate::sim::SimDevice;
 pub use config::{
     Accepted, AddressError, ConfigError, DeviceConfig, KeyError, ModuleAddress, ModuleSettings,
     ParseSettings, PushDown, Range, SettingError,
+};
+pub use family::{
+    Armed, Derivation, Family, InputModes, Origin, ReplyDelayTuning, WatchdogAsk, WatchdogConflict,
+    WatchdogPolicy,
 };
 
 /// How a driver talks to its module.
@@ -66,6 +71,8 @@ pub struct ModelSpec {
     /// The profile a model read from a profile file is built from (`None` for the built-in
     /// models). Its simulator is made by [`ModelSpec::simulate`], which can reach it.
     pub profile: Option<&'static profile::Profile>,
+    /// The family's capabilities: its watchdog plan and input modes.
+    pub family: &'static dyn Family,
 }
 
 impl ModelSpec {

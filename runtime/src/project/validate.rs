@@ -886,8 +886,11 @@ impl Validator<'_> {
             None => Some(WatchdogPolicy::Auto),
             Some(text) => {
                 let parsed = super::watchdog::parse_policy(&text.0).and_then(|p| {
-                    match settings.as_ref().and_then(super::watchdog::conflict) {
-                        Some(why) if p == WatchdogPolicy::Off => Err(why),
+                    let conflict = settings
+                        .as_ref()
+                        .and_then(|s| model.family.watchdog_conflict(s));
+                    match conflict {
+                        Some(why) if p == WatchdogPolicy::Off => Err(why.to_string()),
                         _ => Ok(p),
                     }
                 });
@@ -906,17 +909,13 @@ impl Validator<'_> {
             }
         };
 
-        if let (Some(ModuleSettings::MiniMod(s)), Some(Some(bus_cfg))) =
-            (&settings, bus.and_then(|b| buses.get(b)))
-        {
+        if let (Some(settings), Some(Some(bus_cfg))) = (&settings, bus.and_then(|b| buses.get(b))) {
             if bus_cfg.port.is_modbus_tcp() {
-                for key in ["WDTTIME", "WDTYMASK"] {
-                    if s.register(key).is_some() {
-                        self.error(
-                            path.key("settings").key(key),
-                            ErrorKind::TextSettingOnModbusTcp { key },
-                        );
-                    }
+                for key in model.family.text_only_settings(settings) {
+                    self.error(
+                        path.key("settings").key(key),
+                        ErrorKind::TextSettingOnModbusTcp { key },
+                    );
                 }
             }
         }

@@ -20,6 +20,7 @@
 
 pub(crate) mod dcon;
 pub(crate) mod driver;
+pub(crate) mod family;
 pub(crate) mod map;
 pub(crate) mod points;
 pub(crate) mod settings;
@@ -37,6 +38,7 @@ use super::{ModelSpec, Protocol};
 
 pub use dcon::{check_line, Answer, AnswerError, Command, FrameError, ParseError};
 pub use driver::Ex9053Driver;
+pub use family::Ex9053Family;
 pub use settings::{LatchMode, Settings};
 pub use sim::Ex9053Sim;
 pub use state::{ConfigError, Eeprom, Ex9053State, Running, Variant, WireProtocol};
@@ -62,6 +64,7 @@ pub static MODEL_D: ModelSpec = ModelSpec {
     parse_settings: settings::parse_module,
     setting_keys: settings::keys,
     profile: None,
+    family: &Ex9053Family,
 };
 
 /// The EX-9053D-M in the catalog: Modbus RTU by default, DCON too (`protocol: text`), unit
@@ -80,4 +83,5 @@ pub static MODEL_M: ModelSpec = ModelSpec {
     parse_settings: settings::parse_module,
     setting_keys: settings::keys,
     profile: None,
+    family: &Ex9053Family,
 };

@@ -63,6 +63,7 @@
 
 pub mod ascii;
 pub(crate) mod driver;
+pub(crate) mod family;
 pub(crate) mod item;
 pub(crate) mod logic;
 pub(crate) mod map;
@@ -79,6 +80,7 @@ pub use driver::{
     ascii::BadAnswer,
     settings::{Setting, Settings},
 };
+pub use family::ResiFamily;
 pub use item::{Func, Item, Kind, Temp};
 pub use map::{Acc, Block, Entry, Map, Table};
 pub use model::{Hardware, Model, RelayKind, Series};
@@ -146,6 +148,7 @@ macro_rules! catalog_entry {
             parse_settings,
             setting_keys,
             profile: None,
+            family: &$crate::devices::resi::ResiFamily,
         };
     };
 }

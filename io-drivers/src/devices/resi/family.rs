@@ -1,0 +1,48 @@
+//! The RESI series as a device family: its watchdog.
+//!
+//! resi-spec.md §5.4 and its summary: the RESI modules have no communication watchdog and no
+//! module-side safe state, except the RESI-1RO, whose off-delay (`SOFFDLY`, the point
+//! `OFFDLY`) drops the relay when no command retriggers it. That off-delay is a way of driving
+//! DO1 (through a timer, retriggered every cycle), not a safe state to reset: nothing locks
+//! when it expires, and the relay follows the program again with the next cycle. It stays
+//! opt-in (`SOFFDLY` in the settings); `check` says it is not armed. Polled only: FC 70
+//! Collect is not in the series' manual, and its reply delay is not the master's to set.
+
+use crate::devices::family::{Armed, Family, WatchdogAsk, WatchdogConflict, WatchdogPolicy};
+use crate::devices::ModuleSettings;
+
+/// The RESI family (every model of the series).
+#[derive(Debug)]
+pub struct ResiFamily;
+
+/// The `SOFFDLY` setting, ms, when given.
+fn off_delay(settings: &ModuleSettings) -> Option<u16> {
+    match settings {
+        ModuleSettings::Resi(s) => s.off_delay(),
+        _ => None,
+    }
+}
+
+impl Family for ResiFamily {
+    fn watchdog_conflict(&self, settings: &ModuleSettings) -> Option<WatchdogConflict> {
+        let ms = off_delay(settings)?;
+        Some(WatchdogConflict {
+            key: "SOFFDLY",
+            value: ms.to_string(),
+        })
+    }
+
+    fn plan_watchdog(&self, settings: &ModuleSettings, ask: &WatchdogAsk<'_>) -> Armed {
+        if ask.model.point_index("OFFDLY").is_none() {
+            return Armed::NotArmed("the model has no communication watchdog (resi-spec §5.4)");
+        }
+        match (ask.policy, off_delay(settings)) {
+            (WatchdogPolicy::Off, _) => Armed::NotArmed("watchdog: off"),
+            (_, Some(ms)) => Armed::OffDelay { ms },
+            (_, None) => Armed::NotArmed(
+                "the off-delay SOFFDLY is opt-in (it drives DO1 through a timer); setting \
+                 SOFFDLY: <ms> arms it",
+            ),
+        }
+    }
+}
