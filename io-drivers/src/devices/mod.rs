@@ -19,8 +19,8 @@ pub use config::{
     ParseSettings, PushDown, Range, SettingError,
 };
 pub use family::{
-    Armed, Derivation, Family, InputModes, Origin, ReplyDelayTuning, WatchdogAsk, WatchdogConflict,
-    WatchdogPolicy,
+    Armed, Derivation, Family, InputModes, OffProtocol, Origin, ReplyDelayTuning, WatchdogAsk,
+    WatchdogConflict, WatchdogPolicy,
 };
 
 /// How a driver talks to its module.

@@ -25,7 +25,7 @@ use super::raw::{
 };
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
-use softplc_io::devices::{DeviceConfig, ModuleAddress, ModuleSettings, PushDown, SettingError};
+use softplc_io::devices::{DeviceConfig, ModuleAddress, PushDown, SettingError};
 
 /// Default watchdog time, in periods.
 const WATCHDOG_PERIODS: u32 = 5;
@@ -854,25 +854,23 @@ impl Validator<'_> {
             }
         };
 
-        // A DCON-only setting on a module speaking Modbus would do nothing: refused, not
-        // ignored.
-        let settings = match (settings, protocol) {
-            (Some(ModuleSettings::Ex9053(s)), Some(Protocol::Modbus))
-                if s.dcon_only().is_some() =>
-            {
-                let dcon = s.dcon_only().unwrap_or_default();
+        // A setting that does nothing on the module's protocol (a DCON-only one on a module
+        // speaking Modbus): refused, not ignored.
+        let off_protocol = settings
+            .as_ref()
+            .zip(protocol)
+            .and_then(|(s, p)| model.family.off_protocol(s, p));
+        let settings = match (settings, off_protocol) {
+            (Some(_), Some(off)) => {
                 let key = text
                     .iter()
                     .map(|(k, _)| k)
-                    .find(|k| k.eq_ignore_ascii_case(dcon))
+                    .find(|k| k.eq_ignore_ascii_case(off.key))
                     .cloned()
-                    .unwrap_or_else(|| dcon.to_owned());
+                    .unwrap_or_else(|| off.key.to_owned());
                 let kind = ErrorKind::BadSetting {
                     module: m.name.clone(),
-                    message: format!(
-                        "{dcon} is a DCON setting and the module speaks Modbus (protocol: \
-                         modbus); remove it, or use protocol: text"
-                    ),
+                    message: off.to_string(),
                     key: key.clone(),
                 };
                 self.error(path.key("settings").key(&key), kind);

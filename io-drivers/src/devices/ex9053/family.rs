@@ -6,13 +6,36 @@
 //! read every cycle for a diagnostic the PLC has anyway (the module is lost). Its `watchdog`
 //! setting (100ms..=25.5s) still arms it (see the driver); `check` prints it. Polled only:
 //! FC 70 Collect is not in its manual.
+//!
+//! # A neighbour's text commands
+//!
+//! In DCON mode it reads the `@` of another family's text command line and the next two
+//! characters as its own command and address (`@AA`, "Read Digital Input Status", §2.13), and
+//! answers a command it does not know with `?AA` ("Invalid Command"): both replies are
+//! garbled. With its checksum on (data format bit 6, §1.10) it takes the line's last two
+//! characters for one, and they do not add up. Which lines it takes is decided by its own
+//! DCON parser ([`address_hearing`]).
 
-use crate::devices::family::{Armed, Family, WatchdogAsk, WatchdogConflict, WatchdogPolicy};
-use crate::devices::ModuleSettings;
+use super::{Command, ParseError};
+use crate::devices::family::{
+    Armed, Family, OffProtocol, WatchdogAsk, WatchdogConflict, WatchdogPolicy,
+};
+use crate::devices::{DeviceConfig, ModuleSettings, Protocol};
 
 /// The EX-9053 family.
 #[derive(Debug)]
 pub struct Ex9053Family;
+
+/// The DCON address (as a project writes an EX-9053's address: the number) that takes a text
+/// command `line` (with or without its CR) for its own; `None` when none does.
+pub fn address_hearing(line: &[u8]) -> Option<u8> {
+    let body = line.strip_suffix(b"\r").unwrap_or(line);
+    match Command::parse(body) {
+        Ok(command) => command.address(),
+        Err(ParseError::Invalid { address }) => Some(address),
+        Err(ParseError::NoAddress) => None,
+    }
+}
 
 /// The `watchdog` setting, 0.1 s, when given.
 fn watchdog(settings: &ModuleSettings) -> Option<u8> {
@@ -29,6 +52,25 @@ impl Family for Ex9053Family {
             key: "watchdog",
             value: format!("{}s", f64::from(tenths) / 10.0),
         })
+    }
+
+    fn off_protocol(&self, settings: &ModuleSettings, protocol: Protocol) -> Option<OffProtocol> {
+        let ModuleSettings::Ex9053(s) = settings else {
+            return None;
+        };
+        let key = s.dcon_only().filter(|_| protocol == Protocol::Modbus)?;
+        Some(OffProtocol {
+            key,
+            belongs_to: "DCON",
+            needs: Protocol::Text,
+            speaks: protocol,
+        })
+    }
+
+    fn takes_for_own(&self, device: &DeviceConfig, line: &[u8]) -> bool {
+        let dcon_without_checksum = device.protocol == Protocol::Text
+            && matches!(&device.settings, ModuleSettings::Ex9053(s) if !s.checksum);
+        dcon_without_checksum && address_hearing(line) == Some(device.address.get())
     }
 
     fn plan_watchdog(&self, settings: &ModuleSettings, ask: &WatchdogAsk<'_>) -> Armed {

@@ -38,7 +38,7 @@ use super::{ModelSpec, Protocol};
 
 pub use dcon::{check_line, Answer, AnswerError, Command, FrameError, ParseError};
 pub use driver::Ex9053Driver;
-pub use family::Ex9053Family;
+pub use family::{address_hearing, Ex9053Family};
 pub use settings::{LatchMode, Settings};
 pub use sim::Ex9053Sim;
 pub use state::{ConfigError, Eeprom, Ex9053State, Running, Variant, WireProtocol};

@@ -1,5 +1,7 @@
 //! The one interface through which a device family states its capabilities to the runtime:
-//! its module watchdog's plan and its input modes. Every model in the [catalog](super::catalog)
+//! its module watchdog's plan, its input modes and reply-delay tuning, and what validation
+//! needs to know of its settings (those only its text commands carry, those that do nothing on
+//! a protocol, the text its start-up sends that a neighbour may take for its own). Every model in the [catalog](super::catalog)
 //! names its family ([`ModelSpec::family`](super::ModelSpec::family)); the runtime asks the
 //! family and never matches on a family's settings or a model's name, so a new family is one
 //! folder under `devices/` (its settings, driver, simulator and this trait's implementation)
@@ -9,7 +11,7 @@
 //!
 //! The [`Family`] trait's methods and the types they take and return ([`WatchdogAsk`],
 //! [`WatchdogPolicy`], [`Derivation`], [`Armed`], [`Origin`], [`WatchdogConflict`],
-//! [`InputModes`], [`ReplyDelayTuning`]) are the stable seam: a family outside this crate
+//! [`InputModes`], [`ReplyDelayTuning`], [`OffProtocol`]) are the stable seam: a family outside this crate
 //! implements them. Every method with a default keeps it for a family without the
 //! capability (no watchdog settings to add, no event mode, no reply delay to tune). The
 //! variants of [`Armed`] that name a family (`MiniMod`, `HostWatchdog`, `OffDelay`) are what
@@ -20,9 +22,40 @@ mod watchdog;
 use std::fmt;
 use std::time::Duration;
 
-use super::{ModuleSettings, Protocol};
+use super::{DeviceConfig, ModuleAddress, ModuleSettings, Protocol};
 
 pub use watchdog::{Armed, Derivation, Origin, WatchdogAsk, WatchdogConflict, WatchdogPolicy};
+
+/// A setting that does nothing on the protocol the module speaks: refused, not ignored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OffProtocol {
+    /// The setting's key, in the manual's spelling (`checksum`).
+    pub key: &'static str,
+    /// The protocol it belongs to, in words (`DCON`).
+    pub belongs_to: &'static str,
+    /// The protocol that carries it.
+    pub needs: Protocol,
+    /// The protocol the module speaks.
+    pub speaks: Protocol,
+}
+
+impl fmt::Display for OffProtocol {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let speaks = match self.speaks {
+            Protocol::Modbus => "Modbus",
+            Protocol::Text => "its text protocol",
+        };
+        write!(
+            f,
+            "{} is a {} setting and the module speaks {speaks} (protocol: {}); remove it, or \
+             use protocol: {}",
+            self.key,
+            self.belongs_to,
+            self.speaks.name(),
+            self.needs.name()
+        )
+    }
+}
 
 /// How a module reads its inputs, as its family states it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -79,6 +112,23 @@ pub trait Family: Sync + fmt::Debug {
     /// Modbus TCP bus refuses them (keys in the manual's spelling).
     fn text_only_settings(&self, _settings: &ModuleSettings) -> Vec<&'static str> {
         Vec::new()
+    }
+
+    /// A setting that does nothing on `protocol`, if the settings have one.
+    fn off_protocol(&self, _settings: &ModuleSettings, _protocol: Protocol) -> Option<OffProtocol> {
+        None
+    }
+
+    /// The text command line (with its CR) the module's start-up sends at `address` whatever
+    /// protocol it speaks, which every module of the line hears (`None`: it sends none).
+    fn startup_text(&self, _address: ModuleAddress) -> Option<Vec<u8>> {
+        None
+    }
+
+    /// Whether the module, as configured, takes `line` (a neighbour's text command line) for
+    /// a command of its own, and answers it.
+    fn takes_for_own(&self, _device: &DeviceConfig, _line: &[u8]) -> bool {
+        false
     }
 
     /// How the module reads its inputs with `settings`, on `protocol`.

@@ -38,7 +38,7 @@ use crate::devices::family::{
     Armed, Derivation, Family, InputModes, Origin, ReplyDelayTuning, WatchdogAsk, WatchdogConflict,
     WatchdogPolicy,
 };
-use crate::devices::{ModuleSettings, Protocol};
+use crate::devices::{ModuleAddress, ModuleSettings, Protocol};
 use crate::point::Value;
 
 /// The MiniMod family.
@@ -217,6 +217,17 @@ impl Family for MiniModFamily {
                 .filter(|key| s.register(key).is_some())
                 .collect()
         })
+    }
+
+    /// Every MiniMod gets text commands at start-up, whatever its protocol: its watchdog is
+    /// armed by name (`@18>WDTTIME=148`; see the driver's `watchdog`).
+    fn startup_text(&self, address: ModuleAddress) -> Option<Vec<u8>> {
+        super::write_command(
+            address.get(),
+            super::TextId::WdtTime,
+            super::WriteValue::Number(0),
+        )
+        .ok()
     }
 
     fn input_modes(&self, settings: &ModuleSettings, protocol: Protocol) -> InputModes {
