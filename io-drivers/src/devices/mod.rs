@@ -22,6 +22,9 @@ pub use family::{
     Armed, Derivation, Family, InputModes, OffProtocol, Origin, ReplyDelayTuning, WatchdogAsk,
     WatchdogConflict, WatchdogPolicy,
 };
+pub use family::{
+    Check, CommissionError, CommissionRequest, Conversation, Expect, LineFailed, Plan, Step,
+};
 
 /// How a driver talks to its module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -115,6 +118,18 @@ pub fn catalog() -> &'static [&'static ModelSpec] {
         &resi::models::m4led::SPEC,
     ];
     &CATALOG
+}
+
+/// Every family softplc knows, in the order `softplc discover` and `softplc commission` ask
+/// a module who it is.
+pub fn families() -> &'static [&'static dyn Family] {
+    static FAMILIES: [&dyn Family; 4] = [
+        &minimod::MiniModFamily,
+        &resi::ResiFamily,
+        &ex9053::Ex9053Family,
+        &profile::ProfileFamily,
+    ];
+    &FAMILIES
 }
 
 /// A model by its project-file name.

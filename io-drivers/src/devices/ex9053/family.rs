@@ -18,9 +18,11 @@
 
 use super::{Command, ParseError};
 use crate::devices::family::{
-    Armed, Family, OffProtocol, WatchdogAsk, WatchdogConflict, WatchdogPolicy,
+    Armed, CommissionError, CommissionRequest, Conversation, Family, OffProtocol, Plan,
+    WatchdogAsk, WatchdogConflict, WatchdogPolicy,
 };
 use crate::devices::{DeviceConfig, ModuleSettings, Protocol};
+use crate::line::LineSettings;
 
 /// The EX-9053 family.
 #[derive(Debug)]
@@ -46,6 +48,39 @@ fn watchdog(settings: &ModuleSettings) -> Option<u8> {
 }
 
 impl Family for Ex9053Family {
+    fn name(&self) -> &'static str {
+        "EX-9053 (DCON)"
+    }
+
+    fn supports(&self, settings: LineSettings, _address: u8) -> bool {
+        super::commission::supports(settings)
+    }
+
+    fn who_are_you(&self, address: u8, checksum: bool) -> Option<Vec<u8>> {
+        Some(super::commission::name_request(address, checksum))
+    }
+
+    fn answer_body(&self, reply: &str, checksum: bool) -> Option<String> {
+        super::commission::body(reply, checksum)
+    }
+
+    fn identify(&self, address: u8, reply: &str) -> Option<Result<&'static str, String>> {
+        super::commission::identify(address, reply)
+    }
+
+    fn has_checksum(&self) -> bool {
+        true
+    }
+
+    fn plan_commissioning(
+        &self,
+        conversation: &mut dyn Conversation,
+        request: &CommissionRequest,
+        model: &'static str,
+    ) -> Result<Plan, CommissionError> {
+        super::commission::plan(conversation, request, model)
+    }
+
     fn watchdog_conflict(&self, settings: &ModuleSettings) -> Option<WatchdogConflict> {
         let tenths = watchdog(settings)?;
         Some(WatchdogConflict {

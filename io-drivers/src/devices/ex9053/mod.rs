@@ -18,6 +18,7 @@
 //! number (`address: 18` is DCON `12`, Modbus unit 18). The EX-9053D takes 0..=255 (DCON
 //! 00..FF); the EX-9053D-M 1..=247, the Modbus range, also when it is run with DCON.
 
+pub(crate) mod commission;
 pub(crate) mod dcon;
 pub(crate) mod driver;
 pub(crate) mod family;
@@ -36,6 +37,7 @@ mod tests;
 
 use super::{ModelSpec, Protocol};
 
+pub use commission::Ex9053Refusal;
 pub use dcon::{check_line, Answer, AnswerError, Command, FrameError, ParseError};
 pub use driver::Ex9053Driver;
 pub use family::{address_hearing, Ex9053Family};

@@ -1,28 +1,38 @@
 //! The one interface through which a device family states its capabilities to the runtime:
-//! its module watchdog's plan, its input modes and reply-delay tuning, and what validation
+//! its module watchdog's plan, its input modes and reply-delay tuning, what validation
 //! needs to know of its settings (those only its text commands carry, those that do nothing on
-//! a protocol, the text its start-up sends that a neighbour may take for its own). Every model in the [catalog](super::catalog)
+//! a protocol, the text its start-up sends that a neighbour may take for its own), how a
+//! module of it says who it is, and its commissioning protocol (a [`Plan`] of steps for a
+//! [`CommissionRequest`], sans-IO: the runner that talks on a port is the caller's). Every model in the [catalog](super::catalog)
 //! names its family ([`ModelSpec::family`](super::ModelSpec::family)); the runtime asks the
 //! family and never matches on a family's settings or a model's name, so a new family is one
-//! folder under `devices/` (its settings, driver, simulator and this trait's implementation)
-//! and one catalog line.
+//! folder under `devices/` (its settings, driver, simulator and this trait's implementation),
+//! one catalog line per model and one line in [`families`](super::families). A family's own
+//! refusal types (`MiniModRefusal`, ...) are its own API, not the seam's.
 //!
 //! # Stable API
 //!
 //! The [`Family`] trait's methods and the types they take and return ([`WatchdogAsk`],
 //! [`WatchdogPolicy`], [`Derivation`], [`Armed`], [`Origin`], [`WatchdogConflict`],
-//! [`InputModes`], [`ReplyDelayTuning`], [`OffProtocol`]) are the stable seam: a family outside this crate
+//! [`InputModes`], [`ReplyDelayTuning`], [`OffProtocol`], [`CommissionRequest`],
+//! [`Conversation`], [`Plan`], [`Step`], [`Expect`], [`CommissionError`]) are the stable seam: a family outside this crate
 //! implements them. Every method with a default keeps it for a family without the
 //! capability (no watchdog settings to add, no event mode, no reply delay to tune). The
 //! variants of [`Armed`] that name a family (`MiniMod`, `HostWatchdog`, `OffDelay`) are what
 //! `check` prints; a new family's watchdog reuses the neutral ones or adds its own.
 
+mod commission;
 mod watchdog;
 
 use std::fmt;
 use std::time::Duration;
 
 use super::{DeviceConfig, ModuleAddress, ModuleSettings, Protocol};
+use crate::line::LineSettings;
+
+pub use commission::{
+    Check, CommissionError, CommissionRequest, Conversation, Expect, LineFailed, Plan, Step,
+};
 
 pub use watchdog::{Armed, Derivation, Origin, WatchdogAsk, WatchdogConflict, WatchdogPolicy};
 
@@ -92,6 +102,9 @@ pub enum ReplyDelayTuning {
 /// A method that gets settings of another family (which the catalog never pairs with it)
 /// answers as for a module without the capability.
 pub trait Family: Sync + fmt::Debug {
+    /// The family's name for a person (`MiniMod`, `RESI`).
+    fn name(&self) -> &'static str;
+
     /// Why `watchdog: off` cannot go with these settings, if it cannot: the setting that arms
     /// the module's watchdog.
     fn watchdog_conflict(&self, settings: &ModuleSettings) -> Option<WatchdogConflict>;
@@ -131,6 +144,47 @@ pub trait Family: Sync + fmt::Debug {
         false
     }
 
+    /// Whether a module of the family can run at `settings` and answer at `address` (what
+    /// `softplc discover` and `softplc commission` ask it at).
+    fn supports(&self, _settings: LineSettings, _address: u8) -> bool {
+        false
+    }
+
+    /// The question that makes a module of the family say who it is, in its own protocol
+    /// (with a DCON checksum when `checksum`); `None`: the family cannot be asked.
+    fn who_are_you(&self, _address: u8, _checksum: bool) -> Option<Vec<u8>> {
+        None
+    }
+
+    /// The body of an answer line, its checksum checked and removed when `checksum`.
+    fn answer_body(&self, reply: &str, _checksum: bool) -> Option<String> {
+        Some(reply.to_owned())
+    }
+
+    /// The model (project-file name) an answer from `address` names, if it is this family's
+    /// answer; an error when it is the family's but names no model softplc knows.
+    fn identify(&self, _address: u8, _reply: &str) -> Option<Result<&'static str, String>> {
+        None
+    }
+
+    /// Whether the family has a checksum a host can switch (`--set-checksum`).
+    fn has_checksum(&self) -> bool {
+        false
+    }
+
+    /// The commissioning of the module `model` as `request` asks, planned after reading what
+    /// the family needs through `conversation`; a refusal says what its manual forbids.
+    fn plan_commissioning(
+        &self,
+        _conversation: &mut dyn Conversation,
+        _request: &CommissionRequest,
+        _model: &'static str,
+    ) -> Result<Plan, CommissionError> {
+        Err(CommissionError::NotCommissioned {
+            family: self.name(),
+        })
+    }
+
     /// How the module reads its inputs with `settings`, on `protocol`.
     fn input_modes(&self, _settings: &ModuleSettings, _protocol: Protocol) -> InputModes {
         InputModes::default()
@@ -147,4 +201,56 @@ pub trait Family: Sync + fmt::Debug {
 
     /// Sets the module's reply delay back to its factory value (a floor without the tuning).
     fn factory_reply_delay(&self, _settings: &mut ModuleSettings) {}
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::devices::{catalog, families, model};
+
+    #[test]
+    fn every_model_s_family_is_asked_by_discover_and_commission() {
+        for m in catalog() {
+            assert!(
+                families().iter().any(|f| f.name() == m.family.name()),
+                "{}'s family {} is not in families()",
+                m.name,
+                m.family.name()
+            );
+        }
+    }
+
+    #[test]
+    fn the_resi_1ro_alone_of_its_series_has_an_off_delay_to_arm() {
+        use crate::devices::{Armed, Derivation, WatchdogAsk, WatchdogPolicy};
+        let plan = |name: &str, pairs: &[(&str, &str)]| {
+            let spec = model(name).expect("in the catalog");
+            let pairs: Vec<(String, String)> = pairs
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+                .collect();
+            let settings = spec.parse(&pairs).expect("valid settings");
+            let ask = WatchdogAsk {
+                model: spec,
+                policy: WatchdogPolicy::Auto,
+                derivation: Derivation {
+                    periods: std::time::Duration::from_millis(30),
+                    floor: std::time::Duration::ZERO,
+                    startup: std::time::Duration::ZERO,
+                    failures: std::time::Duration::ZERO,
+                    event_refresh: None,
+                },
+                safe: &[],
+                carries_text: true,
+            };
+            spec.family.plan_watchdog(&settings, &ask)
+        };
+        assert_eq!(
+            plan("resi-1ro", &[("SOFFDLY", "5000")]),
+            Armed::OffDelay { ms: 5000 }
+        );
+        assert!(matches!(plan("resi-1ro", &[]), Armed::NotArmed(why) if why.contains("opt-in")));
+        assert!(
+            matches!(plan("resi-16di8ro", &[]), Armed::NotArmed(why) if why.contains("no communication watchdog"))
+        );
+    }
 }

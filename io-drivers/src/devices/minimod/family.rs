@@ -35,10 +35,11 @@ use std::time::Duration;
 
 use super::{Setting, Settings};
 use crate::devices::family::{
-    Armed, Derivation, Family, InputModes, Origin, ReplyDelayTuning, WatchdogAsk, WatchdogConflict,
-    WatchdogPolicy,
+    Armed, CommissionError, CommissionRequest, Conversation, Derivation, Family, InputModes,
+    Origin, Plan, ReplyDelayTuning, WatchdogAsk, WatchdogConflict, WatchdogPolicy,
 };
 use crate::devices::{ModuleAddress, ModuleSettings, Protocol};
+use crate::line::LineSettings;
 use crate::point::Value;
 
 /// The MiniMod family.
@@ -147,6 +148,31 @@ fn auto(
 }
 
 impl Family for MiniModFamily {
+    fn name(&self) -> &'static str {
+        "MiniMod"
+    }
+
+    fn supports(&self, settings: LineSettings, address: u8) -> bool {
+        super::commission::supports(settings, address)
+    }
+
+    fn who_are_you(&self, address: u8, _checksum: bool) -> Option<Vec<u8>> {
+        Some(super::commission::who_are_you(address))
+    }
+
+    fn identify(&self, _address: u8, reply: &str) -> Option<Result<&'static str, String>> {
+        super::commission::identify(reply)
+    }
+
+    fn plan_commissioning(
+        &self,
+        _conversation: &mut dyn Conversation,
+        request: &CommissionRequest,
+        model: &'static str,
+    ) -> Result<Plan, CommissionError> {
+        super::commission::plan(request, model)
+    }
+
     fn watchdog_conflict(&self, settings: &ModuleSettings) -> Option<WatchdogConflict> {
         let time = own(settings)?.register("WDTTIME").filter(|&t| t != 0)?;
         Some(WatchdogConflict {

@@ -20,6 +20,7 @@
 //! - `driver`: the sans-IO driver ([`crate::driver::Driver`]), Modbus or
 //!   text, polled or in event mode (with `crate::line::collect` on the bus owner's side).
 
+pub(crate) mod commission;
 pub(crate) mod driver;
 pub(crate) mod events;
 pub(crate) mod family;
@@ -44,6 +45,7 @@ use std::time::Duration;
 
 use super::{ModelSpec, Protocol};
 
+pub use commission::MiniModRefusal;
 pub use driver::{MiniModDriver, LOGIC_CLEARED_AT_STARTUP};
 pub use events::{Event, Events};
 pub use family::MiniModFamily;

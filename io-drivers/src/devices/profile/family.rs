@@ -9,6 +9,10 @@ use crate::devices::ModuleSettings;
 pub struct ProfileFamily;
 
 impl Family for ProfileFamily {
+    fn name(&self) -> &'static str {
+        "profile"
+    }
+
     fn watchdog_conflict(&self, _settings: &ModuleSettings) -> Option<WatchdogConflict> {
         None
     }

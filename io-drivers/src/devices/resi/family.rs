@@ -8,8 +8,12 @@
 //! opt-in (`SOFFDLY` in the settings); `check` says it is not armed. Polled only: FC 70
 //! Collect is not in the series' manual, and its reply delay is not the master's to set.
 
-use crate::devices::family::{Armed, Family, WatchdogAsk, WatchdogConflict, WatchdogPolicy};
+use crate::devices::family::{
+    Armed, CommissionError, CommissionRequest, Conversation, Family, Plan, WatchdogAsk,
+    WatchdogConflict, WatchdogPolicy,
+};
 use crate::devices::ModuleSettings;
+use crate::line::LineSettings;
 
 /// The RESI family (every model of the series).
 #[derive(Debug)]
@@ -24,6 +28,31 @@ fn off_delay(settings: &ModuleSettings) -> Option<u16> {
 }
 
 impl Family for ResiFamily {
+    fn name(&self) -> &'static str {
+        "RESI"
+    }
+
+    fn supports(&self, settings: LineSettings, address: u8) -> bool {
+        super::commission::supports(settings, address)
+    }
+
+    fn who_are_you(&self, address: u8, _checksum: bool) -> Option<Vec<u8>> {
+        Some(super::commission::who_are_you(address))
+    }
+
+    fn identify(&self, address: u8, reply: &str) -> Option<Result<&'static str, String>> {
+        super::commission::identify(address, reply)
+    }
+
+    fn plan_commissioning(
+        &self,
+        conversation: &mut dyn Conversation,
+        request: &CommissionRequest,
+        model: &'static str,
+    ) -> Result<Plan, CommissionError> {
+        super::commission::plan(conversation, request, model)
+    }
+
     fn watchdog_conflict(&self, settings: &ModuleSettings) -> Option<WatchdogConflict> {
         let ms = off_delay(settings)?;
         Some(WatchdogConflict {

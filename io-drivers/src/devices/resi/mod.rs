@@ -62,6 +62,7 @@
 //! interval has passed, configuration takes effect after a reboot.
 
 pub mod ascii;
+pub(crate) mod commission;
 pub(crate) mod driver;
 pub(crate) mod family;
 pub(crate) mod item;
@@ -75,6 +76,7 @@ pub(crate) mod sim;
 pub(crate) mod state;
 pub(crate) mod value;
 
+pub use commission::ResiRefusal;
 pub use driver::LOGIC_CLEARED_AT_STARTUP;
 pub use driver::{
     ascii::BadAnswer,
