@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use softplc_io::devices::minimod::{self as mm, PulseWidth};
 use softplc_io::devices::resi::{self as r};
-use softplc_io::devices::{DeviceConfig, ModuleSettings, PushDown};
+use softplc_io::devices::{DeviceConfig, PushDown};
 use softplc_io::point::{Access, PointSpec};
 
 use super::ir::{BoolExpr, Rung, RungShape};
@@ -448,11 +448,11 @@ impl Site<'_> {
 
     /// Whether the module's own settings already set `register` (the map's name).
     pub(crate) fn setting_taken(&self, register: &str) -> bool {
-        match &self.config().device.settings {
-            ModuleSettings::MiniMod(s) => s.sets(register),
-            ModuleSettings::Resi(s) => s.sets(register),
-            ModuleSettings::Ex9053(_) | ModuleSettings::Profile(_) => false,
-        }
+        let config = self.config();
+        config
+            .model
+            .family
+            .sets_register(&config.device.settings, register)
     }
 }
 

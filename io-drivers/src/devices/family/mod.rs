@@ -185,6 +185,19 @@ pub trait Family: Sync + fmt::Debug {
         })
     }
 
+    /// Whether `settings` write the register or coil named `name` (the model's map's name),
+    /// which the push-down planner then leaves to them.
+    fn sets_register(&self, _settings: &ModuleSettings, _name: &str) -> bool {
+        false
+    }
+
+    /// The module's own conditioning registers of input `point` (its rising and falling
+    /// latency: a MiniMod's `XLATUP2`, `XLATDN2` for `X2`), where it has them: what a tag's
+    /// `debounce` and `stretch` are written to.
+    fn input_latency_registers(&self, _point: &str) -> Option<(String, String)> {
+        None
+    }
+
     /// How the module reads its inputs with `settings`, on `protocol`.
     fn input_modes(&self, _settings: &ModuleSettings, _protocol: Protocol) -> InputModes {
         InputModes::default()

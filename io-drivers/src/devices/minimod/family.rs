@@ -256,6 +256,16 @@ impl Family for MiniModFamily {
         .ok()
     }
 
+    fn sets_register(&self, settings: &ModuleSettings, name: &str) -> bool {
+        own(settings).is_some_and(|s| s.sets(name))
+    }
+
+    /// Inputs X1..X3: XLATUPn and XLATDNn.
+    fn input_latency_registers(&self, point: &str) -> Option<(String, String)> {
+        let n = point.strip_prefix('X')?;
+        matches!(n, "1" | "2" | "3").then(|| (format!("XLATUP{n}"), format!("XLATDN{n}")))
+    }
+
     fn input_modes(&self, settings: &ModuleSettings, protocol: Protocol) -> InputModes {
         let Some(s) = own(settings) else {
             return InputModes::default();
@@ -290,5 +300,18 @@ impl Family for MiniModFamily {
         if let Some(s) = own_mut(settings) {
             s.push(Setting::ReplyDelay(super::FACTORY_RDELAYT));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn registers_of_points() {
+        let latency = |point| MiniModFamily.input_latency_registers(point);
+        assert_eq!(latency("X2"), Some(("XLATUP2".into(), "XLATDN2".into())));
+        assert_eq!(latency("X9"), None);
+        assert_eq!(latency("Y1"), None);
     }
 }

@@ -61,6 +61,10 @@ impl Family for ResiFamily {
         })
     }
 
+    fn sets_register(&self, settings: &ModuleSettings, name: &str) -> bool {
+        matches!(settings, ModuleSettings::Resi(s) if s.sets(name))
+    }
+
     fn plan_watchdog(&self, settings: &ModuleSettings, ask: &WatchdogAsk<'_>) -> Armed {
         if ask.model.point_index("OFFDLY").is_none() {
             return Armed::NotArmed("the model has no communication watchdog (resi-spec §5.4)");
