@@ -11,11 +11,12 @@ use softplc_io::devices::resi::{self as r};
 use softplc_io::devices::{DeviceConfig, PushDown};
 use softplc_io::point::{Access, PointSpec};
 
-use super::ir::{BoolExpr, Rung, RungShape};
 use super::{minimod, resi};
 use crate::image::TagId;
+use crate::logic::Rung;
 use crate::logic::SourcePos;
 use crate::project::{Binding, ModuleConfig, OffloadMode, Project};
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// One register the planner writes into a module at start-up (read back and verified by the
 /// driver; cleared at stop unless the project keeps the tables).
