@@ -533,24 +533,9 @@ pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -
         let Some((on, point)) = p.initial.zip(point) else {
             continue;
         };
-        match project.modules[p.module].model.name {
-            minimod::MODEL => {
-                let y = mm::Output::named(point.name);
-                if let (Some(PushDown::MiniMod(push)), Some(y)) =
-                    (minimod_push(&mut plan.push_down, p.module), y)
-                {
-                    push.initial.push((y, on));
-                }
-            }
-            resi::MODEL => {
-                let relay = r::Relay::named(point.name);
-                if let (Some(PushDown::Resi(table)), Some(relay)) =
-                    (resi_push(&mut plan.push_down, p.module), relay)
-                {
-                    table.initial.push((relay, on));
-                }
-            }
-            _ => {}
+        if let Some(push) = plan.push_down.get_mut(p.module) {
+            let family = project.modules[p.module].model.family;
+            family.push_initial(push, point.name, on);
         }
     }
     plan

@@ -27,7 +27,7 @@ mod watchdog;
 use std::fmt;
 use std::time::Duration;
 
-use super::{DeviceConfig, ModuleAddress, ModuleSettings, Protocol};
+use super::{DeviceConfig, ModelSpec, ModuleAddress, ModuleSettings, Protocol, PushDown};
 use crate::line::LineSettings;
 
 pub use commission::{
@@ -197,6 +197,33 @@ pub trait Family: Sync + fmt::Debug {
     fn input_latency_registers(&self, _point: &str) -> Option<(String, String)> {
         None
     }
+
+    /// The logic registers the start-up of a `model` module clears and reads back before the
+    /// first scan, whatever the push-down plan, in words; `None` for a model without logic
+    /// tables.
+    fn logic_cleared_at_startup(&self, _model: &ModelSpec) -> Option<&'static str> {
+        None
+    }
+
+    /// The pushed-down outputs' start values `settings` hold, as `NAME = 0|1`.
+    fn startup_values(&self, _settings: &ModuleSettings) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// The start-up settings the driver adds to `settings` for the push-down `push`, as
+    /// `NAME: value` (the tables, the start values and what they need besides).
+    fn push_down_settings(
+        &self,
+        _model: &ModelSpec,
+        _settings: &ModuleSettings,
+        _push: &PushDown,
+    ) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// Adds the start value `on` of the pushed-down output `point` to the module's push-down
+    /// `push` (made the family's when it is none yet).
+    fn push_initial(&self, _push: &mut PushDown, _point: &str, _on: bool) {}
 
     /// How the module reads its inputs with `settings`, on `protocol`.
     fn input_modes(&self, _settings: &ModuleSettings, _protocol: Protocol) -> InputModes {

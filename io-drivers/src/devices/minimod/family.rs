@@ -38,7 +38,7 @@ use crate::devices::family::{
     Armed, CommissionError, CommissionRequest, Conversation, Derivation, Family, InputModes,
     Origin, Plan, ReplyDelayTuning, WatchdogAsk, WatchdogConflict, WatchdogPolicy,
 };
-use crate::devices::{ModuleAddress, ModuleSettings, Protocol};
+use crate::devices::{ModelSpec, ModuleAddress, ModuleSettings, Protocol, PushDown};
 use crate::line::LineSettings;
 use crate::point::Value;
 
@@ -264,6 +264,39 @@ impl Family for MiniModFamily {
     fn input_latency_registers(&self, point: &str) -> Option<(String, String)> {
         let n = point.strip_prefix('X')?;
         matches!(n, "1" | "2" | "3").then(|| (format!("XLATUP{n}"), format!("XLATDN{n}")))
+    }
+
+    fn logic_cleared_at_startup(&self, _model: &ModelSpec) -> Option<&'static str> {
+        Some(super::LOGIC_CLEARED_AT_STARTUP)
+    }
+
+    fn push_down_settings(
+        &self,
+        _model: &ModelSpec,
+        settings: &ModuleSettings,
+        push: &PushDown,
+    ) -> Vec<String> {
+        let (PushDown::MiniMod(push), Some(own)) = (push, own(settings)) else {
+            return Vec::new();
+        };
+        push.settings(own)
+            .iter()
+            .filter_map(|s| match *s {
+                Setting::Register { name, value, .. } => Some(format!("{name}: {value}")),
+                Setting::Coils { name, bits, .. } => Some(format!("initial {name}: {bits}")),
+                Setting::Readback(_) => Some("readback: every".into()),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn push_initial(&self, push: &mut PushDown, point: &str, on: bool) {
+        if *push == PushDown::None {
+            *push = PushDown::MiniMod(super::PushDown::default());
+        }
+        if let (PushDown::MiniMod(push), Some(y)) = (push, super::Output::named(point)) {
+            push.initial.push((y, on));
+        }
     }
 
     fn input_modes(&self, settings: &ModuleSettings, protocol: Protocol) -> InputModes {

@@ -8,11 +8,12 @@
 //! opt-in (`SOFFDLY` in the settings); `check` says it is not armed. Polled only: FC 70
 //! Collect is not in the series' manual, and its reply delay is not the master's to set.
 
+use super::{m16di8ro, Num, Setting};
 use crate::devices::family::{
     Armed, CommissionError, CommissionRequest, Conversation, Family, Plan, WatchdogAsk,
     WatchdogConflict, WatchdogPolicy,
 };
-use crate::devices::ModuleSettings;
+use crate::devices::{ModelSpec, ModuleSettings, PushDown};
 use crate::line::LineSettings;
 
 /// The RESI family (every model of the series).
@@ -59,6 +60,67 @@ impl Family for ResiFamily {
             key: "SOFFDLY",
             value: ms.to_string(),
         })
+    }
+
+    /// The RESI-16DI8RO alone of the series has logic tables.
+    fn logic_cleared_at_startup(&self, model: &ModelSpec) -> Option<&'static str> {
+        (model.name == m16di8ro::MODEL.name).then_some(super::LOGIC_CLEARED_AT_STARTUP)
+    }
+
+    fn startup_values(&self, settings: &ModuleSettings) -> Vec<String> {
+        let ModuleSettings::Resi(s) = settings else {
+            return Vec::new();
+        };
+        s.items()
+            .iter()
+            .filter_map(|s| match s {
+                Setting::Initial { entry, on } => {
+                    Some(format!("{} = {}", entry.name, u8::from(*on)))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn push_down_settings(
+        &self,
+        model: &ModelSpec,
+        settings: &ModuleSettings,
+        push: &PushDown,
+    ) -> Vec<String> {
+        let (PushDown::Resi(table), ModuleSettings::Resi(own)) = (push, settings) else {
+            return Vec::new();
+        };
+        table
+            .settings(&m16di8ro::MODEL, own)
+            .iter()
+            .map(|s| match s {
+                Setting::Write { entry, value } => match value {
+                    Num::Int(v) => format!("{}: {v}", entry.name),
+                    Num::Real(v) => format!("{}: {v}", entry.name),
+                },
+                Setting::Initial { entry, on } => {
+                    format!("initial {}: {}", entry.name, u8::from(*on))
+                }
+                Setting::Poll(points) => {
+                    let names: Vec<&str> = points
+                        .iter()
+                        .filter_map(|&i| model.points.get(i).map(|p| p.name))
+                        .collect();
+                    format!("poll: {}", names.join(", "))
+                }
+                other => format!("{other:?}"),
+            })
+            .collect()
+    }
+
+    fn push_initial(&self, push: &mut PushDown, point: &str, on: bool) {
+        if *push == PushDown::None {
+            *push = PushDown::Resi(super::LogicTable::default());
+        }
+        if let (PushDown::Resi(table), Some(relay)) = (push, super::Relay::named(point)) {
+            table.initial.push((relay, on));
+        }
     }
 
     fn sets_register(&self, settings: &ModuleSettings, name: &str) -> bool {
