@@ -15,7 +15,12 @@
 //! - [`devices`]: the [`catalog`](devices::catalog) of module models
 //!   ([`ModelSpec`](devices::ModelSpec)), and one namespace per family ([`devices::minimod`],
 //!   [`devices::resi`], [`devices::ex9053`], [`devices::profile`]) with its settings, tables
-//!   and simulator.
+//!   and simulator, and the [`Family`](devices::Family) trait through which each family states
+//!   its capabilities to the runtime (its watchdog plan, its input modes): a stable API, as
+//!   the trait's docs say.
+//! - [`rung`]: the engine-neutral shape of a rung ([`RungShape`](rung::RungShape) over
+//!   [`BoolExpr`](rung::BoolExpr)s of tags), what a logic engine tells the push-down planner
+//!   about each coil it writes: a stable API.
 //! - [`sim`]: the simulated world: devices on a virtual line ([`SimWorld`](sim::SimWorld)),
 //!   injected faults, [`sim::plant`] models, serving on a pty or TCP.
 //! - [`wire`]: seeing the wire: one frame decoder (every protocol), the bus owner's frame
@@ -28,6 +33,7 @@ pub mod driver;
 pub mod line;
 pub mod modbus;
 pub mod point;
+pub mod rung;
 pub mod sim;
 pub mod time;
 pub mod wire;

@@ -7,16 +7,9 @@ use std::time::Duration;
 
 use softplc_io::point::{Quality, Value, ValueType};
 
-/// Index of a tag in the image (its position in the project's tag list).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct TagId(pub u32);
-
-impl TagId {
-    /// As an index.
-    pub fn index(self) -> usize {
-        self.0 as usize
-    }
-}
+/// Index of a tag in the image (its position in the project's tag list); the push-down
+/// seam's type, so a rung's shape names tags the same way in both crates.
+pub use softplc_io::rung::TagId;
 
 /// One tag's slot.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -9,11 +9,11 @@
 //! [`SettingError`] carrying the key and numbers, which the runtime turns into its
 //! file:line:col diagnostic.
 //!
-//! [`ModuleSettings`] is an enum of the three families rather than a trait object: the set of
-//! families is closed (one folder each under `devices/`), the runtime needs to look inside a
-//! family's value (a MiniMod's `WDTTIME`, a RESI module's poll list) without downcasting, and
-//! an enum is `Clone + PartialEq` for free, which a reload needs to tell whether a module's
-//! configuration changed.
+//! [`ModuleSettings`] is an enum of the families rather than a trait object: each family looks
+//! inside its own value (a MiniMod's `WDTTIME`, a RESI module's poll list) without
+//! downcasting, where the runtime asks it through [`super::Family`], and an enum is
+//! `Clone + PartialEq` for free, which a reload needs to tell whether a module's configuration
+//! changed.
 
 use std::fmt;
 

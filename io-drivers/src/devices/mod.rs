@@ -3,6 +3,7 @@
 
 mod config;
 pub mod ex9053;
+mod family;
 pub mod minimod;
 pub mod profile;
 pub mod resi;
@@ -16,6 +17,13 @@ use crate::sim::SimDevice;
 pub use config::{
     Accepted, AddressError, ConfigError, DeviceConfig, KeyError, ModuleAddress, ModuleSettings,
     ParseSettings, PushDown, Range, SettingError,
+};
+pub use family::{
+    Armed, Derivation, Family, InputModes, OffProtocol, Origin, ReplyDelayTuning, WatchdogAsk,
+    WatchdogConflict, WatchdogPolicy,
+};
+pub use family::{
+    Check, CommissionError, CommissionRequest, Conversation, Expect, LineFailed, Plan, Step,
 };
 
 /// How a driver talks to its module.
@@ -66,6 +74,8 @@ pub struct ModelSpec {
     /// The profile a model read from a profile file is built from (`None` for the built-in
     /// models). Its simulator is made by [`ModelSpec::simulate`], which can reach it.
     pub profile: Option<&'static profile::Profile>,
+    /// The family's capabilities: its watchdog plan and input modes.
+    pub family: &'static dyn Family,
 }
 
 impl ModelSpec {
@@ -108,6 +118,18 @@ pub fn catalog() -> &'static [&'static ModelSpec] {
         &resi::models::m4led::SPEC,
     ];
     &CATALOG
+}
+
+/// Every family softplc knows, in the order `softplc discover` and `softplc commission` ask
+/// a module who it is.
+pub fn families() -> &'static [&'static dyn Family] {
+    static FAMILIES: [&dyn Family; 4] = [
+        &minimod::MiniModFamily,
+        &resi::ResiFamily,
+        &ex9053::Ex9053Family,
+        &profile::ProfileFamily,
+    ];
+    &FAMILIES
 }
 
 /// A model by its project-file name.

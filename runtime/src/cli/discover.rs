@@ -1,6 +1,8 @@
 //! `softplc discover PORT`: finds the modules on a line and prints a project skeleton.
 //!
-//! Each family is identified by its own means, with the drivers' encoders:
+//! Each family is identified by its own means, with the drivers' encoders, as the family
+//! says (`softplc_io::devices::Family::who_are_you`, `identify`; asked in the order of
+//! `softplc_io::devices::families`):
 //! - MiniMod: `@N?DEVICE`, answered `DEVICE=MINIMOD 1.1` (manual, "Text commands protocol",
 //!   "Slave addressing", "Read commands table (text mode)"); bauds 4800..57600 ("SERLINE").
 //! - RESI: `#A,TYP`, answered `#A,TYPE:RESI-<model>-ASCII` (resi-spec §2.1, §2.5); bauds
@@ -18,10 +20,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
-use softplc_io::devices::ex9053::Command as DconCommand;
-use softplc_io::devices::minimod::{read_command, TextId, BAUD_RATES as MINIMOD_BAUDS};
-use softplc_io::devices::resi::ascii::frame as resi_frame;
-use softplc_io::line::{LineSettings, Parity, SerialFormat, SerialTransport, Transport};
+use softplc_io::devices::{families, Family};
+use softplc_io::line::{LineSettings, SerialFormat, SerialTransport, Transport};
 use softplc_io::time::{Clock, MonotonicClock};
 
 use super::out::outln;
@@ -46,96 +46,6 @@ pub(crate) struct DiscoverArgs {
     /// Also write the project skeleton to this file.
     #[arg(long)]
     out: Option<PathBuf>,
-}
-
-/// A module family and how it is asked who it is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Family {
-    MiniMod,
-    Resi,
-    Dcon,
-}
-
-impl Family {
-    pub(super) const ALL: [Family; 3] = [Family::MiniMod, Family::Resi, Family::Dcon];
-
-    pub(super) fn name(self) -> &'static str {
-        match self {
-            Family::MiniMod => "MiniMod",
-            Family::Resi => "RESI",
-            Family::Dcon => "EX-9053 (DCON)",
-        }
-    }
-
-    /// Whether the family can run at these settings and answer at this address.
-    pub(super) fn supports(self, s: LineSettings, address: u8) -> bool {
-        match self {
-            // "SERLINE": 4800..57600; E, O, N (two stops) or X (none, one stop); @N 1..=255.
-            Family::MiniMod => {
-                MINIMOD_BAUDS.contains(&s.baud) && s.format.data_bits == 8 && address >= 1
-            }
-            // §1.3: DIP baud table; "Odd parity and 2 stop bits are not available".
-            Family::Resi => {
-                [4800, 9600, 19200, 38400, 57600, 115200, 230400, 256000].contains(&s.baud)
-                    && s.format.data_bits == 8
-                    && s.format.parity != Parity::Odd
-                    && s.format.stop_bits == 1
-                    && address >= 1
-            }
-            // §1.3 / %AANNTTCCFF baud codes 1200..115200, 8N1 (no parity in the DCON frame).
-            Family::Dcon => {
-                [1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200].contains(&s.baud)
-                    && s.format
-                        == SerialFormat {
-                            data_bits: 8,
-                            parity: Parity::None,
-                            stop_bits: 1,
-                        }
-            }
-        }
-    }
-
-    /// The identification request, from the drivers' encoders.
-    pub(super) fn request(self, address: u8) -> Vec<u8> {
-        match self {
-            Family::MiniMod => read_command(address, TextId::Device),
-            Family::Resi => resi_frame(Some(&address.to_string()), "TYP"),
-            Family::Dcon => DconCommand::ReadName { address }.encode(false),
-        }
-    }
-
-    /// The model (project-file name) an answer names, if it is this family's answer.
-    pub(super) fn identify(self, address: u8, reply: &str) -> Option<Result<&'static str, String>> {
-        let reply = reply.trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ');
-        match self {
-            Family::MiniMod => reply
-                .strip_prefix("DEVICE=")
-                .filter(|r| r.starts_with("MINIMOD"))
-                .map(|_| Ok("minimod")),
-            Family::Resi => {
-                let rest = reply.strip_prefix(&format!("#{address},TYPE:"))?;
-                let model = rest
-                    .strip_suffix("-ASCII")
-                    .unwrap_or(rest)
-                    .to_ascii_lowercase();
-                Some(
-                    softplc_io::devices::model(&model)
-                        .map(|m| m.name)
-                        .ok_or_else(|| format!("RESI type {rest:?} is not a model softplc knows")),
-                )
-            }
-            Family::Dcon => {
-                let name = reply.strip_prefix(&format!("!{address:02X}"))?;
-                Some(if name.starts_with("9053") {
-                    Ok("ex9053d")
-                } else {
-                    Err(format!(
-                        "DCON module named {name:?} is not a model softplc knows"
-                    ))
-                })
-            }
-        }
-    }
 }
 
 /// Parses `1-247`, `1,2,5` or `1-4,9` (unit addresses 0..=255 as the families allow).
@@ -167,12 +77,18 @@ pub(crate) fn parse_addresses(text: &str) -> anyhow::Result<Vec<u8>> {
 }
 
 /// One probe: settings, address, family.
-type Probe = (LineSettings, u8, Family);
+type Probe = (LineSettings, u8, &'static dyn Family);
+
+/// The question a probe asks.
+fn question(p: &Probe) -> Vec<u8> {
+    let (_, a, f) = *p;
+    f.who_are_you(a, false).unwrap_or_default()
+}
 
 /// The longest a probe can take: the request on the wire, the whole timeout, t3.5 after.
 fn probe_bound(p: &Probe, timeout: Duration) -> Duration {
-    let (s, a, f) = *p;
-    s.chars(f.request(a).len()) + timeout + s.t3_5()
+    let (s, _, _) = *p;
+    s.chars(question(p).len()) + timeout + s.t3_5()
 }
 
 /// A module found.
@@ -199,8 +115,8 @@ pub(super) fn discover(args: DiscoverArgs) -> anyhow::Result<ExitCode> {
     let mut plan: Vec<Probe> = Vec::new();
     for &s in &lines {
         for &a in &addresses {
-            for fam in Family::ALL {
-                if fam.supports(s, a) {
+            for &fam in families() {
+                if fam.supports(s, a) && fam.who_are_you(a, false).is_some() {
                     plan.push((s, a, fam));
                 }
             }
@@ -241,7 +157,7 @@ pub(super) fn discover(args: DiscoverArgs) -> anyhow::Result<ExitCode> {
         let Some(t) = transport.as_mut() else {
             continue;
         };
-        if let Some(reply) = ask(t, &fam.request(a), args.timeout)? {
+        if let Some(reply) = ask(t, &question(p), args.timeout)? {
             match fam.identify(a, &reply) {
                 Some(Ok(model)) => {
                     outln(&format!(
@@ -426,6 +342,9 @@ pub(crate) fn skeleton(port: &str, found: &[Found]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use softplc_io::devices::ex9053::Ex9053Family;
+    use softplc_io::devices::minimod::MiniModFamily;
+    use softplc_io::devices::resi::ResiFamily;
 
     #[test]
     fn parses_address_ranges_and_refuses_nonsense() {
@@ -443,18 +362,18 @@ mod tests {
     #[test]
     fn identifies_each_family_by_its_own_answer() {
         assert_eq!(
-            Family::MiniMod.identify(5, "DEVICE=MINIMOD 1.1"),
+            MiniModFamily.identify(5, "DEVICE=MINIMOD 1.1"),
             Some(Ok("minimod"))
         );
         assert_eq!(
-            Family::Resi.identify(3, "#3,TYPE:RESI-16DI8RO-ASCII"),
+            ResiFamily.identify(3, "#3,TYPE:RESI-16DI8RO-ASCII"),
             Some(Ok("resi-16di8ro"))
         );
-        assert_eq!(Family::Dcon.identify(2, "!029053"), Some(Ok("ex9053d")));
-        assert_eq!(Family::Dcon.identify(2, "?02"), None);
+        assert_eq!(Ex9053Family.identify(2, "!029053"), Some(Ok("ex9053d")));
+        assert_eq!(Ex9053Family.identify(2, "?02"), None);
         assert_eq!(
-            Family::Dcon.request(0x2A),
-            b"$2AM\r".to_vec(),
+            Ex9053Family.who_are_you(0x2A, false),
+            Some(b"$2AM\r".to_vec()),
             "the DCON address is hex"
         );
     }

@@ -49,6 +49,10 @@ impl std::fmt::Display for SourcePos {
     }
 }
 
+/// One coil as an engine describes it for the push-down planner: its shape
+/// (`softplc_io::rung`) at a place in the program file.
+pub type Rung = softplc_io::rung::Rung<SourcePos>;
+
 /// A fault raised by logic during a scan; the PLC goes to its safe state.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{message} at {pos}")]
@@ -79,7 +83,7 @@ pub trait LogicEngine: Send + Debug {
     /// Every coil the program writes, described for the push-down planner
     /// ([`crate::offload`]), in program order; `None` when the engine does not describe its
     /// rungs (then nothing is pushed down, and `check` says so).
-    fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
+    fn rungs(&self) -> Option<Vec<Rung>> {
         None
     }
 

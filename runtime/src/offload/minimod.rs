@@ -28,10 +28,10 @@ use softplc_io::devices::minimod::{
 };
 use softplc_io::devices::Protocol;
 
-use super::ir::{BoolExpr, RungShape};
 use super::minimize::{minimize, Cube};
 use super::planner::{Command, Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
 use crate::image::TagId;
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// The model's catalog name.
 pub(crate) const MODEL: &str = "minimod";

@@ -6,7 +6,8 @@
 //! rung into its module only when the module's function is the rung's own, and says why for
 //! every rung it keeps:
 //!
-//! 1. the engine describes each coil it writes as a `ir::Rung` (an engine-neutral shape:
+//! 1. the engine describes each coil it writes as a [`Rung`] (an engine-neutral shape,
+//!    `softplc_io::rung`:
 //!    combinational, latch, pulse, staircase, toggle, edge set/reset, blinker, or opaque);
 //! 2. [`planner::plan`] maps each rung with the project's bindings and `offload:` switches to
 //!    module tables (`minimod`, `resi`) or keeps it central with a [`planner::Reason`];
@@ -41,7 +42,6 @@
 //! provided every input state lasts longer than that (a central scan cannot see shorter ones;
 //! the module can, which is the point).
 
-pub(crate) mod ir;
 pub(crate) mod minimize;
 pub(crate) mod minimod;
 pub(crate) mod planner;
@@ -51,12 +51,13 @@ pub(crate) mod runtime;
 #[cfg(test)]
 mod tests;
 
-pub use ir::{BoolExpr, Rung, RungShape};
+pub use crate::logic::Rung;
 pub use planner::{
     plan, Command, Conditioning, Feature, ModulePlacement, Placement, Plan, Pushed, Reason,
     RequireFailure, RungPlan, TableEntry,
 };
 pub use report::{central_bound, report};
+pub use softplc_io::rung::{BoolExpr, RungShape};
 
 use crate::logic::LogicEngine;
 use crate::project::{ProgramKind, Project};

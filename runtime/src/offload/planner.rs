@@ -8,14 +8,15 @@ use std::time::Duration;
 
 use softplc_io::devices::minimod::{self as mm, PulseWidth};
 use softplc_io::devices::resi::{self as r};
-use softplc_io::devices::{DeviceConfig, ModuleSettings, PushDown};
+use softplc_io::devices::{DeviceConfig, PushDown};
 use softplc_io::point::{Access, PointSpec};
 
-use super::ir::{BoolExpr, Rung, RungShape};
 use super::{minimod, resi};
 use crate::image::TagId;
+use crate::logic::Rung;
 use crate::logic::SourcePos;
 use crate::project::{Binding, ModuleConfig, OffloadMode, Project};
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// One register the planner writes into a module at start-up (read back and verified by the
 /// driver; cleared at stop unless the project keeps the tables).
@@ -448,11 +449,11 @@ impl Site<'_> {
 
     /// Whether the module's own settings already set `register` (the map's name).
     pub(crate) fn setting_taken(&self, register: &str) -> bool {
-        match &self.config().device.settings {
-            ModuleSettings::MiniMod(s) => s.sets(register),
-            ModuleSettings::Resi(s) => s.sets(register),
-            ModuleSettings::Ex9053(_) | ModuleSettings::Profile(_) => false,
-        }
+        let config = self.config();
+        config
+            .model
+            .family
+            .sets_register(&config.device.settings, register)
     }
 }
 
@@ -532,24 +533,9 @@ pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -
         let Some((on, point)) = p.initial.zip(point) else {
             continue;
         };
-        match project.modules[p.module].model.name {
-            minimod::MODEL => {
-                let y = mm::Output::named(point.name);
-                if let (Some(PushDown::MiniMod(push)), Some(y)) =
-                    (minimod_push(&mut plan.push_down, p.module), y)
-                {
-                    push.initial.push((y, on));
-                }
-            }
-            resi::MODEL => {
-                let relay = r::Relay::named(point.name);
-                if let (Some(PushDown::Resi(table)), Some(relay)) =
-                    (resi_push(&mut plan.push_down, p.module), relay)
-                {
-                    table.initial.push((relay, on));
-                }
-            }
-            _ => {}
+        if let Some(push) = plan.push_down.get_mut(p.module) {
+            let family = project.modules[p.module].model.family;
+            family.push_initial(push, point.name, on);
         }
     }
     plan

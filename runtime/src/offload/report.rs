@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use softplc_io::line::{line_budget_on, LineBudget, SysfsRoot};
 
-use softplc_io::devices::{DeviceConfig, ModuleSettings, PushDown};
+use softplc_io::devices::{DeviceConfig, PushDown};
 
 use super::planner::{Command, Feature, ModulePlacement, Placement, Plan, RungPlan};
 use crate::project::{Binding, ModuleConfig, OnStop, Project};
@@ -162,43 +162,13 @@ pub fn report(project: &Project, plan: &Plan) -> String {
 /// The start-up settings a module's driver adds for the plan, as `NAME: value` (what the
 /// driver writes: the tables, the start values, and what they need besides).
 pub(crate) fn push_down_settings(project: &Project, m: usize, push: &PushDown) -> Vec<String> {
-    use softplc_io::devices::minimod::Setting as MM;
-    use softplc_io::devices::resi::{m16di8ro, Num, Setting as R};
     let Some(module) = project.modules.get(m) else {
         return Vec::new();
     };
-    match (push, &module.device.settings) {
-        (PushDown::MiniMod(push), ModuleSettings::MiniMod(own)) => push
-            .settings(own)
-            .iter()
-            .filter_map(|s| match *s {
-                MM::Register { name, value, .. } => Some(format!("{name}: {value}")),
-                MM::Coils { name, bits, .. } => Some(format!("initial {name}: {bits}")),
-                MM::Readback(_) => Some("readback: every".into()),
-                _ => None,
-            })
-            .collect(),
-        (PushDown::Resi(table), ModuleSettings::Resi(own)) => table
-            .settings(&m16di8ro::MODEL, own)
-            .iter()
-            .map(|s| match s {
-                R::Write { entry, value } => match value {
-                    Num::Int(v) => format!("{}: {v}", entry.name),
-                    Num::Real(v) => format!("{}: {v}", entry.name),
-                },
-                R::Initial { entry, on } => format!("initial {}: {}", entry.name, u8::from(*on)),
-                R::Poll(points) => {
-                    let names: Vec<&str> = points
-                        .iter()
-                        .filter_map(|&i| module.model.points.get(i).map(|p| p.name))
-                        .collect();
-                    format!("poll: {}", names.join(", "))
-                }
-                other => format!("{other:?}"),
-            })
-            .collect(),
-        _ => Vec::new(),
-    }
+    module
+        .model
+        .family
+        .push_down_settings(module.model, &module.device.settings, push)
 }
 
 /// What the module's start-up does to its logic, in one line (`softplc check` prints it under
@@ -206,24 +176,9 @@ pub(crate) fn push_down_settings(project: &Project, m: usize, push: &PushDown) -
 /// the plan, then the pushed-down outputs' start values, then the tables of its settings.
 /// `None` for a model without logic tables. `module` carries the plan's settings.
 pub(crate) fn startup_logic(module: &ModuleConfig) -> Option<String> {
-    use softplc_io::devices::resi::Setting as R;
-    use softplc_io::devices::{minimod as mm, resi as r};
-    let cleared = match module.model.name {
-        super::minimod::MODEL => mm::LOGIC_CLEARED_AT_STARTUP,
-        super::resi::MODEL => r::LOGIC_CLEARED_AT_STARTUP,
-        _ => return None,
-    };
-    let starts: Vec<String> = match &module.device.settings {
-        ModuleSettings::Resi(s) => s
-            .items()
-            .iter()
-            .filter_map(|s| match s {
-                R::Initial { entry, on } => Some(format!("{} = {}", entry.name, u8::from(*on))),
-                _ => None,
-            })
-            .collect(),
-        _ => Vec::new(),
-    };
+    let family = module.model.family;
+    let cleared = family.logic_cleared_at_startup(module.model)?;
+    let starts = family.startup_values(&module.device.settings);
     let starts = if starts.is_empty() {
         String::new()
     } else {

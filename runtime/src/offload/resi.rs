@@ -21,8 +21,8 @@ use std::time::Duration;
 use softplc_io::devices::resi::{m16di8ro, Inputs, LogicRow, Num, PulseTime, Relay, RelayFunction};
 use softplc_io::devices::ModuleSettings;
 
-use super::ir::{BoolExpr, RungShape};
 use super::planner::{Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// The model's catalog name.
 pub(crate) const MODEL: &str = "resi-16di8ro";

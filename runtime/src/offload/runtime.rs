@@ -25,10 +25,10 @@ use softplc_io::devices::minimod::PulseWidth;
 use softplc_io::line::{InputFrame, OutputFrame};
 use softplc_io::point::{Quality, Value};
 
-use super::ir::BoolExpr;
 use super::planner::{Command, Placement, Plan, RequireFailure};
 use crate::image::{ProcessImage, TagId};
 use crate::project::{Binding, OnStop, Project};
+use softplc_io::rung::BoolExpr;
 
 /// How the image learns a pushed-down output's value.
 #[derive(Debug, Clone)]

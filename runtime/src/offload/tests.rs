@@ -5,11 +5,12 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use super::ir::{BoolExpr, Rung, RungShape};
 use super::planner::{plan, Command, Feature, ModulePlacement, Placement, Plan, Reason};
 use crate::image::TagId;
+use crate::logic::Rung;
 use crate::logic::SourcePos;
 use crate::project::{parse_str, Project};
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// A project on one simulated line: `modules` and `tags` are YAML flow entries; tag `i` is
 /// `TagId(i)`.

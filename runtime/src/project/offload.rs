@@ -38,7 +38,6 @@ use super::error::ErrorKind;
 use super::model::{Binding, ModuleConfig, TagConfig};
 use super::raw::{RawProject, RawTag};
 use super::span::YPath;
-use softplc_io::devices::ModuleSettings;
 use softplc_io::point::Access;
 
 /// Whether rungs may be pushed down into modules.
@@ -240,12 +239,6 @@ pub enum OffloadError {
     },
 }
 
-/// The MiniMod latency registers of a point (`X2` → `XLATUP2`, `XLATDN2`).
-pub(crate) fn latency_registers(point: &str) -> Option<(String, String)> {
-    let n = point.strip_prefix('X')?;
-    matches!(n, "1" | "2" | "3").then(|| (format!("XLATUP{n}"), format!("XLATDN{n}")))
-}
-
 /// Whole milliseconds in 0..=65535.
 fn whole_ms(d: Duration) -> Option<u16> {
     (d.subsec_nanos() % 1_000_000 == 0)
@@ -393,9 +386,9 @@ fn tag<'m>(
             continue;
         }
         let regs = point.and_then(|(m, cfg, spec)| {
-            (cfg.model.name == "minimod")
-                .then(|| latency_registers(spec.name))
-                .flatten()
+            cfg.model
+                .family
+                .input_latency_registers(spec.name)
                 .map(|r| (m, cfg, r))
         });
         let Some((m, cfg, (up, dn))) = regs else {
@@ -419,10 +412,10 @@ fn tag<'m>(
         };
         for register in registers {
             // Parsed settings: the text spellings X1LATUP.. are the same registers there.
-            let in_settings = match &cfg.device.settings {
-                ModuleSettings::MiniMod(s) => s.sets(&register),
-                _ => false,
-            };
+            let in_settings = cfg
+                .model
+                .family
+                .sets_register(&cfg.device.settings, &register);
             let other = if in_settings {
                 Some("its settings".to_owned())
             } else {
@@ -455,16 +448,6 @@ fn tag<'m>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn registers_of_points() {
-        assert_eq!(
-            latency_registers("X2"),
-            Some(("XLATUP2".into(), "XLATDN2".into()))
-        );
-        assert_eq!(latency_registers("X9"), None);
-        assert_eq!(latency_registers("Y1"), None);
-    }
 
     #[test]
     fn whole_milliseconds() {

@@ -25,7 +25,7 @@ use super::raw::{
 };
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
-use softplc_io::devices::{DeviceConfig, ModuleAddress, ModuleSettings, PushDown, SettingError};
+use softplc_io::devices::{DeviceConfig, ModuleAddress, PushDown, SettingError};
 
 /// Default watchdog time, in periods.
 const WATCHDOG_PERIODS: u32 = 5;
@@ -899,25 +899,23 @@ impl Validator<'_> {
             }
         };
 
-        // A DCON-only setting on a module speaking Modbus would do nothing: refused, not
-        // ignored.
-        let settings = match (settings, protocol) {
-            (Some(ModuleSettings::Ex9053(s)), Some(Protocol::Modbus))
-                if s.dcon_only().is_some() =>
-            {
-                let dcon = s.dcon_only().unwrap_or_default();
+        // A setting that does nothing on the module's protocol (a DCON-only one on a module
+        // speaking Modbus): refused, not ignored.
+        let off_protocol = settings
+            .as_ref()
+            .zip(protocol)
+            .and_then(|(s, p)| model.family.off_protocol(s, p));
+        let settings = match (settings, off_protocol) {
+            (Some(_), Some(off)) => {
                 let key = text
                     .iter()
                     .map(|(k, _)| k)
-                    .find(|k| k.eq_ignore_ascii_case(dcon))
+                    .find(|k| k.eq_ignore_ascii_case(off.key))
                     .cloned()
-                    .unwrap_or_else(|| dcon.to_owned());
+                    .unwrap_or_else(|| off.key.to_owned());
                 let kind = ErrorKind::BadSetting {
                     module: m.name.clone(),
-                    message: format!(
-                        "{dcon} is a DCON setting and the module speaks Modbus (protocol: \
-                         modbus); remove it, or use protocol: text"
-                    ),
+                    message: off.to_string(),
                     key: key.clone(),
                 };
                 self.error(path.key("settings").key(&key), kind);
@@ -931,8 +929,11 @@ impl Validator<'_> {
             None => Some(WatchdogPolicy::Auto),
             Some(text) => {
                 let parsed = super::watchdog::parse_policy(&text.0).and_then(|p| {
-                    match settings.as_ref().and_then(super::watchdog::conflict) {
-                        Some(why) if p == WatchdogPolicy::Off => Err(why),
+                    let conflict = settings
+                        .as_ref()
+                        .and_then(|s| model.family.watchdog_conflict(s));
+                    match conflict {
+                        Some(why) if p == WatchdogPolicy::Off => Err(why.to_string()),
                         _ => Ok(p),
                     }
                 });
@@ -951,17 +952,13 @@ impl Validator<'_> {
             }
         };
 
-        if let (Some(ModuleSettings::MiniMod(s)), Some(Some(bus_cfg))) =
-            (&settings, bus.and_then(|b| buses.get(b)))
-        {
+        if let (Some(settings), Some(Some(bus_cfg))) = (&settings, bus.and_then(|b| buses.get(b))) {
             if bus_cfg.port.is_modbus_tcp() {
-                for key in ["WDTTIME", "WDTYMASK"] {
-                    if s.register(key).is_some() {
-                        self.error(
-                            path.key("settings").key(key),
-                            ErrorKind::TextSettingOnModbusTcp { key },
-                        );
-                    }
+                for key in model.family.text_only_settings(settings) {
+                    self.error(
+                        path.key("settings").key(key),
+                        ErrorKind::TextSettingOnModbusTcp { key },
+                    );
                 }
             }
         }

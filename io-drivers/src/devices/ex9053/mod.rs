@@ -18,8 +18,10 @@
 //! number (`address: 18` is DCON `12`, Modbus unit 18). The EX-9053D takes 0..=255 (DCON
 //! 00..FF); the EX-9053D-M 1..=247, the Modbus range, also when it is run with DCON.
 
+pub(crate) mod commission;
 pub(crate) mod dcon;
 pub(crate) mod driver;
+pub(crate) mod family;
 pub(crate) mod map;
 pub(crate) mod points;
 pub(crate) mod settings;
@@ -35,8 +37,10 @@ mod tests;
 
 use super::{ModelSpec, Protocol};
 
+pub use commission::Ex9053Refusal;
 pub use dcon::{check_line, Answer, AnswerError, Command, FrameError, ParseError};
 pub use driver::Ex9053Driver;
+pub use family::{address_hearing, Ex9053Family};
 pub use settings::{LatchMode, Settings};
 pub use sim::Ex9053Sim;
 pub use state::{ConfigError, Eeprom, Ex9053State, Running, Variant, WireProtocol};
@@ -62,6 +66,7 @@ pub static MODEL_D: ModelSpec = ModelSpec {
     parse_settings: settings::parse_module,
     setting_keys: settings::keys,
     profile: None,
+    family: &Ex9053Family,
 };
 
 /// The EX-9053D-M in the catalog: Modbus RTU by default, DCON too (`protocol: text`), unit
@@ -80,4 +85,5 @@ pub static MODEL_M: ModelSpec = ModelSpec {
     parse_settings: settings::parse_module,
     setting_keys: settings::keys,
     profile: None,
+    family: &Ex9053Family,
 };

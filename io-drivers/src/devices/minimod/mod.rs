@@ -20,8 +20,10 @@
 //! - `driver`: the sans-IO driver ([`crate::driver::Driver`]), Modbus or
 //!   text, polled or in event mode (with `crate::line::collect` on the bus owner's side).
 
+pub(crate) mod commission;
 pub(crate) mod driver;
 pub(crate) mod events;
+pub(crate) mod family;
 pub(crate) mod map;
 pub(crate) mod push_down;
 pub(crate) mod serial_config;
@@ -43,8 +45,10 @@ use std::time::Duration;
 
 use super::{ModelSpec, Protocol};
 
+pub use commission::MiniModRefusal;
 pub use driver::{MiniModDriver, LOGIC_CLEARED_AT_STARTUP};
 pub use events::{Event, Events};
+pub use family::MiniModFamily;
 pub use map::{parse_condition, point_index, ConditionError, Item, WatchdogRegisters, POINTS};
 pub use push_down::{AutoOutput, Condition, Input, Latency, Output, PulseWidth, PushDown};
 pub use push_down::{CONDITIONS, MAX_PULSE_MS};
@@ -80,4 +84,5 @@ pub static MODEL: ModelSpec = ModelSpec {
     parse_settings: Settings::parse_module,
     setting_keys: settings::keys,
     profile: None,
+    family: &MiniModFamily,
 };

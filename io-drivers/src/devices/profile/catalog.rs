@@ -160,6 +160,7 @@ fn spec(profile: &'static Profile) -> ModelSpec {
         parse_settings: no_settings,
         setting_keys: Vec::new,
         profile: Some(profile),
+        family: &super::ProfileFamily,
     }
 }
 

@@ -13,6 +13,7 @@
 
 pub(crate) mod catalog;
 pub(crate) mod driver;
+pub(crate) mod family;
 pub(crate) mod plan;
 pub(crate) mod sim;
 pub(crate) mod value;
@@ -24,6 +25,7 @@ use std::time::Duration;
 
 pub use catalog::model_of;
 pub use catalog::{describe, ProfileSettings};
+pub use family::ProfileFamily;
 pub use value::{DataType, WordOrder};
 
 use crate::point::ValueType;

@@ -62,7 +62,9 @@
 //! interval has passed, configuration takes effect after a reboot.
 
 pub mod ascii;
+pub(crate) mod commission;
 pub(crate) mod driver;
+pub(crate) mod family;
 pub(crate) mod item;
 pub(crate) mod logic;
 pub(crate) mod map;
@@ -74,11 +76,13 @@ pub(crate) mod sim;
 pub(crate) mod state;
 pub(crate) mod value;
 
+pub use commission::ResiRefusal;
 pub use driver::LOGIC_CLEARED_AT_STARTUP;
 pub use driver::{
     ascii::BadAnswer,
     settings::{Setting, Settings},
 };
+pub use family::ResiFamily;
 pub use item::{Func, Item, Kind, Temp};
 pub use map::{Acc, Block, Entry, Map, Table};
 pub use model::{Hardware, Model, RelayKind, Series};
@@ -146,6 +150,7 @@ macro_rules! catalog_entry {
             parse_settings,
             setting_keys,
             profile: None,
+            family: &$crate::devices::resi::ResiFamily,
         };
     };
 }

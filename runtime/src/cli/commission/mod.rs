@@ -1,18 +1,15 @@
 //! `softplc commission PORT --address A ...`: sets a module's address, baud/format and reply
 //! delay and makes them permanent by the module's own means, then reads them back at the new
-//! settings. One core for every family: the family's module ([`minimod`], [`resi`],
-//! [`ex9053`]) reads what it needs, refuses what its manual forbids (before anything is
-//! written) and returns a [`Plan`]; the core prints the plan, asks, runs it step by step
-//! printing every frame and answer, and stops at the first answer that is not the expected one.
+//! settings. One core for every family: the family that answers at the address
+//! (`softplc_io::devices::Family::plan_commissioning`) reads what it needs through the
+//! session, refuses what its manual forbids (before anything is written) and returns a
+//! [`Plan`]; the core prints the plan, asks, runs it step by step printing every frame and
+//! answer, and stops at the first answer that is not the expected one.
 //!
 //! Nothing is written without `--yes` or a "yes" typed at a terminal. Steps that need the
 //! engineer's hands (the EX-9053's INIT* terminal and its power-on) are printed as
 //! instructions; the core then asks the module at the settings it will have, until it answers
 //! or `--wait` runs out.
-
-mod ex9053;
-mod minimod;
-mod resi;
 
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
@@ -21,10 +18,13 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
+use softplc_io::devices::{
+    families, Check, CommissionRequest, Conversation, Expect, Family, LineFailed, Plan, Step,
+};
 use softplc_io::line::{LineSettings, SerialFormat, SerialTransport};
 use softplc_io::time::{Clock, MonotonicClock};
 
-use super::discover::{ask, Family};
+use super::discover::ask;
 use super::out::outln;
 
 /// Arguments of `softplc commission`.
@@ -83,45 +83,6 @@ impl OnOff {
     }
 }
 
-/// Whether an answer is the one a step expects; the error says what it is instead.
-pub(super) type Check = Box<dyn Fn(&str) -> Result<(), String>>;
-
-/// What a [`Step::Send`] waits for.
-pub(super) enum Expect {
-    /// An answer the check accepts.
-    Answer(Check),
-    /// No answer: the manual says the module gives none.
-    Silence,
-}
-
-/// One thing commissioning does, in order.
-pub(super) enum Step {
-    /// Sends a frame at the settings in use.
-    Send {
-        what: String,
-        frame: Vec<u8>,
-        expect: Expect,
-    },
-    /// Talks at other settings from here on (the module has switched).
-    Switch(LineSettings),
-    /// The engineer acts on the module (wiring, power); then `frame` is asked at `settings`
-    /// until the module answers as `check` wants, for at most `within` (or `--wait`).
-    Await {
-        what: String,
-        instructions: Vec<String>,
-        settings: LineSettings,
-        frame: Vec<u8>,
-        check: Check,
-        within: Option<Duration>,
-    },
-}
-
-/// What a family's module returns: the steps, and what is true when they have all passed.
-pub(super) struct Plan {
-    pub steps: Vec<Step>,
-    pub done: String,
-}
-
 /// The line to the module, and how long answers may take.
 pub(super) struct Session {
     port: PathBuf,
@@ -130,6 +91,20 @@ pub(super) struct Session {
     transport: Option<SerialTransport>,
     settings: LineSettings,
     timeout: Duration,
+}
+
+impl Conversation for Session {
+    fn ask(&mut self, what: &str, frame: &[u8]) -> Result<Option<String>, LineFailed> {
+        Session::ask(self, what, frame).map_err(|e| LineFailed(e.into()))
+    }
+
+    fn settings(&self) -> LineSettings {
+        self.settings
+    }
+
+    fn note(&mut self, line: &str) -> Result<(), LineFailed> {
+        outln(line).map_err(|e| LineFailed(e.into()))
+    }
 }
 
 /// A frame as printed.
@@ -212,14 +187,20 @@ pub(super) fn commission(args: CommissionArgs) -> anyhow::Result<ExitCode> {
     let mut session = Session::open(args.port.clone(), now, args.timeout)?;
     let (family, model) = identify(&mut session, &args)?;
     outln(&format!("{model} at address {} at {now}", args.address))?;
-    if family != Family::Dcon && args.set_checksum.is_some() {
+    if !family.has_checksum() && args.set_checksum.is_some() {
         bail!("refused: --set-checksum: only the EX-9053 has a checksum setting (data format bit 6, EX-9053 manual §1.10); the {} protocol has none to switch", family.name());
     }
-    let plan = match family {
-        Family::MiniMod => minimod::plan(&args, now, model)?,
-        Family::Resi => resi::plan(&mut session, &args, model)?,
-        Family::Dcon => ex9053::plan(&mut session, &args, model)?,
+    let request = CommissionRequest {
+        address: args.address,
+        now,
+        checksum: args.checksum,
+        set_address: args.set_address,
+        set_baud: args.set_baud,
+        set_format: args.set_format,
+        set_checksum: args.set_checksum.map(OnOff::is_on),
+        set_reply_delay: args.set_reply_delay,
     };
+    let plan = family.plan_commissioning(&mut session, &request, model)?;
     run(&mut session, plan, &args)
 }
 
@@ -227,20 +208,19 @@ pub(super) fn commission(args: CommissionArgs) -> anyhow::Result<ExitCode> {
 fn identify(
     session: &mut Session,
     args: &CommissionArgs,
-) -> anyhow::Result<(Family, &'static str)> {
+) -> anyhow::Result<(&'static dyn Family, &'static str)> {
     let now = session.settings();
-    for fam in Family::ALL {
+    for &fam in families() {
         if !fam.supports(now, args.address) {
             continue;
         }
-        let what = format!("who are you? {}", fam.name());
-        let reply = if fam == Family::Dcon {
-            let req = ex9053::name_request(args.address, args.checksum);
-            let reply = session.ask(&what, &req)?;
-            reply.and_then(|r| ex9053::body(&r, args.checksum))
-        } else {
-            session.ask(&what, &fam.request(args.address))?
+        let Some(question) = fam.who_are_you(args.address, args.checksum) else {
+            continue;
         };
+        let what = format!("who are you? {}", fam.name());
+        let reply = session
+            .ask(&what, &question)?
+            .and_then(|r| fam.answer_body(&r, args.checksum));
         match reply.as_deref().and_then(|r| fam.identify(args.address, r)) {
             Some(Ok(model)) => return Ok((fam, model)),
             Some(Err(why)) => bail!("address {}: {why}", args.address),

@@ -8,8 +8,8 @@ use softplc_io::point::ValueType;
 use super::lower::Lowered;
 use crate::image::{ProcessImage, TagId};
 use crate::logic::vm::{self, Instr};
+use crate::logic::Rung;
 use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
-use crate::offload::ir::Rung;
 
 /// A compiled `.expr` program, ready to scan. Build it with [`super::compile`].
 #[derive(Debug, Clone)]

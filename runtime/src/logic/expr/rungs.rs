@@ -16,8 +16,9 @@ use std::path::Path;
 use super::check::{BoolExpr as Expr, CheckedStmt};
 use super::parser::{EdgeKind, TimerKind};
 use crate::image::TagId;
+use crate::logic::Rung;
 use crate::logic::SourcePos;
-use crate::offload::ir::{BoolExpr, Rung, RungShape};
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// The rungs of checked statements.
 pub(crate) fn describe(stmts: &[CheckedStmt], file: &Path) -> Vec<Rung> {

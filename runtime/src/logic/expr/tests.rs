@@ -595,7 +595,7 @@ fn quality_tests_lower_to_one_instruction() {
 
 #[test]
 fn quality_tests_stay_in_the_scan() {
-    use crate::offload::ir::RungShape;
+    use softplc_io::rung::RungShape;
     let rig = Rig::new("q = !good(a)\nq2 = (rising(b) | q2) & !bad(b)\n", 10);
     let rungs = rig.program.rungs().expect("expr describes its rungs");
     for rung in rungs {

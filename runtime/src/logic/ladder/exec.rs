@@ -17,7 +17,7 @@ pub struct LadderProgram {
     vm: vm::Program,
     writes: Vec<TagId>,
     /// The coils as rungs, for the push-down planner.
-    rungs: Vec<crate::offload::ir::Rung>,
+    rungs: Vec<crate::logic::Rung>,
 }
 
 impl LadderProgram {
@@ -58,7 +58,7 @@ impl LadderProgram {
     }
 
     /// The program with its coils described as rungs.
-    pub(crate) fn with_rungs(mut self, rungs: Vec<crate::offload::ir::Rung>) -> Self {
+    pub(crate) fn with_rungs(mut self, rungs: Vec<crate::logic::Rung>) -> Self {
         self.rungs = rungs;
         self
     }
@@ -84,7 +84,7 @@ impl LogicEngine for LadderProgram {
         self.vm.scan(image, ctx)
     }
 
-    fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
+    fn rungs(&self) -> Option<Vec<crate::logic::Rung>> {
         Some(self.rungs.clone())
     }
 

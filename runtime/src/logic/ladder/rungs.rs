@@ -23,8 +23,9 @@ use super::parser::CoilKind;
 use crate::image::TagId;
 use crate::logic::blocks::from_millis;
 use crate::logic::vm::{Call, Num};
+use crate::logic::Rung;
 use crate::logic::SourcePos;
-use crate::offload::ir::{BoolExpr, Rung, RungShape};
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// How one rung drives a tag.
 enum Drive {

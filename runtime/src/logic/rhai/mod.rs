@@ -652,7 +652,7 @@ impl LogicEngine for RhaiProgram {
 
     /// Every output the script assigns, at its first assignment: the plain forms with their
     /// shapes, the others opaque with the reason (see `rungs.rs`).
-    fn rungs(&self) -> Option<Vec<crate::offload::ir::Rung>> {
+    fn rungs(&self) -> Option<Vec<crate::logic::Rung>> {
         Some(self.described.rungs.clone())
     }
 

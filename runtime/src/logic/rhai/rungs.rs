@@ -27,7 +27,8 @@ use softplc_io::point::ValueType;
 use super::error::user_pos;
 use crate::image::TagId;
 use crate::logic::expr::TagTable;
-use crate::offload::ir::{BoolExpr, Rung, RungShape};
+use crate::logic::Rung;
+use softplc_io::rung::{BoolExpr, RungShape};
 
 /// Why an assigned output is not a plain form (the report's and `offload: require`'s reason).
 pub const NOT_PLAIN: &str = "a Rhai assignment other than a plain condition: the planner \

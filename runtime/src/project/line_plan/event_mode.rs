@@ -1,5 +1,6 @@
 //! The default input mode of a line of MiniMods: event mode (FC 70 Collect) where its floor is
-//! lower than polling's.
+//! lower than polling's. Which modules can join a Collect round, and which leave their mode
+//! open, their families say ([`softplc_io::devices::InputModes`]).
 //!
 //! MiniMod manual, "Modbus function “Collect” (event management)": the function "lowers the
 //! required time down to 5% of the original time when no variations have happened". Whether it
@@ -9,7 +10,8 @@
 //! made per line from the two floors, with the timing model `check` uses
 //! (`softplc_io::line::input_floor`: every reply delay, the adapter's latency per
 //! transaction and per Collect):
-//! - the candidates are the MiniMods (Modbus protocol) whose settings do not say `events:`;
+//! - the candidates are the modules whose mode is open: MiniMods (Modbus protocol) whose
+//!   settings do not say `events:`;
 //!   a module that says `events: true` or `events: false` keeps it (that is how a project pins
 //!   the mode);
 //! - they get `events: true` when the line's input floor with them in the round is lower than
@@ -26,8 +28,7 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::Setting;
-use softplc_io::devices::{ModuleSettings, Protocol};
+use softplc_io::devices::ModuleSettings;
 use softplc_io::line::CollectFloor;
 
 use super::super::model::Project;
@@ -83,7 +84,7 @@ fn not_offered(project: &Project, b: usize, modules: &[usize]) -> Option<&'stati
     }
     if modules
         .iter()
-        .any(|&m| project.modules[m].model.name != "minimod")
+        .any(|&m| !super::input_modes(&project.modules[m]).collect)
     {
         return Some(
             "a model other than the MiniMod is on the line, and every slave hears a Collect \
@@ -99,11 +100,7 @@ pub(super) fn apply(project: &mut Project, b: usize) -> InputPlan {
     let candidates: Vec<usize> = modules
         .iter()
         .copied()
-        .filter(|&m| {
-            let module = &project.modules[m];
-            module.device.protocol == Protocol::Modbus
-                && super::minimod(module).is_some_and(|s| s.events_given().is_none())
-        })
+        .filter(|&m| super::input_modes(&project.modules[m]).open)
         .collect();
     if candidates.is_empty() {
         return InputPlan::AsWritten;
@@ -113,18 +110,15 @@ pub(super) fn apply(project: &mut Project, b: usize) -> InputPlan {
     }
     let polling = super::floor_with(project, b, &|_, _| {});
     let with_events = |m: usize, settings: &mut ModuleSettings| {
-        if let (true, ModuleSettings::MiniMod(s)) = (candidates.contains(&m), settings) {
-            s.push(Setting::Events(true));
+        if candidates.contains(&m) {
+            project.modules[m].model.family.choose_events(settings);
         }
     };
     let event_mode = super::floor_with(project, b, &with_events);
     let member_modules: Vec<usize> = modules
         .iter()
         .copied()
-        .filter(|&m| {
-            candidates.contains(&m)
-                || super::minimod(&project.modules[m]).is_some_and(|s| s.events())
-        })
+        .filter(|&m| candidates.contains(&m) || super::input_modes(&project.modules[m]).events)
         .collect();
     let members: Vec<u8> = member_modules
         .iter()
@@ -139,8 +133,7 @@ pub(super) fn apply(project: &mut Project, b: usize) -> InputPlan {
     // A member's RDELAYM starts every slot later ("Setting the Modbus communication timeout").
     let frame_timeout = member_modules
         .iter()
-        .filter_map(|&m| super::minimod(&project.modules[m]))
-        .map(|s| s.frame_timeout())
+        .map(|&m| super::input_modes(&project.modules[m]).frame_timeout)
         .max()
         .unwrap_or_default();
     let floor = project.buses.get(b).and_then(|bus| {
@@ -151,9 +144,11 @@ pub(super) fn apply(project: &mut Project, b: usize) -> InputPlan {
     let collect = event_mode + per_event < polling;
     if collect {
         for &m in &candidates {
-            if let Some(s) = super::minimod_mut(&mut project.modules[m]) {
-                s.push(Setting::Events(true));
-            }
+            let module = &mut project.modules[m];
+            module
+                .model
+                .family
+                .choose_events(&mut module.device.settings);
         }
     }
     InputPlan::Chosen(Choice {

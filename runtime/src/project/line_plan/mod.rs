@@ -1,14 +1,14 @@
 //! What softplc plans for a line beyond what its entry says, once the project is whole: the
-//! MiniMods' reply delays when the bus asks for `tune: reply_delay` ([`tune`]), then their
+//! modules' reply delays when the bus asks for `tune: reply_delay` ([`tune`]), then their
 //! input mode where the project leaves it open ([`event_mode`]: Collect where its floor is
-//! lower than polling's). Both add typed settings to the modules' own, before the watchdogs
+//! lower than polling's). What a module can do is its family's to say
+//! ([`softplc_io::devices::Family`]: its input modes, its reply-delay tuning). Both add typed settings to the modules' own, before the watchdogs
 //! are armed (whose WDTTIME counts the line's floor), and keep what they chose and why on the
 //! bus for `check` ([`LinePlan`]).
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::Settings as MiniModSettings;
-use softplc_io::devices::ModuleSettings;
+use softplc_io::devices::{InputModes, ModuleSettings};
 use softplc_io::driver::Driver;
 use softplc_io::line::SysfsRoot;
 use softplc_io::line::{input_floor, AdapterTiming};
@@ -46,20 +46,12 @@ pub(crate) fn apply(project: &mut Project) {
     }
 }
 
-/// The MiniMod settings of a module, if it is one.
-pub(crate) fn minimod_mut(module: &mut ModuleConfig) -> Option<&mut MiniModSettings> {
-    match &mut module.device.settings {
-        ModuleSettings::MiniMod(s) => Some(s),
-        _ => None,
-    }
-}
-
-/// The MiniMod settings of a module, if it is one.
-pub(crate) fn minimod(module: &ModuleConfig) -> Option<&MiniModSettings> {
-    match &module.device.settings {
-        ModuleSettings::MiniMod(s) => Some(s),
-        _ => None,
-    }
+/// How a module reads its inputs with its settings as they are, as its family says.
+pub(crate) fn input_modes(module: &ModuleConfig) -> InputModes {
+    module
+        .model
+        .family
+        .input_modes(&module.device.settings, module.device.protocol)
 }
 
 /// The indexes of bus `b`'s modules.

@@ -17,8 +17,7 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::Setting;
-use softplc_io::devices::ModuleSettings;
+use softplc_io::devices::{ModuleSettings, ReplyDelayTuning};
 
 use super::super::model::Project;
 use super::direction::{turnaround, FastTurn};
@@ -56,14 +55,15 @@ pub(super) fn apply(project: &mut Project, b: usize) -> Option<Tuned> {
     let why = turnaround(bus).ok()?;
     let (mut modules, mut own) = (Vec::new(), Vec::new());
     for m in super::on_bus(project, b) {
-        let Some(settings) = super::minimod_mut(&mut project.modules[m]) else {
-            continue;
-        };
-        if settings.reply_delay_given().is_some() {
-            own.push(m);
-        } else {
-            settings.push(Setting::ReplyDelay(0));
-            modules.push(m);
+        let module = &mut project.modules[m];
+        match module
+            .model
+            .family
+            .tune_reply_delay(&mut module.device.settings)
+        {
+            ReplyDelayTuning::NotTunable => {}
+            ReplyDelayTuning::Own => own.push(m),
+            ReplyDelayTuning::Tuned => modules.push(m),
         }
     }
     Some(Tuned {
@@ -82,9 +82,11 @@ pub(super) fn apply(project: &mut Project, b: usize) -> Option<Tuned> {
 pub(super) fn floors(project: &Project, b: usize, tuned: &mut Tuned) {
     let modules = tuned.modules.clone();
     let untuned = move |m: usize, settings: &mut ModuleSettings| {
-        if let (true, ModuleSettings::MiniMod(s)) = (modules.contains(&m), settings) {
-            let factory = softplc_io::devices::minimod::FACTORY_RDELAYT;
-            s.push(Setting::ReplyDelay(factory));
+        if modules.contains(&m) {
+            project.modules[m]
+                .model
+                .family
+                .factory_reply_delay(settings);
         }
     };
     tuned.floor = super::floor_with(project, b, &|_, _| {});

@@ -1,18 +1,29 @@
-//! The engine-neutral rung IR: what a logic engine tells the planner about each coil it writes.
+//! The engine-neutral rung IR: what a logic engine tells the push-down planner about each coil
+//! it writes, and what a family's push-down target takes.
 //!
 //! An engine describes a rung by its *shape*: one of the few behaviours a module can run
 //! itself, with the boolean conditions it reads, or [`RungShape::Opaque`] with the reason it is
 //! none of them. Every shape is defined here by its **central** semantics, scan by scan, as the
 //! engines run it (a condition is sampled once per scan; "rising edge" means false on the
-//! previous scan and true on this one, never on the first scan). The module mappings
-//! (`minimod.rs`, `resi.rs`) are proved against these definitions.
+//! previous scan and true on this one, never on the first scan). The module mappings are
+//! proved against these definitions. Tags are named by their index in the program's tag list
+//! ([`TagId`]), and a rung's place in its program by the engine's own position type (the
+//! runtime's `logic::Rung` is a [`Rung`] at a place in a program file).
 
 use std::collections::BTreeSet;
 use std::fmt;
 use std::time::Duration;
 
-use crate::image::TagId;
-use crate::logic::SourcePos;
+/// Index of a tag in the process image (its position in the project's tag list).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct TagId(pub u32);
+
+impl TagId {
+    /// As an index.
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
 
 /// A boolean condition over bool tags: no memory, no time. Conditions with edges, timers,
 /// comparisons or numbers are not representable and make the rung [`RungShape::Opaque`].
@@ -226,7 +237,7 @@ pub enum RungShape {
 
 /// Most tags a self-reading condition may read for [`RungShape::self_latch`] to check it
 /// (2^12 evaluations).
-pub(crate) const MAX_LATCH_TAGS: usize = 12;
+const MAX_LATCH_TAGS: usize = 12;
 
 impl RungShape {
     /// The tags the module's own logic reads once this shape is pushed down. A pulse's trigger
@@ -299,15 +310,16 @@ impl RungShape {
     }
 }
 
-/// One coil as an engine describes it.
+/// One coil as an engine describes it, at `P`, where it is written (a place in a program
+/// file).
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Rung {
+pub struct Rung<P> {
     /// The coil (the tag the rung writes).
     pub coil: TagId,
     /// What the rung does.
     pub shape: RungShape,
     /// Where it is written.
-    pub pos: SourcePos,
+    pub pos: P,
 }
 
 #[cfg(test)]

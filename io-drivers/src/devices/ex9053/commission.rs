@@ -1,6 +1,9 @@
-//! Commissioning an EX-9053D / EX-9053D-M over DCON (EX-9053 manual §1.3, §1.4, §1.10, §2.1,
-//! §2.4, §2.9), with the driver's own DCON encoder and answer parser.
+//! Identifying and commissioning an EX-9053D / EX-9053D-M over DCON (EX-9053 manual §1.3,
+//! §1.4, §1.10, §2.1, §2.4, §2.9, §2.13), with the driver's own DCON encoder and answer
+//! parser.
 //!
+//! - Who it is: `$AAM` (read name), answered `!AA<name>` (§2.13); the factory setting is
+//!   9600 8N1 (§1.3); DCON addresses are two hex digits.
 //! - `%AANNTTCCFF` sets address NN, type TT (40), baud code CC and data format FF; the module
 //!   answers `!NN`, or `?AA` when it refuses (§2.1). The settings are saved in EEPROM.
 //! - **Address only** (CC and FF as `$AA2` reads them now): no INIT* needed; the module answers
@@ -16,22 +19,94 @@
 //! - **Format**: a DCON line is 8N1; §1.10 has no parity or stop-bit setting, so only 8N1 is
 //!   accepted. **Reply delay**: the manual gives none and no command sets one: refused.
 
-use anyhow::{bail, Context};
-use softplc_io::devices::ex9053::{
+use super::{
     baud_of_code, check_line, code_of_baud, Answer, AnswerError, Command, BAUD_CODES, FF_CHECKSUM,
     INIT_ADDRESS, INIT_BAUD_CODE, LINE_FORMAT, TYPE_DIO,
 };
-use softplc_io::line::LineSettings;
+use crate::devices::family::{
+    Check, CommissionError, CommissionRequest, Conversation, Expect, Plan, Step,
+};
+use crate::line::{LineSettings, Parity, SerialFormat};
 
-use super::{Check, CommissionArgs, Expect, Plan, Session, Step};
+/// What the EX-9053's manual does not allow a host to set, or what its answer forbids.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Ex9053Refusal {
+    /// A DCON line is 8N1.
+    #[error("refused: --set-format {format}: a DCON line is 8N1; the EX-9053's data format (FF, manual §1.10) holds only the counter edge and the checksum, no parity or stop bits (use --set-checksum for the checksum)")]
+    Format {
+        /// The format asked.
+        format: SerialFormat,
+    },
+    /// No reply delay exists.
+    #[error("refused: --set-reply-delay: the EX-9053 manual gives no reply delay and no command that sets one (§2 lists every command); a host can set nothing here")]
+    ReplyDelay,
+    /// A baud rate with no CC code.
+    #[error(
+        "refused: --set-baud {baud}: the EX-9053 runs at {} Bd (CC codes 03..0A, manual §1.10)",
+        rates()
+    )]
+    Baud {
+        /// The rate asked.
+        baud: u32,
+    },
+    /// `$AA2` gave no configuration to start from.
+    #[error("{model} at address {address}: $AA2: {why}")]
+    Config {
+        /// The model.
+        model: &'static str,
+        /// Its address now.
+        address: u8,
+        /// What came back instead, in words.
+        why: String,
+    },
+    /// The module has the settings asked for already.
+    #[error("nothing to change: {model} at address {address} already has these settings")]
+    NothingToChange {
+        /// The model.
+        model: &'static str,
+        /// Its address.
+        address: u8,
+    },
+}
+
+/// Every baud rate of the CC codes, as text.
+fn rates() -> String {
+    let rates: Vec<String> = BAUD_CODES.iter().map(|(_, b)| b.to_string()).collect();
+    rates.join(", ")
+}
+
+/// Whether an EX-9053 can run at these settings (§1.3 / %AANNTTCCFF baud codes
+/// 1200..115200, 8N1: no parity in the DCON frame); any address.
+pub(crate) fn supports(s: LineSettings) -> bool {
+    [1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200].contains(&s.baud)
+        && s.format
+            == SerialFormat {
+                data_bits: 8,
+                parity: Parity::None,
+                stop_bits: 1,
+            }
+}
+
+/// The model a `!AA<name>` answer from `address` names, if it is a DCON answer.
+pub(crate) fn identify(address: u8, reply: &str) -> Option<Result<&'static str, String>> {
+    let reply = reply.trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ');
+    let name = reply.strip_prefix(&format!("!{address:02X}"))?;
+    Some(if name.starts_with("9053") {
+        Ok(super::MODEL_D.name)
+    } else {
+        Err(format!(
+            "DCON module named {name:?} is not a model softplc knows"
+        ))
+    })
+}
 
 /// `$AAM`, with the checksum if the module uses one.
-pub(super) fn name_request(address: u8, checksum: bool) -> Vec<u8> {
+pub(crate) fn name_request(address: u8, checksum: bool) -> Vec<u8> {
     Command::ReadName { address }.encode(checksum)
 }
 
 /// The body of an answer line (CR removed), its checksum checked and removed when in use.
-pub(super) fn body(reply: &str, checksum: bool) -> Option<String> {
+pub(crate) fn body(reply: &str, checksum: bool) -> Option<String> {
     let b = check_line(reply.as_bytes(), checksum).ok()?;
     String::from_utf8(b.to_vec()).ok()
 }
@@ -123,43 +198,46 @@ fn checksum_text(on: bool) -> &'static str {
     }
 }
 
-pub(super) fn plan(
-    session: &mut Session,
-    args: &CommissionArgs,
+/// The plan for `req` to the EX-9053 `model`, reading its configuration first.
+pub(crate) fn plan(
+    conversation: &mut dyn Conversation,
+    req: &CommissionRequest,
     model: &'static str,
-) -> anyhow::Result<Plan> {
-    if let Some(f) = args.set_format {
-        if f != LINE_FORMAT {
-            bail!("refused: --set-format {f}: a DCON line is 8N1; the EX-9053's data format (FF, manual §1.10) holds only the counter edge and the checksum, no parity or stop bits (use --set-checksum for the checksum)");
+) -> Result<Plan, CommissionError> {
+    if let Some(format) = req.set_format {
+        if format != LINE_FORMAT {
+            return Err(CommissionError::refused(Ex9053Refusal::Format { format }));
         }
     }
-    if args.set_reply_delay.is_some() {
-        bail!("refused: --set-reply-delay: the EX-9053 manual gives no reply delay and no command that sets one (§2 lists every command); a host can set nothing here");
+    if req.set_reply_delay.is_some() {
+        return Err(CommissionError::refused(Ex9053Refusal::ReplyDelay));
     }
-    let new_code = match args.set_baud {
+    let new_code = match req.set_baud {
         None => None,
-        Some(b) => Some(code_of_baud(b).with_context(|| {
-            let rates: Vec<String> = BAUD_CODES.iter().map(|(_, b)| b.to_string()).collect();
-            format!(
-                "refused: --set-baud {b}: the EX-9053 runs at {} Bd (CC codes 03..0A, manual §1.10)",
-                rates.join(", ")
-            )
-        })?),
+        Some(baud) => {
+            Some(code_of_baud(baud).ok_or(CommissionError::refused(Ex9053Refusal::Baud { baud }))?)
+        }
     };
-    let a = args.address;
-    let ck = args.checksum;
+    let a = req.address;
+    let ck = req.checksum;
     let read = Command::ReadConfig { address: a };
-    let reply = session.ask("read the configuration ($AA2, §2.4)", &read.encode(ck))?;
+    let reply = conversation.ask("read the configuration ($AA2, §2.4)", &read.encode(ck))?;
     let (_, _, code, ff) = reply
         .as_deref()
         .ok_or_else(|| "no answer".to_string())
         .and_then(|r| config(&read, r, ck))
-        .map_err(|why| anyhow::anyhow!("{model} at address {a}: $AA2: {why}"))?;
+        .map_err(|why| {
+            CommissionError::refused(Ex9053Refusal::Config {
+                model,
+                address: a,
+                why,
+            })
+        })?;
     let now_ck = ff & FF_CHECKSUM != 0;
     let new_code = new_code.unwrap_or(code);
-    let new_ck = args.set_checksum.map_or(now_ck, |c| c.is_on());
+    let new_ck = req.set_checksum.unwrap_or(now_ck);
     let new_ff = (ff & !FF_CHECKSUM) | if new_ck { FF_CHECKSUM } else { 0 };
-    let n = args.set_address.unwrap_or(a);
+    let n = req.set_address.unwrap_or(a);
     let new_baud = baud_of_code(new_code).unwrap_or(9600);
     let new_settings = LineSettings {
         baud: new_baud,
@@ -169,7 +247,7 @@ pub(super) fn plan(
         "address {n:02X}h ({n}), {new_settings}, checksum {}",
         checksum_text(new_ck)
     );
-    crate::cli::out::outln(&format!(
+    conversation.note(&format!(
         "   now: baud code {code:02X}h ({} Bd), data format {ff:02X}h (checksum {})",
         baud_of_code(code).unwrap_or(0),
         checksum_text(now_ck)
@@ -198,7 +276,10 @@ pub(super) fn plan(
     });
     let steps = if !serial_change {
         if n == a {
-            bail!("nothing to change: {model} at address {a} already has these settings");
+            return Err(CommissionError::refused(Ex9053Refusal::NothingToChange {
+                model,
+                address: a,
+            }));
         }
         vec![
             Step::Send {
