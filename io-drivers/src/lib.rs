@@ -18,6 +18,10 @@
 //!   and simulator, and the [`Family`](devices::Family) trait through which each family states
 //!   its capabilities to the runtime (its watchdog plan, its input modes): a stable API, as
 //!   the trait's docs say.
+//! - [`push_down`]: what a family's own logic runs in a rung's place
+//!   ([`ModulePlacement`](push_down::ModulePlacement)) or why a rung stays in the scan
+//!   ([`Reason`](push_down::Reason)), and the [`Site`](push_down::Site) a family asks about
+//!   the project: a stable API.
 //! - [`rung`]: the engine-neutral shape of a rung ([`RungShape`](rung::RungShape) over
 //!   [`BoolExpr`](rung::BoolExpr)s of tags), what a logic engine tells the push-down planner
 //!   about each coil it writes: a stable API.
@@ -33,6 +37,7 @@ pub mod driver;
 pub mod line;
 pub mod modbus;
 pub mod point;
+pub mod push_down;
 pub mod rung;
 pub mod sim;
 pub mod time;

@@ -8,6 +8,19 @@ use std::fmt::Debug;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
+/// A duration as a person reads it: `850µs`, `12.35ms`, `1.20s` (what every report, log line
+/// and error message of softplc prints).
+pub fn fmt_duration(d: Duration) -> String {
+    let us = d.as_micros();
+    if us < 1000 {
+        format!("{us}µs")
+    } else if us < 1_000_000 {
+        format!("{:.2}ms", d.as_secs_f64() * 1e3)
+    } else {
+        format!("{:.2}s", d.as_secs_f64())
+    }
+}
+
 /// A source of time that can also wait.
 pub trait Clock: Send + Sync + Debug {
     /// Time since this clock's origin.

@@ -124,6 +124,12 @@ pub trait SimDevice: Send + Debug {
         false
     }
 
+    /// The master's line settings as the device last took them (a `line` console command
+    /// sets them on a module that models its own UART); `None` for a device that does not.
+    fn master_settings(&self) -> Option<crate::line::settings::LineSettings> {
+        None
+    }
+
     /// Help text for [`SimDevice::command`].
     fn command_help(&self) -> &'static str {
         ""

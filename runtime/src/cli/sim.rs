@@ -8,7 +8,6 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context};
 use softplc_io::devices;
-use softplc_io::devices::minimod::{LineMode, SerialParams};
 use softplc_io::line::{
     open_tty, pty_pair, LineSettings, NetFraming, Parity, SerialFormat, TTYPort, TcpEndpoint,
 };
@@ -497,20 +496,14 @@ pub(crate) fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> any
         }
         [dev, "line", spec] if dev.contains('@') => {
             let i = find(&w, dev)?;
-            let current = w
-                .master_settings(SERVED_LINE)
-                .unwrap_or(LineSettings::DEFAULT);
             // The model checks the words and says what its module makes of them.
-            let text = w
-                .device_mut(i)
-                .context("device vanished")?
-                .command(&["line", spec])?;
+            let device = w.device_mut(i).context("device vanished")?;
+            let text = device.command(&["line", spec])?;
             // The master's settings are the line's: every module hears every frame at them
             // from now on, until the served port's own settings change (`sim/serve.rs`).
-            let mode = LineMode::of_format(current.format).unwrap_or(LineMode::Even);
-            let params = SerialParams::parse(spec, mode)
-                .map_err(|e| anyhow::anyhow!("{dev} line {spec}: {e}"))?;
-            w.set_master_settings(SERVED_LINE, params.line_settings());
+            if let Some(settings) = device.master_settings() {
+                w.set_master_settings(SERVED_LINE, settings);
+            }
             text
         }
         [dev, rest @ ..] if dev.contains('@') => {

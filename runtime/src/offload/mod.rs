@@ -10,8 +10,10 @@
 //!    `softplc_io::rung`:
 //!    combinational, latch, pulse, staircase, toggle, edge set/reset, blinker, or opaque);
 //! 2. [`planner::plan`] maps each rung with the project's bindings and `offload:` switches to
-//!    module tables (`minimod`, `resi`) or keeps it central with a [`planner::Reason`];
-//!    conditions are minimised exactly (`minimize`);
+//!    module tables through the coil's module's family (`Family::push_down` in softplc-io:
+//!    the MiniMod's and the RESI-16DI8RO's mappings live with their drivers) or keeps it
+//!    central with a [`planner::Reason`]; conditions are minimised exactly
+//!    (`softplc_io::push_down`);
 //! 3. `runtime::Offloaded` runs the plan in the PLC: the tables are settings the drivers
 //!    write and verify at start-up, the pushed-down outputs are no longer written by the scan
 //!    but read back into the image, pulse triggers become pulser writes, and at stop the
@@ -42,11 +44,8 @@
 //! provided every input state lasts longer than that (a central scan cannot see shorter ones;
 //! the module can, which is the point).
 
-pub(crate) mod minimize;
-pub(crate) mod minimod;
 pub(crate) mod planner;
 pub(crate) mod report;
-pub(crate) mod resi;
 pub(crate) mod runtime;
 #[cfg(test)]
 mod tests;

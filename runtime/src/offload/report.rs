@@ -131,8 +131,7 @@ pub fn report(project: &Project, plan: &Plan) -> String {
     }
     for c in &plan.conditioning {
         let regs: Vec<String> = c
-            .latency
-            .registers()
+            .registers
             .iter()
             .map(|(r, v)| format!("{r} = {v} ms"))
             .collect();

@@ -32,17 +32,8 @@ impl std::fmt::Display for Percentiles {
     }
 }
 
-/// A duration as a person reads it: `850µs`, `12.3ms`, `1.20s`.
-pub fn fmt_duration(d: Duration) -> String {
-    let us = d.as_micros();
-    if us < 1000 {
-        format!("{us}µs")
-    } else if us < 1_000_000 {
-        format!("{:.2}ms", d.as_secs_f64() * 1e3)
-    } else {
-        format!("{:.2}s", d.as_secs_f64())
-    }
-}
+/// A duration as a person reads it (the one formatting of the whole system).
+pub use softplc_io::time::fmt_duration;
 
 /// A histogram of durations with nanosecond resolution up to one minute.
 #[derive(Debug, Clone)]

@@ -29,6 +29,8 @@ use std::time::Duration;
 
 use super::{DeviceConfig, ModelSpec, ModuleAddress, ModuleSettings, Protocol, PushDown};
 use crate::line::LineSettings;
+use crate::push_down::{ModulePlacement, Pushed, Reason, Site};
+use crate::rung::RungShape;
 
 pub use commission::{
     Check, CommissionError, CommissionRequest, Conversation, Expect, LineFailed, Plan, Step,
@@ -224,6 +226,35 @@ pub trait Family: Sync + fmt::Debug {
     /// Adds the start value `on` of the pushed-down output `point` to the module's push-down
     /// `push` (made the family's when it is none yet).
     fn push_initial(&self, _push: &mut PushDown, _point: &str, _on: bool) {}
+
+    /// The push-down target: runs the rung of shape `shape` in the module's own logic (the
+    /// feature, its tables, a command the scan sends instead of the output), or says why it
+    /// stays in the scan. The family answers only when its logic gives the rung's behaviour
+    /// (each mapping's module docs hold the proof). Default: no logic tables.
+    fn push_down(&self, _shape: &RungShape, site: &dyn Site) -> Result<ModulePlacement, Reason> {
+        Err(Reason::NoTables {
+            module: site.module_name().to_string(),
+            model: site.model().name,
+        })
+    }
+
+    /// Adds a placement's tables `pushed` to the module's push-down `push` (made the
+    /// family's when it is none yet), what its driver writes and verifies at start-up.
+    fn add_pushed(&self, _push: &mut PushDown, _pushed: Pushed) {}
+
+    /// The module's own conditioning of input `point`: a rising edge counted once the input
+    /// was high `rising` ms, a falling one after `falling` ms, added to the module's push-down
+    /// `push`; the registers that hold it, with their values (ms). `None` when the module
+    /// conditions no such input (`check` refuses `debounce:`/`stretch:` there first).
+    fn condition_input(
+        &self,
+        _push: &mut PushDown,
+        _point: &str,
+        _rising: Option<u16>,
+        _falling: Option<u16>,
+    ) -> Option<Vec<(&'static str, u16)>> {
+        None
+    }
 
     /// How the module reads its inputs with `settings`, on `protocol`.
     fn input_modes(&self, _settings: &ModuleSettings, _protocol: Protocol) -> InputModes {

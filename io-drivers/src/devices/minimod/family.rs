@@ -41,6 +41,8 @@ use crate::devices::family::{
 use crate::devices::{ModelSpec, ModuleAddress, ModuleSettings, Protocol, PushDown};
 use crate::line::LineSettings;
 use crate::point::Value;
+use crate::push_down::{ModulePlacement, Pushed, Reason, Site};
+use crate::rung::RungShape;
 
 /// The MiniMod family.
 #[derive(Debug)]
@@ -150,6 +152,33 @@ fn auto(
 impl Family for MiniModFamily {
     fn name(&self) -> &'static str {
         "MiniMod"
+    }
+
+    fn push_down(&self, shape: &RungShape, site: &dyn Site) -> Result<ModulePlacement, Reason> {
+        super::placement::map(shape, site)
+    }
+
+    fn add_pushed(&self, push: &mut PushDown, pushed: Pushed) {
+        if let (Some(mine), Pushed::MiniMod(auto)) = (minimod_push(push), pushed) {
+            mine.auto.push(auto);
+        }
+    }
+
+    fn condition_input(
+        &self,
+        push: &mut PushDown,
+        point: &str,
+        rising: Option<u16>,
+        falling: Option<u16>,
+    ) -> Option<Vec<(&'static str, u16)>> {
+        let input = super::Input::named(point)?;
+        let latency = super::Latency {
+            input,
+            rising,
+            falling,
+        };
+        minimod_push(push)?.latencies.push(latency);
+        Some(latency.registers())
     }
 
     fn supports(&self, settings: LineSettings, address: u8) -> bool {
@@ -333,6 +362,17 @@ impl Family for MiniModFamily {
         if let Some(s) = own_mut(settings) {
             s.push(Setting::ReplyDelay(super::FACTORY_RDELAYT));
         }
+    }
+}
+
+/// The MiniMod push-down in `push`, made one when it is none yet.
+fn minimod_push(push: &mut PushDown) -> Option<&mut super::PushDown> {
+    if *push == PushDown::None {
+        *push = PushDown::MiniMod(super::PushDown::default());
+    }
+    match push {
+        PushDown::MiniMod(mine) => Some(mine),
+        _ => None,
     }
 }
 

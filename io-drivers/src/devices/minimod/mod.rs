@@ -25,6 +25,7 @@ pub(crate) mod driver;
 pub(crate) mod events;
 pub(crate) mod family;
 pub(crate) mod map;
+pub(crate) mod placement;
 pub(crate) mod push_down;
 pub(crate) mod serial_config;
 pub(crate) mod settings;

@@ -432,6 +432,10 @@ impl SimDevice for MiniModSim {
     /// The master's baud (and format, when known) on a served line: the module listens only
     /// when they are its own ("Setting the communication parameters"). A format the module
     /// cannot have is never its own.
+    fn master_settings(&self) -> Option<crate::line::settings::LineSettings> {
+        Some(self.state.line().line_settings())
+    }
+
     fn master_line(&mut self, baud: u32, format: Option<crate::line::settings::SerialFormat>) {
         let own = self.state.serial().active().serial;
         let (baud, mode) = match format.map(LineMode::of_format) {

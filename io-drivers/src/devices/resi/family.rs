@@ -15,6 +15,8 @@ use crate::devices::family::{
 };
 use crate::devices::{ModelSpec, ModuleSettings, PushDown};
 use crate::line::LineSettings;
+use crate::push_down::{ModulePlacement, Pushed, Reason, Site};
+use crate::rung::RungShape;
 
 /// The RESI family (every model of the series).
 #[derive(Debug)]
@@ -31,6 +33,29 @@ fn off_delay(settings: &ModuleSettings) -> Option<u16> {
 impl Family for ResiFamily {
     fn name(&self) -> &'static str {
         "RESI"
+    }
+
+    fn push_down(&self, shape: &RungShape, site: &dyn Site) -> Result<ModulePlacement, Reason> {
+        // Of the RESI family, only the RESI-16DI8RO has logic functions (manual 10.1.1).
+        if site.model().name != super::placement::MODEL {
+            return Err(Reason::NoTables {
+                module: site.module_name().to_string(),
+                model: site.model().name,
+            });
+        }
+        super::placement::map(shape, site)
+    }
+
+    fn add_pushed(&self, push: &mut PushDown, pushed: Pushed) {
+        let Pushed::Resi(row) = pushed else {
+            return;
+        };
+        if *push == PushDown::None {
+            *push = PushDown::Resi(super::LogicTable::default());
+        }
+        if let PushDown::Resi(table) = push {
+            table.rows.push(row);
+        }
     }
 
     fn supports(&self, settings: LineSettings, address: u8) -> bool {

@@ -71,6 +71,7 @@ pub(crate) mod map;
 pub(crate) mod model;
 pub(crate) mod models;
 pub(crate) mod options;
+pub(crate) mod placement;
 pub(crate) mod push_down;
 pub(crate) mod sim;
 pub(crate) mod state;

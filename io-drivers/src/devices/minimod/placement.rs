@@ -14,7 +14,7 @@
 //! - a latch, reset dominant: off where R, else on where S, else keep;
 //! - a latch, set dominant: on where S, else off where R, else keep.
 //!
-//! Both sets are minimised exactly ([`super::minimize`]); each must fit in three conditions.
+//! Both sets are minimised exactly (`push_down::minimize`); each must fit in three conditions.
 //!
 //! Manual, "Pulse generation": writing N to YPULSEn turns Yn on for exactly N ms (1..=65000).
 //! A TP rung keeps its trigger central: on the trigger's edge the scan writes YPULSEn instead
@@ -23,20 +23,14 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::minimod::{
-    AutoOutput, Condition, Output, PulseWidth, CONDITIONS, MAX_PULSE_MS,
-};
-use softplc_io::devices::Protocol;
+use super::{AutoOutput, Condition, Output, PulseWidth, CONDITIONS, MAX_PULSE_MS};
+use crate::devices::Protocol;
+use crate::push_down::minimize::{minimize, Cube};
+use crate::push_down::{Command, Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
+use crate::rung::{BoolExpr, RungShape, TagId};
 
-use super::minimize::{minimize, Cube};
-use super::planner::{Command, Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
-use crate::image::TagId;
-use softplc_io::rung::{BoolExpr, RungShape};
-
-/// The model's catalog name.
-pub(crate) const MODEL: &str = "minimod";
 /// The module's sampling tick ("Input conditioning": inputs are sampled once a millisecond).
-pub(crate) const TICK: Duration = Duration::from_millis(1);
+const TICK: Duration = Duration::from_millis(1);
 /// What the module's conditions can check.
 const CHECKS: &str = "only X1..X3";
 
@@ -49,7 +43,7 @@ enum Action {
 }
 
 /// Maps a rung writing a MiniMod output, or says why it stays central.
-pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Reason> {
+pub(super) fn map(shape: &RungShape, site: &dyn Site) -> Result<ModulePlacement, Reason> {
     let y = Output::named(site.coil_point().name).ok_or(Reason::Unsupported {
         why: "the MiniMod's logic drives its outputs Y1..Y4 only",
     })?;
@@ -99,7 +93,7 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
 }
 
 /// Each condition tag and its input bit (X1 = 0), or why a tag cannot be checked.
-fn bits_of(site: &Site, exprs: &[&BoolExpr]) -> Result<Vec<(TagId, u8)>, Reason> {
+fn bits_of(site: &dyn Site, exprs: &[&BoolExpr]) -> Result<Vec<(TagId, u8)>, Reason> {
     let mut out = Vec::new();
     for e in exprs {
         for tag in e.tags() {
@@ -169,8 +163,8 @@ fn masks(cover: &[Cube], on: u8, allowed: u8) -> Vec<Condition> {
 }
 
 /// AON/AOFF tables for an action table.
-fn auto_on_off(site: &Site, y: Output, table: &[Action; 8]) -> Result<ModulePlacement, Reason> {
-    if site.config().device.protocol == Protocol::Text {
+fn auto_on_off(site: &dyn Site, y: Output, table: &[Action; 8]) -> Result<ModulePlacement, Reason> {
+    if site.protocol() == Protocol::Text {
         return Err(Reason::NotVerifiable {
             why: "on protocol text the MiniMod's driver cannot read the conditions back (the \
                   text read table has no YnAONm), so the tables could not be verified; use \
@@ -221,8 +215,8 @@ fn auto_on_off(site: &Site, y: Output, table: &[Action; 8]) -> Result<ModulePlac
         });
     }
     Ok(ModulePlacement {
-        module: site.module,
-        point: site.point,
+        module: site.module(),
+        point: site.point(),
         feature: Feature::AutoOnOff,
         tables,
         pushed: Pushed::MiniMod(auto),
@@ -235,7 +229,7 @@ fn auto_on_off(site: &Site, y: Output, table: &[Action; 8]) -> Result<ModulePlac
 
 /// YPULSEn on the trigger's edge.
 fn pulse(
-    site: &Site,
+    site: &dyn Site,
     y: Output,
     trigger: &[BoolExpr],
     width: Duration,
@@ -248,22 +242,21 @@ fn pulse(
         .and_then(PulseWidth::from_ms)
         .ok_or(Reason::Time { time: width, takes })?;
     for e in trigger {
-        if let Some(tag) = e.tags().into_iter().find(|t| site.later.contains(t)) {
+        if let Some(tag) = e.tags().into_iter().find(|t| site.later().contains(t)) {
             return Err(Reason::TriggerReadsLater {
                 tag: site.name(tag),
             });
         }
     }
     let point = site
-        .config()
-        .model
+        .model()
         .point_index(&format!("YPULSE{}", y.number()))
         .ok_or(Reason::Unsupported {
             why: "the model has no pulser register",
         })?;
     Ok(ModulePlacement {
-        module: site.module,
-        point: site.point,
+        module: site.module(),
+        point: site.point(),
         feature: Feature::Pulser,
         tables: Vec::new(),
         pushed: Pushed::Nothing,
@@ -282,7 +275,7 @@ fn pulse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use softplc_io::devices::minimod::parse_condition;
+    use crate::devices::minimod::parse_condition;
 
     #[test]
     fn masks_match_the_manual() {

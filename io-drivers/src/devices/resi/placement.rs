@@ -18,21 +18,20 @@
 
 use std::time::Duration;
 
-use softplc_io::devices::resi::{m16di8ro, Inputs, LogicRow, Num, PulseTime, Relay, RelayFunction};
-use softplc_io::devices::ModuleSettings;
+use super::{m16di8ro, Inputs, LogicRow, Num, PulseTime, Relay, RelayFunction};
+use crate::devices::ModuleSettings;
+use crate::push_down::{Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
+use crate::rung::{BoolExpr, RungShape, TagId};
 
-use super::planner::{Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
-use softplc_io::rung::{BoolExpr, RungShape};
-
-/// The model's catalog name.
-pub(crate) const MODEL: &str = "resi-16di8ro";
+/// The model whose logic runs rungs: the only RESI with internal logic functions.
+pub(super) const MODEL: &str = "resi-16di8ro";
 /// The module's input sample (10.1.1: inputs are sampled every 10 ms).
-pub(crate) const TICK: Duration = Duration::from_millis(10);
+const TICK: Duration = Duration::from_millis(10);
 /// What its logic checks.
 const CHECKS: &str = "only DI1..DI16";
 
 /// Maps a rung writing a RESI-16DI8RO relay, or says why it stays central.
-pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Reason> {
+pub(super) fn map(shape: &RungShape, site: &dyn Site) -> Result<ModulePlacement, Reason> {
     let relay = Relay::named(site.coil_point().name).ok_or(Reason::Unsupported {
         why: "the RESI-16DI8RO's logic drives its relays RO1..RO8 only",
     })?;
@@ -110,7 +109,7 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
             });
         }
     }
-    let enable = match &site.config().device.settings {
+    let enable = match &site.settings() {
         ModuleSettings::Resi(s) => s.write_value("ENABLE_LOGIC_FUNCTIONS"),
         _ => None,
     };
@@ -120,8 +119,8 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
         });
     }
     Ok(ModulePlacement {
-        module: site.module,
-        point: site.point,
+        module: site.module(),
+        point: site.point(),
         feature,
         tables,
         pushed: Pushed::Resi(row),
@@ -133,7 +132,7 @@ pub(crate) fn map(shape: &RungShape, site: &Site) -> Result<ModulePlacement, Rea
 }
 
 /// The mask bit of a condition tag bound to DIk.
-fn input_bit(site: &Site, tag: crate::image::TagId) -> Result<Inputs, Reason> {
+fn input_bit(site: &dyn Site, tag: TagId) -> Result<Inputs, Reason> {
     let spec = site.input(tag, CHECKS)?;
     spec.name
         .strip_prefix("DI")
@@ -148,7 +147,7 @@ fn input_bit(site: &Site, tag: crate::image::TagId) -> Result<Inputs, Reason> {
 }
 
 /// The mask of a list of rising edges, each of one input.
-fn edge_mask(site: &Site, edges: &[BoolExpr]) -> Result<Inputs, Reason> {
+fn edge_mask(site: &dyn Site, edges: &[BoolExpr]) -> Result<Inputs, Reason> {
     let mut mask = 0;
     for e in edges {
         let BoolExpr::Tag(tag) = e else {
