@@ -7,7 +7,7 @@ use std::collections::{HashMap, HashSet};
 
 use rhai::{ASTNode, Expr, Position, Stmt, AST};
 
-use super::blocks::{FUNCTIONS, READERS};
+use super::blocks::{block_function, READERS};
 use super::error::CompileErrorKind;
 
 /// What the walk found.
@@ -51,12 +51,12 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
                     _ => None,
                 };
                 if let Some(name) = literal {
-                    let block = FUNCTIONS.iter().any(|(f, _)| *f == call.name);
-                    if block || READERS.contains(&call.name.as_str()) {
+                    let block = block_function(&call.name);
+                    if block.is_some() || READERS.contains(&call.name.as_str()) {
                         usage.block_calls.push((*pos, name.clone()));
                     }
-                    if let Some(&(fname, _)) = FUNCTIONS.iter().find(|(f, _)| *f == call.name) {
-                        let this = kind_name(fname);
+                    if let Some((def, _)) = block {
+                        let this = def.name;
                         match calls.get(&name) {
                             Some(&(first, at)) if first != this => errors.push((
                                 *pos,
@@ -93,14 +93,6 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
         }
     }
     usage
-}
-
-/// The kind a function creates, by its block name (`blink_pattern` is a BLINK).
-fn kind_name(function: &str) -> &'static str {
-    FUNCTIONS
-        .iter()
-        .find(|(f, _)| *f == function)
-        .map_or("?", |(_, k)| k.name())
 }
 
 /// The user's line of a Rhai position (the script has one line of declarations on top).

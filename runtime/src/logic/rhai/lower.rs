@@ -34,12 +34,14 @@ use std::time::Duration;
 use rhai::{ASTNode, Expr, FnCallExpr, Position, Stmt, AST};
 use softplc_io::point::ValueType;
 
-use super::blocks::{FUNCTIONS, MAX_INSTANCES};
+use super::blocks::{block_function, MAX_INSTANCES};
 use super::error::user_pos;
 use crate::image::TagId;
-use crate::logic::blocks::{from_millis, millis, Instance, Kind, Member, OutputValue, Pattern};
+use crate::logic::blocks::{
+    from_millis, millis, Instance, Kind, Member, OutputValue, Pattern, Pin, PinType,
+};
 use crate::logic::expr::TagTable;
-use crate::logic::vm::{self, Call, CallSite, CmpOp, Instr, Num};
+use crate::logic::vm::{self, Call, CallSite, CmpOp, Instr, Num, PinArg};
 
 /// Operations Rhai may count per AST node at most (a statement, an expression, each call
 /// argument, the call): a script whose nodes times this fit the limit never reaches it.
@@ -219,7 +221,7 @@ impl<'a> Lowerer<'a> {
         let mut kinds: Vec<(String, Kind)> = Vec::new();
         ast.walk(&mut |path: &[ASTNode]| {
             if let Some(ASTNode::Expr(Expr::FnCall(call, _))) = path.last() {
-                let kind = FUNCTIONS.iter().find(|(f, _)| *f == call.name).map(|f| f.1);
+                let kind = block_function(&call.name).map(|(def, _)| def.kind);
                 if let (Some(kind), Some(Expr::StringConstant(name, _))) = (kind, call.args.first())
                 {
                     kinds.push((name.to_string(), kind));
@@ -356,9 +358,7 @@ impl<'a> Lowerer<'a> {
                 self.code.push(Instr::LoadOut(i, member));
                 Ok(())
             }
-            _ if FUNCTIONS.iter().any(|(f, _)| *f == name) => {
-                self.block(name, args, pos, skippable)
-            }
+            _ if block_function(name).is_some() => self.block(name, args, pos, skippable),
             _ => refuse(pos, format!("`{name}(..)`")),
         }
     }
@@ -536,111 +536,79 @@ impl<'a> Lowerer<'a> {
             );
         };
         let (inst, _) = self.instance(name, pos)?;
-        let site = |call: Call, bools: u8| CallSite { inst, call, bools };
-        let instr = match (function, rest) {
-            ("ton" | "tof" | "tp", [x, pt]) => {
+        let unfit = || refuse(pos, format!("`{function}(..)` with these arguments"));
+        let Some((def, form)) = block_function(function) else {
+            return unfit();
+        };
+        let arity = form.pins.len() - form.optional..=form.pins.len();
+        let pins: Vec<(usize, &Pin, Option<&Expr>)> = form
+            .pins
+            .iter()
+            .enumerate()
+            .filter_map(|(j, &i)| Some((i, def.pins.get(i)?, rest.get(j))))
+            .collect();
+        let pattern_literal = |(_, pin, arg): &(usize, &Pin, Option<&Expr>)| {
+            pin.ty != PinType::Pattern || matches!(arg, Some(Expr::StringConstant(..)))
+        };
+        if !arity.contains(&rest.len()) || !pins.iter().all(pattern_literal) {
+            return unfit();
+        }
+        let instr = match (def.is_plain_timer(), rest) {
+            (true, [x, pt]) => {
                 self.condition(x, None)?;
                 match self.time(pt)? {
-                    Time::Fixed(preset) => match function {
-                        "ton" => Instr::Ton {
-                            timer: inst,
-                            preset,
-                        },
-                        "tof" => Instr::Tof {
-                            timer: inst,
-                            preset,
-                        },
-                        _ => Instr::Tp {
-                            timer: inst,
-                            preset,
-                        },
+                    Time::Fixed(preset) => Instr::Timer {
+                        timer: inst,
+                        preset,
                     },
                     Time::Tag(id) => {
-                        let pt = Num::Tag(id);
-                        let call = match function {
-                            "ton" => Call::Ton { pt },
-                            "tof" => Call::Tof { pt },
-                            _ => Call::Tp { pt },
-                        };
-                        self.site(site(call, 0))
+                        let mut call = Call::new(def.kind);
+                        call.pins[1] = PinArg::Num(Num::Tag(id));
+                        self.site(CallSite {
+                            inst,
+                            call,
+                            bools: 0,
+                        })
                     }
                 }
             }
-            ("stair", [x, pt, reset @ ..]) if reset.len() <= 1 => {
-                self.condition(x, None)?;
-                self.optional(reset)?;
-                let pt = self.time_num(pt)?;
-                self.site(site(Call::Stair { pt }, 1))
-            }
-            ("ctu" | "ctd", [x, y, pv]) => {
-                self.condition(x, None)?;
-                self.condition(y, None)?;
-                let pv = self.count(pv)?;
-                let call = if function == "ctu" {
-                    Call::Ctu { pv }
-                } else {
-                    Call::Ctd { pv }
-                };
-                self.site(site(call, 1))
-            }
-            ("ctud", [cu, cd, reset, load, pv]) => {
-                for x in [cu, cd, reset, load] {
-                    self.condition(x, None)?;
+            _ => {
+                // The bools first, in pin order (the VM pops them so), then the values.
+                let mut call = Call::new(def.kind);
+                let mut bools = 0;
+                for &(i, pin, arg) in &pins {
+                    if pin.ty == PinType::Bool {
+                        match arg {
+                            Some(x) => self.condition(x, None)?,
+                            None => self.code.push(Instr::Const(false)),
+                        }
+                        bools += u8::from(i > 0);
+                        call.pins[i] = PinArg::Stack;
+                    }
                 }
-                let pv = self.count(pv)?;
-                self.site(site(Call::Ctud { pv }, 3))
+                for &(i, pin, arg) in &pins {
+                    let Some(arg) = arg else { continue };
+                    call.pins[i] = match (pin.ty, arg) {
+                        (PinType::Bool, _) => continue,
+                        (PinType::Time, e) => PinArg::Num(self.time_num(e)?),
+                        (PinType::Count, e) => PinArg::Num(self.count(e)?),
+                        (PinType::Pattern, Expr::StringConstant(bits, at)) => {
+                            match Pattern::parse(bits) {
+                                Ok(pattern) => PinArg::Pattern(pattern),
+                                Err(_) => return refuse(*at, format!("pattern \"{bits}\"")),
+                            }
+                        }
+                        (PinType::Pattern, _) => return unfit(),
+                    };
+                }
+                self.site(CallSite { inst, call, bools })
             }
-            ("r_trig" | "f_trig", [x]) => {
-                self.condition(x, None)?;
-                let call = if function == "r_trig" {
-                    Call::RTrig
-                } else {
-                    Call::FTrig
-                };
-                self.site(site(call, 0))
-            }
-            ("sr" | "rs", [s, r]) => {
-                self.condition(s, None)?;
-                self.condition(r, None)?;
-                self.site(site(if function == "sr" { Call::Sr } else { Call::Rs }, 1))
-            }
-            ("toggle", [x, reset @ ..]) if reset.len() <= 1 => {
-                self.condition(x, None)?;
-                self.optional(reset)?;
-                self.site(site(Call::Toggle, 1))
-            }
-            ("blink", [en, on, off]) => {
-                self.condition(en, None)?;
-                let (on, off) = (self.time_num(on)?, self.time_num(off)?);
-                self.site(site(Call::Blink { on, off }, 0))
-            }
-            ("blink_pattern", [en, Expr::StringConstant(bits, at), step]) => {
-                self.condition(en, None)?;
-                let Ok(pattern) = Pattern::parse(bits) else {
-                    return refuse(*at, format!("pattern \"{bits}\""));
-                };
-                let step = self.time_num(step)?;
-                self.site(site(Call::BlinkPattern { pattern, step }, 0))
-            }
-            _ => return refuse(pos, format!("`{function}(..)` with these arguments")),
         };
         self.code.push(instr);
         if let Some(c) = self.called.get_mut(inst as usize) {
             *c = true;
         }
         Ok(())
-    }
-
-    /// An optional bool argument (`toggle`'s, `stair`'s reset): `false` when left out, as the
-    /// shorter Rhai function passes.
-    fn optional(&mut self, arg: &[Expr]) -> Res<()> {
-        match arg.first() {
-            Some(x) => self.condition(x, None),
-            None => {
-                self.code.push(Instr::Const(false));
-                Ok(())
-            }
-        }
     }
 
     fn site(&mut self, site: CallSite) -> Instr {

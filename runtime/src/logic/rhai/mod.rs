@@ -118,7 +118,7 @@ mod lower_tests;
 mod on_vm;
 mod quality;
 mod rungs;
-mod signatures;
+pub(crate) mod signatures;
 mod slots;
 #[cfg(test)]
 mod slots_tests;
