@@ -246,14 +246,8 @@ fn ladder_table() -> String {
     for kind in Kind::ALL {
         let def = kind.def();
         for form in def.forms {
-            // In ladder's order: the registry's.
             let args: Vec<String> = def
-                .pins
-                .iter()
-                .enumerate()
-                .skip(1)
-                .filter(|(i, _)| form.pins.contains(i))
-                .map(|(_, p)| p)
+                .form_arguments(form)
                 .map(|p| match p.positional {
                     true => p.name.to_string(),
                     false => format!("`{}`", p.name.to_ascii_lowercase()),

@@ -113,6 +113,16 @@ impl BlockDef {
         &self.pins[1..]
     }
 
+    /// The arguments a ladder call of `form` takes, in ladder order.
+    pub fn form_arguments<'a>(&'a self, form: &'a Form) -> impl Iterator<Item = &'static Pin> + 'a {
+        let pins: &'static [Pin] = self.pins;
+        pins.iter()
+            .enumerate()
+            .skip(1)
+            .filter(move |(i, _)| form.pins.contains(i))
+            .map(|(_, p)| p)
+    }
+
     /// Whether a call is a power flow and one time, nothing else: a timer the VM runs as one
     /// instruction with its preset inline (`Instr::Timer`).
     pub fn is_plain_timer(&self) -> bool {
