@@ -31,49 +31,83 @@ pub(crate) enum Arg {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub(crate) struct Args(pub [Arg; MAX_PINS]);
 
-impl Args {
+/// A call's inputs by pin index, as a block reads them: each engine hands them over its own
+/// way ([`Args`] built by the Rhai interpreter, [`TimerPins`] and the VM's call sites read in
+/// place), and the block's code is compiled for each, with no copy in between.
+pub(crate) trait Pins {
     /// The bool at pin `i` (`false` when absent).
-    pub(crate) fn bool(&self, i: usize) -> bool {
+    fn bool(&self, i: usize) -> bool;
+    /// The time at pin `i` (zero when absent).
+    fn time(&self, i: usize) -> Duration;
+    /// The count at pin `i` (zero when absent).
+    fn count(&self, i: usize) -> i32;
+    /// The pattern at pin `i`, if given.
+    fn pattern(&self, i: usize) -> Option<Pattern>;
+}
+
+impl Pins for Args {
+    fn bool(&self, i: usize) -> bool {
         matches!(self.0.get(i), Some(Arg::Bool(true)))
     }
 
-    /// The time at pin `i` (zero when absent).
-    pub(crate) fn time(&self, i: usize) -> Duration {
+    fn time(&self, i: usize) -> Duration {
         match self.0.get(i) {
             Some(Arg::Time(d)) => *d,
             _ => Duration::ZERO,
         }
     }
 
-    /// The count at pin `i` (zero when absent).
-    pub(crate) fn count(&self, i: usize) -> i32 {
+    fn count(&self, i: usize) -> i32 {
         match self.0.get(i) {
             Some(Arg::Count(c)) => *c,
             _ => 0,
         }
     }
 
-    /// The pattern at pin `i`, if given.
-    pub(crate) fn pattern(&self, i: usize) -> Option<Pattern> {
+    fn pattern(&self, i: usize) -> Option<Pattern> {
         match self.0.get(i) {
             Some(Arg::Pattern(p)) => Some(*p),
             _ => None,
         }
     }
+}
 
-    /// A power flow and a time: a plain timer's call.
-    pub(crate) fn timer(input: bool, pt: Duration) -> Self {
-        let mut args = Args::default();
-        args.0[0] = Arg::Bool(input);
-        args.0[1] = Arg::Time(pt);
-        args
+/// A plain timer's call (a power flow and a time, pins 0 and 1), as the VM's
+/// `Instr::Timer` makes it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TimerPins {
+    /// The power flow.
+    pub input: bool,
+    /// The preset.
+    pub pt: Duration,
+}
+
+impl Pins for TimerPins {
+    fn bool(&self, i: usize) -> bool {
+        i == 0 && self.input
+    }
+
+    fn time(&self, i: usize) -> Duration {
+        if i == 1 {
+            self.pt
+        } else {
+            Duration::ZERO
+        }
+    }
+
+    fn count(&self, _: usize) -> i32 {
+        0
+    }
+
+    fn pattern(&self, _: usize) -> Option<Pattern> {
+        None
     }
 }
 
 /// A block's behaviour.
 pub(crate) trait Block {
     /// One call; returns the main output.
-    fn call(&mut self, args: &Args, now: Duration) -> bool;
+    fn call(&mut self, args: &impl Pins, now: Duration) -> bool;
 
     /// An output it has, `None` for a member it does not have.
     fn output(&self, member: Member) -> Option<OutputValue>;
@@ -106,7 +140,7 @@ fn q_only(member: Member, q: bool) -> Option<OutputValue> {
 macro_rules! plain_timer {
     ($($t:ty),*) => {$(
         impl Block for $t {
-            fn call(&mut self, a: &Args, now: Duration) -> bool {
+            fn call(&mut self, a: &impl Pins, now: Duration) -> bool {
                 <$t>::call(self, a.bool(0), a.time(1), now)
             }
             fn output(&self, m: Member) -> Option<OutputValue> {
@@ -119,7 +153,7 @@ plain_timer!(Ton, Tof, Tp);
 
 // Pins: IN, PT, R.
 impl Block for Stair {
-    fn call(&mut self, a: &Args, now: Duration) -> bool {
+    fn call(&mut self, a: &impl Pins, now: Duration) -> bool {
         Stair::call(self, a.bool(0), a.bool(2), a.time(1), now)
     }
     fn output(&self, m: Member) -> Option<OutputValue> {
@@ -129,7 +163,7 @@ impl Block for Stair {
 
 // Pins: CU, PV, R.
 impl Block for Ctu {
-    fn call(&mut self, a: &Args, _: Duration) -> bool {
+    fn call(&mut self, a: &impl Pins, _: Duration) -> bool {
         Ctu::call(self, a.bool(0), a.bool(2), a.count(1))
     }
     fn output(&self, m: Member) -> Option<OutputValue> {
@@ -139,7 +173,7 @@ impl Block for Ctu {
 
 // Pins: CD, PV, LD.
 impl Block for Ctd {
-    fn call(&mut self, a: &Args, _: Duration) -> bool {
+    fn call(&mut self, a: &impl Pins, _: Duration) -> bool {
         Ctd::call(self, a.bool(0), a.bool(2), a.count(1))
     }
     fn output(&self, m: Member) -> Option<OutputValue> {
@@ -149,7 +183,7 @@ impl Block for Ctd {
 
 // Pins: CU, PV, CD, R, LD.
 impl Block for Ctud {
-    fn call(&mut self, a: &Args, _: Duration) -> bool {
+    fn call(&mut self, a: &impl Pins, _: Duration) -> bool {
         Ctud::call(self, a.bool(0), a.bool(2), a.bool(3), a.bool(4), a.count(1))
     }
     fn output(&self, m: Member) -> Option<OutputValue> {
@@ -164,7 +198,7 @@ impl Block for Ctud {
 
 // Pins: CLK.
 impl Block for RTrig {
-    fn call(&mut self, a: &Args, _: Duration) -> bool {
+    fn call(&mut self, a: &impl Pins, _: Duration) -> bool {
         self.0.rising(a.bool(0))
     }
     fn output(&self, m: Member) -> Option<OutputValue> {
@@ -174,7 +208,7 @@ impl Block for RTrig {
 
 // Pins: CLK.
 impl Block for FTrig {
-    fn call(&mut self, a: &Args, _: Duration) -> bool {
+    fn call(&mut self, a: &impl Pins, _: Duration) -> bool {
         self.0.falling(a.bool(0))
     }
     fn output(&self, m: Member) -> Option<OutputValue> {
@@ -186,7 +220,7 @@ impl Block for FTrig {
 macro_rules! latch {
     ($($t:ty),*) => {$(
         impl Block for $t {
-            fn call(&mut self, a: &Args, _: Duration) -> bool {
+            fn call(&mut self, a: &impl Pins, _: Duration) -> bool {
                 <$t>::call(self, a.bool(0), a.bool(1))
             }
             fn output(&self, m: Member) -> Option<OutputValue> {
@@ -199,7 +233,7 @@ latch!(Sr, Rs, Toggle);
 
 // Pins: EN, ON, OFF, PATTERN, STEP; a pattern given plays it.
 impl Block for Blink {
-    fn call(&mut self, a: &Args, now: Duration) -> bool {
+    fn call(&mut self, a: &impl Pins, now: Duration) -> bool {
         match a.pattern(3) {
             Some(pattern) => self.call_pattern(a.bool(0), pattern, a.time(4), now),
             None => Blink::call(self, a.bool(0), a.time(1), a.time(2), now),

@@ -28,7 +28,7 @@ mod timer;
 use std::fmt;
 use std::time::Duration;
 
-pub(crate) use behaviour::{Arg, Args, Block, MAX_PINS};
+pub(crate) use behaviour::{Arg, Args, Block, Pins, TimerPins, MAX_PINS};
 pub(crate) use bistable::{Rs, Sr, Toggle};
 pub(crate) use blink::Blink;
 pub use blink::{Pattern, PatternError};
@@ -83,7 +83,7 @@ macro_rules! blocks {
             }
 
             /// One call with its inputs, by pin ([`BlockDef::pins`]); returns the main output.
-            pub(crate) fn call(&mut self, args: &Args, now: Duration) -> bool {
+            pub(crate) fn call(&mut self, args: &impl Pins, now: Duration) -> bool {
                 match self {
                     $(Instance::$kind(b) => Block::call(b, args, now),)*
                 }

@@ -2,12 +2,13 @@
 //! No name lookups and no allocation per scan.
 
 use std::path::PathBuf;
+use std::time::Duration;
 
 use softplc_io::point::{Quality, Value, ValueType};
 
 use super::instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
 use crate::image::{ProcessImage, TagId};
-use crate::logic::blocks::{from_millis, Arg, Args, Edge, Instance, PinType, MAX_PINS};
+use crate::logic::blocks::{from_millis, Edge, Instance, Pattern, Pins, TimerPins, MAX_PINS};
 use crate::logic::expr::TagTable;
 use crate::logic::{LogicFault, ScanContext, SourcePos};
 
@@ -187,9 +188,15 @@ impl Program {
                 }
                 Instr::Timer { timer, preset } => {
                     let x = pop(stack);
-                    let q = instances
-                        .get_mut(timer as usize)
-                        .is_some_and(|t| t.call(&Args::timer(x, preset), now));
+                    let q = instances.get_mut(timer as usize).is_some_and(|t| {
+                        t.call(
+                            &TimerPins {
+                                input: x,
+                                pt: preset,
+                            },
+                            now,
+                        )
+                    });
                     stack.push(q);
                 }
                 Instr::Store(id) => {
@@ -216,19 +223,18 @@ impl Program {
                     let Some(site) = calls.get(site as usize) else {
                         continue;
                     };
+                    // The bools are on the stack in pin order, the power flow first.
                     let mut bools = [false; MAX_PINS];
-                    for k in (1..=usize::from(site.bools)).rev() {
-                        let v = pop(stack);
-                        if let Some(a) = bools.get_mut(k) {
-                            *a = v;
+                    for (slot, given) in bools.iter_mut().zip(&site.call.pins).rev() {
+                        if *given == PinArg::Stack {
+                            *slot = pop(stack);
                         }
                     }
-                    bools[0] = pop(stack);
                     // Read the numeric arguments first: they may be other instances' outputs.
-                    let args = call_args(&site.call, bools, image, instances);
+                    let pins = CallPins::read(&site.call, bools, image, instances);
                     let q = instances
                         .get_mut(site.inst as usize)
-                        .is_some_and(|inst| inst.call(&args, now));
+                        .is_some_and(|inst| inst.call(&pins, now));
                     stack.push(q);
                 }
                 Instr::Box(site) => {
@@ -285,37 +291,54 @@ fn is_released(released: &[bool], id: TagId) -> bool {
     released.get(id.index()).copied().unwrap_or(false)
 }
 
-/// A call's arguments, by pin: `bools` are the stack's values (the power flow first), in
-/// the order of the call's [`PinArg::Stack`] pins; numbers are read now, times in ms.
-/// Next to the loop, so the compiler inlines it there.
-fn call_args(
-    call: &Call,
+/// A call site's inputs, by pin: the stack's bools and the numbers read before the call (a
+/// time in ms, a count; zero where the call gives none), turned into the pin's type as the
+/// block reads it.
+struct CallPins<'a> {
+    call: &'a Call,
     bools: [bool; MAX_PINS],
-    image: &ProcessImage,
-    instances: &[Instance],
-) -> Args {
-    let mut args = Args::default();
-    let mut stacked = bools.into_iter();
-    let pins = call.kind.def().pins.iter();
-    for ((slot, given), pin) in args.0.iter_mut().zip(&call.pins).zip(pins) {
-        *slot = match *given {
-            PinArg::Absent => Arg::Absent,
-            PinArg::Stack => Arg::Bool(stacked.next().unwrap_or(false)),
-            PinArg::Pattern(p) => Arg::Pattern(p),
-            PinArg::Num(n) => {
-                let v = num(image, instances, n);
-                match pin.ty {
-                    PinType::Time => Arg::Time(from_millis(v)),
-                    PinType::Count if v.is_nan() => Arg::Count(0),
-                    PinType::Count => {
-                        Arg::Count(v.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32)
-                    }
-                    PinType::Bool | PinType::Pattern => Arg::Absent,
-                }
+    nums: [f64; MAX_PINS],
+}
+
+impl<'a> CallPins<'a> {
+    fn read(
+        call: &'a Call,
+        bools: [bool; MAX_PINS],
+        image: &ProcessImage,
+        instances: &[Instance],
+    ) -> Self {
+        let mut nums = [0.0; MAX_PINS];
+        for (slot, given) in nums.iter_mut().zip(&call.pins) {
+            if let PinArg::Num(n) = given {
+                *slot = num(image, instances, *n);
             }
-        };
+        }
+        CallPins { call, bools, nums }
     }
-    args
+}
+
+impl Pins for CallPins<'_> {
+    fn bool(&self, i: usize) -> bool {
+        self.bools.get(i).copied().unwrap_or(false)
+    }
+
+    fn time(&self, i: usize) -> Duration {
+        from_millis(self.nums.get(i).copied().unwrap_or(0.0))
+    }
+
+    fn count(&self, i: usize) -> i32 {
+        match self.nums.get(i).copied() {
+            Some(v) if !v.is_nan() => v.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32,
+            _ => 0,
+        }
+    }
+
+    fn pattern(&self, i: usize) -> Option<Pattern> {
+        match self.call.pins.get(i) {
+            Some(PinArg::Pattern(p)) => Some(*p),
+            _ => None,
+        }
+    }
 }
 
 // The compiler proves the stack never underflows (`max_depth`); `false` is unreachable.
