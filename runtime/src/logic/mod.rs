@@ -7,11 +7,13 @@ pub(crate) mod blocks;
 pub mod expr;
 pub mod ladder;
 pub(crate) mod load;
+#[cfg(test)]
+mod registry_tests;
 pub mod rhai;
 mod undeclared;
 mod vm;
 
-pub use blocks::{Kind, Member, OutputValue, Pattern, PatternError};
+pub use blocks::{BlockDef, Form, Kind, Member, OutputValue, Pattern, PatternError, Pin, PinType};
 pub use load::{load_program, tag_table, ProgramError};
 
 use std::fmt::Debug;

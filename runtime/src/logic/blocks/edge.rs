@@ -28,6 +28,14 @@ impl Edge {
     }
 }
 
+/// R_TRIG: an edge detector called for rising edges.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct RTrig(pub Edge);
+
+/// F_TRIG: an edge detector called for falling edges.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct FTrig(pub Edge);
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,88 +17,123 @@
 //!   If the clock goes back (a replayed virtual clock), a running timer restarts from `now`.
 //! - **Counters** hold an `i32` and saturate at its limits instead of wrapping.
 
+mod behaviour;
 mod bistable;
 mod blink;
 mod counter;
 mod edge;
+mod registry;
 mod timer;
 
 use std::fmt;
 use std::time::Duration;
 
+pub(crate) use behaviour::{Arg, Args, Block, Pins, TimerPins, MAX_PINS};
 pub(crate) use bistable::{Rs, Sr, Toggle};
 pub(crate) use blink::Blink;
 pub use blink::{Pattern, PatternError};
 pub(crate) use counter::{Ctd, Ctu, Ctud};
-pub(crate) use edge::Edge;
+pub(crate) use edge::{Edge, FTrig, RTrig};
+pub use registry::{BlockDef, Form, Pin, PinType};
 pub(crate) use timer::{Stair, Tof, Ton, Tp};
 
-/// The block types, as programs name them.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Kind {
+/// The block library, once: each line is a kind, the type of its state (its behaviour, a
+/// [`Block`]) and its definition ([`BlockDef`]). It makes [`Kind`] and [`Instance`]; the
+/// order is the documentation's.
+macro_rules! blocks {
+    ($($(#[$doc:meta])* $kind:ident($state:ty) = $def:path;)*) => {
+        /// The block types, as programs name them.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum Kind {
+            $($(#[$doc])* $kind,)*
+        }
+
+        impl Kind {
+            /// Every kind, in documentation order.
+            pub const ALL: [Kind; [$(stringify!($kind)),*].len()] = [$(Kind::$kind),*];
+
+            /// Its definition.
+            pub fn def(self) -> &'static BlockDef {
+                match self {
+                    $(Kind::$kind => &$def,)*
+                }
+            }
+        }
+
+        /// One instance of any block, for engines that keep instances of mixed kinds in one
+        /// table.
+        #[derive(Debug, Clone, PartialEq)]
+        pub(crate) enum Instance {
+            $($(#[$doc])* $kind($state),)*
+        }
+
+        impl Instance {
+            /// A fresh instance of `kind`.
+            pub(crate) fn new(kind: Kind) -> Self {
+                match kind {
+                    $(Kind::$kind => Instance::$kind(<$state>::default()),)*
+                }
+            }
+
+            /// Its kind.
+            pub(crate) fn kind(&self) -> Kind {
+                match self {
+                    $(Instance::$kind(_) => Kind::$kind,)*
+                }
+            }
+
+            /// One call with its inputs, by pin ([`BlockDef::pins`]); returns the main output.
+            pub(crate) fn call(&mut self, args: &impl Pins, now: Duration) -> bool {
+                match self {
+                    $(Instance::$kind(b) => Block::call(b, args, now),)*
+                }
+            }
+
+            /// An output, typed: `ET` a duration, `CV` a count, the others booleans (`false`,
+            /// zero for a member the kind does not have).
+            pub(crate) fn output(&self, member: Member) -> OutputValue {
+                let value = match self {
+                    $(Instance::$kind(b) => Block::output(b, member),)*
+                };
+                value.unwrap_or(OutputValue::none(member))
+            }
+        }
+    };
+}
+
+blocks! {
     /// On-delay timer.
-    Ton,
+    Ton(Ton) = registry::TON;
     /// Off-delay timer.
-    Tof,
+    Tof(Tof) = registry::TOF;
     /// Pulse timer.
-    Tp,
-    /// Up counter.
-    Ctu,
-    /// Down counter.
-    Ctd,
-    /// Up-down counter.
-    Ctud,
-    /// Rising-edge detector.
-    RTrig,
-    /// Falling-edge detector.
-    FTrig,
-    /// Set-dominant bistable.
-    Sr,
-    /// Reset-dominant bistable.
-    Rs,
-    /// Blinker (on/off times or a bit pattern).
-    Blink,
-    /// Impulse relay: toggles on each rising edge.
-    Toggle,
+    Tp(Tp) = registry::TP;
     /// Staircase timer: a retriggerable pulse.
-    Stair,
+    Stair(Stair) = registry::STAIR;
+    /// Up counter.
+    Ctu(Ctu) = registry::CTU;
+    /// Down counter.
+    Ctd(Ctd) = registry::CTD;
+    /// Up-down counter.
+    Ctud(Ctud) = registry::CTUD;
+    /// Rising-edge detector.
+    RTrig(RTrig) = registry::R_TRIG;
+    /// Falling-edge detector.
+    FTrig(FTrig) = registry::F_TRIG;
+    /// Set-dominant bistable.
+    Sr(Sr) = registry::SR;
+    /// Reset-dominant bistable.
+    Rs(Rs) = registry::RS;
+    /// Impulse relay: toggles on each rising edge.
+    Toggle(Toggle) = registry::TOGGLE;
+    /// Blinker (on/off times or a bit pattern).
+    Blink(Blink) = registry::BLINK;
 }
 
 impl Kind {
-    /// Every kind, in documentation order.
-    pub const ALL: [Kind; 13] = [
-        Kind::Ton,
-        Kind::Tof,
-        Kind::Tp,
-        Kind::Ctu,
-        Kind::Ctd,
-        Kind::Ctud,
-        Kind::RTrig,
-        Kind::FTrig,
-        Kind::Sr,
-        Kind::Rs,
-        Kind::Blink,
-        Kind::Toggle,
-        Kind::Stair,
-    ];
-
     /// The name programs use: `TON`, `R_TRIG`, ...
     pub fn name(self) -> &'static str {
-        match self {
-            Kind::Ton => "TON",
-            Kind::Tof => "TOF",
-            Kind::Tp => "TP",
-            Kind::Ctu => "CTU",
-            Kind::Ctd => "CTD",
-            Kind::Ctud => "CTUD",
-            Kind::RTrig => "R_TRIG",
-            Kind::FTrig => "F_TRIG",
-            Kind::Sr => "SR",
-            Kind::Rs => "RS",
-            Kind::Blink => "BLINK",
-            Kind::Toggle => "TOGGLE",
-            Kind::Stair => "STAIR",
-        }
+        self.def().name
     }
 
     /// The kind named `name` (exact, upper case).
@@ -108,38 +143,26 @@ impl Kind {
 
     /// The outputs an instance of this kind exposes.
     pub fn outputs(self) -> &'static [Member] {
-        match self {
-            Kind::Ton | Kind::Tof | Kind::Tp | Kind::Stair => &[Member::Q, Member::Et],
-            Kind::Ctu | Kind::Ctd => &[Member::Q, Member::Cv],
-            Kind::Ctud => &[Member::Qu, Member::Qd, Member::Cv],
-            Kind::RTrig | Kind::FTrig | Kind::Sr | Kind::Rs | Kind::Blink | Kind::Toggle => {
-                &[Member::Q]
-            }
-        }
+        self.def().outputs
     }
 
     /// The input the rung's power flow feeds, by its IEC name as docs/programming.md's table
     /// gives it: `IN` (timers, STAIR, TOGGLE), `CU` (CTU, CTUD), `CD`, `CLK` (edges), `S1`
     /// (SR), `S` (RS), `EN` (BLINK).
     pub fn main_input(self) -> &'static str {
-        match self {
-            Kind::Ton | Kind::Tof | Kind::Tp | Kind::Stair | Kind::Toggle => "IN",
-            Kind::Ctu | Kind::Ctud => "CU",
-            Kind::Ctd => "CD",
-            Kind::RTrig | Kind::FTrig => "CLK",
-            Kind::Sr => "S1",
-            Kind::Rs => "S",
-            Kind::Blink => "EN",
-        }
+        self.def().main_input().name
     }
 
     /// The output that a block passes on along its rung (`Q`; `QU` for CTUD).
     pub fn main_output(self) -> Member {
-        match self {
-            Kind::Ctud => Member::Qu,
-            _ => Member::Q,
-        }
+        self.def().main_output()
     }
+}
+
+/// The block names, in documentation order: `TON, TOF, ...` (for messages).
+pub(crate) fn names() -> String {
+    let names: Vec<&str> = Kind::ALL.iter().map(|k| k.name()).collect();
+    names.join(", ")
 }
 
 impl fmt::Display for Kind {
@@ -194,94 +217,10 @@ impl fmt::Display for Member {
     }
 }
 
-/// One instance of any block, for engines that keep instances of mixed kinds in one table.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Instance {
-    /// See [`Ton`].
-    Ton(Ton),
-    /// See [`Tof`].
-    Tof(Tof),
-    /// See [`Tp`].
-    Tp(Tp),
-    /// See [`Ctu`].
-    Ctu(Ctu),
-    /// See [`Ctd`].
-    Ctd(Ctd),
-    /// See [`Ctud`].
-    Ctud(Ctud),
-    /// R_TRIG, see [`Edge`].
-    RTrig(Edge),
-    /// F_TRIG, see [`Edge`].
-    FTrig(Edge),
-    /// See [`Sr`].
-    Sr(Sr),
-    /// See [`Rs`].
-    Rs(Rs),
-    /// See [`Blink`].
-    Blink(Blink),
-    /// See [`Toggle`].
-    Toggle(Toggle),
-    /// See [`Stair`].
-    Stair(Stair),
-}
-
 impl Instance {
-    /// A fresh instance of `kind`.
-    pub(crate) fn new(kind: Kind) -> Self {
-        match kind {
-            Kind::Ton => Instance::Ton(Ton::default()),
-            Kind::Tof => Instance::Tof(Tof::default()),
-            Kind::Tp => Instance::Tp(Tp::default()),
-            Kind::Ctu => Instance::Ctu(Ctu::default()),
-            Kind::Ctd => Instance::Ctd(Ctd::default()),
-            Kind::Ctud => Instance::Ctud(Ctud::default()),
-            Kind::RTrig => Instance::RTrig(Edge::default()),
-            Kind::FTrig => Instance::FTrig(Edge::default()),
-            Kind::Sr => Instance::Sr(Sr::default()),
-            Kind::Rs => Instance::Rs(Rs::default()),
-            Kind::Blink => Instance::Blink(Blink::default()),
-            Kind::Toggle => Instance::Toggle(Toggle::default()),
-            Kind::Stair => Instance::Stair(Stair::default()),
-        }
-    }
-
-    /// Its kind.
-    pub(crate) fn kind(&self) -> Kind {
-        match self {
-            Instance::Ton(_) => Kind::Ton,
-            Instance::Tof(_) => Kind::Tof,
-            Instance::Tp(_) => Kind::Tp,
-            Instance::Ctu(_) => Kind::Ctu,
-            Instance::Ctd(_) => Kind::Ctd,
-            Instance::Ctud(_) => Kind::Ctud,
-            Instance::RTrig(_) => Kind::RTrig,
-            Instance::FTrig(_) => Kind::FTrig,
-            Instance::Sr(_) => Kind::Sr,
-            Instance::Rs(_) => Kind::Rs,
-            Instance::Blink(_) => Kind::Blink,
-            Instance::Toggle(_) => Kind::Toggle,
-            Instance::Stair(_) => Kind::Stair,
-        }
-    }
-
     /// A boolean output (`false` for a member the kind does not have).
     pub(crate) fn bool_output(&self, member: Member) -> bool {
-        match (self, member) {
-            (Instance::Ton(t), Member::Q) => t.q(),
-            (Instance::Tof(t), Member::Q) => t.q(),
-            (Instance::Tp(t), Member::Q) => t.q(),
-            (Instance::Stair(t), Member::Q) => t.q(),
-            (Instance::Ctu(c), Member::Q) => c.q(),
-            (Instance::Ctd(c), Member::Q) => c.q(),
-            (Instance::Ctud(c), Member::Qu) => c.qu(),
-            (Instance::Ctud(c), Member::Qd) => c.qd(),
-            (Instance::RTrig(e) | Instance::FTrig(e), Member::Q) => e.q(),
-            (Instance::Sr(b), Member::Q) => b.q(),
-            (Instance::Rs(b), Member::Q) => b.q(),
-            (Instance::Blink(b), Member::Q) => b.q(),
-            (Instance::Toggle(b), Member::Q) => b.q(),
-            _ => false,
-        }
+        matches!(self.output(member), OutputValue::Bool(true))
     }
 
     /// An output as a number: booleans as 0/1, `ET` in milliseconds, `CV` as is.
@@ -290,23 +229,6 @@ impl Instance {
             OutputValue::Bool(b) => f64::from(u8::from(b)),
             OutputValue::Time(d) => millis(d),
             OutputValue::Count(c) => f64::from(c),
-        }
-    }
-
-    /// An output, typed: `ET` a duration, `CV` a count, the others booleans (`false`, zero
-    /// for a member the kind does not have).
-    pub(crate) fn output(&self, member: Member) -> OutputValue {
-        match (self, member) {
-            (Instance::Ton(t), Member::Et) => OutputValue::Time(t.et()),
-            (Instance::Tof(t), Member::Et) => OutputValue::Time(t.et()),
-            (Instance::Tp(t), Member::Et) => OutputValue::Time(t.et()),
-            (Instance::Stair(t), Member::Et) => OutputValue::Time(t.et()),
-            (_, Member::Et) => OutputValue::Time(Duration::ZERO),
-            (Instance::Ctu(c), Member::Cv) => OutputValue::Count(c.cv()),
-            (Instance::Ctd(c), Member::Cv) => OutputValue::Count(c.cv()),
-            (Instance::Ctud(c), Member::Cv) => OutputValue::Count(c.cv()),
-            (_, Member::Cv) => OutputValue::Count(0),
-            (_, m) => OutputValue::Bool(self.bool_output(m)),
         }
     }
 }
@@ -320,6 +242,17 @@ pub enum OutputValue {
     Time(Duration),
     /// `CV`.
     Count(i32),
+}
+
+impl OutputValue {
+    /// What a member the kind does not have reads: `false`, zero.
+    fn none(member: Member) -> Self {
+        match member {
+            Member::Et => OutputValue::Time(Duration::ZERO),
+            Member::Cv => OutputValue::Count(0),
+            Member::Q | Member::Qu | Member::Qd => OutputValue::Bool(false),
+        }
+    }
 }
 
 /// A duration in (fractional) milliseconds.

@@ -7,9 +7,10 @@ use std::time::Duration;
 use softplc_io::point::ValueType;
 
 use super::error::{CompileErrorKind, DurationError, TypeError};
-use super::parser::{DurLit, EdgeKind, Expr, Ident, NumLit, Pos, Stmt, TimerKind};
+use super::parser::{DurLit, EdgeKind, Expr, Ident, NumLit, Pos, Stmt};
 use super::{Operand, TagTable};
 use crate::image::TagId;
+use crate::logic::blocks::Kind;
 use crate::logic::vm::CmpOp;
 use crate::suggest::edit_distance;
 
@@ -35,7 +36,7 @@ pub(crate) enum BoolExpr {
         arg: Box<BoolExpr>,
     },
     Timer {
-        kind: TimerKind,
+        kind: Kind,
         arg: Box<BoolExpr>,
         preset: Duration,
     },

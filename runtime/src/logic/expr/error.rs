@@ -39,8 +39,9 @@ pub enum CompileErrorKind {
     },
     /// A call of a function the language does not have.
     #[error(
-        "unknown function `{name}`{}; the functions are rising, falling, ton, tof, tp, good and bad",
-        suggest(.suggestion)
+        "unknown function `{name}`{}; the functions are {}",
+        suggest(.suggestion),
+        function_list()
     )]
     UnknownFunction {
         /// The name as written.
@@ -80,6 +81,13 @@ pub enum CompileErrorKind {
         /// The nesting limit.
         limit: u32,
     },
+}
+
+/// `rising, falling, ton, tof, tp, good and bad`.
+fn function_list() -> String {
+    let mut names = super::parser::functions();
+    let last = names.pop().unwrap_or_default();
+    format!("{} and {last}", names.join(", "))
 }
 
 fn suggest(s: &Option<String>) -> String {

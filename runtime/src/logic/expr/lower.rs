@@ -3,10 +3,10 @@
 //! depth the program needs.
 
 use super::check::{BoolExpr, CheckedStmt};
-use super::parser::{EdgeKind, Pos, TimerKind};
+use super::parser::{EdgeKind, Pos};
 use super::{Instr, Operand};
 use crate::image::TagId;
-use crate::logic::blocks::{Instance, Kind};
+use crate::logic::blocks::Instance;
 use crate::logic::vm;
 
 /// A lowered program.
@@ -116,13 +116,8 @@ impl Lowerer {
                 let timer = self.out.timers as u32;
                 self.out.timers += 1;
                 let preset = *preset;
-                let (instr, kind) = match kind {
-                    TimerKind::Ton => (Instr::Ton { timer, preset }, Kind::Ton),
-                    TimerKind::Tof => (Instr::Tof { timer, preset }, Kind::Tof),
-                    TimerKind::Tp => (Instr::Tp { timer, preset }, Kind::Tp),
-                };
-                self.out.code.push(instr);
-                self.out.instances.push(Instance::new(kind));
+                self.out.code.push(Instr::Timer { timer, preset });
+                self.out.instances.push(Instance::new(*kind));
             }
         }
     }
@@ -148,6 +143,7 @@ mod tests {
     use std::time::Duration;
 
     use super::*;
+    use crate::logic::blocks::Kind;
     use crate::logic::expr::CmpOp;
 
     #[test]
@@ -166,7 +162,7 @@ mod tests {
                     arg: Box::new(BoolExpr::Load(c)),
                 },
                 BoolExpr::Timer {
-                    kind: TimerKind::Ton,
+                    kind: Kind::Ton,
                     arg: Box::new(BoolExpr::Cmp {
                         lhs: Operand::Tag(TagId(7)),
                         op: CmpOp::Gt,
@@ -192,7 +188,7 @@ mod tests {
                     op: CmpOp::Gt,
                     rhs: Operand::Const(5.0)
                 },
-                Instr::Ton {
+                Instr::Timer {
                     timer: 0,
                     preset: Duration::from_secs(2)
                 },

@@ -6,6 +6,7 @@
 
 use super::error::{CompileErrorKind, Expected};
 use super::lexer::{lex_line, Spanned, Tok};
+use crate::logic::blocks::Kind;
 use crate::logic::vm::CmpOp;
 
 /// Deepest nesting of parentheses, `!`/`not` and calls.
@@ -39,16 +40,23 @@ pub(crate) enum EdgeKind {
     Falling,
 }
 
-/// `ton`, `tof` or `tp`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum TimerKind {
-    Ton,
-    Tof,
-    Tp,
+/// The function names, for "did you mean".
+pub(crate) fn functions() -> Vec<&'static str> {
+    let blocks = Kind::ALL.iter().filter(|k| k.def().expr);
+    let blocks = blocks.map(|k| k.def().function());
+    ["rising", "falling"]
+        .into_iter()
+        .chain(blocks)
+        .chain(["good", "bad"])
+        .collect()
 }
 
-/// The function names, for "did you mean".
-pub(crate) const FUNCTIONS: [&str; 7] = ["rising", "falling", "ton", "tof", "tp", "good", "bad"];
+/// The block `expr` offers as function `name` (`ton`): a plain timer.
+fn timer(name: &str) -> Option<Kind> {
+    Kind::ALL
+        .into_iter()
+        .find(|k| k.def().expr && k.def().function() == name)
+}
 
 /// A number literal as written (`-` included) and its value.
 #[derive(Debug, Clone, PartialEq)]
@@ -91,7 +99,7 @@ pub(crate) enum Expr {
         arg: Box<Expr>,
     },
     Timer {
-        kind: TimerKind,
+        kind: Kind,
         arg: Box<Expr>,
         preset: DurLit,
     },
@@ -332,21 +340,21 @@ impl<'a> Parser<'a> {
         }
     }
 
-    /// `rising(e)`, `falling(e)`, `ton(e, D)`, `tof(e, D)`, `tp(e, D)`, `good(tag)`,
-    /// `bad(tag)`; at the name.
+    /// `rising(e)`, `falling(e)`, a plain timer (`ton(e, D)`, ...: [`functions`]),
+    /// `good(tag)`, `bad(tag)`; at the name.
     fn call(&mut self, name: &str, pos: Pos) -> Result<Expr, ParseError> {
         let func = match name {
             "good" | "bad" => return self.quality(name == "good"),
             "rising" => Func::Edge(EdgeKind::Rising),
             "falling" => Func::Edge(EdgeKind::Falling),
-            "ton" => Func::Timer(TimerKind::Ton),
-            "tof" => Func::Timer(TimerKind::Tof),
-            "tp" => Func::Timer(TimerKind::Tp),
-            _ => {
-                let suggestion = super::check::closest(name, FUNCTIONS.iter().copied());
-                let name = name.to_string();
-                return Err((pos, CompileErrorKind::UnknownFunction { name, suggestion }));
-            }
+            _ => match timer(name) {
+                Some(kind) => Func::Timer(kind),
+                None => {
+                    let suggestion = super::check::closest(name, functions().into_iter());
+                    let name = name.to_string();
+                    return Err((pos, CompileErrorKind::UnknownFunction { name, suggestion }));
+                }
+            },
         };
         self.bump();
         self.enter()?;
@@ -417,7 +425,7 @@ impl<'a> Parser<'a> {
 #[derive(Debug, Clone, Copy)]
 enum Func {
     Edge(EdgeKind),
-    Timer(TimerKind),
+    Timer(Kind),
 }
 
 /// The value of a lexed number (`digits[.digits]`, always parseable; huge ones become large).

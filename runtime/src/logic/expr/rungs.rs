@@ -14,8 +14,9 @@
 use std::path::Path;
 
 use super::check::{BoolExpr as Expr, CheckedStmt};
-use super::parser::{EdgeKind, TimerKind};
+use super::parser::EdgeKind;
 use crate::image::TagId;
+use crate::logic::blocks::Kind;
 use crate::logic::Rung;
 use crate::logic::SourcePos;
 use softplc_io::rung::{BoolExpr, RungShape};
@@ -46,7 +47,7 @@ fn shape(c: TagId, e: &Expr) -> RungShape {
         };
     }
     if let Expr::Timer {
-        kind: TimerKind::Tp,
+        kind: Kind::Tp,
         arg,
         preset,
     } = e

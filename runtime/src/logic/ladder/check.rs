@@ -9,9 +9,9 @@ use softplc_io::point::ValueType;
 use super::error::{CompileErrorKind, Driver, Expected, TypeError};
 use super::parser::{Action, Arg, BoxCall, Coil, CoilKind, Cond, Lit, Name, Output, Ref, Rung};
 use crate::image::TagId;
-use crate::logic::blocks::{millis, Kind, Member, Pattern};
+use crate::logic::blocks::{millis, Form, Kind, Member, Pattern, PinType};
 use crate::logic::expr::TagTable;
-use crate::logic::vm::{BoxOp, Call, CmpOp, Num};
+use crate::logic::vm::{BoxOp, Call, CmpOp, Num, PinArg};
 
 /// An error: rung index, character index, kind.
 pub(crate) type Error = (usize, usize, CompileErrorKind);
@@ -128,71 +128,13 @@ struct Checker<'a> {
     line_of: &'a dyn Fn(usize) -> u32,
 }
 
-/// One argument a block takes.
-struct Param {
-    name: &'static str,
-    ty: ParamType,
-    positional: bool,
-}
-
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum ParamType {
-    Time,
-    Number,
-    Bool,
-    Pattern,
-}
-
-const fn param(name: &'static str, ty: ParamType, positional: bool) -> Param {
-    Param {
-        name,
-        ty,
-        positional,
-    }
-}
-
-fn params(kind: Kind) -> &'static [Param] {
-    use ParamType::*;
-    const PT: Param = param("pt", Time, true);
-    const R: Param = param("r", Bool, false);
-    const PV: Param = param("pv", Number, true);
-    const LD: Param = param("ld", Bool, false);
-    const CD: Param = param("cd", Bool, false);
-    const ON: Param = param("on", Time, true);
-    const OFF: Param = param("off", Time, true);
-    const PATTERN: Param = param("pattern", Pattern, false);
-    const STEP: Param = param("step", Time, false);
-    match kind {
-        Kind::Ton | Kind::Tof | Kind::Tp => &[PT],
-        Kind::Stair => &[PT, R],
-        Kind::Ctu => &[PV, R],
-        Kind::Ctd => &[PV, LD],
-        Kind::Ctud => &[PV, CD, R, LD],
-        Kind::RTrig | Kind::FTrig => &[],
-        Kind::Sr | Kind::Rs | Kind::Toggle => &[R],
-        Kind::Blink => &[ON, OFF, PATTERN, STEP],
-    }
-}
-
-fn param_names(kind: Kind) -> &'static [&'static str] {
-    match kind {
-        Kind::Ton | Kind::Tof | Kind::Tp => &["pt"],
-        Kind::Stair => &["pt", "r"],
-        Kind::Ctu => &["pv", "r"],
-        Kind::Ctd => &["pv", "ld"],
-        Kind::Ctud => &["pv", "cd", "r", "ld"],
-        Kind::RTrig | Kind::FTrig => &["no arguments"],
-        Kind::Sr | Kind::Rs | Kind::Toggle => &["r"],
-        Kind::Blink => &["on", "off", "pattern", "step"],
-    }
-}
-
-/// The names of `kind`'s parameters, in order, each with whether it is a bool input (a power
+/// The names of `kind`'s arguments, in order, each with whether it is a bool input (a power
 /// flow, drawn as a wire into the block) and whether it may be given by position.
 pub(crate) fn param_list(kind: Kind) -> impl Iterator<Item = (&'static str, bool, bool)> {
-    params(kind)
+    kind.def()
+        .arguments()
         .iter()
-        .map(|p| (p.name, p.ty == ParamType::Bool, p.positional))
+        .map(|p| (p.name, p.ty == PinType::Bool, p.positional))
 }
 
 /// A checked argument value.
@@ -649,9 +591,10 @@ impl Checker<'_> {
         ok.then_some(COut::Box { op, args, dest })
     }
 
-    /// Matches a block's arguments to its parameters and checks them.
+    /// Matches a block's arguments to its pins and checks them.
     fn call(&mut self, kind: Kind, args: &[Arg], at: usize) -> Option<(Call, Vec<BoolExpr>)> {
-        let spec = params(kind);
+        let def = kind.def();
+        let spec = def.arguments();
         let mut given: Vec<Option<(&Cond, usize)>> = vec![None; spec.len()];
         let mut positional = spec.iter().enumerate().filter(|(_, p)| p.positional);
         let max_positional = spec.iter().filter(|p| p.positional).count();
@@ -671,23 +614,22 @@ impl Checker<'_> {
                         None
                     }
                 },
-                Some(n) => {
-                    let lower = n.text.to_ascii_lowercase();
-                    match spec.iter().position(|p| p.name == lower) {
-                        Some(i) => Some(i),
-                        None => {
-                            self.fail::<()>(
-                                n.pos,
-                                CompileErrorKind::UnknownParam {
-                                    kind,
-                                    param: n.text.clone(),
-                                    known: param_names(kind),
-                                },
-                            );
-                            None
-                        }
+                Some(n) => match spec
+                    .iter()
+                    .position(|p| p.name.eq_ignore_ascii_case(&n.text))
+                {
+                    Some(i) => Some(i),
+                    None => {
+                        self.fail::<()>(
+                            n.pos,
+                            CompileErrorKind::UnknownParam {
+                                kind,
+                                param: n.text.clone(),
+                            },
+                        );
+                        None
                     }
-                }
+                },
             };
             let Some(i) = slot else {
                 ok = false;
@@ -719,108 +661,69 @@ impl Checker<'_> {
         if !ok {
             return None;
         }
-        let num = |i: usize| match values.get(i) {
-            Some(Some(Value::Num(n))) => Some(*n),
-            _ => None,
-        };
-        let boolean = |i: usize| match values.get(i) {
-            Some(Some(Value::Bool(b))) => b.clone(),
-            _ => BoolExpr::Const(false),
-        };
-        let required = |me: &mut Self, i: usize, hint: &'static str| match num(i) {
-            Some(n) => Some(n),
-            None => me.fail(
-                at,
-                CompileErrorKind::MissingParam {
-                    kind,
-                    param: spec.get(i).map_or("", |p| p.name),
-                    hint,
-                },
-            ),
-        };
-        let pt_hint = "a preset time, e.g. `TON t(2s)`";
-        let pv_hint = "a preset value, e.g. `CTU c(10)`";
-        Some(match kind {
-            Kind::Ton => (
-                Call::Ton {
-                    pt: required(self, 0, pt_hint)?,
-                },
-                vec![],
-            ),
-            Kind::Tof => (
-                Call::Tof {
-                    pt: required(self, 0, pt_hint)?,
-                },
-                vec![],
-            ),
-            Kind::Tp => (
-                Call::Tp {
-                    pt: required(self, 0, pt_hint)?,
-                },
-                vec![],
-            ),
-            Kind::Stair => (
-                Call::Stair {
-                    pt: required(self, 0, pt_hint)?,
-                },
-                vec![boolean(1)],
-            ),
-            Kind::Ctu => (
-                Call::Ctu {
-                    pv: required(self, 0, pv_hint)?,
-                },
-                vec![boolean(1)],
-            ),
-            Kind::Ctd => (
-                Call::Ctd {
-                    pv: required(self, 0, pv_hint)?,
-                },
-                vec![boolean(1)],
-            ),
-            Kind::Ctud => (
-                Call::Ctud {
-                    pv: required(self, 0, pv_hint)?,
-                },
-                vec![boolean(1), boolean(2), boolean(3)],
-            ),
-            Kind::RTrig => (Call::RTrig, vec![]),
-            Kind::FTrig => (Call::FTrig, vec![]),
-            Kind::Sr => (Call::Sr, vec![boolean(0)]),
-            Kind::Rs => (Call::Rs, vec![boolean(0)]),
-            Kind::Toggle => (Call::Toggle, vec![boolean(0)]),
-            Kind::Blink => {
-                let pattern = match values.get(2) {
-                    Some(Some(Value::Pattern(p))) => Some(*p),
-                    _ => None,
+        // The form: the only one, or the one whose value pins are exactly those given.
+        let form = match def.forms {
+            [only] => only,
+            forms => {
+                let given_values = |form: &Form| {
+                    spec.iter().zip(&values).enumerate().all(|(i, (p, v))| {
+                        p.ty == PinType::Bool || form.pins.contains(&(i + 1)) == v.is_some()
+                    })
                 };
-                match (num(0), num(1), pattern, num(3)) {
-                    (Some(on), Some(off), None, None) => (Call::Blink { on, off }, vec![]),
-                    (None, None, Some(pattern), Some(step)) => {
-                        (Call::BlinkPattern { pattern, step }, vec![])
-                    }
-                    _ => return self.fail(at, CompileErrorKind::BlinkMode),
+                match forms.iter().find(|f| given_values(f)) {
+                    Some(form) => form,
+                    None => return self.fail(at, CompileErrorKind::BlinkMode),
                 }
             }
-        })
+        };
+        let mut call = Call::new(kind);
+        let mut bools = Vec::new();
+        for (i, (p, v)) in spec.iter().zip(values).enumerate() {
+            let pin = i + 1;
+            let arg = match (p.ty, v) {
+                (PinType::Bool, v) => {
+                    bools.push(match v {
+                        Some(Value::Bool(b)) => b,
+                        _ => BoolExpr::Const(false),
+                    });
+                    PinArg::Stack
+                }
+                (_, Some(Value::Num(n))) => PinArg::Num(n),
+                (_, Some(Value::Pattern(pattern))) => PinArg::Pattern(pattern),
+                (ty, _) if form.pins.contains(&pin) => {
+                    let param = p.name;
+                    let hint = match ty {
+                        PinType::Count => "a preset value, e.g. `CTU c(10)`",
+                        _ => "a preset time, e.g. `TON t(2s)`",
+                    };
+                    return self.fail(at, CompileErrorKind::MissingParam { kind, param, hint });
+                }
+                _ => PinArg::Absent,
+            };
+            if let Some(slot) = call.pins.get_mut(pin) {
+                *slot = arg;
+            }
+        }
+        Some((call, bools))
     }
 
-    fn value(&mut self, ty: ParamType, cond: &Cond) -> Option<Value> {
+    fn value(&mut self, ty: PinType, cond: &Cond) -> Option<Value> {
         match ty {
-            ParamType::Bool => self.boolean(cond).map(Value::Bool),
+            PinType::Bool => self.boolean(cond).map(Value::Bool),
             // A preset is an i32 (`crate::logic::blocks`).
-            ParamType::Number => {
+            PinType::Count => {
                 let n = self.number(cond)?;
                 self.literal_into(cond, ValueType::I32, || "a counter's preset".into())?;
                 Some(Value::Num(n.0))
             }
-            ParamType::Time => match cond {
+            PinType::Time => match cond {
                 Cond::Lit(Lit::Number { text, .. }, pos) => self.duration(text, *pos).map(|_| {
                     // A bare number always fails above: a duration needs its unit.
                     Value::Num(Num::Const(0.0))
                 }),
                 other => self.number(other).map(|(n, _)| Value::Num(n)),
             },
-            ParamType::Pattern => match cond {
+            PinType::Pattern => match cond {
                 Cond::Lit(Lit::Number { text, .. }, pos) => match Pattern::parse(text) {
                     Ok(p) => Some(Value::Pattern(p)),
                     Err(e) => self.fail(*pos, e),

@@ -339,13 +339,10 @@ impl Names<'_> {
             .iter()
             .filter_map(|Arg { name, value }| {
                 let (pin, is_bool, _) = match name {
-                    Some(n) => {
-                        let lower = n.text.to_ascii_lowercase();
-                        *params.iter().find(|p| p.0 == lower)?
-                    }
+                    Some(n) => *params.iter().find(|p| p.0.eq_ignore_ascii_case(&n.text))?,
                     None => *positional.next()?,
                 };
-                let pin = pin.to_ascii_uppercase();
+                let pin = pin.to_string();
                 Some(if is_bool {
                     BlockInput::Power {
                         pin,

@@ -92,9 +92,9 @@ pub enum CompileErrorKind {
     },
     /// A block type that does not exist.
     #[error(
-        "unknown block `{name}`{}; the blocks are TON, TOF, TP, CTU, CTD, CTUD, R_TRIG, \
-         F_TRIG, SR, RS, BLINK, TOGGLE, STAIR",
-        suggest(.suggestion)
+        "unknown block `{name}`{}; the blocks are {}",
+        suggest(.suggestion),
+        crate::logic::blocks::names()
     )]
     UnknownBlock {
         /// The name as written.
@@ -176,27 +176,25 @@ pub enum CompileErrorKind {
     #[error("bad pattern: {0}")]
     BadPattern(#[from] PatternError),
     /// An argument name a block does not take.
-    #[error("{kind} has no argument `{param}`; it takes {}", .known.join(", "))]
+    #[error("{kind} has no argument `{param}`; it takes {}", keywords(*.kind))]
     UnknownParam {
         /// The block.
         kind: Kind,
         /// The name as written.
         param: String,
-        /// The names it takes.
-        known: &'static [&'static str],
     },
     /// An argument given twice.
-    #[error("argument `{param}` is given twice")]
+    #[error("argument `{}` is given twice", .param.to_ascii_lowercase())]
     DuplicateParam {
-        /// The argument.
+        /// The argument (its pin's name).
         param: &'static str,
     },
     /// A required argument left out.
-    #[error("{kind} needs `{param}`: {hint}")]
+    #[error("{kind} needs `{}`: {hint}", .param.to_ascii_lowercase())]
     MissingParam {
         /// The block.
         kind: Kind,
-        /// The argument.
+        /// The argument (its pin's name).
         param: &'static str,
         /// An example.
         hint: &'static str,
@@ -222,6 +220,21 @@ pub enum CompileErrorKind {
     /// BLINK given both on/off times and a pattern, or neither.
     #[error("BLINK takes either on and off times (`BLINK b(500ms, 500ms)`) or a pattern (`BLINK b(pattern=1101, step=250ms)`)")]
     BlinkMode,
+}
+
+/// The argument keywords a ladder call of `kind` takes (`pt, r`), or "no arguments".
+fn keywords(kind: Kind) -> String {
+    let names: Vec<String> = kind
+        .def()
+        .arguments()
+        .iter()
+        .map(|p| p.name.to_ascii_lowercase())
+        .collect();
+    if names.is_empty() {
+        "no arguments".into()
+    } else {
+        names.join(", ")
+    }
 }
 
 fn suggest(s: &Option<String>) -> String {

@@ -4,7 +4,7 @@
 use super::check::{BoolExpr, CAction, COut, CRung};
 use super::parser::CoilKind;
 use crate::image::TagId;
-use crate::logic::vm::{BoxSite, Call, CallSite, Instr, Num};
+use crate::logic::vm::{BoxSite, CallSite, Instr, Num, PinArg};
 
 /// The stack-depth proof, for the compiler's debug check and the tests.
 pub(crate) use crate::logic::vm::max_depth;
@@ -69,17 +69,10 @@ pub(crate) fn lower(rungs: &[CRung]) -> Lowered {
                 for b in bools {
                     l.expr(b);
                 }
-                match call {
-                    Call::Ton { pt } | Call::Tof { pt } | Call::Tp { pt } | Call::Stair { pt } => {
-                        l.num(*pt)
+                for pin in &call.pins {
+                    if let PinArg::Num(n) = pin {
+                        l.num(*n);
                     }
-                    Call::Ctu { pv } | Call::Ctd { pv } | Call::Ctud { pv } => l.num(*pv),
-                    Call::Blink { on, off } => {
-                        l.num(*on);
-                        l.num(*off);
-                    }
-                    Call::BlinkPattern { step, .. } => l.num(*step),
-                    Call::RTrig | Call::FTrig | Call::Sr | Call::Rs | Call::Toggle => {}
                 }
                 let site = l.out.calls.len() as u32;
                 l.out.calls.push(CallSite {

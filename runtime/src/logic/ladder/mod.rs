@@ -56,7 +56,7 @@ mod tests;
 
 use std::path::Path;
 
-pub use crate::logic::vm::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num};
+pub use crate::logic::vm::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
 pub use diagram::{
     diagram, BlockBox, BlockInput, Coil, Element, MathBox, Operand, Output, RungDiagram,
 };

@@ -22,7 +22,8 @@ use super::check::{BoolExpr as Cond, CAction, COut, CRung};
 use super::parser::CoilKind;
 use crate::image::TagId;
 use crate::logic::blocks::from_millis;
-use crate::logic::vm::{Call, Num};
+use crate::logic::blocks::Kind;
+use crate::logic::vm::{Call, Num, PinArg};
 use crate::logic::Rung;
 use crate::logic::SourcePos;
 use softplc_io::rung::{BoolExpr, RungShape};
@@ -232,9 +233,10 @@ fn absent(bools: &[Cond], i: usize) -> bool {
 fn block(call: &Call, cond: &Cond, bools: &[Cond]) -> RungShape {
     let variable = "a preset read from a tag or a block: the module's time is fixed at start-up";
     let trigger = || pure(cond).ok_or_else(|| impure_reason(cond));
-    let shape = match call {
-        Call::Tp { pt } => {
-            let Some(width) = preset(pt) else {
+    let pt = call.num("PT");
+    let shape = match call.kind {
+        Kind::Tp => {
+            let Some(width) = pt.as_ref().and_then(preset) else {
                 return opaque(variable);
             };
             trigger().map(|t| RungShape::Pulse {
@@ -242,8 +244,8 @@ fn block(call: &Call, cond: &Cond, bools: &[Cond]) -> RungShape {
                 width,
             })
         }
-        Call::Stair { pt } if absent(bools, 0) => {
-            let Some(time) = preset(pt) else {
+        Kind::Stair if absent(bools, 0) => {
+            let Some(time) = pt.as_ref().and_then(preset) else {
                 return opaque(variable);
             };
             trigger().map(|t| RungShape::StairPulse {
@@ -251,10 +253,10 @@ fn block(call: &Call, cond: &Cond, bools: &[Cond]) -> RungShape {
                 time,
             })
         }
-        Call::Toggle if absent(bools, 0) => {
+        Kind::Toggle if absent(bools, 0) => {
             trigger().map(|t| RungShape::Toggle { trigger: vec![t] })
         }
-        Call::Sr | Call::Rs => {
+        Kind::Sr | Kind::Rs => {
             let reset = bools
                 .first()
                 .map(|r| pure(r).ok_or_else(|| impure_reason(r)))
@@ -263,28 +265,33 @@ fn block(call: &Call, cond: &Cond, bools: &[Cond]) -> RungShape {
                 (Ok(set), Ok(reset)) => Ok(RungShape::Latch {
                     set,
                     reset,
-                    reset_dominant: matches!(call, Call::Rs),
+                    reset_dominant: call.kind == Kind::Rs,
                 }),
                 (Err(why), _) | (_, Err(why)) => Err(why),
             }
         }
-        Call::Blink { on, off } => match (preset(on), preset(off)) {
-            (Some(on), Some(off)) => trigger().map(|enable| RungShape::Blink { enable, on, off }),
-            _ => return opaque(variable),
-        },
-        Call::Stair { .. } | Call::Toggle => {
-            return opaque("a reset input on the block (the module's function has none)")
-        }
-        Call::BlinkPattern { .. } => {
+        Kind::Blink if call.pin("PATTERN") != PinArg::Absent => {
             return opaque("a blink pattern (the module takes on/off times)")
         }
-        Call::Ton { .. } | Call::Tof { .. } => {
+        Kind::Blink => match (call.num("ON"), call.num("OFF")) {
+            (Some(on), Some(off)) => match (preset(&on), preset(&off)) {
+                (Some(on), Some(off)) => {
+                    trigger().map(|enable| RungShape::Blink { enable, on, off })
+                }
+                _ => return opaque(variable),
+            },
+            _ => return opaque(variable),
+        },
+        Kind::Stair | Kind::Toggle => {
+            return opaque("a reset input on the block (the module's function has none)")
+        }
+        Kind::Ton | Kind::Tof => {
             return opaque("memory or a timer in the condition (a timer the module cannot run)")
         }
-        Call::Ctu { .. } | Call::Ctd { .. } | Call::Ctud { .. } => {
+        Kind::Ctu | Kind::Ctd | Kind::Ctud => {
             return opaque("a counter (the module's XCOUNT is read as a tag, see offload docs)")
         }
-        Call::RTrig | Call::FTrig => {
+        Kind::RTrig | Kind::FTrig => {
             return opaque(
                 "memory or a timer in the condition (an edge the module cannot see there)",
             )

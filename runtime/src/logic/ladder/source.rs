@@ -11,6 +11,7 @@
 use schemars::JsonSchema;
 use serde::Deserialize;
 
+use crate::logic::blocks::Kind;
 use crate::project::span::{Locator, YPath};
 
 /// A ladder program: its rungs, each one line of text (`start /stop -> motor`).
@@ -31,9 +32,53 @@ struct RawLadder {
     rungs: Vec<String>,
 }
 
-/// The JSON Schema of a ladder program file (`softplc schema ladder`).
+/// The JSON Schema of a ladder program file (`softplc schema ladder`): a rung's description
+/// lists the blocks and their arguments, from the block registry, for an editor's hover.
 pub(crate) fn file_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
-    generator.root_schema_for::<RawLadder>()
+    let mut schema = generator.root_schema_for::<RawLadder>();
+    let items = schema
+        .as_object_mut()
+        .and_then(|o| o.get_mut("properties"))
+        .and_then(|p| p.get_mut("rungs"))
+        .and_then(|r| r.get_mut("items"))
+        .and_then(|i| i.as_object_mut());
+    if let Some(items) = items {
+        items.insert("description".into(), block_list().into());
+    }
+    schema
+}
+
+/// `A rung. Its blocks (`condition -> KIND name(arguments) -> coils`): TON t(5s) (IN; PT; Q,
+/// ET), ...`: every form of every block, its power flow, arguments and outputs.
+fn block_list() -> String {
+    let forms = Kind::ALL.iter().flat_map(|k| {
+        let def = k.def();
+        def.forms.iter().map(move |form| {
+            let args: Vec<String> = def
+                .form_arguments(form)
+                .map(|p| p.name.to_ascii_lowercase())
+                .collect();
+            let outputs: Vec<&str> = def.outputs.iter().map(|m| m.name()).collect();
+            format!(
+                "`{}` ({}; {}; {}): {}",
+                form.example,
+                def.main_input().name,
+                if args.is_empty() {
+                    "-".into()
+                } else {
+                    args.join(", ")
+                },
+                outputs.join(", "),
+                form.doc
+            )
+        })
+    });
+    let forms: Vec<String> = forms.collect();
+    format!(
+        "A rung. Its blocks (`condition -> KIND name(arguments) -> coils`; power flow; \
+         arguments; outputs):\n{}",
+        forms.join("\n")
+    )
 }
 
 /// One rung's text and where it starts in the file.

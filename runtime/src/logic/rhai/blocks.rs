@@ -9,13 +9,16 @@
 //! slot (a binary search over integers, checked against the name the call passes), so no name
 //! is hashed during the scan. Any other call (a name in a variable) finds its slot by name.
 
+use std::any::TypeId;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use rhai::{Dynamic, Engine, EvalAltResult, ImmutableString, NativeCallContext, Position, INT};
 
-use crate::logic::blocks::{from_millis, Instance, Kind, Member, Pattern};
+use crate::logic::blocks::{
+    from_millis, Arg, Args, BlockDef, Form, Instance, Kind, Member, Pattern, PinType,
+};
 
 /// Most instances a script may create (names made in a loop must not eat the memory).
 pub const MAX_INSTANCES: usize = 10_000;
@@ -162,199 +165,88 @@ fn preset(pv: INT) -> i32 {
     pv.clamp(INT::from(i32::MIN), INT::from(i32::MAX)) as i32
 }
 
-/// The kinds as Rhai names them, and the output readers.
-pub(crate) const FUNCTIONS: [(&str, Kind); 14] = [
-    ("ton", Kind::Ton),
-    ("tof", Kind::Tof),
-    ("tp", Kind::Tp),
-    ("stair", Kind::Stair),
-    ("ctu", Kind::Ctu),
-    ("ctd", Kind::Ctd),
-    ("ctud", Kind::Ctud),
-    ("r_trig", Kind::RTrig),
-    ("f_trig", Kind::FTrig),
-    ("sr", Kind::Sr),
-    ("rs", Kind::Rs),
-    ("toggle", Kind::Toggle),
-    ("blink", Kind::Blink),
-    ("blink_pattern", Kind::Blink),
-];
+/// The block function `name` (`ton`, `blink_pattern`): its block and form.
+pub(crate) fn block_function(name: &str) -> Option<(&'static BlockDef, &'static Form)> {
+    Kind::ALL.iter().find_map(|k| {
+        let def = k.def();
+        def.forms.iter().find(|f| f.rhai == name).map(|f| (def, f))
+    })
+}
 
 /// The output readers.
 pub(crate) const READERS: [&str; 5] = ["q", "et", "cv", "qu", "qd"];
 
-/// Registers every block function on `engine`, over `blocks`.
-pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
-    macro_rules! timer {
-        ($name:literal, $variant:ident) => {{
-            let b = blocks.clone();
-            engine.register_fn(
-                $name,
-                move |ctx: NativeCallContext, n: ImmutableString, x: bool, pt: Dynamic| {
-                    let pt = time(&pt)?;
-                    with(
-                        &b,
-                        ctx.call_position(),
-                        &n,
-                        Kind::$variant,
-                        |i, now| match i {
-                            Instance::$variant(t) => t.call(x, pt, now),
-                            _ => false,
-                        },
-                    )
-                },
-            );
-        }};
+/// The type Rhai passes for a pin of type `ty` (a time is any value: a number or a string).
+fn type_of(ty: PinType) -> TypeId {
+    match ty {
+        PinType::Bool => TypeId::of::<bool>(),
+        PinType::Time => TypeId::of::<Dynamic>(),
+        PinType::Count => TypeId::of::<INT>(),
+        PinType::Pattern => TypeId::of::<ImmutableString>(),
     }
-    timer!("ton", Ton);
-    timer!("tof", Tof);
-    timer!("tp", Tp);
+}
 
-    let b = blocks.clone();
-    engine.register_fn(
-        "stair",
-        move |ctx: NativeCallContext, n: ImmutableString, x: bool, pt: Dynamic, reset: bool| {
-            let pt = time(&pt)?;
-            with(&b, ctx.call_position(), &n, Kind::Stair, |i, now| match i {
-                Instance::Stair(t) => t.call(x, reset, pt, now),
-                _ => false,
-            })
-        },
-    );
-    let b = blocks.clone();
-    engine.register_fn(
-        "stair",
-        move |ctx: NativeCallContext, n: ImmutableString, x: bool, pt: Dynamic| {
-            let pt = time(&pt)?;
-            with(&b, ctx.call_position(), &n, Kind::Stair, |i, now| match i {
-                Instance::Stair(t) => t.call(x, false, pt, now),
-                _ => false,
-            })
-        },
-    );
-
-    let b = blocks.clone();
-    engine.register_fn(
-        "ctu",
-        move |ctx: NativeCallContext, n: ImmutableString, cu: bool, reset: bool, pv: INT| {
-            with(&b, ctx.call_position(), &n, Kind::Ctu, |i, _| match i {
-                Instance::Ctu(c) => c.call(cu, reset, preset(pv)),
-                _ => false,
-            })
-        },
-    );
-    let b = blocks.clone();
-    engine.register_fn(
-        "ctd",
-        move |ctx: NativeCallContext, n: ImmutableString, cd: bool, load: bool, pv: INT| {
-            with(&b, ctx.call_position(), &n, Kind::Ctd, |i, _| match i {
-                Instance::Ctd(c) => c.call(cd, load, preset(pv)),
-                _ => false,
-            })
-        },
-    );
-    let b = blocks.clone();
-    engine.register_fn(
-        "ctud",
-        move |ctx: NativeCallContext,
-              n: ImmutableString,
-              cu: bool,
-              cd: bool,
-              reset: bool,
-              load: bool,
-              pv: INT| {
-            with(&b, ctx.call_position(), &n, Kind::Ctud, |i, _| match i {
-                Instance::Ctud(c) => c.call(cu, cd, reset, load, preset(pv)),
-                _ => false,
-            })
-        },
-    );
-
-    let b = blocks.clone();
-    engine.register_fn(
-        "r_trig",
-        move |ctx: NativeCallContext, n: ImmutableString, x: bool| {
-            with(&b, ctx.call_position(), &n, Kind::RTrig, |i, _| match i {
-                Instance::RTrig(e) => e.rising(x),
-                _ => false,
-            })
-        },
-    );
-    let b = blocks.clone();
-    engine.register_fn(
-        "f_trig",
-        move |ctx: NativeCallContext, n: ImmutableString, x: bool| {
-            with(&b, ctx.call_position(), &n, Kind::FTrig, |i, _| match i {
-                Instance::FTrig(e) => e.falling(x),
-                _ => false,
-            })
-        },
-    );
-
-    macro_rules! latch {
-        ($name:literal, $variant:ident) => {{
-            let b = blocks.clone();
-            engine.register_fn(
-                $name,
-                move |ctx: NativeCallContext, n: ImmutableString, s: bool, r: bool| {
-                    with(
-                        &b,
-                        ctx.call_position(),
-                        &n,
-                        Kind::$variant,
-                        |i, _| match i {
-                            Instance::$variant(l) => l.call(s, r),
-                            _ => false,
-                        },
-                    )
-                },
-            );
-        }};
+/// One call's arguments (after the instance's name) as the block's pins: times first, then
+/// patterns, so a call with both wrong reports its time.
+fn pin_args(def: &BlockDef, pins: &[usize], values: &[&mut Dynamic]) -> Res<Args> {
+    let mut args = Args::default();
+    let given = || {
+        pins.iter()
+            .zip(values)
+            .filter_map(|(&i, v)| Some((i, def.pins.get(i)?, v)))
+    };
+    for (i, pin, v) in given() {
+        let arg = match pin.ty {
+            PinType::Bool => Arg::Bool(v.as_bool().unwrap_or(false)),
+            PinType::Count => Arg::Count(preset(v.as_int().unwrap_or(0))),
+            PinType::Time => Arg::Time(time(v)?),
+            PinType::Pattern => continue,
+        };
+        args.0[i] = arg;
     }
-    latch!("sr", Sr);
-    latch!("rs", Rs);
-    latch!("toggle", Toggle);
-    let b = blocks.clone();
-    engine.register_fn(
-        "toggle",
-        move |ctx: NativeCallContext, n: ImmutableString, x: bool| {
-            with(&b, ctx.call_position(), &n, Kind::Toggle, |i, _| match i {
-                Instance::Toggle(l) => l.call(x, false),
-                _ => false,
-            })
-        },
-    );
-
-    let b = blocks.clone();
-    engine.register_fn(
-        "blink",
-        move |ctx: NativeCallContext, n: ImmutableString, en: bool, on: Dynamic, off: Dynamic| {
-            let (on, off) = (time(&on)?, time(&off)?);
-            with(&b, ctx.call_position(), &n, Kind::Blink, |i, now| match i {
-                Instance::Blink(bl) => bl.call(en, on, off, now),
-                _ => false,
-            })
-        },
-    );
-    let b = blocks.clone();
-    engine.register_fn(
-        "blink_pattern",
-        move |ctx: NativeCallContext,
-              n: ImmutableString,
-              en: bool,
-              bits: ImmutableString,
-              step: Dynamic| {
-            let step = time(&step)?;
-            let pattern = match Pattern::parse(&bits) {
-                Ok(p) => p,
+    for (i, pin, v) in given() {
+        if pin.ty == PinType::Pattern {
+            let bits = (**v).clone().into_immutable_string().unwrap_or_default();
+            match Pattern::parse(&bits) {
+                Ok(p) => args.0[i] = Arg::Pattern(p),
                 Err(e) => return error(format!("bad pattern \"{bits}\": {e}")),
-            };
-            with(&b, ctx.call_position(), &n, Kind::Blink, |i, now| match i {
-                Instance::Blink(bl) => bl.call_pattern(en, pattern, step, now),
-                _ => false,
-            })
-        },
-    );
+            }
+        }
+    }
+    Ok(args)
+}
+
+/// Registers every block function on `engine`, over `blocks`: each form of each block, and
+/// each shorter overload where the form's last pins are optional.
+pub(crate) fn register(engine: &mut Engine, blocks: &SharedBlocks) {
+    for kind in Kind::ALL {
+        let def = kind.def();
+        for form in def.forms {
+            for pins in form.overloads() {
+                let mut types = vec![TypeId::of::<ImmutableString>()];
+                types.extend(
+                    pins.iter()
+                        .filter_map(|&i| def.pins.get(i))
+                        .map(|p| type_of(p.ty)),
+                );
+                let b = blocks.clone();
+                engine.register_raw_fn(
+                    form.rhai,
+                    types,
+                    move |ctx: NativeCallContext, values: &mut [&mut Dynamic]| -> Res<bool> {
+                        let Some((name, values)) = values.split_first_mut() else {
+                            return error("a block call without an instance name".into());
+                        };
+                        let name = name.clone().into_immutable_string().unwrap_or_default();
+                        let args = pin_args(def, pins, values)?;
+                        with(&b, ctx.call_position(), &name, kind, |i, now| {
+                            i.call(&args, now)
+                        })
+                    },
+                );
+            }
+        }
+    }
 
     // Outputs: a fresh (never called) instance reads false / 0.
     let b = blocks.clone();

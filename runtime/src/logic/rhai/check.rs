@@ -5,10 +5,11 @@
 
 use std::collections::{HashMap, HashSet};
 
-use rhai::{ASTNode, Expr, Position, Stmt, AST};
+use rhai::Position;
 
-use super::blocks::{FUNCTIONS, READERS};
+use super::blocks::{block_function, READERS};
 use super::error::CompileErrorKind;
+use super::internals::{self, ExprView, Node, StmtView, AST};
 
 /// What the walk found.
 #[derive(Debug, Default)]
@@ -30,33 +31,42 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
     // Instance → (kind name, first call position).
     let mut calls: HashMap<String, (&'static str, Position)> = HashMap::new();
     let mut reads: Vec<(String, Position)> = Vec::new();
-    ast.walk(&mut |path: &[ASTNode]| {
-        match path.last() {
-            Some(ASTNode::Expr(Expr::Variable(v, _, _))) => {
-                usage.names.insert(v.1.to_string());
+    internals::walk(ast, |node| {
+        let stmt = match node {
+            Node::Stmt(s) => Some(internals::stmt(s)),
+            Node::Expr(_) => None,
+        };
+        let expr = match node {
+            Node::Expr(e) => Some(internals::expr(e)),
+            Node::Stmt(_) => None,
+        };
+        match (stmt, expr) {
+            (_, Some(ExprView::Var(name, _))) => {
+                usage.names.insert(name.to_string());
             }
-            Some(ASTNode::Stmt(Stmt::Share(vars))) => {
-                for (var, _) in vars.iter() {
-                    usage.captured.push((var.pos, var.name.to_string()));
+            (Some(StmtView::Share(vars)), _) => {
+                for (name, pos) in vars {
+                    usage.captured.push((pos, name.to_string()));
                 }
             }
-            Some(ASTNode::Stmt(Stmt::Assignment(a))) => {
-                if let Expr::Variable(v, _, pos) = &a.1.lhs {
-                    usage.assigned.entry(v.1.to_string()).or_insert(*pos);
+            (Some(StmtView::Assign(a)), _) => {
+                if let ExprView::Var(name, pos) = internals::expr(a.lhs) {
+                    usage.assigned.entry(name.to_string()).or_insert(pos);
                 }
             }
-            Some(ASTNode::Expr(Expr::FnCall(call, pos))) => {
-                let literal = match call.args.first() {
-                    Some(Expr::StringConstant(s, _)) => Some(s.to_string()),
+            (_, Some(ExprView::Call(call))) => {
+                let pos = &call.pos;
+                let literal = match call.args.first().map(internals::expr) {
+                    Some(ExprView::Str(s, _)) => Some(s.to_string()),
                     _ => None,
                 };
                 if let Some(name) = literal {
-                    let block = FUNCTIONS.iter().any(|(f, _)| *f == call.name);
-                    if block || READERS.contains(&call.name.as_str()) {
+                    let block = block_function(call.name);
+                    if block.is_some() || READERS.contains(&call.name) {
                         usage.block_calls.push((*pos, name.clone()));
                     }
-                    if let Some(&(fname, _)) = FUNCTIONS.iter().find(|(f, _)| *f == call.name) {
-                        let this = kind_name(fname);
+                    if let Some((def, _)) = block {
+                        let this = def.name;
                         match calls.get(&name) {
                             Some(&(first, at)) if first != this => errors.push((
                                 *pos,
@@ -78,7 +88,7 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
                                 calls.insert(name, (this, *pos));
                             }
                         }
-                    } else if READERS.contains(&call.name.as_str()) && call.args.len() == 1 {
+                    } else if READERS.contains(&call.name) && call.args.len() == 1 {
                         reads.push((name, *pos));
                     }
                 }
@@ -93,14 +103,6 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
         }
     }
     usage
-}
-
-/// The kind a function creates, by its block name (`blink_pattern` is a BLINK).
-fn kind_name(function: &str) -> &'static str {
-    FUNCTIONS
-        .iter()
-        .find(|(f, _)| *f == function)
-        .map_or("?", |(_, k)| k.name())
 }
 
 /// The user's line of a Rhai position (the script has one line of declarations on top).

@@ -153,12 +153,7 @@ fn a_value_a_tag_cannot_hold_is_a_type_error() {
 fn the_signatures_are_what_the_engine_registers() {
     let mut engine = engine::sandboxed(engine::Limits::default(), 16, &engine::Deadline::new());
     let registered = |engine: &rhai::Engine| -> BTreeSet<(String, usize)> {
-        engine
-            .collect_fn_metadata(
-                None,
-                |f| Some((f.metadata.name.to_string(), f.metadata.num_params)),
-                true,
-            )
+        super::internals::function_forms(engine)
             .into_iter()
             .collect()
     };

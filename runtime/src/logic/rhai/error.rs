@@ -88,7 +88,7 @@ pub enum CompileErrorKind {
     },
     /// A call of a function that neither the library, the script nor Rhai defines (Rhai would
     /// fault when the call is reached: `Function not found`).
-    #[error("unknown function `{name}`{}", hint(.suggestion.as_deref(), "the library is ton, tof, tp, stair, ctu, ctd, ctud, r_trig, f_trig, sr, rs, toggle, blink, blink_pattern, q, et, cv, qu, qd, good, bad, limit"))]
+    #[error("unknown function `{name}`{}", hint(.suggestion.as_deref(), &format!("the library is {}", super::signatures::names())))]
     UnknownFunction {
         /// The name called.
         name: String,

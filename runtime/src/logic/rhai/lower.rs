@@ -31,15 +31,18 @@ use std::fmt;
 use std::path::Path;
 use std::time::Duration;
 
-use rhai::{ASTNode, Expr, FnCallExpr, Position, Stmt, AST};
+use rhai::Position;
 use softplc_io::point::ValueType;
 
-use super::blocks::{FUNCTIONS, MAX_INSTANCES};
+use super::blocks::{block_function, MAX_INSTANCES};
 use super::error::user_pos;
+use super::internals::{self, Call as RhaiCall, Expr, ExprView, Node, Stmt, StmtView, AST};
 use crate::image::TagId;
-use crate::logic::blocks::{from_millis, millis, Instance, Kind, Member, OutputValue, Pattern};
+use crate::logic::blocks::{
+    from_millis, millis, Instance, Kind, Member, OutputValue, Pattern, Pin, PinType,
+};
 use crate::logic::expr::TagTable;
-use crate::logic::vm::{self, Call, CallSite, CmpOp, Instr, Num};
+use crate::logic::vm::{self, Call, CallSite, CmpOp, Instr, Num, PinArg};
 
 /// Operations Rhai may count per AST node at most (a statement, an expression, each call
 /// argument, the call): a script whose nodes times this fit the limit never reaches it.
@@ -96,12 +99,12 @@ pub(crate) fn lower(ast: &AST, tags: &TagTable, operations: u64, file: &Path) ->
         });
     }
     let mut l = Lowerer::new(tags);
-    for stmt in ast.statements() {
+    for stmt in internals::statements(ast) {
         l.plan(stmt)?;
     }
     l.name_instances(ast)?;
     let mut nodes = 0u64;
-    ast.walk(&mut |_| {
+    internals::walk(ast, |_| {
         nodes += 1;
         true
     });
@@ -111,7 +114,7 @@ pub(crate) fn lower(ast: &AST, tags: &TagTable, operations: u64, file: &Path) ->
             what: format!("{nodes} expressions, near the operations limit ({operations})"),
         });
     }
-    for stmt in ast.statements() {
+    for stmt in internals::statements(ast) {
         l.statement(stmt)?;
     }
     let max_depth = vm::max_depth(&l.code, &l.calls).unwrap_or(0);
@@ -178,50 +181,52 @@ impl<'a> Lowerer<'a> {
 
     /// First pass over a top-level statement: is it plain, and which tag does it assign.
     fn plan(&mut self, stmt: &Stmt) -> Res<()> {
-        let what = match stmt {
-            Stmt::Noop(_) | Stmt::FnCall(..) | Stmt::Expr(_) => return Ok(()),
-            Stmt::Assignment(a) => {
-                let (op, bin) = &**a;
-                if op.is_op_assignment() {
-                    return refuse(op.position(), "a compound assignment");
+        let what = match internals::stmt(stmt) {
+            StmtView::Noop | StmtView::Call(_) | StmtView::Expr(_) => return Ok(()),
+            StmtView::Assign(a) => {
+                if a.operator.is_some() {
+                    return refuse(a.pos, "a compound assignment");
                 }
-                let Expr::Variable(v, _, pos) = &bin.lhs else {
-                    return refuse(bin.lhs.position(), "an assignment to an element");
+                let ExprView::Var(name, pos) = internals::expr(a.lhs) else {
+                    return refuse(internals::position(a.lhs), "an assignment to an element");
                 };
-                return match self.tags.get(v.1.as_str()) {
+                return match self.tags.get(name) {
                     Some(t) if t.writable && t.ty == ValueType::Bool => {
                         if self.assigned.insert(t.id) {
                             self.coils.push(t.id);
                         }
                         Ok(())
                     }
-                    Some(t) => refuse(*pos, format!("an assignment to {} tag `{}`", t.ty, t.name)),
-                    None => refuse(*pos, format!("an assignment to `{}`", v.1)),
+                    Some(t) => refuse(pos, format!("an assignment to {} tag `{}`", t.ty, t.name)),
+                    None => refuse(pos, format!("an assignment to `{name}`")),
                 };
             }
-            Stmt::If(..) => "`if`",
-            Stmt::Switch(..) => "`switch`",
-            Stmt::While(..) => "`while`",
-            Stmt::Do(..) => "`do`",
-            Stmt::For(..) => "`for`",
-            Stmt::Var(..) => "`let`",
-            Stmt::Block(..) => "a block `{ .. }`",
-            Stmt::TryCatch(..) => "`try`",
-            Stmt::BreakLoop(..) => "`break`",
-            Stmt::Return(..) => "`return`",
-            _ => "a statement other than an assignment",
+            StmtView::If(_) => "`if`",
+            StmtView::Switch => "`switch`",
+            StmtView::While(_) => "`while`",
+            StmtView::Do(_) => "`do`",
+            StmtView::For(..) => "`for`",
+            StmtView::Let(_) => "`let`",
+            StmtView::Block => "a block `{ .. }`",
+            StmtView::Try => "`try`",
+            StmtView::Break => "`break`",
+            StmtView::Return => "`return`",
+            StmtView::Share(_) | StmtView::Other => "a statement other than an assignment",
         };
-        refuse(stmt.position(), what)
+        refuse(internals::stmt_position(stmt), what)
     }
 
     /// Gives every block call with a literal instance name its instance, in script order.
     fn name_instances(&mut self, ast: &AST) -> Res<()> {
         let mut kinds: Vec<(String, Kind)> = Vec::new();
-        ast.walk(&mut |path: &[ASTNode]| {
-            if let Some(ASTNode::Expr(Expr::FnCall(call, _))) = path.last() {
-                let kind = FUNCTIONS.iter().find(|(f, _)| *f == call.name).map(|f| f.1);
-                if let (Some(kind), Some(Expr::StringConstant(name, _))) = (kind, call.args.first())
-                {
+        internals::walk(ast, |node| {
+            let Node::Expr(e) = node else {
+                return true;
+            };
+            if let ExprView::Call(call) = internals::expr(e) {
+                let kind = block_function(call.name).map(|(def, _)| def.kind);
+                let name = call.args.first().map(internals::expr);
+                if let (Some(kind), Some(ExprView::Str(name, _))) = (kind, name) {
                     kinds.push((name.to_string(), kind));
                 }
             }
@@ -252,49 +257,51 @@ impl<'a> Lowerer<'a> {
     }
 
     fn statement(&mut self, stmt: &Stmt) -> Res<()> {
-        match stmt {
-            Stmt::Assignment(a) => {
-                let bin = &a.1;
-                let Expr::Variable(v, _, pos) = &bin.lhs else {
-                    return refuse(bin.lhs.position(), "an assignment to an element");
+        match internals::stmt(stmt) {
+            StmtView::Assign(a) => {
+                let ExprView::Var(name, pos) = internals::expr(a.lhs) else {
+                    return refuse(internals::position(a.lhs), "an assignment to an element");
                 };
-                let Some(tag) = self.tags.get(v.1.as_str()) else {
-                    return refuse(*pos, format!("an assignment to `{}`", v.1));
+                let Some(tag) = self.tags.get(name) else {
+                    return refuse(pos, format!("an assignment to `{name}`"));
                 };
                 let id = tag.id;
-                self.condition(&bin.rhs, None)?;
-                self.use_tag(id, *pos);
+                self.condition(a.rhs, None)?;
+                self.use_tag(id, pos);
                 self.code.push(Instr::Store(id));
             }
-            Stmt::FnCall(call, pos) => {
-                self.call(call, *pos, None)?;
+            StmtView::Call(call) => {
+                self.call(call, None)?;
                 self.code.push(Instr::Pop);
             }
-            Stmt::Expr(e) => {
+            StmtView::Expr(e) => {
                 self.condition(e, None)?;
                 self.code.push(Instr::Pop);
             }
-            Stmt::Noop(_) => {}
-            other => return refuse(other.position(), "a statement other than an assignment"),
+            StmtView::Noop => {}
+            _ => {
+                let pos = internals::stmt_position(stmt);
+                return refuse(pos, "a statement other than an assignment");
+            }
         }
         Ok(())
     }
 
     /// Lowers a bool expression. `skippable` names the `&&`/`||` that may skip it.
     fn condition(&mut self, e: &Expr, skippable: Option<&'static str>) -> Res<()> {
-        match e {
-            Expr::BoolConstant(b, _) => self.code.push(Instr::Const(*b)),
-            Expr::Variable(v, _, pos) => {
-                let id = self.tag(&v.1, *pos)?;
-                if self.tags.get(v.1.as_str()).map(|t| t.ty) != Some(ValueType::Bool) {
-                    return refuse(*pos, format!("`{}`, a number, as a condition", v.1));
+        match internals::expr(e) {
+            ExprView::Bool(b) => self.code.push(Instr::Const(b)),
+            ExprView::Var(name, pos) => {
+                let id = self.tag(name, pos)?;
+                if self.tags.get(name).map(|t| t.ty) != Some(ValueType::Bool) {
+                    return refuse(pos, format!("`{name}`, a number, as a condition"));
                 }
                 self.code.push(Instr::Load(id));
             }
-            Expr::And(items, _) => self.short_circuit(items, Instr::And, "`&&`", skippable)?,
-            Expr::Or(items, _) => self.short_circuit(items, Instr::Or, "`||`", skippable)?,
-            Expr::FnCall(call, pos) => self.call(call, *pos, skippable)?,
-            other => return refuse(other.start_position(), describe(other)),
+            ExprView::And(items) => self.short_circuit(items, Instr::And, "`&&`", skippable)?,
+            ExprView::Or(items) => self.short_circuit(items, Instr::Or, "`||`", skippable)?,
+            ExprView::Call(call) => self.call(call, skippable)?,
+            other => return refuse(internals::start_position(e), describe(other)),
         }
         Ok(())
     }
@@ -317,25 +324,17 @@ impl<'a> Lowerer<'a> {
         Ok(())
     }
 
-    fn call(
-        &mut self,
-        call: &FnCallExpr,
-        pos: Position,
-        skippable: Option<&'static str>,
-    ) -> Res<()> {
-        let args = call.args.as_slice();
-        let name = call.name.as_str();
-        if call.is_operator_call() {
+    fn call(&mut self, call: RhaiCall<'_>, skippable: Option<&'static str>) -> Res<()> {
+        let (args, name, pos) = (call.args, call.name, call.pos);
+        if call.operator {
             return self.operator(name, args, pos, skippable);
         }
-        match (name, args) {
-            ("good" | "bad", [Expr::Variable(v, _, at)]) => {
-                let id = self.tag(&v.1, *at)?;
+        let views: Vec<ExprView<'_>> = args.iter().map(internals::expr).collect();
+        match (name, views.as_slice()) {
+            ("good" | "bad", [ExprView::Var(tag, at)]) => {
+                let id = self.tag(tag, *at)?;
                 if self.assigned.contains(&id) {
-                    return refuse(
-                        pos,
-                        format!("`{name}({})` of a tag the script assigns", v.1),
-                    );
+                    return refuse(pos, format!("`{name}({tag})` of a tag the script assigns"));
                 }
                 self.code.push(if name == "good" {
                     Instr::Good(id)
@@ -344,7 +343,7 @@ impl<'a> Lowerer<'a> {
                 });
                 Ok(())
             }
-            ("q" | "qu" | "qd", [Expr::StringConstant(instance, _)]) => {
+            ("q" | "qu" | "qd", [ExprView::Str(instance, _)]) => {
                 let (i, kind) = self.instance(instance, pos)?;
                 let member = match name {
                     "qu" => Member::Qu,
@@ -356,9 +355,7 @@ impl<'a> Lowerer<'a> {
                 self.code.push(Instr::LoadOut(i, member));
                 Ok(())
             }
-            _ if FUNCTIONS.iter().any(|(f, _)| *f == name) => {
-                self.block(name, args, pos, skippable)
-            }
+            _ if block_function(name).is_some() => self.block(name, args, pos, skippable),
             _ => refuse(pos, format!("`{name}(..)`")),
         }
     }
@@ -412,15 +409,12 @@ impl<'a> Lowerer<'a> {
 
     /// Whether `e` is written as a number (a comparison's operand rather than a condition).
     fn is_number(&self, e: &Expr) -> bool {
-        match e {
-            Expr::IntegerConstant(..) | Expr::FloatConstant(..) => true,
-            Expr::Variable(v, _, _) => self
-                .tags
-                .get(v.1.as_str())
-                .is_some_and(|t| t.ty != ValueType::Bool),
-            Expr::FnCall(call, _) => {
-                matches!(call.name.as_str(), "cv" | "et")
-                    || (call.is_operator_call() && call.name == "-" && call.args.len() == 1)
+        match internals::expr(e) {
+            ExprView::Int(..) | ExprView::Float(_) => true,
+            ExprView::Var(name, _) => self.tags.get(name).is_some_and(|t| t.ty != ValueType::Bool),
+            ExprView::Call(call) => {
+                matches!(call.name, "cv" | "et")
+                    || (call.operator && call.name == "-" && call.args.len() == 1)
             }
             _ => false,
         }
@@ -429,31 +423,38 @@ impl<'a> Lowerer<'a> {
     /// A comparison's operand: Rhai compares integers and floats as the VM's `f64` does, as
     /// long as an integer is exact in `f64` (tags are; literals are checked).
     fn number(&mut self, e: &Expr) -> Res<Num> {
-        match e {
-            Expr::IntegerConstant(i, pos) => Ok(Num::Const(exact(*i, *pos)?)),
-            Expr::FloatConstant(f, _) => Ok(Num::Const(**f)),
-            Expr::Variable(v, _, pos) => Ok(Num::Tag(self.numeric_tag(
-                &v.1,
-                *pos,
+        match internals::expr(e) {
+            ExprView::Int(i, pos) => Ok(Num::Const(exact(i, pos)?)),
+            ExprView::Float(f) => Ok(Num::Const(f)),
+            ExprView::Var(name, pos) => Ok(Num::Tag(self.numeric_tag(
+                name,
+                pos,
                 "compared as a number",
             )?)),
-            Expr::FnCall(call, pos) if call.is_operator_call() => {
-                match (call.name.as_str(), call.args.as_slice()) {
-                    ("-", [Expr::IntegerConstant(i, at)]) => Ok(Num::Const(-exact(*i, *at)?)),
-                    ("-", [Expr::FloatConstant(f, _)]) => Ok(Num::Const(-**f)),
-                    (op, _) => refuse(*pos, format!("`{op}`")),
+            ExprView::Call(call) if call.operator => {
+                let arg = call.args.first().map(internals::expr);
+                match (call.name, call.args.len(), arg) {
+                    ("-", 1, Some(ExprView::Int(i, at))) => Ok(Num::Const(-exact(i, at)?)),
+                    ("-", 1, Some(ExprView::Float(f))) => Ok(Num::Const(-f)),
+                    (op, _, _) => refuse(call.pos, format!("`{op}`")),
                 }
             }
-            Expr::FnCall(call, pos) => match (call.name.as_str(), call.args.as_slice()) {
-                ("cv", [Expr::StringConstant(instance, _)]) => {
-                    let (i, _) = self.instance(instance, *pos)?;
-                    self.read_before_call(i, Member::Cv, "cv", instance, *pos)?;
-                    Ok(Num::Out(i, Member::Cv))
+            ExprView::Call(call) => {
+                let arg = call.args.first().map(internals::expr);
+                match (call.name, call.args.len(), arg) {
+                    ("cv", 1, Some(ExprView::Str(instance, _))) => {
+                        let (i, _) = self.instance(instance, call.pos)?;
+                        self.read_before_call(i, Member::Cv, "cv", instance, call.pos)?;
+                        Ok(Num::Out(i, Member::Cv))
+                    }
+                    ("et", _, _) => refuse(
+                        call.pos,
+                        "`et(..)` (the interpreter reads whole milliseconds)",
+                    ),
+                    (name, _, _) => refuse(call.pos, format!("`{name}(..)`")),
                 }
-                ("et", _) => refuse(*pos, "`et(..)` (the interpreter reads whole milliseconds)"),
-                (name, _) => refuse(*pos, format!("`{name}(..)`")),
-            },
-            other => refuse(other.start_position(), describe(other)),
+            }
+            other => refuse(internals::start_position(e), describe(other)),
         }
     }
 
@@ -529,118 +530,88 @@ impl<'a> Lowerer<'a> {
                 format!("`{function}(..)` under {op} (the interpreter skips the call when {op} is decided)"),
             );
         }
-        let Some((Expr::StringConstant(name, _), rest)) = args.split_first() else {
+        let named = args
+            .split_first()
+            .map(|(first, rest)| (internals::expr(first), rest));
+        let Some((ExprView::Str(name, _), rest)) = named else {
             return refuse(
                 pos,
                 format!("`{function}(..)` with an instance named by an expression"),
             );
         };
         let (inst, _) = self.instance(name, pos)?;
-        let site = |call: Call, bools: u8| CallSite { inst, call, bools };
-        let instr = match (function, rest) {
-            ("ton" | "tof" | "tp", [x, pt]) => {
+        let unfit = || refuse(pos, format!("`{function}(..)` with these arguments"));
+        let Some((def, form)) = block_function(function) else {
+            return unfit();
+        };
+        let arity = form.pins.len() - form.optional..=form.pins.len();
+        let pins: Vec<(usize, &Pin, Option<&Expr>)> = form
+            .pins
+            .iter()
+            .enumerate()
+            .filter_map(|(j, &i)| Some((i, def.pins.get(i)?, rest.get(j))))
+            .collect();
+        let pattern_literal = |(_, pin, arg): &(usize, &Pin, Option<&Expr>)| {
+            pin.ty != PinType::Pattern
+                || matches!(arg.map(internals::expr), Some(ExprView::Str(..)))
+        };
+        if !arity.contains(&rest.len()) || !pins.iter().all(pattern_literal) {
+            return unfit();
+        }
+        let instr = match (def.is_plain_timer(), rest) {
+            (true, [x, pt]) => {
                 self.condition(x, None)?;
                 match self.time(pt)? {
-                    Time::Fixed(preset) => match function {
-                        "ton" => Instr::Ton {
-                            timer: inst,
-                            preset,
-                        },
-                        "tof" => Instr::Tof {
-                            timer: inst,
-                            preset,
-                        },
-                        _ => Instr::Tp {
-                            timer: inst,
-                            preset,
-                        },
+                    Time::Fixed(preset) => Instr::Timer {
+                        timer: inst,
+                        preset,
                     },
                     Time::Tag(id) => {
-                        let pt = Num::Tag(id);
-                        let call = match function {
-                            "ton" => Call::Ton { pt },
-                            "tof" => Call::Tof { pt },
-                            _ => Call::Tp { pt },
-                        };
-                        self.site(site(call, 0))
+                        let mut call = Call::new(def.kind);
+                        call.pins[1] = PinArg::Num(Num::Tag(id));
+                        self.site(CallSite {
+                            inst,
+                            call,
+                            bools: 0,
+                        })
                     }
                 }
             }
-            ("stair", [x, pt, reset @ ..]) if reset.len() <= 1 => {
-                self.condition(x, None)?;
-                self.optional(reset)?;
-                let pt = self.time_num(pt)?;
-                self.site(site(Call::Stair { pt }, 1))
-            }
-            ("ctu" | "ctd", [x, y, pv]) => {
-                self.condition(x, None)?;
-                self.condition(y, None)?;
-                let pv = self.count(pv)?;
-                let call = if function == "ctu" {
-                    Call::Ctu { pv }
-                } else {
-                    Call::Ctd { pv }
-                };
-                self.site(site(call, 1))
-            }
-            ("ctud", [cu, cd, reset, load, pv]) => {
-                for x in [cu, cd, reset, load] {
-                    self.condition(x, None)?;
+            _ => {
+                // The bools first, in pin order (the VM pops them so), then the values.
+                let mut call = Call::new(def.kind);
+                let mut bools = 0;
+                for &(i, pin, arg) in &pins {
+                    if pin.ty == PinType::Bool {
+                        match arg {
+                            Some(x) => self.condition(x, None)?,
+                            None => self.code.push(Instr::Const(false)),
+                        }
+                        bools += u8::from(i > 0);
+                        call.pins[i] = PinArg::Stack;
+                    }
                 }
-                let pv = self.count(pv)?;
-                self.site(site(Call::Ctud { pv }, 3))
+                for &(i, pin, arg) in &pins {
+                    let Some(arg) = arg else { continue };
+                    call.pins[i] = match (pin.ty, internals::expr(arg)) {
+                        (PinType::Bool, _) => continue,
+                        (PinType::Time, _) => PinArg::Num(self.time_num(arg)?),
+                        (PinType::Count, _) => PinArg::Num(self.count(arg)?),
+                        (PinType::Pattern, ExprView::Str(bits, at)) => match Pattern::parse(bits) {
+                            Ok(pattern) => PinArg::Pattern(pattern),
+                            Err(_) => return refuse(at, format!("pattern \"{bits}\"")),
+                        },
+                        (PinType::Pattern, _) => return unfit(),
+                    };
+                }
+                self.site(CallSite { inst, call, bools })
             }
-            ("r_trig" | "f_trig", [x]) => {
-                self.condition(x, None)?;
-                let call = if function == "r_trig" {
-                    Call::RTrig
-                } else {
-                    Call::FTrig
-                };
-                self.site(site(call, 0))
-            }
-            ("sr" | "rs", [s, r]) => {
-                self.condition(s, None)?;
-                self.condition(r, None)?;
-                self.site(site(if function == "sr" { Call::Sr } else { Call::Rs }, 1))
-            }
-            ("toggle", [x, reset @ ..]) if reset.len() <= 1 => {
-                self.condition(x, None)?;
-                self.optional(reset)?;
-                self.site(site(Call::Toggle, 1))
-            }
-            ("blink", [en, on, off]) => {
-                self.condition(en, None)?;
-                let (on, off) = (self.time_num(on)?, self.time_num(off)?);
-                self.site(site(Call::Blink { on, off }, 0))
-            }
-            ("blink_pattern", [en, Expr::StringConstant(bits, at), step]) => {
-                self.condition(en, None)?;
-                let Ok(pattern) = Pattern::parse(bits) else {
-                    return refuse(*at, format!("pattern \"{bits}\""));
-                };
-                let step = self.time_num(step)?;
-                self.site(site(Call::BlinkPattern { pattern, step }, 0))
-            }
-            _ => return refuse(pos, format!("`{function}(..)` with these arguments")),
         };
         self.code.push(instr);
         if let Some(c) = self.called.get_mut(inst as usize) {
             *c = true;
         }
         Ok(())
-    }
-
-    /// An optional bool argument (`toggle`'s, `stair`'s reset): `false` when left out, as the
-    /// shorter Rhai function passes.
-    fn optional(&mut self, arg: &[Expr]) -> Res<()> {
-        match arg.first() {
-            Some(x) => self.condition(x, None),
-            None => {
-                self.code.push(Instr::Const(false));
-                Ok(())
-            }
-        }
     }
 
     fn site(&mut self, site: CallSite) -> Instr {
@@ -651,28 +622,27 @@ impl<'a> Lowerer<'a> {
     /// A time argument as the interpreter reads it (`blocks::time`): milliseconds, a
     /// duration string, or a numeric tag's value in milliseconds.
     fn time(&mut self, e: &Expr) -> Res<Time> {
-        match e {
-            Expr::IntegerConstant(i, _) => Ok(Time::Fixed(from_millis(*i as f64))),
-            Expr::FloatConstant(f, _) => Ok(Time::Fixed(from_millis(**f))),
-            Expr::StringConstant(s, pos) => match crate::project::parse_duration(s) {
+        match internals::expr(e) {
+            ExprView::Int(i, _) => Ok(Time::Fixed(from_millis(i as f64))),
+            ExprView::Float(f) => Ok(Time::Fixed(from_millis(f))),
+            ExprView::Str(s, pos) => match crate::project::parse_duration(s) {
                 Ok(d) => Ok(Time::Fixed(d)),
-                Err(_) => refuse(*pos, format!("duration \"{s}\"")),
+                Err(_) => refuse(pos, format!("duration \"{s}\"")),
             },
-            Expr::FnCall(call, _)
-                if call.is_operator_call()
+            ExprView::Call(call)
+                if call.operator
                     && call.name == "-"
+                    && call.args.len() == 1
                     && matches!(
-                        call.args.as_slice(),
-                        [Expr::IntegerConstant(..) | Expr::FloatConstant(..)]
+                        call.args.first().map(internals::expr),
+                        Some(ExprView::Int(..) | ExprView::Float(_))
                     ) =>
             {
                 Ok(Time::Fixed(Duration::ZERO))
             }
-            Expr::Variable(v, _, pos) => {
-                Ok(Time::Tag(self.numeric_tag(&v.1, *pos, "as a time")?))
-            }
+            ExprView::Var(name, pos) => Ok(Time::Tag(self.numeric_tag(name, pos, "as a time")?)),
             other => refuse(
-                other.start_position(),
+                internals::start_position(e),
                 format!("{} as a time", describe(other)),
             ),
         }
@@ -685,7 +655,7 @@ impl<'a> Lowerer<'a> {
             Time::Tag(id) => Ok(Num::Tag(id)),
             Time::Fixed(d) if from_millis(millis(d)) == d => Ok(Num::Const(millis(d))),
             Time::Fixed(_) => refuse(
-                e.start_position(),
+                internals::start_position(e),
                 "a time finer than the VM's milliseconds keep",
             ),
         }
@@ -693,19 +663,19 @@ impl<'a> Lowerer<'a> {
 
     /// A counter's preset: Rhai takes an integer only, saturated into `i32`.
     fn count(&mut self, e: &Expr) -> Res<Num> {
-        match e {
-            Expr::IntegerConstant(i, _) => Ok(Num::Const(f64::from(
-                (*i).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+        match internals::expr(e) {
+            ExprView::Int(i, _) => Ok(Num::Const(f64::from(
+                i.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
             ))),
-            Expr::Variable(v, _, pos) => {
-                let id = self.tag(&v.1, *pos)?;
-                match self.tags.get(v.1.as_str()).map(|t| t.ty) {
+            ExprView::Var(name, pos) => {
+                let id = self.tag(name, pos)?;
+                match self.tags.get(name).map(|t| t.ty) {
                     Some(ValueType::U16 | ValueType::I32) => Ok(Num::Tag(id)),
-                    _ => refuse(*pos, format!("`{}` as a count", v.1)),
+                    _ => refuse(pos, format!("`{name}` as a count")),
                 }
             }
             other => refuse(
-                other.start_position(),
+                internals::start_position(e),
                 format!("{} as a count", describe(other)),
             ),
         }
@@ -723,19 +693,20 @@ fn exact(i: i64, pos: Position) -> Res<f64> {
 }
 
 /// An expression the lowering does not take, in words.
-fn describe(e: &Expr) -> String {
+fn describe(e: ExprView<'_>) -> String {
     match e {
-        Expr::IntegerConstant(..) | Expr::FloatConstant(..) => "a number as a condition".into(),
-        Expr::StringConstant(..) | Expr::InterpolatedString(..) | Expr::CharConstant(..) => {
-            "a string".into()
+        ExprView::Int(..) | ExprView::Float(_) => "a number as a condition".into(),
+        ExprView::Str(..) | ExprView::Interpolated | ExprView::Char => "a string".into(),
+        ExprView::Array => "an array".into(),
+        ExprView::Map => "a map".into(),
+        ExprView::Unit => "`()`".into(),
+        ExprView::Block => "a block expression".into(),
+        ExprView::Index => "indexing".into(),
+        ExprView::Property | ExprView::Method(_) => "a method call".into(),
+        ExprView::Call(call) => format!("`{}`", call.name),
+        ExprView::Bool(_) | ExprView::Var(..) | ExprView::And(_) | ExprView::Or(_) => {
+            "an expression other than a condition".into()
         }
-        Expr::Array(..) => "an array".into(),
-        Expr::Map(..) => "a map".into(),
-        Expr::Unit(..) => "`()`".into(),
-        Expr::Stmt(..) => "a block expression".into(),
-        Expr::Index(..) => "indexing".into(),
-        Expr::Dot(..) | Expr::MethodCall(..) | Expr::Property(..) => "a method call".into(),
-        Expr::FnCall(call, _) => format!("`{}`", call.name),
-        _ => "an expression other than a condition".into(),
+        ExprView::Other => "an expression other than a condition".into(),
     }
 }

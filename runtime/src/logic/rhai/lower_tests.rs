@@ -345,7 +345,7 @@ fn the_vm_path_lowers_to_the_expr_shape() {
             Instr::Load(id("x1")),
             Instr::Not,
             Instr::And,
-            Instr::Ton {
+            Instr::Timer {
                 timer: 0,
                 preset: Duration::from_millis(100)
             },

@@ -112,13 +112,14 @@ mod check;
 mod check_tests;
 mod engine;
 mod error;
+mod internals;
 mod lower;
 #[cfg(test)]
 mod lower_tests;
 mod on_vm;
 mod quality;
 mod rungs;
-mod signatures;
+pub(crate) mod signatures;
 mod slots;
 #[cfg(test)]
 mod slots_tests;
@@ -203,7 +204,7 @@ pub struct RhaiProgram {
     /// The script's outputs as rungs for the push-down planner.
     described: rungs::Described,
     /// The user's top-level statements as compiled; `ast` holds those not released.
-    statements: Vec<rhai::Stmt>,
+    statements: Vec<internals::Stmt>,
     /// Indexes into `statements` of the rungs a module runs.
     released: std::collections::BTreeSet<usize>,
     /// The script on the logic VM when every statement is plain, or why it is interpreted
@@ -284,9 +285,9 @@ pub fn compile_with(
     ));
     {
         let inputs = inputs.clone();
-        // `on_var` is marked volatile by Rhai, not deprecated.
-        #[allow(deprecated)]
-        engine.on_var(move |name, offset, ctx| Ok(inputs.resolve(name, offset, ctx.scope().len())));
+        internals::on_var(&mut engine, move |name, offset, scope_len| {
+            Ok(inputs.resolve(name, offset, scope_len))
+        });
     }
     let mut declarations = String::with_capacity(usable.len() * 16);
     for t in &usable {
@@ -356,10 +357,10 @@ pub fn compile_with(
             }
         }
     };
-    let statements = full.statements();
+    let statements = internals::statements(&full);
     let declared = usable.len() + undeclared.len();
     let user = statements.get(declared..).unwrap_or(&[]).to_vec();
-    let ast = AST::new(user, full.shared_lib().clone());
+    let ast = internals::with_statements(&full, user);
 
     let usage = check::walk(&ast, &mut errors);
     for (pos, name) in &usage.captured {
@@ -422,7 +423,7 @@ pub fn compile_with(
         on_vm,
         needs_tags,
         engine,
-        statements: ast.statements().to_vec(),
+        statements: internals::statements(&ast).to_vec(),
         ast,
         described,
         released: std::collections::BTreeSet::new(),
@@ -666,14 +667,14 @@ impl LogicEngine for RhaiProgram {
         if let Ok(vm) = &mut self.on_vm {
             vm.release(coil);
         }
-        let kept: Vec<rhai::Stmt> = self
+        let kept: Vec<internals::Stmt> = self
             .statements
             .iter()
             .enumerate()
             .filter(|(i, _)| !self.released.contains(i))
             .map(|(_, s)| s.clone())
             .collect();
-        self.ast = AST::new(kept, self.ast.shared_lib().clone());
+        self.ast = internals::with_statements(&self.ast, kept);
         self.resync = true;
     }
 

@@ -12,10 +12,11 @@
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
 
-use rhai::{ASTNode, Dynamic, Engine, EvalAltResult, Expr, NativeCallContext, Position, AST};
+use rhai::{Dynamic, Engine, EvalAltResult, NativeCallContext, Position};
 use softplc_io::point::Quality;
 
 use super::error::CompileErrorKind;
+use super::internals::{self, ExprView, Node, AST};
 use crate::image::{ProcessImage, TagId};
 use crate::logic::expr::TagTable;
 
@@ -88,49 +89,61 @@ pub(crate) fn resolve(
 ) -> Sites {
     // Calls inside functions, found by walking the functions alone.
     let mut in_functions = Vec::new();
-    ast.clone_functions_only().walk(&mut |path: &[ASTNode]| {
-        if let Some(ASTNode::Expr(Expr::FnCall(call, pos))) = path.last() {
-            if let Some(function) = quality_function(&call.name) {
-                in_functions.push((key(*pos), function));
+    internals::walk(&ast.clone_functions_only(), |node| {
+        if let Node::Expr(e) = node {
+            if let ExprView::Call(call) = internals::expr(e) {
+                if let Some(function) = quality_function(call.name) {
+                    in_functions.push((key(call.pos), function));
+                }
             }
         }
         true
     });
     let mut sites = Vec::new();
-    ast.walk(&mut |path: &[ASTNode]| {
-        match path.last() {
-            Some(ASTNode::Expr(Expr::FnCall(call, pos))) => {
-                let Some(function) = quality_function(&call.name) else {
+    internals::walk(ast, |node| {
+        let Node::Expr(e) = node else {
+            return true;
+        };
+        match internals::expr(e) {
+            ExprView::Call(call) => {
+                let pos = &call.pos;
+                let Some(function) = quality_function(call.name) else {
                     return true;
                 };
                 if in_functions.iter().any(|(k, _)| *k == key(*pos)) {
                     errors.push((*pos, CompileErrorKind::QualityInFunction { function }));
                     return true;
                 }
-                match call.args.as_slice() {
-                    [Expr::Variable(v, _, _)] => match tags.get(v.1.as_str()) {
+                let arg = match call.args {
+                    [arg] => arg,
+                    _ => {
+                        errors.push((*pos, CompileErrorKind::QualityArgument { function }));
+                        return true;
+                    }
+                };
+                match internals::expr(arg) {
+                    ExprView::Var(name, _) => match tags.get(name) {
                         Some(entry) => sites.push(Site {
                             at: key(*pos),
                             tag: entry.id,
                         }),
                         None => errors.push((
-                            call.args[0].position(),
+                            internals::position(arg),
                             CompileErrorKind::QualityOfNonTag {
                                 function,
-                                name: v.1.to_string(),
+                                name: name.to_string(),
                             },
                         )),
                     },
-                    [arg] => errors.push((
-                        arg.position(),
+                    _ => errors.push((
+                        internals::position(arg),
                         CompileErrorKind::QualityArgument { function },
                     )),
-                    _ => errors.push((*pos, CompileErrorKind::QualityArgument { function })),
                 }
             }
-            Some(ASTNode::Expr(Expr::MethodCall(call, pos))) => {
-                if let Some(function) = quality_function(&call.name) {
-                    errors.push((*pos, CompileErrorKind::QualityArgument { function }));
+            ExprView::Method(call) => {
+                if let Some(function) = quality_function(call.name) {
+                    errors.push((call.pos, CompileErrorKind::QualityArgument { function }));
                 }
             }
             _ => {}

@@ -21,10 +21,11 @@
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
-use rhai::{ASTNode, Expr, Position, Stmt, AST};
+use rhai::Position;
 use softplc_io::point::ValueType;
 
 use super::error::user_pos;
+use super::internals::{self, Expr, ExprView, Node, StmtView, AST};
 use crate::image::TagId;
 use crate::logic::expr::TagTable;
 use crate::logic::Rung;
@@ -52,18 +53,18 @@ pub(crate) fn describe(
 ) -> Described {
     let mut assignments: HashMap<String, usize> = HashMap::new();
     let mut declared: HashSet<String> = HashSet::new();
-    ast.walk(&mut |path: &[ASTNode]| {
-        match path.last() {
-            Some(ASTNode::Stmt(Stmt::Assignment(a))) => {
-                if let Expr::Variable(v, _, _) = &a.1.lhs {
-                    *assignments.entry(v.1.to_string()).or_default() += 1;
+    internals::walk(ast, |node| {
+        let Node::Stmt(s) = node else {
+            return true;
+        };
+        match internals::stmt(s) {
+            StmtView::Assign(a) => {
+                if let ExprView::Var(name, _) = internals::expr(a.lhs) {
+                    *assignments.entry(name.to_string()).or_default() += 1;
                 }
             }
-            Some(ASTNode::Stmt(Stmt::Var(v, _, _))) => {
-                declared.insert(v.0.name.to_string());
-            }
-            Some(ASTNode::Stmt(Stmt::For(f, _))) => {
-                declared.insert(f.0.name.to_string());
+            StmtView::Let(name) | StmtView::For(name, _) => {
+                declared.insert(name.to_string());
             }
             _ => {}
         }
@@ -76,24 +77,23 @@ pub(crate) fn describe(
     };
     let mut out = Described::default();
     let mut shapes: HashMap<TagId, (RungShape, usize)> = HashMap::new();
-    for (i, stmt) in ast.statements().iter().enumerate() {
-        let Stmt::Assignment(a) = stmt else {
+    for (i, stmt) in internals::statements(ast).iter().enumerate() {
+        let StmtView::Assign(a) = internals::stmt(stmt) else {
             continue;
         };
-        let Expr::Variable(v, _, _) = &a.1.lhs else {
+        let ExprView::Var(name, _) = internals::expr(a.lhs) else {
             continue;
         };
-        let name = v.1.as_str();
         let Some(coil) = tags
             .get(name)
             .filter(|t| t.writable && t.ty == ValueType::Bool)
         else {
             continue;
         };
-        if a.0.is_op_assignment() || assignments.get(name) != Some(&1) || declared.contains(name) {
+        if a.operator.is_some() || assignments.get(name) != Some(&1) || declared.contains(name) {
             continue;
         }
-        if let Some(ir) = plain.condition(&a.1.rhs, coil.id) {
+        if let Some(ir) = plain.condition(a.rhs, coil.id) {
             let shape = if ir.reads(coil.id) {
                 RungShape::self_latch(coil.id, &ir)
             } else {
@@ -136,10 +136,9 @@ impl Plain<'_> {
         let all = |items: &[Expr]| -> Option<Vec<BoolExpr>> {
             items.iter().map(|e| self.condition(e, coil)).collect()
         };
-        Some(match expr {
-            Expr::BoolConstant(b, _) => BoolExpr::Const(*b),
-            Expr::Variable(v, _, _) => {
-                let name = v.1.as_str();
+        Some(match internals::expr(expr) {
+            ExprView::Bool(b) => BoolExpr::Const(b),
+            ExprView::Var(name, _) => {
                 let tag = self.tags.get(name)?;
                 let unwritten = !self.assignments.contains_key(name);
                 if tag.ty != ValueType::Bool
@@ -150,17 +149,15 @@ impl Plain<'_> {
                 }
                 BoolExpr::Tag(tag.id)
             }
-            Expr::And(items, _) => BoolExpr::And(all(items)?),
-            Expr::Or(items, _) => BoolExpr::Or(all(items)?),
-            Expr::FnCall(call, _) if call.is_operator_call() => {
-                match (call.name.as_str(), call.args.as_slice()) {
-                    ("!", [inner]) => BoolExpr::negate(self.condition(inner, coil)?),
-                    ("^", [a, b]) => {
-                        BoolExpr::Xor(vec![self.condition(a, coil)?, self.condition(b, coil)?])
-                    }
-                    _ => return None,
+            ExprView::And(items) => BoolExpr::And(all(items)?),
+            ExprView::Or(items) => BoolExpr::Or(all(items)?),
+            ExprView::Call(call) if call.operator => match (call.name, call.args) {
+                ("!", [inner]) => BoolExpr::negate(self.condition(inner, coil)?),
+                ("^", [a, b]) => {
+                    BoolExpr::Xor(vec![self.condition(a, coil)?, self.condition(b, coil)?])
                 }
-            }
+                _ => return None,
+            },
             _ => return None,
         })
     }

@@ -3,6 +3,10 @@
 //! `quality::register` are the implementations; a test asserts that every signature here is
 //! registered and that nothing is registered that is not here.
 
+use std::sync::LazyLock;
+
+use crate::logic::blocks::{Kind, PinType};
+
 /// What an argument must be.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Param {
@@ -36,7 +40,7 @@ pub(crate) enum Returns {
 pub(crate) struct Signature {
     pub name: &'static str,
     /// Parameter names (as the docs and messages call them) and kinds.
-    pub params: &'static [(&'static str, Param)],
+    pub params: Vec<(&'static str, Param)>,
     pub returns: Returns,
 }
 
@@ -50,74 +54,78 @@ impl Signature {
 
 use Param::*;
 
-const fn sig(
-    name: &'static str,
-    params: &'static [(&'static str, Param)],
-    returns: Returns,
-) -> Signature {
+fn sig(name: &'static str, params: &[(&'static str, Param)], returns: Returns) -> Signature {
     Signature {
         name,
-        params,
+        params: params.to_vec(),
         returns,
     }
 }
 
-const TIMER: &[(&str, Param)] = &[("name", Name), ("in", Bool), ("pt", Time)];
-const STAIR_RESET: &[(&str, Param)] =
-    &[("name", Name), ("in", Bool), ("pt", Time), ("reset", Bool)];
-/// SR: set dominant (`s1`); RS: reset dominant (`r1`), as IEC 61131-3 names them.
-const SET_LATCH: &[(&str, Param)] = &[("name", Name), ("s1", Bool), ("r", Bool)];
-const RESET_LATCH: &[(&str, Param)] = &[("name", Name), ("s", Bool), ("r1", Bool)];
-const UP: &[(&str, Param)] = &[("name", Name), ("cu", Bool), ("reset", Bool), ("pv", Int)];
-const DOWN: &[(&str, Param)] = &[("name", Name), ("cd", Bool), ("load", Bool), ("pv", Int)];
-const UP_DOWN: &[(&str, Param)] = &[
-    ("name", Name),
-    ("cu", Bool),
-    ("cd", Bool),
-    ("reset", Bool),
-    ("load", Bool),
-    ("pv", Int),
-];
-const EDGE: &[(&str, Param)] = &[("name", Name), ("x", Bool)];
-const TOGGLE_RESET: &[(&str, Param)] = &[("name", Name), ("x", Bool), ("reset", Bool)];
-const BLINK: &[(&str, Param)] = &[("name", Name), ("en", Bool), ("on", Time), ("off", Time)];
-const PATTERN: &[(&str, Param)] = &[
-    ("name", Name),
-    ("en", Bool),
-    ("pattern", Pattern),
-    ("step", Time),
-];
+/// The block functions, from the block registry: each form of each block, each shorter
+/// overload where its last pins are optional, in documentation order. Each returns its
+/// block's main output, a bool.
+fn block_signatures() -> impl Iterator<Item = Signature> {
+    Kind::ALL.into_iter().flat_map(|kind| {
+        let def = kind.def();
+        def.forms.iter().flat_map(move |form| {
+            form.overloads().map(move |pins| {
+                let mut params = vec![("name", Name)];
+                params.extend(pins.iter().filter_map(|&i| def.pins.get(i)).map(|p| {
+                    let param = match p.ty {
+                        PinType::Bool => Bool,
+                        PinType::Time => Time,
+                        PinType::Count => Int,
+                        PinType::Pattern => Pattern,
+                    };
+                    (p.rhai, param)
+                }));
+                Signature {
+                    name: form.rhai,
+                    params,
+                    returns: Returns::Bool,
+                }
+            })
+        })
+    })
+}
+
 const READER: &[(&str, Param)] = &[("name", Name)];
 const QUALITY: &[(&str, Param)] = &[("tag", Tag)];
 const LIMIT: &[(&str, Param)] = &[("min", Number), ("x", Number), ("max", Number)];
 
 /// Every library function, each overload once (as the `rhai` module docs list them).
-pub(crate) const LIBRARY: &[Signature] = &[
-    sig("ton", TIMER, Returns::Bool),
-    sig("tof", TIMER, Returns::Bool),
-    sig("tp", TIMER, Returns::Bool),
-    sig("stair", TIMER, Returns::Bool),
-    sig("stair", STAIR_RESET, Returns::Bool),
-    sig("ctu", UP, Returns::Bool),
-    sig("ctd", DOWN, Returns::Bool),
-    sig("ctud", UP_DOWN, Returns::Bool),
-    sig("r_trig", EDGE, Returns::Bool),
-    sig("f_trig", EDGE, Returns::Bool),
-    sig("sr", SET_LATCH, Returns::Bool),
-    sig("rs", RESET_LATCH, Returns::Bool),
-    sig("toggle", EDGE, Returns::Bool),
-    sig("toggle", TOGGLE_RESET, Returns::Bool),
-    sig("blink", BLINK, Returns::Bool),
-    sig("blink_pattern", PATTERN, Returns::Bool),
-    sig("q", READER, Returns::Bool),
-    sig("qu", READER, Returns::Bool),
-    sig("qd", READER, Returns::Bool),
-    sig("et", READER, Returns::Int),
-    sig("cv", READER, Returns::Int),
-    sig("good", QUALITY, Returns::Bool),
-    sig("bad", QUALITY, Returns::Bool),
-    sig("limit", LIMIT, Returns::SameNumber),
-];
+pub(crate) static LIBRARY: LazyLock<Vec<Signature>> = LazyLock::new(|| {
+    block_signatures()
+        .chain([
+            sig("q", READER, Returns::Bool),
+            sig("qu", READER, Returns::Bool),
+            sig("qd", READER, Returns::Bool),
+            sig("et", READER, Returns::Int),
+            sig("cv", READER, Returns::Int),
+            sig("good", QUALITY, Returns::Bool),
+            sig("bad", QUALITY, Returns::Bool),
+            sig("limit", LIMIT, Returns::SameNumber),
+        ])
+        .collect()
+});
+
+/// The library's function names, each once: the blocks', the output readers, quality's,
+/// `limit` (for messages).
+pub(crate) fn names() -> String {
+    let mut names: Vec<&str> = Vec::new();
+    let blocks = block_signatures().map(|s| s.name);
+    let others = super::blocks::READERS
+        .into_iter()
+        .chain(super::quality::FUNCTIONS)
+        .chain(["limit"]);
+    for name in blocks.chain(others) {
+        if !names.contains(&name) {
+            names.push(name);
+        }
+    }
+    names.join(", ")
+}
 
 /// The overloads of `name`.
 pub(crate) fn overloads(name: &str) -> impl Iterator<Item = &'static Signature> + '_ {

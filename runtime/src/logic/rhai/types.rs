@@ -3,7 +3,7 @@
 //! `let` variable, a script function's result, an `if` expression) is [`Ty::Unknown`] and is
 //! checked when the script runs instead (see `RhaiProgram::copy_out`).
 
-use rhai::Expr;
+use super::internals::{self, Expr, ExprView};
 use softplc_io::point::ValueType;
 
 use super::signatures::{self, Returns};
@@ -75,24 +75,24 @@ pub(crate) fn is_comparison(op: &str) -> bool {
 
 /// The type of `expr`; `var` gives a variable's type (a tag's, or `None`).
 pub(crate) fn infer(expr: &Expr, var: &dyn Fn(&str) -> Option<Ty>) -> Ty {
-    match expr {
-        Expr::BoolConstant(..) => Ty::Bool,
-        Expr::IntegerConstant(..) => Ty::Int,
-        Expr::FloatConstant(..) => Ty::Float,
-        Expr::StringConstant(..) | Expr::InterpolatedString(..) => Ty::Str,
-        Expr::Array(..) => Ty::Other("an array"),
-        Expr::Map(..) => Ty::Other("an object map"),
-        Expr::CharConstant(..) => Ty::Other("a character"),
-        Expr::Unit(..) => Ty::Other("() (nothing)"),
-        Expr::Variable(v, _, _) => var(v.1.as_str()).unwrap_or(Ty::Unknown),
-        Expr::And(..) | Expr::Or(..) => Ty::Bool,
-        Expr::FnCall(call, _) if call.is_operator_call() => {
+    match internals::expr(expr) {
+        ExprView::Bool(_) => Ty::Bool,
+        ExprView::Int(..) => Ty::Int,
+        ExprView::Float(_) => Ty::Float,
+        ExprView::Str(..) | ExprView::Interpolated => Ty::Str,
+        ExprView::Array => Ty::Other("an array"),
+        ExprView::Map => Ty::Other("an object map"),
+        ExprView::Char => Ty::Other("a character"),
+        ExprView::Unit => Ty::Other("() (nothing)"),
+        ExprView::Var(name, _) => var(name).unwrap_or(Ty::Unknown),
+        ExprView::And(_) | ExprView::Or(_) => Ty::Bool,
+        ExprView::Call(call) if call.operator => {
             let args: Vec<Ty> = call.args.iter().map(|a| infer(a, var)).collect();
-            operator(call.name.as_str(), &args)
+            operator(call.name, &args)
         }
-        Expr::FnCall(call, _) => {
+        ExprView::Call(call) => {
             let args: Vec<Ty> = call.args.iter().map(|a| infer(a, var)).collect();
-            match signatures::returns(call.name.as_str(), args.len()) {
+            match signatures::returns(call.name, args.len()) {
                 Some(Returns::Bool) => Ty::Bool,
                 Some(Returns::Int) => Ty::Int,
                 Some(Returns::SameNumber) => number(&args),

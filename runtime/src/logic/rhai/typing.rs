@@ -11,18 +11,19 @@
 //! - an assignment to a tag of a value whose type the tag cannot hold, an operator given
 //!   operands it cannot take, a condition that is not a bool.
 //!
-//! The walk is Rhai's own [`AST::walk`] (a visitor over every node, in the `internals` API),
-//! not a match over every statement and expression kind here: the visitor follows the
+//! The walk is Rhai's own (a visitor over every node, in the `internals` API, behind
+//! [`internals::walk`]), not a match over every statement and expression kind here: the visitor follows the
 //! language as Rhai maintains it, and each check looks only at the nodes it knows. Types are
 //! those [`types::infer`] can see; a value of an unknown type is checked when the script
 //! assigns it (`RhaiProgram::copy_out`).
 
 use std::collections::HashSet;
 
-use rhai::{ASTNode, Engine, Expr, FnCallExpr, Position, Stmt, AST};
+use rhai::{Engine, Position};
 use softplc_io::point::ValueType;
 
 use super::error::CompileErrorKind;
+use super::internals::{self, Assignment, Call, Expr, ExprView, Node, StmtView, AST};
 use super::signatures::{self, Param, Signature};
 use super::types::{self, Ty};
 use crate::logic::blocks::Pattern;
@@ -56,14 +57,8 @@ impl Known {
     /// What `engine` (its packages; the library is held against [`signatures`]) and `ast`
     /// define.
     pub(crate) fn of(engine: &Engine, ast: &AST) -> Known {
-        let mut forms: HashSet<(String, usize)> = engine
-            .collect_fn_metadata(
-                None,
-                |f| Some((f.metadata.name.to_string(), f.metadata.num_params)),
-                true,
-            )
-            .into_iter()
-            .collect();
+        let mut forms: HashSet<(String, usize)> =
+            internals::function_forms(engine).into_iter().collect();
         forms.extend(
             ast.iter_functions()
                 .map(|f| (f.name.to_string(), f.params.len())),
@@ -100,18 +95,21 @@ pub(crate) fn check(ast: &AST, tags: &TagTable, known: &Known, errors: &mut Erro
     // Names the script declares itself (`let`, `const`, loop variables) shadow tags of the
     // same name; their types are not known.
     let mut declared: HashSet<String> = HashSet::new();
-    ast.walk(&mut |path: &[ASTNode]| {
-        match path.last() {
-            Some(ASTNode::Stmt(Stmt::Var(v, _, _))) => {
-                declared.insert(v.0.name.to_string());
-            }
-            Some(ASTNode::Stmt(Stmt::For(f, _))) => {
-                declared.insert(f.0.name.to_string());
-                if let Some(counter) = &f.1 {
-                    declared.insert(counter.name.to_string());
+    internals::walk(ast, |node| {
+        match node {
+            Node::Stmt(s) => match internals::stmt(s) {
+                StmtView::Let(name) => {
+                    declared.insert(name.to_string());
                 }
-            }
-            _ => {}
+                StmtView::For(name, counter) => {
+                    declared.insert(name.to_string());
+                    if let Some(counter) = counter {
+                        declared.insert(counter.to_string());
+                    }
+                }
+                _ => {}
+            },
+            Node::Expr(_) => {}
         }
         true
     });
@@ -140,23 +138,26 @@ struct Checker<'a> {
 
 impl Checker<'_> {
     fn walk(&mut self, ast: &AST, var: &dyn Fn(&str) -> Option<Ty>, sees_tags: bool) {
-        ast.walk(&mut |path: &[ASTNode]| {
-            match path.last() {
-                Some(ASTNode::Expr(Expr::FnCall(call, pos)))
-                | Some(ASTNode::Stmt(Stmt::FnCall(call, pos))) => self.call(call, *pos, var),
-                Some(ASTNode::Expr(Expr::MethodCall(call, pos))) => self.method(call, *pos),
-                Some(ASTNode::Expr(Expr::And(items, _) | Expr::Or(items, _))) => {
-                    for item in items.iter() {
-                        self.condition(item, var);
+        internals::walk(ast, |node| {
+            match node {
+                Node::Expr(e) => match internals::expr(e) {
+                    ExprView::Call(call) => self.call(call, var),
+                    ExprView::Method(call) => self.method(call),
+                    ExprView::And(items) | ExprView::Or(items) => {
+                        for item in items {
+                            self.condition(item, var);
+                        }
                     }
-                }
-                Some(ASTNode::Stmt(
-                    Stmt::If(flow, _) | Stmt::While(flow, _) | Stmt::Do(flow, _, _),
-                )) => self.condition(&flow.expr, var),
-                Some(ASTNode::Stmt(Stmt::Assignment(a))) if sees_tags => {
-                    self.assignment(&a.0, &a.1.lhs, &a.1.rhs, var);
-                }
-                _ => {}
+                    _ => {}
+                },
+                Node::Stmt(s) => match internals::stmt(s) {
+                    StmtView::Call(call) => self.call(call, var),
+                    StmtView::If(cond) | StmtView::While(cond) | StmtView::Do(cond) => {
+                        self.condition(cond, var)
+                    }
+                    StmtView::Assign(a) if sees_tags => self.assignment(a, var),
+                    _ => {}
+                },
             }
             true
         });
@@ -168,7 +169,7 @@ impl Checker<'_> {
 
     fn condition(&mut self, expr: &Expr, var: &dyn Fn(&str) -> Option<Ty>) {
         // `loop { … }` is a `while` whose guard is `()`.
-        if matches!(expr, Expr::Unit(..)) {
+        if matches!(internals::expr(expr), ExprView::Unit) {
             return;
         }
         let ty = types::infer(expr, var);
@@ -180,29 +181,23 @@ impl Checker<'_> {
         }
     }
 
-    fn assignment(
-        &mut self,
-        op: &rhai::OpAssignment,
-        lhs: &Expr,
-        rhs: &Expr,
-        var: &dyn Fn(&str) -> Option<Ty>,
-    ) {
-        let Expr::Variable(v, _, _) = lhs else {
+    fn assignment(&mut self, a: Assignment<'_>, var: &dyn Fn(&str) -> Option<Ty>) {
+        let (lhs, rhs) = (a.lhs, a.rhs);
+        let ExprView::Var(name, _) = internals::expr(lhs) else {
             return;
         };
-        let name = v.1.as_str();
         let (Some(tag), Some(tag_ty)) = (self.tags.get(name), var(name)) else {
             return;
         };
         let value = types::infer(rhs, var);
-        let (value, pos) = match op.get_op_assignment_info() {
-            Some((_, _, _, _, _, syntax)) => {
+        let (value, pos) = match a.operator {
+            Some(syntax) => {
                 let operands = [tag_ty, value];
                 if types::operands_clash(syntax, &operands) {
-                    self.operands(syntax, &operands, op.position());
+                    self.operands(syntax, &operands, a.pos);
                     return;
                 }
-                (types::operator(syntax, &operands), op.position())
+                (types::operator(syntax, &operands), a.pos)
             }
             None => {
                 self.literal_against(rhs, lhs, var);
@@ -224,10 +219,9 @@ impl Checker<'_> {
     /// `lit`, when it is a number literal, met with `tag` (assigned to it or compared with
     /// it): one the tag's type can hold.
     fn literal_against(&mut self, lit: &Expr, tag: &Expr, var: &dyn Fn(&str) -> Option<Ty>) {
-        let Expr::Variable(v, _, _) = tag else {
+        let ExprView::Var(name, _) = internals::expr(tag) else {
             return;
         };
-        let name = v.1.as_str();
         let (Some(entry), Some(_)) = (self.tags.get(name), var(name)) else {
             return;
         };
@@ -257,13 +251,13 @@ impl Checker<'_> {
         );
     }
 
-    fn call(&mut self, call: &FnCallExpr, pos: Position, var: &dyn Fn(&str) -> Option<Ty>) {
-        let name = call.name.as_str();
+    fn call(&mut self, call: Call<'_>, var: &dyn Fn(&str) -> Option<Ty>) {
+        let (name, pos) = (call.name, call.pos);
         let args: Vec<Ty> = call.args.iter().map(|a| types::infer(a, var)).collect();
-        if call.is_operator_call() {
+        if call.operator {
             if types::operands_clash(name, &args) {
                 self.operands(name, &args, pos);
-            } else if let [a, b] = call.args.as_slice() {
+            } else if let [a, b] = call.args {
                 if types::is_comparison(name) {
                     self.literal_against(a, b, var);
                     self.literal_against(b, a, var);
@@ -277,7 +271,7 @@ impl Checker<'_> {
         }
         let library: Vec<&'static Signature> = signatures::overloads(name).collect();
         if let Some(sig) = library.iter().find(|s| s.params.len() == args.len()) {
-            self.arguments(sig, &call.args, &args);
+            self.arguments(sig, call.args, &args);
             return;
         }
         if self.known.forms.contains(&(name.to_string(), args.len())) {
@@ -288,8 +282,8 @@ impl Checker<'_> {
 
     /// `x.f(a)`: `f` with `x` as its first argument. Only the name and the arity are checked
     /// (the receiver's type is rarely known).
-    fn method(&mut self, call: &FnCallExpr, pos: Position) {
-        let name = call.name.as_str();
+    fn method(&mut self, call: Call<'_>) {
+        let (name, pos) = (call.name, call.pos);
         let arity = call.args.len() + 1;
         if KEYWORDS.contains(&name) {
             return;
@@ -374,8 +368,8 @@ impl Checker<'_> {
                 Param::Int if !matches!(ty, Ty::Int | Ty::Unknown) => {
                     self.fail(pos, wrong("an integer"));
                 }
-                Param::Time => match expr {
-                    Expr::StringConstant(text, _) => {
+                Param::Time => match internals::expr(expr) {
+                    ExprView::Str(text, _) => {
                         if let Err(reason) = crate::project::parse_duration(text) {
                             self.fail(
                                 pos,
@@ -393,8 +387,8 @@ impl Checker<'_> {
                     }
                     _ => {}
                 },
-                Param::Pattern => match expr {
-                    Expr::StringConstant(text, _) => {
+                Param::Pattern => match internals::expr(expr) {
+                    ExprView::Str(text, _) => {
                         if let Err(reason) = Pattern::parse(text) {
                             let text = text.to_string();
                             self.fail(pos, CompileErrorKind::BadPattern { text, reason });
@@ -438,25 +432,24 @@ impl Checker<'_> {
 
 /// Where an expression begins: Rhai places a binary operator's call at the operator.
 fn start(expr: &Expr) -> Position {
-    match expr {
-        Expr::FnCall(call, _) if call.is_operator_call() && call.args.len() == 2 => {
-            call.args.first().map_or(expr.start_position(), start)
-        }
-        _ => expr.start_position(),
+    match internals::expr(expr) {
+        ExprView::Call(call) if call.operator && call.args.len() == 2 => call
+            .args
+            .first()
+            .map_or(internals::start_position(expr), start),
+        _ => internals::start_position(expr),
     }
 }
 
 /// A number literal's value and text (`-5` too, however Rhai folds it).
 fn number_literal(expr: &Expr) -> Option<(f64, String)> {
-    match expr {
-        Expr::IntegerConstant(i, _) => Some((*i as f64, i.to_string())),
-        Expr::FloatConstant(f, _) => Some((**f, f.to_string())),
-        Expr::FnCall(call, _) if call.is_operator_call() && call.name == "-" => {
-            match call.args.as_slice() {
-                [inner] => number_literal(inner).map(|(v, t)| (-v, format!("-{t}"))),
-                _ => None,
-            }
-        }
+    match internals::expr(expr) {
+        ExprView::Int(i, _) => Some((i as f64, i.to_string())),
+        ExprView::Float(f) => Some((f, internals::float_text(f))),
+        ExprView::Call(call) if call.operator && call.name == "-" => match call.args {
+            [inner] => number_literal(inner).map(|(v, t)| (-v, format!("-{t}"))),
+            _ => None,
+        },
         _ => None,
     }
 }

@@ -6,9 +6,9 @@ use std::time::Duration;
 
 use softplc_io::point::{Quality, Value, ValueType};
 
-use super::instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num};
+use super::instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
 use crate::image::{ProcessImage, TagId};
-use crate::logic::blocks::{from_millis, Edge, Instance};
+use crate::logic::blocks::{from_millis, Edge, Instance, Pattern, Pins, TimerPins, MAX_PINS};
 use crate::logic::expr::TagTable;
 use crate::logic::{LogicFault, ScanContext, SourcePos};
 
@@ -186,17 +186,17 @@ impl Program {
                     let q = edges.get_mut(slot as usize).is_some_and(|e| e.falling(x));
                     stack.push(q);
                 }
-                Instr::Ton { timer, preset }
-                | Instr::Tof { timer, preset }
-                | Instr::Tp { timer, preset } => {
+                Instr::Timer { timer, preset } => {
                     let x = pop(stack);
-                    // The lowering gives each timer instruction an instance of its kind.
-                    let q = match instances.get_mut(timer as usize) {
-                        Some(Instance::Ton(t)) => t.call(x, preset, now),
-                        Some(Instance::Tof(t)) => t.call(x, preset, now),
-                        Some(Instance::Tp(t)) => t.call(x, preset, now),
-                        _ => false,
-                    };
+                    let q = instances.get_mut(timer as usize).is_some_and(|t| {
+                        t.call(
+                            &TimerPins {
+                                input: x,
+                                pt: preset,
+                            },
+                            now,
+                        )
+                    });
                     stack.push(q);
                 }
                 Instr::Store(id) => {
@@ -223,20 +223,18 @@ impl Program {
                     let Some(site) = calls.get(site as usize) else {
                         continue;
                     };
-                    let mut args = [false; 3];
-                    for k in (0..usize::from(site.bools)).rev() {
-                        let v = pop(stack);
-                        if let Some(a) = args.get_mut(k) {
-                            *a = v;
+                    // The bools are on the stack in pin order, the power flow first.
+                    let mut bools = [false; MAX_PINS];
+                    for (slot, given) in bools.iter_mut().zip(&site.call.pins).rev() {
+                        if *given == PinArg::Stack {
+                            *slot = pop(stack);
                         }
                     }
-                    let en = pop(stack);
                     // Read the numeric arguments first: they may be other instances' outputs.
-                    let nums = call_nums(&site.call).map(|n| num(image, instances, n));
-                    let q = match instances.get_mut(site.inst as usize) {
-                        Some(inst) => call(inst, &site.call, en, args, nums, now),
-                        None => false,
-                    };
+                    let pins = CallPins::read(&site.call, bools, image, instances);
+                    let q = instances
+                        .get_mut(site.inst as usize)
+                        .is_some_and(|inst| inst.call(&pins, now));
                     stack.push(q);
                 }
                 Instr::Box(site) => {
@@ -293,55 +291,53 @@ fn is_released(released: &[bool], id: TagId) -> bool {
     released.get(id.index()).copied().unwrap_or(false)
 }
 
-/// The numeric arguments of a call, in the order [`call`] reads them (unused ones are zero).
-/// Next to the loop, so the compiler inlines it there.
-fn call_nums(call: &Call) -> [Num; 2] {
-    let zero = Num::Const(0.0);
-    match call {
-        Call::Ton { pt } | Call::Tof { pt } | Call::Tp { pt } | Call::Stair { pt } => [*pt, zero],
-        Call::Ctu { pv } | Call::Ctd { pv } | Call::Ctud { pv } => [*pv, zero],
-        Call::Blink { on, off } => [*on, *off],
-        Call::BlinkPattern { step, .. } => [*step, zero],
-        Call::RTrig | Call::FTrig | Call::Sr | Call::Rs | Call::Toggle => [zero, zero],
+/// A call site's inputs, by pin: the stack's bools and the numbers read before the call (a
+/// time in ms, a count; zero where the call gives none), turned into the pin's type as the
+/// block reads it.
+struct CallPins<'a> {
+    call: &'a Call,
+    bools: [bool; MAX_PINS],
+    nums: [f64; MAX_PINS],
+}
+
+impl<'a> CallPins<'a> {
+    fn read(
+        call: &'a Call,
+        bools: [bool; MAX_PINS],
+        image: &ProcessImage,
+        instances: &[Instance],
+    ) -> Self {
+        let mut nums = [0.0; MAX_PINS];
+        for (slot, given) in nums.iter_mut().zip(&call.pins) {
+            if let PinArg::Num(n) = given {
+                *slot = num(image, instances, *n);
+            }
+        }
+        CallPins { call, bools, nums }
     }
 }
 
-/// Calls one block with its power flow, bool arguments and numeric arguments (times in ms).
-fn call(
-    inst: &mut Instance,
-    call: &Call,
-    en: bool,
-    args: [bool; 3],
-    nums: [f64; 2],
-    now: Duration,
-) -> bool {
-    let [a0, a1, a2] = args;
-    let [n0, n1] = nums;
-    let int = if n0.is_nan() {
-        0
-    } else {
-        n0.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
-    };
-    let (t0, t1) = (from_millis(n0), from_millis(n1));
-    match (inst, call) {
-        (Instance::Ton(t), Call::Ton { .. }) => t.call(en, t0, now),
-        (Instance::Tof(t), Call::Tof { .. }) => t.call(en, t0, now),
-        (Instance::Tp(t), Call::Tp { .. }) => t.call(en, t0, now),
-        (Instance::Stair(t), Call::Stair { .. }) => t.call(en, a0, t0, now),
-        (Instance::Ctu(c), Call::Ctu { .. }) => c.call(en, a0, int),
-        (Instance::Ctd(c), Call::Ctd { .. }) => c.call(en, a0, int),
-        (Instance::Ctud(c), Call::Ctud { .. }) => c.call(en, a0, a1, a2, int),
-        (Instance::RTrig(e), Call::RTrig) => e.rising(en),
-        (Instance::FTrig(e), Call::FTrig) => e.falling(en),
-        (Instance::Sr(b), Call::Sr) => b.call(en, a0),
-        (Instance::Rs(b), Call::Rs) => b.call(en, a0),
-        (Instance::Toggle(b), Call::Toggle) => b.call(en, a0),
-        (Instance::Blink(b), Call::Blink { .. }) => b.call(en, t0, t1, now),
-        (Instance::Blink(b), Call::BlinkPattern { pattern, .. }) => {
-            b.call_pattern(en, *pattern, t0, now)
+impl Pins for CallPins<'_> {
+    fn bool(&self, i: usize) -> bool {
+        self.bools.get(i).copied().unwrap_or(false)
+    }
+
+    fn time(&self, i: usize) -> Duration {
+        from_millis(self.nums.get(i).copied().unwrap_or(0.0))
+    }
+
+    fn count(&self, i: usize) -> i32 {
+        match self.nums.get(i).copied() {
+            Some(v) if !v.is_nan() => v.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32,
+            _ => 0,
         }
-        // The checker gives every instance the kind of its one call site.
-        _ => false,
+    }
+
+    fn pattern(&self, i: usize) -> Option<Pattern> {
+        match self.call.pins.get(i) {
+            Some(PinArg::Pattern(p)) => Some(*p),
+            _ => None,
+        }
     }
 }
 

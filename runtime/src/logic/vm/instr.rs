@@ -3,7 +3,7 @@
 use std::time::Duration;
 
 use crate::image::TagId;
-use crate::logic::blocks::{Member, Pattern};
+use crate::logic::blocks::{Kind, Member, Pattern, MAX_PINS};
 
 /// One instruction of the logic VM. Every instruction runs every scan (there are no jumps), so
 /// every edge, timer and block sees every scan.
@@ -46,24 +46,9 @@ pub enum Instr {
     Rising(u32),
     /// Replace the top with "it is false and was true last scan"; edge slot.
     Falling(u32),
-    /// On-delay timer on the top, with a constant preset; instance index (a
-    /// `Instance::Ton`).
-    Ton {
-        /// Instance index.
-        timer: u32,
-        /// Preset time.
-        preset: Duration,
-    },
-    /// Off-delay timer on the top (a
-    /// `Instance::Tof`).
-    Tof {
-        /// Instance index.
-        timer: u32,
-        /// Preset time.
-        preset: Duration,
-    },
-    /// Pulse timer on the top (a `Instance::Tp`).
-    Tp {
+    /// A plain timer (TON, TOF, TP: a power flow and a time) on the top, with a constant
+    /// preset: the instance's kind says which; one instruction, with no call site to look up.
+    Timer {
         /// Instance index.
         timer: u32,
         /// Preset time.
@@ -132,69 +117,54 @@ impl CmpOp {
     }
 }
 
-/// A block call with its checked arguments. The power flow is each block's first input (IN,
-/// CU, CLK, S, EN); the bool arguments are lowered in the order given here.
+/// What a call gives one pin of its block.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum PinArg {
+    /// Not given (a pin of the block's other form): `false`, zero.
+    #[default]
+    Absent,
+    /// A bool on the stack: the power flow and the bool arguments, lowered in pin order.
+    Stack,
+    /// A number: a time in milliseconds, or a count.
+    Num(Num),
+    /// A blink pattern.
+    Pattern(Pattern),
+}
+
+/// A block call with its checked arguments, by pin ([`BlockDef::pins`](crate::logic::blocks::BlockDef::pins)). The power flow is
+/// each block's first pin (IN, CU, CLK, S, EN); the bool arguments are lowered in pin order.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Call {
-    /// On-delay.
-    Ton {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Off-delay.
-    Tof {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Pulse.
-    Tp {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Staircase timer; bool argument: reset.
-    Stair {
-        /// Preset, ms.
-        pt: Num,
-    },
-    /// Up counter; bool argument: reset.
-    Ctu {
-        /// Preset.
-        pv: Num,
-    },
-    /// Down counter; bool argument: load.
-    Ctd {
-        /// Preset.
-        pv: Num,
-    },
-    /// Up-down counter; bool arguments: count down, reset, load.
-    Ctud {
-        /// Preset.
-        pv: Num,
-    },
-    /// Rising edge.
-    RTrig,
-    /// Falling edge.
-    FTrig,
-    /// Set-dominant latch; bool argument: reset.
-    Sr,
-    /// Reset-dominant latch; bool argument: reset.
-    Rs,
-    /// Impulse relay; bool argument: reset.
-    Toggle,
-    /// Blinker by times.
-    Blink {
-        /// On time, ms.
-        on: Num,
-        /// Off time, ms.
-        off: Num,
-    },
-    /// Blinker by pattern.
-    BlinkPattern {
-        /// The bits.
-        pattern: Pattern,
-        /// Time per bit, ms.
-        step: Num,
-    },
+pub struct Call {
+    /// The block.
+    pub kind: Kind,
+    /// Its pins' arguments, by pin index.
+    pub pins: [PinArg; MAX_PINS],
+}
+
+impl Call {
+    /// A call of `kind` with only its power flow given.
+    pub fn new(kind: Kind) -> Self {
+        let mut pins = [PinArg::Absent; MAX_PINS];
+        pins[0] = PinArg::Stack;
+        Call { kind, pins }
+    }
+
+    /// What the call gives the pin named `name`.
+    pub fn pin(&self, name: &str) -> PinArg {
+        self.kind
+            .def()
+            .pin(name)
+            .and_then(|(i, _)| self.pins.get(i).copied())
+            .unwrap_or_default()
+    }
+
+    /// The number the call gives the pin named `name`, if it gives one.
+    pub fn num(&self, name: &str) -> Option<Num> {
+        match self.pin(name) {
+            PinArg::Num(n) => Some(n),
+            _ => None,
+        }
+    }
 }
 
 /// A block call site: the instance and its non-boolean arguments.
@@ -252,12 +222,7 @@ pub(crate) fn max_depth(code: &[Instr], calls: &[CallSite]) -> Option<usize> {
             | Instr::Cmp { .. }
             | Instr::Good(_)
             | Instr::Bad(_) => (0, 1),
-            Instr::Not
-            | Instr::Rising(_)
-            | Instr::Falling(_)
-            | Instr::Ton { .. }
-            | Instr::Tof { .. }
-            | Instr::Tp { .. } => (1, 1),
+            Instr::Not | Instr::Rising(_) | Instr::Falling(_) | Instr::Timer { .. } => (1, 1),
             Instr::And | Instr::Xor | Instr::Or => (2, 1),
             Instr::Store(_) | Instr::Pop => (1, 0),
             // Outputs peek: the power flow stays for the rung's next output.
@@ -287,7 +252,7 @@ mod tests {
     fn depth_counts_peeking_outputs_and_call_arity() {
         let calls = [CallSite {
             inst: 0,
-            call: Call::Sr,
+            call: Call::new(crate::logic::blocks::Kind::Sr),
             bools: 1,
         }];
         let code = [

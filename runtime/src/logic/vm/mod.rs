@@ -18,4 +18,4 @@ mod instr;
 
 pub(crate) use exec::{tag_types, Parts, Program};
 pub(crate) use instr::max_depth;
-pub use instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num};
+pub use instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
