@@ -13,7 +13,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-#[allow(dead_code)]
 use crate::common::sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
