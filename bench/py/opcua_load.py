@@ -11,9 +11,7 @@ created, then runs until the harness closes standard input and prints
 import asyncio
 import sys
 
-from asyncua import ua
-
-from opcua_connect import connect
+from opcua_connect import connect_tags
 
 URL, NS_URI, PREFIX = sys.argv[1], sys.argv[2], sys.argv[3]
 COUNT, PUBLISHING_MS, MODE = int(sys.argv[4]), float(sys.argv[5]), sys.argv[6]
@@ -28,11 +26,10 @@ class Counter:
 
 
 async def main():
-    client = await connect(URL)
-    if client is None:
+    connected = await connect_tags(URL, NS_URI, PREFIX, COUNT)
+    if connected is None:
         return
-    ns = await client.get_namespace_index(NS_URI)
-    nodes = [client.get_node(ua.NodeId(f"Tags.{PREFIX}{i}", ns)) for i in range(COUNT)]
+    client, nodes = connected
     counter = Counter()
     sub = await client.create_subscription(PUBLISHING_MS, counter)
     await sub.subscribe_data_change(nodes, sampling_interval=0)

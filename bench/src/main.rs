@@ -20,6 +20,7 @@ mod project_file;
 mod python;
 mod report;
 mod scenarios;
+mod sequence;
 mod sim_line;
 mod sim_scan;
 mod softplc_sim;
@@ -45,7 +46,7 @@ struct Args {
     quick: bool,
     /// Run only this scenario (repeatable): scheduler, logic-cost, bus-cycle, collect,
     /// reaction, pulse, serial-path, scale, trace-cost, peer, plant-services, full-cycle,
-    /// virtual-truth.
+    /// virtual-truth, plant-load.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
     /// Results folder [default: bench/results for a full run, bench/results/partial for

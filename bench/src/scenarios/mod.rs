@@ -6,6 +6,8 @@ pub(crate) mod collect;
 pub(crate) mod full_cycle;
 pub(crate) mod logic_cost;
 pub(crate) mod peer;
+pub(crate) mod plant_kit;
+pub(crate) mod plant_load;
 pub(crate) mod plant_services;
 pub(crate) mod pulse;
 pub(crate) mod reaction;
@@ -88,5 +90,6 @@ pub(crate) fn all() -> Vec<Scenario> {
         plant_services::SCENARIO,
         full_cycle::SCENARIO,
         virtual_truth::SCENARIO,
+        plant_load::SCENARIO,
     ]
 }

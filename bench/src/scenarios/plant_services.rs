@@ -20,7 +20,7 @@
 //! Without `mosquitto` on the machine (`bench/setup` installs it) the rows say so.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -31,6 +31,9 @@ use softplc::scan::{DurationHistogram, Percentiles};
 use softplc::service::mqtt::spb;
 use softplc::service::StatusReport;
 
+use super::plant_kit::{
+    clock_tick, cpu_ticks, free_port, from_micros, scratch, Broker, Running, WINDOW_S,
+};
 use super::{Ctx, Scenario};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
 use crate::softplc_sim::{softplc_binary, ServedSim};
@@ -311,121 +314,9 @@ fn scan_lateness(
     }
     let report: StatusReport =
         serde_json::from_slice(&out.stdout).context("unreadable softplc status --json")?;
-    let l = report.lateness;
-    let us = Duration::from_micros;
-    let p = Percentiles {
-        count: l.count,
-        p50: us(l.p50_us),
-        p99: us(l.p99_us),
-        p999: us(l.p999_us),
-        max: us(l.max_us),
-    };
+    let p = from_micros(&report.lateness);
     // The client stops while the server still runs, so it can say what it did.
     Ok((p, client.map_or(0, OpcUaLoad::finish)))
-}
-
-/// A mosquitto of the harness: loopback only, anonymous, no persistence.
-struct Broker {
-    child: Child,
-    port: u16,
-}
-
-impl Broker {
-    fn start(dir: &Path) -> anyhow::Result<Self> {
-        let port = free_port()?;
-        let conf = dir.join("mosquitto.conf");
-        std::fs::write(
-            &conf,
-            format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"),
-        )?;
-        let child = Command::new("mosquitto")
-            .arg("-c")
-            .arg(&conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .context("cannot start mosquitto")?;
-        let broker = Self { child, port };
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-            if Instant::now() > deadline {
-                bail!("mosquitto did not listen on 127.0.0.1:{port} within 10 s");
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        Ok(broker)
-    }
-}
-
-impl Drop for Broker {
-    fn drop(&mut self) {
-        // The broker may have exited already; the wait reaps it either way.
-        drop(self.child.kill());
-        drop(self.child.wait());
-    }
-}
-
-fn free_port() -> anyhow::Result<u16> {
-    let l = std::net::TcpListener::bind("127.0.0.1:0")?;
-    Ok(l.local_addr()?.port())
-}
-
-/// `softplc run` of `project` for `run_for`, killed when dropped; its standard error goes to
-/// `softplc.log` beside the project, so a run that stops early can say why.
-struct Running {
-    child: Child,
-    log: PathBuf,
-}
-
-impl Running {
-    fn start(binary: &Path, project: &Path, run_for: Duration) -> anyhow::Result<Self> {
-        Self::start_with(binary, project, run_for, None)
-    }
-
-    /// As [`Running::start`], with the control socket at `socket` when given.
-    fn start_with(
-        binary: &Path,
-        project: &Path,
-        run_for: Duration,
-        socket: Option<&Path>,
-    ) -> anyhow::Result<Self> {
-        let log = project.with_file_name("softplc.log");
-        let mut cmd = Command::new(binary);
-        cmd.args(["run", "--quiet"]);
-        match socket {
-            Some(path) => cmd.arg("--socket").arg(path),
-            None => cmd.arg("--no-socket"),
-        };
-        let child = cmd
-            .arg("--for")
-            .arg(format!("{}ms", run_for.as_millis()))
-            .arg(project)
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).context("cannot create softplc.log")?)
-            .spawn()
-            .context("cannot start softplc run")?;
-        Ok(Self { child, log })
-    }
-
-    /// The last lines softplc wrote to its standard error.
-    fn said(&self) -> String {
-        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
-        let lines: Vec<&str> = text.lines().collect();
-        let tail = lines[lines.len().saturating_sub(3)..].join(" | ");
-        if tail.is_empty() {
-            "nothing".into()
-        } else {
-            tail
-        }
-    }
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        // It may have stopped at the end of its run time; the wait reaps it either way.
-        drop(self.child.kill());
-        drop(self.child.wait());
-    }
 }
 
 /// A memory-only project `name` of `tags` bool tags `b0..`, each toggled every cycle of
@@ -681,7 +572,7 @@ impl Drop for OpcUaLoad {
 }
 
 /// Closing its standard input ends an asyncua client; killed if it lingers.
-fn stop_client(child: &mut Child) {
+pub(super) fn stop_client(child: &mut Child) {
     drop(child.stdin.take());
     std::thread::sleep(Duration::from_millis(200));
     drop(child.kill());
@@ -691,7 +582,7 @@ fn stop_client(child: &mut Child) {
 /// Starts `bench/py/SCRIPT URL NAMESPACE_URI ARGS...` with the harness's asyncua and waits
 /// for its "READY"; the child and its later lines, each timestamped when read. Why not when
 /// the environment is missing or the client cannot connect.
-fn asyncua_client(
+pub(super) fn asyncua_client(
     script: &str,
     port: u16,
     project: &str,
@@ -936,49 +827,9 @@ fn sample_cpu_with(
     Ok(results)
 }
 
-/// The CPU samples' window, s: `/proc/PID/stat` counts in clock ticks (10 ms at 100 Hz), so
-/// one second would resolve only 1 % of a CPU.
-const WINDOW_S: u32 = 4;
-
-/// utime + stime of process `pid`, in clock ticks.
-fn cpu_ticks(pid: u32) -> anyhow::Result<u64> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat"))
-        .with_context(|| format!("softplc (pid {pid}) stopped early"))?;
-    // Fields after the command name in parentheses, which may hold spaces.
-    let rest = stat.rsplit_once(')').map(|(_, r)| r).unwrap_or("");
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let num = |i: usize| -> anyhow::Result<u64> {
-        fields
-            .get(i)
-            .and_then(|f| f.parse().ok())
-            .context("unreadable /proc/PID/stat")
-    };
-    // utime and stime are fields 14 and 15 of stat(5); 12 and 13 after the state.
-    Ok(num(11)? + num(12)?)
-}
-
-/// The length of one clock tick of `/proc/PID/stat` (`getconf CLK_TCK`, 100 Hz on Linux).
-fn clock_tick() -> Duration {
-    let hz = Command::new("getconf")
-        .arg("CLK_TCK")
-        .output()
-        .ok()
-        .and_then(|o| String::from_utf8(o.stdout).ok())
-        .and_then(|s| s.trim().parse::<u32>().ok())
-        .filter(|hz| *hz > 0)
-        .unwrap_or(100);
-    Duration::from_secs(1) / hz
-}
-
 /// The median of `v` (0 when empty).
 fn median(v: &[f64]) -> f64 {
     let mut v = v.to_vec();
     v.sort_by(f64::total_cmp);
     v.get(v.len() / 2).copied().unwrap_or(0.0)
-}
-
-fn scratch(ctx: &Ctx, name: &str) -> anyhow::Result<PathBuf> {
-    let dir = ctx.scratch.join(name);
-    std::fs::create_dir_all(&dir)?;
-    Ok(dir)
 }
