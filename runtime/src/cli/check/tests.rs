@@ -161,7 +161,7 @@ fn a_configured_latency_is_what_check_assumes_for_a_port_it_cannot_see() {
         [
             "adapter latency: 0 ms assumed: /dev/ttyUSB9 is not on this machine (set \
           adapter_latency to the adapter's: 16 ms for an FTDI adapter without the udev rule, 1 \
-          ms with it)"
+          ms with it); `run` starts with this line lost and takes the port when it appears"
         ]
     );
 }
