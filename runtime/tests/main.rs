@@ -10,6 +10,7 @@
 mod common;
 
 mod adapter;
+mod built_services;
 mod check_catches;
 mod cli;
 mod collect_floor;
@@ -29,7 +30,9 @@ mod log_flood;
 mod long_day;
 mod module_watchdog;
 mod monitor;
+#[cfg(feature = "mqtt")]
 mod mqtt;
+#[cfg(feature = "opcua")]
 mod opcua;
 mod plant_view;
 mod profiles;

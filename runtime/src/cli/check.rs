@@ -8,7 +8,7 @@ use softplc_io::point::Access;
 
 use crate::image::ProcessImage;
 use crate::logic::load;
-use crate::project::{self, Binding, PortConfig, Project};
+use crate::project::{Binding, PortConfig, Project};
 use crate::scan::fmt_duration;
 
 /// Arguments of `softplc check`.
@@ -19,10 +19,10 @@ pub(crate) struct CheckArgs {
 }
 
 pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
-    let project = match project::load(&args.project) {
+    let project = match super::built_services::load(&args.project) {
         Ok(p) => p,
         Err(errors) => {
-            super::out::errln(&errors.to_string());
+            super::out::errln(&errors);
             return Ok(ExitCode::FAILURE);
         }
     };

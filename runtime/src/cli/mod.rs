@@ -1,6 +1,7 @@
 //! The `softplc` subcommands.
 
 mod args;
+mod built_services;
 mod check;
 mod commission;
 mod control;

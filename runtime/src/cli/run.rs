@@ -10,13 +10,13 @@ use anyhow::Context;
 
 use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
-use crate::project;
 use crate::recorder::Settings;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::changes::ChangeFeed;
 use crate::service::control::{default_socket_path, ControlServer};
 use crate::service::notify::Notifier;
+#[cfg(feature = "opcua")]
 use crate::service::opcua::OpcUaServer;
 use crate::service::{network, snapshot, Health, Service, ServiceState};
 
@@ -65,10 +65,10 @@ pub(crate) struct RunArgs {
 }
 
 pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
-    let project = match project::load(&args.project) {
+    let project = match super::built_services::load(&args.project) {
         Ok(p) => p,
         Err(errors) => {
-            super::out::errln(&errors.to_string());
+            super::out::errln(&errors);
             return Ok(ExitCode::FAILURE);
         }
     };
@@ -97,11 +97,13 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let published = snapshot::SnapshotCell::new();
     // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
+    #[cfg_attr(not(any(feature = "opcua", feature = "mqtt")), allow(unused_mut))]
     let mut feed = ChangeFeed::new();
     // The OPC UA server before the modules' start-up: making its key pair takes seconds on a
     // small machine (more on a loaded one), and the start-up arms the modules' watchdogs, which
     // would fire in that time before the first scan commands them. Clients see
     // Bad_WaitingForInitialData until the first scan.
+    #[cfg(feature = "opcua")]
     let opcua = match OpcUaServer::start(&project, &published, &mut feed, &requests, &health) {
         Ok(server) => server,
         Err(e) if e.is_fatal() => return Err(e.into()),
@@ -112,6 +114,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             None
         }
     };
+    // Built without a service, loading refused a project asking for it: there is none to run.
+    #[cfg(not(feature = "opcua"))]
+    let opcua: Option<std::convert::Infallible> = None;
     let mut plc = Plc::build_traced(project, clock, None, tap).context("cannot start the PLC")?;
     let printer = trace.map(|(_, printer)| printer);
     if args.keep_forces {
@@ -163,9 +168,13 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     };
     let project = engine.plc().project();
     let mut services = network::start(project, &published, &requests, &health)?;
+    #[cfg(feature = "mqtt")]
     let mqtt =
         crate::service::mqtt::MqttNode::start(project, &published, &mut feed, &requests, &health)
             .context("cannot start the MQTT edge node")?;
+    #[cfg(not(feature = "mqtt"))]
+    let mqtt: Option<std::convert::Infallible> = None;
+    #[cfg(feature = "opcua")]
     if let Some(server) = &opcua {
         tracing::info!("OPC UA server at {}", server.describe());
     }
@@ -246,6 +255,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let outcome = scan
         .join()
         .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
+    #[cfg(feature = "mqtt")]
     if let Some(node) = mqtt {
         // Its last DATA (the safe state) and its NDEATH leave before the process does.
         node.finish(Duration::from_secs(3));

@@ -24,6 +24,8 @@
 //!   cycle boundary; a consumer that falls behind loses changes visibly).
 
 pub(crate) mod boundary;
+// Its consumers are the optional services (OPC UA, MQTT): with one or none, parts go unused.
+#[cfg_attr(not(all(feature = "opcua", feature = "mqtt")), allow(dead_code))]
 pub(crate) mod changes;
 pub mod control;
 pub(crate) mod health;
@@ -31,9 +33,11 @@ pub(crate) mod metrics;
 pub(crate) mod modbus_guard;
 pub(crate) mod modbus_map;
 pub(crate) mod modbus_tcp;
+#[cfg(feature = "mqtt")]
 pub mod mqtt;
 pub(crate) mod network;
 pub(crate) mod notify;
+#[cfg(feature = "opcua")]
 pub(crate) mod opcua;
 pub(crate) mod slots;
 pub(crate) mod snapshot;

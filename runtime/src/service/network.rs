@@ -181,6 +181,8 @@ pub(crate) fn report(project: &Project) -> String {
             }
         );
     }
+    // Without the feature, loading refused a project with `service.opcua`.
+    #[cfg(feature = "opcua")]
     if let Some(o) = &service.opcua {
         let writable = service.scada.entries.iter().filter(|e| e.writable).count();
         let _ = writeln!(
