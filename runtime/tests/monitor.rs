@@ -1,7 +1,7 @@
 //! `softplc monitor`: a passive listener decoding what it hears. For each protocol a session
 //! is captured first (the bus owner's start-up exchanges with the simulated modules of an
 //! example project, recorded with their timing through the frame trace), then written into
-//! one end of a pty pair with pauses of 60 ms between frames, with the monitor listening on
+//! one end of a pty pair with pauses of 150 ms between frames, with the monitor listening on
 //! the other end. It must find every frame's boundaries (t3.5 of silence for RTU, CR for text
 //! lines), and decode each one as the bus owner did, without being told which way it went.
 //!
@@ -24,8 +24,9 @@ use softplc_io::wire::{format_event, Hex, Verdict, WireEvent, WireTap};
 const FRAMES: usize = 14;
 /// The note on a frame the monitor found glued to the next.
 const GLUED: &str = " (no silence after it: split from the next by their CRCs)";
-/// Silence between replayed frames.
-const PAUSE: Duration = Duration::from_millis(60);
+/// Silence between replayed frames: long beside the frame gap (a few ms), and long enough that
+/// a monitor starved of CPU on a loaded machine still reads each frame on its own.
+const PAUSE: Duration = Duration::from_millis(150);
 
 fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -190,7 +191,7 @@ fn assert_heard_as_sent(frames: &[Captured], heard: &[Heard]) {
         assert_eq!(h.decoded, frame.decoded, "{}", h.hex);
     }
     assert_eq!(heard[0].gap, "-", "nothing before the first frame");
-    // Each gap is the silence the monitor measured between reads: the 60 ms pause less
+    // Each gap is the silence the monitor measured between reads: the 150 ms pause less
     // however late it read the frame before (a loaded machine), so only "longer than the
     // frame gap that split them" is certain.
     // A frame split from the one before it by their CRCs has no gap of its own.

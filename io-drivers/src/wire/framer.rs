@@ -59,7 +59,7 @@ pub struct HeardFrame {
     /// When its last byte arrived.
     pub end: Duration,
     /// Silence between the end of the frame before and this one's start (`None` for the
-    /// first frame).
+    /// first frame, and for one read together with the frame before: no silence was seen).
     pub gap: Option<Duration>,
     /// What ended it.
     pub ended_by: FrameEnd,
@@ -158,7 +158,13 @@ impl Framer {
             bytes: std::mem::replace(&mut self.buf, Vec::with_capacity(MAX_FRAME)),
             start: self.start,
             end: self.last_byte,
-            gap: self.prev_end.map(|end| self.start.saturating_sub(end)),
+            // Known only when this frame's first byte came in a later read than the last byte
+            // of the one before: two frames read at once (a reader late on a loaded machine)
+            // show no silence between them, which is not a silence of zero.
+            gap: self
+                .prev_end
+                .filter(|&end| self.start > end)
+                .map(|end| self.start - end),
             ended_by,
         };
         self.prev_end = Some(self.last_byte);

@@ -235,6 +235,18 @@ fn rtu_frames_end_at_t3_5_and_text_lines_at_cr() {
 }
 
 #[test]
+fn lines_read_together_show_no_silence_between_them() {
+    // A reader late on a loaded machine gets a question and its answer in one read: the
+    // second line's gap is unknown, not zero; the next read's line has its own.
+    let mut f = Framer::new(Framing::Text, ms(4));
+    let mut out = Vec::new();
+    f.push(b"@3?X1\r@3X1=0\r", ms(10), &mut out);
+    f.push(b"@3?X2\r", ms(70), &mut out);
+    let gaps: Vec<Option<Duration>> = out.iter().map(|fr| fr.gap).collect();
+    assert_eq!(gaps, [None, None, Some(ms(60))]);
+}
+
+#[test]
 fn text_framing_cuts_an_unterminated_line_at_silence_and_memory_is_bounded() {
     let mut f = Framer::new(Framing::Text, ms(5));
     let mut out = Vec::new();
