@@ -19,10 +19,7 @@ const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 #[test]
 fn a_flood_of_refused_connections_is_summarized_and_a_module_loss_still_logged() {
     let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
-    let dir = std::env::temp_dir().join(format!("softplc-log-flood-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::host::scratch_dir("log-flood", "refused");
     std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
     let project = format!(
         "project: flood\n\

@@ -67,7 +67,7 @@ fn attacker(
 }
 
 #[test]
-#[ignore = "ten minutes of real time: run it with --ignored"]
+#[ignore = "ten minutes of real time: run it with --ignored; CI runs one minute of it"]
 fn a_long_day_under_attack_and_line_faults_keeps_the_scan_and_the_outputs_right() {
     let secs: u64 = std::env::var("SOFTPLC_LONG_DAY_SECS")
         .ok()

@@ -20,15 +20,7 @@ fn project(name: &str, service: &str) -> PathBuf {
 
 /// [`project`] with `extra` (tag lines) after the four SCADA tags.
 fn project_with(name: &str, service: &str, extra: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("softplc-scada-{name}-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(
-        repo().join("programs/conveyor.expr"),
-        dir.join("conveyor.expr"),
-    )
-    .unwrap();
+    let dir = crate::common::host::conveyor_scratch("scada", name);
     let quickstart =
         std::fs::read_to_string(repo().join("examples/quickstart/project.yaml")).unwrap();
     // The quick start's own `service:` (its web page) makes way for the one under test.

@@ -117,16 +117,7 @@ program: { file: conveyor.expr, kind: expr }\n";
 
 /// A fresh scratch folder `NAME-PID` with the quick start's program in it.
 fn conveyor_folder(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
-    // Best effort: the test's scratch folder (it may not exist).
-    drop(std::fs::remove_dir_all(&dir));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(
-        repo().join("programs/conveyor.expr"),
-        dir.join("conveyor.expr"),
-    )
-    .unwrap();
-    dir
+    crate::common::host::conveyor_scratch("web", name)
 }
 
 /// Signs in on the page with the project's token, as a person types it.
@@ -171,7 +162,7 @@ fn run_plc(project: &Path, socket: &Path, port: u16) -> Plc {
 fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     chromium_available();
     let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
-    let dir = conveyor_folder("softplc-web");
+    let dir = conveyor_folder("page");
     let port = free_port();
     // The quick start's machine on the pty; `offload: auto` lets the planner push the lamp's
     // rung (mm2.X1 → mm2.Y1) into mm2, so the program view has a rung to mark.
@@ -639,7 +630,7 @@ const CUT: &str = "(e, right) => e.scrollWidth > e.clientWidth + 1 || e.getBound
 #[test]
 fn the_page_at_800_px_and_its_bus_rate_and_trace_words() {
     chromium_available();
-    let dir = conveyor_folder("softplc-web-800");
+    let dir = conveyor_folder("page-800");
     let port = free_port();
     // The quick start's two MiniMods on the simulated line, event mode by default.
     let project = format!(

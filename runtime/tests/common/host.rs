@@ -46,6 +46,17 @@ pub(crate) fn scratch_dir(subject: &str, name: &str) -> PathBuf {
     dir
 }
 
+/// [`scratch_dir`] with the quick start's program (`conveyor.expr`) in it.
+pub(crate) fn conveyor_scratch(subject: &str, name: &str) -> PathBuf {
+    let dir = scratch_dir(subject, name);
+    std::fs::copy(
+        repo().join("programs/conveyor.expr"),
+        dir.join("conveyor.expr"),
+    )
+    .expect("the quick start's program");
+    dir
+}
+
 /// One HTTP GET of `path` at `addr`: its status (0 when the connection or the answer failed)
 /// and how long it took.
 pub(crate) fn http_get(addr: &str, path: &str) -> (u16, std::time::Duration) {
