@@ -12,7 +12,7 @@ use softplc::plc::Plc;
 use softplc::project::Project;
 use softplc::scan::{RunOutcome, ScanEngine};
 use softplc_io::sim::SharedWorld;
-use softplc_io::time::Clock;
+use softplc_io::time::{Clock, ScanInstant};
 
 /// A scan running on its thread.
 pub(crate) struct Scanning {
@@ -23,7 +23,7 @@ pub(crate) struct Scanning {
     /// Module `line1_m1` in `world`.
     pub device: usize,
     /// The clock's reading just before the scan started.
-    pub begin: Duration,
+    pub begin: ScanInstant,
     scan: JoinHandle<RunOutcome>,
 }
 

@@ -6,7 +6,7 @@ use std::time::Duration;
 use softplc::scan::DurationHistogram;
 use softplc_io::point::Value;
 use softplc_io::sim::SharedWorld;
-use softplc_io::time::Clock;
+use softplc_io::time::{Clock, ScanInstant};
 
 /// The sampling period.
 pub(crate) const SAMPLE: Duration = Duration::from_millis(1);
@@ -17,7 +17,7 @@ pub(crate) struct PulseWatch {
     world: SharedWorld,
     device: usize,
     point: &'static str,
-    rose_at: Option<Duration>,
+    rose_at: Option<ScanInstant>,
     last: bool,
     /// Widths of the complete pulses seen so far.
     pub widths: DurationHistogram,
@@ -41,7 +41,7 @@ impl PulseWatch {
         let now = clock.now();
         let on = {
             let mut w = self.world.lock().unwrap_or_else(|e| e.into_inner());
-            w.advance_to(now);
+            w.advance_to(now.on_line_clock());
             matches!(w.get(self.device, self.point), Ok(Value::Bool(true)))
         };
         match (self.last, on) {
@@ -57,7 +57,7 @@ impl PulseWatch {
     }
 
     /// Samples every [`SAMPLE`] on absolute deadlines until `until` (clock time).
-    pub(crate) fn run_until(&mut self, clock: &dyn Clock, until: Duration) {
+    pub(crate) fn run_until(&mut self, clock: &dyn Clock, until: ScanInstant) {
         let mut next = clock.now();
         while next < until {
             clock.sleep_until(next);
@@ -116,7 +116,7 @@ impl ReactionProbe {
 
     fn output_is(&self, clock: &dyn Clock, level: bool) -> bool {
         let mut w = self.world.lock().unwrap_or_else(|e| e.into_inner());
-        w.advance_to(clock.now());
+        w.advance_to(clock.line_now());
         matches!(w.get(self.device, self.output), Ok(Value::Bool(on)) if on == level)
     }
 
@@ -128,7 +128,7 @@ impl ReactionProbe {
         let at = clock.now();
         let expected = {
             let mut w = self.world.lock().unwrap_or_else(|e| e.into_inner());
-            w.advance_to(at);
+            w.advance_to(at.on_line_clock());
             let before = matches!(w.get(self.device, self.output), Ok(Value::Bool(true)));
             // A stimulus that never reached the terminal would time every edge out.
             if let Err(e) = w.set(self.device, self.input, Value::Bool(self.level)) {

@@ -7,6 +7,8 @@
 use std::fmt::Debug;
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use crate::modbus::{ExceptionCode, Request, Response, UnitId};
 use crate::point::Value;
 
@@ -180,7 +182,7 @@ pub trait Driver: Send + Debug {
 
     /// The line's time now, told before each [`Driver::plan_read`] (a driver whose points
     /// have their own poll periods plans from it).
-    fn advance_to(&mut self, now: Duration) {
+    fn advance_to(&mut self, now: LineInstant) {
         let _ = now;
     }
 

@@ -2,7 +2,9 @@
 //!
 //! The public surface is one namespace per layer, bottom up (see DESIGN.md); everything else
 //! is internal to the crate:
-//! - [`time`]: the [`Clock`](time::Clock) trait (monotonic or virtual) every timed part shares.
+//! - [`time`]: the [`Clock`](time::Clock) trait (monotonic or virtual) every timed part shares,
+//!   and a point in time per clock: [`ScanInstant`](time::ScanInstant) on the scan's,
+//!   [`LineInstant`](time::LineInstant) on a line's, so the two cannot be mixed up: a stable API.
 //! - [`point`]: a module's points: [`Value`](point::Value), [`ValueType`](point::ValueType),
 //!   [`Quality`](point::Quality), [`PointSpec`](point::PointSpec).
 //! - [`driver`]: the sans-IO [`Driver`](driver::Driver) trait: a driver plans

@@ -1,12 +1,87 @@
 //! Time as the whole system sees it.
 //!
-//! Every timestamp is a [`Duration`] since the clock's origin. Logic, lines and simulators ask a
-//! [`Clock`] instead of the OS, so a project can run on a [`VirtualClock`] faster than real time
-//! and give the same trace twice (DESIGN.md principle 2).
+//! A point in time has the type of its clock, so that one clock's instant cannot meet the
+//! other's (rtic's `Monotonic` is the model: an instant belongs to its clock); a span of time
+//! (a period, a timeout, the time between two instants) is a [`Duration`]. Logic, lines and
+//! simulators ask a [`Clock`] instead of the OS, so a project can run on a [`VirtualClock`]
+//! faster than real time and give the same trace twice (DESIGN.md principle 2).
+//!
+//! Two clocks run in a PLC:
+//! - [`ScanInstant`]: time since the PLC started, on the scan's [`Clock`] (the OS monotonic
+//!   clock, or a virtual one). Cycle starts and deadlines, what logic sees as `now`, the
+//!   process image's timestamps, the trace, the recorder, the watchdogs and the services'
+//!   timestamps count on it.
+//! - [`LineInstant`]: time on one line's own clock: what a [`Transport`](crate::line::Transport)
+//!   and its [`BusOwner`](crate::line::BusOwner) answer to `now()`, when a frame left and its
+//!   reply ended ([`InputFrame`](crate::line::InputFrame), [`WriteReport`](crate::line::WriteReport)),
+//!   a module's health and refresh times, the wire trace, the simulated world's time. On the
+//!   real clock a line reads the PLC's clock; on a virtual clock each line keeps its own
+//!   cursor, which the scan moves forward (`BusOwner::sync`), so lines stay parallel in virtual
+//!   time and may run ahead of the scan.
+//!
+//! The two meet only where the code really maps one onto the other, and there by name:
+//! [`ScanInstant::on_line_clock`] (the scan tells a line what time it is; the simulated world
+//! is brought to the scan's time) and [`LineInstant::on_scan_clock`] (the scan takes a line's
+//! answer at the time it ended). A line that keeps the PLC's time (a serial port, a network
+//! bus, a simulator serving a pty) reads it through [`Clock::line_now`] and
+//! [`Clock::sleep_until_on_line`].
+//!
+//! Arithmetic never panics: `instant + duration` saturates at the far end of time
+//! ([`Duration::MAX`] after the origin, centuries beyond any run), `instant - duration` at the
+//! origin, and `later - earlier` at zero when `earlier` is in fact later (as
+//! [`std::time::Instant`] does). Where going past an end means something, ask with
+//! [`checked_add`](ScanInstant::checked_add), [`checked_sub`](ScanInstant::checked_sub) or
+//! [`checked_duration_since`](ScanInstant::checked_duration_since). `Display` prints an
+//! instant as [`fmt_duration`] does (`12.35ms` after the origin); `Debug` prints the exact
+//! duration since the origin, as a `Duration` field printed before.
+//!
+//! Stable API: [`ScanInstant`], [`LineInstant`], their arithmetic and the two mappings, the
+//! [`Clock`] trait, [`MonotonicClock`], [`VirtualClock`] and [`fmt_duration`].
+//!
+//! ```compile_fail,E0308
+//! use softplc_io::time::{LineInstant, ScanInstant};
+//! // A scan instant and a line instant do not compare: map one onto the other's clock first.
+//! let _ = ScanInstant::ZERO < LineInstant::ZERO;
+//! ```
+//!
+//! ```compile_fail,E0277
+//! use softplc_io::time::{LineInstant, ScanInstant};
+//! // Nor does one clock's instant subtract from, or add to, the other's.
+//! let _ = ScanInstant::ZERO - LineInstant::ZERO;
+//! ```
+//!
+//! ```compile_fail,E0308
+//! use softplc_io::time::{LineInstant, ScanInstant};
+//! // Nor is one passed where the other is asked for (the scan telling a line its time).
+//! fn sync(t: LineInstant) {}
+//! sync(ScanInstant::ZERO);
+//! ```
+//!
+//! ```compile_fail,E0308
+//! use softplc_io::time::ScanInstant;
+//! // Two instants do not add up to a third (only an instant and a duration do).
+//! let _ = ScanInstant::ZERO + ScanInstant::ZERO;
+//! ```
+//!
+//! ```
+//! use std::time::Duration;
+//! use softplc_io::time::{LineInstant, ScanInstant};
+//! let cycle_start = ScanInstant::after_origin(Duration::from_millis(20));
+//! let deadline = cycle_start + Duration::from_millis(10);
+//! assert_eq!(deadline - cycle_start, Duration::from_millis(10));
+//! // The mapping is explicit and keeps the time.
+//! let on_line: LineInstant = deadline.on_line_clock();
+//! assert_eq!(on_line.on_scan_clock(), deadline);
+//! assert_eq!(deadline.to_string(), "30.00ms");
+//! ```
 
 use std::fmt::Debug;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
+
+mod instant;
+
+pub use instant::{LineInstant, ScanInstant};
 
 /// A duration as a person reads it: `850µs`, `12.35ms`, `1.20s` (what every report, log line
 /// and error message of softplc prints).
@@ -21,14 +96,27 @@ pub fn fmt_duration(d: Duration) -> String {
     }
 }
 
-/// A source of time that can also wait.
+/// The PLC's clock: a source of time that can also wait. Its origin is the PLC's start, so its
+/// instants are [`ScanInstant`]s (a line that keeps the PLC's time reads it too, through
+/// [`Clock::line_now`]).
 pub trait Clock: Send + Sync + Debug {
     /// Time since this clock's origin.
-    fn now(&self) -> Duration;
+    fn now(&self) -> ScanInstant;
     /// Blocks until `deadline` (absolute, on this clock). A virtual clock jumps there instead.
-    fn sleep_until(&self, deadline: Duration);
+    fn sleep_until(&self, deadline: ScanInstant);
     /// True for a clock that does not follow the wall: waits are jumps, not sleeps.
     fn is_virtual(&self) -> bool;
+
+    /// The time now on a line that keeps this clock's time (a real port, a network bus, a
+    /// simulator serving a pty): the one place such a line maps the scan's clock onto its own.
+    fn line_now(&self) -> LineInstant {
+        self.now().on_line_clock()
+    }
+
+    /// Blocks until `deadline` on a line that keeps this clock's time ([`Clock::line_now`]).
+    fn sleep_until_on_line(&self, deadline: LineInstant) {
+        self.sleep_until(deadline.on_scan_clock());
+    }
 }
 
 /// The OS monotonic clock; waits with `clock_nanosleep(TIMER_ABSTIME)` so a deadline does not
@@ -65,13 +153,13 @@ fn monotonic_raw() -> Duration {
 }
 
 impl Clock for MonotonicClock {
-    fn now(&self) -> Duration {
-        monotonic_raw().saturating_sub(self.origin)
+    fn now(&self) -> ScanInstant {
+        ScanInstant::after_origin(monotonic_raw().saturating_sub(self.origin))
     }
 
     #[allow(unsafe_code)] // one clock_nanosleep; see SAFETY below
-    fn sleep_until(&self, deadline: Duration) {
-        let abs = self.origin + deadline;
+    fn sleep_until(&self, deadline: ScanInstant) {
+        let abs = self.origin.saturating_add(deadline.since_origin());
         let ts = libc::timespec {
             tv_sec: abs.as_secs() as libc::time_t,
             tv_nsec: abs.subsec_nanos() as libc::c_long,
@@ -111,17 +199,18 @@ impl VirtualClock {
     }
 
     /// Moves the clock forward to `t`; never backwards.
-    pub fn advance_to(&self, t: Duration) {
-        self.nanos.fetch_max(t.as_nanos() as u64, Ordering::SeqCst);
+    pub fn advance_to(&self, t: ScanInstant) {
+        self.nanos
+            .fetch_max(t.since_origin().as_nanos() as u64, Ordering::SeqCst);
     }
 }
 
 impl Clock for VirtualClock {
-    fn now(&self) -> Duration {
-        Duration::from_nanos(self.nanos.load(Ordering::SeqCst))
+    fn now(&self) -> ScanInstant {
+        ScanInstant::after_origin(Duration::from_nanos(self.nanos.load(Ordering::SeqCst)))
     }
 
-    fn sleep_until(&self, deadline: Duration) {
+    fn sleep_until(&self, deadline: ScanInstant) {
         self.advance_to(deadline);
     }
 
@@ -137,9 +226,12 @@ mod tests {
     #[test]
     fn virtual_clock_only_moves_forward() {
         let c = VirtualClock::new();
-        c.sleep_until(Duration::from_millis(10));
-        c.sleep_until(Duration::from_millis(5));
-        assert_eq!(c.now(), Duration::from_millis(10));
+        c.sleep_until(ScanInstant::after_origin(Duration::from_millis(10)));
+        c.sleep_until(ScanInstant::after_origin(Duration::from_millis(5)));
+        assert_eq!(
+            c.now(),
+            ScanInstant::after_origin(Duration::from_millis(10))
+        );
     }
 
     #[test]

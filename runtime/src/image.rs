@@ -3,9 +3,8 @@
 //! Logic reads and writes the image only (DESIGN.md principle 2). Tags are addressed by
 //! [`TagId`], an index resolved once at load time, so access never searches by name.
 
-use std::time::Duration;
-
 use softplc_io::point::{Quality, Value, ValueType};
+use softplc_io::time::ScanInstant;
 
 /// Index of a tag in the image (its position in the project's tag list); the push-down
 /// seam's type, so a rung's shape names tags the same way in both crates.
@@ -19,7 +18,7 @@ pub struct Slot {
     /// How much to trust it.
     pub quality: Quality,
     /// Time of the last good read (inputs) or write (memory, outputs).
-    pub timestamp: Duration,
+    pub timestamp: ScanInstant,
 }
 
 /// The process image.
@@ -44,7 +43,7 @@ impl ProcessImage {
                     Slot {
                         value: v,
                         quality: Quality::Bad,
-                        timestamp: Duration::ZERO,
+                        timestamp: ScanInstant::ZERO,
                     },
                 )
             })
@@ -97,7 +96,7 @@ impl ProcessImage {
 
     /// Sets a value of the tag's own type, as logic does. A value of another type is converted
     /// the way an assignment would (bool ↔ numbers by non-zero).
-    pub fn set(&mut self, id: TagId, value: Value, now: Duration) {
+    pub fn set(&mut self, id: TagId, value: Value, now: ScanInstant) {
         let slot = &mut self.slots[id.index()];
         slot.value = convert(value, slot.value.value_type());
         slot.quality = Quality::Good;
@@ -111,7 +110,7 @@ impl ProcessImage {
     }
 
     /// Records a read from a module: value and quality as the bus reported them.
-    pub fn update(&mut self, id: TagId, value: Option<Value>, quality: Quality, now: Duration) {
+    pub fn update(&mut self, id: TagId, value: Option<Value>, quality: Quality, now: ScanInstant) {
         let slot = &mut self.slots[id.index()];
         if let (Some(v), Quality::Good) = (value, quality) {
             slot.value = convert(v, slot.value.value_type());
@@ -162,7 +161,7 @@ impl ProcessImage {
 
     /// Writes every forced value into its slot (the scan calls this after the input read and
     /// after the logic).
-    pub fn apply_forces(&mut self, now: Duration) {
+    pub fn apply_forces(&mut self, now: ScanInstant) {
         for (slot, force) in self.slots.iter_mut().zip(&self.forces) {
             if let Some(v) = force {
                 slot.value = *v;
@@ -204,6 +203,7 @@ pub fn convert(v: Value, ty: ValueType) -> Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     #[test]
     fn reads_keep_the_last_good_value_when_stale() {
@@ -213,12 +213,20 @@ mod tests {
             id,
             Some(Value::Bool(true)),
             Quality::Good,
-            Duration::from_millis(10),
+            ScanInstant::after_origin(Duration::from_millis(10)),
         );
-        img.update(id, None, Quality::Stale, Duration::from_millis(20));
+        img.update(
+            id,
+            None,
+            Quality::Stale,
+            ScanInstant::after_origin(Duration::from_millis(20)),
+        );
         assert_eq!(img.get(id), Value::Bool(true));
         assert_eq!(img.slot(id).quality, Quality::Stale);
-        assert_eq!(img.slot(id).timestamp, Duration::from_millis(10));
+        assert_eq!(
+            img.slot(id).timestamp,
+            ScanInstant::after_origin(Duration::from_millis(10))
+        );
     }
 
     #[test]
@@ -226,15 +234,15 @@ mod tests {
         let mut img = ProcessImage::new([("x".to_string(), Value::U16(0))]);
         let id = img.id("x").unwrap();
         img.force(id, Value::Bool(true));
-        img.update(id, Some(Value::U16(7)), Quality::Good, Duration::ZERO);
-        img.apply_forces(Duration::ZERO);
+        img.update(id, Some(Value::U16(7)), Quality::Good, ScanInstant::ZERO);
+        img.apply_forces(ScanInstant::ZERO);
         assert_eq!(img.get(id), Value::U16(1));
-        img.set(id, Value::U16(9), Duration::ZERO);
-        img.apply_forces(Duration::ZERO);
+        img.set(id, Value::U16(9), ScanInstant::ZERO);
+        img.apply_forces(ScanInstant::ZERO);
         assert_eq!(img.get(id), Value::U16(1));
         assert!(img.unforce(id));
-        img.set(id, Value::U16(9), Duration::ZERO);
-        img.apply_forces(Duration::ZERO);
+        img.set(id, Value::U16(9), ScanInstant::ZERO);
+        img.apply_forces(ScanInstant::ZERO);
         assert_eq!(img.get(id), Value::U16(9));
     }
 

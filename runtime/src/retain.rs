@@ -31,6 +31,7 @@ use softplc_io::point::{Value, ValueType};
 use crate::image::{ProcessImage, TagId};
 use crate::project::Project;
 use crate::save_thread::{Handed, SaveThread};
+use softplc_io::time::ScanInstant;
 
 /// The format marker and version in every file.
 const MARKER: &str = "softplc_retain";
@@ -135,7 +136,7 @@ pub struct Retainer {
     tags: Vec<(TagId, String)>,
     /// Values last handed to the writer.
     saved: Vec<Value>,
-    last: Option<Duration>,
+    last: Option<ScanInstant>,
     writer: SaveThread<Snapshot>,
     /// Why the last save failed; `None` once one succeeds.
     failing: SaveFailure,
@@ -197,16 +198,13 @@ impl Retainer {
 
     /// Called between cycles with the scan time: at most once per period, hands the values to
     /// the writer if they changed; hands over what waited for a busy writer. Never waits.
-    pub fn tick(&mut self, image: &ProcessImage, now: Duration) {
+    pub fn tick(&mut self, image: &ProcessImage, now: ScanInstant) {
         if self.writer.flush() == Handed::Waiting {
             if let Some(why) = self.writer.not_started() {
                 *self.failing.lock().unwrap_or_else(PoisonError::into_inner) = Some(why.into());
             }
         }
-        if self
-            .last
-            .is_some_and(|l| now.saturating_sub(l) < self.period)
-        {
+        if self.last.is_some_and(|l| now - l < self.period) {
             return;
         }
         self.last = Some(now);
@@ -359,7 +357,7 @@ fn load_into(path: &Path, tags: &[(TagId, String)], image: &mut ProcessImage) ->
             None => notes.push(LoadNote::NotSaved(name.clone())),
             Some(j) => match from_json(j, ty) {
                 Some(v) => {
-                    image.set(*id, v, Duration::ZERO);
+                    image.set(*id, v, ScanInstant::ZERO);
                     count += 1;
                 }
                 None => notes.push(LoadNote::BadValue {

@@ -18,6 +18,7 @@ use std::time::Duration;
 use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
 use softplc_io::line::{pty_pair, TTYPort};
+use softplc_io::time::LineInstant;
 use softplc_io::wire::{format_event, Hex, Verdict, WireEvent, WireTap};
 
 /// Frames replayed per session: every family's start-up has at least this many exchanges.
@@ -50,7 +51,7 @@ struct Capture {
 }
 
 impl WireTap for Capture {
-    fn record(&self, bus: &str, at: Duration, event: &WireEvent<'_>) {
+    fn record(&self, bus: &str, at: LineInstant, event: &WireEvent<'_>) {
         let bytes = match event {
             WireEvent::Sent(bytes) => bytes,
             WireEvent::Received {

@@ -18,6 +18,7 @@ use softplc::service::web::{ProgramView, WebInfo, WebServer};
 use softplc::service::{ServiceSnapshot, SnapshotCell};
 
 use softplc_io::point::{Quality, Value};
+use softplc_io::time::ScanInstant;
 
 /// Lines 1..=10: a program, one simulated bus, one MiniMod; `tags:` is line 11, then three
 /// tags (lines 12..=14); the text after `HEAD` starts on line 15.
@@ -299,10 +300,10 @@ fn server(writes: bool, ok: bool) -> (WebServer, SnapshotCell, Arc<Mutex<Vec<Req
     cell.set(ServiceSnapshot {
         published: true,
         cycles: 5,
-        now: Duration::from_millis(500),
+        now: ScanInstant::after_origin(Duration::from_millis(500)),
         values: vec![Value::Bool(true)],
         qualities: vec![Quality::Good],
-        timestamps: vec![Duration::from_millis(400)],
+        timestamps: vec![ScanInstant::after_origin(Duration::from_millis(400))],
         forced: vec![false],
         ..ServiceSnapshot::default()
     });

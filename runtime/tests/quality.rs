@@ -114,14 +114,14 @@ fn run(dir: &Path, (file, kind, text): (&str, &str, &str)) -> Vec<Cycle> {
             let mut w = world.lock().unwrap();
             let alarm_terminal = w.get(mm2, "Y1").map(|v| v.as_bool()).unwrap_or(false);
             sink.lock().unwrap().push(Cycle {
-                now: ctx.now,
+                now: ctx.now.since_origin(),
                 sensor: image.slot(ids[0]).quality,
                 alarm: image.get(ids[1]) == Value::Bool(true),
                 lost: image.get(ids[2]) == Value::Bool(true),
                 alarm_terminal,
             });
             // Faults take effect from the next cycle on.
-            let next = ctx.now + PERIOD;
+            let next = ctx.now.since_origin() + PERIOD;
             if !silenced && next >= FAULT_FROM && next < FAULT_UNTIL {
                 silenced = true;
                 w.faults_mut().add(FaultRule {

@@ -17,6 +17,7 @@ use softplc::recorder::{
 };
 use softplc::scan::{CycleBoundary, ScanEngine, ScanStats};
 use softplc_io::point::Value;
+use softplc_io::time::ScanInstant;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
@@ -59,7 +60,7 @@ fn quickstart_copy(dir: &Path, program: Option<&str>) -> PathBuf {
 struct Operator;
 
 impl CycleBoundary for Operator {
-    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, _now: Duration) {
+    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, _now: ScanInstant) {
         match stats.cycles {
             // The motor forced on while no box is on its way, then released.
             20 => drop(plc.force("motor", "1")),
@@ -114,7 +115,7 @@ fn settings(folder: &Path) -> Settings {
 }
 
 /// Tag value after every cycle, from the record alone: (cycle, seen state, wrote state).
-fn states(record: &Record, tag: &str) -> Vec<(u64, Duration, Value, Value)> {
+fn states(record: &Record, tag: &str) -> Vec<(u64, ScanInstant, Value, Value)> {
     let seg = &record.segments[0];
     let i = seg.header.tags.iter().position(|t| t.name == tag).unwrap() as u32;
     let mut value = seg.keyframe.slots[i as usize].0;
@@ -192,7 +193,7 @@ fn a_changed_rung_differs_first_where_the_recorded_inputs_say() {
     let start = states(&record, "start");
     let exit = states(&record, "box_at_exit");
     let lamp = states(&record, "lamp");
-    let expected: Vec<(u64, Duration, bool)> = start
+    let expected: Vec<(u64, ScanInstant, bool)> = start
         .iter()
         .zip(&exit)
         .zip(&lamp)
@@ -642,7 +643,7 @@ impl DiskFiller {
 }
 
 impl CycleBoundary for DiskFiller {
-    fn between_cycles(&mut self, _plc: &mut Plc, stats: &ScanStats, _now: Duration) {
+    fn between_cycles(&mut self, _plc: &mut Plc, stats: &ScanStats, _now: ScanInstant) {
         use std::sync::atomic::Ordering;
         match stats.cycles {
             100 => self.full.store(true, Ordering::SeqCst),

@@ -29,7 +29,12 @@ struct Traced {
 }
 
 impl CycleBoundary for Traced {
-    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, _now: std::time::Duration) {
+    fn between_cycles(
+        &mut self,
+        plc: &mut Plc,
+        stats: &ScanStats,
+        _now: softplc_io::time::ScanInstant,
+    ) {
         self.traces.sample(plc, stats);
         let mut seen = self.seen.lock().unwrap();
         (self.script)(stats.cycles, &mut self.traces, plc, &mut seen);

@@ -16,6 +16,7 @@ use softplc::clock::{Clock, VirtualClock};
 use softplc::plc::Plc;
 use softplc::scan::ScanEngine;
 use softplc_io::sim::{Fault, FaultRule, Frequency};
+use softplc_io::time::LineInstant;
 use softplc_io::wire::{format_event, WireEvent, WireTap};
 
 fn quickstart() -> PathBuf {
@@ -87,7 +88,7 @@ fn the_quick_start_trace_is_deterministic_and_the_golden_one() {
 struct Recorder(Mutex<Vec<String>>);
 
 impl WireTap for Recorder {
-    fn record(&self, bus: &str, at: Duration, event: &WireEvent<'_>) {
+    fn record(&self, bus: &str, at: LineInstant, event: &WireEvent<'_>) {
         self.0.lock().unwrap().push(format_event(bus, at, event));
     }
 }
@@ -135,7 +136,7 @@ fn timeouts_late_replies_and_crc_errors_are_in_the_trace() {
         });
     }
     let clock = Arc::new(VirtualClock::new());
-    clock.advance_to(world.lock().unwrap().now());
+    clock.advance_to(world.lock().unwrap().now().on_scan_clock());
     let tap = Arc::new(Recorder::default());
     let plc = Plc::build_traced(project, clock, Some(world), Some(tap.clone() as _))
         .expect("a silent module does not stop the start");
@@ -224,7 +225,7 @@ fn a_wrong_echo_is_in_the_trace_after_its_request() {
     drop(probe);
     world.lock().unwrap().corrupt_next_echoes(0, 1);
     let clock = Arc::new(VirtualClock::new());
-    clock.advance_to(world.lock().unwrap().now());
+    clock.advance_to(world.lock().unwrap().now().on_scan_clock());
     let tap = Arc::new(Recorder::default());
     let plc = Plc::build_traced(project, clock, Some(world), Some(tap.clone() as _))
         .expect("a bad echo does not stop the start");

@@ -243,7 +243,7 @@ fn modules_absent_at_start_are_lost_not_fatal_and_start_up_when_they_answer() {
     drop(probe);
     world.lock().unwrap().faults_mut().set_dead(0, true);
     let clock = Arc::new(VirtualClock::new());
-    clock.advance_to(world.lock().unwrap().now());
+    clock.advance_to(world.lock().unwrap().now().on_scan_clock());
     let plc = Plc::build_on(project, clock, Some(world.clone()))
         .expect("a module that does not answer does not stop the start");
     assert!(plc

@@ -13,6 +13,7 @@ use std::time::Duration;
 use softplc_io::line::{LineError, LineSettings, Transport};
 
 use crate::frames::hex;
+use softplc_io::time::LineInstant;
 
 /// Reply bytes arriving `after` the end of the request.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -168,13 +169,14 @@ impl Transport for ScriptedTransport {
         lock(&self.0).settings
     }
 
-    fn now(&self) -> Duration {
-        lock(&self.0).now
+    // The script keeps the line's time as a duration since the line's origin.
+    fn now(&self) -> LineInstant {
+        LineInstant::after_origin(lock(&self.0).now)
     }
 
-    fn sync(&mut self, t: Duration) {
+    fn sync(&mut self, t: LineInstant) {
         let mut s = lock(&self.0);
-        s.now = s.now.max(t);
+        s.now = s.now.max(t.since_origin());
     }
 
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
@@ -202,7 +204,8 @@ impl Transport for ScriptedTransport {
         Ok(())
     }
 
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
+        let deadline = deadline.since_origin();
         let mut s = lock(&self.0);
         match s.inbound.first().map(|(at, _)| *at) {
             Some(at) if at <= deadline => {
@@ -218,9 +221,9 @@ impl Transport for ScriptedTransport {
         }
     }
 
-    fn wait_until(&mut self, t: Duration) {
+    fn wait_until(&mut self, t: LineInstant) {
         let mut s = lock(&self.0);
-        s.now = s.now.max(t);
+        s.now = s.now.max(t.since_origin());
     }
 
     fn flush_input(&mut self) -> Result<usize, LineError> {

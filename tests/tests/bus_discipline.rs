@@ -14,6 +14,7 @@ use softplc_io::line::{
 };
 use softplc_io::modbus::{ExceptionCode, ReplyError};
 use softplc_io::point::{Quality, Value};
+use softplc_io::time::LineInstant;
 use softplc_tests::frames::{exception, hex, minimod_inputs_reply, rtu};
 use softplc_tests::minimod::{desired, driver, point};
 use softplc_tests::scripted::{scripted, Answer, ScriptHandle};
@@ -102,8 +103,11 @@ fn the_cycle_read_is_the_manuals_fc2_and_a_reply_on_the_wire_is_taken() {
     assert_eq!(m.counters.dropped_bytes, 0);
     // Request, the module's 10 ms, a 7-byte reply: DESIGN.md's transaction without its t3.5.
     assert_eq!(m.counters.last_round_trip, DELAY + LINE.chars(7));
-    assert_eq!(frame.started, Duration::ZERO);
-    assert_eq!(frame.finished, LINE.chars(8) + DELAY + LINE.chars(7));
+    assert_eq!(frame.started, LineInstant::ZERO);
+    assert_eq!(
+        frame.finished.since_origin(),
+        LINE.chars(8) + DELAY + LINE.chars(7)
+    );
     assert_eq!(script.unread(), 0);
 }
 
@@ -232,7 +236,9 @@ fn no_reply_is_a_timeout_stale_then_bad_then_good_again() {
     // At the backoff its probe is the first exchange of its start-up sequence, one attempt:
     // a module that may have been power-cycled gets its settings again before it is read
     // (the whole comeback, against simulators: runtime/tests/transients.rs).
-    owner.sync(script.now() + Duration::from_secs(1));
+    owner.sync(LineInstant::after_origin(
+        script.now() + Duration::from_secs(1),
+    ));
     script.push(Answer::silence());
     let frame = owner.read_inputs();
     assert_eq!(frame.modules[0].quality, Quality::Bad);
@@ -297,7 +303,7 @@ fn a_late_reply_between_cycles_is_not_the_answer_to_the_next_cycle() {
     assert_eq!(frame.modules[0].quality, Quality::Stale);
     assert_eq!(x1(&frame), None, "never read");
 
-    owner.sync(Duration::from_secs(1));
+    owner.sync(LineInstant::after_origin(Duration::from_secs(1)));
     script.push(reply(false));
     let frame = owner.read_inputs();
     let m = &frame.modules[0];
@@ -395,7 +401,7 @@ fn extra_trailing_bytes_are_dropped_and_the_reply_kept() {
     script.push(babble);
     let frame = owner.read_inputs();
     assert_eq!(x1(&frame), OFF);
-    owner.sync(ms(1000));
+    owner.sync(LineInstant::after_origin(ms(1000)));
     script.push(reply(true));
     let frame = owner.read_inputs();
     let m = &frame.modules[0];
@@ -425,13 +431,13 @@ fn outputs_are_written_on_change_byte_exact_and_refreshed() {
     );
 
     // No change: nothing on the line.
-    owner.sync(ms(100));
+    owner.sync(LineInstant::after_origin(ms(100)));
     let report = owner.write_outputs(&y1_on);
     assert_eq!(report.transactions, 0);
     assert_eq!(script.written().len(), 1);
 
     // The refresh period (1 s) has passed: written again.
-    owner.sync(ms(1000));
+    owner.sync(LineInstant::after_origin(ms(1000)));
     script.push(Answer::on_wire(LINE, DELAY, &write_y1));
     let report = owner.write_outputs(&y1_on);
     assert_eq!(report.transactions, 1);
@@ -444,7 +450,7 @@ fn outputs_are_written_on_change_byte_exact_and_refreshed() {
     };
     let write_y1_off = rtu(&[0x05, 0x05, 0x00, 0x00, 0x00, 0x00]);
     assert_eq!(hex(&write_y1_off), "05 05 00 00 00 00 CC 4E");
-    owner.sync(ms(1100));
+    owner.sync(LineInstant::after_origin(ms(1100)));
     script.push(Answer::silence());
     script.push(Answer::silence());
     let report = owner.write_outputs(&y1_off);
@@ -453,7 +459,7 @@ fn outputs_are_written_on_change_byte_exact_and_refreshed() {
     assert_eq!(hex(&w[2].bytes), hex(&write_y1_off));
     assert_eq!(hex(&w[3].bytes), hex(&write_y1_off), "retried once");
 
-    owner.sync(ms(1500));
+    owner.sync(LineInstant::after_origin(ms(1500)));
     script.push(Answer::on_wire(LINE, DELAY, &write_y1_off));
     let report = owner.write_outputs(&y1_off);
     assert_eq!((report.transactions, report.failures), (1, 0));
@@ -473,7 +479,7 @@ fn a_refused_write_is_not_retried() {
     assert_eq!((report.transactions, report.failures), (1, 1));
     assert_eq!(script.written().len(), 1, "an exception is not retried");
     // Planned again next cycle, as any failed write.
-    owner.sync(ms(100));
+    owner.sync(LineInstant::after_origin(ms(100)));
     script.push(Answer::on_wire(
         LINE,
         DELAY,
@@ -495,7 +501,7 @@ fn a_write_refused_by_the_module_watchdog_waits_for_its_restart() {
     assert_eq!((report.transactions, report.failures), (1, 1));
     // No more writes until its start-up has run again (at the next read): they would be
     // refused the same way.
-    owner.sync(ms(100));
+    owner.sync(LineInstant::after_origin(ms(100)));
     let report = owner.write_outputs(&frame);
     assert_eq!((report.transactions, report.failures), (0, 0));
     assert_eq!(script.written().len(), 1);

@@ -15,7 +15,7 @@ use softplc_io::line::{
 };
 use softplc_io::point::{Quality, Value};
 use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld, SimWorld, VirtualPort};
-use softplc_io::time::{Clock, MonotonicClock};
+use softplc_io::time::{Clock, LineInstant, MonotonicClock};
 
 /// Slack on every real-time bound.
 const SLACK: Duration = Duration::from_millis(150);
@@ -229,18 +229,22 @@ impl Transport for Stuck {
     fn settings(&self) -> LineSettings {
         LineSettings::DEFAULT
     }
-    fn now(&self) -> Duration {
-        self.clock.now()
+    fn now(&self) -> LineInstant {
+        self.clock.line_now()
     }
     fn write_frame(&mut self, _frame: &[u8]) -> Result<(), LineError> {
         Ok(())
     }
-    fn read_until(&mut self, _buf: &mut Vec<u8>, _deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(
+        &mut self,
+        _buf: &mut Vec<u8>,
+        _deadline: LineInstant,
+    ) -> Result<usize, LineError> {
         std::thread::sleep(Duration::from_secs(5));
         Ok(0)
     }
-    fn wait_until(&mut self, t: Duration) {
-        self.clock.sleep_until(t);
+    fn wait_until(&mut self, t: LineInstant) {
+        self.clock.sleep_until_on_line(t);
     }
     fn flush_input(&mut self) -> Result<usize, LineError> {
         Ok(0)

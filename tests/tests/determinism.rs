@@ -100,7 +100,7 @@ fn run_on(project: Project) -> Run {
                 })
                 .collect();
             sink.lock().unwrap().push(Cycle {
-                start: ctx.now,
+                start: ctx.now.since_origin(),
                 read: slot.timestamp - ctx.now,
                 total: plc.clock().now() - ctx.now,
                 values,

@@ -15,6 +15,7 @@ use softplc::image::{ProcessImage, TagId};
 use softplc::logic::{expr, ladder, rhai, tag_table, LogicEngine, ScanContext};
 use softplc::project;
 use softplc_io::point::Value;
+use softplc_io::time::{LineInstant, ScanInstant};
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -155,7 +156,7 @@ fn exercise_profile(profile: project::profile::Profile) {
     let mut driver = (model.driver)(&config);
     let mut sim = model.simulate(address);
     let mut plan = Vec::new();
-    driver.advance_to(Duration::from_secs(1));
+    driver.advance_to(LineInstant::after_origin(Duration::from_secs(1)));
     driver.plan_read(&mut plan);
     let desired: Vec<_> = model.points.iter().map(|p| Some(p.ty.zero())).collect();
     driver.plan_write(&desired, true, &mut plan);
@@ -194,11 +195,11 @@ fn scan_a_little(engine: &mut dyn LogicEngine, image: &mut ProcessImage, salt: u
                 id,
                 Some(softplc::image::convert(Value::Bool(bit), ty)),
                 softplc_io::point::Quality::Good,
-                Duration::ZERO,
+                ScanInstant::ZERO,
             );
         }
         let ctx = ScanContext {
-            now: Duration::from_millis(cycle * 50),
+            now: ScanInstant::after_origin(Duration::from_millis(cycle * 50)),
             delta: Duration::from_millis(50),
             cycle,
         };

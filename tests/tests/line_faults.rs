@@ -56,10 +56,10 @@ fn rig(retries: u8) -> Rig {
 impl Rig {
     /// One read cycle starting at the clock's time; the clock then moves past it.
     fn read(&mut self) -> (Option<Value>, Quality, Counters) {
-        self.owner.sync(self.clock.now());
+        self.owner.sync(self.clock.line_now());
         let frame = self.owner.read_inputs();
         self.clock
-            .advance_to(frame.finished + Duration::from_millis(100));
+            .advance_to(frame.finished.on_scan_clock() + Duration::from_millis(100));
         let m = &frame.modules[0];
         (m.values[X1], m.quality, m.counters)
     }

@@ -242,7 +242,7 @@ fn run(case: &Case, project: Project, inputs: &[Vec<Edge>], run_for: Duration) -
             .collect();
         world.set_plant(
             Box::new(Recorder {
-                origin: plc.clock().now(),
+                origin: plc.clock().now().since_origin(),
                 schedule: inputs.to_vec(),
                 next: vec![0; inputs.len()],
                 outputs: case.outputs.len(),
@@ -1079,13 +1079,14 @@ use machine::{module, on_machine};
 use softplc::logic::ScanContext;
 use softplc_io::point::Value;
 use softplc_io::sim::SimDevice;
+use softplc_io::time::ScanInstant;
 
 /// A PLC on this thread's machine, scanned cycle by cycle: dropping it is a `kill -9` (no
 /// safe state, the tables stay armed); [`Session::stop`] is the clean stop. Input schedules and
 /// the recorded output traces count from the session's first scan.
 struct Session {
     plc: Plc,
-    origin: Duration,
+    origin: ScanInstant,
     cycle: u64,
     trace: Arc<Mutex<Vec<Vec<Edge>>>>,
 }
@@ -1118,7 +1119,8 @@ impl Session {
             schedule.resize(case.inputs.len(), Vec::new());
             world.set_plant(
                 Box::new(Recorder {
-                    origin,
+                    // The simulated world keeps the virtual clock's time.
+                    origin: origin.since_origin(),
                     next: vec![0; schedule.len()],
                     schedule,
                     outputs: case.outputs.len(),
@@ -1166,7 +1168,7 @@ impl Session {
         let world = self.plc.world().expect("a simulated line").clone();
         let mut w = world.lock().unwrap();
         let now = self.plc.clock().now();
-        w.advance_to(now);
+        w.advance_to(now.on_line_clock());
         f(&mut w)
     }
 
@@ -1388,7 +1390,7 @@ fn a_clean_stop_leaves_the_output_safe_and_the_inputs_without_effect_in_both() {
         s.stop();
         // After the stop a start press changes nothing: no table is left in the module.
         mm1.clone().set("X1", Value::Bool(true)).unwrap();
-        mm1.clone().advance_to(clock.now() + ms(500));
+        mm1.clone().advance_to(clock.now().since_origin() + ms(500));
         assert!(!level(&mm1, "Y2"), "{mode}: safe value, start pressed");
         for name in MINIMOD_LOGIC {
             assert_eq!(mm1.get(name), Ok(Value::U16(0)), "{mode}: {name}");

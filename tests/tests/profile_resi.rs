@@ -11,7 +11,7 @@ use softplc_io::devices::{self, ModelSpec, Protocol};
 use softplc_io::line::{BusOwner, Discipline, LineSettings, Module};
 use softplc_io::point::Value;
 use softplc_io::sim::{SharedWorld, SimWorld, VirtualPort};
-use softplc_io::time::{Clock, VirtualClock};
+use softplc_io::time::{Clock, ScanInstant, VirtualClock};
 
 const UNIT: u8 = 2;
 
@@ -39,7 +39,7 @@ fn owner(
 
 /// Every point the built-in driver read, by name, with its value.
 fn read(owner: &mut BusOwner, model: &ModelSpec, clock: &VirtualClock) -> Vec<(String, Value)> {
-    owner.sync(clock.now());
+    owner.sync(clock.line_now());
     let frame = owner.read_inputs();
     model
         .points
@@ -76,7 +76,9 @@ fn the_resi_32di_as_a_profile_reads_what_the_builtin_driver_reads() {
             }
         }
         // Past the module's 10 ms input sampling.
-        clock.advance_to(Duration::from_millis(100 * (k as u64 + 1)));
+        clock.advance_to(ScanInstant::after_origin(Duration::from_millis(
+            100 * (k as u64 + 1),
+        )));
         let builtin_read = read(&mut a, builtin, &clock);
         let profile_read = read(&mut b, profiled, &clock);
         assert!(

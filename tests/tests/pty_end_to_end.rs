@@ -110,7 +110,7 @@ impl Rig {
     /// Sets a simulated terminal as `softplc sim`'s `set` does: at the world's current time.
     fn set(&self, name: &str, on: bool) {
         let mut w = self.world.lock().unwrap_or_else(|e| e.into_inner());
-        w.advance_to(self.clock.now());
+        w.advance_to(self.clock.line_now());
         w.set(self.device, name, Value::Bool(on))
             .expect("a MiniMod point");
     }

@@ -185,7 +185,7 @@ pub(super) fn stop(bus: BusThread, wait: Duration) -> anyhow::Result<(CollectSta
 /// Sets X1 of device `index` at its terminal.
 pub(super) fn set_x1(world: &SharedWorld, clock: &dyn Clock, index: usize, level: bool) {
     let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
-    w.advance_to(clock.now());
+    w.advance_to(clock.line_now());
     // A stimulus that never reached the terminal would make the measurement meaningless.
     if let Err(e) = w.set(index, "X1", Value::Bool(level)) {
         panic!("setting X1 of simulated device {index}: {e}");

@@ -16,6 +16,7 @@ use softplc::scan::DurationHistogram;
 
 use super::{Ctx, Scenario};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
+use softplc_io::time::ScanInstant;
 
 /// The scenario.
 pub(crate) const SCENARIO: Scenario = Scenario {
@@ -49,7 +50,7 @@ fn measure(engine: &str, n: usize, run_for: Duration) -> anyhow::Result<Duration
     while cycle < 50 || began.elapsed() < run_for {
         synthetic::drive_inputs(&mut image, n, cycle);
         let ctx = ScanContext {
-            now: Duration::from_millis(10 * cycle),
+            now: ScanInstant::after_origin(Duration::from_millis(10 * cycle)),
             delta: Duration::from_millis(10),
             cycle,
         };

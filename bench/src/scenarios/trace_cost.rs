@@ -18,6 +18,7 @@ use softplc::trace::TraceSet;
 
 use super::{Ctx, Scenario};
 use crate::report::{Bound, Outcome, Plot, PlotKind, Row, Series};
+use softplc_io::time::ScanInstant;
 
 /// The scenario.
 pub(crate) const SCENARIO: Scenario = Scenario {
@@ -98,7 +99,9 @@ impl Case {
     fn turn(&mut self, cycles: u64) -> anyhow::Result<()> {
         let period = Duration::from_millis(10);
         for _ in 0..cycles {
-            let now = period * u32::try_from(self.stats.cycles).unwrap_or(u32::MAX);
+            let now = ScanInstant::after_origin(
+                period * u32::try_from(self.stats.cycles).unwrap_or(u32::MAX),
+            );
             let ctx = ScanContext {
                 now,
                 delta: period,

@@ -16,6 +16,8 @@
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use crossbeam_channel::{Receiver, Sender};
 
 use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
@@ -201,7 +203,7 @@ pub(crate) enum Miss {
 #[derive(Debug)]
 pub(crate) struct Exchanged {
     /// When the request's last character left; `None` if it was not sent.
-    pub(crate) sent: Option<Duration>,
+    pub(crate) sent: Option<LineInstant>,
     /// End of request to end of a good reply.
     pub(crate) round_trip: Option<Duration>,
     /// Bytes dropped: stray ones before the request, extra after the reply, the guard's flush.
@@ -251,9 +253,9 @@ pub struct InputFrame {
     /// One snapshot per module, in the order the owner was given them.
     pub modules: Vec<ModuleSnapshot>,
     /// When the cycle started and ended on the line's time.
-    pub started: Duration,
+    pub started: LineInstant,
     /// End of the last transaction.
-    pub finished: Duration,
+    pub finished: LineInstant,
 }
 
 /// Desired outputs for one line: per module, per point (`None`: not driven).
@@ -271,7 +273,7 @@ pub struct WriteReport {
     /// Transactions that failed.
     pub failures: u32,
     /// End of the last transaction on the line's time.
-    pub finished: Duration,
+    pub finished: LineInstant,
 }
 
 /// A module on the line.
@@ -298,10 +300,10 @@ pub struct Module {
     pub(crate) last_error: Option<TxError>,
     /// When the module last answered an exchange addressed to it (a reply or an exception:
     /// it is there and hears its address), on the line's time.
-    pub(crate) last_answered: Option<Duration>,
+    pub(crate) last_answered: Option<LineInstant>,
     /// When every output it owns was last written (a refresh, or a write on change that
     /// covered them all): its periodic rewrite runs from there (`line/housekeeping.rs`).
-    last_full_write: Option<Duration>,
+    last_full_write: Option<LineInstant>,
 }
 
 impl Module {
@@ -362,7 +364,7 @@ pub struct BusOwner {
     pub(crate) settings: LineSettings,
     pub(super) discipline: Discipline,
     pub(crate) modules: Vec<Module>,
-    pub(crate) line_free_at: Duration,
+    pub(crate) line_free_at: LineInstant,
     /// FC 70 Collect rounds for the modules in event mode (line/collect.rs).
     pub(crate) collect: CollectState,
     /// The port's own health: a failed port is reopened with a backoff.
@@ -401,7 +403,7 @@ impl BusOwner {
             settings,
             discipline,
             modules,
-            line_free_at: Duration::ZERO,
+            line_free_at: LineInstant::ZERO,
             collect: CollectState::default(),
             port_health: Health::default(),
             deferred: Vec::new(),
@@ -422,20 +424,21 @@ impl BusOwner {
         &self.modules
     }
 
-    /// Aligns the line's time with the scan (virtual clocks only).
-    pub fn sync(&mut self, t: Duration) {
+    /// Aligns the line's time with the scan (virtual clocks only): `t` is the scan's time on
+    /// the line's clock ([`ScanInstant::on_line_clock`](crate::time::ScanInstant::on_line_clock)).
+    pub fn sync(&mut self, t: LineInstant) {
         self.transport.sync(t);
     }
 
     /// The line's time: the end of its last transaction, or later (on a virtual line the
     /// scan starts once the start-up traffic has ended).
-    pub fn now(&self) -> Duration {
+    pub fn now(&self) -> LineInstant {
         self.transport.now()
     }
 
     /// When the line is free for the next request: the end of its last traffic and the t3.5
     /// of silence after it.
-    pub fn free_at(&self) -> Duration {
+    pub fn free_at(&self) -> LineInstant {
         self.line_free_at.max(self.transport.now())
     }
 
@@ -677,7 +680,7 @@ impl BusOwner {
     }
 
     /// Whether the port can be used this cycle; reopens a failed one when its backoff allows.
-    fn port_ready(&mut self, now: Duration) -> bool {
+    fn port_ready(&mut self, now: LineInstant) -> bool {
         if !self.port_health.is_lost() {
             return true;
         }
@@ -765,7 +768,7 @@ impl BusOwner {
 
     /// The modules whose outputs are all written again this cycle: those back from a loss or
     /// a start-up, and the periodic rewrites `line/housekeeping.rs` chooses.
-    fn output_refreshes(&mut self, now: Duration) -> Vec<bool> {
+    fn output_refreshes(&mut self, now: LineInstant) -> Vec<bool> {
         let period = self.discipline.output_refresh;
         let mut pick = Pick::default();
         for (m, module) in self.modules.iter().enumerate() {
@@ -1122,7 +1125,7 @@ impl BusOwner {
     fn recovered(
         &mut self,
         mut done: Exchanged,
-        now: Duration,
+        now: LineInstant,
         wait: Duration,
         miss: Miss,
     ) -> Exchanged {
@@ -1149,8 +1152,8 @@ impl BusOwner {
     }
 
     /// After a good reply: record the round trip and keep t3.5 of silence before the next.
-    fn finish(&mut self, done: &mut Exchanged, sent: Duration, now: Duration, reply: Reply) {
-        done.round_trip = Some(now.saturating_sub(sent));
+    fn finish(&mut self, done: &mut Exchanged, sent: LineInstant, now: LineInstant, reply: Reply) {
+        done.round_trip = Some(now - sent);
         done.outcome = Ok(Some(reply));
         self.line_free_at = now + self.settings.t3_5();
     }
@@ -1158,7 +1161,7 @@ impl BusOwner {
     /// After a timeout or a bad reply to an exchange that waited `wait` for its first byte:
     /// wait out the guard time so a late or babbling reply ends, then drop whatever came;
     /// returns how many bytes.
-    fn recover(&mut self, now: Duration, wait: Duration) -> Result<usize, LineError> {
+    fn recover(&mut self, now: LineInstant, wait: Duration) -> Result<usize, LineError> {
         let guard = crate::line::budget::guard_time(self.settings, wait);
         self.transport.wait_until(now + guard);
         let dropped = self.transport.flush_input();

@@ -49,6 +49,8 @@
 
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 #[cfg(doc)]
 use crate::driver::Driver;
 use crate::driver::{Membership, Reply, Transaction};
@@ -226,14 +228,14 @@ pub(crate) struct CollectState {
     stash: Vec<Vec<Transaction>>,
     planned: Vec<bool>,
     /// Per module: when its last full refresh was decided.
-    last_refresh: Vec<Option<Duration>>,
+    last_refresh: Vec<Option<LineInstant>>,
     /// Per slave address: the last SLVSEQ seen.
     last_seq: Vec<Option<u8>>,
     /// The acknowledgement the last round could not send.
     pending_ack: Option<(u8, u8)>,
     stats: CollectStats,
     /// End of the last Collect request on the line.
-    last_sent: Duration,
+    last_sent: LineInstant,
 }
 
 impl CollectState {
@@ -281,7 +283,7 @@ impl BusOwner {
 
     /// Plans every module that is due at `now` and runs one Collect round for the members.
     /// [`Self::read_plan`] then hands each module the rest of its plan.
-    pub(crate) fn collect_pass(&mut self, now: Duration) {
+    pub(crate) fn collect_pass(&mut self, now: LineInstant) {
         let n = self.modules.len();
         self.collect.prepare(n);
         let mut members: Vec<Member> = Vec::new();

@@ -19,6 +19,8 @@
 
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use crate::driver::{Driver, Transaction};
 use crate::line::budget::{input_floor_of, members_floor, plan_time, AdapterTiming};
 use crate::line::housekeeping::{Pick, Urgency};
@@ -158,9 +160,10 @@ impl CycleMix {
         let mut longest = Duration::ZERO;
         let mut first = Duration::ZERO;
         for k in 0..cycles {
-            let start = period * u32::try_from(k).unwrap_or(u32::MAX);
+            // The model's line keeps the scan's grid: it is the line a virtual clock runs.
+            let start = LineInstant::after_origin(period * u32::try_from(k).unwrap_or(u32::MAX));
             let end = line.cycle(start, period);
-            let took = end.saturating_sub(start);
+            let took = end - start;
             if k == 0 {
                 first = took;
                 continue;
@@ -187,12 +190,12 @@ impl CycleMix {
 struct Model<'a> {
     mix: &'a CycleMix,
     /// The line is busy until then.
-    busy: Duration,
+    busy: LineInstant,
     /// The end of the last read started.
-    read_end: Duration,
-    last_full_read: Vec<Option<Duration>>,
-    last_rewrite: Vec<Option<Duration>>,
-    last_answered: Vec<Option<Duration>>,
+    read_end: LineInstant,
+    last_full_read: Vec<Option<LineInstant>>,
+    last_rewrite: Vec<Option<LineInstant>>,
+    last_answered: Vec<Option<LineInstant>>,
 }
 
 impl<'a> Model<'a> {
@@ -200,8 +203,8 @@ impl<'a> Model<'a> {
         let n = mix.modules.len();
         Self {
             mix,
-            busy: Duration::ZERO,
-            read_end: Duration::ZERO,
+            busy: LineInstant::ZERO,
+            read_end: LineInstant::ZERO,
             last_full_read: vec![None; n],
             last_rewrite: vec![None; n],
             last_answered: vec![None; n],
@@ -210,7 +213,7 @@ impl<'a> Model<'a> {
 
     /// One cycle starting at `start`: its read (unless the last one still runs), then its
     /// write behind whatever the line is doing; returns when the line's work for it ends.
-    fn cycle(&mut self, start: Duration, period: Duration) -> Duration {
+    fn cycle(&mut self, start: LineInstant, period: Duration) -> LineInstant {
         let deadline = start + period * 9 / 10;
         let delivered = if self.read_end > start {
             // The last read still runs: no new one; its answer is this cycle's if in time.
@@ -225,7 +228,7 @@ impl<'a> Model<'a> {
 
     /// A read starting at `at`: the ordinary reads and round, then the members' full reads
     /// the owner picks after the round (line/collect.rs).
-    fn read(&mut self, at: Duration) -> Duration {
+    fn read(&mut self, at: LineInstant) -> LineInstant {
         let after = at + self.mix.ordinary;
         let mut pick = Pick::default();
         for (m, module) in self.mix.modules.iter().enumerate() {
@@ -263,7 +266,7 @@ impl<'a> Model<'a> {
 
     /// A write starting at `at`: nothing changed, so only the rewrites the owner picks
     /// (bus.rs `output_refreshes`).
-    fn write(&mut self, at: Duration) {
+    fn write(&mut self, at: LineInstant) {
         let mut pick = Pick::default();
         for (m, module) in self.mix.modules.iter().enumerate() {
             if module.rewrite.is_some() {

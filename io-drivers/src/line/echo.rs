@@ -15,6 +15,8 @@ use std::fmt;
 use std::str::FromStr;
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, Transport};
 
@@ -153,11 +155,11 @@ impl Transport for EchoDiscard {
         self.inner.settings()
     }
 
-    fn now(&self) -> Duration {
+    fn now(&self) -> LineInstant {
         self.inner.now()
     }
 
-    fn sync(&mut self, t: Duration) {
+    fn sync(&mut self, t: LineInstant) {
         self.inner.sync(t);
     }
 
@@ -177,7 +179,7 @@ impl Transport for EchoDiscard {
         verify(frame, &self.heard[..split]).map_err(LineError::Echo)
     }
 
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
         if !self.pending.is_empty() {
             let n = self.pending.len();
             buf.append(&mut self.pending);
@@ -186,7 +188,7 @@ impl Transport for EchoDiscard {
         self.inner.read_until(buf, deadline)
     }
 
-    fn wait_until(&mut self, t: Duration) {
+    fn wait_until(&mut self, t: LineInstant) {
         self.inner.wait_until(t);
     }
 

@@ -7,6 +7,8 @@
 
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use crate::point::Quality;
 
 /// Limits of the health state machine.
@@ -33,20 +35,20 @@ pub(crate) enum HealthEvent {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub(crate) struct Health {
     failed_cycles: u32,
-    lost_since: Option<Duration>,
+    lost_since: Option<LineInstant>,
     backoff: Duration,
-    next_attempt: Duration,
+    next_attempt: LineInstant,
 }
 
 impl Health {
     /// Whether the module should be polled at `now` (always, unless lost and backing off).
-    pub(crate) fn due(&self, now: Duration) -> bool {
+    pub(crate) fn due(&self, now: LineInstant) -> bool {
         self.lost_since.is_none() || now >= self.next_attempt
     }
 
     /// Makes a lost module due now (its line came back: no reason to wait out its backoff).
     pub(crate) fn retry_now(&mut self) {
-        self.next_attempt = Duration::ZERO;
+        self.next_attempt = LineInstant::ZERO;
     }
 
     /// Whether the module is lost.
@@ -81,7 +83,7 @@ impl Health {
 
     /// Makes the module lost at once (it did not answer its start-up), retried after the
     /// first backoff.
-    pub(crate) fn mark_lost(&mut self, now: Duration, limits: &HealthLimits) {
+    pub(crate) fn mark_lost(&mut self, now: LineInstant, limits: &HealthLimits) {
         self.failed_cycles = limits.fail_limit;
         self.lost_since.get_or_insert(now);
         self.backoff = limits.reconnect_min;
@@ -93,7 +95,7 @@ impl Health {
     pub(crate) fn record(
         &mut self,
         ok: bool,
-        now: Duration,
+        now: LineInstant,
         limits: &HealthLimits,
     ) -> (Quality, Option<HealthEvent>) {
         if ok {
@@ -102,7 +104,7 @@ impl Health {
             let event = self
                 .lost_since
                 .take()
-                .map(|since| HealthEvent::Back(now.saturating_sub(since)));
+                .map(|since| HealthEvent::Back(now - since));
             return (Quality::Good, event);
         }
         self.failed_cycles = self.failed_cycles.saturating_add(1);
@@ -136,30 +138,34 @@ mod tests {
         Duration::from_secs(secs)
     }
 
+    fn at(secs: u64) -> LineInstant {
+        LineInstant::after_origin(s(secs))
+    }
+
     #[test]
     fn lost_after_the_limit_then_backs_off_and_comes_back_once() {
         let mut h = Health::default();
-        assert_eq!(h.record(false, s(0), &LIMITS), (Quality::Stale, None));
-        assert_eq!(h.record(false, s(0), &LIMITS), (Quality::Stale, None));
+        assert_eq!(h.record(false, at(0), &LIMITS), (Quality::Stale, None));
+        assert_eq!(h.record(false, at(0), &LIMITS), (Quality::Stale, None));
         assert_eq!(
-            h.record(false, s(10), &LIMITS),
+            h.record(false, at(10), &LIMITS),
             (Quality::Bad, Some(HealthEvent::Lost))
         );
-        assert!(!h.due(s(10)) && h.due(s(11)), "1 s backoff");
+        assert!(!h.due(at(10)) && h.due(at(11)), "1 s backoff");
         assert_eq!(
-            h.record(false, s(11), &LIMITS),
+            h.record(false, at(11), &LIMITS),
             (Quality::Bad, None),
             "logged once"
         );
-        assert!(!h.due(s(12)) && h.due(s(13)), "doubled to 2 s");
-        h.record(false, s(13), &LIMITS);
-        h.record(false, s(17), &LIMITS);
-        assert!(!h.due(s(20)) && h.due(s(21)), "capped at 4 s");
+        assert!(!h.due(at(12)) && h.due(at(13)), "doubled to 2 s");
+        h.record(false, at(13), &LIMITS);
+        h.record(false, at(17), &LIMITS);
+        assert!(!h.due(at(20)) && h.due(at(21)), "capped at 4 s");
         assert_eq!(
-            h.record(true, s(21), &LIMITS),
+            h.record(true, at(21), &LIMITS),
             (Quality::Good, Some(HealthEvent::Back(s(11))))
         );
-        assert!(h.due(s(21)));
-        assert_eq!(h.record(true, s(22), &LIMITS), (Quality::Good, None));
+        assert!(h.due(at(21)));
+        assert_eq!(h.record(true, at(22), &LIMITS), (Quality::Good, None));
     }
 }

@@ -14,6 +14,8 @@
 
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 /// How urgent one periodic refresh is now.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub(crate) enum Urgency {
@@ -28,11 +30,11 @@ pub(crate) enum Urgency {
 
 impl Urgency {
     /// The urgency of a refresh last done at `last` (`None`: never), with `period`, at `now`.
-    pub(crate) fn of(last: Option<Duration>, period: Duration, now: Duration) -> Self {
+    pub(crate) fn of(last: Option<LineInstant>, period: Duration, now: LineInstant) -> Self {
         let Some(last) = last else {
             return Urgency::Due;
         };
-        let since = now.saturating_sub(last);
+        let since = now - last;
         if since >= period {
             return Urgency::Due;
         }
@@ -91,8 +93,8 @@ mod tests {
 
     const S: Duration = Duration::from_secs(1);
 
-    fn ms(n: u64) -> Duration {
-        Duration::from_millis(n)
+    fn ms(n: u64) -> LineInstant {
+        LineInstant::after_origin(Duration::from_millis(n))
     }
 
     #[test]

@@ -35,7 +35,7 @@ use std::time::{Duration, Instant};
 use crate::line::bus::{
     BusCommand, BusEvent, BusOwner, BusThread, InputFrame, OutputFrame, WriteReport,
 };
-use crate::time::Clock;
+use crate::time::{Clock, LineInstant, ScanInstant};
 
 /// What a line handed the scan by a deadline.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,7 +43,7 @@ pub struct Delivery<T> {
     /// The answer; `None` when the line had nothing new by the deadline.
     pub answer: Option<T>,
     /// When the scan had it, on the PLC's clock: the answer's arrival, or the deadline.
-    pub at: Duration,
+    pub at: ScanInstant,
 }
 
 /// The end of a write the scan stopped waiting for at its cycle's end (the period was over):
@@ -51,7 +51,7 @@ pub struct Delivery<T> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum WriteEnd {
     /// Known now: a line the scan runs itself ends it at this time, on the PLC's clock.
-    At(Duration),
+    At(ScanInstant),
     /// The line's thread is still at it: its end comes with the answer to the first write
     /// from this sequence number on ([`LineLink::late_write_end`]).
     Later(u64),
@@ -81,7 +81,7 @@ enum Kind {
 struct Inline {
     owner: BusOwner,
     /// Line time when its current work ends.
-    busy_until: Duration,
+    busy_until: LineInstant,
     /// The answer to the current read, available at its `finished` time.
     read: Option<InputFrame>,
     /// An answer that came after its cycle's deadline and before the current read started.
@@ -106,7 +106,7 @@ struct Threaded {
     /// A write's answer not yet delivered.
     written: Option<WriteReport>,
     /// The last write answers: sequence number and end, oldest first.
-    write_ends: std::collections::VecDeque<(u64, Duration)>,
+    write_ends: std::collections::VecDeque<(u64, ScanInstant)>,
 }
 
 impl LineLink {
@@ -152,18 +152,24 @@ impl LineLink {
 
     /// Starts a read at `now` unless the last one is still running (a waiting write goes
     /// first).
-    pub fn start_read(&mut self, now: Duration) {
+    pub fn start_read(&mut self, now: ScanInstant) {
         match &mut self.kind {
             Kind::Inline(l) => {
-                if l.read.as_ref().is_some_and(|f| f.finished > now) {
+                if l.read
+                    .as_ref()
+                    .is_some_and(|f| f.finished.on_scan_clock() > now)
+                {
                     return;
                 }
-                if l.written.as_ref().is_none_or(|w| w.finished <= now) {
+                if l.written
+                    .as_ref()
+                    .is_none_or(|w| w.finished.on_scan_clock() <= now)
+                {
                     if let Some(frame) = self.pending.take() {
                         l.write(&frame, now, false);
                     }
                 }
-                l.owner.sync(now.max(l.busy_until));
+                l.owner.sync(now.on_line_clock().max(l.busy_until));
                 let frame = l.owner.read_answering();
                 l.owner.read_deferred(None);
                 l.busy_until = l.owner.now();
@@ -189,13 +195,13 @@ impl LineLink {
 
     /// The line's freshest input by `deadline`: the answer to its current read if it comes in
     /// time, else one that came late for the last cycle, else nothing (its values go stale).
-    pub fn finish_read(&mut self, deadline: Duration) -> Delivery<InputFrame> {
+    pub fn finish_read(&mut self, deadline: ScanInstant) -> Delivery<InputFrame> {
         match &mut self.kind {
             Kind::Inline(l) => match l.read.take() {
-                Some(frame) if frame.finished <= deadline => {
+                Some(frame) if frame.finished.on_scan_clock() <= deadline => {
                     l.late = None;
                     Delivery {
-                        at: frame.finished,
+                        at: frame.finished.on_scan_clock(),
                         answer: Some(frame),
                     }
                 }
@@ -224,7 +230,7 @@ impl LineLink {
 
     /// Starts writing `frame` at `now`, behind a read still running; while the last write
     /// is still outstanding it waits, merged with later frames.
-    pub fn start_write(&mut self, frame: &OutputFrame, now: Duration) {
+    pub fn start_write(&mut self, frame: &OutputFrame, now: ScanInstant) {
         let frame = match self.pending.take() {
             Some(mut earlier) => {
                 merge(&mut earlier, frame);
@@ -234,7 +240,10 @@ impl LineLink {
         };
         match &mut self.kind {
             Kind::Inline(l) => {
-                if l.written.as_ref().is_some_and(|w| w.finished > now) {
+                if l.written
+                    .as_ref()
+                    .is_some_and(|w| w.finished.on_scan_clock() > now)
+                {
                     self.pending = Some(frame);
                 } else {
                     l.write(&frame, now, false);
@@ -254,7 +263,7 @@ impl LineLink {
 
     /// Queues the safe state behind whatever the line is doing: every output, lost modules
     /// included. A waiting write is dropped: the safe state replaces it.
-    pub fn start_safe_write(&mut self, frame: &OutputFrame, now: Duration) {
+    pub fn start_safe_write(&mut self, frame: &OutputFrame, now: ScanInstant) {
         self.pending = None;
         match &mut self.kind {
             Kind::Inline(l) => l.write(frame, now, true),
@@ -268,11 +277,11 @@ impl LineLink {
     }
 
     /// The answer to the write started last, if it comes by `deadline`.
-    pub fn finish_write(&mut self, deadline: Duration) -> Delivery<WriteReport> {
+    pub fn finish_write(&mut self, deadline: ScanInstant) -> Delivery<WriteReport> {
         match &mut self.kind {
             Kind::Inline(l) => match l.written.take() {
-                Some(report) if report.finished <= deadline => Delivery {
-                    at: report.finished,
+                Some(report) if report.finished.on_scan_clock() <= deadline => Delivery {
+                    at: report.finished.on_scan_clock(),
                     answer: Some(report),
                 },
                 outstanding => {
@@ -306,7 +315,10 @@ impl LineLink {
     /// both.
     pub fn unfinished_write(&self) -> Option<WriteEnd> {
         match &self.kind {
-            Kind::Inline(l) => l.written.as_ref().map(|w| WriteEnd::At(w.finished)),
+            Kind::Inline(l) => l
+                .written
+                .as_ref()
+                .map(|w| WriteEnd::At(w.finished.on_scan_clock())),
             Kind::Thread(t) => match t.write_seq {
                 Some(seq) => Some(WriteEnd::Later(seq)),
                 // A write waiting in the link goes out later, under a later number.
@@ -321,7 +333,7 @@ impl LineLink {
 
     /// When the first write from sequence number `seq` on ended ([`WriteEnd::Later`]), once
     /// its answer has come (never waits).
-    pub fn late_write_end(&mut self, seq: u64) -> Option<Duration> {
+    pub fn late_write_end(&mut self, seq: u64) -> Option<ScanInstant> {
         match &mut self.kind {
             Kind::Thread(t) => {
                 t.drain();
@@ -353,8 +365,8 @@ impl LineLink {
 
 impl Inline {
     /// Runs a write from `now`, or from the end of the line's current work.
-    fn write(&mut self, frame: &OutputFrame, now: Duration, safe: bool) {
-        self.owner.sync(now.max(self.busy_until));
+    fn write(&mut self, frame: &OutputFrame, now: ScanInstant, safe: bool) {
+        self.owner.sync(now.on_line_clock().max(self.busy_until));
         let report = if safe {
             self.owner.write_safe(frame)
         } else {
@@ -383,9 +395,9 @@ impl Threaded {
     }
 
     /// Waits until `done` or `deadline` (on the PLC's clock), taking answers as they come.
-    fn wait(&mut self, deadline: Duration, done: impl Fn(&Self) -> bool) {
+    fn wait(&mut self, deadline: ScanInstant, done: impl Fn(&Self) -> bool) {
         self.drain();
-        let until = Instant::now() + deadline.saturating_sub(self.clock.now());
+        let until = Instant::now() + (deadline - self.clock.now());
         while !done(self) {
             match self.thread.recv_deadline(until) {
                 Some((seq, event)) => self.take(seq, event),
@@ -411,7 +423,9 @@ impl Threaded {
                 if self.write_ends.len() == KEPT_WRITE_ENDS {
                     self.write_ends.pop_front();
                 }
-                self.write_ends.push_back((seq, report.finished));
+                // A line on its own thread keeps the PLC's time.
+                self.write_ends
+                    .push_back((seq, report.finished.on_scan_clock()));
                 self.written = Some(report);
             }
         }

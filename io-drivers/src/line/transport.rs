@@ -14,7 +14,7 @@ use serialport::SerialPort;
 
 use crate::line::latency::{AdapterLatency, SysfsRoot};
 use crate::line::settings::{LineSettings, Parity};
-use crate::time::Clock;
+use crate::time::{Clock, LineInstant};
 
 /// A failure of the line itself (not of a device).
 #[derive(Debug, thiserror::Error)]
@@ -119,11 +119,11 @@ pub trait Transport: Send + Debug {
     fn settings(&self) -> LineSettings;
 
     /// Time on this line.
-    fn now(&self) -> Duration;
+    fn now(&self) -> LineInstant;
 
     /// Aligns a virtual cursor with the scan's time at the start of a cycle (no-op in real
-    /// time).
-    fn sync(&mut self, t: Duration) {
+    /// time): `t` is the scan's time mapped onto the line's clock.
+    fn sync(&mut self, t: LineInstant) {
         let _ = t;
     }
 
@@ -132,10 +132,10 @@ pub trait Transport: Send + Debug {
 
     /// Waits until at least one byte has arrived or `deadline` passes; appends what arrived to
     /// `buf` and returns how many bytes (0: the deadline passed in silence).
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError>;
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError>;
 
     /// Keeps the line quiet until `t` (the t3.5 gap, the guard after a timeout).
-    fn wait_until(&mut self, t: Duration);
+    fn wait_until(&mut self, t: LineInstant);
 
     /// Drops every byte that has arrived and not been read; returns how many. An error means
     /// the input may still hold them ([`LineError::Flush`]): the line has failed.
@@ -496,27 +496,26 @@ impl Transport for SerialTransport {
         self.settings
     }
 
-    fn now(&self) -> Duration {
-        self.clock.now()
+    fn now(&self) -> LineInstant {
+        self.clock.line_now()
     }
 
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
-        let start = self.clock.now();
+        let start = self.now();
         let port = self.port()?;
         port.write_all(frame)?;
         // tcdrain: on a real UART this returns once the last character has left.
         port.flush()?;
         // A pty drains at once; keep the line busy for the frame's wire time all the same, so
         // timing on a pty matches the wire (on a UART this deadline has already passed).
-        self.clock
-            .sleep_until(start + self.settings.chars(frame.len()));
+        self.wait_until(start + self.settings.chars(frame.len()));
         Ok(())
     }
 
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
         let mut chunk = [0u8; 256];
         loop {
-            let now = self.clock.now();
+            let now = self.now();
             let port = self.port()?;
             if now >= deadline {
                 // The thread may have been descheduled past the deadline with the reply already
@@ -559,8 +558,8 @@ impl Transport for SerialTransport {
         }
     }
 
-    fn wait_until(&mut self, t: Duration) {
-        self.clock.sleep_until(t);
+    fn wait_until(&mut self, t: LineInstant) {
+        self.clock.sleep_until_on_line(t);
     }
 
     fn flush_input(&mut self) -> Result<usize, LineError> {

@@ -20,7 +20,7 @@ use crate::sim::device::{SimDevice, SimError};
 use crate::sim::fault::LineFaults;
 use crate::sim::framing::{Assembly, Heard};
 use crate::sim::plant::{Plant, PlantIo};
-use crate::time::Clock;
+use crate::time::{Clock, LineInstant};
 
 const TICK: Duration = Duration::from_millis(1);
 
@@ -233,12 +233,18 @@ impl SimWorld {
     }
 
     /// The world's time.
-    pub fn now(&self) -> Duration {
-        self.now
+    pub fn now(&self) -> LineInstant {
+        LineInstant::after_origin(self.now)
     }
 
     /// Runs the plant and every device up to `t`, tick by tick while a plant is attached.
-    pub fn advance_to(&mut self, t: Duration) {
+    pub fn advance_to(&mut self, t: LineInstant) {
+        self.advance_devices_to(t.since_origin());
+    }
+
+    /// [`Self::advance_to`] on the devices' own time (the line's, since the world's origin:
+    /// a simulated device keeps its time as a plain duration).
+    fn advance_devices_to(&mut self, t: Duration) {
         if t <= self.now {
             return;
         }
@@ -307,8 +313,9 @@ impl SimWorld {
     /// frames by silence ([`SimDevice::frame_silence`]) takes it as part of the request it is
     /// hearing when the pause before it was shorter than its silence, and gets that request
     /// once the silence has passed ([`Self::settle`]).
-    pub fn deliver(&mut self, line: usize, frame: &[u8], t: Duration) {
-        self.advance_to(t);
+    pub fn deliver(&mut self, line: usize, frame: &[u8], t: LineInstant) {
+        let t = t.since_origin();
+        self.advance_devices_to(t);
         let Some(settings) = self.line_settings.get(line).copied() else {
             return;
         };
@@ -363,7 +370,8 @@ impl SimWorld {
 
     /// The master of `line` has kept silent until `t`: every device whose end-of-request
     /// silence has passed gets the request it was hearing.
-    pub fn settle(&mut self, line: usize, t: Duration) {
+    pub fn settle(&mut self, line: usize, t: LineInstant) {
+        let t = t.since_origin();
         let Some(settings) = self.line_settings.get(line).copied() else {
             return;
         };
@@ -447,21 +455,24 @@ impl SimWorld {
     }
 
     /// Time of the next byte due to the master of `line`, if any.
-    pub fn next_arrival(&self, line: usize) -> Option<Duration> {
-        self.inbound
-            .get(line)
-            .and_then(|i| i.bytes.front().map(|(at, _)| *at))
+    pub fn next_arrival(&self, line: usize) -> Option<LineInstant> {
+        self.inbound.get(line).and_then(|i| {
+            i.bytes
+                .front()
+                .map(|(at, _)| LineInstant::after_origin(*at))
+        })
     }
 
     /// Moves every byte of `line` that has arrived by `t` into `buf`; returns how many.
-    pub fn take_arrived(&mut self, line: usize, t: Duration, buf: &mut Vec<u8>) -> usize {
+    pub fn take_arrived(&mut self, line: usize, t: LineInstant, buf: &mut Vec<u8>) -> usize {
         // Taking what came by `t` means the master kept silent until then.
         self.settle(line, t);
         self.take_arrived_by(line, t, buf)
     }
 
     /// [`Self::take_arrived`] without settling the requests being heard.
-    fn take_arrived_by(&mut self, line: usize, t: Duration, buf: &mut Vec<u8>) -> usize {
+    fn take_arrived_by(&mut self, line: usize, t: LineInstant, buf: &mut Vec<u8>) -> usize {
+        let t = t.since_origin();
         let Some(inbound) = self.inbound.get_mut(line) else {
             return 0;
         };
@@ -479,7 +490,7 @@ impl SimWorld {
 
     /// Drops the bytes of `line` that have arrived by `t`; returns how many.
     /// (A master that transmits until `t` has not kept silent: nothing is settled here.)
-    pub fn drop_arrived(&mut self, line: usize, t: Duration) -> usize {
+    pub fn drop_arrived(&mut self, line: usize, t: LineInstant) -> usize {
         let mut sink = Vec::new();
         self.take_arrived_by(line, t, &mut sink)
     }
@@ -530,7 +541,7 @@ enum PortTime {
     /// Follows a real clock and sleeps for wire time.
     Real(Arc<dyn Clock>),
     /// Its own cursor, moved by the traffic and synced to the scan at each cycle start.
-    Virtual(Duration),
+    Virtual(LineInstant),
 }
 
 /// The master's end of a virtual line.
@@ -552,7 +563,7 @@ impl VirtualPort {
         clock: Arc<dyn Clock>,
     ) -> Self {
         let time = if clock.is_virtual() {
-            PortTime::Virtual(clock.now())
+            PortTime::Virtual(clock.line_now())
         } else {
             PortTime::Real(clock)
         };
@@ -570,9 +581,9 @@ impl VirtualPort {
         self.world.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    fn sleep_until(&mut self, t: Duration) {
+    fn sleep_until(&mut self, t: LineInstant) {
         match &mut self.time {
-            PortTime::Real(clock) => clock.sleep_until(t),
+            PortTime::Real(clock) => clock.sleep_until_on_line(t),
             PortTime::Virtual(cursor) => *cursor = (*cursor).max(t),
         }
     }
@@ -583,14 +594,14 @@ impl Transport for VirtualPort {
         self.settings
     }
 
-    fn now(&self) -> Duration {
+    fn now(&self) -> LineInstant {
         match &self.time {
-            PortTime::Real(clock) => clock.now(),
+            PortTime::Real(clock) => clock.line_now(),
             PortTime::Virtual(cursor) => *cursor,
         }
     }
 
-    fn sync(&mut self, t: Duration) {
+    fn sync(&mut self, t: LineInstant) {
         if let PortTime::Virtual(cursor) = &mut self.time {
             *cursor = (*cursor).max(t);
         }
@@ -612,7 +623,7 @@ impl Transport for VirtualPort {
         Ok(())
     }
 
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
         let line = self.line;
         // The master listens: it sends nothing before `deadline`, so every request whose
         // silence ends by then is complete.
@@ -635,7 +646,7 @@ impl Transport for VirtualPort {
         }
     }
 
-    fn wait_until(&mut self, t: Duration) {
+    fn wait_until(&mut self, t: LineInstant) {
         self.sleep_until(t);
         let (line, now) = (self.line, self.now());
         self.lock().settle(line, now);
@@ -668,13 +679,25 @@ mod tests {
         };
         world.set_device_settings(d, own);
         let ask = b"$05M\r".to_vec();
-        world.deliver(0, &ask, Duration::from_millis(10));
+        world.deliver(
+            0,
+            &ask,
+            LineInstant::after_origin(Duration::from_millis(10)),
+        );
         assert_eq!(world.next_arrival(0), None);
         // A pty carries the baud only: the same baud is enough.
         world.follow_master_baud(0, 9600);
-        world.deliver(0, &ask, Duration::from_millis(100));
+        world.deliver(
+            0,
+            &ask,
+            LineInstant::after_origin(Duration::from_millis(100)),
+        );
         let mut reply = Vec::new();
-        world.take_arrived(0, Duration::from_secs(1), &mut reply);
+        world.take_arrived(
+            0,
+            LineInstant::after_origin(Duration::from_secs(1)),
+            &mut reply,
+        );
         assert_eq!(reply, b"!059053\r", "{reply:?}");
         world.set_master_settings(
             0,
@@ -683,7 +706,7 @@ mod tests {
                 format: SerialFormat::EVEN_8E1,
             },
         );
-        world.deliver(0, &ask, Duration::from_secs(2));
+        world.deliver(0, &ask, LineInstant::after_origin(Duration::from_secs(2)));
         assert_eq!(world.next_arrival(0), None);
     }
 
@@ -698,12 +721,20 @@ mod tests {
             world.set(d, "EVX1", Value::Bool(true)).unwrap();
             world.set(d, "X1", Value::Bool(true)).unwrap();
         }
-        world.advance_to(Duration::from_millis(100));
+        world.advance_to(LineInstant::after_origin(Duration::from_millis(100)));
         let mut collect = vec![0x00, 70, 1, 16, 0, 0];
         append_crc(&mut collect);
-        world.deliver(0, &collect, Duration::from_millis(100));
+        world.deliver(
+            0,
+            &collect,
+            LineInstant::after_origin(Duration::from_millis(100)),
+        );
         let mut reply = Vec::new();
-        world.take_arrived(0, Duration::from_secs(1), &mut reply);
+        world.take_arrived(
+            0,
+            LineInstant::after_origin(Duration::from_secs(1)),
+            &mut reply,
+        );
         assert_eq!(reply.len(), 9, "one reply, not two garbled: {reply:02X?}");
         assert_eq!(&reply[..2], &[4, 70]);
         assert!(crate::modbus::crc::check_crc(&reply));

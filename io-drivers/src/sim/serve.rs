@@ -27,7 +27,7 @@ use crate::line::transport::LineError;
 use crate::modbus::crc::check_crc;
 use crate::modbus::server::{request_frame_len, FrameLen};
 use crate::sim::line::SharedWorld;
-use crate::time::Clock;
+use crate::time::{Clock, LineInstant};
 
 /// The line index the served world uses.
 pub const SERVED_LINE: usize = 0;
@@ -125,7 +125,7 @@ pub fn serve_following(
     let mut stats = ServeStats::default();
     let mut buf: Vec<u8> = Vec::with_capacity(512);
     let mut chunk = [0u8; 256];
-    let mut last_byte = clock.now();
+    let mut last_byte = clock.line_now();
     // Silence that ends a frame without a module's own: t3.5, but a pty's scheduling jitter
     // is larger than that.
     let t3_5_silence = settings.t3_5().max(Duration::from_millis(5));
@@ -135,14 +135,14 @@ pub fn serve_following(
         match port.read(&mut chunk) {
             Ok(n) if n > 0 => {
                 buf.extend_from_slice(&chunk[..n]);
-                last_byte = clock.now();
+                last_byte = clock.line_now();
             }
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e.into()),
         }
-        let now = clock.now();
+        let now = clock.line_now();
         let modules_silence = {
             let mut w = lock(&world);
             w.advance_to(now);
@@ -158,7 +158,7 @@ pub fn serve_following(
             }
         }
         let silence = modules_silence.unwrap_or(t3_5_silence);
-        if !buf.is_empty() && now.saturating_sub(last_byte) >= silence {
+        if !buf.is_empty() && now - last_byte >= silence {
             // A silence ended an incomplete frame: give it to the devices as the real ones
             // would get it (they drop it on a bad CRC), and start afresh.
             let frame: Vec<u8> = std::mem::take(&mut buf);
@@ -214,7 +214,7 @@ pub(crate) fn answer<W: Write>(
     settings: LineSettings,
     clock: &dyn Clock,
 ) -> Result<bool, LineError> {
-    answer_frame_ended(port, world, (frame, clock.now()), settings, clock)
+    answer_frame_ended(port, world, (frame, clock.line_now()), settings, clock)
 }
 
 /// [`answer`] for a frame whose last byte came at `ended` (a module's reply delay counts from
@@ -222,7 +222,7 @@ pub(crate) fn answer<W: Write>(
 pub(crate) fn answer_frame_ended<W: Write>(
     port: &mut W,
     world: &SharedWorld,
-    (frame, ended): (&[u8], Duration),
+    (frame, ended): (&[u8], LineInstant),
     settings: LineSettings,
     clock: &dyn Clock,
 ) -> Result<bool, LineError> {
@@ -230,7 +230,7 @@ pub(crate) fn answer_frame_ended<W: Write>(
         let mut w = lock(world);
         w.deliver(SERVED_LINE, frame, ended);
         // The server hands over a request it has framed: the line is silent after it.
-        w.settle(SERVED_LINE, Duration::MAX);
+        w.settle(SERVED_LINE, LineInstant::after_origin(Duration::MAX));
     }
     let char_time = settings.char_time();
     let mut wrote = false;
@@ -255,8 +255,8 @@ pub(crate) fn answer_frame_ended<W: Write>(
             (first, bytes)
         };
         let (first, bytes) = burst;
-        let start = first.saturating_sub(char_time);
-        clock.sleep_until(start);
+        let start = first - char_time;
+        clock.sleep_until_on_line(start);
         port.write_all(&bytes)?;
         port.flush()?;
         // The master on a pty has the whole burst at once, a wire time earlier than on a
@@ -265,7 +265,7 @@ pub(crate) fn answer_frame_ended<W: Write>(
         // at once (the next request's reply delay still counts from when it is heard).
         let last = lock(world).next_arrival(SERVED_LINE).is_none();
         if !(last && lock(world).echo(SERVED_LINE).on) {
-            clock.sleep_until(start + settings.chars(bytes.len()));
+            clock.sleep_until_on_line(start + settings.chars(bytes.len()));
         }
         wrote = true;
     }

@@ -154,7 +154,7 @@ fn gateway(mut stream: TcpStream, served: &Served, stop: &AtomicBool) -> std::io
         let mut heard = Vec::new();
         {
             let _line = served.line.lock().unwrap_or_else(|e| e.into_inner());
-            lock(&served.world).advance_to(served.clock.now());
+            lock(&served.world).advance_to(served.clock.line_now());
             served.frames.fetch_add(1, Ordering::Relaxed);
             answer(
                 &mut heard,
@@ -207,27 +207,27 @@ fn transparent(mut stream: TcpStream, served: &Served, stop: &AtomicBool) -> std
     let silence = served.settings.t3_5().max(Duration::from_millis(5));
     let mut buf: Vec<u8> = Vec::with_capacity(512);
     let mut chunk = [0u8; 256];
-    let mut last_byte = served.clock.now();
+    let mut last_byte = served.clock.line_now();
     while !stop.load(Ordering::Relaxed) {
         match stream.read(&mut chunk) {
             Ok(0) => return Ok(()),
             Ok(n) => {
                 buf.extend_from_slice(&chunk[..n]);
-                last_byte = served.clock.now();
+                last_byte = served.clock.line_now();
             }
             Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
             Err(e) if e.kind() == ErrorKind::Interrupted => {}
             Err(e) => return Err(e),
         }
-        let now = served.clock.now();
-        let ended = !buf.is_empty() && now.saturating_sub(last_byte) >= silence;
+        let now = served.clock.line_now();
+        let ended = !buf.is_empty() && now - last_byte >= silence;
         while let Some(n) = complete_frame(&buf).or(ended.then_some(buf.len())) {
             if n == 0 {
                 break;
             }
             let frame: Vec<u8> = buf.drain(..n).collect();
             let _line = served.line.lock().unwrap_or_else(|e| e.into_inner());
-            lock(&served.world).advance_to(served.clock.now());
+            lock(&served.world).advance_to(served.clock.line_now());
             served.frames.fetch_add(1, Ordering::Relaxed);
             let replied = answer(
                 &mut stream,

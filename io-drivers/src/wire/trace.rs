@@ -8,6 +8,8 @@
 use std::fmt::{self, Write as _};
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use super::decode::{decode_reply, decode_request};
 use super::Shown;
 use crate::line::echo::EchoFault;
@@ -15,7 +17,7 @@ use crate::line::echo::EchoFault;
 /// Where the bus owner reports its traffic.
 pub trait WireTap: Send + Sync + fmt::Debug {
     /// One event on the line `bus`, at the line's time `at`.
-    fn record(&self, bus: &str, at: Duration, event: &WireEvent<'_>);
+    fn record(&self, bus: &str, at: LineInstant, event: &WireEvent<'_>);
 }
 
 /// What happened on a line.
@@ -73,9 +75,9 @@ pub enum Discard {
 
 /// One trace line: `t=<line time>  <bus>  <dir>  <hex>  | <decoding>`. TX frames decode as
 /// requests, RX frames as the answer to their request.
-pub fn format_event(bus: &str, at: Duration, event: &WireEvent<'_>) -> String {
+pub fn format_event(bus: &str, at: LineInstant, event: &WireEvent<'_>) -> String {
     let mut line = String::with_capacity(128);
-    let _ = write!(line, "t={}  {bus}  ", LineTime(at));
+    let _ = write!(line, "t={}  {bus}  ", LineTime(at.since_origin()));
     let _ = match event {
         WireEvent::Sent(bytes) => write!(line, "TX  {}  | {}", Shown(bytes), decode_request(bytes)),
         WireEvent::Received {

@@ -93,7 +93,7 @@ pub(super) fn monitor(args: MonitorArgs) -> anyhow::Result<ExitCode> {
     ));
     let start = line.now();
     let end = args.run_for.map(|d| start + d);
-    let since_start = |line: &SerialTransport| line.now().saturating_sub(start);
+    let since_start = |line: &SerialTransport| line.now().saturating_duration_since(start);
     let mut framer = Framer::new(framing, gap);
     let mut talk = Conversation::new();
     let mut frames = Vec::new();

@@ -291,7 +291,7 @@ fn difference(d: &Difference, only_first: bool) -> String {
             "difference"
         },
         d.cycle,
-        fmt_duration(d.now)
+        d.now
     );
     let width = d.tags.iter().map(|t| t.tag.len()).max().unwrap_or(0);
     for t in &d.tags {

@@ -232,7 +232,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             if let Ok(s) = status.lock() {
                 let line = format!(
                     "t={:>7} scans {:>6}  cycle p50 {} p99 {} max {}  overruns {}  bus errors {}",
-                    fmt_duration(s.now),
+                    s.now,
                     s.cycles,
                     fmt_duration(s.cycle.p50),
                     fmt_duration(s.cycle.p99),

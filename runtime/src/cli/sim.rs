@@ -368,7 +368,7 @@ pub(crate) enum Reply {
 pub(crate) fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> anyhow::Result<Reply> {
     let words: Vec<&str> = line.split_whitespace().collect();
     let mut w = world.lock().unwrap_or_else(|e| e.into_inner());
-    w.advance_to(clock.now());
+    w.advance_to(clock.line_now());
     let text = match words.as_slice() {
         [] => String::new(),
         ["help"] => LONG_HELP

@@ -13,6 +13,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
+use softplc_io::time::LineInstant;
 use softplc_io::wire::{format_event, WireEvent, WireTap};
 
 /// Trace lines queued for the printer before a real-clock line drops one.
@@ -28,7 +29,7 @@ pub(super) struct StdoutTrace {
 }
 
 impl WireTap for StdoutTrace {
-    fn record(&self, bus: &str, at: Duration, event: &WireEvent<'_>) {
+    fn record(&self, bus: &str, at: LineInstant, event: &WireEvent<'_>) {
         let line = format_event(bus, at, event);
         let sent = if self.lossless {
             self.lines.send(line).is_ok()

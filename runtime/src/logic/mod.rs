@@ -21,12 +21,13 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use crate::image::ProcessImage;
+use softplc_io::time::ScanInstant;
 
 /// The scan's view of time, handed to logic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ScanContext {
     /// The cycle's start (its deadline), on the PLC's clock.
-    pub now: Duration,
+    pub now: ScanInstant,
     /// Time since the previous cycle's start (the period on the first cycle).
     pub delta: Duration,
     /// The cycle's number: the N-th scan is N, the first is 1 (the scan count once it is

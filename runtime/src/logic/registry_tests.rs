@@ -13,6 +13,7 @@ use super::expr::TagTable;
 use super::rhai::signatures;
 use super::{expr, ladder, rhai, LogicEngine, ScanContext};
 use crate::image::{ProcessImage, TagId};
+use softplc_io::time::ScanInstant;
 
 /// The bool inputs the pins are wired to, in pin order, and the coil.
 const INPUTS: [&str; 5] = ["a", "b", "c", "d", "e"];
@@ -100,7 +101,7 @@ fn trace(engine: &mut dyn LogicEngine) -> String {
     let mut seed: u32 = 0x2545_f491;
     let mut out = String::new();
     for cycle in 0..60u64 {
-        let now = Duration::from_millis(10 * cycle);
+        let now = ScanInstant::after_origin(Duration::from_millis(10 * cycle));
         for (i, _) in INPUTS.iter().enumerate() {
             seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12_345);
             let r = seed >> 16;

@@ -29,6 +29,7 @@ use super::planner::{Command, Placement, Plan, RequireFailure};
 use crate::image::{ProcessImage, TagId};
 use crate::project::{Binding, OnStop, Project};
 use softplc_io::rung::BoolExpr;
+use softplc_io::time::ScanInstant;
 
 /// How the image learns a pushed-down output's value.
 #[derive(Debug, Clone)]
@@ -48,7 +49,7 @@ enum Source {
         /// Its register value.
         width_ms: PulseWidth,
         /// When the running pulse was commanded (scan time).
-        started: Option<Duration>,
+        started: Option<ScanInstant>,
         /// Write the pulser in this cycle's output phase.
         fire: bool,
     },
@@ -152,7 +153,7 @@ impl Offloaded {
         &mut self,
         image: &mut ProcessImage,
         frames: &[Option<InputFrame>],
-        now: Duration,
+        now: ScanInstant,
     ) {
         for p in &mut self.outputs {
             match &p.source {
@@ -190,7 +191,7 @@ impl Offloaded {
 
     /// Logic phase, after the program: pulse triggers, and the image keeps the modules' values
     /// of their outputs whatever the program wrote. `now` is the scan's time.
-    pub(crate) fn after_logic(&mut self, image: &mut ProcessImage, now: Duration) {
+    pub(crate) fn after_logic(&mut self, image: &mut ProcessImage, now: ScanInstant) {
         for p in &mut self.outputs {
             if let Source::Pulse {
                 trigger,
@@ -208,12 +209,12 @@ impl Offloaded {
                     *last = Some(v);
                 }
                 // IEC TP: edges while the pulse runs are ignored.
-                let running = started.is_some_and(|s| now.saturating_sub(s) < *width);
+                let running = started.is_some_and(|s| now.saturating_duration_since(s) < *width);
                 if edge && !running {
                     *started = Some(now);
                     *fire = true;
                 }
-                let on = started.is_some_and(|s| now.saturating_sub(s) < *width);
+                let on = started.is_some_and(|s| now.saturating_duration_since(s) < *width);
                 p.value = Value::Bool(on);
             }
             if image.get(p.tag) != p.value {
@@ -303,7 +304,7 @@ impl Offloaded {
         &self,
         frames: &mut [OutputFrame],
         image: &mut ProcessImage,
-        now: Duration,
+        now: ScanInstant,
     ) {
         if self.on_stop == OnStop::Keep {
             return;

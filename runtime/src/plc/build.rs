@@ -19,6 +19,7 @@ use crate::offload::{self, runtime::Offloaded};
 use crate::project::{Binding, PortConfig, Project};
 
 use super::*;
+use softplc_io::time::ScanInstant;
 
 impl Plc {
     /// Builds the PLC for `project` on `clock`: compiles the program, opens every line (and the
@@ -64,7 +65,7 @@ impl Plc {
         let mut image = image;
         for (i, t) in project.tags.iter().enumerate() {
             if t.binding == Binding::Memory {
-                image.set(TagId(i as u32), t.initial, Duration::ZERO);
+                image.set(TagId(i as u32), t.initial, ScanInstant::ZERO);
             }
         }
         let (retain, notes) = crate::retain::Retainer::open(&project, &mut image);
@@ -187,7 +188,7 @@ impl Plc {
             if let Some(tap) = &tap {
                 owner.set_wire_tap(tap.clone());
             }
-            owner.sync(clock.now());
+            owner.sync(clock.now().on_line_clock());
             if let Some(e) = &port_down {
                 owner.port_down_at_start(e);
             }
@@ -198,7 +199,7 @@ impl Plc {
             // The first cycle starts once the start-up traffic (tables, settings) and the t3.5
             // after it are over, so it finds an idle line; on the real clock that time has
             // passed already.
-            clock.sleep_until(owner.free_at());
+            clock.sleep_until(owner.free_at().on_scan_clock());
             // The one place the clock decides how lines run: the scan runs them itself in
             // virtual time (a project replays bit for bit), each has its thread in real time.
             lines.push(if clock.is_virtual() {
@@ -285,7 +286,7 @@ impl Plc {
             world,
             line_wait,
             read_budget,
-            cycle_start: Duration::ZERO,
+            cycle_start: ScanInstant::ZERO,
             cycle_grid: None,
             io_wait: Duration::ZERO,
             unfinished: Default::default(),
@@ -330,10 +331,10 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
 /// Attaches the project's plant model to the simulated world, once the modules have started:
 /// the machine's story (an operator loading a box) begins with the first scan, however long
 /// the modules' start-up took, as it does when an operator waits for the PLC to run.
-fn attach_plant(project: &Project, world: &SharedWorld, now: Duration) {
+fn attach_plant(project: &Project, world: &SharedWorld, now: ScanInstant) {
     let Ok(mut world) = world.lock() else { return };
     // The modules run up to now on their own; the plant's first step is the first scan's.
-    world.advance_to(now);
+    world.advance_to(now.on_line_clock());
     if let Some(cfg) = &project.plant {
         if let Some(spec) = plant::spec(&cfg.model) {
             let wires = spec

@@ -49,7 +49,7 @@ impl Plc {
         }
         self.clock.sleep_until(latest);
         let now = self.clock.now();
-        self.io_wait = now.saturating_sub(start);
+        self.io_wait = now - start;
         for (b, frame) in frames.iter().enumerate() {
             for (k, &m) in self.bus_modules[b].iter().enumerate() {
                 let st = &mut self.status[m];
@@ -201,7 +201,7 @@ impl Plc {
             self.note_unfinished_writes();
         }
         self.clock.sleep_until(latest);
-        self.io_wait += self.clock.now().saturating_sub(start);
+        self.io_wait += self.clock.now() - start;
     }
 
     /// Keeps which lines were still writing when the scan stopped waiting for them
@@ -231,7 +231,7 @@ impl Plc {
     fn note_late_line(&mut self, b: usize) {
         let now = self.clock.now();
         let last = &mut self.late_logged[b];
-        if last.is_some_and(|t| now.saturating_sub(t) < Duration::from_secs(60)) {
+        if last.is_some_and(|t| now - t < Duration::from_secs(60)) {
             return;
         }
         *last = Some(now);

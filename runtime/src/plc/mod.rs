@@ -30,6 +30,8 @@ pub use record::RecordError;
 use std::sync::Arc;
 use std::time::Duration;
 
+use softplc_io::time::ScanInstant;
+
 use softplc_io::line::{Counters, LineError, LineLink, OutputFrame, StartupError, TxError};
 use softplc_io::point::{Quality, Value};
 use softplc_io::sim::SharedWorld;
@@ -146,10 +148,10 @@ pub struct Plc {
     /// [`Plc::read_budget`]).
     read_budget: Duration,
     /// When the current cycle's input phase started.
-    cycle_start: Duration,
+    cycle_start: ScanInstant,
     /// The current cycle's deadline on the scan's grid ([`Plc::begin_cycle`]), when the scan
     /// gave one: its phases' deadlines count from it, not from when the scan woke.
-    cycle_grid: Option<Duration>,
+    cycle_grid: Option<ScanInstant>,
     /// Time the last cycle spent waiting for lines (not counted by the task watchdog).
     io_wait: Duration,
     /// The last cycle's writes still running when the scan stopped waiting for them.
@@ -157,7 +159,7 @@ pub struct Plc {
     /// Cycles whose work ends with a line's answer still to come ([`CycleWork::Later`]).
     open_work: std::collections::VecDeque<Unfinished>,
     /// Per line: when its lateness was last logged.
-    late_logged: Vec<Option<Duration>>,
+    late_logged: Vec<Option<ScanInstant>>,
     /// Retained tags and their writer, when the project retains any.
     retain: Option<crate::retain::Retainer>,
     /// Where every rung runs (see [`crate::offload`]).
@@ -230,7 +232,7 @@ impl Plc {
     /// Starts a cycle whose deadline on the scan's grid is `grid`: the lines' deadlines in it
     /// (inputs by nine tenths of the period, writes by its end) count from there, so a scan
     /// that woke late does not also wait later.
-    pub fn begin_cycle(&mut self, grid: Duration) {
+    pub fn begin_cycle(&mut self, grid: ScanInstant) {
         self.cycle_grid = Some(grid);
     }
 
@@ -245,7 +247,7 @@ impl Plc {
     /// answered that write. One still open after the longest wait for a line's safe state
     /// (the watchdog's time × sensitivity), or when more than 16 are open, ends as "at least
     /// until `now`", and so does every one when `all` (the run ends). Never waits.
-    pub fn late_work_ends(&mut self, now: Duration, all: bool, out: &mut Vec<Duration>) {
+    pub fn late_work_ends(&mut self, now: ScanInstant, all: bool, out: &mut Vec<ScanInstant>) {
         while let Some(open) = self.open_work.front() {
             let mut end = open.known;
             let mut answered = true;
@@ -255,9 +257,8 @@ impl Plc {
                     None => answered = false,
                 }
             }
-            let give_up = all
-                || self.open_work.len() > MAX_OPEN_CYCLES
-                || now.saturating_sub(open.since) > self.line_wait;
+            let give_up =
+                all || self.open_work.len() > MAX_OPEN_CYCLES || now - open.since > self.line_wait;
             if !answered && !give_up {
                 break;
             }
@@ -285,7 +286,7 @@ pub enum CycleWork {
     /// Every write was answered by the time the scan went on.
     Done,
     /// The last write ends at this time, known now (lines the scan runs itself).
-    At(Duration),
+    At(ScanInstant),
     /// A line's thread is still writing; [`Plc::late_work_ends`] gives its end later.
     Later,
 }
@@ -298,11 +299,11 @@ pub(crate) const MAX_OPEN_CYCLES: usize = 16;
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Unfinished {
     /// The latest known end (lines run inline).
-    known: Option<Duration>,
+    known: Option<ScanInstant>,
     /// Lines whose end comes with their answer: the line and the write's sequence number.
     later: Vec<(usize, u64)>,
     /// When the scan stopped waiting for them.
-    since: Duration,
+    since: ScanInstant,
 }
 
 impl Unfinished {

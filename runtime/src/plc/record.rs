@@ -57,7 +57,8 @@ impl Plc {
             period: self.project.scan.period,
             virtual_clock: self.clock.is_virtual(),
             run_id,
-            wall_origin: u64::try_from(wall.saturating_sub(now).as_nanos()).unwrap_or(0),
+            wall_origin: u64::try_from(wall.saturating_sub(now.since_origin()).as_nanos())
+                .unwrap_or(0),
             segment: 0,
             tags: tag_table(&self.project, |id| self.plan.is_pushed(id)),
         };

@@ -260,6 +260,7 @@ mod tests {
     use crate::recorder::format::{
         frame, preamble, BlockKind, CycleRecord, Enc, Header, Keyframe, VERSION_FROM_ZERO,
     };
+    use softplc_io::time::ScanInstant;
 
     /// A segment whose one cycle is numbered 5, its keyframe's next cycle 5.
     fn segment() -> Vec<u8> {
@@ -277,13 +278,13 @@ mod tests {
         };
         let keyframe = Keyframe {
             next_cycle: 5,
-            now: Duration::from_millis(40),
+            now: ScanInstant::after_origin(Duration::from_millis(40)),
             slots: vec![],
             forces: vec![],
         };
         let record = CycleRecord {
             cycle: 5,
-            now: Duration::from_millis(40),
+            now: ScanInstant::after_origin(Duration::from_millis(40)),
             ..CycleRecord::default()
         };
         let mut block = Enc::cycles_block(5, record.now);

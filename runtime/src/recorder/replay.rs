@@ -41,6 +41,7 @@ use crate::project::{Binding, Project};
 use crate::recorder::format::{self, Digest, Event, Header, TagInfo, TagRole};
 use crate::recorder::reader::{Record, Segment};
 use crate::recorder::tap::same;
+use softplc_io::time::ScanInstant;
 
 /// How much replay reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -72,7 +73,7 @@ pub struct Difference {
     /// The cycle number, as the recorded run counted it.
     pub cycle: u64,
     /// Its timestamp (scan time of the recorded run).
-    pub now: Duration,
+    pub now: ScanInstant,
     /// The tags that differ, in tag order.
     pub tags: Vec<TagDifference>,
 }
@@ -83,7 +84,7 @@ pub struct CycleOutputs<'a> {
     /// The cycle number.
     pub cycle: u64,
     /// Its timestamp.
-    pub now: Duration,
+    pub now: ScanInstant,
     /// Recorded values, in [`ReplayReport::compared`] order.
     pub recorded: &'a [Value],
     /// Replayed values, in the same order.
@@ -351,7 +352,7 @@ impl<'a> PartReplay<'a> {
                  (rotated out): the image is as recorded, the program's function blocks \
                  (timers, counters, edges) start fresh",
                 k.next_cycle,
-                k.now.as_secs_f64()
+                k.now.since_origin().as_secs_f64()
             ));
         }
         Ok(Self {
@@ -374,7 +375,7 @@ impl<'a> PartReplay<'a> {
         let compared: Vec<usize> = (0..self.owned.len()).filter(|&i| self.owned[i]).collect();
         let mut rec_values = vec![Value::Bool(false); compared.len()];
         let mut new_values = rec_values.clone();
-        let mut previous: Option<Duration> = None;
+        let mut previous: Option<ScanInstant> = None;
         let first_now = self.part[0].cycles.first().map(|c| c.now);
         let mut last_now = None;
         for r in self.part.iter().flat_map(|s| s.cycles.iter()) {
@@ -392,7 +393,7 @@ impl<'a> PartReplay<'a> {
             self.image.apply_forces(r.now);
             let ctx = ScanContext {
                 now: r.now,
-                delta: previous.map_or(self.period, |p| r.now.saturating_sub(p)),
+                delta: previous.map_or(self.period, |p| r.now - p),
                 cycle: r.cycle,
             };
             let result = self.logic.scan(&mut self.image, &ctx);
@@ -451,12 +452,12 @@ impl<'a> PartReplay<'a> {
             last_now = Some(r.now);
         }
         if let (Some(a), Some(b)) = (first_now, last_now) {
-            report.plant_time += b.saturating_sub(a) + self.period;
+            report.plant_time += b.saturating_duration_since(a) + self.period;
         }
         true
     }
 
-    fn apply_event(&mut self, ev: &Event, cycle: u64, now: Duration, report: &mut ReplayReport) {
+    fn apply_event(&mut self, ev: &Event, cycle: u64, now: ScanInstant, report: &mut ReplayReport) {
         match ev {
             Event::Force { tag, value } => {
                 self.image.force(TagId(*tag), *value);
@@ -483,7 +484,7 @@ impl<'a> PartReplay<'a> {
 
     /// Recorded changes into the replayed image: values of the tags the program does not
     /// compute, qualities of all.
-    fn apply_changes(&mut self, changes: &[format::Change], now: Duration) {
+    fn apply_changes(&mut self, changes: &[format::Change], now: ScanInstant) {
         for c in changes {
             let i = c.tag as usize;
             self.recorded[i] = (c.value, c.quality);

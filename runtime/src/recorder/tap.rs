@@ -7,15 +7,14 @@
 //! record, and the next record lists every tag (a gap the reader and replay report), so the
 //! record stays right after a gap instead of drifting.
 
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
-
 use crossbeam_channel::{Sender, TrySendError};
 use softplc_io::point::{Quality, Value};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use crate::image::ProcessImage;
 use crate::recorder::format::{Change, CycleRecord, Event};
+use softplc_io::time::ScanInstant;
 
 /// Records handed to the writer, and the ones it could not take.
 #[derive(Debug, Default)]
@@ -68,7 +67,7 @@ impl Tap {
     }
 
     /// The logic is about to run on `image` at cycle `cycle`, time `now`.
-    pub fn seen(&mut self, image: &ProcessImage, cycle: u64, now: Duration) {
+    pub fn seen(&mut self, image: &ProcessImage, cycle: u64, now: ScanInstant) {
         let seen = if std::mem::take(&mut self.resync) {
             self.mirror = snapshot(image);
             all(&self.mirror)
@@ -167,6 +166,7 @@ pub(crate) fn same(a: Value, b: Value) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     fn image() -> ProcessImage {
         ProcessImage::new([
@@ -180,9 +180,9 @@ mod tests {
         let (tx, rx) = crossbeam_channel::bounded(4);
         let mut img = image();
         let mut tap = Tap::new(tx, &img, Arc::default());
-        img.set(crate::image::TagId(0), Value::Bool(true), Duration::ZERO);
-        tap.seen(&img, 0, Duration::ZERO);
-        img.set(crate::image::TagId(1), Value::U16(5), Duration::ZERO);
+        img.set(crate::image::TagId(0), Value::Bool(true), ScanInstant::ZERO);
+        tap.seen(&img, 0, ScanInstant::ZERO);
+        img.set(crate::image::TagId(1), Value::U16(5), ScanInstant::ZERO);
         tap.wrote(&img);
         let r = rx.try_recv().unwrap();
         assert_eq!(
@@ -195,7 +195,11 @@ mod tests {
         );
         assert_eq!(r.wrote.len(), 1);
         assert_eq!(r.wrote[0].tag, 1);
-        tap.seen(&img, 1, Duration::from_millis(10));
+        tap.seen(
+            &img,
+            1,
+            ScanInstant::after_origin(Duration::from_millis(10)),
+        );
         tap.wrote(&img);
         let r = rx.try_recv().unwrap();
         assert!(r.seen.is_empty() && r.wrote.is_empty(), "{r:?}");
@@ -211,13 +215,13 @@ mod tests {
             if cycle == 1 {
                 tap.event(Event::UnforceAll);
             }
-            tap.seen(&img, cycle, Duration::ZERO);
+            tap.seen(&img, cycle, ScanInstant::ZERO);
             tap.wrote(&img);
         }
         assert_eq!(counters.sent.load(Ordering::Relaxed), 1);
         assert_eq!(counters.dropped.load(Ordering::Relaxed), 2);
         assert_eq!(rx.try_recv().unwrap().cycle, 0);
-        tap.seen(&img, 3, Duration::ZERO);
+        tap.seen(&img, 3, ScanInstant::ZERO);
         tap.wrote(&img);
         let r = rx.try_recv().unwrap();
         assert_eq!(r.cycle, 3);

@@ -7,10 +7,8 @@
 //! it must not block (long work, such as compiling a reload, belongs on a thread of its own
 //! and comes back at a later boundary).
 
-use std::time::Duration;
-
 use crate::plc::Plc;
-use crate::scan::{ScanStats, StopReason};
+use crate::scan::{ScanInstant, ScanStats, StopReason};
 
 /// What runs at the scan's cycle boundaries. Every method is called on the scan thread.
 pub trait CycleBoundary: Send {
@@ -19,7 +17,7 @@ pub trait CycleBoundary: Send {
 
     /// After each completed cycle (its watchdog check passed), before the sleep to the next
     /// deadline. `now` is the end of the cycle on the PLC's clock.
-    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration);
+    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: ScanInstant);
 
     /// The run ends for `reason`; the outputs have not been driven to their safe values yet
     /// (and will not be if the run is abandoned).
@@ -27,7 +25,8 @@ pub trait CycleBoundary: Send {
 
     /// The run has ended and the outputs hold their safe values; `now` is the PLC's clock.
     /// Not called when the run is abandoned (as `kill -9` would leave it).
-    fn stopped(&mut self, _plc: &Plc, _stats: &ScanStats, _reason: &StopReason, _now: Duration) {}
+    fn stopped(&mut self, _plc: &Plc, _stats: &ScanStats, _reason: &StopReason, _now: ScanInstant) {
+    }
 }
 
 #[cfg(test)]
@@ -37,6 +36,7 @@ mod tests {
     use super::*;
     use crate::clock::VirtualClock;
     use crate::scan::ScanEngine;
+    use std::time::Duration;
 
     /// Writes down what the scan called, and when.
     struct Recorder(Arc<Mutex<Vec<String>>>);
@@ -48,11 +48,11 @@ mod tests {
                 .unwrap()
                 .push(format!("started {}", plc.project().name));
         }
-        fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
+        fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: ScanInstant) {
             self.0.lock().unwrap().push(format!(
                 "between {} at {}ms",
                 stats.cycles,
-                now.as_millis()
+                now.since_origin().as_millis()
             ));
             // The boundary may change the PLC: the next cycle sees it.
             if stats.cycles == 1 {
@@ -63,7 +63,7 @@ mod tests {
         fn stopping(&mut self, reason: &StopReason) {
             self.0.lock().unwrap().push(format!("stopping {reason:?}"));
         }
-        fn stopped(&mut self, plc: &Plc, stats: &ScanStats, _: &StopReason, _: Duration) {
+        fn stopped(&mut self, plc: &Plc, stats: &ScanStats, _: &StopReason, _: ScanInstant) {
             let seen = plc.image().get(plc.image().id("seen").unwrap());
             self.0
                 .lock()
@@ -118,7 +118,7 @@ mod tests {
     struct Slow(Duration);
 
     impl CycleBoundary for Slow {
-        fn between_cycles(&mut self, plc: &mut Plc, _: &ScanStats, now: Duration) {
+        fn between_cycles(&mut self, plc: &mut Plc, _: &ScanStats, now: ScanInstant) {
             plc.clock().sleep_until(now + self.0);
         }
     }
@@ -148,7 +148,10 @@ mod tests {
             .with_boundary(Slow(Duration::from_millis(12)))
             .run();
         assert_eq!((outcome.stats.cycles, outcome.stats.overruns), (5, 5));
-        assert_eq!(outcome.stats.last.start, Duration::from_millis(80));
+        assert_eq!(
+            outcome.stats.last.start,
+            ScanInstant::after_origin(Duration::from_millis(80))
+        );
     }
 
     #[test]

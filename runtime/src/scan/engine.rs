@@ -8,7 +8,7 @@ use crate::logic::{LogicFault, ScanContext};
 use crate::plc::{CycleWork, ModuleStatus, Plc};
 use crate::scan::boundary::CycleBoundary;
 use crate::scan::overrun::OverrunLog;
-use crate::scan::stats::{LastCycle, Percentiles, ScanStats};
+use crate::scan::stats::{LastCycle, Percentiles, ScanInstant, ScanStats};
 use crate::scan::watchdog::{TaskWatchdog, WatchdogTrip};
 
 /// Why a run ended.
@@ -50,7 +50,7 @@ pub struct StatusSnapshot {
     /// Bus errors.
     pub bus_errors: u64,
     /// Scan time.
-    pub now: Duration,
+    pub now: ScanInstant,
 }
 
 /// The scan engine: owns the PLC for the duration of a run.
@@ -158,7 +158,7 @@ impl ScanEngine {
         let begin = clock.now();
         let end_at = self.run_for.map(|d| begin + d);
         let mut deadline = begin;
-        let mut previous: Option<Duration> = None;
+        let mut previous: Option<ScanInstant> = None;
         let mut last_published = begin;
         let mut overruns = OverrunLog::new(period);
         // Cycles whose work outlasted them on a line's thread, until that line answers.
@@ -179,7 +179,7 @@ impl ScanEngine {
             clock.sleep_until(deadline);
             let start = clock.now();
             self.plc.begin_cycle(deadline);
-            stats.lateness.record(start.saturating_sub(deadline));
+            stats.lateness.record(start - deadline);
 
             self.plc.read_inputs();
             let read_end = clock.now();
@@ -242,7 +242,7 @@ impl ScanEngine {
             for b in &mut self.boundaries {
                 b.between_cycles(&mut self.plc, &stats, outputs_end);
             }
-            if outputs_end.saturating_sub(last_published) >= Duration::from_millis(200) {
+            if outputs_end - last_published >= Duration::from_millis(200) {
                 last_published = outputs_end;
                 self.publish(&stats, outputs_end);
             }
@@ -279,7 +279,7 @@ impl ScanEngine {
                 // Skip every deadline the scan itself has passed; the next cycle starts on the
                 // grid. One it only waited at for a line still writing (and woke on, or just
                 // after, by its clock's lateness) is not passed: the next cycle starts then.
-                let past = end.saturating_sub(deadline).as_nanos() / period.as_nanos().max(1);
+                let past = (end - deadline).as_nanos() / period.as_nanos().max(1);
                 let skipped = if work_late || end <= deadline {
                     past
                 } else {
@@ -303,7 +303,7 @@ impl ScanEngine {
                         ("inputs", read_end - start),
                         ("logic", logic_end - read_end),
                         ("outputs", writes_end - logic_end),
-                        ("boundary", end.saturating_sub(writes_end)),
+                        ("boundary", end - writes_end),
                     ],
                 );
             }
@@ -335,7 +335,7 @@ impl ScanEngine {
         }
     }
 
-    fn publish(&self, stats: &ScanStats, now: Duration) {
+    fn publish(&self, stats: &ScanStats, now: ScanInstant) {
         // Never block the scan on a reader: skip this refresh if the lock is busy.
         if let Ok(mut s) = self.status.try_lock() {
             *s = StatusSnapshot {
@@ -353,13 +353,13 @@ impl ScanEngine {
 /// When a cycle's phases ended, on the PLC's clock.
 #[derive(Debug, Clone, Copy)]
 struct Phases {
-    start: Duration,
-    read_end: Duration,
-    logic_end: Duration,
+    start: ScanInstant,
+    read_end: ScanInstant,
+    logic_end: ScanInstant,
     /// When the scan had handed out its writes.
-    outputs_end: Duration,
+    outputs_end: ScanInstant,
     /// When the boundary was done and the scan went on to the next cycle.
-    end: Duration,
+    end: ScanInstant,
 }
 
 impl Phases {
@@ -367,7 +367,7 @@ impl Phases {
     /// `writes_end`: the output phase runs until then and the cycle until the later of its
     /// writes and its boundary, so a cycle that outlasted its period shows its real length,
     /// not the period it was cut at.
-    fn record(&self, stats: &mut ScanStats, writes_end: Duration) {
+    fn record(&self, stats: &mut ScanStats, writes_end: ScanInstant) {
         let writes_end = writes_end.max(self.outputs_end);
         stats.read.record(self.read_end - self.start);
         stats.logic.record(self.logic_end - self.read_end);

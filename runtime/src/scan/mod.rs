@@ -20,5 +20,7 @@ pub(crate) mod watchdog;
 pub use boundary::CycleBoundary;
 pub use engine::{CycleHook, RunOutcome, ScanEngine, StatusSnapshot, StopReason};
 pub use rt::{apply as apply_realtime, RealtimeNote, RealtimeOutcome};
-pub use stats::{fmt_duration, DurationHistogram, LastCycle, Percentiles, ScanStats};
+pub use stats::{
+    fmt_duration, DurationHistogram, LastCycle, LineInstant, Percentiles, ScanInstant, ScanStats,
+};
 pub use watchdog::WatchdogTrip;

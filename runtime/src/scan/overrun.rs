@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use crate::scan::stats::fmt_duration;
+use crate::scan::stats::{fmt_duration, ScanInstant};
 
 /// The least time between two overrun lines.
 const EVERY: Duration = Duration::from_secs(10);
@@ -13,7 +13,7 @@ const EVERY: Duration = Duration::from_secs(10);
 #[derive(Debug)]
 pub(crate) struct OverrunLog {
     period: Duration,
-    last: Option<Duration>,
+    last: Option<ScanInstant>,
     /// Overruns since the last line.
     quiet: u64,
 }
@@ -31,12 +31,12 @@ impl OverrunLog {
     /// returns the line it logged, if any.
     pub(crate) fn note<const N: usize>(
         &mut self,
-        now: Duration,
+        now: ScanInstant,
         skipped: u128,
         phases: [(&str, Duration); N],
     ) -> Option<String> {
         self.quiet += 1;
-        if self.last.is_some_and(|t| now.saturating_sub(t) < EVERY) {
+        if self.last.is_some_and(|t| now - t < EVERY) {
             return None;
         }
         let cycle: Duration = phases.iter().map(|(_, d)| *d).sum();
@@ -82,12 +82,16 @@ mod tests {
         Duration::from_millis(n)
     }
 
+    fn at(n: u64) -> ScanInstant {
+        ScanInstant::after_origin(ms(n))
+    }
+
     #[test]
     fn the_first_overrun_is_logged_with_its_longest_phase() {
         let mut log = OverrunLog::new(ms(100));
         let line = log
             .note(
-                ms(1_000),
+                at(1_000),
                 1,
                 [("inputs", ms(20)), ("logic", ms(130)), ("outputs", ms(5))],
             )
@@ -105,7 +109,7 @@ mod tests {
         let mut log = OverrunLog::new(ms(20));
         let line = log
             .note(
-                ms(1_000),
+                at(1_000),
                 0,
                 [("inputs", ms(13)), ("logic", ms(0)), ("outputs", ms(21))],
             )
@@ -124,11 +128,11 @@ mod tests {
     fn later_ones_are_counted_into_one_line_every_ten_seconds() {
         let mut log = OverrunLog::new(ms(100));
         let phases = [("inputs", ms(90)), ("logic", ms(1)), ("outputs", ms(20))];
-        assert!(log.note(ms(0), 1, phases).is_some());
+        assert!(log.note(at(0), 1, phases).is_some());
         for t in 1..100 {
-            assert_eq!(log.note(ms(t * 100), 1, phases), None, "at {t}");
+            assert_eq!(log.note(at(t * 100), 1, phases), None, "at {t}");
         }
-        let line = log.note(ms(10_000), 2, phases).expect("ten seconds on");
+        let line = log.note(at(10_000), 2, phases).expect("ten seconds on");
         assert!(line.contains("longest phase inputs 90.00ms"), "{line}");
         assert!(
             line.ends_with("(100 overruns since the last line)"),

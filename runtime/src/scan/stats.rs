@@ -33,7 +33,7 @@ impl std::fmt::Display for Percentiles {
 }
 
 /// A duration as a person reads it (the one formatting of the whole system).
-pub use softplc_io::time::fmt_duration;
+pub use softplc_io::time::{fmt_duration, LineInstant, ScanInstant};
 
 /// A histogram of durations with nanosecond resolution up to one minute.
 #[derive(Debug, Clone)]
@@ -123,7 +123,7 @@ pub struct ScanStats {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct LastCycle {
     /// Its timestamp: the deadline it started on, the time its logic saw.
-    pub start: Duration,
+    pub start: ScanInstant,
     /// Input phase.
     pub read: Duration,
     /// Logic phase.

@@ -5,11 +5,9 @@
 //! The scan calls this through [`CycleBoundary`] and knows none of it: the JSON protocol, the
 //! reload's thread and systemd's states are the service's.
 
+use crossbeam_channel::{Receiver, Sender, TryRecvError};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
-
-use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
 use crate::plc::{Plc, PreparedReload, ReloadError};
 use crate::scan::{CycleBoundary, ScanStats, StopReason};
@@ -18,6 +16,7 @@ use crate::service::control::{Envelope, Request, Response};
 use crate::service::notify::Notifier;
 use crate::service::snapshot::Publisher;
 use crate::service::status::{LostChanges, StatusReport};
+use softplc_io::time::ScanInstant;
 
 /// The service's side of the scan's cycle boundary (see the module docs).
 #[derive(Debug, Default)]
@@ -207,7 +206,7 @@ impl ServiceBoundary {
         }
     }
 
-    fn notify(&mut self, stats: &ScanStats, now: Duration) {
+    fn notify(&mut self, stats: &ScanStats, now: ScanInstant) {
         let Some(n) = &mut self.notifier else { return };
         // Only a completed scan feeds systemd's watchdog: a hung scan gets restarted.
         if stats.cycles == 1 {
@@ -223,7 +222,7 @@ impl ServiceBoundary {
                 c.p50.as_micros(),
                 c.p99.as_micros(),
                 stats.bus_errors,
-                now.as_secs()
+                now.since_origin().as_secs()
             ));
         }
     }
@@ -237,7 +236,7 @@ impl CycleBoundary for ServiceBoundary {
         }
     }
 
-    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: Duration) {
+    fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: ScanInstant) {
         // First, so a sample shows the cycle just ended, before any request changes the PLC.
         self.traces.sample(plc, stats);
         self.answer(plc, stats);
@@ -262,7 +261,7 @@ impl CycleBoundary for ServiceBoundary {
         }
     }
 
-    fn stopped(&mut self, plc: &Plc, stats: &ScanStats, reason: &StopReason, now: Duration) {
+    fn stopped(&mut self, plc: &Plc, stats: &ScanStats, reason: &StopReason, now: ScanInstant) {
         // The safe state the outputs were left in, before the publication that tells the
         // services the run is over.
         self.feed.offer(plc.image(), stats.cycles, now);

@@ -13,14 +13,13 @@
 //! (so it is in step again) and the tag's name in [`Delivery::overflowed`] (OPC UA sets the
 //! Overflow InfoBit on it).
 
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
-
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 use softplc_io::point::{Quality, Value};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use crate::image::ProcessImage;
+use softplc_io::time::ScanInstant;
 
 /// How many cycles a consumer may fall behind before it loses changes (10 s at a 10 ms scan).
 pub(crate) const QUEUE_CYCLES: usize = 1000;
@@ -42,7 +41,7 @@ pub(crate) struct CycleChanges {
     /// The cycle (the scan's count of completed cycles at its boundary).
     pub(crate) cycle: u64,
     /// The scan time of its boundary: the changes' source time.
-    pub(crate) at: Duration,
+    pub(crate) at: ScanInstant,
     /// The tags it changed, in tag order.
     pub(crate) changes: Vec<TagChange>,
 }
@@ -156,7 +155,7 @@ impl ChangeFeed {
 
     /// At a cycle boundary: what `image` changed since the last call (everything at the
     /// first), offered to every consumer without waiting.
-    pub(crate) fn offer(&mut self, image: &ProcessImage, cycle: u64, at: Duration) {
+    pub(crate) fn offer(&mut self, image: &ProcessImage, cycle: u64, at: ScanInstant) {
         if self.producers.is_empty() {
             return;
         }
@@ -249,6 +248,7 @@ impl Producer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     fn image() -> ProcessImage {
         ProcessImage::new([
@@ -267,23 +267,34 @@ mod tests {
         let mut feed = ChangeFeed::new();
         let s = feed.subscribe("test", 10);
         let a = img.id("a").unwrap();
-        feed.offer(&img, 1, Duration::from_millis(10));
+        feed.offer(
+            &img,
+            1,
+            ScanInstant::after_origin(Duration::from_millis(10)),
+        );
         for n in 1..=3 {
-            img.set(a, Value::I32(n), Duration::ZERO);
+            img.set(a, Value::I32(n), ScanInstant::ZERO);
             feed.offer(
                 &img,
                 1 + n as u64,
-                Duration::from_millis(10 * (1 + n as u64)),
+                ScanInstant::after_origin(Duration::from_millis(10 * (1 + n as u64))),
             );
         }
         // A cycle that changed nothing sends nothing.
-        feed.offer(&img, 5, Duration::from_millis(50));
+        feed.offer(
+            &img,
+            5,
+            ScanInstant::after_origin(Duration::from_millis(50)),
+        );
         let got: Vec<Delivery> = s.receiver().try_iter().collect();
         assert_eq!(got.len(), 4);
         assert_eq!(got[0].cycle.changes.len(), 2, "everything at the first");
         for (n, d) in got[1..].iter().enumerate() {
             assert_eq!(d.cycle.cycle, n as u64 + 2);
-            assert_eq!(d.cycle.at, Duration::from_millis(10 * (n as u64 + 2)));
+            assert_eq!(
+                d.cycle.at,
+                ScanInstant::after_origin(Duration::from_millis(10 * (n as u64 + 2)))
+            );
             assert_eq!(values(d), [(0, Value::I32(n as i32 + 1), false)]);
         }
         assert_eq!(s.lost(), 0);
@@ -295,30 +306,30 @@ mod tests {
         let mut feed = ChangeFeed::new();
         let s = feed.subscribe("slow", 2);
         let (a, b) = (img.id("a").unwrap(), img.id("b").unwrap());
-        feed.offer(&img, 1, Duration::ZERO);
-        img.set(a, Value::I32(1), Duration::ZERO);
-        feed.offer(&img, 2, Duration::ZERO);
+        feed.offer(&img, 1, ScanInstant::ZERO);
+        img.set(a, Value::I32(1), ScanInstant::ZERO);
+        feed.offer(&img, 2, ScanInstant::ZERO);
         // Full: cycles 3 (a and b) and 4 (a) are lost.
-        img.set(a, Value::I32(2), Duration::ZERO);
-        img.set(b, Value::Bool(true), Duration::ZERO);
-        feed.offer(&img, 3, Duration::ZERO);
-        img.set(a, Value::I32(3), Duration::ZERO);
-        feed.offer(&img, 4, Duration::ZERO);
+        img.set(a, Value::I32(2), ScanInstant::ZERO);
+        img.set(b, Value::Bool(true), ScanInstant::ZERO);
+        feed.offer(&img, 3, ScanInstant::ZERO);
+        img.set(a, Value::I32(3), ScanInstant::ZERO);
+        feed.offer(&img, 4, ScanInstant::ZERO);
         assert_eq!(s.lost(), 3);
         assert_eq!(feed.counts()[0].1.lost(), 3);
         let got: Vec<Delivery> = s.receiver().try_iter().collect();
         assert_eq!(got.len(), 2);
         // Room again: cycle 5 changes a; b is caught up, both are marked.
-        img.set(a, Value::I32(4), Duration::ZERO);
-        feed.offer(&img, 5, Duration::ZERO);
+        img.set(a, Value::I32(4), ScanInstant::ZERO);
+        feed.offer(&img, 5, ScanInstant::ZERO);
         let d = s.receiver().try_recv().unwrap();
         assert_eq!(
             values(&d),
             [(1, Value::Bool(true), true), (0, Value::I32(4), true)]
         );
         // Then in step: nothing marked.
-        img.set(a, Value::I32(5), Duration::ZERO);
-        feed.offer(&img, 6, Duration::ZERO);
+        img.set(a, Value::I32(5), ScanInstant::ZERO);
+        feed.offer(&img, 6, ScanInstant::ZERO);
         let d = s.receiver().try_recv().unwrap();
         assert_eq!(values(&d), [(0, Value::I32(5), false)]);
     }
@@ -328,9 +339,9 @@ mod tests {
         let mut img = image();
         let mut feed = ChangeFeed::new();
         let s = feed.subscribe("test", 10);
-        feed.offer(&img, 1, Duration::ZERO);
+        feed.offer(&img, 1, ScanInstant::ZERO);
         img.set_quality(img.id("b").unwrap(), Quality::Good);
-        feed.offer(&img, 2, Duration::ZERO);
+        feed.offer(&img, 2, ScanInstant::ZERO);
         let d: Vec<Delivery> = s.receiver().try_iter().collect();
         assert_eq!(d[1].cycle.changes[0].quality, Quality::Good);
         assert_eq!(d[1].cycle.changes[0].tag, 1);

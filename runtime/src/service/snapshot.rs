@@ -17,6 +17,7 @@ use softplc_io::point::{Quality, Value};
 use super::changes::FeedCounts;
 use crate::plc::Plc;
 use crate::scan::{DurationHistogram, ScanStats};
+use softplc_io::time::ScanInstant;
 
 /// How often the statistics are refreshed, in scan time.
 pub(crate) const STATS_EVERY: Duration = Duration::from_millis(250);
@@ -182,13 +183,13 @@ pub struct ServiceSnapshot {
     /// Overruns.
     pub overruns: u64,
     /// Scan time of the publication.
-    pub now: Duration,
+    pub now: ScanInstant,
     /// Tag values, in tag order.
     pub values: Vec<Value>,
     /// Tag qualities, in tag order.
     pub qualities: Vec<Quality>,
     /// Scan time of each tag's last good read (inputs) or write, in tag order.
-    pub timestamps: Vec<Duration>,
+    pub timestamps: Vec<ScanInstant>,
     /// Whether each tag is forced, in tag order.
     pub forced: Vec<bool>,
     /// Phase summaries, in `Phase::ALL` order (refreshed every `STATS_EVERY`).
@@ -253,7 +254,7 @@ impl SnapshotCell {
 #[derive(Debug)]
 pub struct Publisher {
     cell: SnapshotCell,
-    stats_at: Option<Duration>,
+    stats_at: Option<ScanInstant>,
     details: bool,
     stop_reason: Option<String>,
     feeds: Vec<(&'static str, Arc<FeedCounts>)>,
@@ -292,7 +293,7 @@ impl Publisher {
 
     /// Publishes the PLC's image (every call) and statistics (every `STATS_EVERY`, or when
     /// `final_` is set) without blocking: skipped when a reader holds the lock.
-    pub fn publish(&mut self, plc: &Plc, stats: &ScanStats, now: Duration, final_: bool) {
+    pub fn publish(&mut self, plc: &Plc, stats: &ScanStats, now: ScanInstant, final_: bool) {
         let Ok(mut s) = self.cell.0.try_lock() else {
             return;
         };
@@ -322,7 +323,7 @@ impl Publisher {
         }
         let due = self
             .stats_at
-            .is_none_or(|at| now.saturating_sub(at) >= STATS_EVERY);
+            .is_none_or(|at| now.saturating_duration_since(at) >= STATS_EVERY);
         if due || final_ {
             self.stats_at = Some(now);
             for (slot, phase) in s.phases.iter_mut().zip(Phase::ALL) {

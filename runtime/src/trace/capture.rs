@@ -13,12 +13,11 @@
 //! it. An edge needs two cycles: the first cycle after arming only gives the trigger its
 //! previous value.
 
-use std::time::Duration;
-
 use serde::{Deserialize, Serialize};
 use softplc_io::point::Value;
 
 use crate::project::trace::{Condition, Probe, TraceConfig, TraceMode};
+use softplc_io::time::ScanInstant;
 
 /// Where a trace is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -52,7 +51,7 @@ impl std::fmt::Display for TraceState {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Moment {
     /// The cycle's timestamp (the time its logic saw).
-    pub time: Duration,
+    pub time: ScanInstant,
     /// The cycle (1 = the first).
     pub cycle: u64,
 }
@@ -65,7 +64,7 @@ pub struct Capture {
     depth: usize,
     /// `depth × width` values, one row per slot.
     values: Vec<Value>,
-    times: Vec<Duration>,
+    times: Vec<ScanInstant>,
     cycles: Vec<u64>,
     /// The oldest slot, and how many are held.
     head: usize,
@@ -88,7 +87,7 @@ impl Capture {
         let depth = config.depth();
         let mut c = Self {
             values: vec![Value::Bool(false); depth * width],
-            times: vec![Duration::ZERO; depth],
+            times: vec![ScanInstant::ZERO; depth],
             cycles: vec![0; depth],
             width,
             depth,
@@ -241,7 +240,7 @@ impl Capture {
     }
 
     /// The held samples, oldest first: (time, cycle, one value per signal).
-    pub fn samples(&self) -> impl Iterator<Item = (Duration, u64, &[Value])> + '_ {
+    pub fn samples(&self) -> impl Iterator<Item = (ScanInstant, u64, &[Value])> + '_ {
         (0..self.len).map(move |k| {
             let slot = (self.head + k) % self.depth;
             (

@@ -9,6 +9,7 @@ use softplc_io::point::{Value, ValueType};
 
 use super::capture::{Capture, TraceState};
 use super::export::{CsvWriter, ExportError, Sample, Signal, VcdWriter};
+use softplc_io::time::ScanInstant;
 
 /// One signal of a trace, as sent.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -52,7 +53,7 @@ impl TraceData {
         let mut cycle = Vec::with_capacity(capture.len());
         let mut values = Vec::with_capacity(capture.len());
         for (t, c, row) in capture.samples() {
-            time_ns.push(u64::try_from(t.as_nanos()).unwrap_or(u64::MAX));
+            time_ns.push(u64::try_from(t.since_origin().as_nanos()).unwrap_or(u64::MAX));
             cycle.push(c);
             values.push(row.iter().map(|v| super::capture::as_f64(*v)).collect());
         }
@@ -98,7 +99,11 @@ impl TraceData {
         for ((t, c), values) in self.time_ns.iter().zip(&self.cycle).zip(&self.values) {
             row.clear();
             row.extend(values.iter().zip(types).map(|(v, ty)| typed(*v, *ty)));
-            write(&Sample::new(Duration::from_nanos(*t), *c, &row))?;
+            write(&Sample::new(
+                ScanInstant::after_origin(Duration::from_nanos(*t)),
+                *c,
+                &row,
+            ))?;
         }
         Ok(())
     }

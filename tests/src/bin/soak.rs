@@ -194,7 +194,8 @@ fn main() -> anyhow::Result<()> {
         let cycled = cycled.clone();
         Box::new(move |plc: &Plc, ctx: &softplc::logic::ScanContext| {
             let hook_tally = &tally;
-            let now = ctx.now;
+            // The soak keeps its bookkeeping as time since the PLC's start.
+            let now = ctx.now.since_origin();
             let mut t = hook_tally.lock().unwrap_or_else(|e| e.into_inner());
             let mut lv = levels.lock().unwrap_or_else(|e| e.into_inner());
             let mut due = due.lock().unwrap_or_else(|e| e.into_inner());
@@ -275,7 +276,7 @@ fn main() -> anyhow::Result<()> {
                         .expect("the generated MiniMods have an X1 terminal");
                     // On the virtual clock a busy line (restarting modules after an outage)
                     // runs ahead of the scan: the terminal changes at the world's time.
-                    lv[k] = (new, now.max(w.now()), level);
+                    lv[k] = (new, now.max(w.now().since_origin()), level);
                     due.push_back((k, new, now + DELIVER, now));
                     t.output_changes += 1;
                 }
@@ -328,8 +329,8 @@ fn main() -> anyhow::Result<()> {
     let mut plc = plc;
     let mut restarts = 0u64;
     let outcome = loop {
-        let segment = RESTART_EVERY.min(args.run_for.saturating_sub(clock.now()));
-        let last = clock.now() + segment >= args.run_for;
+        let segment = RESTART_EVERY.min(args.run_for.saturating_sub(clock.now().since_origin()));
+        let last = clock.now().since_origin() + segment >= args.run_for;
         let mut engine = ScanEngine::new(plc)
             .run_for(segment)
             .on_cycle(make_hook(tally.clone()));
@@ -349,7 +350,7 @@ fn main() -> anyhow::Result<()> {
         world
             .lock()
             .unwrap_or_else(|e| e.into_inner())
-            .advance_to(resume);
+            .advance_to(resume.on_line_clock());
         clock.advance_to(resume);
         plc = Plc::build_on(project.clone(), clock.clone(), Some(world.clone()))
             .context("restarting the soak PLC after its kill")?;
@@ -370,7 +371,7 @@ fn main() -> anyhow::Result<()> {
     };
     println!(
         "soak: {} of scan time in {:.1?} ({} modules, fault rate {}): {} cycles, {} faults injected, {} bus errors counted",
-        softplc::scan::fmt_duration(clock.now()),
+        clock.now(),
         started.elapsed(),
         args.modules,
         args.rate,

@@ -22,6 +22,7 @@ use softplc::image::{ProcessImage, TagId};
 use softplc::logic::expr::TagTable;
 use softplc::logic::{expr, ladder, rhai, LogicEngine};
 use softplc_io::point::{Value, ValueType};
+use softplc_io::time::ScanInstant;
 
 /// The engines a synthetic program exists in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -123,7 +124,7 @@ pub(crate) fn drive_inputs(image: &mut ProcessImage, n: usize, cycle: u64) {
     for i in 0..=n {
         let period = 20 + (i as u64 % 7) + 20;
         let on = (cycle + i as u64 * 13) % period < 20;
-        image.set(TagId(i as u32), Value::Bool(on), Duration::ZERO);
+        image.set(TagId(i as u32), Value::Bool(on), ScanInstant::ZERO);
     }
 }
 
@@ -144,7 +145,7 @@ mod tests {
         let mut lit = 0;
         for cycle in 0..200 {
             let ctx = ScanContext {
-                now: Duration::from_millis(10 * cycle),
+                now: ScanInstant::after_origin(Duration::from_millis(10 * cycle)),
                 delta: Duration::from_millis(10),
                 cycle,
             };

@@ -1642,11 +1642,13 @@ mod tests {
     fn a_terminal_held_on_reads_on_again_after_a_power_cycle() {
         use crate::line::settings::LineSettings;
         use crate::sim::line::SimWorld;
+        use crate::time::LineInstant;
 
         let fc2 = request(UNIT, &Request::ReadDiscreteInputs { addr: 0, count: 1 });
         let x1 = |level: u8| frame(&[UNIT, 0x02, 0x01, level]);
         // The master reads X1 with FC 2 at `t`; the reply it hears.
         let poll = |w: &mut SimWorld, t: Duration| {
+            let t = LineInstant::after_origin(t);
             w.deliver(0, &fc2, t);
             let mut reply = Vec::new();
             w.take_arrived(0, t + ms(50), &mut reply);
@@ -1699,6 +1701,7 @@ mod tests {
     fn a_module_installed_at_its_own_settings_hears_only_a_master_at_them() {
         use crate::line::settings::{LineSettings, SerialFormat};
         use crate::sim::line::SimWorld;
+        use crate::time::LineInstant;
         let own = LineSettings {
             baud: 9600,
             format: "8N1".parse().unwrap(),
@@ -1711,9 +1714,9 @@ mod tests {
         let mut at = 0;
         let mut send = |world: &mut SimWorld, frame: &[u8]| {
             at += 1000;
-            world.deliver(0, frame, ms(at));
+            world.deliver(0, frame, LineInstant::after_origin(ms(at)));
             let mut reply = Vec::new();
-            world.take_arrived(0, ms(at + 900), &mut reply);
+            world.take_arrived(0, LineInstant::after_origin(ms(at + 900)), &mut reply);
             reply
         };
         assert_eq!(send(&mut world, &read_x1), b"", "master at 19200 8E1");

@@ -5,6 +5,8 @@
 use std::collections::HashMap;
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use super::plan::{self, Read};
 use super::{value, Entry, Profile, Table, WriteMode};
 use crate::devices::{DeviceConfig, ModuleSettings};
@@ -41,8 +43,8 @@ pub(crate) struct ProfileDriver {
     /// This cycle's reads, and whether each was answered.
     reads: Vec<(Read, bool)>,
     /// When each poll group was last planned.
-    last_read: Vec<Option<Duration>>,
-    now: Duration,
+    last_read: Vec<Option<LineInstant>>,
+    now: LineInstant,
     /// What each point was last written with, as the device acknowledged it.
     written: Vec<Option<Value>>,
     /// Writes in flight: tag → value.
@@ -67,7 +69,7 @@ impl ProfileDriver {
             entry_of,
             reads: Vec::new(),
             last_read: vec![None; profile.groups.len()],
-            now: Duration::ZERO,
+            now: LineInstant::ZERO,
             written: vec![None; profile.points.len()],
             pending: HashMap::new(),
         }
@@ -83,7 +85,7 @@ impl ProfileDriver {
             self.last_read.get(group),
         ) {
             (None, _) | (_, None | Some(None)) => true,
-            (Some(period), Some(Some(t))) => self.now.saturating_sub(*t) >= period,
+            (Some(period), Some(Some(t))) => self.now - *t >= period,
         }
     }
 
@@ -114,7 +116,7 @@ impl Driver for ProfileDriver {
         self.address
     }
 
-    fn advance_to(&mut self, now: Duration) {
+    fn advance_to(&mut self, now: LineInstant) {
         self.now = self.now.max(now);
     }
 

@@ -15,7 +15,7 @@ use crate::modbus::master::encode_request;
 use crate::modbus::{Request, Response};
 use crate::point::Value;
 use crate::sim::line::{SimWorld, VirtualPort};
-use crate::time::{Clock, VirtualClock};
+use crate::time::{Clock, LineInstant, ScanInstant, VirtualClock};
 
 fn point(name: &str, table: Table, address: u16, data: DataType) -> ProfilePoint {
     ProfilePoint {
@@ -191,7 +191,7 @@ fn a_slow_group_is_read_at_its_period_and_again_after_a_failure() {
     let mut d = (model.driver)(&config);
     // Plans the cycle at `t`; answers its reads unless `answer` is false.
     let cycle = |d: &mut Box<dyn Driver>, t: u64, answer: bool| {
-        d.advance_to(Duration::from_millis(t));
+        d.advance_to(LineInstant::after_origin(Duration::from_millis(t)));
         let mut out = Vec::new();
         d.plan_read(&mut out);
         if answer {
@@ -240,8 +240,8 @@ fn a_profiled_drive_on_a_virtual_line() {
     owner.startup().unwrap();
     let index = |name: &str| model.point_index(name).unwrap();
     let read = |owner: &mut BusOwner, t: u64| {
-        clock.advance_to(Duration::from_millis(t));
-        owner.sync(clock.now());
+        clock.advance_to(ScanInstant::after_origin(Duration::from_millis(t)));
+        owner.sync(clock.line_now());
         owner.read_inputs().modules[0].values.clone()
     };
 
@@ -365,8 +365,8 @@ fn slow_device_read(
     drop(owner.startup());
     // A second cycle, after the first: the gap counts between frames of a running line.
     owner.read_inputs();
-    clock.advance_to(Duration::from_secs(5));
-    owner.sync(clock.now());
+    clock.advance_to(ScanInstant::after_origin(Duration::from_secs(5)));
+    owner.sync(clock.line_now());
     let started = owner.now();
     let frame = owner.read_inputs();
     (frame.finished - started, frame.modules[0].quality)

@@ -47,7 +47,7 @@ impl BusOwner {
         self.line_free_at = now;
         done.outcome = match answer {
             Ok(response) => {
-                done.round_trip = Some(now.saturating_sub(started));
+                done.round_trip = Some(now - started);
                 Ok(Some(Reply::Modbus(response)))
             }
             Err(CallMiss::Silence) => {

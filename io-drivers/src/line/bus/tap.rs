@@ -6,6 +6,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::{BusOwner, Miss};
+use crate::time::LineInstant;
 use crate::wire::trace::{Discard, Verdict, WireEvent, WireTap};
 
 impl BusOwner {
@@ -15,21 +16,21 @@ impl BusOwner {
     }
 
     /// Reports `event` at the line's time `at`.
-    pub(super) fn trace(&self, at: Duration, event: WireEvent<'_>) {
+    pub(super) fn trace(&self, at: LineInstant, event: WireEvent<'_>) {
         if let Some(tap) = &self.tap {
             tap.record(&self.name, at, &event);
         }
     }
 
     /// Reports `count` dropped bytes, if any.
-    pub(super) fn trace_discard(&self, at: Duration, count: usize, why: Discard) {
+    pub(super) fn trace_discard(&self, at: LineInstant, count: usize, why: Discard) {
         if count > 0 {
             self.trace(at, WireEvent::Discarded { count, why });
         }
     }
 
     /// Reports the reply `bytes` to the request in the transmit buffer.
-    pub(super) fn trace_reply(&self, at: Duration, bytes: &[u8], verdict: Verdict) {
+    pub(super) fn trace_reply(&self, at: LineInstant, bytes: &[u8], verdict: Verdict) {
         self.trace(
             at,
             WireEvent::Received {
@@ -41,7 +42,7 @@ impl BusOwner {
     }
 
     /// Reports how an exchange that waited `wait` missed its reply.
-    pub(super) fn trace_miss(&self, at: Duration, miss: &Miss, wait: Duration) {
+    pub(super) fn trace_miss(&self, at: LineInstant, miss: &Miss, wait: Duration) {
         if self.tap.is_none() {
             return;
         }

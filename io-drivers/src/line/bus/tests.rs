@@ -22,20 +22,20 @@ impl Transport for FlakyFlush {
     fn settings(&self) -> LineSettings {
         self.inner.settings()
     }
-    fn now(&self) -> Duration {
+    fn now(&self) -> LineInstant {
         self.inner.now()
     }
-    fn sync(&mut self, t: Duration) {
+    fn sync(&mut self, t: LineInstant) {
         self.inner.sync(t);
     }
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
         *self.sent.lock().unwrap() += 1;
         self.inner.write_frame(frame)
     }
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
         self.inner.read_until(buf, deadline)
     }
-    fn wait_until(&mut self, t: Duration) {
+    fn wait_until(&mut self, t: LineInstant) {
         self.inner.wait_until(t);
     }
     fn flush_input(&mut self) -> Result<usize, LineError> {
@@ -64,9 +64,9 @@ fn a_failed_flush_is_a_line_failure_counted_and_nothing_is_sent() {
     };
     let modules = vec![Module::new("mm", driver)];
     let mut owner = BusOwner::new("line", Box::new(port), Discipline::default(), modules);
-    owner.sync(clock.now());
+    owner.sync(clock.line_now());
     owner.startup().unwrap();
-    clock.advance_to(owner.now());
+    clock.advance_to(owner.now().on_scan_clock());
 
     let frame = owner.read_inputs();
     assert_eq!(frame.modules[0].quality, Quality::Good);
@@ -86,8 +86,8 @@ fn a_failed_flush_is_a_line_failure_counted_and_nothing_is_sent() {
     );
 
     // The port is taken as failed: the next cycle does not use it until it is reopened.
-    clock.advance_to(owner.now() + Duration::from_millis(100));
-    owner.sync(clock.now());
+    clock.advance_to(owner.now().on_scan_clock() + Duration::from_millis(100));
+    owner.sync(clock.line_now());
     let frame = owner.read_inputs();
     assert_eq!(frame.modules[0].last_error, Some(TxError::PortDown));
     assert_eq!(

@@ -17,7 +17,7 @@ use crate::modbus::master::encode_request;
 use crate::point::{Quality, Value};
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
 use crate::sim::{SimDevice, SimError, SimReply};
-use crate::time::{Clock, VirtualClock};
+use crate::time::{Clock, LineInstant, ScanInstant, VirtualClock};
 
 fn frame(bytes: &[u8]) -> Vec<u8> {
     let mut f = bytes.to_vec();
@@ -139,20 +139,20 @@ impl Transport for Recorder {
     fn settings(&self) -> LineSettings {
         self.inner.settings()
     }
-    fn now(&self) -> Duration {
+    fn now(&self) -> LineInstant {
         self.inner.now()
     }
-    fn sync(&mut self, t: Duration) {
+    fn sync(&mut self, t: LineInstant) {
         self.inner.sync(t);
     }
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
         self.log.lock().unwrap().push(frame.to_vec());
         self.inner.write_frame(frame)
     }
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
         self.inner.read_until(buf, deadline)
     }
-    fn wait_until(&mut self, t: Duration) {
+    fn wait_until(&mut self, t: LineInstant) {
         self.inner.wait_until(t);
     }
     fn flush_input(&mut self) -> Result<usize, LineError> {
@@ -223,9 +223,9 @@ fn rig_on(specs: &[Spec<'_>], sim_as: SimAs, adapter_latency: Duration) -> Rig {
 impl Rig {
     /// Start-up at 0; returns when it ended, in ms.
     fn startup(&mut self) -> u64 {
-        self.owner.sync(self.clock.now());
+        self.owner.sync(self.clock.line_now());
         self.owner.startup().unwrap();
-        self.clock.now().as_millis() as u64
+        self.clock.now().since_origin().as_millis() as u64
     }
 
     /// One read cycle starting at `ms` (the line keeps its own time if still busy); returns
@@ -233,9 +233,9 @@ impl Rig {
     fn read_at(&mut self, ms: u64) -> (InputFrame, Vec<Vec<u8>>) {
         self.at(ms);
         self.log.lock().unwrap().clear();
-        self.owner.sync(self.clock.now());
+        self.owner.sync(self.clock.line_now());
         let frame = self.owner.read_inputs();
-        self.clock.advance_to(frame.finished);
+        self.clock.advance_to(frame.finished.on_scan_clock());
         let sent = std::mem::take(&mut *self.log.lock().unwrap());
         (frame, sent)
     }
@@ -243,7 +243,7 @@ impl Rig {
     /// Sets a simulated terminal now.
     fn set(&self, device: usize, point: &str, on: bool) {
         let mut w = self.world.lock().unwrap();
-        w.advance_to(self.clock.now());
+        w.advance_to(self.clock.line_now());
         w.set(device, point, Value::Bool(on)).unwrap();
     }
 
@@ -251,7 +251,7 @@ impl Rig {
     fn power_cycle_at(&self, ms: u64, device: usize) {
         self.at(ms);
         let mut w = self.world.lock().unwrap();
-        w.advance_to(self.clock.now());
+        w.advance_to(self.clock.line_now());
         w.device_mut(device)
             .unwrap()
             .command(&["power-cycle"])
@@ -259,7 +259,8 @@ impl Rig {
     }
 
     fn at(&self, ms: u64) {
-        self.clock.advance_to(Duration::from_millis(ms));
+        self.clock
+            .advance_to(ScanInstant::after_origin(Duration::from_millis(ms)));
     }
 }
 
@@ -621,7 +622,7 @@ fn periodic_full_reads_are_spread_one_a_cycle_and_none_waits_past_its_period() {
         let (f, sent) = r.read_at(t);
         assert_eq!(
             f.started,
-            Duration::from_millis(t),
+            LineInstant::after_origin(Duration::from_millis(t)),
             "the line is free at each cycle"
         );
         let reads = full_reads(&sent);
@@ -679,7 +680,7 @@ fn a_member_that_answers_its_writes_is_read_in_full_only_every_resync() {
         // Y1 flips every cycle: each write's echo is the module's answer.
         let report = r.owner.write_outputs(&y1(1, k % 2 == 0));
         assert_eq!((report.transactions, report.failures), (1, 0));
-        r.clock.advance_to(report.finished);
+        r.clock.advance_to(report.finished.on_scan_clock());
     }
     assert_eq!(
         reads,
@@ -704,11 +705,11 @@ fn a_write_that_covers_every_owned_output_is_the_modules_output_refresh() {
     let mut r = rig(&[(1, Protocol::Modbus, &[]), (2, Protocol::Modbus, &[])]);
     r.startup();
     r.at(1000);
-    r.owner.sync(r.clock.now());
+    r.owner.sync(r.clock.line_now());
     let mut writes_per_cycle = Vec::new();
     for k in 0..30u64 {
         r.at(1000 + 100 * k);
-        r.owner.sync(r.clock.now());
+        r.owner.sync(r.clock.line_now());
         r.log.lock().unwrap().clear();
         // Only module 1's Y1 changes (every cycle); module 2's stays off.
         let mut frame = y1(2, false);
@@ -718,7 +719,7 @@ fn a_write_that_covers_every_owned_output_is_the_modules_output_refresh() {
             .unwrap();
         frame.modules[0][i] = Some(Value::Bool(k % 2 == 1));
         let report = r.owner.write_outputs(&frame);
-        r.clock.advance_to(report.finished);
+        r.clock.advance_to(report.finished.on_scan_clock());
         let sent = std::mem::take(&mut *r.log.lock().unwrap());
         writes_per_cycle.push(sent.iter().map(|f| f[0]).collect::<Vec<u8>>());
     }
@@ -769,7 +770,7 @@ fn with_every_module_written_in_turn_only_the_resync_reads_remain_one_a_cycle() 
         }
         r.log.lock().unwrap().clear();
         let report = r.owner.write_outputs(&frame);
-        r.clock.advance_to(report.finished);
+        r.clock.advance_to(report.finished.on_scan_clock());
         let writes = r.log.lock().unwrap().len();
         let reads = full_reads(&sent);
         if k == 0 {
@@ -782,10 +783,10 @@ fn with_every_module_written_in_turn_only_the_resync_reads_remain_one_a_cycle() 
                 resyncs.push((unit, f.started - first.unwrap_or_default()));
             }
         }
-        t = report.finished.as_millis() as u64 + 1;
+        t = report.finished.since_origin().as_millis() as u64 + 1;
     }
     assert!(
-        r.clock.now() > Duration::from_secs(30),
+        r.clock.now() > ScanInstant::after_origin(Duration::from_secs(30)),
         "the run passes the first resync"
     );
     assert_eq!(
@@ -910,7 +911,7 @@ fn a_minute_of_a_lossy_line_never_runs_the_start_up_again() {
     let w = r.world.lock().unwrap();
     let rounds = r.owner.collect_stats().rounds;
     assert!(
-        r.clock.now() >= Duration::from_secs(60),
+        r.clock.now() >= ScanInstant::after_origin(Duration::from_secs(60)),
         "a minute of line time"
     );
     assert!(

@@ -49,9 +49,9 @@ fn owner_speaking(
         Discipline::default(),
         vec![Module::new("mm", driver)],
     );
-    owner.sync(clock.now());
+    owner.sync(clock.line_now());
     owner.startup().unwrap();
-    clock.advance_to(owner.now());
+    clock.advance_to(owner.now().on_scan_clock());
     owner
 }
 
@@ -63,8 +63,8 @@ fn cycles(
 ) -> crate::line::bus::ModuleSnapshot {
     let mut last = None;
     for _ in 0..n {
-        clock.advance_to(owner.now().max(clock.now()) + Duration::from_millis(20));
-        owner.sync(clock.now());
+        clock.advance_to(owner.now().on_scan_clock().max(clock.now()) + Duration::from_millis(20));
+        owner.sync(clock.line_now());
         last = Some(owner.read_inputs().modules.remove(0));
     }
     last.unwrap()

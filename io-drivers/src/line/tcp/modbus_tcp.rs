@@ -28,7 +28,7 @@ use crate::line::tcp::endpoint::TcpEndpoint;
 use crate::line::transport::{CallMiss, LineError, PduChannel, Transport};
 use crate::modbus::master::ReplyError;
 use crate::modbus::{Request, Response};
-use crate::time::Clock;
+use crate::time::{Clock, LineInstant};
 
 /// The exceptions by which a gateway says the unit behind it did not answer.
 const GATEWAY_SILENCE: [u8; 2] = [0x0A, 0x0B];
@@ -129,8 +129,8 @@ impl Transport for ModbusTcpTransport {
         LineSettings::DEFAULT
     }
 
-    fn now(&self) -> Duration {
-        self.clock.now()
+    fn now(&self) -> LineInstant {
+        self.clock.line_now()
     }
 
     fn write_frame(&mut self, _frame: &[u8]) -> Result<(), LineError> {
@@ -142,12 +142,16 @@ impl Transport for ModbusTcpTransport {
         )))
     }
 
-    fn read_until(&mut self, _buf: &mut Vec<u8>, _deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(
+        &mut self,
+        _buf: &mut Vec<u8>,
+        _deadline: LineInstant,
+    ) -> Result<usize, LineError> {
         Ok(0)
     }
 
-    fn wait_until(&mut self, t: Duration) {
-        self.clock.sleep_until(t);
+    fn wait_until(&mut self, t: LineInstant) {
+        self.clock.sleep_until_on_line(t);
     }
 
     fn flush_input(&mut self) -> Result<usize, LineError> {

@@ -18,7 +18,7 @@ use std::time::Duration;
 use crate::line::settings::LineSettings;
 use crate::line::tcp::endpoint::TcpEndpoint;
 use crate::line::transport::{LineError, Transport};
-use crate::time::Clock;
+use crate::time::{Clock, LineInstant};
 
 /// A byte pipe to a serial device server.
 #[derive(Debug)]
@@ -97,28 +97,27 @@ impl Transport for RtuOverTcpTransport {
         self.settings
     }
 
-    fn now(&self) -> Duration {
-        self.clock.now()
+    fn now(&self) -> LineInstant {
+        self.clock.line_now()
     }
 
     fn write_frame(&mut self, frame: &[u8]) -> Result<(), LineError> {
-        let start = self.clock.now();
+        let start = self.now();
         let stream = self.stream()?;
         if let Err(e) = stream.write_all(frame) {
             return Err(self.failed(e));
         }
         // The server sends it on its line at the line's baud: the response timeout counts
         // from when its last character has left there, as on a local port.
-        self.clock
-            .sleep_until(start + self.settings.chars(frame.len()));
+        self.wait_until(start + self.settings.chars(frame.len()));
         Ok(())
     }
 
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
         let mut chunk = [0u8; 256];
         loop {
-            let now = self.clock.now();
-            let wait = deadline.saturating_sub(now).max(Duration::from_micros(100));
+            let now = self.now();
+            let wait = (deadline - now).max(Duration::from_micros(100));
             let past = now >= deadline;
             let stream = self.stream()?;
             if let Err(e) = stream.set_read_timeout(Some(wait)) {
@@ -146,8 +145,8 @@ impl Transport for RtuOverTcpTransport {
         }
     }
 
-    fn wait_until(&mut self, t: Duration) {
-        self.clock.sleep_until(t);
+    fn wait_until(&mut self, t: LineInstant) {
+        self.clock.sleep_until_on_line(t);
     }
 
     fn flush_input(&mut self) -> Result<usize, LineError> {

@@ -187,7 +187,7 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
             hook_state
                 .lock()
                 .unwrap_or_else(|p| p.into_inner())
-                .cycle(plc, ctx.now.saturating_sub(origin));
+                .cycle(plc, ctx.now.saturating_duration_since(origin));
         }));
     let outcome = engine.run();
     drop(engine);

@@ -9,6 +9,7 @@ use softplc_io::point::{Quality, Value, ValueType};
 use super::*;
 use crate::image::ProcessImage;
 use crate::logic::{LogicEngine, ScanContext};
+use softplc_io::time::ScanInstant;
 
 /// `(name, initial value, writable)`: the tags every test program may use.
 const TAGS: &[(&str, Value, bool)] = &[
@@ -103,8 +104,8 @@ impl Rig {
         self.image.get(self.id(name)).as_bool()
     }
 
-    fn now(&self) -> Duration {
-        self.period * self.cycle as u32
+    fn now(&self) -> ScanInstant {
+        ScanInstant::after_origin(self.period * self.cycle as u32)
     }
 
     fn scan(&mut self) {
@@ -346,7 +347,7 @@ fn self_latching_motor() {
     assert_eq!(slot.quality, Quality::Good);
     assert_eq!(
         slot.timestamp,
-        Duration::from_millis(100),
+        ScanInstant::after_origin(Duration::from_millis(100)),
         "stamped with the last scan's time"
     );
 }
@@ -385,7 +386,7 @@ fn ton_switches_on_at_the_sixth_scan_of_continuous_true() {
     assert_eq!(rig.trace("a", "q", &input), expect);
     assert_eq!(
         rig.image.slot(rig.id("q")).timestamp,
-        Duration::from_millis(19 * 20)
+        ScanInstant::after_origin(Duration::from_millis(19 * 20))
     );
 }
 
@@ -557,7 +558,8 @@ fn good_and_bad_follow_the_slot_quality() {
     assert_eq!(step(&mut rig, Quality::Bad), (false, true));
     assert_eq!(step(&mut rig, Quality::Good), (true, false));
     // The value is kept while not good; the quality test does not read it.
-    rig.image.update(level, None, Quality::Bad, Duration::ZERO);
+    rig.image
+        .update(level, None, Quality::Bad, ScanInstant::ZERO);
     rig.scan();
     assert!(rig.get("q3"));
     assert_eq!(rig.image.get(level), Value::U16(7));
@@ -567,12 +569,12 @@ fn good_and_bad_follow_the_slot_quality() {
 fn memory_and_forced_tags_are_good() {
     let mut rig = Rig::new("q = good(motor)\nq2 = good(b)\n", 10);
     let (motor, b) = (rig.id("motor"), rig.id("b"));
-    rig.image.set(motor, Value::Bool(false), Duration::ZERO);
-    rig.image.update(b, None, Quality::Bad, Duration::ZERO);
+    rig.image.set(motor, Value::Bool(false), ScanInstant::ZERO);
+    rig.image.update(b, None, Quality::Bad, ScanInstant::ZERO);
     rig.scan();
     assert_eq!((rig.get("q"), rig.get("q2")), (true, false));
     rig.image.force(b, Value::Bool(true));
-    rig.image.apply_forces(Duration::ZERO);
+    rig.image.apply_forces(ScanInstant::ZERO);
     rig.scan();
     assert!(rig.get("q2"));
 }
@@ -620,7 +622,7 @@ fn an_image_too_small_is_a_fault_not_a_panic() {
     let mut program = program.unwrap();
     let mut image = ProcessImage::new([("a".to_string(), Value::Bool(false))]);
     let ctx = ScanContext {
-        now: Duration::ZERO,
+        now: ScanInstant::ZERO,
         delta: Duration::ZERO,
         cycle: 0,
     };
@@ -670,7 +672,7 @@ q3 = (q2 or temp >= 1.5) and not lamp
             rig.program = p;
         }
         let mut rng = Lcg(42);
-        let mut now = Duration::ZERO;
+        let mut now = ScanInstant::ZERO;
         let mut trace = Vec::new();
         for cycle in 0..2000u64 {
             for name in ["start", "stop", "at_exit", "a", "b"] {
@@ -784,7 +786,7 @@ fn no_program_text_makes_compile_or_scan_panic() {
                 let mut image = ProcessImage::new(TAGS.iter().map(|(n, v, _)| (n.to_string(), *v)));
                 for cycle in 0..3 {
                     let ctx = ScanContext {
-                        now: Duration::from_millis(cycle * 7),
+                        now: ScanInstant::after_origin(Duration::from_millis(cycle * 7)),
                         delta: Duration::ZERO,
                         cycle,
                     };

@@ -8,6 +8,7 @@ use softplc_io::point::{Value, ValueType};
 use super::*;
 use crate::image::{ProcessImage, TagId};
 use crate::logic::{LogicEngine, ScanContext};
+use softplc_io::time::ScanInstant;
 
 /// Tags: name, type, writable.
 const TAGS: &[(&str, ValueType, bool)] = &[
@@ -73,7 +74,7 @@ fn errors(rungs: &[&str]) -> Vec<String> {
 struct Rig {
     program: LadderProgram,
     image: ProcessImage,
-    now: Duration,
+    now: ScanInstant,
     cycle: u64,
 }
 
@@ -82,7 +83,7 @@ impl Rig {
         Self {
             program: build(rungs),
             image: ProcessImage::new(TAGS.iter().map(|&(n, ty, _)| (n.to_string(), ty.zero()))),
-            now: Duration::ZERO,
+            now: ScanInstant::ZERO,
             cycle: 0,
         }
     }
@@ -285,7 +286,7 @@ fn division_by_zero_faults_at_the_rung() {
     let mut p = build(&["start -> lamp", "-> DIV(count, 0) => count"]);
     let mut image = ProcessImage::new(TAGS.iter().map(|&(n, ty, _)| (n.to_string(), ty.zero())));
     let ctx = ScanContext {
-        now: Duration::ZERO,
+        now: ScanInstant::ZERO,
         delta: Duration::from_millis(10),
         cycle: 0,
     };

@@ -109,7 +109,7 @@ fn changes(rng: &mut Rng, kinds: &[(String, ValueType, bool)]) -> Vec<Change> {
     out
 }
 
-fn apply(image: &mut ProcessImage, changes: &[Change], now: Duration) {
+fn apply(image: &mut ProcessImage, changes: &[Change], now: ScanInstant) {
     for c in changes {
         match *c {
             Change::Set(id, v) => image.set(id, v, now),
@@ -135,7 +135,7 @@ fn same_both_ways(script: &str, instances: &[&str], scans: usize, seed: u64) {
     let fresh = || ProcessImage::new(kinds.iter().map(|(n, ty, _)| (n.clone(), ty.zero())));
     let (mut vm_image, mut rhai_image) = (fresh(), fresh());
     let mut rng = Rng(seed);
-    let mut now = Duration::ZERO;
+    let mut now = ScanInstant::ZERO;
     let mut changed = 0;
     for scan in 0..scans {
         let before: Vec<Value> = rhai_image.slots().iter().map(|s| s.value).collect();
@@ -292,10 +292,10 @@ fn what_is_not_plain_stays_in_the_interpreter_and_runs() {
             "{script}: {line}"
         );
         let mut image = ProcessImage::new(tags().into_iter().map(|(n, ty, _)| (n, ty.zero())));
-        image.set(TagId(0), Value::Bool(true), Duration::ZERO);
+        image.set(TagId(0), Value::Bool(true), ScanInstant::ZERO);
         let mut p = p;
         let ctx = ScanContext {
-            now: Duration::ZERO,
+            now: ScanInstant::ZERO,
             delta: Duration::from_millis(10),
             cycle: 0,
         };
@@ -305,11 +305,11 @@ fn what_is_not_plain_stays_in_the_interpreter_and_runs() {
     let mut p = compile_ok("y1 = a || ton(\"t\", b, 10);\n");
     let mut image = ProcessImage::new(tags().into_iter().map(|(n, ty, _)| (n, ty.zero())));
     let id = |n: &str| table().get(n).unwrap().id;
-    image.set(id("a"), Value::Bool(true), Duration::ZERO);
-    image.set(id("b"), Value::Bool(true), Duration::ZERO);
+    image.set(id("a"), Value::Bool(true), ScanInstant::ZERO);
+    image.set(id("b"), Value::Bool(true), ScanInstant::ZERO);
     let scan = |p: &mut RhaiProgram, image: &mut ProcessImage, ms: u64| {
         let ctx = ScanContext {
-            now: Duration::from_millis(ms),
+            now: ScanInstant::after_origin(Duration::from_millis(ms)),
             delta: Duration::from_millis(10),
             cycle: 0,
         };
@@ -317,7 +317,7 @@ fn what_is_not_plain_stays_in_the_interpreter_and_runs() {
     };
     scan(&mut p, &mut image, 0);
     assert!(p.instance("t").is_none(), "never called while `a` holds");
-    image.set(id("a"), Value::Bool(false), Duration::ZERO);
+    image.set(id("a"), Value::Bool(false), ScanInstant::ZERO);
     scan(&mut p, &mut image, 20);
     assert_eq!(
         image.get(id("y1")),
@@ -361,10 +361,10 @@ fn a_released_rung_is_not_written_on_the_vm_either() {
     assert!(p.execution().unwrap_or_default().contains("logic VM"));
     let id = |n: &str| table().get(n).unwrap().id;
     let mut image = ProcessImage::new(tags().into_iter().map(|(n, ty, _)| (n, ty.zero())));
-    image.set(id("a"), Value::Bool(true), Duration::ZERO);
-    image.set(id("b"), Value::Bool(true), Duration::ZERO);
+    image.set(id("a"), Value::Bool(true), ScanInstant::ZERO);
+    image.set(id("b"), Value::Bool(true), ScanInstant::ZERO);
     let ctx = ScanContext {
-        now: Duration::ZERO,
+        now: ScanInstant::ZERO,
         delta: Duration::from_millis(10),
         cycle: 0,
     };
@@ -372,7 +372,7 @@ fn a_released_rung_is_not_written_on_the_vm_either() {
     assert_eq!(image.get(id("y2")), Value::Bool(true));
     p.release(id("y1"));
     // The module's read-back says off: the script no longer writes it, and reads it.
-    image.set(id("y1"), Value::Bool(false), Duration::ZERO);
+    image.set(id("y1"), Value::Bool(false), ScanInstant::ZERO);
     p.scan(&mut image, &ctx).unwrap();
     assert_eq!(image.get(id("y1")), Value::Bool(false));
     assert_eq!(image.get(id("y2")), Value::Bool(false));
@@ -382,7 +382,7 @@ fn a_released_rung_is_not_written_on_the_vm_either() {
 fn an_image_too_small_faults_alike_both_ways() {
     let script = "y1 = a && speed > 2.0;\n";
     let ctx = ScanContext {
-        now: Duration::ZERO,
+        now: ScanInstant::ZERO,
         delta: Duration::from_millis(10),
         cycle: 0,
     };

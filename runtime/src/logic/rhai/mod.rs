@@ -143,6 +143,7 @@ pub use rungs::NOT_PLAIN;
 use crate::image::{convert, ProcessImage, TagId};
 use crate::logic::expr::TagTable;
 use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
+use softplc_io::time::ScanInstant;
 
 /// Most undeclared names one compile reports (each costs a compile of the script).
 const MAX_UNDECLARED: usize = 64;
@@ -591,7 +592,7 @@ impl RhaiProgram {
         }
     }
 
-    fn copy_out(&mut self, image: &mut ProcessImage, now: Duration) -> Result<(), LogicFault> {
+    fn copy_out(&mut self, image: &mut ProcessImage, now: ScanInstant) -> Result<(), LogicFault> {
         // The scope iterates from its end: read every writable variable first (from the last
         // declared), then store them in project order, so a type fault stops at the same tag
         // as before, with the earlier ones stored.
@@ -705,8 +706,9 @@ impl LogicEngine for RhaiProgram {
         }
         self.copy_in(image);
         match self.blocks.lock() {
-            Ok(mut b) => b.now = ctx.now,
-            Err(p) => p.into_inner().now = ctx.now,
+            // A block's timers count in durations on the scan's clock (`logic::blocks`).
+            Ok(mut b) => b.now = ctx.now.since_origin(),
+            Err(p) => p.into_inner().now = ctx.now.since_origin(),
         }
         self.deadline.arm(self.budget);
         let run = self.engine.run_ast_with_scope(&mut self.scope, &self.ast);

@@ -173,6 +173,7 @@ mod tests {
     use crate::logic::rhai::{compile, tests::table};
     use crate::logic::{LogicEngine, ScanContext};
     use softplc_io::point::Value;
+    use softplc_io::time::ScanInstant;
 
     fn id(name: &str) -> TagId {
         table().get(name).expect("a tag").id
@@ -238,17 +239,17 @@ mod tests {
         let names = table();
         let mut image = ProcessImage::new(names.iter().map(|t| (t.name.clone(), t.ty.zero())));
         let ctx = ScanContext {
-            now: Duration::ZERO,
+            now: ScanInstant::ZERO,
             delta: Duration::from_millis(10),
             cycle: 0,
         };
-        image.set(id("start"), Value::Bool(true), Duration::ZERO);
+        image.set(id("start"), Value::Bool(true), ScanInstant::ZERO);
         p.scan(&mut image, &ctx).unwrap();
         assert_eq!(image.get(id("lamp")), Value::Bool(true));
         assert_eq!(image.get(id("count")), Value::I32(1));
         p.release(id("lamp"));
         // The module's read-back says off: the script no longer writes it, and reads it.
-        image.set(id("lamp"), Value::Bool(false), Duration::ZERO);
+        image.set(id("lamp"), Value::Bool(false), ScanInstant::ZERO);
         p.scan(&mut image, &ctx).unwrap();
         assert_eq!(image.get(id("lamp")), Value::Bool(false));
         assert_eq!(image.get(id("count")), Value::I32(2));

@@ -114,7 +114,7 @@ fn the_slot_path_gives_the_reference_results_scan_by_scan() {
     let delta = Duration::from_millis(10);
     let mut lit = 0;
     for cycle in 0..120u64 {
-        let now = delta * cycle as u32;
+        let now = ScanInstant::after_origin(delta * cycle as u32);
         let start = cycle % 17 < 3;
         let stop = cycle % 29 == 28;
         let level = (cycle * 7 % 50) as u16;

@@ -55,7 +55,7 @@ fn errors(script: &str) -> Vec<String> {
 struct Rig {
     program: RhaiProgram,
     image: ProcessImage,
-    now: Duration,
+    now: ScanInstant,
 }
 
 impl Rig {
@@ -72,7 +72,7 @@ impl Rig {
         Self {
             program,
             image: ProcessImage::new(TAGS.iter().map(|&(n, ty, _)| (n.to_string(), ty.zero()))),
-            now: Duration::ZERO,
+            now: ScanInstant::ZERO,
         }
     }
 
@@ -244,7 +244,7 @@ fn a_runaway_loop_is_stopped() {
     .unwrap();
     let mut image = ProcessImage::new(TAGS.iter().map(|&(n, ty, _)| (n.to_string(), ty.zero())));
     let ctx = ScanContext {
-        now: Duration::ZERO,
+        now: ScanInstant::ZERO,
         delta: Duration::from_millis(10),
         cycle: 0,
     };
@@ -280,7 +280,7 @@ fn garbage_never_panics() {
             let mut image =
                 ProcessImage::new(TAGS.iter().map(|&(n, ty, _)| (n.to_string(), ty.zero())));
             let ctx = ScanContext {
-                now: Duration::ZERO,
+                now: ScanInstant::ZERO,
                 delta: Duration::from_millis(10),
                 cycle: 0,
             };

@@ -188,13 +188,14 @@ impl Program {
                 }
                 Instr::Timer { timer, preset } => {
                     let x = pop(stack);
+                    // A block's timers count in durations on the scan's clock (`logic::blocks`).
                     let q = instances.get_mut(timer as usize).is_some_and(|t| {
                         t.call(
                             &TimerPins {
                                 input: x,
                                 pt: preset,
                             },
-                            now,
+                            now.since_origin(),
                         )
                     });
                     stack.push(q);
@@ -234,7 +235,7 @@ impl Program {
                     let pins = CallPins::read(&site.call, bools, image, instances);
                     let q = instances
                         .get_mut(site.inst as usize)
-                        .is_some_and(|inst| inst.call(&pins, now));
+                        .is_some_and(|inst| inst.call(&pins, now.since_origin()));
                     stack.push(q);
                 }
                 Instr::Box(site) => {

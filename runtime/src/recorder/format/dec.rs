@@ -4,6 +4,7 @@
 use std::time::Duration;
 
 use softplc_io::point::{Quality, Value};
+use softplc_io::time::ScanInstant;
 
 use super::{
     type_from, Change, CycleRecord, DecodeError, Digest, End, Event, Gap, Header, Keyframe,
@@ -64,6 +65,11 @@ impl<'a> Dec<'a> {
 
     pub(super) fn nanos(&mut self) -> Result<Duration, DecodeError> {
         Ok(Duration::from_nanos(self.varint()?))
+    }
+
+    /// A scan time: nanoseconds since the PLC's start.
+    pub(super) fn instant(&mut self) -> Result<ScanInstant, DecodeError> {
+        Ok(ScanInstant::after_origin(self.nanos()?))
     }
 
     pub(super) fn str(&mut self) -> Result<String, DecodeError> {
@@ -177,7 +183,7 @@ impl<'a> Dec<'a> {
     /// A keyframe payload for a table of `tags` tags.
     pub fn keyframe(mut self, tags: usize) -> Result<Keyframe, DecodeError> {
         let next_cycle = self.varint()?;
-        let now = self.nanos()?;
+        let now = self.instant()?;
         let n = self.len()?;
         if n != tags {
             return Err(DecodeError::TagRange { tag: n as u32 });
@@ -215,11 +221,11 @@ impl<'a> Dec<'a> {
 
     /// Every cycle record of a cycles block, for a table of `tags` tags.
     pub fn cycles(mut self, tags: usize) -> Result<Vec<CycleRecord>, DecodeError> {
-        let mut prev = (self.varint()?, self.nanos()?);
+        let mut prev = (self.varint()?, self.instant()?);
         let mut out = Vec::new();
         while !self.done() {
             let cycle = prev.0.saturating_add(self.varint()?);
-            let now = prev.1.saturating_add(self.nanos()?);
+            let now = prev.1 + self.nanos()?;
             let dropped_before = self.varint()?;
             let faulted = self.u8()? != 0;
             let n = self.len()?;

@@ -3,6 +3,7 @@
 use std::time::Duration;
 
 use softplc_io::point::{Quality, Value};
+use softplc_io::time::ScanInstant;
 
 use super::{type_code, Change, CycleRecord, End, Event, Gap, Header, Keyframe};
 
@@ -29,6 +30,11 @@ impl Enc {
 
     pub(super) fn nanos(&mut self, d: Duration) {
         self.varint(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+    }
+
+    /// A scan time: nanoseconds since the PLC's start.
+    pub(super) fn instant(&mut self, t: ScanInstant) {
+        self.nanos(t.since_origin());
     }
 
     pub(super) fn str(&mut self, s: &str) {
@@ -92,7 +98,7 @@ impl Enc {
     pub fn keyframe(k: &Keyframe) -> Vec<u8> {
         let mut e = Enc::default();
         e.varint(k.next_cycle);
-        e.nanos(k.now);
+        e.instant(k.now);
         e.varint(k.slots.len() as u64);
         for &(v, q) in &k.slots {
             e.value(v, q);
@@ -122,17 +128,17 @@ impl Enc {
     }
 
     /// Starts a cycles block whose first record counts from `cycle` and `now`.
-    pub fn cycles_block(cycle: u64, now: Duration) -> Self {
+    pub fn cycles_block(cycle: u64, now: ScanInstant) -> Self {
         let mut e = Enc::default();
         e.varint(cycle);
-        e.nanos(now);
+        e.instant(now);
         e
     }
 
     /// Appends a cycle record whose predecessor in the block was at `prev` (cycle, time).
-    pub fn cycle(&mut self, r: &CycleRecord, prev: (u64, Duration)) {
+    pub fn cycle(&mut self, r: &CycleRecord, prev: (u64, ScanInstant)) {
         self.varint(r.cycle.saturating_sub(prev.0));
-        self.nanos(r.now.saturating_sub(prev.1));
+        self.nanos(r.now - prev.1);
         self.varint(r.dropped_before);
         self.u8(u8::from(r.faulted));
         self.varint(r.events.len() as u64);

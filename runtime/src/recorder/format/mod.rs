@@ -44,6 +44,7 @@ mod tests;
 use std::time::Duration;
 
 use softplc_io::point::{Quality, Value, ValueType};
+use softplc_io::time::ScanInstant;
 
 pub use dec::Dec;
 pub use enc::Enc;
@@ -190,7 +191,7 @@ pub struct Keyframe {
     /// The cycle number of the next cycle.
     pub next_cycle: u64,
     /// The scan time of the state.
-    pub now: Duration,
+    pub now: ScanInstant,
     /// Every tag's value and quality, in tag order.
     pub slots: Vec<(Value, Quality)>,
     /// The forced tags and their values.
@@ -243,7 +244,7 @@ pub struct CycleRecord {
     /// The cycle number (1 = the run's first, as the scan numbers it).
     pub cycle: u64,
     /// The cycle's timestamp: what the logic saw as `now`.
-    pub now: Duration,
+    pub now: ScanInstant,
     /// Records dropped just before this one (the writer fell behind): a gap. After a gap
     /// `seen` lists every tag.
     pub dropped_before: u64,

@@ -86,7 +86,7 @@ fn header_keyframe_and_cycles_round_trip() {
     assert_eq!(Dec::new(&Enc::header(&h)).header(), Ok(h.clone()));
     let k = Keyframe {
         next_cycle: 40,
-        now: Duration::from_millis(4000),
+        now: ScanInstant::after_origin(Duration::from_millis(4000)),
         slots: vec![
             (Value::Bool(false), Quality::Bad),
             (Value::I32(i32::MIN), Quality::Good),
@@ -97,7 +97,7 @@ fn header_keyframe_and_cycles_round_trip() {
     let records = vec![
         CycleRecord {
             cycle: 40,
-            now: Duration::from_millis(4000),
+            now: ScanInstant::after_origin(Duration::from_millis(4000)),
             dropped_before: 0,
             faulted: false,
             events: vec![
@@ -123,14 +123,14 @@ fn header_keyframe_and_cycles_round_trip() {
         },
         CycleRecord {
             cycle: 43,
-            now: Duration::from_millis(4300),
+            now: ScanInstant::after_origin(Duration::from_millis(4300)),
             dropped_before: 2,
             faulted: true,
             ..CycleRecord::default()
         },
     ];
-    let mut block = Enc::cycles_block(40, Duration::from_millis(4000));
-    let mut prev = (40, Duration::from_millis(4000));
+    let mut block = Enc::cycles_block(40, ScanInstant::after_origin(Duration::from_millis(4000)));
+    let mut prev = (40, ScanInstant::after_origin(Duration::from_millis(4000)));
     for r in &records {
         block.cycle(r, prev);
         prev = (r.cycle, r.now);

@@ -37,6 +37,7 @@ use crate::recorder::format::{
     self, BlockKind, CycleRecord, Enc, End, Event, Gap, Header, Keyframe,
 };
 use crate::recorder::tap::TapCounters;
+use softplc_io::time::ScanInstant;
 
 pub use disk::{Disk, FaultDisk, FileDisk};
 
@@ -223,8 +224,8 @@ pub(crate) fn start(
 struct OpenBlock {
     enc: Enc,
     /// The last record's cycle and time (the next one's deltas count from it).
-    prev: (u64, Duration),
-    first: Duration,
+    prev: (u64, ScanInstant),
+    first: ScanInstant,
     first_cycle: u64,
 }
 
@@ -236,7 +237,7 @@ enum Held {
         path: PathBuf,
         bytes: Vec<u8>,
         start_ms: u64,
-        now: Duration,
+        now: ScanInstant,
     },
     /// A block of the segment before it, and the first cycle it holds.
     Block { bytes: Vec<u8>, first: u64 },
@@ -271,11 +272,11 @@ struct Writer {
     slots: Vec<(Value, Quality)>,
     forces: BTreeMap<u32, Value>,
     next_cycle: u64,
-    now: Duration,
+    now: ScanInstant,
     /// The segment being written and its path (never deleted to make room).
     file: Option<(File, PathBuf)>,
     segment_bytes: u64,
-    segment_start: Duration,
+    segment_start: ScanInstant,
     block: Option<OpenBlock>,
     outcome: WriterOutcome,
     counters: Arc<TapCounters>,
@@ -404,7 +405,7 @@ impl Writer {
         block.prev = (r.cycle, r.now);
         self.outcome.records += 1;
         let full = block.enc.0.len() >= self.settings.block_bytes
-            || r.now.saturating_sub(block.first) >= self.settings.block_time;
+            || r.now.saturating_duration_since(block.first) >= self.settings.block_time;
         if full {
             self.flush();
         }
@@ -447,7 +448,7 @@ impl Writer {
             block.prev.0,
         );
         self.drain(false);
-        let span = self.now.saturating_sub(self.segment_start);
+        let span = self.now.saturating_duration_since(self.segment_start);
         let done =
             self.segment_bytes >= self.settings.segment_bytes || span >= self.settings.keep / 4;
         if done && self.stall.is_none() {
@@ -608,7 +609,7 @@ impl Writer {
         path: &Path,
         bytes: &[u8],
         start_ms: u64,
-        now: Duration,
+        now: ScanInstant,
     ) -> std::io::Result<()> {
         let file = loop {
             let result = self
@@ -695,8 +696,8 @@ impl Writer {
     }
 
     /// Wall-clock milliseconds of scan time `now` in this run.
-    fn wall_ms(&self, now: Duration) -> u64 {
-        let ns = u128::from(self.header.wall_origin) + now.as_nanos();
+    fn wall_ms(&self, now: ScanInstant) -> u64 {
+        let ns = u128::from(self.header.wall_origin) + now.since_origin().as_nanos();
         u64::try_from(ns / 1_000_000).unwrap_or(u64::MAX)
     }
 

@@ -47,7 +47,7 @@ fn header() -> Header {
 fn record(c: u64) -> CycleRecord {
     CycleRecord {
         cycle: c,
-        now: Duration::from_millis(10 * c),
+        now: ScanInstant::after_origin(Duration::from_millis(10 * c)),
         wrote: vec![Change {
             tag: 0,
             value: Value::I32(c as i32),
@@ -69,7 +69,7 @@ fn start_on(dir: &Path, disk: FaultDisk, tune: impl FnOnce(&mut Settings)) -> Ru
     tune(&mut settings);
     let keyframe = Keyframe {
         next_cycle: 0,
-        now: Duration::ZERO,
+        now: ScanInstant::ZERO,
         slots: vec![(Value::I32(-1), Quality::Good)],
         forces: Vec::new(),
     };

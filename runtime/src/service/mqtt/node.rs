@@ -27,6 +27,7 @@ use super::spb::payload::metric::Value as MetricValue;
 use super::spb::DataType;
 use crate::service::changes::Delivery;
 use crate::service::snapshot::ServiceSnapshot;
+use softplc_io::time::ScanInstant;
 
 /// How often the PLC's own metrics (scans, cycle p99, ...) go out in NDATA at most, in ms: they
 /// change every scan, and a host trends them, it does not react to them.
@@ -192,11 +193,11 @@ impl EdgeNode {
         s
     }
 
-    fn utc(&mut self, snap: &ServiceSnapshot, wall_ms: u64, scan: std::time::Duration) -> u64 {
+    fn utc(&mut self, snap: &ServiceSnapshot, wall_ms: u64, scan: ScanInstant) -> u64 {
         let epoch = *self
             .epoch
-            .get_or_insert(i128::from(wall_ms) - snap.now.as_millis() as i128);
-        (epoch + scan.as_millis() as i128).clamp(0, u64::MAX as i128) as u64
+            .get_or_insert(i128::from(wall_ms) - snap.now.since_origin().as_millis() as i128);
+        (epoch + scan.since_origin().as_millis() as i128).clamp(0, u64::MAX as i128) as u64
     }
 
     fn alive(snap: &ServiceSnapshot, device: usize) -> bool {

@@ -41,10 +41,10 @@ fn snap(level: f32, pump: bool, setpoint: u16, module: Quality) -> ServiceSnapsh
     ServiceSnapshot {
         published: true,
         cycles: 10,
-        now: Duration::from_millis(500),
+        now: ScanInstant::after_origin(Duration::from_millis(500)),
         values: vec![Value::F32(level), Value::Bool(pump), Value::U16(setpoint)],
         qualities: vec![Quality::Good; 3],
-        timestamps: vec![Duration::from_millis(400); 3],
+        timestamps: vec![ScanInstant::after_origin(Duration::from_millis(400)); 3],
         forced: vec![false; 3],
         modules: vec![ModuleSnapshot {
             quality: module,
@@ -69,7 +69,7 @@ fn changed_from(before: &ServiceSnapshot, after: &ServiceSnapshot) -> Vec<Delive
     vec![Delivery {
         cycle: std::sync::Arc::new(CycleChanges {
             cycle: after.cycles,
-            at: Duration::from_millis(450),
+            at: ScanInstant::after_origin(Duration::from_millis(450)),
             changes,
         }),
         catch_up: Vec::new(),
@@ -244,7 +244,7 @@ fn every_value_of_a_metric_goes_out_in_order_each_with_its_cycles_time_and_losse
         .map(|k| Delivery {
             cycle: std::sync::Arc::new(CycleChanges {
                 cycle: 11 + u64::from(k),
-                at: Duration::from_millis(510 + 10 * u64::from(k)),
+                at: ScanInstant::after_origin(Duration::from_millis(510 + 10 * u64::from(k))),
                 changes: vec![TagChange {
                     tag: 2,
                     value: Value::U16(6 + k),

@@ -19,6 +19,7 @@ use softplc_io::point::{Quality, Value, ValueType};
 use crate::project::Project;
 use crate::service::changes::Delivery;
 use crate::service::snapshot::ServiceSnapshot;
+use softplc_io::time::ScanInstant;
 
 /// The namespace URI of a project's nodes: this + the project's name.
 pub(crate) const NAMESPACE_PREFIX: &str = "urn:softplc:";
@@ -288,13 +289,9 @@ impl Updates {
 
     /// The OPC UA time of scan time `scan`; the first call fixes the relation: `now` is
     /// scan time `reference`.
-    fn at(
-        &mut self,
-        now: DateTime,
-        reference: std::time::Duration,
-        scan: std::time::Duration,
-    ) -> DateTime {
-        let scan_ticks = |d: std::time::Duration| (d.as_nanos() / 100).min(i64::MAX as u128) as i64;
+    fn at(&mut self, now: DateTime, reference: ScanInstant, scan: ScanInstant) -> DateTime {
+        let scan_ticks =
+            |t: ScanInstant| (t.since_origin().as_nanos() / 100).min(i64::MAX as u128) as i64;
         let epoch = *self
             .epoch
             .get_or_insert_with(|| now.ticks().saturating_sub(scan_ticks(reference)));
@@ -443,7 +440,7 @@ mod tests {
         ServiceSnapshot {
             published: true,
             cycles: cycle,
-            now: Duration::from_millis(10 * cycle),
+            now: ScanInstant::after_origin(Duration::from_millis(10 * cycle)),
             modules: vec![ModuleSnapshot::default()],
             ..ServiceSnapshot::default()
         }
@@ -453,7 +450,7 @@ mod tests {
         Delivery {
             cycle: std::sync::Arc::new(CycleChanges {
                 cycle,
-                at: Duration::from_millis(10 * cycle),
+                at: ScanInstant::after_origin(Duration::from_millis(10 * cycle)),
                 changes: changes
                     .iter()
                     .map(|&(tag, value, quality)| TagChange {

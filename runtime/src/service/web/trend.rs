@@ -80,7 +80,7 @@ pub(crate) fn spawn_sampler(
             let taken = snapshot.with(|s| s.published.then(|| (s.cycles, s.now, s.values.clone())));
             if let Some((cycles, now, values)) = taken {
                 let mut t = trend.lock().unwrap_or_else(|e| e.into_inner());
-                t.sample(cycles, now, &values);
+                t.sample(cycles, now.since_origin(), &values);
             }
         })?;
     Ok(())

@@ -69,7 +69,7 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
     let age: Vec<f64> = s
         .timestamps
         .iter()
-        .map(|t| ms(s.now.saturating_sub(*t)))
+        .map(|t| ms(s.now.saturating_duration_since(*t)))
         .collect();
     let forced: Vec<usize> = s
         .forced
@@ -83,7 +83,7 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
         "stop_reason": s.stop_reason,
         "cycles": s.cycles,
         "overruns": s.overruns,
-        "now": ms(s.now),
+        "now": ms(s.now.since_origin()),
         "v": s.values.iter().map(|v| value(*v)).collect::<Vec<_>>(),
         "q": s.qualities.iter().map(|q| quality(*q)).collect::<Vec<_>>(),
         "age": age,
@@ -168,16 +168,21 @@ mod tests {
     use super::*;
     use crate::logic::blocks::Member;
     use crate::service::snapshot::HistogramView;
+    use softplc_io::time::ScanInstant;
 
     #[test]
     fn state_and_stats_json() {
         let s = ServiceSnapshot {
             published: true,
             cycles: 7,
-            now: Duration::from_millis(700),
+            now: ScanInstant::after_origin(Duration::from_millis(700)),
             values: vec![Value::Bool(true), Value::F32(f32::NAN), Value::I32(-3)],
             qualities: vec![Quality::Good, Quality::Stale, Quality::Bad],
-            timestamps: vec![Duration::from_millis(650), Duration::ZERO, Duration::ZERO],
+            timestamps: vec![
+                ScanInstant::after_origin(Duration::from_millis(650)),
+                ScanInstant::ZERO,
+                ScanInstant::ZERO,
+            ],
             forced: vec![false, false, true],
             histograms: vec![HistogramView {
                 lo: Duration::from_micros(1500),

@@ -51,8 +51,8 @@ impl<W: Write> CsvWriter<W> {
         let _ = write!(
             self.line,
             "{}.{:09},{}",
-            sample.time.as_secs(),
-            sample.time.subsec_nanos(),
+            sample.time.since_origin().as_secs(),
+            sample.time.since_origin().subsec_nanos(),
             sample.cycle
         );
         for v in sample.values {
@@ -89,6 +89,7 @@ mod tests {
     use softplc_io::point::{Value, ValueType};
 
     use super::*;
+    use softplc_io::time::ScanInstant;
 
     #[test]
     fn rows_carry_the_time_to_the_nanosecond_the_cycle_and_each_value() {
@@ -102,7 +103,7 @@ mod tests {
         let mut w = CsvWriter::new(Vec::new(), &signals).unwrap();
         let row = |v: [Value; 5]| v;
         w.write(&Sample::new(
-            Duration::from_millis(10),
+            ScanInstant::after_origin(Duration::from_millis(10)),
             1,
             &row([
                 Value::Bool(false),
@@ -114,7 +115,7 @@ mod tests {
         ))
         .unwrap();
         w.write(&Sample::new(
-            Duration::new(3, 1),
+            ScanInstant::after_origin(Duration::new(3, 1)),
             2,
             &row([
                 Value::Bool(true),
@@ -137,7 +138,9 @@ mod tests {
     #[test]
     fn a_sample_of_the_wrong_width_is_refused() {
         let mut w = CsvWriter::new(Vec::new(), &[Signal::new("x1", ValueType::Bool)]).unwrap();
-        let e = w.write(&Sample::new(Duration::ZERO, 1, &[])).unwrap_err();
+        let e = w
+            .write(&Sample::new(ScanInstant::ZERO, 1, &[]))
+            .unwrap_err();
         assert!(
             matches!(
                 e,

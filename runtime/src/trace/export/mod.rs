@@ -30,9 +30,8 @@
 pub(crate) mod csv;
 pub(crate) mod vcd;
 
-use std::time::Duration;
-
 use softplc_io::point::{Value, ValueType};
+use softplc_io::time::ScanInstant;
 
 pub use csv::CsvWriter;
 pub use vcd::{Timescale, VcdWriter};
@@ -69,7 +68,7 @@ impl Signal {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample<'a> {
     /// The scan's timestamp (virtual or monotonic clock).
-    pub time: Duration,
+    pub time: ScanInstant,
     /// The scan cycle it was taken after (1 = the first).
     pub cycle: u64,
     /// One value per signal, in the order the signals were declared.
@@ -78,7 +77,7 @@ pub struct Sample<'a> {
 
 impl<'a> Sample<'a> {
     /// A sample.
-    pub fn new(time: Duration, cycle: u64, values: &'a [Value]) -> Self {
+    pub fn new(time: ScanInstant, cycle: u64, values: &'a [Value]) -> Self {
         Self {
             time,
             cycle,
@@ -130,6 +129,7 @@ mod tests {
     //! Both writers against byte-exact files: a conveyor start and stop, as a viewer gets it.
 
     use super::*;
+    use std::time::Duration;
 
     fn signals() -> Vec<Signal> {
         vec![
@@ -174,7 +174,8 @@ mod tests {
     fn csv_matches_the_golden_file() {
         let mut w = CsvWriter::new(Vec::new(), &signals()).unwrap();
         for (t, c, v) in samples() {
-            w.write(&Sample::new(t, c, &v)).unwrap();
+            w.write(&Sample::new(ScanInstant::after_origin(t), c, &v))
+                .unwrap();
         }
         let text = String::from_utf8(w.finish().unwrap()).unwrap();
         assert_eq!(text, include_str!("golden/conveyor.csv"));
@@ -184,7 +185,8 @@ mod tests {
     fn vcd_matches_the_golden_file() {
         let mut w = VcdWriter::new(Vec::new(), "conveyor", &signals()).unwrap();
         for (t, c, v) in samples() {
-            w.write(&Sample::new(t, c, &v)).unwrap();
+            w.write(&Sample::new(ScanInstant::after_origin(t), c, &v))
+                .unwrap();
         }
         let text = String::from_utf8(w.finish().unwrap()).unwrap();
         assert_eq!(text, include_str!("golden/conveyor.vcd"));

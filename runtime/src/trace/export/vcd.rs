@@ -42,6 +42,7 @@ use std::time::Duration;
 use softplc_io::point::{Value, ValueType};
 
 use super::{check_width, fmt_value, ExportError, Sample, Signal};
+use softplc_io::time::ScanInstant;
 
 /// The unit of the `#` timestamps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -77,7 +78,7 @@ pub struct VcdWriter<W: Write> {
     /// Each signal's type, for how its values are dumped.
     types: Vec<ValueType>,
     /// The values last dumped (none before the first sample) and the cycle.
-    last: Option<(Duration, u64, Vec<Value>)>,
+    last: Option<(ScanInstant, u64, Vec<Value>)>,
     last_tick: Option<u128>,
     text: String,
 }
@@ -149,7 +150,7 @@ impl<W: Write> VcdWriter<W> {
             }
         }
         self.text.clear();
-        let tick = self.timescale.ticks(sample.time);
+        let tick = self.timescale.ticks(sample.time.since_origin());
         // Two samples in one tick share its timestamp; a viewer takes the later values.
         if self.last_tick != Some(tick) {
             self.text.push_str(&format!("#{tick}\n"));
@@ -257,7 +258,12 @@ mod tests {
                 Value::I32(logic),
                 Value::F32(speed),
             ];
-            w.write(&Sample::new(t, n as u64 + 1, &values)).unwrap();
+            w.write(&Sample::new(
+                ScanInstant::after_origin(t),
+                n as u64 + 1,
+                &values,
+            ))
+            .unwrap();
         }
         let text = String::from_utf8(w.finish().unwrap()).unwrap();
         assert_eq!(
@@ -275,10 +281,18 @@ mod tests {
     #[test]
     fn time_that_goes_back_is_refused() {
         let mut w = VcdWriter::new(Vec::new(), "d", &[]).unwrap();
-        w.write(&Sample::new(Duration::from_millis(2), 1, &[]))
-            .unwrap();
+        w.write(&Sample::new(
+            ScanInstant::after_origin(Duration::from_millis(2)),
+            1,
+            &[],
+        ))
+        .unwrap();
         let e = w
-            .write(&Sample::new(Duration::from_millis(1), 2, &[]))
+            .write(&Sample::new(
+                ScanInstant::after_origin(Duration::from_millis(1)),
+                2,
+                &[],
+            ))
             .unwrap_err();
         assert!(matches!(e, ExportError::TimeBackwards { cycle: 2 }), "{e}");
     }

@@ -16,7 +16,7 @@ use crate::line::{LineSettings, Parity, SerialFormat};
 use crate::point::{Quality, Value};
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
 use crate::sim::plant::{Plant, PlantIo};
-use crate::time::{Clock, VirtualClock};
+use crate::time::{Clock, ScanInstant, VirtualClock};
 
 /// DCON's usual line: 9600 8N1 (§1.3).
 const DCON_LINE: LineSettings = LineSettings {
@@ -92,7 +92,7 @@ fn rig(line: LineSettings, specs: &[Spec<'_>], plant: Option<Wired>) -> Rig {
 
 impl Rig {
     fn startup(&mut self) -> Result<(), StartupError> {
-        self.owner.sync(self.clock.now());
+        self.owner.sync(self.clock.line_now());
         let r = self.owner.startup();
         self.clock
             .advance_to(self.clock.now() + Duration::from_millis(100));
@@ -102,16 +102,20 @@ impl Rig {
     /// One read cycle; the clock then moves 100 ms past its start.
     fn read(&mut self) -> InputFrame {
         let start = self.clock.now();
-        self.owner.sync(start);
+        self.owner.sync(start.on_line_clock());
         let frame = self.owner.read_inputs();
-        self.clock
-            .advance_to(frame.finished.max(start + Duration::from_millis(100)));
+        self.clock.advance_to(
+            frame
+                .finished
+                .on_scan_clock()
+                .max(start + Duration::from_millis(100)),
+        );
         frame
     }
 
     fn command(&self, device: usize, words: &[&str]) -> String {
         let mut w = self.world.lock().unwrap();
-        w.advance_to(self.clock.now());
+        w.advance_to(self.clock.line_now());
         w.device_mut(device).unwrap().command(words).unwrap()
     }
 
@@ -383,7 +387,8 @@ fn a_timeout_from_before_the_start_is_cleared() {
         .is_some_and(|a| a.bytes == b"!01\r"));
     sim.advance_to(Duration::from_secs(5));
     drop(w);
-    r.clock.advance_to(Duration::from_secs(5));
+    r.clock
+        .advance_to(ScanInstant::after_origin(Duration::from_secs(5)));
     assert_eq!(r.sim_get(0, "WDT_TIMEOUT"), Value::Bool(true));
     r.startup().unwrap();
     assert_eq!(r.sim_get(0, "WDT_TIMEOUT"), Value::Bool(false));
@@ -484,7 +489,7 @@ fn a_follower_without_a_new_sample_fails_its_read() {
     {
         let mut w = r.world.lock().unwrap();
         let now = r.clock.now();
-        w.deliver(0, b"#**\r", now);
+        w.deliver(0, b"#**\r", now.on_line_clock());
     }
     let f = r.read();
     assert_eq!(f.modules[1].quality, Quality::Good);

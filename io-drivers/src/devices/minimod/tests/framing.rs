@@ -13,7 +13,7 @@ use crate::line::transport::Transport;
 use crate::line::LineSettings;
 use crate::modbus::crc::append_crc;
 use crate::sim::line::{SimWorld, VirtualPort};
-use crate::time::VirtualClock;
+use crate::time::{LineInstant, VirtualClock};
 
 /// FC 2 of discrete inputs 0..=9 from unit 5 (the driver's input read).
 fn fc2() -> Vec<u8> {
@@ -29,7 +29,7 @@ fn line(settings: LineSettings, rdelaym: u8) -> (VirtualPort, Arc<VirtualClock>)
     world.add_device(0, "mm5", (devices::model("minimod").unwrap().simulator)(5));
     let clock = Arc::new(VirtualClock::new());
     let mut port = VirtualPort::new(world.shared(), 0, settings, clock.clone());
-    port.sync(Duration::from_millis(100));
+    port.sync(LineInstant::after_origin(Duration::from_millis(100)));
     port.write_frame(format!("@5>RDELAYM={rdelaym}\r").as_bytes())
         .unwrap();
     assert_eq!(read_all(&mut port, Duration::from_secs(1)), b"OK\r");
@@ -50,7 +50,7 @@ fn split(settings: LineSettings, rdelaym: u8, gap: Duration) -> (Vec<u8>, Option
     port.read_until(&mut reply, sent + Duration::from_millis(200))
         .unwrap();
     // The first byte arrived one character after the reply began.
-    let began = (!reply.is_empty()).then(|| port.now().saturating_sub(settings.char_time()) - sent);
+    let began = (!reply.is_empty()).then(|| (port.now() - settings.char_time()) - sent);
     reply.extend(read_all(&mut port, Duration::from_millis(200)));
     (reply, began)
 }

@@ -17,7 +17,7 @@ use crate::line::LineSettings;
 use crate::modbus::crc::append_crc;
 use crate::point::{Quality, Value};
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
-use crate::time::{Clock, VirtualClock};
+use crate::time::{Clock, LineInstant, VirtualClock};
 
 const UNIT: u8 = 5;
 const PERIOD: Duration = Duration::from_millis(100);
@@ -35,11 +35,11 @@ impl Transport for Tap {
         self.port.settings()
     }
 
-    fn now(&self) -> Duration {
+    fn now(&self) -> LineInstant {
         self.port.now()
     }
 
-    fn sync(&mut self, t: Duration) {
+    fn sync(&mut self, t: LineInstant) {
         self.port.sync(t);
     }
 
@@ -48,11 +48,11 @@ impl Transport for Tap {
         self.port.write_frame(frame)
     }
 
-    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: Duration) -> Result<usize, LineError> {
+    fn read_until(&mut self, buf: &mut Vec<u8>, deadline: LineInstant) -> Result<usize, LineError> {
         self.port.read_until(buf, deadline)
     }
 
-    fn wait_until(&mut self, t: Duration) {
+    fn wait_until(&mut self, t: LineInstant) {
         self.port.wait_until(t);
     }
 
@@ -160,30 +160,30 @@ fn rig_on(registers: WatchdogRegisters, protocol: Protocol, settings: &[(&str, &
 
 impl Rig {
     fn startup(&mut self) {
-        self.owner.sync(self.clock.now());
+        self.owner.sync(self.clock.line_now());
         self.owner.startup().unwrap();
         let now = self.owner.now();
-        self.clock.advance_to(now);
+        self.clock.advance_to(now.on_scan_clock());
     }
 
     /// One scan: read, then write Y1 = `y1`; the next starts a period later.
     fn cycle(&mut self, y1: bool) -> InputFrame {
         let start = self.clock.now();
-        self.owner.sync(start);
+        self.owner.sync(start.on_line_clock());
         let frame = self.owner.read_inputs();
         let mut desired = vec![None; devices::minimod::map::POINTS.len()];
         desired[self.y1] = Some(Value::Bool(y1));
         self.owner.write_outputs(&OutputFrame {
             modules: vec![desired],
         });
-        let end = self.owner.now().max(start + PERIOD);
+        let end = self.owner.now().on_scan_clock().max(start + PERIOD);
         self.clock.advance_to(end);
         frame
     }
 
     fn sim(&self, point: &str) -> Value {
         let mut w = self.world.lock().unwrap();
-        w.advance_to(self.clock.now());
+        w.advance_to(self.clock.line_now());
         w.get(0, point).unwrap()
     }
 

@@ -11,7 +11,7 @@ use crate::line::bus::{BusOwner, Discipline, Module, OutputFrame};
 use crate::line::LineSettings;
 use crate::point::Value;
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
-use crate::time::{Clock, VirtualClock};
+use crate::time::{Clock, ScanInstant, VirtualClock};
 
 fn config(
     spec: &ModelSpec,
@@ -61,8 +61,8 @@ fn house(protocol: Protocol) -> (BusOwner, SharedWorld, Arc<VirtualClock>) {
 }
 
 fn point(owner: &mut BusOwner, clock: &VirtualClock, t: u64, module: usize, name: &str) -> Value {
-    clock.advance_to(Duration::from_millis(t));
-    owner.sync(clock.now());
+    clock.advance_to(ScanInstant::after_origin(Duration::from_millis(t)));
+    owner.sync(clock.line_now());
     let frame = owner.read_inputs();
     let spec = [&m16di8ro::SPEC, &m32di::SPEC, &m8co::SPEC][module];
     let i = spec.point_index(name).unwrap();
@@ -81,8 +81,8 @@ fn stairway_light_pushed_down_into_the_16di8ro() {
         let (mut owner, world, clock) = house(protocol);
         owner.startup().unwrap();
         // The start-up (its logic tables cleared and read back) takes its own time on the line.
-        clock.advance_to(owner.now());
-        let start = clock.now().as_millis() as u64;
+        clock.advance_to(owner.now().on_scan_clock());
+        let start = clock.now().since_origin().as_millis() as u64;
         let t0 = start + 100;
         assert_eq!(point(&mut owner, &clock, t0, 0, "RO4"), Value::Bool(false));
         press(&world, "lights", "DI2", true);
