@@ -13,8 +13,11 @@
 //!   timestamps count on it.
 //! - [`LineInstant`]: time on one line's own clock: what a [`Transport`](crate::line::Transport)
 //!   and its [`BusOwner`](crate::line::BusOwner) answer to `now()`, when a frame left and its
-//!   reply ended ([`InputFrame`](crate::line::InputFrame), [`WriteReport`](crate::line::WriteReport)),
-//!   a module's health and refresh times, the wire trace, the simulated world's time. On the
+//!   reply ended ([`InputFrame`](crate::line::InputFrame),
+//!   [`WriteReport`](crate::line::WriteReport)),
+//!   a module's health and refresh times, the wire trace, the simulated world's time and what
+//!   its modules and plant are told ([`SimDevice`](crate::sim::SimDevice),
+//!   [`Plant`](crate::sim::plant::Plant)). On the
 //!   real clock a line reads the PLC's clock; on a virtual clock each line keeps its own
 //!   cursor, which the scan moves forward (`BusOwner::sync`), so lines stay parallel in virtual
 //!   time and may run ahead of the scan.

@@ -4,6 +4,7 @@
 use std::time::Duration;
 
 use softplc_io::sim::plant::{spec, PlantIo};
+use softplc_io::time::LineInstant;
 
 /// The plant's wires, by role: motor, start_button, sensor_entry, sensor_exit.
 #[derive(Debug, Default)]
@@ -35,10 +36,10 @@ fn boxes_delivered(reaction: Duration, seconds: u64) -> usize {
     let mut plant = (conveyor.build)();
     let mut io = Wires::default();
     let (mut was_start, mut was_exit) = (false, false);
-    let mut pending: Option<(Duration, bool)> = None;
+    let mut pending: Option<(LineInstant, bool)> = None;
     let mut delivered = 0;
     for ms in 1..=seconds * 1000 {
-        let t = Duration::from_millis(ms);
+        let t = LineInstant::after_origin(Duration::from_millis(ms));
         plant.step(t, &mut io);
         let (start, exit) = (io.0[START], io.0[EXIT]);
         if start && !was_start {

@@ -164,7 +164,10 @@ fn exercise_profile(profile: project::profile::Profile) {
         if let Outgoing::Modbus { unit, request } = &tx.frame {
             let mut frame = Vec::new();
             if softplc_io::modbus::encode_request(unit.get(), request, &mut frame).is_ok() {
-                drop(sim.on_frame(&frame, Duration::from_millis(i as u64)));
+                drop(sim.on_frame(
+                    &frame,
+                    LineInstant::after_origin(Duration::from_millis(i as u64)),
+                ));
             }
         }
         driver.on_failure(tx.tag);
@@ -173,7 +176,7 @@ fn exercise_profile(profile: project::profile::Profile) {
         drop(sim.get(p.name));
         drop(sim.set(p.name, p.ty.zero()));
     }
-    sim.advance_to(Duration::from_secs(10));
+    sim.advance_to(LineInstant::after_origin(Duration::from_secs(10)));
 }
 
 /// The conveyor example's tags, which the program seeds use.

@@ -21,6 +21,7 @@ use softplc_io::modbus::{
 };
 use softplc_io::point::Value;
 use softplc_io::sim::complete_frame;
+use softplc_io::time::LineInstant;
 
 /// Characters the modules' text protocols are made of, so that random lines reach deep into
 /// the parsers instead of failing at the first byte.
@@ -172,6 +173,7 @@ proptest! {
         let mut t = Duration::ZERO;
         for f in &frames {
             t += Duration::from_millis(7);
+            let t = LineInstant::after_origin(t);
             sim.advance_to(t);
             let reply = sim.on_frame(f, t);
             if f.first() == Some(&0) && check_crc(f) && f.len() >= 4 {

@@ -64,7 +64,7 @@ impl Rng {
 /// writes its tables), scan on the same grid.
 #[derive(Debug)]
 struct Recorder {
-    origin: Duration,
+    origin: LineInstant,
     /// Per input role: level changes, in time order.
     schedule: Vec<Vec<Edge>>,
     next: Vec<usize>,
@@ -74,8 +74,8 @@ struct Recorder {
 }
 
 impl Plant for Recorder {
-    fn step(&mut self, t: Duration, io: &mut dyn PlantIo) {
-        let Some(t) = t.checked_sub(self.origin) else {
+    fn step(&mut self, t: LineInstant, io: &mut dyn PlantIo) {
+        let Some(t) = t.checked_duration_since(self.origin) else {
             return;
         };
         for (i, sched) in self.schedule.iter().enumerate() {
@@ -242,7 +242,7 @@ fn run(case: &Case, project: Project, inputs: &[Vec<Edge>], run_for: Duration) -
             .collect();
         world.set_plant(
             Box::new(Recorder {
-                origin: plc.clock().now().since_origin(),
+                origin: plc.clock().now().on_line_clock(),
                 schedule: inputs.to_vec(),
                 next: vec![0; inputs.len()],
                 outputs: case.outputs.len(),
@@ -967,9 +967,9 @@ fn pushed_outputs_belong_to_their_module() {
 /// the project a copy of each spec whose simulator constructor hands out a shared handle to
 /// this thread's module at that address (each test runs on its own thread).
 mod machine {
+    use softplc_io::time::LineInstant;
     use std::cell::RefCell;
     use std::sync::{Arc, Mutex};
-    use std::time::Duration;
 
     use softplc::project::Project;
     use softplc_io::devices::{self, ModelSpec, Protocol};
@@ -999,10 +999,10 @@ mod machine {
         fn address(&self) -> u8 {
             self.lock().address()
         }
-        fn advance_to(&mut self, t: Duration) {
+        fn advance_to(&mut self, t: LineInstant) {
             self.lock().advance_to(t);
         }
-        fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
+        fn on_frame(&mut self, frame: &[u8], t: LineInstant) -> Option<SimReply> {
             self.lock().on_frame(frame, t)
         }
         fn points(&self) -> &'static [PointSpec] {
@@ -1079,7 +1079,7 @@ use machine::{module, on_machine};
 use softplc::logic::ScanContext;
 use softplc_io::point::Value;
 use softplc_io::sim::SimDevice;
-use softplc_io::time::ScanInstant;
+use softplc_io::time::{LineInstant, ScanInstant};
 
 /// A PLC on this thread's machine, scanned cycle by cycle: dropping it is a `kill -9` (no
 /// safe state, the tables stay armed); [`Session::stop`] is the clean stop. Input schedules and
@@ -1120,7 +1120,7 @@ impl Session {
             world.set_plant(
                 Box::new(Recorder {
                     // The simulated world keeps the virtual clock's time.
-                    origin: origin.since_origin(),
+                    origin: origin.on_line_clock(),
                     next: vec![0; schedule.len()],
                     schedule,
                     outputs: case.outputs.len(),
@@ -1390,7 +1390,8 @@ fn a_clean_stop_leaves_the_output_safe_and_the_inputs_without_effect_in_both() {
         s.stop();
         // After the stop a start press changes nothing: no table is left in the module.
         mm1.clone().set("X1", Value::Bool(true)).unwrap();
-        mm1.clone().advance_to(clock.now().since_origin() + ms(500));
+        mm1.clone()
+            .advance_to(clock.now().on_line_clock() + ms(500));
         assert!(!level(&mm1, "Y2"), "{mode}: safe value, start pressed");
         for name in MINIMOD_LOGIC {
             assert_eq!(mm1.get(name), Ok(Value::U16(0)), "{mode}: {name}");

@@ -3,6 +3,8 @@
 use std::fmt::Debug;
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use crate::devices::Protocol;
 use crate::point::{PointSpec, Value};
 
@@ -60,12 +62,12 @@ pub trait SimDevice: Send + Debug {
 
     /// Runs the module's own behaviour up to time `t` (its sampling tick, timers, pulsers).
     /// Times before the module's current time are ignored.
-    fn advance_to(&mut self, t: Duration);
+    fn advance_to(&mut self, t: LineInstant);
 
     /// A complete frame seen on the line, ending at time `t` (the device was advanced to `t`).
     /// Every device on the line sees every frame; it answers only if addressed, and never to a
     /// broadcast.
-    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply>;
+    fn on_frame(&mut self, frame: &[u8], t: LineInstant) -> Option<SimReply>;
 
     /// The model's points (for `get`/`set` and plant models).
     fn points(&self) -> &'static [PointSpec];

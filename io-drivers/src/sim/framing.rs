@@ -13,12 +13,14 @@
 
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 /// One module's request in the making.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct Assembly {
     bytes: Vec<u8>,
     /// When the last byte ended on the wire.
-    end: Duration,
+    end: LineInstant,
 }
 
 /// What a burst of bytes does to a module's assembly.
@@ -27,7 +29,7 @@ pub(crate) enum Heard {
     /// The burst continues the request (or starts one): nothing to hand over yet.
     Continues,
     /// The burst came after the silence: the request before it is complete (bytes, end).
-    Ended(Vec<u8>, Duration),
+    Ended(Vec<u8>, LineInstant),
 }
 
 impl Assembly {
@@ -36,12 +38,12 @@ impl Assembly {
     pub(crate) fn hear(
         pending: &mut Option<Assembly>,
         bytes: &[u8],
-        start: Duration,
-        end: Duration,
+        start: LineInstant,
+        end: LineInstant,
         silence: Duration,
     ) -> Heard {
         match pending {
-            Some(a) if start.saturating_sub(a.end) < silence => {
+            Some(a) if start - a.end < silence => {
                 a.bytes.extend_from_slice(bytes);
                 a.end = end;
                 Heard::Continues
@@ -63,9 +65,9 @@ impl Assembly {
     /// it (bytes, end); `None` while it may still go on.
     pub(crate) fn complete(
         pending: &mut Option<Assembly>,
-        now: Duration,
+        now: LineInstant,
         silence: Duration,
-    ) -> Option<(Vec<u8>, Duration)> {
+    ) -> Option<(Vec<u8>, LineInstant)> {
         let ended = pending.as_ref().is_some_and(|a| a.end + silence <= now);
         ended
             .then(|| pending.take())
@@ -78,8 +80,8 @@ impl Assembly {
 mod tests {
     use super::*;
 
-    fn ms(n: u64) -> Duration {
-        Duration::from_millis(n)
+    fn ms(n: u64) -> LineInstant {
+        LineInstant::after_origin(Duration::from_millis(n))
     }
 
     #[test]
@@ -106,7 +108,11 @@ mod tests {
             Heard::Ended(b"abcd".to_vec(), ms(3))
         );
         assert_eq!(
-            Assembly::complete(&mut p, Duration::from_micros(8460), silence),
+            Assembly::complete(
+                &mut p,
+                LineInstant::after_origin(Duration::from_micros(8460)),
+                silence
+            ),
             Some((b"ef".to_vec(), ms(7)))
         );
         assert_eq!(p, None);

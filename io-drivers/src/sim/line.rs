@@ -50,13 +50,13 @@ struct WiredPlant {
 /// Bytes on their way from the devices to a line's master, with arrival times.
 #[derive(Debug, Default)]
 struct Inbound {
-    bytes: VecDeque<(Duration, u8)>,
+    bytes: VecDeque<(LineInstant, u8)>,
 }
 
 /// Every simulated module of a project and its plant.
 #[derive(Debug)]
 pub struct SimWorld {
-    now: Duration,
+    now: LineInstant,
     devices: Vec<Placed>,
     plant: Option<WiredPlant>,
     inbound: Vec<Inbound>,
@@ -86,7 +86,7 @@ impl SimWorld {
     /// An empty world with one entry per line.
     pub fn new(lines: Vec<LineSettings>) -> Self {
         Self {
-            now: Duration::ZERO,
+            now: LineInstant::ZERO,
             devices: Vec::new(),
             plant: None,
             inbound: lines.iter().map(|_| Inbound::default()).collect(),
@@ -118,7 +118,7 @@ impl SimWorld {
 
     /// Queues the echo of `frame`, which ended on the wire at `t`: each byte comes back as it
     /// is sent (on a real bus the receiver hears the transmitter's own bits).
-    fn queue_echo(&mut self, line: usize, frame: &[u8], settings: LineSettings, t: Duration) {
+    fn queue_echo(&mut self, line: usize, frame: &[u8], settings: LineSettings, t: LineInstant) {
         let Some(echo) = self.echo.get_mut(line).filter(|e| e.on) else {
             return;
         };
@@ -132,7 +132,7 @@ impl SimWorld {
         let Some(inbound) = self.inbound.get_mut(line) else {
             return;
         };
-        let start = t.saturating_sub(settings.chars(frame.len()));
+        let start = t - settings.chars(frame.len());
         inbound.bytes.extend(
             bytes
                 .into_iter()
@@ -234,17 +234,11 @@ impl SimWorld {
 
     /// The world's time.
     pub fn now(&self) -> LineInstant {
-        LineInstant::after_origin(self.now)
+        self.now
     }
 
     /// Runs the plant and every device up to `t`, tick by tick while a plant is attached.
     pub fn advance_to(&mut self, t: LineInstant) {
-        self.advance_devices_to(t.since_origin());
-    }
-
-    /// [`Self::advance_to`] on the devices' own time (the line's, since the world's origin:
-    /// a simulated device keeps its time as a plain duration).
-    fn advance_devices_to(&mut self, t: Duration) {
         if t <= self.now {
             return;
         }
@@ -314,8 +308,7 @@ impl SimWorld {
     /// hearing when the pause before it was shorter than its silence, and gets that request
     /// once the silence has passed ([`Self::settle`]).
     pub fn deliver(&mut self, line: usize, frame: &[u8], t: LineInstant) {
-        let t = t.since_origin();
-        self.advance_devices_to(t);
+        self.advance_to(t);
         let Some(settings) = self.line_settings.get(line).copied() else {
             return;
         };
@@ -325,7 +318,7 @@ impl SimWorld {
         if self.faults.is_dead(line) {
             return;
         }
-        let start = t.saturating_sub(settings.chars(frame.len()));
+        let start = t - settings.chars(frame.len());
         let mut requests = Vec::new();
         for (i, d) in on_line(&mut self.devices, line) {
             if d.own_uart {
@@ -371,7 +364,6 @@ impl SimWorld {
     /// The master of `line` has kept silent until `t`: every device whose end-of-request
     /// silence has passed gets the request it was hearing.
     pub fn settle(&mut self, line: usize, t: LineInstant) {
-        let t = t.since_origin();
         let Some(settings) = self.line_settings.get(line).copied() else {
             return;
         };
@@ -395,7 +387,7 @@ impl SimWorld {
         &mut self,
         line: usize,
         settings: LineSettings,
-        requests: Vec<(usize, Vec<u8>, Duration)>,
+        requests: Vec<(usize, Vec<u8>, LineInstant)>,
     ) {
         let char_time = settings.char_time();
         let mut replies = Vec::new();
@@ -442,12 +434,14 @@ impl SimWorld {
         }
         // Overlapping replies interleave on the wire; keep arrival order and let bytes that
         // land in the same character slot garble each other.
-        let mut v: Vec<(Duration, u8)> = inbound.bytes.drain(..).collect();
+        let mut v: Vec<(LineInstant, u8)> = inbound.bytes.drain(..).collect();
         v.sort_by_key(|(at, _)| *at);
-        let mut merged: VecDeque<(Duration, u8)> = VecDeque::with_capacity(v.len());
+        let mut merged: VecDeque<(LineInstant, u8)> = VecDeque::with_capacity(v.len());
         for (at, b) in v {
             match merged.back_mut() {
-                Some((last_at, last_b)) if at.abs_diff(*last_at) < char_time => *last_b |= b,
+                Some((last_at, last_b)) if at.max(*last_at) - at.min(*last_at) < char_time => {
+                    *last_b |= b
+                }
                 _ => merged.push_back((at, b)),
             }
         }
@@ -456,11 +450,9 @@ impl SimWorld {
 
     /// Time of the next byte due to the master of `line`, if any.
     pub fn next_arrival(&self, line: usize) -> Option<LineInstant> {
-        self.inbound.get(line).and_then(|i| {
-            i.bytes
-                .front()
-                .map(|(at, _)| LineInstant::after_origin(*at))
-        })
+        self.inbound
+            .get(line)
+            .and_then(|i| i.bytes.front().map(|(at, _)| *at))
     }
 
     /// Moves every byte of `line` that has arrived by `t` into `buf`; returns how many.
@@ -472,7 +464,6 @@ impl SimWorld {
 
     /// [`Self::take_arrived`] without settling the requests being heard.
     fn take_arrived_by(&mut self, line: usize, t: LineInstant, buf: &mut Vec<u8>) -> usize {
-        let t = t.since_origin();
         let Some(inbound) = self.inbound.get_mut(line) else {
             return 0;
         };

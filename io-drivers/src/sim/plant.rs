@@ -7,6 +7,8 @@
 use std::fmt::Debug;
 use std::time::Duration;
 
+use crate::time::LineInstant;
+
 use crate::point::Value;
 
 /// A role a plant exposes for wiring.
@@ -44,8 +46,8 @@ pub trait PlantIo {
 
 /// A running plant model.
 pub trait Plant: Send + Debug {
-    /// One 1 ms step ending at time `t`.
-    fn step(&mut self, t: Duration, io: &mut dyn PlantIo);
+    /// One 1 ms step ending at time `t` (the simulated world's, a line's time).
+    fn step(&mut self, t: LineInstant, io: &mut dyn PlantIo);
 }
 
 /// Every plant model.
@@ -116,17 +118,17 @@ pub struct Conveyor {
     /// Box position in mm from the loading end, if a box is on the belt.
     box_mm: Option<u32>,
     /// Time of the operator's next move.
-    next_action: Duration,
+    next_action: LineInstant,
     /// Millisecond ticks the motor has run since the box last moved a millimetre.
     motor_ticks: u32,
     /// When the start button is held down until.
-    press_until: Option<Duration>,
+    press_until: Option<LineInstant>,
     /// When the box reached the end stop.
-    arrived_at: Option<Duration>,
+    arrived_at: Option<LineInstant>,
 }
 
 impl Plant for Conveyor {
-    fn step(&mut self, t: Duration, io: &mut dyn PlantIo) {
+    fn step(&mut self, t: LineInstant, io: &mut dyn PlantIo) {
         match self.box_mm {
             None if t >= self.next_action => {
                 self.box_mm = Some(0);
@@ -191,7 +193,10 @@ mod tests {
         let mut io = Wires([false; 4]);
         let mut saw_exit = false;
         for ms in 1..=6000u64 {
-            plant.step(Duration::from_millis(ms), &mut io);
+            plant.step(
+                LineInstant::after_origin(Duration::from_millis(ms)),
+                &mut io,
+            );
             if io.0[START] {
                 io.0[MOTOR] = true;
             }

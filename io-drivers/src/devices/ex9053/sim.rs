@@ -16,8 +16,6 @@
 //! `WDT_TIMEOUT` and `SYNC_FIRST` read the module's inside. Commands (`softplc sim`'s standard
 //! input, `MODEL@ADDR COMMAND`): see [`HELP`].
 
-use std::time::Duration;
-
 use super::points::{Point, POINTS};
 use super::sim_dcon;
 use super::sim_modbus;
@@ -26,6 +24,7 @@ use super::tables::{baud_of_code, code_of_baud, CHANNELS, LINE_FORMAT, REPLY_DEL
 use crate::line::settings::{LineSettings, SerialFormat};
 use crate::point::{PointSpec, Value};
 use crate::sim::{SimDevice, SimError, SimReply};
+use crate::time::LineInstant;
 
 /// Builds an EX-9053D at `address` (the catalog's constructor).
 pub(crate) fn build_d(address: u8) -> Box<dyn SimDevice> {
@@ -197,8 +196,9 @@ impl SimDevice for Ex9053Sim {
         self.state.running().address
     }
 
-    fn advance_to(&mut self, t: Duration) {
-        self.state.advance_to(t);
+    fn advance_to(&mut self, t: LineInstant) {
+        // The module's state keeps its time as a duration since the line's origin.
+        self.state.advance_to(t.since_origin());
     }
 
     fn set_uart(&mut self, settings: LineSettings) -> bool {
@@ -209,8 +209,8 @@ impl SimDevice for Ex9053Sim {
         self.master = Some((baud, format));
     }
 
-    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
-        self.state.advance_to(t);
+    fn on_frame(&mut self, frame: &[u8], t: LineInstant) -> Option<SimReply> {
+        self.advance_to(t);
         if !self.hears_master() {
             return None;
         }

@@ -47,6 +47,7 @@ use crate::modbus::server::{decode_request, encode_response, serve, RegisterBank
 use crate::modbus::{ExceptionCode, Request, Response};
 use crate::point::{PointSpec, Value, ValueType};
 use crate::sim::{SimDevice, SimError, SimReply};
+use crate::time::LineInstant;
 
 /// The model name.
 const MODEL: &str = "minimod";
@@ -411,8 +412,9 @@ impl SimDevice for MiniModSim {
         self.state.address()
     }
 
-    fn advance_to(&mut self, t: Duration) {
-        let ms = u64::try_from(t.as_millis()).unwrap_or(u64::MAX);
+    fn advance_to(&mut self, t: LineInstant) {
+        // The module ticks in milliseconds since the line's origin.
+        let ms = u64::try_from(t.since_origin().as_millis()).unwrap_or(u64::MAX);
         self.state.advance_to_ms(ms);
     }
 
@@ -461,7 +463,7 @@ impl SimDevice for MiniModSim {
         }
     }
 
-    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
+    fn on_frame(&mut self, frame: &[u8], t: LineInstant) -> Option<SimReply> {
         self.advance_to(t);
         if !self.state.listening() {
             // Wrong baud or parity: framing errors, nothing the module can act on.
@@ -646,6 +648,11 @@ mod tests {
         Duration::from_millis(n)
     }
 
+    /// `n` ms after the line's origin.
+    fn at(n: u64) -> LineInstant {
+        LineInstant::after_origin(ms(n))
+    }
+
     fn frame(bytes: &[u8]) -> Vec<u8> {
         let mut f = bytes.to_vec();
         append_crc(&mut f);
@@ -660,7 +667,8 @@ mod tests {
 
     /// Sends `req` at time `t` and returns the reply bytes.
     fn ask(sim: &mut MiniModSim, req: &Request, t: Duration) -> Option<Vec<u8>> {
-        sim.on_frame(&request(UNIT, req), t).map(|r| r.bytes)
+        sim.on_frame(&request(UNIT, req), LineInstant::after_origin(t))
+            .map(|r| r.bytes)
     }
 
     #[test]
@@ -668,9 +676,9 @@ mod tests {
         let mut sim = MiniModSim::new(UNIT);
         sim.set("X1", Value::Bool(true)).unwrap();
         let req = frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]);
-        let before = sim.on_frame(&req, ms(19)).unwrap();
+        let before = sim.on_frame(&req, at(19)).unwrap();
         assert_eq!(before.bytes, frame(&[0x05, 0x02, 0x02, 0x00, 0x00]));
-        let reply = sim.on_frame(&req, ms(20)).unwrap();
+        let reply = sim.on_frame(&req, at(20)).unwrap();
         assert_eq!(reply.bytes, frame(&[0x05, 0x02, 0x02, 0x01, 0x00]));
         assert_eq!(reply.delay, ms(10), "RDELAYT power-on: 1/100 s");
     }
@@ -680,9 +688,9 @@ mod tests {
         let mut sim = MiniModSim::new(UNIT);
         sim.command(&["fault", "Y3", "open"]).unwrap();
         sim.set("X2", Value::Bool(true)).unwrap();
-        sim.advance_to(ms(20));
+        sim.advance_to(at(20));
         let reply = sim
-            .on_frame(&frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]), ms(20))
+            .on_frame(&frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]), at(20))
             .unwrap();
         assert_eq!(
             reply.bytes,
@@ -723,7 +731,7 @@ mod tests {
     fn fc6_yword_write_is_echoed_and_drives_the_outputs() {
         let mut sim = MiniModSim::new(UNIT);
         let req = frame(&[0x05, 0x06, 0x00, 0x00, 0x00, 0x05]);
-        let reply = sim.on_frame(&req, ms(0)).unwrap();
+        let reply = sim.on_frame(&req, at(0)).unwrap();
         assert_eq!(reply.bytes, req, "FC 6 echoes the request");
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
         assert_eq!(sim.get("Y2"), Ok(Value::Bool(false)));
@@ -736,7 +744,7 @@ mod tests {
         let mut sim = MiniModSim::new(UNIT);
         let req = frame(&[0x05, 0x05, 0x00, 0x00, 0xFF, 0x00]);
         assert_eq!(
-            sim.on_frame(&req, ms(0)).map(|r| r.bytes),
+            sim.on_frame(&req, at(0)).map(|r| r.bytes),
             Some(req.clone())
         );
         let coils = ask(&mut sim, &Request::ReadCoils { addr: 0, count: 4 }, ms(1));
@@ -784,7 +792,7 @@ mod tests {
         let mut sim = MiniModSim::new(UNIT);
         // YPULSE1 = 50 at holding register 83 (40084).
         let req = frame(&[0x05, 0x06, 0x00, 0x53, 0x00, 0x32]);
-        assert!(sim.on_frame(&req, ms(100)).is_some());
+        assert!(sim.on_frame(&req, at(100)).is_some());
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
         let left = ask(
             &mut sim,
@@ -792,9 +800,9 @@ mod tests {
             ms(130),
         );
         assert_eq!(left, Some(frame(&[0x05, 0x03, 0x02, 0x00, 20])));
-        sim.advance_to(ms(149));
+        sim.advance_to(at(149));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
-        sim.advance_to(ms(150));
+        sim.advance_to(at(150));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
         // Above the manual's range: exception 03.
         let too_long = ask(
@@ -819,11 +827,11 @@ mod tests {
                 value: 0x0203,
             },
         );
-        assert!(sim.on_frame(&on, ms(0)).is_some());
+        assert!(sim.on_frame(&on, at(0)).is_some());
         sim.set("X1", Value::Bool(true)).unwrap();
-        sim.advance_to(ms(19));
+        sim.advance_to(at(19));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
-        sim.advance_to(ms(20));
+        sim.advance_to(at(20));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
     }
 
@@ -831,7 +839,7 @@ mod tests {
     fn unimplemented_inputs_read_zero_and_unmapped_ranges_are_refused() {
         let mut sim = MiniModSim::new(UNIT);
         sim.set("X3", Value::Bool(true)).unwrap();
-        sim.advance_to(ms(20));
+        sim.advance_to(at(20));
         let di = ask(
             &mut sim,
             &Request::ReadDiscreteInputs { addr: 0, count: 16 },
@@ -859,10 +867,10 @@ mod tests {
     fn broadcast_acts_but_never_replies() {
         let mut sim = MiniModSim::new(UNIT);
         let req = frame(&[0x00, 0x06, 0x00, 0x00, 0x00, 0x0F]);
-        assert_eq!(sim.on_frame(&req, ms(0)), None);
+        assert_eq!(sim.on_frame(&req, at(0)), None);
         assert_eq!(sim.get("YWORD"), Ok(Value::U16(0x0F)));
         let read = frame(&[0x00, 0x03, 0x00, 0x00, 0x00, 0x01]);
-        assert_eq!(sim.on_frame(&read, ms(1)), None);
+        assert_eq!(sim.on_frame(&read, at(1)), None);
     }
 
     #[test]
@@ -872,20 +880,20 @@ mod tests {
         if let Some(last) = req.last_mut() {
             *last ^= 0x01;
         }
-        assert_eq!(sim.on_frame(&req, ms(0)), None);
+        assert_eq!(sim.on_frame(&req, at(0)), None);
         assert_eq!(sim.get("YWORD"), Ok(Value::U16(0)));
-        assert_eq!(sim.on_frame(&[0x05], ms(1)), None);
-        assert_eq!(sim.on_frame(&[], ms(1)), None);
+        assert_eq!(sim.on_frame(&[0x05], at(1)), None);
+        assert_eq!(sim.on_frame(&[], at(1)), None);
     }
 
     #[test]
     fn other_units_are_ignored_and_unknown_functions_refused() {
         let mut sim = MiniModSim::new(UNIT);
         assert_eq!(
-            sim.on_frame(&frame(&[0x06, 0x03, 0x00, 0x00, 0x00, 0x01]), ms(0)),
+            sim.on_frame(&frame(&[0x06, 0x03, 0x00, 0x00, 0x00, 0x01]), at(0)),
             None
         );
-        let reply = sim.on_frame(&frame(&[0x05, 0x2B, 0x0E, 0x01, 0x00]), ms(0));
+        let reply = sim.on_frame(&frame(&[0x05, 0x2B, 0x0E, 0x01, 0x00]), at(0));
         assert_eq!(reply.map(|r| r.bytes), Some(frame(&[0x05, 0xAB, 0x01])));
     }
 
@@ -893,9 +901,9 @@ mod tests {
     fn collect_without_events_is_silent() {
         let mut sim = MiniModSim::new(UNIT);
         let collect = frame(&[0x00, 70, 1, 16, 0, 0]);
-        assert_eq!(sim.on_frame(&collect, ms(0)), None);
+        assert_eq!(sim.on_frame(&collect, at(0)), None);
         let direct = frame(&[0x05, 70, 1, 16, 0, 0]);
-        assert_eq!(sim.on_frame(&direct, ms(0)), None);
+        assert_eq!(sim.on_frame(&direct, at(0)), None);
     }
 
     #[test]
@@ -913,7 +921,7 @@ mod tests {
 
     /// Sends a text packet at `t` ms and returns the reply as text.
     fn text(sim: &mut MiniModSim, packet: &str, t: u64) -> Option<String> {
-        sim.on_frame(packet.as_bytes(), ms(t))
+        sim.on_frame(packet.as_bytes(), at(t))
             .map(|r| String::from_utf8(r.bytes).unwrap())
     }
 
@@ -1025,16 +1033,16 @@ mod tests {
             text(&mut sim, ">Y1PULSE=100\r", 10).as_deref(),
             Some("OK\r")
         );
-        sim.advance_to(ms(109));
+        sim.advance_to(at(109));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
-        sim.advance_to(ms(110));
+        sim.advance_to(at(110));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
         // ">Y1LAMP=1": a brief flash (one step of 100 ms) every 1.6 s.
         assert_eq!(text(&mut sim, ">Y1LAMP=1\r", 1600).as_deref(), Some("OK\r"));
         let on: Vec<u64> = (1600..4800)
             .step_by(50)
             .filter(|&t| {
-                sim.advance_to(ms(t));
+                sim.advance_to(at(t));
                 sim.get("Y1") == Ok(Value::Bool(true))
             })
             .collect();
@@ -1055,7 +1063,7 @@ mod tests {
                 sim.set(point, Value::Bool(inputs & (1 << x) != 0)).unwrap();
             }
             t += 1;
-            sim.advance_to(ms(t));
+            sim.advance_to(at(t));
             let (x1, x2, x3) = (inputs & 1 != 0, inputs & 2 != 0, inputs & 4 != 0);
             let expected = x1 && (x2 || !x3);
             if expected || !x1 {
@@ -1130,7 +1138,7 @@ mod tests {
         // A Modbus frame in between throws the partial text packet away.
         let req = frame(&[0x05, 0x06, 0x00, 0x00, 0x00, 0x05]);
         assert_eq!(
-            sim.on_frame(&req, ms(1)).map(|r| r.bytes),
+            sim.on_frame(&req, at(1)).map(|r| r.bytes),
             Some(req.clone())
         );
         assert_eq!(text(&mut sim, "1\r", 2), None, "\"1\" alone is malformed");
@@ -1166,14 +1174,14 @@ mod tests {
         // "Y1AOFF1=-X1": Y1 off when X1 goes down.
         assert_eq!(text(&mut sim, ">Y1AOFF1=-X1\r", 0).as_deref(), Some("OK\r"));
         sim.set("X1", Value::Bool(true)).unwrap();
-        sim.advance_to(ms(2));
+        sim.advance_to(at(2));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
         sim.set("X2", Value::Bool(true)).unwrap();
-        sim.advance_to(ms(3));
+        sim.advance_to(at(3));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
         assert_eq!(sim.get("Y3"), Ok(Value::Bool(true)));
         sim.set("X1", Value::Bool(false)).unwrap();
-        sim.advance_to(ms(4));
+        sim.advance_to(at(4));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)), "OFF has precedence");
         // An empty value clears a condition.
         assert_eq!(text(&mut sim, ">Y3AON2=\r", 5).as_deref(), Some("OK\r"));
@@ -1192,9 +1200,9 @@ mod tests {
             text(&mut sim, "?Y1PULSE\r", 120).as_deref(),
             Some("Y1PULSE=00030\r")
         );
-        sim.advance_to(ms(149));
+        sim.advance_to(at(149));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(true)));
-        sim.advance_to(ms(150));
+        sim.advance_to(at(150));
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
     }
 
@@ -1203,9 +1211,9 @@ mod tests {
         let mut sim = MiniModSim::new(UNIT);
         // Y1 on (FC 5 coil 0), then YPULSE1 = 100 (FC 6 holding register 83, 40084).
         let on = frame(&[0x05, 0x05, 0x00, 0x00, 0xFF, 0x00]);
-        assert_eq!(sim.on_frame(&on, ms(0)).map(|r| r.bytes), Some(on.clone()));
+        assert_eq!(sim.on_frame(&on, at(0)).map(|r| r.bytes), Some(on.clone()));
         let pulse = frame(&[0x05, 0x06, 0x00, 0x53, 0x00, 0x64]);
-        assert_eq!(sim.on_frame(&pulse, ms(10)).map(|r| r.bytes), Some(pulse));
+        assert_eq!(sim.on_frame(&pulse, at(10)).map(|r| r.bytes), Some(pulse));
         let coils = Request::ReadCoils { addr: 0, count: 4 };
         let yword = Request::ReadHoldingRegisters { addr: 0, count: 1 };
         // During the pulse: coil 0 and YWORD read on.
@@ -1261,7 +1269,7 @@ mod tests {
         let mut sim = MiniModSim::new(UNIT);
         assert_eq!(text(&mut sim, ">Y2LAMP=255\r", 0).as_deref(), Some("OK\r"));
         let level = |sim: &mut MiniModSim, t: u64| {
-            sim.advance_to(ms(t));
+            sim.advance_to(at(t));
             sim.get("Y2") == Ok(Value::Bool(true))
         };
         for period in 0..3 {
@@ -1285,30 +1293,30 @@ mod tests {
         sim.set("XLATUP1", Value::U16(0)).unwrap();
         sim.set("XEVMASK", Value::U16(0b111)).unwrap();
         sim.set("X1", Value::Bool(true)).unwrap();
-        sim.advance_to(ms(1));
+        sim.advance_to(at(1));
         assert_eq!(sim.get("EVENTSPRS"), Ok(Value::Bool(true)));
         let collect = frame(&[0x00, 0x46, 0x01, 0x10, 0x00, 0x00]);
-        let reply = sim.on_frame(&collect, ms(10)).unwrap();
+        let reply = sim.on_frame(&collect, at(10)).unwrap();
         assert_eq!(
             reply.bytes,
             frame(&[0x04, 0x46, 0x01, 0x02, 0x00, 0x01, 0x00])
         );
         assert_eq!(reply.delay, ms(3 * 3 + 1), "the fourth 3 ms slot");
         // Not acknowledged: the same event again.
-        let again = sim.on_frame(&collect, ms(40)).unwrap();
+        let again = sim.on_frame(&collect, at(40)).unwrap();
         assert_eq!(again.bytes, reply.bytes);
         let ack = frame(&[0x00, 0x46, 0x05, 0x10, 0x04, 0x01]);
-        assert_eq!(sim.on_frame(&ack, ms(60)), None, "4 is outside 5–16");
+        assert_eq!(sim.on_frame(&ack, at(60)), None, "4 is outside 5–16");
         assert_eq!(sim.get("EVENTSPRS"), Ok(Value::Bool(false)));
-        assert_eq!(sim.on_frame(&collect, ms(80)), None, "nothing queued");
+        assert_eq!(sim.on_frame(&collect, at(80)), None, "nothing queued");
         // Directed to another slave: ignored, acknowledgement included.
         sim.set("X1", Value::Bool(false)).unwrap();
-        sim.advance_to(ms(120));
+        sim.advance_to(at(120));
         let other = frame(&[0x07, 0x46, 0x01, 0x10, 0x04, 0x02]);
-        assert_eq!(sim.on_frame(&other, ms(121)), None);
+        assert_eq!(sim.on_frame(&other, at(121)), None);
         assert_eq!(sim.get("EVENTSPRS"), Ok(Value::Bool(true)));
         let mine = frame(&[0x04, 0x46, 0x04, 0x04, 0x00, 0x00]);
-        let reply = sim.on_frame(&mine, ms(122)).unwrap();
+        let reply = sim.on_frame(&mine, at(122)).unwrap();
         assert_eq!(
             reply.bytes,
             frame(&[0x04, 0x46, 0x02, 0x02, 0x00, 0x00, 0x00])
@@ -1325,11 +1333,11 @@ mod tests {
         // Polls for another slave do not feed it; polls for this one (any protocol) do.
         let poll = frame(&[0x05, 0x02, 0x00, 0x00, 0x00, 0x0A]);
         let other = frame(&[0x06, 0x02, 0x00, 0x00, 0x00, 0x0A]);
-        assert!(sim.on_frame(&poll, ms(90)).is_some());
-        assert!(sim.on_frame(&other, ms(150)).is_none());
-        sim.advance_to(ms(189));
+        assert!(sim.on_frame(&poll, at(90)).is_some());
+        assert!(sim.on_frame(&other, at(150)).is_none());
+        sim.advance_to(at(189));
         assert_eq!(sim.get("WDTFIRED"), Ok(Value::Bool(false)));
-        sim.advance_to(ms(190));
+        sim.advance_to(at(190));
         assert_eq!(
             sim.get("WDTFIRED"),
             Ok(Value::Bool(true)),
@@ -1340,7 +1348,7 @@ mod tests {
         assert_eq!(sim.get("Y1"), Ok(Value::Bool(false)));
         // Outputs are locked: exception 04 on Modbus, Error in text.
         let write = frame(&[0x05, 0x06, 0x00, 0x00, 0x00, 0x01]);
-        let refused = sim.on_frame(&write, ms(200)).map(|r| r.bytes);
+        let refused = sim.on_frame(&write, at(200)).map(|r| r.bytes);
         assert_eq!(refused, Some(frame(&[0x05, 0x86, 0x04])));
         assert_eq!(text(&mut sim, ">Y1=1\r", 201).as_deref(), Some("Error\r"));
         // WDTCOMM and WDTFB at discrete inputs 24/25.
@@ -1352,10 +1360,10 @@ mod tests {
         assert_eq!(why, Some(frame(&[0x05, 0x02, 0x01, 0x02])));
         // Reset through the coil WDTFIRED (00161).
         let reset = frame(&[0x05, 0x05, 0x00, 0xA0, 0x00, 0x00]);
-        assert!(sim.on_frame(&reset, ms(203)).is_some());
+        assert!(sim.on_frame(&reset, at(203)).is_some());
         assert_eq!(sim.get("WDTFIRED"), Ok(Value::Bool(false)));
         assert_eq!(
-            sim.on_frame(&write, ms(204)).map(|r| r.bytes),
+            sim.on_frame(&write, at(204)).map(|r| r.bytes),
             Some(write.clone())
         );
     }
@@ -1498,15 +1506,15 @@ mod tests {
         assert_eq!(text(&mut sim, "?SW3\r", 6).as_deref(), Some("SW3=1\r"));
         // Saved with WCONF: slow OK, and kept across a power cycle.
         assert_eq!(text(&mut sim, ">RDELAYT=3\r", 7).as_deref(), Some("OK\r"));
-        let wconf = sim.on_frame(b">WCONF=1\r", ms(8)).unwrap();
+        let wconf = sim.on_frame(b">WCONF=1\r", at(8)).unwrap();
         assert_eq!(wconf.bytes, b"OK\r");
         assert_eq!(wconf.delay, ms(30 + 100));
         sim.command(&["power-cycle"]).unwrap();
-        let reply = sim.on_frame(b"?X1\r", ms(9)).unwrap();
+        let reply = sim.on_frame(b"?X1\r", at(9)).unwrap();
         assert_eq!(reply.delay, ms(30), "RDELAYT 3 survived");
         assert_eq!(text(&mut sim, ">RDELAYM=25\r", 10).as_deref(), Some("OK\r"));
         assert_eq!(
-            sim.on_frame(b"?X1\r", ms(11)).unwrap().delay,
+            sim.on_frame(b"?X1\r", at(11)).unwrap().delay,
             Duration::from_micros(32_500)
         );
         sim.command(&["flash", "broken"]).unwrap();
@@ -1535,7 +1543,7 @@ mod tests {
         assert_eq!(text(&mut sim, "@16?ADDRESS\r", 1), None);
         let poll = frame(&[180, 0x04, 0x00, 0x09, 0x00, 0x01]);
         assert_eq!(
-            sim.on_frame(&poll, ms(2)).map(|r| r.bytes),
+            sim.on_frame(&poll, at(2)).map(|r| r.bytes),
             Some(frame(&[180, 0x04, 0x02, 0x00, 0x00])),
             "ROTSW is still 0"
         );
@@ -1630,7 +1638,7 @@ mod tests {
         assert_eq!(sim.command(&["events"]).unwrap(), "no events");
         sim.set("XEVMASK", Value::U16(1)).unwrap();
         sim.set("X1", Value::Bool(true)).unwrap();
-        sim.advance_to(ms(100));
+        sim.advance_to(at(100));
         assert_eq!(sim.command(&["events"]).unwrap(), "SLVSEQ 1 inputs 0x0001");
     }
 
@@ -1642,7 +1650,6 @@ mod tests {
     fn a_terminal_held_on_reads_on_again_after_a_power_cycle() {
         use crate::line::settings::LineSettings;
         use crate::sim::line::SimWorld;
-        use crate::time::LineInstant;
 
         let fc2 = request(UNIT, &Request::ReadDiscreteInputs { addr: 0, count: 1 });
         let x1 = |level: u8| frame(&[UNIT, 0x02, 0x01, level]);
@@ -1689,7 +1696,9 @@ mod tests {
     fn a_long_idle_advance_is_fast() {
         let mut sim = MiniModSim::new(UNIT);
         let start = std::time::Instant::now();
-        sim.advance_to(Duration::from_secs(365 * 24 * 3600));
+        sim.advance_to(LineInstant::after_origin(Duration::from_secs(
+            365 * 24 * 3600,
+        )));
         assert!(start.elapsed() < Duration::from_millis(50));
     }
 
@@ -1701,7 +1710,6 @@ mod tests {
     fn a_module_installed_at_its_own_settings_hears_only_a_master_at_them() {
         use crate::line::settings::{LineSettings, SerialFormat};
         use crate::sim::line::SimWorld;
-        use crate::time::LineInstant;
         let own = LineSettings {
             baud: 9600,
             format: "8N1".parse().unwrap(),

@@ -7,9 +7,6 @@
 //! is refused with exception 02; a value is stored as written (the device's own range checks
 //! are not in a profile).
 
-use std::collections::BTreeMap;
-use std::time::Duration;
-
 use super::{value, Behaviour, Profile, Table};
 use crate::devices::ModelSpec;
 use crate::modbus::crc::check_crc;
@@ -19,6 +16,8 @@ use crate::modbus::server::{
 use crate::modbus::ExceptionCode;
 use crate::point::{PointSpec, Value};
 use crate::sim::{SimDevice, SimError, SimReply};
+use crate::time::LineInstant;
+use std::collections::BTreeMap;
 
 /// The simulator asked for by the fn pointer of a profile model, which cannot carry the
 /// profile: a device with no points. [`ModelSpec::simulate`] builds the real one.
@@ -96,7 +95,7 @@ pub(crate) struct ProfileSim {
     profile: &'static Profile,
     address: u8,
     bank: Bank,
-    now: Duration,
+    now: LineInstant,
     /// The exact state of each following point (engineering units), so a lag advanced in
     /// many small steps gives what one step gives.
     followers: Vec<f64>,
@@ -112,7 +111,7 @@ impl ProfileSim {
             profile,
             address,
             bank: Bank::default(),
-            now: Duration::ZERO,
+            now: LineInstant::ZERO,
             followers: Vec::new(),
         };
         sim.power_on();
@@ -238,7 +237,7 @@ impl SimDevice for ProfileSim {
         self.address
     }
 
-    fn advance_to(&mut self, t: Duration) {
+    fn advance_to(&mut self, t: LineInstant) {
         if t <= self.now {
             return;
         }
@@ -264,7 +263,7 @@ impl SimDevice for ProfileSim {
         }
     }
 
-    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
+    fn on_frame(&mut self, frame: &[u8], t: LineInstant) -> Option<SimReply> {
         self.advance_to(t);
         if !check_crc(frame) {
             return None;

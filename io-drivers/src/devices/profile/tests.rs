@@ -303,7 +303,7 @@ fn the_simulator_refuses_what_the_device_would() {
         count: 1,
     };
     encode_request(2, &req, &mut frame).unwrap();
-    let reply = sim.on_frame(&frame, Duration::ZERO).unwrap();
+    let reply = sim.on_frame(&frame, LineInstant::ZERO).unwrap();
     assert_eq!(reply.bytes[..3], [0x02, 0x83, 0x02]);
     // FC 06 to the read-only status: exception 02.
     frame.clear();
@@ -312,12 +312,12 @@ fn the_simulator_refuses_what_the_device_would() {
         value: 1,
     };
     encode_request(2, &req, &mut frame).unwrap();
-    let reply = sim.on_frame(&frame, Duration::ZERO).unwrap();
+    let reply = sim.on_frame(&frame, LineInstant::ZERO).unwrap();
     assert_eq!(reply.bytes[..3], [0x02, 0x86, 0x02]);
     // Another unit: silence.
     frame.clear();
     encode_request(3, &req, &mut frame).unwrap();
-    assert!(sim.on_frame(&frame, Duration::ZERO).is_none());
+    assert!(sim.on_frame(&frame, LineInstant::ZERO).is_none());
     assert!(matches!(
         sim.get("nothing"),
         Err(crate::sim::SimError::UnknownPoint { .. })

@@ -504,10 +504,10 @@ impl SimDevice for LateInSlot {
     fn address(&self) -> u8 {
         self.inner.address()
     }
-    fn advance_to(&mut self, t: Duration) {
+    fn advance_to(&mut self, t: LineInstant) {
         self.inner.advance_to(t);
     }
-    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
+    fn on_frame(&mut self, frame: &[u8], t: LineInstant) -> Option<SimReply> {
         let mut reply = self.inner.on_frame(frame, t)?;
         if frame.get(1) == Some(&70) {
             reply.delay += self.late;

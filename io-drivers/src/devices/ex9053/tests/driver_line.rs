@@ -16,7 +16,7 @@ use crate::line::{LineSettings, Parity, SerialFormat};
 use crate::point::{Quality, Value};
 use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
 use crate::sim::plant::{Plant, PlantIo};
-use crate::time::{Clock, ScanInstant, VirtualClock};
+use crate::time::{Clock, LineInstant, ScanInstant, VirtualClock};
 
 /// DCON's usual line: 9600 8N1 (§1.3).
 const DCON_LINE: LineSettings = LineSettings {
@@ -383,9 +383,9 @@ fn a_timeout_from_before_the_start_is_cleared() {
     let sim = w.device_mut(0).unwrap();
     // As if a previous run had armed it and died.
     assert!(sim
-        .on_frame(b"~01310A\r", Duration::ZERO)
+        .on_frame(b"~01310A\r", LineInstant::ZERO)
         .is_some_and(|a| a.bytes == b"!01\r"));
-    sim.advance_to(Duration::from_secs(5));
+    sim.advance_to(LineInstant::after_origin(Duration::from_secs(5)));
     drop(w);
     r.clock
         .advance_to(ScanInstant::after_origin(Duration::from_secs(5)));
@@ -402,8 +402,8 @@ fn a_timeout_from_before_the_start_is_cleared() {
 struct TimeBits;
 
 impl Plant for TimeBits {
-    fn step(&mut self, t: Duration, io: &mut dyn PlantIo) {
-        let ms = t.as_millis() as u64;
+    fn step(&mut self, t: LineInstant, io: &mut dyn PlantIo) {
+        let ms = t.since_origin().as_millis() as u64;
         for role in 0..16 {
             io.write(role, ms & (1 << (role % 8)) != 0);
         }
@@ -559,7 +559,7 @@ fn checksum_modules_are_polled_with_checksums() {
         let a = w
             .device_mut(0)
             .unwrap()
-            .on_frame(b"%0021400640\r", Duration::ZERO);
+            .on_frame(b"%0021400640\r", LineInstant::ZERO);
         assert_eq!(a.map(|a| a.bytes), Some(b"!21\r".to_vec()));
     }
     r.command(0, &["init", "off"]);

@@ -6,6 +6,7 @@ use std::time::Duration;
 use crate::devices::ex9053::dcon::{check_line, encode_line};
 use crate::devices::ex9053::{Ex9053Sim, Variant};
 use crate::sim::SimDevice;
+use crate::time::LineInstant;
 
 /// A terminal on one simulated module.
 struct Term {
@@ -49,7 +50,10 @@ impl Term {
     /// Sends `body` (with the checksum when enabled) and returns the raw answer.
     fn raw(&mut self, body: &str) -> Option<Vec<u8>> {
         self.sim
-            .on_frame(&encode_line(body, self.checksum), self.t)
+            .on_frame(
+                &encode_line(body, self.checksum),
+                LineInstant::after_origin(self.t),
+            )
             .map(|r| r.bytes)
     }
 
@@ -208,30 +212,32 @@ fn checksum_byte_exact() {
     let mut m = Term::new(Variant::D, 0x01, true);
     // "$012" sums to B7; "!01400640" to B0.
     assert_eq!(
-        m.sim.on_frame(b"$012B7\r", Duration::ZERO).map(|r| r.bytes),
+        m.sim
+            .on_frame(b"$012B7\r", LineInstant::ZERO)
+            .map(|r| r.bytes),
         Some(b"!01400640B0\r".to_vec())
     );
     // Lower-case checksum digits are read.
-    assert!(m.sim.on_frame(b"$012b7\r", Duration::ZERO).is_some());
+    assert!(m.sim.on_frame(b"$012b7\r", LineInstant::ZERO).is_some());
     // A wrong or missing checksum: silence.
-    assert_eq!(m.sim.on_frame(b"$012B8\r", Duration::ZERO), None);
-    assert_eq!(m.sim.on_frame(b"$012\r", Duration::ZERO), None);
+    assert_eq!(m.sim.on_frame(b"$012B8\r", LineInstant::ZERO), None);
+    assert_eq!(m.sim.on_frame(b"$012\r", LineInstant::ZERO), None);
     // Broadcasts need it too: "#**" sums to 0x77.
     m.set_inputs("1234");
-    assert_eq!(m.sim.on_frame(b"#**\r", Duration::ZERO), None);
+    assert_eq!(m.sim.on_frame(b"#**\r", LineInstant::ZERO), None);
     assert_eq!(
         m.ask("$014").as_deref(),
         Some("!0000000"),
         "no sample taken"
     );
-    assert_eq!(m.sim.on_frame(b"#**77\r", Duration::ZERO), None);
+    assert_eq!(m.sim.on_frame(b"#**77\r", LineInstant::ZERO), None);
     assert_eq!(m.ask("$014").as_deref(), Some("!1123400"));
     // Without the checksum enabled, appended characters make an invalid command.
     let mut plain = Term::new(Variant::D, 0x01, false);
     assert_eq!(
         plain
             .sim
-            .on_frame(b"$012B7\r", Duration::ZERO)
+            .on_frame(b"$012B7\r", LineInstant::ZERO)
             .map(|r| r.bytes),
         Some(b"?01\r".to_vec())
     );
@@ -317,21 +323,31 @@ fn foreign_and_damaged_lines_are_ignored() {
     m.expect("~013000", "!01");
     m.expect("~013100", "?01");
     let t = Duration::ZERO;
-    assert_eq!(m.sim.on_frame(b"$012", t), None, "no terminator yet");
     assert_eq!(
-        m.sim.on_frame(b"\n$012\r\n", t).map(|r| r.bytes),
+        m.sim.on_frame(b"$012", LineInstant::after_origin(t)),
+        None,
+        "no terminator yet"
+    );
+    assert_eq!(
+        m.sim
+            .on_frame(b"\n$012\r\n", LineInstant::after_origin(t))
+            .map(|r| r.bytes),
         Some(b"!01400600\r".to_vec()),
         "a terminal's LF around the line"
     );
     assert_eq!(
-        m.sim.on_frame(b"$012\n", t).map(|r| r.bytes),
+        m.sim
+            .on_frame(b"$012\n", LineInstant::after_origin(t))
+            .map(|r| r.bytes),
         Some(b"!01400600\r".to_vec()),
         "LF alone ends a line"
     );
     // A Modbus frame to unit 1 is not a DCON line.
     assert_eq!(
-        m.sim
-            .on_frame(&[0x01, 0x02, 0x00, 0x00, 0x00, 0x10, 0x79, 0xC6], t),
+        m.sim.on_frame(
+            &[0x01, 0x02, 0x00, 0x00, 0x00, 0x10, 0x79, 0xC6],
+            LineInstant::after_origin(t)
+        ),
         None
     );
     // No byte sequence panics.
@@ -351,7 +367,7 @@ fn foreign_and_damaged_lines_are_ignored() {
             })
             .collect();
         // Only that it never panics: what junk gets back is not the point.
-        drop(m.sim.on_frame(&frame, t));
+        drop(m.sim.on_frame(&frame, LineInstant::after_origin(t)));
     }
 }
 
@@ -389,7 +405,10 @@ fn a_long_idle_advance_is_fast() {
     let mut m = Term::new(Variant::D, 0x01, false);
     m.expect("~0131FF", "!01");
     let start = std::time::Instant::now();
-    m.sim.advance_to(Duration::from_secs(365 * 24 * 3600));
+    m.sim
+        .advance_to(LineInstant::after_origin(Duration::from_secs(
+            365 * 24 * 3600,
+        )));
     assert!(start.elapsed() < Duration::from_millis(50));
     assert!(m.sim.state().watchdog_timeout());
 }

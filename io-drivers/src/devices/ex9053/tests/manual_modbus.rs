@@ -5,6 +5,7 @@ use std::time::Duration;
 use crate::devices::ex9053::{Ex9053Sim, Variant};
 use crate::modbus::crc::append_crc;
 use crate::sim::SimDevice;
+use crate::time::LineInstant;
 
 fn frame(bytes: &[u8]) -> Vec<u8> {
     let mut f = bytes.to_vec();
@@ -30,7 +31,9 @@ impl Master {
     }
 
     fn raw(&mut self, request: &[u8]) -> Option<Vec<u8>> {
-        self.sim.on_frame(request, self.t).map(|r| r.bytes)
+        self.sim
+            .on_frame(request, LineInstant::after_origin(self.t))
+            .map(|r| r.bytes)
     }
 
     /// `request` (CRC added) gets exactly `reply` (CRC added).
@@ -313,7 +316,9 @@ fn module_registers_and_protocol() {
     m.cmd(&["power-cycle"]);
     m.silent(&[0x10, 0x01, 0x01, 0x00, 0x00, 0x01]);
     assert_eq!(
-        m.sim.on_frame(b"$10P\r", m.t).map(|r| r.bytes),
+        m.sim
+            .on_frame(b"$10P\r", LineInstant::after_origin(m.t))
+            .map(|r| r.bytes),
         Some(b"!1010\r".to_vec())
     );
 }
@@ -329,11 +334,15 @@ fn init_switch_gives_dcon_at_00() {
     m.cmd(&["power-cycle"]);
     m.silent(&[0x07, 0x01, 0x01, 0x00, 0x00, 0x01]);
     assert_eq!(
-        m.sim.on_frame(b"$002\r", m.t).map(|r| r.bytes),
+        m.sim
+            .on_frame(b"$002\r", LineInstant::after_origin(m.t))
+            .map(|r| r.bytes),
         Some(b"!07400600\r".to_vec())
     );
     assert_eq!(
-        m.sim.on_frame(b"$00P\r", m.t).map(|r| r.bytes),
+        m.sim
+            .on_frame(b"$00P\r", LineInstant::after_origin(m.t))
+            .map(|r| r.bytes),
         Some(b"!0011\r".to_vec())
     );
 }
@@ -359,7 +368,10 @@ fn modbus_discipline() {
     m.expect(&[0x01, 0x04, 0x00, 0x00, 0x00, 0x00], &[0x01, 0x84, 0x03]);
     m.expect(&[0x01, 0x03, 0x01, 0xE6, 0x00, 0x01], &[0x01, 0x83, 0x02]);
     // A DCON line is not a Modbus frame to this module.
-    assert_eq!(m.sim.on_frame(b"$01M\r", m.t), None);
+    assert_eq!(
+        m.sim.on_frame(b"$01M\r", LineInstant::after_origin(m.t)),
+        None
+    );
     // No byte sequence panics.
     let mut x: u32 = 0x9E37_79B9;
     for len in 0..300usize {

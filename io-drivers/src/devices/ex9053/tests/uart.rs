@@ -7,12 +7,13 @@ use std::time::Duration;
 use crate::devices::ex9053::{Ex9053Sim, Variant};
 use crate::line::settings::{LineSettings, SerialFormat};
 use crate::sim::SimDevice;
+use crate::time::LineInstant;
 
 fn ask(sim: &mut Ex9053Sim, master_baud: u32, line: &str, ms: u64) -> Option<String> {
     sim.master_line(master_baud, None);
     let mut frame = line.as_bytes().to_vec();
     frame.push(b'\r');
-    sim.on_frame(&frame, Duration::from_millis(ms))
+    sim.on_frame(&frame, LineInstant::after_origin(Duration::from_millis(ms)))
         .map(|r| String::from_utf8_lossy(&r.bytes).trim_end().to_string())
 }
 
@@ -61,5 +62,11 @@ fn a_new_baud_is_heard_after_the_power_on_that_takes_it_and_the_old_one_is_not()
     assert_eq!(ask(&mut sim, 38400, "$03M", 90).as_deref(), Some("!039053"));
     // A known other format is not heard either: a DCON line is 8N1.
     sim.master_line(38400, Some(SerialFormat::EVEN_8E1));
-    assert_eq!(sim.on_frame(b"$03M\r", Duration::from_millis(100)), None);
+    assert_eq!(
+        sim.on_frame(
+            b"$03M\r",
+            LineInstant::after_origin(Duration::from_millis(100))
+        ),
+        None
+    );
 }

@@ -116,6 +116,7 @@ pub(super) mod tests {
     use crate::modbus::UnitId;
     use crate::point::Value;
     use crate::sim::SimDevice;
+    use crate::time::LineInstant;
 
     const UNIT: u8 = 5;
 
@@ -176,7 +177,9 @@ pub(super) mod tests {
                 continue;
             };
             let bytes = wire(tx);
-            let reply = sim.on_frame(&bytes, t).expect("a reply");
+            let reply = sim
+                .on_frame(&bytes, LineInstant::after_origin(t))
+                .expect("a reply");
             let mut asm = ReplyAssembler::new(unit.get(), request);
             let Progress::Complete { response, .. } = asm.push(&reply.bytes) else {
                 panic!("reply not verified: {:?}", reply.bytes)
@@ -204,7 +207,7 @@ pub(super) mod tests {
             sim.set(point, Value::U16(value)).unwrap();
         }
         sim.set("Y2", Value::Bool(true)).unwrap();
-        sim.advance_to(Duration::from_millis(5));
+        sim.advance_to(LineInstant::after_origin(Duration::from_millis(5)));
         sim
     }
 
@@ -220,7 +223,7 @@ pub(super) mod tests {
         // X1 no longer switches Y2: holding it leaves Y2 as the program will write it.
         sim.set("Y2", Value::Bool(false)).unwrap();
         sim.set("X1", Value::Bool(true)).unwrap();
-        sim.advance_to(Duration::from_millis(50));
+        sim.advance_to(LineInstant::after_origin(Duration::from_millis(50)));
         assert_eq!(sim.get("Y2"), Ok(Value::Bool(false)));
         assert_eq!(
             sim.state().outputs() & 0b1100,
@@ -243,7 +246,7 @@ pub(super) mod tests {
         want.push(frame(&[UNIT, 0x01, 0x00, 0x01, 0x00, 0x01]));
         assert_eq!(wires[..6], want[..], "disarm, then the initial value");
         assert_eq!(wires.len(), 10, "then Y2AON1 and Y2AOFF1, each read back");
-        sim.advance_to(Duration::from_millis(20));
+        sim.advance_to(LineInstant::after_origin(Duration::from_millis(20)));
         assert_eq!(
             sim.get("Y2"),
             Ok(Value::Bool(false)),
@@ -252,7 +255,7 @@ pub(super) mod tests {
         assert_eq!(sim.get("Y2AON1"), Ok(Value::U16(1)));
         // Armed: a start press sets it within a tick.
         sim.set("X1", Value::Bool(true)).unwrap();
-        sim.advance_to(Duration::from_millis(22));
+        sim.advance_to(LineInstant::after_origin(Duration::from_millis(22)));
         assert_eq!(sim.get("Y2"), Ok(Value::Bool(true)));
     }
 }

@@ -9,6 +9,7 @@ use crate::sim::SimDevice;
 
 use super::super::map::WatchdogRegisters;
 use super::super::sim::MiniModSim;
+use crate::time::LineInstant;
 
 const UNIT: u8 = 5;
 
@@ -49,13 +50,17 @@ fn exchange(
     let (unit, request) = match &tx.frame {
         Outgoing::Modbus { unit, request } => (unit, request),
         Outgoing::Text { line, terminator } => {
-            let reply = sim.on_frame(line, t).expect("a text reply");
+            let reply = sim
+                .on_frame(line, LineInstant::after_origin(t))
+                .expect("a text reply");
             let end = reply.bytes.iter().position(|b| b == terminator).unwrap();
             return d.on_reply(tx.tag, &Reply::Text(reply.bytes[..end].to_vec()));
         }
         Outgoing::NoReply { .. } => panic!("the MiniMod driver plans no unanswered frame"),
     };
-    let reply = sim.on_frame(&wire(tx), t).expect("a reply");
+    let reply = sim
+        .on_frame(&wire(tx), LineInstant::after_origin(t))
+        .expect("a reply");
     let mut asm = ReplyAssembler::new(unit.get(), request);
     let Progress::Complete { response, extra: 0 } = asm.push(&reply.bytes) else {
         panic!("reply not verified: {:?}", reply.bytes)
@@ -180,9 +185,12 @@ fn readback_shows_a_pulse_while_it_runs_and_off_after_it() {
     d.plan_read(&mut read);
     assert_eq!(wire(&read[1]), frame(&[0x05, 0x01, 0x00, 0x00, 0x00, 0x04]));
     let coils = |sim: &mut MiniModSim, t: u64| {
-        sim.on_frame(&wire(&read[1]), Duration::from_millis(t))
-            .unwrap()
-            .bytes
+        sim.on_frame(
+            &wire(&read[1]),
+            LineInstant::after_origin(Duration::from_millis(t)),
+        )
+        .unwrap()
+        .bytes
     };
     // During the pulse the coils read Y2 on; the driver's image agrees.
     assert_eq!(coils(&mut sim, 60), frame(&[0x05, 0x01, 0x01, 0x02]));
@@ -385,9 +393,9 @@ fn polls_seeing_a_30_ms_pulse(settings: &[(&str, &str)]) -> Vec<u64> {
     let mut seen = Vec::new();
     for t in (100..=900).step_by(100) {
         if t == 200 {
-            sim.advance_to(Duration::from_millis(130));
+            sim.advance_to(LineInstant::after_origin(Duration::from_millis(130)));
             sim.set("X1", Value::Bool(true)).unwrap();
-            sim.advance_to(Duration::from_millis(160));
+            sim.advance_to(LineInstant::after_origin(Duration::from_millis(160)));
             sim.set("X1", Value::Bool(false)).unwrap();
         }
         let mut plan = Vec::new();
@@ -747,9 +755,11 @@ fn counters_and_status_every_nth_cycle() {
     sim.set("XLATDN1", Value::U16(0)).unwrap();
     for k in 0..3u64 {
         sim.set("X1", Value::Bool(true)).unwrap();
-        sim.advance_to(Duration::from_millis(10 * k + 5));
+        sim.advance_to(LineInstant::after_origin(Duration::from_millis(10 * k + 5)));
         sim.set("X1", Value::Bool(false)).unwrap();
-        sim.advance_to(Duration::from_millis(10 * k + 10));
+        sim.advance_to(LineInstant::after_origin(Duration::from_millis(
+            10 * k + 10,
+        )));
     }
     sim.set("SW4", Value::Bool(true)).unwrap();
     sim.command(&["flash", "broken"]).unwrap();

@@ -7,6 +7,7 @@ use crate::modbus::crc::append_crc;
 use crate::modbus::master::{encode_request, Progress, ReplyAssembler};
 use crate::modbus::ExceptionCode;
 use crate::sim::SimDevice;
+use crate::time::LineInstant;
 
 const ADDR: u8 = 5;
 
@@ -43,7 +44,7 @@ fn exchange(
     tx: &Transaction,
     t: u64,
 ) -> Result<(), DecodeError> {
-    let at = Duration::from_millis(t);
+    let at = LineInstant::after_origin(Duration::from_millis(t));
     let reply = s.on_frame(&wire(tx), at).expect("an answer");
     let reply = match &tx.frame {
         Outgoing::Modbus { unit, request } => {
@@ -540,7 +541,7 @@ fn stale_tables_in_fram_are_cleared_and_read_back_on_both_protocols() {
         // DI1 no longer toggles RO4, DI3 no longer switches RO1.
         s.set("DI1", ON).unwrap();
         s.set("DI3", ON).unwrap();
-        s.advance_to(Duration::from_millis(5_000));
+        s.advance_to(LineInstant::after_origin(Duration::from_millis(5_000)));
         assert_eq!(
             s.get("RO4"),
             Ok(ON),
@@ -609,7 +610,7 @@ fn a_pushed_toggle_starts_from_its_initial_value_then_is_armed() {
         assert_eq!(s.get("TOGGLE_RO4"), Ok(Value::U16(3)));
         // Armed: a press of DI2 toggles it on.
         s.set("DI2", ON).unwrap();
-        s.advance_to(Duration::from_millis(50));
+        s.advance_to(LineInstant::after_origin(Duration::from_millis(50)));
         assert_eq!(s.get("RO4"), Ok(ON), "{protocol:?}");
     }
 }

@@ -19,8 +19,6 @@
 pub(crate) mod bank;
 pub(crate) mod console;
 
-use std::time::Duration;
-
 use super::ascii;
 use super::item::Kind;
 use super::model::Model;
@@ -32,6 +30,7 @@ use crate::modbus::server::{decode_request, encode_response, exception_frame, se
 use crate::modbus::{ExceptionCode, Request, Response};
 use crate::point::{PointSpec, Value};
 use crate::sim::{SimDevice, SimError, SimReply};
+use crate::time::LineInstant;
 
 /// A simulated RESI module.
 #[derive(Debug, Clone)]
@@ -147,9 +146,10 @@ impl SimDevice for ResiSim {
         self.m.address()
     }
 
-    fn advance_to(&mut self, t: Duration) {
+    fn advance_to(&mut self, t: LineInstant) {
+        // The module ticks in milliseconds since the line's origin.
         self.m
-            .advance_to(u64::try_from(t.as_millis()).unwrap_or(u64::MAX));
+            .advance_to(u64::try_from(t.since_origin().as_millis()).unwrap_or(u64::MAX));
     }
 
     fn set_uart(&mut self, settings: LineSettings) -> bool {
@@ -172,7 +172,7 @@ impl SimDevice for ResiSim {
         self.master = Some((baud, format));
     }
 
-    fn on_frame(&mut self, frame: &[u8], t: Duration) -> Option<SimReply> {
+    fn on_frame(&mut self, frame: &[u8], t: LineInstant) -> Option<SimReply> {
         self.advance_to(t);
         if !self.hears_master() {
             return None;

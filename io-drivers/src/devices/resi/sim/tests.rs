@@ -5,11 +5,19 @@ use super::*;
 use crate::devices::resi::models::{m16di8ro, m1ro, m2rtd, m8co};
 use crate::line::settings::LineSettings;
 use crate::modbus::crc::append_crc;
+use std::time::Duration;
+
+use crate::time::LineInstant;
 
 const UNIT: u8 = 1;
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
+}
+
+/// `n` ms after the line's origin.
+fn at(n: u64) -> LineInstant {
+    LineInstant::after_origin(ms(n))
 }
 
 fn sim() -> ResiSim {
@@ -18,7 +26,7 @@ fn sim() -> ResiSim {
 
 /// An ASCII exchange at `t` ms.
 fn ascii(s: &mut ResiSim, t: u64, request: &str) -> Option<String> {
-    s.on_frame(request.as_bytes(), ms(t))
+    s.on_frame(request.as_bytes(), at(t))
         .map(|r| String::from_utf8(r.bytes).unwrap())
 }
 
@@ -39,7 +47,7 @@ fn with_crc(bytes: &[u8]) -> Vec<u8> {
 
 /// A Modbus exchange at `t` ms; the reply frame.
 fn rtu(s: &mut ResiSim, t: u64, request: &[u8]) -> Option<Vec<u8>> {
-    s.on_frame(&with_crc(request), ms(t)).map(|r| r.bytes)
+    s.on_frame(&with_crc(request), at(t)).map(|r| r.bytes)
 }
 
 /// A Modbus write whose reply is its echo (FC 5, FC 6).
@@ -60,7 +68,7 @@ fn on(s: &ResiSim, name: &str) -> bool {
 }
 
 fn press(s: &mut ResiSim, t: u64, di: &str, level: bool) {
-    s.advance_to(ms(t));
+    s.advance_to(at(t));
     s.set(di, Value::Bool(level)).unwrap();
 }
 
@@ -91,7 +99,7 @@ fn frames_of_resi_spec_3_6_are_byte_exact() {
     for f in frames {
         let (body, _) = f.split_at(f.len() - 2);
         assert_eq!(with_crc(body), f, "CRC of {f:02X?}");
-        assert!(s.on_frame(f, ms(0)).is_some(), "{f:02X?} answered");
+        assert!(s.on_frame(f, at(0)).is_some(), "{f:02X?} answered");
     }
     // RO1 on, then all relays on through ROS: relay counter of RO1 is 1, RO2..8 too.
     assert_eq!(relays(&s), 0xFF);
@@ -120,12 +128,12 @@ fn switch_ro1_with_di1_over_ascii() {
         "L16498"
     );
     press(&mut s, 100, "DI1", true);
-    s.advance_to(ms(109));
+    s.advance_to(at(109));
     assert!(!on(&s, "RO1"), "not before the next 10 ms sample");
-    s.advance_to(ms(110));
+    s.advance_to(at(110));
     assert!(on(&s, "RO1"));
     press(&mut s, 200, "DI1", false);
-    s.advance_to(ms(210));
+    s.advance_to(at(210));
     assert!(!on(&s, "RO1"));
     assert_eq!(relays(&s), 0, "the other relays are not affected");
     assert_eq!(
@@ -163,7 +171,7 @@ fn switch_eight_relays_with_eight_inputs() {
     for (t, di) in [(10, "DI3"), (20, "DI8")] {
         press(&mut s, t, di, true);
     }
-    s.advance_to(ms(30));
+    s.advance_to(at(30));
     assert_eq!(relays(&s), 0b1000_0100);
 }
 
@@ -175,14 +183,14 @@ fn switch_on_ro1_with_any_of_di1_to_di4() {
     ok(&mut s, 0, "#SET SPECIAL MODE:1\r");
     press(&mut s, 10, "DI4", true);
     press(&mut s, 30, "DI4", false);
-    s.advance_to(ms(40));
+    s.advance_to(at(40));
     assert!(on(&s, "RO1"));
     // Modbus: SWITCH ON RO1 is 4x20017.
     let mut m = sim();
     echo(&mut m, 0, &[0x01, 0x06, 0x4E, 0x30, 0x00, 0x0F]);
     echo(&mut m, 0, &[0x01, 0x06, 0x52, 0x08, 0x00, 0x01]);
     press(&mut m, 10, "DI2", true);
-    m.advance_to(ms(20));
+    m.advance_to(at(20));
     assert!(on(&m, "RO1"));
 }
 
@@ -196,7 +204,7 @@ fn central_light_on_with_di16_and_off_with_di15() {
     }
     ok(&mut s, 0, "#SET SPECIAL MODE:1\r");
     press(&mut s, 100, "DI16", true);
-    s.advance_to(ms(110));
+    s.advance_to(at(110));
     assert_eq!(relays(&s), 0xFF, "all eight relays on at once");
     // "If you don't press the button, you can switch each of the eight relay on or off via
     // MODBUS or ASCII protocol": the button is still held, the host switches RO3 off.
@@ -205,7 +213,7 @@ fn central_light_on_with_di16_and_off_with_di15() {
         Some("#1,OK\r")
     );
     echo(&mut s, 210, &[0x01, 0x05, 0x00, 0x14, 0x00, 0x00]); // RO5 off (coil 0x00021)
-    s.advance_to(ms(500));
+    s.advance_to(at(500));
     assert_eq!(
         relays(&s),
         0xFF & !0b0001_0100,
@@ -213,11 +221,11 @@ fn central_light_on_with_di16_and_off_with_di15() {
     );
     press(&mut s, 600, "DI16", false);
     press(&mut s, 700, "DI15", true);
-    s.advance_to(ms(710));
+    s.advance_to(at(710));
     assert_eq!(relays(&s), 0, "central off");
     press(&mut s, 800, "DI15", false);
     ok(&mut s, 900, "#SRO8:1\r");
-    s.advance_to(ms(1000));
+    s.advance_to(at(1000));
     assert_eq!(relays(&s), 0x80, "after release the host switches freely");
     assert_eq!(
         ascii(&mut s, 1000, "#GET SWITCH OFF8\r").as_deref(),
@@ -240,12 +248,12 @@ fn central_light_on_over_modbus_and_erratum_3() {
     );
     echo(&mut s, 1, &[0x01, 0x06, 0x52, 0x08, 0x80, 0x00]);
     press(&mut s, 10, "DI16", true);
-    s.advance_to(ms(20));
+    s.advance_to(at(20));
     assert_eq!(relays(&s), 0, "ENABLE = 0x8000 runs no logic");
     press(&mut s, 30, "DI16", false);
     echo(&mut s, 40, &[0x01, 0x06, 0x52, 0x08, 0x00, 0x01]);
     press(&mut s, 50, "DI16", true);
-    s.advance_to(ms(60));
+    s.advance_to(at(60));
     assert_eq!(relays(&s), 0xFF);
     // The option for a module that would take any non-zero value.
     let mut lax = sim();
@@ -253,7 +261,7 @@ fn central_light_on_over_modbus_and_erratum_3() {
     echo(&mut lax, 0, &[0x01, 0x06, 0x4E, 0x30, 0x80, 0x00]);
     echo(&mut lax, 0, &[0x01, 0x06, 0x52, 0x08, 0x80, 0x00]);
     press(&mut lax, 10, "DI16", true);
-    lax.advance_to(ms(20));
+    lax.advance_to(at(20));
     assert!(on(&lax, "RO1"));
 }
 
@@ -266,7 +274,7 @@ fn switch_off_ro2_with_di1_di3_di6() {
     for (t, di) in [(10, "DI1"), (30, "DI3"), (50, "DI6")] {
         ok(&mut s, t - 5, "#SRO2:1\r");
         press(&mut s, t, di, true);
-        s.advance_to(ms(t + 10));
+        s.advance_to(at(t + 10));
         assert!(!on(&s, "RO2"), "{di}");
     }
     // Modbus: SWITCH OFF RO2 is 4x20026.
@@ -290,11 +298,11 @@ fn toggle_ro4_with_di1_or_di2() {
         let mut expected = false;
         for (t, di) in [(100, "DI1"), (300, "DI2"), (500, "DI1"), (700, "DI1")] {
             press(&mut s, t, di, true);
-            s.advance_to(ms(t + 10));
+            s.advance_to(at(t + 10));
             expected = !expected;
             assert_eq!(on(&s, "RO4"), expected, "{di} at {t}");
             press(&mut s, t + 100, di, false);
-            s.advance_to(ms(t + 110));
+            s.advance_to(at(t + 110));
             assert_eq!(on(&s, "RO4"), expected, "release does nothing");
         }
         assert_eq!(relays(&s), 0, "only RO4");
@@ -314,15 +322,15 @@ fn stairway_pulse_of_30_s_over_ascii() {
     );
     press(&mut s, 1000, "DI2", true);
     press(&mut s, 1500, "DI2", false);
-    s.advance_to(ms(1010));
+    s.advance_to(at(1010));
     assert!(on(&s, "RO4"));
     assert_eq!(
         ascii(&mut s, 11_010, "#GET PULSE TIMER4\r").as_deref(),
         Some("#GPTIMER4:200,0xC8\r")
     );
-    s.advance_to(ms(31_000));
+    s.advance_to(at(31_000));
     assert!(on(&s, "RO4"));
-    s.advance_to(ms(31_010));
+    s.advance_to(at(31_010));
     assert!(!on(&s, "RO4"), "off after 30 s");
     assert_eq!(
         ascii(&mut s, 31_010, "#GPTIMER4\r").as_deref(),
@@ -332,9 +340,9 @@ fn stairway_pulse_of_30_s_over_ascii() {
     press(&mut s, 40_000, "DI1", true);
     press(&mut s, 40_100, "DI1", false);
     press(&mut s, 60_000, "DI2", true);
-    s.advance_to(ms(89_999));
+    s.advance_to(at(89_999));
     assert!(on(&s, "RO4"));
-    s.advance_to(ms(90_010));
+    s.advance_to(at(90_010));
     assert!(!on(&s, "RO4"));
     assert_eq!(relays(&s), 0);
 }
@@ -365,9 +373,9 @@ fn stairway_pulse_of_30_s_over_modbus() {
         with_crc(&[0x01, 0x03, 0x04, 0x00, 0xC8, 0x00, 0x00]),
         "low word first"
     );
-    s.advance_to(ms(31_000));
+    s.advance_to(at(31_000));
     assert!(on(&s, "RO1"));
-    s.advance_to(ms(31_010));
+    s.advance_to(at(31_010));
     assert!(!on(&s, "RO1"));
     // Written low word first with FC 16 on 4x20081 (the alternative of L16740).
     let mut t = sim();
@@ -389,7 +397,7 @@ fn retention_across_power_cycles_over_the_wire() {
     ok(&mut s, 0, "#SET SPECIAL MODE:1\r");
     ok(&mut s, 0, "#SROS:0x81\r");
     press(&mut s, 10, "DI1", true);
-    s.advance_to(ms(20));
+    s.advance_to(at(20));
     s.command(&["power-cycle"]).unwrap();
     assert_eq!(relays(&s), 0x89, "relays kept");
     assert_eq!(
@@ -411,7 +419,7 @@ fn retention_across_power_cycles_over_the_wire() {
     // The logic works again after the power cycle.
     press(&mut s, 40, "DI1", false);
     press(&mut s, 50, "DI2", true);
-    s.advance_to(ms(60));
+    s.advance_to(at(60));
     assert!(!on(&s, "RO4"));
     // RESET SPECIAL MODE clears the tables permanently.
     ok(&mut s, 70, "#RESET SPECIAL MODE\r");
@@ -432,7 +440,7 @@ fn retention_across_power_cycles_over_the_wire() {
 fn a_terminal_held_on_reads_on_after_a_power_cycle() {
     let mut s = sim();
     press(&mut s, 5, "DI1", true);
-    s.advance_to(ms(5_000));
+    s.advance_to(at(5_000));
     assert!(on(&s, "DI1"));
     s.command(&["power-cycle"]).unwrap();
     assert!(on(&s, "DI1"), "right after power-up");
@@ -534,7 +542,7 @@ fn exceptions_and_broadcast() {
     // Another unit, a bad CRC: silence. Broadcast: executed, not answered.
     assert_eq!(rtu(&mut s, 0, &[0x02, 0x01, 0x00, 0x10, 0x00, 0x08]), None);
     assert_eq!(
-        s.on_frame(&[0x01, 0x01, 0x00, 0x10, 0x00, 0x08, 0, 0], ms(0)),
+        s.on_frame(&[0x01, 0x01, 0x00, 0x10, 0x00, 0x08, 0, 0], at(0)),
         None
     );
     assert_eq!(rtu(&mut s, 0, &[0x00, 0x05, 0x00, 0x11, 0xFF, 0x00]), None);
@@ -553,12 +561,12 @@ fn exceptions_and_broadcast() {
 #[test]
 fn modbus_variant_and_reply_delay() {
     let mut s = sim();
-    assert_eq!(s.on_frame(b"#VER\r", ms(0)).map(|r| r.delay), Some(ms(2)));
+    assert_eq!(s.on_frame(b"#VER\r", at(0)).map(|r| r.delay), Some(ms(2)));
     s.command(&["option", "ascii", "off"]).unwrap();
     s.command(&["option", "reply-delay", "7"]).unwrap();
     assert_eq!(ascii(&mut s, 0, "#VER\r"), None);
     let r = s
-        .on_frame(&with_crc(&[0x01, 0x01, 0x00, 0x10, 0x00, 0x08]), ms(0))
+        .on_frame(&with_crc(&[0x01, 0x01, 0x00, 0x10, 0x00, 0x08]), at(0))
         .unwrap();
     assert_eq!(r.delay, ms(7));
 }
@@ -601,7 +609,7 @@ fn other_models_over_both_protocols() {
     // ROS at 4x00001 and at 4x00101 (erratum 6).
     let ros = rtu(&mut co, 600, &[0x03, 0x03, 0x00, 0x64, 0x00, 0x01]).unwrap();
     assert_eq!(ros, with_crc(&[0x03, 0x03, 0x02, 0x00, 0x02]));
-    co.advance_to(ms(2000));
+    co.advance_to(at(2000));
     assert!(!on(&co, "RO2"));
 
     let mut ro = ResiSim::new(&m1ro::MODEL, 4);
@@ -618,7 +626,7 @@ fn other_models_over_both_protocols() {
         regs,
         with_crc(&[0x04, 0x03, 0x0A, 0, 0, 0, 1, 0, 1, 0, 0, 0x0F, 0xA0])
     );
-    ro.advance_to(ms(5000));
+    ro.advance_to(at(5000));
     assert!(!on(&ro, "TDO1"));
 
     let mut rtd = ResiSim::new(&m2rtd::MODEL, 5);
@@ -728,14 +736,14 @@ fn no_bytes_or_text_make_it_panic() {
             }
             line.push('\r');
             // Only that none of these panics: what junk gets back is not the point.
-            drop(s.on_frame(line.as_bytes(), t));
+            drop(s.on_frame(line.as_bytes(), LineInstant::after_origin(t)));
             let len = (rng.next() % 20) as usize;
             let mut bytes: Vec<u8> = (0..len).map(|_| rng.next() as u8).collect();
             if rng.next() % 2 == 0 && !bytes.is_empty() {
                 bytes[0] = 1;
                 append_crc(&mut bytes);
             }
-            drop(s.on_frame(&bytes, t));
+            drop(s.on_frame(&bytes, LineInstant::after_origin(t)));
             drop(s.command(&[
                 rng.pick(&["dip", "baud", "address", "temp", "option"]),
                 rng.pick(&words),
