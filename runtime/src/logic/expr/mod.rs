@@ -111,6 +111,7 @@ impl FromIterator<(String, TagId, ValueType, bool)> for TagTable {
 /// use std::path::Path;
 /// use std::time::Duration;
 /// use softplc::image::{ProcessImage, TagId};
+/// use softplc::scan::ScanInstant;
 /// use softplc::logic::{expr, LogicEngine, ScanContext};
 /// use softplc_io::point::{Value, ValueType};
 ///
@@ -124,8 +125,8 @@ impl FromIterator<(String, TagId, ValueType, bool)> for TagTable {
 /// let mut image = ProcessImage::new(
 ///     ["start", "stop", "motor"].map(|n| (n.to_string(), Value::Bool(false))),
 /// );
-/// image.set(TagId(0), Value::Bool(true), Duration::ZERO);
-/// let ctx = ScanContext { now: Duration::ZERO, delta: Duration::from_millis(10), cycle: 0 };
+/// image.set(TagId(0), Value::Bool(true), ScanInstant::ZERO);
+/// let ctx = ScanContext { now: ScanInstant::ZERO, delta: Duration::from_millis(10), cycle: 0 };
 /// program.scan(&mut image, &ctx).unwrap();
 /// assert_eq!(image.get(TagId(2)), Value::Bool(true));
 ///

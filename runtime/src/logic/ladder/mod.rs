@@ -134,6 +134,7 @@ fn front(source: &str, file: &Path, tags: &TagTable) -> Result<Front, Vec<Compil
 /// use std::path::Path;
 /// use std::time::Duration;
 /// use softplc::image::{ProcessImage, TagId};
+/// use softplc::scan::ScanInstant;
 /// use softplc::logic::{expr::TagTable, ladder, LogicEngine, ScanContext};
 /// use softplc_io::point::{Value, ValueType};
 ///
@@ -147,8 +148,8 @@ fn front(source: &str, file: &Path, tags: &TagTable) -> Result<Front, Vec<Compil
 /// let mut image = ProcessImage::new(
 ///     ["start", "stop", "motor"].map(|n| (n.to_string(), Value::Bool(false))),
 /// );
-/// image.set(TagId(0), Value::Bool(true), Duration::ZERO);
-/// let ctx = ScanContext { now: Duration::ZERO, delta: Duration::from_millis(10), cycle: 0 };
+/// image.set(TagId(0), Value::Bool(true), ScanInstant::ZERO);
+/// let ctx = ScanContext { now: ScanInstant::ZERO, delta: Duration::from_millis(10), cycle: 0 };
 /// program.scan(&mut image, &ctx).unwrap();
 /// assert_eq!(image.get(TagId(2)), Value::Bool(true));
 ///

@@ -232,6 +232,7 @@ impl std::fmt::Debug for RhaiProgram {
 /// use std::path::Path;
 /// use std::time::Duration;
 /// use softplc::image::{ProcessImage, TagId};
+/// use softplc::scan::ScanInstant;
 /// use softplc::logic::{expr::TagTable, rhai, LogicEngine, ScanContext};
 /// use softplc_io::point::{Value, ValueType};
 ///
@@ -243,8 +244,8 @@ impl std::fmt::Debug for RhaiProgram {
 /// let mut program =
 ///     rhai::compile(script, Path::new("m.rhai"), &tags, Duration::from_millis(50)).unwrap();
 /// let mut image = ProcessImage::new(["start", "motor"].map(|n| (n.to_string(), Value::Bool(false))));
-/// image.set(TagId(0), Value::Bool(true), Duration::ZERO);
-/// let ctx = ScanContext { now: Duration::ZERO, delta: Duration::from_millis(10), cycle: 0 };
+/// image.set(TagId(0), Value::Bool(true), ScanInstant::ZERO);
+/// let ctx = ScanContext { now: ScanInstant::ZERO, delta: Duration::from_millis(10), cycle: 0 };
 /// program.scan(&mut image, &ctx).unwrap();
 /// assert_eq!(image.get(TagId(1)), Value::Bool(true));
 ///

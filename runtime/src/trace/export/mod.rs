@@ -8,14 +8,15 @@
 //!
 //! ```
 //! use std::time::Duration;
+//! use softplc::scan::ScanInstant;
 //! use softplc::trace::{Sample, Signal, VcdWriter};
 //! use softplc_io::point::{Value, ValueType};
 //!
 //! let signals = [Signal::new("x1", ValueType::Bool), Signal::new("speed", ValueType::F32)];
 //! let mut vcd = VcdWriter::new(Vec::new(), "demo", &signals).unwrap();
-//! vcd.write(&Sample::new(Duration::ZERO, 1, &[Value::Bool(false), Value::F32(0.0)])).unwrap();
-//! vcd.write(&Sample::new(Duration::from_millis(10), 2, &[Value::Bool(true), Value::F32(0.0)]))
-//!     .unwrap();
+//! vcd.write(&Sample::new(ScanInstant::ZERO, 1, &[Value::Bool(false), Value::F32(0.0)])).unwrap();
+//! let t = ScanInstant::after_origin(Duration::from_millis(10));
+//! vcd.write(&Sample::new(t, 2, &[Value::Bool(true), Value::F32(0.0)])).unwrap();
 //! let text = String::from_utf8(vcd.finish().unwrap()).unwrap();
 //! // x1's identifier, from its declaration; at 10 ms (timescale 1 us) it changes to 1.
 //! let id = text
