@@ -300,6 +300,14 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     // The pushed-down rung is marked with its module; the lamp cannot be forced from the scan.
     let pushed = b.eval("[...document.querySelectorAll('#program [data-pushed]')].map(e => e.dataset.pushed).join(',')");
     assert_eq!(pushed.as_str(), Some("mm2"), "the lamp's rung runs in mm2");
+    // Its mark names the statement by its comment, the line above it in conveyor.expr.
+    let mark = b.eval("document.querySelector('#program [data-pushed]').title");
+    assert!(
+        mark.as_str().is_some_and(|t| t.starts_with(
+            "“The lamp is on while a box waits at the exit.”: lamp runs in module mm2"
+        )),
+        "{mark}"
+    );
     assert_eq!(
         b.eval("document.querySelector('button[data-force=lamp]') === null"),
         true

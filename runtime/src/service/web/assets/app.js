@@ -370,7 +370,8 @@
       const src = el("span", { class: "src" });
       for (const part of line.parts) {
         if (part.k === "tag") {
-          const span = el("span", { class: "tag", text: part.s, "data-tag": part.s });
+          const described = app.info.tags[part.tag] && app.info.tags[part.tag].description;
+          const span = el("span", { class: "tag", text: part.s, "data-tag": part.s, title: described || undefined });
           const val = el("span", { class: "val" });
           src.append(span, val);
           app.codeTags.push({ tag: part.tag, span, val });
