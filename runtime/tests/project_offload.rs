@@ -233,7 +233,11 @@ program: { file: p.expr, kind: expr }
 
 #[test]
 fn check_fails_when_a_required_rung_stays_central() {
-    let path = scratch("require", CHECKED, "horn = a\n\nlamp = a & b\n");
+    let path = scratch(
+        "require",
+        CHECKED,
+        "horn = a\n\n# Lamp: both boxes in\nlamp = a & b\n",
+    );
     let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .args(["check", path.to_str().unwrap()])
         .output()
@@ -245,8 +249,8 @@ fn check_fails_when_a_required_rung_stays_central() {
     assert_eq!(
         stderr.trim(),
         format!(
-            "{}:3:1: error: offload: require: the rung writing lamp stays central: an input \
-             from another module: b is on mm2",
+            "{}:4:1: error: offload: require: the rung writing lamp (\"Lamp: both boxes in\") \
+             stays central: an input from another module: b is on mm2",
             program.display()
         )
     );
