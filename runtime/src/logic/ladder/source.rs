@@ -38,7 +38,8 @@ struct RawLadder {
     rungs: Vec<RawRung>,
 }
 
-/// One `rungs:` entry: the rung's text alone, or with its documentation.
+/// One `rungs:` entry: the rung's text alone, or with its documentation. `untagged` is for the
+/// schema's sake (either form, no tag); the file is read by the hand-written `Deserialize`.
 #[derive(Debug, JsonSchema)]
 #[serde(untagged)]
 enum RawRung {
