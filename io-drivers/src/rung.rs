@@ -321,7 +321,7 @@ pub struct Rung<P> {
     /// Where it is written.
     pub pos: P,
     /// What the program calls the rung, when it names it (a ladder rung's `title:`, the first
-    /// line of an expr statement's comment): reports name the rung by it.
+    /// sentence of an expr statement's comment): reports name the rung by it.
     pub title: Option<String>,
 }
 

@@ -108,9 +108,38 @@ impl DocText {
         &self.0
     }
 
-    /// Its first line: what a one-line place shows of a comment.
-    pub fn first_line(&self) -> &str {
-        self.0.lines().next().unwrap_or("")
+    /// A title made of the text: its first sentence (up to a `.`, `!` or `?` followed by a
+    /// space or the end), its lines joined, within a title's length, cut after a word with
+    /// `…` beyond it. Comments wrap where the author's editor did, so a first line can stop
+    /// mid-sentence; a sentence is what the author meant as one thought.
+    pub fn summary(&self) -> String {
+        let joined = self.0.split_whitespace().collect::<Vec<_>>().join(" ");
+        let words: Vec<&str> = joined.split(' ').collect();
+        let end = words
+            .iter()
+            .position(|w| w.ends_with(['.', '!', '?']))
+            .map_or(words.len(), |i| i + 1);
+        let sentence = words.get(..end).unwrap_or(&words).join(" ");
+        let max = DocKind::Title.max_chars();
+        if sentence.chars().count() <= max {
+            return sentence;
+        }
+        let mut out = String::new();
+        for w in sentence.split(' ') {
+            // One character is kept for the ellipsis.
+            if out.chars().count() + 1 + w.chars().count() > max - 1 {
+                break;
+            }
+            if !out.is_empty() {
+                out.push(' ');
+            }
+            out.push_str(w);
+        }
+        if out.is_empty() {
+            out = sentence.chars().take(max - 1).collect();
+        }
+        out.push('…');
+        out
     }
 }
 
@@ -154,11 +183,36 @@ mod tests {
     }
 
     #[test]
+    fn a_summary_is_the_first_sentence_within_a_titles_length() {
+        let c = |t: &str| {
+            DocText::new(DocKind::Comment, t)
+                .unwrap()
+                .unwrap()
+                .summary()
+        };
+        assert_eq!(
+            c("Pump latch: start sets it,\nstop resets it. Reset wins."),
+            "Pump latch: start sets it, stop resets it."
+        );
+        assert_eq!(c("No full stop here"), "No full stop here");
+        let long = c(
+            "Two-hand control: the press may move only while the guard is closed and \
+                      both hands are on\ntheir buttons. In mm1.",
+        );
+        assert_eq!(
+            long,
+            "Two-hand control: the press may move only while the guard is closed and both…"
+        );
+        assert!(long.chars().count() <= 80);
+        assert_eq!(c(&"x".repeat(100)).chars().count(), 80);
+    }
+
+    #[test]
     fn line_breaks_only_in_comments() {
         let e = DocText::new(DocKind::Description, "one\ntwo").unwrap_err();
         assert_eq!(e, DocTextError::LineBreak { at: 4 });
         let c = DocText::new(DocKind::Comment, "one\ntwo").unwrap().unwrap();
-        assert_eq!(c.first_line(), "one");
+        assert_eq!(c.as_str(), "one\ntwo");
         let e = DocText::new(DocKind::Comment, "bell\u{7}").unwrap_err();
         assert_eq!(e.to_string(), "a control character (U+0007) at character 5");
     }

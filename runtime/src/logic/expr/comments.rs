@@ -1,7 +1,7 @@
 //! The `#` comments that document an expr statement: the comment lines directly above it (no
 //! blank line between) and the comment at the end of its own line, in that order, one line
-//! each. The push-down report names the statement by the first of them, the web page shows
-//! them beside its placement.
+//! each. The push-down report and the web page's placement mark name the statement by the
+//! first sentence of them (`DocText::summary`).
 //!
 //! A comment after a blank line documents nothing in particular (a file's header, a section's
 //! heading) and stays in the source only.

@@ -24,7 +24,7 @@ use crate::logic::SourcePos;
 use crate::project::DocText;
 use softplc_io::rung::{BoolExpr, RungShape};
 
-/// The rungs of checked statements, each titled by the first line of its comment.
+/// The rungs of checked statements, each titled by its comment's first sentence.
 pub(crate) fn describe(
     stmts: &[CheckedStmt],
     file: &Path,
@@ -40,7 +40,7 @@ pub(crate) fn describe(
                 line: s.pos.line,
                 column: s.pos.col,
             },
-            title: comments.get(&s.pos.line).map(|c| c.first_line().to_owned()),
+            title: comments.get(&s.pos.line).map(DocText::summary),
         })
         .collect()
 }

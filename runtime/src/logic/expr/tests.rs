@@ -900,7 +900,7 @@ q = a
     assert_eq!(
         titles,
         [
-            (5, Some("Start/stop latch,".to_string())),
+            (5, Some("Start/stop latch, stop winning.".to_string())),
             (6, Some("lamp follows the belt".to_string())),
             (7, None),
         ]

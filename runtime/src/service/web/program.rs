@@ -45,8 +45,8 @@ pub struct RungMark {
     /// Why it stays in the scan, when it does.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub central: Option<String>,
-    /// The rung's title (a ladder rung's `title:`, the first line of an expr statement's
-    /// comment).
+    /// The rung's title (a ladder rung's `title:`, the first sentence of an expr
+    /// statement's comment).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub title: Option<String>,
 }
