@@ -63,8 +63,8 @@ struct DocumentedRung {
     #[serde(default)]
     #[schemars(length(max = 80))]
     title: Option<String>,
-    /// Why the rung is as it is (at most 1,000 characters, lines allowed): shown under the
-    /// rung in the web page's drawing.
+    /// Why the rung is as it is (at most 1,000 characters, lines allowed): shown above the
+    /// rung's diagram on the web page.
     #[serde(default)]
     #[schemars(length(max = 1000))]
     comment: Option<String>,
