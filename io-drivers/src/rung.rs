@@ -320,6 +320,9 @@ pub struct Rung<P> {
     pub shape: RungShape,
     /// Where it is written.
     pub pos: P,
+    /// What the program calls the rung, when it names it (a ladder rung's `title:`, the first
+    /// sentence of an expr statement's comment): reports name the rung by it.
+    pub title: Option<String>,
 }
 
 #[cfg(test)]

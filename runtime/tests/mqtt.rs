@@ -2,7 +2,8 @@
 //! 127.0.0.1 on a free port) and a third-party host application (Python paho-mqtt with the
 //! protobuf generated from Eclipse Tahu's `sparkplug_b.proto`, `runtime/tests/mqtt/consumer.py`).
 //!
-//! The consumer drives the scenario: births (datatypes, aliases, bdSeq, seq), a DDATA after the
+//! The consumer drives the scenario: births (datatypes, aliases, bdSeq, seq, a tag's
+//! `description` property), a DDATA after the
 //! plant changes an input, a write applied, writes refused (read-only tag, forced tag), a
 //! rebirth on command, a broker restart in the middle of the run (the scan keeps its cycles
 //! while the broker is away), NDEATH with the matching bdSeq when softplc is killed, and a
@@ -48,12 +49,12 @@ modules:
   - {{ name: mm2, bus: line1, model: minimod, address: 2 }}
 tags:
   - {{ name: box_at_entry, point: mm1.X1 }}
-  - {{ name: start,        point: mm1.X2 }}
+  - {{ name: start,        point: mm1.X2, description: "Start button, green" }}
   - {{ name: stop,         point: mm1.X3 }}
   - {{ name: motor,        point: mm1.Y1, safe: false }}
   - {{ name: box_at_exit,  point: mm2.X1 }}
   - {{ name: lamp,         point: mm2.Y1, safe: false }}
-  - {{ name: setpoint, type: u16, scada: write }}
+  - {{ name: setpoint, type: u16, scada: write, description: "Belt speed, mm/s" }}
   - {{ name: limit, type: i32, initial: -40 }}
   - {{ name: gain, type: f32, initial: 1.5 }}
 program:

@@ -1,7 +1,8 @@
 //! The OPC UA server against a third-party client (Python asyncua,
 //! `runtime/tests/opcua/client.py`), on 127.0.0.1 at a free port.
 //!
-//! The client browses the address space, reads each tag type's exact Variant type and the
+//! The client browses the address space, reads the Description of a described tag and module
+//! (and none of a tag without one), reads each tag type's exact Variant type and the
 //! status of a tag whose module does not answer (its line is a pty nobody serves), reads the
 //! PLC's and the modules' diagnostics, subscribes, writes a writable tag and sees the change
 //! within two cycles of the write's answer, sees a forced input within two cycles, and is
@@ -97,12 +98,12 @@ buses:
   - {{ name: line1, port: sim, baud: 57600, format: 8E1, response_timeout: 30ms, retries: 1 }}
   - {{ name: line2, port: {dead}, baud: 57600, format: 8E1, response_timeout: 20ms, retries: 0 }}
 modules:
-  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}
+  - {{ name: mm1, bus: line1, model: minimod, address: 1, description: "Conveyor entry, cabinet 1" }}
   - {{ name: mm2, bus: line1, model: minimod, address: 2 }}
   - {{ name: mm3, bus: line2, model: minimod, address: 3 }}
 tags:
   - {{ name: box_at_entry, point: mm1.X1 }}
-  - {{ name: start,        point: mm1.X2 }}
+  - {{ name: start,        point: mm1.X2, description: "Start button, green" }}
   - {{ name: stop,         point: mm1.X3, scada: none }}
   - {{ name: motor,        point: mm1.Y1, safe: false }}
   - {{ name: box_at_exit,  point: mm2.X1, scada: none }}
@@ -320,7 +321,8 @@ fn run_client(name: &str, writes: bool, mode: &str, torn: bool) -> Vec<String> {
 #[test]
 fn an_asyncua_client_browses_reads_subscribes_writes_and_is_refused_where_it_must_be() {
     let passed = run_client("full", true, "full", false);
-    assert_eq!(passed.len(), 6, "every step passed: {passed:?}");
+    assert_eq!(passed.len(), 7, "every step passed: {passed:?}");
+    assert_eq!(passed[1], "descriptions");
 }
 
 #[test]

@@ -925,6 +925,74 @@ fn tag_types_and_values() {
 }
 
 #[test]
+fn descriptions_are_kept_on_tags_and_modules() {
+    let text = format!(
+        "{HEAD}{BUS}modules:
+  - name: mm1
+    bus: line1
+    model: minimod
+    address: 1
+    description: >
+      Cabinet 1, left rail,
+      beside the door
+tags:
+  - {{ name: start, point: mm1.X1, description: \"Start button, green\" }}
+  - {{ name: count, type: u16, description: '   ' }}
+"
+    );
+    let project = parse_str(&text, &file()).unwrap();
+    let module = project.modules[0].description.as_ref().map(|d| d.as_str());
+    assert_eq!(module, Some("Cabinet 1, left rail, beside the door"));
+    let start = project.tags[0].description.as_ref().map(|d| d.as_str());
+    assert_eq!(start, Some("Start button, green"));
+    assert_eq!(project.tags[1].description, None, "blank is no description");
+}
+
+#[test]
+fn a_description_too_long_or_of_several_lines_is_refused_at_its_value() {
+    let long = "x".repeat(257);
+    let text = format!(
+        "{HEAD}{BUS}{MM1}    description: {long}
+tags:
+  - {{ name: a, type: bool, description: \"one\\ntwo\" }}
+"
+    );
+    let got: Vec<(usize, usize, String)> = errors(&text)
+        .iter()
+        .map(|e| (e.line, e.column, e.to_string()))
+        .collect();
+    let file = file();
+    assert_eq!(
+        got,
+        [
+            (
+                15,
+                18,
+                format!(
+                    "{}:15:18: error: module mm1: description: 257 characters, at most 256 are \
+                     allowed",
+                    file.display()
+                )
+            ),
+            (
+                17,
+                41,
+                format!(
+                    "{}:17:41: error: tag a: description: a line break at character 4: this \
+                     text is one line (a YAML folded block `>-` joins lines)",
+                    file.display()
+                )
+            ),
+        ]
+    );
+    // A list is not a text: the reader stops there, at the value.
+    let text = format!("{HEAD}{BUS}{MM1}tags:\n  - {{ name: a, type: bool, description: [x] }}\n");
+    let e = one(&text);
+    assert_eq!(at(&e), (16, 41));
+    assert!(e.to_string().contains("expected a string"), "{e}");
+}
+
+#[test]
 fn program_kind_and_file() {
     let text = "\
 project: t

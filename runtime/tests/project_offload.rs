@@ -233,7 +233,11 @@ program: { file: p.expr, kind: expr }
 
 #[test]
 fn check_fails_when_a_required_rung_stays_central() {
-    let path = scratch("require", CHECKED, "horn = a\n\nlamp = a & b\n");
+    let path = scratch(
+        "require",
+        CHECKED,
+        "horn = a\n\n# Lamp: both boxes in\nlamp = a & b\n",
+    );
     let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .args(["check", path.to_str().unwrap()])
         .output()
@@ -245,8 +249,8 @@ fn check_fails_when_a_required_rung_stays_central() {
     assert_eq!(
         stderr.trim(),
         format!(
-            "{}:3:1: error: offload: require: the rung writing lamp stays central: an input \
-             from another module: b is on mm2",
+            "{}:4:1: error: offload: require: the rung writing lamp (\"Lamp: both boxes in\") \
+             stays central: an input from another module: b is on mm2",
             program.display()
         )
     );
@@ -328,4 +332,45 @@ fn reaction_times_count_the_input_latency_and_the_adapters() {
         line(&usb),
         "reaction: module ≤ 21.00ms (input latency 20.00ms (X3 of mm1) + its tick 1.00ms) vs central ≤ 285.11ms (input latency 20.00ms (X3 of mm1) + period 100.00ms + inputs 102.69ms + write 62.42ms)"
     );
+}
+
+#[test]
+fn the_report_names_a_rung_by_its_title_or_its_comment() {
+    let path = scratch(
+        "titled",
+        &CHECKED.replace(", offload: require", ""),
+        "# Horn follows a\nhorn = a\nlamp = a & b  # Lamp: both boxes in\n",
+    );
+    let ladder = "rungs:\n  - { rung: a -> horn, title: Horn follows a }\n  - a b -> lamp\n";
+    std::fs::write(path.with_file_name("p.yaml"), ladder).unwrap();
+    let ladder_project = path.with_file_name("ladder.yaml");
+    let text = CHECKED
+        .replace(", offload: require", "")
+        .replace("file: p.expr, kind: expr", "file: p.yaml, kind: ladder");
+    std::fs::write(&ladder_project, text).unwrap();
+    for (project, program, horn, lamp) in [
+        (
+            &path,
+            "p.expr",
+            "2:1 \"Horn follows a\"",
+            "3:1 \"Lamp: both boxes in\"",
+        ),
+        (&ladder_project, "p.yaml", "2:13 \"Horn follows a\"", "3:5"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
+            .args(["check", project.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{stdout}");
+        let at = path.with_file_name(program).display().to_string();
+        let horn = format!("  {at}:{horn} horn (combinational): module mm1 Y2,");
+        let lamp = format!("  {at}:{lamp} lamp (combinational): central: ");
+        for want in [horn, lamp] {
+            assert!(
+                stdout.lines().any(|l| l.starts_with(&want)),
+                "{want}\n{stdout}"
+            );
+        }
+    }
 }

@@ -328,3 +328,28 @@ fn a_profile_with_a_wrong_word_or_key_fails_where_it_is() {
         "{errors:?}"
     );
 }
+
+#[test]
+fn descriptions_titles_and_comments_are_known_and_bounded() {
+    let ok = "rungs:\n  - a -> b\n  - { rung: c -> d, title: Motor latch, comment: \"why\\nand how\" }\n";
+    assert_eq!(violations("ladder", ok), Vec::<String>::new());
+    let long = format!(
+        "rungs:\n  - {{ rung: c -> d, title: {} }}\n",
+        "x".repeat(81)
+    );
+    let errors = violations("ladder", &long);
+    assert!(
+        errors.len() == 1 && errors[0].starts_with("/rungs/0: "),
+        "the rung fits neither form: {errors:?}"
+    );
+    let typo = violations("ladder", "rungs:\n  - { rung: c -> d, titel: x }\n");
+    assert_eq!(typo.len(), 1, "{typo:?}");
+    let project = "project: p\nscan: { period: 20ms }\nbuses: []\nmodules: []\ntags:\n  - { name: a, type: bool, description: Door open }\nprogram: { file: p.expr, kind: expr }\n";
+    assert_eq!(violations("project", project), Vec::<String>::new());
+    let too_long = project.replace("Door open", &"x".repeat(257));
+    let errors = violations("project", &too_long);
+    assert!(
+        errors.len() == 1 && errors[0].starts_with("/tags/0/description: "),
+        "{errors:?}"
+    );
+}

@@ -300,6 +300,14 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     // The pushed-down rung is marked with its module; the lamp cannot be forced from the scan.
     let pushed = b.eval("[...document.querySelectorAll('#program [data-pushed]')].map(e => e.dataset.pushed).join(',')");
     assert_eq!(pushed.as_str(), Some("mm2"), "the lamp's rung runs in mm2");
+    // Its mark names the statement by its comment, the line above it in conveyor.expr.
+    let mark = b.eval("document.querySelector('#program [data-pushed]').title");
+    assert!(
+        mark.as_str().is_some_and(|t| t.starts_with(
+            "“The lamp is on while a box waits at the exit.”: lamp runs in module mm2"
+        )),
+        "{mark}"
+    );
     assert_eq!(
         b.eval("document.querySelector('button[data-force=lamp]') === null"),
         true
@@ -443,7 +451,9 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
         "description: the web page's ladder test\n\
          rungs:\n\
          \x20 - start /stop -> motor                  # two contacts, one NC, a coil\n\
-         \x20 - box_at_exit -> lamp                   # pushed down into mm2\n\
+         \x20 - rung: box_at_exit -> lamp             # pushed down into mm2\n\
+         \x20   title: Take-away lamp\n\
+         \x20   comment: \"Lit while a box waits at the exit;\\npushed down into mm2.\"\n\
          \x20 - motor -> TON run(300ms) -> running    # a block, its Q on a coil\n\
          \x20 - (start | box_at_exit) -> set seen\n\
          \x20 - start -> TON jam(3s)                  # a block driving no coil\n\
@@ -457,13 +467,13 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
          scan: {{ period: 50ms, watchdog: {{ time: 1s, sensitivity: 3 }} }}\n\
          offload: auto\n\
          buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 200ms, retries: 1 }}\n\
-         modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2 }}\n\
+         modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2, description: Exit station }}\n\
          tags:\n\
          \x20 - {{ name: start,        point: mm1.X2 }}\n\
          \x20 - {{ name: stop,         point: mm1.X3 }}\n\
          \x20 - {{ name: motor,        point: mm1.Y1, safe: false }}\n\
          \x20 - {{ name: running,      point: mm1.Y2, safe: false }}\n\
-         \x20 - {{ name: box_at_exit,  point: mm2.X1 }}\n\
+         \x20 - {{ name: box_at_exit,  point: mm2.X1, description: Photo eye at the exit }}\n\
          \x20 - {{ name: lamp,         point: mm2.Y1, safe: false }}\n\
          \x20 - {{ name: seen,         type: bool }}\n\
          \x20 - {{ name: jammed,       type: bool }}\n\
@@ -480,6 +490,16 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
         Duration::from_secs(30),
     )
     .expect("the program view draws the rungs as ladders");
+    // A rung's title in its head and its comment under it; a rung without them has none.
+    assert_eq!(
+        b.eval("[document.querySelector('#rung-2 .lad-title')?.textContent, document.querySelector('#rung-2 .lad-comment')?.textContent, document.querySelector('#rung-1 .lad-title'), document.querySelector('#rung-1 .lad-comment')]"),
+        serde_json::json!(["Take-away lamp", "Lit while a box waits at the exit;\npushed down into mm2.", null, null])
+    );
+    // The descriptions of a module and a tag in the I/O tables.
+    assert_eq!(
+        b.eval("[[...document.querySelectorAll('.module-desc')].map(e => e.textContent), [...document.querySelectorAll('.tag-desc')].map(e => e.closest('tr').dataset.tag + ': ' + e.textContent)]"),
+        serde_json::json!([["Exit station"], ["box_at_exit: Photo eye at the exit"]])
+    );
     let elements = |b: &mut Browser, n: u32| {
         b.eval(&format!("({RUNG_ELEMENTS})({n})"))
             .as_str()

@@ -133,11 +133,12 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         {
             let _ = writeln!(
                 out,
-                "  module {} = {} @{} ({})",
+                "  module {} = {} @{} ({}){}",
                 module.name,
                 module.model.name,
                 module.device.address,
-                module.device.protocol.name()
+                module.device.protocol.name(),
+                described(module.description.as_ref())
             );
             if let Some(line) = crate::offload::report::startup_logic(module) {
                 let _ = writeln!(out, "    {line}");
@@ -160,10 +161,11 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
                         let safe = tag.safe.map(|v| format!(" safe={v}")).unwrap_or_default();
                         let _ = writeln!(
                             out,
-                            "    {dir} {:<8} {:<4} → tag #{i} {}{safe}",
+                            "    {dir} {:<8} {:<4} → tag #{i} {}{safe}{}",
                             p.name,
                             p.ty.name(),
-                            tag.name
+                            tag.name,
+                            described(tag.description.as_ref())
                         );
                     }
                 }
@@ -287,7 +289,14 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
     if !memory.is_empty() {
         let _ = writeln!(out, "\nmemory tags:");
         for t in memory {
-            let _ = writeln!(out, "  {} {} = {}", t.name, t.ty.name(), t.initial);
+            let _ = writeln!(
+                out,
+                "  {} {} = {}{}",
+                t.name,
+                t.ty.name(),
+                t.initial,
+                described(t.description.as_ref())
+            );
         }
     }
     let _ = writeln!(
@@ -309,6 +318,11 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         let _ = writeln!(out, "{w}");
     }
     out
+}
+
+/// A description at the end of an I/O map's line: `  — Start button, green`, or nothing.
+fn described(description: Option<&crate::project::DocText>) -> String {
+    description.map_or(String::new(), |d| format!("  — {d}"))
 }
 
 /// A profile module's I/O map: where the profile came from, its timing and poll groups, then
@@ -350,15 +364,19 @@ fn profile_map(
             Some(b) => &p.bits[b].name,
             None => &p.name,
         };
-        let bound: Vec<&str> = tags
+        let bound: Vec<&crate::project::TagConfig> = tags
             .iter()
             .filter(|t| t.binding == Binding::Point { module, point: e })
-            .map(|t| t.name.as_str())
             .collect();
         let tag = if bound.is_empty() {
             String::new()
         } else {
-            format!(" → tag {}", bound.join(", "))
+            let names: Vec<&str> = bound.iter().map(|t| t.name.as_str()).collect();
+            let words: String = bound
+                .iter()
+                .map(|t| described(t.description.as_ref()))
+                .collect();
+            format!(" → tag {}{words}", names.join(", "))
         };
         let _ = writeln!(
             out,

@@ -50,14 +50,26 @@ pub struct Conditioning {
 
 /// A rung that must be pushed down and cannot.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{pos}: error: offload: require: the rung writing {coil} stays central: {reason}")]
+#[error(
+    "{pos}: error: offload: require: the rung writing {coil}{} stays central: {reason}",
+    titled(.title)
+)]
 pub struct RequireFailure {
     /// The rung.
     pub pos: SourcePos,
     /// Its coil.
     pub coil: String,
+    /// The rung's title, when the program gives it one.
+    pub title: Option<String>,
     /// Why.
     pub reason: Reason,
+}
+
+/// ` ("Belt latch")` after a coil's name when its rung has a title, else nothing.
+fn titled(title: &Option<String>) -> String {
+    title
+        .as_ref()
+        .map_or(String::new(), |t| format!(" (\"{t}\")"))
 }
 
 /// The push-down plan of a project.
@@ -105,6 +117,7 @@ impl Plan {
                 (Placement::Central(reason), OffloadMode::Require) => Some(RequireFailure {
                     pos: r.rung.pos.clone(),
                     coil: r.coil.clone(),
+                    title: r.rung.title.clone(),
                     reason: reason.clone(),
                 }),
                 _ => None,

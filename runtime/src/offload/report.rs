@@ -106,7 +106,7 @@ pub fn report(project: &Project, plan: &Plan) -> String {
                 let _ = writeln!(
                     out,
                     "  {} {} ({}): central: {reason}",
-                    r.rung.pos,
+                    site(r),
                     r.coil,
                     r.rung.shape.name()
                 );
@@ -156,6 +156,15 @@ pub fn report(project: &Project, plan: &Plan) -> String {
         );
     }
     out
+}
+
+/// Where a rung is, and its title when the program gives it one: `conveyor.yaml:4:5 "Belt
+/// latch"` (a file position alone says little to the person who reads the report).
+fn site(r: &RungPlan) -> String {
+    match &r.rung.title {
+        Some(title) => format!("{} \"{title}\"", r.rung.pos),
+        None => r.rung.pos.to_string(),
+    }
 }
 
 /// The start-up settings a module's driver adds for the plan, as `NAME: value` (what the
@@ -249,7 +258,7 @@ fn module_rung(
     let _ = writeln!(
         out,
         "  {} {} ({}): module {} {point}, {}",
-        r.rung.pos,
+        site(r),
         r.coil,
         r.rung.shape.name(),
         module.name,

@@ -45,6 +45,7 @@ fn rung(coil: u32, shape: RungShape) -> Rung {
             line: coil + 1,
             column: 1,
         },
+        title: None,
     }
 }
 

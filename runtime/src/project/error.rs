@@ -566,6 +566,18 @@ pub enum ErrorKind {
         /// Its point.
         point: String,
     },
+    /// A `description:` that cannot document its item (too long, or a line break).
+    #[error("{item} {name}: {key}: {error}")]
+    BadDocText {
+        /// The kind of item.
+        item: Item,
+        /// Its name.
+        name: String,
+        /// The key (`description`).
+        key: &'static str,
+        /// What is wrong with the text.
+        error: super::doc_text::DocTextError,
+    },
     /// A `safe` or `initial` value that is not of the tag's type.
     #[error("tag {tag}: {key} value {value} is not a {ty}")]
     BadValue {

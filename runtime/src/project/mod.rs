@@ -19,6 +19,7 @@
 mod adapter;
 mod cycle_mix;
 mod dcon_neighbours;
+mod doc_text;
 pub(crate) mod error;
 pub(crate) mod line_plan;
 pub(crate) mod model;
@@ -45,6 +46,7 @@ pub(crate) mod web;
 
 use std::path::Path;
 
+pub use doc_text::{DocKind, DocText, DocTextError};
 pub use error::{ErrorKind, Item, ProjectError, ProjectErrors};
 pub use line_plan::{Choice, Direction, FastTurn, InputPlan, LinePlan, SlowTurn, Tuned};
 pub use model::*;

@@ -135,6 +135,8 @@ pub struct BusConfig {
 pub struct ModuleConfig {
     /// The module's name (`mm1`).
     pub name: String,
+    /// What it is and where it sits, in the engineer's words (`description:`).
+    pub description: Option<super::DocText>,
     /// Index into [`Project::buses`].
     pub bus: usize,
     /// Its model.
@@ -152,6 +154,8 @@ pub struct ModuleConfig {
 pub struct TagConfig {
     /// The tag's name, as programs use it.
     pub name: String,
+    /// What it is, in the engineer's words (`description:`).
+    pub description: Option<super::DocText>,
     /// Its type.
     pub ty: ValueType,
     /// What it is bound to.

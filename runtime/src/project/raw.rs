@@ -54,8 +54,11 @@
 //!     settings: { RDELAYT: 5 } # optional, model-specific, checked by the model
 //!     watchdog: off            # optional; auto (default) | off: the module's own watchdog
 //!                              # (see `watchdog.rs`)
+//!     description: Cabinet 1, left rail   # optional, one line, at most 256 characters
 //! tags:
 //!   - { name: start, point: mm1.X2 }           # bound to a point; its type is the point's
+//!   - { name: stop, point: mm1.X3, description: Stop button, red }   # optional words, one
+//!                                              # line, at most 256 characters (`doc_text.rs`)
 //!   - { name: motor, point: mm1.Y1, safe: false }   # `safe`: written in the safe state
 //!   - { name: count, type: u16, initial: 0 }   # a memory variable
 //!   - { name: hours, type: i32, retain: true } # kept across restarts (memory tags only)
@@ -326,7 +329,7 @@ pub(crate) struct RawRs485 {
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a module: a mapping with name, bus, model, address, protocol, settings and watchdog"
+    expecting = "a module: a mapping with name, bus, model, address, protocol, settings, watchdog and description"
 )]
 #[schemars(extend("allOf" = super::raw_schema::field::settings_hints()))]
 pub(crate) struct RawModule {
@@ -350,13 +353,18 @@ pub(crate) struct RawModule {
     #[serde(default)]
     #[schemars(schema_with = "super::raw_schema::field::module_watchdog")]
     pub watchdog: Option<ScalarText>,
+    /// What the module is and where it sits, in words (one line, at most 256 characters):
+    /// shown in `check`'s I/O map, on the web page and as its OPC UA folder's Description.
+    #[serde(default)]
+    #[schemars(length(max = 256))]
+    pub description: Option<String>,
 }
 
 /// One `tags:` entry.
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a tag: a mapping with name and point or type, safe, initial"
+    expecting = "a tag: a mapping with name and point or type, safe, initial, description"
 )]
 #[schemars(extend("anyOf" = [{ "required": ["point"] }, { "required": ["type"] }]))]
 pub(crate) struct RawTag {
@@ -392,6 +400,12 @@ pub(crate) struct RawTag {
     /// MiniMod input pulse stretching in the module (see [`super::offload`]).
     #[serde(default)]
     pub stretch: Option<DurationText>,
+    /// What the tag is, in words (one line, at most 256 characters): shown in `check`'s I/O
+    /// map, on the web page, as the OPC UA node's Description and the Sparkplug metric's
+    /// `description` property.
+    #[serde(default)]
+    #[schemars(length(max = 256))]
+    pub description: Option<String>,
 }
 
 /// `program:`.

@@ -9,6 +9,7 @@ use softplc_io::line::{LineSettings, SerialFormat};
 use softplc_io::point::{Access, Value, ValueType};
 use softplc_io::sim::plant;
 
+use super::doc_text::{DocKind, DocText};
 use super::error::{ErrorKind, Item, ProjectError};
 use softplc_io::line::{NetFraming, TcpEndpoint};
 
@@ -963,25 +964,32 @@ impl Validator<'_> {
             }
         }
         let address = address.and_then(|a| ModuleAddress::new(model, a).ok());
-        let config = match (bus, address, protocol, settings, policy) {
-            (Some(bus), Some(address), Some(protocol), Some(settings), Some(policy)) => {
-                Some(ModuleConfig {
+        let description = self.description(Item::Module, &m.name, m.description.as_deref(), path);
+        let config = match (bus, address, protocol, settings, policy, description) {
+            (
+                Some(bus),
+                Some(address),
+                Some(protocol),
+                Some(settings),
+                Some(policy),
+                Some(description),
+            ) => Some(ModuleConfig {
+                name: m.name.clone(),
+                description,
+                bus,
+                model,
+                device: DeviceConfig {
                     name: m.name.clone(),
-                    bus,
-                    model,
-                    device: DeviceConfig {
-                        name: m.name.clone(),
-                        address,
-                        protocol,
-                        settings,
-                        push_down: PushDown::None,
-                    },
-                    watchdog: super::watchdog::ModuleWatchdog {
-                        policy,
-                        ..Default::default()
-                    },
-                })
-            }
+                    address,
+                    protocol,
+                    settings,
+                    push_down: PushDown::None,
+                },
+                watchdog: super::watchdog::ModuleWatchdog {
+                    policy,
+                    ..Default::default()
+                },
+            }),
             _ => None,
         };
         (resolved, config)
@@ -1203,14 +1211,42 @@ impl Validator<'_> {
             }
         };
 
+        let description = self.description(Item::Tag, &t.name, t.description.as_deref(), path);
         Some(TagConfig {
             name: t.name.clone(),
+            description: description?,
             ty,
             binding,
             safe: safe?,
             initial: initial?,
             retain: retain?,
         })
+    }
+
+    /// The entry's `description:`; `None` when it is refused (and reported at the key).
+    fn description(
+        &mut self,
+        item: Item,
+        name: &str,
+        text: Option<&str>,
+        path: &YPath,
+    ) -> Option<Option<DocText>> {
+        let Some(text) = text else {
+            return Some(None);
+        };
+        match DocText::new(DocKind::Description, text) {
+            Ok(d) => Some(d),
+            Err(error) => {
+                let kind = ErrorKind::BadDocText {
+                    item,
+                    name: name.to_owned(),
+                    key: "description",
+                    error,
+                };
+                self.error(path.key("description"), kind);
+                None
+            }
+        }
     }
 
     fn value(

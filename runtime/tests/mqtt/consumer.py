@@ -80,6 +80,15 @@ def quality(m):
     return None
 
 
+def string_property(m, key):
+    for k, v in zip(m.properties.keys, m.properties.values):
+        if k == key:
+            if v.type != STRING:
+                fail(f"{m.name}'s {key} property has type {v.type}, not String")
+            return v.string_value
+    return None
+
+
 def wait_for(what, pred, timeout=WAIT):
     """The first message (topic, payload) that `pred` accepts, within `timeout`."""
     deadline = time.monotonic() + timeout
@@ -131,6 +140,12 @@ def check_births(expect_bd_seq=None):
         fail("PLC/State is not running in NBIRTH")
     if value(metric(nb, "limit")) != -40:
         fail(f"limit (i32) born as {value(metric(nb, 'limit'))}, not -40")
+    # A tag's `description:` is its metric's `description` property in the births.
+    got = string_property(metric(nb, "setpoint"), "description")
+    if got != "Belt speed, mm/s":
+        fail(f"NBIRTH setpoint's description property: {got!r}")
+    if string_property(metric(nb, "limit"), "description") is not None:
+        fail("NBIRTH limit has a description property, and no description")
     seqs = [0]
     for dev, tags in [("mm1", ["box_at_entry", "start", "stop", "motor"]),
                       ("mm2", ["box_at_exit", "lamp"])]:
@@ -143,6 +158,10 @@ def check_births(expect_bd_seq=None):
             if quality(m) not in (192, 500, 0):
                 fail(f"DBIRTH {dev} {name}: no Quality property")
             aliases[m.alias] = (name, BOOLEAN)
+            got = string_property(m, "description")
+            want = "Start button, green" if name == "start" else None
+            if got != want:
+                fail(f"DBIRTH {dev} {name}: description property {got!r}, not {want!r}")
     # Each DBIRTH follows the NBIRTH, its seq one more than the node's message before it: 1
     # and 2 when both modules are up at the birth; a module still stale then (a loaded
     # machine) is born when it answers, after data that took seqs in between.

@@ -1,7 +1,8 @@
 """A third-party OPC UA client (asyncua) against softplc's OPC UA server.
 
 Usage: client.py URL NAMESPACE_URI PERIOD_MS MODE [CERT_DIR USER PASSWORD]
-MODE "full": browse, read (types, status codes, timestamps), subscribe, write, refusals.
+MODE "full": browse, descriptions, read (types, status codes, timestamps), subscribe, write,
+refusals.
 MODE "writes-off": a write to a `scada: write` tag is refused when the server's writes are off.
 MODE "secure": against a Basic256Sha256 Sign & Encrypt endpoint with a user: SecurityPolicy
 None is refused, the client's own certificate (made in CERT_DIR) is trusted by the server once
@@ -121,6 +122,21 @@ async def full(c):
     plc = sorted([(await ch.read_browse_name()).Name for ch in await names["PLC"].get_children()])
     check(plc == sorted(["State", "Scans", "Overruns", "CycleP50", "CycleP99", "CycleMax"]), f"PLC: {plc}")
     say("PASS browse")
+
+    # Descriptions: a tag's and a module's `description:` are their nodes' Description
+    # attribute; a tag without one has none.
+    async def description(ident):
+        try:
+            return (await node(ident).read_description()).Text
+        except ua.UaStatusCodeError:
+            return None
+    got = await description("Tags.start")
+    check(got == "Start button, green", f"Tags.start's Description: {got!r}")
+    got = await description("Modules.mm1")
+    check(got == "Conveyor entry, cabinet 1", f"Modules.mm1's Description: {got!r}")
+    got = await description("Tags.box_at_entry")
+    check(not got, f"Tags.box_at_entry has a Description: {got!r}")
+    say("PASS descriptions")
     # The values come with the server's first snapshot of the scan.
     await first_value(node("Tags.setpoint"))
 

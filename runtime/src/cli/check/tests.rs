@@ -187,3 +187,34 @@ fn the_collect_floor_counts_the_adapter_latency_once_per_collect() {
         ]
     );
 }
+
+#[test]
+fn the_io_map_shows_each_modules_and_tags_description() {
+    let fixture = Fixture::new("described", "sim", "", "1\n");
+    let file = fixture.sys().join("project.yaml");
+    let text = std::fs::read_to_string(&file)
+        .unwrap()
+        .replace(
+            "settings: { events: false }",
+            "settings: { events: false }, description: \"Cabinet 1, left rail\"",
+        )
+        .replace(
+            "point: mm1.X1 }",
+            "point: mm1.X1, description: \"Door button, green\" }",
+        )
+        .replace(
+            "program:",
+            "  - { name: count, type: u16, description: Doors opened today }\nprogram:",
+        );
+    std::fs::write(&file, text).unwrap();
+    let report = fixture.report();
+    assert_eq!(
+        lines(&report, &["module mm1", "in  X1", "out Y1", "count"]),
+        [
+            "module mm1 = minimod @1 (modbus)  — Cabinet 1, left rail",
+            "in  X1       bool → tag #0 button  — Door button, green",
+            "out Y1       bool → tag #1 lamp safe=0",
+            "count u16 = 0  — Doors opened today",
+        ]
+    );
+}

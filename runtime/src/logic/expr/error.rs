@@ -19,6 +19,12 @@ pub struct CompileError {
 /// What is wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CompileErrorKind {
+    /// The `#` comment documenting a statement is too long or holds a control character.
+    #[error("comment: {error}")]
+    Documentation {
+        /// What is wrong with the text.
+        error: crate::project::DocTextError,
+    },
     /// The text does not follow the grammar.
     #[error("expected {expected}, found {found}")]
     Syntax {

@@ -11,6 +11,7 @@
 //! [`LogicEngine`]: crate::logic::LogicEngine
 
 mod check;
+mod comments;
 mod error;
 mod exec;
 mod lexer;
@@ -153,6 +154,7 @@ pub fn compile(
             Err(e) => errors.push(e),
         }
     }
+    let comments = comments::statement_comments(source, &mut errors);
     let checked = check::check(&stmts, tags, &mut errors);
     if !errors.is_empty() {
         errors.sort_by_key(|(pos, _)| *pos);
@@ -173,7 +175,7 @@ pub fn compile(
         lower::max_depth(&lowered.code).is_some(),
         "unbalanced lowered code"
     );
-    let rungs = rungs::describe(&checked, file);
+    let rungs = rungs::describe(&checked, file, &comments);
     let types = crate::logic::vm::tag_types(tags);
     Ok(ExprProgram::new(lowered, types, file.to_path_buf()).with_rungs(rungs))
 }

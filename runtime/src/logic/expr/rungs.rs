@@ -17,12 +17,19 @@ use super::check::{BoolExpr as Expr, CheckedStmt};
 use super::parser::EdgeKind;
 use crate::image::TagId;
 use crate::logic::blocks::Kind;
+use std::collections::BTreeMap;
+
 use crate::logic::Rung;
 use crate::logic::SourcePos;
+use crate::project::DocText;
 use softplc_io::rung::{BoolExpr, RungShape};
 
-/// The rungs of checked statements.
-pub(crate) fn describe(stmts: &[CheckedStmt], file: &Path) -> Vec<Rung> {
+/// The rungs of checked statements, each titled by its comment's first sentence.
+pub(crate) fn describe(
+    stmts: &[CheckedStmt],
+    file: &Path,
+    comments: &BTreeMap<u32, DocText>,
+) -> Vec<Rung> {
     stmts
         .iter()
         .map(|s| Rung {
@@ -33,6 +40,7 @@ pub(crate) fn describe(stmts: &[CheckedStmt], file: &Path) -> Vec<Rung> {
                 line: s.pos.line,
                 column: s.pos.col,
             },
+            title: comments.get(&s.pos.line).map(DocText::summary),
         })
         .collect()
 }

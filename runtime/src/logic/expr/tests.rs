@@ -880,3 +880,36 @@ fn an_undeclared_coil_is_one_error_with_its_uses_and_how_to_declare_it() {
         ["p.expr:1:1: error: unknown tag `running`; declare it under `tags:` in the project, e.g. `- { name: running, type: bool }` for a memory bit (also used on lines 2, 3)"]
     );
 }
+
+#[test]
+fn a_statements_comments_title_its_rung_and_a_comment_too_long_is_refused() {
+    let src = "\
+# Conveyor (a header: a blank line follows).
+
+# Start/stop latch,
+# stop winning.
+motor = (start | motor) & !stop
+lamp = motor  # lamp follows the belt
+q = a
+";
+    let p = compile(src, Path::new("p.expr"), &table(TAGS)).unwrap();
+    let titles: Vec<(u32, Option<String>)> = p
+        .rungs()
+        .unwrap()
+        .into_iter()
+        .map(|r| (r.pos.line, r.title))
+        .collect();
+    assert_eq!(
+        titles,
+        [
+            (5, Some("Start/stop latch, stop winning.".to_string())),
+            (6, Some("lamp follows the belt".to_string())),
+            (7, None),
+        ]
+    );
+    let long = format!("q = a  # {}\n", "x".repeat(1001));
+    assert_eq!(
+        errors(&long),
+        ["p.expr:1:8: error: comment: 1001 characters, at most 1000 are allowed"]
+    );
+}

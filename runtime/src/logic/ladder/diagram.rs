@@ -16,6 +16,7 @@ use super::error::CompileError;
 use super::parser::{self, Action, Arg, Cond, Lit, Ref};
 use super::{front, CoilKind, Front};
 use crate::logic::expr::TagTable;
+use crate::project::DocText;
 
 /// A value as a diagram shows it: a tag, an instance's output or a literal.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -180,6 +181,12 @@ pub struct RungDiagram {
     pub line: u32,
     /// Its text.
     pub text: String,
+    /// Its `title:`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub title: Option<String>,
+    /// Its `comment:`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub comment: Option<String>,
     /// Its condition; `None` when always powered (`-> ...`).
     pub cond: Option<Element>,
     /// The block it calls, if any.
@@ -213,13 +220,13 @@ pub fn diagram(
                 Action::Outputs(outs) => (None, outs.iter().map(|o| names.output(o)).collect()),
                 Action::Block { call, coils } => (names.block(call, coils), Vec::new()),
             };
+            let rung_text = src.rungs.get(*i);
+            let doc = |d: Option<&DocText>| d.map(ToString::to_string);
             RungDiagram {
                 line: src.position(*i, 0).0,
-                text: src
-                    .rungs
-                    .get(*i)
-                    .map(|r| r.text.clone())
-                    .unwrap_or_default(),
+                text: rung_text.map(|r| r.text.clone()).unwrap_or_default(),
+                title: doc(rung_text.and_then(|r| r.title.as_ref())),
+                comment: doc(rung_text.and_then(|r| r.comment.as_ref())),
                 cond: rung.cond.as_ref().map(|c| names.element(c)),
                 block,
                 outputs,

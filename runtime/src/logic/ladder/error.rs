@@ -49,6 +49,15 @@ pub enum CompileErrorKind {
         /// The YAML reader's message.
         message: String,
     },
+    /// A rung's `title:` or `comment:` that cannot document it (too long, a line break in
+    /// a title).
+    #[error("rung {key}: {error}")]
+    Documentation {
+        /// `title` or `comment`.
+        key: &'static str,
+        /// What is wrong with the text.
+        error: crate::project::DocTextError,
+    },
     /// A rung with no text.
     #[error("empty rung; write `CONDITION -> COIL`")]
     EmptyRung,

@@ -7,7 +7,13 @@
 //!   - motor /box_at_exit -> TON jam(10s) -> jam_lamp           # running 10 s without a box out
 //!   - rising(box_at_exit) -> CTU boxes(1000, r=reset) -> full
 //!   - rising(box_at_exit) -> ADD(total, 1) => total
+//!   - rung: jam_lamp /reset -> horn
+//!     title: Jam horn                     # one line, at most 80 characters
+//!     comment: Sounds until reset.        # lines allowed, at most 1,000 characters
 //! ```
+//!
+//! A rung is its text, or a mapping with the text as `rung:` and its `title:` and `comment:`:
+//! the page's drawing shows both, `check`'s push-down report names the rung by its title.
 //!
 //! A rung reads left to right like a ladder diagram: contacts in series (written one after the
 //! other), parallel branches (`|`, loosest), parentheses, then `->` and what the power flow
@@ -94,6 +100,18 @@ fn front(source: &str, file: &Path, tags: &TagTable) -> Result<Front, Vec<Compil
             }])
         }
     };
+    if !src.doc_errors.is_empty() {
+        // A title or comment refused stops here, as a YAML error does: the rungs themselves
+        // may be fine, but the file is not what its author meant to write.
+        return Err(src
+            .doc_errors
+            .iter()
+            .map(|&(line, column, key, error)| CompileError {
+                pos: at(line, column),
+                kind: CompileErrorKind::Documentation { key, error },
+            })
+            .collect());
+    }
     let mut errors: Vec<check::Error> = Vec::new();
     let mut rungs = Vec::with_capacity(src.rungs.len());
     for (i, rung) in src.rungs.iter().enumerate() {
@@ -191,7 +209,8 @@ pub fn compile(
     let instances = instances.kinds.iter().map(|&k| Instance::new(k)).collect();
     let described = rungs::describe(&checked, |i| {
         let (line, column) = src.position(i, 0);
-        at(line, column)
+        let title = src.rungs.get(i).and_then(|r| r.title.as_ref());
+        (at(line, column), title.map(ToString::to_string))
     });
     Ok(
         LadderProgram::new(lowered, instances, types, rung_pos, file.to_path_buf())

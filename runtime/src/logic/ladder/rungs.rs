@@ -36,8 +36,12 @@ enum Drive {
     Latch(bool, Cond),
 }
 
-/// The rungs of checked ladder rungs; `rung_pos(i)` is where rung `i` of the file starts.
-pub(crate) fn describe(rungs: &[CRung], rung_pos: impl Fn(usize) -> SourcePos) -> Vec<Rung> {
+/// The rungs of checked ladder rungs; `rung_site(i)` is where rung `i` of the file starts and
+/// its title. A tag several rungs drive (set and reset) is named after the first of them.
+pub(crate) fn describe(
+    rungs: &[CRung],
+    rung_site: impl Fn(usize) -> (SourcePos, Option<String>),
+) -> Vec<Rung> {
     // Tag → (first rung index, drives in rung order).
     let mut by_tag: BTreeMap<TagId, (usize, Vec<Drive>)> = BTreeMap::new();
     let mut order: Vec<TagId> = Vec::new();
@@ -88,10 +92,12 @@ pub(crate) fn describe(rungs: &[CRung], rung_pos: impl Fn(usize) -> SourcePos) -
                 // Several coils on one tag: the checker allows only set/reset to share it.
                 _ => opaque("the tag is driven by several rungs"),
             };
+            let (pos, title) = rung_site(first);
             Some(Rung {
                 coil: tag,
                 shape,
-                pos: rung_pos(first),
+                pos,
+                title,
             })
         })
         .collect()

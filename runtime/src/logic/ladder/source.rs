@@ -8,13 +8,18 @@
 //! side by side, a folded line break in the text matching one space of the rung; where they part
 //! (an escape), the position falls back to the rung's start.
 
+use std::fmt;
+
 use schemars::JsonSchema;
+use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 
 use crate::logic::blocks::Kind;
 use crate::project::span::{Locator, YPath};
+use crate::project::{DocKind, DocText, DocTextError};
 
-/// A ladder program: its rungs, each one line of text (`start /stop -> motor`).
+/// A ladder program: its rungs, each one line of text (`start /stop -> motor`), with a title
+/// and a comment where the author gives them.
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
@@ -28,22 +33,116 @@ struct RawLadder {
     /// The rungs, in execution order, each read left to right like a ladder diagram: contacts
     /// (`x`, `/x`, `rising(x)`, `level >= 80`) in series, `|` for parallel branches, `->`,
     /// then coils (`y`, `/y`, `set y`, `reset y`), a block (`TON t(10s) -> lamp`) or a box
-    /// (`ADD(n, 1) => n`). The guide is docs/programming.md.
-    rungs: Vec<String>,
+    /// (`ADD(n, 1) => n`). A rung is its text, or a mapping with the text as `rung:` and a
+    /// `title:` and `comment:` that document it. The guide is docs/programming.md.
+    rungs: Vec<RawRung>,
+}
+
+/// One `rungs:` entry: the rung's text alone, or with its documentation. `untagged` is for the
+/// schema's sake (either form, no tag); the file is read by the hand-written `Deserialize`.
+#[derive(Debug, JsonSchema)]
+#[serde(untagged)]
+enum RawRung {
+    /// The rung's text.
+    Text(String),
+    /// The rung with a title and a comment.
+    Documented(DocumentedRung),
+}
+
+/// A rung with its documentation: `{ rung: start /stop -> motor, title: Motor latch }`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a rung: its text, or a mapping with rung, title and comment"
+)]
+struct DocumentedRung {
+    /// The rung's text (`start /stop -> motor`).
+    rung: String,
+    /// What the rung is, in a few words (one line, at most 80 characters): the web page's
+    /// drawing and `check`'s push-down report name the rung by it.
+    #[serde(default)]
+    #[schemars(length(max = 80))]
+    title: Option<String>,
+    /// Why the rung is as it is (at most 1,000 characters, lines allowed): shown above the
+    /// rung's diagram on the web page.
+    #[serde(default)]
+    #[schemars(length(max = 1000))]
+    comment: Option<String>,
+}
+
+impl RawRung {
+    fn into_parts(self) -> (String, Option<String>, Option<String>) {
+        match self {
+            RawRung::Text(text) => (text, None, None),
+            RawRung::Documented(d) => (d.rung, d.title, d.comment),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for RawRung {
+    // By hand rather than `untagged`: serde's untagged enums buffer the value and lose the
+    // YAML reader's positions, and a rung written as a number or `true` is still text.
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RawRung;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a rung: its text, or a mapping with rung, title and comment")
+            }
+
+            fn visit_bool<E: de::Error>(self, v: bool) -> Result<RawRung, E> {
+                Ok(RawRung::Text(v.to_string()))
+            }
+
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<RawRung, E> {
+                Ok(RawRung::Text(v.to_string()))
+            }
+
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<RawRung, E> {
+                Ok(RawRung::Text(v.to_string()))
+            }
+
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<RawRung, E> {
+                Ok(RawRung::Text(v.to_string()))
+            }
+
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<RawRung, E> {
+                Ok(RawRung::Text(v.to_owned()))
+            }
+
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<RawRung, A::Error> {
+                DocumentedRung::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(RawRung::Documented)
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// The JSON Schema of a ladder program file (`softplc schema ladder`): a rung's description
 /// lists the blocks and their arguments, from the block registry, for an editor's hover.
 pub(crate) fn file_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
     let mut schema = generator.root_schema_for::<RawLadder>();
-    let items = schema
+    // On the rung's text in both forms: draft 7 ignores a description beside a `$ref`, so
+    // on the list's items it would never reach an editor's hover.
+    let definitions = schema
         .as_object_mut()
-        .and_then(|o| o.get_mut("properties"))
-        .and_then(|p| p.get_mut("rungs"))
-        .and_then(|r| r.get_mut("items"))
-        .and_then(|i| i.as_object_mut());
-    if let Some(items) = items {
-        items.insert("description".into(), block_list().into());
+        .and_then(|o| o.get_mut("definitions"))
+        .and_then(|d| d.as_object_mut());
+    if let Some(definitions) = definitions {
+        for (name, path) in [
+            ("RawRung", "/anyOf/0"),
+            ("DocumentedRung", "/properties/rung"),
+        ] {
+            let rung = definitions
+                .get_mut(name)
+                .and_then(|d| d.pointer_mut(path))
+                .and_then(|r| r.as_object_mut());
+            if let Some(rung) = rung {
+                rung.insert("description".into(), block_list().into());
+            }
+        }
     }
     schema
 }
@@ -86,9 +185,17 @@ fn block_list() -> String {
 pub(crate) struct RungText {
     /// The rung, as YAML delivered it.
     pub text: String,
+    /// Its `title:`.
+    pub title: Option<DocText>,
+    /// Its `comment:`.
+    pub comment: Option<DocText>,
     /// Byte offset in the file of the rung's scalar (its first character, or its opening quote).
     start: usize,
 }
+
+/// A rung's `title:` or `comment:` refused: 1-based line and column of its value, the key,
+/// and why.
+pub(crate) type DocError = (u32, u32, &'static str, DocTextError);
 
 /// A ladder file, read.
 #[derive(Debug, Clone)]
@@ -99,6 +206,8 @@ pub(crate) struct LadderSource {
     line_starts: Vec<usize>,
     /// The rungs, in order.
     pub rungs: Vec<RungText>,
+    /// The rungs' titles and comments that cannot document them.
+    pub doc_errors: Vec<DocError>,
 }
 
 /// A YAML error: 1-based line and column, and the message.
@@ -123,23 +232,51 @@ impl LadderSource {
             text: text.to_string(),
             line_starts,
             rungs: Vec::with_capacity(raw.rungs.len()),
+            doc_errors: Vec::new(),
         };
         let locator = Locator::new(text);
         let mut cursor = 0;
-        for (i, rung) in raw.rungs.into_iter().enumerate() {
+        for (i, raw_rung) in raw.rungs.into_iter().enumerate() {
+            let documented = matches!(raw_rung, RawRung::Documented(_));
+            let (rung, title, comment) = raw_rung.into_parts();
+            let entry = YPath::root().key("rungs").index(i);
             let start = match find_verbatim(text, cursor, &rung) {
                 Some(at) => {
                     cursor = at + rung.len();
                     at
                 }
                 None => {
-                    let (line, col) = locator.position(&YPath::root().key("rungs").index(i));
+                    let path = if documented {
+                        entry.key("rung")
+                    } else {
+                        entry.clone()
+                    };
+                    let (line, col) = locator.position(&path);
                     let at = src.offset(line, col);
                     cursor = cursor.max(at);
                     at
                 }
             };
-            src.rungs.push(RungText { text: rung, start });
+            let mut doc =
+                |key: &'static str, kind: DocKind, text: Option<String>| match DocText::new(
+                    kind,
+                    text.as_deref()?,
+                ) {
+                    Ok(d) => d,
+                    Err(e) => {
+                        let (line, col) = locator.position(&entry.key(key));
+                        src.doc_errors.push((to_u32(line), to_u32(col), key, e));
+                        None
+                    }
+                };
+            let title = doc("title", DocKind::Title, title);
+            let comment = doc("comment", DocKind::Comment, comment);
+            src.rungs.push(RungText {
+                text: rung,
+                title,
+                comment,
+                start,
+            });
         }
         Ok(src)
     }

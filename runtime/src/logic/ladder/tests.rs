@@ -600,3 +600,74 @@ fn numbers_that_the_destination_type_cannot_hold_are_type_errors() {
         "level >= 65535 -> alarm",
     ]);
 }
+
+#[test]
+fn a_rung_with_a_title_and_comment_runs_and_keeps_them_in_its_drawing_and_description() {
+    let text = "\
+rungs:
+  - rung: (start | motor) /stop -> motor
+    title: Motor latch
+    comment: |
+      Start latches the motor on;
+      stop drops it.
+  - start -> lamp
+";
+    let tags = table();
+    let drawn = diagram(text, Path::new("m.yaml"), &tags).unwrap();
+    assert_eq!(drawn[0].title.as_deref(), Some("Motor latch"));
+    assert_eq!(
+        drawn[0].comment.as_deref(),
+        Some("Start latches the motor on;\nstop drops it.")
+    );
+    assert_eq!(drawn[0].line, 2, "the rung's own line, under `rung:`");
+    assert_eq!(
+        (drawn[1].title.as_ref(), drawn[1].comment.as_ref()),
+        (None, None)
+    );
+    let json = serde_json::to_value(&drawn[1]).unwrap();
+    assert!(json.get("title").is_none(), "no key for no title: {json}");
+
+    let program = compile(text, Path::new("m.yaml"), &tags).unwrap();
+    let rungs = program.rungs().unwrap();
+    let titles: Vec<(u32, Option<&str>)> = rungs
+        .iter()
+        .map(|r| (r.pos.line, r.title.as_deref()))
+        .collect();
+    assert_eq!(titles, [(2, Some("Motor latch")), (7, None)]);
+
+    // It runs as the same rung written alone.
+    let mut run = Rig {
+        program,
+        ..Rig::new(&[])
+    };
+    run.set("start", Value::Bool(true));
+    run.scan();
+    run.set("start", Value::Bool(false));
+    run.scan();
+    assert!(run.bit("motor"), "latched");
+}
+
+#[test]
+fn a_title_too_long_or_over_two_lines_is_refused_at_its_value() {
+    let long = "x".repeat(81);
+    let text = format!(
+        "rungs:\n  - {{ rung: start -> lamp, title: {long} }}\n  - rung: stop -> alarm\n    title: |\n      two\n      lines\n  - {{ rung: a, comment: 1, titel: b }}\n"
+    );
+    let e = compile(&text, Path::new("m.yaml"), &table()).unwrap_err();
+    let shown: Vec<String> = e.iter().map(ToString::to_string).collect();
+    assert_eq!(
+        shown,
+        ["m.yaml:7:28: error: rungs[2]: unknown field `titel`, expected one of `rung`, `title`, `comment`"]
+    );
+    let text = text.replace("  - { rung: a, comment: 1, titel: b }\n", "");
+    let e = compile(&text, Path::new("m.yaml"), &table()).unwrap_err();
+    let shown: Vec<String> = e.iter().map(ToString::to_string).collect();
+    assert_eq!(
+        shown,
+        [
+            "m.yaml:2:35: error: rung title: 81 characters, at most 80 are allowed",
+            "m.yaml:4:12: error: rung title: a line break at character 4: this text is one line \
+             (a YAML folded block `>-` joins lines)",
+        ]
+    );
+}

@@ -118,6 +118,8 @@ pub(crate) fn describe(
             coil,
             shape,
             pos: user_pos(file, at),
+            // A Rhai statement has no title: see docs/programming.md, "Documenting a program".
+            title: None,
         });
     }
     out

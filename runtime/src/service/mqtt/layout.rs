@@ -69,32 +69,45 @@ pub(crate) struct TagMetric {
     pub alias: u64,
     /// Its device (module index), `None` for a node metric (a memory tag).
     pub device: Option<usize>,
-    /// What its profile point says of it in engineering terms (births only).
-    pub eng: Engineering,
+    /// What its births say of it besides its value.
+    pub birth: BirthProperties,
 }
 
-/// A metric's engineering unit and range, from its device profile point's `unit:` and
-/// `range:` (Sparkplug's `engUnit`, `engLow`, `engHigh` properties, as Ignition reads them).
+/// What a tag's births say of it besides its value: the tag's `description:` (the
+/// `description` property), and the engineering unit and range from its device profile
+/// point's `unit:` and `range:` (Sparkplug's `engUnit`, `engLow`, `engHigh` properties, as
+/// Ignition reads them).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub(crate) struct Engineering {
+pub(crate) struct BirthProperties {
+    /// The tag's description.
+    pub description: Option<String>,
     /// The unit (`V`, `Hz`).
     pub unit: Option<String>,
     /// Low and high end of the measuring range.
     pub range: Option<(f64, f64)>,
 }
 
-impl Engineering {
-    /// What the profile point behind `point` of `model` says (nothing for a built-in model or
-    /// a bit field).
-    fn of(model: &softplc_io::devices::ModelSpec, point: usize) -> Self {
+impl BirthProperties {
+    /// What `tag` of `project` says: its description, and what the profile point behind it
+    /// says (nothing for a memory tag, a built-in model or a bit field).
+    fn of(project: &Project, tag: &crate::project::TagConfig) -> Self {
+        let description = tag.description.as_ref().map(|d| d.to_string());
+        let Binding::Point { module, point } = tag.binding else {
+            return Self {
+                description,
+                ..Self::default()
+            };
+        };
+        let model = project.modules[module].model;
         let found = model
             .profile
             .zip(model.points.get(point))
             .and_then(|(profile, spec)| profile.points.iter().find(|p| p.name == spec.name));
-        found.map_or_else(Self::default, |p| Self {
-            unit: p.unit.clone(),
-            range: p.range,
-        })
+        Self {
+            description,
+            unit: found.and_then(|p| p.unit.clone()),
+            range: found.and_then(|p| p.range),
+        }
     }
 }
 
@@ -123,12 +136,7 @@ impl Layout {
                     Binding::Point { module, .. } => Some(module),
                     Binding::Memory => None,
                 },
-                eng: match t.binding {
-                    Binding::Point { module, point } => {
-                        Engineering::of(project.modules[module].model, point)
-                    }
-                    Binding::Memory => Engineering::default(),
-                },
+                birth: BirthProperties::of(project, t),
             })
             .collect();
         let devices = project.modules.iter().map(|m| m.name.clone()).collect();

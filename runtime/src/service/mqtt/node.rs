@@ -21,7 +21,7 @@ use std::collections::VecDeque;
 
 use softplc_io::point::{Quality, Value};
 
-use super::layout::{Engineering, Layout, PlcMetric, REBIRTH};
+use super::layout::{BirthProperties, Layout, PlcMetric, REBIRTH};
 use super::payload::{self, bd_seq_metric, datatype, metric_value, MetricSpec};
 use super::spb::payload::metric::Value as MetricValue;
 use super::spb::DataType;
@@ -231,7 +231,7 @@ impl EdgeNode {
             value: metric_value(value),
             quality: Some(quality),
             historical: false,
-            eng: None,
+            birth: None,
         })
     }
 
@@ -280,7 +280,7 @@ impl EdgeNode {
                 value: MetricValue::BooleanValue(false),
                 quality: None,
                 historical: false,
-                eng: None,
+                birth: None,
             },
         ];
         let plc = self.plc_values(snap);
@@ -293,14 +293,15 @@ impl EdgeNode {
                 value: v.clone(),
                 quality: None,
                 historical: false,
-                eng: None,
+                birth: None,
             });
         }
         self.plc_last = plc.into_iter().map(|(_, _, v)| Some(v)).collect();
         self.plc_sent_at = wall_ms;
         let node_tags: Vec<usize> = self.layout.tags_of(None).map(|t| t.tag).collect();
         let names: Vec<String> = self.layout.tags.iter().map(|t| t.name.clone()).collect();
-        let engs: Vec<Engineering> = self.layout.tags.iter().map(|t| t.eng.clone()).collect();
+        let births: Vec<BirthProperties> =
+            self.layout.tags.iter().map(|t| t.birth.clone()).collect();
         let tag_specs: Vec<(usize, MetricSpec<'static>)> = node_tags
             .iter()
             .filter_map(|&t| Some((t, self.tag_spec(snap, wall_ms, t, true)?)))
@@ -309,7 +310,7 @@ impl EdgeNode {
         for (t, spec) in &tag_specs {
             all.push(MetricSpec {
                 name: Some(names[*t].as_str()),
-                eng: Some(&engs[*t]),
+                birth: Some(&births[*t]),
                 ..spec.clone()
             });
         }
@@ -340,7 +341,7 @@ impl EdgeNode {
             .iter()
             .map(|(t, s)| MetricSpec {
                 name: Some(self.layout.tags[*t].name.as_str()),
-                eng: Some(&self.layout.tags[*t].eng),
+                birth: Some(&self.layout.tags[*t].birth),
                 ..s.clone()
             })
             .collect();
@@ -376,7 +377,7 @@ impl EdgeNode {
                         value: metric_value(k.value),
                         quality: Some(k.quality),
                         historical: true,
-                        eng: None,
+                        birth: None,
                     })
                     .collect();
                 out.push(self.data_message(device, wall_ms, &metrics));
@@ -446,7 +447,7 @@ impl EdgeNode {
                         value: metric_value(c.value),
                         quality: Some(c.quality),
                         historical: false,
-                        eng: None,
+                        birth: None,
                     });
                 } else {
                     if self.buffer.len() >= self.capacity {
@@ -510,7 +511,7 @@ impl EdgeNode {
                         value: v.clone(),
                         quality: None,
                         historical: false,
-                        eng: None,
+                        birth: None,
                     });
                     self.plc_last[i] = Some(v);
                 }

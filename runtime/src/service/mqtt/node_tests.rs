@@ -7,7 +7,7 @@ use softplc_io::point::{Quality, Value, ValueType};
 
 use super::*;
 use crate::service::changes::{CycleChanges, TagChange};
-use crate::service::mqtt::layout::{Engineering, TagMetric};
+use crate::service::mqtt::layout::{BirthProperties, TagMetric};
 use crate::service::mqtt::spb::Payload;
 use crate::service::snapshot::ModuleSnapshot;
 
@@ -18,10 +18,11 @@ fn layout() -> Layout {
         ty,
         alias: tag as u64 + 1,
         device,
-        eng: Engineering::default(),
+        birth: BirthProperties::default(),
     };
     let level = TagMetric {
-        eng: Engineering {
+        birth: BirthProperties {
+            description: None,
             unit: Some("m".into()),
             range: Some((0.0, 4.5)),
         },

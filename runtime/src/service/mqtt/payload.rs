@@ -4,7 +4,7 @@
 use prost::Message;
 use softplc_io::point::{Quality, Value, ValueType};
 
-use super::layout::Engineering;
+use super::layout::BirthProperties;
 use super::spb::payload::metric::Value as MetricValue;
 use super::spb::payload::property_value::Value as PropValue;
 use super::spb::payload::{Metric, PropertySet, PropertyValue};
@@ -91,6 +91,13 @@ pub(crate) fn quality_code(q: Quality) -> i32 {
     }
 }
 
+/// The key of a tag's `description:` in its births' property set. Sparkplug B 3.0 lets a
+/// PropertySet carry any key ("Payloads" › "PropertySet") and names none for a description,
+/// so the key is ours, written as the specification writes its own (`engUnit`), and
+/// documented for integrators in docs/plant-services.md. In births only, as the engineering
+/// properties are: a host keeps a metric's properties from its birth.
+pub(crate) const DESCRIPTION: &str = "description";
+
 /// The `Quality` property set (type Int32). Sent on every tag metric, good included: whether a
 /// host resets a metric to good when the property is left out is not specified.
 pub(crate) fn quality_property(q: Quality) -> PropertySet {
@@ -122,7 +129,7 @@ pub(crate) struct MetricSpec<'a> {
     /// A value kept while the broker was away, sent after the rebirth.
     pub historical: bool,
     /// Its engineering unit and range, in BIRTH messages only.
-    pub eng: Option<&'a Engineering>,
+    pub birth: Option<&'a BirthProperties>,
 }
 
 impl MetricSpec<'_> {
@@ -142,12 +149,13 @@ impl MetricSpec<'_> {
 }
 
 impl MetricSpec<'_> {
-    /// Its property set: `Quality` for a tag, then `engUnit` (String), `engLow` and `engHigh`
-    /// (Double) where its profile gives them (Sparkplug B 3.0, "Payloads" › "PropertySet";
-    /// the names are the specification's and Ignition's).
+    /// Its property set: `Quality` for a tag, then in births `description` (String) where the
+    /// tag has one, `engUnit` (String), `engLow` and `engHigh` (Double) where its profile
+    /// gives them (Sparkplug B 3.0, "Payloads" › "PropertySet"; the unit and range names are
+    /// the specification's and Ignition's).
     fn properties(&self) -> Option<PropertySet> {
         let mut set = self.quality.map(quality_property)?;
-        let Some(eng) = self.eng else {
+        let Some(birth) = self.birth else {
             return Some(set);
         };
         let mut add = |key: &str, ty: DataType, value: PropValue| {
@@ -158,14 +166,21 @@ impl MetricSpec<'_> {
                 value: Some(value),
             });
         };
-        if let Some(unit) = &eng.unit {
+        if let Some(text) = &birth.description {
+            add(
+                DESCRIPTION,
+                DataType::String,
+                PropValue::StringValue(text.clone()),
+            );
+        }
+        if let Some(unit) = &birth.unit {
             add(
                 "engUnit",
                 DataType::String,
                 PropValue::StringValue(unit.clone()),
             );
         }
-        if let Some((low, high)) = eng.range {
+        if let Some((low, high)) = birth.range {
             add("engLow", DataType::Double, PropValue::DoubleValue(low));
             add("engHigh", DataType::Double, PropValue::DoubleValue(high));
         }
@@ -194,7 +209,7 @@ pub(crate) fn bd_seq_metric(bd_seq: u8, timestamp: u64) -> MetricSpec<'static> {
         value: MetricValue::LongValue(u64::from(bd_seq)),
         quality: None,
         historical: false,
-        eng: None,
+        birth: None,
     }
 }
 
@@ -235,7 +250,7 @@ mod tests {
                     value: MetricValue::BooleanValue(false),
                     quality: None,
                     historical: false,
-                    eng: None,
+                    birth: None,
                 },
                 MetricSpec {
                     name: Some("speed"),
@@ -245,7 +260,7 @@ mod tests {
                     value: metric_value(Value::U16(1500)),
                     quality: Some(Quality::Good),
                     historical: false,
-                    eng: None,
+                    birth: None,
                 },
                 MetricSpec {
                     name: Some("offset"),
@@ -255,7 +270,7 @@ mod tests {
                     value: metric_value(Value::I32(-2)),
                     quality: Some(Quality::Stale),
                     historical: false,
-                    eng: None,
+                    birth: None,
                 },
             ],
         )

@@ -33,7 +33,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use crossbeam_channel::Sender;
-use opcua::server::address_space::{AccessLevel, NodeType, VariableBuilder};
+use opcua::server::address_space::{AccessLevel, NodeType, ObjectBuilder, VariableBuilder};
 use opcua::server::diagnostics::NamespaceMetadata;
 use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
 use opcua::server::{
@@ -161,14 +161,24 @@ fn builder(project: &Project, cfg: &OpcUaConfig, port: u16, pki: PathBuf) -> Ser
 fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<write::Writer>) {
     let id = |s: &str| NodeId::new(ns, s.to_string());
     let mut sp = nm.address_space().write();
-    for (folder, name, parent) in &layout.folders {
-        let parent = parent.as_deref().map_or_else(NodeId::objects_folder_id, id);
-        sp.add_folder(
-            &id(folder),
-            QualifiedName::new(ns, name.as_str()),
-            name.as_str(),
-            &parent,
-        );
+    for f in &layout.folders {
+        let parent = f
+            .parent
+            .as_deref()
+            .map_or_else(NodeId::objects_folder_id, id);
+        let folder = ObjectBuilder::new(
+            &id(&f.id),
+            QualifiedName::new(ns, f.name.as_str()),
+            f.name.as_str(),
+        )
+        .is_folder()
+        .organized_by(parent);
+        // What the engineer wrote about the module: a client shows it beside the folder.
+        match &f.description {
+            Some(d) => folder.description(d.as_str()),
+            None => folder,
+        }
+        .insert(&mut *sp);
     }
     let diagnostics = layout.modules.iter().flatten().chain(&layout.plc);
     let tags = layout.tags.iter().map(|t| &t.node);
@@ -178,7 +188,7 @@ fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<wr
         } else {
             AccessLevel::CURRENT_READ
         };
-        VariableBuilder::new(
+        let variable = VariableBuilder::new(
             &id(&n.id),
             QualifiedName::new(ns, n.name.as_str()),
             n.name.as_str(),
@@ -187,7 +197,11 @@ fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<wr
         .value(space::initial(n.data_type).value.unwrap_or_default())
         .access_level(access)
         .user_access_level(access)
-        .organized_by(id(&n.folder))
+        .organized_by(id(&n.folder));
+        match &n.description {
+            Some(d) => variable.description(d.as_str()),
+            None => variable,
+        }
         .insert(&mut *sp);
         // Waiting, not Good, until the first snapshot.
         if let Some(NodeType::Variable(v)) = sp.find_mut(&id(&n.id)) {

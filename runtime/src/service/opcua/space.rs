@@ -168,6 +168,33 @@ pub(crate) struct Node {
     pub data_type: DataTypeId,
     /// Whether clients may write it (a `scada: write` tag with writes on).
     pub writable: bool,
+    /// Its Description attribute: the tag's `description:` (none for diagnostics, whose
+    /// names say what they are).
+    pub description: Option<String>,
+}
+
+/// A folder of the address space.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Folder {
+    /// Its node id (string part).
+    pub id: String,
+    /// Its browse and display name.
+    pub name: String,
+    /// Its parent folder's id; `None`: the Objects folder.
+    pub parent: Option<String>,
+    /// Its Description attribute: a module's `description:`.
+    pub description: Option<String>,
+}
+
+impl Folder {
+    fn top(name: &str) -> Self {
+        Self {
+            id: name.into(),
+            name: name.into(),
+            parent: None,
+            description: None,
+        }
+    }
 }
 
 /// An exposed tag.
@@ -184,8 +211,8 @@ pub(crate) struct TagNode {
 /// The whole address space of a project.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Layout {
-    /// Folders: id, name, parent (`None`: the Objects folder), in creation order.
-    pub folders: Vec<(String, String, Option<String>)>,
+    /// Folders, in creation order (a parent before its children).
+    pub folders: Vec<Folder>,
     /// Tags, in project order.
     pub tags: Vec<TagNode>,
     /// Each module's diagnostics, in project order, in [`ModuleField::ALL`] order.
@@ -201,6 +228,7 @@ fn node(folder: &str, name: &str, data_type: DataTypeId) -> Node {
         folder: folder.into(),
         data_type,
         writable: false,
+        description: None,
     }
 }
 
@@ -208,9 +236,9 @@ impl Layout {
     /// The address space of `project`; `writes` is the server's switch.
     pub(crate) fn of(project: &Project, writes: bool) -> Self {
         let mut folders = vec![
-            ("Tags".to_string(), "Tags".to_string(), None),
-            ("Modules".to_string(), "Modules".to_string(), None),
-            ("PLC".to_string(), "PLC".to_string(), None),
+            Folder::top("Tags"),
+            Folder::top("Modules"),
+            Folder::top("PLC"),
         ];
         let tags = project
             .service
@@ -224,6 +252,7 @@ impl Layout {
                     ty: t.ty,
                     node: Node {
                         writable: writes && e.writable,
+                        description: t.description.as_ref().map(|d| d.to_string()),
                         ..node("Tags", &t.name, data_type(t.ty))
                     },
                 })
@@ -234,7 +263,12 @@ impl Layout {
         let mut modules = Vec::new();
         for m in &project.modules {
             let folder = format!("Modules.{}", m.name);
-            folders.push((folder.clone(), m.name.clone(), Some("Modules".into())));
+            folders.push(Folder {
+                id: folder.clone(),
+                name: m.name.clone(),
+                parent: Some("Modules".into()),
+                description: m.description.as_ref().map(|d| d.to_string()),
+            });
             modules.push(
                 ModuleField::ALL
                     .iter()

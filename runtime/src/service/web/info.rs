@@ -35,6 +35,9 @@ pub struct ModuleInfo {
     pub address: u8,
     /// Its protocol.
     pub protocol: &'static str,
+    /// Its `description:`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
 }
 
 /// One tag.
@@ -60,6 +63,9 @@ pub struct TagInfo {
     pub pushed: bool,
     /// Whether it is retained.
     pub retain: bool,
+    /// Its `description:`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
 }
 
 /// Everything `GET /api/info` sends.
@@ -111,6 +117,7 @@ impl WebInfo {
                 model: m.model.name,
                 address: m.device.address.get(),
                 protocol: m.device.protocol.name(),
+                description: m.description.as_ref().map(ToString::to_string),
             })
             .collect();
         let tags = project
@@ -142,6 +149,7 @@ impl WebInfo {
                     doc: point.map(|p| p.doc),
                     pushed: plc.plan().is_pushed(TagId(i as u32)),
                     retain: t.retain,
+                    description: t.description.as_ref().map(ToString::to_string),
                 }
             })
             .collect();

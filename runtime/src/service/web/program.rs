@@ -4,7 +4,8 @@
 //!
 //! This reads the text only; no engine internals: a name is a tag when it is spelt like one
 //! outside comments and strings and is not a member (`jam.Q`); in a ladder file, only in the
-//! rungs (a `description:` is prose).
+//! rungs (a `description:` is prose, and so are a rung's `title:` and `comment:`, shown as
+//! comments).
 //!
 //! A ladder program also gets its diagram ([`crate::logic::ladder::diagram`]: the compiler's own
 //! parse of each rung), which the page draws as a ladder with power flow lit live.
@@ -44,6 +45,10 @@ pub struct RungMark {
     /// Why it stays in the scan, when it does.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub central: Option<String>,
+    /// The rung's title (a ladder rung's `title:`, the first sentence of an expr
+    /// statement's comment).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub title: Option<String>,
 }
 
 /// One source line.
@@ -104,12 +109,14 @@ pub(crate) fn view(project: &Project, plan: &Plan) -> ProgramView {
                 module: project.modules.get(p.module).map(|m| m.name.clone()),
                 feature: Some(p.feature.name().to_owned()),
                 central: None,
+                title: r.rung.title.clone(),
             },
             Placement::Central(reason) => RungMark {
                 coil: r.rung.coil.index(),
                 module: None,
                 feature: None,
                 central: Some(reason.to_string()),
+                title: r.rung.title.clone(),
             },
         };
         line.rungs.push(mark);
@@ -158,9 +165,23 @@ pub(crate) fn annotate(text: &str, kind: ProgramKind, tags: &[&str]) -> Vec<Line
     let mut in_block = false;
     // Ladder: the top-level key the line is under (`rungs`, `description`, ...).
     let mut in_rungs = kind != ProgramKind::Ladder;
+    // Ladder: the column of a rung's `title:` or `comment:` whose value is a block (`|`,
+    // `>`): the lines indented past it are its prose.
+    let mut doc_block: Option<usize> = None;
     text.lines()
         .map(|line| {
             let chars: Vec<char> = line.chars().collect();
+            if let Some(key) = doc_block {
+                let indent = chars.iter().take_while(|c| **c == ' ').count();
+                if line.trim().is_empty() || indent > key {
+                    let mut cut = Cutter::default();
+                    if !chars.is_empty() {
+                        cut.piece("comment", &chars, 0, chars.len());
+                    }
+                    return cut.finish();
+                }
+                doc_block = None;
+            }
             let mut tags_here = in_rungs;
             if kind == ProgramKind::Ladder && chars.first().is_some_and(|c| c.is_ascii_alphabetic())
             {
@@ -207,6 +228,31 @@ pub(crate) fn annotate(text: &str, kind: ProgramKind, tags: &[&str]) -> Vec<Line
                         j += 1;
                     }
                     let word: String = chars.get(i..j).unwrap_or_default().iter().collect();
+                    // A rung's title and comment are prose, shown as comments are: the
+                    // value to the end of the line, or of the entry in a flow mapping.
+                    let doc_key = matches!(word.as_str(), "title" | "comment");
+                    if kind == ProgramKind::Ladder
+                        && tags_here
+                        && doc_key
+                        && chars.get(j) == Some(&':')
+                    {
+                        let flow = chars.get(..i).is_some_and(|b| b.contains(&'{'));
+                        let end = if flow {
+                            (j..chars.len())
+                                .find(|&k| matches!(chars.get(k), Some(',' | '}')))
+                                .unwrap_or(chars.len())
+                        } else {
+                            chars.len()
+                        };
+                        let value: String =
+                            chars.get(j + 1..end).unwrap_or_default().iter().collect();
+                        if value.trim_start().starts_with(['|', '>']) {
+                            doc_block = Some(i);
+                        }
+                        cut.piece("comment", &chars, i, end);
+                        i = end;
+                        continue;
+                    }
                     // `jam.Q`, `x.motor` and `jam(5s)` name blocks and members, not tags.
                     let member = i > 0 && chars.get(i - 1) == Some(&'.');
                     let instance = matches!(chars.get(j), Some('(' | '.'));
@@ -320,6 +366,29 @@ mod tests {
                 "  the motor stops",
                 "rungs:",
                 "  - [motor] jam.Q -> TON jam(5s) -> [stop]  {# a jam}"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_rungs_title_and_comment_are_prose_not_tags() {
+        let lines = annotate(
+            "rungs:\n  - rung: motor -> stop\n    title: Stop motor\n    comment: |\n      start\n\n      jam\n  - { rung: jam -> stop, title: The jam, comment: motor }\n  - start -> motor\n",
+            ProgramKind::Ladder,
+            TAGS,
+        );
+        assert_eq!(
+            show(&lines),
+            [
+                "rungs:",
+                "  - rung: [motor] -> [stop]",
+                "    {title: Stop motor}",
+                "    {comment: |}",
+                "{      start}",
+                "",
+                "{      jam}",
+                "  - { rung: [jam] -> [stop], {title: The jam}, {comment: motor }}",
+                "  - [start] -> [motor]",
             ]
         );
     }

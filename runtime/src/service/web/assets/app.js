@@ -270,7 +270,8 @@
       const q = el("td");
       const age = el("td", { class: "num", id: "age-" + t.name });
       const badges = el("span");
-      const name = el("td", {}, el("span", { class: "tag-name", text: t.name }), badges);
+      const name = el("td", {}, el("span", { class: "tag-name", text: t.name }), badges,
+        t.description ? el("div", { class: "tag-desc", text: t.description }) : null);
       if (t.pushed) badges.append(el("span", { class: "badge pushed", text: "module logic", title: "pushed down: the module's own logic drives it" }));
       if (t.retain) badges.append(el("span", { class: "badge retain", text: "retained" }));
       const forcedBadge = el("span", { class: "badge forced", text: "FORCED", hidden: true });
@@ -303,6 +304,7 @@
         root.append(el("div", { class: "panel" },
           el("div", { class: "panel-head" },
             el("h2", { text: m.name }),
+            m.description ? el("span", { class: "module-desc", text: m.description }) : null,
             el("span", { class: "sub", text: m.model + " @" + m.address + " · " + m.protocol + " · line " + bus.name + " (" + bus.port + ", " + bus.settings + ")" }),
             el("span", { class: "hint" }, mq)),
           tags.length ? table(tags.map(row)) : el("div", { class: "empty", text: "No tags on this module." })));
@@ -368,7 +370,8 @@
       const src = el("span", { class: "src" });
       for (const part of line.parts) {
         if (part.k === "tag") {
-          const span = el("span", { class: "tag", text: part.s, "data-tag": part.s });
+          const described = app.info.tags[part.tag] && app.info.tags[part.tag].description;
+          const span = el("span", { class: "tag", text: part.s, "data-tag": part.s, title: described || undefined });
           const val = el("span", { class: "val" });
           src.append(span, val);
           app.codeTags.push({ tag: part.tag, span, val });
@@ -382,7 +385,7 @@
       if (marks) {
         const mark = el("span", { class: "mark" });
         for (const r of line.rungs || []) {
-          const coil = app.info.tags[r.coil] ? app.info.tags[r.coil].name : "?";
+          const coil = (r.title ? "“" + r.title + "”: " : "") + (app.info.tags[r.coil] ? app.info.tags[r.coil].name : "?");
           if (r.module) {
             pushed++;
             ln.classList.add("pushed");

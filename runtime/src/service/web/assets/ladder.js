@@ -533,6 +533,7 @@ window.softplcLadder = (() => {
       const box = html("div", { class: "lad-rung", id: "rung-" + (n + 1), "data-line": r.line });
       const head = html("div", { class: "lad-head" });
       head.append(html("span", { class: "no" }, "rung " + (n + 1) + " · line " + r.line));
+      if (r.title) head.append(html("span", { class: "lad-title" }, r.title));
       const line = program.lines[r.line - 1];
       for (const m of (line && line.rungs) || []) {
         const coilName = info.tags[m.coil] ? info.tags[m.coil].name : "?";
@@ -561,7 +562,9 @@ window.softplcLadder = (() => {
       g.append(svg("line", { x1: left, y1: MID + 2, x2: left + 8, y2: MID + 2, class: "lad-wire lit" }));
       node.draw(g, left + 8, 2);
       pic.append(g);
-      box.append(head, pic, src);
+      // The rung's comment under its head, as a printed ladder has it above the rung.
+      const comment = r.comment ? html("p", { class: "lad-comment" }, r.comment) : null;
+      box.append(...[head, comment, pic, src].filter(Boolean));
       view.append(box);
       rungs.push(node);
     });
