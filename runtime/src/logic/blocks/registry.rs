@@ -399,3 +399,22 @@ pub(crate) static BLINK: BlockDef = BlockDef {
     ],
     expr: false,
 };
+
+/// The MiniMod's blinker.
+pub(crate) static LAMP: BlockDef = BlockDef {
+    kind: Kind::Lamp,
+    name: "LAMP",
+    pins: &[
+        pin("EN", Bool, false, "en"),
+        pin("MASK", Count, true, "mask"),
+    ],
+    outputs: Q,
+    forms: &[form(
+        "lamp",
+        &[0, 1],
+        0,
+        "LAMP l(3855)",
+        "the MiniMod's blinker: while enabled, bit k of the 16-bit MASK in step k of 100 ms, steps free-running from the PLC's start (3855 = 0x0F0F: 400 ms on, 400 ms off)",
+    )],
+    expr: false,
+};

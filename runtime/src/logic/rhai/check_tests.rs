@@ -41,7 +41,7 @@ fn calls_in_branches_not_taken_are_checked() {
     assert_eq!(
         error("lamp = frobnicate(start);\n"),
         "s.rhai:1:8: error: unknown function `frobnicate`; the library is ton, tof, tp, stair, \
-         ctu, ctd, ctud, r_trig, f_trig, sr, rs, toggle, blink, blink_pattern, q, et, cv, qu, \
+         ctu, ctd, ctud, r_trig, f_trig, sr, rs, toggle, blink, blink_pattern, lamp, q, et, cv, qu, \
          qd, good, bad, limit"
     );
 }
