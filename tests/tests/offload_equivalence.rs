@@ -20,6 +20,8 @@
 //! Before the first input change the outputs must agree in level (start-up differs: a module
 //! applies its tables before the first scan).
 
+mod blinkers;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
