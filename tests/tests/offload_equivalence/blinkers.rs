@@ -352,3 +352,54 @@ fn a_force_overrides_a_pushed_down_lamp() {
         );
     }
 }
+
+#[test]
+fn the_warning_lamp_example_blinks_in_its_module_from_ladder_and_rhai() {
+    let root = softplc_tests::workspace_root();
+    let path = root.join("examples/warning_lamp/project.yaml");
+    let ladder = project::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut rhai = ladder.clone();
+    rhai.program = softplc::project::ProgramConfig {
+        path: root.join("programs/warning_lamp/warning_lamp.rhai"),
+        kind: softplc::project::ProgramKind::Rhai,
+    };
+    let case = loaded_case("warning-lamp", &["mm1.X1", "mm1.X2"], &["mm1.Y1"]);
+    // The level high from 1 s to 7 s.
+    let inputs = [press(1000, 6000), vec![]];
+    for auto in [ladder, rhai] {
+        let language = auto.program.kind;
+        assert_eq!(
+            pushed(&auto),
+            vec![("warning".to_string(), true), ("horn".to_string(), true)],
+            "{language:?}"
+        );
+        let mut never = auto.clone();
+        never.offload.mode = softplc::project::OffloadMode::Never;
+        for t in &mut never.offload.tags {
+            t.mode = None; // the example says `require`
+        }
+        let central = run(&case, never, &inputs, ms(9000)).remove(0);
+        let module = run(&case, auto, &inputs, ms(9000)).remove(0);
+        let (from, to) = (ms(1000), ms(7020));
+        let name = format!("{language:?}");
+        let n = steady(
+            &format!("{name} pushed"),
+            &module,
+            from,
+            to,
+            400,
+            400,
+            ms(2),
+        );
+        let c = steady(
+            &format!("{name} central"),
+            &central,
+            from,
+            to,
+            400,
+            400,
+            ms(30),
+        );
+        assert!(n.abs_diff(c) <= 1, "{name}: {n} vs {c} on-runs");
+    }
+}
