@@ -24,10 +24,11 @@ impl MiniModDriver {
         // beside the text protocol), before the outputs. The scan sets it for one cycle (a
         // pulser started by a push-down trigger, tables cleared at stop). A blinker mask
         // (YLAMPn) is a state the scan asks for every cycle: written when it differs from the
-        // last one written, and again after a restart, a failed write or with the periodic
-        // rewrite of the outputs, as the outputs are (so a pushed-down lamp costs one write
-        // per change of its enable, none per toggle).
-        let all = refresh || self.rewrite;
+        // last one written, and again after a restart (whose start-up clears the blinkers) or
+        // a failed write, so a pushed-down lamp costs one write per change of its enable and
+        // none per toggle. The periodic rewrite of the outputs leaves it, as it leaves the
+        // logic tables: a module that comes back (lost, or in event mode found with its event
+        // recording off) gets its start-up again, and the mask after it.
         for (i, spec) in POINTS.iter().enumerate() {
             let Some(Some(v)) = desired.get(i) else {
                 continue;
@@ -46,7 +47,7 @@ impl MiniModDriver {
                 let Some(last) = self.lamp.get_mut(usize::from(y)) else {
                     continue;
                 };
-                if !all && *last == Some(value) {
+                if !self.rewrite && *last == Some(value) {
                     continue;
                 }
                 *last = Some(value);
@@ -62,6 +63,7 @@ impl MiniModDriver {
             };
             out.push(self.modbus(unit, request, Tag::WriteRegister(e.addr)));
         }
+        let all = refresh || self.rewrite;
         let (mut owned, mut write, mut word) = (0u16, 0u16, 0u16);
         for (y, &i) in IDX_Y.iter().enumerate() {
             if let Some(Some(v)) = desired.get(i) {
