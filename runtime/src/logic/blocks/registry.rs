@@ -16,6 +16,9 @@ pub enum PinType {
     Count,
     /// A blink pattern: a string of `0` and `1` (see [`Pattern`](super::Pattern)).
     Pattern,
+    /// A 16-bit mask (LAMP's): an integer, 0..=65535; a literal outside is refused, a tag's
+    /// value is held to the range.
+    Mask,
 }
 
 /// One input of a block.
@@ -167,7 +170,7 @@ const fn form(
     }
 }
 
-use PinType::{Bool, Count, Pattern, Time};
+use PinType::{Bool, Count, Mask, Pattern, Time};
 
 const IN: Pin = pin("IN", Bool, false, "in");
 const PT: Pin = pin("PT", Time, true, "pt");
@@ -406,7 +409,7 @@ pub(crate) static LAMP: BlockDef = BlockDef {
     name: "LAMP",
     pins: &[
         pin("EN", Bool, false, "en"),
-        pin("MASK", Count, true, "mask"),
+        pin("MASK", Mask, true, "mask"),
     ],
     outputs: Q,
     forms: &[form(

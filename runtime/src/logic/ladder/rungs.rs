@@ -462,10 +462,6 @@ mod tests {
             }
         );
         assert!(matches!(
-            &shapes(&["a -> LAMP l(70000) -> y"])[0].1,
-            RungShape::Opaque { reason } if reason.contains("16-bit constant")
-        ));
-        assert!(matches!(
             &shapes(&["a -> STAIR s(30s, r=b) -> y"])[0].1,
             RungShape::Opaque { reason } if reason.contains("reset input")
         ));

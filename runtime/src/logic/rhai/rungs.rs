@@ -271,7 +271,6 @@ mod tests {
             [("lamp".into(), "free-running blinker (LAMP)")]
         );
         for script in [
-            "lamp = lamp(\"w\", start, 70000);\n", // no 16-bit mask
             "lamp = lamp(\"w\", start, count);\n", // a mask read from a tag
             "lamp = lamp(\"w\", lamp, 3855);\n",   // reads its own coil
             "lamp = lamp(\"w\", start, 3855);\nmotor = q(\"w\");\n", // read elsewhere
