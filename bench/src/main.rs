@@ -46,7 +46,7 @@ struct Args {
     quick: bool,
     /// Run only this scenario (repeatable): scheduler, logic-cost, bus-cycle, collect,
     /// reaction, pulse, serial-path, scale, trace-cost, peer, plant-services, full-cycle,
-    /// virtual-truth, plant-load.
+    /// virtual-truth, plant-load, blink.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
     /// Results folder [default: bench/results for a full run, bench/results/partial for

@@ -227,6 +227,26 @@ pub enum RungShape {
         /// Time off.
         off: Duration,
     },
+    /// Blinker playing a bit pattern: while `enable`, bit `i mod len` of `pattern` during the
+    /// `i`-th `step` since the scan `enable` became true; false while `enable` is false.
+    BlinkPattern {
+        /// Runs the blinker.
+        enable: BoolExpr,
+        /// The bits, in the order they are played.
+        pattern: Vec<bool>,
+        /// Time of one bit.
+        step: Duration,
+    },
+    /// The MiniMod's own blinker (LAMP): while `enable`, bit `k` of `mask` during step `k` =
+    /// (time since the PLC's start / 100 ms) mod 16; false while `enable` is false. The phase
+    /// runs freely: it is the clock's, not the enable's (the module's "Automatic continuous
+    /// blinking").
+    Lamp {
+        /// Shows the mask.
+        enable: BoolExpr,
+        /// The 16-step mask, bit 0 first.
+        mask: u16,
+    },
     /// None of the above: the rung stays central, for this reason (shown in the report, after
     /// "the rung has …" style: "a timer in the condition").
     Opaque {
@@ -241,7 +261,8 @@ const MAX_LATCH_TAGS: usize = 12;
 
 impl RungShape {
     /// The tags the module's own logic reads once this shape is pushed down. A pulse's trigger
-    /// is not among them: the scan keeps it and only the width runs in the module.
+    /// and a blinker's enable are not among them: the scan keeps them and only the width or
+    /// the pattern runs in the module.
     pub fn module_inputs(&self) -> BTreeSet<TagId> {
         let all =
             |exprs: &[&BoolExpr]| exprs.iter().flat_map(|e| e.tags()).collect::<BTreeSet<_>>();
@@ -254,9 +275,11 @@ impl RungShape {
             RungShape::EdgeSetReset { set, reset } => {
                 all(&set.iter().chain(reset).collect::<Vec<_>>())
             }
-            RungShape::Pulse { .. } | RungShape::Blink { .. } | RungShape::Opaque { .. } => {
-                BTreeSet::new()
-            }
+            RungShape::Pulse { .. }
+            | RungShape::Blink { .. }
+            | RungShape::BlinkPattern { .. }
+            | RungShape::Lamp { .. }
+            | RungShape::Opaque { .. } => BTreeSet::new(),
         }
     }
 
@@ -305,6 +328,8 @@ impl RungShape {
             RungShape::Toggle { .. } => "impulse relay (toggle)",
             RungShape::EdgeSetReset { .. } => "edge set/reset",
             RungShape::Blink { .. } => "blinker",
+            RungShape::BlinkPattern { .. } => "blink pattern",
+            RungShape::Lamp { .. } => "free-running blinker (LAMP)",
             RungShape::Opaque { .. } => "other",
         }
     }

@@ -9,7 +9,13 @@ use host::{repo, softplc};
 fn every_program_scenario_passes_in_both_engines() {
     let (ok, text) = softplc(&["test", "programs"]);
     assert!(ok, "{text}");
-    for program in ["stairway", "conveyor", "pump_station", "traffic_light"] {
+    for program in [
+        "stairway",
+        "conveyor",
+        "pump_station",
+        "traffic_light",
+        "warning_lamp",
+    ] {
         for ext in ["ladder.yaml", "rhai"] {
             assert!(
                 text.contains(&format!("[{program}.{ext}]")),
@@ -18,7 +24,7 @@ fn every_program_scenario_passes_in_both_engines() {
         }
     }
     assert!(!text.contains("FAIL"), "{text}");
-    assert!(text.matches("give the same trace").count() >= 4, "{text}");
+    assert!(text.matches("give the same trace").count() >= 5, "{text}");
 }
 
 #[test]
@@ -29,6 +35,7 @@ fn every_example_project_checks_and_finds_its_scenarios() {
         "pump_station",
         "traffic_light",
         "energy-meter",
+        "warning_lamp",
     ] {
         let project = format!("examples/{example}/project.yaml");
         let (ok, text) = softplc(&["check", &project]);

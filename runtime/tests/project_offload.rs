@@ -88,7 +88,8 @@ fn valid_forms() {
         TagOffload {
             mode: None,
             debounce: Some(20),
-            stretch: Some(500)
+            stretch: Some(500),
+            blink_phase_free: false,
         }
     );
 }

@@ -20,6 +20,8 @@
 //! Before the first input change the outputs must agree in level (start-up differs: a module
 //! applies its tables before the first scan).
 
+mod blinkers;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -680,6 +682,26 @@ fn the_example_project_pushes_its_fast_rungs() {
     assert_eq!(reg("mm3", "XLATDN1"), Value::U16(150));
 }
 
+/// A case for a project loaded from its file (its modules, tags and program are the file's),
+/// at a 100 ms scan on MiniMods.
+fn loaded_case(
+    name: &'static str,
+    inputs: &'static [&'static str],
+    outputs: &'static [&'static str],
+) -> Case {
+    Case {
+        name,
+        period_ms: 100,
+        tick_ms: 1,
+        modules: &[],
+        tags: &[],
+        program: "",
+        lang: Lang::Expr,
+        inputs,
+        outputs,
+    }
+}
+
 #[test]
 fn the_example_project_behaves_the_same_pushed_down_and_faster() {
     // The example's own inputs (the guard, the hands, start/stop, the level, parts) played
@@ -691,17 +713,11 @@ fn the_example_project_behaves_the_same_pushed_down_and_faster() {
     for t in &mut never.offload.tags {
         t.mode = None; // press_enable says `require`
     }
-    let case = Case {
-        name: "example",
-        period_ms: 100,
-        tick_ms: 1,
-        modules: &[],
-        tags: &[],
-        program: "",
-        lang: Lang::Expr,
-        inputs: &["mm1.X1", "mm1.X2", "mm1.X3", "mm2.X1", "mm2.X2", "mm2.X3"],
-        outputs: &["mm1.Y1", "mm2.Y1", "mm1.Y4", "mm2.Y2"],
-    };
+    let case = loaded_case(
+        "example",
+        &["mm1.X1", "mm1.X2", "mm1.X3", "mm2.X1", "mm2.X2", "mm2.X3"],
+        &["mm1.Y1", "mm2.Y1", "mm1.Y4", "mm2.Y2"],
+    );
     let image =
         softplc::image::ProcessImage::new(never.tags.iter().map(|t| (t.name.clone(), t.initial)));
     let engine = softplc::logic::load_program(&never, &image).unwrap();

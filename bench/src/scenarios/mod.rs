@@ -1,6 +1,7 @@
 //! The scenarios, one file each. Adding one: write `NAME.rs` with a `pub fn run(&Ctx) ->
 //! anyhow::Result<Outcome>` and list it in [`all`].
 
+pub(crate) mod blink;
 pub(crate) mod bus_cycle;
 pub(crate) mod collect;
 pub(crate) mod full_cycle;
@@ -91,5 +92,6 @@ pub(crate) fn all() -> Vec<Scenario> {
         full_cycle::SCENARIO,
         virtual_truth::SCENARIO,
         plant_load::SCENARIO,
+        blink::SCENARIO,
     ]
 }

@@ -40,6 +40,17 @@ pub enum Command {
         /// The register value.
         width_ms: PulseWidth,
     },
+    /// MiniMod blinker: the scan writes `mask` to the blinker register `point` (`YLAMPn`)
+    /// when `enable` (evaluated centrally, after the logic) rises and 0 when it falls; the
+    /// module plays the mask on its own free-running 100 ms steps.
+    Lamp {
+        /// Index of the blinker register among the model's points.
+        point: usize,
+        /// Shows the mask while true.
+        enable: BoolExpr,
+        /// The register value: bit k is shown during step k of 16.
+        mask: u16,
+    },
 }
 
 /// Which module feature runs the rung.
@@ -49,6 +60,8 @@ pub enum Feature {
     AutoOnOff,
     /// MiniMod YPULSEn, triggered by the scan.
     Pulser,
+    /// MiniMod YLAMPn, enabled by the scan.
+    Lamp,
     /// RESI-16DI8RO SWITCH.
     Switch,
     /// RESI-16DI8RO SWITCH ON + SWITCH OFF.
@@ -65,6 +78,7 @@ impl Feature {
         match self {
             Feature::AutoOnOff => "automatic outputs AON/AOFF (an OFF condition wins)",
             Feature::Pulser => "pulser YPULSE",
+            Feature::Lamp => "blinker YLAMP",
             Feature::Switch => "SWITCH",
             Feature::SwitchOnOff => "SWITCH ON / SWITCH OFF",
             Feature::Toggle => "TOGGLE",
@@ -196,6 +210,21 @@ pub enum Reason {
         /// The register.
         register: String,
     },
+    /// A BLINK the module could play, but whose phase the engineer has not freed: a BLINK
+    /// starts on when its enable rises, the module's blinker steps run freely.
+    BlinkPhase {
+        /// The mask it would get.
+        mask: u16,
+    },
+    /// A blinker whose timing the module's 16 steps of 100 ms cannot repeat.
+    BlinkTiming {
+        /// The blinker as written (`500ms on, 500ms off`).
+        blink: String,
+        /// What does not fit, in words.
+        why: &'static str,
+        /// On/off times near it that would go down.
+        nearby: Vec<(Duration, Duration)>,
+    },
 }
 
 impl fmt::Display for Reason {
@@ -255,6 +284,26 @@ impl fmt::Display for Reason {
                 "the module's settings already set {register}; remove it there to let the \
                  planner write it"
             ),
+            Reason::BlinkPhase { mask } => write!(
+                f,
+                "a BLINK starts on when its enable rises, and the module's blinker steps run \
+                 freely from its power-on; with `blink_phase: free` on the tag (or a LAMP \
+                 block) it would go down as YLAMP = {mask:#06x}"
+            ),
+            Reason::BlinkTiming { blink, why, nearby } => {
+                write!(f, "a blinker the module cannot play: {blink}: {why}")?;
+                let near: Vec<String> = nearby
+                    .iter()
+                    .map(|(on, off)| format!("{}ms/{}ms", on.as_millis(), off.as_millis()))
+                    .collect();
+                match near.as_slice() {
+                    [] => Ok(()),
+                    [one] => write!(f, "; {one} would go down"),
+                    [first @ .., last] => {
+                        write!(f, "; {} or {last} would go down", first.join(", "))
+                    }
+                }
+            }
         }
     }
 }

@@ -33,6 +33,9 @@ pub trait Site {
     /// The point of the coil's module a condition tag reads, or why the module's logic
     /// cannot read it there. `checks` says what the module's logic checks, for the reason.
     fn input(&self, tag: TagId, checks: &'static str) -> Result<&'static PointSpec, Reason>;
+    /// Whether the engineer freed the phase of a BLINK writing the coil (`blink_phase: free`
+    /// on its tag): it may then start anywhere in its period when its enable rises.
+    fn blink_phase_free(&self) -> bool;
     /// Coils of this rung and of the rungs after it (what a trigger evaluated after the logic
     /// must not read).
     fn later(&self) -> &BTreeSet<TagId>;

@@ -33,7 +33,7 @@ fn value(pin: &Pin) -> (&'static str, &'static str) {
     match (pin.ty, pin.name) {
         (PinType::Time, "ON") => ("20ms", "\"20ms\""),
         (PinType::Time, _) => ("30ms", "\"30ms\""),
-        (PinType::Count, _) => ("3", "3"),
+        (PinType::Count | PinType::Mask, _) => ("3", "3"),
         (PinType::Pattern, _) => ("1101", "\"1101\""),
         (PinType::Bool, _) => ("", ""),
     }

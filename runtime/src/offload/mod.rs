@@ -30,9 +30,19 @@
 //! MiniMod input tag, written as XLATUPn / XLATDNn whatever the mode, since the scan and the
 //! module then see the same cooked input) and edge counting: a tag bound to `mmX.XCOUNTn`
 //! reads the module's own counter of rising edges (with the module's `counters: every`
-//! setting), so a counter of fast pulses needs no CTU at all. A blinker stays central: YLAMP
-//! runs freely from the module's power-on, so its phase can neither follow the enable nor be
-//! read back.
+//! setting), so a counter of fast pulses needs no CTU at all.
+//!
+//! # Blinkers
+//!
+//! A MiniMod's blinker (YLAMPn, "Automatic continuous blinking") plays a 16-step mask on
+//! steps of 100 ms that run freely from the module's power-on. A LAMP block means exactly
+//! that (its central engine counts the steps from the PLC's start), so it is pushed down
+//! whenever its mask is a constant: the scan keeps the enable and writes the mask when it
+//! rises, 0 when it falls. A BLINK means "on when enabled": it goes down only where its
+//! period is 1, 2, 4, 8 or 16 steps and the engineer freed its phase (`blink_phase: free` on
+//! the tag); `check` says why any other stays central and which on/off times nearby would go
+//! down. The pattern then starts wherever the module's steps are: its first on-step comes
+//! within the mask's longest run of off-steps plus one step after the write.
 //!
 //! # Equivalence
 //!

@@ -150,6 +150,8 @@ struct RungSite<'a> {
     module: usize,
     /// The coil's point index.
     point: usize,
+    /// The coil.
+    coil: TagId,
     /// Coils of this rung and the rungs after it.
     later: &'a BTreeSet<TagId>,
 }
@@ -233,6 +235,14 @@ impl softplc_io::push_down::Site for RungSite<'_> {
         }
     }
 
+    fn blink_phase_free(&self) -> bool {
+        self.project
+            .offload
+            .tags
+            .get(self.coil.index())
+            .is_some_and(|t| t.blink_phase_free)
+    }
+
     fn later(&self) -> &BTreeSet<TagId> {
         self.later
     }
@@ -313,11 +323,14 @@ fn initial(shape: &RungShape, tag_initial: bool) -> Option<bool> {
         RungShape::Latch { .. } | RungShape::Toggle { .. } | RungShape::EdgeSetReset { .. } => {
             Some(tag_initial)
         }
-        // No pulse runs before the first trigger.
-        RungShape::Pulse { .. } | RungShape::StairPulse { .. } => Some(false),
-        RungShape::Combinational { .. } | RungShape::Blink { .. } | RungShape::Opaque { .. } => {
-            None
-        }
+        // No pulse runs before the first trigger; a blinker's output is off until its mask
+        // is written (and off again whenever its mask is 0).
+        RungShape::Pulse { .. }
+        | RungShape::StairPulse { .. }
+        | RungShape::Blink { .. }
+        | RungShape::BlinkPattern { .. }
+        | RungShape::Lamp { .. } => Some(false),
+        RungShape::Combinational { .. } | RungShape::Opaque { .. } => None,
     }
 }
 
@@ -366,6 +379,7 @@ fn place(
         project,
         module,
         point,
+        coil: rung.coil,
         later,
     };
     let mut placement = cfg.model.family.push_down(&rung.shape, &site)?;

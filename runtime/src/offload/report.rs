@@ -319,6 +319,28 @@ fn module_rung(
                 fmt_duration(bound)
             );
         }
+        (
+            Some(Command::Lamp {
+                point,
+                enable,
+                mask,
+            }),
+            _,
+        ) => {
+            let reg = module.model.points.get(*point).map_or("?", |s| s.name);
+            let _ = writeln!(
+                out,
+                "      the scan writes {reg} = {mask:#06x} when {} rises and 0 when it falls: one bus write per change of the enable, none per toggle; the tag shows the enable (the module's status does not show a blinking output)",
+                enable.display(names)
+            );
+            let first = softplc_io::devices::minimod::first_on_within(*mask)
+                .map_or_else(|| "never (mask 0)".into(), fmt_duration);
+            let _ = writeln!(
+                out,
+                "      phase: the module's 100ms steps run freely from its power-on, so the pattern starts where they are, not at its first bit: the first on-step ≤ {first} after the write, which comes ≤ {} after the enable ({parts}); edges on the module's steps vs central on scan boundaries",
+                fmt_duration(bound)
+            );
+        }
         (None, Feature::Pulse) => {
             let _ = writeln!(
                 out,

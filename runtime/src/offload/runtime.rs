@@ -12,6 +12,14 @@
 //!   register (`YPULSEn`) for one cycle. The image shows the pulse as the module runs it (on
 //!   from the cycle that wrote it for its exact width): the pulser does not show in the coils
 //!   the driver can read back.
+//! - **Blinkers.** A LAMP rung (or a BLINK with `blink_phase: free`) on a MiniMod keeps its
+//!   enable central: after the logic the enable is evaluated on the image, and the output
+//!   phase asks for the blinker register (`YLAMPn`) to hold the mask while it holds and 0
+//!   otherwise; the driver writes it when it changes (one write per change of the enable,
+//!   none per toggle) and again after the module's restart. The image shows the enable: the
+//!   module's status does not show a blinking output. A force is the scan's to carry out: the
+//!   mask is 0 while the output is forced and the forced value is written to the output; at
+//!   the unforce the output is written off and the mask again if enabled.
 //! - **Start.** The drivers clear every logic register at start-up and write a stateful
 //!   output's start value before its tables ([`super::planner::ModulePlacement::initial`]),
 //!   so the image's start value (`Pushed::value`, the tag's initial value) is the module's.
@@ -53,6 +61,15 @@ enum Source {
         /// Write the pulser in this cycle's output phase.
         fire: bool,
     },
+    /// A blinker the scan enables: its mask while the enable holds, 0 otherwise.
+    Lamp {
+        /// The blinker register's point (`YLAMPn`).
+        command: usize,
+        /// The enable condition.
+        enable: BoolExpr,
+        /// The register value while enabled.
+        mask: u16,
+    },
 }
 
 /// One pushed-down output.
@@ -72,6 +89,16 @@ struct Pushed {
     /// never read).
     read: Quality,
     source: Source,
+}
+
+impl Pushed {
+    /// The register the scan writes instead of the output (a pulser, a blinker), if any.
+    fn command(&self) -> Option<usize> {
+        match self.source {
+            Source::ReadBack => None,
+            Source::Pulse { command, .. } | Source::Lamp { command, .. } => Some(command),
+        }
+    }
 }
 
 /// The pushed-down outputs of a running PLC.
@@ -123,6 +150,15 @@ impl Offloaded {
                     started: None,
                     fire: false,
                 },
+                Some(Command::Lamp {
+                    point,
+                    enable,
+                    mask,
+                }) => Source::Lamp {
+                    command: *point,
+                    enable: enable.clone(),
+                    mask: *mask,
+                },
             };
             outputs.push(Pushed {
                 tag: r.rung.coil,
@@ -142,9 +178,12 @@ impl Offloaded {
         }
     }
 
-    /// Whether `tag` is a pushed-down output.
-    pub(crate) fn owns(&self, tag: TagId) -> bool {
-        self.outputs.iter().any(|p| p.tag == tag)
+    /// Whether `tag` is a pushed-down output a force cannot reach: every one but a blinker,
+    /// whose force the scan carries out (the mask cleared while forced, the output written).
+    pub(crate) fn refuses_force(&self, tag: TagId) -> bool {
+        self.outputs
+            .iter()
+            .any(|p| p.tag == tag && !matches!(p.source, Source::Lamp { .. }))
     }
 
     /// Input phase: the modules' values of their outputs into the image (`frames[b]` is bus
@@ -184,7 +223,7 @@ impl Offloaded {
                         }
                     }
                 }
-                Source::Pulse { .. } => {}
+                Source::Pulse { .. } | Source::Lamp { .. } => {}
             }
         }
     }
@@ -217,6 +256,11 @@ impl Offloaded {
                 let on = started.is_some_and(|s| now.saturating_duration_since(s) < *width);
                 p.value = Value::Bool(on);
             }
+            // The module's status does not show a blinking output: the tag shows what the
+            // scan knows, the enable.
+            if let Source::Lamp { enable, .. } = &p.source {
+                p.value = Value::Bool(enable.eval(&mut |t| image.get(t).as_bool()));
+            }
             if image.get(p.tag) != p.value {
                 image.set(p.tag, p.value, now);
             }
@@ -243,9 +287,22 @@ impl Offloaded {
     }
 
     /// Output phase: this cycle's commands into the output frames (call
-    /// [`Self::clear_commands`] after the write).
-    pub(crate) fn commands(&mut self, frames: &mut [OutputFrame]) {
+    /// [`Self::clear_commands`] after the write). A blinker's mask and output are asked for
+    /// every cycle; its module's driver writes them when they change (and again after the
+    /// module's restart, which clears its blinkers): the mask while enabled and not forced,
+    /// else 0, and the output off, or the forced value while forced.
+    pub(crate) fn commands(&mut self, frames: &mut [OutputFrame], image: &ProcessImage) {
         for p in &mut self.outputs {
+            if let Source::Lamp { command, mask, .. } = &p.source {
+                let forced = image.forced(p.tag);
+                let shown = match forced {
+                    None if p.value.as_bool() => *mask,
+                    _ => 0,
+                };
+                let _ = set(frames, p.bus, p.module, *command, Value::U16(shown));
+                let output = forced.unwrap_or(Value::Bool(false));
+                let _ = set(frames, p.bus, p.module, p.point, output);
+            }
             if let Source::Pulse {
                 command,
                 width_ms,
@@ -267,7 +324,7 @@ impl Offloaded {
             if let Some(slot) = slot(frames, p.bus, p.module, p.point) {
                 *slot = None;
             }
-            if let Source::Pulse { command, .. } = p.source {
+            if let Some(command) = p.command() {
                 if let Some(slot) = slot(frames, p.bus, p.module, command) {
                     *slot = None;
                 }
@@ -291,7 +348,7 @@ impl Offloaded {
             for &(t, zero) in &p.tables {
                 any |= set(frames, p.bus, p.module, t, zero);
             }
-            if let Source::Pulse { command, .. } = p.source {
+            if let Some(command) = p.command() {
                 any |= set(frames, p.bus, p.module, command, Value::U16(0));
             }
         }

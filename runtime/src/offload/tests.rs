@@ -15,6 +15,15 @@ use softplc_io::rung::{BoolExpr, RungShape};
 /// A project on one simulated line: `modules` and `tags` are YAML flow entries; tag `i` is
 /// `TagId(i)`.
 fn project(offload: &str, modules: &[&str], tags: &[&str]) -> Project {
+    parse_project(offload, modules, tags).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// [`project`], or the errors.
+fn parse_project(
+    offload: &str,
+    modules: &[&str],
+    tags: &[&str],
+) -> Result<Project, crate::project::ProjectErrors> {
     let mut text = format!(
         "project: t\nscan: {{ period: 50ms }}\noffload: {offload}\n\
          buses: [ {{ name: line1, port: sim }} ]\nmodules:\n"
@@ -29,7 +38,7 @@ fn project(offload: &str, modules: &[&str], tags: &[&str]) -> Project {
     text.push_str("program: { file: conveyor.expr, kind: expr }\n");
     let file =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/projects/inline.yaml");
-    parse_str(&text, &file).unwrap_or_else(|e| panic!("{e}"))
+    parse_str(&text, &file)
 }
 
 fn t(i: u32) -> BoolExpr {
@@ -413,4 +422,103 @@ fn outputs_that_keep_a_state_get_their_start_value_before_their_tables() {
         assert!(given(&p, &pl).contains(&key.into()), "{key}");
     }
     assert!(!given(&p, &pl).iter().any(|s| s.starts_with("initial RO3")));
+}
+
+#[test]
+fn minimod_blinkers() {
+    let ms = Duration::from_millis;
+    let mut tags = MM_TAGS.to_vec();
+    tags.push("name: w, point: mm1.Y3, blink_phase: free");
+    let p = project("auto", &[MM], &tags);
+    let blink = |coil, on, off| {
+        rung(
+            coil,
+            RungShape::Blink {
+                enable: t(0),
+                on: ms(on),
+                off: ms(off),
+            },
+        )
+    };
+    let out = placements(
+        &p,
+        vec![
+            rung(
+                3,
+                RungShape::Lamp {
+                    enable: t(0),
+                    mask: 0x0F0F,
+                },
+            ),
+            blink(4, 400, 400),
+            blink(5, 800, 800),
+        ],
+    );
+    // LAMP: its phase is free by definition.
+    let lamp = module(&out[0]);
+    assert_eq!(lamp.feature, Feature::Lamp);
+    assert_eq!(lamp.initial, Some(false), "off until the mask is written");
+    assert!(lamp.tables.is_empty());
+    let Some(Command::Lamp { point, mask, .. }) = &lamp.command else {
+        panic!("a blinker command: {lamp:?}");
+    };
+    assert_eq!(p.modules[0].model.points[*point].name, "YLAMP1");
+    assert_eq!(*mask, 0x0F0F);
+    // BLINK 400/400 on Y2: it could go down, but starts on at its enable.
+    assert_eq!(reason(&out[1]), &Reason::BlinkPhase { mask: 0x0F0F });
+    assert!(reason(&out[1]).to_string().contains("blink_phase: free"));
+    // BLINK 800/800 on Y3 with blink_phase: free: YLAMP3 = 255, the manual's slow flashing.
+    let Some(Command::Lamp { point, mask, .. }) = &module(&out[2]).command else {
+        panic!("a blinker command");
+    };
+    assert_eq!(p.modules[0].model.points[*point].name, "YLAMP3");
+    assert_eq!(*mask, 0x00FF);
+    // A period the 16 steps do not repeat stays central, with the ones that would go down.
+    let out = placements(&p, vec![blink(5, 500, 500)]);
+    assert!(
+        reason(&out[0])
+            .to_string()
+            .ends_with("400ms/400ms or 800ms/800ms would go down"),
+        "{}",
+        reason(&out[0])
+    );
+    // An enable that reads a coil written later is evaluated too late.
+    let out = placements(
+        &p,
+        vec![
+            rung(
+                3,
+                RungShape::Lamp {
+                    enable: t(4),
+                    mask: 1,
+                },
+            ),
+            rung(4, RungShape::Combinational { expr: t(0) }),
+        ],
+    );
+    assert_eq!(
+        reason(&out[0]),
+        &Reason::TriggerReadsLater { tag: "z".into() }
+    );
+}
+
+#[test]
+fn blink_phase_is_refused_where_no_blinker_can_go() {
+    let mut tags = MM_TAGS.to_vec();
+    tags.push("name: m, type: bool, blink_phase: free");
+    tags.push("name: x, point: mm1.X1, blink_phase: enable");
+    tags.push("name: v, point: mm1.Y4, blink_phase: loose");
+    let errors = parse_project("auto", &[MM], &tags)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    for expected in [
+        "inline.yaml:13:41: error: tag m: blink_phase applies to tags bound to a module output (the \
+         BLINK writing the output); this is a memory tag",
+        "tag x: blink_phase applies to tags bound to a module output (the BLINK writing the \
+         output); this is not an output",
+        "tag v: blink_phase \"loose\" is not one of enable, free",
+    ] {
+        assert!(errors.contains(expected), "{expected}\nin\n{errors}");
+    }
 }

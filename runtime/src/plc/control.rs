@@ -87,7 +87,7 @@ impl Plc {
 
     /// A pushed-down output is its module's: the scan cannot set it.
     fn refuse_pushed(&self, id: TagId, tag: &str) -> Result<(), TagError> {
-        if self.offload.owns(id) {
+        if self.offload.refuses_force(id) {
             return Err(TagError::PushedOutput { tag: tag.into() });
         }
         if let Some(rung) = self.plan.pushed_reader(id) {

@@ -119,7 +119,7 @@ impl Plc {
             );
             self.frames[bind.bus].modules[bind.module][bind.point] = Some(v);
         }
-        self.offload.commands(&mut self.frames);
+        self.offload.commands(&mut self.frames, &self.image);
         self.dispatch_writes();
         // An output tag's quality is what its module holds of it, whoever wrote the value:
         // good once acknowledged, bad while a write is refused or fails (or not made yet),

@@ -10,6 +10,7 @@
 //!   - { name: horn,   point: mm2.Y2, offload: never }
 //!   - { name: button, point: mm1.X1, debounce: 20ms }      # XLATUP1 = XLATDN1 = 20
 //!   - { name: eye,    point: mm1.X2, stretch: 500ms }      # XLATDN2 = 500
+//!   - { name: beacon, point: mm2.Y3, blink_phase: free }   # its BLINK may go down as YLAMP3
 //! ```
 //!
 //! - `mode` is the default of every rung; a tag's `offload` overrides it for the rung that
@@ -27,6 +28,10 @@
 //!   to T (noise and bounces shorter than T vanish), `stretch: T` sets XLATDNn to T (a pulse
 //!   shorter than the scan is held long enough for the scan to see it). Whole milliseconds,
 //!   0..=65535. The same registers may not also be set in the module's `settings`.
+//! - `blink_phase: free` on an output says that the BLINK writing it may start anywhere in
+//!   its period when its enable rises (default `enable`: on at once, as BLINK does). Only
+//!   then may a BLINK go down as a MiniMod blinker (YLAMPn), whose steps run freely from the
+//!   module's power-on; a LAMP block needs no such word, its phase is free by definition.
 
 use std::fmt;
 use std::time::Duration;
@@ -97,6 +102,8 @@ pub struct TagOffload {
     pub debounce: Option<u16>,
     /// Input pulse stretching (XLATDNn), whole ms.
     pub stretch: Option<u16>,
+    /// `blink_phase: free`: a BLINK writing this output may start anywhere in its period.
+    pub blink_phase_free: bool,
 }
 
 /// The validated push-down settings.
@@ -179,6 +186,25 @@ pub enum OffloadError {
     BadMode {
         /// As written.
         text: String,
+    },
+    /// Not a `blink_phase` choice.
+    #[error("tag {tag}: blink_phase \"{text}\" is not one of enable, free")]
+    BadBlinkPhase {
+        /// The tag.
+        tag: String,
+        /// As written.
+        text: String,
+    },
+    /// `blink_phase` on a tag no rung can push down.
+    #[error(
+        "tag {tag}: blink_phase applies to tags bound to a module output (the BLINK writing \
+         the output); this is {what}"
+    )]
+    BlinkPhaseNotOnOutput {
+        /// The tag.
+        tag: String,
+        /// What the tag is instead.
+        what: &'static str,
     },
     /// Not an `on_stop` choice.
     #[error("offload.on_stop \"{text}\" is not one of clear, keep")]
@@ -338,6 +364,13 @@ fn tag<'m>(
         ),
         None => "a memory tag".to_owned(),
     };
+    // What a valid tag is when it is no module output (no rung of it can be pushed down).
+    let not_output = match point {
+        _ if tc.is_none() => None,
+        Some((_, _, spec)) if spec.access == Access::Output => None,
+        Some(_) => Some("not an output"),
+        None => Some("a memory tag"),
+    };
     if let Some(text) = &rt.offload {
         match OffloadMode::parse(&text.0) {
             None => errors.push((
@@ -348,23 +381,42 @@ fn tag<'m>(
                 .into(),
             )),
             Some(m) => {
-                if tc.is_some() && !point.is_some_and(|(_, _, spec)| spec.access == Access::Output)
-                {
+                if let Some(what) = not_output {
                     errors.push((
                         path.key("offload"),
                         OffloadError::ModeNotOnOutput {
                             tag: rt.name.clone(),
-                            what: if point.is_some() {
-                                "not an output"
-                            } else {
-                                "a memory tag"
-                            },
+                            what,
                         }
                         .into(),
                     ));
                 }
                 out.mode = Some(m);
             }
+        }
+    }
+    if let Some(text) = &rt.blink_phase {
+        match text.0.trim() {
+            "enable" => {}
+            "free" => out.blink_phase_free = true,
+            other => errors.push((
+                path.key("blink_phase"),
+                OffloadError::BadBlinkPhase {
+                    tag: rt.name.clone(),
+                    text: other.into(),
+                }
+                .into(),
+            )),
+        }
+        if let Some(what) = not_output {
+            errors.push((
+                path.key("blink_phase"),
+                OffloadError::BlinkPhaseNotOnOutput {
+                    tag: rt.name.clone(),
+                    what,
+                }
+                .into(),
+            ));
         }
     }
     for (key, given) in [("debounce", &rt.debounce), ("stretch", &rt.stretch)] {

@@ -406,6 +406,12 @@ pub(crate) struct RawTag {
     #[serde(default)]
     #[schemars(length(max = 256))]
     pub description: Option<String>,
+    /// Where a BLINK writing this output may start its period: `enable` (on when enabled,
+    /// the default) or `free` (anywhere: it may then be pushed down as a MiniMod blinker;
+    /// see [`super::offload`]).
+    #[serde(default)]
+    #[schemars(schema_with = "super::raw_schema::field::blink_phase")]
+    pub blink_phase: Option<ScalarText>,
 }
 
 /// `program:`.

@@ -305,6 +305,11 @@ pub(crate) mod field {
         nullable(words(OFFLOAD_MODES))
     }
 
+    /// `tags[].blink_phase`.
+    pub(crate) fn blink_phase(_: &mut SchemaGenerator) -> Schema {
+        nullable(words(&["enable", "free"]))
+    }
+
     /// `program.kind`.
     pub(crate) fn program_kind(_: &mut SchemaGenerator) -> Schema {
         words(&["expr", "ladder", "rhai"])

@@ -20,10 +20,14 @@
 //! A TP rung keeps its trigger central: on the trigger's edge the scan writes YPULSEn instead
 //! of the output, so the pulse width is the module's, to the millisecond, instead of a whole
 //! number of scans.
+//!
+//! Manual, "Automatic continuous blinking": a LAMP block (and a BLINK whose phase the engineer
+//! freed) keeps its enable central: the scan writes the mask to YLAMPn when the enable rises
+//! and 0 when it falls, and the module plays it on its own steps (see `lamp`).
 
 use std::time::Duration;
 
-use super::{AutoOutput, Condition, Output, PulseWidth, CONDITIONS, MAX_PULSE_MS};
+use super::{lamp, AutoOutput, Condition, Output, PulseWidth, CONDITIONS, MAX_PULSE_MS};
 use crate::devices::Protocol;
 use crate::push_down::minimize::{minimize, Cube};
 use crate::push_down::{Command, Feature, ModulePlacement, Pushed, Reason, Site, TableEntry};
@@ -83,13 +87,47 @@ pub(super) fn map(shape: &RungShape, site: &dyn Site) -> Result<ModulePlacement,
         RungShape::Toggle { .. } | RungShape::EdgeSetReset { .. } => Err(Reason::Unsupported {
             why: "the MiniMod's conditions are levels: it has no edge-triggered functions",
         }),
-        RungShape::Blink { .. } => Err(Reason::Unsupported {
-            why: "a blinker stays central: YLAMP steps run freely from the module's power-on, \
-                  so the pattern cannot start when the enable rises, and the scan cannot know \
-                  its state (a blinker does not show in the coils the driver reads back)",
-        }),
+        RungShape::Lamp { enable, mask } => lamp::lamp(site, y, enable, *mask),
+        RungShape::Blink { enable, on, off } => {
+            let mask = lamp::on_off_mask(*on, *off)?;
+            phase_freed(site, mask)?;
+            lamp::lamp(site, y, enable, mask)
+        }
+        RungShape::BlinkPattern {
+            enable,
+            pattern,
+            step,
+        } => {
+            let mask = lamp::pattern_mask(pattern, *step)?;
+            phase_freed(site, mask)?;
+            lamp::lamp(site, y, enable, mask)
+        }
         RungShape::Opaque { reason } => Err(Reason::Opaque(reason.clone())),
     }
+}
+
+/// A BLINK starts on when its enable rises; the module's blinker steps run freely, so it goes
+/// down only where the engineer said its phase is free (see `lamp`).
+fn phase_freed(site: &dyn Site, mask: u16) -> Result<(), Reason> {
+    if site.blink_phase_free() {
+        Ok(())
+    } else {
+        Err(Reason::BlinkPhase { mask })
+    }
+}
+
+/// Conditions the scan evaluates after the logic (a pulse's trigger, a blinker's enable) must
+/// not read a coil written by this rung or a later one: the scan would see this cycle's value
+/// where the central rung saw the previous one.
+pub(super) fn evaluated_after_logic(site: &dyn Site, exprs: &[BoolExpr]) -> Result<(), Reason> {
+    for e in exprs {
+        if let Some(tag) = e.tags().into_iter().find(|t| site.later().contains(t)) {
+            return Err(Reason::TriggerReadsLater {
+                tag: site.name(tag),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Each condition tag and its input bit (X1 = 0), or why a tag cannot be checked.
@@ -241,13 +279,7 @@ fn pulse(
         .filter(|ms| *ms <= MAX_PULSE_MS)
         .and_then(PulseWidth::from_ms)
         .ok_or(Reason::Time { time: width, takes })?;
-    for e in trigger {
-        if let Some(tag) = e.tags().into_iter().find(|t| site.later().contains(t)) {
-            return Err(Reason::TriggerReadsLater {
-                tag: site.name(tag),
-            });
-        }
-    }
+    evaluated_after_logic(site, trigger)?;
     let point = site
         .model()
         .point_index(&format!("YPULSE{}", y.number()))

@@ -81,7 +81,7 @@ pub(super) fn map(shape: &RungShape, site: &dyn Site) -> Result<ModulePlacement,
                       pulse ignores edges while it runs",
             })
         }
-        RungShape::Blink { .. } => {
+        RungShape::Blink { .. } | RungShape::BlinkPattern { .. } | RungShape::Lamp { .. } => {
             return Err(Reason::Unsupported {
                 why: "the RESI-16DI8RO has no blinker",
             })

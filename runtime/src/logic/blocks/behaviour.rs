@@ -4,8 +4,8 @@
 use std::time::Duration;
 
 use super::{
-    Blink, Ctd, Ctu, Ctud, FTrig, Member, OutputValue, Pattern, RTrig, Rs, Sr, Stair, Tof, Toggle,
-    Ton, Tp,
+    Blink, Ctd, Ctu, Ctud, FTrig, Lamp, Member, OutputValue, Pattern, RTrig, Rs, Sr, Stair, Tof,
+    Toggle, Ton, Tp,
 };
 
 /// Most pins a block has (CTUD and BLINK have five).
@@ -238,6 +238,16 @@ impl Block for Blink {
             Some(pattern) => self.call_pattern(a.bool(0), pattern, a.time(4), now),
             None => Blink::call(self, a.bool(0), a.time(1), a.time(2), now),
         }
+    }
+    fn output(&self, m: Member) -> Option<OutputValue> {
+        q_only(m, self.q())
+    }
+}
+
+// Pins: EN, MASK.
+impl Block for Lamp {
+    fn call(&mut self, a: &impl Pins, now: Duration) -> bool {
+        Lamp::call(self, a.bool(0), a.count(1), now)
     }
     fn output(&self, m: Member) -> Option<OutputValue> {
         q_only(m, self.q())

@@ -1,4 +1,5 @@
-//! BLINK: a free-running blinker, by on/off times or by a bit pattern.
+//! BLINK: a blinker by on/off times or by a bit pattern, starting on when enabled; LAMP: the
+//! MiniMod's own blinker, a 16-step mask on steps that run freely from the PLC's start.
 
 use std::fmt;
 use std::time::Duration;
@@ -52,6 +53,16 @@ impl Pattern {
             bits,
             len: len as u8,
         })
+    }
+
+    /// Its number of bits.
+    pub fn len(&self) -> u64 {
+        u64::from(self.len)
+    }
+
+    /// Whether it has no bits (never: a parsed pattern has one at least).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
     }
 
     /// Bit `i` (0 = first), repeating.
@@ -129,6 +140,42 @@ impl Blink {
     }
 }
 
+/// One LAMP step: the MiniMod's blinker step, "with speed of about a tenth of a second"
+/// (manual, "Automatic continuous blinking").
+pub(crate) const LAMP_STEP: Duration = Duration::from_millis(100);
+/// Steps in a LAMP mask ("a 16 bit rotating mask").
+const LAMP_STEPS: u128 = 16;
+
+/// The MiniMod's blinker as a block: while enabled, Q is bit k of the 16-bit mask during step
+/// k = (scan time / 100 ms) mod 16, the scan time counted from the PLC's start. The phase is
+/// the clock's, not the enable's, as the module's own steps run from its power-on: a program
+/// means the same in the scan and in the module (`offload`: pushed down as YLAMPn), up to
+/// where the 16 steps start. A mask outside 0..=65535 (read from a tag) is held to that range.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct Lamp {
+    q: bool,
+}
+
+impl Lamp {
+    /// One call; returns `Q`.
+    pub(crate) fn call(&mut self, enable: bool, mask: i32, now: Duration) -> bool {
+        let mask = u16::try_from(mask.clamp(0, i32::from(u16::MAX))).unwrap_or(u16::MAX);
+        self.q = enable && mask & (1 << Self::step(now)) != 0;
+        self.q
+    }
+
+    /// The step shown at `now`, 0..=15.
+    pub(crate) fn step(now: Duration) -> u32 {
+        // The remainder is below 16.
+        ((now.as_nanos() / LAMP_STEP.as_nanos()) % LAMP_STEPS) as u32
+    }
+
+    /// The output.
+    pub(crate) fn q(&self) -> bool {
+        self.q
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -168,5 +215,29 @@ mod tests {
         assert_eq!(Pattern::parse(&"1".repeat(65)), Err(PatternError::TooLong));
         assert!(Pattern::parse(&"1".repeat(64)).is_ok());
         assert!(Blink::default().call_pattern(true, p, Duration::ZERO, ms(50)));
+    }
+
+    #[test]
+    fn lamp_steps_run_from_the_plcs_start_not_from_the_enable() {
+        // 0x0F0F: 400 ms on, 400 ms off; enabled at 250 ms, it shows step 2's bit (on) at
+        // once and goes off at 400 ms, where a BLINK would still be on.
+        let mut lamp = Lamp::default();
+        let out: String = (0..12)
+            .map(|i| {
+                let q = lamp.call(i >= 5, 0x0F0F, ms(50 * i));
+                if q {
+                    '1'
+                } else {
+                    '0'
+                }
+            })
+            .collect();
+        assert_eq!(out, "000001110000");
+        // Bit 15 during the 16th step, then bit 0 again.
+        assert!(Lamp::default().call(true, 0x8000, ms(1550)));
+        assert!(!Lamp::default().call(true, 0x8000, ms(1600)));
+        assert!(Lamp::default().call(true, 1, ms(1600)));
+        assert!(!Lamp::default().call(true, -5, ms(0)), "held to 0");
+        assert!(Lamp::default().call(true, 70000, ms(0)), "held to 0xFFFF");
     }
 }

@@ -1,5 +1,5 @@
 //! The function-block library shared by every logic engine: timers, counters, edges,
-//! bistables, a blinker, an impulse relay and a staircase timer.
+//! bistables, blinkers, an impulse relay and a staircase timer.
 //!
 //! Each block is a small state machine called once per scan with its inputs and the scan's time
 //! ([`ScanContext::now`](crate::logic::ScanContext::now)); none reads a clock. The ladder engine
@@ -30,7 +30,7 @@ use std::time::Duration;
 
 pub(crate) use behaviour::{Arg, Args, Block, Pins, TimerPins, MAX_PINS};
 pub(crate) use bistable::{Rs, Sr, Toggle};
-pub(crate) use blink::Blink;
+pub(crate) use blink::{Blink, Lamp};
 pub use blink::{Pattern, PatternError};
 pub(crate) use counter::{Ctd, Ctu, Ctud};
 pub(crate) use edge::{Edge, FTrig, RTrig};
@@ -128,6 +128,8 @@ blocks! {
     Toggle(Toggle) = registry::TOGGLE;
     /// Blinker (on/off times or a bit pattern).
     Blink(Blink) = registry::BLINK;
+    /// The MiniMod's blinker: a 16-step mask on free-running 100 ms steps.
+    Lamp(Lamp) = registry::LAMP;
 }
 
 impl Kind {
@@ -148,7 +150,7 @@ impl Kind {
 
     /// The input the rung's power flow feeds, by its IEC name as docs/programming.md's table
     /// gives it: `IN` (timers, STAIR, TOGGLE), `CU` (CTU, CTUD), `CD`, `CLK` (edges), `S1`
-    /// (SR), `S` (RS), `EN` (BLINK).
+    /// (SR), `S` (RS), `EN` (BLINK, LAMP).
     pub fn main_input(self) -> &'static str {
         self.def().main_input().name
     }

@@ -16,6 +16,9 @@ pub enum PinType {
     Count,
     /// A blink pattern: a string of `0` and `1` (see [`Pattern`](super::Pattern)).
     Pattern,
+    /// A 16-bit mask (LAMP's): an integer, 0..=65535; a literal outside is refused, a tag's
+    /// value is held to the range.
+    Mask,
 }
 
 /// One input of a block.
@@ -167,7 +170,7 @@ const fn form(
     }
 }
 
-use PinType::{Bool, Count, Pattern, Time};
+use PinType::{Bool, Count, Mask, Pattern, Time};
 
 const IN: Pin = pin("IN", Bool, false, "in");
 const PT: Pin = pin("PT", Time, true, "pt");
@@ -397,5 +400,24 @@ pub(crate) static BLINK: BlockDef = BlockDef {
             "plays the bits, one per step",
         ),
     ],
+    expr: false,
+};
+
+/// The MiniMod's blinker.
+pub(crate) static LAMP: BlockDef = BlockDef {
+    kind: Kind::Lamp,
+    name: "LAMP",
+    pins: &[
+        pin("EN", Bool, false, "en"),
+        pin("MASK", Mask, true, "mask"),
+    ],
+    outputs: Q,
+    forms: &[form(
+        "lamp",
+        &[0, 1],
+        0,
+        "LAMP l(3855)",
+        "the MiniMod's blinker: while enabled, bit k of the 16-bit MASK in step k of 100 ms, steps free-running from the PLC's start (3855 = 0x0F0F: 400 ms on, 400 ms off)",
+    )],
     expr: false,
 };

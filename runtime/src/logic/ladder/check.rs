@@ -694,6 +694,7 @@ impl Checker<'_> {
                     let param = p.name;
                     let hint = match ty {
                         PinType::Count => "a preset value, e.g. `CTU c(10)`",
+                        PinType::Mask => "a mask, e.g. `LAMP l(3855)`",
                         _ => "a preset time, e.g. `TON t(2s)`",
                     };
                     return self.fail(at, CompileErrorKind::MissingParam { kind, param, hint });
@@ -714,6 +715,12 @@ impl Checker<'_> {
             PinType::Count => {
                 let n = self.number(cond)?;
                 self.literal_into(cond, ValueType::I32, || "a counter's preset".into())?;
+                Some(Value::Num(n.0))
+            }
+            // A MiniMod blinker mask is 16 bits (YLAMPn).
+            PinType::Mask => {
+                let n = self.number(cond)?;
+                self.literal_into(cond, ValueType::U16, || "a LAMP's mask".into())?;
                 Some(Value::Num(n.0))
             }
             PinType::Time => match cond {

@@ -9,7 +9,9 @@
 //!   when after; with `rising(a)` conditions only → edge set / edge reset (reset winning);
 //! - `S -> SR l(r=R) -> c` / `RS` → a latch, set / reset dominant;
 //! - `E -> TP p(T) -> c` → pulse; `E -> STAIR s(T) -> c` (no reset) → staircase pulse;
-//!   `E -> TOGGLE t -> c` (no reset) → impulse relay; `E -> BLINK b(on, off) -> c` → blinker;
+//!   `E -> TOGGLE t -> c` (no reset) → impulse relay; `E -> BLINK b(on, off) -> c` → blinker,
+//!   `E -> BLINK b(pattern=P, step=T) -> c` → blink pattern; `E -> LAMP l(M) -> c` → the
+//!   module's free-running blinker;
 //! - anything else → opaque, with the reason.
 //!
 //! Presets must be constants; a block whose output drives several coils, or a coil through a
@@ -230,6 +232,16 @@ fn preset(n: &Num) -> Option<Duration> {
     }
 }
 
+/// A constant 16-bit mask.
+fn mask(n: &Num) -> Option<u16> {
+    match n {
+        Num::Const(v) if v.fract() == 0.0 && (0.0..=f64::from(u16::MAX)).contains(v) => {
+            Some(*v as u16)
+        }
+        _ => None,
+    }
+}
+
 /// Whether a block's optional bool argument is absent (constant false).
 fn absent(bools: &[Cond], i: usize) -> bool {
     matches!(bools.get(i), None | Some(Cond::Const(false)))
@@ -277,7 +289,27 @@ fn block(call: &Call, cond: &Cond, bools: &[Cond]) -> RungShape {
             }
         }
         Kind::Blink if call.pin("PATTERN") != PinArg::Absent => {
-            return opaque("a blink pattern (the module takes on/off times)")
+            let (PinArg::Pattern(pattern), Some(step)) = (
+                call.pin("PATTERN"),
+                call.num("STEP").as_ref().and_then(preset),
+            ) else {
+                return opaque(variable);
+            };
+            let bits = (0..pattern.len()).map(|i| pattern.bit(i)).collect();
+            trigger().map(|enable| RungShape::BlinkPattern {
+                enable,
+                pattern: bits,
+                step,
+            })
+        }
+        Kind::Lamp => {
+            let Some(mask) = call.num("MASK").as_ref().and_then(mask) else {
+                return opaque(
+                    "a mask read from a tag or a block, or outside 0..=65535: the module's \
+                     blinker mask is a 16-bit constant",
+                );
+            };
+            trigger().map(|enable| RungShape::Lamp { enable, mask })
         }
         Kind::Blink => match (call.num("ON"), call.num("OFF")) {
             (Some(on), Some(off)) => match (preset(&on), preset(&off)) {
@@ -418,6 +450,21 @@ mod tests {
                 enable: t(0),
                 on: Duration::from_millis(400),
                 off: Duration::from_millis(400)
+            }
+        );
+        assert_eq!(
+            shapes(&["a -> BLINK bl(pattern=1101, step=200ms) -> y"])[0].1,
+            RungShape::BlinkPattern {
+                enable: t(0),
+                pattern: vec![true, true, false, true],
+                step: Duration::from_millis(200)
+            }
+        );
+        assert_eq!(
+            shapes(&["a /b -> LAMP l(3855) -> y"])[0].1,
+            RungShape::Lamp {
+                enable: BoolExpr::And(vec![t(0), BoolExpr::negate(t(1))]),
+                mask: 0x0F0F
             }
         );
         assert!(matches!(

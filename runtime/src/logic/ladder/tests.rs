@@ -372,7 +372,11 @@ fn check_errors_point_at_the_offending_token() {
     );
     assert_eq!(
         errors(&["start -> TOM t(1s)"]),
-        ["2:14: unknown block `TOM`; did you mean `TON`?; the blocks are TON, TOF, TP, STAIR, CTU, CTD, CTUD, R_TRIG, F_TRIG, SR, RS, TOGGLE, BLINK"]
+        ["2:14: unknown block `TOM`; did you mean `TON`?; the blocks are TON, TOF, TP, STAIR, CTU, CTD, CTUD, R_TRIG, F_TRIG, SR, RS, TOGGLE, BLINK, LAMP"]
+    );
+    assert_eq!(
+        errors(&["start -> LAMP l(70000)"]),
+        ["2:21: type error: `70000` is not a u16 value (a whole number from 0 to 65535); a LAMP's mask is u16"]
     );
     assert_eq!(
         errors(&["start -> TON t(5)"]),

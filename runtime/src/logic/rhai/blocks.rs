@@ -181,7 +181,7 @@ fn type_of(ty: PinType) -> TypeId {
     match ty {
         PinType::Bool => TypeId::of::<bool>(),
         PinType::Time => TypeId::of::<Dynamic>(),
-        PinType::Count => TypeId::of::<INT>(),
+        PinType::Count | PinType::Mask => TypeId::of::<INT>(),
         PinType::Pattern => TypeId::of::<ImmutableString>(),
     }
 }
@@ -198,7 +198,7 @@ fn pin_args(def: &BlockDef, pins: &[usize], values: &[&mut Dynamic]) -> Res<Args
     for (i, pin, v) in given() {
         let arg = match pin.ty {
             PinType::Bool => Arg::Bool(v.as_bool().unwrap_or(false)),
-            PinType::Count => Arg::Count(preset(v.as_int().unwrap_or(0))),
+            PinType::Count | PinType::Mask => Arg::Count(preset(v.as_int().unwrap_or(0))),
             PinType::Time => Arg::Time(time(v)?),
             PinType::Pattern => continue,
         };

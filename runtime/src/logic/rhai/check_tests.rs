@@ -39,9 +39,14 @@ fn calls_in_branches_not_taken_are_checked() {
          written with 0 and 1 only"
     );
     assert_eq!(
+        error("lamp = lamp(\"l\", start, 70000);\n"),
+        "s.rhai:1:25: error: argument `mask` of lamp() is a 16-bit mask, 0 to 65535, not a \
+         number outside it"
+    );
+    assert_eq!(
         error("lamp = frobnicate(start);\n"),
         "s.rhai:1:8: error: unknown function `frobnicate`; the library is ton, tof, tp, stair, \
-         ctu, ctd, ctud, r_trig, f_trig, sr, rs, toggle, blink, blink_pattern, q, et, cv, qu, \
+         ctu, ctd, ctud, r_trig, f_trig, sr, rs, toggle, blink, blink_pattern, lamp, q, et, cv, qu, \
          qd, good, bad, limit"
     );
 }

@@ -596,7 +596,7 @@ impl<'a> Lowerer<'a> {
                     call.pins[i] = match (pin.ty, internals::expr(arg)) {
                         (PinType::Bool, _) => continue,
                         (PinType::Time, _) => PinArg::Num(self.time_num(arg)?),
-                        (PinType::Count, _) => PinArg::Num(self.count(arg)?),
+                        (PinType::Count | PinType::Mask, _) => PinArg::Num(self.count(arg)?),
                         (PinType::Pattern, ExprView::Str(bits, at)) => match Pattern::parse(bits) {
                             Ok(pattern) => PinArg::Pattern(pattern),
                             Err(_) => return refuse(at, format!("pattern \"{bits}\"")),

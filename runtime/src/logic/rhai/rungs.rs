@@ -9,6 +9,11 @@
 //!   is one the script never assigns, or `c` itself (read before the assignment: the previous
 //!   scan's value, as in `expr`).
 //!
+//! One block call has a form too: `c = lamp("name", E, MASK);` (top level, assigned once, `E`
+//! as above and not reading `c`, `MASK` an integer literal in 0..=65535, the instance named
+//! nowhere else in the script) is the module's blinker, [`RungShape::Lamp`], as the ladder
+//! rung `E -> LAMP name(MASK) -> c`.
+//!
 //! `E` has no side effect and `&&`/`||` only skip reads of tags, so evaluating it is the
 //! `expr` condition's evaluation; `c = E` reading `c` is then a latch exactly when
 //! [`RungShape::self_latch`] says so, otherwise it is combinational. Every other output the
@@ -27,6 +32,7 @@ use softplc_io::point::ValueType;
 use super::error::user_pos;
 use super::internals::{self, Expr, ExprView, Node, StmtView, AST};
 use crate::image::TagId;
+use crate::logic::blocks::Kind;
 use crate::logic::expr::TagTable;
 use crate::logic::Rung;
 use softplc_io::rung::{BoolExpr, RungShape};
@@ -53,9 +59,19 @@ pub(crate) fn describe(
 ) -> Described {
     let mut assignments: HashMap<String, usize> = HashMap::new();
     let mut declared: HashSet<String> = HashSet::new();
+    // How many calls name each block instance (`q("w")` reads one).
+    let mut instances: HashMap<String, usize> = HashMap::new();
     internals::walk(ast, |node| {
-        let Node::Stmt(s) = node else {
-            return true;
+        let s = match node {
+            Node::Stmt(s) => s,
+            Node::Expr(e) => {
+                if let ExprView::Call(call) = internals::expr(e) {
+                    if let Some(ExprView::Str(name, _)) = call.args.first().map(internals::expr) {
+                        *instances.entry(name.to_string()).or_default() += 1;
+                    }
+                }
+                return true;
+            }
         };
         match internals::stmt(s) {
             StmtView::Assign(a) => {
@@ -74,6 +90,7 @@ pub(crate) fn describe(
         tags,
         assignments: &assignments,
         declared: &declared,
+        instances: &instances,
     };
     let mut out = Described::default();
     let mut shapes: HashMap<TagId, (RungShape, usize)> = HashMap::new();
@@ -99,6 +116,8 @@ pub(crate) fn describe(
             } else {
                 RungShape::Combinational { expr: ir }
             };
+            shapes.insert(coil.id, (shape, i));
+        } else if let Some(shape) = plain.lamp(a.rhs, coil.id) {
             shapes.insert(coil.id, (shape, i));
         }
     }
@@ -130,9 +149,36 @@ struct Plain<'a> {
     tags: &'a TagTable,
     assignments: &'a HashMap<String, usize>,
     declared: &'a HashSet<String>,
+    instances: &'a HashMap<String, usize>,
 }
 
 impl Plain<'_> {
+    /// `lamp("name", E, MASK)` as the module's blinker, if it is that form for coil `coil`.
+    fn lamp(&self, expr: &Expr, coil: TagId) -> Option<RungShape> {
+        let ExprView::Call(call) = internals::expr(expr) else {
+            return None;
+        };
+        if call.operator || call.name != Kind::Lamp.def().function() {
+            return None;
+        }
+        let [name, enable, mask] = call.args else {
+            return None;
+        };
+        let ExprView::Str(name, _) = internals::expr(name) else {
+            return None;
+        };
+        // Once the module runs it the call leaves the script: nothing else may read it.
+        if self.instances.get(name) != Some(&1) {
+            return None;
+        }
+        let ExprView::Int(mask, _) = internals::expr(mask) else {
+            return None;
+        };
+        let mask = u16::try_from(mask).ok()?;
+        let enable = self.condition(enable, coil).filter(|e| !e.reads(coil))?;
+        Some(RungShape::Lamp { enable, mask })
+    }
+
     /// `expr` as an IR condition, if it is one of the plain form for coil `coil`.
     fn condition(&self, expr: &Expr, coil: TagId) -> Option<BoolExpr> {
         let all = |items: &[Expr]| -> Option<Vec<BoolExpr>> {
@@ -222,6 +268,17 @@ mod tests {
         ] {
             let last = shapes(script).pop().unwrap();
             assert_eq!(last, ("lamp".into(), "other"), "{script}");
+        }
+        assert_eq!(
+            shapes("lamp = lamp(\"w\", start && !stop, 3855);\n"),
+            [("lamp".into(), "free-running blinker (LAMP)")]
+        );
+        for script in [
+            "lamp = lamp(\"w\", start, count);\n", // a mask read from a tag
+            "lamp = lamp(\"w\", lamp, 3855);\n",   // reads its own coil
+            "lamp = lamp(\"w\", start, 3855);\nmotor = q(\"w\");\n", // read elsewhere
+        ] {
+            assert_eq!(shapes(script)[0], ("lamp".into(), "other"), "{script}");
         }
         assert_eq!(
             shapes("motor = start;\nlamp = motor && stop;\n")[0],

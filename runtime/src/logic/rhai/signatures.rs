@@ -20,6 +20,8 @@ pub(crate) enum Param {
     Int,
     /// A blink pattern: a string of `0` and `1`.
     Pattern,
+    /// A 16-bit mask: an integer, 0..=65535.
+    Mask,
     /// A number; all `Number` arguments of one call have one type (integers or floats).
     Number,
     /// A tag variable (`good`/`bad`; `quality.rs` checks it).
@@ -76,6 +78,7 @@ fn block_signatures() -> impl Iterator<Item = Signature> {
                         PinType::Bool => Bool,
                         PinType::Time => Time,
                         PinType::Count => Int,
+                        PinType::Mask => Mask,
                         PinType::Pattern => Pattern,
                     };
                     (p.rhai, param)

@@ -368,6 +368,21 @@ impl Checker<'_> {
                 Param::Int if !matches!(ty, Ty::Int | Ty::Unknown) => {
                     self.fail(pos, wrong("an integer"));
                 }
+                Param::Mask => match internals::expr(expr) {
+                    ExprView::Int(n, _) if u16::try_from(n).is_err() => {
+                        let kind = CompileErrorKind::ArgumentType {
+                            function: sig.name,
+                            param,
+                            expected: "a 16-bit mask, 0 to 65535",
+                            found: "a number outside it",
+                        };
+                        self.fail(pos, kind);
+                    }
+                    _ if !matches!(ty, Ty::Int | Ty::Unknown) => {
+                        self.fail(pos, wrong("a 16-bit mask, 0 to 65535"));
+                    }
+                    _ => {}
+                },
                 Param::Time => match internals::expr(expr) {
                     ExprView::Str(text, _) => {
                         if let Err(reason) = crate::project::parse_duration(text) {

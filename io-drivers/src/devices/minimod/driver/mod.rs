@@ -253,6 +253,9 @@ pub struct MiniModDriver {
     values: Vec<Option<Value>>,
     /// The module's commanded outputs as far as known (echo or read-back).
     y: [Option<bool>; 4],
+    /// The blinker masks (YLAMP1..4) last written, as far as known: a mask is written when
+    /// it changes, not every cycle the scan asks for it (see `write`).
+    lamp: [Option<u16>; 4],
     /// A write failed: write every owned output at the next write phase.
     rewrite: bool,
     /// The last write plan covers every owned output ([`Driver::planned_full_write`]).
@@ -289,6 +292,7 @@ impl MiniModDriver {
             setup: Vec::new(),
             values: vec![None; POINTS.len()],
             y: [None; 4],
+            lamp: [None; 4],
             rewrite: false,
             full_write: false,
             cycle: 0,

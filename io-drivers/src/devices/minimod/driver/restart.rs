@@ -131,6 +131,8 @@ impl MiniModDriver {
     /// The bus owner restarts the module: forget what it holds.
     pub(super) fn restart_now(&mut self) {
         self.y = [None; 4];
+        // The start-up clears every blinker: the scan's mask is written again after it.
+        self.lamp = [None; 4];
         for i in IDX_Y.into_iter().chain([IDX_YWORD]) {
             if let Some(slot) = self.values.get_mut(i) {
                 *slot = None;

@@ -172,6 +172,43 @@ fn a_read_write_register_is_a_command_written_once() {
 }
 
 #[test]
+fn a_blinker_mask_is_written_when_it_changes_and_after_a_restart() {
+    let mut d = driver(&[]);
+    let mut sim = MiniModSim::new(UNIT);
+    let lamp = map::point_index("YLAMP3").unwrap();
+    let mut want = vec![None; POINTS.len()];
+    want[lamp] = Some(Value::U16(0x0F0F));
+    let mut plan = Vec::new();
+    d.plan_write(&want, false, &mut plan);
+    // FC 6 on holding register 77 (40078, YLAMP3) = 0x0F0F.
+    assert_eq!(plan.len(), 1);
+    assert_eq!(wire(&plan[0]), frame(&[0x05, 0x06, 0x00, 0x4D, 0x0F, 0x0F]));
+    exchange(&mut d, &mut sim, &plan[0], Duration::ZERO).unwrap();
+    assert_eq!(sim.get("YLAMP3"), Ok(Value::U16(0x0F0F)));
+    // Asked for again every cycle: no write until it changes (the module blinks by itself).
+    for _ in 0..3 {
+        plan.clear();
+        d.plan_write(&want, false, &mut plan);
+        assert!(plan.is_empty(), "the same mask, no write");
+    }
+    want[lamp] = Some(Value::U16(0));
+    d.plan_write(&want, false, &mut plan);
+    assert_eq!(plan.len(), 1, "the enable fell: 0");
+    // Not with the periodic rewrite of the outputs; after a restart (whose start-up clears
+    // the blinkers), again.
+    plan.clear();
+    d.plan_write(&want, true, &mut plan);
+    assert!(plan.is_empty(), "the refresh leaves it");
+    d.on_restart();
+    d.plan_write(&want, false, &mut plan);
+    assert!(
+        plan.iter()
+            .any(|tx| wire(tx) == frame(&[0x05, 0x06, 0x00, 0x4D, 0x00, 0x00])),
+        "after a restart"
+    );
+}
+
+#[test]
 fn readback_shows_a_pulse_while_it_runs_and_off_after_it() {
     let mut d = driver(&[("readback", "every")]);
     let mut sim = MiniModSim::new(UNIT);

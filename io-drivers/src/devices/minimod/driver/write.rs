@@ -22,7 +22,13 @@ impl MiniModDriver {
         // Read-write holding registers (pulsers YPULSEn, blinkers, conditions, ...): a `Some`
         // is a command, written once with FC 6 whatever the protocol (the manual allows Modbus
         // beside the text protocol), before the outputs. The scan sets it for one cycle (a
-        // pulser started by a push-down trigger, tables cleared at stop).
+        // pulser started by a push-down trigger, tables cleared at stop). A blinker mask
+        // (YLAMPn) is a state the scan asks for every cycle: written when it differs from the
+        // last one written, and again after a restart (whose start-up clears the blinkers) or
+        // a failed write, so a pushed-down lamp costs one write per change of its enable and
+        // none per toggle. The periodic rewrite of the outputs leaves it, as it leaves the
+        // logic tables: a module that comes back (lost, or in event mode found with its event
+        // recording off) gets its start-up again, and the mask after it.
         for (i, spec) in POINTS.iter().enumerate() {
             let Some(Some(v)) = desired.get(i) else {
                 continue;
@@ -37,6 +43,15 @@ impl MiniModDriver {
                 Value::I32(n) => u16::try_from(n).unwrap_or(0),
                 other => u16::from(other.as_bool()),
             };
+            if let map::Item::Lamp(y) = e.item {
+                let Some(last) = self.lamp.get_mut(usize::from(y)) else {
+                    continue;
+                };
+                if !self.rewrite && *last == Some(value) {
+                    continue;
+                }
+                *last = Some(value);
+            }
             // WDTTIME and WDTYMASK by name, as at start-up (see `watchdog`).
             if let Some((line, tag)) = super::watchdog::command_by_name(unit, e.item, value) {
                 out.push(Self::text_tx(line, tag));
