@@ -3,6 +3,7 @@
 
 pub(crate) mod bus_cycle;
 pub(crate) mod collect;
+pub(crate) mod footprint;
 pub(crate) mod full_cycle;
 pub(crate) mod logic_cost;
 pub(crate) mod peer;
@@ -91,5 +92,6 @@ pub(crate) fn all() -> Vec<Scenario> {
         full_cycle::SCENARIO,
         virtual_truth::SCENARIO,
         plant_load::SCENARIO,
+        footprint::SCENARIO,
     ]
 }
