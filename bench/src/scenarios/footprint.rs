@@ -6,7 +6,7 @@
 //! The binaries are built here through cargo, in the release profile the package uses
 //! (`cargo build --release -p softplc`, then with `--no-default-features`, then with
 //! `--target aarch64-unknown-linux-gnu`): on a first run each is a fat-LTO build (about ten
-//! minutes on two cores), on later runs cargo finds them fresh in seconds. The build without
+//! minutes on two cores), later runs rebuild what cargo finds changed. The build without
 //! the services comes first and is copied aside, so `target/release/softplc` is the default
 //! build again when the scenario ends. `--quick` builds only the default binary (the other
 //! rows say so). Stripping is `strip --strip-all` on a copy (the arm64 binary with the cross
