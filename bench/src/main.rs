@@ -46,13 +46,18 @@ struct Args {
     quick: bool,
     /// Run only this scenario (repeatable): scheduler, logic-cost, bus-cycle, collect,
     /// reaction, pulse, serial-path, scale, trace-cost, peer, plant-services, full-cycle,
-    /// virtual-truth, plant-load, blink.
+    /// virtual-truth, plant-load, blink, footprint.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
     /// Results folder [default: bench/results for a full run, bench/results/partial for
     /// --quick or --only, so a partial run never replaces the committed results].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// With --only: also put this run's scenarios into the committed bench/results/latest.json,
+    /// in place of their earlier entries, keeping every other scenario's entry as it was (each
+    /// merged entry says its own run's date, revision and command).
+    #[arg(long, requires = "only", conflicts_with = "quick")]
+    merge: bool,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -161,6 +166,23 @@ fn main() -> anyhow::Result<()> {
     for p in &plots {
         write(&p.file, &plot::svg(p))?;
     }
+    if args.merge {
+        let path = committed.join("latest.json");
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {} to merge into", path.display()))?;
+        let before: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a results document", path.display()))?;
+        let merged = json::merge(&before, &doc)
+            .with_context(|| format!("cannot merge into {}", path.display()))?;
+        std::fs::write(&path, serde_json::to_string_pretty(&merged)? + "\n")
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        for p in &plots {
+            let file = committed.join(&p.file);
+            std::fs::write(&file, plot::svg(p))
+                .with_context(|| format!("cannot write {}", file.display()))?;
+        }
+        eprintln!("merged into {}", path.display());
+    }
     eprintln!("results in {}", out.display());
     Ok(())
 }
@@ -168,7 +190,13 @@ fn main() -> anyhow::Result<()> {
 /// The command as a user would type it.
 fn command_line() -> String {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut cmd = "cargo run --release -p softplc-bench".to_string();
+    // A debug build of the harness is enough for a scenario that builds and measures release
+    // binaries (footprint); the command says which one ran.
+    let mut cmd = if cfg!(debug_assertions) {
+        "cargo run -p softplc-bench".to_string()
+    } else {
+        "cargo run --release -p softplc-bench".to_string()
+    };
     if !args.is_empty() {
         cmd.push_str(" -- ");
         cmd.push_str(&args.join(" "));

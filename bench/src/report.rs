@@ -1,5 +1,6 @@
 //! What a scenario reports: rows of the results table (figures as percentiles, each against the
-//! bounds measured or computed in the same run) and the plots that go with them.
+//! bounds measured or computed in the same run, or single quantities against their goals) and
+//! the plots that go with them.
 
 use std::time::Duration;
 
@@ -45,11 +46,70 @@ impl Bound {
     }
 }
 
+/// One measured number that is not a distribution of times: a binary's size, a process's
+/// memory or CPU share, a single time. Each kind keeps its unit, so a size is compared with a
+/// size goal only.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Quantity {
+    /// Bytes (a file's size, a process's resident memory).
+    Bytes(u64),
+    /// Percent of one CPU core over a window.
+    PercentOfCore(f64),
+    /// A count of things.
+    Count(u64),
+    /// One time (a median of a few runs: the row's note says of what).
+    Time(Duration),
+}
+
+impl Quantity {
+    /// The number in the unit the JSON file stores (bytes, %, count, µs).
+    pub(crate) fn number(&self) -> f64 {
+        match *self {
+            Quantity::Bytes(b) => b as f64,
+            Quantity::PercentOfCore(p) => p,
+            Quantity::Count(n) => n as f64,
+            Quantity::Time(d) => d.as_nanos() as f64 / 1e3,
+        }
+    }
+
+    /// The unit's name in the JSON file.
+    pub(crate) fn unit(&self) -> &'static str {
+        match self {
+            Quantity::Bytes(_) => "bytes",
+            Quantity::PercentOfCore(_) => "percent_of_core",
+            Quantity::Count(_) => "count",
+            Quantity::Time(_) => "us",
+        }
+    }
+
+    /// `self / of`, for quantities of the same kind (`None` across kinds or for a zero `of`).
+    pub(crate) fn ratio_to(&self, of: &Quantity) -> Option<f64> {
+        let same = std::mem::discriminant(self) == std::mem::discriminant(of);
+        (same && of.number() != 0.0).then(|| self.number() / of.number())
+    }
+}
+
+/// A goal a [`Quantity`] is held to (a size, a memory or CPU budget), by name.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Goal {
+    /// What the goal is ("goal", "issue 30's goal").
+    pub name: String,
+    /// The most the figure may be.
+    pub limit: Quantity,
+}
+
 /// The figure of a row.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Figure {
     /// A measured distribution.
     Measured(Percentiles),
+    /// One measured number, with the goal it is held to if any.
+    Scalar {
+        /// The figure.
+        value: Quantity,
+        /// Its goal.
+        goal: Option<Goal>,
+    },
     /// The scenario needs a feature that has not landed: say so rather than invent a figure.
     /// No scenario waits for one at present; kept for the next (README "Scenarios").
     #[cfg_attr(not(test), allow(dead_code))]
@@ -92,6 +152,23 @@ impl Row {
             case: case.into(),
             metric: metric.into(),
             figure: Figure::Measured(p),
+            bounds: Vec::new(),
+            values: Vec::new(),
+            note: String::new(),
+        }
+    }
+
+    /// A row of one number, held to `goal` if given.
+    pub(crate) fn scalar(
+        case: impl Into<String>,
+        metric: impl Into<String>,
+        value: Quantity,
+        goal: Option<Goal>,
+    ) -> Self {
+        Self {
+            case: case.into(),
+            metric: metric.into(),
+            figure: Figure::Scalar { value, goal },
             bounds: Vec::new(),
             values: Vec::new(),
             note: String::new(),

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use softplc::scan::fmt_duration;
 
-use crate::report::{Bound, Figure, Row};
+use crate::report::{Bound, Figure, Goal, Quantity, Row};
 use crate::scenarios::ScenarioResult;
 
 /// A duration for the table: like the runtime's `fmt_duration`, with nanoseconds and tenths
@@ -62,6 +62,64 @@ fn against(bounds: &[Bound], row: &Row) -> String {
         .join("<br>")
 }
 
+/// A quantity for the table: sizes in decimal megabytes (as package sizes are given), with
+/// three digits below 10 MB.
+pub(crate) fn fmt_quantity(q: &Quantity) -> String {
+    match *q {
+        Quantity::Bytes(b) if b >= 10_000_000 => format!("{:.1} MB", b as f64 / 1e6),
+        Quantity::Bytes(b) if b >= 1_000_000 => format!("{:.2} MB", b as f64 / 1e6),
+        Quantity::Bytes(b) if b >= 1_000 => format!("{:.0} kB", b as f64 / 1e3),
+        Quantity::Bytes(b) => format!("{b} B"),
+        Quantity::PercentOfCore(p) => format!("{p:.2} % of a core"),
+        Quantity::Count(n) => n.to_string(),
+        Quantity::Time(d) => fmt_time(d),
+    }
+}
+
+/// The goal cell of a one-number row: the goal and the figure's ratio to it.
+fn goal_cell(value: &Quantity, goal: Option<&Goal>) -> String {
+    let Some(g) = goal else {
+        return String::new();
+    };
+    match value.ratio_to(&g.limit) {
+        Some(r) => format!("{} {}: {}", g.name, fmt_quantity(&g.limit), fmt_ratio(r)),
+        None => format!("{} {}", g.name, fmt_quantity(&g.limit)),
+    }
+}
+
+/// Whether a scenario's rows are all single numbers (or rows without a figure): its table
+/// then has a value column instead of the percentiles.
+fn scalar_table(rows: &[Row]) -> bool {
+    rows.iter()
+        .any(|r| matches!(r.figure, Figure::Scalar { .. }))
+        && !rows.iter().any(|r| matches!(r.figure, Figure::Measured(_)))
+}
+
+/// A Markdown row: the row's case and metric, `cells`, its note.
+fn line(row: &Row, cells: &[String]) -> String {
+    format!(
+        "| {} | {} | {} | {} |",
+        row.case.replace('|', "\\|"),
+        row.metric,
+        cells.join(" | "),
+        row.note.replace('|', "\\|")
+    )
+}
+
+/// One Markdown row of a table of single numbers.
+fn scalar_row_line(row: &Row) -> String {
+    let cells = match &row.figure {
+        Figure::Scalar { value, goal } => [fmt_quantity(value), goal_cell(value, goal.as_ref())],
+        Figure::Measured(p) => [fmt_time(p.p50), String::new()],
+        Figure::NotYet { feature, issue } => [
+            format!("not yet available: {feature} ({issue})"),
+            String::new(),
+        ],
+        Figure::Unavailable(why) => [format!("not measured: {why}"), String::new()],
+    };
+    line(row, &cells)
+}
+
 /// One Markdown row.
 fn row_line(row: &Row) -> String {
     let cells: Vec<String> = match &row.figure {
@@ -73,6 +131,12 @@ fn row_line(row: &Row) -> String {
             fmt_time(p.max),
             against(&row.bounds, row),
         ],
+        Figure::Scalar { value, goal } => {
+            let mut v = vec![String::new(); 6];
+            v[1] = fmt_quantity(value);
+            v[5] = goal_cell(value, goal.as_ref());
+            v
+        }
         Figure::NotYet { feature, issue } => {
             let mut v = vec![String::new(); 6];
             v[0] = format!("not yet available: {feature} ({issue})");
@@ -84,13 +148,7 @@ fn row_line(row: &Row) -> String {
             v
         }
     };
-    format!(
-        "| {} | {} | {} | {} |",
-        row.case.replace('|', "\\|"),
-        row.metric,
-        cells.join(" | "),
-        row.note.replace('|', "\\|")
-    )
+    line(row, &cells)
 }
 
 /// The whole table, one section per scenario.
@@ -101,11 +159,20 @@ pub(crate) fn markdown(results: &[ScenarioResult]) -> String {
         if !r.summary.is_empty() {
             let _ = writeln!(out, "{}\n", r.summary);
         }
-        out.push_str("| case | metric | n | p50 | p99 | p99.9 | max | against (ratio at p50, p99) | note |\n");
-        out.push_str("|---|---|--:|--:|--:|--:|--:|---|---|\n");
-        for row in &r.rows {
-            out.push_str(&row_line(row));
-            out.push('\n');
+        if scalar_table(&r.rows) {
+            out.push_str("| case | metric | value | goal (ratio) | note |\n");
+            out.push_str("|---|---|--:|---|---|\n");
+            for row in &r.rows {
+                out.push_str(&scalar_row_line(row));
+                out.push('\n');
+            }
+        } else {
+            out.push_str("| case | metric | n | p50 | p99 | p99.9 | max | against (ratio at p50, p99) | note |\n");
+            out.push_str("|---|---|--:|--:|--:|--:|--:|---|---|\n");
+            for row in &r.rows {
+                out.push_str(&row_line(row));
+                out.push('\n');
+            }
         }
         out.push('\n');
     }
@@ -154,6 +221,42 @@ mod tests {
             line,
             "| N=1 | I/O cycle | 10 | 21.00ms | 22.00ms | 23.00ms | 24.00ms | \
              floor 20.00ms: ×1.05 (p99 ×1.10) | n/a |"
+        );
+    }
+
+    #[test]
+    fn a_size_row_shows_its_value_and_its_ratio_to_the_goal() {
+        let goal = Goal {
+            name: "goal".into(),
+            limit: Quantity::Bytes(15_000_000),
+        };
+        let row = Row::scalar(
+            "default features",
+            "stripped binary",
+            Quantity::Bytes(12_345_678),
+            Some(goal),
+        );
+        assert!(scalar_table(std::slice::from_ref(&row)));
+        assert_eq!(
+            scalar_row_line(&row),
+            "| default features | stripped binary | 12.3 MB | goal 15.0 MB: ×0.82 |  |"
+        );
+        assert_eq!(fmt_quantity(&Quantity::Bytes(7_654_321)), "7.65 MB");
+        assert_eq!(
+            fmt_quantity(&Quantity::PercentOfCore(0.4567)),
+            "0.46 % of a core"
+        );
+    }
+
+    #[test]
+    fn a_goal_of_another_unit_gives_no_ratio() {
+        let goal = Goal {
+            name: "goal".into(),
+            limit: Quantity::Bytes(10),
+        };
+        assert_eq!(
+            goal_cell(&Quantity::PercentOfCore(1.0), Some(&goal)),
+            "goal 10 B"
         );
     }
 

@@ -4,6 +4,7 @@
 pub(crate) mod blink;
 pub(crate) mod bus_cycle;
 pub(crate) mod collect;
+pub(crate) mod footprint;
 pub(crate) mod full_cycle;
 pub(crate) mod logic_cost;
 pub(crate) mod peer;
@@ -93,5 +94,6 @@ pub(crate) fn all() -> Vec<Scenario> {
         virtual_truth::SCENARIO,
         plant_load::SCENARIO,
         blink::SCENARIO,
+        footprint::SCENARIO,
     ]
 }

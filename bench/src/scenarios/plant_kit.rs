@@ -79,8 +79,21 @@ impl Running {
         run_for: Duration,
         socket: Option<&Path>,
     ) -> anyhow::Result<Self> {
+        Self::start_in_env(binary, project, run_for, socket, &[])
+    }
+
+    /// As [`Running::start_with`], with `env` added to its environment (`NOTIFY_SOCKET`, as
+    /// systemd gives it).
+    pub(super) fn start_in_env(
+        binary: &Path,
+        project: &Path,
+        run_for: Duration,
+        socket: Option<&Path>,
+        env: &[(&str, &std::ffi::OsStr)],
+    ) -> anyhow::Result<Self> {
         let log = project.with_file_name("softplc.log");
         let mut cmd = Command::new(binary);
+        cmd.envs(env.iter().copied());
         cmd.args(["run", "--quiet"]);
         match socket {
             Some(path) => cmd.arg("--socket").arg(path),
