@@ -49,7 +49,10 @@ enum Command {
     /// Show a running instance's scan figures, modules, tags and forces.
     Status(control::StatusArgs),
     /// Force a tag of a running instance (applied after the input read and before the write).
-    Force(control::ForceArgs),
+    Force(control::TagValueArgs),
+    /// Write a tag of a running instance once, at the next cycle boundary; the program (or the
+    /// module) owns it again from its next scan. Refused for an input or a forced tag.
+    Write(control::TagValueArgs),
     /// Remove a force (or every force with --all).
     Unforce(control::UnforceArgs),
     /// Reload the program of a running instance at a cycle boundary (like SIGHUP).
@@ -90,6 +93,7 @@ pub fn main() -> ExitCode {
         Command::Sim(a) => sim::sim(a),
         Command::Status(a) => control::status(a),
         Command::Force(a) => control::force(a),
+        Command::Write(a) => control::write(a),
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
         Command::Test(a) => test::test(a),

@@ -134,7 +134,7 @@ impl ServiceBoundary {
                     {
                         Ok(n) => Response {
                             applied_at: Some(stats.cycles),
-                            ..Response::done(format!("{n} tag(s) written"))
+                            ..Response::done(written(&values, n, stats.cycles))
                         },
                         Err(e) => Response {
                             locked: matches!(e, crate::plc::TagError::Forced { .. }),
@@ -225,6 +225,18 @@ impl ServiceBoundary {
                 now.since_origin().as_secs()
             ));
         }
+    }
+}
+
+/// What a write's client is told: the value itself when it was one tag (an operator's), the
+/// count otherwise, and the cycle boundary it was applied at.
+fn written(values: &[crate::service::control::TagValue], n: usize, cycle: u64) -> String {
+    match values {
+        [one] => format!(
+            "{} written: {} (at cycle {cycle}; the program may change it from its next scan)",
+            one.tag, one.value
+        ),
+        _ => format!("{n} tag(s) written (at cycle {cycle})"),
     }
 }
 

@@ -213,7 +213,7 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
         }
         Route::Events => Reply::Events,
         Route::Trace(t) => Reply::Full(trace::answer(&shared.auth, &shared.scan, t, req)),
-        Route::Force | Route::Unforce | Route::Auth => {
+        Route::Force | Route::Write | Route::Unforce | Route::Auth => {
             Reply::Full(routes::write(&shared.auth, &shared.scan, route, req))
         }
     }
