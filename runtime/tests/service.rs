@@ -439,6 +439,42 @@ fn an_operator_write_sets_a_tag_once_and_the_program_takes_it_back() {
     let (ok, text) = ctl(&socket, &["write", "seen", "1"]);
     assert!(!ok && text.contains("seen is forced"), "{text}");
     stop(plc);
+
+    // The audit file holds every one of them, with its source, after a restart too.
+    let audit = || {
+        let out = Command::new(BIN)
+            .args(["audit", "--last", "100", "-p"])
+            .arg(dir.join("project.yaml"))
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let plc = start(&dir, &socket, &[]);
+    assert!(ctl(&socket, &["unforce", "seen"]).0);
+    assert!(ctl(&socket, &["reload"]).0);
+    stop(plc);
+    let text = audit();
+    let lines: Vec<&str> = text.lines().collect();
+    let want = [
+        ("write", "cmd=1", ""),
+        ("write", "button=1", "REFUSED: button is an input"),
+        ("write", "cmd=maybe", "REFUSED: cmd is bool"),
+        ("write", "nosuchtag=1", "REFUSED: no tag"),
+        ("force", "seen=0", "seen forced to 0"),
+        ("write", "seen=1", "REFUSED: seen is forced"),
+        // Forces are lost on restart: nothing left to remove.
+        ("unforce", "seen", "0 force(s) removed"),
+        ("reload", "", "reloaded"),
+    ];
+    assert_eq!(lines.len(), want.len(), "{text}");
+    for (line, (action, what, result)) in lines.iter().zip(want) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        // UTC, "cycle", N, source, action, ...
+        assert!(words[0].ends_with('Z') && words[1] == "cycle", "{line}");
+        assert_eq!((words[3], words[4]), ("cli", action), "{line}");
+        assert!(line.contains(what) && line.contains(result), "{line}");
+    }
     // Best effort: the test's scratch folder.
     drop(std::fs::remove_dir_all(dir));
 }

@@ -812,6 +812,41 @@ fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
     let (code, text) = post(port, "/api/write", &auth, r#"{"tag":"seen","value":1}"#);
     assert_eq!(code, 409, "{text}");
     assert!(text.contains("seen is forced"), "{text}");
+    // The Audit panel's data: the newest first, each with the page's client address.
+    let (code, text) = http(
+        port,
+        &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
+    );
+    assert_eq!(code, 200, "{text}");
+    let audit: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let entries = audit["entries"].as_array().unwrap();
+    let seen: Vec<(&str, &str, bool)> = entries
+        .iter()
+        .map(|e| {
+            (
+                e["action"].as_str().unwrap(),
+                e["what"].as_str().unwrap(),
+                e["ok"].as_bool().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [
+            ("write", "seen=1", false),
+            ("force", "seen=0", true),
+            ("write", "cmd=7", false),
+            ("write", "button=1", false),
+            ("write", "cmd=1", true),
+        ],
+        "{text}"
+    );
+    assert!(
+        entries
+            .iter()
+            .all(|e| e["source"].as_str().unwrap().starts_with("web 127.0.0.1:")),
+        "{text}"
+    );
     drop(plc);
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));

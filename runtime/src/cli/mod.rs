@@ -1,6 +1,7 @@
 //! The `softplc` subcommands.
 
 mod args;
+mod audit;
 mod built_services;
 mod check;
 mod commission;
@@ -57,6 +58,9 @@ enum Command {
     Unforce(control::UnforceArgs),
     /// Reload the program of a running instance at a cycle boundary (like SIGHUP).
     Reload(control::ReloadArgs),
+    /// Show the audit file's latest entries: every write, force, unforce and reload, with who
+    /// asked (cli, web and its client, opcua, modbus and its client, mqtt) and when.
+    Audit(audit::AuditArgs),
     /// Find the modules on a serial line (every family, baud and format) and print a project
     /// skeleton; says first how long it takes at most.
     Discover(discover::DiscoverArgs),
@@ -96,6 +100,7 @@ pub fn main() -> ExitCode {
         Command::Write(a) => control::write(a),
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
+        Command::Audit(a) => audit::audit(a),
         Command::Test(a) => test::test(a),
         Command::Trace(c) => trace::trace(c),
         Command::Replay(a) => replay::replay_cmd(a),

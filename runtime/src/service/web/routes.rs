@@ -7,6 +7,7 @@
 //! | `GET /api/info` | what does not change: project, lines, modules, tags, program ([`super::info`]) |
 //! | `GET /api/state` | `{"state": …, "stats": …}` now ([`super::view`]) |
 //! | `GET /api/trend` | the trend's history |
+//! | `GET /api/audit` | the audit file's latest 50 entries, the newest first (`{"entries": [...]}`) |
 //! | `GET /api/events` | server-sent events `state` and `stats` ([`super::sse`]) |
 //! | `POST /api/force` | `{"tag": "motor", "value": "1"}` (value: text, number or boolean) |
 //! | `POST /api/write` | `{"tag": "speed", "value": 42}`: set once at the next cycle boundary; the program may overwrite it from its next scan |
@@ -65,6 +66,8 @@ pub(crate) enum Route {
     Trend,
     /// `/api/events`.
     Events,
+    /// `/api/audit`.
+    Audit,
     /// `/api/force`.
     Force,
     /// `/api/write`.
@@ -89,6 +92,7 @@ pub(crate) fn route(method: Method, path: &str) -> Result<Route, u16> {
         "/api/state" => (Route::State, false),
         "/api/trend" => (Route::Trend, false),
         "/api/events" => (Route::Events, false),
+        "/api/audit" => (Route::Audit, false),
         "/api/force" => (Route::Force, true),
         "/api/write" => (Route::Write, true),
         "/api/unforce" => (Route::Unforce, true),
@@ -200,7 +204,15 @@ pub(crate) fn write(
     let (reply, answer): (Sender<ControlResponse>, Receiver<ControlResponse>) =
         crossbeam_channel::bounded(1);
     if scan
-        .send_timeout(Envelope::new(request, reply, SCAN_ANSWER), QUEUE_WAIT)
+        .send_timeout(
+            Envelope::new(
+                request,
+                reply,
+                SCAN_ANSWER,
+                crate::service::audit::Origin::Web(req.peer),
+            ),
+            QUEUE_WAIT,
+        )
         .is_err()
     {
         return refused(503, "the scan is not taking requests (stopped or busy)");

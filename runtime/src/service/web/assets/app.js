@@ -156,6 +156,7 @@
   async function force(tag, value) {
     const r = await post("/api/force", { tag, value });
     toast(r.ok ? r.message : "Not forced: " + r.error, !r.ok);
+    renderAudit();
   }
 
   // A write sets the value once, at the next cycle boundary; the program (or the module) owns
@@ -163,11 +164,13 @@
   async function write(tag, value) {
     const r = await post("/api/write", { tag, value });
     toast(r.ok ? r.message : "Not written: " + r.error, !r.ok);
+    renderAudit();
   }
 
   async function unforce(tag) {
     const r = await post("/api/unforce", { tag });
     toast(r.ok ? (tag + " unforced") : "Not unforced: " + r.error, !r.ok);
+    renderAudit();
   }
 
   function renderAuth() {
@@ -986,6 +989,30 @@
     box.replaceChildren(g);
   }
 
+  // ---- Audit ----
+
+  // The audit file's latest entries (GET /api/audit), refreshed every few seconds and after
+  // each of this page's own writes.
+  async function renderAudit() {
+    let j;
+    try {
+      j = await getJSON("/api/audit");
+    } catch (e) {
+      return;
+    }
+    const box = $("audit");
+    const rows = j.entries.map((e) => {
+      const li = el("li", { "data-action": e.action, "data-source": e.source });
+      li.append(
+        el("span", { class: "sev " + (e.ok ? "ok" : "bad"), text: e.action }),
+        el("span", { text: e.utc.replace("T", " ").replace("Z", " UTC") + " · cycle " + e.cycle + " · " + e.source }),
+        el("span", { text: (e.what ? e.what + ": " : "") + (e.ok ? "" : "refused: ") + e.result }));
+      return li;
+    });
+    if (rows.length === 0) rows.push(el("li", { text: "nothing written, forced or reloaded yet" }));
+    box.replaceChildren(...rows);
+  }
+
   // ---- Live data ----
 
   function onState(s) {
@@ -1056,6 +1083,8 @@
     }
     connect();
     setInterval(watchdog, 1000);
+    renderAudit();
+    setInterval(renderAudit, 5000);
     window.addEventListener("resize", renderTrend);
   }
 
