@@ -6,7 +6,9 @@
 //! - an input set in the simulator shows up on the page within a second;
 //! - signing in with the project's token and clicking "Force 1" on the page turns the output on
 //!   in the simulator (and `softplc status` shows the force); "Unforce" gives it back;
-//! - a write through `POST /api/write` sets a tag once and the program takes it back;
+//! - "Write 1" on the page sets the motor once and the program's latch keeps it; "Write 0" drops
+//!   it; a write through `POST /api/write` sets a tag once and the program takes it back; the
+//!   overview's Audit panel lists the page's writes and forces with its client address;
 //! - a write without the token, or with a wrong one, is refused with 403 and changes nothing;
 //! - a rung the planner pushed down is marked with its module on the program view;
 //! - a ladder program is drawn as ladders lit by its inputs and its blocks' live outputs (a
@@ -324,9 +326,46 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     assert!(!status_line(&socket, "motor").contains("FORCED"));
     sim.send("set minimod@1.X3 0");
 
+    // "Write 1" on the page, once stop is released: the program's latch (motor holds itself)
+    // keeps the motor on; "Write 0" drops it, and the latch keeps it off. No force is left.
+    let released = Instant::now() + Duration::from_secs(10);
+    while status_line(&socket, "stop").split_whitespace().nth(1) != Some("0") {
+        assert!(
+            Instant::now() < released,
+            "stop was not released: {:?}",
+            status_line(&socket, "stop")
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    b.eval("document.querySelector('button[data-write=motor][data-value=\"1\"]').click(); true");
+    assert!(
+        sim.wait_for("minimod@1.Y1", "1", Duration::from_secs(10))
+            .is_some(),
+        "a write from the page did not reach the program's latch"
+    );
+    b.eval("document.querySelector('button[data-write=motor][data-value=\"0\"]').click(); true");
+    assert!(
+        sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(10))
+            .is_some(),
+        "a write of 0 from the page did not drop the latch"
+    );
+    assert!(!status_line(&socket, "motor").contains("FORCED"));
+    // The overview's Audit panel lists the page's writes and forces with its client address.
+    b.wait_for(
+        "document.querySelector('#audit li[data-action=write]') !== null",
+        Duration::from_secs(10),
+    )
+    .expect("the Audit panel shows the page's write");
+    let sources = b.eval("[...document.querySelectorAll('#audit li[data-action]')].map(li => li.dataset.source.split(':')[0]).join(',')");
+    assert_eq!(
+        sources.as_str(),
+        Some("web 127.0.0.1,web 127.0.0.1,web 127.0.0.1,web 127.0.0.1"),
+        "write 0, write 1, unforce, force"
+    );
+
     // Each view, with its plots drawn, as a screenshot.
     for (view, ready) in [
-        ("overview", "document.querySelectorAll('#trend path.trace').length >= 3 && document.querySelector('#faults li') !== null"),
+        ("overview", "document.querySelectorAll('#trend path.trace').length >= 3 && document.querySelector('#faults li') !== null && document.querySelector('#audit li') !== null"),
         ("io", "document.querySelector('#io-tables .led') !== null"),
         ("program", "document.querySelector('#program .tag.on, #program .tag.off') !== null"),
         ("timing", "document.querySelectorAll('#histograms svg rect.bar').length >= 5"),
