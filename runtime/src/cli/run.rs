@@ -201,7 +201,8 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
         }
     } else {
-        services.web = network::start_web(engine.plc(), &published, &requests, &health, audit);
+        services.web =
+            network::start_web(engine.plc(), &published, &requests, &health, audit.clone());
     }
     if services.any() || mqtt.is_some() || opcua.is_some() {
         let mut publisher = snapshot::Publisher::new(published);
@@ -277,6 +278,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if let Some(node) = mqtt {
         // Its last DATA (the safe state) and its NDEATH leave before the process does.
         node.finish(Duration::from_secs(3));
+    }
+    if let Some(log) = &audit {
+        // The last actions (a reload just before the stop) reach the file before the process
+        // ends.
+        log.finish(Duration::from_secs(2));
     }
     if let Some(printer) = printer {
         // The trace's last lines (the safe state written) come before the summary.

@@ -203,6 +203,8 @@ struct Shared {
     failing: Mutex<Option<String>>,
     /// Entries lost because the thread was behind.
     lost: AtomicU64,
+    /// Entries handed over and not yet through a rewrite (written or failed).
+    unwritten: AtomicU64,
 }
 
 /// The scan's side: hands entries to the writer thread, never waits.
@@ -240,8 +242,20 @@ impl AuditLog {
 
     /// Hands `entry` to the writer; counted lost when its queue is full.
     pub fn note(&self, entry: Entry) {
+        self.shared.unwritten.fetch_add(1, Ordering::AcqRel);
         if self.tx.try_send(entry).is_err() {
+            self.shared.unwritten.fetch_sub(1, Ordering::AcqRel);
             self.shared.lost.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Waits (at most `within`) until every entry handed over has been through a rewrite of
+    /// the file: at the end of a run, so the last actions (a stop's, a reload's) are not lost
+    /// with the process.
+    pub fn finish(&self, within: std::time::Duration) {
+        let end = std::time::Instant::now() + within;
+        while self.shared.unwritten.load(Ordering::Acquire) > 0 && std::time::Instant::now() < end {
+            std::thread::sleep(std::time::Duration::from_millis(5));
         }
     }
 
@@ -281,6 +295,7 @@ impl AuditLog {
 
 fn write_loop(rx: &Receiver<Entry>, shared: &Shared, path: &Path) {
     while let Ok(first) = rx.recv() {
+        let mut batch = 0;
         let text = {
             let mut e = shared
                 .entries
@@ -288,6 +303,7 @@ fn write_loop(rx: &Receiver<Entry>, shared: &Shared, path: &Path) {
                 .unwrap_or_else(PoisonError::into_inner);
             // A burst is written once: everything waiting joins this rewrite.
             for entry in std::iter::once(first).chain(rx.try_iter()) {
+                batch += 1;
                 e.push_back(entry);
                 if e.len() > KEPT {
                     e.pop_front();
@@ -317,6 +333,7 @@ fn write_loop(rx: &Receiver<Entry>, shared: &Shared, path: &Path) {
                 *failing = Some(e.to_string());
             }
         }
+        shared.unwritten.fetch_sub(batch, Ordering::AcqRel);
     }
 }
 
@@ -335,16 +352,16 @@ mod tests {
         )
     }
 
-    /// Waits until the thread has written `n` entries (bounded: 10 s).
+    /// Waits until the thread has been through every entry; the file's last is `last`.
     fn settled(log: &AuditLog, path: &Path, last: u64) {
-        let end = std::time::Instant::now() + std::time::Duration::from_secs(10);
-        while std::time::Instant::now() < end {
-            if read(path).is_ok_and(|e| e.last().is_some_and(|x| x.cycle == last)) {
-                return;
-            }
-            std::thread::sleep(std::time::Duration::from_millis(10));
-        }
-        panic!("not written: {:?}", log.state());
+        log.finish(std::time::Duration::from_secs(10));
+        let kept = read(path).unwrap();
+        assert_eq!(
+            kept.last().map(|x| x.cycle),
+            Some(last),
+            "{:?}",
+            log.state()
+        );
     }
 
     #[test]
