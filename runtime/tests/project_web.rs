@@ -329,6 +329,7 @@ fn server(writes: bool, ok: bool) -> (WebServer, SnapshotCell, Arc<Mutex<Vec<Req
         tx,
         Duration::from_millis(100),
         &softplc::service::Health::new(),
+        None,
     )
     .unwrap();
     (s, cell, seen)

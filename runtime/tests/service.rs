@@ -1,5 +1,5 @@
 //! The service as systemd runs it: the unit file's checks, the sd_notify protocol, and the
-//! control interface (status, force, unforce, reload) against a running instance on the
+//! control interface (status, force, write, unforce, reload) against a running instance on the
 //! simulated default.
 
 use crate::common::host::repo;
@@ -380,5 +380,101 @@ fn check_names_the_addresses_the_unit_must_allow() {
     );
     assert!(!local.contains("IPAddressDeny"), "{local}");
     // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
+}
+
+/// A project on one simulated MiniMod whose program latches `seen` when `cmd` is set and then
+/// clears `cmd` itself: a write of `cmd` shows as `seen` = 1 and `cmd` back at 0.
+fn write_once_project(dir: &Path) {
+    std::fs::write(dir.join("p.expr"), "seen = seen | cmd\ncmd = false\n").unwrap();
+    std::fs::write(
+        dir.join("project.yaml"),
+        "project: writeonce\n\
+         scan: { period: 20ms }\n\
+         buses:\n  - { name: line1, port: sim, baud: 19200, format: 8E1, response_timeout: 50ms }\n\
+         modules:\n  - { name: mm1, bus: line1, model: minimod, address: 1 }\n\
+         tags:\n  - { name: button, point: mm1.X1 }\n  - { name: cmd, type: bool }\n  - { name: seen, type: bool }\n\
+         program: { file: p.expr, kind: expr }\n",
+    )
+    .unwrap();
+}
+
+/// A tag's value in `softplc status` (its line's second word).
+fn value_of(socket: &Path, tag: &str) -> String {
+    ctl(socket, &["status"])
+        .1
+        .lines()
+        .find(|l| l.split_whitespace().next() == Some(tag))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .unwrap_or_default()
+        .to_string()
+}
+
+#[test]
+fn an_operator_write_sets_a_tag_once_and_the_program_takes_it_back() {
+    let dir = scratch("write");
+    write_once_project(&dir);
+    let socket = dir.join("ctl.sock");
+    let plc = start(&dir, &socket, &[]);
+    assert_eq!(value_of(&socket, "seen"), "0");
+
+    let (ok, text) = ctl(&socket, &["write", "cmd", "1"]);
+    assert!(ok && text.contains("cmd written: 1 (at cycle"), "{text}");
+    // The program saw the write in its next scan and cleared cmd in the same scan.
+    let end = Instant::now() + Duration::from_secs(5);
+    while value_of(&socket, "seen") != "1" && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(value_of(&socket, "seen"), "1");
+    assert_eq!(value_of(&socket, "cmd"), "0", "the program took cmd back");
+
+    // Refused, with the reason: an input, a value of another type, an unknown tag, a force.
+    let (ok, text) = ctl(&socket, &["write", "button", "1"]);
+    assert!(!ok && text.contains("button is an input"), "{text}");
+    let (ok, text) = ctl(&socket, &["write", "cmd", "maybe"]);
+    assert!(!ok && text.contains("cmd is bool"), "{text}");
+    let (ok, text) = ctl(&socket, &["write", "nosuchtag", "1"]);
+    assert!(!ok && text.contains("no tag \"nosuchtag\""), "{text}");
+    assert!(ctl(&socket, &["force", "seen", "0"]).0);
+    let (ok, text) = ctl(&socket, &["write", "seen", "1"]);
+    assert!(!ok && text.contains("seen is forced"), "{text}");
+    stop(plc);
+
+    // The audit file holds every one of them, with its source, after a restart too.
+    let audit = || {
+        let out = Command::new(BIN)
+            .args(["audit", "--last", "100", "-p"])
+            .arg(dir.join("project.yaml"))
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let plc = start(&dir, &socket, &[]);
+    assert!(ctl(&socket, &["unforce", "seen"]).0);
+    assert!(ctl(&socket, &["reload"]).0);
+    stop(plc);
+    let text = audit();
+    let lines: Vec<&str> = text.lines().collect();
+    let want = [
+        ("write", "cmd=1", ""),
+        ("write", "button=1", "REFUSED: button is an input"),
+        ("write", "cmd=maybe", "REFUSED: cmd is bool"),
+        ("write", "nosuchtag=1", "REFUSED: no tag"),
+        ("force", "seen=0", "seen forced to 0"),
+        ("write", "seen=1", "REFUSED: seen is forced"),
+        // Forces are lost on restart: nothing left to remove.
+        ("unforce", "seen", "0 force(s) removed"),
+        ("reload", "", "reloaded"),
+    ];
+    assert_eq!(lines.len(), want.len(), "{text}");
+    for (line, (action, what, result)) in lines.iter().zip(want) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        // UTC, "cycle", N, source, action, ...
+        assert!(words[0].ends_with('Z') && words[1] == "cycle", "{line}");
+        assert_eq!((words[3], words[4]), ("cli", action), "{line}");
+        assert!(line.contains(what) && line.contains(result), "{line}");
+    }
+    // Best effort: the test's scratch folder.
     drop(std::fs::remove_dir_all(dir));
 }

@@ -446,6 +446,7 @@ fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
                         Request::Reload,
                         reply_tx.clone(),
                         Duration::from_secs(60),
+                        softplc::service::audit::Origin::Cli,
                     ))
                     .unwrap();
                 *sent_in.lock().unwrap() = Some(ctx.cycle);

@@ -6,6 +6,9 @@
 //! - an input set in the simulator shows up on the page within a second;
 //! - signing in with the project's token and clicking "Force 1" on the page turns the output on
 //!   in the simulator (and `softplc status` shows the force); "Unforce" gives it back;
+//! - "Write 1" on the page sets the motor once and the program's latch keeps it; "Write 0" drops
+//!   it; a write through `POST /api/write` sets a tag once and the program takes it back; the
+//!   overview's Audit panel lists the page's writes and forces with its client address;
 //! - a write without the token, or with a wrong one, is refused with 403 and changes nothing;
 //! - a rung the planner pushed down is marked with its module on the program view;
 //! - a ladder program is drawn as ladders lit by its inputs and its blocks' live outputs (a
@@ -323,9 +326,46 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     assert!(!status_line(&socket, "motor").contains("FORCED"));
     sim.send("set minimod@1.X3 0");
 
+    // "Write 1" on the page, once stop is released: the program's latch (motor holds itself)
+    // keeps the motor on; "Write 0" drops it, and the latch keeps it off. No force is left.
+    let released = Instant::now() + Duration::from_secs(10);
+    while status_line(&socket, "stop").split_whitespace().nth(1) != Some("0") {
+        assert!(
+            Instant::now() < released,
+            "stop was not released: {:?}",
+            status_line(&socket, "stop")
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    b.eval("document.querySelector('button[data-write=motor][data-value=\"1\"]').click(); true");
+    assert!(
+        sim.wait_for("minimod@1.Y1", "1", Duration::from_secs(10))
+            .is_some(),
+        "a write from the page did not reach the program's latch"
+    );
+    b.eval("document.querySelector('button[data-write=motor][data-value=\"0\"]').click(); true");
+    assert!(
+        sim.wait_for("minimod@1.Y1", "0", Duration::from_secs(10))
+            .is_some(),
+        "a write of 0 from the page did not drop the latch"
+    );
+    assert!(!status_line(&socket, "motor").contains("FORCED"));
+    // The overview's Audit panel lists the page's writes and forces with its client address.
+    b.wait_for(
+        "document.querySelector('#audit li[data-action=write]') !== null",
+        Duration::from_secs(10),
+    )
+    .expect("the Audit panel shows the page's write");
+    let sources = b.eval("[...document.querySelectorAll('#audit li[data-action]')].map(li => li.dataset.source.split(':')[0]).join(',')");
+    assert_eq!(
+        sources.as_str(),
+        Some("web 127.0.0.1,web 127.0.0.1,web 127.0.0.1,web 127.0.0.1"),
+        "write 0, write 1, unforce, force"
+    );
+
     // Each view, with its plots drawn, as a screenshot.
     for (view, ready) in [
-        ("overview", "document.querySelectorAll('#trend path.trace').length >= 3 && document.querySelector('#faults li') !== null"),
+        ("overview", "document.querySelectorAll('#trend path.trace').length >= 3 && document.querySelector('#faults li') !== null && document.querySelector('#audit li') !== null"),
         ("io", "document.querySelector('#io-tables .led') !== null"),
         ("program", "document.querySelector('#program .tag.on, #program .tag.off') !== null"),
         ("timing", "document.querySelectorAll('#histograms svg rect.bar').length >= 5"),
@@ -745,6 +785,107 @@ fn the_page_at_800_px_and_its_bus_rate_and_trace_words() {
         Some(serde_json::json!("times from the first sample"))
     );
     drop(b);
+    drop(plc);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+/// The page's write: with the token, `POST /api/write` sets a tag once at a cycle boundary and
+/// the program takes it back in its next scan; refusals say why (an input, a value of another
+/// type, a forced tag), and without the token nothing is written.
+#[test]
+fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
+    let dir = crate::common::host::scratch_dir("web", "write");
+    let port = free_port();
+    // The program latches `seen` when `cmd` is set, then clears `cmd` itself.
+    std::fs::write(dir.join("p.expr"), "seen = seen | cmd\ncmd = false\n").unwrap();
+    std::fs::write(
+        dir.join("project.yaml"),
+        format!(
+            "project: webwrite\n\
+             scan: {{ period: 20ms }}\n\
+             buses:\n  - {{ name: line1, port: sim, baud: 19200, format: 8E1, response_timeout: 50ms }}\n\
+             modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n\
+             tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: cmd, type: bool }}\n  - {{ name: seen, type: bool }}\n\
+             program: {{ file: p.expr, kind: expr }}\n\
+             service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, token: {TOKEN} }}\n"
+        ),
+    )
+    .unwrap();
+    let socket = dir.join("ctl.sock");
+    let plc = run_plc(&dir.join("project.yaml"), &socket, port);
+    let json = "Content-Type: application/json\r\n";
+    let auth = format!("{json}Authorization: Bearer {TOKEN}\r\n");
+    let value = |tag: &str| {
+        status_line(&socket, tag)
+            .split_whitespace()
+            .nth(1)
+            .unwrap_or_default()
+            .to_string()
+    };
+
+    let (code, text) = post(port, "/api/write", json, r#"{"tag":"cmd","value":true}"#);
+    assert_eq!(code, 403, "{text}");
+    assert_eq!(value("seen"), "0", "a refused write changes nothing");
+
+    let (code, text) = post(port, "/api/write", &auth, r#"{"tag":"cmd","value":true}"#);
+    assert_eq!(code, 200, "{text}");
+    assert!(text.contains("cmd written: 1"), "{text}");
+    let end = Instant::now() + Duration::from_secs(5);
+    while value("seen") != "1" && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(value("seen"), "1", "the program saw the write");
+    assert_eq!(value("cmd"), "0", "and took cmd back");
+
+    let (code, text) = post(port, "/api/write", &auth, r#"{"tag":"button","value":1}"#);
+    assert_eq!(code, 409, "{text}");
+    assert!(text.contains("button is an input"), "{text}");
+    let (code, text) = post(port, "/api/write", &auth, r#"{"tag":"cmd","value":"7"}"#);
+    assert_eq!(code, 409, "{text}");
+    assert!(text.contains("cmd is bool"), "{text}");
+    assert_eq!(
+        post(port, "/api/force", &auth, r#"{"tag":"seen","value":0}"#).0,
+        200
+    );
+    let (code, text) = post(port, "/api/write", &auth, r#"{"tag":"seen","value":1}"#);
+    assert_eq!(code, 409, "{text}");
+    assert!(text.contains("seen is forced"), "{text}");
+    // The Audit panel's data: the newest first, each with the page's client address.
+    let (code, text) = http(
+        port,
+        &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
+    );
+    assert_eq!(code, 200, "{text}");
+    let audit: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let entries = audit["entries"].as_array().unwrap();
+    let seen: Vec<(&str, &str, bool)> = entries
+        .iter()
+        .map(|e| {
+            (
+                e["action"].as_str().unwrap(),
+                e["what"].as_str().unwrap(),
+                e["ok"].as_bool().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [
+            ("write", "seen=1", false),
+            ("force", "seen=0", true),
+            ("write", "cmd=7", false),
+            ("write", "button=1", false),
+            ("write", "cmd=1", true),
+        ],
+        "{text}"
+    );
+    assert!(
+        entries
+            .iter()
+            .all(|e| e["source"].as_str().unwrap().starts_with("web 127.0.0.1:")),
+        "{text}"
+    );
     drop(plc);
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));

@@ -1,4 +1,4 @@
-//! Client commands for a running instance: `softplc status | force | unforce | reload`.
+//! Client commands for a running instance: `softplc status | force | write | unforce | reload`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -8,7 +8,7 @@ use anyhow::Context;
 use super::out::{errln, out, outln};
 
 use crate::project;
-use crate::service::control::{default_socket_path, request, Request, Response};
+use crate::service::control::{default_socket_path, request, Request, Response, TagValue};
 
 /// Which running instance to talk to.
 #[derive(Debug, clap::Args)]
@@ -44,9 +44,9 @@ pub(crate) struct StatusArgs {
     json: bool,
 }
 
-/// Arguments of `softplc force`.
+/// Arguments of `softplc force` and `softplc write`: a tag and its value.
 #[derive(Debug, clap::Args)]
-pub(crate) struct ForceArgs {
+pub(crate) struct TagValueArgs {
     #[command(flatten)]
     target: Target,
     /// The tag.
@@ -113,12 +113,24 @@ pub(super) fn status(args: StatusArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-pub(super) fn force(args: ForceArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn force(args: TagValueArgs) -> anyhow::Result<ExitCode> {
     send(
         &args.target,
         &Request::Force {
             tag: args.tag,
             value: args.value,
+        },
+    )
+}
+
+pub(super) fn write(args: TagValueArgs) -> anyhow::Result<ExitCode> {
+    send(
+        &args.target,
+        &Request::Write {
+            values: vec![TagValue {
+                tag: args.tag,
+                value: args.value,
+            }],
         },
     )
 }

@@ -1,6 +1,7 @@
 //! The `softplc` subcommands.
 
 mod args;
+mod audit;
 mod built_services;
 mod check;
 mod commission;
@@ -49,11 +50,17 @@ enum Command {
     /// Show a running instance's scan figures, modules, tags and forces.
     Status(control::StatusArgs),
     /// Force a tag of a running instance (applied after the input read and before the write).
-    Force(control::ForceArgs),
+    Force(control::TagValueArgs),
+    /// Write a tag of a running instance once, at the next cycle boundary; the program (or the
+    /// module) owns it again from its next scan. Refused for an input or a forced tag.
+    Write(control::TagValueArgs),
     /// Remove a force (or every force with --all).
     Unforce(control::UnforceArgs),
     /// Reload the program of a running instance at a cycle boundary (like SIGHUP).
     Reload(control::ReloadArgs),
+    /// Show the audit file's latest entries: every write, force, unforce and reload, with who
+    /// asked (cli, web and its client, opcua, modbus and its client, mqtt) and when.
+    Audit(audit::AuditArgs),
     /// Find the modules on a serial line (every family, baud and format) and print a project
     /// skeleton; says first how long it takes at most.
     Discover(discover::DiscoverArgs),
@@ -90,8 +97,10 @@ pub fn main() -> ExitCode {
         Command::Sim(a) => sim::sim(a),
         Command::Status(a) => control::status(a),
         Command::Force(a) => control::force(a),
+        Command::Write(a) => control::write(a),
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
+        Command::Audit(a) => audit::audit(a),
         Command::Test(a) => test::test(a),
         Command::Trace(c) => trace::trace(c),
         Command::Replay(a) => replay::replay_cmd(a),

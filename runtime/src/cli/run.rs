@@ -141,6 +141,21 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         health.watch_retain(r.save_failure());
     }
     health.set(Service::Trace, ServiceState::Running);
+    let audit_file = crate::service::audit::audit_path(&args.project);
+    let audit = match crate::service::audit::AuditLog::start(audit_file.clone()) {
+        Ok(log) => {
+            tracing::info!("audit file {}", audit_file.display());
+            let probe = log.clone();
+            health.watch(Service::Audit, move || probe.state());
+            Some(log)
+        }
+        Err(e) => {
+            // The PLC runs without it, and says why.
+            tracing::error!("audit: cannot start its writer ({e}); nothing is audited");
+            health.set(Service::Audit, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    };
     let mut engine = ScanEngine::new(plc);
     if let Some(d) = args.run_for {
         engine = engine.run_for(d);
@@ -152,6 +167,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let mut boundary = ServiceBoundary::new()
         .with_control(requests_rx)
         .with_health(health.clone());
+    if let Some(log) = &audit {
+        boundary = boundary.with_audit(log.clone());
+    }
     signal_hook::flag::register(signal_hook::consts::SIGHUP, boundary.reload_flag())
         .context("cannot install the SIGHUP handler")?;
     let _control = if args.no_control {
@@ -183,7 +201,8 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
         }
     } else {
-        services.web = network::start_web(engine.plc(), &published, &requests, &health);
+        services.web =
+            network::start_web(engine.plc(), &published, &requests, &health, audit.clone());
     }
     if services.any() || mqtt.is_some() || opcua.is_some() {
         let mut publisher = snapshot::Publisher::new(published);
@@ -259,6 +278,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if let Some(node) = mqtt {
         // Its last DATA (the safe state) and its NDEATH leave before the process does.
         node.finish(Duration::from_secs(3));
+    }
+    if let Some(log) = &audit {
+        // The last actions (a reload just before the stop) reach the file before the process
+        // ends.
+        log.finish(Duration::from_secs(2));
     }
     if let Some(printer) = printer {
         // The trace's last lines (the safe state written) come before the summary.

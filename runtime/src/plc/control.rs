@@ -49,8 +49,11 @@ impl Plc {
 
     /// Sets tags to values (`(tag, text)`, the text parsed as each tag's type) all at once, as
     /// an assignment does: the program sees them in its next scan and may overwrite them.
-    /// Nothing is set unless every tag exists, every value parses and no tag is forced (a
-    /// force wins). Returns how many tags were written.
+    /// Nothing is set unless every tag exists, every value parses, no tag is forced (a force
+    /// wins) and every tag is one the program may write (an input is its module's: the next
+    /// input read would overwrite the value unseen). Every writer goes through here: the
+    /// control socket's and the page's operator writes, OPC UA, Modbus TCP and MQTT. Returns
+    /// how many tags were written.
     pub fn write_tags<'a>(
         &mut self,
         values: impl IntoIterator<Item = (&'a str, &'a str)>,
@@ -61,6 +64,9 @@ impl Plc {
             let value = self.parse_value(id, tag, text)?;
             if self.image.forced(id).is_some() {
                 return Err(TagError::Forced { tag: tag.into() });
+            }
+            if !load::writable(&self.project, id.index()) {
+                return Err(TagError::Input { tag: tag.into() });
             }
             self.refuse_pushed(id, tag)?;
             parsed.push((id, value));

@@ -34,6 +34,15 @@ pub enum TagError {
         /// The tag.
         tag: String,
     },
+    /// A write to an input: the module's next read overwrites it before the program sees it.
+    #[error(
+        "{tag} is an input its module overwrites every scan: a write would not last; force it \
+         to hold a value"
+    )]
+    Input {
+        /// The tag.
+        tag: String,
+    },
     /// The tag is an output a module drives with its own logic (push-down).
     #[error(
         "{tag} is driven by its module's own logic (push-down); set offload: never on the tag \

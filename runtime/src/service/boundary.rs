@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use crate::plc::{Plc, PreparedReload, ReloadError};
 use crate::scan::{CycleBoundary, ScanStats, StopReason};
+use crate::service::audit::{Action, AuditLog, Entry, Origin};
 use crate::service::changes::ChangeFeed;
 use crate::service::control::{Envelope, Request, Response};
 use crate::service::notify::Notifier;
@@ -31,8 +32,10 @@ pub struct ServiceBoundary {
     publisher: Option<Publisher>,
     /// A reload being compiled off the scan thread.
     reload_job: Option<Receiver<Result<PreparedReload, ReloadError>>>,
-    /// Control clients waiting for that reload's outcome.
-    reload_waiters: Vec<Sender<Response>>,
+    /// Who waits for that reload's outcome (no reply: SIGHUP's).
+    reload_waiters: Vec<(Option<Sender<Response>>, Origin)>,
+    /// The audit file: every write, force, unforce and reload, with who and when.
+    audit: Option<AuditLog>,
     /// Armed traces, sampled at every boundary (see [`crate::trace`]).
     traces: crate::trace::TraceSet,
     /// The services' states, for the status report.
@@ -72,6 +75,26 @@ impl ServiceBoundary {
         self
     }
 
+    /// Notes every write, force, unforce and reload in `audit`.
+    pub fn with_audit(mut self, audit: AuditLog) -> Self {
+        self.audit = Some(audit);
+        self
+    }
+
+    /// Notes what `origin` asked and what became of it in the audit file, if there is one.
+    fn audit(&self, cycle: u64, origin: &Origin, action: Action, what: String, r: &Response) {
+        let Some(log) = &self.audit else { return };
+        let result = if r.ok { &r.message } else { &r.error };
+        log.note(Entry::now(
+            cycle,
+            origin,
+            action,
+            what,
+            r.ok,
+            result.clone().unwrap_or_default(),
+        ));
+    }
+
     /// Reports the states `health` holds in the status.
     pub fn with_health(mut self, health: super::health::Health) -> Self {
         self.health = Some(health);
@@ -92,6 +115,22 @@ impl ServiceBoundary {
                 // Its client was already told it failed; carrying it out now would surprise.
                 continue;
             }
+            let audited = match &env.request {
+                Request::Write { values } => Some((
+                    Action::Write,
+                    values
+                        .iter()
+                        .map(|v| format!("{}={}", v.tag, v.value))
+                        .collect::<Vec<_>>()
+                        .join(" "),
+                )),
+                Request::Force { tag, value } => Some((Action::Force, format!("{tag}={value}"))),
+                Request::Unforce { tag } => {
+                    Some((Action::Unforce, tag.clone().unwrap_or_else(|| "*".into())))
+                }
+                // Noted when it is swapped in or refused.
+                Request::Reload | Request::Status | Request::Trace(_) => None,
+            };
             let response = match env.request {
                 Request::Status => {
                     let mut status = StatusReport::of(plc, stats);
@@ -126,7 +165,7 @@ impl ServiceBoundary {
                 Request::Trace(t) => crate::service::trace::answer(&mut self.traces, plc, t),
                 Request::Reload => {
                     // Compiled off the scan thread; answered when it is swapped in.
-                    self.start_reload(plc, Some(env.reply));
+                    self.start_reload(plc, Some(env.reply), env.origin, stats.cycles);
                     continue;
                 }
                 Request::Write { values } => {
@@ -134,7 +173,7 @@ impl ServiceBoundary {
                     {
                         Ok(n) => Response {
                             applied_at: Some(stats.cycles),
-                            ..Response::done(format!("{n} tag(s) written"))
+                            ..Response::done(written(&values, n, stats.cycles))
                         },
                         Err(e) => Response {
                             locked: matches!(e, crate::plc::TagError::Forced { .. }),
@@ -143,6 +182,9 @@ impl ServiceBoundary {
                     }
                 }
             };
+            if let Some((action, what)) = audited {
+                self.audit(stats.cycles, &env.origin, action, what, &response);
+            }
             // A client that gave up meanwhile has nobody left to tell.
             drop(env.reply.send(response));
         }
@@ -151,10 +193,14 @@ impl ServiceBoundary {
     /// Starts compiling the project's program again on a thread of its own; `reply` is told
     /// the outcome once it is swapped in (or refused). A reload already under way answers for
     /// this one too.
-    fn start_reload(&mut self, plc: &Plc, reply: Option<Sender<Response>>) {
-        if let Some(r) = reply {
-            self.reload_waiters.push(r);
-        }
+    fn start_reload(
+        &mut self,
+        plc: &Plc,
+        reply: Option<Sender<Response>>,
+        origin: Origin,
+        cycle: u64,
+    ) {
+        self.reload_waiters.push((reply, origin));
         if self.reload_job.is_some() {
             return;
         }
@@ -168,12 +214,14 @@ impl ServiceBoundary {
             });
         match spawned {
             Ok(_) => self.reload_job = Some(rx),
-            Err(e) => self.finish_reload(Err(format!("reload refused: no thread for it: {e}"))),
+            Err(e) => {
+                self.finish_reload(Err(format!("reload refused: no thread for it: {e}")), cycle)
+            }
         }
     }
 
     /// At a cycle boundary: swaps in a program whose compilation has finished.
-    fn poll_reload(&mut self, plc: &mut Plc) {
+    fn poll_reload(&mut self, plc: &mut Plc, cycle: u64) {
         let Some(rx) = &self.reload_job else { return };
         let outcome = match rx.try_recv() {
             Ok(Ok(prepared)) => {
@@ -190,19 +238,23 @@ impl ServiceBoundary {
             }
         };
         self.reload_job = None;
-        self.finish_reload(outcome);
+        self.finish_reload(outcome, cycle);
     }
 
-    fn finish_reload(&mut self, outcome: Result<String, String>) {
+    fn finish_reload(&mut self, outcome: Result<String, String>, cycle: u64) {
         if let Err(e) = &outcome {
             tracing::error!("{e}");
         }
-        for reply in self.reload_waiters.drain(..) {
-            // A client that gave up meanwhile has nobody left to tell.
-            drop(reply.send(match &outcome {
-                Ok(m) => Response::done(m.clone()),
-                Err(e) => Response::refused(e.clone()),
-            }));
+        let response = match &outcome {
+            Ok(m) => Response::done(m.clone()),
+            Err(e) => Response::refused(e.clone()),
+        };
+        for (reply, origin) in std::mem::take(&mut self.reload_waiters) {
+            self.audit(cycle, &origin, Action::Reload, String::new(), &response);
+            if let Some(reply) = reply {
+                // A client that gave up meanwhile has nobody left to tell.
+                drop(reply.send(response.clone()));
+            }
         }
     }
 
@@ -228,6 +280,18 @@ impl ServiceBoundary {
     }
 }
 
+/// What a write's client is told: the value itself when it was one tag (an operator's), the
+/// count otherwise, and the cycle boundary it was applied at.
+fn written(values: &[crate::service::control::TagValue], n: usize, cycle: u64) -> String {
+    match values {
+        [one] => format!(
+            "{} written: {} (at cycle {cycle}; the program may change it from its next scan)",
+            one.tag, one.value
+        ),
+        _ => format!("{n} tag(s) written (at cycle {cycle})"),
+    }
+}
+
 impl CycleBoundary for ServiceBoundary {
     fn started(&mut self, plc: &mut Plc) {
         let n = self.traces.arm_at_start(plc.project());
@@ -244,7 +308,7 @@ impl CycleBoundary for ServiceBoundary {
         // see of it, even when the next scan overwrites it.
         self.feed.offer(plc.image(), stats.cycles, now);
         if self.reload.swap(false, Ordering::Relaxed) {
-            self.start_reload(plc, None);
+            self.start_reload(plc, None, Origin::Signal, stats.cycles);
         }
         if let Some(p) = &mut self.publisher {
             p.publish(plc, stats, now, false);
@@ -252,7 +316,7 @@ impl CycleBoundary for ServiceBoundary {
         self.notify(stats, now);
         // Last, as the scan did before its next cycle: a compilation finished by now is
         // swapped in before that cycle runs.
-        self.poll_reload(plc);
+        self.poll_reload(plc, stats.cycles);
     }
 
     fn stopping(&mut self, _reason: &StopReason) {

@@ -129,15 +129,23 @@ pub struct Envelope {
     pub reply: Sender<Response>,
     /// After this the client has been told the request failed: the scan must not carry it out.
     pub expires: std::time::Instant,
+    /// Who asked, for the audit file.
+    pub origin: crate::service::audit::Origin,
 }
 
 impl Envelope {
-    /// A request whose client waits at most `answer_within` for it.
-    pub fn new(request: Request, reply: Sender<Response>, answer_within: Duration) -> Self {
+    /// A request from `origin` whose client waits at most `answer_within` for it.
+    pub fn new(
+        request: Request,
+        reply: Sender<Response>,
+        answer_within: Duration,
+        origin: crate::service::audit::Origin,
+    ) -> Self {
         Self {
             request,
             reply,
             expires: std::time::Instant::now() + answer_within,
+            origin,
         }
     }
 
@@ -354,7 +362,15 @@ fn serve_client(stream: UnixStream, scan: &Sender<Envelope>, held: &Held) {
 fn forward(scan: &Sender<Envelope>, request: Request) -> Response {
     let (reply, answer): (Sender<Response>, Receiver<Response>) = crossbeam_channel::bounded(1);
     if scan
-        .send_timeout(Envelope::new(request, reply, SCAN_ANSWER), SCAN_ANSWER)
+        .send_timeout(
+            Envelope::new(
+                request,
+                reply,
+                SCAN_ANSWER,
+                crate::service::audit::Origin::Cli,
+            ),
+            SCAN_ANSWER,
+        )
         .is_err()
     {
         return Response::refused("the scan has stopped, or is not taking requests");

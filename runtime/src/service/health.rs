@@ -38,11 +38,13 @@ pub enum Service {
     Retain,
     /// Traces.
     Trace,
+    /// The audit file's writer.
+    Audit,
 }
 
 impl Service {
     /// Every service, in report order.
-    pub const ALL: [Service; 8] = [
+    pub const ALL: [Service; 9] = [
         Service::Web,
         Service::Metrics,
         Service::ModbusTcp,
@@ -51,6 +53,7 @@ impl Service {
         Service::Recorder,
         Service::Retain,
         Service::Trace,
+        Service::Audit,
     ];
 
     /// Its name in reports and metrics labels.
@@ -64,6 +67,7 @@ impl Service {
             Service::Recorder => "recorder",
             Service::Retain => "retain",
             Service::Trace => "trace",
+            Service::Audit => "audit",
         }
     }
 }
@@ -251,6 +255,7 @@ mod tests {
                 "recorder: degraded (disk full)",
                 "retain: off",
                 "trace: off",
+                "audit: off",
             ]
         );
         let retain: SaveFailure = Arc::new(Mutex::new(Some("No space left on device".into())));

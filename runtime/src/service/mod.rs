@@ -23,6 +23,7 @@
 //!   every cycle's tag changes, in order, from `changes` (a bounded queue each, fed at the
 //!   cycle boundary; a consumer that falls behind loses changes visibly).
 
+pub mod audit;
 pub(crate) mod boundary;
 // Its consumers are the optional services (OPC UA, MQTT): with one or none, parts go unused.
 #[cfg_attr(not(all(feature = "opcua", feature = "mqtt")), allow(dead_code))]

@@ -133,7 +133,7 @@ struct Shared {
 impl Shared {
     /// Sends `writes` to the scan and waits until it has applied and published them.
     /// Blocking: runs on tokio's blocking pool.
-    fn apply(&self, writes: &[(usize, Value)]) -> Result<(), Exception> {
+    fn apply(&self, writes: &[(usize, Value)], peer: Option<SocketAddr>) -> Result<(), Exception> {
         let values = writes
             .iter()
             .map(|&(tag, v)| {
@@ -151,7 +151,12 @@ impl Shared {
         let before = self.snapshot.with(|s| s.cycles);
         let deadline = Instant::now() + WRITE_WAIT;
         let (reply, answer) = crossbeam_channel::bounded(1);
-        let envelope = Envelope::new(Request::Write { values }, reply, WRITE_WAIT);
+        let envelope = Envelope::new(
+            Request::Write { values },
+            reply,
+            WRITE_WAIT,
+            crate::service::audit::Origin::Modbus(peer),
+        );
         self.scan
             .send_deadline(envelope, deadline)
             .map_err(|_| Exception::ServerDeviceFailure)?;
@@ -175,9 +180,9 @@ impl Shared {
     }
 }
 
-/// The tokio-modbus service of one connection.
+/// The tokio-modbus service of one connection, with its client's address (for the audit file).
 #[derive(Debug, Clone)]
-struct Scada(Arc<Shared>);
+struct Scada(Arc<Shared>, Option<SocketAddr>);
 
 type Reply = Pin<Box<dyn Future<Output = Result<MbResponse, ExceptionCode>> + Send>>;
 
@@ -201,8 +206,9 @@ impl tokio_modbus::server::Service for Scada {
             Err(e) => Box::pin(std::future::ready(Err(exception(e)))),
             Ok(Answer::Write(writes, r)) => {
                 let shared = shared.clone();
+                let peer = self.1;
                 Box::pin(async move {
-                    match tokio::task::spawn_blocking(move || shared.apply(&writes)).await {
+                    match tokio::task::spawn_blocking(move || shared.apply(&writes, peer)).await {
                         Ok(Ok(())) => Ok(r),
                         Ok(Err(e)) => Err(exception(e)),
                         Err(_) => Err(exception(Exception::ServerDeviceFailure)),
@@ -303,9 +309,9 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
         idle: shared.cfg.idle_timeout,
         send: shared.cfg.send_timeout,
     };
-    let service = Scada(shared);
+    let service = Scada(shared, None);
     let on_connected = |stream: tokio::net::TcpStream, peer: SocketAddr| {
-        let service = service.clone();
+        let service = Scada(service.0.clone(), Some(peer));
         let clients = clients.clone();
         async move {
             let Some(slot) = ClientSlot::take(&clients, MAX_CLIENTS) else {

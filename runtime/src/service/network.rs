@@ -57,6 +57,7 @@ pub(crate) fn start_web(
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
     health: &Health,
+    audit: Option<crate::service::audit::AuditLog>,
 ) -> Option<WebServer> {
     let project = plc.project();
     let config = project.service.web.as_ref()?;
@@ -68,6 +69,7 @@ pub(crate) fn start_web(
         scan.clone(),
         project.scan.period,
         health,
+        audit,
     ) {
         Ok(server) => {
             health.set(Service::Web, ServiceState::Running);

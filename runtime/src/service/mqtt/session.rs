@@ -419,7 +419,12 @@ impl Session {
             .collect();
         let tags: Vec<String> = values.iter().map(|v| v.tag.clone()).collect();
         let (reply, answer) = crossbeam_channel::bounded(1);
-        let env = Envelope::new(Request::Write { values }, reply, WRITE_WAIT);
+        let env = Envelope::new(
+            Request::Write { values },
+            reply,
+            WRITE_WAIT,
+            crate::service::audit::Origin::Mqtt(topic.to_string()),
+        );
         match self.scan.try_send(env) {
             Ok(()) => pending.push(Pending {
                 tags,

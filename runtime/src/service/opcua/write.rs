@@ -107,7 +107,12 @@ impl Writer {
             tag: name.clone(),
             value: value.to_string(),
         }];
-        let env = Envelope::new(Request::Write { values }, reply, WRITE_WAIT);
+        let env = Envelope::new(
+            Request::Write { values },
+            reply,
+            WRITE_WAIT,
+            crate::service::audit::Origin::Opcua,
+        );
         if self.scan.send_deadline(env, deadline).is_err() {
             limited!(
                 WARN,

@@ -3,7 +3,7 @@
 //! - **Reading** needs nothing but the right `Host`: on a loopback bind only `127.0.0.1:PORT`,
 //!   `localhost:PORT` and `[::1]:PORT` are answered, so a web site that rebinds its own name to
 //!   127.0.0.1 (DNS rebinding) cannot read the plant through a visitor's browser.
-//! - **Writing** (force, unforce) needs `writes: true` in the project, a `POST` with
+//! - **Writing** (force, write, unforce) needs `writes: true` in the project, a `POST` with
 //!   `Content-Type: application/json`, and `Authorization: Bearer TOKEN`. There are no cookies:
 //!   a browser sends that header only when the page's own script adds it, and another site's
 //!   script cannot add it to a request here without a CORS preflight this server never
@@ -125,6 +125,7 @@ mod tests {
                 .map(|(n, v)| (n.to_string(), v.to_string()))
                 .collect(),
             body: Vec::new(),
+            peer: None,
         }
     }
 

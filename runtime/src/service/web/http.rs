@@ -54,6 +54,8 @@ pub struct Request {
     pub headers: Vec<(String, String)>,
     /// The body (empty without `Content-Length`).
     pub body: Vec<u8>,
+    /// The client's address (for the audit file), when the socket tells it.
+    pub peer: Option<std::net::SocketAddr>,
 }
 
 impl Request {
@@ -167,6 +169,7 @@ pub fn parse(buf: &[u8]) -> Result<Option<Request>, HttpError> {
         query: query.to_owned(),
         headers,
         body: body.to_vec(),
+        peer: None,
     }))
 }
 
@@ -506,7 +509,10 @@ where
     let request = read_request(stream, limits.request);
     held.busy();
     match request {
-        Ok(Some(Ok(req))) => (shared.handler)(&req, stream, held),
+        Ok(Some(Ok(mut req))) => {
+            req.peer = stream.peer_addr().ok();
+            (shared.handler)(&req, stream, held)
+        }
         Ok(Some(Err(e))) => {
             let mut r = Response::error(e.status(), &e.to_string());
             if e == HttpError::MethodNotAllowed {

@@ -62,6 +62,9 @@ pub const REQUEST_DEADLINE: Duration = Duration::from_secs(5);
 /// How long one write to a client may block.
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
 
+/// How many of the audit file's entries the page shows (the newest).
+const AUDIT_SHOWN: usize = 50;
+
 /// What every connection thread shares.
 #[derive(Debug)]
 struct Shared {
@@ -74,6 +77,8 @@ struct Shared {
     trend: Arc<Mutex<Trend>>,
     bind: SocketAddr,
     port: u16,
+    /// The audit file's latest entries, for the Audit panel.
+    audit: Option<crate::service::audit::AuditLog>,
 }
 
 /// A running page; it lives as long as the process.
@@ -86,7 +91,7 @@ pub struct WebServer {
 impl WebServer {
     /// Binds `config.bind` and serves `info`, the live `snapshot` and the services' states
     /// `health` on threads; writes go to `scan`. `period` is the scan period (the trend
-    /// samples at most once per cycle).
+    /// samples at most once per cycle). `audit` feeds the page's Audit panel.
     pub fn start(
         config: &WebConfig,
         info: &WebInfo,
@@ -94,6 +99,7 @@ impl WebServer {
         scan: Sender<Envelope>,
         period: Duration,
         health: &Health,
+        audit: Option<crate::service::audit::AuditLog>,
     ) -> std::io::Result<Self> {
         let listener = TcpListener::bind(config.bind)?;
         let addr = listener.local_addr()?;
@@ -110,6 +116,7 @@ impl WebServer {
             trend,
             bind: config.bind,
             port: addr.port(),
+            audit,
         });
         let server = ServerConfig {
             name: "web",
@@ -212,8 +219,19 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
             Reply::Full(Response::json(200, view::trend(&t).to_string()))
         }
         Route::Events => Reply::Events,
+        Route::Audit => {
+            let latest = shared
+                .audit
+                .as_ref()
+                .map(|a| a.latest(AUDIT_SHOWN))
+                .unwrap_or_default();
+            Reply::Full(Response::json(
+                200,
+                serde_json::json!({ "entries": latest }).to_string(),
+            ))
+        }
         Route::Trace(t) => Reply::Full(trace::answer(&shared.auth, &shared.scan, t, req)),
-        Route::Force | Route::Unforce | Route::Auth => {
+        Route::Force | Route::Write | Route::Unforce | Route::Auth => {
             Reply::Full(routes::write(&shared.auth, &shared.scan, route, req))
         }
     }

@@ -7,15 +7,17 @@
 //! | `GET /api/info` | what does not change: project, lines, modules, tags, program ([`super::info`]) |
 //! | `GET /api/state` | `{"state": …, "stats": …}` now ([`super::view`]) |
 //! | `GET /api/trend` | the trend's history |
+//! | `GET /api/audit` | the audit file's latest 50 entries, the newest first (`{"entries": [...]}`) |
 //! | `GET /api/events` | server-sent events `state` and `stats` ([`super::sse`]) |
 //! | `POST /api/force` | `{"tag": "motor", "value": "1"}` (value: text, number or boolean) |
+//! | `POST /api/write` | `{"tag": "speed", "value": 42}`: set once at the next cycle boundary; the program may overwrite it from its next scan |
 //! | `POST /api/unforce` | `{"tag": "motor"}`, or `{}` for every tag |
 //! | `POST /api/auth` | `{}`: whether the token would be accepted (the page's sign-in); changes nothing |
 //! | `/api/trace…` | the Trace view: states, samples, CSV/VCD, arm, disarm ([`super::trace`]) |
 //!
 //! A write answers 200 `{"ok": true, "message": …}` once the scan applied it at a cycle
 //! boundary, 409 `{"ok": false, "error": …}` when the scan refused it (no such tag, a value
-//! not of the tag's type, a pushed-down output), 403 when [`super::auth`] refuses it, 400 for
+//! not of the tag's type, a pushed-down output; for a write also a forced tag or an input), 403 when [`super::auth`] refuses it, 400 for
 //! a body that is not the JSON above, 503/504 when the scan is gone or does not answer.
 
 use std::time::Duration;
@@ -25,7 +27,9 @@ use serde::Deserialize;
 
 use super::auth::WriteAuth;
 use super::http::{Method, Request, Response};
-use crate::service::control::{Envelope, Request as Control, Response as ControlResponse};
+use crate::service::control::{
+    Envelope, Request as Control, Response as ControlResponse, TagValue,
+};
 
 /// The page's script.
 pub(crate) const APP_JS: &str = include_str!("assets/app.js");
@@ -62,8 +66,12 @@ pub(crate) enum Route {
     Trend,
     /// `/api/events`.
     Events,
+    /// `/api/audit`.
+    Audit,
     /// `/api/force`.
     Force,
+    /// `/api/write`.
+    Write,
     /// `/api/unforce`.
     Unforce,
     /// `/api/auth`.
@@ -84,7 +92,9 @@ pub(crate) fn route(method: Method, path: &str) -> Result<Route, u16> {
         "/api/state" => (Route::State, false),
         "/api/trend" => (Route::Trend, false),
         "/api/events" => (Route::Events, false),
+        "/api/audit" => (Route::Audit, false),
         "/api/force" => (Route::Force, true),
+        "/api/write" => (Route::Write, true),
         "/api/unforce" => (Route::Unforce, true),
         "/api/auth" => (Route::Auth, true),
         p => match super::trace::TraceRoute::of(p) {
@@ -106,10 +116,10 @@ pub(crate) fn allowed(path: &str) -> &'static str {
     }
 }
 
-/// `POST /api/force`'s body.
+/// `POST /api/force`'s and `POST /api/write`'s body.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct ForceBody {
+struct TagValueBody {
     tag: String,
     value: serde_json::Value,
 }
@@ -134,8 +144,8 @@ pub(crate) fn write_request(route: Route, body: &[u8]) -> Result<Control, Respon
     let bad = |e: String| refused(400, &format!("bad request body: {e}"));
     let long = |what: &str| refused(400, &format!("the {what} is longer than {MAX_FIELD}"));
     match route {
-        Route::Force => {
-            let b: ForceBody = serde_json::from_slice(body).map_err(|e| bad(e.to_string()))?;
+        Route::Force | Route::Write => {
+            let b: TagValueBody = serde_json::from_slice(body).map_err(|e| bad(e.to_string()))?;
             let value = match b.value {
                 serde_json::Value::Bool(v) => u8::from(v).to_string(),
                 serde_json::Value::Number(n) => n.to_string(),
@@ -148,7 +158,13 @@ pub(crate) fn write_request(route: Route, body: &[u8]) -> Result<Control, Respon
             if value.len() > MAX_FIELD {
                 return Err(long("value"));
             }
-            Ok(Control::Force { tag: b.tag, value })
+            Ok(if route == Route::Write {
+                Control::Write {
+                    values: vec![TagValue { tag: b.tag, value }],
+                }
+            } else {
+                Control::Force { tag: b.tag, value }
+            })
         }
         Route::Unforce => {
             let b: UnforceBody = if body.iter().all(u8::is_ascii_whitespace) {
@@ -188,7 +204,15 @@ pub(crate) fn write(
     let (reply, answer): (Sender<ControlResponse>, Receiver<ControlResponse>) =
         crossbeam_channel::bounded(1);
     if scan
-        .send_timeout(Envelope::new(request, reply, SCAN_ANSWER), QUEUE_WAIT)
+        .send_timeout(
+            Envelope::new(
+                request,
+                reply,
+                SCAN_ANSWER,
+                crate::service::audit::Origin::Web(req.peer),
+            ),
+            QUEUE_WAIT,
+        )
         .is_err()
     {
         return refused(503, "the scan is not taking requests (stopped or busy)");
@@ -217,6 +241,8 @@ mod tests {
         assert_eq!(route(Method::Get, "/api/force"), Err(405));
         assert_eq!(route(Method::Post, "/api/state"), Err(405));
         assert_eq!(route(Method::Post, "/api/auth"), Ok(Route::Auth));
+        assert_eq!(route(Method::Post, "/api/write"), Ok(Route::Write));
+        assert_eq!(route(Method::Get, "/api/write"), Err(405));
         assert_eq!(allowed("/api/unforce"), "POST");
         assert_eq!(allowed("/api/info"), "GET, HEAD");
         assert_eq!(route(Method::Get, "/../etc/passwd"), Err(404));
@@ -259,6 +285,21 @@ mod tests {
         }
         let long = format!(r#"{{"tag":"{}","value":1}}"#, "a".repeat(MAX_FIELD + 1));
         assert_eq!(force(&long).unwrap_err().status, 400);
+        assert_eq!(
+            write_request(Route::Write, br#"{"tag":"speed","value":42}"#).unwrap(),
+            Control::Write {
+                values: vec![TagValue {
+                    tag: "speed".into(),
+                    value: "42".into()
+                }]
+            }
+        );
+        assert_eq!(
+            write_request(Route::Write, br#"{"tag":"speed"}"#)
+                .unwrap_err()
+                .status,
+            400
+        );
         let unforce = |b: &str| write_request(Route::Unforce, b.as_bytes());
         assert_eq!(unforce("").unwrap(), Control::Unforce { tag: None });
         assert_eq!(unforce("{}").unwrap(), Control::Unforce { tag: None });

@@ -209,7 +209,12 @@ fn ask(scan: &Sender<Envelope>, t: TraceRequest) -> Result<ControlResponse, Resp
         crossbeam_channel::bounded(1);
     if scan
         .send_timeout(
-            Envelope::new(Control::Trace(t), reply, SCAN_ANSWER),
+            Envelope::new(
+                Control::Trace(t),
+                reply,
+                SCAN_ANSWER,
+                crate::service::audit::Origin::Web(None),
+            ),
             QUEUE_WAIT,
         )
         .is_err()

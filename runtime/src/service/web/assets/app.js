@@ -2,7 +2,7 @@
 //
 // Data: GET /api/info once (project, lines, modules, tags, program), GET /api/state and
 // /api/trend to start, then the server-sent events `state` (every cycle) and `stats` (every
-// refresh of the statistics) from /api/events. Writes: POST /api/force and /api/unforce with
+// refresh of the statistics) from /api/events. Writes: POST /api/force, /api/write and /api/unforce with
 // `Authorization: Bearer TOKEN`; the token stays in this tab's sessionStorage.
 "use strict";
 
@@ -156,11 +156,21 @@
   async function force(tag, value) {
     const r = await post("/api/force", { tag, value });
     toast(r.ok ? r.message : "Not forced: " + r.error, !r.ok);
+    renderAudit();
+  }
+
+  // A write sets the value once, at the next cycle boundary; the program (or the module) owns
+  // the tag again from its next scan.
+  async function write(tag, value) {
+    const r = await post("/api/write", { tag, value });
+    toast(r.ok ? r.message : "Not written: " + r.error, !r.ok);
+    renderAudit();
   }
 
   async function unforce(tag) {
     const r = await post("/api/unforce", { tag });
     toast(r.ok ? (tag + " unforced") : "Not unforced: " + r.error, !r.ok);
+    renderAudit();
   }
 
   function renderAuth() {
@@ -213,11 +223,21 @@
       return box;
     }
     const buttons = [];
+    // Inputs are their module's: a write would be overwritten by the next read (the PLC
+    // refuses it), so only outputs and memory tags offer one.
+    const writable = t.kind === "output" || t.kind === "memory";
     if (t.type === "bool") {
       for (const v of ["1", "0"]) {
         const b = el("button", { type: "button", text: "Force " + v, "data-force": t.name, "data-value": v });
         b.addEventListener("click", () => force(t.name, v));
         buttons.push(b);
+      }
+      if (writable) {
+        for (const v of ["1", "0"]) {
+          const b = el("button", { type: "button", class: "write", text: "Write " + v, "data-write": t.name, "data-value": v });
+          b.addEventListener("click", () => write(t.name, v));
+          buttons.push(b);
+        }
       }
     } else {
       const input = el("input", { type: "text", placeholder: t.type, "aria-label": "value for " + t.name, "data-input": t.name });
@@ -226,6 +246,11 @@
       b.addEventListener("click", go);
       input.addEventListener("keydown", (e) => { if (e.key === "Enter") go(); });
       buttons.push(input, b);
+      if (writable) {
+        const w = el("button", { type: "button", class: "write", text: "Write", "data-write": t.name });
+        w.addEventListener("click", () => { if (input.value.trim() !== "") write(t.name, input.value.trim()); });
+        buttons.push(w);
+      }
     }
     const u = el("button", { type: "button", class: "unforce", text: "Unforce", "data-unforce": t.name });
     u.addEventListener("click", () => unforce(t.name));
@@ -239,7 +264,7 @@
     $("io-note").textContent = !info.writes
       ? "Forcing is off for this project (service.web.writes: false). Values update live."
       : signedIn()
-        ? "A force holds a value, whatever the modules or the program say, until it is removed or the PLC restarts."
+        ? "A force holds a value, whatever the modules or the program say, until it is removed or the PLC restarts. A write sets an output or memory tag once, at the next cycle boundary; the program may change it from its next scan."
         : "Sign in (top right) with the project's token to force tags.";
   }
 
@@ -964,6 +989,30 @@
     box.replaceChildren(g);
   }
 
+  // ---- Audit ----
+
+  // The audit file's latest entries (GET /api/audit), refreshed every few seconds and after
+  // each of this page's own writes.
+  async function renderAudit() {
+    let j;
+    try {
+      j = await getJSON("/api/audit");
+    } catch (e) {
+      return;
+    }
+    const box = $("audit");
+    const rows = j.entries.map((e) => {
+      const li = el("li", { "data-action": e.action, "data-source": e.source });
+      li.append(
+        el("span", { class: "sev " + (e.ok ? "ok" : "bad"), text: e.action }),
+        el("span", { text: e.utc.replace("T", " ").replace("Z", " UTC") + " · cycle " + e.cycle + " · " + e.source }),
+        el("span", { text: (e.what ? e.what + ": " : "") + (e.ok ? "" : "refused: ") + e.result }));
+      return li;
+    });
+    if (rows.length === 0) rows.push(el("li", { text: "nothing written, forced or reloaded yet" }));
+    box.replaceChildren(...rows);
+  }
+
   // ---- Live data ----
 
   function onState(s) {
@@ -1034,6 +1083,8 @@
     }
     connect();
     setInterval(watchdog, 1000);
+    renderAudit();
+    setInterval(renderAudit, 5000);
     window.addEventListener("resize", renderTrend);
   }
 
