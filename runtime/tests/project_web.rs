@@ -95,6 +95,74 @@ fn defaults_are_loopback_8080_read_only_and_the_module_tags_in_the_trend() {
     assert_eq!(w.trend, vec![2, 0]);
 }
 
+/// The operator's token is read like the engineer's (same file rules, errors at the key's
+/// place); a project with only `token_file` has no operator; one token for both roles is refused.
+#[test]
+fn the_operator_token_is_read_like_the_engineers_and_must_differ() {
+    let dir = folder("roles");
+    std::fs::write(dir.join("eng.token"), "engineer-token-1\n").unwrap();
+    std::fs::write(dir.join("op.token"), "operator-token-1\n").unwrap();
+    std::fs::write(dir.join("same.token"), "engineer-token-1\n").unwrap();
+    let only = web(
+        &dir,
+        "service:\n  web: { writes: true, token_file: eng.token }\n",
+    );
+    assert!(only.token.unwrap().matches(b"engineer-token-1"));
+    assert_eq!(
+        only.operator_token, None,
+        "as before: the one token is the engineer's"
+    );
+
+    let both = web(
+        &dir,
+        "service:\n  web: { writes: true, token_file: eng.token, operator_token_file: op.token }\n",
+    );
+    assert!(both.token.unwrap().matches(b"engineer-token-1"));
+    assert!(both.operator_token.unwrap().matches(b"operator-token-1"));
+    let operator_only = web(
+        &dir,
+        "service:\n  web: { writes: true, operator_token_file: op.token }\n",
+    );
+    assert_eq!(operator_only.token, None);
+    assert!(operator_only.operator_token.is_some());
+
+    let (at, e, shown) = one(
+        &dir,
+        "service:\n  web: { writes: true, token_file: eng.token, operator_token_file: missing.token }\n",
+    );
+    assert_eq!(at, (16, 68), "the value of operator_token_file");
+    assert!(
+        shown.contains("service.web.operator_token_file ") && shown.contains("cannot read it"),
+        "{shown}"
+    );
+    assert!(
+        matches!(e, WebError::TokenFile { ref path, .. } if path.ends_with("missing.token")),
+        "{e:?}"
+    );
+    let (at, e, shown) = one(
+        &dir,
+        "service:\n  web: { writes: true, token_file: eng.token, operator_token_file: same.token }\n",
+    );
+    assert_eq!(at, (16, 68), "the value of operator_token_file");
+    assert!(matches!(e, WebError::SameTokenForBothRoles { .. }), "{e:?}");
+    assert!(
+        shown.ends_with("service.web.operator_token_file: the operator's token is the engineer's token; give the operator a token of their own, or the operator could force"),
+        "{shown}"
+    );
+    let (_, e, _) = one(
+        &dir,
+        "service:\n  web: { writes: true, operator_token: operator-token-1, operator_token_file: op.token }\n",
+    );
+    assert!(matches!(e, WebError::TwoTokenSources { .. }), "{e:?}");
+    let (_, e, _) = one(
+        &dir,
+        "service:\n  web: { writes: true, token_file: eng.token, operator_token: short }\n",
+    );
+    assert!(matches!(e, WebError::TokenLength { .. }), "{e:?}");
+    // Best effort: the test's scratch folder.
+    drop(std::fs::remove_dir_all(&dir));
+}
+
 #[test]
 fn writes_need_a_token_from_the_file_a_file_or_the_environment() {
     let dir = folder("tokens");
@@ -144,7 +212,13 @@ fn writes_need_a_token_from_the_file_a_file_or_the_environment() {
         &dir,
         &format!("service:\n  web: {{ writes: true, token_env: {var} }}\n"),
     );
-    assert_eq!(e, WebError::TokenEnv { var });
+    assert_eq!(
+        e,
+        WebError::TokenEnv {
+            from: softplc::project::TokenSource::Env,
+            var
+        }
+    );
 
     let (at, e, _) = one(
         &dir,
@@ -294,6 +368,7 @@ fn server(writes: bool, ok: bool) -> (WebServer, SnapshotCell, Arc<Mutex<Vec<Req
         bind: "127.0.0.1:0".parse().unwrap(),
         writes,
         token: Some(WebToken::new(TOKEN)),
+        operator_token: None,
         trend: vec![0],
     };
     let cell = SnapshotCell::new();

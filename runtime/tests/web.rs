@@ -790,14 +790,9 @@ fn the_page_at_800_px_and_its_bus_rate_and_trace_words() {
     drop(std::fs::remove_dir_all(&dir));
 }
 
-/// The page's write: with the token, `POST /api/write` sets a tag once at a cycle boundary and
-/// the program takes it back in its next scan; refusals say why (an input, a value of another
-/// type, a forced tag), and without the token nothing is written.
-#[test]
-fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
-    let dir = crate::common::host::scratch_dir("web", "write");
-    let port = free_port();
-    // The program latches `seen` when `cmd` is set, then clears `cmd` itself.
+/// A project in `dir` whose program latches `seen` when `cmd` is set, then clears `cmd`
+/// itself; its page on `port` writes with `tokens` (the `service.web` token keys).
+fn latch_project(dir: &Path, tokens: &str, port: u16) {
     std::fs::write(dir.join("p.expr"), "seen = seen | cmd\ncmd = false\n").unwrap();
     std::fs::write(
         dir.join("project.yaml"),
@@ -808,10 +803,20 @@ fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
              modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n\
              tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: cmd, type: bool }}\n  - {{ name: seen, type: bool }}\n\
              program: {{ file: p.expr, kind: expr }}\n\
-             service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, token: {TOKEN} }}\n"
+             service:\n  web: {{ bind: \"127.0.0.1:{port}\", writes: true, {tokens} }}\n"
         ),
     )
     .unwrap();
+}
+
+/// The page's write: with the token, `POST /api/write` sets a tag once at a cycle boundary and
+/// the program takes it back in its next scan; refusals say why (an input, a value of another
+/// type, a forced tag), and without the token nothing is written.
+#[test]
+fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
+    let dir = crate::common::host::scratch_dir("web", "write");
+    let port = free_port();
+    latch_project(&dir, &format!("token: {TOKEN}"), port);
     let socket = dir.join("ctl.sock");
     let plc = run_plc(&dir.join("project.yaml"), &socket, port);
     let json = "Content-Type: application/json\r\n";
@@ -885,6 +890,107 @@ fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
             .iter()
             .all(|e| e["source"].as_str().unwrap().starts_with("web 127.0.0.1:")),
         "{text}"
+    );
+    drop(plc);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+/// Two roles: the operator's token (`operator_token_file`) writes values once and is refused
+/// forcing and unforcing with a reason naming the role; the engineer's (`token_file`, as in a
+/// project from before the roles) forces; the audit says which role did what.
+#[test]
+fn the_operator_writes_and_only_the_engineer_forces() {
+    let dir = crate::common::host::scratch_dir("web", "roles");
+    let port = free_port();
+    std::fs::write(dir.join("engineer.token"), format!("{TOKEN}\n")).unwrap();
+    std::fs::write(dir.join("operator.token"), "operator-token-0123456789\n").unwrap();
+    latch_project(
+        &dir,
+        "token_file: engineer.token, operator_token_file: operator.token",
+        port,
+    );
+    let socket = dir.join("ctl.sock");
+    let plc = run_plc(&dir.join("project.yaml"), &socket, port);
+    let json = "Content-Type: application/json\r\n";
+    let operator = format!("{json}Authorization: Bearer operator-token-0123456789\r\n");
+    let engineer = format!("{json}Authorization: Bearer {TOKEN}\r\n");
+
+    let (code, text) = post(port, "/api/force", json, r#"{"tag":"seen","value":1}"#);
+    assert_eq!(code, 403, "{text}");
+    assert!(text.contains("a token is needed"), "{text}");
+    let (code, text) = post(port, "/api/auth", &operator, "{}");
+    assert_eq!(code, 200, "{text}");
+    let signed: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(signed["role"], "operator", "{text}");
+    let (code, text) = post(port, "/api/auth", &engineer, "{}");
+    assert_eq!(code, 200, "{text}");
+    assert!(text.contains(r#""role":"engineer""#), "{text}");
+
+    let write_cmd = |auth: &str| post(port, "/api/write", auth, r#"{"tag":"cmd","value":true}"#);
+    let (code, text) = write_cmd(&operator);
+    assert_eq!(code, 200, "{text}");
+    let end = Instant::now() + Duration::from_secs(5);
+    let seen = || {
+        status_line(&socket, "seen")
+            .split_whitespace()
+            .nth(1)
+            .map(str::to_owned)
+    };
+    while seen().as_deref() != Some("1") && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(
+        seen().as_deref(),
+        Some("1"),
+        "the operator's write reached the program"
+    );
+    let (code, text) = post(port, "/api/force", &operator, r#"{"tag":"seen","value":0}"#);
+    assert_eq!(code, 403, "{text}");
+    assert!(
+        text.contains("the operator token may write values; forcing needs the engineer's"),
+        "{text}"
+    );
+    let (code, text) = post(port, "/api/unforce", &operator, "{}");
+    assert_eq!(code, 403, "{text}");
+    assert!(text.contains("unforcing needs the engineer's"), "{text}");
+    assert_eq!(
+        seen().as_deref(),
+        Some("1"),
+        "a refused force changes nothing"
+    );
+
+    let (code, text) = post(port, "/api/force", &engineer, r#"{"tag":"seen","value":0}"#);
+    assert_eq!(code, 200, "{text}");
+    let (code, text) = write_cmd(&engineer);
+    assert_eq!(code, 200, "the engineer writes too: {text}");
+
+    let (code, text) = http(
+        port,
+        &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
+    );
+    assert_eq!(code, 200, "{text}");
+    let audit: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let seen: Vec<(String, String)> = audit["entries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            let source = e["source"].as_str().unwrap();
+            assert!(source.starts_with("web 127.0.0.1:"), "{text}");
+            let role = source.rsplit(' ').next().unwrap_or_default();
+            (e["action"].as_str().unwrap().to_owned(), role.to_owned())
+        })
+        .collect();
+    let pairs: Vec<(&str, &str)> = seen.iter().map(|(a, r)| (a.as_str(), r.as_str())).collect();
+    assert_eq!(
+        pairs,
+        [
+            ("write", "engineer"),
+            ("force", "engineer"),
+            ("write", "operator")
+        ],
+        "the refused requests never reached the scan: {text}"
     );
     drop(plc);
     // Best effort: the test's scratch folder (it may not exist).

@@ -69,7 +69,7 @@ pub use trace::{
 };
 pub use trace_budget::{Bytes, TraceBudget, TraceBudgetError};
 pub use watchdog::{Armed, Derivation, ModuleWatchdog, Origin, WatchdogPolicy};
-pub use web::{TokenSource, WebConfig, WebError, WebToken, DEFAULT_WEB_BIND};
+pub use web::{TokenSource, WebConfig, WebError, WebRole, WebToken, DEFAULT_WEB_BIND};
 
 /// Reads and validates the project file at `path`. The program file is resolved against the
 /// file's folder and must exist.

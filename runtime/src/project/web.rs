@@ -7,14 +7,18 @@
 //!   web:                           # optional; no page without it
 //!     bind: 127.0.0.1:8080         # default 127.0.0.1:8080 (loopback)
 //!     writes: false                # forcing from the page; default false; needs a token
-//!     token_file: web.token        # the token forcing needs, relative to the project file;
-//!                                  # or token_env: SOFTPLC_WEB_TOKEN, or token: "..." (in clear)
+//!     token_file: web.token        # the engineer's token (write, force, unforce, traces),
+//!                                  # relative to the project file; or token_env:
+//!                                  # SOFTPLC_WEB_TOKEN, or token: "..." (in clear)
+//!     operator_token_file: op.token  # optional: the operator's token (writes values once,
+//!                                  # nothing else); or operator_token_env, operator_token
 //!     trend: [motor, box_at_exit]  # tags of the scrolling trend (at most 8); default: the
 //!                                  # first 8 module tags
 //! ```
 //!
-//! Reading the page needs nothing; every write needs `writes: true` **and** the token (sent by
-//! the page as `Authorization: Bearer TOKEN`). The token is read when the project is loaded,
+//! Reading the page needs nothing; every write needs `writes: true` **and** a token (sent by
+//! the page as `Authorization: Bearer TOKEN`); which token matches decides the [`WebRole`].
+//! The two roles' tokens must differ, or the roles would mean nothing. The token is read when the project is loaded,
 //! so `softplc check` refuses a missing file or variable before the first scan. A token is
 //! printable ASCII without spaces, at least [`MIN_TOKEN`] characters, and at least
 //! [`MIN_REMOTE_TOKEN`] on an address beyond loopback.
@@ -45,8 +49,8 @@ pub(crate) const MAX_TOKEN: usize = 256;
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "web page settings: a mapping with bind, writes, token, token_file, token_env \
-                 and trend"
+    expecting = "web page settings: a mapping with bind, writes, token, token_file, token_env, \
+                 operator_token, operator_token_file, operator_token_env and trend"
 )]
 pub(crate) struct RawWeb {
     /// Listening address (default `127.0.0.1:8080`).
@@ -55,15 +59,24 @@ pub(crate) struct RawWeb {
     /// Whether the page may force tags (default false).
     #[serde(default)]
     pub writes: Option<bool>,
-    /// The token, in clear.
+    /// The engineer's token (write, force, unforce, traces), in clear.
     #[serde(default)]
     pub token: Option<String>,
-    /// A file holding the token, relative to the project file's folder.
+    /// A file holding the engineer's token, relative to the project file's folder.
     #[serde(default)]
     pub token_file: Option<String>,
-    /// An environment variable holding the token.
+    /// An environment variable holding the engineer's token.
     #[serde(default)]
     pub token_env: Option<String>,
+    /// The operator's token (writes values once, nothing else), in clear.
+    #[serde(default)]
+    pub operator_token: Option<String>,
+    /// A file holding the operator's token, relative to the project file's folder.
+    #[serde(default)]
+    pub operator_token_file: Option<String>,
+    /// An environment variable holding the operator's token.
+    #[serde(default)]
+    pub operator_token_env: Option<String>,
     /// Tags of the trend.
     #[serde(default)]
     pub trend: Option<Vec<String>>,
@@ -113,23 +126,49 @@ impl fmt::Debug for WebToken {
 pub struct WebConfig {
     /// Listening address.
     pub bind: SocketAddr,
-    /// Whether forcing from the page is allowed (a token is then always present).
+    /// Whether writing from the page is allowed (a token is then always present).
     pub writes: bool,
-    /// The token writes need.
+    /// The engineer's token: writes, forces, unforces, traces.
     pub token: Option<WebToken>,
+    /// The operator's token: writes values once, nothing else.
+    pub operator_token: Option<WebToken>,
     /// Tags of the trend: indexes into [`super::Project::tags`].
     pub trend: Vec<usize>,
+}
+
+/// Who a page token belongs to: what its bearer may do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum WebRole {
+    /// Writes values once (`/api/write`), nothing else.
+    Operator,
+    /// Everything the operator may, plus force, unforce and the traces.
+    Engineer,
+}
+
+impl fmt::Display for WebRole {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            WebRole::Operator => "operator",
+            WebRole::Engineer => "engineer",
+        })
+    }
 }
 
 /// Where a token comes from, for messages.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TokenSource {
-    /// `token:`.
+    /// `token:` (the engineer's).
     Inline,
-    /// `token_file:`.
+    /// `token_file:` (the engineer's).
     File,
-    /// `token_env:`.
+    /// `token_env:` (the engineer's).
     Env,
+    /// `operator_token:`.
+    OperatorInline,
+    /// `operator_token_file:`.
+    OperatorFile,
+    /// `operator_token_env:`.
+    OperatorEnv,
 }
 
 impl fmt::Display for TokenSource {
@@ -138,6 +177,9 @@ impl fmt::Display for TokenSource {
             TokenSource::Inline => "token",
             TokenSource::File => "token_file",
             TokenSource::Env => "token_env",
+            TokenSource::OperatorInline => "operator_token",
+            TokenSource::OperatorFile => "operator_token_file",
+            TokenSource::OperatorEnv => "operator_token_env",
         })
     }
 }
@@ -159,8 +201,8 @@ pub enum WebError {
          anyone who opens the page could move the machine"
     )]
     WritesNeedToken,
-    /// More than one of `token`, `token_file`, `token_env`.
-    #[error("service.web: give one of token, token_file and token_env, not {first} and {second}")]
+    /// More than one source for one role's token (`token`, `token_file`, `token_env`).
+    #[error("service.web: give one of {first} and {second}, not both")]
     TwoTokenSources {
         /// The first one given.
         first: TokenSource,
@@ -168,16 +210,20 @@ pub enum WebError {
         second: TokenSource,
     },
     /// The token file cannot be read.
-    #[error("service.web.token_file {}: cannot read it: {message}", path.display())]
+    #[error("service.web.{from} {}: cannot read it: {message}", path.display())]
     TokenFile {
+        /// Which key named it.
+        from: TokenSource,
         /// The file, resolved.
         path: PathBuf,
         /// The OS error.
         message: String,
     },
     /// The token variable is not set.
-    #[error("service.web.token_env: the environment variable {var} is not set (or is empty)")]
+    #[error("service.web.{from}: the environment variable {var} is not set (or is empty)")]
     TokenEnv {
+        /// Which key named it.
+        from: TokenSource,
         /// The variable.
         var: String,
     },
@@ -204,6 +250,15 @@ pub enum WebError {
         min: usize,
         /// Whether the bind is beyond loopback.
         remote: bool,
+    },
+    /// The operator's token is the engineer's: the roles would mean nothing.
+    #[error(
+        "service.web.{from}: the operator's token is the engineer's token; give the operator \
+         a token of their own, or the operator could force"
+    )]
+    SameTokenForBothRoles {
+        /// The key of the operator's token.
+        from: TokenSource,
     },
     /// A trend tag that is not a tag.
     #[error("service.web.trend: no tag {tag}{}", hint.as_ref().map(|h| format!("; did you mean {h}?")).unwrap_or_default())]
@@ -264,45 +319,30 @@ pub(crate) fn validate(
     let mut err = |key: &str, e: WebError| errors.push((path.key(key), e.into()));
 
     let writes = raw.writes.unwrap_or(false);
-    let sources: Vec<(TokenSource, &String)> = [
+    let mut token_ok = true;
+    let mut read_role = |sources: [(TokenSource, Option<&String>); 3]| {
+        let (token, given, ok) = role_token(sources, file, remote, &mut err);
+        token_ok &= ok;
+        (token, given)
+    };
+    let (token, engineer_given) = read_role([
         (TokenSource::Inline, raw.token.as_ref()),
         (TokenSource::File, raw.token_file.as_ref()),
         (TokenSource::Env, raw.token_env.as_ref()),
-    ]
-    .into_iter()
-    .filter_map(|(s, v)| Some((s, v?)))
-    .collect();
-    let mut token_ok = true;
-    let token = match sources.as_slice() {
-        [] => None,
-        [(source, text)] => match read_token(*source, text, file) {
-            Ok(t) => match check_token(&t, *source, remote) {
-                Ok(()) => Some(WebToken(t)),
-                Err(e) => {
-                    err(&source.to_string(), e);
-                    token_ok = false;
-                    None
-                }
-            },
-            Err(e) => {
-                err(&source.to_string(), e);
-                token_ok = false;
-                None
-            }
-        },
-        [(first, _), (second, _), ..] => {
-            err(
-                &second.to_string(),
-                WebError::TwoTokenSources {
-                    first: *first,
-                    second: *second,
-                },
-            );
+    ]);
+    let (operator_token, operator_given) = read_role([
+        (TokenSource::OperatorInline, raw.operator_token.as_ref()),
+        (TokenSource::OperatorFile, raw.operator_token_file.as_ref()),
+        (TokenSource::OperatorEnv, raw.operator_token_env.as_ref()),
+    ]);
+    if let (Some(e), Some(o), Some(from)) = (&token, &operator_token, operator_given) {
+        if e.matches(o.0.as_bytes()) {
+            err(&from.to_string(), WebError::SameTokenForBothRoles { from });
             token_ok = false;
-            None
         }
-    };
-    if writes && sources.is_empty() {
+    }
+    let any_token = engineer_given.is_some() || operator_given.is_some();
+    if writes && !any_token {
         err("writes", WebError::WritesNeedToken);
     }
 
@@ -347,22 +387,59 @@ pub(crate) fn validate(
             chosen
         }
     };
-    if !(token_ok && trend_ok) || (writes && token.is_none()) {
+    if !(token_ok && trend_ok) || (writes && token.is_none() && operator_token.is_none()) {
         return None;
     }
     Some(WebConfig {
         bind: bind?,
         writes,
         token,
+        operator_token,
         trend,
     })
+}
+
+/// One role's token from its possible `sources` (the key and the text given): the token, the
+/// key it came from, and whether it is valid; errors go to `err` under the key at fault.
+fn role_token(
+    sources: [(TokenSource, Option<&String>); 3],
+    file: &Path,
+    remote: bool,
+    err: &mut impl FnMut(&str, WebError),
+) -> (Option<WebToken>, Option<TokenSource>, bool) {
+    let given: Vec<(TokenSource, &String)> = sources
+        .into_iter()
+        .filter_map(|(s, v)| Some((s, v?)))
+        .collect();
+    match given.as_slice() {
+        [] => (None, None, true),
+        [(source, text)] => {
+            match read_token(*source, text, file).and_then(|t| check_token(t, *source, remote)) {
+                Ok(t) => (Some(WebToken(t)), Some(*source), true),
+                Err(e) => {
+                    err(&source.to_string(), e);
+                    (None, Some(*source), false)
+                }
+            }
+        }
+        [(first, _), (second, _), ..] => {
+            err(
+                &second.to_string(),
+                WebError::TwoTokenSources {
+                    first: *first,
+                    second: *second,
+                },
+            );
+            (None, Some(*first), false)
+        }
+    }
 }
 
 /// The token's text from its source.
 fn read_token(source: TokenSource, text: &str, file: &Path) -> Result<String, WebError> {
     match source {
-        TokenSource::Inline => Ok(text.to_owned()),
-        TokenSource::File => {
+        TokenSource::Inline | TokenSource::OperatorInline => Ok(text.to_owned()),
+        TokenSource::File | TokenSource::OperatorFile => {
             let path = file.parent().unwrap_or(Path::new("")).join(text);
             // A token file is small; reading at most a few KiB keeps a wrong path (a device,
             // a log) from being read whole.
@@ -376,21 +453,24 @@ fn read_token(source: TokenSource, text: &str, file: &Path) -> Result<String, We
                     .trim_end_matches(['\n', '\r'])
                     .to_owned()),
                 Err(e) => Err(WebError::TokenFile {
+                    from: source,
                     path,
                     message: e.to_string(),
                 }),
             }
         }
-        TokenSource::Env => match std::env::var(text) {
+        TokenSource::Env | TokenSource::OperatorEnv => match std::env::var(text) {
             Ok(v) if !v.is_empty() => Ok(v),
             _ => Err(WebError::TokenEnv {
+                from: source,
                 var: text.to_owned(),
             }),
         },
     }
 }
 
-fn check_token(token: &str, source: TokenSource, remote: bool) -> Result<(), WebError> {
+/// `token` if it is printable ASCII of an allowed length.
+fn check_token(token: String, source: TokenSource, remote: bool) -> Result<String, WebError> {
     if !token.bytes().all(|b| b.is_ascii_graphic()) {
         return Err(WebError::TokenCharacters { from: source });
     }
@@ -403,7 +483,7 @@ fn check_token(token: &str, source: TokenSource, remote: bool) -> Result<(), Web
             remote,
         });
     }
-    Ok(())
+    Ok(token)
 }
 
 /// The tag name closest to `name` (same letters ignoring case, or at most 2 edits away).

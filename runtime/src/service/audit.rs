@@ -27,8 +27,11 @@ const QUEUE: usize = 256;
 pub enum Origin {
     /// The control socket (`softplc force`, `write`, `reload`, ...).
     Cli,
-    /// The web page, from a client address.
-    Web(Option<std::net::SocketAddr>),
+    /// The web page, from a client address, signed in as a role.
+    Web(
+        Option<std::net::SocketAddr>,
+        Option<crate::project::WebRole>,
+    ),
     /// An OPC UA client.
     Opcua,
     /// A Modbus TCP client, from its address.
@@ -43,8 +46,16 @@ impl std::fmt::Display for Origin {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Origin::Cli => f.write_str("cli"),
-            Origin::Web(Some(a)) => write!(f, "web {a}"),
-            Origin::Web(None) => f.write_str("web"),
+            Origin::Web(peer, role) => {
+                f.write_str("web")?;
+                if let Some(a) = peer {
+                    write!(f, " {a}")?;
+                }
+                if let Some(r) = role {
+                    write!(f, " {r}")?;
+                }
+                Ok(())
+            }
             Origin::Opcua => f.write_str("opcua"),
             Origin::Modbus(Some(a)) => write!(f, "modbus {a}"),
             Origin::Modbus(None) => f.write_str("modbus"),

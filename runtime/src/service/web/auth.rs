@@ -9,11 +9,52 @@
 //!   script cannot add it to a request here without a CORS preflight this server never
 //!   approves, so a write cannot be forged from another site (CSRF). An `Origin` or
 //!   `Sec-Fetch-Site` saying the request comes from elsewhere is refused too.
+//! - **Roles**: the token that matches decides the [`WebRole`]. The operator's token writes
+//!   values once; forcing, unforcing and arming a trace need the engineer's (a 403 naming the
+//!   role otherwise). Both tokens are compared every time, so the answer's timing does not tell
+//!   which one a guess came closer to.
 
 use std::net::SocketAddr;
 
 use super::http::Request;
-use crate::project::WebToken;
+use crate::project::{WebRole, WebToken};
+
+/// What a request asks to do, for the role it needs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Act {
+    /// Check a token (the page's sign-in): any role.
+    SignIn,
+    /// Write values once: the operator may.
+    Write,
+    /// Force a tag: the engineer's.
+    Force,
+    /// Unforce: the engineer's.
+    Unforce,
+    /// Arm or disarm a trace: the engineer's.
+    Trace,
+}
+
+impl Act {
+    /// The least role that may do it.
+    fn needs(self) -> WebRole {
+        match self {
+            Act::SignIn | Act::Write => WebRole::Operator,
+            Act::Force | Act::Unforce | Act::Trace => WebRole::Engineer,
+        }
+    }
+}
+
+impl std::fmt::Display for Act {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Act::SignIn => "signing in",
+            Act::Write => "writing",
+            Act::Force => "forcing",
+            Act::Unforce => "unforcing",
+            Act::Trace => "arming or disarming a trace",
+        })
+    }
+}
 
 /// Why a write is refused (each is a 403 with this text).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -33,31 +74,43 @@ pub(crate) enum Refusal {
     /// Not `application/json`.
     #[error("a write must be sent as application/json")]
     NotJson,
+    /// The operator's token asking for what only the engineer may do.
+    #[error("the operator token may write values; {0} needs the engineer's")]
+    EngineerOnly(Act),
 }
 
 /// The write policy of a running page.
 #[derive(Debug, Clone)]
 pub(crate) struct WriteAuth {
     writes: bool,
-    token: Option<WebToken>,
+    engineer: Option<WebToken>,
+    operator: Option<WebToken>,
 }
 
 impl WriteAuth {
-    /// The policy: `writes` from the project, `token` the one it configured.
-    pub(crate) fn new(writes: bool, token: Option<WebToken>) -> Self {
-        Self { writes, token }
+    /// The policy: `writes` from the project, and the tokens it configured for each role.
+    pub(crate) fn new(
+        writes: bool,
+        engineer: Option<WebToken>,
+        operator: Option<WebToken>,
+    ) -> Self {
+        Self {
+            writes,
+            engineer,
+            operator,
+        }
     }
 
-    /// Whether writes are possible at all (the page shows its force buttons).
+    /// Whether writes are possible at all (the page shows its sign-in).
     pub(crate) fn enabled(&self) -> bool {
-        self.writes && self.token.is_some()
+        self.writes && (self.engineer.is_some() || self.operator.is_some())
     }
 
-    /// Whether `req` may write.
-    pub(crate) fn authorize(&self, req: &Request) -> Result<(), Refusal> {
-        let Some(token) = self.token.as_ref().filter(|_| self.writes) else {
+    /// The role `req` may do `act` as, or why it may not.
+    pub(crate) fn authorize(&self, req: &Request, act: Act) -> Result<WebRole, Refusal> {
+        if !self.enabled() {
             return Err(Refusal::WritesOff);
-        };
+        }
         if req
             .header("sec-fetch-site")
             .is_some_and(|s| s.eq_ignore_ascii_case("cross-site"))
@@ -80,9 +133,20 @@ impl WriteAuth {
                 scheme.eq_ignore_ascii_case("bearer").then(|| rest.trim())
             })
             .ok_or(Refusal::NoToken)?;
-        if !token.matches(given.as_bytes()) {
-            return Err(Refusal::BadToken);
-        }
+        // Both compared, whatever the first says (see the module docs).
+        let engineer = self
+            .engineer
+            .as_ref()
+            .is_some_and(|t| t.matches(given.as_bytes()));
+        let operator = self
+            .operator
+            .as_ref()
+            .is_some_and(|t| t.matches(given.as_bytes()));
+        let role = match (engineer, operator) {
+            (true, _) => WebRole::Engineer,
+            (false, true) => WebRole::Operator,
+            (false, false) => return Err(Refusal::BadToken),
+        };
         let json = req.header("content-type").is_some_and(|c| {
             c.split(';')
                 .next()
@@ -91,7 +155,10 @@ impl WriteAuth {
         if !json {
             return Err(Refusal::NotJson);
         }
-        Ok(())
+        if role < act.needs() {
+            return Err(Refusal::EngineerOnly(act));
+        }
+        Ok(role)
     }
 }
 
@@ -133,68 +200,122 @@ mod tests {
 
     #[test]
     fn writes_need_the_switch_the_token_and_json() {
-        let on = WriteAuth::new(true, Some(WebToken::new("s3cret-token")));
+        let on = WriteAuth::new(true, Some(WebToken::new("s3cret-token")), None);
         let bearer = ("authorization", "Bearer s3cret-token");
         assert!(on.enabled());
-        assert_eq!(on.authorize(&request(&[JSON, bearer])), Ok(()));
         assert_eq!(
-            on.authorize(&request(&[
-                ("content-type", "application/json; charset=utf-8"),
-                ("authorization", "bearer  s3cret-token")
-            ])),
-            Ok(())
+            on.authorize(&request(&[JSON, bearer]), Act::Force),
+            Ok(WebRole::Engineer)
         );
-        assert_eq!(on.authorize(&request(&[JSON])), Err(Refusal::NoToken));
         assert_eq!(
-            on.authorize(&request(&[JSON, ("authorization", "Basic s3cret-token")])),
+            on.authorize(
+                &request(&[
+                    ("content-type", "application/json; charset=utf-8"),
+                    ("authorization", "bearer  s3cret-token")
+                ]),
+                Act::Force
+            ),
+            Ok(WebRole::Engineer)
+        );
+        assert_eq!(
+            on.authorize(&request(&[JSON]), Act::Force),
             Err(Refusal::NoToken)
         );
         assert_eq!(
-            on.authorize(&request(&[JSON, ("authorization", "Bearer wrong")])),
+            on.authorize(
+                &request(&[JSON, ("authorization", "Basic s3cret-token")]),
+                Act::Force
+            ),
+            Err(Refusal::NoToken)
+        );
+        assert_eq!(
+            on.authorize(
+                &request(&[JSON, ("authorization", "Bearer wrong")]),
+                Act::Force
+            ),
             Err(Refusal::BadToken)
         );
         assert_eq!(
-            on.authorize(&request(&[("content-type", "text/plain"), bearer])),
+            on.authorize(
+                &request(&[("content-type", "text/plain"), bearer]),
+                Act::Force
+            ),
             Err(Refusal::NotJson)
         );
-        let off = WriteAuth::new(false, Some(WebToken::new("s3cret-token")));
+        let off = WriteAuth::new(false, Some(WebToken::new("s3cret-token")), None);
         assert!(!off.enabled());
         assert_eq!(
-            off.authorize(&request(&[JSON, bearer])),
+            off.authorize(&request(&[JSON, bearer]), Act::Force),
             Err(Refusal::WritesOff)
         );
-        let no_token = WriteAuth::new(true, None);
+        let no_token = WriteAuth::new(true, None, None);
         assert_eq!(
-            no_token.authorize(&request(&[JSON, bearer])),
+            no_token.authorize(&request(&[JSON, bearer]), Act::Force),
             Err(Refusal::WritesOff)
         );
     }
 
     #[test]
+    fn the_matching_token_decides_the_role() {
+        let both = WriteAuth::new(
+            true,
+            Some(WebToken::new("engineer-token")),
+            Some(WebToken::new("operator-token")),
+        );
+        let operator = request(&[JSON, ("authorization", "Bearer operator-token")]);
+        let engineer = request(&[JSON, ("authorization", "Bearer engineer-token")]);
+        assert_eq!(both.authorize(&operator, Act::Write), Ok(WebRole::Operator));
+        assert_eq!(
+            both.authorize(&operator, Act::SignIn),
+            Ok(WebRole::Operator)
+        );
+        for act in [Act::Force, Act::Unforce, Act::Trace] {
+            assert_eq!(
+                both.authorize(&operator, act),
+                Err(Refusal::EngineerOnly(act))
+            );
+            assert_eq!(both.authorize(&engineer, act), Ok(WebRole::Engineer));
+        }
+        assert_eq!(
+            Refusal::EngineerOnly(Act::Force).to_string(),
+            "the operator token may write values; forcing needs the engineer's"
+        );
+        let operator_only = WriteAuth::new(true, None, Some(WebToken::new("operator-token")));
+        assert!(operator_only.enabled());
+        assert_eq!(
+            operator_only.authorize(&operator, Act::Write),
+            Ok(WebRole::Operator)
+        );
+        assert_eq!(
+            operator_only.authorize(&engineer, Act::Write),
+            Err(Refusal::BadToken)
+        );
+    }
+
+    #[test]
     fn writes_from_another_site_are_refused() {
-        let on = WriteAuth::new(true, Some(WebToken::new("s3cret-token")));
+        let on = WriteAuth::new(true, Some(WebToken::new("s3cret-token")), None);
         let bearer = ("authorization", "Bearer s3cret-token");
         let host = ("host", "127.0.0.1:8080");
         assert_eq!(
-            on.authorize(&request(&[
-                JSON,
-                bearer,
-                host,
-                ("origin", "http://127.0.0.1:8080")
-            ])),
-            Ok(())
+            on.authorize(
+                &request(&[JSON, bearer, host, ("origin", "http://127.0.0.1:8080")]),
+                Act::Force
+            ),
+            Ok(WebRole::Engineer)
         );
         assert_eq!(
-            on.authorize(&request(&[
-                JSON,
-                bearer,
-                host,
-                ("origin", "http://evil.example")
-            ])),
+            on.authorize(
+                &request(&[JSON, bearer, host, ("origin", "http://evil.example")]),
+                Act::Force
+            ),
             Err(Refusal::CrossSite)
         );
         assert_eq!(
-            on.authorize(&request(&[JSON, bearer, ("sec-fetch-site", "cross-site")])),
+            on.authorize(
+                &request(&[JSON, bearer, ("sec-fetch-site", "cross-site")]),
+                Act::Force
+            ),
             Err(Refusal::CrossSite)
         );
     }

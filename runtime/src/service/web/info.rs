@@ -77,7 +77,7 @@ pub struct WebInfo {
     pub version: &'static str,
     /// Scan period, µs.
     pub period_us: u64,
-    /// Whether the page may force (the project allows writes and has a token).
+    /// Whether the page may write (the project allows writes and has a token).
     pub writes: bool,
     /// Lines.
     pub buses: Vec<BusInfo>,
@@ -157,7 +157,7 @@ impl WebInfo {
             project: project.name.clone(),
             version: env!("CARGO_PKG_VERSION"),
             period_us: project.scan.period.as_micros() as u64,
-            writes: web.writes && web.token.is_some(),
+            writes: web.writes && (web.token.is_some() || web.operator_token.is_some()),
             buses,
             modules,
             tags,

@@ -105,7 +105,11 @@ impl WebServer {
         let addr = listener.local_addr()?;
         let trend = Arc::new(Mutex::new(Trend::new(config.trend.clone())));
         trend::spawn_sampler(snapshot.clone(), trend.clone(), period)?;
-        let auth = WriteAuth::new(config.writes, config.token.clone());
+        let auth = WriteAuth::new(
+            config.writes,
+            config.token.clone(),
+            config.operator_token.clone(),
+        );
         let writes = auth.enabled();
         let shared = Arc::new(Shared {
             info_json: serde_json::to_string(info).map_err(std::io::Error::other)?,

@@ -12,12 +12,12 @@
 //! | `POST /api/force` | `{"tag": "motor", "value": "1"}` (value: text, number or boolean) |
 //! | `POST /api/write` | `{"tag": "speed", "value": 42}`: set once at the next cycle boundary; the program may overwrite it from its next scan |
 //! | `POST /api/unforce` | `{"tag": "motor"}`, or `{}` for every tag |
-//! | `POST /api/auth` | `{}`: whether the token would be accepted (the page's sign-in); changes nothing |
+//! | `POST /api/auth` | `{}`: whether the token would be accepted and its role (`{"ok": true, "role": "operator"}`; the page's sign-in); changes nothing |
 //! | `/api/trace…` | the Trace view: states, samples, CSV/VCD, arm, disarm ([`super::trace`]) |
 //!
 //! A write answers 200 `{"ok": true, "message": …}` once the scan applied it at a cycle
 //! boundary, 409 `{"ok": false, "error": …}` when the scan refused it (no such tag, a value
-//! not of the tag's type, a pushed-down output; for a write also a forced tag or an input), 403 when [`super::auth`] refuses it, 400 for
+//! not of the tag's type, a pushed-down output; for a write also a forced tag or an input), 403 when [`super::auth`] refuses it (no or a wrong token, or the operator's token on what needs the engineer's), 400 for
 //! a body that is not the JSON above, 503/504 when the scan is gone or does not answer.
 
 use std::time::Duration;
@@ -25,7 +25,7 @@ use std::time::Duration;
 use crossbeam_channel::{Receiver, Sender};
 use serde::Deserialize;
 
-use super::auth::WriteAuth;
+use super::auth::{Act, WriteAuth};
 use super::http::{Method, Request, Response};
 use crate::service::control::{
     Envelope, Request as Control, Response as ControlResponse, TagValue,
@@ -188,13 +188,25 @@ pub(crate) fn write(
     route: Route,
     req: &Request,
 ) -> Response {
-    if let Err(why) = auth.authorize(req) {
-        return refused(403, &why.to_string());
-    }
+    let act = match route {
+        Route::Write => Act::Write,
+        Route::Force => Act::Force,
+        Route::Unforce => Act::Unforce,
+        _ => Act::SignIn,
+    };
+    let role = match auth.authorize(req, act) {
+        Ok(role) => role,
+        Err(why) => return refused(403, &why.to_string()),
+    };
     if route == Route::Auth {
         return Response::json(
             200,
-            serde_json::json!({ "ok": true, "message": "the token is valid" }).to_string(),
+            serde_json::json!({
+                "ok": true,
+                "message": format!("the token is valid: signed in as the {role}"),
+                "role": role.to_string(),
+            })
+            .to_string(),
         );
     }
     let request = match write_request(route, &req.body) {
@@ -209,7 +221,7 @@ pub(crate) fn write(
                 request,
                 reply,
                 SCAN_ANSWER,
-                crate::service::audit::Origin::Web(req.peer),
+                crate::service::audit::Origin::Web(req.peer, Some(role)),
             ),
             QUEUE_WAIT,
         )

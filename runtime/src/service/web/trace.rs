@@ -136,7 +136,7 @@ pub(crate) fn answer(
             None => return refused(400, "name the trace: ?name=NAME"),
         },
         TraceRoute::Arm | TraceRoute::Disarm => {
-            if let Err(why) = auth.authorize(req) {
+            if let Err(why) = auth.authorize(req, super::auth::Act::Trace) {
                 return refused(403, &why.to_string());
             }
             let bad = |e: serde_json::Error| refused(400, &format!("bad request body: {e}"));
@@ -213,7 +213,7 @@ fn ask(scan: &Sender<Envelope>, t: TraceRequest) -> Result<ControlResponse, Resp
                 Control::Trace(t),
                 reply,
                 SCAN_ANSWER,
-                crate::service::audit::Origin::Web(None),
+                crate::service::audit::Origin::Web(None, None),
             ),
             QUEUE_WAIT,
         )

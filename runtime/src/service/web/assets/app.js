@@ -31,6 +31,9 @@
     trend: { tags: [], t: [], series: [] },
     rtt: { t: [], series: [] }, // per module, from the stats events
     token: sessionStorage.getItem("softplc-token") || "",
+    // "operator" (writes values once) or "engineer" (also forces and arms traces): what the
+    // server said the token is, at sign-in. The server checks every request anyway.
+    role: sessionStorage.getItem("softplc-role") || "",
     cells: [], // per tag: the I/O table's cells
     codeTags: [], // per program tag occurrence: { tag, span, val }
     lastEvent: 0,
@@ -138,6 +141,11 @@
     return app.info && app.info.writes && app.token !== "";
   }
 
+  // Signed in with the operator's token: the controls it may not use are hidden.
+  function operatorOnly() {
+    return signedIn() && app.role === "operator";
+  }
+
   async function post(path, body, token) {
     let r;
     try {
@@ -184,11 +192,14 @@
       const out = el("button", { text: "Sign out", type: "button" });
       out.addEventListener("click", () => {
         app.token = "";
+        app.role = "";
         sessionStorage.removeItem("softplc-token");
+        sessionStorage.removeItem("softplc-role");
         renderAuth();
         refreshForceControls();
       });
-      box.append(el("span", { class: "who", text: "forcing enabled" }), out);
+      const can = app.role === "operator" ? "writes values" : "writes and forces";
+      box.append(el("span", { class: "who", "data-role": app.role, text: "signed in as " + (app.role || "engineer") + " · " + can }), out);
       return;
     }
     const form = el("form", { id: "login" });
@@ -205,10 +216,13 @@
         return;
       }
       app.token = token;
+      app.role = r.role || "engineer";
       sessionStorage.setItem("softplc-token", token);
+      sessionStorage.setItem("softplc-role", app.role);
       renderAuth();
       refreshForceControls();
-      toast("Signed in: forcing enabled");
+      renderTraceView();
+      toast("Signed in as " + app.role);
     });
     box.append(form);
   }
@@ -263,20 +277,25 @@
     const info = app.info;
     $("io-note").textContent = !info.writes
       ? "Forcing is off for this project (service.web.writes: false). Values update live."
-      : signedIn()
+      : operatorOnly()
+        ? "Signed in as operator: a write sets an output or memory tag once, at the next cycle boundary; the program may change it from its next scan. Forcing needs the engineer's token."
+        : signedIn()
         ? "A force holds a value, whatever the modules or the program say, until it is removed or the PLC restarts. A write sets an output or memory tag once, at the next cycle boundary; the program may change it from its next scan."
-        : "Sign in (top right) with the project's token to force tags.";
+        : "Sign in (top right) with the engineer's token to force tags, or the operator's to write values.";
   }
 
   function refreshForceControls() {
     const on = signedIn();
     ioNote();
+    const operator = operatorOnly();
     for (const b of document.querySelectorAll(".force button, .force input")) {
       b.disabled = !on;
-      b.title = on ? "" : (app.info.writes ? "Sign in with the project's token to force" : "Forcing is off for this project");
+      b.title = on ? "" : (app.info.writes ? "Sign in with a token of the project to write or force" : "Forcing is off for this project");
+      // The operator's token may write, not force: its page shows no force buttons.
+      if (b.matches("[data-force]")) b.hidden = operator;
     }
     for (const c of app.cells) {
-      if (c && c.unforce) c.unforce.hidden = !(c.forced);
+      if (c && c.unforce) c.unforce.hidden = !(c.forced) || operator;
     }
   }
 
@@ -677,7 +696,7 @@
     const rows = list.map((s) => {
       const enc = encodeURIComponent(s.name);
       const actions = el("td", { class: "actions" },
-        el("button", { type: "button", text: "Arm", onclick: () => armTrace({ name: s.name }) }),
+        operatorOnly() ? null : el("button", { type: "button", text: "Arm", onclick: () => armTrace({ name: s.name }) }),
         s.state ? el("button", { type: "button", text: "Plot", onclick: () => { traceView.selected = s.name; renderTraceView(); } }) : null,
         s.state ? el("a", { href: "/api/trace/csv?name=" + enc, download: s.name + ".csv", text: "CSV" }) : null,
         s.state ? el("a", { href: "/api/trace/vcd?name=" + enc, download: s.name + ".vcd", text: "VCD" }) : null);
@@ -691,6 +710,7 @@
         actions);
     });
     table.replaceChildren(head, ...rows);
+    $("trace-form").hidden = operatorOnly();
     $("trace-hint").textContent = list.length ? "" : "No traces defined (traces: in the project); arm one below.";
     if (!traceView.selected || !list.some((s) => s.name === traceView.selected && s.state)) {
       const armed = list.find((s) => s.state);
