@@ -123,10 +123,15 @@ fn conveyor_folder(name: &str) -> PathBuf {
     crate::common::host::conveyor_scratch("web", name)
 }
 
-/// Signs in on the page with the project's token, as a person types it.
+/// Signs in on the page with the project's (engineer's) token, as a person types it.
 fn sign_in(b: &mut Browser) {
+    sign_in_with(b, TOKEN);
+}
+
+/// Signs in on the page with `token`, as a person types it.
+fn sign_in_with(b: &mut Browser, token: &str) {
     b.eval(&format!(
-        "document.getElementById('token').value = '{TOKEN}'; \
+        "document.getElementById('token').value = '{token}'; \
          document.getElementById('login').requestSubmit(); true"
     ));
     b.wait_for(
@@ -901,6 +906,7 @@ fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
 /// project from before the roles) forces; the audit says which role did what.
 #[test]
 fn the_operator_writes_and_only_the_engineer_forces() {
+    chromium_available();
     let dir = crate::common::host::scratch_dir("web", "roles");
     let port = free_port();
     std::fs::write(dir.join("engineer.token"), format!("{TOKEN}\n")).unwrap();
@@ -930,18 +936,21 @@ fn the_operator_writes_and_only_the_engineer_forces() {
     let write_cmd = |auth: &str| post(port, "/api/write", auth, r#"{"tag":"cmd","value":true}"#);
     let (code, text) = write_cmd(&operator);
     assert_eq!(code, 200, "{text}");
-    let end = Instant::now() + Duration::from_secs(5);
     let seen = || {
         status_line(&socket, "seen")
             .split_whitespace()
             .nth(1)
             .map(str::to_owned)
     };
-    while seen().as_deref() != Some("1") && Instant::now() < end {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let wait_seen = || {
+        let end = Instant::now() + Duration::from_secs(5);
+        while seen().as_deref() != Some("1") && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        seen()
+    };
     assert_eq!(
-        seen().as_deref(),
+        wait_seen().as_deref(),
         Some("1"),
         "the operator's write reached the program"
     );
@@ -992,6 +1001,52 @@ fn the_operator_writes_and_only_the_engineer_forces() {
         ],
         "the refused requests never reached the scan: {text}"
     );
+
+    // The page signed in with the operator's token says so, hides force and unforce, and
+    // its "Write 1" is the operator's in the audit.
+    let mut b = Browser::start(&dir.join("chromium"));
+    b.open(&format!("http://127.0.0.1:{port}/#io"));
+    b.wait_for(
+        "document.getElementById('token') !== null && document.querySelector('button[data-write=cmd]') !== null",
+        Duration::from_secs(30),
+    )
+    .expect("the page offers the sign-in and the write buttons");
+    sign_in_with(&mut b, "operator-token-0123456789");
+    let who = b.eval("document.querySelector('#auth .who').textContent");
+    assert!(
+        who.as_str()
+            .is_some_and(|w| w.contains("signed in as operator")),
+        "{who}"
+    );
+    b.wait_for(
+        "document.querySelector('button[data-force=cmd]').hidden && \
+         document.querySelector('button[data-unforce=seen]').hidden && \
+         !document.querySelector('button[data-write=cmd]').disabled",
+        Duration::from_secs(10),
+    )
+    .expect("the operator's page hides force and unforce, and writes");
+    b.eval("document.querySelector('button[data-write=cmd][data-value=\"1\"]').click(); true");
+    let end = Instant::now() + Duration::from_secs(10);
+    let newest = loop {
+        let (_, text) = http(
+            port,
+            &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
+        );
+        let audit: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        let entries = audit["entries"].as_array().cloned().unwrap_or_default();
+        if entries.len() == 4 || Instant::now() > end {
+            break entries.first().cloned().unwrap_or_default();
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert_eq!(newest["action"], "write", "{newest}");
+    assert!(
+        newest["source"]
+            .as_str()
+            .is_some_and(|s| s.ends_with(" operator")),
+        "{newest}"
+    );
+    drop(b);
     drop(plc);
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
