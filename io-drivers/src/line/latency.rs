@@ -206,7 +206,7 @@ pub(crate) const DEFAULT_FTDI_LATENCY: Duration = Duration::from_millis(16);
 
 impl AdapterLatency {
     /// The latency to count for a port that could not be opened yet: a configured ceiling as
-    /// given, else an FTDI adapter's default ([`DEFAULT_FTDI_LATENCY`]), so that echo and
+    /// given, else an FTDI adapter's default (16 ms), so that echo and
     /// reply waits are long enough whatever adapter appears.
     pub fn before_open(self) -> Duration {
         match self {
