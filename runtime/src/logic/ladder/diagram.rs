@@ -16,6 +16,7 @@ use super::error::CompileError;
 use super::parser::{self, Action, Arg, Cond, Lit, Ref};
 use super::{front, CoilKind, Front};
 use crate::logic::expr::TagTable;
+use crate::logic::user_blocks::OwnBlocks;
 use crate::project::DocText;
 
 /// A value as a diagram shows it: a tag, an instance's output or a literal.
@@ -202,13 +203,14 @@ pub fn diagram(
     source: &str,
     file: &Path,
     tags: &TagTable,
+    own: &OwnBlocks,
 ) -> Result<Vec<RungDiagram>, Vec<CompileError>> {
     let Front {
         src,
         parsed,
         instances,
         ..
-    } = front(source, file, tags)?;
+    } = front(source, file, tags, own)?;
     let names = Names {
         tags,
         instances: &instances,
@@ -397,7 +399,13 @@ mod tests {
 
     fn draw(rungs: &str) -> Vec<RungDiagram> {
         let text = format!("description: x\nrungs:\n{rungs}");
-        diagram(&text, Path::new("p.ladder.yaml"), &tags()).unwrap_or_else(|e| panic!("{e:?}"))
+        diagram(
+            &text,
+            Path::new("p.ladder.yaml"),
+            &tags(),
+            &OwnBlocks::none(),
+        )
+        .unwrap_or_else(|e| panic!("{e:?}"))
     }
 
     fn tag(name: &str, tag: usize) -> Operand {
@@ -562,7 +570,7 @@ mod tests {
             ("start -> TOF t(1s)", "IN"),
         ] {
             let text = format!("rungs:\n  - {rung}\n");
-            let d = diagram(&text, Path::new("p.yaml"), &tags()).unwrap();
+            let d = diagram(&text, Path::new("p.yaml"), &tags(), &OwnBlocks::none()).unwrap();
             let block = d[0].block.as_ref().unwrap();
             assert_eq!(block.input, input, "{rung}");
         }
@@ -571,7 +579,7 @@ mod tests {
     #[test]
     fn a_program_that_does_not_compile_has_no_diagram() {
         let text = "rungs:\n  - strat -> motor\n";
-        let err = diagram(text, Path::new("p.yaml"), &tags()).unwrap_err();
+        let err = diagram(text, Path::new("p.yaml"), &tags(), &OwnBlocks::none()).unwrap_err();
         assert_eq!(
             err[0].to_string(),
             "p.yaml:2:5: error: unknown tag `strat`; did you mean `start`?"

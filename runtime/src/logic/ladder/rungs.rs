@@ -82,6 +82,12 @@ pub(crate) fn describe(
                     add(*tag, r.index, Drive::Shape(shape));
                 }
             }
+            CAction::Own { coils, .. } => {
+                for (_, tag) in coils {
+                    let shape = opaque("a block of your own drives this coil: the call runs centrally with its instance");
+                    add(*tag, r.index, Drive::Shape(shape));
+                }
+            }
         }
     }
     order

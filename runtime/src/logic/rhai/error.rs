@@ -106,6 +106,32 @@ pub enum CompileErrorKind {
         /// Arguments given.
         found: usize,
     },
+    /// An argument of a block of one's own of a type its input does not take.
+    #[error("argument `{param}` of {function}() is {} (an input of {block}), not {found}", crate::logic::user_blocks::a_type(*.expected))]
+    OwnArgumentType {
+        /// The function.
+        function: String,
+        /// The block.
+        block: String,
+        /// The input.
+        param: String,
+        /// Its type.
+        expected: softplc_io::point::ValueType,
+        /// What was given ("an integer").
+        found: &'static str,
+    },
+    /// A call of a block of one's own naming no declared instance of it.
+    #[error("{function}(): \"{name}\" is not a declared instance of {block} ({declared}); declare it under the project's `instances:`")]
+    OwnInstance {
+        /// The function.
+        function: String,
+        /// The name given.
+        name: String,
+        /// The block.
+        block: String,
+        /// Its declared instances, in words.
+        declared: String,
+    },
     /// An argument of a library function of a type the parameter does not take.
     #[error("argument `{param}` of {function}() is {expected}, not {found}")]
     ArgumentType {

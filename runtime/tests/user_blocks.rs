@@ -1,0 +1,309 @@
+//! Blocks of one's own (issue 31, item 2): a block file included by projects, instances
+//! declared by the project, calls from ladder and Rhai of blocks whose bodies are written in
+//! either, each instance's variables as tags `s1.start` a scenario addresses, and every
+//! refusal `check` gives, with its file:line:col and its exact words.
+
+use crate::common::host::{softplc, softplc_in};
+use crate::common::scratch::Scratch;
+
+const SUBJECT: &str = "user-blocks";
+
+/// A latch block with a ladder body, an edge counter in its state, and a Rhai block.
+const BLOCKS: &str = "\
+blocks:
+  - name: LATCH
+    inputs:
+      - { name: en, type: bool }
+      - { name: set, type: bool }
+      - { name: clear, type: bool }
+      - { name: limit, type: i32, default: 3 }
+    outputs:
+      - { name: on, type: bool }
+      - { name: full, type: bool }
+    state:
+      - { name: sets, type: i32, initial: 0 }
+    body: latch.ladder.yaml
+  - name: PULSE
+    inputs:
+      - { name: x, type: bool }
+    outputs:
+      - { name: q, type: bool }
+    body: pulse.rhai
+";
+
+const LATCH_BODY: &str = "\
+rungs:
+  - en (set | on) /clear -> on
+  - rising(set) en -> ADD(sets, 1) => sets
+  - sets >= limit -> full
+  - clear -> MOVE(0) => sets
+";
+
+const PULSE_BODY: &str = "q = r_trig(\"e\", x);\n";
+
+/// A project with `n` (at most 8) instances of LATCH (`l1`..) and one of PULSE (`p`), their
+/// buttons and lamps on a simulated RESI-16DI8RO and a MiniMod, and its program.
+fn project(n: usize, program: &str, kind: &str) -> String {
+    let mut text = String::from(
+        "project: blocks\nscan: { period: 100ms }\n\
+         buses: [{ name: line, port: sim }]\n\
+         modules:\n  - { name: io, bus: line, model: resi-16di8ro, address: 1 }\n\
+         \x20 - { name: mm, bus: line, model: minimod, address: 2 }\n\
+         tags:\n  - { name: run, type: bool, initial: true }\n",
+    );
+    for i in 1..=n {
+        let c = i + 8;
+        text.push_str(&format!(
+            "  - {{ name: b{i}, point: io.DI{i} }}\n  - {{ name: c{i}, point: io.DI{c} }}\n  - {{ name: y{i}, point: io.RO{i} }}\n"
+        ));
+    }
+    text.push_str("  - { name: edge, point: mm.X1 }\n  - { name: tick, point: mm.Y1 }\n");
+    text.push_str("blocks: [lib/my.blocks.yaml]\ninstances:\n");
+    for i in 1..=n {
+        text.push_str(&format!("  - {{ name: l{i}, block: LATCH }}\n"));
+    }
+    text.push_str(&format!(
+        "  - {{ name: p, block: PULSE }}\nprogram: {{ file: {program}, kind: {kind} }}\n"
+    ));
+    text
+}
+
+fn ladder_program(n: usize) -> String {
+    let mut text = String::from("rungs:\n");
+    for i in 1..=n {
+        text.push_str(&format!("  - run -> LATCH l{i}(b{i}, c{i}) -> y{i}\n"));
+    }
+    text.push_str("  - edge -> PULSE p -> tick\n");
+    text
+}
+
+fn rhai_program(n: usize) -> String {
+    let mut text = String::new();
+    for i in 1..=n {
+        text.push_str(&format!("y{i} = latch(\"l{i}\", run, b{i}, c{i});\n"));
+    }
+    text.push_str("tick = pulse(\"p\", edge);\n");
+    text
+}
+
+/// A scratch folder with the block file, both bodies, a project per language and `files`.
+fn folder(case: &str, n: usize, files: &[(&str, &str)]) -> Scratch {
+    let s = Scratch::new(SUBJECT, case);
+    std::fs::create_dir_all(s.dir.join("lib")).expect("lib/");
+    s.write("lib/my.blocks.yaml", BLOCKS);
+    s.write("lib/latch.ladder.yaml", LATCH_BODY);
+    s.write("lib/pulse.rhai", PULSE_BODY);
+    s.write("ladder.yaml", &project(n, "main.ladder.yaml", "ladder"));
+    s.write("main.ladder.yaml", &ladder_program(n));
+    s.write("rhai.yaml", &project(n, "main.rhai", "rhai"));
+    s.write("main.rhai", &rhai_program(n));
+    for (name, text) in files {
+        s.write(name, text);
+    }
+    s
+}
+
+/// `softplc check FILE`'s error lines, in order.
+fn check_errors(s: &Scratch, file: &str) -> Vec<String> {
+    let (ok, text) = softplc_in(&s.dir, &["check", file]);
+    assert!(!ok, "check passed:\n{text}");
+    text.lines()
+        .filter(|l| l.contains(": error: "))
+        .map(str::to_owned)
+        .collect()
+}
+
+#[test]
+fn the_stations_example_gives_one_trace_in_ladder_and_rhai() {
+    for project in [
+        "examples/stations/ladder/project.yaml",
+        "examples/stations/rhai/project.yaml",
+    ] {
+        let (ok, text) = softplc(&["check", project]);
+        assert!(ok, "{project}: {text}");
+        assert!(
+            text.contains("  s8.fill_ms i32 = 2000  — How long one fill takes"),
+            "{text}"
+        );
+    }
+    let (ok, text) = softplc(&["test", "examples/stations"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("[stations.ladder.yaml]"), "{text}");
+    assert!(text.contains("[stations.rhai]"), "{text}");
+    assert!(text.contains("give the same trace"), "{text}");
+    assert!(text.contains("2 passed, 0 failed"), "{text}");
+}
+
+/// Eight instances of one block keep eight states: each latch follows its own buttons, counts
+/// its own presses and reports full at its own limit; the traces of both languages agree.
+#[test]
+fn eight_instances_behave_independently_in_both_languages() {
+    let scenario = "\
+name: eight latches
+project: ladder.yaml
+programs: [main.ladder.yaml, main.rhai]
+steps:
+  - { at: 1s,   set: { b1: 1, b3: 1, b5: 1, b7: 1 } }
+  - { at: 1.2s, set: { b1: 0, b3: 0, b5: 0, b7: 0 } }
+  - { at: 1.5s, expect: { y1: 1, y2: 0, y3: 1, y4: 0, y5: 1, y6: 0, y7: 1, y8: 0 } }
+  - { at: 1.5s, expect: { l1.on: 1, l2.on: 0, l1.sets: 1, l2.sets: 0, l1.set: 0 } }
+  - { at: 2s,   set: { b1: 1 } }
+  - { at: 2.2s, set: { b1: 0 } }
+  - { at: 3s,   set: { b1: 1 } }
+  - { at: 3.2s, set: { b1: 0 } }
+  - { at: 3.5s, expect: { l1.sets: 3, l1.full: 1, l3.sets: 1, l3.full: 0, l1.limit: 3 } }
+  - { at: 4s,   set: { c1: 1, b2: 1 } }
+  - { at: 4.2s, set: { c1: 0, b2: 0 } }
+  - { at: 4.5s, expect: { y1: 0, l1.sets: 0, l1.full: 0, y2: 1, l2.sets: 1, y3: 1 } }
+  - { at: 5s,   set: { edge: 1 } }
+  - { at: 5s,   expect: { tick: 1, p.q: 1, p.x: 1 } }
+  - { at: 5.1s, expect: { tick: 0, p.q: 0 } }
+";
+    let s = folder("eight", 8, &[("eight.scenario.yaml", scenario)]);
+    let (ok, text) = softplc_in(&s.dir, &["test", "eight.scenario.yaml"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("2 passed, 0 failed"), "{text}");
+    assert!(text.contains("give the same trace"), "{text}");
+}
+
+#[test]
+fn ladder_calls_are_held_against_the_block() {
+    let program = "\
+rungs:
+  - run -> LATCH l1(b1, clear=y2, speed=2)
+  - run -> LATCH l2(b2)
+  - run -> LATCH l9(b1, c1)
+  - run -> LATCH l3(b3, c3, limit=b1) -> y3
+  - run -> PULSE l4(b4)
+  - run -> LATCH l5(b5, c5, 4, 5)
+  - l5.bogus -> y1
+";
+    let s = folder("ladder-calls", 5, &[("main.ladder.yaml", program)]);
+    assert_eq!(
+        check_errors(&s, "ladder.yaml"),
+        [
+            "main.ladder.yaml:2:35: error: LATCH has no input `speed`; its inputs are set, clear, limit",
+            "main.ladder.yaml:3:18: error: input `clear` of LATCH is missing: it has no default, so every call gives it (`clear=...`)",
+            "main.ladder.yaml:4:18: error: instance `l9` of LATCH is not declared: add `- { name: l9, block: LATCH }` to the project's `instances:`",
+            "main.ladder.yaml:5:35: error: input `limit` of LATCH is an i32, not `b1`, a bool",
+            "main.ladder.yaml:6:18: error: instance `l4` is a LATCH (the project's `instances:`), not a PULSE",
+            "main.ladder.yaml:7:32: error: LATCH takes at most 3 positional arguments (set, clear, limit)",
+            "main.ladder.yaml:8:8: error: LATCH `l5` has no `bogus`; it has en, set, clear, limit, on, full, sets",
+        ]
+    );
+}
+
+#[test]
+fn rhai_calls_are_held_against_the_block() {
+    let program = "\
+y1 = latch(\"l1\", run, 5, c1);
+y2 = latch(\"l2\", run, b2);
+y3 = latch(\"l9\", run, b3, c3);
+y4 = latch(\"l4\", run, b4, c4, true);
+y5 = latch(\"l5\", run, b5, c5, 7);
+";
+    let s = folder("rhai-calls", 5, &[("main.rhai", program)]);
+    assert_eq!(
+        check_errors(&s, "rhai.yaml"),
+        [
+            "main.rhai:1:23: error: argument `set` of latch() is a bool (an input of LATCH), not an integer",
+            "main.rhai:2:6: error: latch() takes 4 to 5 arguments: latch(name, en, set, clear[, limit]); this call has 3",
+            "main.rhai:3:12: error: latch(): \"l9\" is not a declared instance of LATCH (declared: l1, l2, l3, l4, l5); declare it under the project's `instances:`",
+            "main.rhai:4:31: error: argument `limit` of latch() is an i32 (an input of LATCH), not a bool",
+        ]
+    );
+}
+
+#[test]
+fn a_body_sees_only_its_block_and_calls_built_in_blocks_only() {
+    let body = "\
+rungs:
+  - en -> on, set
+  - en -> y1
+  - en -> PULSE inner(en)
+";
+    let s = folder("body", 1, &[("lib/latch.ladder.yaml", body)]);
+    assert_eq!(
+        check_errors(&s, "ladder.yaml"),
+        [
+            "lib/latch.ladder.yaml:2:15: error: `set` is an input of LATCH: its body reads it, a call writes it",
+            "lib/latch.ladder.yaml:3:11: error: `y1` is not declared by LATCH: its body sees only its inputs, outputs and state (en, set, clear, limit, on, full, sets); declare it under the block's `outputs:` or `state:`",
+            "lib/latch.ladder.yaml:4:11: error: PULSE is a block of your own: the body of LATCH calls built-in blocks only (nested blocks and recursion are refused)",
+        ]
+    );
+}
+
+#[test]
+fn a_name_clash_names_both_files_and_a_built_in_is_refused() {
+    let other = "\
+blocks:
+  - name: LATCH
+    inputs: [{ name: en, type: bool }]
+    outputs: [{ name: q, type: bool }]
+    body: pulse.rhai
+";
+    let s = folder("clash", 1, &[("lib/other.blocks.yaml", other)]);
+    let text = std::fs::read_to_string(s.dir.join("ladder.yaml")).expect("the project");
+    let both = text.replace(
+        "blocks: [lib/my.blocks.yaml]",
+        "blocks: [lib/my.blocks.yaml, lib/other.blocks.yaml]",
+    );
+    s.write("ladder.yaml", &both);
+    assert_eq!(
+        check_errors(&s, "ladder.yaml"),
+        ["lib/other.blocks.yaml:2:11: error: block LATCH is also defined in lib/my.blocks.yaml:2; a project includes one block of a name"]
+    );
+    s.write("lib/other.blocks.yaml", &other.replace("LATCH", "TON"));
+    assert_eq!(
+        check_errors(&s, "ladder.yaml"),
+        ["lib/other.blocks.yaml:2:11: error: block TON has the name of a built-in block; name yours otherwise (built-in blocks: TON, TOF, TP, STAIR, CTU, CTD, CTUD, R_TRIG, F_TRIG, SR, RS, TOGGLE, BLINK, LAMP)"]
+    );
+}
+
+#[test]
+fn a_block_file_is_checked_at_its_own_lines() {
+    let bad = "\
+blocks:
+  - name: Latch
+    inputs:
+      - { name: en, type: int }
+      - { name: x, type: bool, initial: 1 }
+    outputs:
+      - { name: n, type: i32 }
+    state:
+      - { name: s, type: u16, initial: -1 }
+    body: latch.txt
+";
+    let s = folder("file", 1, &[("lib/my.blocks.yaml", bad)]);
+    assert_eq!(
+        check_errors(&s, "ladder.yaml"),
+        [
+            "lib/my.blocks.yaml:2:11: error: block name \"Latch\" must be upper case letters, digits and _, not first a digit (STATION, PUMP_2)",
+            "lib/my.blocks.yaml:4:27: error: unknown type \"int\" (known: bool, u16, i32, f32)",
+            "lib/my.blocks.yaml:5:41: error: `initial` is for state variables, not for input `x`",
+            "lib/my.blocks.yaml:7:26: error: the first output of block Latch, `n`, is an i32: it is the block's main output, a bool",
+            "lib/my.blocks.yaml:9:40: error: initial \"-1\" of `s` is not a u16",
+            "lib/my.blocks.yaml:10:11: error: the body \"latch.txt\" must be a ladder file (.yaml) or a Rhai script (.rhai)",
+            "ladder.yaml:14:10: error: the block file lib/my.blocks.yaml has 6 error(s)",
+        ]
+    );
+}
+
+#[test]
+fn instances_are_declared_once_of_a_known_block() {
+    let s = folder("instances", 1, &[]);
+    let text = std::fs::read_to_string(s.dir.join("ladder.yaml")).expect("the project");
+    let bad = text.replace(
+        "  - { name: p, block: PULSE }",
+        "  - { name: p, block: PULS }\n  - { name: run, block: PULSE }\n  - { name: l1, block: PULSE }",
+    );
+    s.write("ladder.yaml", &bad);
+    assert_eq!(
+        check_errors(&s, "ladder.yaml"),
+        [
+            "ladder.yaml:17:23: error: unknown block \"PULS\" (known: LATCH, PULSE)",
+            "ladder.yaml:18:13: error: instance name `run` is already used by a tag at line 8",
+            "ladder.yaml:19:13: error: instance name `l1` is already used by an instance at line 16",
+        ]
+    );
+}
