@@ -295,7 +295,7 @@ fn instances_are_declared_once_of_a_known_block() {
     let text = std::fs::read_to_string(s.dir.join("ladder.yaml")).expect("the project");
     let bad = text.replace(
         "  - { name: p, block: PULSE }",
-        "  - { name: p, block: PULS }\n  - { name: run, block: PULSE }\n  - { name: l1, block: PULSE }",
+        "  - { name: p, block: PULS }\n  - { name: run, block: PULSE }\n  - { name: l1, block: PULSE }\n  - { name: io, block: PULSE }",
     );
     s.write("ladder.yaml", &bad);
     assert_eq!(
@@ -304,6 +304,83 @@ fn instances_are_declared_once_of_a_known_block() {
             "ladder.yaml:17:23: error: unknown block \"PULS\" (known: LATCH, PULSE)",
             "ladder.yaml:18:13: error: instance name `run` is already used by a tag at line 8",
             "ladder.yaml:19:13: error: instance name `l1` is already used by an instance at line 16",
+            "ladder.yaml:20:13: error: instance name `io` is already used by a module at line 5",
         ]
+    );
+}
+
+/// An instance's variables are recorded as any tag: the flight record of a virtual run holds
+/// two tickers' pins and state, a replay of the program gives them back cycle by cycle, and
+/// a trace may name them.
+#[test]
+fn instance_pins_are_recorded_replayed_and_named_by_a_trace() {
+    let s = Scratch::new(SUBJECT, "record");
+    s.write(
+        "tick.blocks.yaml",
+        "blocks:\n  - name: TICKER\n    inputs: [{ name: en, type: bool }, { name: ms, type: i32, default: 300 }]\n    outputs: [{ name: q, type: bool }]\n    state: [{ name: ticks, type: i32 }]\n    body: ticker.ladder.yaml\n",
+    );
+    s.write(
+        "ticker.ladder.yaml",
+        "rungs:\n  - en -> BLINK b(ms, ms) -> q\n  - rising(q) -> ADD(ticks, 1) => ticks\n",
+    );
+    s.write(
+        "project.yaml",
+        "project: rec\nscan: { period: 100ms }\nbuses: [{ name: line, port: sim }]\n\
+         modules: [{ name: mm, bus: line, model: minimod, address: 1 }]\n\
+         tags:\n  - { name: run, type: bool, initial: true }\n  - { name: lamp, point: mm.Y1 }\n  - { name: lamp2, point: mm.Y2 }\n\
+         blocks: [tick.blocks.yaml]\n\
+         instances: [{ name: t1, block: TICKER }, { name: t2, block: TICKER }]\n\
+         program: { file: main.ladder.yaml, kind: ladder }\n\
+         traces:\n  - { name: ticks, tags: [t1.q, t1.ticks, lamp], trigger: t1.ticks >= 3 }\n",
+    );
+    s.write(
+        "main.ladder.yaml",
+        "rungs:\n  - run -> TICKER t1 -> lamp\n  - run -> TICKER t2(ms=500ms) -> lamp2\n",
+    );
+    let (ok, text) = softplc_in(&s.dir, &["check", "project.yaml"]);
+    assert!(ok, "{text}");
+    let (ok, text) = softplc_in(
+        &s.dir,
+        &[
+            "run",
+            "project.yaml",
+            "--virtual",
+            "--for",
+            "5s",
+            "--record",
+            "1m",
+        ],
+    );
+    assert!(ok, "{text}");
+    let (ok, text) = softplc_in(
+        &s.dir,
+        &[
+            "replay",
+            "project.yaml.record",
+            "project.yaml",
+            "--csv",
+            "out.csv",
+        ],
+    );
+    assert!(ok && text.contains("outputs identical"), "{text}");
+    let csv = std::fs::read_to_string(s.dir.join("out.csv")).expect("the CSV");
+    let header: Vec<&str> = csv.lines().next().expect("a header").split(',').collect();
+    let column = |name: &str| {
+        header
+            .iter()
+            .position(|h| h.split(" [").next() == Some(name))
+            .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
+    };
+    let last: Vec<&str> = csv.lines().last().expect("a row").split(',').collect();
+    let value = |name: &str| -> i64 { last[column(name)].parse().expect("a number") };
+    // 5 s of a 300/300 ms blinker and of a 500/500 ms one, each counting its own rises.
+    assert_eq!(value("rec.t1.ticks"), value("new.t1.ticks"));
+    assert_eq!(value("rec.t1.ms"), 300);
+    assert_eq!(value("rec.t2.ms"), 500);
+    assert!(value("rec.t1.ticks") >= 7, "{}", last.join(","));
+    assert!(
+        (4..=5).contains(&value("rec.t2.ticks")),
+        "{}",
+        last.join(",")
     );
 }

@@ -96,6 +96,10 @@ pub(crate) fn validate(
             blocks,
             &mut tags,
             &names,
+            &raw.modules
+                .iter()
+                .map(|m| m.name.as_str())
+                .collect::<Vec<_>>(),
             &v.loc,
             |path, e| found.push((path, e)),
         );

@@ -496,6 +496,7 @@ pub(crate) fn instances(
     blocks: &[UserBlock],
     tags: &mut Vec<Option<TagConfig>>,
     tag_names: &[&str],
+    module_names: &[&str],
     loc: &Locator<'_>,
     mut error: impl FnMut(YPath, ErrorKind),
 ) -> Vec<BlockInstance> {
@@ -516,6 +517,10 @@ pub(crate) fn instances(
                 "a tag",
                 loc.line(&YPath::root().key("tags").index(t).key("name")),
             ))
+        } else if let Some(m) = module_names.iter().position(|m| *m == inst.name) {
+            // `io.X` in a trace is a module's counter: an instance `io` would be ambiguous.
+            let at = YPath::root().key("modules").index(m).key("name");
+            Some(("a module", loc.line(&at)))
         } else {
             names.get(inst.name.as_str()).map(|&first| {
                 let first = YPath::root().key("instances").index(first).key("name");
