@@ -64,7 +64,7 @@ use std::path::Path;
 
 pub use crate::logic::vm::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
 pub use diagram::{
-    diagram, BlockBox, BlockInput, Coil, Element, MathBox, Operand, Output, RungDiagram,
+    diagram, BlockBox, BlockInput, Coil, Element, MathBox, Operand, Output, OwnBox, RungDiagram,
 };
 pub use error::{CompileError, CompileErrorKind, Driver, Expected, TypeError};
 pub use exec::LadderProgram;
