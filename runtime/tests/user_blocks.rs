@@ -384,3 +384,62 @@ fn instance_pins_are_recorded_replayed_and_named_by_a_trace() {
         last.join(",")
     );
 }
+
+/// A body a module's logic can run (a start/stop latch on the block's inputs) is pushed down
+/// per instance, like the same rung written out: the call feeding it a module's inputs goes
+/// into the module, a call fed a memory tag and a body comparing numbers stay central, each
+/// with `check`'s reason; the scenario runs with the plan.
+#[test]
+fn a_pushable_body_is_pushed_down_per_instance() {
+    let s = Scratch::new(SUBJECT, "push-down");
+    s.write(
+        "my.blocks.yaml",
+        "blocks:\n  - name: STARTER\n    inputs: [{ name: en, type: bool }, { name: start, type: bool }, { name: stop, type: bool }]\n    outputs: [{ name: on, type: bool }]\n    state: [{ name: presses, type: i32 }]\n    body: starter.ladder.yaml\n  - name: COUNTED\n    inputs: [{ name: en, type: bool }, { name: start, type: bool }]\n    outputs: [{ name: on, type: bool }]\n    state: [{ name: n, type: i32 }]\n    body: counted.ladder.yaml\n",
+    );
+    s.write(
+        "starter.ladder.yaml",
+        "rungs:\n  - en (start | on) /stop -> on\n  - rising(start) -> ADD(presses, 1) => presses\n",
+    );
+    s.write(
+        "counted.ladder.yaml",
+        "rungs:\n  - en start n > 2 -> on\n  - rising(start) -> ADD(n, 1) => n\n",
+    );
+    s.write(
+        "machine.ladder.yaml",
+        "rungs:\n  - -> STARTER s1(start, stop) -> motor\n  - run -> STARTER s2(stop, start) -> fan\n  - -> COUNTED c1(start) -> lamp\n",
+    );
+    s.write(
+        "project.yaml",
+        "project: pd\nscan: { period: 100ms }\noffload: auto\n\
+         buses: [{ name: line1, port: sim }]\n\
+         modules: [{ name: mm1, bus: line1, model: minimod, address: 1 }]\n\
+         tags:\n  - { name: start, point: mm1.X2 }\n  - { name: stop, point: mm1.X3 }\n\
+         \x20 - { name: motor, point: mm1.Y1, safe: false }\n  - { name: fan, point: mm1.Y2, safe: false }\n\
+         \x20 - { name: lamp, point: mm1.Y3, safe: false }\n  - { name: run, type: bool, initial: true }\n\
+         blocks: [my.blocks.yaml]\n\
+         instances: [{ name: s1, block: STARTER }, { name: s2, block: STARTER }, { name: c1, block: COUNTED }]\n\
+         program: { file: machine.ladder.yaml, kind: ladder }\n",
+    );
+    s.write(
+        "pd.scenario.yaml",
+        "name: s1 latches the motor in the module\nproject: project.yaml\nsteps:\n\
+         \x20 - { at: 1s,   set: { start: 1 } }\n  - { at: 1.2s, set: { start: 0 } }\n\
+         \x20 - { at: 1.5s, expect: { motor: 1, s1.on: 1, s1.presses: 1, fan: 0 } }\n\
+         \x20 - { at: 2s,   set: { stop: 1 } }\n  - { at: 2.2s, set: { stop: 0 } }\n\
+         \x20 - { at: 2.5s, expect: { motor: 0, s1.on: 0, s1.presses: 1 } }\n",
+    );
+    let (ok, text) = softplc_in(&s.dir, &["check", "project.yaml"]);
+    assert!(ok, "{text}");
+    for line in [
+        "machine.ladder.yaml:2:5 motor (set/reset latch): module mm1 Y1, automatic outputs AON/AOFF (an OFF condition wins)",
+        "      Y1AON1         = 0x0002 X2",
+        "      Y1AOFF1        = 0x0004 X3",
+        "machine.ladder.yaml:3:5 fan (set/reset latch): central: memory or a timer in the condition: run is a memory tag, which the module cannot see",
+        "machine.ladder.yaml:4:5 lamp (other): central: a block of your own drives this coil, and its body's main output: a comparison of numbers in the condition",
+        "3 coil(s) planned: 1 in modules, 2 central",
+    ] {
+        assert!(text.contains(line), "no {line:?} in:\n{text}");
+    }
+    let (ok, text) = softplc_in(&s.dir, &["test", "pd.scenario.yaml"]);
+    assert!(ok && text.contains("1 passed, 0 failed"), "{text}");
+}

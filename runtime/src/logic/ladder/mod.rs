@@ -224,7 +224,8 @@ pub fn compile_with(
         .collect();
     let types = crate::logic::vm::tag_types(tags);
     let instances = instances.kinds.iter().map(|&k| Instance::new(k)).collect();
-    let described = rungs::describe(&checked, |i| {
+    let shapes = own.shapes();
+    let described = rungs::describe(&checked, &shapes, |i| {
         let (line, column) = src.position(i, 0);
         let title = src.rungs.get(i).and_then(|r| r.title.as_ref());
         (at(line, column), title.map(ToString::to_string))

@@ -38,6 +38,11 @@ impl UserInstance {
         }
     }
 
+    /// Its main output as its body describes it, over the block's variables.
+    pub(crate) fn main_shape(&self) -> Result<softplc_io::rung::RungShape, String> {
+        super::shape::main_output_shape(self.body.as_ref(), self.inputs)
+    }
+
     /// Its name (`s1`).
     pub(crate) fn name(&self) -> &str {
         &self.name

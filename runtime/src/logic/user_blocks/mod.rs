@@ -15,6 +15,7 @@
 
 mod build;
 mod instance;
+mod shape;
 
 use crate::logic::blocks::Kind;
 use crate::project::UserBlock;
@@ -22,6 +23,7 @@ use crate::project::UserBlock;
 pub use build::OwnBlockError;
 pub(crate) use build::{build, default_of};
 pub(crate) use instance::UserInstance;
+pub(crate) use shape::substitute;
 
 /// What a program may call: the built-in blocks (`Kind`) and the project's own blocks, with
 /// the instances the project declares.
@@ -102,6 +104,15 @@ impl OwnBlocks {
     /// Whether there is no block of one's own.
     pub(crate) fn is_empty(&self) -> bool {
         self.blocks.is_empty()
+    }
+
+    /// Each declared instance's main output as its body describes it (see `shape.rs`), by
+    /// instance index; empty when none is compiled.
+    pub(crate) fn shapes(&self) -> Vec<Result<softplc_io::rung::RungShape, String>> {
+        self.instances
+            .iter()
+            .map(UserInstance::main_shape)
+            .collect()
     }
 
     /// The instances, moved into the program that calls them.
