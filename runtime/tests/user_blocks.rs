@@ -58,6 +58,7 @@ fn project(n: usize, program: &str, kind: &str) -> String {
         ));
     }
     text.push_str("  - { name: edge, point: mm.X1 }\n  - { name: tick, point: mm.Y1 }\n");
+    text.push_str("  - { name: full1, point: mm.Y2 }\n");
     text.push_str("blocks: [lib/my.blocks.yaml]\ninstances:\n");
     for i in 1..=n {
         text.push_str(&format!("  - {{ name: l{i}, block: LATCH }}\n"));
@@ -73,7 +74,7 @@ fn ladder_program(n: usize) -> String {
     for i in 1..=n {
         text.push_str(&format!("  - run -> LATCH l{i}(b{i}, c{i}) -> y{i}\n"));
     }
-    text.push_str("  - edge -> PULSE p -> tick\n");
+    text.push_str("  - edge -> PULSE p -> tick\n  - l1.full -> full1\n");
     text
 }
 
@@ -82,7 +83,7 @@ fn rhai_program(n: usize) -> String {
     for i in 1..=n {
         text.push_str(&format!("y{i} = latch(\"l{i}\", run, b{i}, c{i});\n"));
     }
-    text.push_str("tick = pulse(\"p\", edge);\n");
+    text.push_str("tick = pulse(\"p\", edge);\nfull1 = output(\"l1\", \"full\");\n");
     text
 }
 
@@ -151,10 +152,10 @@ steps:
   - { at: 2.2s, set: { b1: 0 } }
   - { at: 3s,   set: { b1: 1 } }
   - { at: 3.2s, set: { b1: 0 } }
-  - { at: 3.5s, expect: { l1.sets: 3, l1.full: 1, l3.sets: 1, l3.full: 0, l1.limit: 3 } }
+  - { at: 3.5s, expect: { l1.sets: 3, l1.full: 1, full1: 1, l3.sets: 1, l3.full: 0, l1.limit: 3 } }
   - { at: 4s,   set: { c1: 1, b2: 1 } }
   - { at: 4.2s, set: { c1: 0, b2: 0 } }
-  - { at: 4.5s, expect: { y1: 0, l1.sets: 0, l1.full: 0, y2: 1, l2.sets: 1, y3: 1 } }
+  - { at: 4.5s, expect: { y1: 0, l1.sets: 0, l1.full: 0, full1: 0, y2: 1, l2.sets: 1, y3: 1 } }
   - { at: 5s,   set: { edge: 1 } }
   - { at: 5s,   expect: { tick: 1, p.q: 1, p.x: 1 } }
   - { at: 5.1s, expect: { tick: 0, p.q: 0 } }
@@ -201,6 +202,8 @@ y2 = latch(\"l2\", run, b2);
 y3 = latch(\"l9\", run, b3, c3);
 y4 = latch(\"l4\", run, b4, c4, true);
 y5 = latch(\"l5\", run, b5, c5, 7);
+tick = output(\"l9\", \"on\");
+tick = output(\"l1\", \"bogus\");
 ";
     let s = folder("rhai-calls", 5, &[("main.rhai", program)]);
     assert_eq!(
@@ -210,6 +213,8 @@ y5 = latch(\"l5\", run, b5, c5, 7);
             "main.rhai:2:6: error: latch() takes 4 to 5 arguments: latch(name, en, set, clear[, limit]); this call has 3",
             "main.rhai:3:12: error: latch(): \"l9\" is not a declared instance of LATCH (declared: l1, l2, l3, l4, l5); declare it under the project's `instances:`",
             "main.rhai:4:31: error: argument `limit` of latch() is an i32 (an input of LATCH), not a bool",
+            "main.rhai:6:15: error: output(): \"l9\" is no declared instance (the project's `instances:`: l1, l2, l3, l4, l5, p)",
+            "main.rhai:7:21: error: output(): LATCH \"l1\" has no \"bogus\"; it has en, set, clear, limit, on, full, sets",
         ]
     );
 }
@@ -284,7 +289,7 @@ blocks:
             "lib/my.blocks.yaml:7:26: error: the first output of block Latch, `n`, is an i32: it is the block's main output, a bool",
             "lib/my.blocks.yaml:9:40: error: initial \"-1\" of `s` is not a u16",
             "lib/my.blocks.yaml:10:11: error: the body \"latch.txt\" must be a ladder file (.yaml) or a Rhai script (.rhai)",
-            "ladder.yaml:14:10: error: the block file lib/my.blocks.yaml has 6 error(s)",
+            "ladder.yaml:15:10: error: the block file lib/my.blocks.yaml has 6 error(s)",
         ]
     );
 }
@@ -301,10 +306,10 @@ fn instances_are_declared_once_of_a_known_block() {
     assert_eq!(
         check_errors(&s, "ladder.yaml"),
         [
-            "ladder.yaml:17:23: error: unknown block \"PULS\" (known: LATCH, PULSE)",
-            "ladder.yaml:18:13: error: instance name `run` is already used by a tag at line 8",
-            "ladder.yaml:19:13: error: instance name `l1` is already used by an instance at line 16",
-            "ladder.yaml:20:13: error: instance name `io` is already used by a module at line 5",
+            "ladder.yaml:18:23: error: unknown block \"PULS\" (known: LATCH, PULSE)",
+            "ladder.yaml:19:13: error: instance name `run` is already used by a tag at line 8",
+            "ladder.yaml:20:13: error: instance name `l1` is already used by an instance at line 17",
+            "ladder.yaml:21:13: error: instance name `io` is already used by a module at line 5",
         ]
     );
 }

@@ -120,6 +120,12 @@ pub enum CompileErrorKind {
         /// What was given ("an integer").
         found: &'static str,
     },
+    /// `output(instance, variable)` naming what no instance has.
+    #[error("output(): {what}")]
+    OwnOutput {
+        /// What is not there, in words.
+        what: String,
+    },
     /// A call of a block of one's own naming no declared instance of it.
     #[error("{function}(): \"{name}\" is not a declared instance of {block} ({declared}); declare it under the project's `instances:`")]
     OwnInstance {

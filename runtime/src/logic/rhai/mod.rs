@@ -139,6 +139,7 @@ use softplc_io::point::{Value, ValueType};
 pub use blocks::MAX_INSTANCES;
 pub use engine::Limits;
 pub use error::{CompileError, CompileErrorKind};
+pub(crate) use own::OUTPUT as OWN_OUTPUT;
 pub use rungs::NOT_PLAIN;
 
 use crate::image::{convert, ProcessImage, TagId};

@@ -8,7 +8,7 @@ use std::any::TypeId;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use rhai::{Dynamic, Engine, EvalAltResult, ImmutableString};
-use softplc_io::point::ValueType;
+use softplc_io::point::{Value, ValueType};
 
 use crate::image::ProcessImage;
 use crate::logic::user_blocks::{OwnBlocks, UserInstance};
@@ -44,7 +44,12 @@ pub(crate) struct OwnSignature {
     pub required: usize,
     /// The instances the project declares of it.
     pub instances: Vec<String>,
+    /// Its variables: inputs, outputs, state.
+    pub vars: Vec<String>,
 }
+
+/// The function reading any variable of an instance: `output("s1", "done")`.
+pub(crate) const OUTPUT: &str = "output";
 
 impl OwnSignature {
     /// `station(name, enable, start, stop[, fill_ms])`.
@@ -87,6 +92,7 @@ pub(crate) fn signatures(own: &OwnBlocks) -> Vec<OwnSignature> {
                     .filter(|(_, of)| *of == b)
                     .map(|(n, _)| n.clone())
                     .collect(),
+                vars: block.vars().map(|(_, v)| v.name.clone()).collect(),
             }
         })
         .collect()
@@ -100,6 +106,28 @@ pub(crate) fn register(engine: &mut Engine, own: &mut OwnBlocks) -> SharedOwn {
         instances: own.take_instances(),
         ctx: None,
     }));
+    {
+        let shared = shared.clone();
+        engine.register_fn(
+            OUTPUT,
+            move |instance: ImmutableString, var: ImmutableString| -> Res<Dynamic> {
+                let own = lock(&shared);
+                let Some(inst) = own.instances.iter().find(|i| i.name() == instance.as_str())
+                else {
+                    return Err(format!("output(): no instance \"{instance}\" is declared").into());
+                };
+                match inst.var(&var) {
+                    Some(Value::Bool(b)) => Ok(Dynamic::from_bool(b)),
+                    Some(Value::U16(x)) => Ok(Dynamic::from_int(x.into())),
+                    Some(Value::I32(x)) => Ok(Dynamic::from_int(x.into())),
+                    Some(Value::F32(x)) => Ok(Dynamic::from_float(x.into())),
+                    None => {
+                        Err(format!("output(): instance \"{instance}\" has no \"{var}\"").into())
+                    }
+                }
+            },
+        );
+    }
     for (b, sig) in sigs.into_iter().enumerate() {
         let block = own.blocks.get(b).cloned();
         for given in sig.required..=sig.inputs.len() {

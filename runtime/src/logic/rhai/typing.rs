@@ -275,6 +275,10 @@ impl Checker<'_> {
         if KEYWORDS.contains(&name) || super::quality::FUNCTIONS.contains(&name) {
             return;
         }
+        if name == super::own::OUTPUT && !self.known.own.is_empty() {
+            self.own_output(call.args, pos);
+            return;
+        }
         if let Some(sig) = self.known.own.iter().find(|s| s.function == name) {
             self.own_call(sig, call.args, &args, pos);
             return;
@@ -288,6 +292,52 @@ impl Checker<'_> {
             return;
         }
         self.unknown_or_arity(name, &library, self.known.arities(name), args.len(), pos);
+    }
+
+    /// `output("s1", "done")`: two arguments, a declared instance and one of its variables
+    /// (where they are literals).
+    fn own_output(&mut self, exprs: &[Expr], pos: Position) {
+        let [instance, var] = exprs else {
+            let kind = CompileErrorKind::Arity {
+                name: super::own::OUTPUT.to_owned(),
+                usage: "2 arguments: output(instance, variable)".to_owned(),
+                found: exprs.len(),
+            };
+            self.fail(pos, kind);
+            return;
+        };
+        let ExprView::Str(name, _) = internals::expr(instance) else {
+            return;
+        };
+        let Some(sig) = self
+            .known
+            .own
+            .iter()
+            .find(|s| s.instances.iter().any(|i| i == name))
+        else {
+            let declared: Vec<&str> = self
+                .known
+                .own
+                .iter()
+                .flat_map(|s| s.instances.iter().map(String::as_str))
+                .collect();
+            let what = format!(
+                "\"{name}\" is no declared instance (the project's `instances:`: {})",
+                declared.join(", ")
+            );
+            self.fail(start(instance), CompileErrorKind::OwnOutput { what });
+            return;
+        };
+        if let ExprView::Str(v, _) = internals::expr(var) {
+            if !sig.vars.iter().any(|x| x == v) {
+                let what = format!(
+                    "{} \"{name}\" has no \"{v}\"; it has {}",
+                    sig.block,
+                    sig.vars.join(", ")
+                );
+                self.fail(start(var), CompileErrorKind::OwnOutput { what });
+            }
+        }
     }
 
     /// A call of a block of one's own: its number of arguments, a declared instance's name,

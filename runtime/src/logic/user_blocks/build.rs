@@ -107,7 +107,7 @@ fn clashes(project: &Project) -> Vec<OwnBlockError> {
         };
         let what = if crate::logic::Kind::parse(&b.name).is_some() {
             Some("block")
-        } else if rhai::signatures::is_library(&b.function()) {
+        } else if rhai::signatures::is_library(&b.function()) || b.function() == rhai::OWN_OUTPUT {
             Some("Rhai function")
         } else {
             None
@@ -172,6 +172,7 @@ pub(crate) fn build(
         instances.push(UserInstance::new(
             inst.name.clone(),
             vars,
+            block.vars().map(|(_, v)| v.name.clone()).collect(),
             types,
             block.inputs.len(),
             body,

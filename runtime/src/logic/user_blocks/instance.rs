@@ -12,6 +12,8 @@ pub(crate) struct UserInstance {
     name: String,
     /// Inputs, outputs, state, in that order (`UserBlock::vars`).
     vars: ProcessImage,
+    /// Their names, same order.
+    names: Vec<String>,
     types: Vec<ValueType>,
     inputs: usize,
     body: Box<dyn LogicEngine>,
@@ -23,6 +25,7 @@ impl UserInstance {
     pub(crate) fn new(
         name: String,
         vars: ProcessImage,
+        names: Vec<String>,
         types: Vec<ValueType>,
         inputs: usize,
         body: Box<dyn LogicEngine>,
@@ -31,6 +34,7 @@ impl UserInstance {
         Self {
             name,
             vars,
+            names,
             types,
             inputs,
             body,
@@ -89,6 +93,12 @@ impl UserInstance {
                 image.set(tag, v, ctx.now);
             }
         }
+    }
+
+    /// The variable called `name` (input, output or state) now.
+    pub(crate) fn var(&self, name: &str) -> Option<Value> {
+        let i = self.names.iter().position(|n| n == name)?;
+        Some(self.vars.get(TagId(i as u32)))
     }
 
     /// Output `i`'s value now.
