@@ -204,6 +204,7 @@ y4 = latch(\"l4\", run, b4, c4, true);
 y5 = latch(\"l5\", run, b5, c5, 7);
 tick = output(\"l9\", \"on\");
 tick = output(\"l1\", \"bogus\");
+y1 = latch(\"l1\", run, b1, c1);
 ";
     let s = folder("rhai-calls", 5, &[("main.rhai", program)]);
     assert_eq!(
@@ -215,6 +216,7 @@ tick = output(\"l1\", \"bogus\");
             "main.rhai:4:31: error: argument `limit` of latch() is an i32 (an input of LATCH), not a bool",
             "main.rhai:6:15: error: output(): \"l9\" is no declared instance (the project's `instances:`: l1, l2, l3, l4, l5, p)",
             "main.rhai:7:21: error: output(): LATCH \"l1\" has no \"bogus\"; it has en, set, clear, limit, on, full, sets",
+            "main.rhai:8:6: error: instance \"l1\" is already called at line 1; call each instance once per scan and read its variables with output(\"l1\", …)",
         ]
     );
 }

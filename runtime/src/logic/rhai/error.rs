@@ -45,6 +45,14 @@ pub enum CompileErrorKind {
         /// Line of the first call.
         first_line: u32,
     },
+    /// One instance of a block of one's own called from two places.
+    #[error("instance \"{name}\" is already called at line {first_line}; call each instance once per scan and read its variables with output(\"{name}\", …)")]
+    OwnCalledTwice {
+        /// The instance.
+        name: String,
+        /// Line of the first call.
+        first_line: u32,
+    },
     /// An output read of an instance that no call creates.
     #[error("no block call creates instance \"{name}\"")]
     UnknownInstance {

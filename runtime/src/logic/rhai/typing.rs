@@ -131,6 +131,7 @@ pub(crate) fn check(ast: &AST, tags: &TagTable, known: &Known, errors: &mut Erro
         tags,
         known,
         errors,
+        own_calls: std::collections::HashMap::new(),
     };
     checker.walk(&ast.clone_statements_only(), &tag_type, true);
     checker.walk(&ast.clone_functions_only(), &no_tags, false);
@@ -140,6 +141,8 @@ struct Checker<'a> {
     tags: &'a TagTable,
     known: &'a Known,
     errors: &'a mut Errors,
+    /// Instances of blocks of one's own called so far, where.
+    own_calls: std::collections::HashMap<String, Position>,
 }
 
 impl Checker<'_> {
@@ -385,6 +388,18 @@ impl Checker<'_> {
                     };
                     self.fail(start(name), kind);
                 }
+                ExprView::Str(text, _) => match self.own_calls.get(text) {
+                    Some(&first) => {
+                        let kind = CompileErrorKind::OwnCalledTwice {
+                            name: text.to_string(),
+                            first_line: super::check::line(first),
+                        };
+                        self.fail(pos, kind);
+                    }
+                    None => {
+                        self.own_calls.insert(text.to_string(), pos);
+                    }
+                },
                 _ => {}
             }
         }
