@@ -450,3 +450,48 @@ fn a_pushable_body_is_pushed_down_per_instance() {
     let (ok, text) = softplc_in(&s.dir, &["test", "pd.scenario.yaml"]);
     assert!(ok && text.contains("1 passed, 0 failed"), "{text}");
 }
+
+/// A state variable with `retain: true` is kept across a restart like a retained tag: each
+/// instance's count goes on from where the last run left it.
+#[test]
+fn a_retained_state_goes_on_after_a_restart() {
+    let s = Scratch::new(SUBJECT, "retain");
+    s.write(
+        "tick.blocks.yaml",
+        "blocks:\n  - name: TICKER\n    inputs: [{ name: en, type: bool }, { name: ms, type: i32, default: 300 }]\n    outputs: [{ name: q, type: bool }]\n    state: [{ name: ticks, type: i32, retain: true }]\n    body: ticker.ladder.yaml\n",
+    );
+    s.write(
+        "ticker.ladder.yaml",
+        "rungs:\n  - en -> BLINK b(ms, ms) -> q\n  - rising(q) -> ADD(ticks, 1) => ticks\n",
+    );
+    s.write(
+        "project.yaml",
+        "project: retained\nscan: { period: 100ms }\nbuses: [{ name: line, port: sim }]\n\
+         modules: [{ name: mm, bus: line, model: minimod, address: 1 }]\n\
+         tags:\n  - { name: run, type: bool, initial: true }\n  - { name: lamp, point: mm.Y1 }\n  - { name: lamp2, point: mm.Y2 }\n\
+         blocks: [tick.blocks.yaml]\n\
+         instances: [{ name: t1, block: TICKER }, { name: t2, block: TICKER }]\n\
+         program: { file: main.ladder.yaml, kind: ladder }\n",
+    );
+    s.write(
+        "main.ladder.yaml",
+        "rungs:\n  - run -> TICKER t1 -> lamp\n  - run -> TICKER t2(ms=500ms) -> lamp2\n",
+    );
+    let retained = || -> (i64, i64) {
+        let text = std::fs::read_to_string(s.dir.join("project.retain.json")).expect("saved");
+        let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        let count = |tag: &str| json["values"][tag].as_i64().expect("a count");
+        (count("t1.ticks"), count("t2.ticks"))
+    };
+    let (ok, text) = softplc_in(&s.dir, &["run", "project.yaml", "--virtual", "--for", "3s"]);
+    assert!(ok, "{text}");
+    let (t1, t2) = retained();
+    assert!(t1 > t2 && t2 > 0, "{t1}, {t2}");
+    let (ok, text) = softplc_in(&s.dir, &["run", "project.yaml", "--virtual", "--for", "3s"]);
+    assert!(ok, "{text}");
+    assert_eq!(
+        retained(),
+        (2 * t1, 2 * t2),
+        "each count goes on from the first run's"
+    );
+}

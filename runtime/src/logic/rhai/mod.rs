@@ -745,7 +745,7 @@ impl LogicEngine for RhaiProgram {
             Err(p) => p.into_inner().now = ctx.now.since_origin(),
         }
         if let Some(own) = &self.own {
-            own::begin(own, ctx);
+            own::begin(own, image, ctx);
         }
         self.deadline.arm(self.budget);
         let run = self.engine.run_ast_with_scope(&mut self.scope, &self.ast);

@@ -196,9 +196,14 @@ fn number(v: &Dynamic, ty: ValueType) -> Option<f64> {
     }
 }
 
-/// Before the script: the scan the calls run in.
-pub(crate) fn begin(own: &SharedOwn, ctx: &ScanContext) {
-    lock(own).ctx = Some(*ctx);
+/// Before the script: the scan the calls run in; an instance not run yet takes its outputs and
+/// state from its tags.
+pub(crate) fn begin(own: &SharedOwn, image: &ProcessImage, ctx: &ScanContext) {
+    let mut own = lock(own);
+    own.ctx = Some(*ctx);
+    for inst in &mut own.instances {
+        inst.adopt(image, ctx);
+    }
 }
 
 /// After the script: every instance's variables into the project's tags.

@@ -19,6 +19,8 @@ pub(crate) struct UserInstance {
     body: Box<dyn LogicEngine>,
     /// The project's tag of each variable, same order.
     tags: Vec<TagId>,
+    /// Not run yet: its outputs and state are still to be taken from its tags.
+    fresh: bool,
 }
 
 impl UserInstance {
@@ -39,6 +41,22 @@ impl UserInstance {
             inputs,
             body,
             tags,
+            fresh: true,
+        }
+    }
+
+    /// Before its first run: its outputs and state from its tags, which hold their initial
+    /// values at a start, the retained ones where the block retains them, and what the
+    /// instance left at a reload (so a reload keeps an instance's state, as a tag's).
+    pub(crate) fn adopt(&mut self, image: &ProcessImage, ctx: &ScanContext) {
+        if !self.fresh {
+            return;
+        }
+        self.fresh = false;
+        for (i, &tag) in self.tags.iter().enumerate().skip(self.inputs) {
+            if tag.index() < image.len() {
+                self.vars.set(TagId(i as u32), image.get(tag), ctx.now);
+            }
         }
     }
 
@@ -73,6 +91,7 @@ impl UserInstance {
         image: &mut ProcessImage,
         ctx: &ScanContext,
     ) -> Result<bool, LogicFault> {
+        self.adopt(image, ctx);
         let q = self.run_body(ctx)?;
         self.publish(image, ctx);
         Ok(q)

@@ -86,6 +86,8 @@ pub struct BlockVar {
     pub initial: Value,
     /// Whether a call may leave it out (an input with a `default:`).
     pub optional: bool,
+    /// A state variable kept across a restart (`retain: true`).
+    pub retain: bool,
     /// What it is.
     pub description: Option<DocText>,
 }

@@ -12,7 +12,7 @@
 //!       - { name: filling, type: bool }
 //!       - { name: done, type: bool }
 //!     state:                        # kept from scan to scan, per instance
-//!       - { name: fills, type: i32, initial: 0 }
+//!       - { name: fills, type: i32, initial: 0, retain: true }   # kept across restarts
 //!     body: station.ladder.yaml     # ladder (.yaml) or Rhai (.rhai), relative to this file
 //! ```
 
@@ -79,6 +79,10 @@ pub(crate) struct RawVar {
     /// An input's value when a call leaves it out; an input without one must be given.
     #[serde(default)]
     pub default: Option<ScalarText>,
+    /// A state variable kept across a restart, as a retained tag is (see the project's
+    /// `retain:`).
+    #[serde(default)]
+    pub retain: Option<bool>,
     /// What it is, in words (one line, at most 256 characters).
     #[serde(default)]
     #[schemars(length(max = 256))]

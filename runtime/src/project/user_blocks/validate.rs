@@ -441,8 +441,19 @@ impl FileChecker<'_> {
                 }
             },
         };
+        if v.retain.is_some() && role != VarRole::State {
+            let e = UserBlockError::MisplacedKey {
+                key: "retain",
+                takes: "state variables",
+                role: role.word(),
+                var: v.name.clone(),
+            };
+            self.error(&at.key("retain"), e);
+            return None;
+        }
         let description = self.doc(v.description.as_deref(), &at.key("description"))?;
         Some(BlockVar {
+            retain: v.retain == Some(true),
             name: v.name.clone(),
             ty,
             initial,
@@ -554,7 +565,7 @@ pub(crate) fn instances(
                 binding: Binding::Memory,
                 safe: None,
                 initial: var.initial,
-                retain: false,
+                retain: var.retain,
             }));
         }
         out.push(BlockInstance {
