@@ -3,7 +3,7 @@
 //! either, each instance's variables as tags `s1.start` a scenario addresses, and every
 //! refusal `check` gives, with its file:line:col and its exact words.
 
-use crate::common::host::{softplc, softplc_in};
+use crate::common::host::{run_virtual, softplc, softplc_in};
 use crate::common::scratch::Scratch;
 
 const SUBJECT: &str = "user-blocks";
@@ -494,4 +494,64 @@ fn a_retained_state_goes_on_after_a_restart() {
         (2 * t1, 2 * t2),
         "each count goes on from the first run's"
     );
+}
+
+/// A reload of the program keeps every instance's outputs and state: its count goes on from
+/// where it was, not from its `initial:`.
+#[test]
+fn a_reload_keeps_an_instances_state() {
+    let s = Scratch::new(SUBJECT, "reload");
+    s.write(
+        "tick.blocks.yaml",
+        "blocks:\n  - name: TICKER\n    inputs: [{ name: en, type: bool }]\n    outputs: [{ name: q, type: bool }]\n    state: [{ name: ticks, type: i32 }]\n    body: ticker.ladder.yaml\n",
+    );
+    s.write(
+        "ticker.ladder.yaml",
+        "rungs:\n  - en -> BLINK b(300ms, 300ms) -> q\n  - rising(q) -> ADD(ticks, 1) => ticks\n",
+    );
+    s.write(
+        "project.yaml",
+        "project: reload\nscan: { period: 100ms }\nbuses: [{ name: line, port: sim }]\n\
+         modules: [{ name: mm, bus: line, model: minimod, address: 1 }]\n\
+         tags:\n  - { name: run, type: bool, initial: true }\n  - { name: lamp, point: mm.Y1 }\n\
+         blocks: [tick.blocks.yaml]\ninstances: [{ name: t1, block: TICKER }]\n\
+         program: { file: main.ladder.yaml, kind: ladder }\n",
+    );
+    s.write("main.ladder.yaml", "rungs:\n  - run -> TICKER t1 -> lamp\n");
+    let socket = s.dir.join("ctl.sock");
+    let socket_arg = socket.to_str().expect("a UTF-8 path");
+    let running = run_virtual(&s.dir.join("project.yaml"), &socket);
+    let ticks = || -> i64 {
+        let (_, text) = softplc(&["status", "--json", "--socket", socket_arg]);
+        let status: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        status["tags"]
+            .as_array()
+            .and_then(|tags| tags.iter().find(|t| t["name"] == "t1.ticks"))
+            .and_then(|t| t["value"].as_str()?.parse().ok())
+            .unwrap_or(-1)
+    };
+    let wait_past = |floor: i64| {
+        let begin = std::time::Instant::now();
+        loop {
+            let n = ticks();
+            if n > floor {
+                return n;
+            }
+            assert!(
+                begin.elapsed() < std::time::Duration::from_secs(30),
+                "t1.ticks stayed at {n}"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+    };
+    let before = wait_past(5);
+    let (ok, text) = softplc(&["reload", "--socket", socket_arg]);
+    assert!(ok && text.contains("reloaded"), "{text}");
+    // The first reading after the reload is not below the last one before it.
+    let after = wait_past(0);
+    assert!(
+        after >= before,
+        "t1.ticks went from {before} back to {after}"
+    );
+    drop(running);
 }
