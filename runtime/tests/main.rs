@@ -53,5 +53,6 @@ mod trace;
 mod trace_bus;
 mod trace_cli;
 mod transients;
+mod user_blocks;
 mod wall_clock;
 mod web;

@@ -13,7 +13,8 @@ use serde_json::Value;
 type IsKind = fn(&str) -> bool;
 
 /// The file kinds: `softplc schema` argument, and which files are of that kind.
-const KINDS: [(&str, IsKind); 4] = [
+const KINDS: [(&str, IsKind); 5] = [
+    ("blocks", |path| path.ends_with(".blocks.yaml")),
     ("project", |path| path.ends_with("/project.yaml")),
     ("ladder", |path| path.ends_with(".ladder.yaml")),
     ("scenario", |path| path.ends_with(".scenario.yaml")),

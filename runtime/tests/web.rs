@@ -12,7 +12,9 @@
 //! - a write without the token, or with a wrong one, is refused with 403 and changes nothing;
 //! - a rung the planner pushed down is marked with its module on the program view;
 //! - a ladder program is drawn as ladders lit by its inputs and its blocks' live outputs (a
-//!   timer's `ET` counting up, a `jam.Q` contact on a block that drives no coil).
+//!   timer's `ET` counting up, a `jam.Q` contact on a block that drives no coil);
+//! - a call of a block of one's own is a box with its instance's live pins, and a click shows
+//!   its body drawn over that instance's tags.
 //!
 //! Screenshots of each view are left in `target/web-screenshots/` (test artefacts).
 
@@ -1046,6 +1048,110 @@ fn the_operator_writes_and_only_the_engineer_forces() {
             .is_some_and(|s| s.ends_with(" operator")),
         "{newest}"
     );
+    drop(b);
+    drop(plc);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
+/// A call of a block of one's own is drawn as a box with its instance's live pin values (its
+/// tags `s1.start`, `s1.on`, `s1.presses`), and clicking it shows its body drawn over that
+/// instance's tags: a second instance of the same block keeps its own values.
+#[test]
+fn a_block_of_ones_own_is_drawn_with_its_instance_and_its_body_on_demand() {
+    chromium_available();
+    let (mut sim, pty) = Sim::start(BIN, &["minimod@1"]);
+    let dir = std::env::temp_dir().join(format!("softplc-web-own-{}", std::process::id()));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("my.blocks.yaml"),
+        "blocks:\n  - name: STARTER\n    inputs: [{ name: en, type: bool }, { name: start, type: bool }, { name: stop, type: bool }]\n    outputs: [{ name: on, type: bool }]\n    state: [{ name: presses, type: i32 }]\n    body: starter.ladder.yaml\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("starter.ladder.yaml"),
+        "rungs:\n  - en (start | on) /stop -> on\n  - rising(start) -> ADD(presses, 1) => presses\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("machine.ladder.yaml"),
+        "rungs:\n  - run -> STARTER s1(start, stop) -> motor\n  - run -> STARTER s2(stop, start) -> fan\n",
+    )
+    .unwrap();
+    let port = free_port();
+    let project = format!(
+        "project: webown\n\
+         scan: {{ period: 50ms, watchdog: {{ time: 1s, sensitivity: 3 }} }}\n\
+         buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 200ms, retries: 1 }}\n\
+         modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n\
+         tags:\n\
+         \x20 - {{ name: start, point: mm1.X2 }}\n\
+         \x20 - {{ name: stop,  point: mm1.X3 }}\n\
+         \x20 - {{ name: motor, point: mm1.Y1, safe: false }}\n\
+         \x20 - {{ name: fan,   point: mm1.Y2, safe: false }}\n\
+         \x20 - {{ name: run,   type: bool, initial: true }}\n\
+         blocks: [my.blocks.yaml]\n\
+         instances: [{{ name: s1, block: STARTER }}, {{ name: s2, block: STARTER }}]\n\
+         program: {{ file: machine.ladder.yaml, kind: ladder }}\n\
+         service:\n  web: {{ bind: \"127.0.0.1:{port}\" }}\n"
+    );
+    std::fs::write(dir.join("project.yaml"), project).unwrap();
+    let plc = run_plc(&dir.join("project.yaml"), &dir.join("ctl.sock"), port);
+
+    let mut b = Browser::start(&dir.join("chromium"));
+    b.open(&format!("http://127.0.0.1:{port}/#program"));
+    let box1 = "document.querySelector('#ladder svg[data-rung=\"1\"] .lad-block')";
+    b.wait_for(&format!("{box1} !== null"), Duration::from_secs(30))
+        .expect("the call is drawn as a block");
+    // The box: its instance, its block, its pins as the call gives them, its output live.
+    let texts = format!("[...{box1}.querySelectorAll('text')].map(t => t.textContent).join(' ')");
+    b.wait_for(
+        &format!("{texts} === 's1 STARTER en start stop on 0'"),
+        Duration::from_secs(10),
+    )
+    .unwrap_or_else(|| panic!("the STARTER box: {}", b.eval(&texts)));
+    // start pressed: s1's output comes on in its box, s2 (start is its stop) stays off.
+    sim.send("set minimod@1.X2 1");
+    b.wait_for(
+        &format!(
+            "{box1}.dataset.q === '1' && document.querySelector('#ladder svg[data-rung=\"2\"] .lad-block').dataset.q === '0'"
+        ),
+        Duration::from_secs(10),
+    )
+    .expect("s1 on, s2 off");
+    sim.send("set minimod@1.X2 0");
+    // Its body, on demand, over s1's tags: the latch lit, one press counted.
+    assert_eq!(
+        b.eval("document.querySelector('#rung-1 .lad-body').hidden"),
+        true
+    );
+    b.eval(&format!(
+        "{box1}.dispatchEvent(new MouseEvent('click', {{ bubbles: true }})); true"
+    ));
+    let body = "document.querySelector('#rung-1 .lad-body')";
+    b.wait_for(
+        &format!(
+            "!{body}.hidden && [...{body}.querySelectorAll('.lad-var')].map(e => e.textContent).join(',') === 'en 1,start 0,stop 0,on 1,presses 1'"
+        ),
+        Duration::from_secs(10),
+    )
+    .unwrap_or_else(|| panic!("s1's body: {}", b.eval(&format!("{body}.textContent"))));
+    let coil = format!("{body}.querySelector('svg[data-rung=\"1\"] .lad-coil')");
+    b.wait_for(
+        &format!("{coil}.dataset.energised === '1'"),
+        Duration::from_secs(10),
+    )
+    .expect("the body's latch coil is lit for s1");
+    // s2's body (its own button) shows s2's values: off, no press.
+    b.eval("document.querySelector('#rung-2 .lad-body-toggle').click(); true");
+    b.wait_for(
+        "[...document.querySelectorAll('#rung-2 .lad-body .lad-var')].map(e => e.textContent).join(',') === 'en 1,start 0,stop 0,on 0,presses 0'",
+        Duration::from_secs(10),
+    )
+    .unwrap_or_else(|| panic!("s2's body: {}", b.eval("document.querySelector('#rung-2 .lad-body').textContent")));
+    b.screenshot(&screenshots().join("program-own-block.png"));
     drop(b);
     drop(plc);
     // Best effort: the test's scratch folder (it may not exist).

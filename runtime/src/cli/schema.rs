@@ -1,4 +1,4 @@
-//! `softplc schema project|ladder|scenario`: prints the JSON Schema of a file kind, generated
+//! `softplc schema project|ladder|scenario|profile|blocks`: prints the JSON Schema of a file kind, generated
 //! from the serde types that read it, so an editor (VS Code with the YAML extension) checks
 //! and completes the files. The repository's `schema/*.schema.json` are this command's output;
 //! a test fails when they drift from the code.
@@ -32,6 +32,8 @@ pub(crate) enum FileKind {
     Scenario,
     /// A device profile (`model: profile:FILE`, `softplc sim --profile FILE`).
     Profile,
+    /// A file of blocks of one's own (`blocks: [FILE]` in a project; `*.blocks.yaml`).
+    Blocks,
 }
 
 impl FileKind {
@@ -42,6 +44,7 @@ impl FileKind {
             FileKind::Ladder => "Ladder programs",
             FileKind::Scenario => "Scenario files",
             FileKind::Profile => "Device profiles",
+            FileKind::Blocks => "Block files",
         }
     }
 
@@ -52,6 +55,7 @@ impl FileKind {
             FileKind::Ladder => "softplc ladder program",
             FileKind::Scenario => "softplc scenario file",
             FileKind::Profile => "softplc device profile",
+            FileKind::Blocks => "softplc block file",
         }
     }
 }
@@ -101,6 +105,9 @@ fn generate(kind: FileKind) -> Schema {
         FileKind::Scenario => super::test::scenario::file_schema(&mut generator),
         FileKind::Profile => {
             generator.root_schema_for::<crate::project::profile::raw::RawProfile>()
+        }
+        FileKind::Blocks => {
+            generator.root_schema_for::<crate::project::user_blocks::raw::RawBlockFile>()
         }
     }
 }

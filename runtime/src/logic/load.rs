@@ -8,7 +8,7 @@ use softplc_io::point::Access;
 
 use crate::image::{ProcessImage, TagId};
 use crate::logic::LogicEngine;
-use crate::logic::{expr, ladder, rhai};
+use crate::logic::{expr, ladder, rhai, user_blocks};
 use crate::project::{Binding, ProgramKind, Project};
 
 /// Why a program could not be loaded.
@@ -31,6 +31,9 @@ pub enum ProgramError {
     /// The Rhai script has errors.
     #[error("{}", Lines(.0))]
     Rhai(Vec<rhai::CompileError>),
+    /// Blocks of one's own that cannot join the block registry.
+    #[error("{}", Lines(.0))]
+    OwnBlock(Vec<crate::logic::OwnBlockError>),
 }
 
 /// One error per line.
@@ -63,7 +66,12 @@ pub fn tag_table(project: &Project, image: &ProcessImage) -> expr::TagTable {
     expr::TagTable::new(project.tags.iter().enumerate().map(|(i, t)| {
         let id = TagId(i as u32);
         debug_assert_eq!(image.name(id), t.name);
-        (t.name.clone(), id, t.ty, writable(project, i))
+        // An instance's tags are its own: a program reads them, only its calls write them.
+        let own = project
+            .instances
+            .first()
+            .is_some_and(|inst| i >= inst.first_tag);
+        (t.name.clone(), id, t.ty, writable(project, i) && !own)
     }))
 }
 
@@ -88,15 +96,16 @@ pub fn load_program(
         source,
     })?;
     let table = tag_table(project, image);
+    let own = user_blocks::build(project, &table, script_budget(project))?;
     Ok(match project.program.kind {
         ProgramKind::Expr => {
             Box::new(expr::compile(&source, path, &table).map_err(ProgramError::Compile)?)
         }
-        ProgramKind::Ladder => {
-            Box::new(ladder::compile(&source, path, &table).map_err(ProgramError::Ladder)?)
-        }
+        ProgramKind::Ladder => Box::new(
+            ladder::compile_with(&source, path, &table, own).map_err(ProgramError::Ladder)?,
+        ),
         ProgramKind::Rhai => Box::new(
-            rhai::compile(&source, path, &table, script_budget(project))
+            rhai::compile_calling(&source, path, &table, script_budget(project), own)
                 .map_err(ProgramError::Rhai)?,
         ),
     })

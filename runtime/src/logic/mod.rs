@@ -11,10 +11,12 @@ pub(crate) mod load;
 mod registry_tests;
 pub mod rhai;
 mod undeclared;
+pub(crate) mod user_blocks;
 mod vm;
 
 pub use blocks::{BlockDef, Form, Kind, Member, OutputValue, Pattern, PatternError, Pin, PinType};
 pub use load::{load_program, tag_table, ProgramError};
+pub use user_blocks::{OwnBlockError, OwnBlocks};
 
 use std::fmt::Debug;
 use std::path::PathBuf;

@@ -578,6 +578,9 @@ pub enum ErrorKind {
         /// What is wrong with the text.
         error: super::doc_text::DocTextError,
     },
+    /// A block file, a block of one's own or an instance of one (see `user_blocks`).
+    #[error(transparent)]
+    UserBlock(#[from] super::user_blocks::UserBlockError),
     /// A `safe` or `initial` value that is not of the tag's type.
     #[error("tag {tag}: {key} value {value} is not a {ty}")]
     BadValue {

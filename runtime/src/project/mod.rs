@@ -39,8 +39,9 @@ pub(crate) mod span;
 pub(crate) mod state;
 pub(crate) mod trace;
 pub(crate) mod trace_budget;
-mod unknown_keys;
-mod validate;
+pub(crate) mod unknown_keys;
+pub(crate) mod user_blocks;
+pub(crate) mod validate;
 pub(crate) mod watchdog;
 pub(crate) mod web;
 
@@ -68,6 +69,7 @@ pub use trace::{
     Trigger,
 };
 pub use trace_budget::{Bytes, TraceBudget, TraceBudgetError};
+pub use user_blocks::{BlockInstance, BlockVar, UserBlock, UserBlockError, VarRole};
 pub use watchdog::{Armed, Derivation, ModuleWatchdog, Origin, WatchdogPolicy};
 pub use web::{TokenSource, WebConfig, WebError, WebRole, WebToken, DEFAULT_WEB_BIND};
 

@@ -25,6 +25,11 @@ pub struct Project {
     pub tags: Vec<TagConfig>,
     /// The control program.
     pub program: ProgramConfig,
+    /// The blocks of one's own the `blocks:` files define, in file order.
+    pub blocks: Vec<super::UserBlock>,
+    /// The instances of those blocks (`instances:`); their variables are memory tags at the
+    /// end of [`Project::tags`].
+    pub instances: Vec<super::BlockInstance>,
     /// The simulated plant, when the project has one.
     pub plant: Option<PlantConfig>,
     /// Metrics endpoint, Modbus TCP server and the SCADA map.

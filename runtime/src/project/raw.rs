@@ -148,6 +148,14 @@ pub(crate) struct RawProject {
     pub tags: Vec<RawTag>,
     /// The control program.
     pub program: RawProgram,
+    /// Files of blocks of one's own the program may call (see `user_blocks`), relative to
+    /// the project file's folder; several projects may include one file.
+    #[serde(default)]
+    pub blocks: Vec<String>,
+    /// Instances of those blocks: each instance's inputs, outputs and state are the memory
+    /// tags `NAME.VARIABLE`.
+    #[serde(default)]
+    pub instances: Vec<super::user_blocks::raw::RawInstance>,
     /// The simulated plant.
     #[serde(default)]
     pub plant: Option<RawPlant>,

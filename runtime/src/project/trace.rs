@@ -674,11 +674,19 @@ pub(crate) fn validate_all(
     tags: &[Option<TagConfig>],
     mut error: impl FnMut(YPath, TraceError),
 ) -> Vec<TraceConfig> {
+    // The project's own tags by their written names (a refused one too), then the tags of
+    // the instances of blocks of one's own (`s1.done`).
     let tag_names: Vec<(&str, Option<ValueType>)> = raw
         .tags
         .iter()
         .zip(tags)
         .map(|(r, t)| (r.name.as_str(), t.as_ref().map(|t| t.ty)))
+        .chain(
+            tags.iter()
+                .skip(raw.tags.len())
+                .flatten()
+                .map(|t| (t.name.as_str(), Some(t.ty))),
+        )
         .collect();
     let modules: Vec<&str> = raw.modules.iter().map(|m| m.name.as_str()).collect();
     let names = SignalNames {

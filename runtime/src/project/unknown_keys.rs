@@ -24,7 +24,7 @@ const MAX_UNKNOWN: usize = 64;
 /// of the nesting), every unknown key at once, the reader's other first error, then
 /// `validate`'s errors on what is left, all in the order of the file. `validate` gets the text
 /// it was read from (unknown keys blanked, positions kept) to locate its own errors.
-pub(super) fn read_checked<R: DeserializeOwned, T>(
+pub(crate) fn read_checked<R: DeserializeOwned, T>(
     text: &str,
     file: &Path,
     validate: impl FnOnce(&R, &str, &Path) -> Result<T, Vec<ProjectError>>,

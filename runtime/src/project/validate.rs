@@ -86,7 +86,28 @@ pub(crate) fn validate(
         raw.modules.iter().map(|m| m.name.as_str()),
         "modules",
     );
-    let tags = v.tags(raw, &modules, &module_index);
+    let mut tags = v.tags(raw, &modules, &module_index);
+    let blocks = super::user_blocks::load_all(&raw.blocks, file, &v.loc, &mut v.errors);
+    let instances = blocks.as_ref().map(|blocks| {
+        let names: Vec<&str> = raw.tags.iter().map(|t| t.name.as_str()).collect();
+        let mut found = Vec::new();
+        let instances = super::user_blocks::instances(
+            &raw.instances,
+            blocks,
+            &mut tags,
+            &names,
+            &raw.modules
+                .iter()
+                .map(|m| m.name.as_str())
+                .collect::<Vec<_>>(),
+            &v.loc,
+            |path, e| found.push((path, e)),
+        );
+        for (path, e) in found {
+            v.error(path, e);
+        }
+        instances
+    });
     let service = {
         let facts = super::scada::facts(raw, &tags, |m, p| {
             let model = modules.get(m).and_then(|(r, _)| r.model)?;
@@ -149,6 +170,8 @@ pub(crate) fn validate(
                 .collect::<Option<Vec<_>>>()?,
             tags: tags.into_iter().collect::<Option<Vec<_>>>()?,
             program: program?,
+            blocks: blocks?,
+            instances: instances?,
             plant: plant?,
             service: service?,
             retain: retain?,

@@ -12,7 +12,7 @@ use crate::logic::Rung;
 use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
 
 /// A compiled `.expr` program, ready to scan. Build it with [`super::compile`].
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct ExprProgram {
     vm: vm::Program,
     coils: Vec<TagId>,
@@ -35,6 +35,8 @@ impl ExprProgram {
             code: lowered.code,
             calls: Vec::new(),
             boxes: Vec::new(),
+            own_sites: Vec::new(),
+            own: Vec::new(),
             edges: lowered.edges,
             max_depth: lowered.max_depth,
             instances: lowered.instances,

@@ -135,7 +135,7 @@ impl Lowerer {
 
 /// The deepest stack `code` reaches (`expr` calls no blocks); see [`vm::max_depth`].
 pub(crate) fn max_depth(code: &[Instr]) -> Option<usize> {
-    vm::max_depth(code, &[])
+    vm::max_depth(code, &[], &[])
 }
 
 #[cfg(test)]

@@ -11,7 +11,9 @@ use super::parser::{Action, Arg, BoxCall, Coil, CoilKind, Cond, Lit, Name, Outpu
 use crate::image::TagId;
 use crate::logic::blocks::{millis, Form, Kind, Member, Pattern, PinType};
 use crate::logic::expr::TagTable;
-use crate::logic::vm::{BoxOp, Call, CmpOp, Num, PinArg};
+use crate::logic::user_blocks::{Found, OwnBlocks};
+use crate::logic::vm::{BoxOp, Call, CmpOp, Num, OwnPin, PinArg};
+use crate::project::UserBlock;
 
 /// An error: rung index, character index, kind.
 pub(crate) type Error = (usize, usize, CompileErrorKind);
@@ -64,6 +66,14 @@ pub(crate) enum CAction {
         bools: Vec<BoolExpr>,
         coils: Vec<(CoilKind, TagId)>,
     },
+    /// A call of a block of one's own: the instance (its index among the declared ones),
+    /// what the call gives each input, the bool arguments after the power flow, the coils.
+    Own {
+        inst: u32,
+        pins: Vec<OwnPin>,
+        bools: Vec<BoolExpr>,
+        coils: Vec<(CoilKind, TagId)>,
+    },
 }
 
 /// A checked rung.
@@ -82,17 +92,21 @@ pub(crate) struct Instances {
     by_name: HashMap<String, (u32, Kind, usize)>,
     /// Kinds, by index.
     pub kinds: Vec<Kind>,
+    /// Instances of blocks of one's own called: name → rung that calls it.
+    own: HashMap<String, usize>,
 }
 
 /// Checks parsed rungs (`(rung index, rung)`); `line_of` gives a rung's first line.
 pub(crate) fn check(
     rungs: &[(usize, Rung)],
     tags: &TagTable,
+    own: &OwnBlocks,
     line_of: &dyn Fn(usize) -> u32,
     errors: &mut Vec<Error>,
 ) -> (Vec<CRung>, Instances) {
     let mut c = Checker {
         tags,
+        own,
         insts: Instances::default(),
         errors,
         rung: 0,
@@ -121,6 +135,7 @@ pub(crate) fn check(
 
 struct Checker<'a> {
     tags: &'a TagTable,
+    own: &'a OwnBlocks,
     insts: Instances,
     errors: &'a mut Vec<Error>,
     rung: usize,
@@ -165,6 +180,10 @@ impl Checker<'_> {
             let Action::Block { call, .. } = &rung.action else {
                 continue;
             };
+            if let Some(Found::Own(block)) = self.own.find(&call.kind.text) {
+                self.declare_own(call, block, *index, line_of);
+                continue;
+            }
             let Some(kind) = self.kind(&call.kind) else {
                 continue;
             };
@@ -176,7 +195,12 @@ impl Checker<'_> {
                 self.fail::<()>(name.pos, kind);
                 continue;
             }
-            if let Some(&(_, _, first)) = self.insts.by_name.get(&name.text) {
+            let first = self
+                .insts
+                .by_name
+                .get(&name.text)
+                .map(|&(_, _, first)| first);
+            if let Some(first) = first.or_else(|| self.insts.own.get(&name.text).copied()) {
                 let kind = CompileErrorKind::InstanceCalledTwice {
                     name: name.text.clone(),
                     first_line: line_of(first),
@@ -192,6 +216,56 @@ impl Checker<'_> {
         }
     }
 
+    /// Pass 1 for a call of a block of one's own: a declared instance of that block, called
+    /// once, and not in a block's body.
+    fn declare_own(
+        &mut self,
+        call: &super::parser::BlockCall,
+        block: &UserBlock,
+        index: usize,
+        line_of: &dyn Fn(usize) -> u32,
+    ) {
+        if let Some(body) = &self.own.in_body {
+            let kind = CompileErrorKind::OwnInBody {
+                block: block.name.clone(),
+                body: body.clone(),
+            };
+            self.fail::<()>(call.kind.pos, kind);
+            return;
+        }
+        let name = &call.instance;
+        let declared = self.own.instance(&name.text).map(|(_, b)| b.name.clone());
+        let kind = match declared {
+            None => CompileErrorKind::OwnNotDeclared {
+                name: name.text.clone(),
+                block: block.name.clone(),
+            },
+            Some(declared) if declared != block.name => CompileErrorKind::OwnWrongBlock {
+                name: name.text.clone(),
+                declared,
+                called: block.name.clone(),
+            },
+            Some(_) => {
+                let first = self
+                    .insts
+                    .by_name
+                    .get(&name.text)
+                    .map(|&(_, _, first)| first);
+                match first.or_else(|| self.insts.own.get(&name.text).copied()) {
+                    Some(first) => CompileErrorKind::InstanceCalledTwice {
+                        name: name.text.clone(),
+                        first_line: line_of(first),
+                    },
+                    None => {
+                        self.insts.own.insert(name.text.clone(), index);
+                        return;
+                    }
+                }
+            }
+        };
+        self.fail::<()>(name.pos, kind);
+    }
+
     fn kind(&mut self, name: &Name) -> Option<Kind> {
         if let Some(k) = Kind::parse(&name.text) {
             return Some(k);
@@ -199,7 +273,7 @@ impl Checker<'_> {
         let upper = name.text.to_ascii_uppercase();
         let suggestion = Kind::parse(&upper)
             .map(|k| k.name().to_string())
-            .or_else(|| closest(&name.text, Kind::ALL.iter().map(|k| k.name())));
+            .or_else(|| closest(&name.text, self.own.names()));
         self.fail(
             name.pos,
             CompileErrorKind::UnknownBlock {
@@ -249,6 +323,20 @@ impl Checker<'_> {
                 None => self.unknown_tag(&r.name),
             },
             Some(member) => {
+                let dotted = format!("{}.{}", r.name.text, member.text);
+                if let Some(e) = self.tags.get(&dotted) {
+                    return Some((Num::Tag(e.id), Some(e.ty), dotted));
+                }
+                if let Some((_, block)) = self.own.instance(&r.name.text) {
+                    let vars: Vec<&str> = block.vars().map(|(_, v)| v.name.as_str()).collect();
+                    let kind = CompileErrorKind::OwnUnknownVar {
+                        instance: r.name.text.clone(),
+                        block: block.name.clone(),
+                        member: member.text.clone(),
+                        vars: vars.join(", "),
+                    };
+                    return self.fail(member.pos, kind);
+                }
                 let Some(&(i, kind, _)) = self.insts.by_name.get(&r.name.text) else {
                     let suggestion =
                         closest(&r.name.text, self.insts.by_name.keys().map(String::as_str));
@@ -446,6 +534,21 @@ impl Checker<'_> {
                     .iter()
                     .map(|c| self.coil(c, drivers, line).map(|id| (c.kind, id)))
                     .collect();
+                if let Some(Found::Own(block)) = self.own.find(&call.kind.text) {
+                    if self.insts.own.get(&call.instance.text) != Some(&self.rung) {
+                        // Not declared, or a second call: reported by `declare`.
+                        return None;
+                    }
+                    let (inst, _) = self.own.instance(&call.instance.text)?;
+                    let (pins, bools) = self.own_call(block, &call.args, call.instance.pos)?;
+                    let coils = checked_coils.into_iter().collect::<Option<Vec<_>>>()?;
+                    return Some(CAction::Own {
+                        inst,
+                        pins,
+                        bools,
+                        coils,
+                    });
+                }
                 let kind = Kind::parse(&call.kind.text)?;
                 let &(inst, k, first) = self.insts.by_name.get(&call.instance.text)?;
                 if k != kind || first != self.rung {
@@ -706,6 +809,146 @@ impl Checker<'_> {
             }
         }
         Some((call, bools))
+    }
+
+    /// Matches a call's arguments to a block of one's own's inputs (the power flow is the
+    /// first; the others by position or by name) and checks their types.
+    fn own_call(
+        &mut self,
+        block: &UserBlock,
+        args: &[Arg],
+        at: usize,
+    ) -> Option<(Vec<OwnPin>, Vec<BoolExpr>)> {
+        let inputs = &block.inputs;
+        let after_flow = || {
+            let names: Vec<&str> = inputs.iter().skip(1).map(|v| v.name.as_str()).collect();
+            if names.is_empty() {
+                "none after the power flow".to_owned()
+            } else {
+                names.join(", ")
+            }
+        };
+        let mut given: Vec<Option<&Cond>> = vec![None; inputs.len()];
+        let mut next_positional = 1;
+        let mut ok = true;
+        for arg in args {
+            let slot = match &arg.name {
+                None if next_positional < inputs.len() => {
+                    next_positional += 1;
+                    next_positional - 1
+                }
+                None => {
+                    let kind = CompileErrorKind::OwnTooManyArgs {
+                        block: block.name.clone(),
+                        max: inputs.len().saturating_sub(1),
+                        inputs: after_flow(),
+                    };
+                    self.fail::<()>(arg.value.pos(), kind);
+                    ok = false;
+                    continue;
+                }
+                Some(n) => match inputs.iter().skip(1).position(|v| v.name == n.text) {
+                    Some(i) => i + 1,
+                    None => {
+                        let kind = CompileErrorKind::OwnUnknownPin {
+                            block: block.name.clone(),
+                            pin: n.text.clone(),
+                            inputs: after_flow(),
+                        };
+                        self.fail::<()>(n.pos, kind);
+                        ok = false;
+                        continue;
+                    }
+                },
+            };
+            if given[slot].is_some() {
+                let pos = arg.name.as_ref().map_or(arg.value.pos(), |n| n.pos);
+                let kind = CompileErrorKind::OwnDuplicatePin {
+                    pin: inputs[slot].name.clone(),
+                };
+                self.fail::<()>(pos, kind);
+                ok = false;
+                continue;
+            }
+            given[slot] = Some(&arg.value);
+        }
+        let mut pins = vec![OwnPin::Stack];
+        let mut bools = Vec::new();
+        for (i, var) in inputs.iter().enumerate().skip(1) {
+            let Some(cond) = given[i] else {
+                if var.optional {
+                    pins.push(OwnPin::Default(crate::logic::user_blocks::default_of(
+                        block, i,
+                    )));
+                } else {
+                    let kind = CompileErrorKind::OwnMissingInput {
+                        block: block.name.clone(),
+                        pin: var.name.clone(),
+                    };
+                    self.fail::<()>(at, kind);
+                    ok = false;
+                }
+                continue;
+            };
+            if let Some(found) = self.wrong_type(cond, var.ty) {
+                let kind = CompileErrorKind::OwnPinType {
+                    block: block.name.clone(),
+                    pin: var.name.clone(),
+                    expected: var.ty,
+                    found,
+                };
+                self.fail::<()>(cond.pos(), kind);
+                ok = false;
+                continue;
+            }
+            if var.ty == ValueType::Bool {
+                match self.boolean(cond) {
+                    Some(b) => {
+                        bools.push(b);
+                        pins.push(OwnPin::Stack);
+                    }
+                    None => ok = false,
+                }
+            } else {
+                let pin = format!("input `{}` of {}", var.name, block.name);
+                let n = self.number(cond);
+                let fits = self.literal_into(cond, var.ty, || pin);
+                match (n, fits) {
+                    (Some((n, _)), Some(())) => pins.push(OwnPin::Num(n)),
+                    _ => ok = false,
+                }
+            }
+        }
+        ok.then_some((pins, bools))
+    }
+
+    /// What `cond` is, in words, when it cannot be a value of type `ty`; `None` when it
+    /// can (or when the checks of its own will say why not).
+    fn wrong_type(&self, cond: &Cond, ty: ValueType) -> Option<String> {
+        let tag_type = |r: &Ref| -> Option<(String, ValueType)> {
+            let name = match &r.member {
+                None => r.name.text.clone(),
+                Some(m) => format!("{}.{}", r.name.text, m.text),
+            };
+            let e = self.tags.get(&name)?;
+            Some((name, e.ty))
+        };
+        let is_bool = ty == ValueType::Bool;
+        match cond {
+            Cond::Ref(r) => {
+                let (name, found) = tag_type(r)?;
+                (is_bool != (found == ValueType::Bool))
+                    .then(|| format!("`{name}`, {}", crate::logic::user_blocks::a_type(found)))
+            }
+            Cond::Lit(Lit::Bool(b), _) if !is_bool => Some(format!("`{b}`, a bool")),
+            Cond::Lit(Lit::Number { text, .. }, _) if is_bool && text != "0" && text != "1" => {
+                Some(format!("the number {text}"))
+            }
+            Cond::Lit(Lit::Duration { text }, _) if is_bool => Some(format!("the time {text}")),
+            Cond::Lit(..) => None,
+            _ if !is_bool => Some("a condition".to_owned()),
+            _ => None,
+        }
     }
 
     fn value(&mut self, ty: PinType, cond: &Cond) -> Option<Value> {

@@ -16,7 +16,9 @@ use super::error::CompileError;
 use super::parser::{self, Action, Arg, Cond, Lit, Ref};
 use super::{front, CoilKind, Front};
 use crate::logic::expr::TagTable;
+use crate::logic::user_blocks::{Found, OwnBlocks};
 use crate::project::DocText;
+use crate::project::{ProgramKind, UserBlock, VarRole};
 
 /// A value as a diagram shows it: a tag, an instance's output or a literal.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -156,23 +158,48 @@ pub enum BlockInput {
 /// A function block fed by the rung's condition, its main output feeding the coils.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct BlockBox {
-    /// `TON`, `CTU`, ...
-    pub kind: &'static str,
+    /// `TON`, `CTU`, ..., or a block of one's own (`STATION`).
+    pub kind: String,
     /// The instance's name.
     pub instance: String,
     /// Its index among the program's instances.
     pub inst: u32,
     /// The input the power flow feeds: `IN`, `CU`, `EN`, ... ([`crate::logic::blocks::Kind::main_input`]).
-    pub input: &'static str,
+    pub input: String,
     /// Inputs besides the power flow, as given.
     pub inputs: Vec<BlockInput>,
-    /// Its outputs: `Q`, `ET`, `CV`, `QU`, `QD`.
-    pub outputs: Vec<&'static str>,
+    /// Its outputs: `Q`, `ET`, `CV`, `QU`, `QD`; a block of one's own's as declared.
+    pub outputs: Vec<String>,
     /// The output passed along the rung: `Q` (`QU` for CTUD).
-    pub main: &'static str,
+    pub main: String,
     /// The coils after it.
     pub coils: Vec<Coil>,
+    /// A block of one's own: its instance's tags and its body.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub own: Option<OwnBox>,
 }
+
+/// What the page shows of an instance of a block of one's own: every variable's tag (its live
+/// value) and the body, drawn with that instance's tags.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct OwnBox {
+    /// Each variable (inputs, outputs, state) and the index of its tag `INSTANCE.VARIABLE`.
+    pub tags: Vec<(String, usize)>,
+    /// The body's file.
+    pub body_file: String,
+    /// `ladder` or `rhai`.
+    pub body_kind: &'static str,
+    /// A ladder body's rungs, over this instance's tags (a built-in block inside the body
+    /// shows its outputs through the coils it drives).
+    pub body: Vec<RungDiagram>,
+    /// A Rhai body's text.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_text: Option<String>,
+}
+
+/// Instance indexes of a body's own built-in blocks start here, apart from the program's
+/// (whose live outputs the page looks up by index).
+const BODY_INSTANCES: u32 = 1 << 30;
 
 /// One rung as a diagram.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -202,16 +229,29 @@ pub fn diagram(
     source: &str,
     file: &Path,
     tags: &TagTable,
+    own: &OwnBlocks,
+) -> Result<Vec<RungDiagram>, Vec<CompileError>> {
+    diagram_from(source, file, tags, own, 0)
+}
+
+fn diagram_from(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+    own: &OwnBlocks,
+    inst_base: u32,
 ) -> Result<Vec<RungDiagram>, Vec<CompileError>> {
     let Front {
         src,
         parsed,
         instances,
         ..
-    } = front(source, file, tags)?;
+    } = front(source, file, tags, own)?;
     let names = Names {
         tags,
         instances: &instances,
+        own,
+        inst_base,
     };
     Ok(parsed
         .iter()
@@ -239,6 +279,9 @@ pub fn diagram(
 struct Names<'a> {
     tags: &'a TagTable,
     instances: &'a Instances,
+    own: &'a OwnBlocks,
+    /// Added to every instance index (a body's, see [`BODY_INSTANCES`]).
+    inst_base: u32,
 }
 
 impl Names<'_> {
@@ -258,9 +301,18 @@ impl Names<'_> {
 
     fn reference(&self, r: &Ref) -> Operand {
         match &r.member {
+            // An instance of a block of one's own: its variables are tags.
+            Some(member)
+                if self
+                    .tags
+                    .get(&format!("{}.{}", r.name.text, member.text))
+                    .is_some() =>
+            {
+                self.tag(&format!("{}.{}", r.name.text, member.text))
+            }
             Some(member) => Operand::Member {
                 instance: r.name.text.clone(),
-                inst: self.instances.get(&r.name.text).map_or(0, |(i, _)| i),
+                inst: self.inst_base + self.instances.get(&r.name.text).map_or(0, |(i, _)| i),
                 member: crate::logic::blocks::Member::parse(&member.text).map_or("Q", |m| m.name()),
             },
             None => self.tag(&r.name.text),
@@ -338,6 +390,9 @@ impl Names<'_> {
     }
 
     fn block(&self, call: &parser::BlockCall, coils: &[parser::Coil]) -> Option<BlockBox> {
+        if let Some(Found::Own(block)) = self.own.find(&call.kind.text) {
+            return self.own_block(block, call, coils);
+        }
         let (inst, kind) = self.instances.get(&call.instance.text)?;
         let params: Vec<(&str, bool, bool)> = param_list(kind).collect();
         let mut positional = params.iter().filter(|p| p.2);
@@ -349,29 +404,101 @@ impl Names<'_> {
                     Some(n) => *params.iter().find(|p| p.0.eq_ignore_ascii_case(&n.text))?,
                     None => *positional.next()?,
                 };
-                let pin = pin.to_string();
-                Some(if is_bool {
-                    BlockInput::Power {
-                        pin,
-                        of: self.element(value),
-                    }
-                } else {
-                    BlockInput::Value {
-                        pin,
-                        of: self.operand(value),
-                    }
-                })
+                Some(self.input(pin.to_string(), is_bool, value))
             })
             .collect();
         Some(BlockBox {
-            kind: kind.name(),
+            kind: kind.name().to_owned(),
             instance: call.instance.text.clone(),
-            inst,
-            input: kind.main_input(),
+            inst: self.inst_base + inst,
+            input: kind.main_input().to_owned(),
             inputs,
-            outputs: kind.outputs().iter().map(|m| m.name()).collect(),
-            main: kind.main_output().name(),
+            outputs: kind.outputs().iter().map(|m| m.name().to_owned()).collect(),
+            main: kind.main_output().name().to_owned(),
             coils: coils.iter().map(|c| self.coil(c)).collect(),
+            own: None,
+        })
+    }
+
+    /// A block's input as a call gives it: a bool wired in, or a value written at its pin.
+    fn input(&self, pin: String, is_bool: bool, value: &Cond) -> BlockInput {
+        if is_bool {
+            BlockInput::Power {
+                pin,
+                of: self.element(value),
+            }
+        } else {
+            BlockInput::Value {
+                pin,
+                of: self.operand(value),
+            }
+        }
+    }
+
+    /// A call of a block of one's own: its inputs as the call gives them, its outputs, and its
+    /// instance's tags and body.
+    fn own_block(
+        &self,
+        block: &UserBlock,
+        call: &parser::BlockCall,
+        coils: &[parser::Coil],
+    ) -> Option<BlockBox> {
+        let instance = &call.instance.text;
+        let mut positional = block.inputs.iter().skip(1);
+        let inputs = call
+            .args
+            .iter()
+            .filter_map(|Arg { name, value }| {
+                let var = match name {
+                    Some(n) => block.inputs.iter().skip(1).find(|v| v.name == n.text)?,
+                    None => positional.next()?,
+                };
+                let is_bool = var.ty == softplc_io::point::ValueType::Bool;
+                Some(self.input(var.name.clone(), is_bool, value))
+            })
+            .collect();
+        let tag_of = |var: &str| self.tags.get(&format!("{instance}.{var}")).map(|t| t.id);
+        let table = TagTable::new(block.vars().filter_map(|(role, v)| {
+            let id = tag_of(&v.name)?;
+            Some((v.name.clone(), id, v.ty, role != VarRole::Input))
+        }));
+        let text = std::fs::read_to_string(&block.body).unwrap_or_default();
+        let (body_kind, body, body_text) = match block.body_kind {
+            ProgramKind::Ladder => {
+                let own = OwnBlocks::for_body(&self.own.blocks, &block.name);
+                let body = diagram_from(&text, &block.body, &table, &own, BODY_INSTANCES)
+                    .unwrap_or_default();
+                ("ladder", body, None)
+            }
+            _ => ("rhai", Vec::new(), Some(text)),
+        };
+        Some(BlockBox {
+            kind: block.name.clone(),
+            instance: instance.clone(),
+            inst: u32::MAX,
+            input: block
+                .inputs
+                .first()
+                .map(|v| v.name.clone())
+                .unwrap_or_default(),
+            inputs,
+            outputs: block.outputs.iter().map(|v| v.name.clone()).collect(),
+            main: block
+                .outputs
+                .first()
+                .map(|v| v.name.clone())
+                .unwrap_or_default(),
+            coils: coils.iter().map(|c| self.coil(c)).collect(),
+            own: Some(OwnBox {
+                tags: block
+                    .vars()
+                    .filter_map(|(_, v)| Some((v.name.clone(), tag_of(&v.name)?.index())))
+                    .collect(),
+                body_file: block.body.display().to_string(),
+                body_kind,
+                body,
+                body_text,
+            }),
         })
     }
 }
@@ -397,7 +524,13 @@ mod tests {
 
     fn draw(rungs: &str) -> Vec<RungDiagram> {
         let text = format!("description: x\nrungs:\n{rungs}");
-        diagram(&text, Path::new("p.ladder.yaml"), &tags()).unwrap_or_else(|e| panic!("{e:?}"))
+        diagram(
+            &text,
+            Path::new("p.ladder.yaml"),
+            &tags(),
+            &OwnBlocks::none(),
+        )
+        .unwrap_or_else(|e| panic!("{e:?}"))
     }
 
     fn tag(name: &str, tag: usize) -> Operand {
@@ -466,7 +599,10 @@ mod tests {
             "  - motor -> TON t(5s)\n  - start -> CTU n(10, r=reset) -> /lamp\n  - t.Q level >= 80 /(start | stop) -> ADD(count, 1) => count\n  - -> reset motor\n",
         );
         let ton = d[0].block.as_ref().unwrap();
-        assert_eq!((ton.kind, ton.instance.as_str(), ton.inst), ("TON", "t", 0));
+        assert_eq!(
+            (ton.kind.as_str(), ton.instance.as_str(), ton.inst),
+            ("TON", "t", 0)
+        );
         assert_eq!(
             ton.inputs,
             vec![BlockInput::Value {
@@ -476,7 +612,10 @@ mod tests {
         );
         assert_eq!(ton.outputs, ["Q", "ET"]);
         let ctu = d[1].block.as_ref().unwrap();
-        assert_eq!((ctu.kind, ctu.inst, ctu.main), ("CTU", 1, "Q"));
+        assert_eq!(
+            (ctu.kind.as_str(), ctu.inst, ctu.main.as_str()),
+            ("CTU", 1, "Q")
+        );
         assert_eq!(
             ctu.inputs[1],
             BlockInput::Power {
@@ -562,7 +701,7 @@ mod tests {
             ("start -> TOF t(1s)", "IN"),
         ] {
             let text = format!("rungs:\n  - {rung}\n");
-            let d = diagram(&text, Path::new("p.yaml"), &tags()).unwrap();
+            let d = diagram(&text, Path::new("p.yaml"), &tags(), &OwnBlocks::none()).unwrap();
             let block = d[0].block.as_ref().unwrap();
             assert_eq!(block.input, input, "{rung}");
         }
@@ -571,7 +710,7 @@ mod tests {
     #[test]
     fn a_program_that_does_not_compile_has_no_diagram() {
         let text = "rungs:\n  - strat -> motor\n";
-        let err = diagram(text, Path::new("p.yaml"), &tags()).unwrap_err();
+        let err = diagram(text, Path::new("p.yaml"), &tags(), &OwnBlocks::none()).unwrap_err();
         assert_eq!(
             err[0].to_string(),
             "p.yaml:2:5: error: unknown tag `strat`; did you mean `start`?"

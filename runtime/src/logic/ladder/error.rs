@@ -138,6 +138,108 @@ pub enum CompileErrorKind {
         /// The block.
         kind: Kind,
     },
+    /// A block of one's own called in a block's body.
+    #[error("{block} is a block of your own: the body of {body} calls built-in blocks only (nested blocks and recursion are refused)")]
+    OwnInBody {
+        /// The block called.
+        block: String,
+        /// The block whose body calls it.
+        body: String,
+    },
+    /// A block's body that writes one of the block's inputs.
+    #[error("`{name}` is an input of {block}: its body reads it, a call writes it")]
+    OwnBodyWritesInput {
+        /// The input.
+        name: String,
+        /// The block.
+        block: String,
+    },
+    /// A block's body naming what the block does not declare.
+    #[error("`{name}` is not declared by {block}: its body sees only its inputs, outputs and state ({vars}); declare it under the block's `outputs:` or `state:`")]
+    OwnBodyUndeclared {
+        /// The name.
+        name: String,
+        /// The block.
+        block: String,
+        /// Its variables.
+        vars: String,
+    },
+    /// A call of an instance the project does not declare.
+    #[error("instance `{name}` of {block} is not declared: add `- {{ name: {name}, block: {block} }}` to the project's `instances:`")]
+    OwnNotDeclared {
+        /// The instance.
+        name: String,
+        /// The block called.
+        block: String,
+    },
+    /// A call of an instance of another block.
+    #[error("instance `{name}` is a {declared} (the project's `instances:`), not a {called}")]
+    OwnWrongBlock {
+        /// The instance.
+        name: String,
+        /// Its block.
+        declared: String,
+        /// The block the call names.
+        called: String,
+    },
+    /// An argument naming no input of the block.
+    #[error("{block} has no input `{pin}`; its inputs are {inputs}")]
+    OwnUnknownPin {
+        /// The block.
+        block: String,
+        /// The name as written.
+        pin: String,
+        /// Its inputs.
+        inputs: String,
+    },
+    /// A read of a variable an instance does not have.
+    #[error("{block} `{instance}` has no `{member}`; it has {vars}")]
+    OwnUnknownVar {
+        /// The instance.
+        instance: String,
+        /// Its block.
+        block: String,
+        /// The name as written.
+        member: String,
+        /// Its variables.
+        vars: String,
+    },
+    /// An argument of the wrong type.
+    #[error("input `{pin}` of {block} is {}, not {found}", crate::logic::user_blocks::a_type(*.expected))]
+    OwnPinType {
+        /// The block.
+        block: String,
+        /// The input.
+        pin: String,
+        /// Its type.
+        expected: ValueType,
+        /// What the call gives, in words.
+        found: String,
+    },
+    /// A required input left out.
+    #[error("input `{pin}` of {block} is missing: it has no default, so every call gives it (`{pin}=...`)")]
+    OwnMissingInput {
+        /// The block.
+        block: String,
+        /// The input.
+        pin: String,
+    },
+    /// An input given twice.
+    #[error("input `{pin}` is given twice")]
+    OwnDuplicatePin {
+        /// The input.
+        pin: String,
+    },
+    /// More positional arguments than the block has inputs after its power flow.
+    #[error("{block} takes at most {max} positional arguments ({inputs})")]
+    OwnTooManyArgs {
+        /// The block.
+        block: String,
+        /// How many it takes.
+        max: usize,
+        /// Its inputs after the power flow.
+        inputs: String,
+    },
     /// An instance named like a tag.
     #[error("instance `{name}` has the name of a tag; give it another name")]
     InstanceIsTag {

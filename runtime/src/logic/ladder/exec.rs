@@ -12,7 +12,7 @@ use crate::logic::vm::{self, Instr};
 use crate::logic::{InstanceOutput, LogicEngine, LogicFault, ScanContext, SourcePos};
 
 /// A compiled ladder program, ready to scan. Build it with [`super::compile`].
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct LadderProgram {
     vm: vm::Program,
     writes: Vec<TagId>,
@@ -25,6 +25,7 @@ impl LadderProgram {
     /// ([`vm::tag_types`]) and where each rung starts.
     pub(crate) fn new(
         lowered: Lowered,
+        own: Vec<crate::logic::user_blocks::UserInstance>,
         instances: Vec<Instance>,
         types: Vec<ValueType>,
         rung_pos: Vec<SourcePos>,
@@ -42,6 +43,8 @@ impl LadderProgram {
             code: lowered.code,
             calls: lowered.calls,
             boxes: lowered.boxes,
+            own_sites: lowered.own_sites,
+            own,
             edges: lowered.edges,
             max_depth: lowered.max_depth,
             instances,

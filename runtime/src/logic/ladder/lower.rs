@@ -4,7 +4,7 @@
 use super::check::{BoolExpr, CAction, COut, CRung};
 use super::parser::CoilKind;
 use crate::image::TagId;
-use crate::logic::vm::{BoxSite, CallSite, Instr, Num, PinArg};
+use crate::logic::vm::{BoxSite, CallSite, Instr, Num, OwnPin, OwnSite, PinArg};
 
 /// The stack-depth proof, for the compiler's debug check and the tests.
 pub(crate) use crate::logic::vm::max_depth;
@@ -15,6 +15,7 @@ pub(crate) struct Lowered {
     pub code: Vec<Instr>,
     pub calls: Vec<CallSite>,
     pub boxes: Vec<BoxSite>,
+    pub own_sites: Vec<OwnSite>,
     pub edges: usize,
     pub max_depth: usize,
     /// The highest tag used, and the rung that uses it.
@@ -30,6 +31,7 @@ pub(crate) fn lower(rungs: &[CRung]) -> Lowered {
             code: Vec::new(),
             calls: Vec::new(),
             boxes: Vec::new(),
+            own_sites: Vec::new(),
             edges: 0,
             max_depth: 0,
             highest_tag: None,
@@ -66,29 +68,39 @@ pub(crate) fn lower(rungs: &[CRung]) -> Lowered {
                 bools,
                 coils,
             } => {
-                for b in bools {
-                    l.expr(b);
-                }
-                for pin in &call.pins {
-                    if let PinArg::Num(n) = pin {
-                        l.num(*n);
-                    }
-                }
                 let site = l.out.calls.len() as u32;
                 l.out.calls.push(CallSite {
                     inst: *inst,
                     call: call.clone(),
                     bools: bools.len() as u8,
                 });
-                l.out.code.push(Instr::Call(site));
-                for (kind, id) in coils {
-                    l.coil(*kind, *id);
-                }
+                let nums = call.pins.iter().filter_map(|pin| match pin {
+                    PinArg::Num(n) => Some(*n),
+                    _ => None,
+                });
+                l.call(bools, nums, Instr::Call(site), coils);
+            }
+            CAction::Own {
+                inst,
+                pins,
+                bools,
+                coils,
+            } => {
+                let site = l.out.own_sites.len() as u32;
+                l.out.own_sites.push(OwnSite {
+                    inst: *inst,
+                    pins: pins.clone(),
+                });
+                let nums = pins.iter().filter_map(|pin| match pin {
+                    OwnPin::Num(n) => Some(*n),
+                    _ => None,
+                });
+                l.call(bools, nums, Instr::Own(site), coils);
             }
         }
         l.out.code.push(Instr::Pop);
     }
-    l.out.max_depth = max_depth(&l.out.code, &l.out.calls).unwrap_or(0);
+    l.out.max_depth = max_depth(&l.out.code, &l.out.calls, &l.out.own_sites).unwrap_or(0);
     l.out
 }
 
@@ -98,6 +110,27 @@ struct Lowerer {
 }
 
 impl Lowerer {
+    /// A block call after its power flow: its bool arguments, the tags its numbers read, the
+    /// call, then the coils its main output drives.
+    fn call(
+        &mut self,
+        bools: &[BoolExpr],
+        nums: impl Iterator<Item = Num>,
+        call: Instr,
+        coils: &[(CoilKind, TagId)],
+    ) {
+        for b in bools {
+            self.expr(b);
+        }
+        for n in nums {
+            self.num(n);
+        }
+        self.out.code.push(call);
+        for (kind, id) in coils {
+            self.coil(*kind, *id);
+        }
+    }
+
     fn use_tag(&mut self, id: TagId) {
         if self.out.highest_tag.is_none_or(|(h, _)| id > h) {
             self.out.highest_tag = Some((id, self.rung));

@@ -64,7 +64,7 @@ use std::path::Path;
 
 pub use crate::logic::vm::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
 pub use diagram::{
-    diagram, BlockBox, BlockInput, Coil, Element, MathBox, Operand, Output, RungDiagram,
+    diagram, BlockBox, BlockInput, Coil, Element, MathBox, Operand, Output, OwnBox, RungDiagram,
 };
 pub use error::{CompileError, CompileErrorKind, Driver, Expected, TypeError};
 pub use exec::LadderProgram;
@@ -73,6 +73,7 @@ pub(crate) use source::file_schema;
 
 use crate::logic::blocks::Instance;
 use crate::logic::expr::TagTable;
+use crate::logic::user_blocks::OwnBlocks;
 use crate::logic::SourcePos;
 
 /// A program read, parsed and checked: what the compiler lowers and [`diagram`] draws.
@@ -84,7 +85,12 @@ struct Front {
 }
 
 /// Reads, parses and checks `source`; every error found, sorted by position.
-fn front(source: &str, file: &Path, tags: &TagTable) -> Result<Front, Vec<CompileError>> {
+fn front(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+    own: &OwnBlocks,
+) -> Result<Front, Vec<CompileError>> {
     let source = source.strip_prefix('\u{feff}').unwrap_or(source);
     let at = |line: u32, column: u32| SourcePos {
         file: file.to_path_buf(),
@@ -121,7 +127,7 @@ fn front(source: &str, file: &Path, tags: &TagTable) -> Result<Front, Vec<Compil
         }
     }
     let line_of = |rung: usize| src.position(rung, 0).0;
-    let (checked, instances) = check::check(&rungs, tags, &line_of, &mut errors);
+    let (checked, instances) = check::check(&rungs, tags, own, &line_of, &mut errors);
     if !errors.is_empty() {
         let mut out: Vec<CompileError> = errors
             .into_iter()
@@ -183,12 +189,23 @@ pub fn compile(
     file: &Path,
     tags: &TagTable,
 ) -> Result<LadderProgram, Vec<CompileError>> {
+    compile_with(source, file, tags, OwnBlocks::none())
+}
+
+/// [`compile`] for a program that may call the project's blocks of one's own: `own` holds
+/// them and their instances, which the program takes.
+pub fn compile_with(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+    mut own: OwnBlocks,
+) -> Result<LadderProgram, Vec<CompileError>> {
     let Front {
         src,
         checked,
         instances,
         ..
-    } = front(source, file, tags)?;
+    } = front(source, file, tags, &own)?;
     let at = |line: u32, column: u32| SourcePos {
         file: file.to_path_buf(),
         line,
@@ -196,7 +213,7 @@ pub fn compile(
     };
     let lowered = lower::lower(&checked);
     debug_assert!(
-        lower::max_depth(&lowered.code, &lowered.calls).is_some(),
+        lower::max_depth(&lowered.code, &lowered.calls, &lowered.own_sites).is_some(),
         "unbalanced lowered code"
     );
     let rung_pos = (0..src.rungs.len())
@@ -207,13 +224,19 @@ pub fn compile(
         .collect();
     let types = crate::logic::vm::tag_types(tags);
     let instances = instances.kinds.iter().map(|&k| Instance::new(k)).collect();
-    let described = rungs::describe(&checked, |i| {
+    let shapes = own.shapes();
+    let described = rungs::describe(&checked, &shapes, |i| {
         let (line, column) = src.position(i, 0);
         let title = src.rungs.get(i).and_then(|r| r.title.as_ref());
         (at(line, column), title.map(ToString::to_string))
     });
-    Ok(
-        LadderProgram::new(lowered, instances, types, rung_pos, file.to_path_buf())
-            .with_rungs(described),
+    Ok(LadderProgram::new(
+        lowered,
+        own.take_instances(),
+        instances,
+        types,
+        rung_pos,
+        file.to_path_buf(),
     )
+    .with_rungs(described))
 }

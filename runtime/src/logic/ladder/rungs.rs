@@ -42,6 +42,7 @@ enum Drive {
 /// its title. A tag several rungs drive (set and reset) is named after the first of them.
 pub(crate) fn describe(
     rungs: &[CRung],
+    own: &[Result<RungShape, String>],
     rung_site: impl Fn(usize) -> (SourcePos, Option<String>),
 ) -> Vec<Rung> {
     // Tag → (first rung index, drives in rung order).
@@ -78,6 +79,27 @@ pub(crate) fn describe(
                         block(call, &r.cond, bools)
                     } else {
                         opaque("a block's output drives this coil through several or negated coils")
+                    };
+                    add(*tag, r.index, Drive::Shape(shape));
+                }
+            }
+            CAction::Own {
+                inst,
+                pins,
+                bools,
+                coils,
+            } => {
+                for (kind, tag) in coils {
+                    let shape = match (kind, coils.len(), own.get(*inst as usize)) {
+                        (CoilKind::Normal, 1, Some(Ok(body))) => {
+                            own_call(*tag, body, &r.cond, pins, bools)
+                        }
+                        (_, _, Some(Err(why))) => {
+                            opaque(&format!("a block of your own drives this coil, and {why}"))
+                        }
+                        _ => opaque(
+                            "a block of your own drives this coil through several or negated coils",
+                        ),
                     };
                     add(*tag, r.index, Drive::Shape(shape));
                 }
@@ -162,6 +184,64 @@ fn coil(tag: TagId, cond: &Cond, negated: bool) -> RungShape {
     } else {
         RungShape::Combinational { expr: e }
     }
+}
+
+/// `cond -> BLOCK inst(bools...) -> coil` for a block of your own whose body's main output is
+/// `body` (over the block's variables): the same shape over the caller's tags, each input
+/// replaced by the condition the call gives it and the main output by the coil.
+fn own_call(
+    coil: TagId,
+    body: &RungShape,
+    cond: &Cond,
+    pins: &[crate::logic::vm::OwnPin],
+    bools: &[Cond],
+) -> RungShape {
+    use crate::logic::vm::OwnPin;
+    // The condition each bool input is given, by input index (the power flow first).
+    let mut given = std::iter::once(cond).chain(bools);
+    let inputs: Vec<Option<&Cond>> = pins
+        .iter()
+        .map(|p| match p {
+            OwnPin::Stack => given.next(),
+            OwnPin::Num(_) | OwnPin::Default(_) => None,
+        })
+        .collect();
+    let main = TagId(pins.len() as u32);
+    if let Some(impure) = inputs.iter().flatten().find(|c| pure(c).is_none()) {
+        return opaque(&format!(
+            "a block of your own's input: {}",
+            impure_reason(impure)
+        ));
+    }
+    let by = |t: TagId| -> Option<BoolExpr> {
+        if t == main {
+            return Some(BoolExpr::Tag(coil));
+        }
+        inputs.get(t.index()).copied().flatten().and_then(pure)
+    };
+    let sub = |e: &BoolExpr| crate::logic::user_blocks::substitute(e, &by);
+    let shape = match body {
+        RungShape::Combinational { expr } => sub(expr).map(|e| {
+            if e.reads(coil) {
+                RungShape::self_latch(coil, &e)
+            } else {
+                RungShape::Combinational { expr: e }
+            }
+        }),
+        RungShape::Latch {
+            set,
+            reset,
+            reset_dominant,
+        } => sub(set)
+            .zip(sub(reset))
+            .map(|(set, reset)| RungShape::Latch {
+                set,
+                reset,
+                reset_dominant: *reset_dominant,
+            }),
+        _ => None,
+    };
+    shape.unwrap_or_else(|| opaque("a block of your own whose main output reads a value input"))
 }
 
 /// `rising(E)` with `E` pure.

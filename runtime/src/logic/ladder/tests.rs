@@ -541,7 +541,7 @@ fn lowered_code_is_balanced_and_flat() {
         "(start | stop) /sensor rising(start) -> motor, set lamp",
         "start -> CTUD c(5, cd=stop, r=sensor, ld=stop) -> alarm",
     ]);
-    assert!(lower::max_depth(p.instructions(), &[]).is_none() || !p.instructions().is_empty());
+    assert!(lower::max_depth(p.instructions(), &[], &[]).is_none() || !p.instructions().is_empty());
     assert_eq!(p.outputs().count(), 3);
 }
 
@@ -617,7 +617,7 @@ rungs:
   - start -> lamp
 ";
     let tags = table();
-    let drawn = diagram(text, Path::new("m.yaml"), &tags).unwrap();
+    let drawn = diagram(text, Path::new("m.yaml"), &tags, &OwnBlocks::none()).unwrap();
     assert_eq!(drawn[0].title.as_deref(), Some("Motor latch"));
     assert_eq!(
         drawn[0].comment.as_deref(),

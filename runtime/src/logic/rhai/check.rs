@@ -106,6 +106,6 @@ pub(crate) fn walk(ast: &AST, errors: &mut Vec<(Position, CompileErrorKind)>) ->
 }
 
 /// The user's line of a Rhai position (the script has one line of declarations on top).
-fn line(pos: Position) -> u32 {
+pub(crate) fn line(pos: Position) -> u32 {
     u32::try_from(pos.line().unwrap_or(2).saturating_sub(1).max(1)).unwrap_or(u32::MAX)
 }

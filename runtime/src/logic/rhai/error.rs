@@ -45,6 +45,14 @@ pub enum CompileErrorKind {
         /// Line of the first call.
         first_line: u32,
     },
+    /// One instance of a block of one's own called from two places.
+    #[error("instance \"{name}\" is already called at line {first_line}; call each instance once per scan and read its variables with output(\"{name}\", …)")]
+    OwnCalledTwice {
+        /// The instance.
+        name: String,
+        /// Line of the first call.
+        first_line: u32,
+    },
     /// An output read of an instance that no call creates.
     #[error("no block call creates instance \"{name}\"")]
     UnknownInstance {
@@ -105,6 +113,38 @@ pub enum CompileErrorKind {
         usage: String,
         /// Arguments given.
         found: usize,
+    },
+    /// An argument of a block of one's own of a type its input does not take.
+    #[error("argument `{param}` of {function}() is {} (an input of {block}), not {found}", crate::logic::user_blocks::a_type(*.expected))]
+    OwnArgumentType {
+        /// The function.
+        function: String,
+        /// The block.
+        block: String,
+        /// The input.
+        param: String,
+        /// Its type.
+        expected: softplc_io::point::ValueType,
+        /// What was given ("an integer").
+        found: &'static str,
+    },
+    /// `output(instance, variable)` naming what no instance has.
+    #[error("output(): {what}")]
+    OwnOutput {
+        /// What is not there, in words.
+        what: String,
+    },
+    /// A call of a block of one's own naming no declared instance of it.
+    #[error("{function}(): \"{name}\" is not a declared instance of {block} ({declared}); declare it under the project's `instances:`")]
+    OwnInstance {
+        /// The function.
+        function: String,
+        /// The name given.
+        name: String,
+        /// The block.
+        block: String,
+        /// Its declared instances, in words.
+        declared: String,
     },
     /// An argument of a library function of a type the parameter does not take.
     #[error("argument `{param}` of {function}() is {expected}, not {found}")]

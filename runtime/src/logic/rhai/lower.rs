@@ -117,7 +117,7 @@ pub(crate) fn lower(ast: &AST, tags: &TagTable, operations: u64, file: &Path) ->
     for stmt in internals::statements(ast) {
         l.statement(stmt)?;
     }
-    let max_depth = vm::max_depth(&l.code, &l.calls).unwrap_or(0);
+    let max_depth = vm::max_depth(&l.code, &l.calls, &[]).unwrap_or(0);
     let highest_tag = l.highest.map(|(id, pos)| (id, user_pos(file, pos)));
     let mut instances: Vec<(String, u32)> = l
         .named
@@ -130,6 +130,8 @@ pub(crate) fn lower(ast: &AST, tags: &TagTable, operations: u64, file: &Path) ->
             code: l.code,
             calls: l.calls,
             boxes: Vec::new(),
+            own_sites: Vec::new(),
+            own: Vec::new(),
             edges: 0,
             max_depth,
             instances: l.instances,

@@ -117,6 +117,7 @@ mod lower;
 #[cfg(test)]
 mod lower_tests;
 mod on_vm;
+mod own;
 mod quality;
 mod rungs;
 pub(crate) mod signatures;
@@ -138,10 +139,12 @@ use softplc_io::point::{Value, ValueType};
 pub use blocks::MAX_INSTANCES;
 pub use engine::Limits;
 pub use error::{CompileError, CompileErrorKind};
+pub(crate) use own::OUTPUT as OWN_OUTPUT;
 pub use rungs::NOT_PLAIN;
 
 use crate::image::{convert, ProcessImage, TagId};
 use crate::logic::expr::TagTable;
+use crate::logic::user_blocks::OwnBlocks;
 use crate::logic::{LogicEngine, LogicFault, ScanContext, SourcePos};
 use softplc_io::time::ScanInstant;
 
@@ -197,6 +200,8 @@ pub struct RhaiProgram {
     /// Copy every writable tag in at the next scan (after a fault, a release, at the first).
     resync: bool,
     blocks: blocks::SharedBlocks,
+    /// The instances of blocks of one's own the script calls, when the project has any.
+    own: Option<own::SharedOwn>,
     /// The `good(tag)` / `bad(tag)` call sites and their tags' qualities.
     qualities: Arc<quality::Sites>,
     deadline: engine::Deadline,
@@ -270,11 +275,36 @@ pub fn compile_with(
     budget: Duration,
     limits: Limits,
 ) -> Result<RhaiProgram, Vec<CompileError>> {
+    build(source, file, tags, budget, limits, OwnBlocks::none())
+}
+
+/// [`compile`] for a script that may call the project's blocks of one's own: `own` holds them
+/// and their instances, which the program takes.
+pub fn compile_calling(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+    budget: Duration,
+    own: OwnBlocks,
+) -> Result<RhaiProgram, Vec<CompileError>> {
+    build(source, file, tags, budget, Limits::default(), own)
+}
+
+fn build(
+    source: &str,
+    file: &Path,
+    tags: &TagTable,
+    budget: Duration,
+    limits: Limits,
+    mut own_blocks: OwnBlocks,
+) -> Result<RhaiProgram, Vec<CompileError>> {
     let source = source.strip_prefix('\u{feff}').unwrap_or(source);
     let deadline = engine::Deadline::new();
     let blocks: blocks::SharedBlocks = Arc::new(Mutex::new(blocks::Blocks::default()));
     let mut engine = engine::sandboxed(limits, tags.len() + 1024, &deadline);
     blocks::register(&mut engine, &blocks);
+    let own_signatures = own::signatures(&own_blocks);
+    let own = (!own_blocks.is_empty()).then(|| own::register(&mut engine, &mut own_blocks));
 
     // Tags whose names Rhai reserves cannot be declared; they stay out of the script.
     let probe = Engine::new_raw();
@@ -370,7 +400,9 @@ pub fn compile_with(
             errors.push((*pos, CompileErrorKind::CapturedInput { name: name.clone() }));
         }
     }
-    typing::check(&ast, tags, &typing::Known::of(&engine, &ast), &mut errors);
+    let mut known = typing::Known::of(&engine, &ast);
+    known.own = own_signatures;
+    typing::check(&ast, tags, &known, &mut errors);
     let qualities = Arc::new(quality::resolve(&ast, tags, &mut errors));
     // `good(strat)`: the undeclared name is the error, not that it is no tag.
     errors.retain(|(_, k)| {
@@ -436,6 +468,7 @@ pub fn compile_with(
         inputs,
         resync: true,
         blocks,
+        own,
         qualities,
         deadline,
         budget,
@@ -711,6 +744,9 @@ impl LogicEngine for RhaiProgram {
             Ok(mut b) => b.now = ctx.now.since_origin(),
             Err(p) => p.into_inner().now = ctx.now.since_origin(),
         }
+        if let Some(own) = &self.own {
+            own::begin(own, image, ctx);
+        }
         self.deadline.arm(self.budget);
         let run = self.engine.run_ast_with_scope(&mut self.scope, &self.ast);
         self.scope.rewind(self.base);
@@ -721,6 +757,9 @@ impl LogicEngine for RhaiProgram {
         let out = self.copy_out(image, ctx.now);
         if out.is_err() {
             self.resync = true;
+        }
+        if let Some(own) = &self.own {
+            own::publish(own, image, ctx);
         }
         out
     }

@@ -141,3 +141,8 @@ pub(crate) fn returns(name: &str, arity: usize) -> Option<Returns> {
         .find(|s| s.params.len() == arity)
         .map(|s| s.returns)
 }
+
+/// Whether `name` is a function of softplc's library (a block of one's own may not take it).
+pub(crate) fn is_library(name: &str) -> bool {
+    overloads(name).next().is_some()
+}

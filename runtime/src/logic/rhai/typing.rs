@@ -49,6 +49,8 @@ const KEYWORDS: [&str; 9] = [
 #[derive(Debug, Default)]
 pub(crate) struct Known {
     forms: HashSet<(String, usize)>,
+    /// The project's blocks of one's own.
+    pub(crate) own: Vec<super::own::OwnSignature>,
     /// Names callable by a user (no operators or property accessors), for suggestions.
     names: Vec<String>,
 }
@@ -75,7 +77,11 @@ impl Known {
             .collect();
         names.sort();
         names.dedup();
-        Known { forms, names }
+        Known {
+            forms,
+            names,
+            own: Vec::new(),
+        }
     }
 
     fn arities(&self, name: &str) -> Vec<usize> {
@@ -125,6 +131,7 @@ pub(crate) fn check(ast: &AST, tags: &TagTable, known: &Known, errors: &mut Erro
         tags,
         known,
         errors,
+        own_calls: std::collections::HashMap::new(),
     };
     checker.walk(&ast.clone_statements_only(), &tag_type, true);
     checker.walk(&ast.clone_functions_only(), &no_tags, false);
@@ -134,6 +141,8 @@ struct Checker<'a> {
     tags: &'a TagTable,
     known: &'a Known,
     errors: &'a mut Errors,
+    /// Instances of blocks of one's own called so far, where.
+    own_calls: std::collections::HashMap<String, Position>,
 }
 
 impl Checker<'_> {
@@ -269,6 +278,14 @@ impl Checker<'_> {
         if KEYWORDS.contains(&name) || super::quality::FUNCTIONS.contains(&name) {
             return;
         }
+        if name == super::own::OUTPUT && !self.known.own.is_empty() {
+            self.own_output(call.args, pos);
+            return;
+        }
+        if let Some(sig) = self.known.own.iter().find(|s| s.function == name) {
+            self.own_call(sig, call.args, &args, pos);
+            return;
+        }
         let library: Vec<&'static Signature> = signatures::overloads(name).collect();
         if let Some(sig) = library.iter().find(|s| s.params.len() == args.len()) {
             self.arguments(sig, call.args, &args);
@@ -278,6 +295,130 @@ impl Checker<'_> {
             return;
         }
         self.unknown_or_arity(name, &library, self.known.arities(name), args.len(), pos);
+    }
+
+    /// `output("s1", "done")`: two arguments, a declared instance and one of its variables
+    /// (where they are literals).
+    fn own_output(&mut self, exprs: &[Expr], pos: Position) {
+        let [instance, var] = exprs else {
+            let kind = CompileErrorKind::Arity {
+                name: super::own::OUTPUT.to_owned(),
+                usage: "2 arguments: output(instance, variable)".to_owned(),
+                found: exprs.len(),
+            };
+            self.fail(pos, kind);
+            return;
+        };
+        let ExprView::Str(name, _) = internals::expr(instance) else {
+            return;
+        };
+        let Some(sig) = self
+            .known
+            .own
+            .iter()
+            .find(|s| s.instances.iter().any(|i| i == name))
+        else {
+            let declared: Vec<&str> = self
+                .known
+                .own
+                .iter()
+                .flat_map(|s| s.instances.iter().map(String::as_str))
+                .collect();
+            let what = format!(
+                "\"{name}\" is no declared instance (the project's `instances:`: {})",
+                declared.join(", ")
+            );
+            self.fail(start(instance), CompileErrorKind::OwnOutput { what });
+            return;
+        };
+        if let ExprView::Str(v, _) = internals::expr(var) {
+            if !sig.vars.iter().any(|x| x == v) {
+                let what = format!(
+                    "{} \"{name}\" has no \"{v}\"; it has {}",
+                    sig.block,
+                    sig.vars.join(", ")
+                );
+                self.fail(start(var), CompileErrorKind::OwnOutput { what });
+            }
+        }
+    }
+
+    /// A call of a block of one's own: its number of arguments, a declared instance's name,
+    /// each input's type where it shows.
+    fn own_call(
+        &mut self,
+        sig: &super::own::OwnSignature,
+        exprs: &[Expr],
+        types: &[Ty],
+        pos: Position,
+    ) {
+        let given = types.len().saturating_sub(1);
+        if types.is_empty() || given < sig.required || given > sig.inputs.len() {
+            let usage = if sig.required == sig.inputs.len() {
+                format!("{} arguments: {}", sig.inputs.len() + 1, sig.usage())
+            } else {
+                format!(
+                    "{} to {} arguments: {}",
+                    sig.required + 1,
+                    sig.inputs.len() + 1,
+                    sig.usage()
+                )
+            };
+            let kind = CompileErrorKind::Arity {
+                name: sig.function.clone(),
+                usage,
+                found: types.len(),
+            };
+            self.fail(pos, kind);
+            return;
+        }
+        if let Some(name) = exprs.first() {
+            match internals::expr(name) {
+                ExprView::Str(text, _) if !sig.instances.iter().any(|i| i == text) => {
+                    let declared = if sig.instances.is_empty() {
+                        "none is declared".to_owned()
+                    } else {
+                        format!("declared: {}", sig.instances.join(", "))
+                    };
+                    let kind = CompileErrorKind::OwnInstance {
+                        function: sig.function.clone(),
+                        name: text.to_string(),
+                        block: sig.block.clone(),
+                        declared,
+                    };
+                    self.fail(start(name), kind);
+                }
+                ExprView::Str(text, _) => match self.own_calls.get(text) {
+                    Some(&first) => {
+                        let kind = CompileErrorKind::OwnCalledTwice {
+                            name: text.to_string(),
+                            first_line: super::check::line(first),
+                        };
+                        self.fail(pos, kind);
+                    }
+                    None => {
+                        self.own_calls.insert(text.to_string(), pos);
+                    }
+                },
+                _ => {}
+            }
+        }
+        for (((param, ty), expr), &found) in sig.inputs.iter().zip(&exprs[1..]).zip(&types[1..]) {
+            let fits = match ty {
+                ValueType::Bool => matches!(found, Ty::Bool | Ty::Unknown),
+                _ => matches!(found, Ty::Int | Ty::Float | Ty::Unknown),
+            };
+            if !fits {
+                let kind = CompileErrorKind::OwnArgumentType {
+                    function: sig.function.clone(),
+                    block: sig.block.clone(),
+                    param: param.clone(),
+                    expected: *ty,
+                    found: found.words(),
+                };
+                self.fail(start(expr), kind);
+            }
+        }
     }
 
     /// `x.f(a)`: `f` with `x` as its first argument. Only the name and the arity are checked

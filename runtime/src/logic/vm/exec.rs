@@ -6,14 +6,15 @@ use std::time::Duration;
 
 use softplc_io::point::{Quality, Value, ValueType};
 
-use super::instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
+use super::instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, OwnPin, OwnSite, PinArg};
 use crate::image::{ProcessImage, TagId};
 use crate::logic::blocks::{from_millis, Edge, Instance, Pattern, Pins, TimerPins, MAX_PINS};
 use crate::logic::expr::TagTable;
+use crate::logic::user_blocks::UserInstance;
 use crate::logic::{LogicFault, ScanContext, SourcePos};
 
 /// What a language's lowering hands to the VM.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub(crate) struct Parts {
     /// The instructions, rungs in file order.
     pub code: Vec<Instr>,
@@ -21,6 +22,10 @@ pub(crate) struct Parts {
     pub calls: Vec<CallSite>,
     /// The math boxes [`Instr::Box`] indexes.
     pub boxes: Vec<BoxSite>,
+    /// The calls of blocks of one's own [`Instr::Own`] indexes.
+    pub own_sites: Vec<OwnSite>,
+    /// The instances of blocks of one's own those calls run.
+    pub own: Vec<UserInstance>,
     /// Number of edge slots.
     pub edges: usize,
     /// Deepest stack the code reaches.
@@ -38,11 +43,13 @@ pub(crate) struct Parts {
 }
 
 /// A lowered program with its state, ready to scan.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub(crate) struct Program {
     code: Vec<Instr>,
     calls: Vec<CallSite>,
     boxes: Vec<BoxSite>,
+    own_sites: Vec<OwnSite>,
+    own: Vec<UserInstance>,
     stack: Vec<bool>,
     edges: Vec<Edge>,
     instances: Vec<Instance>,
@@ -71,6 +78,8 @@ impl Program {
             code: parts.code,
             calls: parts.calls,
             boxes: parts.boxes,
+            own_sites: parts.own_sites,
+            own: parts.own,
             stack: Vec::with_capacity(parts.max_depth),
             edges: vec![Edge::default(); parts.edges],
             fresh: parts.instances.clone(),
@@ -137,6 +146,8 @@ impl Program {
             code,
             calls,
             boxes,
+            own_sites,
+            own,
             stack,
             edges,
             instances,
@@ -236,6 +247,25 @@ impl Program {
                     let q = instances
                         .get_mut(site.inst as usize)
                         .is_some_and(|inst| inst.call(&pins, now.since_origin()));
+                    stack.push(q);
+                }
+                Instr::Own(site) => {
+                    let Some(site) = own_sites.get(site as usize) else {
+                        continue;
+                    };
+                    let Some(inst) = own.get_mut(site.inst as usize) else {
+                        continue;
+                    };
+                    // The bools are on the stack in input order, the power flow first.
+                    for (i, pin) in site.pins.iter().enumerate().rev() {
+                        let v = match *pin {
+                            OwnPin::Stack => f64::from(u8::from(pop(stack))),
+                            OwnPin::Num(n) => num(image, instances, n),
+                            OwnPin::Default(v) => v,
+                        };
+                        inst.set_input(i, v, ctx);
+                    }
+                    let q = inst.run(image, ctx)?;
                     stack.push(q);
                 }
                 Instr::Box(site) => {
@@ -375,6 +405,11 @@ fn to_f64(v: Value) -> f64 {
         Value::I32(x) => f64::from(x),
         Value::F32(x) => f64::from(x),
     }
+}
+
+/// A number as a value of type `ty`, as a box stores it (see [`from_f64`]).
+pub(crate) fn number_as(ty: ValueType, x: f64) -> Value {
+    from_f64(ty, x)
 }
 
 /// A number stored into a tag of type `ty`: integers truncate toward zero and saturate at the

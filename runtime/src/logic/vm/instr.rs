@@ -67,6 +67,10 @@ pub enum Instr {
     /// Call a block (call-site index): pops its bool arguments, then replaces the power flow
     /// under them with the block's main output.
     Call(u32),
+    /// Call an instance of a block of one's own (own-site index): pops the bool inputs the
+    /// site gives on the stack, then replaces the power flow under them with the block's main
+    /// output.
+    Own(u32),
     /// When the top is true, compute a math box (box-site index). Kept out of line: its
     /// operands would double the size of every instruction.
     Box(u32),
@@ -178,6 +182,33 @@ pub struct CallSite {
     pub bools: u8,
 }
 
+/// What a call of a block of one's own gives one input.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum OwnPin {
+    /// A bool on the stack (the power flow and the bool inputs, lowered in input order).
+    Stack,
+    /// A number read when the call runs.
+    Num(Num),
+    /// Left out: the input's `default:`.
+    Default(f64),
+}
+
+/// A call site of a block of one's own: the instance and what the call gives each input.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct OwnSite {
+    /// The instance, an index into the program's instances of blocks of one's own.
+    pub(crate) inst: u32,
+    /// Every input, in the block's order.
+    pub(crate) pins: Vec<OwnPin>,
+}
+
+impl OwnSite {
+    /// How many bools the call takes from the stack (the power flow included).
+    pub(crate) fn bools(&self) -> usize {
+        self.pins.iter().filter(|p| **p == OwnPin::Stack).count()
+    }
+}
+
 /// A math box.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BoxOp {
@@ -211,7 +242,7 @@ pub struct BoxSite {
 /// The deepest stack `code` reaches; `None` if it would pop an empty stack or leave values
 /// behind (never, for lowered code: checked in tests and in debug builds). `calls` gives the
 /// arity of each [`Instr::Call`].
-pub(crate) fn max_depth(code: &[Instr], calls: &[CallSite]) -> Option<usize> {
+pub(crate) fn max_depth(code: &[Instr], calls: &[CallSite], own: &[OwnSite]) -> Option<usize> {
     let mut depth = 0usize;
     let mut max = 0usize;
     for instr in code {
@@ -237,6 +268,7 @@ pub(crate) fn max_depth(code: &[Instr], calls: &[CallSite]) -> Option<usize> {
                     .map_or(0, |c| usize::from(c.bools));
                 (n + 1, 1)
             }
+            Instr::Own(site) => (own.get(*site as usize).map_or(1, OwnSite::bools), 1),
         };
         depth = depth.checked_sub(pops)? + pushes;
         max = max.max(depth);
@@ -263,10 +295,14 @@ mod tests {
             Instr::Box(0),
             Instr::Pop,
         ];
-        assert_eq!(max_depth(&code, &calls), Some(2));
-        assert_eq!(max_depth(&code[..2], &calls), None, "left values behind");
+        assert_eq!(max_depth(&code, &calls, &[]), Some(2));
         assert_eq!(
-            max_depth(&[Instr::Pop], &calls),
+            max_depth(&code[..2], &calls, &[]),
+            None,
+            "left values behind"
+        );
+        assert_eq!(
+            max_depth(&[Instr::Pop], &calls, &[]),
             None,
             "popped an empty stack"
         );

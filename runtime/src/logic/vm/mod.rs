@@ -16,6 +16,7 @@
 mod exec;
 mod instr;
 
-pub(crate) use exec::{tag_types, Parts, Program};
+pub(crate) use exec::{number_as, tag_types, Parts, Program};
 pub(crate) use instr::max_depth;
 pub use instr::{BoxOp, BoxSite, Call, CallSite, CmpOp, Instr, Num, PinArg};
+pub(crate) use instr::{OwnPin, OwnSite};

@@ -149,7 +149,8 @@ fn ladder_diagram(project: &Project, text: &str) -> Result<Vec<RungDiagram>, Str
             load::writable(project, i),
         )
     }));
-    ladder::diagram(text, &project.program.path, &tags).map_err(|errors| {
+    let own = crate::logic::OwnBlocks::declared(project);
+    ladder::diagram(text, &project.program.path, &tags, &own).map_err(|errors| {
         let first = errors.first().map(ToString::to_string).unwrap_or_default();
         format!("no diagram: the file no longer compiles ({first})")
     })

@@ -9,7 +9,9 @@
 // wire while power reaches it, a coil while energised. An edge passes power for one scan only;
 // the page lights it when it sees its input change between two states. A block's outputs are
 // read from the live state when it carries them (`b`), else from a coil it drives; otherwise
-// they are drawn unknown (grey).
+// they are drawn unknown (grey). A block of one's own (`own`) reads every pin from its
+// instance's tags (`s1.done`); clicking it (or its rung's "body" button) shows its body drawn
+// with that instance's live values.
 "use strict";
 
 window.softplcLadder = (() => {
@@ -64,6 +66,19 @@ window.softplcLadder = (() => {
       return inferred.negated ? v !== true : v === true;
     }
     return null;
+  }
+
+  // The tag of variable `name` of a block of one's own's instance.
+  function ownTag(b, name) {
+    for (const [n, t] of b.own.tags) if (n === name) return t;
+    return undefined;
+  }
+
+  // An output of a block: a block of one's own's from its instance's tag.
+  function blockValue(ctx, s, b, member) {
+    if (!b.own) return memberValue(ctx, s, b.inst, member);
+    const t = ownTag(b, member);
+    return s && t !== undefined && s.v[t] !== undefined ? s.v[t] : null;
   }
 
   function value(ctx, s, o) {
@@ -431,7 +446,8 @@ window.softplcLadder = (() => {
       p.condFill = condition.w < leftW ? wire(g, x + condition.w * CW, y + MID, x + leftW * CW, y + MID) : null;
       const bx = x + leftW * CW + 16;
       const bw = 2 * CW - 32;
-      p.group = svg("g", { class: "lad-el lad-block", "data-kind": "block", "data-instance": b.instance, "data-block": b.kind });
+      p.group = svg("g", { class: "lad-el lad-block" + (b.own ? " lad-own" : ""), "data-kind": "block", "data-instance": b.instance, "data-block": b.kind });
+      if (b.own) p.group.append(svg("title", {}, b.kind + " " + b.instance + ": a block of your own; click to show its body"));
       p.group.append(svg("rect", { x: bx, y: y + 16, width: bw, height: rows * RH - 22, rx: 4, class: "lad-sym lad-box" }));
       p.group.append(svg("text", { x: bx + bw / 2, y: y + 12, class: "lad-label" }, b.instance));
       p.group.append(svg("text", { x: bx + bw / 2, y: y + 32, class: "lad-letter" }, b.kind));
@@ -471,9 +487,9 @@ window.softplcLadder = (() => {
         const o = pi.node.paint(ctx, powered);
         for (const w of p.powerWires[k]) lit(w, o);
       });
-      const q = memberValue(ctx, ctx.s, b.inst, b.main);
+      const q = blockValue(ctx, ctx.s, b, b.main);
       b.outputs.forEach((m, k) => {
-        const v = memberValue(ctx, ctx.s, b.inst, m);
+        const v = blockValue(ctx, ctx.s, b, m);
         p.outs[k].textContent = m + " " + (v === null ? "?" : typeof v === "boolean" ? (v ? "1" : "0") : m === "ET" ? Math.round(v) + "ms" : fmt(v));
       });
       p.group.classList.toggle("energised", q === true);
@@ -520,16 +536,72 @@ window.softplcLadder = (() => {
     return inferred;
   }
 
+  // A rung's diagram as an SVG: rails, the first wire, the rung's node.
+  function rungPicture(node, r, n) {
+    const width = node.w * CW + 2 * RAIL + 8;
+    const height = node.h * RH + 6;
+    const pic = svg("svg", { class: "lad-svg", width, height, viewBox: `0 0 ${width} ${height}`, "data-rung": n + 1 });
+    pic.append(svg("title", {}, "line " + r.line + ": " + r.text));
+    const left = RAIL, right = RAIL + 8 + node.w * CW;
+    const railL = svg("line", { x1: left, y1: 2, x2: left, y2: height - 2, class: "lad-rail lit" });
+    const railR = svg("line", { x1: right, y1: 2, x2: right, y2: height - 2, class: "lad-rail" });
+    pic.append(railL, railR);
+    const g = svg("g", {});
+    g.append(svg("line", { x1: left, y1: MID + 2, x2: left + 8, y2: MID + 2, class: "lad-wire lit" }));
+    node.draw(g, left + 8, 2);
+    pic.append(g);
+    return pic;
+  }
+
+  // The body of a block of one's own, for one instance: its rungs drawn over the instance's
+  // tags (a Rhai body: its text), and every variable's value, painted with the program.
+  function ownBody(b) {
+    const el = html("div", { class: "lad-body", hidden: "", "data-instance": b.instance });
+    el.append(html("div", { class: "lad-body-head" }, "body of " + b.kind + " " + b.instance + " · " + b.own.body_file));
+    const vars = html("div", { class: "lad-vars" });
+    const cells = b.own.tags.map(([name, tag]) => {
+      const cell = html("span", { class: "lad-var", "data-var": name }, name + " ?");
+      vars.append(cell);
+      return { name, tag, cell };
+    });
+    el.append(vars);
+    const nodes = [];
+    if (b.own.body_kind === "ladder") {
+      const inferred = inferOutputs(b.own.body);
+      b.own.body.forEach((r, n) => {
+        const node = rungNode(r);
+        el.append(rungPicture(node, r, n));
+        nodes.push(node);
+      });
+      return {
+        el,
+        paint(ctx) {
+          if (el.hidden) return;
+          for (const c of cells) c.cell.textContent = c.name + " " + fmt(ctx.s ? ctx.s.v[c.tag] : null);
+          const inner = { info: ctx.info, s: ctx.s, prev: ctx.prev, inferred };
+          for (const node of nodes) node.paint(inner, true);
+        },
+      };
+    }
+    el.append(html("pre", { class: "lad-src" }, b.own.body_text || ""));
+    return {
+      el,
+      paint(ctx) {
+        if (el.hidden) return;
+        for (const c of cells) c.cell.textContent = c.name + " " + fmt(ctx.s ? ctx.s.v[c.tag] : null);
+      },
+    };
+  }
+
   function build(root, program, info) {
     const ctx = { info, s: null, prev: null, inferred: inferOutputs(program.diagram) };
     const textView = html("div", { class: "lad-text", hidden: "" });
     textView.append(...root.childNodes);
     const view = html("div", { class: "ladder", id: "ladder" });
     const rungs = [];
+    const bodies = [];
     program.diagram.forEach((r, n) => {
       const node = rungNode(r);
-      const width = node.w * CW + 2 * RAIL + 8;
-      const height = node.h * RH + 6;
       const box = html("div", { class: "lad-rung", id: "rung-" + (n + 1), "data-line": r.line });
       const head = html("div", { class: "lad-head" });
       head.append(html("span", { class: "no" }, "rung " + (n + 1) + " · line " + r.line));
@@ -552,19 +624,24 @@ window.softplcLadder = (() => {
         toggle.classList.toggle("on", !src.hidden);
       });
       head.append(toggle);
-      const pic = svg("svg", { class: "lad-svg", width, height, viewBox: `0 0 ${width} ${height}`, "data-rung": n + 1 });
-      pic.append(svg("title", {}, "line " + r.line + ": " + r.text));
-      const left = RAIL, right = RAIL + 8 + node.w * CW;
-      const railL = svg("line", { x1: left, y1: 2, x2: left, y2: height - 2, class: "lad-rail lit" });
-      const railR = svg("line", { x1: right, y1: 2, x2: right, y2: height - 2, class: "lad-rail" });
-      pic.append(railL, railR);
-      const g = svg("g", {});
-      g.append(svg("line", { x1: left, y1: MID + 2, x2: left + 8, y2: MID + 2, class: "lad-wire lit" }));
-      node.draw(g, left + 8, 2);
-      pic.append(g);
+      const pic = rungPicture(node, r, n);
       // The rung's comment under its head, as a printed ladder has it above the rung.
       const comment = r.comment ? html("p", { class: "lad-comment" }, r.comment) : null;
-      box.append(...[head, comment, pic, src].filter(Boolean));
+      let body = null;
+      if (r.block && r.block.own) {
+        body = ownBody(r.block);
+        const show = html("button", { class: "lad-toggle lad-body-toggle", type: "button", title: "show the body of " + r.block.instance + " with its live values" }, "body");
+        const flip = () => {
+          body.el.hidden = !body.el.hidden;
+          show.classList.toggle("on", !body.el.hidden);
+          body.paint(ctx);
+        };
+        show.addEventListener("click", flip);
+        if (node.parts && node.parts.group) node.parts.group.addEventListener("click", flip);
+        head.append(show);
+        bodies.push(body);
+      }
+      box.append(...[head, comment, pic, src, body && body.el].filter(Boolean));
       view.append(box);
       rungs.push(node);
     });
@@ -580,6 +657,7 @@ window.softplcLadder = (() => {
         ctx.prev = ctx.s;
         ctx.s = s;
         for (const node of rungs) node.paint(ctx, true);
+        for (const body of bodies) body.paint(ctx);
       },
     };
   }

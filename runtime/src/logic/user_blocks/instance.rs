@@ -1,0 +1,127 @@
+//! One instance of a block of one's own: its variables in an image of its own, its body
+//! compiled against them, and the project's tags it copies them into.
+
+use softplc_io::point::{Value, ValueType};
+
+use crate::image::{ProcessImage, TagId};
+use crate::logic::{LogicEngine, LogicFault, ScanContext};
+
+/// An instance, ready to be called.
+#[derive(Debug)]
+pub(crate) struct UserInstance {
+    name: String,
+    /// Inputs, outputs, state, in that order (`UserBlock::vars`).
+    vars: ProcessImage,
+    /// Their names, same order.
+    names: Vec<String>,
+    types: Vec<ValueType>,
+    inputs: usize,
+    body: Box<dyn LogicEngine>,
+    /// The project's tag of each variable, same order.
+    tags: Vec<TagId>,
+    /// Not run yet: its outputs and state are still to be taken from its tags.
+    fresh: bool,
+}
+
+impl UserInstance {
+    pub(crate) fn new(
+        name: String,
+        vars: ProcessImage,
+        names: Vec<String>,
+        types: Vec<ValueType>,
+        inputs: usize,
+        body: Box<dyn LogicEngine>,
+        tags: Vec<TagId>,
+    ) -> Self {
+        Self {
+            name,
+            vars,
+            names,
+            types,
+            inputs,
+            body,
+            tags,
+            fresh: true,
+        }
+    }
+
+    /// Before its first run: its outputs and state from its tags, which hold their initial
+    /// values at a start, the retained ones where the block retains them, and what the
+    /// instance left at a reload (so a reload keeps an instance's state, as a tag's).
+    pub(crate) fn adopt(&mut self, image: &ProcessImage, ctx: &ScanContext) {
+        if !self.fresh {
+            return;
+        }
+        self.fresh = false;
+        for (i, &tag) in self.tags.iter().enumerate().skip(self.inputs) {
+            if tag.index() < image.len() {
+                self.vars.set(TagId(i as u32), image.get(tag), ctx.now);
+            }
+        }
+    }
+
+    /// Its main output as its body describes it, over the block's variables.
+    pub(crate) fn main_shape(&self) -> Result<softplc_io::rung::RungShape, String> {
+        super::shape::main_output_shape(self.body.as_ref(), self.inputs)
+    }
+
+    /// Its name (`s1`).
+    pub(crate) fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Input `i`'s type.
+    pub(crate) fn input_type(&self, i: usize) -> ValueType {
+        self.types.get(i).copied().unwrap_or(ValueType::Bool)
+    }
+
+    /// Sets input `i` for the next run, converted to its type as a box stores a number
+    /// (integers truncate toward zero and saturate).
+    pub(crate) fn set_input(&mut self, i: usize, value: f64, ctx: &ScanContext) {
+        if i < self.inputs {
+            let v = crate::logic::vm::number_as(self.input_type(i), value);
+            self.vars.set(TagId(i as u32), v, ctx.now);
+        }
+    }
+
+    /// Runs the body once with the inputs set, then copies every variable into the
+    /// project's tags; returns the main output.
+    pub(crate) fn run(
+        &mut self,
+        image: &mut ProcessImage,
+        ctx: &ScanContext,
+    ) -> Result<bool, LogicFault> {
+        self.adopt(image, ctx);
+        let q = self.run_body(ctx)?;
+        self.publish(image, ctx);
+        Ok(q)
+    }
+
+    /// Runs the body once with the inputs set; returns the main output. The project's tags
+    /// are the caller's to update ([`UserInstance::publish`]).
+    pub(crate) fn run_body(&mut self, ctx: &ScanContext) -> Result<bool, LogicFault> {
+        self.body.scan(&mut self.vars, ctx)?;
+        Ok(self.output(0).as_bool())
+    }
+
+    /// Copies every variable into the project's tags.
+    pub(crate) fn publish(&self, image: &mut ProcessImage, ctx: &ScanContext) {
+        for (i, &tag) in self.tags.iter().enumerate() {
+            let v = self.vars.get(TagId(i as u32));
+            if tag.index() < image.len() && image.get(tag) != v {
+                image.set(tag, v, ctx.now);
+            }
+        }
+    }
+
+    /// The variable called `name` (input, output or state) now.
+    pub(crate) fn var(&self, name: &str) -> Option<Value> {
+        let i = self.names.iter().position(|n| n == name)?;
+        Some(self.vars.get(TagId(i as u32)))
+    }
+
+    /// Output `i`'s value now.
+    pub(crate) fn output(&self, i: usize) -> Value {
+        self.vars.get(TagId((self.inputs + i) as u32))
+    }
+}
