@@ -62,6 +62,25 @@ fn http(port: u16, request: &str) -> (u16, String) {
     (status, body)
 }
 
+/// The Audit panel's data once it holds `want` entries: the audit is written off the request's
+/// thread, so a read right after a write may come before it (bounded wait, then what is there).
+fn audit_entries(port: u16, want: usize) -> (String, Vec<serde_json::Value>) {
+    let end = Instant::now() + Duration::from_secs(10);
+    loop {
+        let (code, text) = http(
+            port,
+            &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
+        );
+        assert_eq!(code, 200, "{text}");
+        let audit: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        let entries = audit["entries"].as_array().cloned().unwrap_or_default();
+        if entries.len() >= want || Instant::now() > end {
+            return (text, entries);
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 fn post(port: u16, path: &str, headers: &str, body: &str) -> (u16, String) {
     http(
         port,
@@ -864,13 +883,7 @@ fn a_write_from_the_page_sets_a_tag_once_and_refusals_say_why() {
     assert_eq!(code, 409, "{text}");
     assert!(text.contains("seen is forced"), "{text}");
     // The Audit panel's data: the newest first, each with the page's client address.
-    let (code, text) = http(
-        port,
-        &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
-    );
-    assert_eq!(code, 200, "{text}");
-    let audit: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let entries = audit["entries"].as_array().unwrap();
+    let (text, entries) = audit_entries(port, 5);
     let seen: Vec<(&str, &str, bool)> = entries
         .iter()
         .map(|e| {
@@ -976,15 +989,8 @@ fn the_operator_writes_and_only_the_engineer_forces() {
     let (code, text) = write_cmd(&engineer);
     assert_eq!(code, 200, "the engineer writes too: {text}");
 
-    let (code, text) = http(
-        port,
-        &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
-    );
-    assert_eq!(code, 200, "{text}");
-    let audit: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let seen: Vec<(String, String)> = audit["entries"]
-        .as_array()
-        .unwrap()
+    let (text, entries) = audit_entries(port, 3);
+    let seen: Vec<(String, String)> = entries
         .iter()
         .map(|e| {
             let source = e["source"].as_str().unwrap();
@@ -1028,19 +1034,11 @@ fn the_operator_writes_and_only_the_engineer_forces() {
     )
     .expect("the operator's page hides force and unforce, and writes");
     b.eval("document.querySelector('button[data-write=cmd][data-value=\"1\"]').click(); true");
-    let end = Instant::now() + Duration::from_secs(10);
-    let newest = loop {
-        let (_, text) = http(
-            port,
-            &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
-        );
-        let audit: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
-        let entries = audit["entries"].as_array().cloned().unwrap_or_default();
-        if entries.len() == 4 || Instant::now() > end {
-            break entries.first().cloned().unwrap_or_default();
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let newest = audit_entries(port, 4)
+        .1
+        .first()
+        .cloned()
+        .unwrap_or_default();
     assert_eq!(newest["action"], "write", "{newest}");
     assert!(
         newest["source"]
