@@ -8,8 +8,8 @@ use softplc_io::line::{
     ModbusTcpTransport, Module, NetFraming, OutputFrame, RtuOverTcpTransport, SerialTransport,
     SysfsRoot, Transport, CONNECT_TIMEOUT,
 };
-use softplc_io::point::{Access, Quality};
-use softplc_io::sim::{plant, SharedWorld, SimWorld, VirtualPort};
+use softplc_io::point::{Access, Quality, ValueType};
+use softplc_io::sim::{SharedWorld, SimWorld, VirtualPort};
 use softplc_io::wire::WireTap;
 
 use crate::clock::Clock;
@@ -336,24 +336,33 @@ fn attach_plant(project: &Project, world: &SharedWorld, now: ScanInstant) {
     // The modules run up to now on their own; the plant's first step is the first scan's.
     world.advance_to(now.on_line_clock());
     if let Some(cfg) = &project.plant {
-        if let Some(spec) = plant::spec(&cfg.model) {
-            let wires = spec
-                .roles
+        // Validation wired every terminal, in the model's order, to a simulated module.
+        let wires = cfg
+            .wiring
+            .iter()
+            .filter_map(|(_, m, p)| {
+                world
+                    .find(&project.modules[*m].name)
+                    .map(|d| (d, p.clone()))
+            })
+            .collect::<Vec<_>>();
+        let point_type = |m: usize, p: &str| {
+            let points = project.modules[m].model.points;
+            points
                 .iter()
-                .filter_map(|role| {
-                    cfg.wiring
-                        .iter()
-                        .find(|(r, _, _)| r == role.name)
-                        .and_then(|(_, m, p)| {
-                            world
-                                .find(&project.modules[*m].name)
-                                .map(|d| (d, p.clone()))
-                        })
-                })
-                .collect::<Vec<_>>();
-            if wires.len() == spec.roles.len() {
-                world.set_plant((spec.build)(), wires);
-            }
+                .find(|s| s.name == p)
+                .map_or(ValueType::Bool, |s| s.ty)
+        };
+        let reads = cfg.model.decl.reads.len();
+        let drive_types = cfg
+            .wiring
+            .iter()
+            .skip(reads)
+            .map(|(_, m, p)| point_type(*m, p))
+            .collect();
+        if wires.len() == cfg.wiring.len() {
+            let plant = cfg.model.instantiate(drive_types, cfg.seed);
+            world.set_plant(Box::new(plant), wires);
         }
     }
 }
