@@ -636,6 +636,7 @@ fn big_quickstart(name: &str, n: usize) -> PathBuf {
         dir.join("conveyor.expr"),
     )
     .unwrap();
+    crate::common::host::copy_quickstart_plant(&dir);
     let text = std::fs::read_to_string(quickstart()).unwrap();
     let text = text
         .split("\nservice:\n")

@@ -631,6 +631,14 @@ pub enum ErrorKind {
     /// `plant:` with both or neither of `model` and `file`.
     #[error("a plant names a built-in model (model: conveyor) or a model file (file: door.plant.rhai), one of the two")]
     PlantModelOrFile,
+    /// A plant model file that cannot be read.
+    #[error("cannot read the plant model file {path}: {message}")]
+    PlantFile {
+        /// The file as the project names it.
+        path: String,
+        /// The OS's reason.
+        message: String,
+    },
     /// An error of a plant model file, at its own file:line:col.
     #[error(transparent)]
     PlantModel(#[from] crate::plant::ModelError),

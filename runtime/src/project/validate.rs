@@ -1445,10 +1445,14 @@ impl Validator<'_> {
             (None, Some(rel)) => {
                 let dir = self.file.parent().unwrap_or(Path::new(""));
                 let file = dir.join(rel.trim());
-                let source = match super::error::read_text(&file) {
+                let source = match std::fs::read_to_string(&file) {
                     Ok(text) => text,
-                    Err(errors) => {
-                        self.errors.extend(errors.errors);
+                    Err(e) => {
+                        let kind = ErrorKind::PlantFile {
+                            path: rel.trim().to_owned(),
+                            message: e.to_string(),
+                        };
+                        self.error(path.key("file"), kind);
                         return None;
                     }
                 };
