@@ -283,3 +283,52 @@ fn a_missing_model_file_is_named_at_the_project_s_plant_file_key() {
     assert!(!ok, "{text}");
     assert!(text.contains(":13:3: error: a plant names a built-in model (model: conveyor) or a model file (file: door.plant.rhai), one of the two"), "{text}");
 }
+
+#[test]
+fn softplc_sim_serves_a_project_s_plant_on_a_pty_and_a_master_sees_it_answer() {
+    crate::cli::require_mbpoll();
+    let scratch = Scratch::new("plant", "sim-pty");
+    scratch.write("follow.expr", "y = x\n");
+    scratch.write("lamp.plant.rhai", LAMP);
+    let project = scratch.write(
+        "project.yaml",
+        "project: served-plant
+scan: { period: 100ms }
+buses:
+  - { name: line1, port: sim, baud: 19200, format: 8E1 }
+modules:
+  - { name: mm1, bus: line1, model: minimod, address: 5 }
+tags:
+  - { name: x, point: mm1.X1 }
+  - { name: y, point: mm1.Y1, safe: false }
+program: { file: follow.expr, kind: expr }
+plant:
+  file: lamp.plant.rhai
+  wiring: { lamp: mm1.Y1, seen: mm1.X2 }
+",
+    );
+    let mut sim =
+        crate::cli::Sim::start_with(&["sim", "--pty", "--project", project.to_str().unwrap()]);
+    // Discrete input 10002 is X2, which the plant drives: dark while the lamp is off.
+    assert_eq!(
+        sim.mbpoll(&["-t", "1", "-r", "2"], &[]),
+        [(2, "0".to_owned())]
+    );
+    // The master lights the lamp (coil 00001, Y1); the sensor follows 200 ms later.
+    assert!(sim.mbpoll(&["-t", "0", "-r", "1"], &["1"]).is_empty());
+    std::thread::sleep(Duration::from_millis(600));
+    assert_eq!(
+        sim.mbpoll(&["-t", "1", "-r", "2"], &[]),
+        [(2, "1".to_owned())]
+    );
+    // The console names the modules as the project does.
+    assert_eq!(sim.command("get mm1.X2"), "mm1.X2=1");
+    assert!(sim.mbpoll(&["-t", "0", "-r", "1"], &["0"]).is_empty());
+    std::thread::sleep(Duration::from_millis(600));
+    assert_eq!(sim.command("get mm1.X2"), "mm1.X2=0");
+    assert!(sim.command("plant").starts_with("running: glow="));
+    assert_eq!(
+        sim.command("plant fault burnt on"),
+        "error: plant lamp has no fault \"burnt\" (its faults: none)"
+    );
+}

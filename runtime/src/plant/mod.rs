@@ -13,12 +13,14 @@
 //! ([`softplc_io::sim::plant::PlantHealth`]). docs/plant.md teaches it.
 
 pub(crate) mod api;
+mod attach;
 mod catalog;
 mod decl;
 mod error;
 mod model;
 mod run;
 
+pub use attach::{attach, NotInWorld};
 pub use catalog::{builtin, Builtin, CATALOG};
 pub use decl::{Declarations, FaultDecl, StateDecl, DEFAULT_STEP};
 pub use error::{ModelError, RunError};

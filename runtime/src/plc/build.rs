@@ -8,7 +8,7 @@ use softplc_io::line::{
     ModbusTcpTransport, Module, NetFraming, OutputFrame, RtuOverTcpTransport, SerialTransport,
     SysfsRoot, Transport, CONNECT_TIMEOUT,
 };
-use softplc_io::point::{Access, Quality, ValueType};
+use softplc_io::point::{Access, Quality};
 use softplc_io::sim::{SharedWorld, SimWorld, VirtualPort};
 use softplc_io::wire::WireTap;
 
@@ -335,34 +335,8 @@ fn attach_plant(project: &Project, world: &SharedWorld, now: ScanInstant) {
     let Ok(mut world) = world.lock() else { return };
     // The modules run up to now on their own; the plant's first step is the first scan's.
     world.advance_to(now.on_line_clock());
-    if let Some(cfg) = &project.plant {
-        // Validation wired every terminal, in the model's order, to a simulated module.
-        let wires = cfg
-            .wiring
-            .iter()
-            .filter_map(|(_, m, p)| {
-                world
-                    .find(&project.modules[*m].name)
-                    .map(|d| (d, p.clone()))
-            })
-            .collect::<Vec<_>>();
-        let point_type = |m: usize, p: &str| {
-            let points = project.modules[m].model.points;
-            points
-                .iter()
-                .find(|s| s.name == p)
-                .map_or(ValueType::Bool, |s| s.ty)
-        };
-        let reads = cfg.model.decl.reads.len();
-        let drive_types = cfg
-            .wiring
-            .iter()
-            .skip(reads)
-            .map(|(_, m, p)| point_type(*m, p))
-            .collect();
-        if wires.len() == cfg.wiring.len() {
-            let plant = cfg.model.instantiate(drive_types, cfg.seed);
-            world.set_plant(Box::new(plant), wires);
-        }
+    // Validation wired every terminal to a module on a `port: sim` line: all are in the world.
+    if let Err(e) = crate::plant::attach(project, &mut world) {
+        tracing::error!("{e}");
     }
 }
