@@ -332,3 +332,119 @@ plant:
         "error: plant lamp has no fault \"burnt\" (its faults: none)"
     );
 }
+
+/// One GET of `path` on `port`: the body.
+fn get(port: u16, path: &str) -> String {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).expect("connect to the page");
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).expect("an answer");
+    text.split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_owned())
+        .unwrap_or_default()
+}
+
+#[test]
+fn the_web_page_shows_the_plant_s_states_live() {
+    use std::io::BufRead;
+    let scratch = Scratch::new("plant", "web");
+    let example = repo().join("examples/pump_station");
+    std::fs::copy(
+        example.join("sump.plant.rhai"),
+        scratch.dir.join("sump.plant.rhai"),
+    )
+    .unwrap();
+    let program = repo().join("programs/pump_station/pump_station.ladder.yaml");
+    let text = std::fs::read_to_string(example.join("project.yaml"))
+        .unwrap()
+        .replace(
+            "../../programs/pump_station/pump_station.ladder.yaml",
+            program.to_str().unwrap(),
+        )
+        + "\nservice:\n  web: { bind: 127.0.0.1:0 }\n";
+    let project = scratch.write("project.yaml", &text);
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args([
+            "run",
+            project.to_str().unwrap(),
+            "--for",
+            "60s",
+            "--no-socket",
+        ])
+        .env("SOFTPLC_LOG", "info")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("softplc run starts");
+    let stderr = child.stderr.take().expect("piped stderr");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(Result::ok)
+        {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let port: u16 = loop {
+        let line = rx
+            .recv_timeout(Duration::from_secs(30))
+            .expect("the run logs its page");
+        if let Some(rest) = line.split("web page: http://127.0.0.1:").nth(1) {
+            break rest.split('/').next().unwrap().parse().unwrap();
+        }
+    };
+    // The page's state, once the first cycle is published (bounded: 50 looks).
+    let state = || {
+        for _ in 0..50 {
+            let j: serde_json::Value = serde_json::from_str(&get(port, "/api/state")).unwrap();
+            if j["state"]["published"] == true {
+                return j["state"].clone();
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        panic!("nothing published in 5 s");
+    };
+    let level = |state: &serde_json::Value| -> f64 {
+        let plant = &state["plant"];
+        assert_eq!(plant["model"], "sump", "{state}");
+        assert_eq!(plant["state"], "running", "{state}");
+        let states = plant["states"].as_array().expect("states");
+        let level = states
+            .iter()
+            .find(|s| s[0] == "level")
+            .expect("the level state");
+        level[1].as_str().unwrap().parse().unwrap()
+    };
+    // The page's state carries the plant; the pit's level moves between two looks (the rain
+    // runs in at about 1.5 %/s): the panel is live. Bounded: 30 looks, 200 ms apart.
+    let first = level(&state());
+    let mut moved = false;
+    for _ in 0..30 {
+        std::thread::sleep(Duration::from_millis(200));
+        let now = level(&state());
+        if now != first {
+            moved = true;
+            break;
+        }
+    }
+    // The page draws it: the panel and its renderer are served.
+    let page = get(port, "/");
+    let script = get(port, "/app.js");
+    drop(child.kill());
+    drop(child.wait());
+    assert!(moved, "the level stayed at {first}");
+    assert!(page.contains("id=\"plant-panel\""), "{page}");
+    assert!(
+        script.contains("function renderPlant"),
+        "app.js draws the plant panel"
+    );
+}

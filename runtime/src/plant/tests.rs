@@ -357,3 +357,37 @@ fn declaration_errors_are_placed_at_the_name() {
         assert_eq!(got, want.to_vec(), "{source}");
     }
 }
+
+/// The cost of a model's step, measured (not asserted): the garage door example's model on
+/// the world's 1 ms ticks. docs/plant.md quotes the release figure of
+/// `cargo test --release --manifest-path runtime/Cargo.toml --lib plant::tests::cost_of_a_step --
+/// --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement: run it in release for the figure docs/plant.md quotes"]
+fn cost_of_a_step() {
+    let source = include_str!("../../../examples/garage_door/door.plant.rhai");
+    let model = compile(Path::new("door.plant.rhai"), source).expect("the door compiles");
+    let mut plant = model.instantiate(vec![ValueType::Bool; 3], 0);
+    let mut io = Wires(vec![Value::Bool(false); 5]);
+    let seconds = 200u64;
+    let begin = std::time::Instant::now();
+    for ms in 1..=seconds * 1000 {
+        // Up for 12 s, down for 12 s, over and over: every branch of the step runs.
+        let up = (ms / 12_000) % 2 == 0;
+        io.0[0] = Value::Bool(up);
+        io.0[1] = Value::Bool(!up);
+        plant.step(
+            LineInstant::after_origin(Duration::from_millis(ms)),
+            &mut io,
+        );
+    }
+    let took = begin.elapsed();
+    let steps = plant.steps();
+    assert_eq!(steps, seconds * 100);
+    println!(
+        "door.plant.rhai: {steps} steps of 10 ms in {took:?}: {:.1} µs a step, {:.2} ms of CPU \
+         per simulated second (1 ms ticks included)",
+        took.as_secs_f64() * 1e6 / steps as f64,
+        took.as_secs_f64() * 1e3 / seconds as f64
+    );
+}

@@ -136,7 +136,7 @@ impl PlantReport {
         let states = plant
             .states()
             .into_iter()
-            .map(|(name, v)| (name, v.to_string()))
+            .map(|(name, v)| (name, state_text(v)))
             .collect();
         Some(Self {
             model,
@@ -144,6 +144,22 @@ impl PlantReport {
             error,
             states,
         })
+    }
+}
+
+/// A state as a person reads it: a float to 3 decimals, trailing zeros dropped.
+fn state_text(v: softplc_io::sim::plant::StateValue) -> String {
+    match v {
+        softplc_io::sim::plant::StateValue::Float(x) => {
+            let text = format!("{x:.3}");
+            let text = text.trim_end_matches('0').trim_end_matches('.');
+            if text == "-0" {
+                "0".to_owned()
+            } else {
+                text.to_owned()
+            }
+        }
+        other => other.to_string(),
     }
 }
 
