@@ -144,7 +144,12 @@ impl RhaiPlant {
                 .line()
                 .map(|l| (l, e.position().position().unwrap_or(1)));
             e.clear_position();
-            let message = e.to_string();
+            // A helper's own refusal (an unknown fault) reads as itself, without Rhai's
+            // "Runtime error: " before it.
+            let message = match &*e {
+                rhai::EvalAltResult::ErrorRuntime(what, _) => what.to_string(),
+                other => other.to_string(),
+            };
             return Err((at, RunError::Script { message }));
         }
         // The declared names are the scope's first entries, in this order; a step's own

@@ -391,3 +391,61 @@ fn cost_of_a_step() {
         took.as_secs_f64() * 1e3 / seconds as f64
     );
 }
+
+#[test]
+fn a_model_injects_and_repairs_its_own_faults_on_a_condition() {
+    let source = r#"
+fn plant() {
+    #{
+        step: "100ms",
+        drives: ["relay"],
+        states: #{ cycles: 0, die: 0, level: 5.0 },
+        faults: ["stuck"],
+    }
+}
+cycles += 1;
+// The relay's contact welds on its 5th cycle and is mended on its 10th.
+if cycles == 5 { inject("stuck"); }
+if cycles == 10 { repair("stuck"); }
+relay = fault("stuck") || cycles % 2 == 0;
+die = random_int(1, 6);
+level = clamp(level + 1.0, 0, 7.5);
+"#;
+    let model = compile(Path::new("relay.plant.rhai"), source).expect("compiles");
+    let mut plant = model.instantiate(vec![ValueType::Bool], 3);
+    let mut io = Wires(vec![Value::Bool(false)]);
+    let mut trace = Vec::new();
+    let mut dice = Vec::new();
+    for step in 0..12u64 {
+        run(&mut io, &mut plant, step * 100 + 1, step * 100 + 1);
+        trace.push(io.0[0].as_bool());
+        let StateValue::Int(die) = state(&plant, "die") else {
+            panic!("die")
+        };
+        dice.push(die);
+    }
+    // Cycles 1..=12: even ones on, 5..=9 stuck on.
+    let want = [
+        false, true, false, true, true, true, true, true, true, true, false, true,
+    ];
+    assert_eq!(trace, want);
+    assert!(dice.iter().all(|d| (1..=6).contains(d)), "{dice:?}");
+    assert!(dice.iter().any(|d| *d != dice[0]), "{dice:?}");
+    assert_eq!(float(state(&plant, "level")), 7.5, "held by clamp");
+    let err = compile(
+        Path::new("relay.plant.rhai"),
+        &source.replace("inject(\"stuck\")", "inject(\"stuk\")"),
+    )
+    .map(|m| {
+        let mut p = m.instantiate(vec![ValueType::Bool], 3);
+        run(&mut Wires(vec![Value::Bool(false)]), &mut p, 1, 1_000);
+        p.health()
+    })
+    .expect("compiles: a fault's name is a string");
+    assert_eq!(
+        err,
+        PlantHealth::Stopped(
+            "relay.plant.rhai:12:18: unknown fault \"stuk\" (its faults: stuck)".into()
+        )
+    );
+}
