@@ -448,3 +448,20 @@ fn the_web_page_shows_the_plant_s_states_live() {
         "app.js draws the plant panel"
     );
 }
+
+#[test]
+fn the_guide_shows_the_garage_door_s_model_as_it_is() {
+    let guide = std::fs::read_to_string(repo().join("docs/plant.md")).expect("docs/plant.md");
+    let model = std::fs::read_to_string(repo().join("examples/garage_door/door.plant.rhai"))
+        .expect("the door's model");
+    assert!(
+        guide.contains(&format!("```rhai\n{model}```")),
+        "docs/plant.md shows examples/garage_door/door.plant.rhai other than it is"
+    );
+    // A few dozen lines, as the guide promises.
+    assert!(
+        model.lines().count() <= 40,
+        "{} lines",
+        model.lines().count()
+    );
+}
