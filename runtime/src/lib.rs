@@ -32,6 +32,7 @@ pub mod image;
 pub(crate) mod log_limit;
 pub mod logic;
 pub mod offload;
+pub mod plant;
 pub mod plc;
 pub mod project;
 pub mod recorder;

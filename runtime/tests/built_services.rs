@@ -15,7 +15,7 @@ fn check_accepts_or_refuses_a_service_as_the_binary_was_built() {
     let lines = base.lines().count();
     let text = format!(
         "{}  opcua:\n    port: 0\n  mqtt:\n    host: 127.0.0.1\n    group: g\n    node: n\n",
-        base.replace(
+        crate::common::host::quickstart_plant_absolute(&base).replace(
             "../../programs/conveyor.expr",
             &repo().join("programs/conveyor.expr").display().to_string()
         )

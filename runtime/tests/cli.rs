@@ -434,7 +434,7 @@ fn run_on_the_virtual_clock_is_fast_and_deterministic() {
 
 // --- sim + a third-party master ---
 
-fn require_mbpoll() {
+pub(crate) fn require_mbpoll() {
     match Command::new("mbpoll").arg("-V").output() {
         Ok(_) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => panic!(
@@ -446,7 +446,7 @@ fn require_mbpoll() {
 }
 
 /// `softplc sim --pty minimod@5`, its standard input and its standard output by lines.
-struct Sim {
+pub(crate) struct Sim {
     child: Child,
     stdin: Option<ChildStdin>,
     lines: Receiver<String>,
@@ -456,8 +456,13 @@ struct Sim {
 
 impl Sim {
     fn start() -> Self {
+        Self::start_with(&["sim", "--pty", "minimod@5"])
+    }
+
+    /// `softplc ARGS` (a `sim --pty` serving unit 5 at 19200 8E1).
+    pub(crate) fn start_with(args: &[&str]) -> Self {
         let mut child = Command::new(env!("CARGO_BIN_EXE_softplc"))
-            .args(["sim", "--pty", "minimod@5"])
+            .args(args)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -482,8 +487,9 @@ impl Sim {
         };
         let first = sim.line();
         let path = first
-            .strip_prefix("serving minimod@5 on ")
-            .and_then(|rest| rest.strip_suffix(" at 19200 8E1"))
+            .strip_prefix("serving ")
+            .and_then(|rest| rest.split_once(" on "))
+            .and_then(|(_, rest)| rest.strip_suffix(" at 19200 8E1"))
             .unwrap_or_else(|| panic!("unexpected first line {first:?}"));
         assert!(path.starts_with("/dev/pts/"), "{first}");
         sim.path = path.to_string();
@@ -498,7 +504,7 @@ impl Sim {
     }
 
     /// Types `command` on its standard input; returns the line it prints in answer.
-    fn command(&mut self, command: &str) -> String {
+    pub(crate) fn command(&mut self, command: &str) -> String {
         let stdin = self.stdin.as_mut().expect("stdin open");
         writeln!(stdin, "{command}").expect("write to softplc sim");
         stdin.flush().expect("flush");
@@ -509,7 +515,7 @@ impl Sim {
     /// `-t 1` discrete inputs, `-t 3` input registers, `-t 4` holding registers; `-r` is a
     /// 1-based reference as in the manual unless `-0` is given) and `values` to write; returns
     /// the `[reference]: value` lines it printed.
-    fn mbpoll(&self, args: &[&str], values: &[&str]) -> Vec<(u32, String)> {
+    pub(crate) fn mbpoll(&self, args: &[&str], values: &[&str]) -> Vec<(u32, String)> {
         let mut all = vec![
             "-m", "rtu", "-a", "5", "-b", "19200", "-P", "even", "-o", "5", "-1",
         ];
@@ -636,6 +642,7 @@ fn big_quickstart(name: &str, n: usize) -> PathBuf {
         dir.join("conveyor.expr"),
     )
     .unwrap();
+    crate::common::host::copy_quickstart_plant(&dir);
     let text = std::fs::read_to_string(quickstart()).unwrap();
     let text = text
         .split("\nservice:\n")

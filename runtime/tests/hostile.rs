@@ -61,8 +61,8 @@ fn start(name: &str) -> Plc {
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
-    let yaml = std::fs::read_to_string(root().join("examples/quickstart/project.yaml"))
-        .unwrap()
+    let yaml = std::fs::read_to_string(root().join("examples/quickstart/project.yaml")).unwrap();
+    let yaml = crate::common::host::quickstart_plant_absolute(&yaml)
         .replace(
             "../../programs/conveyor.expr",
             root().join("programs/conveyor.expr").to_str().unwrap(),

@@ -34,6 +34,7 @@ mod monitor;
 mod mqtt;
 #[cfg(feature = "opcua")]
 mod opcua;
+mod plant;
 mod plant_view;
 mod profiles;
 mod programs;

@@ -13,7 +13,6 @@ use softplc::project::{
 use softplc_io::devices::Protocol;
 use softplc_io::line::SerialFormat;
 use softplc_io::point::{Value, ValueType};
-use softplc_io::sim::plant;
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/projects")
@@ -69,15 +68,38 @@ modules:
     address: 1
 ";
 
-/// `role: point` lines wiring every role of the conveyor plant: driven roles to X1, X2, X3,
-/// X9, X10 of `module`, read roles to Y1..Y4, in the plant's role order.
+/// A terminal of the built-in conveyor: its name and whether the plant drives it.
+struct Role {
+    name: String,
+    drives_input: bool,
+}
+
+/// The built-in conveyor's terminals, in its order.
+struct Spec {
+    roles: Vec<Role>,
+}
+
+fn conveyor() -> Spec {
+    let model = softplc::plant::builtin("conveyor").expect("the conveyor plant exists");
+    let roles = model
+        .terminals()
+        .map(|(name, drives_input)| Role {
+            name: name.to_owned(),
+            drives_input,
+        })
+        .collect();
+    Spec { roles }
+}
+
+/// `terminal: point` lines wiring every terminal of the conveyor plant: driven ones to X1, X2,
+/// X3, X9, X10 of `module`, read ones to Y1..Y4, in the plant's terminal order.
 fn conveyor_wiring(indent: &str, module: &str) -> (String, Vec<(String, String)>) {
-    let spec = plant::spec("conveyor").expect("the conveyor plant exists");
+    let spec = conveyor();
     let mut inputs = ["X1", "X2", "X3", "X9", "X10"].into_iter();
     let mut outputs = ["Y1", "Y2", "Y3", "Y4"].into_iter();
     let mut text = String::new();
     let mut wiring = Vec::new();
-    for role in spec.roles {
+    for role in &spec.roles {
         let point = if role.drives_input {
             inputs.next()
         } else {
@@ -85,7 +107,7 @@ fn conveyor_wiring(indent: &str, module: &str) -> (String, Vec<(String, String)>
         }
         .expect("enough MiniMod points for the conveyor's roles");
         text.push_str(&format!("{indent}{}: {module}.{point}\n", role.name));
-        wiring.push((role.name.to_owned(), point.to_owned()));
+        wiring.push((role.name.clone(), point.to_owned()));
     }
     (text, wiring)
 }
@@ -217,7 +239,7 @@ plant:
     assert_eq!(p.program.kind, ProgramKind::Expr);
 
     let plant = p.plant.expect("a plant");
-    assert_eq!(plant.model, "conveyor");
+    assert_eq!(plant.model.name, "conveyor");
     let expected: Vec<(String, usize, String)> = wiring
         .into_iter()
         .map(|(role, point)| (role, 1, point))
@@ -1076,9 +1098,9 @@ fn plant_model_must_exist() {
 #[test]
 fn plant_unknown_role_points_at_the_key_and_missing_roles_at_the_wiring() {
     let (wiring, _) = conveyor_wiring("    ", "mm1");
-    let first_role = plant::spec("conveyor").unwrap().roles[0].name;
+    let first_role = conveyor().roles[0].name.clone();
     // Rename the first role: an unknown role, and the first role missing.
-    let wiring = wiring.replacen(first_role, "belt", 1);
+    let wiring = wiring.replacen(&first_role, "belt", 1);
     let text = format!("{HEAD}{BUS}{MM1}plant:\n  model: conveyor\n  wiring:\n{wiring}");
     let got = errors(&text);
     assert_eq!(got.len(), 2, "{got:#?}");
@@ -1093,7 +1115,7 @@ fn plant_unknown_role_points_at_the_key_and_missing_roles_at_the_wiring() {
 
 #[test]
 fn plant_roles_must_have_the_right_direction() {
-    let spec = plant::spec("conveyor").unwrap();
+    let spec = conveyor();
     let (wiring, _) = conveyor_wiring("    ", "mm1");
     // Swap directions of the first driven and the first read role.
     let driven = spec.roles.iter().position(|r| r.drives_input).unwrap();
@@ -1123,14 +1145,14 @@ fn plant_roles_must_have_the_right_direction() {
     assert_eq!(
         msg(driven),
         format!(
-            "plant role {} drives a module input, but mm1.Y4 is an output",
+            "plant terminal {} drives a module input, but mm1.Y4 is an output",
             spec.roles[driven].name
         )
     );
     assert_eq!(
         msg(read),
         format!(
-            "plant role {} reads a module output, but mm1.X10 is an input",
+            "plant terminal {} reads a module output, but mm1.X10 is an input",
             spec.roles[read].name
         )
     );
@@ -1142,12 +1164,8 @@ fn plant_needs_simulated_buses() {
     let text = format!("{HEAD}{BUS}{MM1}plant:\n  model: conveyor\n  wiring:\n{wiring}")
         .replace("port: sim", "port: /dev/ttyUSB0");
     let got = errors(&text);
-    assert_eq!(
-        got.len(),
-        plant::spec("conveyor").unwrap().roles.len(),
-        "{got:#?}"
-    );
-    let first_role = plant::spec("conveyor").unwrap().roles[0].name;
+    assert_eq!(got.len(), conveyor().roles.len(), "{got:#?}");
+    let first_role = conveyor().roles[0].name.clone();
     assert_eq!(at(&got[0]), (18, 4 + first_role.len() + 3));
     assert!(
         got[0]
@@ -1160,7 +1178,7 @@ fn plant_needs_simulated_buses() {
 
 #[test]
 fn one_input_driven_by_two_roles() {
-    let spec = plant::spec("conveyor").unwrap();
+    let spec = conveyor();
     let driven: Vec<usize> = spec
         .roles
         .iter()
@@ -1186,7 +1204,7 @@ fn one_input_driven_by_two_roles() {
     assert_eq!(
         e.kind.to_string(),
         format!(
-            "input mm1.X1 is driven by two plant roles: {} and {}",
+            "input mm1.X1 is driven by two plant terminals: {} and {}",
             spec.roles[driven[1]].name, spec.roles[driven[0]].name
         )
     );

@@ -43,6 +43,7 @@ fn quickstart_copy(dir: &Path, program: Option<&str>) -> PathBuf {
         None => std::fs::read_to_string(source).unwrap(),
     };
     std::fs::write(dir.join("conveyor.expr"), text).unwrap();
+    crate::common::host::copy_quickstart_plant(dir);
     // No web page: a test opens no fixed port.
     let yaml = original
         .replace("file: ../../programs/conveyor.expr", "file: conveyor.expr")

@@ -107,6 +107,7 @@ fn a_running_instance_notifies_systemd_and_obeys_its_control_socket() {
     // A copy of the quick start whose program can be broken and mended for reload.
     let program = dir.join("conveyor.expr");
     std::fs::copy(repo().join("programs/conveyor.expr"), &program).unwrap();
+    crate::common::host::copy_quickstart_plant(&dir);
     let project = std::fs::read_to_string(repo().join("examples/quickstart/project.yaml"))
         .unwrap()
         .replace("../../programs/conveyor.expr", "conveyor.expr");
@@ -239,6 +240,7 @@ fn forces_are_lost_on_restart_unless_kept() {
         dir.join("conveyor.expr"),
     )
     .unwrap();
+    crate::common::host::copy_quickstart_plant(&dir);
     let project = std::fs::read_to_string(repo().join("examples/quickstart/project.yaml"))
         .unwrap()
         .replace("../../programs/conveyor.expr", "conveyor.expr");

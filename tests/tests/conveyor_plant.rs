@@ -1,9 +1,11 @@
-//! The quick start's plant (the conveyor and its operator) with a controller of any speed: the
-//! operator takes every box away at the exit, however soon the belt stops.
+//! The quick start's plant (the conveyor and its operator, a Rhai model built in) with a
+//! controller of any speed: the operator takes every box away at the exit, however soon the
+//! belt stops.
 
 use std::time::Duration;
 
-use softplc_io::sim::plant::{spec, PlantIo};
+use softplc_io::point::ValueType;
+use softplc_io::sim::plant::{Plant, PlantIo};
 use softplc_io::time::LineInstant;
 
 /// The plant's wires, by role: motor, start_button, sensor_entry, sensor_exit.
@@ -28,12 +30,15 @@ impl PlantIo for Wires {
 /// change it sees (start press latches the motor, the exit sensor stops it); returns how many
 /// boxes were taken away from the exit.
 fn boxes_delivered(reaction: Duration, seconds: u64) -> usize {
-    let conveyor = spec("conveyor").expect("the conveyor plant");
+    let conveyor = softplc::plant::builtin("conveyor").expect("the conveyor plant");
     assert_eq!(
-        conveyor.roles.iter().map(|r| r.name).collect::<Vec<_>>(),
+        conveyor
+            .terminals()
+            .map(|(name, _)| name)
+            .collect::<Vec<_>>(),
         ["motor", "start_button", "sensor_entry", "sensor_exit"]
     );
-    let mut plant = (conveyor.build)();
+    let mut plant = conveyor.instantiate(vec![ValueType::Bool; 3], 0);
     let mut io = Wires::default();
     let (mut was_start, mut was_exit) = (false, false);
     let mut pending: Option<(LineInstant, bool)> = None;

@@ -378,8 +378,15 @@ fn quick_start_project(dir: &Path) -> anyhow::Result<PathBuf> {
     if !text.contains(from_program) || !text.contains(from_web) {
         bail!("examples/quickstart/project.yaml changed its program or web lines: update the footprint scenario");
     }
+    let plant = repo
+        .join("examples/quickstart/conveyor.plant.rhai")
+        .canonicalize()?;
     let text = text
         .replace(from_program, &format!("file: {}", program.display()))
+        .replace(
+            "file: conveyor.plant.rhai",
+            &format!("file: {}", plant.display()),
+        )
         .replace(from_web, "bind: 127.0.0.1:0");
     let path = dir.join("quickstart.yaml");
     std::fs::write(&path, text)?;

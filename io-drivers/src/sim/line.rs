@@ -217,6 +217,19 @@ impl SimWorld {
         self.plant = Some(WiredPlant { plant, wires });
     }
 
+    /// The attached plant, for its states and health.
+    pub fn plant(&self) -> Option<&dyn Plant> {
+        self.plant.as_ref().map(|w| w.plant.as_ref())
+    }
+
+    /// The attached plant, to switch its faults.
+    pub fn plant_mut(&mut self) -> Option<&mut (dyn Plant + 'static)> {
+        match self.plant.as_mut() {
+            Some(w) => Some(w.plant.as_mut()),
+            None => None,
+        }
+    }
+
     /// The injected faults (tests and `softplc sim` add and clear rules here).
     pub fn faults_mut(&mut self) -> &mut LineFaults {
         &mut self.faults
@@ -517,10 +530,22 @@ impl PlantIo for Wiring<'_> {
     }
 
     fn write(&mut self, role: usize, value: bool) {
+        self.write_value(role, Value::Bool(value));
+    }
+
+    fn read_value(&self, role: usize) -> Value {
+        self.wires
+            .get(role)
+            .and_then(|(dev, point)| self.devices.get(*dev).map(|d| d.device.get(point)))
+            .and_then(Result::ok)
+            .unwrap_or(Value::Bool(false))
+    }
+
+    fn write_value(&mut self, role: usize, value: Value) {
         if let Some((dev, point)) = self.wires.get(role) {
             if let Some(d) = self.devices.get_mut(*dev) {
                 // Wiring was checked against the model when the world was built.
-                drop(d.device.set(point, Value::Bool(value)));
+                drop(d.device.set(point, value));
             }
         }
     }

@@ -299,6 +299,13 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
             );
         }
     }
+    let plant_lines = plant::lines(project);
+    if !plant_lines.is_empty() {
+        out.push('\n');
+    }
+    for line in plant_lines {
+        let _ = writeln!(out, "{line}");
+    }
     let _ = writeln!(
         out,
         "\nlines are polled in parallel: an ordinary cycle's input phase can be no shorter \
@@ -430,6 +437,7 @@ fn latency_clause(adapter: AdapterTiming, each: &str) -> String {
 
 mod cycle_mix;
 mod plan;
+mod plant;
 mod tcp;
 #[cfg(test)]
 mod tests;

@@ -27,7 +27,8 @@ use clap::{Parser, Subcommand};
 
 pub use args::parse_duration;
 pub use test::scenario::{
-    parse as parse_scenario, Expect, ProgramSpec, Scenario, ScenarioErrors, SetInput,
+    parse as parse_scenario, CmpOp, Comparison, Expect, FaultStep, PlantExpect, ProgramSpec,
+    Scenario, ScenarioErrors, SetInput,
 };
 
 /// softplc: a deterministic soft-PLC for RS-485 I/O modules.

@@ -12,6 +12,7 @@ use softplc_io::line::{
     open_tty, pty_pair, LineSettings, NetFraming, Parity, SerialFormat, TTYPort, TcpEndpoint,
 };
 use softplc_io::point::Value;
+use softplc_io::sim::plant::PlantHealth;
 use softplc_io::sim::{
     serve_following, serve_tcp, tty_settings, Fault, FaultRule, Frequency, SharedWorld, SimWorld,
     SERVED_LINE,
@@ -31,6 +32,10 @@ registers 8/9, the coil/register aliasing rule, instead of the register table's 
 `DEVICE options` lists a module's options). --profile FILE adds the device a profile file
 describes, served by its model name: `--profile sdm120.yaml sdm120@3` (docs/devices.md); its
 points are set and read like any module's, and it follows its profile's `simulate:` lags.
+--project FILE serves the modules of a project's `port: sim` bus (--bus NAME, default the
+first) at their addresses and the bus's baud and format, named as the project names them
+(`set door.DI1 1`), with the project's plant model running (docs/plant.md): a master on the
+pty sees the machine move as `run` does.
 
 Commands on standard input (one per line):
   set DEVICE.POINT VALUE   set a simulated input (the terminal's level) or any point
@@ -48,6 +53,8 @@ Commands on standard input (one per line):
   echo on | echo off       the adapter hears its own transmission: every frame the
                            master sends comes back to it (see --echo) or stops doing so
   echo corrupt N           the next N echoes come back with a bit flipped
+  plant                    the served plant's states, and whether it runs (--project)
+  plant fault NAME on|off  switch one of the plant model's faults
   power-cycle              switch the line's power supply off and on: every module
                            powers up again with what it saved (MiniMod WCONF, RESI
                            FLASH/FRAM, EX-9053 EEPROM) and loses what it did not
@@ -91,8 +98,14 @@ pub(crate) struct SimArgs {
     echo: bool,
     /// Modules to simulate, as MODEL@ADDR or MODEL@ADDR:BAUD:FORMAT (minimod@5:9600:8N1);
     /// MODEL is a built-in model or the `model:` of a --profile.
-    #[arg(required = true)]
+    #[arg(required_unless_present = "project", conflicts_with = "project")]
     devices: Vec<String>,
+    /// Serve the modules of a project's `port: sim` bus, with its plant model.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["profiles", "options"])]
+    project: Option<PathBuf>,
+    /// With --project: the bus to serve (default: its first `port: sim` bus).
+    #[arg(long, value_name = "NAME", requires = "project")]
+    bus: Option<String>,
     /// A device profile file whose model the devices may name (sdm120@3); repeatable.
     #[arg(long = "profile", value_name = "FILE")]
     profiles: Vec<PathBuf>,
@@ -206,6 +219,86 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         ParityArg::Even => Parity::Even,
         ParityArg::Odd => Parity::Odd,
     };
+    let found = match &args.project {
+        Some(file) => project_world(file, args.bus.as_deref())?,
+        None => devices_world(&args, parity)?,
+    };
+    let Some((mut world, settings, served)) = found else {
+        return Ok(ExitCode::FAILURE);
+    };
+    world.set_echo(SERVED_LINE, args.echo);
+    let world = world.shared();
+    let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
+
+    let stop = Arc::new(AtomicBool::new(false));
+    if let Some((bind, framing)) = args
+        .tcp
+        .map(|a| (a, NetFraming::ModbusTcp))
+        .or(args.rtu_tcp.map(|a| (a, NetFraming::RtuOverTcp)))
+    {
+        let listener = std::net::TcpListener::bind(bind)
+            .with_context(|| format!("cannot listen on {bind}"))?;
+        let bound = listener.local_addr()?;
+        let endpoint = TcpEndpoint {
+            framing,
+            host: bound.ip().to_string(),
+            port: bound.port(),
+        };
+        let what = match framing {
+            NetFraming::ModbusTcp => "a Modbus TCP gateway",
+            NetFraming::RtuOverTcp => "a transparent serial server",
+        };
+        super::out::outln(&format!(
+            "serving {served} on {endpoint} ({what}; the line behind it at {settings})"
+        ))?;
+        spawn_console(&world, &stop, &clock)?;
+        for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+            signal_hook::flag::register(sig, stop.clone())
+                .context("cannot install signal handlers")?;
+        }
+        let stats = serve_tcp(listener, world, framing, settings, clock, &stop)
+            .context("serving over TCP failed")?;
+        super::out::outln(&format!(
+            "served {} frames, {} replies, {} noise bytes",
+            stats.frames, stats.replies, stats.noise_bytes
+        ))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+
+    // With --pty the slave end stays open here, so the pty lives while no master is connected.
+    let (port, _slave, path) = if args.pty {
+        let (master, slave, name) = pty_pair().context("cannot create a pty pair")?;
+        (master, Some(slave), name)
+    } else {
+        let path = args.port.clone().unwrap_or_default();
+        (open_tty(&path, settings)?, None, path.display().to_string())
+    };
+    super::out::outln(&format!("serving {served} on {path} at {settings}"))?;
+
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
+    }
+    spawn_console(&world, &stop, &clock)?;
+    let follow = |slave: &TTYPort| tty_settings(slave);
+    let master = _slave.as_ref().map(|slave| move || follow(slave));
+    let master_ref = master
+        .as_ref()
+        .map(|m| m as &dyn Fn() -> Option<LineSettings>);
+    let stats = serve_following(port, world, settings, clock, &stop, master_ref)
+        .context("serial line failed")?;
+    super::out::outln(&format!(
+        "served {} frames, {} replies, {} noise bytes",
+        stats.frames, stats.replies, stats.noise_bytes
+    ))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The world of the modules named on the command line: it, the line's settings and the
+/// devices' names; `None` after printing a profile's errors.
+fn devices_world(
+    args: &SimArgs,
+    parity: Parity,
+) -> anyhow::Result<Option<(SimWorld, LineSettings, String)>> {
     let settings = LineSettings {
         baud: args.baud,
         format: SerialFormat {
@@ -218,13 +311,12 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         bail!("--baud must be above 0");
     }
     let mut world = SimWorld::new(vec![settings]);
-    world.set_echo(SERVED_LINE, args.echo);
     let mut seen = Vec::new();
     let profiles = match profile_models(&args.profiles) {
         Ok(models) => models,
         Err(errors) => {
             super::out::errln(&errors.to_string());
-            return Ok(ExitCode::FAILURE);
+            return Ok(None);
         }
     };
     for spec in &args.devices {
@@ -250,74 +342,70 @@ pub(super) fn sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     for option in &args.options {
         apply_option(&mut world, option)?;
     }
-    let world = world.shared();
-    let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
+    Ok(Some((world, settings, args.devices.join(", "))))
+}
 
-    let stop = Arc::new(AtomicBool::new(false));
-    if let Some((bind, framing)) = args
-        .tcp
-        .map(|a| (a, NetFraming::ModbusTcp))
-        .or(args.rtu_tcp.map(|a| (a, NetFraming::RtuOverTcp)))
-    {
-        let listener = std::net::TcpListener::bind(bind)
-            .with_context(|| format!("cannot listen on {bind}"))?;
-        let bound = listener.local_addr()?;
-        let endpoint = TcpEndpoint {
-            framing,
-            host: bound.ip().to_string(),
-            port: bound.port(),
-        };
-        let what = match framing {
-            NetFraming::ModbusTcp => "a Modbus TCP gateway",
-            NetFraming::RtuOverTcp => "a transparent serial server",
-        };
-        super::out::outln(&format!(
-            "serving {} on {endpoint} ({what}; the line behind it at {settings})",
-            args.devices.join(", ")
-        ))?;
-        spawn_console(&world, &stop, &clock)?;
-        for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-            signal_hook::flag::register(sig, stop.clone())
-                .context("cannot install signal handlers")?;
+/// The world of a project's `port: sim` bus (`bus`, or its first) with the project's plant:
+/// it, the bus's settings and the modules' names; `None` after printing the project's errors.
+fn project_world(
+    file: &std::path::Path,
+    bus: Option<&str>,
+) -> anyhow::Result<Option<(SimWorld, LineSettings, String)>> {
+    let project = match crate::project::load(file) {
+        Ok(p) => p,
+        Err(errors) => {
+            super::out::errln(&errors.to_string());
+            return Ok(None);
         }
-        let stats = serve_tcp(listener, world, framing, settings, clock, &stop)
-            .context("serving over TCP failed")?;
-        super::out::outln(&format!(
-            "served {} frames, {} replies, {} noise bytes",
-            stats.frames, stats.replies, stats.noise_bytes
-        ))?;
-        return Ok(ExitCode::SUCCESS);
-    }
-
-    // With --pty the slave end stays open here, so the pty lives while no master is connected.
-    let (port, _slave, path) = if args.pty {
-        let (master, slave, name) = pty_pair().context("cannot create a pty pair")?;
-        (master, Some(slave), name)
-    } else {
-        let path = args.port.clone().unwrap_or_default();
-        (open_tty(&path, settings)?, None, path.display().to_string())
     };
-    super::out::outln(&format!(
-        "serving {} on {path} at {settings}",
-        args.devices.join(", ")
-    ))?;
-
-    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
+    let sim_buses: Vec<usize> = (0..project.buses.len())
+        .filter(|&b| project.buses[b].port == crate::project::PortConfig::Sim)
+        .collect();
+    let chosen = match bus {
+        Some(name) => project.buses.iter().position(|b| b.name == name),
+        None => sim_buses.first().copied(),
+    };
+    let Some(b) = chosen.filter(|b| sim_buses.contains(b)) else {
+        let names: Vec<&str> = sim_buses
+            .iter()
+            .map(|&b| project.buses[b].name.as_str())
+            .collect();
+        bail!(
+            "{}: no `port: sim` bus {}(its simulated buses: {})",
+            file.display(),
+            bus.map(|n| format!("named {n} ")).unwrap_or_default(),
+            if names.is_empty() {
+                "none".to_owned()
+            } else {
+                names.join(", ")
+            }
+        );
+    };
+    let settings = project.buses[b].settings;
+    let mut world = SimWorld::new(vec![settings]);
+    let mut names = Vec::new();
+    for module in project.modules.iter().filter(|m| m.bus == b) {
+        let address = module.device.address.get();
+        let mut sim = module.model.simulate(address);
+        if module.device.protocol != module.model.protocols[0] {
+            // Validation checked the model speaks it.
+            drop(sim.set_protocol(module.device.protocol));
+        }
+        let i = world.add_device(SERVED_LINE, &module.name, sim);
+        world.install_device_uart(i, settings);
+        names.push(format!("{}={}@{address}", module.name, module.model.name));
     }
-    spawn_console(&world, &stop, &clock)?;
-    let follow = |slave: &TTYPort| tty_settings(slave);
-    let master = _slave.as_ref().map(|slave| move || follow(slave));
-    let master_ref = master
-        .as_ref()
-        .map(|m| m as &dyn Fn() -> Option<LineSettings>);
-    let stats = serve_following(port, world, settings, clock, &stop, master_ref)
-        .context("serial line failed")?;
-    super::out::outln(&format!(
-        "served {} frames, {} replies, {} noise bytes",
-        stats.frames, stats.replies, stats.noise_bytes
-    ))?;
-    Ok(ExitCode::SUCCESS)
+    crate::plant::attach(&project, &mut world)
+        .with_context(|| format!("cannot serve the plant of {}", file.display()))?;
+    let mut served = names.join(", ");
+    if let Some(p) = &project.plant {
+        served.push_str(&format!(
+            " with plant {} ({})",
+            p.model.name,
+            p.model.file.display()
+        ));
+    }
+    Ok(Some((world, settings, served)))
 }
 
 /// Plays standard input's commands against `world` on a thread of their own; `quit` sets
@@ -387,6 +475,30 @@ pub(crate) fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> any
             }
         }
         ["quit"] | ["exit"] => return Ok(Reply::Quit),
+        ["plant"] => {
+            let plant = w.plant().context("no plant is served (see --project)")?;
+            let states: Vec<String> = plant
+                .states()
+                .into_iter()
+                .map(|(n, v)| format!("{n}={v}"))
+                .collect();
+            match plant.health() {
+                PlantHealth::Running => format!("running: {}", states.join(" ")),
+                PlantHealth::Stopped(why) => format!("stopped: {why}; {}", states.join(" ")),
+            }
+        }
+        ["plant", "fault", name, level] => {
+            let on = match level.to_ascii_lowercase().as_str() {
+                "on" | "1" | "true" => true,
+                "off" | "0" | "false" => false,
+                other => bail!("plant fault {name} {other}: expected on or off"),
+            };
+            let plant = w
+                .plant_mut()
+                .context("no plant is served (see --project)")?;
+            plant.set_fault(name, on)?;
+            format!("fault {name} {}", if on { "on" } else { "off" })
+        }
         ["list"] => {
             let mut out = Vec::new();
             for (i, name) in w.names().into_iter().enumerate() {

@@ -148,6 +148,26 @@ pub(crate) fn run_path(path: &Path, verbose: bool) -> (String, bool) {
                 let _ = writeln!(out, "    trace (changes of the watched tags):");
                 out.push_str(&trace::render(&r.trace));
             }
+            if sc.plant {
+                // A plant closes the loop: the machine's own story must replay exactly too.
+                let again = runner::run(&sc, p).trace;
+                if again == r.trace {
+                    let _ = writeln!(
+                        out,
+                        "same {} [{label}]: two runs give the same trace ({} changes)",
+                        file.display(),
+                        again.len()
+                    );
+                } else {
+                    failed += 1;
+                    let _ = writeln!(
+                        out,
+                        "FAIL {} [{label}]: a second run gives another trace (-: first, +: second):",
+                        file.display()
+                    );
+                    out.push_str(&trace::diff(&r.trace, &again));
+                }
+            }
             traces.push((label, r.trace));
         }
         if let Some((first, rest)) = traces.split_first() {

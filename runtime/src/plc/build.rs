@@ -9,7 +9,7 @@ use softplc_io::line::{
     SysfsRoot, Transport, CONNECT_TIMEOUT,
 };
 use softplc_io::point::{Access, Quality};
-use softplc_io::sim::{plant, SharedWorld, SimWorld, VirtualPort};
+use softplc_io::sim::{SharedWorld, SimWorld, VirtualPort};
 use softplc_io::wire::WireTap;
 
 use crate::clock::Clock;
@@ -335,25 +335,8 @@ fn attach_plant(project: &Project, world: &SharedWorld, now: ScanInstant) {
     let Ok(mut world) = world.lock() else { return };
     // The modules run up to now on their own; the plant's first step is the first scan's.
     world.advance_to(now.on_line_clock());
-    if let Some(cfg) = &project.plant {
-        if let Some(spec) = plant::spec(&cfg.model) {
-            let wires = spec
-                .roles
-                .iter()
-                .filter_map(|role| {
-                    cfg.wiring
-                        .iter()
-                        .find(|(r, _, _)| r == role.name)
-                        .and_then(|(_, m, p)| {
-                            world
-                                .find(&project.modules[*m].name)
-                                .map(|d| (d, p.clone()))
-                        })
-                })
-                .collect::<Vec<_>>();
-            if wires.len() == spec.roles.len() {
-                world.set_plant((spec.build)(), wires);
-            }
-        }
+    // Validation wired every terminal to a module on a `port: sim` line: all are in the world.
+    if let Err(e) = crate::plant::attach(project, &mut world) {
+        tracing::error!("{e}");
     }
 }

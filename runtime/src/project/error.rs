@@ -631,32 +631,46 @@ pub enum ErrorKind {
         /// The plant models.
         known: Vec<&'static str>,
     },
-    /// A wiring entry for a role the plant does not have.
-    #[error("plant {plant} has no role \"{role}\" (its roles: {})", roles.join(", "))]
+    /// `plant:` with both or neither of `model` and `file`.
+    #[error("a plant names a built-in model (model: conveyor) or a model file (file: door.plant.rhai), one of the two")]
+    PlantModelOrFile,
+    /// A plant model file that cannot be read.
+    #[error("cannot read the plant model file {path}: {message}")]
+    PlantFile {
+        /// The file as the project names it.
+        path: String,
+        /// The OS's reason.
+        message: String,
+    },
+    /// An error of a plant model file, at its own file:line:col.
+    #[error(transparent)]
+    PlantModel(#[from] crate::plant::ModelError),
+    /// A wiring entry for a terminal the plant does not have.
+    #[error("plant {plant} has no terminal \"{role}\" (its terminals: {})", roles.join(", "))]
     UnknownPlantRole {
         /// The plant model.
-        plant: &'static str,
-        /// The role given.
+        plant: String,
+        /// The terminal given.
         role: String,
-        /// The plant's roles.
-        roles: Vec<&'static str>,
+        /// The plant's terminals.
+        roles: Vec<String>,
     },
-    /// A role of the plant left unwired.
+    /// A terminal of the plant left unwired.
     #[error(
-        "plant {plant} needs role {role} wired (to a module {})",
+        "plant {plant} needs terminal {role} wired (to a module {})",
         if *drives_input { "input" } else { "output" }
     )]
     MissingPlantRole {
         /// The plant model.
-        plant: &'static str,
-        /// The role.
-        role: &'static str,
+        plant: String,
+        /// The terminal.
+        role: String,
         /// True: the plant drives it (a module input); false: the plant reads it (an output).
         drives_input: bool,
     },
     /// A role wired to a point of the wrong direction.
     #[error(
-        "plant role {role} {} a module {}, but {point} is {}",
+        "plant terminal {role} {} a module {}, but {point} is {}",
         if *drives_input { "drives" } else { "reads" },
         if *drives_input { "input" } else { "output" },
         access_phrase(*access)
@@ -673,7 +687,7 @@ pub enum ErrorKind {
     },
     /// A role wired to a module on a real serial line.
     #[error(
-        "plant role {role} is wired to {point} on bus {bus}, which is not `port: sim`; a plant \
+        "plant terminal {role} is wired to {point} on bus {bus}, which is not `port: sim`; a plant \
          only runs on simulated lines"
     )]
     PlantNeedsSim {
@@ -684,8 +698,8 @@ pub enum ErrorKind {
         /// The module's bus.
         bus: String,
     },
-    /// One input driven by two plant roles.
-    #[error("input {point} is driven by two plant roles: {role} and {other}")]
+    /// One input driven by two plant terminals.
+    #[error("input {point} is driven by two plant terminals: {role} and {other}")]
     PlantInputDrivenTwice {
         /// The point.
         point: String,

@@ -210,8 +210,10 @@ pub enum ProgramKind {
 /// The simulated plant that closes the loop from outputs to inputs on `port: sim` lines.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PlantConfig {
-    /// The plant model's name (`conveyor`).
-    pub model: String,
-    /// Plant role → `(module index, point name)`.
+    /// The plant model, compiled (a built-in or the project's file).
+    pub model: crate::plant::PlantModel,
+    /// Terminal → `(module index, point name)`, in the model's terminal order.
     pub wiring: Vec<(String, usize, String)>,
+    /// The seed of its random source.
+    pub seed: u64,
 }

@@ -440,15 +440,24 @@ pub(crate) struct RawProgram {
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a plant: a mapping with model and wiring"
+    expecting = "a plant: a mapping with model or file, wiring and optionally seed"
 )]
 pub(crate) struct RawPlant {
-    /// The plant model.
+    /// A built-in plant model (or give `file`).
+    #[serde(default)]
     #[schemars(schema_with = "super::raw_schema::field::plant_model")]
-    pub model: String,
-    /// Role → `module.POINT`.
+    pub model: Option<String>,
+    /// A plant model file written in Rhai (`door.plant.rhai`), relative to the project file's
+    /// folder (docs/plant.md).
+    #[serde(default)]
+    pub file: Option<String>,
+    /// Terminal → `module.POINT`: every terminal the model reads (module outputs) and drives
+    /// (module inputs).
     #[serde(default)]
     pub wiring: Settings,
+    /// The seed of the model's random source: the same seed, the same trace (default 0).
+    #[serde(default)]
+    pub seed: Option<u64>,
 }
 
 /// A duration written with a unit (`20ms`, `1.5s`); see the module docs.

@@ -258,11 +258,9 @@ pub(crate) mod field {
         schema
     }
 
-    /// `plant.model`: a plant model of the simulator's catalog, each with its summary.
+    /// `plant.model`: a built-in plant model, each with its summary.
     pub(crate) fn plant_model(_: &mut SchemaGenerator) -> Schema {
-        let plants = softplc_io::sim::plant::catalog()
-            .iter()
-            .map(|p| (p.name, p.summary));
+        let plants = crate::plant::CATALOG.iter().map(|p| (p.name, p.summary));
         named(plants)
     }
 

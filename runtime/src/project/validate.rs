@@ -7,10 +7,10 @@ use std::time::Duration;
 use softplc_io::devices::{self, ModelSpec, Protocol};
 use softplc_io::line::{LineSettings, SerialFormat};
 use softplc_io::point::{Access, Value, ValueType};
-use softplc_io::sim::plant;
 
 use super::doc_text::{DocKind, DocText};
 use super::error::{ErrorKind, Item, ProjectError};
+use crate::plant::PlantModel;
 use softplc_io::line::{NetFraming, TcpEndpoint};
 
 use super::model::{
@@ -1349,34 +1349,27 @@ impl Validator<'_> {
         module_index: &HashMap<String, usize>,
     ) -> Option<PlantConfig> {
         let path = YPath::root().key("plant");
-        let Some(spec) = plant::spec(&p.model) else {
-            let known = plant::catalog().iter().map(|s| s.name).collect();
-            self.error(
-                path.key("model"),
-                ErrorKind::UnknownPlant {
-                    name: p.model.clone(),
-                    known,
-                },
-            );
-            return None;
-        };
+        let model = self.plant_model(p, &path)?;
+        let roles: Vec<(String, bool)> = model
+            .terminals()
+            .map(|(name, drives)| (name.to_owned(), drives))
+            .collect();
         let wiring_path = path.key("wiring");
         let mut ok = true;
-        let mut wired: Vec<Option<(usize, String)>> = vec![None; spec.roles.len()];
+        let mut wired: Vec<Option<(usize, String)>> = vec![None; roles.len()];
         let mut driven: HashMap<(usize, usize), String> = HashMap::new();
         for (role_name, text) in &p.wiring.0 {
-            let Some(role_i) = spec.roles.iter().position(|r| r.name == role_name) else {
-                let roles = spec.roles.iter().map(|r| r.name).collect();
+            let Some(role_i) = roles.iter().position(|(r, _)| r == role_name) else {
                 let kind = ErrorKind::UnknownPlantRole {
-                    plant: spec.name,
+                    plant: model.name.clone(),
                     role: role_name.clone(),
-                    roles,
+                    roles: roles.iter().map(|(r, _)| r.clone()).collect(),
                 };
                 self.error(wiring_path.key_itself(role_name), kind);
                 ok = false;
                 continue;
             };
-            let Some(role) = spec.roles.get(role_i) else {
+            let Some(&(_, drives_input)) = roles.get(role_i) else {
                 continue;
             };
             let point_path = wiring_path.key(role_name);
@@ -1387,7 +1380,7 @@ impl Validator<'_> {
                     continue;
                 }
             };
-            let wanted = if role.drives_input {
+            let wanted = if drives_input {
                 Access::Input
             } else {
                 Access::Output
@@ -1395,7 +1388,7 @@ impl Validator<'_> {
             if r.spec.access != wanted {
                 let kind = ErrorKind::PlantWrongDirection {
                     role: role_name.clone(),
-                    drives_input: role.drives_input,
+                    drives_input,
                     point: text.clone(),
                     access: r.spec.access,
                 };
@@ -1414,7 +1407,7 @@ impl Validator<'_> {
                     ok = false;
                 }
             }
-            if role.drives_input {
+            if drives_input {
                 if let Some(other) = driven.get(&(r.module, r.point)) {
                     let kind = ErrorKind::PlantInputDrivenTwice {
                         point: text.clone(),
@@ -1431,17 +1424,17 @@ impl Validator<'_> {
                 *slot = Some((r.module, r.spec.name.to_owned()));
             }
         }
-        let mut wiring = Vec::with_capacity(spec.roles.len());
-        for (role, slot) in spec.roles.iter().zip(wired) {
+        let mut wiring = Vec::with_capacity(roles.len());
+        for ((role, drives_input), slot) in roles.into_iter().zip(wired) {
             match slot {
-                Some((module, point)) => wiring.push((role.name.to_owned(), module, point)),
+                Some((module, point)) => wiring.push((role, module, point)),
                 None => {
                     // A role that failed to resolve is reported already; only unwired ones here.
-                    if !p.wiring.0.iter().any(|(k, _)| k == role.name) {
+                    if !p.wiring.0.iter().any(|(k, _)| *k == role) {
                         let kind = ErrorKind::MissingPlantRole {
-                            plant: spec.name,
-                            role: role.name,
-                            drives_input: role.drives_input,
+                            plant: model.name.clone(),
+                            role,
+                            drives_input,
                         };
                         self.error(path.key_itself("wiring"), kind);
                     }
@@ -1450,9 +1443,60 @@ impl Validator<'_> {
             }
         }
         ok.then(|| PlantConfig {
-            model: spec.name.to_owned(),
+            model,
             wiring,
+            seed: p.seed.unwrap_or(0),
         })
+    }
+
+    /// The plant's model: a built-in by name or the project's file, compiled; the file's
+    /// errors at its own line:col.
+    fn plant_model(&mut self, p: &RawPlant, path: &YPath) -> Option<PlantModel> {
+        match (&p.model, &p.file) {
+            (Some(name), None) => {
+                let model = crate::plant::builtin(name);
+                if model.is_none() {
+                    let known = crate::plant::CATALOG.iter().map(|b| b.name).collect();
+                    let kind = ErrorKind::UnknownPlant {
+                        name: name.clone(),
+                        known,
+                    };
+                    self.error(path.key("model"), kind);
+                }
+                model
+            }
+            (None, Some(rel)) => {
+                let dir = self.file.parent().unwrap_or(Path::new(""));
+                let file = dir.join(rel.trim());
+                let source = match std::fs::read_to_string(&file) {
+                    Ok(text) => text,
+                    Err(e) => {
+                        let kind = ErrorKind::PlantFile {
+                            path: rel.trim().to_owned(),
+                            message: e.to_string(),
+                        };
+                        self.error(path.key("file"), kind);
+                        return None;
+                    }
+                };
+                match crate::plant::compile(&file, &source) {
+                    Ok(model) => Some(model),
+                    Err(errors) => {
+                        self.errors.extend(errors.into_iter().map(|e| ProjectError {
+                            file: file.clone(),
+                            line: e.line,
+                            column: e.column,
+                            kind: ErrorKind::PlantModel(e.error),
+                        }));
+                        None
+                    }
+                }
+            }
+            _ => {
+                self.error(path.clone(), ErrorKind::PlantModelOrFile);
+                None
+            }
+        }
     }
 }
 

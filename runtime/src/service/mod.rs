@@ -55,5 +55,7 @@ pub use notify::Notifier;
 pub use snapshot::{
     HistogramView, ModuleSnapshot, PhaseSummary, Publisher, ServiceSnapshot, SnapshotCell,
 };
-pub use status::{LostChanges, MicrosPercentiles, ModuleReport, StatusReport, TagReport};
+pub use status::{
+    LostChanges, MicrosPercentiles, ModuleReport, PlantReport, StatusReport, TagReport,
+};
 pub use trace::TraceRequest;

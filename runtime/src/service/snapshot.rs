@@ -215,6 +215,9 @@ pub struct ServiceSnapshot {
     /// Per service fed every change (OPC UA, MQTT): its name and the changes it lost so far
     /// (refreshed with the statistics).
     pub lost_changes: Vec<(&'static str, u64)>,
+    /// The simulated plant: running or stopped, and its states (every publication, only with
+    /// `Publisher::with_details`: the web page's plant panel).
+    pub plant: Option<super::status::PlantReport>,
 }
 
 /// The shared snapshot.
@@ -320,6 +323,7 @@ impl Publisher {
         if self.details {
             // Published with the tag values, so a block's ET and the coil it drives agree.
             plc.instance_outputs(&mut s.blocks);
+            s.plant = super::status::PlantReport::of(plc);
         }
         let due = self
             .stats_at

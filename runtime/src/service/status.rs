@@ -104,6 +104,82 @@ pub struct StatusReport {
     /// The services fed every change (OPC UA, MQTT) and the changes each lost so far.
     #[serde(default)]
     pub lost_changes: Vec<LostChanges>,
+    /// The simulated plant, when the project has one on a `port: sim` line.
+    #[serde(default)]
+    pub plant: Option<PlantReport>,
+}
+
+/// The plant model's state: running or stopped (and why), and its states.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlantReport {
+    /// The model's name.
+    pub model: String,
+    /// `running`, or `stopped` after an error of the model.
+    pub state: String,
+    /// Why it stopped (the model file's line:col and the error).
+    pub error: Option<String>,
+    /// Its states by name, as text.
+    pub states: Vec<(String, String)>,
+}
+
+impl PlantReport {
+    /// The report of `plc`'s plant, if it has one running in a simulated world.
+    pub fn of(plc: &Plc) -> Option<Self> {
+        use softplc_io::sim::plant::PlantHealth;
+        let model = plc.project().plant.as_ref()?.model.name.clone();
+        let world = plc.world()?.lock().unwrap_or_else(|p| p.into_inner());
+        let plant = world.plant()?;
+        let (state, error) = match plant.health() {
+            PlantHealth::Running => ("running".to_owned(), None),
+            PlantHealth::Stopped(why) => ("stopped".to_owned(), Some(why)),
+        };
+        let states = plant
+            .states()
+            .into_iter()
+            .map(|(name, v)| (name, state_text(v)))
+            .collect();
+        Some(Self {
+            model,
+            state,
+            error,
+            states,
+        })
+    }
+}
+
+/// A state as a person reads it: a float to 3 decimals, trailing zeros dropped.
+fn state_text(v: softplc_io::sim::plant::StateValue) -> String {
+    match v {
+        softplc_io::sim::plant::StateValue::Float(x) => {
+            let text = format!("{x:.3}");
+            let text = text.trim_end_matches('0').trim_end_matches('.');
+            if text == "-0" {
+                "0".to_owned()
+            } else {
+                text.to_owned()
+            }
+        }
+        other => other.to_string(),
+    }
+}
+
+impl std::fmt::Display for PlantReport {
+    /// `plant door: running; position 45.2, ...` or `plant door: stopped: file:line:col: ...`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "plant {}: {}", self.model, self.state)?;
+        if let Some(e) = &self.error {
+            write!(f, ": {e} (its terminals hold their last values)")?;
+        }
+        let states: Vec<String> = self
+            .states
+            .iter()
+            .map(|(n, v)| format!("{n} {v}"))
+            .collect();
+        if !states.is_empty() {
+            write!(f, "; {}", states.join(", "))?;
+        }
+        Ok(())
+    }
 }
 
 /// The changes a service fed every change could not take in time.
@@ -159,6 +235,7 @@ impl StatusReport {
                 .collect(),
             services: Vec::new(),
             lost_changes: Vec::new(),
+            plant: PlantReport::of(plc),
         }
     }
 }
@@ -190,6 +267,9 @@ impl std::fmt::Display for StatusReport {
             .collect();
         if !services.is_empty() {
             writeln!(f, "  services: {}", services.join(", "))?;
+        }
+        if let Some(p) = &self.plant {
+            writeln!(f, "  {p}")?;
         }
         for m in &self.modules {
             writeln!(

@@ -46,7 +46,8 @@ pub(crate) fn scratch_dir(subject: &str, name: &str) -> PathBuf {
     dir
 }
 
-/// [`scratch_dir`] with the quick start's program (`conveyor.expr`) in it.
+/// [`scratch_dir`] with the quick start's program (`conveyor.expr`) and plant model
+/// (`conveyor.plant.rhai`) in it.
 pub(crate) fn conveyor_scratch(subject: &str, name: &str) -> PathBuf {
     let dir = scratch_dir(subject, name);
     std::fs::copy(
@@ -54,7 +55,28 @@ pub(crate) fn conveyor_scratch(subject: &str, name: &str) -> PathBuf {
         dir.join("conveyor.expr"),
     )
     .expect("the quick start's program");
+    copy_quickstart_plant(&dir);
     dir
+}
+
+/// Copies the quick start's plant model (`conveyor.plant.rhai`, named relative to its
+/// project) into `dir`, beside a copy of its project.
+pub(crate) fn copy_quickstart_plant(dir: &Path) {
+    std::fs::copy(
+        repo().join("examples/quickstart/conveyor.plant.rhai"),
+        dir.join("conveyor.plant.rhai"),
+    )
+    .expect("the quick start's plant model");
+}
+
+/// The quick start's plant model line, with the model named by absolute path (for a copy of
+/// the project elsewhere): `file: /…/examples/quickstart/conveyor.plant.rhai`.
+pub(crate) fn quickstart_plant_absolute(text: &str) -> String {
+    let model = repo().join("examples/quickstart/conveyor.plant.rhai");
+    text.replace(
+        "file: conveyor.plant.rhai",
+        &format!("file: {}", model.display()),
+    )
 }
 
 /// One HTTP GET of `path` at `addr`: its status (0 when the connection or the answer failed)

@@ -6,9 +6,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use softplc_io::point::Value;
+use softplc_io::sim::plant::{PlantHealth, StateValue};
 use softplc_io::sim::SharedWorld;
 
-use super::scenario::{Expect, ProgramSpec, Scenario, SetInput};
+use super::scenario::{Expect, FaultStep, PlantExpect, ProgramSpec, Scenario, SetInput};
 use super::trace::Change;
 use crate::clock::VirtualClock;
 use crate::plc::Plc;
@@ -39,6 +40,14 @@ struct HookState {
     result: RunResult,
     world: Option<SharedWorld>,
     period: Duration,
+    faults: Vec<FaultStep>,
+    next_fault: usize,
+    plant_expects: Vec<PlantExpect>,
+    next_plant_expect: usize,
+    watch_states: Vec<String>,
+    last_states: Vec<Option<Value>>,
+    /// The plant stopped on an error (reported once).
+    plant_stopped: bool,
 }
 
 impl HookState {
@@ -60,6 +69,86 @@ impl HookState {
                 self.result.failures.push(msg);
             }
             self.next_set += 1;
+        }
+    }
+
+    /// Switches every plant fault due at or before `t`.
+    fn apply_faults(&mut self, t: Duration) {
+        while let Some(f) = self.faults.get(self.next_fault) {
+            if f.at > t {
+                break;
+            }
+            let done = match self.world.as_ref() {
+                Some(w) => {
+                    let mut w = w.lock().unwrap_or_else(|p| p.into_inner());
+                    match w.plant_mut() {
+                        Some(plant) => plant.set_fault(&f.fault, f.on).map_err(|e| e.to_string()),
+                        None => Err("no plant".to_string()),
+                    }
+                }
+                None => Err("no simulated world".to_string()),
+            };
+            if let Err(e) = done {
+                let msg = format!("at {}: cannot switch fault {}: {e}", secs(f.at), f.fault);
+                self.result.failures.push(msg);
+            }
+            self.next_fault += 1;
+        }
+    }
+
+    /// The plant's states, its health, as the world holds them now.
+    fn plant_now(&self) -> Option<(Vec<(String, StateValue)>, PlantHealth)> {
+        let w = self
+            .world
+            .as_ref()?
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        let plant = w.plant()?;
+        Some((plant.states(), plant.health()))
+    }
+
+    /// Plant states into the trace, plant expectations due before `next`, a stopped plant.
+    fn plant_cycle(&mut self, now: Duration, next: Duration) {
+        let Some((states, health)) = self.plant_now() else {
+            return;
+        };
+        let value_of = |name: &str| states.iter().find(|(n, _)| n == name).map(|(_, v)| *v);
+        for (k, name) in self.watch_states.iter().enumerate() {
+            let v = value_of(name).map(state_as_value);
+            if self.last_states[k] != v {
+                self.last_states[k] = v;
+                if let Some(value) = v {
+                    self.result.trace.push(Change {
+                        at: now,
+                        tag: format!("plant.{name}"),
+                        value,
+                    });
+                }
+            }
+        }
+        while let Some(e) = self.plant_expects.get(self.next_plant_expect) {
+            if e.at >= next {
+                break;
+            }
+            self.result.checked += 1;
+            match value_of(&e.state) {
+                Some(v) if e.cmp.holds(v) => {}
+                got => self.result.failures.push(format!(
+                    "at {} (line {}): plant.{} expected {}, got {}",
+                    secs(e.at),
+                    e.line,
+                    e.state,
+                    e.cmp,
+                    got.map_or_else(|| "nothing".to_owned(), |v| v.to_string())
+                )),
+            }
+            self.next_plant_expect += 1;
+        }
+        if let (PlantHealth::Stopped(why), false) = (health, self.plant_stopped) {
+            self.plant_stopped = true;
+            self.result
+                .failures
+                .push(format!("at {}: the plant stopped: {why}", secs(now)));
         }
     }
 
@@ -104,7 +193,18 @@ impl HookState {
             }
             self.next_expect += 1;
         }
+        self.plant_cycle(now, next);
         self.apply_sets(next);
+        self.apply_faults(next);
+    }
+}
+
+/// A plant state as a trace shows it (a float state as the f32 a tag would hold).
+fn state_as_value(v: StateValue) -> Value {
+    match v {
+        StateValue::Bool(b) => Value::Bool(b),
+        StateValue::Int(i) => Value::I32(i.clamp(i32::MIN.into(), i32::MAX.into()) as i32),
+        StateValue::Float(x) => Value::F32(x as f32),
     }
 }
 
@@ -177,8 +277,16 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
         result: RunResult::default(),
         world,
         period,
+        faults: sc.faults.clone(),
+        next_fault: 0,
+        plant_expects: sc.plant_expects.clone(),
+        next_plant_expect: 0,
+        last_states: vec![None; sc.watch_states.len()],
+        watch_states: sc.watch_states.clone(),
+        plant_stopped: false,
     };
     state.apply_sets(Duration::ZERO);
+    state.apply_faults(Duration::ZERO);
     let state = Arc::new(Mutex::new(state));
     let hook_state = state.clone();
     let mut engine = ScanEngine::new(plc)
@@ -197,11 +305,22 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
         StopReason::Requested | StopReason::TimeUp => {}
         other => result.failures.push(format!("the PLC stopped: {other:?}")),
     }
-    for e in st.expects.iter().skip(st.next_expect) {
+    let plant_left = st
+        .plant_expects
+        .iter()
+        .skip(st.next_plant_expect)
+        .map(|e| (e.at, e.line));
+    let left: Vec<(Duration, usize)> = st
+        .expects
+        .iter()
+        .skip(st.next_expect)
+        .map(|e| (e.at, e.line))
+        .chain(plant_left)
+        .collect();
+    for (at, line) in left {
         result.failures.push(format!(
-            "at {} (line {}): not reached (the run ends at {})",
-            secs(e.at),
-            e.line,
+            "at {} (line {line}): not reached (the run ends at {})",
+            secs(at),
             secs(sc.until)
         ));
     }

@@ -15,6 +15,14 @@
 //!   - { at: 31s,   expect: { light: 0 } }
 //! expect_retained: { presses: 1 }           # optional: values in the retain file after the run
 //! ```
+//!
+//! With `plant: true` the project's plant model closes the loop, and a step may also switch
+//! the model's faults and expect its states (a comparison or a value):
+//!
+//! ```yaml
+//!   - { at: 5s,  fault: { jammed: on } }
+//!   - { at: 12s, expect: { plant.position: ">= 99", door_fault: 1 } }
+//! ```
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -65,7 +73,7 @@ struct RawScenario {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a step: a mapping with at and set and/or expect"
+    expecting = "a step: a mapping with at and set, expect and/or fault"
 )]
 struct RawStep {
     /// Scenario time of the step, from the start of the run.
@@ -73,9 +81,13 @@ struct RawStep {
     /// Module inputs of simulated modules to set, by tag: `{ button: 1 }`.
     #[serde(default)]
     set: Option<Settings>,
-    /// Tag values expected after the last scan that starts by `at`: `{ light: 1 }`.
+    /// Tag values expected after the last scan that starts by `at`: `{ light: 1 }`; plant
+    /// states by `plant.NAME`, with a value or a comparison: `{ plant.position: ">= 99" }`.
     #[serde(default)]
     expect: Option<Settings>,
+    /// Plant faults switched on or off (`plant: true`): `{ jammed: on }`.
+    #[serde(default)]
+    fault: Option<Settings>,
 }
 
 /// The JSON Schema of a scenario file (`softplc schema scenario`).
@@ -111,6 +123,130 @@ pub struct Expect {
     pub line: usize,
 }
 
+/// A plant state expected (`plant.position: ">= 99"`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlantExpect {
+    /// Scenario time.
+    pub at: Duration,
+    /// The state.
+    pub state: String,
+    /// How it compares.
+    pub cmp: Comparison,
+    /// The line of the expectation in the scenario file.
+    pub line: usize,
+}
+
+/// A plant state's test: a comparison with a number, or a level.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Comparison {
+    /// `>= 99`, `< 0.5`, `== 3`, `!= 0`: with a number.
+    Number(CmpOp, f64),
+    /// `true` / `false` (or `1` / `0`, `on` / `off` for a bool state).
+    Level(bool),
+}
+
+/// The operator of a [`Comparison::Number`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CmpOp {
+    /// `==` (or a bare number).
+    Eq,
+    /// `!=`.
+    Ne,
+    /// `<`.
+    Lt,
+    /// `<=`.
+    Le,
+    /// `>`.
+    Gt,
+    /// `>=`.
+    Ge,
+}
+
+impl CmpOp {
+    fn text(self) -> &'static str {
+        match self {
+            CmpOp::Eq => "==",
+            CmpOp::Ne => "!=",
+            CmpOp::Lt => "<",
+            CmpOp::Le => "<=",
+            CmpOp::Gt => ">",
+            CmpOp::Ge => ">=",
+        }
+    }
+}
+
+impl Comparison {
+    /// Reads `>= 99`, `42`, `true`.
+    fn parse(text: &str) -> Option<Self> {
+        let t = text.trim();
+        match t.to_ascii_lowercase().as_str() {
+            "true" | "on" => return Some(Comparison::Level(true)),
+            "false" | "off" => return Some(Comparison::Level(false)),
+            _ => {}
+        }
+        let ops = [
+            (">=", CmpOp::Ge),
+            ("<=", CmpOp::Le),
+            ("==", CmpOp::Eq),
+            ("!=", CmpOp::Ne),
+            (">", CmpOp::Gt),
+            ("<", CmpOp::Lt),
+        ];
+        let (op, rest) = ops
+            .iter()
+            .find_map(|(s, op)| t.strip_prefix(s).map(|r| (*op, r)))
+            .unwrap_or((CmpOp::Eq, t));
+        let x: f64 = rest.trim().parse().ok()?;
+        x.is_finite().then_some(Comparison::Number(op, x))
+    }
+
+    /// Whether `v` passes.
+    pub fn holds(self, v: softplc_io::sim::plant::StateValue) -> bool {
+        use softplc_io::sim::plant::StateValue as S;
+        let x = match v {
+            S::Bool(b) => {
+                return match self {
+                    Comparison::Level(want) => b == want,
+                    Comparison::Number(op, n) => Self::Number(op, n).holds(S::Int(i64::from(b))),
+                }
+            }
+            S::Int(i) => i as f64,
+            S::Float(x) => x,
+        };
+        match self {
+            Comparison::Level(want) => (x != 0.0) == want,
+            Comparison::Number(op, n) => match op {
+                CmpOp::Eq => x == n,
+                CmpOp::Ne => x != n,
+                CmpOp::Lt => x < n,
+                CmpOp::Le => x <= n,
+                CmpOp::Gt => x > n,
+                CmpOp::Ge => x >= n,
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Comparison {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Comparison::Level(b) => write!(f, "{b}"),
+            Comparison::Number(op, n) => write!(f, "{} {n}", op.text()),
+        }
+    }
+}
+
+/// A plant fault switched by a step.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FaultStep {
+    /// Scenario time.
+    pub at: Duration,
+    /// The fault.
+    pub fault: String,
+    /// On or off.
+    pub on: bool,
+}
+
 /// A program to run the scenario with.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ProgramSpec {
@@ -141,6 +277,12 @@ pub struct Scenario {
     pub sets: Vec<SetInput>,
     /// Expectations, by time.
     pub expects: Vec<Expect>,
+    /// Plant states expected, by time.
+    pub plant_expects: Vec<PlantExpect>,
+    /// Plant faults switched, by time.
+    pub faults: Vec<FaultStep>,
+    /// Plant states recorded in the trace (`watch: [plant.position]`).
+    pub watch_states: Vec<String>,
     /// Retained values expected after the run: tag name and value.
     pub retained: Vec<(String, Value)>,
 }
@@ -233,11 +375,34 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
 
     let mut sets = Vec::new();
     let mut expects = Vec::new();
+    let mut plant_expects = Vec::new();
+    let mut faults = Vec::new();
+    let plant_on = raw.plant.unwrap_or(false);
     for (i, step) in raw.steps.iter().enumerate() {
         let at = step.at.0;
         let spath = root.key("steps").index(i);
-        if step.set.is_none() && step.expect.is_none() {
-            error(spath.clone(), "a step needs `set:` or `expect:`".into());
+        if step.set.is_none() && step.expect.is_none() && step.fault.is_none() {
+            error(
+                spath.clone(),
+                "a step needs `set:`, `expect:` or `fault:`".into(),
+            );
+        }
+        for (name, text) in step.fault.iter().flat_map(|s| &s.0) {
+            let kpath = spath.key("fault").key_itself(name);
+            match plant_has(&project, plant_on, PlantPart::Fault, name) {
+                Err(msg) => error(kpath, msg),
+                Ok(()) => match Comparison::parse(text) {
+                    Some(Comparison::Level(on)) => faults.push(FaultStep {
+                        at,
+                        fault: name.clone(),
+                        on,
+                    }),
+                    _ => error(
+                        spath.key("fault").key(name),
+                        format!("`{text}` is not on or off"),
+                    ),
+                },
+            }
         }
         for (name, text) in step.set.iter().flat_map(|s| &s.0) {
             let kpath = spath.key("set").key_itself(name);
@@ -281,6 +446,24 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         }
         for (name, text) in step.expect.iter().flat_map(|s| &s.0) {
             let kpath = spath.key("expect").key_itself(name);
+            if let Some(state) = name.strip_prefix(PLANT_PREFIX) {
+                match (plant_has(&project, plant_on, PlantPart::State, state), Comparison::parse(text)) {
+                    (Err(msg), _) => error(kpath, msg),
+                    (Ok(()), Some(cmp)) => plant_expects.push(PlantExpect {
+                        at,
+                        state: state.to_owned(),
+                        cmp,
+                        line: loc.line(&kpath),
+                    }),
+                    (Ok(()), None) => error(
+                        spath.key("expect").key(name),
+                        format!(
+                            "`{text}` is not a value or a comparison (>= 99, < 0.5, == 3, != 0, true)"
+                        ),
+                    ),
+                }
+                continue;
+            }
             let Some(t) = tag(name) else {
                 error(kpath, unknown(name));
                 continue;
@@ -316,7 +499,15 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         }
     }
     let mut watch = Vec::new();
+    let mut watch_states = Vec::new();
     for (i, name) in raw.watch.iter().enumerate() {
+        if let Some(state) = name.strip_prefix(PLANT_PREFIX) {
+            match plant_has(&project, plant_on, PlantPart::State, state) {
+                Ok(()) => watch_states.push(state.to_owned()),
+                Err(msg) => error(root.key("watch").index(i), msg),
+            }
+            continue;
+        }
         match tag(name) {
             Some(t) => watch.push(t),
             None => error(root.key("watch").index(i), unknown(name)),
@@ -336,6 +527,8 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
     }
     sets.sort_by_key(|s| s.at);
     expects.sort_by_key(|e| e.at);
+    plant_expects.sort_by_key(|e| e.at);
+    faults.sort_by_key(|f| f.at);
     let last = raw.steps.iter().map(|s| s.at.0).max().unwrap_or_default();
     Ok(Scenario {
         file: file.to_path_buf(),
@@ -350,6 +543,58 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         until: raw.until.map_or(last + Duration::from_secs(1), |d| d.0),
         sets,
         expects,
+        plant_expects,
+        faults,
+        watch_states,
         retained,
     })
+}
+
+/// How a scenario names a plant state: `plant.position`.
+const PLANT_PREFIX: &str = "plant.";
+
+/// The project's plant, when the scenario keeps it.
+fn kept_plant(project: &Project, plant_on: bool) -> Result<&crate::plant::PlantModel, String> {
+    match &project.plant {
+        None => Err("the project has no plant".into()),
+        Some(_) if !plant_on => {
+            Err("the plant is removed unless the scenario says `plant: true`".into())
+        }
+        Some(p) => Ok(&p.model),
+    }
+}
+
+/// What of the plant a scenario names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PlantPart {
+    State,
+    Fault,
+}
+
+/// Checks that the kept plant has the state (or fault) `name`.
+fn plant_has(project: &Project, plant_on: bool, part: PlantPart, name: &str) -> Result<(), String> {
+    let model = kept_plant(project, plant_on)?;
+    let (what, all): (&str, Vec<&str>) = match part {
+        PlantPart::State => (
+            "state",
+            model.decl.states.iter().map(|s| s.name.as_str()).collect(),
+        ),
+        PlantPart::Fault => (
+            "fault",
+            model.decl.faults.iter().map(|f| f.name.as_str()).collect(),
+        ),
+    };
+    if all.contains(&name) {
+        return Ok(());
+    }
+    Err(format!(
+        "plant {} has no {what} `{name}` (its {what}s: {}){}",
+        model.name,
+        if all.is_empty() {
+            "none".to_owned()
+        } else {
+            all.join(", ")
+        },
+        crate::suggest::did_you_mean(name, all.iter().copied())
+    ))
 }

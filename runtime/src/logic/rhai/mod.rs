@@ -110,7 +110,7 @@ mod blocks;
 mod check;
 #[cfg(test)]
 mod check_tests;
-mod engine;
+pub(crate) mod engine;
 mod error;
 mod internals;
 mod lower;

@@ -92,6 +92,15 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
     if !s.blocks.is_empty() {
         state["b"] = blocks(&s.blocks);
     }
+    if let Some(p) = &s.plant {
+        // The plant panel: the model, whether it runs, its states by name as text.
+        state["plant"] = json!({
+            "model": p.model,
+            "state": p.state,
+            "error": p.error,
+            "states": p.states,
+        });
+    }
     state
 }
 

@@ -1033,6 +1033,19 @@
     box.replaceChildren(...rows);
   }
 
+  // The simulated plant's panel: the model's states, live (docs/plant.md).
+  function renderPlant(s) {
+    const p = s.plant;
+    $("plant-panel").hidden = !p;
+    if (!p) return;
+    $("plant-title").textContent = "Plant " + p.model;
+    $("plant-hint").textContent = p.state === "running" ? "simulated, running" : "stopped: " + (p.error || "");
+    $("plant-hint").classList.toggle("bad", p.state !== "running");
+    const rows = p.states.map(([name, value]) =>
+      el("tr", { "data-state": name }, el("td", { text: name }), el("td", { class: "num", text: value })));
+    $("plant-states").replaceChildren(...rows);
+  }
+
   // ---- Live data ----
 
   function onState(s) {
@@ -1041,6 +1054,7 @@
     app.connected = true;
     updateIo(s);
     updateProgram(s);
+    renderPlant(s);
     trendAppend(s);
     renderTop();
     renderOverview();
