@@ -10,6 +10,7 @@
 mod common;
 
 mod adapter;
+mod alarms;
 mod built_services;
 mod check_catches;
 mod cli;

@@ -12,6 +12,7 @@ use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
 use crate::recorder::Settings;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
+use crate::service::alarms::AlarmService;
 use crate::service::boundary::ServiceBoundary;
 use crate::service::changes::ChangeFeed;
 use crate::service::control::{default_socket_path, ControlServer};
@@ -97,7 +98,6 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let published = snapshot::SnapshotCell::new();
     // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
-    #[cfg_attr(not(any(feature = "opcua", feature = "mqtt")), allow(unused_mut))]
     let mut feed = ChangeFeed::new();
     // The OPC UA server before the modules' start-up: making its key pair takes seconds on a
     // small machine (more on a loaded one), and the start-up arms the modules' watchdogs, which
@@ -156,6 +156,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             None
         }
     };
+    let alarms = start_alarms(&plc, &args.project, &mut feed, audit.clone(), &health);
     let mut engine = ScanEngine::new(plc);
     if let Some(d) = args.run_for {
         engine = engine.run_for(d);
@@ -169,6 +170,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         .with_health(health.clone());
     if let Some(log) = &audit {
         boundary = boundary.with_audit(log.clone());
+    }
+    if let Some(a) = &alarms {
+        boundary = boundary.with_alarms(a);
     }
     signal_hook::flag::register(signal_hook::consts::SIGHUP, boundary.reload_flag())
         .context("cannot install the SIGHUP handler")?;
@@ -279,6 +283,10 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         // Its last DATA (the safe state) and its NDEATH leave before the process does.
         node.finish(Duration::from_secs(3));
     }
+    if let Some(a) = alarms {
+        // The safe state's changes and the last acknowledgements reach the history file.
+        a.finish(Duration::from_secs(2));
+    }
     if let Some(log) = &audit {
         // The last actions (a reload just before the stop) reach the file before the process
         // ends.
@@ -319,6 +327,33 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         StopReason::Requested | StopReason::TimeUp => ExitCode::SUCCESS,
         _ => ExitCode::from(3),
     })
+}
+
+/// Starts the alarm thread on its share of `feed`, with its history beside the project; a
+/// thread that cannot start is logged and the PLC runs without alarms.
+fn start_alarms(
+    plc: &Plc,
+    project_file: &std::path::Path,
+    feed: &mut ChangeFeed,
+    audit: Option<crate::service::audit::AuditLog>,
+    health: &Health,
+) -> Option<AlarmService> {
+    let path = crate::service::alarms::history_path(project_file);
+    let stream = feed.subscribe("alarms", crate::service::changes::QUEUE_CYCLES);
+    let wall = crate::service::alarms::book::wall_origin(plc.clock().now());
+    match AlarmService::start(plc.project(), stream, path.clone(), wall, audit) {
+        Ok(service) => {
+            tracing::info!("alarm history {}", path.display());
+            let probe = service.alarms().clone();
+            health.watch(Service::Alarms, move || probe.state());
+            Some(service)
+        }
+        Err(e) => {
+            tracing::error!("alarms: cannot start their thread ({e}); no alarm is evaluated");
+            health.set(Service::Alarms, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    }
 }
 
 /// The end-of-run summary.

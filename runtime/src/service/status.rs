@@ -104,6 +104,10 @@ pub struct StatusReport {
     /// The services fed every change (OPC UA, MQTT) and the changes each lost so far.
     #[serde(default)]
     pub lost_changes: Vec<LostChanges>,
+    /// Active alarms per priority band and those waiting for an acknowledgement (absent
+    /// when the instance runs no alarm service).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alarms: Option<crate::service::alarms::AlarmCounts>,
 }
 
 /// The changes a service fed every change could not take in time.
@@ -159,6 +163,7 @@ impl StatusReport {
                 .collect(),
             services: Vec::new(),
             lost_changes: Vec::new(),
+            alarms: None,
         }
     }
 }
@@ -190,6 +195,19 @@ impl std::fmt::Display for StatusReport {
             .collect();
         if !services.is_empty() {
             writeln!(f, "  services: {}", services.join(", "))?;
+        }
+        if let Some(a) = &self.alarms {
+            writeln!(
+                f,
+                "  alarms: {} active (urgent {}, high {}, medium {}, low {}), {} waiting for \
+                 acknowledgement (softplc alarms)",
+                a.active.iter().sum::<u64>(),
+                a.active[3],
+                a.active[2],
+                a.active[1],
+                a.active[0],
+                a.unacknowledged
+            )?;
         }
         for m in &self.modules {
             writeln!(

@@ -493,9 +493,11 @@ mod tests {
                         quality,
                     })
                     .collect(),
+                modules: Vec::new(),
             }),
             catch_up: Vec::new(),
             overflowed: lost.to_vec(),
+            modules_catch_up: Vec::new(),
         }
     }
 
