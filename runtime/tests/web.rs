@@ -17,6 +17,7 @@
 //! Screenshots of each view are left in `target/web-screenshots/` (test artefacts).
 
 mod cdp;
+mod operator;
 use crate::common::sim;
 
 use std::io::{Read, Write};
@@ -957,7 +958,7 @@ fn the_operator_writes_and_only_the_engineer_forces() {
     let (code, text) = post(port, "/api/force", &operator, r#"{"tag":"seen","value":0}"#);
     assert_eq!(code, 403, "{text}");
     assert!(
-        text.contains("the operator token may write values; forcing needs the engineer's"),
+        text.contains("the operator token may write values and acknowledge alarms; forcing needs the engineer's"),
         "{text}"
     );
     let (code, text) = post(port, "/api/unforce", &operator, "{}");
@@ -974,10 +975,18 @@ fn the_operator_writes_and_only_the_engineer_forces() {
     let (code, text) = write_cmd(&engineer);
     assert_eq!(code, 200, "the engineer writes too: {text}");
 
-    let (code, text) = http(
-        port,
-        &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
-    );
+    // The audit's writer thread takes each entry after the answer: wait for the third.
+    let end = Instant::now() + Duration::from_secs(10);
+    let (code, text) = loop {
+        let (code, text) = http(
+            port,
+            &format!("GET /api/audit HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
+        );
+        if text.matches("\"action\"").count() >= 3 || Instant::now() > end {
+            break (code, text);
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
     assert_eq!(code, 200, "{text}");
     let audit: serde_json::Value = serde_json::from_str(&text).unwrap();
     let seen: Vec<(String, String)> = audit["entries"]

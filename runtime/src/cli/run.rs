@@ -205,8 +205,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
         }
     } else {
-        services.web =
-            network::start_web(engine.plc(), &published, &requests, &health, audit.clone());
+        let records = crate::service::web::WebRecords {
+            audit: audit.clone(),
+            alarms: alarms.as_ref().map(|a| a.alarms().clone()),
+        };
+        services.web = network::start_web(engine.plc(), &published, &requests, &health, records);
     }
     if services.any() || mqtt.is_some() || opcua.is_some() {
         let mut publisher = snapshot::Publisher::new(published);

@@ -330,6 +330,17 @@ impl ServiceBoundary {
     }
 }
 
+/// A module's quality as the change feed offers it: one its line has not reported on yet
+/// (its start-up may take the first cycles) is stale, not bad, so its `lost.` alarm is not
+/// raised before it was ever asked.
+fn feed_quality(m: &crate::plc::ModuleStatus) -> softplc_io::point::Quality {
+    if m.reported {
+        m.quality
+    } else {
+        softplc_io::point::Quality::Stale
+    }
+}
+
 /// What a write's client is told: the value itself when it was one tag (an operator's), the
 /// count otherwise, and the cycle boundary it was applied at.
 fn written(values: &[crate::service::control::TagValue], n: usize, cycle: u64) -> String {
@@ -358,7 +369,7 @@ impl CycleBoundary for ServiceBoundary {
         // see of it, even when the next scan overwrites it.
         self.feed.offer(
             plc.image(),
-            plc.module_status().iter().map(|m| m.quality),
+            plc.module_status().iter().map(feed_quality),
             stats.cycles,
             now,
         );
@@ -385,7 +396,7 @@ impl CycleBoundary for ServiceBoundary {
         // services the run is over.
         self.feed.offer(
             plc.image(),
-            plc.module_status().iter().map(|m| m.quality),
+            plc.module_status().iter().map(feed_quality),
             stats.cycles,
             now,
         );

@@ -57,7 +57,7 @@ pub(crate) fn start_web(
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
     health: &Health,
-    audit: Option<crate::service::audit::AuditLog>,
+    records: super::web::WebRecords,
 ) -> Option<WebServer> {
     let project = plc.project();
     let config = project.service.web.as_ref()?;
@@ -69,7 +69,7 @@ pub(crate) fn start_web(
         scan.clone(),
         project.scan.period,
         health,
-        audit,
+        records,
     ) {
         Ok(server) => {
             health.set(Service::Web, ServiceState::Running);
