@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::common::host::softplc;
+use crate::common::host::{free_port, softplc};
 use crate::common::scratch::Scratch;
 use crate::common::sim::Sim;
 
@@ -33,6 +33,19 @@ fn stop(mut plc: Child) {
         libc::kill(plc.id() as i32, libc::SIGINT)
     };
     assert!(plc.wait().unwrap().success());
+}
+
+/// The metrics endpoint's text.
+fn scrape(port: u16) -> String {
+    use std::io::{Read, Write};
+    let mut c = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    c.write_all(format!("GET /metrics HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n").as_bytes())
+        .unwrap();
+    let mut out = String::new();
+    // A read ending in an error (timeout, reset) still leaves what arrived in the buffer.
+    drop(c.read_to_string(&mut out));
+    out
 }
 
 /// `softplc alarms --json` as JSON, or what it said instead.
@@ -92,6 +105,7 @@ fn wait_current(socket: &Path, want: &[(&str, bool, bool)]) -> serde_json::Value
 #[test]
 fn alarms_are_raised_acknowledged_folded_on_a_dead_line_and_kept_across_a_restart() {
     let (mut sim, pty) = Sim::start(BIN, &["minimod@1", "minimod@2"]);
+    let metrics = free_port();
     let dir = Scratch::new("alarms", "end_to_end");
     dir.write("follow.expr", "lamp = jam\n");
     let project = dir.write(
@@ -106,7 +120,8 @@ fn alarms_are_raised_acknowledged_folded_on_a_dead_line_and_kept_across_a_restar
              \x20 - {{ name: air_ok, point: mm1.X2, alarm: {{ text: No air pressure, when: false }} }}\n\
              \x20 - {{ name: oil_ok, point: mm1.X3, alarm: {{ text: No oil, when: false, priority: low }} }}\n\
              \x20 - {{ name: lamp, point: mm2.Y1, safe: false }}\n\
-             program: {{ file: follow.expr, kind: expr }}\n",
+             program: {{ file: follow.expr, kind: expr }}\n\
+             service: {{ metrics: \"127.0.0.1:{metrics}\" }}\n",
             pid = std::process::id()
         ),
     );
@@ -168,6 +183,12 @@ fn alarms_are_raised_acknowledged_folded_on_a_dead_line_and_kept_across_a_restar
         .collect();
     assert!(texts.contains(&"module lost: mm1"), "{texts:?}");
     assert_eq!(l["counts"]["active"], serde_json::json!([0, 0, 2, 0]));
+    let scrape = scrape(metrics);
+    assert!(
+        scrape.contains("softplc_alarms_active{priority=\"high\"} 2\n")
+            && scrape.contains("softplc_alarms_unacknowledged 2\n"),
+        "{scrape}"
+    );
     // Back: the modules' alarms clear, and what the line now says is raised.
     sim.send("line alive");
     let l = wait_current(

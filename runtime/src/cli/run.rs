@@ -189,7 +189,13 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         Some(server)
     };
     let project = engine.plc().project();
-    let mut services = network::start(project, &published, &requests, &health)?;
+    let mut services = network::start(
+        project,
+        &published,
+        &requests,
+        &health,
+        alarms.as_ref().map(AlarmService::alarms),
+    )?;
     #[cfg(feature = "mqtt")]
     let mqtt =
         crate::service::mqtt::MqttNode::start(project, &published, &mut feed, &requests, &health)

@@ -105,6 +105,7 @@ pub(crate) fn start(
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
     health: &Health,
+    alarms: Option<&super::alarms::Alarms>,
 ) -> Result<NetworkServices, NetworkError> {
     let service = &project.service;
     let names: Vec<String> = project.tags.iter().map(|t| t.name.clone()).collect();
@@ -123,6 +124,7 @@ pub(crate) fn start(
                 })
                 .collect(),
             health: health.clone(),
+            alarms: alarms.cloned(),
         };
         let server = MetricsServer::start(addr, info, snapshot.clone())
             .map_err(|source| NetworkError::Metrics { addr, source })?;
