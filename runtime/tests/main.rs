@@ -35,6 +35,8 @@ mod monitor;
 mod mqtt;
 #[cfg(feature = "opcua")]
 mod opcua;
+#[cfg(feature = "opcua")]
+mod opcua_alarms;
 mod plant_view;
 mod profiles;
 mod programs;

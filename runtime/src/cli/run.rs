@@ -99,12 +99,43 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let published = snapshot::SnapshotCell::new();
     // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
     let mut feed = ChangeFeed::new();
+    let audit_file = crate::service::audit::audit_path(&args.project);
+    let audit = match crate::service::audit::AuditLog::start(audit_file.clone()) {
+        Ok(log) => {
+            tracing::info!("audit file {}", audit_file.display());
+            let probe = log.clone();
+            health.watch(Service::Audit, move || probe.state());
+            Some(log)
+        }
+        Err(e) => {
+            // The PLC runs without it, and says why.
+            tracing::error!("audit: cannot start its writer ({e}); nothing is audited");
+            health.set(Service::Audit, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    };
+    // Before OPC UA, which publishes them under `Alarms`.
+    let alarms = start_alarms(
+        &project,
+        &clock,
+        &args.project,
+        &mut feed,
+        audit.clone(),
+        &health,
+    );
     // The OPC UA server before the modules' start-up: making its key pair takes seconds on a
     // small machine (more on a loaded one), and the start-up arms the modules' watchdogs, which
     // would fire in that time before the first scan commands them. Clients see
     // Bad_WaitingForInitialData until the first scan.
     #[cfg(feature = "opcua")]
-    let opcua = match OpcUaServer::start(&project, &published, &mut feed, &requests, &health) {
+    let opcua = match OpcUaServer::start(
+        &project,
+        &published,
+        &mut feed,
+        &requests,
+        &health,
+        alarms.as_ref().map(AlarmService::alarms),
+    ) {
         Ok(server) => server,
         Err(e) if e.is_fatal() => return Err(e.into()),
         Err(e) => {
@@ -141,22 +172,6 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         health.watch_retain(r.save_failure());
     }
     health.set(Service::Trace, ServiceState::Running);
-    let audit_file = crate::service::audit::audit_path(&args.project);
-    let audit = match crate::service::audit::AuditLog::start(audit_file.clone()) {
-        Ok(log) => {
-            tracing::info!("audit file {}", audit_file.display());
-            let probe = log.clone();
-            health.watch(Service::Audit, move || probe.state());
-            Some(log)
-        }
-        Err(e) => {
-            // The PLC runs without it, and says why.
-            tracing::error!("audit: cannot start its writer ({e}); nothing is audited");
-            health.set(Service::Audit, ServiceState::Stopped(e.to_string()));
-            None
-        }
-    };
-    let alarms = start_alarms(&plc, &args.project, &mut feed, audit.clone(), &health);
     let mut engine = ScanEngine::new(plc);
     if let Some(d) = args.run_for {
         engine = engine.run_for(d);
@@ -341,7 +356,8 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
 /// Starts the alarm thread on its share of `feed`, with its history beside the project; a
 /// thread that cannot start is logged and the PLC runs without alarms.
 fn start_alarms(
-    plc: &Plc,
+    project: &crate::project::Project,
+    clock: &Arc<dyn Clock>,
     project_file: &std::path::Path,
     feed: &mut ChangeFeed,
     audit: Option<crate::service::audit::AuditLog>,
@@ -349,8 +365,8 @@ fn start_alarms(
 ) -> Option<AlarmService> {
     let path = crate::service::alarms::history_path(project_file);
     let stream = feed.subscribe("alarms", crate::service::changes::QUEUE_CYCLES);
-    let wall = crate::service::alarms::book::wall_origin(plc.clock().now());
-    match AlarmService::start(plc.project(), stream, path.clone(), wall, audit) {
+    let wall = crate::service::alarms::book::wall_origin(clock.now());
+    match AlarmService::start(project, stream, path.clone(), wall, audit) {
         Ok(service) => {
             tracing::info!("alarm history {}", path.display());
             let probe = service.alarms().clone();
