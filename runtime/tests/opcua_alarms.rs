@@ -22,23 +22,11 @@ fn an_asyncua_client_reads_an_alarm_and_acknowledges_it() {
     );
     let dir = scratch_dir("opcua_alarms", "ack");
     let port = free_port();
-    std::fs::write(dir.join("p.expr"), "lamp = jam\n").unwrap();
-    let project = dir.join("project.yaml");
-    std::fs::write(
-        &project,
-        format!(
-            "project: alarms_opcua\n\
-             scan: {{ period: 20ms }}\n\
-             buses:\n  - {{ name: line1, port: sim, response_timeout: 50ms }}\n\
-             modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1 }}\n\
-             tags:\n\
-             \x20 - {{ name: jam, type: bool, alarm: {{ text: Door jammed, priority: high }} }}\n\
-             \x20 - {{ name: lamp, point: mm1.Y1, safe: false }}\n\
-             program: {{ file: p.expr, kind: expr }}\n\
-             service:\n  opcua: {{ port: {port}, writes: true }}\n"
-        ),
-    )
-    .unwrap();
+    let project = crate::common::alarm_project::jam_project(
+        &dir,
+        "alarms_opcua",
+        &format!("opcua: {{ port: {port}, writes: true }}"),
+    );
     let socket = dir.join("ctl.sock");
     let mut plc = Command::new(BIN)
         .args(["run", "--quiet", "--for", "90s", "--socket"])

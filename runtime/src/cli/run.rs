@@ -212,9 +212,15 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         alarms.as_ref().map(AlarmService::alarms),
     )?;
     #[cfg(feature = "mqtt")]
-    let mqtt =
-        crate::service::mqtt::MqttNode::start(project, &published, &mut feed, &requests, &health)
-            .context("cannot start the MQTT edge node")?;
+    let mqtt = crate::service::mqtt::MqttNode::start(
+        project,
+        &published,
+        &mut feed,
+        &requests,
+        &health,
+        alarms.as_ref().map(AlarmService::alarms),
+    )
+    .context("cannot start the MQTT edge node")?;
     #[cfg(not(feature = "mqtt"))]
     let mqtt: Option<std::convert::Infallible> = None;
     #[cfg(feature = "opcua")]
