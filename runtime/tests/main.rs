@@ -10,6 +10,7 @@
 mod common;
 
 mod adapter;
+mod alarms;
 mod built_services;
 mod check_catches;
 mod cli;
@@ -34,6 +35,8 @@ mod monitor;
 mod mqtt;
 #[cfg(feature = "opcua")]
 mod opcua;
+#[cfg(feature = "opcua")]
+mod opcua_alarms;
 mod plant;
 mod plant_view;
 mod profiles;

@@ -592,3 +592,85 @@ fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(dir));
 }
+
+/// A Sparkplug host (`runtime/tests/mqtt/alarms_consumer.py`) sees each alarm as node metrics
+/// under `Alarms/` in NBIRTH, then the raise and the acknowledgement in NDATA by alias.
+#[test]
+fn a_sparkplug_host_sees_the_alarms_as_node_metrics() {
+    let dir = tempfile_dir("alarms");
+    let port = free_port();
+    let _broker = Broker::start(&dir, port);
+    let pb2 = sparkplug_pb2(&python(), &dir);
+    let project = crate::common::alarm_project::jam_project(
+        &dir,
+        "mqtt_alarms",
+        &format!("mqtt: {{ host: 127.0.0.1, port: {port}, group: plant1, node: line9 }}"),
+    );
+    let socket = dir.join("control.sock");
+    let mut consumer = Command::new(python())
+        .arg(workspace().join("runtime/tests/mqtt/alarms_consumer.py"))
+        .arg(port.to_string())
+        .args(["plant1", "line9"])
+        .arg(&pb2)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut to_consumer = consumer.stdin.take().unwrap();
+    let from_consumer = lines_of(consumer.stdout.take().unwrap());
+    let log = dir.join("softplc.log");
+    let mut plc: Option<Child> = None;
+    let mut passed = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let ctl = |args: &[&str]| {
+        let out = Command::new(BIN)
+            .args(args)
+            .arg("--socket")
+            .arg(&socket)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{args:?}: {out:?}");
+    };
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let line = from_consumer.recv_timeout(left).unwrap_or_else(|_| {
+            // The child may have exited already; then there is nothing to stop.
+            drop(consumer.kill());
+            "FAIL the consumer stopped or timed out".into()
+        });
+        if let Some(step) = line.strip_prefix("PASS ") {
+            passed.push(step.to_string());
+            continue;
+        }
+        if let Some(why) = line.strip_prefix("FAIL ") {
+            if let Some(mut p) = plc.take() {
+                // The child may have exited already; then there is nothing to stop.
+                drop(p.kill());
+            }
+            panic!(
+                "consumer: {why} (after {passed:?}); softplc's log:\n{}",
+                std::fs::read_to_string(&log).unwrap_or_default()
+            );
+        }
+        if line == "DONE" {
+            break;
+        }
+        match line.strip_prefix("NEED ") {
+            Some("start") => plc = Some(softplc(&project, &socket, "60s", &log)),
+            Some("raise") => ctl(&["write", "jam", "1"]),
+            Some("ack") => ctl(&["alarms", "ack", "jam"]),
+            _ => continue,
+        }
+        writeln!(to_consumer, "done").unwrap();
+    }
+    assert!(consumer.wait().unwrap().success());
+    assert_eq!(passed, ["birth", "raised", "acknowledged"]);
+    if let Some(mut p) = plc.take() {
+        // The child may have exited already; then there is nothing to stop.
+        drop(p.kill());
+        drop(p.wait());
+    }
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}

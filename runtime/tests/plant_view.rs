@@ -406,8 +406,9 @@ fn every_step_of_a_counter_at_a_20_ms_scan_reaches_an_opcua_client_and_a_sparkpl
         .iter()
         .map(|l| l["service"].as_str().unwrap())
         .collect();
-    // In the order they took the feed: OPC UA starts before the modules' start-up, MQTT after.
-    assert_eq!(services, ["opcua", "mqtt"], "{status}");
+    // In the order they took the feed: the alarms (which OPC UA publishes) and OPC UA start
+    // before the modules' start-up, MQTT after.
+    assert_eq!(services, ["alarms", "opcua", "mqtt"], "{status}");
     assert!(lost.iter().all(|l| l["lost"] == 0), "{status}");
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));

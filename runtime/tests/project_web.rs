@@ -350,6 +350,7 @@ fn info(writes: bool) -> WebInfo {
         modules: Vec::new(),
         tags: Vec::new(),
         trend: vec![0],
+        operator: Vec::new(),
         program: ProgramView {
             file: "p.expr".into(),
             kind: "expr",
@@ -404,7 +405,7 @@ fn server(writes: bool, ok: bool) -> (WebServer, SnapshotCell, Arc<Mutex<Vec<Req
         tx,
         Duration::from_millis(100),
         &softplc::service::Health::new(),
-        None,
+        softplc::service::web::WebRecords::default(),
     )
     .unwrap();
     (s, cell, seen)

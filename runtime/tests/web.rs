@@ -19,6 +19,7 @@
 //! Screenshots of each view are left in `target/web-screenshots/` (test artefacts).
 
 mod cdp;
+mod operator;
 use crate::common::sim;
 
 use std::io::{Read, Write};
@@ -972,7 +973,7 @@ fn the_operator_writes_and_only_the_engineer_forces() {
     let (code, text) = post(port, "/api/force", &operator, r#"{"tag":"seen","value":0}"#);
     assert_eq!(code, 403, "{text}");
     assert!(
-        text.contains("the operator token may write values; forcing needs the engineer's"),
+        text.contains("the operator token may write values and acknowledge alarms; forcing needs the engineer's"),
         "{text}"
     );
     let (code, text) = post(port, "/api/unforce", &operator, "{}");

@@ -22,6 +22,11 @@ pub(crate) struct Target {
 }
 
 impl Target {
+    /// The instance named by its project file or its socket.
+    pub(super) fn of(project: Option<PathBuf>, socket: Option<PathBuf>) -> Self {
+        Self { project, socket }
+    }
+
     pub(super) fn socket(&self) -> anyhow::Result<PathBuf> {
         if let Some(s) = &self.socket {
             return Ok(s.clone());

@@ -1,5 +1,6 @@
 //! The `softplc` subcommands.
 
+mod alarms;
 mod args;
 mod audit;
 mod built_services;
@@ -62,6 +63,9 @@ enum Command {
     /// Show the audit file's latest entries: every write, force, unforce and reload, with who
     /// asked (cli, web and its client, opcua, modbus and its client, mqtt) and when.
     Audit(audit::AuditArgs),
+    /// Show a running instance's alarms (active or waiting for acknowledgement, those waiting
+    /// first, by priority) and the latest events; `alarms ack NAME|all` acknowledges.
+    Alarms(alarms::AlarmsArgs),
     /// Find the modules on a serial line (every family, baud and format) and print a project
     /// skeleton; says first how long it takes at most.
     Discover(discover::DiscoverArgs),
@@ -102,6 +106,7 @@ pub fn main() -> ExitCode {
         Command::Unforce(a) => control::unforce(a),
         Command::Reload(a) => control::reload(a),
         Command::Audit(a) => audit::audit(a),
+        Command::Alarms(a) => alarms::alarms(a),
         Command::Test(a) => test::test(a),
         Command::Trace(c) => trace::trace(c),
         Command::Replay(a) => replay::replay_cmd(a),

@@ -12,6 +12,7 @@ use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
 use crate::recorder::Settings;
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
+use crate::service::alarms::AlarmService;
 use crate::service::boundary::ServiceBoundary;
 use crate::service::changes::ChangeFeed;
 use crate::service::control::{default_socket_path, ControlServer};
@@ -97,14 +98,44 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let published = snapshot::SnapshotCell::new();
     // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
-    #[cfg_attr(not(any(feature = "opcua", feature = "mqtt")), allow(unused_mut))]
     let mut feed = ChangeFeed::new();
+    let audit_file = crate::service::audit::audit_path(&args.project);
+    let audit = match crate::service::audit::AuditLog::start(audit_file.clone()) {
+        Ok(log) => {
+            tracing::info!("audit file {}", audit_file.display());
+            let probe = log.clone();
+            health.watch(Service::Audit, move || probe.state());
+            Some(log)
+        }
+        Err(e) => {
+            // The PLC runs without it, and says why.
+            tracing::error!("audit: cannot start its writer ({e}); nothing is audited");
+            health.set(Service::Audit, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    };
+    // Before OPC UA, which publishes them under `Alarms`.
+    let alarms = start_alarms(
+        &project,
+        &clock,
+        &args.project,
+        &mut feed,
+        audit.clone(),
+        &health,
+    );
     // The OPC UA server before the modules' start-up: making its key pair takes seconds on a
     // small machine (more on a loaded one), and the start-up arms the modules' watchdogs, which
     // would fire in that time before the first scan commands them. Clients see
     // Bad_WaitingForInitialData until the first scan.
     #[cfg(feature = "opcua")]
-    let opcua = match OpcUaServer::start(&project, &published, &mut feed, &requests, &health) {
+    let opcua = match OpcUaServer::start(
+        &project,
+        &published,
+        &mut feed,
+        &requests,
+        &health,
+        alarms.as_ref().map(AlarmService::alarms),
+    ) {
         Ok(server) => server,
         Err(e) if e.is_fatal() => return Err(e.into()),
         Err(e) => {
@@ -141,21 +172,6 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         health.watch_retain(r.save_failure());
     }
     health.set(Service::Trace, ServiceState::Running);
-    let audit_file = crate::service::audit::audit_path(&args.project);
-    let audit = match crate::service::audit::AuditLog::start(audit_file.clone()) {
-        Ok(log) => {
-            tracing::info!("audit file {}", audit_file.display());
-            let probe = log.clone();
-            health.watch(Service::Audit, move || probe.state());
-            Some(log)
-        }
-        Err(e) => {
-            // The PLC runs without it, and says why.
-            tracing::error!("audit: cannot start its writer ({e}); nothing is audited");
-            health.set(Service::Audit, ServiceState::Stopped(e.to_string()));
-            None
-        }
-    };
     let mut engine = ScanEngine::new(plc);
     if let Some(d) = args.run_for {
         engine = engine.run_for(d);
@@ -169,6 +185,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         .with_health(health.clone());
     if let Some(log) = &audit {
         boundary = boundary.with_audit(log.clone());
+    }
+    if let Some(a) = &alarms {
+        boundary = boundary.with_alarms(a);
     }
     signal_hook::flag::register(signal_hook::consts::SIGHUP, boundary.reload_flag())
         .context("cannot install the SIGHUP handler")?;
@@ -185,11 +204,23 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         Some(server)
     };
     let project = engine.plc().project();
-    let mut services = network::start(project, &published, &requests, &health)?;
+    let mut services = network::start(
+        project,
+        &published,
+        &requests,
+        &health,
+        alarms.as_ref().map(AlarmService::alarms),
+    )?;
     #[cfg(feature = "mqtt")]
-    let mqtt =
-        crate::service::mqtt::MqttNode::start(project, &published, &mut feed, &requests, &health)
-            .context("cannot start the MQTT edge node")?;
+    let mqtt = crate::service::mqtt::MqttNode::start(
+        project,
+        &published,
+        &mut feed,
+        &requests,
+        &health,
+        alarms.as_ref().map(AlarmService::alarms),
+    )
+    .context("cannot start the MQTT edge node")?;
     #[cfg(not(feature = "mqtt"))]
     let mqtt: Option<std::convert::Infallible> = None;
     #[cfg(feature = "opcua")]
@@ -201,8 +232,11 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
         }
     } else {
-        services.web =
-            network::start_web(engine.plc(), &published, &requests, &health, audit.clone());
+        let records = crate::service::web::WebRecords {
+            audit: audit.clone(),
+            alarms: alarms.as_ref().map(|a| a.alarms().clone()),
+        };
+        services.web = network::start_web(engine.plc(), &published, &requests, &health, records);
     }
     if services.any() || mqtt.is_some() || opcua.is_some() {
         let mut publisher = snapshot::Publisher::new(published);
@@ -279,6 +313,10 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         // Its last DATA (the safe state) and its NDEATH leave before the process does.
         node.finish(Duration::from_secs(3));
     }
+    if let Some(a) = alarms {
+        // The safe state's changes and the last acknowledgements reach the history file.
+        a.finish(Duration::from_secs(2));
+    }
     if let Some(log) = &audit {
         // The last actions (a reload just before the stop) reach the file before the process
         // ends.
@@ -319,6 +357,34 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         StopReason::Requested | StopReason::TimeUp => ExitCode::SUCCESS,
         _ => ExitCode::from(3),
     })
+}
+
+/// Starts the alarm thread on its share of `feed`, with its history beside the project; a
+/// thread that cannot start is logged and the PLC runs without alarms.
+fn start_alarms(
+    project: &crate::project::Project,
+    clock: &Arc<dyn Clock>,
+    project_file: &std::path::Path,
+    feed: &mut ChangeFeed,
+    audit: Option<crate::service::audit::AuditLog>,
+    health: &Health,
+) -> Option<AlarmService> {
+    let path = crate::service::alarms::history_path(project_file);
+    let stream = feed.subscribe("alarms", crate::service::changes::QUEUE_CYCLES);
+    let wall = crate::service::alarms::book::wall_origin(clock.now());
+    match AlarmService::start(project, stream, path.clone(), wall, audit) {
+        Ok(service) => {
+            tracing::info!("alarm history {}", path.display());
+            let probe = service.alarms().clone();
+            health.watch(Service::Alarms, move || probe.state());
+            Some(service)
+        }
+        Err(e) => {
+            tracing::error!("alarms: cannot start their thread ({e}); no alarm is evaluated");
+            health.set(Service::Alarms, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    }
 }
 
 /// The end-of-run summary.

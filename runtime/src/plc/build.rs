@@ -265,6 +265,7 @@ impl Plc {
                 outputs: Quality::Bad,
                 counters: Counters::default(),
                 last_error: None,
+                reported: false,
             })
             .collect();
         let line_wait = project.scan.watchdog.time * project.scan.watchdog.sensitivity.max(1)

@@ -59,10 +59,12 @@ impl Plc {
                         st.outputs = snap.outputs;
                         st.counters = snap.counters;
                         st.last_error = snap.last_error;
+                        st.reported = true;
                     }
                     None if dead[b] => {
                         st.quality = Quality::Bad;
                         st.outputs = Quality::Bad;
+                        st.reported = true;
                     }
                     None => {
                         // The line did not answer in time: its points keep their values.

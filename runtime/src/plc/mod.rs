@@ -125,6 +125,9 @@ pub struct ModuleStatus {
     pub counters: Counters,
     /// Last failure, if the last read failed.
     pub last_error: Option<TxError>,
+    /// Whether its line has reported on it yet: before, its quality is bad because it was
+    /// never read, not because it was lost (the alarms tell the two apart).
+    pub reported: bool,
 }
 
 /// A PLC ready to scan.

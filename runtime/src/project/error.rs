@@ -739,6 +739,9 @@ pub enum ErrorKind {
     /// The `trace_budget:` section, or start traces past it.
     #[error("{0}")]
     TraceBudget(#[from] super::trace_budget::TraceBudgetError),
+    /// A tag's `alarm:` or the `alarms:` section.
+    #[error("{0}")]
+    Alarm(#[from] super::alarm::AlarmError),
 }
 
 fn within(section: &str) -> String {

@@ -17,6 +17,7 @@
 //! missing).
 
 mod adapter;
+pub(crate) mod alarm;
 mod cycle_mix;
 mod dcon_neighbours;
 mod doc_text;
@@ -47,6 +48,7 @@ pub(crate) mod web;
 
 use std::path::Path;
 
+pub use alarm::{AlarmConfig, AlarmError, AlarmWhen, AlarmsConfig, Priority};
 pub use doc_text::{DocKind, DocText, DocTextError};
 pub use error::{ErrorKind, Item, ProjectError, ProjectErrors};
 pub use line_plan::{Choice, Direction, FastTurn, InputPlan, LinePlan, SlowTurn, Tuned};

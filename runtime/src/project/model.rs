@@ -44,6 +44,8 @@ pub struct Project {
     pub traces: Vec<super::trace::TraceConfig>,
     /// How many traces may be armed at once and how much memory they take.
     pub trace_budget: super::trace_budget::TraceBudget,
+    /// The tags' alarms, the operator's tags and the alarm history's bound.
+    pub alarms: super::alarm::AlarmsConfig,
 }
 
 /// The scan task.

@@ -66,6 +66,10 @@
 //!   - { name: button, point: mm1.X1, debounce: 20ms }   # MiniMod input conditioning (also stretch)
 //!   - { name: speed, type: u16, scada: write } # SCADA access: read (default) | write | none,
 //!                                              # or { access: write, address: 12 } (pinned)
+//!   - { name: jam, point: mm1.X4, alarm: { text: Door jammed, priority: high } }
+//!                                              # an alarm: text, priority low|medium|high|
+//!                                              # urgent or 1..=1000, when (see `alarm.rs`)
+//!   - { name: setpoint, type: u16, operator: true }   # on the operator's page
 //! program:
 //!   file: conveyor.expr        # relative to the project file's folder; must exist
 //!   kind: expr                 # the program language: expr | ladder | rhai
@@ -76,6 +80,7 @@
 //! offload: auto                # optional; never (default) | auto | require; see `offload.rs`
 //! recorder: { keep: 10m, size: 256MiB, folder: records }   # optional; see `recorder.rs`
 //! trace_budget: { armed: 16, memory: 64MiB }   # optional; see `trace_budget.rs`
+//! alarms: { history: 1000 }    # optional; events the alarm history keeps (see `alarm.rs`)
 //! service:                     # optional; see `service.rs` (schema) and `scada.rs` (the map)
 //!   metrics: 127.0.0.1:9464    # Prometheus text endpoint; off when absent
 //!   modbus_tcp: { bind: 127.0.0.1:5020, unit: 1, writes: false, allow_remote_writes: false,
@@ -178,6 +183,10 @@ pub(crate) struct RawProject {
     /// [`super::trace_budget`]).
     #[serde(default)]
     pub trace_budget: Option<super::trace_budget::RawTraceBudget>,
+    /// Alarm settings: how many events the alarm history file keeps (see
+    /// [`super::alarm`] and docs/alarms.md).
+    #[serde(default)]
+    pub alarms: Option<super::alarm::RawAlarms>,
 }
 
 /// `scan:`.
@@ -420,6 +429,14 @@ pub(crate) struct RawTag {
     #[serde(default)]
     #[schemars(schema_with = "super::raw_schema::field::blink_phase")]
     pub blink_phase: Option<ScalarText>,
+    /// Makes the tag an alarm: `{ text, priority, when }`, raised while `when` holds (see
+    /// [`super::alarm`] and docs/alarms.md).
+    #[serde(default)]
+    pub alarm: Option<super::alarm::RawAlarm>,
+    /// Shown on the operator's page (`/operator`), with a write-once control where the tag
+    /// is writable (default false).
+    #[serde(default)]
+    pub operator: Option<bool>,
 }
 
 /// `program:`.

@@ -254,7 +254,7 @@ pub enum CompareOp {
 
 impl CompareOp {
     /// Longest first, so `>=` is not read as `>`.
-    const ALL: [(&'static str, CompareOp); 6] = [
+    pub(crate) const ALL: [(&'static str, CompareOp); 6] = [
         (">=", CompareOp::Ge),
         ("<=", CompareOp::Le),
         ("==", CompareOp::Eq),

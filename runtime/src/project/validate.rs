@@ -145,6 +145,7 @@ pub(crate) fn validate(
         }
         budget
     };
+    let alarms = super::alarm::validate_all(raw, &tags, |path, e| v.error(path, e));
     let recorder = {
         let (config, errors) = super::recorder::validate(raw.recorder.as_ref(), file);
         for (path, e) in errors {
@@ -179,6 +180,7 @@ pub(crate) fn validate(
             recorder,
             traces,
             trace_budget,
+            alarms,
         })
     })();
     match built {

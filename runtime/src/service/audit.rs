@@ -1,5 +1,5 @@
 //! The audit file: every operator or client action on a running PLC (a write, a force, an
-//! unforce, a reload), with who asked (the [`Origin`]), when (UTC and the cycle it was applied
+//! unforce, a reload, an alarm's acknowledgement), with who asked (the [`Origin`]), when (UTC and the cycle it was applied
 //! at) and what became of it, in `PROJECT.audit.jsonl` beside the retained values (under
 //! systemd, in the state directory). One JSON object a line, the oldest first.
 //!
@@ -77,6 +77,8 @@ pub enum Action {
     Unforce,
     /// A program reload.
     Reload,
+    /// An alarm's acknowledgement (`all`: every alarm waiting).
+    Acknowledge,
 }
 
 impl std::fmt::Display for Action {
@@ -86,6 +88,7 @@ impl std::fmt::Display for Action {
             Action::Force => "force",
             Action::Unforce => "unforce",
             Action::Reload => "reload",
+            Action::Acknowledge => "acknowledge",
         })
     }
 }
@@ -181,27 +184,17 @@ pub enum ReadError {
 
 /// The entries of the audit file at `path`, the oldest first; none when it does not exist yet.
 pub fn read(path: &Path) -> Result<Vec<Entry>, ReadError> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(source) => {
-            return Err(ReadError::Io {
-                path: path.to_path_buf(),
-                source,
-            })
-        }
-    };
-    text.lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| {
-            serde_json::from_str(l).map_err(|source| ReadError::Bad {
-                path: path.to_path_buf(),
-                line: i + 1,
-                source,
-            })
-        })
-        .collect()
+    super::json_lines::read(path).map_err(|e| match e {
+        super::json_lines::LinesError::Io(source) => ReadError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        super::json_lines::LinesError::Bad(line, source) => ReadError::Bad {
+            path: path.to_path_buf(),
+            line,
+            source,
+        },
+    })
 }
 
 /// What the writer thread shares with its readers (the page, the status).
@@ -320,14 +313,7 @@ fn write_loop(rx: &Receiver<Entry>, shared: &Shared, path: &Path) {
                     e.pop_front();
                 }
             }
-            e.iter().filter_map(|x| serde_json::to_string(x).ok()).fold(
-                String::new(),
-                |mut s, l| {
-                    s.push_str(&l);
-                    s.push('\n');
-                    s
-                },
-            )
+            super::json_lines::text(e.iter())
         };
         let outcome = crate::retain::write_file_atomic(path, text.as_bytes());
         let mut failing = shared

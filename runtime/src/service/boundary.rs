@@ -40,8 +40,13 @@ pub struct ServiceBoundary {
     traces: crate::trace::TraceSet,
     /// The services' states, for the status report.
     health: Option<super::health::Health>,
-    /// Every cycle's changes, for the services that take them all (OPC UA, MQTT).
+    /// Every cycle's changes, for the services that take them all (OPC UA, MQTT, alarms).
     feed: ChangeFeed,
+    /// The alarm thread's requests (acknowledgements, lists) and its figures for the status.
+    alarms: Option<(
+        Sender<crate::service::alarms::Job>,
+        crate::service::alarms::Alarms,
+    )>,
 }
 
 impl ServiceBoundary {
@@ -67,6 +72,44 @@ impl ServiceBoundary {
     pub(crate) fn with_feed(mut self, feed: ChangeFeed) -> Self {
         self.feed = feed;
         self
+    }
+
+    /// Hands alarm requests to the alarm thread of `service` and reports its figures in the
+    /// status.
+    pub fn with_alarms(mut self, service: &crate::service::alarms::AlarmService) -> Self {
+        self.alarms = Some((service.jobs(), service.alarms().clone()));
+        self
+    }
+
+    /// Hands an alarm request to the alarm thread, which answers; refused when there is
+    /// none or it is behind (the scan never waits for it).
+    fn alarm_job(
+        &self,
+        request: crate::service::alarms::AlarmRequest,
+        reply: Sender<Response>,
+        origin: Origin,
+        stats: &ScanStats,
+        now: ScanInstant,
+    ) {
+        let Some((jobs, _)) = &self.alarms else {
+            drop(reply.send(Response::refused("this instance runs no alarm service")));
+            return;
+        };
+        let job = crate::service::alarms::Job {
+            request,
+            reply,
+            origin,
+            cycle: stats.cycles,
+            at: now,
+        };
+        if let Err(e) = jobs.try_send(job) {
+            let job = e.into_inner();
+            // A client that gave up meanwhile has nobody left to tell.
+            drop(
+                job.reply
+                    .send(Response::refused("the alarm service is behind; try again")),
+            );
+        }
     }
 
     /// Reports to systemd through `notifier`.
@@ -106,7 +149,7 @@ impl ServiceBoundary {
         self.reload.clone()
     }
 
-    fn answer(&mut self, plc: &mut Plc, stats: &ScanStats) {
+    fn answer(&mut self, plc: &mut Plc, stats: &ScanStats, now: ScanInstant) {
         let Some(requests) = self.control.clone() else {
             return;
         };
@@ -128,8 +171,9 @@ impl ServiceBoundary {
                 Request::Unforce { tag } => {
                     Some((Action::Unforce, tag.clone().unwrap_or_else(|| "*".into())))
                 }
-                // Noted when it is swapped in or refused.
-                Request::Reload | Request::Status | Request::Trace(_) => None,
+                // Noted when it is swapped in or refused; an acknowledgement by the alarm
+                // thread.
+                Request::Reload | Request::Status | Request::Trace(_) | Request::Alarms(_) => None,
             };
             let response = match env.request {
                 Request::Status => {
@@ -148,6 +192,7 @@ impl ServiceBoundary {
                             lost: c.lost(),
                         })
                         .collect();
+                    status.alarms = self.alarms.as_ref().map(|(_, a)| a.counts());
                     Response {
                         ok: true,
                         status: Some(status),
@@ -163,6 +208,11 @@ impl ServiceBoundary {
                     Err(e) => Response::refused(e.to_string()),
                 },
                 Request::Trace(t) => crate::service::trace::answer(&mut self.traces, plc, t),
+                Request::Alarms(request) => {
+                    // Answered by the alarm thread.
+                    self.alarm_job(request, env.reply, env.origin, stats, now);
+                    continue;
+                }
                 Request::Reload => {
                     // Compiled off the scan thread; answered when it is swapped in.
                     self.start_reload(plc, Some(env.reply), env.origin, stats.cycles);
@@ -280,6 +330,17 @@ impl ServiceBoundary {
     }
 }
 
+/// A module's quality as the change feed offers it: one its line has not reported on yet
+/// (its start-up may take the first cycles) is stale, not bad, so its `lost.` alarm is not
+/// raised before it was ever asked.
+fn feed_quality(m: &crate::plc::ModuleStatus) -> softplc_io::point::Quality {
+    if m.reported {
+        m.quality
+    } else {
+        softplc_io::point::Quality::Stale
+    }
+}
+
 /// What a write's client is told: the value itself when it was one tag (an operator's), the
 /// count otherwise, and the cycle boundary it was applied at.
 fn written(values: &[crate::service::control::TagValue], n: usize, cycle: u64) -> String {
@@ -303,10 +364,15 @@ impl CycleBoundary for ServiceBoundary {
     fn between_cycles(&mut self, plc: &mut Plc, stats: &ScanStats, now: ScanInstant) {
         // First, so a sample shows the cycle just ended, before any request changes the PLC.
         self.traces.sample(plc, stats);
-        self.answer(plc, stats);
+        self.answer(plc, stats, now);
         // After the requests: a write applied at this boundary is part of what the services
         // see of it, even when the next scan overwrites it.
-        self.feed.offer(plc.image(), stats.cycles, now);
+        self.feed.offer(
+            plc.image(),
+            plc.module_status().iter().map(feed_quality),
+            stats.cycles,
+            now,
+        );
         if self.reload.swap(false, Ordering::Relaxed) {
             self.start_reload(plc, None, Origin::Signal, stats.cycles);
         }
@@ -328,7 +394,12 @@ impl CycleBoundary for ServiceBoundary {
     fn stopped(&mut self, plc: &Plc, stats: &ScanStats, reason: &StopReason, now: ScanInstant) {
         // The safe state the outputs were left in, before the publication that tells the
         // services the run is over.
-        self.feed.offer(plc.image(), stats.cycles, now);
+        self.feed.offer(
+            plc.image(),
+            plc.module_status().iter().map(feed_quality),
+            stats.cycles,
+            now,
+        );
         if let Some(p) = &mut self.publisher {
             p.set_stop_reason(match reason {
                 StopReason::Requested => "stopped on request".to_string(),

@@ -1,5 +1,6 @@
 //! Every change of every cycle, in cycle order, for the services that must not miss one (the
-//! OPC UA server and the Sparkplug edge node).
+//! OPC UA server, the Sparkplug edge node and the alarms), with the modules whose quality
+//! changed (a lost module is one alarm, not one per signal).
 //!
 //! The snapshot ([`super::snapshot`]) is one slot a reader samples when it can: a value that
 //! lives one cycle (a pulse, a counter's step, an alarm that came and went) may never be in
@@ -44,6 +45,8 @@ pub(crate) struct CycleChanges {
     pub(crate) at: ScanInstant,
     /// The tags it changed, in tag order.
     pub(crate) changes: Vec<TagChange>,
+    /// The modules whose quality it changed (index in the project, quality after it).
+    pub(crate) modules: Vec<(usize, Quality)>,
 }
 
 /// What a consumer takes from its queue: one cycle, and what it must know of changes it lost
@@ -57,6 +60,8 @@ pub(crate) struct Delivery {
     pub(crate) catch_up: Vec<TagChange>,
     /// Every tag whose change this consumer lost before this cycle (sorted).
     pub(crate) overflowed: Vec<usize>,
+    /// After a loss: every module's quality now (else empty; the cycle's own follow).
+    pub(crate) modules_catch_up: Vec<(usize, Quality)>,
 }
 
 impl Delivery {
@@ -97,8 +102,15 @@ impl ChangeStream {
     }
 
     /// Changes lost so far.
+    // Read by the optional services (the alarms read their figures through `counts`).
+    #[cfg_attr(not(feature = "mqtt"), allow(dead_code))]
     pub(crate) fn lost(&self) -> u64 {
         self.counts.lost()
+    }
+
+    /// Its figures, for a reader of its own.
+    pub(crate) fn counts(&self) -> Arc<FeedCounts> {
+        self.counts.clone()
     }
 }
 
@@ -111,12 +123,15 @@ struct Producer {
     /// Per tag: a change of it was lost and the consumer has not been told.
     lost: Vec<bool>,
     any_lost: bool,
+    /// A cycle that changed a module's quality was lost.
+    modules_lost: bool,
 }
 
 /// The scan's side (see the module docs).
 #[derive(Debug, Default)]
 pub(crate) struct ChangeFeed {
     last: Vec<(Value, Quality)>,
+    last_modules: Vec<Quality>,
     producers: Vec<Producer>,
 }
 
@@ -136,6 +151,7 @@ impl ChangeFeed {
             counts: counts.clone(),
             lost: Vec::new(),
             any_lost: false,
+            modules_lost: false,
         });
         ChangeStream { rx, counts }
     }
@@ -153,11 +169,29 @@ impl ChangeFeed {
         self.producers.is_empty()
     }
 
-    /// At a cycle boundary: what `image` changed since the last call (everything at the
-    /// first), offered to every consumer without waiting.
-    pub(crate) fn offer(&mut self, image: &ProcessImage, cycle: u64, at: ScanInstant) {
+    /// At a cycle boundary: what `image` and the modules' qualities (`modules`, in project
+    /// order) changed since the last call (everything at the first), offered to every
+    /// consumer without waiting.
+    pub(crate) fn offer(
+        &mut self,
+        image: &ProcessImage,
+        modules: impl ExactSizeIterator<Item = Quality>,
+        cycle: u64,
+        at: ScanInstant,
+    ) {
         if self.producers.is_empty() {
             return;
+        }
+        let first_modules = self.last_modules.len() != modules.len();
+        if first_modules {
+            self.last_modules = vec![Quality::Bad; modules.len()];
+        }
+        let mut module_changes = Vec::new();
+        for (m, q) in modules.enumerate() {
+            if first_modules || self.last_modules[m] != q {
+                self.last_modules[m] = q;
+                module_changes.push((m, q));
+            }
         }
         let slots = image.slots();
         let first = self.last.len() != slots.len();
@@ -180,9 +214,14 @@ impl ChangeFeed {
                 self.last[c.tag] = (c.value, c.quality);
             }
         }
-        let cycle = Arc::new(CycleChanges { cycle, at, changes });
+        let cycle = Arc::new(CycleChanges {
+            cycle,
+            at,
+            changes,
+            modules: module_changes,
+        });
         for p in &mut self.producers {
-            p.offer(&cycle, image);
+            p.offer(&cycle, image, &self.last_modules);
         }
     }
 }
@@ -194,15 +233,19 @@ fn same(a: (Value, Quality), b: (Value, Quality)) -> bool {
 }
 
 impl Producer {
-    fn offer(&mut self, cycle: &Arc<CycleChanges>, image: &ProcessImage) {
-        if cycle.changes.is_empty() && !self.any_lost {
+    fn offer(&mut self, cycle: &Arc<CycleChanges>, image: &ProcessImage, modules: &[Quality]) {
+        if cycle.changes.is_empty() && cycle.modules.is_empty() && !self.any_lost {
             return;
         }
         let mut delivery = Delivery {
             cycle: cycle.clone(),
             catch_up: Vec::new(),
             overflowed: Vec::new(),
+            modules_catch_up: Vec::new(),
         };
+        if self.modules_lost {
+            delivery.modules_catch_up = modules.iter().copied().enumerate().collect();
+        }
         if self.any_lost {
             let slots = image.slots();
             delivery.overflowed = (0..self.lost.len()).filter(|&t| self.lost[t]).collect();
@@ -225,6 +268,7 @@ impl Producer {
                 if self.any_lost {
                     self.lost.iter_mut().for_each(|l| *l = false);
                     self.any_lost = false;
+                    self.modules_lost = false;
                 }
             }
             Err(TrySendError::Full(_)) => {
@@ -237,6 +281,7 @@ impl Producer {
                 for c in &cycle.changes {
                     self.lost[c.tag] = true;
                 }
+                self.modules_lost |= !cycle.modules.is_empty();
                 self.any_lost = true;
             }
             // The consumer has ended (its service stopped): nothing to tell it.
@@ -269,6 +314,7 @@ mod tests {
         let a = img.id("a").unwrap();
         feed.offer(
             &img,
+            std::iter::empty(),
             1,
             ScanInstant::after_origin(Duration::from_millis(10)),
         );
@@ -276,6 +322,7 @@ mod tests {
             img.set(a, Value::I32(n), ScanInstant::ZERO);
             feed.offer(
                 &img,
+                std::iter::empty(),
                 1 + n as u64,
                 ScanInstant::after_origin(Duration::from_millis(10 * (1 + n as u64))),
             );
@@ -283,6 +330,7 @@ mod tests {
         // A cycle that changed nothing sends nothing.
         feed.offer(
             &img,
+            std::iter::empty(),
             5,
             ScanInstant::after_origin(Duration::from_millis(50)),
         );
@@ -306,22 +354,22 @@ mod tests {
         let mut feed = ChangeFeed::new();
         let s = feed.subscribe("slow", 2);
         let (a, b) = (img.id("a").unwrap(), img.id("b").unwrap());
-        feed.offer(&img, 1, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 1, ScanInstant::ZERO);
         img.set(a, Value::I32(1), ScanInstant::ZERO);
-        feed.offer(&img, 2, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 2, ScanInstant::ZERO);
         // Full: cycles 3 (a and b) and 4 (a) are lost.
         img.set(a, Value::I32(2), ScanInstant::ZERO);
         img.set(b, Value::Bool(true), ScanInstant::ZERO);
-        feed.offer(&img, 3, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 3, ScanInstant::ZERO);
         img.set(a, Value::I32(3), ScanInstant::ZERO);
-        feed.offer(&img, 4, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 4, ScanInstant::ZERO);
         assert_eq!(s.lost(), 3);
         assert_eq!(feed.counts()[0].1.lost(), 3);
         let got: Vec<Delivery> = s.receiver().try_iter().collect();
         assert_eq!(got.len(), 2);
         // Room again: cycle 5 changes a; b is caught up, both are marked.
         img.set(a, Value::I32(4), ScanInstant::ZERO);
-        feed.offer(&img, 5, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 5, ScanInstant::ZERO);
         let d = s.receiver().try_recv().unwrap();
         assert_eq!(
             values(&d),
@@ -329,7 +377,7 @@ mod tests {
         );
         // Then in step: nothing marked.
         img.set(a, Value::I32(5), ScanInstant::ZERO);
-        feed.offer(&img, 6, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 6, ScanInstant::ZERO);
         let d = s.receiver().try_recv().unwrap();
         assert_eq!(values(&d), [(0, Value::I32(5), false)]);
     }
@@ -339,11 +387,56 @@ mod tests {
         let mut img = image();
         let mut feed = ChangeFeed::new();
         let s = feed.subscribe("test", 10);
-        feed.offer(&img, 1, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 1, ScanInstant::ZERO);
         img.set_quality(img.id("b").unwrap(), Quality::Good);
-        feed.offer(&img, 2, ScanInstant::ZERO);
+        feed.offer(&img, std::iter::empty(), 2, ScanInstant::ZERO);
         let d: Vec<Delivery> = s.receiver().try_iter().collect();
         assert_eq!(d[1].cycle.changes[0].quality, Quality::Good);
         assert_eq!(d[1].cycle.changes[0].tag, 1);
+    }
+
+    fn q(qs: &[Quality]) -> impl ExactSizeIterator<Item = Quality> + '_ {
+        qs.iter().copied()
+    }
+
+    #[test]
+    fn a_module_quality_change_is_delivered_and_caught_up_after_a_loss() {
+        let img = image();
+        let mut feed = ChangeFeed::new();
+        let s = feed.subscribe("alarms", 1);
+        feed.offer(
+            &img,
+            q(&[Quality::Good, Quality::Good]),
+            1,
+            ScanInstant::ZERO,
+        );
+        // Full: cycle 2 (mm2 lost) is lost.
+        feed.offer(
+            &img,
+            q(&[Quality::Good, Quality::Bad]),
+            2,
+            ScanInstant::ZERO,
+        );
+        let d = s.receiver().try_recv().unwrap();
+        assert_eq!(d.cycle.modules, [(0, Quality::Good), (1, Quality::Good)]);
+        // A cycle that changes nothing still carries every module's quality now.
+        feed.offer(
+            &img,
+            q(&[Quality::Good, Quality::Bad]),
+            3,
+            ScanInstant::ZERO,
+        );
+        let d = s.receiver().try_recv().unwrap();
+        assert!(d.cycle.modules.is_empty());
+        assert_eq!(d.modules_catch_up, [(0, Quality::Good), (1, Quality::Bad)]);
+        feed.offer(
+            &img,
+            q(&[Quality::Good, Quality::Good]),
+            4,
+            ScanInstant::ZERO,
+        );
+        let d = s.receiver().try_recv().unwrap();
+        assert_eq!(d.cycle.modules, [(1, Quality::Good)]);
+        assert!(d.modules_catch_up.is_empty());
     }
 }

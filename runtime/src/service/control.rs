@@ -8,6 +8,8 @@
 //! {"cmd":"unforce","tag":"motor"}        {"cmd":"unforce"}   (every tag)
 //! {"cmd":"reload"}
 //! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary)
+//! {"cmd":"alarms","action":"list","history":20}   {"cmd":"alarms","action":"ack","alarm":"jam"}
+//!                                                 ("all": every alarm waiting)
 //! {"cmd":"trace","action":"arm","name":"jam"}   (and status, save, read, disarm: see
 //!                                                 crate::service::trace)
 //! ```
@@ -57,6 +59,8 @@ pub enum Request {
     },
     /// Arm a trace, ask for its state or its samples (see `crate::service::trace`).
     Trace(crate::service::trace::TraceRequest),
+    /// The alarms: their list, or an acknowledgement (see `crate::service::alarms`).
+    Alarms(crate::service::alarms::AlarmRequest),
 }
 
 /// A tag and a value, as text (parsed as the tag's type).
@@ -98,6 +102,9 @@ pub struct Response {
     /// even after the snapshot the service last saw.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub locked: bool,
+    /// For `alarms list`: the current list, the counts and the latest events.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alarms: Option<crate::service::alarms::AlarmList>,
 }
 
 impl Response {

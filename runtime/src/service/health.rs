@@ -40,11 +40,13 @@ pub enum Service {
     Trace,
     /// The audit file's writer.
     Audit,
+    /// The alarms' thread and history file.
+    Alarms,
 }
 
 impl Service {
     /// Every service, in report order.
-    pub const ALL: [Service; 9] = [
+    pub const ALL: [Service; 10] = [
         Service::Web,
         Service::Metrics,
         Service::ModbusTcp,
@@ -54,6 +56,7 @@ impl Service {
         Service::Retain,
         Service::Trace,
         Service::Audit,
+        Service::Alarms,
     ];
 
     /// Its name in reports and metrics labels.
@@ -68,6 +71,7 @@ impl Service {
             Service::Retain => "retain",
             Service::Trace => "trace",
             Service::Audit => "audit",
+            Service::Alarms => "alarms",
         }
     }
 }
@@ -256,6 +260,7 @@ mod tests {
                 "retain: off",
                 "trace: off",
                 "audit: off",
+                "alarms: off",
             ]
         );
         let retain: SaveFailure = Arc::new(Mutex::new(Some("No space left on device".into())));

@@ -18,7 +18,9 @@
 //! | `softplc_tag_value{tag}` | gauge | value (bools 0/1) |
 //! | `softplc_tag_quality{tag}` | gauge | 0 good, 1 stale, 2 bad |
 //! | `softplc_tag_forced{tag}` | gauge | 1 when forced |
-//! | `softplc_service_lost_changes_total{service}` | counter | changes a service (opcua, mqtt) could not take in time (`super::changes`) |
+//! | `softplc_service_lost_changes_total{service}` | counter | changes a service (opcua, mqtt, alarms) could not take in time (`super::changes`) |
+//! | `softplc_alarms_active{priority}` | gauge | active alarms per priority band: low, medium, high, urgent |
+//! | `softplc_alarms_unacknowledged` | gauge | alarms waiting for an acknowledgement (active or gone) |
 //!
 //! Statistics are refreshed every 250 ms of scan time, tag values every cycle.
 
@@ -55,6 +57,8 @@ pub(crate) struct MetricsInfo {
     pub modules: Vec<(String, String)>,
     /// The services' states.
     pub health: Health,
+    /// The alarms, when they run.
+    pub alarms: Option<super::alarms::Alarms>,
 }
 
 /// How this endpoint reads a request: the shared parser, [`http::parse`]. Kept under this name
@@ -141,6 +145,26 @@ fn services(out: &mut String, health: &Health) {
             );
         }
     }
+}
+
+/// The alarms' figures.
+fn alarms(out: &mut String, c: &super::alarms::AlarmCounts) {
+    family(
+        out,
+        "softplc_alarms_active",
+        "gauge",
+        "Active alarms per priority band (low 1-250, medium 251-500, high 501-750, urgent 751-1000).",
+    );
+    for ((level, _), n) in crate::project::Priority::LEVELS.iter().zip(c.active) {
+        let _ = writeln!(out, "softplc_alarms_active{{priority=\"{level}\"}} {n}");
+    }
+    family(
+        out,
+        "softplc_alarms_unacknowledged",
+        "gauge",
+        "Alarms waiting for an acknowledgement, active or gone.",
+    );
+    let _ = writeln!(out, "softplc_alarms_unacknowledged {}", c.unacknowledged);
 }
 
 /// The exposition text for `snapshot`.
@@ -291,6 +315,9 @@ pub(crate) fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
             }
         }
     }
+    if let Some(a) = &info.alarms {
+        alarms(&mut out, &a.counts());
+    }
     if !s.lost_changes.is_empty() {
         family(
             &mut out,
@@ -353,6 +380,7 @@ mod tests {
             tags: vec!["motor".into(), "level".into(), "we\"ird".into()],
             modules: vec![("mm1".into(), "line1".into())],
             health: Health::new(),
+            alarms: None,
         };
         let mut s = ServiceSnapshot {
             published: true,
@@ -508,6 +536,28 @@ mod tests {
             // A reset after the response still leaves the response read; the assertion judges it.
             drop(c.read_to_string(&mut out));
             assert!(out.starts_with("HTTP/1.1 408"), "{out}");
+        }
+    }
+
+    #[test]
+    fn the_alarms_figures_per_priority_band() {
+        let mut out = String::new();
+        alarms(
+            &mut out,
+            &crate::service::alarms::AlarmCounts {
+                active: [0, 1, 2, 0],
+                unacknowledged: 3,
+            },
+        );
+        for line in [
+            "# TYPE softplc_alarms_active gauge",
+            "softplc_alarms_active{priority=\"low\"} 0",
+            "softplc_alarms_active{priority=\"medium\"} 1",
+            "softplc_alarms_active{priority=\"high\"} 2",
+            "softplc_alarms_active{priority=\"urgent\"} 0",
+            "softplc_alarms_unacknowledged 3",
+        ] {
+            assert!(out.lines().any(|l| l == line), "{line}\n{out}");
         }
     }
 }

@@ -11,6 +11,8 @@
 //!   boundary, so they never race a scan.
 //! - `notify`: `sd_notify` (READY after the first complete scan, WATCHDOG after each
 //!   completed scan, STATUS, STOPPING).
+//! - [`alarms`]: the tags' and modules' alarms, evaluated from every cycle's changes on a
+//!   thread of their own, acknowledged through the scan's requests, with their history file.
 //! - `status`: the status a running instance reports; `health`: the state of every service
 //!   (running, degraded, stopped, with the reason) it includes, as do the metrics and the page.
 //! - `trace`: the control socket's trace requests (arm, status, save).
@@ -23,13 +25,13 @@
 //!   every cycle's tag changes, in order, from `changes` (a bounded queue each, fed at the
 //!   cycle boundary; a consumer that falls behind loses changes visibly).
 
+pub mod alarms;
 pub mod audit;
 pub(crate) mod boundary;
-// Its consumers are the optional services (OPC UA, MQTT): with one or none, parts go unused.
-#[cfg_attr(not(all(feature = "opcua", feature = "mqtt")), allow(dead_code))]
 pub(crate) mod changes;
 pub mod control;
 pub(crate) mod health;
+pub(crate) mod json_lines;
 pub(crate) mod metrics;
 pub(crate) mod modbus_guard;
 pub(crate) mod modbus_map;

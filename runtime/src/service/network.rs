@@ -57,7 +57,7 @@ pub(crate) fn start_web(
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
     health: &Health,
-    audit: Option<crate::service::audit::AuditLog>,
+    records: super::web::WebRecords,
 ) -> Option<WebServer> {
     let project = plc.project();
     let config = project.service.web.as_ref()?;
@@ -69,7 +69,7 @@ pub(crate) fn start_web(
         scan.clone(),
         project.scan.period,
         health,
-        audit,
+        records,
     ) {
         Ok(server) => {
             health.set(Service::Web, ServiceState::Running);
@@ -105,6 +105,7 @@ pub(crate) fn start(
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
     health: &Health,
+    alarms: Option<&super::alarms::Alarms>,
 ) -> Result<NetworkServices, NetworkError> {
     let service = &project.service;
     let names: Vec<String> = project.tags.iter().map(|t| t.name.clone()).collect();
@@ -123,6 +124,7 @@ pub(crate) fn start(
                 })
                 .collect(),
             health: health.clone(),
+            alarms: alarms.cloned(),
         };
         let server = MetricsServer::start(addr, info, snapshot.clone())
             .map_err(|source| NetworkError::Metrics { addr, source })?;

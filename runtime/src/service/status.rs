@@ -107,6 +107,10 @@ pub struct StatusReport {
     /// The simulated plant, when the project has one on a `port: sim` line.
     #[serde(default)]
     pub plant: Option<PlantReport>,
+    /// Active alarms per priority band and those waiting for an acknowledgement (absent
+    /// when the instance runs no alarm service).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alarms: Option<crate::service::alarms::AlarmCounts>,
 }
 
 /// The plant model's state: running or stopped (and why), and its states.
@@ -236,6 +240,7 @@ impl StatusReport {
             services: Vec::new(),
             lost_changes: Vec::new(),
             plant: PlantReport::of(plc),
+            alarms: None,
         }
     }
 }
@@ -270,6 +275,19 @@ impl std::fmt::Display for StatusReport {
         }
         if let Some(p) = &self.plant {
             writeln!(f, "  {p}")?;
+        }
+        if let Some(a) = &self.alarms {
+            writeln!(
+                f,
+                "  alarms: {} active (urgent {}, high {}, medium {}, low {}), {} waiting for \
+                 acknowledgement (softplc alarms)",
+                a.active.iter().sum::<u64>(),
+                a.active[3],
+                a.active[2],
+                a.active[1],
+                a.active[0],
+                a.unacknowledged
+            )?;
         }
         for m in &self.modules {
             writeln!(

@@ -3,6 +3,7 @@
 //! metrics are its tags; memory tags and the PLC's own figures are node metrics.
 //!
 //! - `layout`: the metric set and its aliases.
+//! - `alarms`: the alarms as node metrics under `Alarms/`.
 //! - `payload`: typed values to Sparkplug metrics and back; quality; NDEATH.
 //! - `node`: births, data by exception, device death and rebirth, the buffer while the
 //!   broker is away (no I/O: tested without a broker).
@@ -13,6 +14,7 @@
 //!   `sparkplug_b.proto` (`runtime/proto/`; the generated file is committed so a build needs
 //!   no `protoc`: `runtime/proto/regenerate.sh` remakes it).
 
+pub(crate) mod alarms;
 pub(crate) mod command;
 pub(crate) mod host;
 pub(crate) mod layout;
@@ -52,13 +54,17 @@ impl MqttNode {
         feed: &mut ChangeFeed,
         scan: &Sender<Envelope>,
         health: &Health,
+        alarms: Option<&crate::service::alarms::Alarms>,
     ) -> std::io::Result<Option<Self>> {
         let Some(cfg) = project.service.mqtt.clone() else {
             return Ok(None);
         };
         let layout = layout::Layout::of(project);
         let topics = node::Topics::new(&cfg.group, &cfg.node);
-        let node = node::EdgeNode::new(layout, topics, &cfg.deadband, cfg.buffer);
+        let mut node = node::EdgeNode::new(layout, topics, &cfg.deadband, cfg.buffer);
+        if let Some(a) = alarms {
+            node = node.with_alarms(a.clone());
+        }
         let mut writable = vec![false; project.tags.len()];
         for e in &project.service.scada.entries {
             if let Some(w) = writable.get_mut(e.tag) {

@@ -113,6 +113,12 @@ pub(crate) struct EdgeNode {
     lost: u64,
     /// UTC ms minus scan ms, fixed at the first snapshot.
     epoch: Option<i128>,
+    /// The alarms, their metrics' names and what the host was last told of each, and the
+    /// alarms' generation then (see `super::alarms`).
+    alarms: Option<crate::service::alarms::Alarms>,
+    alarm_names: Vec<String>,
+    alarm_last: Vec<Option<MetricValue>>,
+    alarm_generation: Option<u64>,
 }
 
 fn changed(old: Value, new: Value, deadband: f64) -> bool {
@@ -158,7 +164,49 @@ impl EdgeNode {
             dropped: 0,
             lost: 0,
             epoch: None,
+            alarms: None,
+            alarm_names: Vec::new(),
+            alarm_last: Vec::new(),
+            alarm_generation: None,
         }
+    }
+
+    /// Publishes `alarms` as node metrics under `Alarms/` (see `super::alarms`).
+    pub(crate) fn with_alarms(mut self, alarms: crate::service::alarms::Alarms) -> Self {
+        let names: Vec<String> = alarms.all().0.into_iter().map(|v| v.name).collect();
+        self.alarm_names = super::alarms::metric_names(&names);
+        self.alarm_last = vec![None; self.alarm_names.len()];
+        self.alarms = Some(alarms);
+        self
+    }
+
+    /// The alias of alarm metric `k` (after the PLC's own).
+    fn alarm_alias(&self, k: usize) -> u64 {
+        self.layout.tags.len() as u64 + 1 + PlcMetric::ALL.len() as u64 + k as u64
+    }
+
+    /// The alarm metrics that changed since the host was told (all of them for a birth), with
+    /// their index; what it is told is noted.
+    fn alarm_changes(&mut self, birth: bool) -> Vec<(usize, MetricValue)> {
+        let Some(a) = &self.alarms else {
+            return Vec::new();
+        };
+        if !birth && self.alarm_generation == Some(a.generation()) {
+            return Vec::new();
+        }
+        let (views, generation) = a.all();
+        self.alarm_generation = Some(generation);
+        let mut out = Vec::new();
+        for (k, v) in super::alarms::values(&views).into_iter().enumerate() {
+            if k >= self.alarm_last.len() {
+                break;
+            }
+            if birth || self.alarm_last[k].as_ref() != Some(&v) {
+                self.alarm_last[k] = Some(v.clone());
+                out.push((k, v));
+            }
+        }
+        out
     }
 
     /// The topics.
@@ -298,6 +346,21 @@ impl EdgeNode {
         }
         self.plc_last = plc.into_iter().map(|(_, _, v)| Some(v)).collect();
         self.plc_sent_at = wall_ms;
+        let alarm_values: Vec<(usize, u64, MetricValue)> = self
+            .alarm_changes(true)
+            .into_iter()
+            .map(|(k, v)| (k, self.alarm_alias(k), v))
+            .collect();
+        let alarm_names = self.alarm_names.clone();
+        for (k, alias, v) in alarm_values {
+            metrics.push(super::alarms::spec(
+                alarm_names.get(k).map(String::as_str),
+                alias,
+                k,
+                v,
+                now,
+            ));
+        }
         let node_tags: Vec<usize> = self.layout.tags_of(None).map(|t| t.tag).collect();
         let names: Vec<String> = self.layout.tags.iter().map(|t| t.name.clone()).collect();
         let births: Vec<BirthProperties> =
@@ -517,6 +580,11 @@ impl EdgeNode {
                 }
             }
             self.plc_sent_at = wall_ms;
+        }
+        let now = self.utc(snap, wall_ms, snap.now);
+        for (k, v) in self.alarm_changes(false) {
+            let alias = self.alarm_alias(k);
+            changes[0].push(super::alarms::spec(None, alias, k, v, now));
         }
         for (slot, metrics) in changes.iter().enumerate() {
             let device = slot.checked_sub(1);

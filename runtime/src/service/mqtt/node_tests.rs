@@ -72,9 +72,11 @@ fn changed_from(before: &ServiceSnapshot, after: &ServiceSnapshot) -> Vec<Delive
             cycle: after.cycles,
             at: ScanInstant::after_origin(Duration::from_millis(450)),
             changes,
+            modules: Vec::new(),
         }),
         catch_up: Vec::new(),
         overflowed: Vec::new(),
+        modules_catch_up: Vec::new(),
     }]
 }
 
@@ -251,9 +253,11 @@ fn every_value_of_a_metric_goes_out_in_order_each_with_its_cycles_time_and_losse
                     value: Value::U16(6 + k),
                     quality: Quality::Good,
                 }],
+                modules: Vec::new(),
             }),
             catch_up: Vec::new(),
             overflowed: Vec::new(),
+            modules_catch_up: Vec::new(),
         })
         .collect();
     let out = n.update(&s0, &cycles, 1_000_050, true);

@@ -4,6 +4,9 @@
 //! - [`space`]: the address space (tags, modules' and the PLC's diagnostics) and what a
 //!   snapshot changes in it.
 //! - [`write`]: a client's write, under the Modbus TCP server's rules.
+//! - [`alarms`]: the alarms as variables under `Alarms` (no Alarms & Conditions in
+//!   async-opcua 0.19), refreshed by the updater whenever an alarm changes, and their
+//!   `Acknowledge`.
 //!
 //! Three threads: the server's (a tokio runtime with two workers: each connection and request
 //! is a task), and the updater's, which takes every cycle's tag changes from the scan's change
@@ -23,6 +26,7 @@
 //! start) is moved aside and made again (see [`pki`]); the server's state (running, or stopped
 //! and why) is in the service's [`Health`].
 
+pub(crate) mod alarms;
 pub(crate) mod pki;
 pub(crate) mod space;
 pub(crate) mod write;
@@ -158,7 +162,13 @@ fn builder(project: &Project, cfg: &OpcUaConfig, port: u16, pki: PathBuf) -> Ser
     b.subscription_poll_interval_ms(tick.as_millis() as u64)
 }
 
-fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<write::Writer>) {
+fn build_space(
+    nm: &SimpleNodeManager,
+    ns: u16,
+    layout: &Layout,
+    writer: &Arc<write::Writer>,
+    scan: &Sender<Envelope>,
+) {
     let id = |s: &str| NodeId::new(ns, s.to_string());
     let mut sp = nm.address_space().write();
     for f in &layout.folders {
@@ -180,7 +190,12 @@ fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<wr
         }
         .insert(&mut *sp);
     }
-    let diagnostics = layout.modules.iter().flatten().chain(&layout.plc);
+    let diagnostics = layout
+        .modules
+        .iter()
+        .flatten()
+        .chain(&layout.plc)
+        .chain(layout.alarms.iter().flatten());
     let tags = layout.tags.iter().map(|t| &t.node);
     for n in tags.chain(diagnostics) {
         let access = if n.writable {
@@ -215,6 +230,15 @@ fn build_space(nm: &SimpleNodeManager, ns: u16, layout: &Layout, writer: &Arc<wr
         nm.inner()
             .add_write_callback(id(&t.node.id), move |dv, _range| w.write(tag, ty, &dv));
     }
+    for n in layout.alarms.iter().flatten().filter(|n| n.writable) {
+        let Some(alarm) = alarms::alarm_of(n).map(str::to_owned) else {
+            continue;
+        };
+        let scan = scan.clone();
+        nm.inner().add_write_callback(id(&n.id), move |dv, _range| {
+            alarms::acknowledge(&scan, &alarm, &dv)
+        });
+    }
 }
 
 impl OpcUaServer {
@@ -226,6 +250,7 @@ impl OpcUaServer {
         feed: &mut ChangeFeed,
         scan: &Sender<Envelope>,
         health: &Health,
+        alarms: Option<&crate::service::alarms::Alarms>,
     ) -> Result<Option<Self>, OpcUaStartError> {
         let Some(cfg) = project.service.opcua.clone() else {
             return Ok(None);
@@ -296,13 +321,16 @@ impl OpcUaServer {
         let ns = handle
             .get_namespace_index(&namespace)
             .ok_or_else(|| OpcUaStartError::Config("no namespace for the tags".into()))?;
-        let layout = Layout::of(project, cfg.writes);
+        let names: Vec<String> = alarms
+            .map(|a| a.all().0.into_iter().map(|v| v.name).collect())
+            .unwrap_or_default();
+        let layout = Layout::of(project, cfg.writes).with_alarms(&names, cfg.writes);
         let writer = Arc::new(write::Writer::new(
             project.tags.iter().map(|t| t.name.clone()).collect(),
             snapshot.clone(),
             scan.clone(),
         ));
-        build_space(&nm, ns, &layout, &writer);
+        build_space(&nm, ns, &layout, &writer, scan);
         let server_health = health.clone();
         std::thread::Builder::new()
             .name("opcua".into())
@@ -328,6 +356,7 @@ impl OpcUaServer {
             snapshot: snapshot.clone(),
             changes: feed.subscribe("opcua", QUEUE_CYCLES),
             written: writer.written(),
+            alarms: alarms.cloned(),
             tick: project
                 .scan
                 .period
@@ -365,6 +394,8 @@ struct Updater {
     changes: ChangeStream,
     /// Where the writes are noted (see [`write::WrittenAt`]).
     written: write::WrittenAt,
+    /// The alarms, refreshed in the address space when their generation changes.
+    alarms: Option<crate::service::alarms::Alarms>,
     tick: Duration,
 }
 
@@ -378,6 +409,7 @@ impl Updater {
             .map(|t| &t.node)
             .chain(self.layout.modules.iter().flatten())
             .chain(&self.layout.plc)
+            .chain(self.layout.alarms.iter().flatten())
             .map(|n| (n.id.clone(), NodeId::new(self.ns, n.id.clone())))
             .collect();
         let set = |values: Vec<(String, opcua::types::DataValue)>| {
@@ -402,6 +434,7 @@ impl Updater {
             }
         };
         let mut last_stats = None;
+        let mut last_alarms = None;
         // Cycles taken from the feed and not applied yet: until the first snapshot is in the
         // address space, so a client that sees a tag's first value sees the PLC's figures too.
         let mut held: Vec<Delivery> = Vec::new();
@@ -429,6 +462,13 @@ impl Updater {
             let now = DateTime::now();
             for d in held.drain(..) {
                 set_cycle(&d, updates.tag_changes(&self.layout, &d, now));
+            }
+            if let Some(a) = &self.alarms {
+                if last_alarms != Some(a.generation()) {
+                    let (views, generation) = a.all();
+                    last_alarms = Some(generation);
+                    set(alarms::values(&views, now));
+                }
             }
             if snap.stopped || ended {
                 // The last publication (outputs safe, state stopped) and the safe state's

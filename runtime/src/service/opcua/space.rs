@@ -219,9 +219,11 @@ pub(crate) struct Layout {
     pub modules: Vec<Vec<Node>>,
     /// The PLC's, in [`PlcField::ALL`] order.
     pub plc: Vec<Node>,
+    /// Each alarm's variables, in the alarms' order (see `super::alarms`).
+    pub alarms: Vec<Vec<Node>>,
 }
 
-fn node(folder: &str, name: &str, data_type: DataTypeId) -> Node {
+pub(crate) fn node(folder: &str, name: &str, data_type: DataTypeId) -> Node {
     Node {
         id: format!("{folder}.{name}"),
         name: name.into(),
@@ -285,7 +287,16 @@ impl Layout {
             tags,
             modules,
             plc,
+            alarms: Vec::new(),
         }
+    }
+
+    /// With the alarms `names` (in the alarms' order) under `Alarms`.
+    pub(crate) fn with_alarms(mut self, names: &[String], writes: bool) -> Self {
+        let (folders, nodes) = super::alarms::layout(names, writes);
+        self.folders.extend(folders);
+        self.alarms = nodes;
+        self
     }
 }
 
@@ -430,6 +441,7 @@ pub(crate) fn initial(data_type: DataTypeId) -> DataValue {
         DataTypeId::Float => Variant::Float(0.0),
         DataTypeId::UInt64 => Variant::UInt64(0),
         DataTypeId::String => Variant::from(""),
+        DataTypeId::DateTime => Variant::DateTime(Box::new(DateTime::null())),
         _ => Variant::Double(0.0),
     };
     DataValue {
@@ -467,6 +479,7 @@ mod tests {
                 .iter()
                 .map(|f| node("PLC", f.name(), f.data_type()))
                 .collect(),
+            alarms: Vec::new(),
         }
     }
 
@@ -493,9 +506,11 @@ mod tests {
                         quality,
                     })
                     .collect(),
+                modules: Vec::new(),
             }),
             catch_up: Vec::new(),
             overflowed: lost.to_vec(),
+            modules_catch_up: Vec::new(),
         }
     }
 

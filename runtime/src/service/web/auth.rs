@@ -10,7 +10,7 @@
 //!   approves, so a write cannot be forged from another site (CSRF). An `Origin` or
 //!   `Sec-Fetch-Site` saying the request comes from elsewhere is refused too.
 //! - **Roles**: the token that matches decides the [`WebRole`]. The operator's token writes
-//!   values once; forcing, unforcing and arming a trace need the engineer's (a 403 naming the
+//!   values once and acknowledges alarms; forcing, unforcing and arming a trace need the engineer's (a 403 naming the
 //!   role otherwise). Both tokens are compared every time, so the answer's timing does not tell
 //!   which one a guess came closer to.
 
@@ -32,13 +32,15 @@ pub(crate) enum Act {
     Unforce,
     /// Arm or disarm a trace: the engineer's.
     Trace,
+    /// Acknowledge an alarm: the operator may.
+    Acknowledge,
 }
 
 impl Act {
     /// The least role that may do it.
     fn needs(self) -> WebRole {
         match self {
-            Act::SignIn | Act::Write => WebRole::Operator,
+            Act::SignIn | Act::Write | Act::Acknowledge => WebRole::Operator,
             Act::Force | Act::Unforce | Act::Trace => WebRole::Engineer,
         }
     }
@@ -52,6 +54,7 @@ impl std::fmt::Display for Act {
             Act::Force => "forcing",
             Act::Unforce => "unforcing",
             Act::Trace => "arming or disarming a trace",
+            Act::Acknowledge => "acknowledging an alarm",
         })
     }
 }
@@ -75,7 +78,9 @@ pub(crate) enum Refusal {
     #[error("a write must be sent as application/json")]
     NotJson,
     /// The operator's token asking for what only the engineer may do.
-    #[error("the operator token may write values; {0} needs the engineer's")]
+    #[error(
+        "the operator token may write values and acknowledge alarms; {0} needs the engineer's"
+    )]
     EngineerOnly(Act),
 }
 
@@ -278,7 +283,7 @@ mod tests {
         }
         assert_eq!(
             Refusal::EngineerOnly(Act::Force).to_string(),
-            "the operator token may write values; forcing needs the engineer's"
+            "the operator token may write values and acknowledge alarms; forcing needs the engineer's"
         );
         let operator_only = WriteAuth::new(true, None, Some(WebToken::new("operator-token")));
         assert!(operator_only.enabled());

@@ -87,6 +87,8 @@ pub struct WebInfo {
     pub tags: Vec<TagInfo>,
     /// Tags of the trend.
     pub trend: Vec<usize>,
+    /// Tags on the operator's page (`operator: true`), in project order.
+    pub operator: Vec<usize>,
     /// The program.
     pub program: ProgramView,
 }
@@ -162,6 +164,7 @@ impl WebInfo {
             modules,
             tags,
             trend: web.trend.clone(),
+            operator: project.alarms.operator.clone(),
             program: program::view(project, plc.plan()),
         }
     }

@@ -18,6 +18,10 @@
 //! each write, event streams that end after 10 minutes (the browser reconnects). Every asset
 //! is embedded in the binary: the page works without internet.
 //!
+//! The operator's page (`/operator`, `assets/operator.*`) is a page of its own for a panel PC
+//! at 800 × 480: the alarms and the tags marked `operator: true`, touch-sized, no horizontal
+//! scrolling; the operator's token suffices for everything on it.
+//!
 //! Files: `http` (parsing, responses), `routes` (what each path answers, writes),
 //! `auth` (who may write), `sse` (the event stream), `info` and `program` (what does
 //! not change), `view` (the live JSON), `trend` (the trend's history), `assets/` (the page).
@@ -64,6 +68,8 @@ pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// How many of the audit file's entries the page shows (the newest).
 const AUDIT_SHOWN: usize = 50;
+/// How many of the alarm events the page shows (the newest).
+const ALARM_EVENTS_SHOWN: usize = 50;
 
 /// What every connection thread shares.
 #[derive(Debug)]
@@ -77,8 +83,18 @@ struct Shared {
     trend: Arc<Mutex<Trend>>,
     bind: SocketAddr,
     port: u16,
-    /// The audit file's latest entries, for the Audit panel.
-    audit: Option<crate::service::audit::AuditLog>,
+    /// The audit file's latest entries and the alarms.
+    records: WebRecords,
+}
+
+/// What the page shows beside the snapshot: the audit file's latest entries (the Audit panel)
+/// and the alarms (the Alarms panel and the operator's page).
+#[derive(Debug, Clone, Default)]
+pub struct WebRecords {
+    /// The audit file.
+    pub audit: Option<crate::service::audit::AuditLog>,
+    /// The alarms.
+    pub alarms: Option<crate::service::alarms::Alarms>,
 }
 
 /// A running page; it lives as long as the process.
@@ -91,7 +107,7 @@ pub struct WebServer {
 impl WebServer {
     /// Binds `config.bind` and serves `info`, the live `snapshot` and the services' states
     /// `health` on threads; writes go to `scan`. `period` is the scan period (the trend
-    /// samples at most once per cycle). `audit` feeds the page's Audit panel.
+    /// samples at most once per cycle). `records` feed the Audit and Alarms panels.
     pub fn start(
         config: &WebConfig,
         info: &WebInfo,
@@ -99,7 +115,7 @@ impl WebServer {
         scan: Sender<Envelope>,
         period: Duration,
         health: &Health,
-        audit: Option<crate::service::audit::AuditLog>,
+        records: WebRecords,
     ) -> std::io::Result<Self> {
         let listener = TcpListener::bind(config.bind)?;
         let addr = listener.local_addr()?;
@@ -120,7 +136,7 @@ impl WebServer {
             trend,
             bind: config.bind,
             port: addr.port(),
-            audit,
+            records,
         });
         let server = ServerConfig {
             name: "web",
@@ -205,8 +221,19 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
     let text = |ct: &'static str, body: &'static str| Reply::Full(Response::new(200, ct, body));
     match route {
         Route::Index => text("text/html; charset=utf-8", routes::INDEX_HTML),
+        Route::Operator => text("text/html; charset=utf-8", routes::OPERATOR_HTML),
+        Route::OperatorScript => text("text/javascript; charset=utf-8", routes::OPERATOR_JS),
+        Route::OperatorStyle => text("text/css; charset=utf-8", routes::OPERATOR_CSS),
+        Route::Alarms => Reply::Full(match &shared.records.alarms {
+            Some(a) => Response::json(
+                200,
+                serde_json::to_string(&a.list(ALARM_EVENTS_SHOWN)).unwrap_or_default(),
+            ),
+            None => Response::error(503, "this instance runs no alarm service"),
+        }),
         Route::Script => text("text/javascript; charset=utf-8", routes::APP_JS),
         Route::LadderScript => text("text/javascript; charset=utf-8", routes::LADDER_JS),
+        Route::SharedScript => text("text/javascript; charset=utf-8", routes::SHARED_JS),
         Route::Style => text("text/css; charset=utf-8", routes::STYLE_CSS),
         Route::Info => Reply::Full(Response::json(200, shared.info_json.clone())),
         Route::State => {
@@ -225,6 +252,7 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
         Route::Events => Reply::Events,
         Route::Audit => {
             let latest = shared
+                .records
                 .audit
                 .as_ref()
                 .map(|a| a.latest(AUDIT_SHOWN))
@@ -235,7 +263,7 @@ fn respond(req: &Request, shared: &Shared) -> Reply {
             ))
         }
         Route::Trace(t) => Reply::Full(trace::answer(&shared.auth, &shared.scan, t, req)),
-        Route::Force | Route::Write | Route::Unforce | Route::Auth => {
+        Route::Force | Route::Write | Route::Unforce | Route::Auth | Route::AlarmAck => {
             Reply::Full(routes::write(&shared.auth, &shared.scan, route, req))
         }
     }

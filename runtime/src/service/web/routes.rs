@@ -3,11 +3,14 @@
 //! | route | answer |
 //! |---|---|
 //! | `GET /` | the page (`assets/index.html`); its views are `#overview`, `#io`, `#program`, `#timing`, `#bus` |
-//! | `GET /app.js`, `GET /ladder.js`, `GET /style.css` | its scripts (the ladder diagrams in their own) and style, embedded in the binary |
+//! | `GET /app.js`, `GET /ladder.js`, `GET /shared.js`, `GET /style.css` | its scripts (the ladder diagrams in their own, the helpers it shares with the operator's page in `shared.js`) and style, embedded in the binary |
 //! | `GET /api/info` | what does not change: project, lines, modules, tags, program ([`super::info`]) |
 //! | `GET /api/state` | `{"state": …, "stats": …}` now ([`super::view`]) |
 //! | `GET /api/trend` | the trend's history |
+//! | `GET /operator`, `GET /operator.js`, `GET /operator.css` | the operator's page for a panel PC (800 × 480): the alarms with their acknowledge buttons, the tags marked `operator: true` with a write-once control where writable |
 //! | `GET /api/audit` | the audit file's latest 50 entries, the newest first (`{"entries": [...]}`) |
+//! | `GET /api/alarms` | the current alarms (waiting first, then by priority), the counts and the latest 50 events (`{"current": [...], "counts": {...}, "history": [...]}`) |
+//! | `POST /api/alarms/ack` | `{"alarm": "jam"}` (or `"all"`): acknowledged by the alarm thread at the next cycle boundary; the operator's token may |
 //! | `GET /api/events` | server-sent events `state` and `stats` ([`super::sse`]) |
 //! | `POST /api/force` | `{"tag": "motor", "value": "1"}` (value: text, number or boolean) |
 //! | `POST /api/write` | `{"tag": "speed", "value": 42}`: set once at the next cycle boundary; the program may overwrite it from its next scan |
@@ -27,6 +30,7 @@ use serde::Deserialize;
 
 use super::auth::{Act, WriteAuth};
 use super::http::{Method, Request, Response};
+use crate::service::alarms::AlarmRequest;
 use crate::service::control::{
     Envelope, Request as Control, Response as ControlResponse, TagValue,
 };
@@ -35,10 +39,18 @@ use crate::service::control::{
 pub(crate) const APP_JS: &str = include_str!("assets/app.js");
 /// The page's ladder diagrams.
 pub(crate) const LADDER_JS: &str = include_str!("assets/ladder.js");
+/// The helpers both pages' scripts use.
+pub(crate) const SHARED_JS: &str = include_str!("assets/shared.js");
 /// The page's style.
 pub(crate) const STYLE_CSS: &str = include_str!("assets/style.css");
 /// The page.
 pub(crate) const INDEX_HTML: &str = include_str!("assets/index.html");
+/// The operator's page.
+pub(crate) const OPERATOR_HTML: &str = include_str!("assets/operator.html");
+/// The operator's page's script.
+pub(crate) const OPERATOR_JS: &str = include_str!("assets/operator.js");
+/// The operator's page's style.
+pub(crate) const OPERATOR_CSS: &str = include_str!("assets/operator.css");
 
 /// How long a write waits for room in the scan's request queue.
 const QUEUE_WAIT: Duration = Duration::from_secs(1);
@@ -56,6 +68,8 @@ pub(crate) enum Route {
     Script,
     /// Its ladder diagrams' script.
     LadderScript,
+    /// The helpers both pages use.
+    SharedScript,
     /// Its style.
     Style,
     /// `/api/info`.
@@ -68,6 +82,16 @@ pub(crate) enum Route {
     Events,
     /// `/api/audit`.
     Audit,
+    /// The operator's page.
+    Operator,
+    /// Its script.
+    OperatorScript,
+    /// Its style.
+    OperatorStyle,
+    /// `/api/alarms`.
+    Alarms,
+    /// `/api/alarms/ack`.
+    AlarmAck,
     /// `/api/force`.
     Force,
     /// `/api/write`.
@@ -87,12 +111,18 @@ pub(crate) fn route(method: Method, path: &str) -> Result<Route, u16> {
         "/" | "/index.html" => (Route::Index, false),
         "/app.js" => (Route::Script, false),
         "/ladder.js" => (Route::LadderScript, false),
+        "/shared.js" => (Route::SharedScript, false),
         "/style.css" => (Route::Style, false),
         "/api/info" => (Route::Info, false),
         "/api/state" => (Route::State, false),
         "/api/trend" => (Route::Trend, false),
         "/api/events" => (Route::Events, false),
         "/api/audit" => (Route::Audit, false),
+        "/operator" => (Route::Operator, false),
+        "/operator.js" => (Route::OperatorScript, false),
+        "/operator.css" => (Route::OperatorStyle, false),
+        "/api/alarms" => (Route::Alarms, false),
+        "/api/alarms/ack" => (Route::AlarmAck, true),
         "/api/force" => (Route::Force, true),
         "/api/write" => (Route::Write, true),
         "/api/unforce" => (Route::Unforce, true),
@@ -122,6 +152,13 @@ pub(crate) fn allowed(path: &str) -> &'static str {
 struct TagValueBody {
     tag: String,
     value: serde_json::Value,
+}
+
+/// `POST /api/alarms/ack`'s body.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AckBody {
+    alarm: String,
 }
 
 /// `POST /api/unforce`'s body.
@@ -177,6 +214,13 @@ pub(crate) fn write_request(route: Route, body: &[u8]) -> Result<Control, Respon
             }
             Ok(Control::Unforce { tag: b.tag })
         }
+        Route::AlarmAck => {
+            let b: AckBody = serde_json::from_slice(body).map_err(|e| bad(e.to_string()))?;
+            if b.alarm.len() > MAX_FIELD {
+                return Err(long("alarm name"));
+            }
+            Ok(Control::Alarms(AlarmRequest::Ack { alarm: b.alarm }))
+        }
         _ => Err(refused(400, "not a write")),
     }
 }
@@ -192,6 +236,7 @@ pub(crate) fn write(
         Route::Write => Act::Write,
         Route::Force => Act::Force,
         Route::Unforce => Act::Unforce,
+        Route::AlarmAck => Act::Acknowledge,
         _ => Act::SignIn,
     };
     let role = match auth.authorize(req, act) {
@@ -322,5 +367,20 @@ mod tests {
             }
         );
         assert_eq!(unforce(r#"{"tagg":"motor"}"#).unwrap_err().status, 400);
+        assert_eq!(
+            write_request(Route::AlarmAck, br#"{"alarm":"all"}"#).unwrap(),
+            Control::Alarms(AlarmRequest::Ack {
+                alarm: "all".into()
+            })
+        );
+        assert_eq!(
+            write_request(Route::AlarmAck, br#"{"tag":"jam"}"#)
+                .unwrap_err()
+                .status,
+            400
+        );
+        assert_eq!(route(Method::Post, "/api/alarms/ack"), Ok(Route::AlarmAck));
+        assert_eq!(route(Method::Get, "/api/alarms"), Ok(Route::Alarms));
+        assert_eq!(route(Method::Get, "/operator"), Ok(Route::Operator));
     }
 }

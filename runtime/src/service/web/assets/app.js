@@ -42,22 +42,7 @@
 
   // ---- DOM helpers ----
 
-  function el(tag, attrs, ...children) {
-    const e = document.createElement(tag);
-    for (const [k, v] of Object.entries(attrs || {})) {
-      if (v === undefined || v === null || v === false) continue;
-      if (k === "class") e.className = v;
-      else if (k === "text") e.textContent = v;
-      else if (k.startsWith("data-")) e.setAttribute(k, v);
-      else if (k === "for") e.htmlFor = v;
-      else e[k] = v;
-    }
-    for (const c of children) {
-      if (c === null || c === undefined) continue;
-      e.append(c instanceof Node ? c : document.createTextNode(String(c)));
-    }
-    return e;
-  }
+  const { el, fmtValue, toast } = window.softplcShared;
 
   function svg(tag, attrs, text) {
     const e = document.createElementNS(SVG, tag);
@@ -93,28 +78,12 @@
     return (ms / 1000).toFixed(1) + " s";
   }
 
-  function fmtValue(v, type) {
-    if (v === null || v === undefined) return "NaN";
-    if (typeof v === "boolean") return v ? "1" : "0";
-    if (type === "f32") {
-      const t = Number(v).toPrecision(6);
-      return t.includes("e") ? t : String(Number(t));
-    }
-    return String(v);
-  }
 
   function asNumber(v) {
     if (typeof v === "boolean") return v ? 1 : 0;
     return typeof v === "number" ? v : null;
   }
 
-  function toast(text, error) {
-    const t = $("toast");
-    t.textContent = text;
-    t.className = "toast show" + (error ? " error" : "");
-    clearTimeout(toast.timer);
-    toast.timer = setTimeout(() => { t.className = "toast" + (error ? " error" : ""); }, error ? 6000 : 3000);
-  }
 
   async function getJSON(path) {
     const r = await fetch(path, { cache: "no-store" });
@@ -146,19 +115,8 @@
     return signedIn() && app.role === "operator";
   }
 
-  async function post(path, body, token) {
-    let r;
-    try {
-      r = await fetch(path, {
-        method: "POST",
-        headers: { "Content-Type": "application/json", Authorization: "Bearer " + (token ?? app.token) },
-        body: JSON.stringify(body),
-      });
-    } catch (e) {
-      return { ok: false, error: "the PLC cannot be reached" };
-    }
-    const j = await r.json().catch(() => null);
-    return j || { ok: false, error: r.status + " " + r.statusText };
+  function post(path, body, token) {
+    return window.softplcShared.post(path, body, token ?? app.token);
   }
 
   async function force(tag, value) {
@@ -202,29 +160,13 @@
       box.append(el("span", { class: "who", "data-role": app.role, text: "signed in as " + (app.role || "engineer") + " · " + can }), out);
       return;
     }
-    const form = el("form", { id: "login" });
-    const input = el("input", { type: "password", placeholder: "token", id: "token", autocomplete: "current-password", "aria-label": "token" });
-    const go = el("button", { type: "submit", class: "primary", text: "Sign in" });
-    form.append(input, go);
-    form.addEventListener("submit", async (ev) => {
-      ev.preventDefault();
-      const token = input.value.trim();
-      if (!token) return;
-      const r = await post("/api/auth", {}, token);
-      if (!r.ok) {
-        toast("Sign-in refused: " + r.error, true);
-        return;
-      }
+    box.append(window.softplcShared.signInForm((token, role) => {
       app.token = token;
-      app.role = r.role || "engineer";
-      sessionStorage.setItem("softplc-token", token);
-      sessionStorage.setItem("softplc-role", app.role);
+      app.role = role;
       renderAuth();
       refreshForceControls();
       renderTraceView();
-      toast("Signed in as " + app.role);
-    });
-    box.append(form);
+    }));
   }
 
   // ---- I/O tables ----
@@ -1046,6 +988,43 @@
     $("plant-states").replaceChildren(...rows);
   }
 
+  // ---- Alarms ----
+
+  // The current alarms (GET /api/alarms), those waiting first, each with its acknowledge
+  // button for a signed-in page (the operator's token may).
+  async function renderAlarms() {
+    let j;
+    try {
+      const r = await fetch("/api/alarms");
+      if (!r.ok) return;
+      j = await r.json();
+    } catch (e) {
+      return;
+    }
+    const rows = j.current.map((a) => {
+      const li = el("li", { "data-alarm": a.name });
+      const sev = a.active ? "bad" : "warn";
+      const ack = el("button", { type: "button", "data-ack": a.name, text: "Acknowledge" });
+      ack.hidden = a.acknowledged;
+      ack.disabled = !signedIn();
+      ack.addEventListener("click", async () => {
+        const r = await post("/api/alarms/ack", { alarm: a.name });
+        toast(r.ok ? r.message : "Not acknowledged: " + r.error, !r.ok);
+        renderAlarms();
+        renderAudit();
+      });
+      const raised = a.raised ? a.raised.utc.replace("T", " ").replace("Z", " UTC") + " · cycle " + a.raised.cycle : "";
+      li.append(
+        el("span", { class: "sev " + sev, text: a.level }),
+        el("span", { text: a.text + " (" + a.name + ")" + (a.active ? "" : " · gone") }),
+        el("span", { text: raised }),
+        ack);
+      return li;
+    });
+    if (rows.length === 0) rows.push(el("li", { text: "no alarm" }));
+    $("alarms").replaceChildren(...rows);
+  }
+
   // ---- Live data ----
 
   function onState(s) {
@@ -1119,6 +1098,8 @@
     setInterval(watchdog, 1000);
     renderAudit();
     setInterval(renderAudit, 5000);
+    renderAlarms();
+    setInterval(renderAlarms, 2000);
     window.addEventListener("resize", renderTrend);
   }
 
