@@ -48,6 +48,7 @@ mod rs485;
 mod scada;
 mod schema;
 mod service;
+mod tasks;
 mod tcp_bus;
 mod trace;
 mod trace_bus;

@@ -49,6 +49,11 @@ impl Plc {
         world: Option<SharedWorld>,
         tap: Option<Arc<dyn WireTap>>,
     ) -> Result<Self, BuildError> {
+        if project.multitask() {
+            return Err(BuildError::SeveralTasks {
+                tasks: project.tasks.len(),
+            });
+        }
         let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
         let mut logic = load::load_program(&project, &image)?;
         // Push-down: the modules run the rungs the plan places there; their drivers get the

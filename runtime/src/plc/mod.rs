@@ -80,6 +80,16 @@ pub enum BuildError {
         /// The module.
         module: String,
     },
+    /// A project of several tasks given where one task's PLC is built: each task is a PLC of
+    /// its own, built from its view of the project (`Project::task_view`).
+    #[error(
+        "the project has {tasks} tasks; one PLC runs one task: build each task from its view \
+         of the project"
+    )]
+    SeveralTasks {
+        /// How many tasks the project has.
+        tasks: usize,
+    },
     /// A module refused its start-up configuration.
     #[error("bus {bus}: {source}")]
     Startup {
