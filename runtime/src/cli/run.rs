@@ -341,6 +341,11 @@ pub(crate) fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Du
         StopReason::Watchdog(w) => {
             format!("FAULT: task watchdog: {w}; outputs set to their safe values")
         }
+        StopReason::TaskFault { task } => {
+            format!(
+                "FAULT: task {task} faulted; every task stopped, outputs set to their safe values"
+            )
+        }
     };
     let _ = writeln!(out, "{reason}");
     let _ = writeln!(

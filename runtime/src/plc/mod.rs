@@ -19,13 +19,17 @@ mod build;
 mod control;
 mod cycle;
 mod error;
+mod exchange;
 mod forces;
 mod record;
+mod tasks;
 
 pub use control::{PreparedReload, ReloadJob};
 pub use error::{ReloadError, TagError};
+pub use exchange::{Exchange, TaskLink};
 pub use forces::forces_path;
 pub use record::RecordError;
+pub use tasks::TaskPlc;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -182,6 +186,8 @@ pub struct Plc {
     kept_forces: Option<forces::ForcesWriter>,
     /// The flight recorder's tap, when the run is recorded.
     recorder: Option<crate::recorder::Tap>,
+    /// This PLC's task among several: the tags it copies in and publishes.
+    task: Option<exchange::TaskLink>,
 }
 
 impl Plc {

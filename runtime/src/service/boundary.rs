@@ -335,6 +335,7 @@ impl CycleBoundary for ServiceBoundary {
                 StopReason::TimeUp => "stopped at the end of its run time".to_string(),
                 StopReason::LogicFault(f) => format!("program error: {f}"),
                 StopReason::Watchdog(w) => format!("task watchdog: {w}"),
+                StopReason::TaskFault { task } => format!("task {task} faulted"),
             });
             p.publish(plc, stats, now, true);
         }
