@@ -258,3 +258,84 @@ fn two_runs_of_several_tasks_give_the_same_trace() {
         );
     }
 }
+
+/// The example copied into a scratch folder (a run writes its audit file beside it).
+fn example_copy(case: &str) -> Scratch {
+    let s = Scratch::new("task_runtime", case);
+    for f in ["project.yaml", "press.ladder.yaml", "panel.ladder.yaml"] {
+        std::fs::copy(repo().join("examples/two-tasks").join(f), s.dir.join(f))
+            .expect("copy the example");
+    }
+    s
+}
+
+fn ctl(socket: &std::path::Path, args: &[&str]) -> (bool, String) {
+    let mut all = args.to_vec();
+    all.extend(["--socket", socket.to_str().expect("UTF-8")]);
+    crate::common::host::softplc(&all)
+}
+
+#[test]
+fn run_on_the_real_clock_reports_each_task_and_hands_requests_to_the_owner() {
+    use std::process::{Command, Stdio};
+    use std::time::Instant;
+    let s = example_copy("real");
+    let socket = s.dir.join("s.sock");
+    let child = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .arg("run")
+        .arg(s.dir.join("project.yaml"))
+        .args(["--for", "8s", "--quiet", "--socket"])
+        .arg(&socket)
+        .env("SOFTPLC_LOG", "warn")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("softplc runs");
+    // The press starts once its fast line is up, the panel's slow line takes seconds more:
+    // until then the press runs alone.
+    let begin = Instant::now();
+    let status = loop {
+        let (ok, text) = ctl(&socket, &["status", "--json"]);
+        if ok {
+            let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+            let scans = |t: usize| v["tasks"][t]["scans"].as_u64().unwrap_or(0);
+            if scans(0) >= 10 && scans(1) >= 1 {
+                break v;
+            }
+        }
+        assert!(
+            begin.elapsed() < Duration::from_secs(20),
+            "no status: {text}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(status["tasks"][0]["name"], "press");
+    assert_eq!(status["tasks"][0]["period_us"], 30_000);
+    assert_eq!(status["tasks"][1]["name"], "panel");
+    assert_eq!(status["tasks"][1]["period_us"], 500_000);
+    // Every task's modules are listed.
+    let modules = status["modules"].as_array().expect("modules");
+    assert_eq!(modules.len(), 12, "{status}");
+    // A force goes to the task owning the tag, whose scan logs it.
+    let (ok, text) = ctl(&socket, &["force", "key_on", "1"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("key_on forced to 1"), "{text}");
+    let (ok, text) = ctl(&socket, &["reload"]);
+    assert!(!ok);
+    assert!(text.contains("runs several tasks"), "{text}");
+    let (_, text) = ctl(&socket, &["status"]);
+    assert!(
+        text.starts_with("two-tasks: 2 tasks\n  task press: "),
+        "{text}"
+    );
+    let out = child.wait_with_output().expect("the run ends");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(stdout.contains("\ntask press:\n  scans "), "{stdout}");
+    assert!(stdout.contains("\ntask panel:\n  scans "), "{stdout}");
+    assert!(
+        stderr.contains("task{name=panel}: tag key_on forced to 1"),
+        "{stderr}"
+    );
+}

@@ -29,7 +29,7 @@ pub use error::{ReloadError, TagError};
 pub use exchange::{Exchange, TaskLink};
 pub use forces::forces_path;
 pub use record::RecordError;
-pub use tasks::TaskPlc;
+pub use tasks::{TaskBuilder, TaskPlc};
 
 use std::sync::Arc;
 use std::time::Duration;

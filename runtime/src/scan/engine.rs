@@ -57,6 +57,9 @@ pub struct StatusSnapshot {
     pub bus_errors: u64,
     /// Scan time.
     pub now: ScanInstant,
+    /// The task's modules as last seen (the status of a PLC of several tasks shows every
+    /// task's).
+    pub modules: Vec<ModuleStatus>,
 }
 
 /// The scan engine: owns the PLC for the duration of a run.
@@ -114,6 +117,12 @@ impl ScanEngine {
     /// the boundaries given before it).
     pub fn with_boundary(mut self, boundary: impl CycleBoundary + 'static) -> Self {
         self.boundaries.push(Box::new(boundary));
+        self
+    }
+
+    /// Refreshes `status` (every 200 ms) instead of a status of its own.
+    pub fn with_status(mut self, status: Arc<Mutex<StatusSnapshot>>) -> Self {
+        self.status = status;
         self
     }
 
@@ -214,6 +223,12 @@ impl ScanEngine {
 
     /// Runs the next cycle (sleeping to its deadline first), or says why the run ends.
     pub fn step(&mut self, run: &mut Run) -> Option<StopReason> {
+        // With several tasks, every log line of the cycle names its task. The span is at the
+        // error level so that it is there at every level the log is filtered to.
+        let _task = self
+            .task
+            .as_ref()
+            .map(|(name, _)| tracing::error_span!("task", name = %name).entered());
         let reason = self.cycle(run);
         if let (Some(StopReason::LogicFault(_) | StopReason::Watchdog(_)), Some((task, halt))) =
             (&reason, &self.task)
@@ -430,6 +445,7 @@ impl ScanEngine {
                 lateness: stats.lateness.percentiles(),
                 bus_errors: stats.bus_errors,
                 now,
+                modules: self.plc.module_status().to_vec(),
             };
         }
     }

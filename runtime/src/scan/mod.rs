@@ -24,5 +24,5 @@ pub use rt::{apply as apply_realtime, RealtimeNote, RealtimeOutcome};
 pub use stats::{
     fmt_duration, DurationHistogram, LastCycle, LineInstant, Percentiles, ScanInstant, ScanStats,
 };
-pub use tasks::{Task, TaskOutcome, TaskSet};
+pub use tasks::{Task, TaskControl, TaskOutcome, TaskSet};
 pub use watchdog::WatchdogTrip;

@@ -38,19 +38,62 @@ pub struct TaskOutcome {
     pub outcome: RunOutcome,
 }
 
+/// What the tasks of one PLC share to stop together: the stop flag (signals, `--for`'s
+/// end is each engine's own) and the halt a faulting task pulls.
+#[derive(Debug, Clone, Default)]
+pub struct TaskControl {
+    stop: Arc<AtomicBool>,
+    halt: Arc<TaskHalt>,
+}
+
+impl TaskControl {
+    /// A control no task has used.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The engine of one task's PLC, stopping with the others.
+    pub fn engine(&self, task: TaskPlc) -> ScanEngine {
+        ScanEngine::new(task.plc)
+            .with_stop_flag(self.stop.clone())
+            .in_task_set(task.name, self.halt.clone())
+    }
+
+    /// The flag that stops every task at its next cycle boundary.
+    pub fn stop_flag(&self) -> Arc<AtomicBool> {
+        self.stop.clone()
+    }
+
+    /// Stops every task as a fault of `task` does (it could not start).
+    pub fn fault(&self, task: &str) {
+        self.halt.fault(task);
+    }
+}
+
 impl TaskSet {
     /// An engine per task's PLC, sharing one stop flag and one halt.
     pub fn new(plcs: Vec<TaskPlc>) -> Self {
-        let stop = Arc::new(AtomicBool::new(false));
-        let halt = TaskHalt::new();
+        let control = TaskControl::new();
         let tasks = plcs
             .into_iter()
             .map(|t| Task {
-                engine: ScanEngine::new(t.plc)
-                    .with_stop_flag(stop.clone())
-                    .in_task_set(t.name.clone(), halt.clone()),
-                name: t.name,
+                name: t.name.clone(),
+                engine: control.engine(t),
             })
+            .collect();
+        Self {
+            tasks,
+            stop: control.stop_flag(),
+        }
+    }
+
+    /// A set of engines made by [`TaskControl::engine`] (one control for all), named.
+    pub fn from_engines(names: Vec<String>, engines: Vec<ScanEngine>) -> Self {
+        let stop = engines.first().map_or_else(Arc::default, |e| e.stop_flag());
+        let tasks = names
+            .into_iter()
+            .zip(engines)
+            .map(|(name, engine)| Task { name, engine })
             .collect();
         Self { tasks, stop }
     }
@@ -120,50 +163,6 @@ impl TaskSet {
             }
         }
         self.outcomes(outcomes)
-    }
-
-    /// Runs every task on a thread of its own (named `scan-TASK`), each at its own real-time
-    /// options (`note` hears what each thread got), until every task has stopped.
-    pub fn run_threads(
-        self,
-        note: impl Fn(&str, &super::RealtimeNote) + Send + Sync + 'static,
-    ) -> std::io::Result<Vec<TaskOutcome>> {
-        let note = Arc::new(note);
-        let mut handles = Vec::with_capacity(self.tasks.len());
-        let names: Vec<String> = self.tasks.iter().map(|t| t.name.clone()).collect();
-        for task in self.tasks {
-            let note = note.clone();
-            let Task { name, mut engine } = task;
-            let spawned = std::thread::Builder::new()
-                .name(format!("scan-{name}"))
-                .spawn(move || {
-                    let realtime = engine.plc().project().scan.realtime;
-                    for n in super::rt::apply(&realtime).notes {
-                        note(&name, &n);
-                    }
-                    engine.run()
-                });
-            match spawned {
-                Ok(h) => handles.push(h),
-                Err(e) => {
-                    // The started tasks stop: a PLC runs all its tasks or none.
-                    self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
-                    for h in handles {
-                        drop(h.join());
-                    }
-                    return Err(e);
-                }
-            }
-        }
-        let outcomes = handles
-            .into_iter()
-            .map(|h| h.join().ok())
-            .collect::<Vec<_>>();
-        Ok(names
-            .into_iter()
-            .zip(outcomes)
-            .filter_map(|(name, outcome)| outcome.map(|outcome| TaskOutcome { name, outcome }))
-            .collect())
     }
 
     fn outcomes(self, outcomes: Vec<Option<RunOutcome>>) -> Vec<TaskOutcome> {

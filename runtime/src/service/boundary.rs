@@ -42,6 +42,8 @@ pub struct ServiceBoundary {
     health: Option<super::health::Health>,
     /// Every cycle's changes, for the services that take them all (OPC UA, MQTT).
     feed: ChangeFeed,
+    /// With several tasks, each task's live figures for the status.
+    tasks: Vec<super::status::TaskStatus>,
 }
 
 impl ServiceBoundary {
@@ -95,6 +97,12 @@ impl ServiceBoundary {
         ));
     }
 
+    /// Reports every task's figures in the status (a PLC of several tasks).
+    pub fn with_tasks(mut self, tasks: Vec<super::status::TaskStatus>) -> Self {
+        self.tasks = tasks;
+        self
+    }
+
     /// Reports the states `health` holds in the status.
     pub fn with_health(mut self, health: super::health::Health) -> Self {
         self.health = Some(health);
@@ -133,7 +141,7 @@ impl ServiceBoundary {
             };
             let response = match env.request {
                 Request::Status => {
-                    let mut status = StatusReport::of(plc, stats);
+                    let mut status = StatusReport::of(plc, stats).with_tasks(&self.tasks);
                     status.services = self
                         .health
                         .as_ref()

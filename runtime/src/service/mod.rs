@@ -44,6 +44,7 @@ pub(crate) mod slots;
 pub(crate) mod snapshot;
 pub(crate) mod socket;
 pub(crate) mod status;
+pub(crate) mod task_router;
 pub(crate) mod trace;
 pub mod web;
 
@@ -55,5 +56,7 @@ pub use notify::Notifier;
 pub use snapshot::{
     HistogramView, ModuleSnapshot, PhaseSummary, Publisher, ServiceSnapshot, SnapshotCell,
 };
-pub use status::{LostChanges, MicrosPercentiles, ModuleReport, StatusReport, TagReport};
+pub use status::{
+    LostChanges, MicrosPercentiles, ModuleReport, StatusReport, TagReport, TaskReport, TaskStatus,
+};
 pub use trace::TraceRequest;
