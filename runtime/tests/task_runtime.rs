@@ -339,3 +339,24 @@ fn run_on_the_real_clock_reports_each_task_and_hands_requests_to_the_owner() {
         "{stderr}"
     );
 }
+
+#[test]
+fn the_examples_scenarios_pass_in_ladder_and_rhai_with_one_trace() {
+    let (ok, text) = crate::common::host::softplc(&["test", "examples/two-tasks", "--verbose"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("2 passed, 0 failed"), "{text}");
+    // Each run's trace: the lines after its `ok` line, up to the next.
+    let mut traces: Vec<Vec<&str>> = Vec::new();
+    for line in text.lines() {
+        if line.starts_with("ok ") {
+            traces.push(Vec::new());
+        } else if let Some(t) = traces.last_mut() {
+            if line.starts_with("   ") {
+                t.push(line.trim());
+            }
+        }
+    }
+    assert_eq!(traces.len(), 2, "{text}");
+    assert!(traces[0].contains(&"6.420s  press_down = 1"), "{text}");
+    assert_eq!(traces[0], traces[1], "ladder and Rhai differ:\n{text}");
+}

@@ -37,7 +37,7 @@ pub(crate) mod secret;
 pub(crate) mod service;
 pub(crate) mod span;
 pub(crate) mod state;
-mod task_view;
+pub(crate) mod task_view;
 pub(crate) mod trace;
 pub(crate) mod trace_budget;
 mod unknown_keys;

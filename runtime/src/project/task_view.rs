@@ -81,7 +81,7 @@ impl Project {
 
 /// `pump.retain.json` → `pump.retain.fast.json` for task `fast`: each task writes its own
 /// retained tags, so two task threads never write one file.
-fn task_file(file: &std::path::Path, task: &str) -> PathBuf {
+pub(crate) fn task_file(file: &std::path::Path, task: &str) -> PathBuf {
     let name = file
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
