@@ -328,6 +328,12 @@ fn run_on_the_real_clock_reports_each_task_and_hands_requests_to_the_owner() {
         text.starts_with("two-tasks: 2 tasks\n  task press: "),
         "{text}"
     );
+    // `systemctl reload` (SIGHUP) is answered in the log; the PLC runs on.
+    #[allow(unsafe_code)]
+    // SAFETY: kill has no memory preconditions; the pid is our own child's.
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGHUP)
+    };
     let out = child.wait_with_output().expect("the run ends");
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -336,6 +342,10 @@ fn run_on_the_real_clock_reports_each_task_and_hands_requests_to_the_owner() {
     assert!(stdout.contains("\ntask panel:\n  scans "), "{stdout}");
     assert!(
         stderr.contains("task{name=panel}: tag key_on forced to 1"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("SIGHUP: this PLC runs several tasks"),
         "{stderr}"
     );
 }

@@ -100,6 +100,10 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
     }
     let router_stop = Arc::new(AtomicBool::new(false));
+    // SIGHUP (`systemctl reload`) must not end the process: it is answered in the log.
+    let reload = Arc::new(AtomicBool::new(false));
+    signal_hook::flag::register(signal_hook::consts::SIGHUP, reload.clone())
+        .context("cannot install the SIGHUP handler")?;
     let tag_index: std::collections::HashMap<String, usize> = project
         .tags
         .iter()
@@ -116,6 +120,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             ownership.owner(TagId(i as u32))
         },
         router_stop.clone(),
+        reload,
     )
     .context("cannot start the control requests' router")?;
     let _control = super::run::open_control(&args, &project.name, &requests)?;

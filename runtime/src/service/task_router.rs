@@ -16,18 +16,26 @@ use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TrySendError};
 use super::control::{Envelope, Request, Response};
 
 /// Hands requests from `requests` to the tasks' boundaries (`tasks[i]` is task `i`'s queue);
-/// `owner(tag)` is the task owning a tag. Runs on a thread of its own until `stop` is set.
+/// `owner(tag)` is the task owning a tag. Runs on a thread of its own until `stop` is set;
+/// `reload` (SIGHUP's flag) is answered in the log, since a reload is not offered.
 pub(crate) fn start(
     requests: Receiver<Envelope>,
     tasks: Vec<Sender<Envelope>>,
     names: Vec<String>,
     owner: impl Fn(&str) -> Option<usize> + Send + 'static,
     stop: Arc<AtomicBool>,
+    reload: Arc<AtomicBool>,
 ) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("task-router".into())
         .spawn(move || {
             while !stop.load(Ordering::Relaxed) {
+                if reload.swap(false, Ordering::Relaxed) {
+                    tracing::warn!(
+                        "SIGHUP: this PLC runs several tasks and a reload swaps one program; the \
+                         programs running stay; restart the PLC to load changed programs"
+                    );
+                }
                 let env = match requests.recv_timeout(Duration::from_millis(100)) {
                     Ok(env) => env,
                     Err(RecvTimeoutError::Timeout) => continue,
