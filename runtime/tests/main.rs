@@ -52,6 +52,8 @@ mod rs485;
 mod scada;
 mod schema;
 mod service;
+mod task_runtime;
+mod tasks;
 mod tcp_bus;
 mod trace;
 mod trace_bus;

@@ -388,7 +388,7 @@ fn every_unknown_key_comes_with_the_other_errors() {
 fn unknown_key_at_the_top_level() {
     let e = one(&format!("{HEAD}modles: []\n"));
     assert_eq!(at(&e), (7, 1));
-    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `buses`, `modules`, `tags`, `program`, `blocks`, `instances`, `plant`, `service`, `retain`, `offload`, `recorder`, `traces`, `trace_budget`, `alarms`; did you mean `modules`?"), "{e}");
+    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `tasks`, `buses`, `modules`, `tags`, `program`, `blocks`, `instances`, `plant`, `service`, `retain`, `offload`, `recorder`, `traces`, `trace_budget`, `alarms`; did you mean `modules`?"), "{e}");
 }
 
 #[test]

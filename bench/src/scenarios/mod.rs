@@ -16,6 +16,7 @@ pub(crate) mod reaction;
 pub(crate) mod scale;
 pub(crate) mod scheduler;
 pub(crate) mod serial_path;
+pub(crate) mod tasks;
 pub(crate) mod trace_cost;
 pub(crate) mod virtual_truth;
 
@@ -95,5 +96,6 @@ pub(crate) fn all() -> Vec<Scenario> {
         plant_load::SCENARIO,
         blink::SCENARIO,
         footprint::SCENARIO,
+        tasks::SCENARIO,
     ]
 }

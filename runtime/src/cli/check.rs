@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use softplc_io::line::{line_budget_on, members_floor, AdapterTiming, EchoMode, SysfsRoot};
 use softplc_io::point::Access;
 
-use crate::image::ProcessImage;
+use crate::image::{ProcessImage, TagId};
 use crate::logic::load;
 use crate::project::{Binding, PortConfig, Project};
 use crate::scan::fmt_duration;
@@ -27,29 +27,49 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
-    let engine = match load::load_program(&project, &image) {
-        Ok(engine) => engine,
+    let (engines, ownership) = match load::load_tasks(&project, &image) {
+        Ok(loaded) => loaded,
         Err(e) => {
             super::out::errln(&e.to_string());
             return Ok(ExitCode::FAILURE);
         }
     };
     // The I/O map and budgets as the drivers will run: with the push-down plan's settings
-    // (tables, read-back).
-    let plan = crate::offload::plan_program(&project, engine.as_ref());
+    // (tables, read-back). Each task's program is planned on its own view of the project
+    // (its buses' modules, its period), as its thread runs it.
+    let views: Vec<_> = (0..project.tasks.len())
+        .map(|i| project.task_view(i, |t| ownership.owner(TagId(t as u32)) == Some(i)))
+        .collect();
+    let plans: Vec<_> = views
+        .iter()
+        .zip(&engines)
+        .map(|(view, engine)| crate::offload::plan_program(view, engine.as_ref()))
+        .collect();
     let mut planned = project.clone();
-    for (module, device) in planned
-        .modules
-        .iter_mut()
-        .zip(plan.device_configs(&project))
-    {
-        module.device = device;
+    for (i, (view, plan)) in views.iter().zip(&plans).enumerate() {
+        let mine = planned
+            .modules
+            .iter_mut()
+            .filter(|m| project.task_of_bus(m.bus) == i);
+        for (module, device) in mine.zip(plan.device_configs(view)) {
+            module.device = device;
+        }
     }
-    super::out::out(&report(&planned, engine.execution().as_deref()))?;
-    super::out::out(&crate::offload::report::report(&project, &plan))?;
-    let failures = plan.require_failures();
-    if !failures.is_empty() {
-        super::out::errln(&crate::offload::runtime::lines(&failures).to_string());
+    let execution = engines.first().and_then(|e| e.execution());
+    super::out::out(&report(&planned, execution.as_deref()))?;
+    if project.multitask() {
+        super::out::out(&tasks::report(&project, &engines, &ownership))?;
+    }
+    let mut failed = false;
+    for (view, plan) in views.iter().zip(&plans) {
+        super::out::out(&crate::offload::report::report(view, plan))?;
+        let failures = plan.require_failures();
+        if !failures.is_empty() {
+            super::out::errln(&crate::offload::runtime::lines(&failures).to_string());
+            failed = true;
+        }
+    }
+    if failed {
         return Ok(ExitCode::FAILURE);
     }
     Ok(ExitCode::SUCCESS)
@@ -72,22 +92,24 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
     use std::fmt::Write;
     let mut out = String::new();
     let scan = &project.scan;
-    let _ = writeln!(
-        out,
-        "project {}: scan period {}, watchdog {} × {}",
-        project.name,
-        fmt_duration(scan.period),
-        fmt_duration(scan.watchdog.time),
-        scan.watchdog.sensitivity
-    );
-    let _ = writeln!(
-        out,
-        "program {} ({:?})",
-        project.program.path.display(),
-        project.program.kind
-    );
-    if let Some(line) = execution {
-        let _ = writeln!(out, "  {line}");
+    if project.multitask() {
+        let _ = writeln!(
+            out,
+            "project {}: {} tasks (each its own thread, period and watchdog)",
+            project.name,
+            project.tasks.len()
+        );
+    } else {
+        let _ = writeln!(out, "project {}: scan {}", project.name, timing(scan));
+        let _ = writeln!(
+            out,
+            "program {} ({:?})",
+            project.program.path.display(),
+            project.program.kind
+        );
+        if let Some(line) = execution {
+            let _ = writeln!(out, "  {line}");
+        }
     }
     let mut worst = std::time::Duration::ZERO;
     let mut warnings = Vec::new();
@@ -102,9 +124,15 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         } else {
             format!(", {}", bus.settings)
         };
+        // The bus's budget counts against the period of the task doing its I/O.
+        let period = project.bus_period(b);
+        let task = match project.multitask() {
+            true => format!(", task {}", project.tasks[project.task_of_bus(b)].name),
+            false => String::new(),
+        };
         let _ = writeln!(
             out,
-            "\nbus {}: {port}{line}, response timeout {}, retries {}",
+            "\nbus {}: {port}{line}, response timeout {}, retries {}{task}",
             bus.name,
             fmt_duration(bus.response_timeout),
             bus.retries
@@ -183,7 +211,7 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         }
         let budget = line_budget_on(bus.settings, adapter, &mut drivers);
         if bus.port.is_modbus_tcp() {
-            out.push_str(&tcp::budget(bus, &budget, scan.period));
+            out.push_str(&tcp::budget(bus, &budget, period));
             continue;
         }
         let mix = project.cycle_mix(b, adapter);
@@ -249,7 +277,7 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
             };
         let first = attempt * (u32::from(bus.retries) + 1);
         let n = budget.modules.len() as u32;
-        let input_wait = scan.period * 9 / 10;
+        let input_wait = period * 9 / 10;
         let _ = writeln!(
             out,
             "  on failure: a silent module costs the line {} in its first failed cycle, then {} \
@@ -263,7 +291,7 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         // A note, not a warning: the scan no longer waits for a dead line, so this costs the
         // line's detection time, not the machine's cycle (a warning would fire on almost
         // every real project, the quick start included).
-        if first * n > scan.period {
+        if first * n > period {
             let _ = writeln!(
                 out,
                 "  note: bus {}: with every module silent (a dead line) the first failed cycle takes {} ({n} module(s) × {} attempt(s) × {} with response timeout {}), longer than the scan period {}: the scan goes on without it, the line's inputs stale, then bad once its modules are lost; a shorter response_timeout or fewer retries find the fault sooner",
@@ -272,10 +300,10 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
                 u32::from(bus.retries) + 1,
                 fmt_duration(attempt),
                 fmt_duration(bus.response_timeout),
-                fmt_duration(scan.period)
+                fmt_duration(period)
             );
         }
-        let prediction = mix.predict(scan.period);
+        let prediction = mix.predict(period);
         for line in cycle_mix::lines(&mix, &prediction) {
             let _ = writeln!(out, "  {line}");
         }
@@ -306,13 +334,16 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
     for line in plant_lines {
         let _ = writeln!(out, "{line}");
     }
-    let _ = writeln!(
-        out,
-        "\nlines are polled in parallel: an ordinary cycle's input phase can be no shorter \
-         than {} (the slowest line's; a refresh or an input change makes a cycle longer: each \
-         line's cycle mix says by how much)",
-        fmt_duration(worst)
-    );
+    // With tasks, each line's cycle mix above is its own task's.
+    if !project.multitask() {
+        let _ = writeln!(
+            out,
+            "\nlines are polled in parallel: an ordinary cycle's input phase can be no shorter \
+             than {} (the slowest line's; a refresh or an input change makes a cycle longer: \
+             each line's cycle mix says by how much)",
+            fmt_duration(worst)
+        );
+    }
     out.push_str(&crate::service::network::report(project));
     let notes = unit_network::notes(project);
     if !notes.is_empty() {
@@ -325,6 +356,16 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         let _ = writeln!(out, "{w}");
     }
     out
+}
+
+/// A task's timing as `check` says it: `period 20.00ms, watchdog 100.00ms × 3`.
+fn timing(scan: &crate::project::ScanConfig) -> String {
+    format!(
+        "period {}, watchdog {} × {}",
+        fmt_duration(scan.period),
+        fmt_duration(scan.watchdog.time),
+        scan.watchdog.sensitivity
+    )
 }
 
 /// A description at the end of an I/O map's line: `  — Start button, green`, or nothing.
@@ -438,6 +479,7 @@ fn latency_clause(adapter: AdapterTiming, each: &str) -> String {
 mod cycle_mix;
 mod plan;
 mod plant;
+mod tasks;
 mod tcp;
 #[cfg(test)]
 mod tests;

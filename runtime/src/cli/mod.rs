@@ -15,6 +15,7 @@ mod monitor;
 mod out;
 mod replay;
 mod run;
+mod run_tasks;
 mod schema;
 mod schema_doc;
 mod sim;

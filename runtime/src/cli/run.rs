@@ -25,44 +25,44 @@ use crate::service::{network, snapshot, Health, Service, ServiceState};
 #[derive(Debug, clap::Args)]
 pub(crate) struct RunArgs {
     /// The project file.
-    project: PathBuf,
+    pub(super) project: PathBuf,
     /// Stop by itself after this long (e.g. 10s, 2m); the safe state is written as on SIGINT.
     #[arg(long = "for", value_parser = super::parse_duration)]
-    run_for: Option<Duration>,
+    pub(super) run_for: Option<Duration>,
     /// Run on a virtual clock, as fast as the machine allows (needs --for). Deterministic:
     /// two runs give the same trace.
     #[arg(long = "virtual", requires = "run_for")]
-    virtual_clock: bool,
+    pub(super) virtual_clock: bool,
     /// No live status line.
     #[arg(long)]
-    quiet: bool,
+    pub(super) quiet: bool,
     /// The control socket (status, force, reload); default: from the project name, under
     /// $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR/softplc or /tmp/softplc-UID.
     /// The same flag as `status`, `force`, `reload` take (`--control` is the older name,
     /// still accepted).
     #[arg(long = "socket", alias = "control")]
-    control: Option<PathBuf>,
+    pub(super) control: Option<PathBuf>,
     /// Keep forces across restarts, in PROJECT.forces.json beside the project file (by default
     /// a restart clears every force).
     #[arg(long)]
-    keep_forces: bool,
+    pub(super) keep_forces: bool,
     /// Keep a flight record of at least this much scan time (e.g. 10m), in PROJECT.record
     /// beside the project file (the state directory under systemd); the project's
     /// `recorder:` section gives its other settings (and turns it on without this flag).
     #[arg(long, value_name = "KEEP", value_parser = super::parse_duration)]
-    record: Option<Duration>,
+    pub(super) record: Option<Duration>,
     /// Run the scan thread at SCHED_FIFO with this priority (1..=99) when the project's
     /// `scan.realtime.priority` does not say; the service unit passes 50. Best effort: a
     /// refusal (no CAP_SYS_NICE, an RLIMIT_RTPRIO too low) is a warning in the log.
     #[arg(long, value_name = "PRIORITY", value_parser = clap::value_parser!(u8).range(1..=99))]
-    realtime_priority: Option<u8>,
+    pub(super) realtime_priority: Option<u8>,
     /// Do not open a control socket.
     #[arg(long = "no-socket", alias = "no-control", conflicts_with = "control")]
-    no_control: bool,
+    pub(super) no_control: bool,
     /// Print every frame each bus sends and receives (and every timeout and discarded byte)
     /// on stdout, with the line's time, hex and decoding (docs/buses.md, "Seeing the wire").
     #[arg(long)]
-    trace_bus: bool,
+    pub(super) trace_bus: bool,
 }
 
 pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
@@ -73,6 +73,9 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::FAILURE);
         }
     };
+    if project.multitask() {
+        return super::run_tasks::run(args, project);
+    }
     let clock: Arc<dyn Clock> = if args.virtual_clock {
         Arc::new(VirtualClock::new())
     } else {
@@ -99,21 +102,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let published = snapshot::SnapshotCell::new();
     // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
     let mut feed = ChangeFeed::new();
-    let audit_file = crate::service::audit::audit_path(&args.project);
-    let audit = match crate::service::audit::AuditLog::start(audit_file.clone()) {
-        Ok(log) => {
-            tracing::info!("audit file {}", audit_file.display());
-            let probe = log.clone();
-            health.watch(Service::Audit, move || probe.state());
-            Some(log)
-        }
-        Err(e) => {
-            // The PLC runs without it, and says why.
-            tracing::error!("audit: cannot start its writer ({e}); nothing is audited");
-            health.set(Service::Audit, ServiceState::Stopped(e.to_string()));
-            None
-        }
-    };
+    let audit = start_audit(&args.project, &health);
     // Before OPC UA, which publishes them under `Alarms`.
     let alarms = start_alarms(
         &project,
@@ -191,18 +180,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     signal_hook::flag::register(signal_hook::consts::SIGHUP, boundary.reload_flag())
         .context("cannot install the SIGHUP handler")?;
-    let _control = if args.no_control {
-        None
-    } else {
-        let path = args
-            .control
-            .clone()
-            .unwrap_or_else(|| default_socket_path(&name));
-        let server = ControlServer::start(&path, requests.clone())
-            .with_context(|| format!("cannot open the control socket {}", path.display()))?;
-        tracing::info!("control socket {}", server.path().display());
-        Some(server)
-    };
+    let _control = open_control(&args, &name, &requests)?;
     let project = engine.plc().project();
     let mut services = network::start(
         project,
@@ -275,36 +253,19 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         })
         .context("cannot start the scan thread")?;
 
-    let live = !args.quiet && !args.virtual_clock;
-    let tty = std::io::stderr().is_terminal();
-    let mut last_print = std::time::Instant::now();
-    while !scan.is_finished() {
-        std::thread::sleep(Duration::from_millis(100));
-        if live && last_print.elapsed() >= Duration::from_millis(if tty { 500 } else { 2000 }) {
-            last_print = std::time::Instant::now();
-            if let Ok(s) = status.lock() {
-                let line = format!(
-                    "t={:>7} scans {:>6}  cycle p50 {} p99 {} max {}  overruns {}  bus errors {}",
-                    s.now,
-                    s.cycles,
-                    fmt_duration(s.cycle.p50),
-                    fmt_duration(s.cycle.p99),
-                    fmt_duration(s.cycle.max),
-                    s.overruns,
-                    s.bus_errors
-                );
-                // Best effort: a closed stderr must not stop the PLC.
-                if tty {
-                    super::out::err(&format!("\r\x1b[2K{line}"));
-                } else {
-                    super::out::errln(&line);
-                }
-            }
-        }
-    }
-    if live && tty {
-        super::out::errln("");
-    }
+    watch_live(&scan, !args.quiet && !args.virtual_clock, || {
+        let s = status.lock().ok()?;
+        Some(format!(
+            "t={:>7} scans {:>6}  cycle p50 {} p99 {} max {}  overruns {}  bus errors {}",
+            s.now,
+            s.cycles,
+            fmt_duration(s.cycle.p50),
+            fmt_duration(s.cycle.p99),
+            fmt_duration(s.cycle.max),
+            s.overruns,
+            s.bus_errors
+        ))
+    });
     let outcome = scan
         .join()
         .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
@@ -387,6 +348,75 @@ fn start_alarms(
     }
 }
 
+/// The control socket (`--socket`, else the default path for project `name`) feeding
+/// `requests`; `None` with `--no-socket`.
+pub(super) fn open_control(
+    args: &RunArgs,
+    name: &str,
+    requests: &crossbeam_channel::Sender<crate::service::control::Envelope>,
+) -> anyhow::Result<Option<ControlServer>> {
+    if args.no_control {
+        return Ok(None);
+    }
+    let path = args
+        .control
+        .clone()
+        .unwrap_or_else(|| default_socket_path(name));
+    let server = ControlServer::start(&path, requests.clone())
+        .with_context(|| format!("cannot open the control socket {}", path.display()))?;
+    tracing::info!("control socket {}", server.path().display());
+    Ok(Some(server))
+}
+
+/// The audit file's writer for the project at `project`, its state watched by `health`;
+/// `None` (said in the log and the status) when it cannot start: the PLC runs without it.
+pub(super) fn start_audit(
+    project: &std::path::Path,
+    health: &Health,
+) -> Option<crate::service::audit::AuditLog> {
+    let audit_file = crate::service::audit::audit_path(project);
+    match crate::service::audit::AuditLog::start(audit_file.clone()) {
+        Ok(log) => {
+            tracing::info!("audit file {}", audit_file.display());
+            let probe = log.clone();
+            health.watch(Service::Audit, move || probe.state());
+            Some(log)
+        }
+        Err(e) => {
+            tracing::error!("audit: cannot start its writer ({e}); nothing is audited");
+            health.set(Service::Audit, ServiceState::Stopped(e.to_string()));
+            None
+        }
+    }
+}
+
+/// Until `scan` ends, prints `line()` on stderr when `live`: every 500 ms over itself on a
+/// terminal, every 2 s as a line of its own otherwise.
+pub(super) fn watch_live<T>(
+    scan: &std::thread::JoinHandle<T>,
+    live: bool,
+    line: impl Fn() -> Option<String>,
+) {
+    let tty = std::io::stderr().is_terminal();
+    let mut last_print = std::time::Instant::now();
+    while !scan.is_finished() {
+        std::thread::sleep(Duration::from_millis(100));
+        if live && last_print.elapsed() >= Duration::from_millis(if tty { 500 } else { 2000 }) {
+            last_print = std::time::Instant::now();
+            let Some(line) = line() else { continue };
+            // Best effort: a closed stderr must not stop the PLC.
+            if tty {
+                super::out::err(&format!("\r\x1b[2K{line}"));
+            } else {
+                super::out::errln(&line);
+            }
+        }
+    }
+    if live && tty {
+        super::out::errln("");
+    }
+}
+
 /// The end-of-run summary.
 pub(crate) fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Duration>) -> String {
     use std::fmt::Write;
@@ -406,6 +436,11 @@ pub(crate) fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Du
         }
         StopReason::Watchdog(w) => {
             format!("FAULT: task watchdog: {w}; outputs set to their safe values")
+        }
+        StopReason::TaskFault { task } => {
+            format!(
+                "FAULT: task {task} faulted; every task stopped, outputs set to their safe values"
+            )
         }
     };
     let _ = writeln!(out, "{reason}");

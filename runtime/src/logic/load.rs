@@ -7,9 +7,10 @@ use std::time::Duration;
 use softplc_io::point::Access;
 
 use crate::image::{ProcessImage, TagId};
+use crate::logic::ownership::{Ownership, OwnershipError};
 use crate::logic::LogicEngine;
 use crate::logic::{expr, ladder, rhai, user_blocks};
-use crate::project::{Binding, ProgramKind, Project};
+use crate::project::{Binding, ProgramConfig, ProgramKind, Project, ScanConfig};
 
 /// Why a program could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -34,6 +35,13 @@ pub enum ProgramError {
     /// Blocks of one's own that cannot join the block registry.
     #[error("{}", Lines(.0))]
     OwnBlock(Vec<crate::logic::OwnBlockError>),
+    /// Tags written by two tasks, or a bus's output written by a task not owning the bus;
+    /// every one is listed.
+    #[error("{}", Lines(.0))]
+    Ownership(Vec<OwnershipError>),
+    /// Several tasks' programs have errors.
+    #[error("{}", Lines(.0))]
+    Several(Vec<ProgramError>),
 }
 
 /// One error per line.
@@ -79,10 +87,10 @@ pub fn tag_table(project: &Project, image: &ProcessImage) -> expr::TagTable {
 /// least half a period), so a runaway script faults the PLC before the watchdog's limit while a
 /// script that was merely preempted on a busy machine is not a fault. The operation limit stops
 /// runaway loops deterministically on any clock; this wall-clock guard is the backstop.
-pub(crate) fn script_budget(project: &Project) -> Duration {
+pub(crate) fn script_budget(scan: &ScanConfig) -> Duration {
     // The guard against a runaway script: the task watchdog's time, not a share of the period,
     // so a script preempted once on a busy machine is not a fault (the watchdog decides that).
-    project.scan.watchdog.time.max(project.scan.period / 2)
+    scan.watchdog.time.max(scan.period / 2)
 }
 
 /// Compiles the project's program against its tags (ids as in `image`).
@@ -90,14 +98,51 @@ pub fn load_program(
     project: &Project,
     image: &ProcessImage,
 ) -> Result<Box<dyn LogicEngine>, ProgramError> {
-    let path = &project.program.path;
+    load_task_program(project, &project.program, &project.scan, image)
+}
+
+/// Compiles every task's program against the project's tags (ids as in `image`), in task
+/// order, and finds which task owns each tag; every compile error of every task, or every
+/// tag with two writing tasks, is reported.
+pub fn load_tasks(
+    project: &Project,
+    image: &ProcessImage,
+) -> Result<(Vec<Box<dyn LogicEngine>>, Ownership), ProgramError> {
+    let mut engines = Vec::with_capacity(project.tasks.len());
+    let mut failed: Option<ProgramError> = None;
+    for task in &project.tasks {
+        match load_task_program(project, &task.program, &task.scan, image) {
+            Ok(engine) => engines.push(engine),
+            Err(e) => {
+                failed = Some(match failed {
+                    None => e,
+                    Some(before) => ProgramError::Several(vec![before, e]),
+                })
+            }
+        }
+    }
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    let ownership = Ownership::find(project, &engines).map_err(ProgramError::Ownership)?;
+    Ok((engines, ownership))
+}
+
+/// Compiles one task's program (`program`, timed by `scan`) against the project's tags.
+pub(crate) fn load_task_program(
+    project: &Project,
+    program: &ProgramConfig,
+    scan: &ScanConfig,
+    image: &ProcessImage,
+) -> Result<Box<dyn LogicEngine>, ProgramError> {
+    let path = &program.path;
     let source = std::fs::read_to_string(path).map_err(|source| ProgramError::Read {
         path: path.clone(),
         source,
     })?;
     let table = tag_table(project, image);
-    let own = user_blocks::build(project, &table, script_budget(project))?;
-    Ok(match project.program.kind {
+    let own = user_blocks::build(project, &table, script_budget(scan))?;
+    Ok(match program.kind {
         ProgramKind::Expr => {
             Box::new(expr::compile(&source, path, &table).map_err(ProgramError::Compile)?)
         }
@@ -105,7 +150,7 @@ pub fn load_program(
             ladder::compile_with(&source, path, &table, own).map_err(ProgramError::Ladder)?,
         ),
         ProgramKind::Rhai => Box::new(
-            rhai::compile_calling(&source, path, &table, script_budget(project), own)
+            rhai::compile_calling(&source, path, &table, script_budget(scan), own)
                 .map_err(ProgramError::Rhai)?,
         ),
     })

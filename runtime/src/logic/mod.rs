@@ -7,6 +7,7 @@ pub(crate) mod blocks;
 pub mod expr;
 pub mod ladder;
 pub(crate) mod load;
+pub(crate) mod ownership;
 #[cfg(test)]
 mod registry_tests;
 pub mod rhai;
@@ -15,7 +16,8 @@ pub(crate) mod user_blocks;
 mod vm;
 
 pub use blocks::{BlockDef, Form, Kind, Member, OutputValue, Pattern, PatternError, Pin, PinType};
-pub use load::{load_program, tag_table, ProgramError};
+pub use load::{load_program, load_tasks, tag_table, ProgramError};
+pub use ownership::{Ownership, OwnershipError};
 pub use user_blocks::{OwnBlockError, OwnBlocks};
 
 use std::fmt::Debug;
@@ -90,6 +92,19 @@ pub trait LogicEngine: Send + Debug {
     /// rungs (then nothing is pushed down, and `check` says so).
     fn rungs(&self) -> Option<Vec<Rung>> {
         None
+    }
+
+    /// Every tag the program may write, once each, with the place of its first writing
+    /// statement or rung, in program order: what `check` holds against the other tasks'
+    /// programs (every tag has one writing task). By default the coils of [`Self::rungs`].
+    fn writes(&self) -> Vec<(crate::image::TagId, SourcePos)> {
+        let mut out: Vec<(crate::image::TagId, SourcePos)> = Vec::new();
+        for r in self.rungs().unwrap_or_default() {
+            if !out.iter().any(|(t, _)| *t == r.coil) {
+                out.push((r.coil, r.pos));
+            }
+        }
+        out
     }
 
     /// The module now runs the rung writing `coil`: stop writing it (the PLC reads the

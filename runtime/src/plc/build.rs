@@ -49,6 +49,23 @@ impl Plc {
         world: Option<SharedWorld>,
         tap: Option<Arc<dyn WireTap>>,
     ) -> Result<Self, BuildError> {
+        Self::build_lines_in(project, clock, world, tap, None)
+    }
+
+    /// [`Plc::build_traced`], where bus `b` of `project` is line `world_lines[b]` of `world`
+    /// (a task's view of a project whose world holds every task's lines; `None`: line `b`).
+    pub(super) fn build_lines_in(
+        project: Project,
+        clock: Arc<dyn Clock>,
+        world: Option<SharedWorld>,
+        tap: Option<Arc<dyn WireTap>>,
+        world_lines: Option<&[usize]>,
+    ) -> Result<Self, BuildError> {
+        if project.multitask() {
+            return Err(BuildError::SeveralTasks {
+                tasks: project.tasks.len(),
+            });
+        }
         let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
         let mut logic = load::load_program(&project, &image)?;
         // Push-down: the modules run the rungs the plan places there; their drivers get the
@@ -96,7 +113,7 @@ impl Plc {
                     let world = world.get_or_insert_with(|| SimWorld::new(Vec::new()).shared());
                     Box::new(VirtualPort::new(
                         world.clone(),
-                        b,
+                        world_lines.and_then(|w| w.get(b).copied()).unwrap_or(b),
                         bus.settings,
                         clock.clone(),
                     ))
@@ -299,12 +316,13 @@ impl Plc {
             dead_lines: Vec::new(),
             kept_forces: None,
             recorder: None,
+            task: None,
         })
     }
 }
 
 /// The simulated world for the project's `port: sim` lines, with its plant.
-fn build_world(project: &Project) -> Option<SharedWorld> {
+pub(super) fn build_world(project: &Project) -> Option<SharedWorld> {
     if !project.buses.iter().any(|b| b.port == PortConfig::Sim) {
         return None;
     }
@@ -332,7 +350,7 @@ fn build_world(project: &Project) -> Option<SharedWorld> {
 /// Attaches the project's plant model to the simulated world, once the modules have started:
 /// the machine's story (an operator loading a box) begins with the first scan, however long
 /// the modules' start-up took, as it does when an operator waits for the PLC to run.
-fn attach_plant(project: &Project, world: &SharedWorld, now: ScanInstant) {
+pub(super) fn attach_plant(project: &Project, world: &SharedWorld, now: ScanInstant) {
     let Ok(mut world) = world.lock() else { return };
     // The modules run up to now on their own; the plant's first step is the first scan's.
     world.advance_to(now.on_line_clock());

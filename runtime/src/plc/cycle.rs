@@ -98,6 +98,10 @@ impl Plc {
             }
         }
         self.offload.read_back(&mut self.image, &frames, now);
+        // With several tasks: what the others published by now, once per cycle (forces win).
+        if let Some(task) = &self.task {
+            task.exchange.copy_in(&task.foreign, &mut self.image, now);
+        }
         self.image.apply_forces(now);
     }
 
@@ -150,6 +154,11 @@ impl Plc {
         if let Some(tap) = self.recorder.as_mut() {
             tap.wrote(&self.image);
         }
+        // With several tasks: the tags this one owns, for the others' next cycles.
+        if let Some(task) = &self.task {
+            task.exchange
+                .publish(&task.owned, &self.image, self.clock.now());
+        }
     }
 
     /// Drives every output to its safe value (stop, fault, watchdog).
@@ -172,6 +181,11 @@ impl Plc {
             .safe_outputs(&mut self.frames, &mut self.image, self.clock.now());
         self.dispatch(true);
         self.offload.clear_commands(&mut self.frames);
+        // The other tasks see this one's outputs at their safe values.
+        if let Some(task) = &self.task {
+            task.exchange
+                .publish(&task.owned, &self.image, self.clock.now());
+        }
     }
 
     fn dispatch_writes(&mut self) {

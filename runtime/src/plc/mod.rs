@@ -19,13 +19,17 @@ mod build;
 mod control;
 mod cycle;
 mod error;
+mod exchange;
 mod forces;
 mod record;
+mod tasks;
 
 pub use control::{PreparedReload, ReloadJob};
 pub use error::{ReloadError, TagError};
+pub use exchange::{Exchange, TaskLink};
 pub use forces::forces_path;
 pub use record::RecordError;
+pub use tasks::{TaskBuilder, TaskPlc};
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -79,6 +83,16 @@ pub enum BuildError {
         bus: String,
         /// The module.
         module: String,
+    },
+    /// A project of several tasks given where one task's PLC is built: each task is a PLC of
+    /// its own, built from its view of the project (`Project::task_view`).
+    #[error(
+        "the project has {tasks} tasks; one PLC runs one task: build each task from its view \
+         of the project"
+    )]
+    SeveralTasks {
+        /// How many tasks the project has.
+        tasks: usize,
     },
     /// A module refused its start-up configuration.
     #[error("bus {bus}: {source}")]
@@ -175,6 +189,8 @@ pub struct Plc {
     kept_forces: Option<forces::ForcesWriter>,
     /// The flight recorder's tap, when the run is recorded.
     recorder: Option<crate::recorder::Tap>,
+    /// This PLC's task among several: the tags it copies in and publishes.
+    task: Option<exchange::TaskLink>,
 }
 
 impl Plc {

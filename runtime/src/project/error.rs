@@ -114,6 +114,8 @@ pub enum Item {
     Module,
     /// A `tags:` entry.
     Tag,
+    /// A `tasks:` entry.
+    Task,
 }
 
 impl fmt::Display for Item {
@@ -122,6 +124,7 @@ impl fmt::Display for Item {
             Item::Bus => "bus",
             Item::Module => "module",
             Item::Tag => "tag",
+            Item::Task => "task",
         })
     }
 }
@@ -606,6 +609,46 @@ pub enum ErrorKind {
         other: String,
         /// That tag's `point` line.
         other_line: usize,
+    },
+    /// `tasks:` beside `scan:` or `program:`: which task would they describe?
+    #[error(
+        "`tasks:` and `{key}:` cannot be used together: a project has either `scan:` and \
+         `program:` (one task, named `main`) or `tasks:` (each with its period and program)"
+    )]
+    TasksBesideScan {
+        /// The single task's key found beside `tasks:` (`scan` or `program`).
+        key: &'static str,
+    },
+    /// Neither `scan:` nor `tasks:`.
+    #[error(
+        "the project has no task: give `scan:` and `program:` (one task) or `tasks:` (several, \
+         each with its period, program and buses)"
+    )]
+    NoTask,
+    /// `tasks:` with no entry.
+    #[error("`tasks:` is empty: give at least one task (name, period, program, buses)")]
+    NoTasks,
+    /// A bus named by a second task.
+    #[error(
+        "bus `{bus}` is already owned by task `{first}` (line {first_line}); a bus belongs to \
+         one task, whose thread does all of its I/O"
+    )]
+    BusOwnedTwice {
+        /// The bus.
+        bus: String,
+        /// The task that named it first.
+        first: String,
+        /// The line where it named it.
+        first_line: usize,
+    },
+    /// A bus that no task names.
+    #[error(
+        "bus `{bus}` belongs to no task: with `tasks:`, every bus is named in the `buses:` of \
+         exactly one task (its thread does the bus's I/O)"
+    )]
+    BusWithoutTask {
+        /// The bus.
+        bus: String,
     },
     /// A program kind that is not known.
     #[error("unknown program kind \"{kind}\" (known: {})", known.join(", "))]

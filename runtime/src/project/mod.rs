@@ -38,6 +38,7 @@ pub(crate) mod secret;
 pub(crate) mod service;
 pub(crate) mod span;
 pub(crate) mod state;
+pub(crate) mod task_view;
 pub(crate) mod trace;
 pub(crate) mod trace_budget;
 pub(crate) mod unknown_keys;

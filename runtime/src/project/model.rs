@@ -15,15 +15,19 @@ pub struct Project {
     pub name: String,
     /// The project file it came from.
     pub source: PathBuf,
-    /// The scan task.
+    /// The first task's timing (the one task's, for a project with `scan:`): what every
+    /// part of the runtime that drives one task reads; see [`Project::tasks`].
     pub scan: ScanConfig,
+    /// The cyclic tasks, in file order; one (`main`) for a project with `scan:` and
+    /// `program:`. Every bus belongs to exactly one of them.
+    pub tasks: Vec<TaskConfig>,
     /// RS-485 lines, in file order.
     pub buses: Vec<BusConfig>,
     /// Modules, in file order.
     pub modules: Vec<ModuleConfig>,
     /// Tags, in file order.
     pub tags: Vec<TagConfig>,
-    /// The control program.
+    /// The first task's program (the one task's, for a project with `program:`).
     pub program: ProgramConfig,
     /// The blocks of one's own the `blocks:` files define, in file order.
     pub blocks: Vec<super::UserBlock>,
@@ -48,7 +52,47 @@ pub struct Project {
     pub alarms: super::alarm::AlarmsConfig,
 }
 
-/// The scan task.
+/// The name of the one task a project with `scan:` and `program:` has.
+pub const MAIN_TASK: &str = "main";
+
+/// One cyclic task: its timing, its program and the buses it does the I/O of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TaskConfig {
+    /// Its name (`main` for a project with `scan:`).
+    pub name: String,
+    /// Its period, watchdog and real-time options.
+    pub scan: ScanConfig,
+    /// Its program.
+    pub program: ProgramConfig,
+    /// Indexes into [`Project::buses`] of the buses it owns, in its `buses:` order.
+    pub buses: Vec<usize>,
+}
+
+impl Project {
+    /// The index into [`Project::tasks`] of the task owning bus `bus` (validation made every
+    /// bus belong to one).
+    pub fn task_of_bus(&self, bus: usize) -> usize {
+        self.tasks
+            .iter()
+            .position(|t| t.buses.contains(&bus))
+            .unwrap_or(0)
+    }
+
+    /// The period of the task owning bus `bus`: what the line's budget, its input wait and
+    /// its modules' watchdogs count against.
+    pub fn bus_period(&self, bus: usize) -> Duration {
+        self.tasks
+            .get(self.task_of_bus(bus))
+            .map_or(self.scan.period, |t| t.scan.period)
+    }
+
+    /// Whether the project runs several tasks (`tasks:` with more than one entry).
+    pub fn multitask(&self) -> bool {
+        self.tasks.len() > 1
+    }
+}
+
+/// A task's timing: its period, its watchdog and its thread's real-time options.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScanConfig {
     /// Cycle period (non-zero).

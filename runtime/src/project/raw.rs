@@ -73,6 +73,15 @@
 //! program:
 //!   file: conveyor.expr        # relative to the project file's folder; must exist
 //!   kind: expr                 # the program language: expr | ladder | rhai
+//! # Or, instead of `scan:` and `program:` (one task, named `main`), several cyclic tasks,
+//! # each on a thread of its own (docs/programming.md, "Tasks"):
+//! tasks:
+//!   - name: press              # an identifier, unique among the tasks
+//!     period: 30ms             # as scan.period; watchdog and realtime as in `scan:`
+//!     watchdog: { time: 60ms, sensitivity: 3 }
+//!     realtime: { priority: 60 }   # the task thread's SCHED_FIFO priority, best effort
+//!     program: { file: press.ladder.yaml, kind: ladder }   # as `program:`
+//!     buses: [press_line]      # the buses whose I/O this task does; each bus in one task
 //! retain: { file: p.retain.json, period: 10s }   # optional; see `retain.rs`
 //! plant:                       # optional; only on `port: sim` buses
 //!   model: conveyor
@@ -112,6 +121,11 @@
 //!   an explicit `WDTTIME` / `WDTYMASK` in the settings wins; `watchdog: off` together with a
 //!   `WDTTIME` other than 0 is refused.
 //! - Program kinds: `expr`, `ladder`, `rhai`. The program file must exist.
+//! - A project has `scan:` and `program:` (one task, `main`, owning every bus) or `tasks:`
+//!   (not both, not an empty list). Task names are identifiers, unique; with `tasks:` every
+//!   bus is named by exactly one task's `buses:` (a second naming and a bus named by none
+//!   are refused). Which task writes each tag is checked once the programs are compiled
+//!   (`logic/ownership.rs`).
 //! - `retain: true` only on memory tags; `retain.period` > 0, `retain.file` not empty.
 //! - A plant must wire every one of its roles, each to a point of the right direction (a role
 //!   the plant drives → a module input; a role it reads → a module output), on `port: sim`
@@ -135,13 +149,20 @@ use serde::Deserialize;
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a project: a mapping with project, scan, buses, modules, tags, program and plant"
+    expecting = "a project: a mapping with project, scan, tasks, buses, modules, tags, program and plant"
 )]
 pub(crate) struct RawProject {
     /// The project's name.
     pub project: String,
-    /// The scan task.
-    pub scan: RawScan,
+    /// The scan task, when the project has one task (`main`); refused beside `tasks:`.
+    #[serde(default)]
+    #[schemars(with = "RawScan")]
+    pub scan: Option<RawScan>,
+    /// Several cyclic tasks, each with its own period, program and buses; refused beside
+    /// `scan:` and `program:`.
+    #[serde(default)]
+    #[schemars(with = "Vec<RawTask>")]
+    pub tasks: Option<Vec<RawTask>>,
     /// RS-485 lines.
     #[serde(default)]
     pub buses: Vec<RawBus>,
@@ -151,8 +172,10 @@ pub(crate) struct RawProject {
     /// Tags.
     #[serde(default)]
     pub tags: Vec<RawTag>,
-    /// The control program.
-    pub program: RawProgram,
+    /// The control program of the one task `scan:` describes; refused beside `tasks:`.
+    #[serde(default)]
+    #[schemars(with = "RawProgram")]
+    pub program: Option<RawProgram>,
     /// Files of blocks of one's own the program may call (see `user_blocks`), relative to
     /// the project file's folder; several projects may include one file.
     #[serde(default)]
@@ -204,6 +227,43 @@ pub(crate) struct RawScan {
     /// Real-time options.
     #[serde(default)]
     pub realtime: Option<RawRealtime>,
+}
+
+/// One `tasks:` entry: a cyclic task with its own period, watchdog, real-time priority,
+/// program and the buses whose I/O it does.
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a task: a mapping with name, period, watchdog, realtime, program and buses"
+)]
+pub(crate) struct RawTask {
+    /// The task's name (an identifier, unique among the tasks).
+    pub name: String,
+    /// Cycle period, above zero: `20ms`.
+    pub period: DurationText,
+    /// The task's watchdog (default time 5 × period, sensitivity 3).
+    #[serde(default)]
+    pub watchdog: Option<RawWatchdog>,
+    /// The task thread's real-time options, as `scan.realtime` (its SCHED_FIFO priority,
+    /// its CPU); best effort.
+    #[serde(default)]
+    pub realtime: Option<RawRealtime>,
+    /// The task's program, as the top-level `program:`.
+    pub program: RawProgram,
+    /// The buses whose modules this task reads and writes; each bus belongs to one task.
+    #[serde(default)]
+    pub buses: Vec<String>,
+}
+
+impl RawTask {
+    /// The task's timing as a `scan:` section says it.
+    pub(crate) fn scan(&self) -> RawScan {
+        RawScan {
+            period: self.period,
+            watchdog: self.watchdog.clone(),
+            realtime: self.realtime.clone(),
+        }
+    }
 }
 
 /// `scan.watchdog:`.

@@ -15,14 +15,15 @@ use softplc_io::line::{NetFraming, TcpEndpoint};
 
 use super::model::{
     Binding, BusConfig, ModuleConfig, PlantConfig, PortConfig, ProgramConfig, ProgramKind, Project,
-    RealtimeConfig, ScanConfig, TagConfig, WatchdogConfig,
+    RealtimeConfig, ScanConfig, TagConfig, TaskConfig, WatchdogConfig, MAIN_TASK,
 };
 use softplc_io::line::{AdapterLatency, EchoMode, Rs485Mode};
 
 use super::line_plan::Direction;
 
 use super::raw::{
-    Int, RawAdapterLatency, RawBus, RawModule, RawPlant, RawProject, RawRs485, RawScan, RawTag,
+    Int, RawAdapterLatency, RawBus, RawModule, RawPlant, RawProgram, RawProject, RawRs485, RawScan,
+    RawTag,
 };
 use super::span::{Locator, YPath};
 use super::watchdog::WatchdogPolicy;
@@ -65,7 +66,6 @@ pub(crate) fn validate(
     if raw.project.trim().is_empty() {
         v.error(root.key("project"), ErrorKind::EmptyProjectName);
     }
-    let scan = v.scan(&raw.scan, &root.key("scan"));
     let buses: Vec<Option<BusConfig>> = raw
         .buses
         .iter()
@@ -119,7 +119,7 @@ pub(crate) fn validate(
         }
         config
     };
-    let program = v.program(raw, file);
+    let tasks = v.tasks(raw, &bus_index);
     let retain = {
         let (config, errors) = super::retain::validate(raw.retain.as_ref(), file);
         for (path, e) in errors {
@@ -163,14 +163,15 @@ pub(crate) fn validate(
         Some(Project {
             name: raw.project.clone(),
             source: file.to_path_buf(),
-            scan: scan?,
+            scan: tasks.as_ref()?.first()?.scan.clone(),
             buses: buses.into_iter().collect::<Option<Vec<_>>>()?,
             modules: modules
                 .into_iter()
                 .map(|(_, c)| c)
                 .collect::<Option<Vec<_>>>()?,
             tags: tags.into_iter().collect::<Option<Vec<_>>>()?,
-            program: program?,
+            program: tasks.as_ref()?.first()?.program.clone(),
+            tasks: tasks?,
             blocks: blocks?,
             instances: instances?,
             plant: plant?,
@@ -338,8 +339,125 @@ impl Validator<'_> {
         }
     }
 
-    fn scan(&mut self, raw: &RawScan, path: &YPath) -> Option<ScanConfig> {
-        let period = self.positive(raw.period.0, path.key("period"), "scan.period");
+    /// The project's tasks: the one `scan:` and `program:` describe (`main`, owning every
+    /// bus), or the `tasks:` list, each bus owned by exactly one task.
+    fn tasks(
+        &mut self,
+        raw: &RawProject,
+        bus_index: &HashMap<String, usize>,
+    ) -> Option<Vec<TaskConfig>> {
+        let root = YPath::root();
+        let Some(list) = &raw.tasks else {
+            let scan = match &raw.scan {
+                Some(scan) => self.scan(scan, &root.key("scan"), "scan.period"),
+                None => {
+                    match raw.program {
+                        Some(_) => self.error(
+                            root.clone(),
+                            ErrorKind::MissingKey {
+                                section: String::new(),
+                                key: "scan".into(),
+                            },
+                        ),
+                        None => self.error(root.clone(), ErrorKind::NoTask),
+                    }
+                    None
+                }
+            };
+            let program = match &raw.program {
+                Some(p) => self.program(p, &root.key("program")),
+                None => {
+                    if raw.scan.is_some() {
+                        self.error(
+                            root.clone(),
+                            ErrorKind::MissingKey {
+                                section: String::new(),
+                                key: "program".into(),
+                            },
+                        );
+                    }
+                    None
+                }
+            };
+            return Some(vec![TaskConfig {
+                name: MAIN_TASK.to_owned(),
+                scan: scan?,
+                program: program?,
+                buses: (0..raw.buses.len()).collect(),
+            }]);
+        };
+        for (key, given) in [
+            ("scan", raw.scan.is_some()),
+            ("program", raw.program.is_some()),
+        ] {
+            if given {
+                self.error(root.key(key), ErrorKind::TasksBesideScan { key });
+            }
+        }
+        if list.is_empty() {
+            self.error(root.key("tasks"), ErrorKind::NoTasks);
+            return None;
+        }
+        self.names(Item::Task, list.iter().map(|t| t.name.as_str()), "tasks");
+        // Bus → (task, the path of its naming), for the second naming's error.
+        let mut owner: Vec<Option<(usize, YPath)>> = vec![None; raw.buses.len()];
+        let mut tasks = Vec::with_capacity(list.len());
+        for (i, t) in list.iter().enumerate() {
+            let path = root.key("tasks").index(i);
+            let scan = self.scan(&t.scan(), &path, "period");
+            let program = self.program(&t.program, &path.key("program"));
+            let mut buses = Vec::with_capacity(t.buses.len());
+            for (j, name) in t.buses.iter().enumerate() {
+                let at = path.key("buses").index(j);
+                let Some(&b) = bus_index.get(name) else {
+                    let known = raw.buses.iter().map(|b| b.name.clone()).collect();
+                    let kind = ErrorKind::UnknownBus {
+                        name: name.clone(),
+                        known,
+                    };
+                    self.error(at, kind);
+                    continue;
+                };
+                match &owner[b] {
+                    Some((first, first_at)) => {
+                        let kind = ErrorKind::BusOwnedTwice {
+                            bus: name.clone(),
+                            first: list[*first].name.clone(),
+                            first_line: self.loc.line(first_at),
+                        };
+                        self.error(at, kind);
+                    }
+                    None => {
+                        owner[b] = Some((i, at));
+                        buses.push(b);
+                    }
+                }
+            }
+            tasks.push(scan.zip(program).map(|(scan, program)| TaskConfig {
+                name: t.name.clone(),
+                scan,
+                program,
+                buses,
+            }));
+        }
+        for (b, bus) in raw.buses.iter().enumerate() {
+            if owner[b].is_none() && bus_index.get(&bus.name) == Some(&b) {
+                let kind = ErrorKind::BusWithoutTask {
+                    bus: bus.name.clone(),
+                };
+                self.error(root.key("buses").index(b).key("name"), kind);
+            }
+        }
+        tasks.into_iter().collect()
+    }
+
+    fn scan(
+        &mut self,
+        raw: &RawScan,
+        path: &YPath,
+        period_key: &'static str,
+    ) -> Option<ScanConfig> {
+        let period = self.positive(raw.period.0, path.key("period"), period_key);
 
         let wd = raw.watchdog.clone().unwrap_or_default();
         let wd_path = path.key("watchdog");
@@ -1295,17 +1413,14 @@ impl Validator<'_> {
         v
     }
 
-    fn program(&mut self, raw: &RawProject, file: &Path) -> Option<ProgramConfig> {
-        let path = YPath::root().key("program");
-        let kind = match PROGRAM_KINDS
-            .iter()
-            .find(|(name, _)| *name == raw.program.kind)
-        {
+    fn program(&mut self, raw: &RawProgram, path: &YPath) -> Option<ProgramConfig> {
+        let file = self.file;
+        let kind = match PROGRAM_KINDS.iter().find(|(name, _)| *name == raw.kind) {
             Some(&(_, k)) => Some(k),
             None => {
                 let known = PROGRAM_KINDS.iter().map(|(n, _)| *n).collect();
                 let kind = ErrorKind::UnknownProgramKind {
-                    kind: raw.program.kind.clone(),
+                    kind: raw.kind.clone(),
                     known,
                 };
                 self.error(path.key("kind"), kind);
@@ -1313,9 +1428,9 @@ impl Validator<'_> {
             }
         };
         let folder = file.parent().unwrap_or(Path::new(""));
-        let program_path = folder.join(&raw.program.file);
+        let program_path = folder.join(&raw.file);
         let found = match std::fs::metadata(&program_path) {
-            Ok(meta) if meta.is_file() && !raw.program.file.is_empty() => true,
+            Ok(meta) if meta.is_file() && !raw.file.is_empty() => true,
             Ok(_) => {
                 let kind = ErrorKind::ProgramNotFound {
                     path: program_path.clone(),

@@ -113,17 +113,18 @@ fn safe_values(project: &Project, m: usize) -> Vec<(usize, Value)> {
 
 /// The derived time's parts for every module (index = module).
 fn derive_all(project: &Project) -> Vec<Derivation> {
-    let period = project.scan.period;
-    let mut out = vec![
-        Derivation {
-            periods: period * 3,
+    // A module's host is the task owning its bus: three of that task's periods.
+    let mut out: Vec<Derivation> = project
+        .modules
+        .iter()
+        .map(|m| Derivation {
+            periods: project.bus_period(m.bus) * 3,
             floor: Duration::ZERO,
             startup: Duration::ZERO,
             failures: Duration::ZERO,
             event_refresh: None,
-        };
-        project.modules.len()
-    ];
+        })
+        .collect();
     for (b, bus) in project.buses.iter().enumerate() {
         // A USB adapter's latency timer stretches every exchange, so the module's timeout
         // must too, or the watchdog fires on a healthy line.

@@ -15,12 +15,14 @@ pub(crate) mod engine;
 mod overrun;
 pub(crate) mod rt;
 pub(crate) mod stats;
+pub(crate) mod tasks;
 pub(crate) mod watchdog;
 
 pub use boundary::CycleBoundary;
-pub use engine::{CycleHook, RunOutcome, ScanEngine, StatusSnapshot, StopReason};
+pub use engine::{CycleHook, Run, RunOutcome, ScanEngine, StatusSnapshot, StopReason, TaskHalt};
 pub use rt::{apply as apply_realtime, RealtimeNote, RealtimeOutcome};
 pub use stats::{
     fmt_duration, DurationHistogram, LastCycle, LineInstant, Percentiles, ScanInstant, ScanStats,
 };
+pub use tasks::{Task, TaskControl, TaskOutcome, TaskSet};
 pub use watchdog::WatchdogTrip;

@@ -47,6 +47,8 @@ pub struct ServiceBoundary {
         Sender<crate::service::alarms::Job>,
         crate::service::alarms::Alarms,
     )>,
+    /// With several tasks, each task's live figures for the status.
+    tasks: Vec<super::status::TaskStatus>,
 }
 
 impl ServiceBoundary {
@@ -138,6 +140,12 @@ impl ServiceBoundary {
         ));
     }
 
+    /// Reports every task's figures in the status (a PLC of several tasks).
+    pub fn with_tasks(mut self, tasks: Vec<super::status::TaskStatus>) -> Self {
+        self.tasks = tasks;
+        self
+    }
+
     /// Reports the states `health` holds in the status.
     pub fn with_health(mut self, health: super::health::Health) -> Self {
         self.health = Some(health);
@@ -177,7 +185,7 @@ impl ServiceBoundary {
             };
             let response = match env.request {
                 Request::Status => {
-                    let mut status = StatusReport::of(plc, stats);
+                    let mut status = StatusReport::of(plc, stats).with_tasks(&self.tasks);
                     status.services = self
                         .health
                         .as_ref()
@@ -406,6 +414,7 @@ impl CycleBoundary for ServiceBoundary {
                 StopReason::TimeUp => "stopped at the end of its run time".to_string(),
                 StopReason::LogicFault(f) => format!("program error: {f}"),
                 StopReason::Watchdog(w) => format!("task watchdog: {w}"),
+                StopReason::TaskFault { task } => format!("task {task} faulted"),
             });
             p.publish(plc, stats, now, true);
         }

@@ -46,6 +46,7 @@ pub(crate) mod slots;
 pub(crate) mod snapshot;
 pub(crate) mod socket;
 pub(crate) mod status;
+pub(crate) mod task_router;
 pub(crate) mod trace;
 pub mod web;
 
@@ -58,6 +59,7 @@ pub use snapshot::{
     HistogramView, ModuleSnapshot, PhaseSummary, Publisher, ServiceSnapshot, SnapshotCell,
 };
 pub use status::{
-    LostChanges, MicrosPercentiles, ModuleReport, PlantReport, StatusReport, TagReport,
+    LostChanges, MicrosPercentiles, ModuleReport, PlantReport, StatusReport, TagReport, TaskReport,
+    TaskStatus,
 };
 pub use trace::TraceRequest;

@@ -111,6 +111,10 @@ pub struct StatusReport {
     /// when the instance runs no alarm service).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alarms: Option<crate::service::alarms::AlarmCounts>,
+    /// With several tasks, each task's figures (the fields above are the first task's);
+    /// absent for a project with `scan:`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tasks: Vec<TaskReport>,
 }
 
 /// The plant model's state: running or stopped (and why), and its states.
@@ -186,6 +190,57 @@ impl std::fmt::Display for PlantReport {
     }
 }
 
+/// One task's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TaskReport {
+    /// The task.
+    pub name: String,
+    /// Its completed cycles.
+    pub scans: u64,
+    /// Its overruns.
+    pub overruns: u64,
+    /// Its period, µs.
+    pub period_us: u64,
+    /// Its cycle time.
+    pub cycle: MicrosPercentiles,
+    /// Its wake-up lateness.
+    pub lateness: MicrosPercentiles,
+}
+
+/// A task's live figures, as the status reads them.
+#[derive(Debug, Clone)]
+pub struct TaskStatus {
+    /// The task.
+    pub name: String,
+    /// Its period.
+    pub period: std::time::Duration,
+    /// What its scan publishes (every 200 ms).
+    pub live: std::sync::Arc<std::sync::Mutex<crate::scan::StatusSnapshot>>,
+}
+
+impl StatusReport {
+    /// Adds every task's figures (from their live snapshots) and the other tasks' modules.
+    pub fn with_tasks(mut self, tasks: &[TaskStatus]) -> Self {
+        for (i, t) in tasks.iter().enumerate() {
+            let Ok(live) = t.live.lock() else { continue };
+            self.tasks.push(TaskReport {
+                name: t.name.clone(),
+                scans: live.cycles,
+                overruns: live.overruns,
+                period_us: t.period.as_micros() as u64,
+                cycle: live.cycle.into(),
+                lateness: live.lateness.into(),
+            });
+            // The first task's modules are in the report already, as its scan sees them.
+            if i > 0 {
+                self.modules
+                    .extend(live.modules.iter().map(ModuleReport::of));
+            }
+        }
+        self
+    }
+}
+
 /// The changes a service fed every change could not take in time.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LostChanges {
@@ -207,24 +262,7 @@ impl StatusReport {
             period_us: project.scan.period.as_micros() as u64,
             cycle: stats.cycle.percentiles().into(),
             lateness: stats.lateness.percentiles().into(),
-            modules: plc
-                .module_status()
-                .iter()
-                .map(|m| ModuleReport {
-                    name: m.name.clone(),
-                    bus: m.bus.clone(),
-                    quality: m.quality.to_string(),
-                    outputs: m.outputs.to_string(),
-                    requests: m.counters.requests,
-                    timeouts: m.counters.timeouts,
-                    crc_errors: m.counters.crc_errors,
-                    bad_replies: m.counters.bad_replies,
-                    exceptions: m.counters.exceptions,
-                    echo_errors: m.counters.echo_errors,
-                    last_round_trip_us: m.counters.last_round_trip.as_micros() as u64,
-                    last_error: m.last_error.as_ref().map(ToString::to_string),
-                })
-                .collect(),
+            modules: plc.module_status().iter().map(ModuleReport::of).collect(),
             tags: (0..image.len())
                 .map(|i| {
                     let id = TagId(i as u32);
@@ -241,6 +279,26 @@ impl StatusReport {
             lost_changes: Vec::new(),
             plant: PlantReport::of(plc),
             alarms: None,
+            tasks: Vec::new(),
+        }
+    }
+}
+
+impl ModuleReport {
+    fn of(m: &crate::plc::ModuleStatus) -> Self {
+        ModuleReport {
+            name: m.name.clone(),
+            bus: m.bus.clone(),
+            quality: m.quality.to_string(),
+            outputs: m.outputs.to_string(),
+            requests: m.counters.requests,
+            timeouts: m.counters.timeouts,
+            crc_errors: m.counters.crc_errors,
+            bad_replies: m.counters.bad_replies,
+            exceptions: m.counters.exceptions,
+            echo_errors: m.counters.echo_errors,
+            last_round_trip_us: m.counters.last_round_trip.as_micros() as u64,
+            last_error: m.last_error.as_ref().map(ToString::to_string),
         }
     }
 }
@@ -251,19 +309,43 @@ fn micros(us: u64) -> String {
     crate::scan::fmt_duration(std::time::Duration::from_micros(us))
 }
 
+/// `cycle p50 … p99 … max …`, as the status line says a cycle's time.
+fn cycle_text(c: &MicrosPercentiles) -> String {
+    format!(
+        "cycle p50 {} p99 {} max {}",
+        micros(c.p50_us),
+        micros(c.p99_us),
+        micros(c.max_us)
+    )
+}
+
 impl std::fmt::Display for StatusReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(
-            f,
-            "{}: {} scans, {} overruns, period {}; cycle p50 {} p99 {} max {}",
-            self.project,
-            self.scans,
-            self.overruns,
-            micros(self.period_us),
-            micros(self.cycle.p50_us),
-            micros(self.cycle.p99_us),
-            micros(self.cycle.max_us)
-        )?;
+        if self.tasks.is_empty() {
+            writeln!(
+                f,
+                "{}: {} scans, {} overruns, period {}; {}",
+                self.project,
+                self.scans,
+                self.overruns,
+                micros(self.period_us),
+                cycle_text(&self.cycle)
+            )?;
+        } else {
+            writeln!(f, "{}: {} tasks", self.project, self.tasks.len())?;
+        }
+        for t in &self.tasks {
+            writeln!(
+                f,
+                "  task {}: {} cycles, {} overruns, period {}; {}; lateness p99 {}",
+                t.name,
+                t.scans,
+                t.overruns,
+                micros(t.period_us),
+                cycle_text(&t.cycle),
+                micros(t.lateness.p99_us)
+            )?;
+        }
         let services: Vec<String> = self
             .services
             .iter()

@@ -15,7 +15,8 @@ use crate::logic::{InstanceOutput, LogicEngine, LogicFault, ScanContext, SourceP
 #[derive(Debug)]
 pub struct LadderProgram {
     vm: vm::Program,
-    writes: Vec<TagId>,
+    /// Every tag the program writes, with the rung first writing it.
+    writes: Vec<(TagId, SourcePos)>,
     /// The coils as rungs, for the push-down planner.
     rungs: Vec<crate::logic::Rung>,
 }
@@ -39,6 +40,11 @@ impl LadderProgram {
             })
         };
         let highest_tag = lowered.highest_tag.map(|(id, rung)| (id, at(rung)));
+        let writes = lowered
+            .writes
+            .iter()
+            .map(|&(id, rung)| (id, at(rung)))
+            .collect();
         let parts = vm::Parts {
             code: lowered.code,
             calls: lowered.calls,
@@ -55,7 +61,7 @@ impl LadderProgram {
         };
         Self {
             vm: vm::Program::new(parts),
-            writes: lowered.writes,
+            writes,
             rungs: Vec::new(),
         }
     }
@@ -73,7 +79,7 @@ impl LadderProgram {
 
     /// The tags the program writes (coils, set/reset coils, box results), in rung order.
     pub fn outputs(&self) -> impl Iterator<Item = TagId> + '_ {
-        self.writes.iter().copied()
+        self.writes.iter().map(|(id, _)| *id)
     }
 
     /// Forgets every edge and block state, as on a fresh start.
@@ -89,6 +95,10 @@ impl LogicEngine for LadderProgram {
 
     fn rungs(&self) -> Option<Vec<crate::logic::Rung>> {
         Some(self.rungs.clone())
+    }
+
+    fn writes(&self) -> Vec<(TagId, SourcePos)> {
+        self.writes.clone()
     }
 
     fn release(&mut self, coil: TagId) {

@@ -20,8 +20,9 @@ pub(crate) struct Lowered {
     pub max_depth: usize,
     /// The highest tag used, and the rung that uses it.
     pub highest_tag: Option<(TagId, usize)>,
-    /// The coils and box results, in rung order, without repeats.
-    pub writes: Vec<TagId>,
+    /// The coils and box results, in rung order, without repeats, each with the first rung
+    /// writing it.
+    pub writes: Vec<(TagId, usize)>,
 }
 
 /// Lowers checked rungs.
@@ -145,8 +146,8 @@ impl Lowerer {
 
     fn write(&mut self, id: TagId) {
         self.use_tag(id);
-        if !self.out.writes.contains(&id) {
-            self.out.writes.push(id);
+        if !self.out.writes.iter().any(|&(w, _)| w == id) {
+            self.out.writes.push((id, self.rung));
         }
     }
 

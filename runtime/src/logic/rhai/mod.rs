@@ -692,6 +692,18 @@ impl LogicEngine for RhaiProgram {
         Some(self.described.rungs.clone())
     }
 
+    /// Every writable tag the script assigns, at its first assignment.
+    fn writes(&self) -> Vec<(TagId, crate::logic::SourcePos)> {
+        let mut out: Vec<(TagId, crate::logic::SourcePos)> = self
+            .handles
+            .iter()
+            .filter(|h| h.writable)
+            .filter_map(|h| h.assigned.map(|at| (h.id, error::user_pos(&self.file, at))))
+            .collect();
+        out.sort_by_key(|(_, p)| (p.line, p.column));
+        out
+    }
+
     /// The module runs `coil`'s rung: its statement leaves the script, so the tag's variable
     /// holds the value the module's output is read back as.
     fn release(&mut self, coil: TagId) {
