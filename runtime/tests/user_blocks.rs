@@ -555,3 +555,103 @@ fn a_reload_keeps_an_instances_state() {
     );
     drop(running);
 }
+
+/// An operator forcing an instance's pins at cycle boundaries, as `softplc force` would, and
+/// the watched tags after every cycle.
+struct ForcingOperator {
+    watch: Vec<String>,
+    trace: std::sync::Arc<std::sync::Mutex<Vec<(u64, String)>>>,
+}
+
+impl softplc::scan::CycleBoundary for ForcingOperator {
+    fn between_cycles(
+        &mut self,
+        plc: &mut softplc::plc::Plc,
+        stats: &softplc::scan::ScanStats,
+        _now: softplc_io::time::ScanInstant,
+    ) {
+        let image = plc.image();
+        let row: Vec<String> = self
+            .watch
+            .iter()
+            .map(|t| {
+                image
+                    .id(t)
+                    .map_or("?".into(), |id| image.get(id).to_string())
+            })
+            .collect();
+        if let Ok(mut trace) = self.trace.lock() {
+            trace.push((stats.cycles, row.join(" ")));
+        }
+        let forced = |r: Result<(), softplc::plc::TagError>| assert!(r.is_ok(), "{:?}", r.err());
+        match stats.cycles {
+            10 => forced(plc.force("l1.set", "1").map(drop)),
+            15 => forced(plc.unforce(Some("l1.set")).map(drop)),
+            20 => {
+                forced(plc.force("l1.set", "1").map(drop));
+                forced(plc.force("l1.on", "0").map(drop));
+                forced(plc.force("l1.full", "1").map(drop));
+            }
+            25 => {
+                forced(plc.unforce(Some("l1.on")).map(drop));
+                forced(plc.unforce(Some("l1.full")).map(drop));
+            }
+            30 => forced(plc.unforce(None).map(drop)),
+            _ => {}
+        }
+    }
+}
+
+/// A force on an instance's input pin is what its body reads in the next scan, a force on an
+/// output pin holds what the rest of the program and the module's output see whatever the
+/// body computes, and an unforce gives the pin back to the call and the body: the same trace
+/// from a ladder and a Rhai program calling the block.
+#[test]
+fn a_forced_pin_is_what_the_body_reads_and_the_program_sees() {
+    let s = folder("force", 1, &[]);
+    // set, on, full, sets, y1 (the module output the call drives), full1 (a rung reading
+    // l1.full), after each cycle.
+    let expected = |cycle: u64| match cycle {
+        ..=10 => "0 0 0 0 0 0",
+        // l1.set forced: the body latches `on`, counts the rise.
+        11..=15 => "1 1 0 1 1 0",
+        // Unforced: the call's b1 (0) again, the latch holds.
+        16..=20 => "0 1 0 1 1 0",
+        // l1.set forced again (a second rise), l1.on forced off though the body computes it
+        // on, l1.full forced on though the body computes 2 < 3.
+        21..=25 => "1 0 1 2 0 1",
+        // on and full back to the body.
+        26..=30 => "1 1 0 2 1 0",
+        // Everything unforced.
+        _ => "0 1 0 2 1 0",
+    };
+    for project in ["ladder.yaml", "rhai.yaml"] {
+        let trace = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let loaded = softplc::project::load(&s.dir.join(project)).expect("the project");
+        let plc = softplc::plc::Plc::build(
+            loaded,
+            std::sync::Arc::new(softplc::clock::VirtualClock::new()),
+        )
+        .expect("a PLC");
+        let operator = ForcingOperator {
+            watch: ["l1.set", "l1.on", "l1.full", "l1.sets", "y1", "full1"]
+                .map(String::from)
+                .to_vec(),
+            trace: trace.clone(),
+        };
+        let mut engine = softplc::scan::ScanEngine::new(plc)
+            .run_for(std::time::Duration::from_secs(4))
+            .with_boundary(operator);
+        engine.run();
+        drop(engine);
+        let trace = trace.lock().expect("the trace").clone();
+        assert!(trace.len() >= 35, "{project}: {trace:?}");
+        for (cycle, row) in &trace {
+            assert_eq!(
+                row,
+                expected(*cycle),
+                "{project}: after cycle {cycle}; the trace: {trace:#?}"
+            );
+        }
+    }
+}

@@ -197,12 +197,14 @@ fn number(v: &Dynamic, ty: ValueType) -> Option<f64> {
 }
 
 /// Before the script: the scan the calls run in; an instance not run yet takes its outputs and
-/// state from its tags.
+/// state from its tags; every instance takes the forces on its tags (the calls run where the
+/// image cannot be reached).
 pub(crate) fn begin(own: &SharedOwn, image: &ProcessImage, ctx: &ScanContext) {
     let mut own = lock(own);
     own.ctx = Some(*ctx);
     for inst in &mut own.instances {
         inst.adopt(image, ctx);
+        inst.follow_forces(image, ctx);
     }
 }
 

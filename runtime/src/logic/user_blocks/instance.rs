@@ -19,6 +19,10 @@ pub(crate) struct UserInstance {
     body: Box<dyn LogicEngine>,
     /// The project's tag of each variable, same order.
     tags: Vec<TagId>,
+    /// The project's forces on its tags, same order, as they stood when the scan's logic
+    /// began: a forced variable holds its forced value in the body too (see
+    /// [`UserInstance::follow_forces`]).
+    forces: Vec<Option<Value>>,
     /// Not run yet: its outputs and state are still to be taken from its tags.
     fresh: bool,
 }
@@ -40,6 +44,7 @@ impl UserInstance {
             types,
             inputs,
             body,
+            forces: vec![None; tags.len()],
             tags,
             fresh: true,
         }
@@ -56,6 +61,29 @@ impl UserInstance {
         for (i, &tag) in self.tags.iter().enumerate().skip(self.inputs) {
             if tag.index() < image.len() {
                 self.vars.set(TagId(i as u32), image.get(tag), ctx.now);
+            }
+        }
+    }
+
+    /// Takes the forces the project's image holds on its tags, and holds its variables at
+    /// them at once. Forces live in one place, the image (`softplc force s1.start 1`); the
+    /// image applies them to the tags before and after the logic, but the body runs on an
+    /// image of its own in between, so without this a forced input pin would not be what the
+    /// body reads, and a forced output would be what the body computed until the logic ended.
+    pub(crate) fn follow_forces(&mut self, image: &ProcessImage, ctx: &ScanContext) {
+        for (force, &tag) in self.forces.iter_mut().zip(&self.tags) {
+            *force = (tag.index() < image.len())
+                .then(|| image.forced(tag))
+                .flatten();
+        }
+        self.hold_forces(ctx);
+    }
+
+    /// Sets every forced variable to its forced value.
+    fn hold_forces(&mut self, ctx: &ScanContext) {
+        for (i, force) in self.forces.iter().enumerate() {
+            if let Some(v) = *force {
+                self.vars.set(TagId(i as u32), v, ctx.now);
             }
         }
     }
@@ -92,15 +120,21 @@ impl UserInstance {
         ctx: &ScanContext,
     ) -> Result<bool, LogicFault> {
         self.adopt(image, ctx);
+        self.follow_forces(image, ctx);
         let q = self.run_body(ctx)?;
         self.publish(image, ctx);
         Ok(q)
     }
 
-    /// Runs the body once with the inputs set; returns the main output. The project's tags
-    /// are the caller's to update ([`UserInstance::publish`]).
+    /// Runs the body once with the inputs set; returns the main output. A forced input is
+    /// what the body reads, whatever the call gave; a forced output or state variable keeps
+    /// its forced value, whatever the body computed, so the call returns it and the rest of
+    /// the program reads it (the forces taken by [`UserInstance::follow_forces`]). The
+    /// project's tags are the caller's to update ([`UserInstance::publish`]).
     pub(crate) fn run_body(&mut self, ctx: &ScanContext) -> Result<bool, LogicFault> {
+        self.hold_forces(ctx);
         self.body.scan(&mut self.vars, ctx)?;
+        self.hold_forces(ctx);
         Ok(self.output(0).as_bool())
     }
 
