@@ -19,10 +19,6 @@ pub(crate) struct UserInstance {
     body: Box<dyn LogicEngine>,
     /// The project's tag of each variable, same order.
     tags: Vec<TagId>,
-    /// The project's forces on its tags, same order, as they stood when the scan's logic
-    /// began: a forced variable holds its forced value in the body too (see
-    /// [`UserInstance::follow_forces`]).
-    forces: Vec<Option<Value>>,
     /// Not run yet: its outputs and state are still to be taken from its tags.
     fresh: bool,
 }
@@ -44,7 +40,6 @@ impl UserInstance {
             types,
             inputs,
             body,
-            forces: vec![None; tags.len()],
             tags,
             fresh: true,
         }
@@ -70,22 +65,25 @@ impl UserInstance {
     /// image applies them to the tags before and after the logic, but the body runs on an
     /// image of its own in between, so without this a forced input pin would not be what the
     /// body reads, and a forced output would be what the body computed until the logic ended.
+    /// The forces go into its own image as forces, so a nested instance's call in the body
+    /// takes them from there the same way (`s1.v.start` forced reaches `v`'s body).
     pub(crate) fn follow_forces(&mut self, image: &ProcessImage, ctx: &ScanContext) {
-        for (force, &tag) in self.forces.iter_mut().zip(&self.tags) {
-            *force = (tag.index() < image.len())
+        for (i, &tag) in self.tags.iter().enumerate() {
+            let id = TagId(i as u32);
+            match (tag.index() < image.len())
                 .then(|| image.forced(tag))
-                .flatten();
+                .flatten()
+            {
+                Some(v) => self.vars.force(id, v),
+                None => drop(self.vars.unforce(id)),
+            }
         }
         self.hold_forces(ctx);
     }
 
     /// Sets every forced variable to its forced value.
     fn hold_forces(&mut self, ctx: &ScanContext) {
-        for (i, force) in self.forces.iter().enumerate() {
-            if let Some(v) = *force {
-                self.vars.set(TagId(i as u32), v, ctx.now);
-            }
-        }
+        self.vars.apply_forces(ctx.now);
     }
 
     /// Its main output as its body describes it, over the block's variables.
