@@ -296,6 +296,10 @@ fn nest_folder(case: &str, files: &[(&str, &str)]) -> Scratch {
             "nest.ladder.yaml",
             "rungs:\n  - run -> PAIR p1(a, b) -> y1\n  - run -> RPAIR p2(a, b) -> y2\n",
         ),
+        (
+            "nest.rhai",
+            "y1 = pair(\"p1\", run, a, b);\ny2 = rpair(\"p2\", run, a, b) && output(\"p2\", \"la.on\");\n",
+        ),
     ];
     all.extend_from_slice(files);
     folder(case, 1, &all)
@@ -309,6 +313,7 @@ fn a_body_calls_its_own_nested_instances() {
     let scenario = "\
 name: nested latches and pulses
 project: nest.yaml
+programs: [nest.ladder.yaml, nest.rhai]
 steps:
   - { at: 1s,   set: { a: 1 } }
   - { at: 1.2s, set: { a: 0 } }
@@ -329,7 +334,8 @@ steps:
     assert!(text.contains("p1.la.sets"), "{text}");
     let (ok, text) = softplc_in(&s.dir, &["test", "nest.scenario.yaml"]);
     assert!(ok, "{text}");
-    assert!(text.contains("1 passed, 0 failed"), "{text}");
+    assert!(text.contains("2 passed, 0 failed"), "{text}");
+    assert!(text.contains("give the same trace"), "{text}");
 }
 
 /// A block that reaches itself through its instances, directly or through a chain, is
@@ -384,6 +390,19 @@ program: { file: main.ladder.yaml, kind: ladder }
             "lib/rec.blocks.yaml:18:27: error: unknown block \"GHOST\" (known: SELF, OUTER, MIDDLE)",
         ],
         "{errors:#?}"
+    );
+    // A nested instance named like one of the block's variables: refused with the file's
+    // other errors, before any block is looked up.
+    s.write(
+        "lib/rec.blocks.yaml",
+        "blocks:\n  - name: CLASH\n    inputs: [{ name: en, type: bool }]\n    outputs: [{ name: q, type: bool }]\n    instances: [{ name: en, block: OUTER }]\n    body: self.ladder.yaml\n",
+    );
+    assert_eq!(
+        check_errors(&s, "rec.yaml"),
+        [
+            "rec.yaml:4:10: error: the block file lib/rec.blocks.yaml has 1 error(s)",
+            "lib/rec.blocks.yaml:5:25: error: instance name `en` is already used by a variable at line 3",
+        ]
     );
 }
 

@@ -44,7 +44,7 @@ pub(crate) struct OwnSignature {
     pub required: usize,
     /// The instances the project declares of it.
     pub instances: Vec<String>,
-    /// Its variables: inputs, outputs, state.
+    /// Its variables: inputs, outputs, state, then its nested instances' (`la.on`).
     pub vars: Vec<String>,
 }
 
@@ -92,7 +92,12 @@ pub(crate) fn signatures(own: &OwnBlocks) -> Vec<OwnSignature> {
                     .filter(|(_, of)| *of == b)
                     .map(|(n, _)| n.clone())
                     .collect(),
-                vars: block.vars().map(|(_, v)| v.name.clone()).collect(),
+                // Its nested instances' too (`la.on`), as the instance holds them.
+                vars: block
+                    .tree(&own.blocks)
+                    .into_iter()
+                    .map(|v| v.name)
+                    .collect(),
             }
         })
         .collect()
