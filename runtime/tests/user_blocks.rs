@@ -305,6 +305,73 @@ fn nest_folder(case: &str, files: &[(&str, &str)]) -> Scratch {
     folder(case, 1, &all)
 }
 
+/// `check project.yaml` in `s` passes and its push-down report holds every one of `lines`;
+/// then the scenario runs with that plan and passes.
+fn plans_and_passes(s: &Scratch, lines: &[&str], scenario: &str) {
+    let (ok, text) = softplc_in(&s.dir, &["check", "project.yaml"]);
+    assert!(ok, "{text}");
+    for line in lines {
+        assert!(text.contains(line), "no {line:?} in:\n{text}");
+    }
+    let (ok, text) = softplc_in(&s.dir, &["test", scenario]);
+    assert!(ok && text.contains("1 passed, 0 failed"), "{text}");
+}
+
+/// A call whose body's main output comes from a nested instance's latch is described to the
+/// push-down planner through both bodies: `-> OUTER o1(start, stop) -> motor` over a body
+/// `en -> STARTER st(a, b) -> q` is the latch of start and stop, planned into the module; the
+/// bodies still run in the scan, so the nested tags go on showing the latch.
+#[test]
+fn a_latch_inside_a_nested_instance_is_pushed_down() {
+    let s = Scratch::new(SUBJECT, "nested-push-down");
+    s.write(
+        "my.blocks.yaml",
+        "blocks:\n  - name: STARTER\n    inputs: [{ name: en, type: bool }, { name: start, type: bool }, { name: stop, type: bool }]\n    outputs: [{ name: on, type: bool }]\n    body: starter.ladder.yaml\n\
+         \x20 - name: OUTER\n    inputs: [{ name: en, type: bool }, { name: a, type: bool }, { name: b, type: bool }]\n    outputs: [{ name: q, type: bool }]\n    instances: [{ name: st, block: STARTER }]\n    body: outer.ladder.yaml\n",
+    );
+    s.write(
+        "starter.ladder.yaml",
+        "rungs:\n  - en (start | on) /stop -> on\n",
+    );
+    s.write(
+        "outer.ladder.yaml",
+        "rungs:\n  - en -> STARTER st(a, b) -> q\n",
+    );
+    s.write(
+        "machine.ladder.yaml",
+        "rungs:\n  - -> OUTER o1(start, stop) -> motor\n",
+    );
+    s.write(
+        "project.yaml",
+        "project: npd\nscan: { period: 100ms }\noffload: auto\n\
+         buses: [{ name: line1, port: sim }]\n\
+         modules: [{ name: mm1, bus: line1, model: minimod, address: 1 }]\n\
+         tags:\n  - { name: start, point: mm1.X2 }\n  - { name: stop, point: mm1.X3 }\n\
+         \x20 - { name: motor, point: mm1.Y1, safe: false }\n\
+         blocks: [my.blocks.yaml]\n\
+         instances: [{ name: o1, block: OUTER }]\n\
+         program: { file: machine.ladder.yaml, kind: ladder }\n",
+    );
+    s.write(
+        "npd.scenario.yaml",
+        "name: o1 latches the motor in the module\nproject: project.yaml\nsteps:\n\
+         \x20 - { at: 1s,   set: { start: 1 } }\n  - { at: 1.2s, set: { start: 0 } }\n\
+         \x20 - { at: 1.5s, expect: { motor: 1, o1.q: 1, o1.st.on: 1, o1.st.start: 0 } }\n\
+         \x20 - { at: 2s,   set: { stop: 1 } }\n  - { at: 2.2s, set: { stop: 0 } }\n\
+         \x20 - { at: 2.5s, expect: { motor: 0, o1.q: 0, o1.st.on: 0 } }\n",
+    );
+    plans_and_passes(
+        &s,
+        &[
+            "machine.ladder.yaml:2:5 motor (set/reset latch): module mm1 Y1, automatic outputs AON/AOFF (an OFF condition wins)",
+            "      Y1AON1         = 0x0002 X2",
+            "      Y1AOFF1        = 0x0004 X3",
+            "1 coil(s) planned: 1 in modules, 0 central",
+        ],
+        "npd.scenario.yaml",
+    );
+}
+
 /// A block's body calls blocks of one's own through the instances its block declares, in
 /// either language; the nested instances' pins are the tags `p1.la.on`, which a scenario
 /// expects, and two outer instances keep two nested states.
@@ -601,20 +668,18 @@ fn a_pushable_body_is_pushed_down_per_instance() {
          \x20 - { at: 2s,   set: { stop: 1 } }\n  - { at: 2.2s, set: { stop: 0 } }\n\
          \x20 - { at: 2.5s, expect: { motor: 0, s1.on: 0, s1.presses: 1 } }\n",
     );
-    let (ok, text) = softplc_in(&s.dir, &["check", "project.yaml"]);
-    assert!(ok, "{text}");
-    for line in [
-        "machine.ladder.yaml:2:5 motor (set/reset latch): module mm1 Y1, automatic outputs AON/AOFF (an OFF condition wins)",
-        "      Y1AON1         = 0x0002 X2",
-        "      Y1AOFF1        = 0x0004 X3",
-        "machine.ladder.yaml:3:5 fan (set/reset latch): central: memory or a timer in the condition: run is a memory tag, which the module cannot see",
-        "machine.ladder.yaml:4:5 lamp (other): central: a block of your own drives this coil, and its body's main output: a comparison of numbers in the condition",
-        "3 coil(s) planned: 1 in modules, 2 central",
-    ] {
-        assert!(text.contains(line), "no {line:?} in:\n{text}");
-    }
-    let (ok, text) = softplc_in(&s.dir, &["test", "pd.scenario.yaml"]);
-    assert!(ok && text.contains("1 passed, 0 failed"), "{text}");
+    plans_and_passes(
+        &s,
+        &[
+            "machine.ladder.yaml:2:5 motor (set/reset latch): module mm1 Y1, automatic outputs AON/AOFF (an OFF condition wins)",
+            "      Y1AON1         = 0x0002 X2",
+            "      Y1AOFF1        = 0x0004 X3",
+            "machine.ladder.yaml:3:5 fan (set/reset latch): central: memory or a timer in the condition: run is a memory tag, which the module cannot see",
+            "machine.ladder.yaml:4:5 lamp (other): central: a block of your own drives this coil, and its body's main output: a comparison of numbers in the condition",
+            "3 coil(s) planned: 1 in modules, 2 central",
+        ],
+        "pd.scenario.yaml",
+    );
 }
 
 /// A state variable with `retain: true` is kept across a restart like a retained tag: each
