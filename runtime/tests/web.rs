@@ -1066,7 +1066,13 @@ fn a_block_of_ones_own_is_drawn_with_its_instance_and_its_body_on_demand() {
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(
         dir.join("my.blocks.yaml"),
-        "blocks:\n  - name: STARTER\n    inputs: [{ name: en, type: bool }, { name: start, type: bool }, { name: stop, type: bool }]\n    outputs: [{ name: on, type: bool }]\n    state: [{ name: presses, type: i32 }]\n    body: starter.ladder.yaml\n",
+        "blocks:\n  - name: STARTER\n    inputs: [{ name: en, type: bool }, { name: start, type: bool }, { name: stop, type: bool }]\n    outputs: [{ name: on, type: bool }]\n    state: [{ name: presses, type: i32 }]\n    body: starter.ladder.yaml\n\
+         \x20 - name: OUTER\n    inputs: [{ name: en, type: bool }, { name: a, type: bool }, { name: b, type: bool }]\n    outputs: [{ name: q, type: bool }]\n    instances: [{ name: st, block: STARTER }]\n    body: outer.ladder.yaml\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("outer.ladder.yaml"),
+        "rungs:\n  - en -> STARTER st(a, b) -> q\n",
     )
     .unwrap();
     std::fs::write(
@@ -1076,7 +1082,7 @@ fn a_block_of_ones_own_is_drawn_with_its_instance_and_its_body_on_demand() {
     .unwrap();
     std::fs::write(
         dir.join("machine.ladder.yaml"),
-        "rungs:\n  - run -> STARTER s1(start, stop) -> motor\n  - run -> STARTER s2(stop, start) -> fan\n",
+        "rungs:\n  - run -> STARTER s1(start, stop) -> motor\n  - run -> STARTER s2(stop, start) -> fan\n  - run -> OUTER s3(start, stop) -> lamp\n",
     )
     .unwrap();
     let port = free_port();
@@ -1091,8 +1097,9 @@ fn a_block_of_ones_own_is_drawn_with_its_instance_and_its_body_on_demand() {
          \x20 - {{ name: motor, point: mm1.Y1, safe: false }}\n\
          \x20 - {{ name: fan,   point: mm1.Y2, safe: false }}\n\
          \x20 - {{ name: run,   type: bool, initial: true }}\n\
+         \x20 - {{ name: lamp,  type: bool }}\n\
          blocks: [my.blocks.yaml]\n\
-         instances: [{{ name: s1, block: STARTER }}, {{ name: s2, block: STARTER }}]\n\
+         instances: [{{ name: s1, block: STARTER }}, {{ name: s2, block: STARTER }}, {{ name: s3, block: OUTER }}]\n\
          program: {{ file: machine.ladder.yaml, kind: ladder }}\n\
          service:\n  web: {{ bind: \"127.0.0.1:{port}\" }}\n"
     );
@@ -1150,6 +1157,37 @@ fn a_block_of_ones_own_is_drawn_with_its_instance_and_its_body_on_demand() {
         Duration::from_secs(10),
     )
     .unwrap_or_else(|| panic!("s2's body: {}", b.eval("document.querySelector('#rung-2 .lad-body').textContent")));
+    // s3's body calls an instance of its own (s3.st): the body shows it as a box named
+    // s3.st with its pins, and a click on it shows its body over the tags s3.st.*.
+    b.eval("document.querySelector('#rung-3 .lad-body-toggle').click(); true");
+    let outer = "document.querySelector('#rung-3 .lad-body')";
+    let inner_box = format!("{outer}.querySelector('svg[data-rung=\"1\"] .lad-block')");
+    b.wait_for(
+        &format!(
+            "!{outer}.hidden && {inner_box} !== null && {inner_box}.dataset.instance === 's3.st'"
+        ),
+        Duration::from_secs(10),
+    )
+    .unwrap_or_else(|| panic!("s3's body: {}", b.eval(&format!("{outer}.innerHTML"))));
+    let outer_vars = format!("[...{outer}.querySelectorAll(':scope > .lad-vars > .lad-var')].map(e => e.textContent).join(',')");
+    b.wait_for(
+        &format!(
+            "{outer_vars} === 'en 1,a 0,b 0,q 1,st.en 1,st.start 0,st.stop 0,st.on 1,st.presses 1'"
+        ),
+        Duration::from_secs(10),
+    )
+    .unwrap_or_else(|| panic!("s3's variables: {}", b.eval(&outer_vars)));
+    b.eval(&format!(
+        "{inner_box}.dispatchEvent(new MouseEvent('click', {{ bubbles: true }})); true"
+    ));
+    let inner = format!("{outer}.querySelector('.lad-body[data-instance=\"s3.st\"]')");
+    b.wait_for(
+        &format!(
+            "!{inner}.hidden && [...{inner}.querySelectorAll('.lad-var')].map(e => e.textContent).join(',') === 'en 1,start 0,stop 0,on 1,presses 1'"
+        ),
+        Duration::from_secs(10),
+    )
+    .unwrap_or_else(|| panic!("s3.st's body: {}", b.eval(&format!("{inner}.textContent"))));
     b.screenshot(&screenshots().join("program-own-block.png"));
     drop(b);
     drop(plc);

@@ -72,7 +72,9 @@ pub use trace::{
     Trigger,
 };
 pub use trace_budget::{Bytes, TraceBudget, TraceBudgetError};
-pub use user_blocks::{BlockInstance, BlockVar, UserBlock, UserBlockError, VarRole};
+pub use user_blocks::{
+    BlockInstance, BlockVar, NestedInstance, TreeVar, UserBlock, UserBlockError, VarRole,
+};
 pub use watchdog::{Armed, Derivation, ModuleWatchdog, Origin, WatchdogPolicy};
 pub use web::{TokenSource, WebConfig, WebError, WebRole, WebToken, DEFAULT_WEB_BIND};
 

@@ -217,7 +217,7 @@ impl Checker<'_> {
     }
 
     /// Pass 1 for a call of a block of one's own: a declared instance of that block, called
-    /// once, and not in a block's body.
+    /// once (in a block's body: an instance the block declares).
     fn declare_own(
         &mut self,
         call: &super::parser::BlockCall,
@@ -225,27 +225,24 @@ impl Checker<'_> {
         index: usize,
         line_of: &dyn Fn(usize) -> u32,
     ) {
-        if let Some(body) = &self.own.in_body {
-            let kind = CompileErrorKind::OwnInBody {
-                block: block.name.clone(),
-                body: body.clone(),
-            };
-            self.fail::<()>(call.kind.pos, kind);
-            return;
-        }
         let name = &call.instance;
         let declared = self.own.instance(&name.text).map(|(_, b)| b.name.clone());
-        let kind = match declared {
-            None => CompileErrorKind::OwnNotDeclared {
+        let kind = match (declared, &self.own.in_body) {
+            (None, Some(body)) => CompileErrorKind::OwnNotDeclaredInBody {
+                name: name.text.clone(),
+                block: block.name.clone(),
+                body: body.clone(),
+            },
+            (None, None) => CompileErrorKind::OwnNotDeclared {
                 name: name.text.clone(),
                 block: block.name.clone(),
             },
-            Some(declared) if declared != block.name => CompileErrorKind::OwnWrongBlock {
+            (Some(declared), _) if declared != block.name => CompileErrorKind::OwnWrongBlock {
                 name: name.text.clone(),
                 declared,
                 called: block.name.clone(),
             },
-            Some(_) => {
+            (Some(_), _) => {
                 let first = self
                     .insts
                     .by_name

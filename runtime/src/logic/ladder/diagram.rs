@@ -231,15 +231,18 @@ pub fn diagram(
     tags: &TagTable,
     own: &OwnBlocks,
 ) -> Result<Vec<RungDiagram>, Vec<CompileError>> {
-    diagram_from(source, file, tags, own, 0)
+    diagram_from(source, file, tags, own, 0, "")
 }
 
+/// [`diagram`] of a program or a body; `prefix` is the instance path of the body's instance
+/// (`p1.`), which a nested instance's box is named under (`p1.la`).
 fn diagram_from(
     source: &str,
     file: &Path,
     tags: &TagTable,
     own: &OwnBlocks,
     inst_base: u32,
+    prefix: &str,
 ) -> Result<Vec<RungDiagram>, Vec<CompileError>> {
     let Front {
         src,
@@ -252,6 +255,7 @@ fn diagram_from(
         instances: &instances,
         own,
         inst_base,
+        prefix,
     };
     Ok(parsed
         .iter()
@@ -282,6 +286,9 @@ struct Names<'a> {
     own: &'a OwnBlocks,
     /// Added to every instance index (a body's, see [`BODY_INSTANCES`]).
     inst_base: u32,
+    /// The instance path a body's nested instances are named under (`p1.`); empty for the
+    /// program.
+    prefix: &'a str,
 }
 
 impl Names<'_> {
@@ -458,15 +465,22 @@ impl Names<'_> {
             })
             .collect();
         let tag_of = |var: &str| self.tags.get(&format!("{instance}.{var}")).map(|t| t.id);
-        let table = TagTable::new(block.vars().filter_map(|(role, v)| {
+        let tree = block.tree(&self.own.blocks);
+        let table = TagTable::new(tree.iter().filter_map(|v| {
             let id = tag_of(&v.name)?;
-            Some((v.name.clone(), id, v.ty, role != VarRole::Input))
+            Some((
+                v.name.clone(),
+                id,
+                v.var.ty,
+                v.own && v.role != VarRole::Input,
+            ))
         }));
         let text = std::fs::read_to_string(&block.body).unwrap_or_default();
         let (body_kind, body, body_text) = match block.body_kind {
             ProgramKind::Ladder => {
-                let own = OwnBlocks::for_body(&self.own.blocks, &block.name);
-                let body = diagram_from(&text, &block.body, &table, &own, BODY_INSTANCES)
+                let own = OwnBlocks::for_body(&self.own.blocks, block);
+                let path = format!("{}{instance}.", self.prefix);
+                let body = diagram_from(&text, &block.body, &table, &own, BODY_INSTANCES, &path)
                     .unwrap_or_default();
                 ("ladder", body, None)
             }
@@ -474,7 +488,7 @@ impl Names<'_> {
         };
         Some(BlockBox {
             kind: block.name.clone(),
-            instance: instance.clone(),
+            instance: format!("{}{instance}", self.prefix),
             inst: u32::MAX,
             input: block
                 .inputs
@@ -490,9 +504,9 @@ impl Names<'_> {
                 .unwrap_or_default(),
             coils: coils.iter().map(|c| self.coil(c)).collect(),
             own: Some(OwnBox {
-                tags: block
-                    .vars()
-                    .filter_map(|(_, v)| Some((v.name.clone(), tag_of(&v.name)?.index())))
+                tags: tree
+                    .iter()
+                    .filter_map(|v| Some((v.name.clone(), tag_of(&v.name)?.index())))
                     .collect(),
                 body_file: block.body.display().to_string(),
                 body_kind,

@@ -138,9 +138,11 @@ pub enum CompileErrorKind {
         /// The block.
         kind: Kind,
     },
-    /// A block of one's own called in a block's body.
-    #[error("{block} is a block of your own: the body of {body} calls built-in blocks only (nested blocks and recursion are refused)")]
-    OwnInBody {
+    /// A block's body calling an instance its block does not declare.
+    #[error("instance `{name}` of {block} is not declared by {body}: add `- {{ name: {name}, block: {block} }}` to the `instances:` of {body} in its block file")]
+    OwnNotDeclaredInBody {
+        /// The instance.
+        name: String,
         /// The block called.
         block: String,
         /// The block whose body calls it.

@@ -44,7 +44,7 @@ pub(crate) struct OwnSignature {
     pub required: usize,
     /// The instances the project declares of it.
     pub instances: Vec<String>,
-    /// Its variables: inputs, outputs, state.
+    /// Its variables: inputs, outputs, state, then its nested instances' (`la.on`).
     pub vars: Vec<String>,
 }
 
@@ -92,7 +92,12 @@ pub(crate) fn signatures(own: &OwnBlocks) -> Vec<OwnSignature> {
                     .filter(|(_, of)| *of == b)
                     .map(|(n, _)| n.clone())
                     .collect(),
-                vars: block.vars().map(|(_, v)| v.name.clone()).collect(),
+                // Its nested instances' too (`la.on`), as the instance holds them.
+                vars: block
+                    .tree(&own.blocks)
+                    .into_iter()
+                    .map(|v| v.name)
+                    .collect(),
             }
         })
         .collect()
@@ -197,12 +202,14 @@ fn number(v: &Dynamic, ty: ValueType) -> Option<f64> {
 }
 
 /// Before the script: the scan the calls run in; an instance not run yet takes its outputs and
-/// state from its tags.
+/// state from its tags; every instance takes the forces on its tags (the calls run where the
+/// image cannot be reached).
 pub(crate) fn begin(own: &SharedOwn, image: &ProcessImage, ctx: &ScanContext) {
     let mut own = lock(own);
     own.ctx = Some(*ctx);
     for inst in &mut own.instances {
         inst.adopt(image, ctx);
+        inst.follow_forces(image, ctx);
     }
 }
 

@@ -26,19 +26,25 @@ pub struct OwnBlockError {
     pub builtins: String,
 }
 
-/// The table a body compiles against: the block's variables, ids as in its own image; inputs
-/// read-only.
-fn body_table(block: &UserBlock) -> (TagTable, ProcessImage) {
-    let table = TagTable::new(
-        (0u32..)
-            .zip(block.vars())
-            .map(|(i, (role, v))| (v.name.clone(), TagId(i), v.ty, role != VarRole::Input)),
-    );
-    let image = ProcessImage::new(block.vars().map(|(_, v)| (v.name.clone(), v.initial)));
+/// The table a body compiles against: the block's variables and its nested instances' (see
+/// [`UserBlock::tree`]), ids as in its own image; writable are its own outputs and state
+/// only (a nested instance's pins are its calls' to write).
+fn body_table(block: &UserBlock, blocks: &[UserBlock]) -> (TagTable, ProcessImage) {
+    let tree = block.tree(blocks);
+    let table = TagTable::new((0u32..).zip(&tree).map(|(i, v)| {
+        (
+            v.name.clone(),
+            TagId(i),
+            v.var.ty,
+            v.own && v.role != VarRole::Input,
+        )
+    }));
+    let image = ProcessImage::new(tree.iter().map(|v| (v.name.clone(), v.var.initial)));
     (table, image)
 }
 
-/// Compiles `block`'s body against its variables.
+/// Compiles `block`'s body against its variables, with an instance of its own for each of
+/// its nested instances, publishing into the body's image.
 fn compile_body(
     block: &UserBlock,
     blocks: &[UserBlock],
@@ -49,16 +55,24 @@ fn compile_body(
         path: path.clone(),
         source,
     })?;
-    let (table, image) = body_table(block);
-    let own = OwnBlocks::for_body(blocks, &block.name);
+    let (table, image) = body_table(block, blocks);
+    let mut own = OwnBlocks::for_body(blocks, block);
+    for nested in &block.instances {
+        let Some(of) = blocks.iter().find(|b| b.name == nested.block) else {
+            continue;
+        };
+        own.instances
+            .push(instance(&nested.name, of, blocks, &table, budget)?);
+    }
     let engine: Box<dyn LogicEngine> = match block.body_kind {
         ProgramKind::Ladder => Box::new(
             ladder::compile_with(&source, path, &table, own)
                 .map_err(|errors| ProgramError::Ladder(in_body(errors, block)))?,
         ),
-        ProgramKind::Rhai => {
-            Box::new(rhai::compile(&source, path, &table, budget).map_err(ProgramError::Rhai)?)
-        }
+        ProgramKind::Rhai => Box::new(
+            rhai::compile_calling(&source, path, &table, budget, own)
+                .map_err(ProgramError::Rhai)?,
+        ),
         // The block file's validation takes `.yaml` and `.rhai` only.
         ProgramKind::Expr => {
             return Err(ProgramError::Read {
@@ -68,6 +82,36 @@ fn compile_body(
         }
     };
     Ok((engine, image))
+}
+
+/// Instance `name` of `block`, its tags found in `table` as `NAME.VARIABLE` (the project's
+/// table, or for a nested instance its outer body's).
+fn instance(
+    name: &str,
+    block: &UserBlock,
+    blocks: &[UserBlock],
+    table: &TagTable,
+    budget: Duration,
+) -> Result<UserInstance, ProgramError> {
+    let (body, vars) = compile_body(block, blocks, budget)?;
+    let tree = block.tree(blocks);
+    let tags = tree
+        .iter()
+        .map(|v| table.get(&format!("{name}.{}", v.name)).map(|e| e.id))
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| ProgramError::Read {
+            path: block.file.clone(),
+            source: std::io::Error::other(format!("the tags of instance {name} are not declared")),
+        })?;
+    Ok(UserInstance::new(
+        name.to_owned(),
+        vars,
+        tree.iter().map(|v| v.name.clone()).collect(),
+        tree.iter().map(|v| v.var.ty).collect(),
+        block.inputs.len(),
+        body,
+        tags,
+    ))
 }
 
 /// A body's errors in the block's words: what the program's checker calls a tag is a
@@ -153,31 +197,7 @@ pub(crate) fn build(
                 source: std::io::Error::other(format!("instance {} has no block", inst.name)),
             });
         };
-        let (body, vars) = compile_body(block, &project.blocks, budget)?;
-        let tags = block
-            .vars()
-            .map(|(_, v)| {
-                let name = format!("{}.{}", inst.name, v.name);
-                table.get(&name).map(|e| e.id)
-            })
-            .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| ProgramError::Read {
-                path: block.file.clone(),
-                source: std::io::Error::other(format!(
-                    "the tags of instance {} are not in the project",
-                    inst.name
-                )),
-            })?;
-        let types = block.vars().map(|(_, v)| v.ty).collect();
-        instances.push(UserInstance::new(
-            inst.name.clone(),
-            vars,
-            block.vars().map(|(_, v)| v.name.clone()).collect(),
-            types,
-            block.inputs.len(),
-            body,
-            tags,
-        ));
+        instances.push(instance(&inst.name, block, &project.blocks, table, budget)?);
     }
     let mut own = OwnBlocks::declared(project);
     own.instances = instances;

@@ -60,6 +60,32 @@ impl UserInstance {
         }
     }
 
+    /// Takes the forces the project's image holds on its tags, and holds its variables at
+    /// them at once. Forces live in one place, the image (`softplc force s1.start 1`); the
+    /// image applies them to the tags before and after the logic, but the body runs on an
+    /// image of its own in between, so without this a forced input pin would not be what the
+    /// body reads, and a forced output would be what the body computed until the logic ended.
+    /// The forces go into its own image as forces, so a nested instance's call in the body
+    /// takes them from there the same way (`s1.v.start` forced reaches `v`'s body).
+    pub(crate) fn follow_forces(&mut self, image: &ProcessImage, ctx: &ScanContext) {
+        for (i, &tag) in self.tags.iter().enumerate() {
+            let id = TagId(i as u32);
+            match (tag.index() < image.len())
+                .then(|| image.forced(tag))
+                .flatten()
+            {
+                Some(v) => self.vars.force(id, v),
+                None => drop(self.vars.unforce(id)),
+            }
+        }
+        self.hold_forces(ctx);
+    }
+
+    /// Sets every forced variable to its forced value.
+    fn hold_forces(&mut self, ctx: &ScanContext) {
+        self.vars.apply_forces(ctx.now);
+    }
+
     /// Its main output as its body describes it, over the block's variables.
     pub(crate) fn main_shape(&self) -> Result<softplc_io::rung::RungShape, String> {
         super::shape::main_output_shape(self.body.as_ref(), self.inputs)
@@ -92,15 +118,21 @@ impl UserInstance {
         ctx: &ScanContext,
     ) -> Result<bool, LogicFault> {
         self.adopt(image, ctx);
+        self.follow_forces(image, ctx);
         let q = self.run_body(ctx)?;
         self.publish(image, ctx);
         Ok(q)
     }
 
-    /// Runs the body once with the inputs set; returns the main output. The project's tags
-    /// are the caller's to update ([`UserInstance::publish`]).
+    /// Runs the body once with the inputs set; returns the main output. A forced input is
+    /// what the body reads, whatever the call gave; a forced output or state variable keeps
+    /// its forced value, whatever the body computed, so the call returns it and the rest of
+    /// the program reads it (the forces taken by [`UserInstance::follow_forces`]). The
+    /// project's tags are the caller's to update ([`UserInstance::publish`]).
     pub(crate) fn run_body(&mut self, ctx: &ScanContext) -> Result<bool, LogicFault> {
+        self.hold_forces(ctx);
         self.body.scan(&mut self.vars, ctx)?;
+        self.hold_forces(ctx);
         Ok(self.output(0).as_bool())
     }
 

@@ -9,9 +9,10 @@
 //! its variables in a small image of its own; a call writes the inputs there, runs the body
 //! with the scan's time and copies every variable into the project's tags `INSTANCE.VAR`, so
 //! what a caller reads after the call (`s1.done`), the trace, the recorder, `softplc test`,
-//! status and the services all see one value. A block's body calls built-in blocks only: a
-//! block of one's own inside another's body would be an instance nobody declared (and may be
-//! a recursion), so it is refused.
+//! status and the services all see one value. A block's body may call blocks of one's own
+//! through the instances its block declares (`instances:`): each is compiled against the
+//! body's table, publishes into the body's image, and so reaches the project's tags as
+//! `INSTANCE.NESTED.VARIABLE` with its outer instance's; validation refuses recursion.
 
 mod build;
 mod instance;
@@ -34,7 +35,8 @@ pub struct OwnBlocks {
     pub(crate) declared: Vec<(String, usize)>,
     /// The instances compiled, in `declared` order (none for a drawing).
     pub(crate) instances: Vec<UserInstance>,
-    /// Set when the program is a block's body: a call of a block of one's own is refused.
+    /// Set when the program is a block's body (the block's name): the instances it may
+    /// call are the block's `instances:`, which a refusal names.
     pub(crate) in_body: Option<String>,
 }
 
@@ -53,14 +55,23 @@ impl OwnBlocks {
         Self::default()
     }
 
-    /// The registry for a body of `block`: the blocks are known (to name them in the
-    /// refusal), instances none.
-    pub(crate) fn for_body(blocks: &[UserBlock], block: &str) -> Self {
+    /// The registry for a body of `block`: every block, and the instances the block
+    /// declares (`instances:`), none compiled.
+    pub(crate) fn for_body(blocks: &[UserBlock], block: &UserBlock) -> Self {
         Self {
             blocks: blocks.to_vec(),
-            declared: Vec::new(),
+            declared: block
+                .instances
+                .iter()
+                .filter_map(|n| {
+                    Some((
+                        n.name.clone(),
+                        blocks.iter().position(|b| b.name == n.block)?,
+                    ))
+                })
+                .collect(),
             instances: Vec::new(),
-            in_body: Some(block.to_owned()),
+            in_body: Some(block.name.clone()),
         }
     }
 

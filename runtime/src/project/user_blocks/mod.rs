@@ -47,6 +47,8 @@ pub struct UserBlock {
     pub outputs: Vec<BlockVar>,
     /// What it keeps from scan to scan.
     pub state: Vec<BlockVar>,
+    /// The instances of other blocks of one's own its body calls.
+    pub instances: Vec<NestedInstance>,
     /// The body's program file.
     pub body: PathBuf,
     /// The body's language (ladder or Rhai).
@@ -107,6 +109,58 @@ impl UserBlock {
     /// The function Rhai calls it by: its name in lower case.
     pub fn function(&self) -> String {
         self.name.to_ascii_lowercase()
+    }
+}
+
+/// An instance declared inside a block (its `instances:`), which the block's body calls.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NestedInstance {
+    /// Its name: the body reads its pins as `NAME.PIN`.
+    pub name: String,
+    /// The block it is an instance of, by name (a block of the project's files).
+    pub block: String,
+    /// Where its `block:` is in the block file (1-based line and column).
+    pub block_at: (usize, usize),
+}
+
+/// A variable of an instance's whole tree: its block's own variables, then each nested
+/// instance's, named `NESTED.VARIABLE` (and deeper `NESTED.INNER.VARIABLE`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TreeVar<'a> {
+    /// Its name as the block's body reads it (`done`, `v.open`).
+    pub name: String,
+    /// Its role in the block that declares it.
+    pub role: VarRole,
+    /// Whether it is the block's own (not a nested instance's).
+    pub own: bool,
+    /// The variable.
+    pub var: &'a BlockVar,
+}
+
+impl UserBlock {
+    /// Every variable of an instance of this block with its nested instances' (found by
+    /// name in `blocks`), in the order of the instance's tags and image. Validation refuses
+    /// recursion, so the tree is finite; a nested block not found contributes nothing.
+    pub fn tree<'a>(&'a self, blocks: &'a [UserBlock]) -> Vec<TreeVar<'a>> {
+        let mut out: Vec<TreeVar<'a>> = self
+            .vars()
+            .map(|(role, var)| TreeVar {
+                name: var.name.clone(),
+                role,
+                own: true,
+                var,
+            })
+            .collect();
+        for nested in &self.instances {
+            if let Some(block) = blocks.iter().find(|b| b.name == nested.block) {
+                out.extend(block.tree(blocks).into_iter().map(|v| TreeVar {
+                    name: format!("{}.{}", nested.name, v.name),
+                    own: false,
+                    ..v
+                }));
+            }
+        }
+        out
     }
 }
 

@@ -13,6 +13,8 @@
 //!       - { name: done, type: bool }
 //!     state:                        # kept from scan to scan, per instance
 //!       - { name: fills, type: i32, initial: 0, retain: true }   # kept across restarts
+//!     instances:                    # blocks of one's own the body calls (pins v.open, ...)
+//!       - { name: v, block: VALVE }
 //!     body: station.ladder.yaml     # ladder (.yaml) or Rhai (.rhai), relative to this file
 //! ```
 
@@ -55,6 +57,11 @@ pub(crate) struct RawBlock {
     /// Variables the body keeps from one scan to the next, per instance.
     #[serde(default)]
     pub state: Vec<RawVar>,
+    /// Instances of other blocks of one's own that the body calls (nesting): their pins are
+    /// the body's read-only variables `NAME.PIN`, and an instance of this block has them as
+    /// the tags `INSTANCE.NAME.PIN`. A block may not reach itself through them.
+    #[serde(default)]
+    pub instances: Vec<RawInstance>,
     /// The body: a ladder file (`.yaml`) or a Rhai script (`.rhai`), relative to the block
     /// file's folder. It sees the block's inputs (read-only), outputs and state, nothing else.
     pub body: String,

@@ -7,7 +7,7 @@ use std::path::Path;
 use softplc_io::point::{Value, ValueType};
 
 use super::raw::{RawBlock, RawBlockFile, RawInstance, RawVar};
-use super::{BlockInstance, BlockVar, UserBlock, VarRole};
+use super::{BlockInstance, BlockVar, NestedInstance, UserBlock, VarRole};
 use crate::project::error::{read_text, ErrorKind, ProjectError, ProjectErrors};
 use crate::project::span::{Locator, YPath};
 use crate::project::{Binding, DocKind, DocText, ProgramKind, TagConfig};
@@ -146,6 +146,14 @@ pub enum UserBlockError {
         /// The blocks the project's files define.
         known: Vec<String>,
     },
+    /// A block that reaches itself through the instances its body calls.
+    #[error("block {block} calls itself through its instances: {chain}; a block's instances are of other blocks, none of which may call it back")]
+    Recursion {
+        /// The block.
+        block: String,
+        /// The chain, `STATION (v: VALVE) -> VALVE (s: STATION) -> STATION`.
+        chain: String,
+    },
     /// An instance whose name is not an identifier.
     #[error("instance name {0:?} is not an identifier (letters, digits and _, not first a digit)")]
     BadInstanceName(String),
@@ -237,7 +245,64 @@ pub(crate) fn load_all(
         }
     }
     // A file refused leaves its blocks unknown: instances of them would only repeat that.
-    whole.then_some(blocks)
+    if !whole {
+        return None;
+    }
+    let before = errors.len();
+    check_nesting(&blocks, errors);
+    (errors.len() == before).then_some(blocks)
+}
+
+/// Every block's nested instances: of a known block, and never leading back to the block
+/// (a body would run itself without end). Each error at the `block:` of the instance that
+/// starts the chain.
+fn check_nesting(blocks: &[UserBlock], errors: &mut Vec<ProjectError>) {
+    let known: Vec<String> = blocks.iter().map(|b| b.name.clone()).collect();
+    for b in blocks {
+        for nested in &b.instances {
+            let kind = if !known.contains(&nested.block) {
+                UserBlockError::UnknownBlock {
+                    name: nested.block.clone(),
+                    known: known.clone(),
+                }
+            } else if let Some(chain) = back_to(blocks, &b.name, nested, &mut Vec::new()) {
+                UserBlockError::Recursion {
+                    block: b.name.clone(),
+                    chain: format!("{} ({}: {}) -> {chain}", b.name, nested.name, nested.block),
+                }
+            } else {
+                continue;
+            };
+            errors.push(ProjectError {
+                file: b.file.clone(),
+                line: nested.block_at.0,
+                column: nested.block_at.1,
+                kind: ErrorKind::UserBlock(kind),
+            });
+        }
+    }
+}
+
+/// The chain from `via`'s block back to `target`, if there is one (`VALVE (s: STATION) ->
+/// STATION`); `seen` holds the blocks already followed, so a cycle not through `target` ends.
+fn back_to(
+    blocks: &[UserBlock],
+    target: &str,
+    via: &NestedInstance,
+    seen: &mut Vec<String>,
+) -> Option<String> {
+    if via.block == target {
+        return Some(target.to_owned());
+    }
+    if seen.contains(&via.block) {
+        return None;
+    }
+    seen.push(via.block.clone());
+    let block = blocks.iter().find(|b| b.name == via.block)?;
+    block.instances.iter().find_map(|next| {
+        back_to(blocks, target, next, seen)
+            .map(|rest| format!("{} ({}: {}) -> {rest}", block.name, next.name, next.block))
+    })
 }
 
 struct FileChecker<'a> {
@@ -374,6 +439,7 @@ impl FileChecker<'_> {
                 Some(_) => {}
             }
         }
+        let instances = self.nested(&b.instances, &seen, path);
         let body = self.body(&b.body, &path.key("body"));
         if self.errors.len() != before {
             return None;
@@ -387,9 +453,56 @@ impl FileChecker<'_> {
             inputs,
             outputs,
             state,
+            instances,
             body,
             body_kind,
         })
+    }
+
+    /// A block's `instances:`: each an identifier, named apart from the block's variables
+    /// and from each other. Their blocks are looked up once every file is read.
+    fn nested(
+        &mut self,
+        raw: &[RawInstance],
+        vars: &HashMap<String, usize>,
+        path: &YPath,
+    ) -> Vec<NestedInstance> {
+        let mut out: Vec<NestedInstance> = Vec::with_capacity(raw.len());
+        let mut lines: HashMap<&str, usize> = HashMap::new();
+        for (i, inst) in raw.iter().enumerate() {
+            let at = path.key("instances").index(i);
+            if !crate::project::validate::is_identifier(&inst.name) {
+                self.error(
+                    &at.key("name"),
+                    UserBlockError::BadInstanceName(inst.name.clone()),
+                );
+                continue;
+            }
+            let taken = vars
+                .get(inst.name.as_str())
+                .map(|&line| ("a variable", line))
+                .or_else(|| {
+                    lines
+                        .get(inst.name.as_str())
+                        .map(|&line| ("an instance", line))
+                });
+            if let Some((what, line)) = taken {
+                let e = UserBlockError::InstanceNameTaken {
+                    name: inst.name.clone(),
+                    what,
+                    line,
+                };
+                self.error(&at.key("name"), e);
+                continue;
+            }
+            lines.insert(&inst.name, self.loc.line(&at.key("name")));
+            out.push(NestedInstance {
+                name: inst.name.clone(),
+                block: inst.block.clone(),
+                block_at: self.loc.position(&at.key("block")),
+            });
+        }
+        out
     }
 
     fn var(&mut self, v: &RawVar, role: VarRole, at: &YPath) -> Option<BlockVar> {
@@ -557,9 +670,10 @@ pub(crate) fn instances(
             continue;
         };
         let first_tag = tags.len();
-        for (_, var) in blocks[block].vars() {
+        for v in blocks[block].tree(blocks) {
+            let var = v.var;
             tags.push(Some(TagConfig {
-                name: format!("{}.{}", inst.name, var.name),
+                name: format!("{}.{}", inst.name, v.name),
                 description: var.description.clone(),
                 ty: var.ty,
                 binding: Binding::Memory,

@@ -566,20 +566,38 @@ window.softplcLadder = (() => {
     });
     el.append(vars);
     const nodes = [];
+    // Bodies of the instances this body calls (`p1.la`), each shown on a click of its box,
+    // painted with what this body was last painted with (it is shown, so it was).
+    const nested = [];
+    let last = null;
     if (b.own.body_kind === "ladder") {
       const inferred = inferOutputs(b.own.body);
       b.own.body.forEach((r, n) => {
         const node = rungNode(r);
         el.append(rungPicture(node, r, n));
         nodes.push(node);
+        if (r.block && r.block.own) {
+          const inner = ownBody(r.block);
+          el.append(inner.el);
+          nested.push(inner);
+          if (node.parts && node.parts.group) {
+            node.parts.group.addEventListener("click", (ev) => {
+              ev.stopPropagation();
+              inner.el.hidden = !inner.el.hidden;
+              if (last) inner.paint(last);
+            });
+          }
+        }
       });
       return {
         el,
         paint(ctx) {
+          last = ctx;
           if (el.hidden) return;
           for (const c of cells) c.cell.textContent = c.name + " " + fmt(ctx.s ? ctx.s.v[c.tag] : null);
           const inner = { info: ctx.info, s: ctx.s, prev: ctx.prev, inferred };
           for (const node of nodes) node.paint(inner, true);
+          for (const n of nested) n.paint(ctx);
         },
       };
     }
