@@ -28,6 +28,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub use args::parse_duration;
+pub use test::alarms::{AlarmState, AlarmStep, AlarmStepKind};
 pub use test::scenario::{
     parse as parse_scenario, CmpOp, Comparison, Expect, FaultStep, PlantExpect, ProgramSpec,
     Scenario, ScenarioErrors, SetInput,

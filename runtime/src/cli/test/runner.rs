@@ -9,9 +9,11 @@ use softplc_io::point::Value;
 use softplc_io::sim::plant::{PlantHealth, StateValue};
 use softplc_io::sim::SharedWorld;
 
+use super::alarms::ScenarioAlarms;
 use super::scenario::{Expect, FaultStep, PlantExpect, ProgramSpec, Scenario, SetInput};
 use super::trace::Change;
 use crate::clock::VirtualClock;
+use crate::logic::ScanContext;
 use crate::plc::Plc;
 use crate::project::ProgramConfig;
 use crate::scan::{ScanEngine, StopReason};
@@ -56,6 +58,8 @@ struct HookState {
     checked: Vec<bool>,
     /// The tasks' names, in project order.
     task_names: Vec<String>,
+    /// The alarm book and the scenario's alarm steps (a project of one task).
+    alarms: Option<ScenarioAlarms>,
 }
 
 impl HookState {
@@ -97,6 +101,7 @@ impl HookState {
             owners: None,
             checked: Vec::new(),
             task_names: Vec::new(),
+            alarms: None,
         }
     }
 
@@ -170,7 +175,7 @@ impl HookState {
                     self.result.trace.push(Change {
                         at: now,
                         tag: format!("plant.{name}"),
-                        value,
+                        value: value.into(),
                     });
                 }
             }
@@ -201,7 +206,7 @@ impl HookState {
         }
     }
 
-    fn cycle(&mut self, plc: &Plc, now: Duration) {
+    fn cycle(&mut self, plc: &Plc, ctx: &ScanContext, now: Duration) {
         if self.owners.is_some() {
             return self.task_cycle(plc, now);
         }
@@ -214,7 +219,7 @@ impl HookState {
                 self.result.trace.push(Change {
                     at: now,
                     tag: name.clone(),
-                    value: v,
+                    value: v.into(),
                 });
             }
         }
@@ -246,6 +251,9 @@ impl HookState {
             self.next_expect += 1;
         }
         self.plant_cycle(now, next);
+        if let Some(alarms) = &mut self.alarms {
+            alarms.cycle(plc, ctx, now, next, &mut self.result);
+        }
         self.apply_sets(next);
         self.apply_faults(next);
     }
@@ -268,7 +276,7 @@ impl HookState {
                 self.result.trace.push(Change {
                     at: now,
                     tag: name.clone(),
-                    value: v,
+                    value: v.into(),
                 });
             }
         }
@@ -389,6 +397,7 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
     let origin = plc.clock().now();
     let worlds: Vec<SharedWorld> = plc.world().cloned().into_iter().collect();
     let mut state = HookState::new(sc, &worlds, watch, period);
+    state.alarms = Some(ScenarioAlarms::new(plc.project(), sc.alarm_steps.clone()));
     state.apply_sets(Duration::ZERO);
     state.apply_faults(Duration::ZERO);
     let state = Arc::new(Mutex::new(state));
@@ -396,10 +405,11 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
     let mut engine = ScanEngine::new(plc)
         .run_for(sc.until)
         .on_cycle(Box::new(move |plc, ctx| {
-            hook_state
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .cycle(plc, ctx.now.saturating_duration_since(origin));
+            hook_state.lock().unwrap_or_else(|p| p.into_inner()).cycle(
+                plc,
+                ctx,
+                ctx.now.saturating_duration_since(origin),
+            );
         }));
     let outcome = engine.run();
     drop(engine);
@@ -414,12 +424,14 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
         .iter()
         .skip(st.next_plant_expect)
         .map(|e| (e.at, e.line));
+    let alarms_left = st.alarms.iter().flat_map(ScenarioAlarms::left);
     let left = st
         .expects
         .iter()
         .skip(st.next_expect)
         .map(|e| (e.at, e.line))
-        .chain(plant_left);
+        .chain(plant_left)
+        .chain(alarms_left);
     not_reached(left, sc, &mut result);
     if !sc.retained.is_empty() {
         check_retained(sc, &retain_file, &mut result);
@@ -435,6 +447,16 @@ fn run_tasks(sc: &Scenario) -> RunResult {
     let mut project = sc.project.clone();
     if !sc.plant {
         project.plant = None;
+    }
+    if let Some(step) = sc.alarm_steps.first() {
+        return RunResult {
+            failures: vec![format!(
+                "line {}: a scenario expects and acknowledges alarms in a project of one task; \
+                 this project has several",
+                step.line
+            )],
+            ..RunResult::default()
+        };
     }
     let retain_file = temp_retain();
     project.retain.file = retain_file.clone();
@@ -485,10 +507,11 @@ fn run_tasks(sc: &Scenario) -> RunResult {
         let end = origin + until;
         let run_for = end.saturating_duration_since(engine.plc().clock().now());
         engine.run_for(run_for).on_cycle(Box::new(move |plc, ctx| {
-            hook_state
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .cycle(plc, ctx.now.saturating_duration_since(origin));
+            hook_state.lock().unwrap_or_else(|p| p.into_inner()).cycle(
+                plc,
+                ctx,
+                ctx.now.saturating_duration_since(origin),
+            );
         }))
     });
     let outcomes = tasks.run_virtual();
