@@ -110,6 +110,46 @@ steps:
     );
 }
 
+#[test]
+fn a_silent_module_raises_its_lost_alarm_which_holds_its_tags_alarms_until_it_is_back() {
+    let scratch = Scratch::new("alarm-scenarios", "lost");
+    project(&scratch);
+    let scenario = scratch.write(
+        "lost.scenario.yaml",
+        "project: project.yaml
+steps:
+  - { at: 1s,   set: { x: 1 } }
+  - { at: 1.5s, expect: { alarm.y: raised, alarm.lost.mm1: inactive } }
+  - { at: 2s,   module: { mm1: silent } }
+  - { at: 2s,   set: { x: 0 } }
+  - { at: 4s,   expect: { alarm.lost.mm1: raised, alarm.y: raised } }
+  - { at: 4s,   ack: all }
+  - { at: 5s,   module: { mm1: answers } }
+  - { at: 8s,   expect: { alarm.lost.mm1: \"cleared, acknowledged\", alarm.y: \"cleared, acknowledged\" } }
+",
+    );
+    let (ok, text) = softplc(&["test", "--verbose", scenario.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    // One lost alarm for the dead module; y's alarm held while it is lost, cleared after.
+    let lines = alarm_lines(&text);
+    let events: Vec<&str> = lines
+        .iter()
+        .filter_map(|l| l.split_once("  ").map(|(_, e)| e))
+        .collect();
+    assert_eq!(
+        events[..6],
+        [
+            "alarm.y = raised",
+            "alarm.lost.mm1 = raised",
+            "alarm.y = acknowledged",
+            "alarm.lost.mm1 = acknowledged",
+            "alarm.lost.mm1 = cleared",
+            "alarm.y = cleared",
+        ],
+        "{text}"
+    );
+}
+
 /// Fails unless `text` holds every one of `wants`, naming the first missing.
 fn assert_has_all(text: &str, wants: &[impl AsRef<str>]) {
     for want in wants {
@@ -130,6 +170,8 @@ steps:
   - { at: 1s, ack: [y, lost.mm2] }
   - { at: 2s, expect: { alarm.y: up } }
   - { at: 2s, ack: x }
+  - { at: 3s, module: { mm9: silent } }
+  - { at: 3s, module: { mm1: dead } }
 ",
     );
     let (ok, text) = softplc(&["test", scenario.to_str().unwrap()]);
@@ -140,6 +182,8 @@ steps:
         format!("{file}:4:24: error: the project has no alarm `lost.mm2` (its alarms: y, lost.mm1); did you mean `lost.mm1`?"),
         format!("{file}:5:34: error: `up` is not an alarm's state (raised, active, cleared, inactive, acknowledged, unacknowledged, or several joined by commas)"),
         format!("{file}:6:20: error: the project has no alarm `x` (its alarms: y, lost.mm1); did you mean `y`?"),
+        format!("{file}:7:25: error: no module `mm9`; did you mean `mm1`?"),
+        format!("{file}:8:30: error: `dead` is not `silent` or `answers`"),
     ];
     assert_has_all(&text, &errors);
 }

@@ -7,10 +7,12 @@ use std::time::Duration;
 
 use softplc_io::point::Value;
 use softplc_io::sim::plant::{PlantHealth, StateValue};
-use softplc_io::sim::SharedWorld;
+use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld};
 
 use super::alarms::ScenarioAlarms;
-use super::scenario::{Expect, FaultStep, PlantExpect, ProgramSpec, Scenario, SetInput};
+use super::scenario::{
+    Expect, FaultStep, ModuleStep, PlantExpect, ProgramSpec, Scenario, SetInput,
+};
 use super::trace::Change;
 use crate::clock::VirtualClock;
 use crate::logic::ScanContext;
@@ -58,6 +60,9 @@ struct HookState {
     checked: Vec<bool>,
     /// The tasks' names, in project order.
     task_names: Vec<String>,
+    /// Modules silenced or answering again, with the world and the device.
+    module_steps: Vec<(ModuleStep, Option<(SharedWorld, usize)>)>,
+    next_module_step: usize,
     /// The alarm book and the scenario's alarm steps (a project of one task).
     alarms: Option<ScenarioAlarms>,
 }
@@ -72,8 +77,18 @@ impl HookState {
         period: Duration,
     ) -> Self {
         Self {
-            sets: devices(sc, worlds),
+            sets: sc
+                .sets
+                .iter()
+                .map(|s| (s.clone(), device_of(worlds, &s.module)))
+                .collect(),
             next_set: 0,
+            module_steps: sc
+                .module_steps
+                .iter()
+                .map(|m| (m.clone(), device_of(worlds, &m.module)))
+                .collect(),
+            next_module_step: 0,
             expects: sc.expects.clone(),
             next_expect: 0,
             last: vec![None; watch.len()],
@@ -123,6 +138,36 @@ impl HookState {
                 self.result.failures.push(msg);
             }
             self.next_set += 1;
+        }
+    }
+
+    /// Silences or wakes every module due at or before `t`: a silent module answers nothing
+    /// until it answers again.
+    fn apply_module_steps(&mut self, t: Duration) {
+        while let Some((m, dev)) = self.module_steps.get(self.next_module_step) {
+            if m.at > t {
+                break;
+            }
+            match dev {
+                Some((w, d)) => {
+                    let mut w = w.lock().unwrap_or_else(|p| p.into_inner());
+                    let faults = w.faults_mut();
+                    faults.clear(Some(*d));
+                    if m.silent {
+                        faults.add(FaultRule {
+                            device: Some(*d),
+                            fault: Fault::Silent,
+                            frequency: Frequency::Always,
+                        });
+                    }
+                }
+                None => self.result.failures.push(format!(
+                    "at {}: no simulated module {}",
+                    secs(m.at),
+                    m.module
+                )),
+            }
+            self.next_module_step += 1;
         }
     }
 
@@ -256,6 +301,7 @@ impl HookState {
         }
         self.apply_sets(next);
         self.apply_faults(next);
+        self.apply_module_steps(next);
     }
 
     /// A cycle of task `plc` (several tasks) starting at `now`: the tags it owns are traced
@@ -303,6 +349,7 @@ impl HookState {
         self.plant_cycle(now, now + self.period);
         self.apply_sets(now + self.period);
         self.apply_faults(now + self.period);
+        self.apply_module_steps(now + self.period);
     }
 }
 
@@ -330,22 +377,12 @@ fn temp_retain() -> PathBuf {
     ))
 }
 
-/// Each input of `sc` with the world and device it is set on (`None`: no simulator of that
-/// name).
-fn devices(sc: &Scenario, worlds: &[SharedWorld]) -> Vec<(SetInput, Option<(SharedWorld, usize)>)> {
-    sc.sets
-        .iter()
-        .map(|s| {
-            let dev = worlds.iter().find_map(|w| {
-                let d = w
-                    .lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .find(&s.module)?;
-                Some((w.clone(), d))
-            });
-            (s.clone(), dev)
-        })
-        .collect()
+/// The world and device of the simulated module `module` (`None`: no simulator of that name).
+fn device_of(worlds: &[SharedWorld], module: &str) -> Option<(SharedWorld, usize)> {
+    worlds.iter().find_map(|w| {
+        let d = w.lock().unwrap_or_else(|p| p.into_inner()).find(module)?;
+        Some((w.clone(), d))
+    })
 }
 
 /// Runs `sc` with `program` (or the project's own).
@@ -400,6 +437,7 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
     state.alarms = Some(ScenarioAlarms::new(plc.project(), sc.alarm_steps.clone()));
     state.apply_sets(Duration::ZERO);
     state.apply_faults(Duration::ZERO);
+    state.apply_module_steps(Duration::ZERO);
     let state = Arc::new(Mutex::new(state));
     let hook_state = state.clone();
     let mut engine = ScanEngine::new(plc)
@@ -500,6 +538,7 @@ fn run_tasks(sc: &Scenario) -> RunResult {
     state.task_names = project.tasks.iter().map(|t| t.name.clone()).collect();
     state.apply_sets(Duration::ZERO);
     state.apply_faults(Duration::ZERO);
+    state.apply_module_steps(Duration::ZERO);
     let state = Arc::new(Mutex::new(state));
     let until = sc.until;
     let tasks = crate::scan::TaskSet::new(plcs).configure(|_, engine| {

@@ -34,6 +34,9 @@
 //!   - { at: 17s,   ack: door_fault }
 //!   - { at: 25s,   expect: { alarm.door_fault: "cleared, acknowledged" } }
 //! ```
+//!
+//! A step may also make a simulated module stop answering (`module: { mm2: silent }`) and
+//! answer again (`module: { mm2: answers }`).
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -103,6 +106,11 @@ struct RawStep {
     /// Plant faults switched on or off (`plant: true`): `{ jammed: on }`.
     #[serde(default)]
     fault: Option<Settings>,
+    /// Simulated modules made to stop answering (`silent`) or to answer again (`answers`), by
+    /// module name: `{ mm2: silent }`; a module that stops answering is lost, as on a real
+    /// line, and its `lost.MODULE` alarm raised.
+    #[serde(default)]
+    module: Option<Settings>,
     /// Alarms acknowledged after the last scan that starts by `at` (after its expectations):
     /// one name (the tag's, `lost.MODULE`), a list of names, or `all` those waiting.
     #[serde(default)]
@@ -279,6 +287,17 @@ pub struct FaultStep {
     pub on: bool,
 }
 
+/// A simulated module silenced or made to answer again by a step.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModuleStep {
+    /// Scenario time.
+    pub at: Duration,
+    /// The module's name in the project.
+    pub module: String,
+    /// Silent (true) or answering again.
+    pub silent: bool,
+}
+
 /// A program to run the scenario with.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ProgramSpec {
@@ -317,6 +336,8 @@ pub struct Scenario {
     pub watch_states: Vec<String>,
     /// Alarms expected and acknowledged, by time.
     pub alarm_steps: Vec<AlarmStep>,
+    /// Modules silenced and answering again, by time.
+    pub module_steps: Vec<ModuleStep>,
     /// Retained values expected after the run: tag name and value.
     pub retained: Vec<(String, Value)>,
 }
@@ -412,17 +433,54 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
     let mut plant_expects = Vec::new();
     let mut faults = Vec::new();
     let mut alarm_steps = Vec::new();
+    let mut module_steps = Vec::new();
     let alarms = alarm_names(&project);
     let plant_on = raw.plant.unwrap_or(false);
     for (i, step) in raw.steps.iter().enumerate() {
         let at = step.at.0;
         let spath = root.key("steps").index(i);
-        if step.set.is_none() && step.expect.is_none() && step.fault.is_none() && step.ack.is_none()
+        if step.set.is_none()
+            && step.expect.is_none()
+            && step.fault.is_none()
+            && step.ack.is_none()
+            && step.module.is_none()
         {
             error(
                 spath.clone(),
-                "a step needs `set:`, `expect:`, `fault:` or `ack:`".into(),
+                "a step needs `set:`, `expect:`, `fault:`, `module:` or `ack:`".into(),
             );
+        }
+        for (name, text) in step.module.iter().flat_map(|s| &s.0) {
+            let kpath = spath.key("module").key_itself(name);
+            let Some(m) = project.modules.iter().find(|m| m.name == *name) else {
+                let names = project.modules.iter().map(|m| m.name.as_str());
+                error(
+                    kpath,
+                    format!(
+                        "no module `{name}`{}",
+                        crate::suggest::did_you_mean(name, names)
+                    ),
+                );
+                continue;
+            };
+            if project.buses[m.bus].port != PortConfig::Sim {
+                error(
+                    kpath,
+                    format!("module `{name}` is not simulated (its bus is not `port: sim`)"),
+                );
+                continue;
+            }
+            match text.trim() {
+                "silent" | "answers" => module_steps.push(ModuleStep {
+                    at,
+                    module: name.clone(),
+                    silent: text.trim() == "silent",
+                }),
+                _ => error(
+                    spath.key("module").key(name),
+                    format!("`{text}` is not `silent` or `answers`"),
+                ),
+            }
         }
         let acks: Vec<(&String, YPath)> = match &step.ack {
             None => Vec::new(),
@@ -608,6 +666,7 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
     expects.sort_by_key(|e| e.at);
     plant_expects.sort_by_key(|e| e.at);
     faults.sort_by_key(|f| f.at);
+    module_steps.sort_by_key(|m| m.at);
     let last = raw.steps.iter().map(|s| s.at.0).max().unwrap_or_default();
     Ok(Scenario {
         file: file.to_path_buf(),
@@ -626,6 +685,7 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         faults,
         watch_states,
         alarm_steps,
+        module_steps,
         retained,
     })
 }
