@@ -10,6 +10,7 @@
 mod common;
 
 mod adapter;
+mod alarm_scenarios;
 mod alarms;
 mod built_services;
 mod check_catches;

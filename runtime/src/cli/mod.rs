@@ -28,9 +28,10 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub use args::parse_duration;
+pub use test::alarms::{AlarmState, AlarmStep, AlarmStepKind};
 pub use test::scenario::{
-    parse as parse_scenario, CmpOp, Comparison, Expect, FaultStep, PlantExpect, ProgramSpec,
-    Scenario, ScenarioErrors, SetInput,
+    parse as parse_scenario, CmpOp, Comparison, Expect, FaultStep, ModuleStep, PlantExpect,
+    ProgramSpec, Scenario, ScenarioErrors, SetInput,
 };
 
 /// softplc: a deterministic soft-PLC for RS-485 I/O modules.

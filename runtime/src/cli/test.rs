@@ -2,6 +2,7 @@
 //! simulated modules and checks the outputs at the given times; with several programs, checks
 //! that they give the same trace. Exit status 1 when anything fails.
 
+pub(crate) mod alarms;
 pub(crate) mod runner;
 pub(crate) mod scenario;
 pub(crate) mod trace;

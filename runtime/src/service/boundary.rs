@@ -341,7 +341,7 @@ impl ServiceBoundary {
 /// A module's quality as the change feed offers it: one its line has not reported on yet
 /// (its start-up may take the first cycles) is stale, not bad, so its `lost.` alarm is not
 /// raised before it was ever asked.
-fn feed_quality(m: &crate::plc::ModuleStatus) -> softplc_io::point::Quality {
+pub(crate) fn feed_quality(m: &crate::plc::ModuleStatus) -> softplc_io::point::Quality {
     if m.reported {
         m.quality
     } else {

@@ -7,11 +7,15 @@ use std::time::Duration;
 
 use softplc_io::point::Value;
 use softplc_io::sim::plant::{PlantHealth, StateValue};
-use softplc_io::sim::SharedWorld;
+use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld};
 
-use super::scenario::{Expect, FaultStep, PlantExpect, ProgramSpec, Scenario, SetInput};
+use super::alarms::ScenarioAlarms;
+use super::scenario::{
+    Expect, FaultStep, ModuleStep, PlantExpect, ProgramSpec, Scenario, SetInput,
+};
 use super::trace::Change;
 use crate::clock::VirtualClock;
+use crate::logic::ScanContext;
 use crate::plc::Plc;
 use crate::project::ProgramConfig;
 use crate::scan::{ScanEngine, StopReason};
@@ -56,6 +60,11 @@ struct HookState {
     checked: Vec<bool>,
     /// The tasks' names, in project order.
     task_names: Vec<String>,
+    /// Modules silenced or answering again, with the world and the device.
+    module_steps: Vec<(ModuleStep, Option<(SharedWorld, usize)>)>,
+    next_module_step: usize,
+    /// The alarm book and the scenario's alarm steps (a project of one task).
+    alarms: Option<ScenarioAlarms>,
 }
 
 impl HookState {
@@ -68,8 +77,18 @@ impl HookState {
         period: Duration,
     ) -> Self {
         Self {
-            sets: devices(sc, worlds),
+            sets: sc
+                .sets
+                .iter()
+                .map(|s| (s.clone(), device_of(worlds, &s.module)))
+                .collect(),
             next_set: 0,
+            module_steps: sc
+                .module_steps
+                .iter()
+                .map(|m| (m.clone(), device_of(worlds, &m.module)))
+                .collect(),
+            next_module_step: 0,
             expects: sc.expects.clone(),
             next_expect: 0,
             last: vec![None; watch.len()],
@@ -97,6 +116,7 @@ impl HookState {
             owners: None,
             checked: Vec::new(),
             task_names: Vec::new(),
+            alarms: None,
         }
     }
 
@@ -118,6 +138,36 @@ impl HookState {
                 self.result.failures.push(msg);
             }
             self.next_set += 1;
+        }
+    }
+
+    /// Silences or wakes every module due at or before `t`: a silent module answers nothing
+    /// until it answers again.
+    fn apply_module_steps(&mut self, t: Duration) {
+        while let Some((m, dev)) = self.module_steps.get(self.next_module_step) {
+            if m.at > t {
+                break;
+            }
+            match dev {
+                Some((w, d)) => {
+                    let mut w = w.lock().unwrap_or_else(|p| p.into_inner());
+                    let faults = w.faults_mut();
+                    faults.clear(Some(*d));
+                    if m.silent {
+                        faults.add(FaultRule {
+                            device: Some(*d),
+                            fault: Fault::Silent,
+                            frequency: Frequency::Always,
+                        });
+                    }
+                }
+                None => self.result.failures.push(format!(
+                    "at {}: no simulated module {}",
+                    secs(m.at),
+                    m.module
+                )),
+            }
+            self.next_module_step += 1;
         }
     }
 
@@ -170,7 +220,7 @@ impl HookState {
                     self.result.trace.push(Change {
                         at: now,
                         tag: format!("plant.{name}"),
-                        value,
+                        value: value.into(),
                     });
                 }
             }
@@ -201,7 +251,7 @@ impl HookState {
         }
     }
 
-    fn cycle(&mut self, plc: &Plc, now: Duration) {
+    fn cycle(&mut self, plc: &Plc, ctx: &ScanContext, now: Duration) {
         if self.owners.is_some() {
             return self.task_cycle(plc, now);
         }
@@ -214,7 +264,7 @@ impl HookState {
                 self.result.trace.push(Change {
                     at: now,
                     tag: name.clone(),
-                    value: v,
+                    value: v.into(),
                 });
             }
         }
@@ -246,8 +296,12 @@ impl HookState {
             self.next_expect += 1;
         }
         self.plant_cycle(now, next);
+        if let Some(alarms) = &mut self.alarms {
+            alarms.cycle(plc, ctx, now, next, &mut self.result);
+        }
         self.apply_sets(next);
         self.apply_faults(next);
+        self.apply_module_steps(next);
     }
 
     /// A cycle of task `plc` (several tasks) starting at `now`: the tags it owns are traced
@@ -268,7 +322,7 @@ impl HookState {
                 self.result.trace.push(Change {
                     at: now,
                     tag: name.clone(),
-                    value: v,
+                    value: v.into(),
                 });
             }
         }
@@ -295,6 +349,7 @@ impl HookState {
         self.plant_cycle(now, now + self.period);
         self.apply_sets(now + self.period);
         self.apply_faults(now + self.period);
+        self.apply_module_steps(now + self.period);
     }
 }
 
@@ -322,22 +377,12 @@ fn temp_retain() -> PathBuf {
     ))
 }
 
-/// Each input of `sc` with the world and device it is set on (`None`: no simulator of that
-/// name).
-fn devices(sc: &Scenario, worlds: &[SharedWorld]) -> Vec<(SetInput, Option<(SharedWorld, usize)>)> {
-    sc.sets
-        .iter()
-        .map(|s| {
-            let dev = worlds.iter().find_map(|w| {
-                let d = w
-                    .lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .find(&s.module)?;
-                Some((w.clone(), d))
-            });
-            (s.clone(), dev)
-        })
-        .collect()
+/// The world and device of the simulated module `module` (`None`: no simulator of that name).
+fn device_of(worlds: &[SharedWorld], module: &str) -> Option<(SharedWorld, usize)> {
+    worlds.iter().find_map(|w| {
+        let d = w.lock().unwrap_or_else(|p| p.into_inner()).find(module)?;
+        Some((w.clone(), d))
+    })
 }
 
 /// Runs `sc` with `program` (or the project's own).
@@ -389,17 +434,20 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
     let origin = plc.clock().now();
     let worlds: Vec<SharedWorld> = plc.world().cloned().into_iter().collect();
     let mut state = HookState::new(sc, &worlds, watch, period);
+    state.alarms = Some(ScenarioAlarms::new(plc.project(), sc.alarm_steps.clone()));
     state.apply_sets(Duration::ZERO);
     state.apply_faults(Duration::ZERO);
+    state.apply_module_steps(Duration::ZERO);
     let state = Arc::new(Mutex::new(state));
     let hook_state = state.clone();
     let mut engine = ScanEngine::new(plc)
         .run_for(sc.until)
         .on_cycle(Box::new(move |plc, ctx| {
-            hook_state
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .cycle(plc, ctx.now.saturating_duration_since(origin));
+            hook_state.lock().unwrap_or_else(|p| p.into_inner()).cycle(
+                plc,
+                ctx,
+                ctx.now.saturating_duration_since(origin),
+            );
         }));
     let outcome = engine.run();
     drop(engine);
@@ -414,12 +462,14 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
         .iter()
         .skip(st.next_plant_expect)
         .map(|e| (e.at, e.line));
+    let alarms_left = st.alarms.iter().flat_map(ScenarioAlarms::left);
     let left = st
         .expects
         .iter()
         .skip(st.next_expect)
         .map(|e| (e.at, e.line))
-        .chain(plant_left);
+        .chain(plant_left)
+        .chain(alarms_left);
     not_reached(left, sc, &mut result);
     if !sc.retained.is_empty() {
         check_retained(sc, &retain_file, &mut result);
@@ -435,6 +485,16 @@ fn run_tasks(sc: &Scenario) -> RunResult {
     let mut project = sc.project.clone();
     if !sc.plant {
         project.plant = None;
+    }
+    if let Some(step) = sc.alarm_steps.first() {
+        return RunResult {
+            failures: vec![format!(
+                "line {}: a scenario expects and acknowledges alarms in a project of one task; \
+                 this project has several",
+                step.line
+            )],
+            ..RunResult::default()
+        };
     }
     let retain_file = temp_retain();
     project.retain.file = retain_file.clone();
@@ -478,6 +538,7 @@ fn run_tasks(sc: &Scenario) -> RunResult {
     state.task_names = project.tasks.iter().map(|t| t.name.clone()).collect();
     state.apply_sets(Duration::ZERO);
     state.apply_faults(Duration::ZERO);
+    state.apply_module_steps(Duration::ZERO);
     let state = Arc::new(Mutex::new(state));
     let until = sc.until;
     let tasks = crate::scan::TaskSet::new(plcs).configure(|_, engine| {
@@ -485,10 +546,11 @@ fn run_tasks(sc: &Scenario) -> RunResult {
         let end = origin + until;
         let run_for = end.saturating_duration_since(engine.plc().clock().now());
         engine.run_for(run_for).on_cycle(Box::new(move |plc, ctx| {
-            hook_state
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .cycle(plc, ctx.now.saturating_duration_since(origin));
+            hook_state.lock().unwrap_or_else(|p| p.into_inner()).cycle(
+                plc,
+                ctx,
+                ctx.now.saturating_duration_since(origin),
+            );
         }))
     });
     let outcomes = tasks.run_virtual();

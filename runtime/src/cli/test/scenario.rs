@@ -23,6 +23,20 @@
 //!   - { at: 5s,  fault: { jammed: on } }
 //!   - { at: 12s, expect: { plant.position: ">= 99", door_fault: 1 } }
 //! ```
+//!
+//! A step may expect an alarm's state (`raised`, `active`, `cleared` or `inactive`,
+//! `acknowledged`, `unacknowledged`, or several joined by commas) and acknowledge alarms
+//! (`ack: door_fault`, `ack: [door_fault, lost.door]`, `ack: all`), evaluated by the
+//! service's own alarm book (see `super::alarms`):
+//!
+//! ```yaml
+//!   - { at: 16.3s, expect: { alarm.door_fault: raised } }
+//!   - { at: 17s,   ack: door_fault }
+//!   - { at: 25s,   expect: { alarm.door_fault: "cleared, acknowledged" } }
+//! ```
+//!
+//! A step may also make a simulated module stop answering (`module: { mm2: silent }`) and
+//! answer again (`module: { mm2: answers }`).
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -31,6 +45,7 @@ use schemars::JsonSchema;
 use serde::Deserialize;
 use softplc_io::point::{Access, Value};
 
+use super::alarms::{alarm_names, check_name, AlarmState, AlarmStep, AlarmStepKind, ALARM_PREFIX};
 use crate::project::raw::{DurationText, Settings};
 use crate::project::span::{Locator, YPath};
 use crate::project::{self, Binding, PortConfig, ProgramKind, Project};
@@ -73,7 +88,7 @@ struct RawScenario {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a step: a mapping with at and set, expect and/or fault"
+    expecting = "a step: a mapping with at and set, expect, fault and/or ack"
 )]
 struct RawStep {
     /// Scenario time of the step, from the start of the run.
@@ -82,12 +97,37 @@ struct RawStep {
     #[serde(default)]
     set: Option<Settings>,
     /// Tag values expected after the last scan that starts by `at`: `{ light: 1 }`; plant
-    /// states by `plant.NAME`, with a value or a comparison: `{ plant.position: ">= 99" }`.
+    /// states by `plant.NAME`, with a value or a comparison: `{ plant.position: ">= 99" }`;
+    /// alarms by `alarm.NAME`, with a state (`raised`, `active`, `cleared` or `inactive`,
+    /// `acknowledged`, `unacknowledged`, or several joined by commas):
+    /// `{ alarm.door_fault: raised }`.
     #[serde(default)]
     expect: Option<Settings>,
     /// Plant faults switched on or off (`plant: true`): `{ jammed: on }`.
     #[serde(default)]
     fault: Option<Settings>,
+    /// Simulated modules made to stop answering (`silent`) or to answer again (`answers`), by
+    /// module name: `{ mm2: silent }`; a module that stops answering is lost, as on a real
+    /// line, and its `lost.MODULE` alarm raised.
+    #[serde(default)]
+    module: Option<Settings>,
+    /// Alarms acknowledged after the last scan that starts by `at` (after its expectations):
+    /// one name (the tag's, `lost.MODULE`), a list of names, or `all` those waiting.
+    #[serde(default)]
+    ack: Option<AckNames>,
+}
+
+/// The alarms a step acknowledges: `door_fault`, `[door_fault, lost.door]`, `all`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(
+    untagged,
+    expecting = "an alarm's name, `all`, or a list of alarm names"
+)]
+enum AckNames {
+    /// One alarm, or `all`.
+    One(String),
+    /// Several.
+    Many(Vec<String>),
 }
 
 /// The JSON Schema of a scenario file (`softplc schema scenario`).
@@ -247,6 +287,17 @@ pub struct FaultStep {
     pub on: bool,
 }
 
+/// A simulated module silenced or made to answer again by a step.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModuleStep {
+    /// Scenario time.
+    pub at: Duration,
+    /// The module's name in the project.
+    pub module: String,
+    /// Silent (true) or answering again.
+    pub silent: bool,
+}
+
 /// A program to run the scenario with.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ProgramSpec {
@@ -283,6 +334,10 @@ pub struct Scenario {
     pub faults: Vec<FaultStep>,
     /// Plant states recorded in the trace (`watch: [plant.position]`).
     pub watch_states: Vec<String>,
+    /// Alarms expected and acknowledged, by time.
+    pub alarm_steps: Vec<AlarmStep>,
+    /// Modules silenced and answering again, by time.
+    pub module_steps: Vec<ModuleStep>,
     /// Retained values expected after the run: tag name and value.
     pub retained: Vec<(String, Value)>,
 }
@@ -377,15 +432,75 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
     let mut expects = Vec::new();
     let mut plant_expects = Vec::new();
     let mut faults = Vec::new();
+    let mut alarm_steps = Vec::new();
+    let mut module_steps = Vec::new();
+    let alarms = alarm_names(&project);
     let plant_on = raw.plant.unwrap_or(false);
     for (i, step) in raw.steps.iter().enumerate() {
         let at = step.at.0;
         let spath = root.key("steps").index(i);
-        if step.set.is_none() && step.expect.is_none() && step.fault.is_none() {
+        if step.set.is_none()
+            && step.expect.is_none()
+            && step.fault.is_none()
+            && step.ack.is_none()
+            && step.module.is_none()
+        {
             error(
                 spath.clone(),
-                "a step needs `set:`, `expect:` or `fault:`".into(),
+                "a step needs `set:`, `expect:`, `fault:`, `module:` or `ack:`".into(),
             );
+        }
+        for (name, text) in step.module.iter().flat_map(|s| &s.0) {
+            let kpath = spath.key("module").key_itself(name);
+            let Some(m) = project.modules.iter().find(|m| m.name == *name) else {
+                let names = project.modules.iter().map(|m| m.name.as_str());
+                error(
+                    kpath,
+                    format!(
+                        "no module `{name}`{}",
+                        crate::suggest::did_you_mean(name, names)
+                    ),
+                );
+                continue;
+            };
+            if project.buses[m.bus].port != PortConfig::Sim {
+                error(
+                    kpath,
+                    format!("module `{name}` is not simulated (its bus is not `port: sim`)"),
+                );
+                continue;
+            }
+            match text.trim() {
+                "silent" | "answers" => module_steps.push(ModuleStep {
+                    at,
+                    module: name.clone(),
+                    silent: text.trim() == "silent",
+                }),
+                _ => error(
+                    spath.key("module").key(name),
+                    format!("`{text}` is not `silent` or `answers`"),
+                ),
+            }
+        }
+        let acks: Vec<(&String, YPath)> = match &step.ack {
+            None => Vec::new(),
+            Some(AckNames::One(name)) => vec![(name, spath.key("ack"))],
+            Some(AckNames::Many(names)) => names
+                .iter()
+                .enumerate()
+                .map(|(k, n)| (n, spath.key("ack").index(k)))
+                .collect(),
+        };
+        for (name, apath) in acks {
+            match check_name(&alarms, name, true) {
+                Ok(()) => alarm_steps.push(AlarmStep {
+                    at,
+                    alarm: name.clone(),
+                    kind: AlarmStepKind::Ack,
+                    line: loc.line(&apath),
+                }),
+                Err(msg) => error(apath, msg),
+            }
         }
         for (name, text) in step.fault.iter().flat_map(|s| &s.0) {
             let kpath = spath.key("fault").key_itself(name);
@@ -464,6 +579,28 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
                 }
                 continue;
             }
+            if let (None, Some(alarm)) = (tag(name), name.strip_prefix(ALARM_PREFIX)) {
+                match (
+                    check_name(&alarms, alarm, false),
+                    AlarmState::parse_all(text),
+                ) {
+                    (Err(msg), _) => error(kpath, msg),
+                    (Ok(()), Some(states)) => alarm_steps.push(AlarmStep {
+                        at,
+                        alarm: alarm.to_owned(),
+                        kind: AlarmStepKind::Expect(states),
+                        line: loc.line(&kpath),
+                    }),
+                    (Ok(()), None) => error(
+                        spath.key("expect").key(name),
+                        format!(
+                            "`{text}` is not an alarm's state ({}, or several joined by commas)",
+                            AlarmState::words()
+                        ),
+                    ),
+                }
+                continue;
+            }
             let Some(t) = tag(name) else {
                 error(kpath, unknown(name));
                 continue;
@@ -529,6 +666,7 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
     expects.sort_by_key(|e| e.at);
     plant_expects.sort_by_key(|e| e.at);
     faults.sort_by_key(|f| f.at);
+    module_steps.sort_by_key(|m| m.at);
     let last = raw.steps.iter().map(|s| s.at.0).max().unwrap_or_default();
     Ok(Scenario {
         file: file.to_path_buf(),
@@ -546,6 +684,8 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         plant_expects,
         faults,
         watch_states,
+        alarm_steps,
+        module_steps,
         retained,
     })
 }

@@ -5,15 +5,41 @@ use std::time::Duration;
 
 use softplc_io::point::Value;
 
-/// One change of a watched tag.
+use crate::service::alarms::EventKind;
+
+/// One change of a watched tag, a plant state or an alarm.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Change {
     /// Scan time.
     pub at: Duration,
-    /// The tag.
+    /// The tag (`plant.STATE`, `alarm.NAME`).
     pub tag: String,
     /// Its new value.
-    pub value: Value,
+    pub value: Shown,
+}
+
+/// What a trace line shows: a value, or what happened to an alarm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Shown {
+    /// A tag's or a plant state's new value.
+    Value(Value),
+    /// An alarm raised, cleared or acknowledged.
+    Alarm(EventKind),
+}
+
+impl From<Value> for Shown {
+    fn from(v: Value) -> Self {
+        Shown::Value(v)
+    }
+}
+
+impl std::fmt::Display for Shown {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Shown::Value(v) => write!(f, "{v}"),
+            Shown::Alarm(e) => write!(f, "{e}"),
+        }
+    }
 }
 
 impl std::fmt::Display for Change {
@@ -101,7 +127,7 @@ mod tests {
         Change {
             at: Duration::from_millis(ms),
             tag: "light".into(),
-            value: Value::Bool(v),
+            value: Value::Bool(v).into(),
         }
     }
 

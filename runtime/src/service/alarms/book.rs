@@ -1,7 +1,8 @@
 //! The alarms' state: every alarm of the project (a tag's, a module's), raised, cleared and
 //! acknowledged from the change feed's deliveries and the acknowledgements, with the bounded
 //! history of those events. No thread, no file, no clock: the same deliveries give the same
-//! book, which is what the tests drive.
+//! book, which is what the tests drive, and what `softplc test` scenarios run on the virtual
+//! clock (`cli/test/alarms.rs`), so a scenario's alarms are the running service's.
 
 use std::collections::VecDeque;
 use std::time::{Duration, SystemTime};
@@ -179,6 +180,9 @@ pub(crate) struct AlarmBook {
     wall_origin: SystemTime,
     /// Bumped at every change of an alarm (the publishers compare it).
     generation: u64,
+    /// Events ever added to the history (a reader that keeps its own count takes the new
+    /// ones, however many the bounded history dropped since).
+    recorded: u64,
 }
 
 impl AlarmBook {
@@ -225,6 +229,7 @@ impl AlarmBook {
             keep: project.alarms.history,
             wall_origin,
             generation: 0,
+            recorded: 0,
         }
     }
 
@@ -393,6 +398,17 @@ impl AlarmBook {
         self.generation
     }
 
+    /// The events added since a reader had seen `seen` of them (the oldest first; those the
+    /// bounded history dropped meanwhile are gone), and the count to remember.
+    pub(crate) fn events_since(&self, seen: u64) -> (Vec<AlarmEvent>, u64) {
+        let new = usize::try_from(self.recorded.saturating_sub(seen)).unwrap_or(usize::MAX);
+        let skip = self.history.len().saturating_sub(new);
+        (
+            self.history.iter().skip(skip).cloned().collect(),
+            self.recorded,
+        )
+    }
+
     /// Evaluates alarm `i` (a tag's) from the value last seen, unless it is held: its
     /// module is lost, or its value bad.
     fn evaluate(&mut self, i: usize, cycle: u64, at: ScanInstant) {
@@ -459,6 +475,7 @@ impl AlarmBook {
             self.history.pop_front();
         }
         self.generation += 1;
+        self.recorded += 1;
     }
 
     fn stamp(&self, cycle: u64, at: ScanInstant) -> Stamp {

@@ -268,3 +268,27 @@ fn a_lost_module_is_one_alarm_and_its_tags_alarms_are_held() {
         ]
     );
 }
+
+#[test]
+fn a_reader_takes_the_events_since_its_count_even_past_the_history_s_bound() {
+    let mut b = book(10);
+    b.apply(&first());
+    assert_eq!(b.events_since(0), (Vec::new(), 0));
+    b.apply(&cycle(2, &[(0, Value::Bool(true))], &[]));
+    let (new, seen) = b.events_since(0);
+    assert_eq!(seen, 1);
+    assert_eq!((new[0].cycle, new[0].event), (2, EventKind::Raised));
+    assert_eq!(b.events_since(seen), (Vec::new(), 1));
+    // Twelve events in one go: the history keeps 10, the reader gets those 10, the newest last.
+    for n in 0..6 {
+        b.apply(&cycle(3 + 2 * n, &[(0, Value::Bool(false))], &[]));
+        b.apply(&cycle(4 + 2 * n, &[(0, Value::Bool(true))], &[]));
+    }
+    let (new, seen) = b.events_since(seen);
+    assert_eq!(seen, 13);
+    assert_eq!(new.len(), 10);
+    assert_eq!(
+        new.last().map(|e| (e.cycle, e.event)),
+        Some((14, EventKind::Raised))
+    );
+}
