@@ -1,0 +1,149 @@
+//! The plant services of a PLC of several tasks (the two-tasks example with the metrics and
+//! the web page on loopback port 0, real clock): they show every task's tags, and a force
+//! from the page reaches the task owning the tag, whose result every service then shows.
+
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::common::host::{log_value, repo, Running};
+use crate::common::scratch::Scratch;
+
+const TOKEN: &str = "two-tasks-engineer";
+
+/// The example (ladder) copied with a `service:` section, in a scratch folder.
+fn example_with_services(case: &str, service: &str) -> Scratch {
+    let s = Scratch::new("task_services", case);
+    for f in ["press.ladder.yaml", "panel.ladder.yaml"] {
+        std::fs::copy(repo().join("examples/two-tasks").join(f), s.dir.join(f))
+            .expect("copy the example");
+    }
+    let yaml = std::fs::read_to_string(repo().join("examples/two-tasks/project.yaml"))
+        .expect("the example");
+    s.write("project.yaml", &format!("{yaml}\nservice:\n{service}"));
+    s
+}
+
+fn start(s: &Scratch) -> Running {
+    let log = std::fs::File::create(s.dir.join("log")).expect("a log file");
+    Running(
+        Command::new(env!("CARGO_BIN_EXE_softplc"))
+            .arg("run")
+            .arg(s.dir.join("project.yaml"))
+            .args(["--for", "40s", "--quiet", "--no-socket"])
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .expect("softplc runs"),
+    )
+}
+
+/// One HTTP request: (status, body).
+fn http(addr: &str, request: &str) -> (u16, String) {
+    let Ok(mut c) = TcpStream::connect(addr) else {
+        return (0, String::new());
+    };
+    drop(c.set_read_timeout(Some(Duration::from_secs(10))));
+    drop(c.write_all(request.as_bytes()));
+    let mut out = String::new();
+    // A read ending in an error (timeout, reset) still leaves what arrived in the buffer.
+    drop(c.read_to_string(&mut out));
+    let status = out
+        .split(' ')
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let body = out.split("\r\n\r\n").nth(1).unwrap_or("").to_owned();
+    (status, body)
+}
+
+fn get(addr: &str, path: &str) -> String {
+    let (code, body) = http(
+        addr,
+        &format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"),
+    );
+    assert_eq!(code, 200, "GET {path}: {body}");
+    body
+}
+
+/// Polls `what` every 100 ms until it holds (at most `within`); the last text seen.
+fn wait_until(within: Duration, mut what: impl FnMut() -> (bool, String)) -> String {
+    let begin = Instant::now();
+    loop {
+        let (done, text) = what();
+        if done {
+            return text;
+        }
+        assert!(begin.elapsed() < within, "not within {within:?}:\n{text}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owner() {
+    let s = example_with_services(
+        "web-metrics",
+        &format!(
+            "  metrics: 127.0.0.1:0\n  web: {{ bind: 127.0.0.1:0, writes: true, token: {TOKEN} }}\n"
+        ),
+    );
+    let _run = start(&s);
+    let log = s.dir.join("log");
+    let web = log_value(&log, "web page: http://");
+    let metrics = log_value(&log, "metrics at http://");
+    // Tags of both tasks, as the first task's image holds them (it copies the others').
+    let text = wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            text.contains("softplc_tag_value{tag=\"strokes\"} 0")
+                && text.contains("softplc_tag_value{tag=\"key_on\"} 0")
+                && text.contains("softplc_tag_value{tag=\"enabled\"} 0"),
+            text,
+        )
+    });
+    assert!(
+        text.contains("softplc_tag_quality{tag=\"key_on\"}"),
+        "{text}"
+    );
+    // The panel task owns key_on: the page's force goes to it, its program sets `enabled`,
+    // the press task copies that in, and the services (on the press task's boundary) see it.
+    // The panel's slow line takes seconds to start: until its task scans, nothing answers.
+    let body = r#"{"tag":"key_on","value":"1"}"#;
+    wait_until(Duration::from_secs(30), || {
+        let (code, text) = http(
+            &web,
+            &format!(
+                "POST /api/force HTTP/1.1\r\nHost: {web}\r\nConnection: close\r\n\
+                 Content-Type: application/json\r\nAuthorization: Bearer {TOKEN}\r\n\
+                 Content-Length: {}\r\n\r\n{body}",
+                body.len()
+            ),
+        );
+        assert!(code == 200 || code == 504, "{code} {text}");
+        (code == 200, text)
+    });
+    wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            text.contains("softplc_tag_value{tag=\"key_on\"} 1")
+                && text.contains("softplc_tag_value{tag=\"enabled\"} 1"),
+            text,
+        )
+    });
+    // The page: every tag of both tasks, with the values the panel task set.
+    let info: serde_json::Value = serde_json::from_str(&get(&web, "/api/info")).expect("JSON");
+    let names: Vec<&str> = info["tags"]
+        .as_array()
+        .expect("tags")
+        .iter()
+        .filter_map(|t| t["name"].as_str())
+        .collect();
+    let at = |tag: &str| names.iter().position(|n| *n == tag).expect(tag);
+    let state: serde_json::Value = serde_json::from_str(&get(&web, "/api/state")).expect("JSON");
+    let values = &state["state"]["v"];
+    assert_eq!(values[at("key_on")], true, "{state}");
+    assert_eq!(values[at("enabled")], true, "{state}");
+    assert_eq!(values[at("strokes")], 0, "{state}");
+}
