@@ -107,6 +107,44 @@ fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owne
         text.contains("softplc_tag_quality{tag=\"key_on\"}"),
         "{text}"
     );
+    // Each task's figures, labelled with its name; the panel's cycles grow on its own period.
+    let scans = |text: &str, task: &str| -> Option<u64> {
+        let key = format!("softplc_task_scans_total{{task=\"{task}\"}} ");
+        text.lines()
+            .find_map(|l| l.strip_prefix(key.as_str()))
+            .and_then(|v| v.parse().ok())
+    };
+    let first = wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (scans(&text, "panel").is_some_and(|n| n >= 1), text)
+    });
+    assert!(
+        first.contains("softplc_task_period_seconds{task=\"press\"} 0.03"),
+        "{first}"
+    );
+    assert!(
+        first.contains("softplc_task_period_seconds{task=\"panel\"} 0.5"),
+        "{first}"
+    );
+    for family in [
+        "softplc_task_overruns_total",
+        "softplc_task_cycle_p99_seconds",
+        "softplc_task_cycle_max_seconds",
+        "softplc_task_lateness_p99_seconds",
+    ] {
+        assert!(
+            first.contains(&format!("{family}{{task=\"panel\"}} ")),
+            "{first}"
+        );
+    }
+    let (press, panel) = (scans(&first, "press"), scans(&first, "panel"));
+    wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            scans(&text, "press") > press && scans(&text, "panel") > panel,
+            text,
+        )
+    });
     // The panel task owns key_on: the page's force goes to it, its program sets `enabled`,
     // the press task copies that in, and the services (on the press task's boundary) see it.
     // The panel's slow line takes seconds to start: until its task scans, nothing answers.

@@ -19,7 +19,7 @@ use crate::service::changes::ChangeFeed;
 use crate::service::control::Envelope;
 #[cfg(feature = "opcua")]
 use crate::service::opcua::OpcUaServer;
-use crate::service::{network, snapshot, Health, Service, ServiceState};
+use crate::service::{network, snapshot, Health, Service, ServiceState, TaskStatus};
 
 /// The services one PLC runs, and what the scan hands them (the published snapshot, the
 /// change feed).
@@ -139,11 +139,13 @@ impl PlantServices {
     }
 
     /// `boundary` publishing to the services and feeding them every cycle's changes;
-    /// `web_later`: the page starts later (on a task's thread) and wants the details too.
+    /// `web_later`: the page starts later (on a task's thread) and wants the details too;
+    /// `tasks`: with several tasks, each task's figures, which the services publish too.
     pub(super) fn attach(
         &mut self,
         mut boundary: ServiceBoundary,
         web_later: bool,
+        tasks: &[TaskStatus],
     ) -> ServiceBoundary {
         let web = web_later || self.network.web.is_some();
         if let Some(a) = &self.alarms {
@@ -154,7 +156,10 @@ impl PlantServices {
             if web {
                 publisher = publisher.with_details();
             }
-            boundary = boundary.with_publisher(publisher.with_feeds(self.feed.counts()));
+            let publisher = publisher
+                .with_feeds(self.feed.counts())
+                .with_tasks(tasks.to_vec());
+            boundary = boundary.with_publisher(publisher);
         }
         let feed = std::mem::take(&mut self.feed);
         if !feed.is_empty() {

@@ -116,7 +116,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             if notifier.enabled() {
                 b = b.with_notifier(notifier);
             }
-            b = services.attach(b, web_later);
+            b = services.attach(b, web_later, &statuses);
         }
         boundaries.push(b);
     }
