@@ -185,3 +185,60 @@ fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owne
     assert_eq!(values[at("enabled")], true, "{state}");
     assert_eq!(values[at("strokes")], 0, "{state}");
 }
+
+/// Runs a third-party client (`runtime/tests/<script>` on the test venv's Python) with `args`
+/// until it prints DONE or FAIL (at most 60 s); its PASS lines.
+fn run_python(script: &str, args: &[&str]) -> Vec<String> {
+    let python = repo().join("target/py-venv/bin/python");
+    assert!(
+        python.exists(),
+        "{} is missing: make it with `python3 -m venv target/py-venv` and install \
+         runtime/tests/opcua/requirements.txt and runtime/tests/mqtt/requirements.txt",
+        python.display()
+    );
+    let mut child = Command::new(python)
+        .arg(repo().join("runtime/tests").join(script))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("the client runs");
+    let lines = crate::common::host::lines_of(child.stdout.take().expect("its output"));
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut passed = Vec::new();
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let line = lines.recv_timeout(left).unwrap_or_else(|_| {
+            drop(child.kill());
+            panic!("the client said nothing more after {passed:?}")
+        });
+        if line == "DONE" {
+            break;
+        }
+        assert!(!line.starts_with("FAIL"), "{line} (after {passed:?})");
+        if let Some(step) = line.strip_prefix("PASS ") {
+            passed.push(step.to_owned());
+        }
+    }
+    drop(child.wait());
+    passed
+}
+
+#[test]
+fn an_opcua_client_reads_each_tasks_figures_and_sees_them_grow() {
+    let s = example_with_services("opcua", "  opcua: { port: 0 }\n");
+    let _run = start(&s);
+    let addr = log_value(&s.dir.join("log"), "OPC UA server at opc.tcp://");
+    let passed = run_python(
+        "opcua/tasks_client.py",
+        &[
+            &format!("opc.tcp://{addr}/"),
+            "urn:softplc:two-tasks",
+            "press",
+            "panel",
+        ],
+    );
+    assert_eq!(passed.len(), 3, "{passed:?}");
+    assert_eq!(passed[1], "period press 30.0", "{passed:?}");
+    assert!(passed[2].starts_with("grow press="), "{passed:?}");
+}

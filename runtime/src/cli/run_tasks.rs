@@ -62,7 +62,10 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     // its index, the first task's modules (the ones its snapshot reports).
     let view = {
         let ownership = builder.ownership();
-        project.task_view(0, |t| ownership.owner(TagId(t as u32)) == Some(0))
+        let mut view = project.task_view(0, |t| ownership.owner(TagId(t as u32)) == Some(0));
+        // Every task, for the services' per-task figures (OPC UA's PLC/Tasks, Sparkplug's).
+        view.tasks = project.tasks.clone();
+        view
     };
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let services_clock: Arc<dyn Clock> = match &clock {
