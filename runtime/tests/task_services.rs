@@ -242,3 +242,33 @@ fn an_opcua_client_reads_each_tasks_figures_and_sees_them_grow() {
     assert_eq!(passed[1], "period press 30.0", "{passed:?}");
     assert!(passed[2].starts_with("grow press="), "{passed:?}");
 }
+
+#[test]
+fn a_sparkplug_host_sees_each_tasks_metrics_in_nbirth_and_ndata() {
+    let s = example_with_services("mqtt", "");
+    let port = crate::common::host::free_port();
+    let _broker = crate::common::broker::Broker::start(&s.dir, port);
+    let python = repo().join("target/py-venv/bin/python");
+    let pb2 = crate::common::broker::sparkplug_pb2(&python, &s.dir);
+    s.write(
+        "project.yaml",
+        &format!(
+            "{}  mqtt: {{ host: 127.0.0.1, port: {port}, group: plant1, node: press1 }}\n",
+            std::fs::read_to_string(s.dir.join("project.yaml")).expect("the copy")
+        ),
+    );
+    let _run = start(&s);
+    let passed = run_python(
+        "mqtt/tasks_consumer.py",
+        &[
+            &port.to_string(),
+            "plant1",
+            "press1",
+            pb2.to_str().expect("UTF-8"),
+            "press",
+            "panel",
+        ],
+    );
+    assert_eq!(passed.len(), 2, "{passed:?}");
+    assert!(passed[1].starts_with("data press="), "{passed:?}");
+}
