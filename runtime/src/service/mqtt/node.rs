@@ -599,16 +599,7 @@ impl EdgeNode {
             let now = self.utc(snap, wall_ms, snap.now);
             for (i, (m, _, v)) in self.plc_values(snap).into_iter().enumerate() {
                 if self.plc_last[i].as_ref() != Some(&v) {
-                    changes[0].push(MetricSpec {
-                        name: None,
-                        alias: Some(self.layout.plc_alias(m)),
-                        datatype: None,
-                        timestamp: now,
-                        value: v.clone(),
-                        quality: None,
-                        historical: false,
-                        birth: None,
-                    });
+                    changes[0].push(node_data(self.layout.plc_alias(m), v.clone(), now));
                     self.plc_last[i] = Some(v);
                 }
             }
@@ -618,16 +609,7 @@ impl EdgeNode {
                     .get(j)
                     .is_some_and(|last| last.as_ref() != Some(&v))
                 {
-                    changes[0].push(MetricSpec {
-                        name: None,
-                        alias: Some(self.layout.task_alias(j)),
-                        datatype: None,
-                        timestamp: now,
-                        value: v.clone(),
-                        quality: None,
-                        historical: false,
-                        birth: None,
-                    });
+                    changes[0].push(node_data(self.layout.task_alias(j), v.clone(), now));
                     self.task_last[j] = Some(v);
                 }
             }
@@ -651,3 +633,17 @@ impl EdgeNode {
 #[cfg(test)]
 #[path = "node_tests.rs"]
 mod tests;
+
+/// A node metric in DATA: by alias alone, no quality (the PLC's and the tasks' figures).
+fn node_data(alias: u64, value: MetricValue, timestamp: u64) -> MetricSpec<'static> {
+    MetricSpec {
+        name: None,
+        alias: Some(alias),
+        datatype: None,
+        timestamp,
+        value,
+        quality: None,
+        historical: false,
+        birth: None,
+    }
+}
