@@ -184,6 +184,12 @@ fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owne
     assert_eq!(values[at("key_on")], true, "{state}");
     assert_eq!(values[at("enabled")], true, "{state}");
     assert_eq!(values[at("strokes")], 0, "{state}");
+    // Each task's figures for the overview's Tasks card.
+    let tasks = state["stats"]["tasks"].as_array().expect("tasks");
+    let named: Vec<&str> = tasks.iter().filter_map(|t| t["name"].as_str()).collect();
+    assert_eq!(named, ["press", "panel"], "{state}");
+    assert_eq!(tasks[1]["period_us"], 500_000, "{state}");
+    assert!(tasks[1]["scans"].as_u64() > Some(0), "{state}");
 }
 
 /// Runs a third-party client (`runtime/tests/<script>` on the test venv's Python) with `args`
