@@ -4,12 +4,12 @@
 //! `softplc status` still answer, and the process's threads stay bounded. The figures are in
 //! docs/robustness.md.
 
-use crate::common::host::http_get;
 use crate::common::host::repo as root;
+use crate::common::host::{http_get, log_value};
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::os::unix::net::UnixStream;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -34,25 +34,6 @@ impl Drop for Plc {
         drop(self.child.wait());
         // Best effort: the test's scratch folder (it may not exist).
         drop(std::fs::remove_dir_all(&self.dir));
-    }
-}
-
-fn log_value(log: &Path, prefix: &str) -> String {
-    let begin = Instant::now();
-    loop {
-        let text = std::fs::read_to_string(log).unwrap_or_default();
-        if let Some(v) = text
-            .lines()
-            .find_map(|l| l.split(prefix).nth(1))
-            .map(|r| r.split(['/', ' ']).next().unwrap_or_default().to_owned())
-        {
-            return v;
-        }
-        assert!(
-            begin.elapsed() < Duration::from_secs(30),
-            "no {prefix:?}:\n{text}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
     }
 }
 

@@ -54,6 +54,7 @@ mod scada;
 mod schema;
 mod service;
 mod task_runtime;
+mod task_services;
 mod tasks;
 mod tcp_bus;
 mod trace;

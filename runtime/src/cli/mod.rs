@@ -13,6 +13,7 @@ mod journal;
 mod models;
 mod monitor;
 mod out;
+mod plant_services;
 mod replay;
 mod run;
 mod run_tasks;

@@ -17,9 +17,9 @@ use crate::service::boundary::ServiceBoundary;
 use crate::service::changes::ChangeFeed;
 use crate::service::control::{default_socket_path, ControlServer};
 use crate::service::notify::Notifier;
-#[cfg(feature = "opcua")]
-use crate::service::opcua::OpcUaServer;
-use crate::service::{network, snapshot, Health, Service, ServiceState};
+use crate::service::{Health, Service, ServiceState};
+
+use super::plant_services::PlantServices;
 
 /// Arguments of `softplc run`.
 #[derive(Debug, clap::Args)]
@@ -99,44 +99,15 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let health = Health::new();
     // Requests to the scan: from the control socket and from the Modbus TCP server's writes.
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
-    let published = snapshot::SnapshotCell::new();
-    // Every cycle's changes, for the services that must see each one (OPC UA, Sparkplug).
-    let mut feed = ChangeFeed::new();
     let audit = start_audit(&args.project, &health);
-    // Before OPC UA, which publishes them under `Alarms`.
-    let alarms = start_alarms(
+    let mut services = PlantServices::start_early(
         &project,
         &clock,
         &args.project,
-        &mut feed,
         audit.clone(),
         &health,
-    );
-    // The OPC UA server before the modules' start-up: making its key pair takes seconds on a
-    // small machine (more on a loaded one), and the start-up arms the modules' watchdogs, which
-    // would fire in that time before the first scan commands them. Clients see
-    // Bad_WaitingForInitialData until the first scan.
-    #[cfg(feature = "opcua")]
-    let opcua = match OpcUaServer::start(
-        &project,
-        &published,
-        &mut feed,
         &requests,
-        &health,
-        alarms.as_ref().map(AlarmService::alarms),
-    ) {
-        Ok(server) => server,
-        Err(e) if e.is_fatal() => return Err(e.into()),
-        Err(e) => {
-            // The PLC runs without it, and says why.
-            tracing::error!("{e}; the PLC runs without it");
-            health.set(Service::Opcua, ServiceState::Stopped(e.to_string()));
-            None
-        }
-    };
-    // Built without a service, loading refused a project asking for it: there is none to run.
-    #[cfg(not(feature = "opcua"))]
-    let opcua: Option<std::convert::Infallible> = None;
+    )?;
     let mut plc = Plc::build_traced(project, clock, None, tap).context("cannot start the PLC")?;
     let printer = trace.map(|(_, printer)| printer);
     if args.keep_forces {
@@ -175,57 +146,19 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     if let Some(log) = &audit {
         boundary = boundary.with_audit(log.clone());
     }
-    if let Some(a) = &alarms {
-        boundary = boundary.with_alarms(a);
-    }
     signal_hook::flag::register(signal_hook::consts::SIGHUP, boundary.reload_flag())
         .context("cannot install the SIGHUP handler")?;
     let _control = open_control(&args, &name, &requests)?;
-    let project = engine.plc().project();
-    let mut services = network::start(
-        project,
-        &published,
-        &requests,
-        &health,
-        alarms.as_ref().map(AlarmService::alarms),
-    )?;
-    #[cfg(feature = "mqtt")]
-    let mqtt = crate::service::mqtt::MqttNode::start(
-        project,
-        &published,
-        &mut feed,
-        &requests,
-        &health,
-        alarms.as_ref().map(AlarmService::alarms),
-    )
-    .context("cannot start the MQTT edge node")?;
-    #[cfg(not(feature = "mqtt"))]
-    let mqtt: Option<std::convert::Infallible> = None;
-    #[cfg(feature = "opcua")]
-    if let Some(server) = &opcua {
-        tracing::info!("OPC UA server at {}", server.describe());
-    }
+    services.start_network(engine.plc().project(), &requests, &health)?;
     if args.virtual_clock {
         if engine.plc().project().service.web.is_some() {
             tracing::info!("web page: off on the virtual clock (nobody could watch it)");
         }
     } else {
-        let records = crate::service::web::WebRecords {
-            audit: audit.clone(),
-            alarms: alarms.as_ref().map(|a| a.alarms().clone()),
-        };
-        services.web = network::start_web(engine.plc(), &published, &requests, &health, records);
+        let web = services.web_starter(&requests, &health, audit.clone());
+        services.keep_web(web.start(engine.plc()));
     }
-    if services.any() || mqtt.is_some() || opcua.is_some() {
-        let mut publisher = snapshot::Publisher::new(published);
-        if services.web.is_some() {
-            publisher = publisher.with_details();
-        }
-        boundary = boundary.with_publisher(publisher.with_feeds(feed.counts()));
-    }
-    if !feed.is_empty() {
-        boundary = boundary.with_feed(feed);
-    }
+    boundary = services.attach(boundary, false, &[]);
     let notifier = Notifier::from_env();
     if notifier.enabled() {
         boundary = boundary.with_notifier(notifier);
@@ -269,15 +202,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let outcome = scan
         .join()
         .map_err(|_| anyhow::anyhow!("the scan thread panicked"))?;
-    #[cfg(feature = "mqtt")]
-    if let Some(node) = mqtt {
-        // Its last DATA (the safe state) and its NDEATH leave before the process does.
-        node.finish(Duration::from_secs(3));
-    }
-    if let Some(a) = alarms {
-        // The safe state's changes and the last acknowledgements reach the history file.
-        a.finish(Duration::from_secs(2));
-    }
+    services.finish_services();
     if let Some(log) = &audit {
         // The last actions (a reload just before the stop) reach the file before the process
         // ends.
@@ -287,11 +212,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         // The trace's last lines (the safe state written) come before the summary.
         printer.finish(Duration::from_secs(2));
     }
-    if services.web.is_some() {
-        // The page's event streams carry the last state (stopped, outputs safe) before the
-        // process goes away, so an open page says "stopped" rather than "no connection".
-        std::thread::sleep(crate::service::web::sse::TICK * 3);
-    }
+    services.let_web_see_the_end();
     super::out::out(&summary(&outcome, period, args.run_for))?;
     if let Some(r) = recorder {
         let dropped = r.dropped();
@@ -322,7 +243,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
 
 /// Starts the alarm thread on its share of `feed`, with its history beside the project; a
 /// thread that cannot start is logged and the PLC runs without alarms.
-fn start_alarms(
+pub(super) fn start_alarms(
     project: &crate::project::Project,
     clock: &Arc<dyn Clock>,
     project_file: &std::path::Path,

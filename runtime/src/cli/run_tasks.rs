@@ -9,28 +9,22 @@ use std::time::Duration;
 
 use anyhow::Context;
 
-use crate::clock::{Clock, MonotonicClock};
+use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::image::TagId;
 use crate::plc::{TaskBuilder, TaskPlc};
 use crate::project::Project;
 use crate::scan::{fmt_duration, StopReason, TaskControl, TaskOutcome, TaskSet};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
+use crate::service::web::WebServer;
 use crate::service::{Health, TaskStatus};
 
+use super::plant_services::PlantServices;
 use super::run::RunArgs;
 
 /// What a run of several tasks does not offer yet, said before anything starts.
 fn unsupported(project: &Project, args: &RunArgs) -> Option<String> {
-    let service = &project.service;
-    let what = if service.metrics.is_some()
-        || service.modbus_tcp.is_some()
-        || service.web.is_some()
-        || service.mqtt.is_some()
-        || service.opcua.is_some()
-    {
-        "`service:` (metrics, Modbus TCP, the web page, OPC UA, MQTT)"
-    } else if project.recorder.is_some() || args.record.is_some() {
+    let what = if project.recorder.is_some() || args.record.is_some() {
         "the flight recorder"
     } else if args.keep_forces {
         "--keep-forces"
@@ -62,6 +56,30 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let health = Health::new();
     let audit = super::run::start_audit(&args.project, &health);
     let builder = TaskBuilder::new(&project, clock.clone(), tap).context("cannot start the PLC")?;
+    // The services live on the first task's boundary: its image holds every tag (it copies
+    // every tag another task owns at its cycle's start), and their writes reach the owning
+    // task through the router. They see the first task's view of the project: every tag at
+    // its index, the first task's modules (the ones its snapshot reports).
+    let view = {
+        let ownership = builder.ownership();
+        let mut view = project.task_view(0, |t| ownership.owner(TagId(t as u32)) == Some(0));
+        // Every task, for the services' per-task figures (OPC UA's PLC/Tasks, Sparkplug's).
+        view.tasks = project.tasks.clone();
+        view
+    };
+    let (requests, requests_rx) = crossbeam_channel::bounded(16);
+    let services_clock: Arc<dyn Clock> = match &clock {
+        Some(c) => c.clone(),
+        None => Arc::new(VirtualClock::new()),
+    };
+    let mut services = PlantServices::start_early(
+        &view,
+        &services_clock,
+        &args.project,
+        audit.clone(),
+        &health,
+        &requests,
+    )?;
     let printer = trace.map(|(_, printer)| printer);
     let statuses: Vec<TaskStatus> = project
         .tasks
@@ -72,8 +90,18 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             live: Arc::default(),
         })
         .collect();
+    services.start_network(&view, &requests, &health)?;
+    let web_later = view.service.web.is_some() && !args.virtual_clock;
+    if view.service.web.is_some() && args.virtual_clock {
+        tracing::info!("web page: off on the virtual clock (nobody could watch it)");
+    }
+    // The page starts on the first task's thread once its PLC is built, as a single task's
+    // does once its PLC is.
+    let web_starter = std::sync::Mutex::new(
+        web_later.then(|| services.web_starter(&requests, &health, audit.clone())),
+    );
+    let web_server: Arc<std::sync::Mutex<Option<WebServer>>> = Arc::default();
     // Every task answers the control requests about its own tags at its own boundary.
-    let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let mut queues = Vec::with_capacity(project.tasks.len());
     let mut boundaries = Vec::with_capacity(project.tasks.len());
     for i in 0..project.tasks.len() {
@@ -91,6 +119,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             if notifier.enabled() {
                 b = b.with_notifier(notifier);
             }
+            b = services.attach(b, web_later, &statuses);
         }
         boundaries.push(b);
     }
@@ -135,9 +164,20 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let engine = {
         let control = control.clone();
         let (run_for, statuses, health) = (args.run_for, statuses.clone(), health.clone());
+        let web_server = web_server.clone();
         move |i: usize, plc: TaskPlc, boundary: ServiceBoundary| {
             if let Some(r) = plc.plc.retainer() {
                 health.watch_retain(r.save_failure());
+            }
+            let starter = match i {
+                0 => web_starter.lock().ok().and_then(|mut s| s.take()),
+                _ => None,
+            };
+            if let Some(starter) = starter {
+                let web = starter.start(&plc.plc);
+                if let Ok(mut slot) = web_server.lock() {
+                    *slot = web;
+                }
             }
             let mut engine = control
                 .engine(plc)
@@ -162,12 +202,15 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         .map_err(|_| anyhow::anyhow!("a task's thread panicked"))??;
     router_stop.store(true, std::sync::atomic::Ordering::Relaxed);
     drop(router.join());
+    services.keep_web(web_server.lock().ok().and_then(|mut w| w.take()));
+    services.finish_services();
     if let Some(log) = &audit {
         log.finish(Duration::from_secs(2));
     }
     if let Some(printer) = printer {
         printer.finish(Duration::from_secs(2));
     }
+    services.let_web_see_the_end();
     super::out::out(&summary(&outcomes, &project, args.run_for))?;
     let faulted = outcomes
         .iter()

@@ -21,6 +21,10 @@
 //! | `softplc_service_lost_changes_total{service}` | counter | changes a service (opcua, mqtt, alarms) could not take in time (`super::changes`) |
 //! | `softplc_alarms_active{priority}` | gauge | active alarms per priority band: low, medium, high, urgent |
 //! | `softplc_alarms_unacknowledged` | gauge | alarms waiting for an acknowledgement (active or gone) |
+//! | `softplc_task_period_seconds{task}` | gauge | with `tasks:`, each task's period |
+//! | `softplc_task_scans_total{task}`, `softplc_task_overruns_total{task}` | counter | each task's completed cycles, skipped deadlines |
+//! | `softplc_task_cycle_{p50,p99,max}_seconds{task}` | gauge | each task's cycle time |
+//! | `softplc_task_lateness_{p99,max}_seconds{task}` | gauge | each task's wake-up lateness |
 //!
 //! Statistics are refreshed every 250 ms of scan time, tag values every cycle.
 
@@ -124,6 +128,85 @@ fn value_number(v: Value) -> f64 {
 fn family(out: &mut String, name: &str, kind: &str, help: &str) {
     let _ = writeln!(out, "# HELP {name} {help}");
     let _ = writeln!(out, "# TYPE {name} {kind}");
+}
+
+/// Each task's figures (a PLC of several tasks; none for one task, whose figures are the
+/// unlabelled families).
+fn tasks(out: &mut String, tasks: &[super::status::TaskReport]) {
+    if tasks.is_empty() {
+        return;
+    }
+    let us = |v: u64| v as f64 / 1e6;
+    type Figure = fn(&super::status::TaskReport) -> u64;
+    let families: [(&str, &str, &str, Figure, bool); 8] = [
+        (
+            "softplc_task_period_seconds",
+            "gauge",
+            "The task's period.",
+            |t| t.period_us,
+            true,
+        ),
+        (
+            "softplc_task_scans_total",
+            "counter",
+            "The task's completed cycles.",
+            |t| t.scans,
+            false,
+        ),
+        (
+            "softplc_task_overruns_total",
+            "counter",
+            "The task's skipped deadlines.",
+            |t| t.overruns,
+            false,
+        ),
+        (
+            "softplc_task_cycle_p50_seconds",
+            "gauge",
+            "The task's median cycle time.",
+            |t| t.cycle.p50_us,
+            true,
+        ),
+        (
+            "softplc_task_cycle_p99_seconds",
+            "gauge",
+            "The task's 99th percentile cycle time.",
+            |t| t.cycle.p99_us,
+            true,
+        ),
+        (
+            "softplc_task_cycle_max_seconds",
+            "gauge",
+            "The task's longest cycle.",
+            |t| t.cycle.max_us,
+            true,
+        ),
+        (
+            "softplc_task_lateness_p99_seconds",
+            "gauge",
+            "The task's 99th percentile wake-up lateness.",
+            |t| t.lateness.p99_us,
+            true,
+        ),
+        (
+            "softplc_task_lateness_max_seconds",
+            "gauge",
+            "The task's largest wake-up lateness.",
+            |t| t.lateness.max_us,
+            true,
+        ),
+    ];
+    for (name, kind, help, figure, micros) in families {
+        family(out, name, kind, help);
+        for t in tasks {
+            let v = figure(t);
+            let task = label(&t.name);
+            let _ = match micros {
+                true => writeln!(out, "{name}{{task=\"{task}\"}} {}", us(v)),
+                false => writeln!(out, "{name}{{task=\"{task}\"}} {v}"),
+            };
+        }
+    }
 }
 
 /// Every service's state, one series per state word with 1 on the service's own (the
@@ -332,6 +415,7 @@ pub(crate) fn render(info: &MetricsInfo, s: &ServiceSnapshot) -> String {
             );
         }
     }
+    tasks(&mut out, &s.tasks);
     out
 }
 

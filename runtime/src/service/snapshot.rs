@@ -218,6 +218,8 @@ pub struct ServiceSnapshot {
     /// The simulated plant: running or stopped, and its states (every publication, only with
     /// `Publisher::with_details`: the web page's plant panel).
     pub plant: Option<super::status::PlantReport>,
+    /// With several tasks, each task's figures (refreshed with the statistics).
+    pub tasks: Vec<super::status::TaskReport>,
 }
 
 /// The shared snapshot.
@@ -261,6 +263,7 @@ pub struct Publisher {
     details: bool,
     stop_reason: Option<String>,
     feeds: Vec<(&'static str, Arc<FeedCounts>)>,
+    tasks: Vec<super::status::TaskStatus>,
 }
 
 impl Publisher {
@@ -272,7 +275,15 @@ impl Publisher {
             details: false,
             stop_reason: None,
             feeds: Vec::new(),
+            tasks: Vec::new(),
         }
+    }
+
+    /// Also publishes every task's figures (a PLC of several tasks, published by its first
+    /// task).
+    pub(crate) fn with_tasks(mut self, tasks: Vec<super::status::TaskStatus>) -> Self {
+        self.tasks = tasks;
+        self
     }
 
     /// Also publishes the lost changes of the services fed every change (see
@@ -333,6 +344,9 @@ impl Publisher {
             for (slot, phase) in s.phases.iter_mut().zip(Phase::ALL) {
                 *slot = PhaseSummary::of(phase.histogram(stats));
             }
+            s.tasks.clear();
+            s.tasks
+                .extend(self.tasks.iter().filter_map(super::status::TaskReport::of));
             s.modules.clear();
             s.modules
                 .extend(plc.module_status().iter().map(|m| ModuleSnapshot {

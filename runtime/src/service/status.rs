@@ -207,6 +207,22 @@ pub struct TaskReport {
     pub lateness: MicrosPercentiles,
 }
 
+impl TaskReport {
+    /// Task `t`'s figures as its scan last published them (`None`: its scan panicked holding
+    /// them).
+    pub fn of(t: &TaskStatus) -> Option<Self> {
+        let live = t.live.lock().ok()?;
+        Some(Self {
+            name: t.name.clone(),
+            scans: live.cycles,
+            overruns: live.overruns,
+            period_us: t.period.as_micros() as u64,
+            cycle: live.cycle.into(),
+            lateness: live.lateness.into(),
+        })
+    }
+}
+
 /// A task's live figures, as the status reads them.
 #[derive(Debug, Clone)]
 pub struct TaskStatus {
@@ -222,15 +238,11 @@ impl StatusReport {
     /// Adds every task's figures (from their live snapshots) and the other tasks' modules.
     pub fn with_tasks(mut self, tasks: &[TaskStatus]) -> Self {
         for (i, t) in tasks.iter().enumerate() {
+            let Some(report) = TaskReport::of(t) else {
+                continue;
+            };
+            self.tasks.push(report);
             let Ok(live) = t.live.lock() else { continue };
-            self.tasks.push(TaskReport {
-                name: t.name.clone(),
-                scans: live.cycles,
-                overruns: live.overruns,
-                period_us: t.period.as_micros() as u64,
-                cycle: live.cycle.into(),
-                lateness: live.lateness.into(),
-            });
             // The first task's modules are in the report already, as its scan sees them.
             if i > 0 {
                 self.modules

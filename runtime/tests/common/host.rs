@@ -178,3 +178,24 @@ pub(crate) fn run_virtual(project: &std::path::Path, socket: &std::path::Path) -
     }
     running
 }
+
+/// The address a child logs after `prefix` in its log file `log` (e.g. `web page: http://`),
+/// once it has (within 30 s).
+pub(crate) fn log_value(log: &Path, prefix: &str) -> String {
+    let begin = std::time::Instant::now();
+    loop {
+        let text = std::fs::read_to_string(log).unwrap_or_default();
+        if let Some(v) = text
+            .lines()
+            .find_map(|l| l.split(prefix).nth(1))
+            .map(|r| r.split(['/', ' ']).next().unwrap_or_default().to_owned())
+        {
+            return v;
+        }
+        assert!(
+            begin.elapsed() < std::time::Duration::from_secs(30),
+            "no {prefix:?}:\n{text}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}

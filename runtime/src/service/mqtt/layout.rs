@@ -56,6 +56,29 @@ impl PlcMetric {
     }
 }
 
+/// A task's node metrics (a PLC of several tasks): `Tasks/NAME/FIELD`, UInt64, durations in µs
+/// (as `PLC/Cycle p99 us`).
+pub(crate) const TASK_FIELDS: [&str; 6] = [
+    "Scans",
+    "Overruns",
+    "Cycle p50 us",
+    "Cycle p99 us",
+    "Cycle max us",
+    "Lateness p99 us",
+];
+
+/// Field `k` of [`TASK_FIELDS`] in task report `t`.
+pub(crate) fn task_field(t: &crate::service::status::TaskReport, k: usize) -> u64 {
+    match k {
+        0 => t.scans,
+        1 => t.overruns,
+        2 => t.cycle.p50_us,
+        3 => t.cycle.p99_us,
+        4 => t.cycle.max_us,
+        _ => t.lateness.p99_us,
+    }
+}
+
 /// One tag as a metric.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TagMetric {
@@ -118,6 +141,9 @@ pub(crate) struct Layout {
     pub tags: Vec<TagMetric>,
     /// Device ids (module names), in module order.
     pub devices: Vec<String>,
+    /// With several tasks, each task's metric names, task after task in [`TASK_FIELDS`]
+    /// order (aliases after the PLC's own).
+    pub tasks: Vec<String>,
 }
 
 impl Layout {
@@ -140,7 +166,28 @@ impl Layout {
             })
             .collect();
         let devices = project.modules.iter().map(|m| m.name.clone()).collect();
-        Self { tags, devices }
+        let tasks = match project.multitask() {
+            true => project
+                .tasks
+                .iter()
+                .flat_map(|t| {
+                    TASK_FIELDS
+                        .iter()
+                        .map(move |f| format!("Tasks/{}/{f}", t.name))
+                })
+                .collect(),
+            false => Vec::new(),
+        };
+        Self {
+            tags,
+            devices,
+            tasks,
+        }
+    }
+
+    /// The alias of task metric `j` (in [`Layout::tasks`]; after the PLC's own).
+    pub(crate) fn task_alias(&self, j: usize) -> u64 {
+        self.tags.len() as u64 + 1 + PlcMetric::ALL.len() as u64 + j as u64
     }
 
     /// The alias of a PLC metric (after every tag's).

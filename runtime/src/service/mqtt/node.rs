@@ -105,6 +105,8 @@ pub(crate) struct EdgeNode {
     /// Per device: whether it is born in this session.
     born: Vec<bool>,
     plc_last: Vec<Option<MetricValue>>,
+    /// Each task metric as the host was last told (a PLC of several tasks).
+    task_last: Vec<Option<MetricValue>>,
     plc_sent_at: u64,
     buffer: VecDeque<Kept>,
     capacity: usize,
@@ -154,6 +156,7 @@ impl EdgeNode {
             last: vec![None; layout.tags.len()],
             born: vec![false; layout.devices.len()],
             plc_last: vec![None; PlcMetric::ALL.len()],
+            task_last: vec![None; layout.tasks.len()],
             plc_sent_at: 0,
             deadband: db,
             layout,
@@ -182,7 +185,22 @@ impl EdgeNode {
 
     /// The alias of alarm metric `k` (after the PLC's own).
     fn alarm_alias(&self, k: usize) -> u64 {
-        self.layout.tags.len() as u64 + 1 + PlcMetric::ALL.len() as u64 + k as u64
+        self.layout.task_alias(self.layout.tasks.len()) + k as u64
+    }
+
+    /// Every task metric's value now, in [`Layout::tasks`] order (0 until a task's figures
+    /// are published).
+    fn task_values(&self, snap: &ServiceSnapshot) -> Vec<MetricValue> {
+        let fields = super::layout::TASK_FIELDS.len();
+        (0..self.layout.tasks.len())
+            .map(|j| {
+                let v = snap
+                    .tasks
+                    .get(j / fields)
+                    .map_or(0, |t| super::layout::task_field(t, j % fields));
+                MetricValue::LongValue(v)
+            })
+            .collect()
     }
 
     /// The alarm metrics that changed since the host was told (all of them for a birth), with
@@ -346,6 +364,21 @@ impl EdgeNode {
         }
         self.plc_last = plc.into_iter().map(|(_, _, v)| Some(v)).collect();
         self.plc_sent_at = wall_ms;
+        let tasks = self.task_values(snap);
+        let task_names = self.layout.tasks.clone();
+        for (j, v) in tasks.iter().enumerate() {
+            metrics.push(MetricSpec {
+                name: task_names.get(j).map(String::as_str),
+                alias: Some(self.layout.task_alias(j)),
+                datatype: Some(DataType::UInt64),
+                timestamp: now,
+                value: v.clone(),
+                quality: None,
+                historical: false,
+                birth: None,
+            });
+        }
+        self.task_last = tasks.into_iter().map(Some).collect();
         let alarm_values: Vec<(usize, u64, MetricValue)> = self
             .alarm_changes(true)
             .into_iter()
@@ -566,17 +599,18 @@ impl EdgeNode {
             let now = self.utc(snap, wall_ms, snap.now);
             for (i, (m, _, v)) in self.plc_values(snap).into_iter().enumerate() {
                 if self.plc_last[i].as_ref() != Some(&v) {
-                    changes[0].push(MetricSpec {
-                        name: None,
-                        alias: Some(self.layout.plc_alias(m)),
-                        datatype: None,
-                        timestamp: now,
-                        value: v.clone(),
-                        quality: None,
-                        historical: false,
-                        birth: None,
-                    });
+                    changes[0].push(node_data(self.layout.plc_alias(m), v.clone(), now));
                     self.plc_last[i] = Some(v);
+                }
+            }
+            for (j, v) in self.task_values(snap).into_iter().enumerate() {
+                if self
+                    .task_last
+                    .get(j)
+                    .is_some_and(|last| last.as_ref() != Some(&v))
+                {
+                    changes[0].push(node_data(self.layout.task_alias(j), v.clone(), now));
+                    self.task_last[j] = Some(v);
                 }
             }
             self.plc_sent_at = wall_ms;
@@ -599,3 +633,17 @@ impl EdgeNode {
 #[cfg(test)]
 #[path = "node_tests.rs"]
 mod tests;
+
+/// A node metric in DATA: by alias alone, no quality (the PLC's and the tasks' figures).
+fn node_data(alias: u64, value: MetricValue, timestamp: u64) -> MetricSpec<'static> {
+    MetricSpec {
+        name: None,
+        alias: Some(alias),
+        datatype: None,
+        timestamp,
+        value,
+        quality: None,
+        historical: false,
+        birth: None,
+    }
+}

@@ -35,6 +35,7 @@ fn layout() -> Layout {
             tag(2, "setpoint", ValueType::U16, None),
         ],
         devices: vec!["mm1".into()],
+        tasks: Vec::new(),
     }
 }
 

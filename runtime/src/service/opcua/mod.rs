@@ -195,6 +195,7 @@ fn build_space(
         .iter()
         .flatten()
         .chain(&layout.plc)
+        .chain(layout.tasks.iter().flatten())
         .chain(layout.alarms.iter().flatten());
     let tags = layout.tags.iter().map(|t| &t.node);
     for n in tags.chain(diagnostics) {
@@ -409,6 +410,7 @@ impl Updater {
             .map(|t| &t.node)
             .chain(self.layout.modules.iter().flatten())
             .chain(&self.layout.plc)
+            .chain(self.layout.tasks.iter().flatten())
             .chain(self.layout.alarms.iter().flatten())
             .map(|n| (n.id.clone(), NodeId::new(self.ns, n.id.clone())))
             .collect();

@@ -5,6 +5,8 @@
 //!   Tags/            one variable per exposed tag (not `scada: none`): Tags.NAME
 //!   Modules/NAME/    Quality, Requests, Errors, RoundTrip: Modules.NAME.FIELD
 //!   PLC/             State, Scans, Overruns, CycleP50, CycleP99, CycleMax: PLC.FIELD
+//!     Tasks/NAME/    with `tasks:`, each task's Period, Scans, Overruns, CycleP50, CycleP99,
+//!                    CycleMax, LatenessP99, LatenessMax: PLC.Tasks.NAME.FIELD
 //! ```
 //!
 //! Node ids are strings in the project's namespace ([`NAMESPACE_PREFIX`] + the project's
@@ -155,6 +157,77 @@ impl PlcField {
     }
 }
 
+/// A task's diagnostic variables (a PLC of several tasks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum TaskField {
+    /// Its period (Duration).
+    Period,
+    /// Completed cycles (UInt64).
+    Scans,
+    /// Overruns (UInt64).
+    Overruns,
+    /// Cycle time median (Duration).
+    CycleP50,
+    /// Cycle time 99th percentile (Duration).
+    CycleP99,
+    /// Longest cycle (Duration).
+    CycleMax,
+    /// Wake-up lateness 99th percentile (Duration).
+    LatenessP99,
+    /// Largest wake-up lateness (Duration).
+    LatenessMax,
+}
+
+impl TaskField {
+    /// Every field, in browse order.
+    pub(crate) const ALL: [TaskField; 8] = [
+        TaskField::Period,
+        TaskField::Scans,
+        TaskField::Overruns,
+        TaskField::CycleP50,
+        TaskField::CycleP99,
+        TaskField::CycleMax,
+        TaskField::LatenessP99,
+        TaskField::LatenessMax,
+    ];
+
+    /// Its browse name.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Self::Period => "Period",
+            Self::Scans => "Scans",
+            Self::Overruns => "Overruns",
+            Self::CycleP50 => "CycleP50",
+            Self::CycleP99 => "CycleP99",
+            Self::CycleMax => "CycleMax",
+            Self::LatenessP99 => "LatenessP99",
+            Self::LatenessMax => "LatenessMax",
+        }
+    }
+
+    fn data_type(self) -> DataTypeId {
+        match self {
+            Self::Scans | Self::Overruns => DataTypeId::UInt64,
+            _ => DataTypeId::Duration,
+        }
+    }
+
+    /// Its value in task report `t`.
+    fn value(self, t: &crate::service::status::TaskReport) -> Variant {
+        let ms = |us: u64| Variant::Double(us as f64 / 1e3);
+        match self {
+            Self::Period => ms(t.period_us),
+            Self::Scans => Variant::UInt64(t.scans),
+            Self::Overruns => Variant::UInt64(t.overruns),
+            Self::CycleP50 => ms(t.cycle.p50_us),
+            Self::CycleP99 => ms(t.cycle.p99_us),
+            Self::CycleMax => ms(t.cycle.max_us),
+            Self::LatenessP99 => ms(t.lateness.p99_us),
+            Self::LatenessMax => ms(t.lateness.max_us),
+        }
+    }
+}
+
 /// A variable of the address space.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Node {
@@ -219,6 +292,8 @@ pub(crate) struct Layout {
     pub modules: Vec<Vec<Node>>,
     /// The PLC's, in [`PlcField::ALL`] order.
     pub plc: Vec<Node>,
+    /// Each task's (a PLC of several tasks), in project order, in [`TaskField::ALL`] order.
+    pub tasks: Vec<Vec<Node>>,
     /// Each alarm's variables, in the alarms' order (see `super::alarms`).
     pub alarms: Vec<Vec<Node>>,
 }
@@ -282,11 +357,36 @@ impl Layout {
             .iter()
             .map(|f| node("PLC", f.name(), f.data_type()))
             .collect();
+        let mut tasks = Vec::new();
+        if project.multitask() {
+            folders.push(Folder {
+                id: "PLC.Tasks".into(),
+                name: "Tasks".into(),
+                parent: Some("PLC".into()),
+                description: None,
+            });
+            for t in &project.tasks {
+                let folder = format!("PLC.Tasks.{}", t.name);
+                folders.push(Folder {
+                    id: folder.clone(),
+                    name: t.name.clone(),
+                    parent: Some("PLC.Tasks".into()),
+                    description: None,
+                });
+                tasks.push(
+                    TaskField::ALL
+                        .iter()
+                        .map(|f| node(&folder, f.name(), f.data_type()))
+                        .collect(),
+                );
+            }
+        }
         Self {
             folders,
             tags,
             modules,
             plc,
+            tasks,
             alarms: Vec::new(),
         }
     }
@@ -428,6 +528,11 @@ impl Updates {
             };
             diag(n, v, &mut out);
         }
+        for (nodes, t) in layout.tasks.iter().zip(&snap.tasks) {
+            for (n, f) in nodes.iter().zip(TaskField::ALL) {
+                diag(n, f.value(t), &mut out);
+            }
+        }
         out
     }
 }
@@ -479,6 +584,10 @@ mod tests {
                 .iter()
                 .map(|f| node("PLC", f.name(), f.data_type()))
                 .collect(),
+            tasks: vec![TaskField::ALL
+                .iter()
+                .map(|f| node("PLC.Tasks.press", f.name(), f.data_type()))
+                .collect()],
             alarms: Vec::new(),
         }
     }
@@ -565,6 +674,64 @@ mod tests {
         let next = u.diagnostics(&l, &snap(2), t0);
         let ids: Vec<&str> = next.iter().map(|(i, _)| i.as_str()).collect();
         assert_eq!(ids, ["PLC.Scans"]);
+    }
+
+    #[test]
+    fn each_tasks_figures_go_out_under_its_folder_as_they_change() {
+        use crate::service::status::{MicrosPercentiles, TaskReport};
+        let l = layout();
+        let mut u = Updates::new(&l);
+        let t0 = DateTime::from(1_000_000_000_000_000i64);
+        let task = |scans: u64| TaskReport {
+            name: "press".into(),
+            scans,
+            overruns: 2,
+            period_us: 30_000,
+            cycle: MicrosPercentiles {
+                p99_us: 1_500,
+                ..MicrosPercentiles::default()
+            },
+            lateness: MicrosPercentiles::default(),
+        };
+        let at = |out: &[(String, DataValue)], id: &str| {
+            out.iter()
+                .find(|(i, _)| i == id)
+                .and_then(|(_, v)| v.value.clone())
+        };
+        let first = u.diagnostics(
+            &l,
+            &ServiceSnapshot {
+                tasks: vec![task(10)],
+                ..snap(1)
+            },
+            t0,
+        );
+        assert_eq!(
+            at(&first, "PLC.Tasks.press.Scans"),
+            Some(Variant::UInt64(10))
+        );
+        assert_eq!(
+            at(&first, "PLC.Tasks.press.Overruns"),
+            Some(Variant::UInt64(2))
+        );
+        assert_eq!(
+            at(&first, "PLC.Tasks.press.Period"),
+            Some(Variant::Double(30.0))
+        );
+        assert_eq!(
+            at(&first, "PLC.Tasks.press.CycleP99"),
+            Some(Variant::Double(1.5))
+        );
+        let next = u.diagnostics(
+            &l,
+            &ServiceSnapshot {
+                tasks: vec![task(11)],
+                ..snap(1)
+            },
+            t0,
+        );
+        let ids: Vec<&str> = next.iter().map(|(i, _)| i.as_str()).collect();
+        assert_eq!(ids, ["PLC.Tasks.press.Scans"]);
     }
 
     #[test]

@@ -104,7 +104,8 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
     state
 }
 
-/// The statistics: each phase's percentiles and histogram, each module's counters.
+/// The statistics: each phase's percentiles and histogram, each module's counters, each
+/// task's figures (a PLC of several tasks).
 pub(crate) fn stats(s: &ServiceSnapshot, health: &Health) -> Json {
     let phases: Vec<Json> = Phase::ALL
         .iter()
@@ -153,6 +154,8 @@ pub(crate) fn stats(s: &ServiceSnapshot, health: &Health) -> Json {
         "phases": phases,
         "modules": modules,
         "services": health.report(),
+        // With several tasks, each task's figures (µs, as `status --json` gives them).
+        "tasks": s.tasks,
     })
 }
 

@@ -450,6 +450,17 @@
       el("br"), cycle ? "p99 is " + Math.round((100 * cycle.p99) / period) + " % of the " + fmtMs(period) + " period" : "");
     cards.push(card("Cycle time (p50)", cycle ? fmtMs(cycle.p50) : "–", load, cycle ? cycle.p99 / period : 0));
     cards.push(card("Scans", s.cycles.toLocaleString("en"), "overruns " + s.overruns + " · up " + fmtUptime(s.now)));
+    // A PLC of several tasks: a row per task (the figures above are the first task's).
+    const tasks = (st && st.tasks) || [];
+    if (tasks.length) {
+      const tlist = el("ul");
+      for (const t of tasks) {
+        const text = fmtMs(t.period_us / 1000) + " · scans " + t.scans.toLocaleString("en") + " · overruns " + t.overruns +
+          " · p99 " + fmtMs(t.cycle.p99_us / 1000) + " · max " + fmtMs(t.cycle.max_us / 1000) + " · late p99 " + fmtMs(t.lateness.p99_us / 1000);
+        tlist.append(el("li", { "data-task": t.name }, el("span", { class: "q " + (t.overruns > 0 ? "stale" : "good"), text: t.name }), el("span", { class: "doc", text })));
+      }
+      cards.push(card("Tasks", String(tasks.length), tlist));
+    }
     const list = el("ul");
     info.modules.forEach((m, i) => {
       const q = st && st.modules[i] ? QUALITY[st.modules[i].q] : "bad";

@@ -1,0 +1,280 @@
+//! The plant services of a PLC of several tasks (the two-tasks example with the metrics and
+//! the web page on loopback port 0, real clock): they show every task's tags, and a force
+//! from the page reaches the task owning the tag, whose result every service then shows.
+
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::common::host::{log_value, repo, Running};
+use crate::common::scratch::Scratch;
+
+const TOKEN: &str = "two-tasks-engineer";
+
+/// The example (ladder) copied with a `service:` section, in a scratch folder.
+fn example_with_services(case: &str, service: &str) -> Scratch {
+    let s = Scratch::new("task_services", case);
+    for f in ["press.ladder.yaml", "panel.ladder.yaml"] {
+        std::fs::copy(repo().join("examples/two-tasks").join(f), s.dir.join(f))
+            .expect("copy the example");
+    }
+    let yaml = std::fs::read_to_string(repo().join("examples/two-tasks/project.yaml"))
+        .expect("the example");
+    s.write("project.yaml", &format!("{yaml}\nservice:\n{service}"));
+    s
+}
+
+fn start(s: &Scratch) -> Running {
+    let log = std::fs::File::create(s.dir.join("log")).expect("a log file");
+    Running(
+        Command::new(env!("CARGO_BIN_EXE_softplc"))
+            .arg("run")
+            .arg(s.dir.join("project.yaml"))
+            .args(["--for", "40s", "--quiet", "--no-socket"])
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .expect("softplc runs"),
+    )
+}
+
+/// One HTTP request: (status, body).
+fn http(addr: &str, request: &str) -> (u16, String) {
+    let Ok(mut c) = TcpStream::connect(addr) else {
+        return (0, String::new());
+    };
+    drop(c.set_read_timeout(Some(Duration::from_secs(10))));
+    drop(c.write_all(request.as_bytes()));
+    let mut out = String::new();
+    // A read ending in an error (timeout, reset) still leaves what arrived in the buffer.
+    drop(c.read_to_string(&mut out));
+    let status = out
+        .split(' ')
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let body = out.split("\r\n\r\n").nth(1).unwrap_or("").to_owned();
+    (status, body)
+}
+
+fn get(addr: &str, path: &str) -> String {
+    let (code, body) = http(
+        addr,
+        &format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"),
+    );
+    assert_eq!(code, 200, "GET {path}: {body}");
+    body
+}
+
+/// Polls `what` every 100 ms until it holds (at most `within`); the last text seen.
+fn wait_until(within: Duration, mut what: impl FnMut() -> (bool, String)) -> String {
+    let begin = Instant::now();
+    loop {
+        let (done, text) = what();
+        if done {
+            return text;
+        }
+        assert!(begin.elapsed() < within, "not within {within:?}:\n{text}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owner() {
+    let s = example_with_services(
+        "web-metrics",
+        &format!(
+            "  metrics: 127.0.0.1:0\n  web: {{ bind: 127.0.0.1:0, writes: true, token: {TOKEN} }}\n"
+        ),
+    );
+    let _run = start(&s);
+    let log = s.dir.join("log");
+    let web = log_value(&log, "web page: http://");
+    let metrics = log_value(&log, "metrics at http://");
+    // Tags of both tasks, as the first task's image holds them (it copies the others').
+    let text = wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            text.contains("softplc_tag_value{tag=\"strokes\"} 0")
+                && text.contains("softplc_tag_value{tag=\"key_on\"} 0")
+                && text.contains("softplc_tag_value{tag=\"enabled\"} 0"),
+            text,
+        )
+    });
+    assert!(
+        text.contains("softplc_tag_quality{tag=\"key_on\"}"),
+        "{text}"
+    );
+    // Each task's figures, labelled with its name; the panel's cycles grow on its own period.
+    let scans = |text: &str, task: &str| -> Option<u64> {
+        let key = format!("softplc_task_scans_total{{task=\"{task}\"}} ");
+        text.lines()
+            .find_map(|l| l.strip_prefix(key.as_str()))
+            .and_then(|v| v.parse().ok())
+    };
+    let first = wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (scans(&text, "panel").is_some_and(|n| n >= 1), text)
+    });
+    assert!(
+        first.contains("softplc_task_period_seconds{task=\"press\"} 0.03"),
+        "{first}"
+    );
+    assert!(
+        first.contains("softplc_task_period_seconds{task=\"panel\"} 0.5"),
+        "{first}"
+    );
+    for family in [
+        "softplc_task_overruns_total",
+        "softplc_task_cycle_p99_seconds",
+        "softplc_task_cycle_max_seconds",
+        "softplc_task_lateness_p99_seconds",
+    ] {
+        assert!(
+            first.contains(&format!("{family}{{task=\"panel\"}} ")),
+            "{first}"
+        );
+    }
+    let (press, panel) = (scans(&first, "press"), scans(&first, "panel"));
+    wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            scans(&text, "press") > press && scans(&text, "panel") > panel,
+            text,
+        )
+    });
+    // The panel task owns key_on: the page's force goes to it, its program sets `enabled`,
+    // the press task copies that in, and the services (on the press task's boundary) see it.
+    // The panel's slow line takes seconds to start: until its task scans, nothing answers.
+    let body = r#"{"tag":"key_on","value":"1"}"#;
+    wait_until(Duration::from_secs(30), || {
+        let (code, text) = http(
+            &web,
+            &format!(
+                "POST /api/force HTTP/1.1\r\nHost: {web}\r\nConnection: close\r\n\
+                 Content-Type: application/json\r\nAuthorization: Bearer {TOKEN}\r\n\
+                 Content-Length: {}\r\n\r\n{body}",
+                body.len()
+            ),
+        );
+        assert!(code == 200 || code == 504, "{code} {text}");
+        (code == 200, text)
+    });
+    wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            text.contains("softplc_tag_value{tag=\"key_on\"} 1")
+                && text.contains("softplc_tag_value{tag=\"enabled\"} 1"),
+            text,
+        )
+    });
+    // The page: every tag of both tasks, with the values the panel task set.
+    let info: serde_json::Value = serde_json::from_str(&get(&web, "/api/info")).expect("JSON");
+    let names: Vec<&str> = info["tags"]
+        .as_array()
+        .expect("tags")
+        .iter()
+        .filter_map(|t| t["name"].as_str())
+        .collect();
+    let at = |tag: &str| names.iter().position(|n| *n == tag).expect(tag);
+    let state: serde_json::Value = serde_json::from_str(&get(&web, "/api/state")).expect("JSON");
+    let values = &state["state"]["v"];
+    assert_eq!(values[at("key_on")], true, "{state}");
+    assert_eq!(values[at("enabled")], true, "{state}");
+    assert_eq!(values[at("strokes")], 0, "{state}");
+    // Each task's figures for the overview's Tasks card.
+    let tasks = state["stats"]["tasks"].as_array().expect("tasks");
+    let named: Vec<&str> = tasks.iter().filter_map(|t| t["name"].as_str()).collect();
+    assert_eq!(named, ["press", "panel"], "{state}");
+    assert_eq!(tasks[1]["period_us"], 500_000, "{state}");
+    assert!(tasks[1]["scans"].as_u64() > Some(0), "{state}");
+}
+
+/// Runs a third-party client (`runtime/tests/<script>` on the test venv's Python) with `args`
+/// until it prints DONE or FAIL (at most 60 s); its PASS lines.
+fn run_python(script: &str, args: &[&str]) -> Vec<String> {
+    let python = repo().join("target/py-venv/bin/python");
+    assert!(
+        python.exists(),
+        "{} is missing: make it with `python3 -m venv target/py-venv` and install \
+         runtime/tests/opcua/requirements.txt and runtime/tests/mqtt/requirements.txt",
+        python.display()
+    );
+    let mut child = Command::new(python)
+        .arg(repo().join("runtime/tests").join(script))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("the client runs");
+    let lines = crate::common::host::lines_of(child.stdout.take().expect("its output"));
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut passed = Vec::new();
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let line = lines.recv_timeout(left).unwrap_or_else(|_| {
+            drop(child.kill());
+            panic!("the client said nothing more after {passed:?}")
+        });
+        if line == "DONE" {
+            break;
+        }
+        assert!(!line.starts_with("FAIL"), "{line} (after {passed:?})");
+        if let Some(step) = line.strip_prefix("PASS ") {
+            passed.push(step.to_owned());
+        }
+    }
+    drop(child.wait());
+    passed
+}
+
+#[test]
+fn an_opcua_client_reads_each_tasks_figures_and_sees_them_grow() {
+    let s = example_with_services("opcua", "  opcua: { port: 0 }\n");
+    let _run = start(&s);
+    let addr = log_value(&s.dir.join("log"), "OPC UA server at opc.tcp://");
+    let passed = run_python(
+        "opcua/tasks_client.py",
+        &[
+            &format!("opc.tcp://{addr}/"),
+            "urn:softplc:two-tasks",
+            "press",
+            "panel",
+        ],
+    );
+    assert_eq!(passed.len(), 3, "{passed:?}");
+    assert_eq!(passed[1], "period press 30.0", "{passed:?}");
+    assert!(passed[2].starts_with("grow press="), "{passed:?}");
+}
+
+#[test]
+fn a_sparkplug_host_sees_each_tasks_metrics_in_nbirth_and_ndata() {
+    let s = example_with_services("mqtt", "");
+    let port = crate::common::host::free_port();
+    let _broker = crate::common::broker::Broker::start(&s.dir, port);
+    let python = repo().join("target/py-venv/bin/python");
+    let pb2 = crate::common::broker::sparkplug_pb2(&python, &s.dir);
+    s.write(
+        "project.yaml",
+        &format!(
+            "{}  mqtt: {{ host: 127.0.0.1, port: {port}, group: plant1, node: press1 }}\n",
+            std::fs::read_to_string(s.dir.join("project.yaml")).expect("the copy")
+        ),
+    );
+    let _run = start(&s);
+    let passed = run_python(
+        "mqtt/tasks_consumer.py",
+        &[
+            &port.to_string(),
+            "plant1",
+            "press1",
+            pb2.to_str().expect("UTF-8"),
+            "press",
+            "panel",
+        ],
+    );
+    assert_eq!(passed.len(), 2, "{passed:?}");
+    assert!(passed[1].starts_with("data press="), "{passed:?}");
+}
