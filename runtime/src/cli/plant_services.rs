@@ -6,6 +6,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
+#[cfg(feature = "mqtt")]
 use anyhow::Context;
 use crossbeam_channel::Sender;
 
@@ -19,7 +20,9 @@ use crate::service::changes::ChangeFeed;
 use crate::service::control::Envelope;
 #[cfg(feature = "opcua")]
 use crate::service::opcua::OpcUaServer;
-use crate::service::{network, snapshot, Health, Service, ServiceState, TaskStatus};
+use crate::service::{network, snapshot, Health, TaskStatus};
+#[cfg(feature = "opcua")]
+use crate::service::{Service, ServiceState};
 
 /// The services one PLC runs, and what the scan hands them (the published snapshot, the
 /// change feed).
