@@ -20,6 +20,7 @@ mod run_tasks;
 mod schema;
 mod schema_doc;
 mod sim;
+mod task_record;
 pub(crate) mod test;
 mod trace;
 mod trace_bus;

@@ -14,10 +14,12 @@ use std::process::ExitCode;
 use anyhow::Context;
 use softplc_io::point::Value;
 
-use crate::project;
+use crate::project::{self, Project};
 use crate::recorder::format::short_hex;
 use crate::recorder::replay::{compared, CycleOutputs, Difference};
-use crate::recorder::{read_record, replay, Record, ReplayOptions, ReplayReport};
+use crate::recorder::{
+    read_record, replay_subject, Record, ReplayError, ReplayOptions, ReplayReport, ReplaySubject,
+};
 use crate::scan::fmt_duration;
 use crate::trace::export::{CsvWriter, ExportError, Sample, Signal, VcdWriter};
 
@@ -25,24 +27,42 @@ use crate::trace::export::{CsvWriter, ExportError, Sample, Signal, VcdWriter};
 #[derive(Debug, clap::Args)]
 pub(crate) struct ReplayArgs {
     /// The record: its folder (PROJECT.record, beside the project or in the unit's state
-    /// directory) or one segment file.
+    /// directory) or one segment file. For a project of several tasks, the record's folder
+    /// (every task's record is replayed) or one task's folder in it.
     record: PathBuf,
     /// The project whose program to replay: the recorded one, or one with a changed program
     /// (its I/O and tags must be the record's).
     project: PathBuf,
+    /// For a project of several tasks: replay this task's record only (every task's by
+    /// default).
+    #[arg(long, value_name = "NAME")]
+    task: Option<String>,
     /// Describe every cycle whose outputs differ, not only the first.
     #[arg(long, conflicts_with = "differences")]
     all_differences: bool,
     /// Describe the first N cycles whose outputs differ.
     #[arg(long, value_name = "N")]
     differences: Option<usize>,
-    /// Write the outputs of both, cycle by cycle, as CSV (columns rec.TAG and new.TAG).
+    /// Write the outputs of both, cycle by cycle, as CSV (columns rec.TAG and new.TAG). With
+    /// several tasks replayed, a file per task: FILE with the task's name before its
+    /// extension (out.csv: out.press.csv, out.panel.csv).
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
     /// Write the outputs of both as a VCD (signals rec.TAG and new.TAG, for GTKWave or
-    /// PulseView).
+    /// PulseView). With several tasks replayed, a file per task, named as the CSV's.
     #[arg(long, value_name = "FILE")]
     vcd: Option<PathBuf>,
+}
+
+/// What ends a replay early: the exit status and the message.
+struct Refusal(String);
+
+/// One record to replay: where it is, and against what.
+struct Target {
+    /// The record's path.
+    path: PathBuf,
+    /// The task, for a project of several tasks.
+    task: Option<String>,
 }
 
 pub(super) fn replay_cmd(args: ReplayArgs) -> anyhow::Result<ExitCode> {
@@ -53,12 +73,136 @@ pub(super) fn replay_cmd(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::from(2));
         }
     };
-    let record = match read_record(&args.record) {
-        Ok(r) => r,
-        Err(e) => {
-            super::out::errln(&format!("error: {e}"));
+    let targets = match targets(&args, &project) {
+        Ok(t) => t,
+        Err(Refusal(why)) => {
+            super::out::errln(&format!("error: {why}"));
             return Ok(ExitCode::from(2));
         }
+    };
+    let several = targets.len() > 1;
+    let mut all_identical = true;
+    let mut unusable = false;
+    let mut verdicts = Vec::new();
+    for target in &targets {
+        let name = target.task.as_deref();
+        match replay_one(&args, &project, target, several)? {
+            Ok(done) => {
+                super::out::out(&for_task(&done.text, done.task.as_deref()))?;
+                all_identical &= done.identical;
+                verdicts.push(done.verdict);
+            }
+            Err(Refusal(why)) => {
+                super::out::errln(&for_task(&format!("error: {why}"), name));
+                unusable = true;
+            }
+        }
+    }
+    if several {
+        super::out::out(&format!(
+            "{} tasks replayed: {}\n",
+            verdicts.len(),
+            verdicts.join("; ")
+        ))?;
+    }
+    Ok(if unusable {
+        ExitCode::from(2)
+    } else if all_identical {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+/// The records `args` names for `project`: the record itself for a project of one task;
+/// for a project of several, each task's folder in the record's folder (the one `--task`
+/// names), or the one task's record the path is.
+fn targets(args: &ReplayArgs, project: &Project) -> Result<Vec<Target>, Refusal> {
+    let names: Vec<&str> = project.tasks.iter().map(|t| t.name.as_str()).collect();
+    if !project.multitask() {
+        if let Some(task) = &args.task {
+            return Err(Refusal(format!(
+                "--task {task}: {} has one task; --task chooses among the tasks of a project \
+                 of several",
+                args.project.display()
+            )));
+        }
+        return Ok(vec![Target {
+            path: args.record.clone(),
+            task: None,
+        }]);
+    }
+    if let Some(task) = &args.task {
+        if !names.contains(&task.as_str()) {
+            return Err(Refusal(format!(
+                "--task {task}: {} has no task {task:?}; its tasks: {}",
+                args.project.display(),
+                names.join(", ")
+            )));
+        }
+    }
+    let folders: Vec<&str> = names
+        .iter()
+        .copied()
+        .filter(|name| args.record.join(name).is_dir())
+        .collect();
+    if folders.is_empty() {
+        // The path is one task's record (its folder, or a segment file): its header names
+        // the task.
+        return Ok(vec![Target {
+            path: args.record.clone(),
+            task: args.task.clone(),
+        }]);
+    }
+    let targets: Vec<Target> = names
+        .iter()
+        .filter(|name| args.task.as_deref().is_none_or(|t| t == **name))
+        .map(|name| Target {
+            path: args.record.join(name),
+            task: Some((*name).to_string()),
+        })
+        .collect();
+    Ok(targets)
+}
+
+/// What replaying one record gave.
+struct Replayed {
+    /// The summary, as printed.
+    text: String,
+    /// Whether every output matched in every cycle.
+    identical: bool,
+    /// One phrase for the last line of several tasks' replay.
+    verdict: String,
+    /// The task replayed, for a project of several tasks.
+    task: Option<String>,
+}
+
+/// Replays `target` against `project` (its task's program and view for a project of several
+/// tasks); `several`: files are named by task. An export that cannot be written is an
+/// error; a record that cannot be used, a refusal.
+fn replay_one(
+    args: &ReplayArgs,
+    project: &Project,
+    target: &Target,
+    several: bool,
+) -> anyhow::Result<Result<Replayed, Refusal>> {
+    let record = match read_record(&target.path) {
+        Ok(r) => r,
+        Err(e) => return Ok(Err(Refusal(e.to_string()))),
+    };
+    let subject = match &target.task {
+        Some(task) => ReplaySubject::task(project, task),
+        None => ReplaySubject::of_record(&record, project),
+    };
+    let cannot = |e: ReplayError| {
+        Refusal(format!(
+            "{} cannot be replayed with {}: {e}",
+            target.path.display(),
+            args.project.display()
+        ))
+    };
+    let subject = match subject {
+        Ok(s) => s,
+        Err(e) => return Ok(Err(cannot(e))),
     };
     let options = ReplayOptions {
         differences: if args.all_differences {
@@ -67,40 +211,71 @@ pub(super) fn replay_cmd(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             args.differences.unwrap_or(1)
         },
     };
+    let task = subject.task_name().filter(|_| several);
+    let named = |p: &Option<PathBuf>| {
+        p.as_ref().map(|p| match task {
+            Some(task) => crate::project::task_view::task_file(p, task),
+            None => p.clone(),
+        })
+    };
+    let scope = subject
+        .task_name()
+        .unwrap_or(project.name.as_str())
+        .to_string();
     // The signals are known once the record's header is: open the exports lazily.
-    let mut exports = Exports::open(&args, &record)?;
+    let mut exports = Exports::open(&record, &scope, named(&args.csv), named(&args.vcd))?;
     let mut export_error = None;
-    let report = replay(&record, &project, options, |c| {
+    let report = replay_subject(&record, &subject, options, |c| {
         if export_error.is_none() {
             export_error = exports.write(c).err();
         }
     });
     let report = match report {
         Ok(r) => r,
-        Err(e) => {
-            super::out::errln(&format!(
-                "error: {} cannot be replayed with {}: {e}",
-                args.record.display(),
-                args.project.display()
-            ));
-            return Ok(ExitCode::from(2));
-        }
+        Err(e) => return Ok(Err(cannot(e))),
     };
     if let Some(e) = export_error {
         return Err(e).context("cannot write the export");
     }
     exports.finish()?;
-    super::out::out(&summary(
-        &args.record,
-        &record,
-        &report,
-        &project.program.path,
-    ))?;
-    Ok(if report.identical() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    })
+    let program = &subject.project().program.path;
+    let text = summary(&target.path, &record, &report, program);
+    let verdict = format!(
+        "{}{} cycles, {}",
+        subject
+            .task_name()
+            .map_or(String::new(), |t| format!("{t} ")),
+        report.cycles,
+        if report.identical() {
+            "identical".to_string()
+        } else {
+            format!("differ in {} cycle(s)", report.differing_cycles.max(1))
+        }
+    );
+    Ok(Ok(Replayed {
+        text,
+        identical: report.identical(),
+        verdict,
+        task: report.task.clone(),
+    }))
+}
+
+/// `text` with each of its lines that is not indented (a detail of the line before) headed
+/// by the task's name, for a project of several tasks.
+fn for_task(text: &str, task: Option<&str>) -> String {
+    let Some(task) = task else {
+        return text.to_string();
+    };
+    let mut out = String::with_capacity(text.len() + 64);
+    for line in text.lines() {
+        if line.starts_with(' ') {
+            out.push_str(line);
+        } else {
+            let _ = write!(out, "task {task}: {line}");
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// The CSV and VCD files asked for.
@@ -111,7 +286,12 @@ struct Exports {
 }
 
 impl Exports {
-    fn open(args: &ReplayArgs, record: &Record) -> anyhow::Result<Self> {
+    fn open(
+        record: &Record,
+        scope: &str,
+        csv: Option<PathBuf>,
+        vcd: Option<PathBuf>,
+    ) -> anyhow::Result<Self> {
         let signals: Vec<Signal> = match record.segments.first() {
             Some(seg) => {
                 let owned = compared(&seg.header);
@@ -130,16 +310,18 @@ impl Exports {
                 .map(BufWriter::new)
                 .with_context(|| format!("cannot create {}", p.display()))
         };
-        let scope = record
-            .segments
-            .first()
-            .map_or("replay", |s| s.header.project.as_str());
-        let csv = match &args.csv {
-            Some(p) => Some((p.clone(), CsvWriter::new(create(p)?, &signals)?)),
+        let csv = match csv {
+            Some(p) => {
+                let w = CsvWriter::new(create(&p)?, &signals)?;
+                Some((p, w))
+            }
             None => None,
         };
-        let vcd = match &args.vcd {
-            Some(p) => Some((p.clone(), VcdWriter::new(create(p)?, scope, &signals)?)),
+        let vcd = match vcd {
+            Some(p) => {
+                let w = VcdWriter::new(create(&p)?, scope, &signals)?;
+                Some((p, w))
+            }
             None => None,
         };
         Ok(Self {

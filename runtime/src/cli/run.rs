@@ -10,7 +10,7 @@ use anyhow::Context;
 
 use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
-use crate::recorder::Settings;
+use crate::recorder::{RecorderHandle, Settings};
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::alarms::AlarmService;
 use crate::service::boundary::ServiceBoundary;
@@ -215,30 +215,47 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     services.let_web_see_the_end();
     super::out::out(&summary(&outcome, period, args.run_for))?;
     if let Some(r) = recorder {
-        let dropped = r.dropped();
-        // The PLC is gone with the scan thread: the writer has its last records.
-        let outcome = r.finish();
-        if let Some(e) = &outcome.error {
-            super::out::errln(e);
-        }
-        if outcome.gaps > 0 {
-            super::out::errln(&format!(
-                "flight recorder: {} cycle(s) not recorded in {} gap(s) (the disk was full); \
-                 replay names them",
-                outcome.lost, outcome.gaps
-            ));
-        }
-        if dropped > 0 {
-            super::out::errln(&format!(
-                "flight recorder: {dropped} cycle record(s) dropped (the disk did not keep \
-                 up); replay reports the gaps"
-            ));
+        for line in recorder_end(None, r) {
+            super::out::errln(&line);
         }
     }
     Ok(match outcome.reason {
         StopReason::Requested | StopReason::TimeUp => ExitCode::SUCCESS,
         _ => ExitCode::from(3),
     })
+}
+
+/// Waits for a recorder's writer once its PLC is gone (the writer then has its last
+/// records) and says what the record misses: its error, its gaps, the records dropped;
+/// `task` names the task whose record it is, for a project of several tasks.
+pub(super) fn recorder_end(task: Option<&str>, recorder: RecorderHandle) -> Vec<String> {
+    let dropped = recorder.dropped();
+    let outcome = recorder.finish();
+    let who = match task {
+        Some(task) => format!("flight recorder, task {task}"),
+        None => "flight recorder".to_string(),
+    };
+    let mut lines = Vec::new();
+    if let Some(e) = &outcome.error {
+        lines.push(match task {
+            Some(task) => format!("task {task}: {e}"),
+            None => e.clone(),
+        });
+    }
+    if outcome.gaps > 0 {
+        lines.push(format!(
+            "{who}: {} cycle(s) not recorded in {} gap(s) (the disk was full); replay names \
+             them",
+            outcome.lost, outcome.gaps
+        ));
+    }
+    if dropped > 0 {
+        lines.push(format!(
+            "{who}: {dropped} cycle record(s) dropped (the disk did not keep up); replay \
+             reports the gaps"
+        ));
+    }
+    lines
 }
 
 /// Starts the alarm thread on its share of `feed`, with its history beside the project; a

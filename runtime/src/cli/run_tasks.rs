@@ -19,21 +19,19 @@ use crate::service::notify::Notifier;
 use crate::service::web::WebServer;
 use crate::service::{Health, TaskStatus};
 
+use super::task_record::TaskRecording;
+
 use super::plant_services::PlantServices;
 use super::run::RunArgs;
 
 /// What a run of several tasks does not offer yet, said before anything starts.
 fn unsupported(project: &Project, args: &RunArgs) -> Option<String> {
-    let what = if project.recorder.is_some() || args.record.is_some() {
-        "the flight recorder"
-    } else if args.keep_forces {
-        "--keep-forces"
-    } else {
+    if !args.keep_forces {
         return None;
-    };
+    }
     Some(format!(
-        "{}: {what} is not offered for a project of several tasks yet; run it without, or \
-         with one task (`scan:` and `program:`)",
+        "{}: --keep-forces is not offered for a project of several tasks yet; run it without, \
+         or with one task (`scan:` and `program:`)",
         project.source.display()
     ))
 }
@@ -55,6 +53,10 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let tap = trace.as_ref().map(|(tap, _)| tap.clone() as _);
     let health = Health::new();
     let audit = super::run::start_audit(&args.project, &health);
+    let recording = TaskRecording::prepare(&project, &args)?;
+    if let Some(r) = &recording {
+        health.watch_task_recorders(r.recorders.clone());
+    }
     let builder = TaskBuilder::new(&project, clock.clone(), tap).context("cannot start the PLC")?;
     // The services live on the first task's boundary: its image holds every tag (it copies
     // every tag another task owns at its cycle's start), and their writes reach the owning
@@ -165,7 +167,8 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         let control = control.clone();
         let (run_for, statuses, health) = (args.run_for, statuses.clone(), health.clone());
         let web_server = web_server.clone();
-        move |i: usize, plc: TaskPlc, boundary: ServiceBoundary| {
+        let recording = recording.clone();
+        move |i: usize, mut plc: TaskPlc, boundary: ServiceBoundary| {
             if let Some(r) = plc.plc.retainer() {
                 health.watch_retain(r.save_failure());
             }
@@ -178,6 +181,10 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
                 if let Ok(mut slot) = web_server.lock() {
                     *slot = web;
                 }
+            }
+            // Last before its first cycle: the record's first keyframe is the state it sees.
+            if let Some(r) = &recording {
+                r.start(i, &mut plc);
             }
             let mut engine = control
                 .engine(plc)
@@ -212,6 +219,11 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     }
     services.let_web_see_the_end();
     super::out::out(&summary(&outcomes, &project, args.run_for))?;
+    if let Some(r) = recording {
+        for line in r.finish() {
+            super::out::errln(&line);
+        }
+    }
     let faulted = outcomes
         .iter()
         .any(|o| !matches!(o.outcome.reason, StopReason::Requested | StopReason::TimeUp));

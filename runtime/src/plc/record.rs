@@ -7,7 +7,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use crate::image::TagId;
 use crate::recorder::format::{self, Event, Header, Keyframe};
-use crate::recorder::replay::tag_table;
+use crate::recorder::replay::{program_identity, tag_table};
 use crate::recorder::tap::{Tap, TapCounters};
 use crate::recorder::{writer, Disk, FileDisk, RecorderHandle, Settings};
 
@@ -42,8 +42,9 @@ impl Plc {
             folder: folder.clone(),
             source,
         };
-        let program = std::fs::read(&self.project.program.path).map_err(fail)?;
+        let (program_hash, program_file) = program_identity(&self.project).map_err(fail)?;
         let project_file = std::fs::read(&self.project.source).map_err(fail)?;
+        let copied = self.task.as_ref().map_or(&[][..], |t| t.foreign.as_slice());
         let now = self.clock.now();
         let wall = SystemTime::now()
             .duration_since(UNIX_EPOCH)
@@ -52,15 +53,26 @@ impl Plc {
         let header = Header {
             project: self.project.name.clone(),
             project_hash: format::digest(&project_file),
-            program_hash: format::digest(&program),
-            program_file: self.project.program.path.display().to_string(),
+            program_hash,
+            program_file,
             period: self.project.scan.period,
             virtual_clock: self.clock.is_virtual(),
             run_id,
             wall_origin: u64::try_from(wall.saturating_sub(now.since_origin()).as_nanos())
                 .unwrap_or(0),
             segment: 0,
-            tags: tag_table(&self.project, |id| self.plan.is_pushed(id)),
+            // A task's record holds what it copied in from the others as inputs, so its
+            // replay needs no other task.
+            tags: tag_table(
+                &self.project,
+                |id| self.plan.is_pushed(id),
+                |id| copied.contains(&id),
+            ),
+            task: self
+                .task
+                .as_ref()
+                .and_then(|_| self.project.tasks.first())
+                .map(|t| t.name.clone()),
         };
         let keyframe = Keyframe {
             next_cycle: 1,

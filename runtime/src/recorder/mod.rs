@@ -21,7 +21,8 @@ pub(crate) mod writer;
 
 pub use reader::{read_record, FileError, Record, RecordError, Segment, SegmentError, Torn};
 pub use replay::{
-    replay, CycleOutputs, Difference, ReplayError, ReplayOptions, ReplayReport, TagDifference,
+    replay, replay_subject, CycleOutputs, Difference, ReplayError, ReplayOptions, ReplayReport,
+    ReplaySubject, TagDifference,
 };
 pub use tap::Tap;
 pub use writer::{

@@ -275,6 +275,7 @@ mod tests {
             wall_origin: 0,
             segment: 0,
             tags: vec![],
+            task: None,
         };
         let keyframe = Keyframe {
             next_cycle: 5,

@@ -96,6 +96,8 @@ pub struct CycleOutputs<'a> {
 pub struct ReplayReport {
     /// The recorded project's name.
     pub project: String,
+    /// The task replayed, for a project of several tasks.
+    pub task: Option<String>,
     /// Cycles replayed.
     pub cycles: u64,
     /// Scan time they cover.
@@ -165,20 +167,61 @@ pub enum ReplayError {
     /// The project's program does not compile.
     #[error("{0}")]
     Program(String),
+    /// A record of one task, replayed against a project of several tasks.
+    #[error(
+        "the record is of a project of one task, the project has the tasks {tasks}: replay \
+         each task's record (the folder TASK in the record's folder)"
+    )]
+    NotATask {
+        /// The project's tasks, listed.
+        tasks: String,
+    },
+    /// A task's record, replayed against a project of one task.
+    #[error(
+        "the record is of task {task} of a project of several tasks, the project has one task"
+    )]
+    OneTask {
+        /// The record's task.
+        task: String,
+    },
+    /// A task the project does not have.
+    #[error("the project has no task {task:?}; its tasks: {tasks}")]
+    UnknownTask {
+        /// The task asked for.
+        task: String,
+        /// The project's tasks, listed.
+        tasks: String,
+    },
+    /// A record of another task than the one asked for.
+    #[error("the record is of task {record}, not of task {asked}")]
+    OtherTask {
+        /// The record's task.
+        record: String,
+        /// The task asked for.
+        asked: String,
+    },
 }
 
-/// The role of each of `project`'s tags, given which outputs are pushed down.
-pub(crate) fn tag_table(project: &Project, pushed: impl Fn(TagId) -> bool) -> Vec<TagInfo> {
+/// The role of each of `project`'s tags, given which outputs are pushed down and which tags
+/// another task owns (`copied`: the task copies them in at its cycle's start, so to its record
+/// and its replay they are inputs, whatever they are to the task owning them).
+pub(crate) fn tag_table(
+    project: &Project,
+    pushed: impl Fn(TagId) -> bool,
+    copied: impl Fn(TagId) -> bool,
+) -> Vec<TagInfo> {
     project
         .tags
         .iter()
         .enumerate()
         .map(|(i, t)| {
+            let id = TagId(i as u32);
             let role = match t.binding {
+                _ if copied(id) => TagRole::Input,
                 Binding::Memory => TagRole::Memory,
                 Binding::Point { module, point } => {
                     match project.modules[module].model.points[point].access {
-                        Access::Output if pushed(TagId(i as u32)) => TagRole::Pushed,
+                        Access::Output if pushed(id) => TagRole::Pushed,
                         Access::Output => TagRole::Output,
                         Access::Input | Access::ReadWrite => TagRole::Input,
                     }
@@ -193,6 +236,15 @@ pub(crate) fn tag_table(project: &Project, pushed: impl Fn(TagId) -> bool) -> Ve
         .collect()
 }
 
+/// The program a record names and replay compares: the digest of its source and its file as
+/// the project names it. The one place that asks a project (or a task's view) for its
+/// program, for the recorder's header and for replay alike.
+pub(crate) fn program_identity(project: &Project) -> std::io::Result<(Digest, String)> {
+    let path = &project.program.path;
+    let source = std::fs::read(path)?;
+    Ok((format::digest(&source), path.display().to_string()))
+}
+
 /// The tags replay compares (outputs and memory tags: what the program computes), in tag
 /// order.
 pub(crate) fn compared(header: &Header) -> Vec<TagInfo> {
@@ -204,15 +256,119 @@ pub(crate) fn compared(header: &Header) -> Vec<TagInfo> {
         .collect()
 }
 
-/// Checks that `header`'s project is `project` but for its program.
-pub(crate) fn check_compatible(header: &Header, project: &Project) -> Result<(), ReplayError> {
+/// What a record is replayed against: a project of one task, or one task of a project of
+/// several (that task's view of the project, and the tags it copies in from the others,
+/// which its record holds as inputs).
+#[derive(Debug, Clone)]
+pub struct ReplaySubject {
+    /// The project, or the task's view of it.
+    project: Project,
+    /// The task, for a project of several tasks.
+    task: Option<String>,
+    /// Per tag: copied in from another task.
+    copied: Vec<bool>,
+    /// The project's tasks, listed (for a project of several tasks).
+    tasks: String,
+}
+
+impl ReplaySubject {
+    /// A project of one task.
+    fn whole(project: &Project) -> Self {
+        Self {
+            project: project.clone(),
+            task: None,
+            copied: vec![false; project.tags.len()],
+            tasks: String::new(),
+        }
+    }
+
+    /// Task `name` of `project` (a project of several tasks): its view of the project, the
+    /// tags it copies in as every task's program says (the programs are compiled to know).
+    pub fn task(project: &Project, name: &str) -> Result<Self, ReplayError> {
+        let Some(i) = project.tasks.iter().position(|t| t.name == name) else {
+            return Err(ReplayError::UnknownTask {
+                task: name.to_string(),
+                tasks: task_list(project),
+            });
+        };
+        let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
+        let (_, ownership) =
+            load::load_tasks(project, &image).map_err(|e| ReplayError::Program(e.to_string()))?;
+        let owner = |t: usize| ownership.owner(TagId(t as u32));
+        Ok(Self {
+            project: project.task_view(i, |t| owner(t) == Some(i)),
+            task: Some(name.to_string()),
+            copied: (0..project.tags.len())
+                .map(|t| owner(t).is_some_and(|o| o != i))
+                .collect(),
+            tasks: task_list(project),
+        })
+    }
+
+    /// What `record` is replayed against in `project`: the project itself when it has one
+    /// task, else the task the record's header names.
+    pub fn of_record(record: &Record, project: &Project) -> Result<Self, ReplayError> {
+        if !project.multitask() {
+            return Ok(Self::whole(project));
+        }
+        let header = &record.segments.first().ok_or(ReplayError::Empty)?.header;
+        match &header.task {
+            Some(task) => Self::task(project, task),
+            None => Err(ReplayError::NotATask {
+                tasks: task_list(project),
+            }),
+        }
+    }
+
+    /// The task's name, for a project of several tasks.
+    pub fn task_name(&self) -> Option<&str> {
+        self.task.as_deref()
+    }
+
+    /// The project, or the task's view of it.
+    pub fn project(&self) -> &Project {
+        &self.project
+    }
+}
+
+/// The project's tasks, as an error lists them.
+fn task_list(project: &Project) -> String {
+    project
+        .tasks
+        .iter()
+        .map(|t| t.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Checks that `header` is a record of `subject` but for its program.
+pub(crate) fn check_compatible(
+    header: &Header,
+    subject: &ReplaySubject,
+) -> Result<(), ReplayError> {
+    let project = &subject.project;
     if header.project != project.name {
         return Err(ReplayError::Project {
             record: header.project.clone(),
             project: project.name.clone(),
         });
     }
-    let ours = tag_table(project, |_| false);
+    match (&header.task, &subject.task) {
+        (Some(record), Some(asked)) if record != asked => {
+            return Err(ReplayError::OtherTask {
+                record: record.clone(),
+                asked: asked.clone(),
+            })
+        }
+        (Some(task), None) => return Err(ReplayError::OneTask { task: task.clone() }),
+        (None, Some(_)) => {
+            return Err(ReplayError::NotATask {
+                tasks: subject.tasks.clone(),
+            })
+        }
+        _ => {}
+    }
+    let ours = tag_table(project, |_| false, |id| subject.copied[id.index()]);
     if ours.len() != header.tags.len() {
         return Err(ReplayError::TagCount {
             record: header.tags.len(),
@@ -240,13 +396,26 @@ pub(crate) fn check_compatible(header: &Header, project: &Project) -> Result<(),
     Ok(())
 }
 
-/// Replays `record` against `project`'s program; `sink` gets every cycle's compared values.
+/// Replays `record` against `project`'s program (for a project of several tasks, the program
+/// of the task the record is of); `sink` gets every cycle's compared values.
 pub fn replay(
     record: &Record,
     project: &Project,
     options: ReplayOptions,
+    sink: impl FnMut(CycleOutputs<'_>),
+) -> Result<ReplayReport, ReplayError> {
+    let subject = ReplaySubject::of_record(record, project)?;
+    replay_subject(record, &subject, options, sink)
+}
+
+/// Replays `record` against `subject`: a project of one task, or one task of several.
+pub fn replay_subject(
+    record: &Record,
+    subject: &ReplaySubject,
+    options: ReplayOptions,
     mut sink: impl FnMut(CycleOutputs<'_>),
 ) -> Result<ReplayReport, ReplayError> {
+    let project = &subject.project;
     let parts = record.parts();
     let first = parts
         .first()
@@ -254,19 +423,21 @@ pub fn replay(
         .filter(|_| record.cycles().next().is_some())
         .ok_or(ReplayError::Empty)?;
     for seg in &record.segments {
-        check_compatible(&seg.header, project)?;
+        check_compatible(&seg.header, subject)?;
     }
-    let program = std::fs::read(&project.program.path).unwrap_or_default();
+    let replayed_program =
+        program_identity(project).map_or_else(|_| format::digest(&[]), |(digest, _)| digest);
     let project_file = std::fs::read(&project.source).unwrap_or_default();
     let mut report = ReplayReport {
         project: first.header.project.clone(),
+        task: subject.task.clone(),
         cycles: 0,
         plant_time: Duration::ZERO,
         compared: compared(&first.header),
         differing_cycles: 0,
         differences: Vec::new(),
         recorded_program: first.header.program_hash,
-        replayed_program: format::digest(&program),
+        replayed_program,
         project_file_differs: first.header.project_hash != format::digest(&project_file),
         fault: None,
         recorded_fault: None,

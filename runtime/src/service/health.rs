@@ -130,6 +130,80 @@ impl std::fmt::Display for ServiceReport {
     }
 }
 
+/// What a writer's state says of the recorder service.
+fn writer_state(state: &WriterState) -> ServiceState {
+    match state {
+        WriterState::Writing => ServiceState::Running,
+        WriterState::Held {
+            reason,
+            held_bytes,
+            losing,
+        } => ServiceState::Degraded(format!(
+            "cannot write ({reason}); {} held in memory{}",
+            Bytes(*held_bytes as u64),
+            if *losing {
+                ", more lost: the record will have a gap"
+            } else {
+                ", retrying"
+            }
+        )),
+        WriterState::Stopped { reason } => {
+            ServiceState::Stopped(format!("cannot write ({reason})"))
+        }
+    }
+}
+
+/// Every task's recorder writer, by task, as each task starts its own (see
+/// [`Health::watch_task_recorders`]); cloned handles share the list.
+#[derive(Debug, Clone, Default)]
+pub struct TaskRecorders(Arc<Mutex<Vec<TaskWriter>>>);
+
+/// A task's name and its writer's state.
+type TaskWriter = (String, Arc<Mutex<WriterState>>);
+
+impl TaskRecorders {
+    /// An empty list.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Task `task` records through the writer whose state is `writer`.
+    pub fn add(&self, task: &str, writer: Arc<Mutex<WriterState>>) {
+        self.0
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push((task.to_string(), writer));
+    }
+
+    /// The recorder service's state over every task's writer.
+    fn state(&self) -> ServiceState {
+        let writers = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        let states: Vec<(&str, ServiceState)> = writers
+            .iter()
+            .map(|(task, w)| {
+                let state = writer_state(&w.lock().unwrap_or_else(PoisonError::into_inner));
+                (task.as_str(), state)
+            })
+            .collect();
+        let failing: Vec<String> = states
+            .iter()
+            .filter_map(|(task, s)| Some(format!("task {task}: {}", s.reason()?)))
+            .collect();
+        if failing.is_empty() {
+            return ServiceState::Running;
+        }
+        let reason = failing.join("; ");
+        let all_stopped = states
+            .iter()
+            .all(|(_, s)| matches!(s, ServiceState::Stopped(_)));
+        if all_stopped {
+            ServiceState::Stopped(reason)
+        } else {
+            ServiceState::Degraded(reason)
+        }
+    }
+}
+
 /// A service whose state is read when a report is made.
 type Probe = Box<dyn Fn() -> ServiceState + Send + Sync>;
 
@@ -177,28 +251,17 @@ impl Health {
     /// or losing some), stopped when the record ended before the run.
     pub fn watch_recorder(&self, writer: Arc<Mutex<WriterState>>) {
         self.watch(Service::Recorder, move || {
-            match &*writer.lock().unwrap_or_else(PoisonError::into_inner) {
-                WriterState::Writing => ServiceState::Running,
-                WriterState::Held {
-                    reason,
-                    held_bytes,
-                    losing,
-                } => ServiceState::Degraded(format!(
-                    "cannot write ({reason}); {} held in memory{}",
-                    Bytes(*held_bytes as u64),
-                    if *losing {
-                        ", more lost: the record will have a gap"
-                    } else {
-                        ", retrying"
-                    }
-                )),
-                WriterState::Stopped { reason } => {
-                    ServiceState::Stopped(format!("cannot write ({reason})"))
-                }
-            }
+            writer_state(&writer.lock().unwrap_or_else(PoisonError::into_inner))
         });
     }
 
+    /// The recorder of a project of several tasks: every task's writer, as one service.
+    /// Running while every task records; stopped when no task does; degraded otherwise. The
+    /// reason names each task whose recorder is not running, so an operator knows which
+    /// task's record has a hole while the others' go on.
+    pub fn watch_task_recorders(&self, recorders: TaskRecorders) {
+        self.watch(Service::Recorder, move || recorders.state());
+    }
     /// The retained values' state: degraded while saving fails.
     pub fn watch_retain(&self, failure: SaveFailure) {
         self.watch(Service::Retain, move || {
@@ -291,5 +354,44 @@ mod tests {
             json,
             r#"{"service":"opcua","state":"stopped","reason":"no certificate"}"#
         );
+    }
+
+    #[test]
+    fn the_recorder_of_several_tasks_names_each_failing_task() {
+        let health = Health::new();
+        let recorders = TaskRecorders::new();
+        let fast = Arc::new(Mutex::new(WriterState::Writing));
+        let slow = Arc::new(Mutex::new(WriterState::Writing));
+        recorders.add("fast", fast.clone());
+        recorders.add("slow", slow.clone());
+        health.watch_task_recorders(recorders);
+        assert_eq!(health.state(Service::Recorder), ServiceState::Running);
+        *slow.lock().unwrap() = WriterState::Stopped {
+            reason: "Read-only file system (os error 30)".into(),
+        };
+        assert_eq!(
+            health.state(Service::Recorder),
+            ServiceState::Degraded(
+                "task slow: cannot write (Read-only file system (os error 30))".into()
+            ),
+            "the fast task still records"
+        );
+        *fast.lock().unwrap() = WriterState::Held {
+            reason: "No space left on device (os error 28)".into(),
+            held_bytes: 1024,
+            losing: false,
+        };
+        assert_eq!(
+            health.state(Service::Recorder).reason(),
+            Some(
+                "task fast: cannot write (No space left on device (os error 28)); 1 KiB held \
+                 in memory, retrying; task slow: cannot write (Read-only file system (os \
+                 error 30))"
+            )
+        );
+        *fast.lock().unwrap() = WriterState::Stopped {
+            reason: "gone".into(),
+        };
+        assert_eq!(health.state(Service::Recorder).word(), "stopped");
     }
 }

@@ -166,6 +166,8 @@ impl<'a> Dec<'a> {
             })?;
             tags.push(TagInfo { name, ty, role });
         }
+        // A record of one task (and every record written before tasks) ends here.
+        let task = if self.done() { None } else { Some(self.str()?) };
         Ok(Header {
             project,
             project_hash,
@@ -177,6 +179,7 @@ impl<'a> Dec<'a> {
             wall_origin,
             segment,
             tags,
+            task,
         })
     }
 

@@ -91,6 +91,9 @@ impl Enc {
             e.u8(type_code(t.ty));
             e.u8(t.role as u8);
         }
+        if let Some(task) = &h.task {
+            e.str(task);
+        }
         e.0
     }
 

@@ -15,6 +15,10 @@
 //!                        the last missing; only right after a segment's keyframe
 //! ```
 //!
+//! The header ends with the task's name when the project has several tasks (each task records
+//! its own cycles in a record of its own); a header without it is a record of one task, as
+//! every record written before tasks is. A reader that does not know the field ignores it.
+//!
 //! A segment opens with a header and a keyframe, written together (with a gap block when the
 //! cycles before it could not be written); cycle blocks follow. A reader of a version without
 //! the gap block stops at it as at a torn tail, which loses nothing before it. A
@@ -183,6 +187,10 @@ pub struct Header {
     pub segment: u32,
     /// Every tag, in project order.
     pub tags: Vec<TagInfo>,
+    /// The task recorded, for a project of several tasks (each task records its own cycles);
+    /// `None` for a project of one task. Written after the tag table only when present, so a
+    /// record of one task is as before and a record written before tasks still reads.
+    pub task: Option<String>,
 }
 
 /// The whole state at a segment's start.

@@ -30,6 +30,7 @@ fn header() -> Header {
                 role: TagRole::Memory,
             },
         ],
+        task: None,
     }
 }
 
@@ -78,6 +79,21 @@ fn values_encode_compactly_and_round_trip() {
     assert_eq!(d.value(), Ok((Value::I32(-3), Quality::Bad)));
     assert_eq!(d.value(), Ok((Value::F32(1.5), Quality::Good)));
     assert!(d.done());
+}
+
+#[test]
+fn a_tasks_header_names_it_after_the_tag_table_and_a_header_of_one_task_is_unchanged() {
+    let one = Enc::header(&header());
+    let task = Header {
+        task: Some("fast".into()),
+        ..header()
+    };
+    let named = Enc::header(&task);
+    // The name comes last, as a string: a reader without the field reads the rest alike.
+    assert_eq!(named[..one.len()], one[..]);
+    assert_eq!(named[one.len()..], [4, b'f', b'a', b's', b't']);
+    assert_eq!(Dec::new(&named).header(), Ok(task));
+    assert_eq!(Dec::new(&one).header().map(|h| h.task), Ok(None));
 }
 
 #[test]

@@ -101,6 +101,21 @@ impl Settings {
         };
         Some(Self::new(config.folder, config.keep, config.size))
     }
+
+    /// Task `task`'s record, one of `tasks` a project of several tasks keeps: a folder of its
+    /// own in the record's folder (`FOLDER/TASK`), the same `keep` (each task keeps at least
+    /// that much of its own cycles) and an equal share of the size bound, so the whole record
+    /// stays within the bound the project sets. Why not one record for every task: each task
+    /// counts its own cycles on its own thread, and a record per task replays on its own.
+    pub fn for_task(&self, task: &str, tasks: usize) -> Self {
+        let share = self.max_bytes / tasks.max(1) as u64;
+        Self {
+            block_bytes: self.block_bytes,
+            block_time: self.block_time,
+            channel: self.channel,
+            ..Self::new(self.folder.join(task), self.keep, share)
+        }
+    }
 }
 
 /// What the writer did, when it ends.

@@ -40,6 +40,7 @@ fn header() -> Header {
             ty: ValueType::I32,
             role: TagRole::Memory,
         }],
+        task: None,
     }
 }
 

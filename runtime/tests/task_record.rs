@@ -1,0 +1,349 @@
+//! The flight recorder and replay with several tasks (virtual clocks): `softplc run --record`
+//! writes a record per task in the record's folder, each task's record names its task and
+//! holds what the task copied in from the other, so `softplc replay` replays each task alone
+//! with the cycles the run had and no difference; a program changed in one task differs in
+//! that task only, naming it; a task whose disk fails is named in the recorder's state while
+//! the other task records on.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use softplc::plc::Plc;
+use softplc::project::load;
+use softplc::recorder::format::TagRole;
+use softplc::recorder::{
+    read_record, replay, Disk, FaultDisk, FileDisk, Record, ReplayError, ReplayOptions, Settings,
+};
+use softplc::scan::TaskSet;
+use softplc::service::{Health, Service, ServiceState, TaskRecorders};
+use softplc_io::point::Value;
+
+use crate::common::host::softplc_in;
+use crate::common::scratch::Scratch;
+
+/// Two tasks on two lines: the slow one counts its cycles into `ticks`, the fast one copies
+/// `ticks` in at its cycles' starts and computes `scaled` from it, which the slow one copies
+/// in to drive its lamp. Each task's outputs depend on what it copied in from the other.
+const PROJECT: &str = "\
+project: counted
+tasks:
+  - name: fast
+    period: 20ms
+    program: { file: fast.rhai, kind: rhai }
+    buses: [fast_line]
+  - name: slow
+    period: 100ms
+    program: { file: slow.rhai, kind: rhai }
+    buses: [slow_line]
+buses:
+  - { name: fast_line, port: sim, baud: 57600, response_timeout: 20ms }
+  - { name: slow_line, port: sim, baud: 57600, response_timeout: 20ms }
+modules:
+  - { name: a, bus: fast_line, model: minimod, address: 1 }
+  - { name: b, bus: slow_line, model: minimod, address: 1 }
+tags:
+  - { name: beat, point: a.Y1, safe: false }
+  - { name: scaled, type: i32 }
+  - { name: ticks, type: i32 }
+  - { name: lamp, point: b.Y1, safe: false }
+";
+
+const FAST: &str = "scaled = ticks * 10;\nbeat = ticks % 2 == 0;\n";
+const SLOW: &str = "ticks += 1;\nlamp = scaled % 20 == 10;\n";
+
+fn project(case: &str) -> (Scratch, PathBuf) {
+    let scratch = Scratch::new("task-record", case);
+    scratch.write("fast.rhai", FAST);
+    scratch.write("slow.rhai", SLOW);
+    let path = scratch.write("project.yaml", PROJECT);
+    (scratch, path)
+}
+
+/// `softplc run --virtual --for RUN_FOR --record 1m` of the project in `dir`.
+fn run_recorded(dir: &Path, run_for: &str) -> (bool, String) {
+    softplc_in(
+        dir,
+        &[
+            "run",
+            "project.yaml",
+            "--virtual",
+            "--for",
+            run_for,
+            "--record",
+            "1m",
+            "--no-socket",
+            "--quiet",
+        ],
+    )
+}
+
+/// A run of 5 s, recorded; its output.
+fn run_5s(dir: &Path) -> String {
+    let (ok, out) = run_recorded(dir, "5s");
+    assert!(ok, "the run succeeds: {out}");
+    out
+}
+
+/// `softplc replay project.yaml.record project.yaml MORE` in `dir`.
+fn replay_cli(dir: &Path, more: &[&str]) -> (bool, String) {
+    let args = [&["replay", "project.yaml.record", "project.yaml"][..], more].concat();
+    softplc_in(dir, &args)
+}
+
+/// The cycles the run's summary gives task `task`.
+fn scans(out: &str, task: &str) -> u64 {
+    let section = out
+        .split_once(&format!("task {task}:\n"))
+        .unwrap_or_else(|| panic!("task {task} in the summary: {out}"))
+        .1;
+    section
+        .split_whitespace()
+        .skip_while(|w| *w != "scans")
+        .nth(1)
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("task {task}'s scans: {out}"))
+}
+
+/// The number of tag `name` in `record`'s tag table.
+fn tag_number(record: &Record, name: &str) -> u32 {
+    let tags = &record.segments[0].header.tags;
+    tags.iter().position(|t| t.name == name).expect("the tag") as u32
+}
+
+#[test]
+fn each_task_records_its_own_cycles_and_replays_alone_with_no_difference() {
+    let (scratch, path) = project("replay");
+    let out = run_5s(&scratch.dir);
+    let folder = scratch.dir.join("project.yaml.record");
+    let whole = load(&path).expect("the project");
+    for task in ["fast", "slow"] {
+        let record = read_record(&folder.join(task)).expect("the task's record");
+        let header = &record.segments[0].header;
+        assert_eq!(header.task.as_deref(), Some(task));
+        // What a task copies in is an input of its record; what it writes, compared.
+        let role = |tag: &str| {
+            header
+                .tags
+                .iter()
+                .find(|t| t.name == tag)
+                .map(|t| t.role)
+                .expect("the tag")
+        };
+        let (own, copied) = match task {
+            "fast" => ("scaled", "ticks"),
+            _ => ("ticks", "scaled"),
+        };
+        assert_eq!(role(copied), TagRole::Input, "{task} copies {copied} in");
+        assert_eq!(role(own), TagRole::Memory, "{task} computes {own}");
+        // Cycle N is the task's N-th scan, every one recorded.
+        let cycles: Vec<u64> = record.cycles().map(|c| c.cycle).collect();
+        let ran = scans(&out, task);
+        assert!(ran > 10, "{task} ran: {out}");
+        assert_eq!(cycles, (1..=ran).collect::<Vec<_>>(), "{task}");
+        // The library's replay takes the task from the record.
+        let report = replay(&record, &whole, ReplayOptions::default(), |_| {}).expect("replays");
+        assert_eq!(report.task.as_deref(), Some(task));
+        assert!(report.identical(), "{task}: {report:?}");
+        assert_eq!(report.cycles, ran);
+    }
+    // The copied-in values changed during the run: replay had something to get right.
+    let fast = read_record(&folder.join("fast")).expect("fast's record");
+    let ticks = tag_number(&fast, "ticks");
+    let seen: Vec<Value> = fast
+        .cycles()
+        .flat_map(|c| c.seen.iter().filter(|s| s.tag == ticks).map(|s| s.value))
+        .collect();
+    assert!(seen.len() > 10, "fast saw ticks change: {seen:?}");
+
+    let (ok, text) = replay_cli(&scratch.dir, &[]);
+    assert!(ok, "{text}");
+    for task in ["fast", "slow"] {
+        let line = format!(
+            "task {task}: {} cycles, 5.00s of plant time, outputs identical",
+            scans(&out, task)
+        );
+        assert!(text.contains(&line), "{line}\nin\n{text}");
+    }
+    assert!(text.contains("2 tasks replayed: fast "), "{text}");
+
+    // One task, asked for by name, into a CSV that names it.
+    let (ok, text) = replay_cli(&scratch.dir, &["--task", "slow", "--csv", "slow.csv"]);
+    assert!(ok, "{text}");
+    assert!(!text.contains("task fast"), "{text}");
+    let csv = std::fs::read_to_string(scratch.dir.join("slow.csv")).expect("the CSV");
+    assert!(
+        csv.starts_with("time_s,cycle,rec.ticks [i32],rec.lamp [bool],new.ticks"),
+        "{csv}"
+    );
+    assert_eq!(csv.lines().count() as u64, scans(&out, "slow") + 1);
+    // Every task, a CSV each.
+    let (ok, text) = replay_cli(&scratch.dir, &["--csv", "out.csv"]);
+    assert!(ok, "{text}");
+    for task in ["fast", "slow"] {
+        let csv = std::fs::read_to_string(scratch.dir.join(format!("out.{task}.csv")))
+            .expect("a CSV per task");
+        assert_eq!(csv.lines().count() as u64, scans(&out, task) + 1);
+    }
+
+    // An unknown task is refused, listing the tasks.
+    let (ok, text) = replay_cli(&scratch.dir, &["--task", "medium"]);
+    assert!(!ok);
+    assert!(
+        text.contains("--task medium: project.yaml has no task \"medium\"; its tasks: fast, slow"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_program_changed_in_one_task_differs_in_that_task_only() {
+    let (scratch, path) = project("changed");
+    let out = run_5s(&scratch.dir);
+    scratch.write(
+        "fast.rhai",
+        "scaled = ticks * 11;\nbeat = ticks % 2 == 0;\n",
+    );
+    let folder = scratch.dir.join("project.yaml.record");
+    // The first cycle of fast in which it copied in a count other than 0: there its new
+    // program computes another `scaled`.
+    let fast = read_record(&folder.join("fast")).expect("fast's record");
+    let ticks = tag_number(&fast, "ticks");
+    let (cycle, count) = fast
+        .cycles()
+        .find_map(|c| {
+            c.seen
+                .iter()
+                .find(|s| s.tag == ticks && s.value != Value::I32(0))
+                .map(|s| (c.cycle, s.value))
+        })
+        .expect("fast copied a count in");
+    let Value::I32(count) = count else {
+        panic!("ticks is an i32: {count:?}")
+    };
+
+    let (ok, text) = replay_cli(&scratch.dir, &[]);
+    assert!(!ok, "the outputs differ: {text}");
+    let first = format!("task fast: first difference at cycle {cycle} (t=");
+    assert!(text.contains(&first), "{first}\nin\n{text}");
+    let tag = format!("  scaled  recorded {}  replayed {}", count * 10, count * 11);
+    assert!(text.contains(&tag), "{tag}\nin\n{text}");
+    assert!(
+        text.contains(&format!(
+            "task slow: {} cycles, 5.00s of plant time, outputs identical",
+            scans(&out, "slow")
+        )),
+        "the slow task's record holds what it copied in: {text}"
+    );
+    assert!(!text.contains("task slow: first difference"), "{text}");
+
+    // A task's record replayed as another task is refused, naming both.
+    let whole = load(&path).expect("the project");
+    let slow = read_record(&folder.join("slow")).expect("slow's record");
+    let subject = softplc::recorder::ReplaySubject::task(&whole, "fast").expect("fast");
+    let err = softplc::recorder::replay_subject(&slow, &subject, ReplayOptions::default(), |_| {})
+        .expect_err("another task's record");
+    assert_eq!(
+        err,
+        ReplayError::OtherTask {
+            record: "slow".into(),
+            asked: "fast".into()
+        }
+    );
+}
+
+/// Polls `health`'s recorder state until `done` says so, for at most 20 s (the writer runs
+/// on a thread of its own).
+fn wait_for(health: &Health, done: impl Fn(&ServiceState) -> bool) -> ServiceState {
+    let start = Instant::now();
+    loop {
+        let state = health.state(Service::Recorder);
+        if done(&state) || start.elapsed() > Duration::from_secs(20) {
+            return state;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_task_whose_disk_fails_is_named_while_the_other_task_records_on() {
+    let (scratch, path) = project("disk");
+    let whole = load(&path).expect("the project");
+    let mut tasks = Plc::build_tasks(&whole, None, None).expect("builds");
+    let settings = Settings::new(
+        scratch.dir.join("project.yaml.record"),
+        Duration::from_secs(60),
+        8 << 20,
+    );
+    let health = Health::new();
+    let recorders = TaskRecorders::new();
+    let mut handles = Vec::new();
+    let mut full = None;
+    for task in &mut tasks {
+        let s = settings.for_task(&task.name, 2);
+        let disk: Box<dyn Disk> = if task.name == "slow" {
+            let disk = FaultDisk::new(&s.folder, 1 << 30);
+            disk.full_switch()
+                .store(true, std::sync::atomic::Ordering::SeqCst);
+            full = Some(disk.clone());
+            Box::new(disk)
+        } else {
+            Box::new(FileDisk)
+        };
+        let handle = task.plc.record_on(s, disk).expect("the recorder starts");
+        recorders.add(&task.name, handle.state_cell());
+        handles.push((task.name.clone(), handle));
+    }
+    health.watch_task_recorders(recorders);
+    let cycles: Arc<Mutex<Vec<u64>>> = Arc::new(Mutex::new(vec![0, 0]));
+    let outcomes = TaskSet::new(tasks)
+        .configure(|i, engine| {
+            let cycles = cycles.clone();
+            engine
+                .run_for(Duration::from_secs(5))
+                .on_cycle(Box::new(move |_, ctx| {
+                    cycles.lock().expect("cycles")[i] = ctx.cycle;
+                }))
+        })
+        .run_virtual();
+    assert_eq!(outcomes.len(), 2);
+    let state = wait_for(&health, |s| *s != ServiceState::Running);
+    let reason = state.reason().unwrap_or_default().to_string();
+    assert_eq!(state.word(), "degraded", "{state:?}");
+    assert!(
+        reason.starts_with("task slow: cannot write (No space left on device"),
+        "{reason}"
+    );
+    assert!(!reason.contains("task fast"), "{reason}");
+    assert!(full.expect("slow's disk").refused() > 0);
+
+    let ran = cycles.lock().expect("cycles").clone();
+    for (name, handle) in handles {
+        let outcome = handle.finish();
+        if name == "slow" {
+            let error = outcome.error.expect("slow's record ends short");
+            assert!(error.contains("project.yaml.record/slow"), "{error}");
+        } else {
+            assert_eq!(outcome.error, None);
+            let record =
+                read_record(&scratch.dir.join("project.yaml.record/fast")).expect("fast's record");
+            assert_eq!(record.cycles().count() as u64, ran[0]);
+            let report =
+                replay(&record, &whole, ReplayOptions::default(), |_| {}).expect("replays");
+            assert!(report.identical(), "{report:?}");
+        }
+    }
+}
+
+#[test]
+fn a_task_record_folder_that_cannot_be_made_stops_the_run_naming_the_task() {
+    let (scratch, _) = project("folder");
+    std::fs::create_dir_all(scratch.dir.join("project.yaml.record")).expect("the record folder");
+    // A file where the slow task's folder would go.
+    scratch.write("project.yaml.record/slow", "not a folder");
+    let (ok, out) = run_recorded(&scratch.dir, "1s");
+    assert!(!ok, "{out}");
+    assert!(
+        out.contains("flight recorder: task slow: cannot create"),
+        "{out}"
+    );
+}
