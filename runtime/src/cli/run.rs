@@ -47,7 +47,8 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     pub(super) keep_forces: bool,
     /// Keep a flight record of at least this much scan time (e.g. 10m), in PROJECT.record
-    /// beside the project file (the state directory under systemd); the project's
+    /// beside the project file (the state directory under systemd; a folder per task in it
+    /// for a project of several tasks); the project's
     /// `recorder:` section gives its other settings (and turns it on without this flag).
     #[arg(long, value_name = "KEEP", value_parser = super::parse_duration)]
     pub(super) record: Option<Duration>,

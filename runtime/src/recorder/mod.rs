@@ -10,6 +10,10 @@
 //! ([`format`](mod@format)), deleting the oldest beyond `keep` and the size bound. `reader` reads a
 //! record back, up to the last good block of a torn tail; [`replay`] re-runs a program on it.
 //!
+//! A project of several tasks has a record per task (one PLC per task, each its own recorder):
+//! the header names the task, and the tags the task copies in from the others are inputs of
+//! its record, so [`replay`] of one task needs no other ([`ReplaySubject`]).
+//!
 //! The recorder sits beside the PLC it records, below it: [`crate::plc::Plc::record`] wires
 //! it in, and nothing here knows of the scan loop or the service.
 

@@ -238,3 +238,28 @@ fn a_disk_that_never_comes_back_ends_the_record_saying_where() {
         "{error}"
     );
 }
+
+#[test]
+fn a_tasks_record_is_a_folder_of_its_own_with_an_equal_share_of_the_size() {
+    let mut project = Settings::new(
+        PathBuf::from("/r/p.record"),
+        Duration::from_secs(600),
+        256 << 20,
+    );
+    project.block_bytes = 128;
+    let press = project.for_task("press", 2);
+    assert_eq!(press.folder, PathBuf::from("/r/p.record/press"));
+    assert_eq!(
+        press.keep, project.keep,
+        "each task keeps its own cycles that long"
+    );
+    assert_eq!(
+        press.max_bytes,
+        128 << 20,
+        "the tasks together stay within the size"
+    );
+    assert_eq!(press.segment_bytes, 16 << 20);
+    assert_eq!(press.block_bytes, 128, "what a run tuned stays");
+    let one = project.for_task("main", 1);
+    assert_eq!(one.max_bytes, project.max_bytes);
+}
