@@ -347,3 +347,30 @@ fn a_task_record_folder_that_cannot_be_made_stops_the_run_naming_the_task() {
         "{out}"
     );
 }
+
+#[test]
+fn on_the_real_clock_each_task_thread_records_and_the_status_shows_the_recorder() {
+    let (scratch, _) = project("real");
+    let socket = scratch.dir.join("s.sock");
+    let run = ["project.yaml", "--for", "3s", "--record", "1m"];
+    let child = crate::common::host::spawn_run(&scratch.dir, &run, &socket);
+    let status = crate::common::host::status_once_scanned(&socket, &[1, 1]);
+    let services = status["services"].as_array().expect("services");
+    let recorder = services
+        .iter()
+        .find(|s| s["service"] == "recorder")
+        .expect("the recorder's state");
+    assert_eq!(recorder["state"], "running", "{recorder}");
+    let out = child.wait_with_output().expect("the run ends");
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{stdout}");
+    // The threads copied in what the other task published whenever it did: the record holds
+    // it, so each task replays as it ran.
+    let (ok, text) = replay_cli(&scratch.dir, &[]);
+    assert!(ok, "{text}");
+    for task in ["fast", "slow"] {
+        let line = format!("task {task}: {} cycles, ", scans(&stdout, task));
+        assert!(text.contains(&line), "{line}\nin\n{text}");
+    }
+    assert!(!text.contains("differ"), "{text}");
+}

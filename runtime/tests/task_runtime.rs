@@ -277,38 +277,14 @@ fn ctl(socket: &std::path::Path, args: &[&str]) -> (bool, String) {
 
 #[test]
 fn run_on_the_real_clock_reports_each_task_and_hands_requests_to_the_owner() {
-    use std::process::{Command, Stdio};
-    use std::time::Instant;
     let s = example_copy("real");
     let socket = s.dir.join("s.sock");
-    let child = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .arg("run")
-        .arg(s.dir.join("project.yaml"))
-        .args(["--for", "8s", "--quiet", "--socket"])
-        .arg(&socket)
-        .env("SOFTPLC_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("softplc runs");
+    let project = s.dir.join("project.yaml");
+    let project = project.to_str().expect("UTF-8");
+    let child = crate::common::host::spawn_run(&s.dir, &[project, "--for", "8s"], &socket);
     // The press starts once its fast line is up, the panel's slow line takes seconds more:
     // until then the press runs alone.
-    let begin = Instant::now();
-    let status = loop {
-        let (ok, text) = ctl(&socket, &["status", "--json"]);
-        if ok {
-            let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
-            let scans = |t: usize| v["tasks"][t]["scans"].as_u64().unwrap_or(0);
-            if scans(0) >= 10 && scans(1) >= 1 {
-                break v;
-            }
-        }
-        assert!(
-            begin.elapsed() < Duration::from_secs(20),
-            "no status: {text}"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    };
+    let status = crate::common::host::status_once_scanned(&socket, &[10, 1]);
     assert_eq!(status["tasks"][0]["name"], "press");
     assert_eq!(status["tasks"][0]["period_us"], 30_000);
     assert_eq!(status["tasks"][1]["name"], "panel");

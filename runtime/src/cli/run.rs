@@ -10,7 +10,7 @@ use anyhow::Context;
 
 use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::plc::Plc;
-use crate::recorder::{RecorderHandle, Settings};
+use crate::recorder::{RecorderHandle, Settings, WriterOutcome};
 use crate::scan::{fmt_duration, rt, RunOutcome, ScanEngine, StopReason};
 use crate::service::alarms::AlarmService;
 use crate::service::boundary::ServiceBoundary;
@@ -227,11 +227,17 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// Waits for a recorder's writer once its PLC is gone (the writer then has its last
-/// records) and says what the record misses: its error, its gaps, the records dropped;
-/// `task` names the task whose record it is, for a project of several tasks.
+/// records) and says what the record misses; `task` names the task whose record it is, for
+/// a project of several tasks.
 pub(super) fn recorder_end(task: Option<&str>, recorder: RecorderHandle) -> Vec<String> {
     let dropped = recorder.dropped();
     let outcome = recorder.finish();
+    record_misses(task, dropped, &outcome)
+}
+
+/// What a record misses, as the run's end says it: the writer's error, its gaps, the records
+/// dropped.
+fn record_misses(task: Option<&str>, dropped: u64, outcome: &WriterOutcome) -> Vec<String> {
     let who = match task {
         Some(task) => format!("flight recorder, task {task}"),
         None => "flight recorder".to_string(),
@@ -413,4 +419,45 @@ pub(crate) fn summary(outcome: &RunOutcome, period: Duration, run_for: Option<Du
         );
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn what_a_record_misses_names_the_task_of_several_and_reads_as_before_for_one() {
+        let outcome = WriterOutcome {
+            gaps: 1,
+            lost: 12,
+            error: Some("flight recorder: cannot write to p.record/panel: gone".into()),
+            ..WriterOutcome::default()
+        };
+        assert_eq!(
+            record_misses(Some("panel"), 3, &outcome),
+            [
+                "task panel: flight recorder: cannot write to p.record/panel: gone",
+                "flight recorder, task panel: 12 cycle(s) not recorded in 1 gap(s) (the disk \
+                 was full); replay names them",
+                "flight recorder, task panel: 3 cycle record(s) dropped (the disk did not keep \
+                 up); replay reports the gaps",
+            ]
+        );
+        assert_eq!(
+            record_misses(
+                None,
+                0,
+                &WriterOutcome {
+                    gaps: 2,
+                    lost: 5,
+                    ..WriterOutcome::default()
+                }
+            ),
+            [
+                "flight recorder: 5 cycle(s) not recorded in 2 gap(s) (the disk was full); replay \
+              names them"
+            ]
+        );
+        assert!(record_misses(None, 0, &WriterOutcome::default()).is_empty());
+    }
 }

@@ -199,3 +199,46 @@ pub(crate) fn log_value(log: &Path, prefix: &str) -> String {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
 }
+
+/// `softplc run ARGS --quiet --socket SOCKET` started from folder `dir` (log level warn), its
+/// output piped.
+pub(crate) fn spawn_run(dir: &Path, args: &[&str], socket: &Path) -> std::process::Child {
+    std::process::Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .current_dir(dir)
+        .arg("run")
+        .args(args)
+        .args(["--quiet", "--socket"])
+        .arg(socket)
+        .env("SOFTPLC_LOG", "warn")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("softplc runs")
+}
+
+/// `softplc status --json` of the PLC of several tasks on `socket` once task `i` has made
+/// `scans[i]` scans, polled every 100 ms for at most 20 s (a run's start-up: its lines, its
+/// tasks' first cycles).
+pub(crate) fn status_once_scanned(socket: &Path, scans: &[u64]) -> serde_json::Value {
+    let begin = std::time::Instant::now();
+    loop {
+        let (ok, text) = softplc(&[
+            "status",
+            "--json",
+            "--socket",
+            socket.to_str().expect("a UTF-8 socket path"),
+        ]);
+        if ok {
+            let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+            let made = |t: usize| v["tasks"][t]["scans"].as_u64().unwrap_or(0);
+            if scans.iter().enumerate().all(|(t, &n)| made(t) >= n) {
+                return v;
+            }
+        }
+        assert!(
+            begin.elapsed() < std::time::Duration::from_secs(20),
+            "no status: {text}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
