@@ -193,6 +193,30 @@ fn each_task_records_its_own_cycles_and_replays_alone_with_no_difference() {
         text.contains("--task medium: project.yaml has no task \"medium\"; its tasks: fast, slow"),
         "{text}"
     );
+    // The record of several tasks given with a project of one task: said, not a bare "no
+    // segments".
+    let one = PROJECT.replace(
+        &PROJECT[PROJECT.find("tasks:").expect("tasks")..=PROJECT.find("\nbuses:").expect("buses")],
+        "scan: { period: 20ms }\nprogram: { file: fast.rhai, kind: rhai }\n",
+    );
+    scratch.write("one.yaml", &one);
+    let (ok, text) = softplc_in(&scratch.dir, &["replay", "project.yaml.record", "one.yaml"]);
+    assert!(!ok);
+    assert!(
+        text.contains("it holds the records of the tasks fast, slow of a project of several tasks"),
+        "{text}"
+    );
+    let (ok, text) = softplc_in(
+        &scratch.dir,
+        &["replay", "project.yaml.record/fast", "one.yaml"],
+    );
+    assert!(!ok);
+    assert!(
+        text.contains(
+            "the record is of task fast of a project of several tasks, the project has one task"
+        ),
+        "{text}"
+    );
 }
 
 #[test]

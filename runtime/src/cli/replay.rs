@@ -18,7 +18,8 @@ use crate::project::{self, Project};
 use crate::recorder::format::short_hex;
 use crate::recorder::replay::{compared, CycleOutputs, Difference};
 use crate::recorder::{
-    read_record, replay_subject, Record, ReplayError, ReplayOptions, ReplayReport, ReplaySubject,
+    read_record, replay_subject, segments_in, Record, RecordError, ReplayError, ReplayOptions,
+    ReplayReport, ReplaySubject,
 };
 use crate::scan::fmt_duration;
 use crate::trace::export::{CsvWriter, ExportError, Sample, Signal, VcdWriter};
@@ -146,6 +147,14 @@ fn targets(args: &ReplayArgs, project: &Project) -> Result<Vec<Target>, Refusal>
         .filter(|name| args.record.join(name).is_dir())
         .collect();
     if folders.is_empty() {
+        if args.record.is_dir() && segments_in(&args.record).is_empty() {
+            return Err(Refusal(format!(
+                "{}: no record of a task here: a project of several tasks keeps a folder per \
+                 task in its record's folder ({})",
+                args.record.display(),
+                names.join(", ")
+            )));
+        }
         // The path is one task's record (its folder, or a segment file): its header names
         // the task.
         return Ok(vec![Target {
@@ -162,6 +171,19 @@ fn targets(args: &ReplayArgs, project: &Project) -> Result<Vec<Target>, Refusal>
         })
         .collect();
     Ok(targets)
+}
+
+/// The sub-folders of `folder` that hold record segments (a record of several tasks), listed;
+/// `None` when there are none.
+fn task_folders(folder: &Path) -> Option<String> {
+    let mut tasks: Vec<String> = std::fs::read_dir(folder)
+        .ok()?
+        .filter_map(Result::ok)
+        .filter(|e| !segments_in(&e.path()).is_empty())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    tasks.sort();
+    (!tasks.is_empty()).then(|| tasks.join(", "))
 }
 
 /// What replaying one record gave.
@@ -187,6 +209,15 @@ fn replay_one(
 ) -> anyhow::Result<Result<Replayed, Refusal>> {
     let record = match read_record(&target.path) {
         Ok(r) => r,
+        Err(e @ RecordError::Empty { .. }) => {
+            return Ok(Err(Refusal(match task_folders(&target.path) {
+                Some(tasks) => format!(
+                    "{e}; it holds the records of the tasks {tasks} of a project of several \
+                     tasks: replay it with that project"
+                ),
+                None => e.to_string(),
+            })))
+        }
         Err(e) => return Ok(Err(Refusal(e.to_string()))),
     };
     let subject = match &target.task {
