@@ -3,17 +3,19 @@
 //! holds what the task copied in from the other, so `softplc replay` replays each task alone
 //! with the cycles the run had and no difference; a program changed in one task differs in
 //! that task only, naming it; a task whose disk fails is named in the recorder's state while
-//! the other task records on.
+//! the other task records on, and the gap it leaves is named with its task by replay; a
+//! real-clock run's task threads record alike.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use softplc::plc::Plc;
+use softplc::plc::{Plc, TaskPlc};
 use softplc::project::load;
 use softplc::recorder::format::TagRole;
 use softplc::recorder::{
-    read_record, replay, Disk, FaultDisk, FileDisk, Record, ReplayError, ReplayOptions, Settings,
+    read_record, replay, Disk, FaultDisk, FileDisk, Record, RecorderHandle, ReplayError,
+    ReplayOptions, Settings,
 };
 use softplc::scan::TaskSet;
 use softplc::service::{Health, Service, ServiceState, TaskRecorders};
@@ -288,27 +290,35 @@ fn wait_for(health: &Health, done: impl Fn(&ServiceState) -> bool) -> ServiceSta
     }
 }
 
-#[test]
-fn a_task_whose_disk_fails_is_named_while_the_other_task_records_on() {
-    let (scratch, path) = project("disk");
-    let whole = load(&path).expect("the project");
-    let mut tasks = Plc::build_tasks(&whole, None, None).expect("builds");
+/// Every task of `whole` recording into `dir/project.yaml.record`, the slow task through a
+/// disk that fills when asked (its switch in the returned `FaultDisk`), each task's settings
+/// changed by `tune`: the tasks, their recorders' handles, and the recorder's state.
+fn record_tasks(
+    whole: &softplc::project::Project,
+    dir: &Path,
+    tune: impl Fn(&mut Settings),
+) -> (
+    Vec<TaskPlc>,
+    Vec<(String, RecorderHandle)>,
+    Health,
+    FaultDisk,
+) {
+    let mut tasks = Plc::build_tasks(whole, None, None).expect("builds");
     let settings = Settings::new(
-        scratch.dir.join("project.yaml.record"),
+        dir.join("project.yaml.record"),
         Duration::from_secs(60),
         8 << 20,
     );
     let health = Health::new();
     let recorders = TaskRecorders::new();
     let mut handles = Vec::new();
-    let mut full = None;
+    let mut slow_disk = None;
     for task in &mut tasks {
-        let s = settings.for_task(&task.name, 2);
+        let mut s = settings.for_task(&task.name, 2);
+        tune(&mut s);
         let disk: Box<dyn Disk> = if task.name == "slow" {
             let disk = FaultDisk::new(&s.folder, 1 << 30);
-            disk.full_switch()
-                .store(true, std::sync::atomic::Ordering::SeqCst);
-            full = Some(disk.clone());
+            slow_disk = Some(disk.clone());
             Box::new(disk)
         } else {
             Box::new(FileDisk)
@@ -318,6 +328,24 @@ fn a_task_whose_disk_fails_is_named_while_the_other_task_records_on() {
         handles.push((task.name.clone(), handle));
     }
     health.watch_task_recorders(recorders);
+    (tasks, handles, health, slow_disk.expect("a slow task"))
+}
+
+/// Asserts the fast task's record holds its `cycles` cycles and replays identically.
+fn fast_recorded_whole(dir: &Path, whole: &softplc::project::Project, cycles: u64) {
+    let record = read_record(&dir.join("project.yaml.record/fast")).expect("fast's record");
+    assert_eq!(record.cycles().count() as u64, cycles);
+    let report = replay(&record, whole, ReplayOptions::default(), |_| {}).expect("replays");
+    assert!(report.identical(), "{report:?}");
+}
+
+#[test]
+fn a_task_whose_disk_fails_is_named_while_the_other_task_records_on() {
+    let (scratch, path) = project("disk");
+    let whole = load(&path).expect("the project");
+    let (tasks, handles, health, disk) = record_tasks(&whole, &scratch.dir, |_| {});
+    disk.full_switch()
+        .store(true, std::sync::atomic::Ordering::SeqCst);
     let cycles: Arc<Mutex<Vec<u64>>> = Arc::new(Mutex::new(vec![0, 0]));
     let outcomes = TaskSet::new(tasks)
         .configure(|i, engine| {
@@ -338,7 +366,7 @@ fn a_task_whose_disk_fails_is_named_while_the_other_task_records_on() {
         "{reason}"
     );
     assert!(!reason.contains("task fast"), "{reason}");
-    assert!(full.expect("slow's disk").refused() > 0);
+    assert!(disk.refused() > 0);
 
     let ran = cycles.lock().expect("cycles").clone();
     for (name, handle) in handles {
@@ -348,14 +376,93 @@ fn a_task_whose_disk_fails_is_named_while_the_other_task_records_on() {
             assert!(error.contains("project.yaml.record/slow"), "{error}");
         } else {
             assert_eq!(outcome.error, None);
-            let record =
-                read_record(&scratch.dir.join("project.yaml.record/fast")).expect("fast's record");
-            assert_eq!(record.cycles().count() as u64, ran[0]);
-            let report =
-                replay(&record, &whole, ReplayOptions::default(), |_| {}).expect("replays");
-            assert!(report.identical(), "{report:?}");
         }
     }
+    fast_recorded_whole(&scratch.dir, &whole, ran[0]);
+}
+
+#[test]
+fn a_gap_in_a_tasks_record_is_named_with_its_task_by_replay() {
+    let (scratch, path) = project("gap");
+    let whole = load(&path).expect("the project");
+    // Small blocks and a small hold: a full disk loses cycles quickly.
+    let (tasks, handles, health, disk) = record_tasks(&whole, &scratch.dir, |s| {
+        s.block_bytes = 64;
+        s.hold_bytes = 128;
+    });
+    let full = disk.full_switch();
+    let cycles: Arc<Mutex<Vec<u64>>> = Arc::new(Mutex::new(vec![0, 0]));
+    let seen: Arc<Mutex<Option<ServiceState>>> = Arc::default();
+    let outcomes = TaskSet::new(tasks)
+        .configure(|i, engine| {
+            let (cycles, full, health, seen) =
+                (cycles.clone(), full.clone(), health.clone(), seen.clone());
+            engine
+                .run_for(Duration::from_secs(10))
+                .on_cycle(Box::new(move |_, ctx| {
+                    use std::sync::atomic::Ordering;
+                    cycles.lock().expect("cycles")[i] = ctx.cycle;
+                    // The slow task's disk fills at its cycle 5; at its cycle 60, once cycles
+                    // are being lost, it comes back.
+                    match (i, ctx.cycle) {
+                        (1, 5) => full.store(true, Ordering::SeqCst),
+                        (1, 60) => {
+                            let losing = wait_for(&health, |s| {
+                                s.reason().is_some_and(|r| r.contains("more lost"))
+                            });
+                            *seen.lock().expect("seen") = Some(losing);
+                            full.store(false, Ordering::SeqCst);
+                            wait_for(&health, |s| *s == ServiceState::Running);
+                        }
+                        _ => {}
+                    }
+                }))
+        })
+        .run_virtual();
+    assert_eq!(outcomes.len(), 2);
+    let losing = seen
+        .lock()
+        .expect("seen")
+        .clone()
+        .expect("the slow task's cycle 60");
+    let reason = losing.reason().unwrap_or_default().to_string();
+    assert!(
+        reason.starts_with("task slow: cannot write (No space left on device")
+            && reason.ends_with("more lost: the record will have a gap"),
+        "{reason}"
+    );
+    let ran = cycles.lock().expect("cycles").clone();
+    for (name, handle) in handles {
+        let outcome = handle.finish();
+        assert_eq!(outcome.error, None, "{name}");
+        assert_eq!(
+            outcome.gaps,
+            u32::from(name == "slow"),
+            "{name}: {outcome:?}"
+        );
+    }
+    fast_recorded_whole(&scratch.dir, &whole, ran[0]);
+    let slow = read_record(&scratch.dir.join("project.yaml.record/slow")).expect("slow's record");
+    let gap = slow
+        .segments
+        .iter()
+        .find_map(|s| s.gap)
+        .expect("a gap block");
+    // The disk is back after the slow task's cycle 60.
+    assert!(gap.first <= gap.last && gap.last <= 60, "{gap:?}");
+    let (_, text) = replay_cli(&scratch.dir, &[]);
+    let note = format!(
+        "task slow: note: no record from cycle {} to {}: the recorder could not write them",
+        gap.first, gap.last
+    );
+    assert!(text.contains(&note), "{note}\nin\n{text}");
+    assert!(
+        text.contains(&format!(
+            "task fast: {} cycles, 10.00s of plant time, outputs identical",
+            ran[0]
+        )),
+        "{text}"
+    );
 }
 
 #[test]
