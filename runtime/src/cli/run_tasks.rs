@@ -16,6 +16,7 @@ use crate::project::Project;
 use crate::scan::{fmt_duration, StopReason, TaskControl, TaskOutcome, TaskSet};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
+use crate::service::task_router::TagOwner;
 use crate::service::web::WebServer;
 use crate::service::{Health, TaskStatus};
 
@@ -144,9 +145,11 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         requests_rx,
         queues,
         builder.names(),
-        move |tag| {
-            let i = *tag_index.get(tag)?;
-            ownership.owner(TagId(i as u32))
+        move |tag| match tag_index.get(tag) {
+            None => TagOwner::Unknown,
+            Some(&i) => ownership
+                .owner(TagId(i as u32))
+                .map_or(TagOwner::Nobody, TagOwner::Task),
         },
         router_stop.clone(),
         reload,

@@ -7,7 +7,8 @@
 //! {"cmd":"force","tag":"motor","value":"1"}
 //! {"cmd":"unforce","tag":"motor"}        {"cmd":"unforce"}   (every tag)
 //! {"cmd":"reload"}
-//! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary)
+//! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary; with
+//!                                 several tasks, each task's tags at its own: see task_router)
 //! {"cmd":"alarms","action":"list","history":20}   {"cmd":"alarms","action":"ack","alarm":"jam"}
 //!                                                 ("all": every alarm waiting)
 //! {"cmd":"trace","action":"arm","name":"jam"}   (and status, save, read, disarm: see
@@ -105,6 +106,20 @@ pub struct Response {
     /// For `alarms list`: the current list, the counts and the latest events.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alarms: Option<crate::service::alarms::AlarmList>,
+    /// For a request a PLC of several tasks split between them (a write naming tags of
+    /// several tasks, `unforce` of every tag, `reload`): each task's answer, in task order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parts: Option<Vec<TaskPart>>,
+}
+
+/// One task's answer to its part of a request split between tasks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct TaskPart {
+    /// The task.
+    pub task: String,
+    /// Its answer (for a write, `applied_at` counts the task's own cycles).
+    #[serde(flatten)]
+    pub answer: Response,
 }
 
 impl Response {
