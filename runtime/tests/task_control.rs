@@ -167,3 +167,45 @@ fn unforce_all_reaches_every_task_and_merges_their_answers() {
         "{text}"
     );
 }
+
+#[test]
+fn kept_forces_are_kept_per_task_and_restored_in_each_at_restart() {
+    let s = example("keep");
+    let keep = ["--keep-forces"];
+    {
+        let (_run, socket) = start(&s, &keep);
+        wait_cycles(&socket, 1);
+        force(&socket, "hand_left", "1");
+        force(&socket, "key_on", "1");
+        // Each task writes its own file, off its scan, soon after the force.
+        let files = [
+            s.dir.join("project.yaml.forces.press.json"),
+            s.dir.join("project.yaml.forces.panel.json"),
+        ];
+        let begin = Instant::now();
+        let kept = |f: &PathBuf, tag: &str| {
+            std::fs::read_to_string(f).is_ok_and(|t| t.contains(&format!("\"{tag}\": \"1\"")))
+        };
+        while !(kept(&files[0], "hand_left") && kept(&files[1], "key_on")) {
+            assert!(
+                begin.elapsed() < Duration::from_secs(30),
+                "forces not kept: {:?}",
+                files
+                    .iter()
+                    .map(std::fs::read_to_string)
+                    .collect::<Vec<_>>()
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let press = std::fs::read_to_string(&files[0]).expect("the press's forces");
+        assert!(!press.contains("key_on"), "{press}");
+    }
+    // Restarted: each task applies its own forces before its first scan.
+    let (_run, socket) = start(&s, &keep);
+    wait_cycles(&socket, 1);
+    let text = unforce_all(&socket);
+    assert!(
+        text.contains("task press: 1 force(s) removed; task panel: 1 force(s) removed"),
+        "{text}"
+    );
+}

@@ -12,6 +12,7 @@ use anyhow::Context;
 use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::image::TagId;
 use crate::plc::{TaskBuilder, TaskPlc};
+use crate::project::task_view::task_file;
 use crate::project::Project;
 use crate::scan::{fmt_duration, StopReason, TaskControl, TaskOutcome, TaskSet};
 use crate::service::boundary::ServiceBoundary;
@@ -27,8 +28,6 @@ use super::run::RunArgs;
 fn unsupported(project: &Project, args: &RunArgs) -> Option<String> {
     let what = if project.recorder.is_some() || args.record.is_some() {
         "the flight recorder"
-    } else if args.keep_forces {
-        "--keep-forces"
     } else {
         return None;
     };
@@ -168,7 +167,15 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         let control = control.clone();
         let (run_for, statuses, health) = (args.run_for, statuses.clone(), health.clone());
         let web_server = web_server.clone();
-        move |i: usize, plc: TaskPlc, boundary: ServiceBoundary| {
+        // Each task keeps the forces of its own image, in a file of its own (as it keeps its
+        // retained tags), so two task threads never write one file.
+        let kept_forces = args
+            .keep_forces
+            .then(|| crate::plc::forces_path(&args.project));
+        move |i: usize, mut plc: TaskPlc, boundary: ServiceBoundary| {
+            if let Some(path) = &kept_forces {
+                plc.plc.keep_forces(task_file(path, &plc.name));
+            }
             if let Some(r) = plc.plc.retainer() {
                 health.watch_retain(r.save_failure());
             }
