@@ -209,3 +209,129 @@ fn kept_forces_are_kept_per_task_and_restored_in_each_at_restart() {
         "{text}"
     );
 }
+
+/// A tag's value in the status (the first task's image, which copies in every other tag).
+fn value(socket: &Path, tag: &str) -> String {
+    let r = ask(socket, &Request::Status);
+    let status = r.status.expect("a status");
+    status
+        .tags
+        .iter()
+        .find(|t| t.name == tag)
+        .map(|t| t.value.clone())
+        .expect("the tag")
+}
+
+/// Each task's completed cycles.
+fn scans(socket: &Path) -> (u64, u64) {
+    let r = ask(socket, &Request::Status);
+    let status = r.status.expect("a status");
+    (status.tasks[0].scans, status.tasks[1].scans)
+}
+
+/// Waits (a bounded real time) until `tag` shows `want`.
+fn wait_value(socket: &Path, tag: &str, want: &str) {
+    let begin = Instant::now();
+    loop {
+        let v = value(socket, tag);
+        if v == want {
+            return;
+        }
+        assert!(
+            begin.elapsed() < Duration::from_secs(60),
+            "{tag} is {v}, not {want}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn ctl(socket: &Path, args: &[&str]) -> (bool, String) {
+    let mut all = args.to_vec();
+    all.extend(["--socket", socket.to_str().expect("UTF-8")]);
+    crate::common::host::softplc(&all)
+}
+
+const PANEL_INVERTED: &str = "\
+rungs:
+  - key_on -> enabled
+  - /press_down -> running_lamp
+  - rung: /guard_closed -> BLINK guard_blink(1s, 1s) -> guard_lamp
+";
+
+#[test]
+fn a_reload_swaps_the_changed_task_s_program_while_the_other_runs_on() {
+    let s = example("reload");
+    let (_run, socket) = start(&s, &[]);
+    wait_cycles(&socket, 1);
+    // The press runs: both hands, the guard closed, the key on.
+    for tag in ["hand_left", "hand_right", "guard_closed", "key_on"] {
+        force(&socket, tag, "1");
+    }
+    wait_value(&socket, "running_lamp", "1");
+    assert_eq!(value(&socket, "press_down"), "1");
+    let strokes = value(&socket, "strokes");
+
+    // The panel's program changes on disk: its lamp now shows the ram NOT going down.
+    s.write("panel.ladder.yaml", PANEL_INVERTED);
+    let before = scans(&socket);
+    let (ok, text) = ctl(&socket, &["reload"]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("task press: program ")
+            && text.contains("press.ladder.yaml unchanged; task panel: program ")
+            && text.contains("panel.ladder.yaml reloaded"),
+        "{text}"
+    );
+    wait_value(&socket, "running_lamp", "0");
+    // The press never stopped: its cycles went on counting, its valve stayed driven, its
+    // stroke counter kept its value.
+    let after = scans(&socket);
+    assert!(
+        after.0 > before.0 && after.1 > before.1,
+        "{before:?} {after:?}"
+    );
+    assert_eq!(value(&socket, "press_down"), "1");
+    assert_eq!(value(&socket, "strokes"), strokes);
+
+    // A program that does not compile is refused at its place; both tasks run on, the
+    // panel with the program it had.
+    s.write(
+        "panel.ladder.yaml",
+        "rungs:\n  - key_on -> enabled\n  - press_down -> \n",
+    );
+    let (ok, text) = ctl(&socket, &["reload", "--task", "panel"]);
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("task panel: refused: reload refused:"),
+        "{text}"
+    );
+    assert!(text.contains("panel.ladder.yaml:3:"), "{text}");
+    // A program writing a tag the other task owns is refused naming both tasks.
+    s.write(
+        "panel.ladder.yaml",
+        &format!("{PANEL_INVERTED}  - key_on -> press_down\n"),
+    );
+    let (ok, text) = ctl(&socket, &["reload"]);
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains(
+            "panel.ladder.yaml:5:5: error: tag `press_down` is written by task `press`; task \
+             `panel`'s new program writes it here"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("task press: program "), "{text}");
+    let refused = scans(&socket);
+    wait_cycles(&socket, refused.1 + 2);
+    assert!(scans(&socket).0 > refused.0);
+    assert_eq!(value(&socket, "running_lamp"), "0");
+    assert_eq!(value(&socket, "press_down"), "1");
+
+    // An unknown task is refused, naming the tasks.
+    let (ok, text) = ctl(&socket, &["reload", "--task", "oven"]);
+    assert!(!ok);
+    assert!(
+        text.contains("no task oven: the tasks are press, panel"),
+        "{text}"
+    );
+}

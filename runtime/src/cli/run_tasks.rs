@@ -129,10 +129,12 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
     }
     let router_stop = Arc::new(AtomicBool::new(false));
-    // SIGHUP (`systemctl reload`) must not end the process: it is answered in the log.
-    let reload = Arc::new(AtomicBool::new(false));
-    signal_hook::flag::register(signal_hook::consts::SIGHUP, reload.clone())
-        .context("cannot install the SIGHUP handler")?;
+    // SIGHUP (`systemctl reload`) reloads every task whose program changed, each at its own
+    // cycle boundary, each logging what became of it.
+    for b in &boundaries {
+        signal_hook::flag::register(signal_hook::consts::SIGHUP, b.reload_flag())
+            .context("cannot install the SIGHUP handler")?;
+    }
     let tag_index: std::collections::HashMap<String, usize> = project
         .tags
         .iter()
@@ -151,7 +153,6 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
                 .map_or(TagOwner::Nobody, TagOwner::Task),
         },
         router_stop.clone(),
-        reload,
     )
     .context("cannot start the control requests' router")?;
     let _control = super::run::open_control(&args, &project.name, &requests)?;

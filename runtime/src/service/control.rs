@@ -6,7 +6,7 @@
 //! {"cmd":"status"}
 //! {"cmd":"force","tag":"motor","value":"1"}
 //! {"cmd":"unforce","tag":"motor"}        {"cmd":"unforce"}   (every tag)
-//! {"cmd":"reload"}
+//! {"cmd":"reload"}   {"cmd":"reload","task":"slow"}   (one task of several)
 //! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary; with
 //!                                 several tasks, each task's tags at its own: see task_router)
 //! {"cmd":"alarms","action":"list","history":20}   {"cmd":"alarms","action":"ack","alarm":"jam"}
@@ -50,8 +50,13 @@ pub enum Request {
         #[serde(default)]
         tag: Option<String>,
     },
-    /// Re-read the program and swap it in at the next cycle boundary if it passes `check`.
-    Reload,
+    /// Re-read the program and swap it in at the next cycle boundary if it passes `check`;
+    /// with several tasks, every task's whose files changed, each at its own boundary.
+    Reload {
+        /// Only this task's program.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        task: Option<String>,
+    },
     /// Set tags at the next cycle boundary, all at once (the SCADA server's writes): like an
     /// assignment, so the program may overwrite them in its next scan; a forced tag refuses.
     Write {
@@ -443,7 +448,16 @@ mod tests {
             parse_request(r#"{"cmd":"unforce"}"#),
             Ok(Request::Unforce { tag: None })
         );
-        assert_eq!(parse_request(r#"{"cmd":"reload"}"#), Ok(Request::Reload));
+        assert_eq!(
+            parse_request(r#"{"cmd":"reload"}"#),
+            Ok(Request::Reload { task: None })
+        );
+        assert_eq!(
+            parse_request(r#"{"cmd":"reload","task":"slow"}"#),
+            Ok(Request::Reload {
+                task: Some("slow".into())
+            })
+        );
         assert_eq!(
             parse_request(r#"{"cmd":"write","values":[{"tag":"speed","value":"42"}]}"#),
             Ok(Request::Write {
@@ -471,8 +485,8 @@ mod tests {
                 drop(env.reply.send(Response::done(format!("{:?}", env.request))));
             }
         });
-        let r = request(server.path(), &Request::Reload).unwrap();
-        assert_eq!(r, Response::done("Reload"));
+        let r = request(server.path(), &Request::Reload { task: None }).unwrap();
+        assert_eq!(r, Response::done("Reload { task: None }"));
         let mode = std::fs::metadata(server.path())
             .unwrap()
             .permissions()

@@ -4,9 +4,10 @@
 //! an unforce or a write goes to the task owning the tag (the one that publishes it; a value
 //! set in another task's image would be overwritten by its next copy-in), the status to the
 //! first task, which adds every task's figures. A write naming tags of several tasks is split
-//! into one write per owning task and `unforce` of every tag goes to every task
+//! into one write per owning task, and `unforce` of every tag and `reload` go to every task
 //! (`fan_out`): each part lands at its own task's next boundary, and the reply merges the
-//! tasks' answers. Reloads and traces, which act on one program, are refused.
+//! tasks' answers (a reload: each task's reloaded, unchanged or refused). Traces, which
+//! sample one task's cycles, are refused.
 
 mod fan_out;
 
@@ -41,27 +42,19 @@ impl TagOwner {
 }
 
 /// Hands requests from `requests` to the tasks' boundaries (`tasks[i]` is task `i`'s queue);
-/// `owner(tag)` is who owns a tag. Runs on a thread of its own until `stop` is set;
-/// `reload` (SIGHUP's flag) is answered in the log, since a reload is not offered.
+/// `owner(tag)` is who owns a tag. Runs on a thread of its own until `stop` is set.
 pub(crate) fn start(
     requests: Receiver<Envelope>,
     tasks: Vec<Sender<Envelope>>,
     names: Vec<String>,
     owner: impl Fn(&str) -> TagOwner + Send + 'static,
     stop: Arc<AtomicBool>,
-    reload: Arc<AtomicBool>,
 ) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("task-router".into())
         .spawn(move || {
             let pending = Pending::default();
             while !stop.load(Ordering::Relaxed) {
-                if reload.swap(false, Ordering::Relaxed) {
-                    tracing::warn!(
-                        "SIGHUP: this PLC runs several tasks and a reload swaps one program; the \
-                         programs running stay; restart the PLC to load changed programs"
-                    );
-                }
                 let env = match requests.recv_timeout(Duration::from_millis(100)) {
                     Ok(env) => env,
                     Err(RecvTimeoutError::Timeout) => continue,
@@ -100,11 +93,15 @@ fn route(
                 .collect(),
         ),
         Request::Write { values } => split_write(values, owner),
-        Request::Reload => Route::Refused(
-            "this PLC runs several tasks: a reload swaps one program; restart the PLC to load \
-             changed programs"
-                .to_owned(),
+        Request::Reload { task: None } => Route::Split(
+            (0..tasks.len())
+                .map(|t| (t, Request::Reload { task: None }))
+                .collect(),
         ),
+        Request::Reload { task: Some(task) } => match names.iter().position(|n| n == task) {
+            Some(t) => Route::Split(vec![(t, Request::Reload { task: None })]),
+            None => Route::Refused(no_task(task, names)),
+        },
         Request::Trace(_) => Route::Refused(
             "this PLC runs several tasks: traces sample one task's cycles and are not offered \
              for several tasks"
@@ -122,6 +119,11 @@ fn route(
         Route::Split(parts) => fan_out(env, parts, tasks, names, pending, all_or_report),
         Route::Refused(why) => drop(env.reply.send(Response::refused(why))),
     }
+}
+
+/// The refusal of a task name no task has.
+fn no_task(task: &str, names: &[String]) -> String {
+    format!("no task {task}: the tasks are {}", names.join(", "))
 }
 
 /// A write to the task owning its tags, or one write per owning task (in task order, each
