@@ -1,7 +1,10 @@
 //! Control of a PLC of several tasks through its control socket, as a client sees it (the
 //! two-tasks example run on virtual clocks, `softplc run --virtual`): a write naming tags of
 //! both tasks is split between them and each part's answer comes back, a refused part says
-//! which and why; `unforce --all` reaches every task.
+//! which and why; `unforce --all` reaches every task; `--keep-forces` keeps each task's
+//! forces; a reload swaps the changed task's program while the other runs on, and refuses a
+//! bad program at its place; a trace samples the cycles of the task owning its trigger, all
+//! traces against one budget.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -334,4 +337,164 @@ fn a_reload_swaps_the_changed_task_s_program_while_the_other_runs_on() {
         text.contains("no task oven: the tasks are press, panel"),
         "{text}"
     );
+}
+
+/// `softplc trace ...` against the socket.
+fn trace(socket: &Path, args: &[&str]) -> (bool, String) {
+    let mut all = vec!["trace"];
+    all.extend_from_slice(args);
+    ctl(socket, &all)
+}
+
+/// The rows of a trace's CSV: (time in ns, cycle, values).
+fn rows(csv: &str) -> Vec<(u64, u64, Vec<String>)> {
+    csv.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let (s, ns) = f[0].split_once('.').expect("time_s");
+            let t = s.parse::<u64>().expect("s") * 1_000_000_000 + ns.parse::<u64>().expect("ns");
+            (
+                t,
+                f[1].parse().expect("cycle"),
+                f[2..].iter().map(|v| (*v).to_owned()).collect(),
+            )
+        })
+        .collect()
+}
+
+/// Trace `name` saved as CSV once complete: its text and rows, checked to be task `task`'s
+/// own cycles, one after the other, `period_ns` apart on its grid.
+fn saved(
+    s: &Scratch,
+    socket: &Path,
+    name: &str,
+    task: &str,
+    period_ns: u64,
+) -> (String, Vec<(u64, u64, Vec<String>)>) {
+    let file = s.dir.join(format!("{name}.csv"));
+    let path = file.to_str().expect("UTF-8");
+    let (ok, text) = trace(socket, &["save", name, "--wait", "60s", "--csv", path]);
+    assert!(ok, "{text}");
+    let csv = std::fs::read_to_string(&file).expect("the CSV");
+    assert!(
+        csv.starts_with(&format!("time_s,cycle [task {task}],")),
+        "{csv}"
+    );
+    let rows = rows(&csv);
+    for w in rows.windows(2) {
+        assert_eq!(w[1].1, w[0].1 + 1, "{csv}");
+        assert_eq!(w[1].0 - w[0].0, period_ns, "{csv}");
+    }
+    (csv, rows)
+}
+
+#[test]
+fn a_trace_samples_the_cycles_of_the_task_owning_its_trigger() {
+    let s = example("trace");
+    // One budget of three traces for the whole PLC, whichever tasks arm them; the project's
+    // own trace, armed at start, in the task owning its trigger (the panel).
+    let text = std::fs::read_to_string(s.dir.join("project.yaml")).expect("the project");
+    s.write(
+        "project.yaml",
+        &format!(
+            "{text}\ntrace_budget: {{ armed: 3 }}\ntraces:\n  - {{ name: key, tags: [key_on, \
+             strokes], trigger: key_on rising, pre: 1, post: 1 }}\n"
+        ),
+    );
+    let (_run, socket) = start(&s, &[]);
+    wait_cycles(&socket, 1);
+    let (ok, text) = trace(&socket, &["status"]);
+    assert!(ok, "{text}");
+    assert!(text.starts_with("key (task panel): armed, "), "{text}");
+    assert_eq!(text.lines().count(), 1, "armed in one task only: {text}");
+    // press_down is the press task's: the trace samples the press's cycles.
+    let (ok, text) = trace(
+        &socket,
+        &[
+            "arm",
+            "stroke",
+            "--tags",
+            "press_down,enabled",
+            "--trigger",
+            "press_down rising",
+            "--pre",
+            "3",
+            "--post",
+            "4",
+        ],
+    );
+    assert!(ok, "{text}");
+    assert!(text.contains("stroke (task press): "), "{text}");
+    // running_lamp is the panel's: that trace samples the panel's cycles.
+    let (ok, text) = trace(
+        &socket,
+        &[
+            "arm",
+            "lamp",
+            "--tags",
+            "running_lamp",
+            "--pre",
+            "0",
+            "--post",
+            "4",
+        ],
+    );
+    assert!(ok, "{text}");
+    assert!(text.contains("lamp (task panel): "), "{text}");
+    // The budget is the PLC's: a third trace is refused, in whichever task.
+    let (ok, text) = trace(
+        &socket,
+        &[
+            "arm", "third", "--tags", "strokes", "--pre", "0", "--post", "2",
+        ],
+    );
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("3 traces are armed, as many as the project allows"),
+        "{text}"
+    );
+    // An unknown task is refused, naming the tasks.
+    let (ok, text) = trace(
+        &socket,
+        &["arm", "x", "--tags", "strokes", "--task", "oven"],
+    );
+    assert!(!ok);
+    assert!(
+        text.contains("no task oven: the tasks are press, panel"),
+        "{text}"
+    );
+
+    for tag in ["hand_left", "hand_right", "guard_closed", "key_on"] {
+        force(&socket, tag, "1");
+    }
+    let (csv, stroke) = saved(&s, &socket, "stroke", "press", 30_000_000);
+    assert!(
+        csv.starts_with("time_s,cycle [task press],press_down [bool],enabled [bool]\n"),
+        "{csv}"
+    );
+    assert_eq!(stroke.len(), 8, "{csv}");
+    // The rise, at the fourth sample, with the panel's `enabled` copied in before it.
+    let values: Vec<&str> = stroke.iter().map(|r| r.2[0].as_str()).collect();
+    assert_eq!(values, ["0", "0", "0", "1", "1", "1", "1", "1"], "{csv}");
+    assert_eq!(stroke[3].2[1], "1", "{csv}");
+    let (_, lamp) = saved(&s, &socket, "lamp", "panel", 500_000_000);
+    // The panel counts fewer cycles than the press in the same time.
+    assert!(lamp[0].1 < stroke[0].1, "{lamp:?} {stroke:?}");
+
+    // Status lists both, each with its task; disarming frees the budget for a third.
+    let (ok, text) = trace(&socket, &["status"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("stroke (task press): complete"), "{text}");
+    assert!(text.contains("lamp (task panel): "), "{text}");
+    let (ok, text) = ctl(&socket, &["trace", "disarm", "lamp"]);
+    assert!(ok, "{text}");
+    let (ok, text) = trace(
+        &socket,
+        &[
+            "arm", "third", "--tags", "strokes", "--pre", "0", "--post", "2",
+        ],
+    );
+    assert!(ok, "{text}");
+    assert!(text.contains("third (task press): "), "{text}");
 }

@@ -17,9 +17,10 @@ use crate::project::Project;
 use crate::scan::{fmt_duration, StopReason, TaskControl, TaskOutcome, TaskSet};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
-use crate::service::task_router::TagOwner;
+use crate::service::task_router::{trace_home, TagOwner, TraceRoutes};
 use crate::service::web::WebServer;
 use crate::service::{Health, TaskStatus};
+use crate::trace::{TraceLedger, TraceSet};
 
 use super::plant_services::PlantServices;
 use super::run::RunArgs;
@@ -101,15 +102,29 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         web_later.then(|| services.web_starter(&requests, &health, audit.clone())),
     );
     let web_server: Arc<std::sync::Mutex<Option<WebServer>>> = Arc::default();
-    // Every task answers the control requests about its own tags at its own boundary.
+    // Every task answers the control requests about its own tags at its own boundary, and
+    // keeps the traces of its own cycles, all against the PLC's one trace budget.
+    let ledger = TraceLedger::new();
     let mut queues = Vec::with_capacity(project.tasks.len());
     let mut boundaries = Vec::with_capacity(project.tasks.len());
-    for i in 0..project.tasks.len() {
+    for (i, task) in project.tasks.iter().enumerate() {
         let (tx, rx) = crossbeam_channel::bounded(16);
         queues.push(tx);
+        // The project's traces this task samples: each in the task its signals point to.
+        let at_start = project
+            .traces
+            .iter()
+            .filter(|t| trace_home(&project, builder.ownership(), t) == i)
+            .map(|t| t.name.clone())
+            .collect();
         let mut b = ServiceBoundary::new()
             .with_control(rx)
-            .with_health(health.clone());
+            .with_health(health.clone())
+            .with_traces(TraceSet::of_task(
+                task.name.clone(),
+                ledger.clone(),
+                at_start,
+            ));
         if let Some(log) = &audit {
             b = b.with_audit(log.clone());
         }
@@ -151,6 +166,11 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             Some(&i) => ownership
                 .owner(TagId(i as u32))
                 .map_or(TagOwner::Nobody, TagOwner::Task),
+        },
+        TraceRoutes {
+            project: project.clone(),
+            ownership: builder.ownership().clone(),
+            ledger,
         },
         router_stop.clone(),
     )

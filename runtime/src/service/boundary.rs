@@ -140,6 +140,12 @@ impl ServiceBoundary {
         ));
     }
 
+    /// Keeps the traces in `traces` (one task's of several: see [`crate::trace::TraceSet::of_task`]).
+    pub fn with_traces(mut self, traces: crate::trace::TraceSet) -> Self {
+        self.traces = traces;
+        self
+    }
+
     /// Reports every task's figures in the status (a PLC of several tasks).
     pub fn with_tasks(mut self, tasks: Vec<super::status::TaskStatus>) -> Self {
         self.tasks = tasks;

@@ -6,10 +6,13 @@
 //! first task, which adds every task's figures. A write naming tags of several tasks is split
 //! into one write per owning task, and `unforce` of every tag and `reload` go to every task
 //! (`fan_out`): each part lands at its own task's next boundary, and the reply merges the
-//! tasks' answers (a reload: each task's reloaded, unchanged or refused). Traces, which
-//! sample one task's cycles, are refused.
+//! tasks' answers (a reload: each task's reloaded, unchanged or refused). A trace samples one
+//! task's cycles (`traces`).
 
 mod fan_out;
+mod traces;
+
+pub(crate) use traces::{home as trace_home, TraceRoutes};
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -17,7 +20,7 @@ use std::time::Duration;
 
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
 
-use super::control::{Envelope, Request, Response, TagValue};
+use super::control::{Envelope, Request, Response, TagValue, TaskPart};
 use fan_out::{all_or_report, fan_out, Pending};
 
 /// Who a tag named in a request belongs to.
@@ -48,6 +51,7 @@ pub(crate) fn start(
     tasks: Vec<Sender<Envelope>>,
     names: Vec<String>,
     owner: impl Fn(&str) -> TagOwner + Send + 'static,
+    traces: TraceRoutes,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
@@ -60,7 +64,7 @@ pub(crate) fn start(
                     Err(RecvTimeoutError::Timeout) => continue,
                     Err(RecvTimeoutError::Disconnected) => break,
                 };
-                route(env, &tasks, &names, &owner, &pending);
+                route(env, &tasks, &names, &owner, &traces, &pending);
             }
         })
 }
@@ -69,8 +73,12 @@ pub(crate) fn start(
 enum Route {
     /// To one task.
     One(usize),
-    /// A part to each of several tasks, the answers merged.
+    /// To one task, as this request (the trace's task filled in).
+    Rewritten(usize, Request),
+    /// A part to each of several tasks, every part to succeed, the answers merged.
     Split(Vec<(usize, Request)>),
+    /// A part to each of several tasks, the answers merged by the function.
+    Merged(Vec<(usize, Request)>, fn(Vec<TaskPart>) -> Response),
     /// Nowhere: refused, with the reason.
     Refused(String),
 }
@@ -80,6 +88,7 @@ fn route(
     tasks: &[Sender<Envelope>],
     names: &[String],
     owner: &impl Fn(&str) -> TagOwner,
+    traces: &TraceRoutes,
     pending: &Pending,
 ) {
     let to = match &env.request {
@@ -102,22 +111,23 @@ fn route(
             Some(t) => Route::Split(vec![(t, Request::Reload { task: None })]),
             None => Route::Refused(no_task(task, names)),
         },
-        Request::Trace(_) => Route::Refused(
-            "this PLC runs several tasks: traces sample one task's cycles and are not offered \
-             for several tasks"
-                .to_owned(),
-        ),
+        Request::Trace(t) => traces.route(t, names),
     };
     match to {
-        Route::One(t) => {
-            let name = names.get(t).map_or("?", String::as_str).to_owned();
-            let reply = env.reply.clone();
-            if let Err(why) = fan_out::send(tasks.get(t), &name, env) {
-                drop(reply.send(Response::refused(why)));
-            }
-        }
+        Route::One(t) => to_one(env, t, tasks, names),
+        Route::Rewritten(t, request) => to_one(Envelope { request, ..env }, t, tasks, names),
         Route::Split(parts) => fan_out(env, parts, tasks, names, pending, all_or_report),
+        Route::Merged(parts, merge) => fan_out(env, parts, tasks, names, pending, merge),
         Route::Refused(why) => drop(env.reply.send(Response::refused(why))),
+    }
+}
+
+/// Hands `env` to task `t`; refused at once when its queue is full or gone.
+fn to_one(env: Envelope, t: usize, tasks: &[Sender<Envelope>], names: &[String]) {
+    let name = names.get(t).map_or("?", String::as_str).to_owned();
+    let reply = env.reply.clone();
+    if let Err(why) = fan_out::send(tasks.get(t), &name, env) {
+        drop(reply.send(Response::refused(why)));
     }
 }
 
