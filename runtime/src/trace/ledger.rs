@@ -98,3 +98,44 @@ impl TraceLedger {
         self.held().iter().map(|h| h.name.clone()).collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BUDGET: TraceBudget = TraceBudget {
+        armed: 2,
+        memory: 1000,
+    };
+
+    #[test]
+    fn every_task_draws_on_one_budget_and_a_name_is_armed_in_one_task() {
+        let ledger = TraceLedger::new();
+        let (fast, slow) = (Some("fast"), Some("slow"));
+        assert_eq!(ledger.reserve(fast, "a", 600, BUDGET), Ok(()));
+        // The memory left is the PLC's, not the task's.
+        assert!(matches!(
+            ledger.reserve(slow, "b", 500, BUDGET),
+            Err(TraceRefusal::OverBudget { left: 400, .. })
+        ));
+        assert_eq!(ledger.reserve(slow, "b", 400, BUDGET), Ok(()));
+        assert_eq!(
+            ledger.reserve(slow, "c", 1, BUDGET),
+            Err(TraceRefusal::TooMany { armed: 2 })
+        );
+        // Arming a name again in its task replaces it; in another task it is refused.
+        assert_eq!(ledger.reserve(fast, "a", 500, BUDGET), Ok(()));
+        assert_eq!(
+            ledger.reserve(slow, "a", 1, BUDGET),
+            Err(TraceRefusal::ArmedElsewhere {
+                name: "a".into(),
+                task: "fast".into()
+            })
+        );
+        assert_eq!(ledger.holder("a"), Some(Some("fast".into())));
+        ledger.release("a");
+        assert_eq!(ledger.holder("a"), None);
+        assert_eq!(ledger.names(), ["b"]);
+        assert_eq!(ledger.reserve(slow, "c", 600, BUDGET), Ok(()));
+    }
+}

@@ -255,6 +255,19 @@ mod tests {
     }
 
     #[test]
+    fn the_page_names_the_task_a_trace_samples() {
+        assert_eq!(
+            arm_request(br#"{"name": "jam", "task": "press"}"#).ok(),
+            Some(TraceRequest::Arm {
+                name: Some("jam".into()),
+                spec: None,
+                task: Some("press".into()),
+            })
+        );
+        assert!(arm_request(br#"{"name": "jam", "tasks": "press"}"#).is_err());
+    }
+
+    #[test]
     fn names_come_from_the_query_decoded() {
         assert_eq!(name_of("name=jam"), Some("jam".into()));
         assert_eq!(name_of("x=1&name=a%2Db"), Some("a-b".into()));
