@@ -498,3 +498,35 @@ fn a_trace_samples_the_cycles_of_the_task_owning_its_trigger() {
     assert!(ok, "{text}");
     assert!(text.contains("third (task press): "), "{text}");
 }
+
+#[test]
+fn a_project_of_one_task_answers_to_its_task_s_name_main() {
+    let s = Scratch::new("task_control", "main");
+    s.write("count.rhai", "n = n + 1;\n");
+    s.write(
+        "project.yaml",
+        "project: one\nscan: { period: 10ms }\ntags:\n  - { name: n, type: i32 }\nprogram: { file: count.rhai, kind: rhai }\n",
+    );
+    let socket = s.dir.join("ctl.sock");
+    let _run = crate::common::host::run_virtual(&s.dir.join("project.yaml"), &socket);
+    let (ok, text) = ctl(&socket, &["reload", "--task", "main"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("count.rhai reloaded"), "{text}");
+    let (ok, text) = ctl(&socket, &["reload", "--task", "oven"]);
+    assert!(!ok);
+    assert!(
+        text.contains("no task oven: this PLC runs task main"),
+        "{text}"
+    );
+    let (ok, text) = trace(&socket, &["arm", "x", "--tags", "n", "--task", "oven"]);
+    assert!(!ok);
+    assert!(
+        text.contains("no task oven: this PLC runs task main"),
+        "{text}"
+    );
+    // Its own name is accepted; a trace of a project of one task is shown as before, naming
+    // no task.
+    let (ok, text) = trace(&socket, &["arm", "x", "--tags", "n", "--task", "main"]);
+    assert!(ok, "{text}");
+    assert!(text.starts_with("x: "), "{text}");
+}
