@@ -464,6 +464,26 @@ fn a_trace_samples_the_cycles_of_the_task_owning_its_trigger() {
         text.contains("no task oven: the tasks are press, panel"),
         "{text}"
     );
+    // A module's counters are the task's polling it.
+    let (ok, text) = trace(
+        &socket,
+        &[
+            "arm",
+            "y",
+            "--tags",
+            "strokes,keys.requests",
+            "--task",
+            "press",
+        ],
+    );
+    assert!(!ok);
+    assert!(
+        text.contains(
+            "trace y: module keys is polled by task panel, and the trace samples task press's \
+             cycles"
+        ),
+        "{text}"
+    );
 
     for tag in ["hand_left", "hand_right", "guard_closed", "key_on"] {
         force(&socket, tag, "1");
