@@ -443,7 +443,7 @@ fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
                 std::fs::write(&program, "y = !x\ny1 = x\n").unwrap();
                 requests
                     .send(Envelope::new(
-                        Request::Reload,
+                        Request::Reload { task: None },
                         reply_tx.clone(),
                         Duration::from_secs(60),
                         softplc::service::audit::Origin::Cli,

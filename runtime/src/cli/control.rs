@@ -78,6 +78,10 @@ pub(crate) struct UnforceArgs {
 pub(crate) struct ReloadArgs {
     #[command(flatten)]
     target: Target,
+    /// Reload only this task's program (a project of several tasks); without it, every task
+    /// whose program changed.
+    #[arg(long, value_name = "NAME")]
+    task: Option<String>,
 }
 
 fn send(target: &Target, req: &Request) -> anyhow::Result<ExitCode> {
@@ -146,5 +150,5 @@ pub(super) fn unforce(args: UnforceArgs) -> anyhow::Result<ExitCode> {
 }
 
 pub(super) fn reload(args: ReloadArgs) -> anyhow::Result<ExitCode> {
-    send(&args.target, &Request::Reload)
+    send(&args.target, &Request::Reload { task: args.task })
 }

@@ -42,8 +42,9 @@ pub(crate) struct RunArgs {
     /// still accepted).
     #[arg(long = "socket", alias = "control")]
     pub(super) control: Option<PathBuf>,
-    /// Keep forces across restarts, in PROJECT.forces.json beside the project file (by default
-    /// a restart clears every force).
+    /// Keep forces across restarts, in PROJECT.forces.json beside the project file (with
+    /// several tasks, PROJECT.forces.TASK.json per task; by default a restart clears every
+    /// force).
     #[arg(long)]
     pub(super) keep_forces: bool,
     /// Keep a flight record of at least this much scan time (e.g. 10m), in PROJECT.record

@@ -12,35 +12,22 @@ use anyhow::Context;
 use crate::clock::{Clock, MonotonicClock, VirtualClock};
 use crate::image::TagId;
 use crate::plc::{TaskBuilder, TaskPlc};
+use crate::project::task_view::task_file;
 use crate::project::Project;
 use crate::scan::{fmt_duration, StopReason, TaskControl, TaskOutcome, TaskSet};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
+use crate::service::task_router::{trace_home, TagOwner, TraceRoutes};
 use crate::service::web::WebServer;
 use crate::service::{Health, TaskStatus};
+use crate::trace::{TraceLedger, TraceSet};
 
 use super::task_record::TaskRecording;
 
 use super::plant_services::PlantServices;
 use super::run::RunArgs;
 
-/// What a run of several tasks does not offer yet, said before anything starts.
-fn unsupported(project: &Project, args: &RunArgs) -> Option<String> {
-    if !args.keep_forces {
-        return None;
-    }
-    Some(format!(
-        "{}: --keep-forces is not offered for a project of several tasks yet; run it without, \
-         or with one task (`scan:` and `program:`)",
-        project.source.display()
-    ))
-}
-
 pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
-    if let Some(why) = unsupported(&project, &args) {
-        super::out::errln(&why);
-        return Ok(ExitCode::FAILURE);
-    }
     let clock: Option<Arc<dyn Clock>> = match args.virtual_clock {
         true => None,
         false => Some(Arc::new(MonotonicClock::new())),
@@ -103,15 +90,29 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         web_later.then(|| services.web_starter(&requests, &health, audit.clone())),
     );
     let web_server: Arc<std::sync::Mutex<Option<WebServer>>> = Arc::default();
-    // Every task answers the control requests about its own tags at its own boundary.
+    // Every task answers the control requests about its own tags at its own boundary, and
+    // keeps the traces of its own cycles, all against the PLC's one trace budget.
+    let ledger = TraceLedger::new();
     let mut queues = Vec::with_capacity(project.tasks.len());
     let mut boundaries = Vec::with_capacity(project.tasks.len());
-    for i in 0..project.tasks.len() {
+    for (i, task) in project.tasks.iter().enumerate() {
         let (tx, rx) = crossbeam_channel::bounded(16);
         queues.push(tx);
+        // The project's traces this task samples: each in the task its signals point to.
+        let at_start = project
+            .traces
+            .iter()
+            .filter(|t| trace_home(&project, builder.ownership(), t) == i)
+            .map(|t| t.name.clone())
+            .collect();
         let mut b = ServiceBoundary::new()
             .with_control(rx)
-            .with_health(health.clone());
+            .with_health(health.clone())
+            .with_traces(TraceSet::of_task(
+                task.name.clone(),
+                ledger.clone(),
+                at_start,
+            ));
         if let Some(log) = &audit {
             b = b.with_audit(log.clone());
         }
@@ -131,10 +132,12 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         signal_hook::flag::register(sig, stop.clone()).context("cannot install signal handlers")?;
     }
     let router_stop = Arc::new(AtomicBool::new(false));
-    // SIGHUP (`systemctl reload`) must not end the process: it is answered in the log.
-    let reload = Arc::new(AtomicBool::new(false));
-    signal_hook::flag::register(signal_hook::consts::SIGHUP, reload.clone())
-        .context("cannot install the SIGHUP handler")?;
+    // SIGHUP (`systemctl reload`) reloads every task whose program changed, each at its own
+    // cycle boundary, each logging what became of it.
+    for b in &boundaries {
+        signal_hook::flag::register(signal_hook::consts::SIGHUP, b.reload_flag())
+            .context("cannot install the SIGHUP handler")?;
+    }
     let tag_index: std::collections::HashMap<String, usize> = project
         .tags
         .iter()
@@ -146,12 +149,18 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         requests_rx,
         queues,
         builder.names(),
-        move |tag| {
-            let i = *tag_index.get(tag)?;
-            ownership.owner(TagId(i as u32))
+        move |tag| match tag_index.get(tag) {
+            None => TagOwner::Unknown,
+            Some(&i) => ownership
+                .owner(TagId(i as u32))
+                .map_or(TagOwner::Nobody, TagOwner::Task),
+        },
+        TraceRoutes {
+            project: project.clone(),
+            ownership: builder.ownership().clone(),
+            ledger,
         },
         router_stop.clone(),
-        reload,
     )
     .context("cannot start the control requests' router")?;
     let _control = super::run::open_control(&args, &project.name, &requests)?;
@@ -168,7 +177,15 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         let (run_for, statuses, health) = (args.run_for, statuses.clone(), health.clone());
         let web_server = web_server.clone();
         let recording = recording.clone();
+        // Each task keeps the forces of its own image, in a file of its own (as it keeps its
+        // retained tags), so two task threads never write one file.
+        let kept_forces = args
+            .keep_forces
+            .then(|| crate::plc::forces_path(&args.project));
         move |i: usize, mut plc: TaskPlc, boundary: ServiceBoundary| {
+            if let Some(path) = &kept_forces {
+                plc.plc.keep_forces(task_file(path, &plc.name));
+            }
             if let Some(r) = plc.plc.retainer() {
                 health.watch_retain(r.save_failure());
             }

@@ -54,6 +54,10 @@ pub(crate) struct ArmArgs {
     /// One sample every N cycles.
     #[arg(long, requires = "tags")]
     every: Option<i64>,
+    /// The task whose cycles it samples (a project of several tasks); without it, the task
+    /// owning the trigger's signal, or the first signal's.
+    #[arg(long, value_name = "NAME")]
+    task: Option<String>,
 }
 
 /// Arguments of `softplc trace status`.
@@ -120,6 +124,7 @@ fn arm(a: ArmArgs) -> anyhow::Result<ExitCode> {
         TraceRequest::Arm {
             name: Some(name),
             spec: None,
+            task: a.task,
         }
     } else {
         TraceRequest::Arm {
@@ -134,6 +139,7 @@ fn arm(a: ArmArgs) -> anyhow::Result<ExitCode> {
                 every: a.every,
                 arm: None,
             }),
+            task: a.task,
         }
     };
     let r = ask(&a.target, request)?;

@@ -118,8 +118,9 @@ impl Plc {
     /// [`Plc::reload_job`] compiles off the scan thread, [`Plc::apply_reload`] swaps at a
     /// cycle boundary.
     pub fn reload_program(&mut self) -> Result<(), ReloadError> {
-        let prepared = self.reload_job().prepare()?;
-        self.apply_reload(prepared);
+        if let Prepared::Program(prepared) = self.reload_job().prepare()? {
+            self.apply_reload(prepared);
+        }
         Ok(())
     }
 
@@ -130,6 +131,7 @@ impl Plc {
             current: self.project.clone(),
             image: self.image.clone(),
             plan: self.plan.clone(),
+            task: self.task.as_ref().map(|link| link.reload.clone()),
         }
     }
 
@@ -139,6 +141,9 @@ impl Plc {
     pub fn apply_reload(&mut self, prepared: PreparedReload) {
         self.logic = prepared.logic;
         self.project.program = prepared.program;
+        if let (Some(link), Some(sources)) = (self.task.as_mut(), prepared.sources) {
+            link.reload.swapped(sources);
+        }
         self.note(|| Event::Reload {
             program_hash: prepared.program_hash,
         });
@@ -174,6 +179,8 @@ pub struct ReloadJob {
     current: Project,
     image: crate::image::ProcessImage,
     plan: offload::Plan,
+    /// The task's checks, when the PLC is one task of several.
+    task: Option<super::task_reload::TaskReload>,
 }
 
 /// A program compiled for the running PLC, ready to swap in at a cycle boundary.
@@ -183,17 +190,46 @@ pub struct PreparedReload {
     program: crate::project::ProgramConfig,
     /// The new program's identity, for the flight recorder (hashed here, off the scan).
     program_hash: crate::recorder::format::Digest,
+    /// One task's of several: its program's sources, to tell the next reload whether they
+    /// changed.
+    sources: Option<crate::recorder::format::Digest>,
+}
+
+/// What a reload prepared.
+#[derive(Debug)]
+pub enum Prepared {
+    /// A program to swap in.
+    Program(PreparedReload),
+    /// One task's of several whose program and block bodies are the ones running: nothing
+    /// to swap.
+    Unchanged,
 }
 
 impl ReloadJob {
     /// Reads the project file again and compiles its program; refused, with the reason, when
-    /// it does not compile or when anything besides the program changed.
-    pub fn prepare(self) -> Result<PreparedReload, ReloadError> {
-        let fresh = crate::project::load(&self.current.source).map_err(ReloadError::Project)?;
+    /// it does not compile or when anything besides the program changed. One task of several
+    /// reloads from its view of the project file, only when its program's files changed, and
+    /// refuses a program writing a tag another task owns.
+    pub fn prepare(self) -> Result<Prepared, ReloadError> {
+        let loaded = crate::project::load(&self.current.source).map_err(ReloadError::Project)?;
+        let fresh = match &self.task {
+            Some(task) => task.view(&loaded)?,
+            None => loaded,
+        };
         if !same_io(&fresh, &self.current) {
             return Err(ReloadError::NotOnlyProgram);
         }
+        if self
+            .task
+            .as_ref()
+            .is_some_and(|t| t.unchanged(&fresh, &self.current))
+        {
+            return Ok(Prepared::Unchanged);
+        }
         let mut logic = load::load_program(&fresh, &self.image).map_err(ReloadError::Program)?;
+        if let Some(task) = &self.task {
+            task.check_writes(logic.as_ref())?;
+        }
         // The module tables were written at start-up: the new program must place its rungs
         // where the running one did.
         let plan = offload::plan_program(&fresh, logic.as_ref());
@@ -206,10 +242,15 @@ impl ReloadJob {
         // The source as compiled was read just now; a read failing here (the file went away
         // since) leaves an identity of nothing rather than refusing a program that compiled.
         let source = std::fs::read(&fresh.program.path).unwrap_or_default();
-        Ok(PreparedReload {
+        let sources = self
+            .task
+            .is_some()
+            .then(|| super::task_reload::sources(&fresh));
+        Ok(Prepared::Program(PreparedReload {
             logic,
             program: fresh.program,
             program_hash: crate::recorder::format::digest(&source),
-        })
+            sources,
+        }))
     }
 }

@@ -83,6 +83,21 @@ pub enum ReloadError {
     /// The new program does not compile.
     #[error("reload refused:\n{0}")]
     Program(ProgramError),
+    /// The task reloaded is no longer in the project file.
+    #[error(
+        "reload refused: task `{task}` is no longer in the project; restart to run the \
+         project's tasks"
+    )]
+    TaskGone {
+        /// The task.
+        task: String,
+    },
+    /// A task's new program writes tags its task does not own.
+    #[error(
+        "reload refused:\n{}",
+        .0.iter().map(|e| e.to_string()).collect::<Vec<_>>().join("\n")
+    )]
+    ForeignWrites(Vec<super::task_reload::ForeignWrite>),
     /// The new program places rungs elsewhere than the module tables written at start-up.
     #[error(
         "reload refused: the new program moves rungs into or out of modules; restart to write \

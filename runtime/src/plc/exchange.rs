@@ -137,6 +137,8 @@ pub struct TaskLink {
     pub owned: Vec<TagId>,
     /// The tags other tasks own, copied in at its cycle's start.
     pub foreign: Vec<TagId>,
+    /// What the task's reloads check (who owns each tag, the program running).
+    pub(crate) reload: super::task_reload::TaskReload,
 }
 
 #[cfg(test)]

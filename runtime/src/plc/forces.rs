@@ -2,7 +2,8 @@
 //! unforce rewrites a small file beside the project (under systemd: in its state directory)
 //! atomically, on a writer thread of its own (a force is applied at a cycle boundary, which
 //! must not wait for the disk), and the next start applies it before the first scan. Without
-//! the option forces are lost on restart, as on most PLCs.
+//! the option forces are lost on restart, as on most PLCs. With several tasks each task keeps
+//! the forces of its own image in a file of its own (`PROJECT.forces.TASK.json`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -35,7 +36,13 @@ impl Plc {
             Ok(bytes) => match serde_json::from_slice::<BTreeMap<String, String>>(&bytes) {
                 Ok(saved) => {
                     for (tag, value) in saved {
-                        if let Err(e) = self.force(&tag, &value) {
+                        if self.copies_in(&tag) {
+                            // Its task's next copy-in would overwrite the force unseen.
+                            tracing::warn!(
+                                "kept force {tag}={value} not applied: another task owns {tag} \
+                                 now; force it again"
+                            );
+                        } else if let Err(e) = self.force(&tag, &value) {
                             tracing::warn!("kept force {tag}={value} not applied: {e}");
                         }
                     }
@@ -61,6 +68,14 @@ impl Plc {
             }),
         ));
         self.save_forces();
+    }
+
+    /// Whether `tag` is one this task copies in from the task owning it.
+    fn copies_in(&self, tag: &str) -> bool {
+        match (&self.task, self.image.id(tag)) {
+            (Some(link), Some(id)) => link.foreign.contains(&id),
+            _ => false,
+        }
     }
 
     /// Hands the current forces to the kept-forces file's writer, if there is one.

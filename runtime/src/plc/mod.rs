@@ -22,13 +22,15 @@ mod error;
 mod exchange;
 mod forces;
 mod record;
+mod task_reload;
 mod tasks;
 
-pub use control::{PreparedReload, ReloadJob};
+pub use control::{Prepared, PreparedReload, ReloadJob};
 pub use error::{ReloadError, TagError};
 pub use exchange::{Exchange, TaskLink};
 pub use forces::forces_path;
 pub use record::RecordError;
+pub use task_reload::ForeignWrite;
 pub use tasks::{TaskBuilder, TaskPlc};
 
 use std::sync::Arc;

@@ -24,6 +24,7 @@ use crate::project::Project;
 
 use super::build::{attach_plant, build_world};
 use super::exchange::{Exchange, TaskLink};
+use super::task_reload::{TaskOwners, TaskReload};
 use super::{BuildError, Plc};
 
 /// One task's PLC.
@@ -40,6 +41,8 @@ pub struct TaskPlc {
 pub struct TaskBuilder {
     project: Project,
     ownership: Ownership,
+    /// The owners and names again, for each task's reloads.
+    owners: Arc<TaskOwners>,
     exchange: Arc<Exchange>,
     /// The real clock the tasks share; `None`: a virtual clock per task.
     clock: Option<Arc<dyn Clock>>,
@@ -86,8 +89,14 @@ impl TaskBuilder {
         // plant sees the lines' times as the cycles run (docs/programming.md, "Tasks").
         let shared = clock.is_some() || plant_tasks.len() > 1;
         let world = if shared { build_world(project) } else { None };
+        let owners = Arc::new(TaskOwners {
+            ownership: ownership.clone(),
+            names: project.tasks.iter().map(|t| t.name.clone()).collect(),
+            tag_names: project.tags.iter().map(|t| t.name.clone()).collect(),
+        });
         Ok(Self {
             project: project.clone(),
+            owners,
             exchange: Exchange::new(&image, clock.is_none()),
             ownership,
             clock,
@@ -133,11 +142,13 @@ impl TaskBuilder {
             Some(w) => (Some(w.clone()), Some(lines.as_slice())),
             None => (build_world(&view), None),
         };
+        let reload = TaskReload::new(i, self.owners.clone(), &view);
         let mut plc = Plc::build_lines_in(view, clock, world, self.tap.clone(), lines)?;
         let link = TaskLink {
             exchange: self.exchange.clone(),
             owned: self.ownership.owned_by(i),
             foreign: self.ownership.foreign_to(i),
+            reload,
         };
         // What this task holds at start-up (retained values, initial values) is what the
         // others' first cycles see.

@@ -4,11 +4,14 @@
 //! modules, and every tag at its place (tag ids are the same in every view, so the tasks'
 //! images and the exchange between them index tags alike). A tag bound to a point of another
 //! task's bus is a memory tag in the view: the owning task does its I/O and publishes it.
-//! Retained tags are kept by the task that owns them, each task in a file of its own.
+//! Retained tags are kept by the task that owns them, each task in a file of its own. A
+//! project trace is in the view of every task that can sample it (all its module counters on
+//! the task's buses).
 
 use std::path::PathBuf;
 
 use super::model::{Binding, Project, TaskConfig};
+use super::trace::{Probe, TraceConfig};
 
 impl Project {
     /// The view of task `task` (an index into [`Project::tasks`]); `owned(tag)`: whether the
@@ -76,10 +79,34 @@ impl Project {
             retain,
             offload: self.offload.clone(),
             recorder: self.recorder.clone(),
-            traces: self.traces.clone(),
+            traces: self
+                .traces
+                .iter()
+                .filter_map(|t| traced_in(t, &module_index))
+                .collect(),
             trace_budget: self.trace_budget,
         }
     }
+}
+
+/// Trace `t` as a task samples it, its module counters at the view's module indexes; `None`
+/// when it reads a counter of a module another task polls (its counters are that task's).
+fn traced_in(t: &TraceConfig, module_index: &[Option<usize>]) -> Option<TraceConfig> {
+    let probe = |p: Probe| match p {
+        Probe::Counter { module, counter } => Some(Probe::Counter {
+            module: (*module_index.get(module)?)?,
+            counter,
+        }),
+        other => Some(other),
+    };
+    let mut t = t.clone();
+    for p in &mut t.probes {
+        *p = probe(*p)?;
+    }
+    if let Some(trigger) = &mut t.trigger {
+        trigger.probe = probe(trigger.probe)?;
+    }
+    Some(t)
 }
 
 /// `pump.retain.json` → `pump.retain.fast.json` for task `fast`: each task writes its own

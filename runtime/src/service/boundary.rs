@@ -9,7 +9,7 @@ use crossbeam_channel::{Receiver, Sender, TryRecvError};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use crate::plc::{Plc, PreparedReload, ReloadError};
+use crate::plc::{Plc, Prepared, ReloadError};
 use crate::scan::{CycleBoundary, ScanStats, StopReason};
 use crate::service::audit::{Action, AuditLog, Entry, Origin};
 use crate::service::changes::ChangeFeed;
@@ -31,7 +31,7 @@ pub struct ServiceBoundary {
     /// The snapshot for the metrics endpoint, the Modbus TCP server and the web page.
     publisher: Option<Publisher>,
     /// A reload being compiled off the scan thread.
-    reload_job: Option<Receiver<Result<PreparedReload, ReloadError>>>,
+    reload_job: Option<Receiver<Result<Prepared, ReloadError>>>,
     /// Who waits for that reload's outcome (no reply: SIGHUP's).
     reload_waiters: Vec<(Option<Sender<Response>>, Origin)>,
     /// The audit file: every write, force, unforce and reload, with who and when.
@@ -140,6 +140,12 @@ impl ServiceBoundary {
         ));
     }
 
+    /// Keeps the traces in `traces` (one task's of several: see [`crate::trace::TraceSet::of_task`]).
+    pub fn with_traces(mut self, traces: crate::trace::TraceSet) -> Self {
+        self.traces = traces;
+        self
+    }
+
     /// Reports every task's figures in the status (a PLC of several tasks).
     pub fn with_tasks(mut self, tasks: Vec<super::status::TaskStatus>) -> Self {
         self.tasks = tasks;
@@ -181,7 +187,10 @@ impl ServiceBoundary {
                 }
                 // Noted when it is swapped in or refused; an acknowledgement by the alarm
                 // thread.
-                Request::Reload | Request::Status | Request::Trace(_) | Request::Alarms(_) => None,
+                Request::Reload { .. }
+                | Request::Status
+                | Request::Trace(_)
+                | Request::Alarms(_) => None,
             };
             let response = match env.request {
                 Request::Status => {
@@ -221,7 +230,16 @@ impl ServiceBoundary {
                     self.alarm_job(request, env.reply, env.origin, stats, now);
                     continue;
                 }
-                Request::Reload => {
+                Request::Reload { task: Some(task) } if !runs_task(plc, &task) => {
+                    Response::refused(format!(
+                        "no task {task}: this PLC runs task {}",
+                        plc.project()
+                            .tasks
+                            .first()
+                            .map_or("main", |t| t.name.as_str())
+                    ))
+                }
+                Request::Reload { .. } => {
                     // Compiled off the scan thread; answered when it is swapped in.
                     self.start_reload(plc, Some(env.reply), env.origin, stats.cycles);
                     continue;
@@ -282,12 +300,17 @@ impl ServiceBoundary {
     fn poll_reload(&mut self, plc: &mut Plc, cycle: u64) {
         let Some(rx) = &self.reload_job else { return };
         let outcome = match rx.try_recv() {
-            Ok(Ok(prepared)) => {
+            Ok(Ok(Prepared::Program(prepared))) => {
                 plc.apply_reload(prepared);
                 Ok(format!(
                     "program {} reloaded",
                     plc.project().program.path.display()
                 ))
+            }
+            Ok(Ok(Prepared::Unchanged)) => {
+                let text = format!("program {} unchanged", plc.project().program.path.display());
+                tracing::info!("{text}");
+                Ok(text)
             }
             Ok(Err(e)) => Err(e.to_string()),
             Err(TryRecvError::Empty) => return,
@@ -336,6 +359,11 @@ impl ServiceBoundary {
             ));
         }
     }
+}
+
+/// Whether `plc` runs the task named `task` (a PLC of one task runs `main`, or its one task).
+fn runs_task(plc: &Plc, task: &str) -> bool {
+    plc.project().tasks.first().is_some_and(|t| t.name == task)
 }
 
 /// A module's quality as the change feed offers it: one its line has not reported on yet

@@ -6,8 +6,9 @@
 //! {"cmd":"status"}
 //! {"cmd":"force","tag":"motor","value":"1"}
 //! {"cmd":"unforce","tag":"motor"}        {"cmd":"unforce"}   (every tag)
-//! {"cmd":"reload"}
-//! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary)
+//! {"cmd":"reload"}   {"cmd":"reload","task":"slow"}   (one task of several)
+//! {"cmd":"write","values":[{"tag":"speed","value":"42"}]}   (all at one cycle boundary; with
+//!                                 several tasks, each task's tags at its own: see task_router)
 //! {"cmd":"alarms","action":"list","history":20}   {"cmd":"alarms","action":"ack","alarm":"jam"}
 //!                                                 ("all": every alarm waiting)
 //! {"cmd":"trace","action":"arm","name":"jam"}   (and status, save, read, disarm: see
@@ -49,8 +50,13 @@ pub enum Request {
         #[serde(default)]
         tag: Option<String>,
     },
-    /// Re-read the program and swap it in at the next cycle boundary if it passes `check`.
-    Reload,
+    /// Re-read the program and swap it in at the next cycle boundary if it passes `check`;
+    /// with several tasks, every task's whose files changed, each at its own boundary.
+    Reload {
+        /// Only this task's program.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        task: Option<String>,
+    },
     /// Set tags at the next cycle boundary, all at once (the SCADA server's writes): like an
     /// assignment, so the program may overwrite them in its next scan; a forced tag refuses.
     Write {
@@ -105,6 +111,20 @@ pub struct Response {
     /// For `alarms list`: the current list, the counts and the latest events.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alarms: Option<crate::service::alarms::AlarmList>,
+    /// For a request a PLC of several tasks split between them (a write naming tags of
+    /// several tasks, `unforce` of every tag, `reload`): each task's answer, in task order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parts: Option<Vec<TaskPart>>,
+}
+
+/// One task's answer to its part of a request split between tasks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct TaskPart {
+    /// The task.
+    pub task: String,
+    /// Its answer (for a write, `applied_at` counts the task's own cycles).
+    #[serde(flatten)]
+    pub answer: Response,
 }
 
 impl Response {
@@ -428,7 +448,16 @@ mod tests {
             parse_request(r#"{"cmd":"unforce"}"#),
             Ok(Request::Unforce { tag: None })
         );
-        assert_eq!(parse_request(r#"{"cmd":"reload"}"#), Ok(Request::Reload));
+        assert_eq!(
+            parse_request(r#"{"cmd":"reload"}"#),
+            Ok(Request::Reload { task: None })
+        );
+        assert_eq!(
+            parse_request(r#"{"cmd":"reload","task":"slow"}"#),
+            Ok(Request::Reload {
+                task: Some("slow".into())
+            })
+        );
         assert_eq!(
             parse_request(r#"{"cmd":"write","values":[{"tag":"speed","value":"42"}]}"#),
             Ok(Request::Write {
@@ -456,8 +485,8 @@ mod tests {
                 drop(env.reply.send(Response::done(format!("{:?}", env.request))));
             }
         });
-        let r = request(server.path(), &Request::Reload).unwrap();
-        assert_eq!(r, Response::done("Reload"));
+        let r = request(server.path(), &Request::Reload { task: None }).unwrap();
+        assert_eq!(r, Response::done("Reload { task: None }"));
         let mode = std::fs::metadata(server.path())
             .unwrap()
             .permissions()

@@ -3,6 +3,7 @@
 //! ```text
 //! {"cmd":"trace","action":"arm","name":"jam"}
 //! {"cmd":"trace","action":"arm","spec":{"name":"adhoc","tags":["x1","y1"],"trigger":"x1 rising","pre":100,"post":400}}
+//! {"cmd":"trace","action":"arm","name":"jam","task":"fast"}   (several tasks: whose cycles)
 //! {"cmd":"trace","action":"status"}          {"cmd":"trace","action":"status","name":"jam"}
 //! {"cmd":"trace","action":"save","name":"jam"}   (the samples; a repeating trace re-arms)
 //! {"cmd":"trace","action":"read","name":"jam"}   (the samples so far; nothing re-arms)
@@ -31,6 +32,10 @@ pub enum TraceRequest {
         /// A trace given here, checked as the project's are.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         spec: Option<RawTrace>,
+        /// The task whose cycles it samples (a project of several tasks); absent: the task
+        /// owning the trigger's signal, or the first signal's.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        task: Option<String>,
     },
     /// The state of one trace, or of all.
     Status {
@@ -59,12 +64,24 @@ pub enum TraceRequest {
 pub(crate) fn answer(traces: &mut TraceSet, plc: &Plc, request: TraceRequest) -> Response {
     let project = plc.project();
     match request {
-        TraceRequest::Arm { name, spec } => {
+        TraceRequest::Arm {
+            task: Some(task), ..
+        } if project.tasks.first().is_none_or(|t| t.name != task) => Response::refused(format!(
+            "no task {task}: this PLC runs task {}",
+            project.tasks.first().map_or("main", |t| t.name.as_str())
+        )),
+        TraceRequest::Arm { name, spec, .. } => {
             match traces.arm(project, name.as_deref(), spec.as_ref()) {
-                Ok(s) => Response {
-                    traces: Some(vec![s.clone()]),
-                    ..Response::done(format!("trace {} armed", s.name))
-                },
+                Ok(s) => {
+                    let message = match &s.task {
+                        Some(t) => format!("trace {} armed in task {t}, on its cycles", s.name),
+                        None => format!("trace {} armed", s.name),
+                    };
+                    Response {
+                        traces: Some(vec![s.clone()]),
+                        ..Response::done(message)
+                    }
+                }
                 Err(e) => Response::refused(e.to_string()),
             }
         }

@@ -44,6 +44,9 @@ pub struct TraceData {
     /// The trigger sample's index, once triggered.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trigger: Option<usize>,
+    /// With several tasks: the task whose cycles it sampled (`cycle` counts that task's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task: Option<String>,
 }
 
 impl TraceData {
@@ -73,6 +76,7 @@ impl TraceData {
             cycle,
             values,
             trigger: capture.trigger().map(|(k, _)| k),
+            task: None,
         }
     }
 
@@ -108,19 +112,28 @@ impl TraceData {
         Ok(())
     }
 
-    /// Writes it as CSV.
+    /// Writes it as CSV; with several tasks the cycle column names the task
+    /// (`cycle [task press]`).
     pub fn write_csv<W: Write>(&self, out: W) -> Result<W, ExportError> {
         let (signals, types): (Vec<Signal>, Vec<ValueType>) =
             self.export_signals().into_iter().unzip();
-        let mut w = CsvWriter::new(out, &signals)?;
+        let cycle = match &self.task {
+            Some(t) => format!("cycle [task {t}]"),
+            None => "cycle".to_owned(),
+        };
+        let mut w = CsvWriter::with_cycle_column(out, &signals, &cycle)?;
         self.each_sample(&types, |s| w.write(s))?;
         w.finish()
     }
 
-    /// Writes it as VCD, in a scope named after the trace.
-    pub fn write_vcd<W: Write>(&self, out: W) -> Result<W, ExportError> {
+    /// Writes it as VCD, in a scope named after the trace; with several tasks a comment
+    /// first names the task whose cycles `cycle` counts.
+    pub fn write_vcd<W: Write>(&self, mut out: W) -> Result<W, ExportError> {
         let (signals, types): (Vec<Signal>, Vec<ValueType>) =
             self.export_signals().into_iter().unzip();
+        if let Some(t) = &self.task {
+            writeln!(out, "$comment cycles of task {t} $end")?;
+        }
         let mut w = VcdWriter::new(out, &self.name, &signals)?;
         self.each_sample(&types, |s| w.write(s))?;
         w.finish()

@@ -3,7 +3,8 @@
 //!
 //! - definitions: the project's `traces:` (`crate::project::trace`), or given at run time;
 //! - `capture`: one armed trace, its ring and its trigger's state machine;
-//! - `set`: the traces of a running PLC, stepped by the service's cycle boundary;
+//! - `set`: the traces of a running PLC (of one task of several), stepped by the service's
+//!   cycle boundary; `ledger`: the traces armed in every task, against the PLC's one budget;
 //! - `data`: a trace's samples taken out of the scan;
 //! - `export`: the CSV and VCD writers (also used by the replay).
 //!
@@ -14,9 +15,11 @@
 pub(crate) mod capture;
 pub(crate) mod data;
 pub(crate) mod export;
+pub(crate) mod ledger;
 pub(crate) mod set;
 
 pub use capture::{Capture, Moment, TraceState};
 pub use data::{SignalInfo, TraceData};
 pub use export::{CsvWriter, ExportError, Sample, Signal, Timescale, VcdWriter};
+pub use ledger::TraceLedger;
 pub use set::{TraceRefusal, TraceSet, TraceStatus};

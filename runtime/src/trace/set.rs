@@ -9,6 +9,7 @@ use softplc_io::point::{Value, ValueType};
 use super::capture::{Capture, Moment, TraceState};
 use super::data::TraceData;
 use super::export::Signal;
+use super::ledger::TraceLedger;
 use crate::image::TagId;
 use crate::plc::Plc;
 use crate::project::trace::{
@@ -45,6 +46,17 @@ pub enum TraceRefusal {
     /// A run-time trace that does not pass the project's rules.
     #[error("{}", .0.iter().map(|e| e.to_string()).collect::<Vec<_>>().join("; "))]
     Invalid(Vec<TraceError>),
+    /// A trace of that name is armed in another task (a trace's name is the PLC's).
+    #[error(
+        "trace {name} is armed in task {task}: disarm it first (`softplc trace disarm {name}`), \
+         or arm it in task {task}"
+    )]
+    ArmedElsewhere {
+        /// The trace.
+        name: String,
+        /// The task it is armed in.
+        task: String,
+    },
     /// Neither a name nor a definition.
     #[error("arm a trace by name, or give its tags (and trigger)")]
     Nothing,
@@ -103,6 +115,10 @@ pub struct TraceStatus {
     pub triggered_at: Option<u64>,
     /// Its signals.
     pub signals: Vec<String>,
+    /// With several tasks: the task whose cycles it samples (absent with one task, and for
+    /// a trace of the project not armed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task: Option<String>,
 }
 
 impl std::fmt::Display for TraceStatus {
@@ -110,10 +126,14 @@ impl std::fmt::Display for TraceStatus {
         let state = self
             .state
             .map_or_else(|| "not armed".to_owned(), |s| s.to_string());
+        write!(f, "{}", self.name)?;
+        if let Some(t) = &self.task {
+            write!(f, " (task {t})")?;
+        }
         write!(
             f,
-            "{}: {state}, {}/{} samples (pre {}, post {})",
-            self.name, self.samples, self.depth, self.pre, self.post
+            ": {state}, {}/{} samples (pre {}, post {})",
+            self.samples, self.depth, self.pre, self.post
         )?;
         if let Some(c) = self.triggered_at {
             write!(f, ", triggered at cycle {c}")?;
@@ -122,10 +142,17 @@ impl std::fmt::Display for TraceStatus {
     }
 }
 
-/// The traces of one PLC.
+/// The traces of one PLC, or of one task of several.
 #[derive(Debug, Default)]
 pub struct TraceSet {
     armed: Vec<Armed>,
+    /// Every trace armed in the PLC, against its one budget.
+    ledger: TraceLedger,
+    /// With several tasks: this set's task.
+    task: Option<String>,
+    /// With several tasks: the project's traces this task arms at start (each is armed in
+    /// one task); `None`: every one marked `arm: start`.
+    at_start: Option<Vec<String>>,
 }
 
 #[derive(Debug)]
@@ -138,6 +165,17 @@ impl TraceSet {
     /// No trace armed.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// The traces of task `task`, one of several whose traces are held in `ledger`; of the
+    /// project's traces, it arms those named in `at_start` when it starts.
+    pub fn of_task(task: String, ledger: TraceLedger, at_start: Vec<String>) -> Self {
+        Self {
+            armed: Vec::new(),
+            ledger,
+            task: Some(task),
+            at_start: Some(at_start),
+        }
     }
 
     /// At a cycle boundary: steps every armed trace with the cycle just completed.
@@ -163,21 +201,7 @@ impl TraceSet {
         spec: Option<&RawTrace>,
     ) -> Result<TraceStatus, TraceRefusal> {
         let config = match (spec, name) {
-            (Some(raw), _) => {
-                if project.traces.iter().any(|t| t.name == raw.name) {
-                    return Err(TraceRefusal::NameTaken {
-                        name: raw.name.clone(),
-                    });
-                }
-                let (tags, modules) = names(project);
-                let names = SignalNames {
-                    tags: &tags,
-                    modules: &modules,
-                };
-                trace::build(raw, &names).map_err(|errors| {
-                    TraceRefusal::Invalid(errors.into_iter().map(|(_, e)| e).collect())
-                })?
-            }
+            (Some(raw), _) => spec_config(project, raw)?,
             (None, Some(name)) => project
                 .traces
                 .iter()
@@ -186,7 +210,12 @@ impl TraceSet {
                 .ok_or_else(|| self.unknown(project, name))?,
             (None, None) => return Err(TraceRefusal::Nothing),
         };
-        self.fits(project, &config)?;
+        self.ledger.reserve(
+            self.task.as_deref(),
+            &config.name,
+            config.ring_bytes(),
+            project.trace_budget,
+        )?;
         let signals = signals(project, &config);
         self.armed
             .retain(|a| a.capture.config().name != config.name);
@@ -194,46 +223,27 @@ impl TraceSet {
             capture: Capture::arm(config),
             signals,
         };
-        let armed_status = status(&armed);
+        let armed_status = status(&armed, self.task.as_ref());
         self.armed.push(armed);
         Ok(armed_status)
-    }
-
-    /// Whether `config` fits the project's budget beside the traces armed (one of its own
-    /// name is replaced, so its memory counts as free). Checked before anything is
-    /// allocated, so a refused arm costs nothing.
-    fn fits(&self, project: &Project, config: &TraceConfig) -> Result<(), TraceRefusal> {
-        let budget = project.trace_budget;
-        let others = self
-            .armed
-            .iter()
-            .filter(|a| a.capture.config().name != config.name);
-        let (count, used) = others.fold((0usize, 0u64), |(n, bytes), a| {
-            (n + 1, bytes + a.capture.config().ring_bytes())
-        });
-        if count >= budget.armed {
-            return Err(TraceRefusal::TooMany {
-                armed: budget.armed,
-            });
-        }
-        let left = budget.memory.saturating_sub(used);
-        let needs = config.ring_bytes();
-        if needs > left {
-            return Err(TraceRefusal::OverBudget {
-                name: config.name.clone(),
-                needs,
-                left,
-                memory: budget.memory,
-            });
-        }
-        Ok(())
     }
 
     /// Arms every trace of the project marked `arm: start` (the default), before the first
     /// cycle; the number armed.
     pub fn arm_at_start(&mut self, project: &Project) -> usize {
         let mut n = 0;
-        for t in project.traces.iter().filter(|t| t.at_start) {
+        let here = |name: &str| {
+            self.at_start
+                .as_ref()
+                .is_none_or(|names| names.iter().any(|n| n == name))
+        };
+        let start: Vec<String> = project
+            .traces
+            .iter()
+            .filter(|t| t.at_start && here(&t.name))
+            .map(|t| t.name.clone())
+            .collect();
+        for t in project.traces.iter().filter(|t| start.contains(&t.name)) {
             if self.arm(project, Some(&t.name), None).is_ok() {
                 n += 1;
             }
@@ -248,6 +258,7 @@ impl TraceSet {
         if self.armed.len() == before {
             return Err(self.unknown(project, name));
         }
+        self.ledger.release(name);
         Ok(())
     }
 
@@ -257,7 +268,11 @@ impl TraceSet {
         project: &Project,
         name: Option<&str>,
     ) -> Result<Vec<TraceStatus>, TraceRefusal> {
-        let mut out: Vec<TraceStatus> = self.armed.iter().map(status).collect();
+        let mut out: Vec<TraceStatus> = self
+            .armed
+            .iter()
+            .map(|a| status(a, self.task.as_ref()))
+            .collect();
         for t in &project.traces {
             if !out.iter().any(|s| s.name == t.name) {
                 out.push(TraceStatus {
@@ -269,6 +284,7 @@ impl TraceSet {
                     post: t.post,
                     triggered_at: None,
                     signals: signals(project, t).into_iter().map(|s| s.name).collect(),
+                    task: None,
                 });
             }
         }
@@ -296,7 +312,8 @@ impl TraceSet {
         else {
             return Err(self.unknown(project, name));
         };
-        let data = TraceData::of(&project.name, &a.capture, &a.signals);
+        let mut data = TraceData::of(&project.name, &a.capture, &a.signals);
+        data.task = self.task.clone();
         if save && a.capture.repeats() && a.capture.state() == TraceState::Complete {
             a.capture.rearm();
         }
@@ -322,7 +339,23 @@ impl TraceSet {
     }
 }
 
-fn status(a: &Armed) -> TraceStatus {
+/// A trace given at run time, checked against `project` as the project's are.
+pub(crate) fn spec_config(project: &Project, raw: &RawTrace) -> Result<TraceConfig, TraceRefusal> {
+    if project.traces.iter().any(|t| t.name == raw.name) {
+        return Err(TraceRefusal::NameTaken {
+            name: raw.name.clone(),
+        });
+    }
+    let (tags, modules) = names(project);
+    let names = SignalNames {
+        tags: &tags,
+        modules: &modules,
+    };
+    trace::build(raw, &names)
+        .map_err(|errors| TraceRefusal::Invalid(errors.into_iter().map(|(_, e)| e).collect()))
+}
+
+fn status(a: &Armed, task: Option<&String>) -> TraceStatus {
     let c = &a.capture;
     TraceStatus {
         name: c.config().name.clone(),
@@ -333,6 +366,7 @@ fn status(a: &Armed) -> TraceStatus {
         post: c.config().post,
         triggered_at: c.trigger().map(|(_, cycle)| cycle),
         signals: a.signals.iter().map(|s| s.name.clone()).collect(),
+        task: task.cloned(),
     }
 }
 

@@ -156,12 +156,22 @@ pub(crate) fn wait_in_log(
 /// `softplc run PROJECT --virtual` without end, its control socket at `socket`, once that
 /// socket is there (within a minute); stopped when the result is dropped.
 pub(crate) fn run_virtual(project: &std::path::Path, socket: &std::path::Path) -> Running {
+    run_virtual_with(project, socket, &[])
+}
+
+/// [`run_virtual`] with more options of `softplc run` (`--keep-forces`).
+pub(crate) fn run_virtual_with(
+    project: &std::path::Path,
+    socket: &std::path::Path,
+    extra: &[&str],
+) -> Running {
     use std::process::{Command, Stdio};
     let child = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .arg("run")
         .arg(project)
         .args(["--virtual", "--for", "10000h", "--quiet", "--socket"])
         .arg(socket)
+        .args(extra)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::null())

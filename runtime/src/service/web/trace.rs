@@ -6,7 +6,7 @@
 //! | `GET /api/trace` | `{"ok": true, "traces": [TraceStatus…]}` |
 //! | `GET /api/trace/data?name=N` | `{"ok": true, "trace": TraceData}`: the samples so far |
 //! | `GET /api/trace/csv?name=N`, `/api/trace/vcd?name=N` | the file, as an attachment |
-//! | `POST /api/trace/arm` | `{"name": "jam"}`, or `{"spec": {"name", "tags", "trigger", "pre", "post", "mode", "every"}}` |
+//! | `POST /api/trace/arm` | `{"name": "jam"}`, or `{"spec": {"name", "tags", "trigger", "pre", "post", "mode", "every"}}`; `"task"`: whose cycles (several tasks) |
 //! | `POST /api/trace/disarm` | `{"name": "jam"}` |
 //!
 //! Reading changes nothing (a download does not re-arm a repeating trace: `softplc trace save`
@@ -68,6 +68,8 @@ struct ArmBody {
     name: Option<String>,
     #[serde(default)]
     spec: Option<RawTrace>,
+    #[serde(default)]
+    task: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -86,6 +88,7 @@ fn arm_request(body: &[u8]) -> Result<TraceRequest, serde_json::Error> {
             name: crate::project::trace::name_or_default(Some(s.name)),
             ..s
         }),
+        task: b.task,
     })
 }
 
@@ -249,6 +252,19 @@ mod tests {
             "adhoc",
             "the CLI's"
         );
+    }
+
+    #[test]
+    fn the_page_names_the_task_a_trace_samples() {
+        assert_eq!(
+            arm_request(br#"{"name": "jam", "task": "press"}"#).ok(),
+            Some(TraceRequest::Arm {
+                name: Some("jam".into()),
+                spec: None,
+                task: Some("press".into()),
+            })
+        );
+        assert!(arm_request(br#"{"name": "jam", "tasks": "press"}"#).is_err());
     }
 
     #[test]

@@ -24,8 +24,19 @@ pub struct CsvWriter<W: Write> {
 
 impl<W: Write> CsvWriter<W> {
     /// Writes the header row for `signals`.
-    pub fn new(mut out: W, signals: &[Signal]) -> Result<Self, ExportError> {
-        let mut line = String::from("time_s,cycle");
+    pub fn new(out: W, signals: &[Signal]) -> Result<Self, ExportError> {
+        Self::with_cycle_column(out, signals, "cycle")
+    }
+
+    /// Writes the header row for `signals`, the cycle's column headed `cycle` (a trace of one
+    /// task of several names it: `cycle [task press]`).
+    pub fn with_cycle_column(
+        mut out: W,
+        signals: &[Signal],
+        cycle: &str,
+    ) -> Result<Self, ExportError> {
+        let mut line = String::from("time_s,");
+        push_field(&mut line, cycle);
         for s in signals {
             let head = match s.unit {
                 Some(u) => format!("{} [{} {u}]", s.name, s.ty),

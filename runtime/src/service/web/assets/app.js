@@ -654,7 +654,8 @@
         s.state ? el("a", { href: "/api/trace/csv?name=" + enc, download: s.name + ".csv", text: "CSV" }) : null,
         s.state ? el("a", { href: "/api/trace/vcd?name=" + enc, download: s.name + ".vcd", text: "VCD" }) : null);
       return el("tr", { "data-trace": s.name },
-        el("td", { text: s.name }),
+        // With several tasks, whose cycles it samples.
+        el("td", { text: s.task ? s.name + " (task " + s.task + ")" : s.name }),
         el("td", { class: "trace-state", "data-state": s.state || "idle", text: s.state || "not armed" }),
         el("td", { class: "num", text: s.samples + " / " + s.depth }),
         el("td", { class: "num", text: s.pre + " / " + s.post }),
