@@ -18,7 +18,7 @@ use softplc::recorder::{
     ReplayOptions, Settings,
 };
 use softplc::scan::TaskSet;
-use softplc::service::{Health, Service, ServiceState, TaskRecorders};
+use softplc::service::{Health, PerTask, Service, ServiceState};
 use softplc_io::point::Value;
 
 use crate::common::host::softplc_in;
@@ -310,7 +310,7 @@ fn record_tasks(
         8 << 20,
     );
     let health = Health::new();
-    let recorders = TaskRecorders::new();
+    let recorders = PerTask::new();
     let mut handles = Vec::new();
     let mut slow_disk = None;
     for task in &mut tasks {
@@ -324,10 +324,10 @@ fn record_tasks(
             Box::new(FileDisk)
         };
         let handle = task.plc.record_on(s, disk).expect("the recorder starts");
-        recorders.add(&task.name, handle.state_cell());
+        recorders.add_recorder(&task.name, handle.state_cell());
         handles.push((task.name.clone(), handle));
     }
-    health.watch_task_recorders(recorders);
+    health.watch_tasks(Service::Recorder, recorders);
     (tasks, handles, health, slow_disk.expect("a slow task"))
 }
 

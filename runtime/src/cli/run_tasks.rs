@@ -19,7 +19,7 @@ use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
 use crate::service::task_router::{trace_home, TagOwner, TraceRoutes};
 use crate::service::web::WebServer;
-use crate::service::{Health, TaskStatus};
+use crate::service::{Health, PerTask, Service, TaskStatus};
 use crate::trace::{TraceLedger, TraceSet};
 
 use super::task_record::TaskRecording;
@@ -42,8 +42,11 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let audit = super::run::start_audit(&args.project, &health);
     let recording = TaskRecording::prepare(&project, &args)?;
     if let Some(r) = &recording {
-        health.watch_task_recorders(r.recorders.clone());
+        health.watch_tasks(Service::Recorder, r.recorders.clone());
     }
+    // Each task saves its retained tags in a file of its own, through a writer of its own.
+    let retains = PerTask::new();
+    health.watch_tasks(Service::Retain, retains.clone());
     let builder = TaskBuilder::new(&project, clock.clone(), tap).context("cannot start the PLC")?;
     // The services live on the first task's boundary: its image holds every tag (it copies
     // every tag another task owns at its cycle's start), and their writes reach the owning
@@ -174,7 +177,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     }
     let engine = {
         let control = control.clone();
-        let (run_for, statuses, health) = (args.run_for, statuses.clone(), health.clone());
+        let (run_for, statuses) = (args.run_for, statuses.clone());
         let web_server = web_server.clone();
         let recording = recording.clone();
         // Each task keeps the forces of its own image, in a file of its own (as it keeps its
@@ -187,7 +190,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
                 plc.plc.keep_forces(task_file(path, &plc.name));
             }
             if let Some(r) = plc.plc.retainer() {
-                health.watch_retain(r.save_failure());
+                retains.add_retain(&plc.name, r.save_failure());
             }
             let starter = match i {
                 0 => web_starter.lock().ok().and_then(|mut s| s.take()),

@@ -12,7 +12,7 @@ use crate::plc::TaskPlc;
 use crate::project::Project;
 use crate::recorder::{RecorderHandle, Settings, WriterState};
 use crate::scan::fmt_duration;
-use crate::service::TaskRecorders;
+use crate::service::PerTask;
 
 use super::run::RunArgs;
 
@@ -27,7 +27,7 @@ pub(super) struct TaskRecording {
     /// How many tasks share the record's bounds.
     tasks: usize,
     /// Every task's writer, for the recorder service's state.
-    pub(super) recorders: TaskRecorders,
+    pub(super) recorders: PerTask,
     /// Each task's handle once its recorder started (by task, in project order).
     handles: Arc<Mutex<Vec<Option<TaskHandle>>>>,
 }
@@ -61,7 +61,7 @@ impl TaskRecording {
         Ok(Some(Self {
             settings,
             tasks,
-            recorders: TaskRecorders::new(),
+            recorders: PerTask::new(),
             handles: Arc::new(Mutex::new((0..tasks).map(|_| None).collect())),
         }))
     }
@@ -87,7 +87,7 @@ impl TaskRecording {
                 }))
             }
         };
-        self.recorders.add(&task.name, writer);
+        self.recorders.add_recorder(&task.name, writer);
     }
 
     /// Waits for every task's writer once the tasks' PLCs are gone; what each record misses,

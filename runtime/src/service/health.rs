@@ -153,38 +153,60 @@ fn writer_state(state: &WriterState) -> ServiceState {
     }
 }
 
-/// Every task's recorder writer, by task, as each task starts its own (see
-/// [`Health::watch_task_recorders`]); cloned handles share the list.
-#[derive(Debug, Clone, Default)]
-pub struct TaskRecorders(Arc<Mutex<Vec<TaskWriter>>>);
+/// One service each task of a PLC of several tasks runs for itself (its recorder's writer, its
+/// retained values' writer), reported as one, with each task's state read when a report is
+/// made (see [`Health::watch_tasks`]); cloned handles share the list, so each task adds its
+/// own as it starts.
+#[derive(Clone, Default)]
+pub struct PerTask(Arc<Mutex<Vec<(String, Probe)>>>);
 
-/// A task's name and its writer's state.
-type TaskWriter = (String, Arc<Mutex<WriterState>>);
+impl std::fmt::Debug for PerTask {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let tasks = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        f.debug_list()
+            .entries(tasks.iter().map(|(t, _)| t))
+            .finish()
+    }
+}
 
-impl TaskRecorders {
+impl PerTask {
     /// An empty list.
     pub fn new() -> Self {
         Self::default()
     }
 
     /// Task `task` records through the writer whose state is `writer`.
-    pub fn add(&self, task: &str, writer: Arc<Mutex<WriterState>>) {
+    pub fn add_recorder(&self, task: &str, writer: Arc<Mutex<WriterState>>) {
+        self.add(task, move || {
+            writer_state(&writer.lock().unwrap_or_else(PoisonError::into_inner))
+        });
+    }
+
+    /// Task `task` saves its retained values through the writer whose failure is `failure`.
+    pub fn add_retain(&self, task: &str, failure: SaveFailure) {
+        self.add(task, move || retain_state(&failure));
+    }
+
+    fn add(&self, task: &str, probe: impl Fn() -> ServiceState + Send + Sync + 'static) {
         self.0
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
-            .push((task.to_string(), writer));
+            .push((task.to_string(), Box::new(probe)));
     }
 
-    /// The recorder service's state over every task's writer.
+    /// The service's state over every task's: running while every task's runs; stopped when
+    /// none runs; degraded otherwise. The reason names each task whose part is not running,
+    /// so an operator knows which task has a hole while the others' go on.
     fn state(&self) -> ServiceState {
-        let writers = self.0.lock().unwrap_or_else(PoisonError::into_inner);
-        let states: Vec<(&str, ServiceState)> = writers
+        let tasks = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        let states: Vec<(&str, ServiceState)> = tasks
             .iter()
-            .map(|(task, w)| {
-                let state = writer_state(&w.lock().unwrap_or_else(PoisonError::into_inner));
-                (task.as_str(), state)
-            })
+            .map(|(task, probe)| (task.as_str(), probe()))
             .collect();
+        if states.is_empty() {
+            // No task runs it (no task retains a tag, say).
+            return ServiceState::Off;
+        }
         let failing: Vec<String> = states
             .iter()
             .filter_map(|(task, s)| Some(format!("task {task}: {}", s.reason()?)))
@@ -201,6 +223,14 @@ impl TaskRecorders {
         } else {
             ServiceState::Degraded(reason)
         }
+    }
+}
+
+/// The retained values' state: degraded while saving fails.
+fn retain_state(failure: &SaveFailure) -> ServiceState {
+    match &*failure.lock().unwrap_or_else(PoisonError::into_inner) {
+        None => ServiceState::Running,
+        Some(e) => ServiceState::Degraded(format!("cannot save: {e}")),
     }
 }
 
@@ -255,21 +285,15 @@ impl Health {
         });
     }
 
-    /// The recorder of a project of several tasks: every task's writer, as one service.
-    /// Running while every task records; stopped when no task does; degraded otherwise. The
-    /// reason names each task whose recorder is not running, so an operator knows which
-    /// task's record has a hole while the others' go on.
-    pub fn watch_task_recorders(&self, recorders: TaskRecorders) {
-        self.watch(Service::Recorder, move || recorders.state());
+    /// `service` run by each task of a PLC of several tasks (the recorder, the retained
+    /// values' writer), as one service over every task's part.
+    pub fn watch_tasks(&self, service: Service, tasks: PerTask) {
+        self.watch(service, move || tasks.state());
     }
+
     /// The retained values' state: degraded while saving fails.
     pub fn watch_retain(&self, failure: SaveFailure) {
-        self.watch(Service::Retain, move || {
-            match &*failure.lock().unwrap_or_else(PoisonError::into_inner) {
-                None => ServiceState::Running,
-                Some(e) => ServiceState::Degraded(format!("cannot save: {e}")),
-            }
-        });
+        self.watch(Service::Retain, move || retain_state(&failure));
     }
 
     /// The state of `service`.
@@ -359,12 +383,12 @@ mod tests {
     #[test]
     fn the_recorder_of_several_tasks_names_each_failing_task() {
         let health = Health::new();
-        let recorders = TaskRecorders::new();
+        let recorders = PerTask::new();
         let fast = Arc::new(Mutex::new(WriterState::Writing));
         let slow = Arc::new(Mutex::new(WriterState::Writing));
-        recorders.add("fast", fast.clone());
-        recorders.add("slow", slow.clone());
-        health.watch_task_recorders(recorders);
+        recorders.add_recorder("fast", fast.clone());
+        recorders.add_recorder("slow", slow.clone());
+        health.watch_tasks(Service::Recorder, recorders);
         assert_eq!(health.state(Service::Recorder), ServiceState::Running);
         *slow.lock().unwrap() = WriterState::Stopped {
             reason: "Read-only file system (os error 30)".into(),
@@ -393,5 +417,30 @@ mod tests {
             reason: "gone".into(),
         };
         assert_eq!(health.state(Service::Recorder).word(), "stopped");
+    }
+
+    #[test]
+    fn the_retained_values_of_several_tasks_name_the_task_whose_saves_fail() {
+        let health = Health::new();
+        let retains = PerTask::new();
+        health.watch_tasks(Service::Retain, retains.clone());
+        assert_eq!(
+            health.state(Service::Retain),
+            ServiceState::Off,
+            "no task retains a tag yet"
+        );
+        let press: SaveFailure = Arc::new(Mutex::new(None));
+        let panel: SaveFailure = Arc::new(Mutex::new(None));
+        retains.add_retain("press", press.clone());
+        retains.add_retain("panel", panel.clone());
+        assert_eq!(health.state(Service::Retain), ServiceState::Running);
+        *panel.lock().unwrap() = Some("No space left on device".into());
+        assert_eq!(
+            health.state(Service::Retain),
+            ServiceState::Degraded("task panel: cannot save: No space left on device".into()),
+            "the first task's failure is not the only one seen"
+        );
+        *panel.lock().unwrap() = None;
+        assert_eq!(health.state(Service::Retain), ServiceState::Running);
     }
 }

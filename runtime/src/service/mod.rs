@@ -51,7 +51,7 @@ pub(crate) mod trace;
 pub mod web;
 
 pub use boundary::ServiceBoundary;
-pub use health::{Health, Service, ServiceReport, ServiceState, TaskRecorders};
+pub use health::{Health, PerTask, Service, ServiceReport, ServiceState};
 pub use metrics::parse_head as parse_metrics_head;
 pub use modbus_guard::{check_pdu, whole_frames, Malformed};
 pub use notify::Notifier;
