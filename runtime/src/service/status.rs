@@ -235,7 +235,8 @@ pub struct TaskStatus {
 }
 
 impl StatusReport {
-    /// Adds every task's figures (from their live snapshots) and the other tasks' modules.
+    /// Adds every task's figures (from their live snapshots), the other tasks' modules and
+    /// their forces (a tag is forced in the image of the task owning it).
     pub fn with_tasks(mut self, tasks: &[TaskStatus]) -> Self {
         for (i, t) in tasks.iter().enumerate() {
             let Some(report) = TaskReport::of(t) else {
@@ -247,6 +248,13 @@ impl StatusReport {
             if i > 0 {
                 self.modules
                     .extend(live.modules.iter().map(ModuleReport::of));
+                for (tag, value) in &live.forces {
+                    if let Some(t) = self.tags.get_mut(tag.index()) {
+                        t.forced = Some(value.to_string());
+                        // The owner's value: the first task's copy may be a cycle older.
+                        t.value = value.to_string();
+                    }
+                }
             }
         }
         self
