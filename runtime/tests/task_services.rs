@@ -380,8 +380,22 @@ fn an_opcua_client_sees_every_change_of_every_task_each_tasks_modules_and_forces
         .find(|l| l.trim_start().starts_with("held "))
         .unwrap_or_else(|| panic!("{status}"));
     assert!(held.contains("FORCED 1"), "{status}");
-    assert!(status.contains("module fm (fast_line)"), "{status}");
-    assert!(status.contains("module sm (slow_line)"), "{status}");
+    // In project order: the fast task's fm first, though the slow task is the first task;
+    // each good once its own task has read it.
+    let socket = s.dir.join("s.sock");
+    let status = wait_until(Duration::from_secs(20), || {
+        let (_, out) =
+            crate::common::host::softplc(&["status", "--socket", socket.to_str().expect("UTF-8")]);
+        (
+            out.contains("module fm (fast_line): good")
+                && out.contains("module sm (slow_line): good"),
+            out,
+        )
+    });
+    assert!(
+        status.find("module fm") < status.find("module sm"),
+        "{status}"
+    );
     let passed = run_python(
         "opcua/task_changes_client.py",
         &[&format!("opc.tcp://{addr}/"), "urn:softplc:counting", "3"],

@@ -81,10 +81,12 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let statuses: Vec<TaskStatus> = project
         .tasks
         .iter()
-        .map(|t| TaskStatus {
+        .zip(&shares)
+        .map(|(t, share)| TaskStatus {
             name: t.name.clone(),
             period: t.scan.period,
             live: Arc::default(),
+            modules: share.modules().to_vec(),
         })
         .collect();
     services.start_network(&project, &requests, &health)?;

@@ -232,22 +232,40 @@ pub struct TaskStatus {
     pub period: std::time::Duration,
     /// What its scan publishes (every 200 ms).
     pub live: std::sync::Arc<std::sync::Mutex<crate::scan::StatusSnapshot>>,
+    /// Its modules' indices in the project, in its own order (the status lists every task's
+    /// modules in project order).
+    pub modules: Vec<usize>,
 }
 
 impl StatusReport {
-    /// Adds every task's figures (from their live snapshots), the other tasks' modules and
-    /// their forces (a tag is forced in the image of the task owning it).
+    /// Adds every task's figures (from their live snapshots), the other tasks' modules (every
+    /// task's in project order) and their forces (a tag is forced in the image of the task
+    /// owning it).
     pub fn with_tasks(mut self, tasks: &[TaskStatus]) -> Self {
+        // (project index, report); a module whose index is unknown keeps its place at the end.
+        let place = |t: &TaskStatus, k: usize| t.modules.get(k).copied().unwrap_or(usize::MAX);
+        let mut modules: Vec<(usize, ModuleReport)> = match tasks.first() {
+            // The first task's modules are in the report already, as its scan sees them.
+            Some(first) => std::mem::take(&mut self.modules)
+                .into_iter()
+                .enumerate()
+                .map(|(k, m)| (place(first, k), m))
+                .collect(),
+            None => return self,
+        };
         for (i, t) in tasks.iter().enumerate() {
             let Some(report) = TaskReport::of(t) else {
                 continue;
             };
             self.tasks.push(report);
             let Ok(live) = t.live.lock() else { continue };
-            // The first task's modules are in the report already, as its scan sees them.
             if i > 0 {
-                self.modules
-                    .extend(live.modules.iter().map(ModuleReport::of));
+                modules.extend(
+                    live.modules
+                        .iter()
+                        .enumerate()
+                        .map(|(k, m)| (place(t, k), ModuleReport::of(m))),
+                );
                 for (tag, value) in &live.forces {
                     if let Some(t) = self.tags.get_mut(tag.index()) {
                         t.forced = Some(value.to_string());
@@ -257,6 +275,8 @@ impl StatusReport {
                 }
             }
         }
+        modules.sort_by_key(|(at, _)| *at);
+        self.modules = modules.into_iter().map(|(_, m)| m).collect();
         self
     }
 }

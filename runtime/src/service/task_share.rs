@@ -74,6 +74,11 @@ impl TaskShare {
         self.modules.get(local).copied()
     }
 
+    /// The project's index of each of the task's modules, in the task's order.
+    pub(crate) fn modules(&self) -> &[usize] {
+        &self.modules
+    }
+
     /// The project's module count.
     pub(crate) fn all_modules(&self) -> usize {
         self.all_modules
