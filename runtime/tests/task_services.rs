@@ -4,7 +4,8 @@
 //! With a slow first task and a fast task counting every cycle, an OPC UA client and a
 //! Sparkplug host see every step of the count and every toggle of the slow task, both tasks'
 //! modules (OPC UA `Modules`, a DBIRTH each, the metrics, the page) and the fast task's force
-//! (`status`, an OPC UA write refused with BadLocked, the metrics, the page).
+//! (`status`, an OPC UA write refused with BadLocked, Sparkplug's values, the metrics, the
+//! page).
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -415,12 +416,14 @@ fn a_sparkplug_host_sees_every_change_of_every_task_and_each_tasks_modules_as_de
     let s = counting_tasks("mqtt-changes", "");
     let (_broker, port, pb2) = with_broker(&s, "counting1");
     let _run = start(&s);
+    force_held(&s);
     let passed = run_python(
         "mqtt/task_changes_consumer.py",
         &[&port.to_string(), "plant1", "counting1", &pb2, "3"],
     );
-    assert_eq!(passed.len(), 2, "{passed:?}");
+    assert_eq!(passed.len(), 3, "{passed:?}");
     assert_eq!(passed[0], "births fm sm", "{passed:?}");
+    assert_eq!(passed[2], "forced", "{passed:?}");
     let (count, toggles) = changes_counted(&passed);
     assert!(count >= 40, "{passed:?}");
     assert!(toggles >= 3, "{passed:?}");

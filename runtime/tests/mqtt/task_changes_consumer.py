@@ -5,7 +5,9 @@ The PLC's first task `slow` toggles `slow_toggle` every cycle and drives sm.Y1 (
 the task `fast` counts `count` up every cycle and drives fm.Y1 (`fast_lamp`). Asks the node
 for a rebirth until an NBIRTH comes, checks a DBIRTH for each task's module (device) with the
 tag bound to it, then takes NDATA for SECONDS and checks every change came: `count` steps by
-one from each value to the next, `slow_toggle` alternates. Speaks on stdout: "PASS step",
+one from each value to the next, `slow_toggle` alternates, and `held` (which the fast task
+toggles every cycle, forced true by the test before this host runs) is true in the NBIRTH and
+in no NDATA. Speaks on stdout: "PASS step",
 "FAIL why", "DONE". Every wait has a deadline.
 """
 
@@ -45,7 +47,7 @@ for device, tag in [("fm", "fast_lamp"), ("sm", "slow_lamp")]:
 say("PASS births " + " ".join(sorted(d for d in births if d != "node")))
 
 alias = {m.alias: m.name for m in births["node"].metrics}
-values = {"count": [], "slow_toggle": []}
+values = {"count": [], "slow_toggle": [], "held": []}
 for name in values:
     if name not in alias.values():
         fail(f"NBIRTH does not declare {name}")
@@ -58,7 +60,7 @@ while time.monotonic() < end:
         name = alias.get(m.alias)
         if name == "count":
             values[name].append(m.int_value)
-        elif name == "slow_toggle":
+        elif name in ("slow_toggle", "held"):
             values[name].append(m.boolean_value)
 count, toggles = values["count"], values["slow_toggle"]
 steps = [(b - a) % 65536 for a, b in zip(count, count[1:])]
@@ -67,5 +69,9 @@ if len(count) < 2 or any(s != 1 for s in steps):
 if len(toggles) < 2 or any(a == b for a, b in zip(toggles, toggles[1:])):
     fail(f"slow_toggle did not alternate: {toggles}")
 say(f"PASS changes count {len(count)} slow_toggle {len(toggles)}")
+held = next(m for m in births["node"].metrics if m.name == "held")
+if not held.boolean_value or values["held"]:
+    fail(f"held is not held forced: {held.boolean_value} in the NBIRTH, then {values['held']}")
+say("PASS forced")
 host.stop()
 say("DONE")
