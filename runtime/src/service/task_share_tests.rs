@@ -1,22 +1,25 @@
 //! Two tasks on virtual clocks, each boundary with its share of the services wired as
 //! `softplc run` wires them: a consumer of the change feed sees every change of every task's
-//! tags at its task's own cycle ends, and the snapshot shows every task's forces and modules.
+//! tags at its task's own cycle ends, the alarms see a module of a task other than the first
+//! lost, and the snapshot shows every task's forces and modules.
 
 use std::path::PathBuf;
 use std::time::Duration;
 
 use softplc_io::point::{Quality, Value};
+use softplc_io::sim::{Fault, FaultRule, Frequency};
 
 use super::TaskShare;
 use crate::plc::TaskBuilder;
 use crate::scan::{TaskControl, TaskSet};
+use crate::service::alarms::book::AlarmBook;
 use crate::service::boundary::ServiceBoundary;
 use crate::service::changes::{ChangeFeed, Delivery};
 use crate::service::snapshot::{Publisher, SnapshotCell};
 
 /// The first task is the slow one (100 ms); the fast one (10 ms) counts and toggles every
 /// cycle. The fast task's module comes first in the project, so module places differ from
-/// each task's own.
+/// each task's own; its second module `fx` never answers (the test silences it).
 const PROJECT: &str = "\
 project: shares
 tasks:
@@ -28,6 +31,7 @@ buses:
 modules:
   - { name: fm, bus: fast_line, model: minimod, address: 1 }
   - { name: sm, bus: slow_line, model: minimod, address: 1 }
+  - { name: fx, bus: fast_line, model: minimod, address: 2 }
 tags:
   - { name: count, type: u16 }
   - { name: toggle, type: bool }
@@ -85,6 +89,14 @@ fn every_tasks_boundary_feeds_and_publishes_its_own_share() {
         if i == 1 {
             // Forced in the fast task, which owns it.
             plc.plc.force("held", "1").expect("a force");
+            let world = plc.plc.world().expect("a simulated line");
+            let mut world = world.lock().expect("the world");
+            let fx = world.find("fx").expect("fx is simulated");
+            world.faults_mut().add(FaultRule {
+                device: Some(fx),
+                fault: Fault::Silent,
+                frequency: Frequency::Always,
+            });
         }
         engines.push(
             control
@@ -116,8 +128,8 @@ fn every_tasks_boundary_feeds_and_publishes_its_own_share() {
             })
             .collect()
     };
-    // Every count of the fast task, at its own cycle ends (10 ms apart), once each, with the
-    // safe state's publication last (the count unchanged there: no change).
+    // Every count of the fast task, once each, at its own cycles (the safe state's
+    // publication last changes no count).
     let count = changes_of(0);
     assert_eq!(count.len() as u64, cycles[1], "{count:?}");
     for (n, (task, cycle, _, value)) in count.iter().enumerate() {
@@ -126,10 +138,13 @@ fn every_tasks_boundary_feeds_and_publishes_its_own_share() {
             (1, n as u64 + 1, Value::U16(n as u16 + 1))
         );
     }
+    // Stamped with the fast task's cycle ends: a period apart, give or take the time a cycle
+    // took (its silent module's timeouts), never the slow task's 100 ms.
     assert!(
-        count
-            .windows(2)
-            .all(|w| w[1].2.saturating_sub(w[0].2) == Duration::from_millis(10)),
+        count.windows(2).all(|w| {
+            let gap = w[1].2.saturating_sub(w[0].2);
+            gap > Duration::from_millis(5) && gap < Duration::from_millis(15)
+        }),
         "{count:?}"
     );
     // Every toggle too (a change every cycle), and the slow task's, at its own boundaries.
@@ -142,11 +157,32 @@ fn every_tasks_boundary_feeds_and_publishes_its_own_share() {
         .iter()
         .flat_map(|d| d.cycle.modules.iter().map(move |(m, _)| (d.cycle.task, *m)))
         .collect();
+    for place in [(1, 0), (0, 1), (1, 2)] {
+        assert!(modules.contains(&place), "{place:?} in {modules:?}");
+    }
     assert!(
-        modules.contains(&(1, 0)) && modules.contains(&(0, 1)),
+        modules.iter().all(|&(t, m)| (t == 0) == (m == 1)),
         "{modules:?}"
     );
-    assert!(modules.iter().all(|(t, m)| t + m == 1), "{modules:?}");
+    // The alarms, fed the same deliveries: the fast task's lost module, at its cycle.
+    let mut book = AlarmBook::new(&project, std::time::SystemTime::UNIX_EPOCH);
+    for d in &deliveries {
+        book.apply(d);
+    }
+    let lost: Vec<(String, bool)> = book
+        .all()
+        .into_iter()
+        .filter(|a| a.name.starts_with("lost."))
+        .map(|a| (a.name, a.active))
+        .collect();
+    assert_eq!(
+        lost,
+        [
+            ("lost.fm".to_owned(), false),
+            ("lost.sm".to_owned(), false),
+            ("lost.fx".to_owned(), true)
+        ]
+    );
     // The snapshot: the fast task's force and values as it published them, both modules.
     let snap = cell.get();
     assert!(snap.stopped, "every task published its last state");
@@ -154,12 +190,17 @@ fn every_tasks_boundary_feeds_and_publishes_its_own_share() {
     assert_eq!(snap.values[0], Value::U16(cycles[1] as u16));
     assert_eq!(snap.task_cycles, cycles);
     assert_eq!(snap.cycles, cycles[0], "the first task's figures");
-    assert_eq!(snap.modules.len(), 2);
-    assert!(
-        snap.modules
-            .iter()
-            .all(|m| m.quality == Quality::Good && m.counters.requests > 0),
-        "{:?}",
-        snap.modules
+    let modules: Vec<(Quality, bool)> = snap
+        .modules
+        .iter()
+        .map(|m| (m.quality, m.counters.requests > 0))
+        .collect();
+    assert_eq!(
+        modules,
+        [
+            (Quality::Good, true),
+            (Quality::Good, true),
+            (Quality::Bad, true)
+        ]
     );
 }
