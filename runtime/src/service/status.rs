@@ -269,8 +269,6 @@ impl StatusReport {
                 for (tag, value) in &live.forces {
                     if let Some(t) = self.tags.get_mut(tag.index()) {
                         t.forced = Some(value.to_string());
-                        // The owner's value: the first task's copy may be a cycle older.
-                        t.value = value.to_string();
                     }
                 }
             }
@@ -291,11 +289,12 @@ pub struct LostChanges {
 }
 
 impl StatusReport {
-    /// The report of `plc` after the cycles `stats` counted.
+    /// The report of `plc` after the cycles `stats` counted (with several tasks: the tags
+    /// other tasks own as they last published them).
     pub fn of(plc: &Plc, stats: &ScanStats) -> Self {
         let project = plc.project();
         let image = plc.image();
-        Self {
+        let mut report = Self {
             project: project.name.clone(),
             scans: stats.cycles,
             overruns: stats.overruns,
@@ -320,7 +319,14 @@ impl StatusReport {
             plant: PlantReport::of(plc),
             alarms: None,
             tasks: Vec::new(),
+        };
+        for (tag, slot) in plc.published_by_others() {
+            if let Some(t) = report.tags.get_mut(tag.index()) {
+                t.value = slot.value.to_string();
+                t.quality = slot.quality.to_string();
+            }
         }
+        report
     }
 }
 
