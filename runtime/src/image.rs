@@ -159,6 +159,13 @@ impl ProcessImage {
         self.forces[id.index()]
     }
 
+    /// Every forced tag with its forced value, in tag order.
+    pub fn forces(&self) -> impl Iterator<Item = (TagId, Value)> + '_ {
+        (0u32..)
+            .zip(&self.forces)
+            .filter_map(|(i, f)| Some((TagId(i), (*f)?)))
+    }
+
     /// Writes every forced value into its slot (the scan calls this after the input read and
     /// after the logic).
     pub fn apply_forces(&mut self, now: ScanInstant) {

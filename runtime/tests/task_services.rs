@@ -1,6 +1,11 @@
 //! The plant services of a PLC of several tasks (the two-tasks example with the metrics and
 //! the web page on loopback port 0, real clock): they show every task's tags, and a force
 //! from the page reaches the task owning the tag, whose result every service then shows.
+//! With a slow first task and a fast task counting every cycle, an OPC UA client and a
+//! Sparkplug host see every step of the count and every toggle of the slow task, both tasks'
+//! modules (OPC UA `Modules`, a DBIRTH each, the metrics, the page) and the fast task's force
+//! (`status`, an OPC UA write refused with BadLocked, Sparkplug's values, the metrics, the
+//! page).
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -25,19 +30,56 @@ fn example_with_services(case: &str, service: &str) -> Scratch {
     s
 }
 
+/// The `service:` lines of the metrics and the web page (writes with [`TOKEN`]) on
+/// loopback port 0.
+fn web_and_metrics() -> String {
+    format!(
+        "  metrics: 127.0.0.1:0\n  web: {{ bind: 127.0.0.1:0, writes: true, token: {TOKEN} }}\n"
+    )
+}
+
+/// [`start`], then the addresses of the page and the metrics as the log says them.
+fn start_serving(s: &Scratch) -> (Running, String, String) {
+    let run = start(s);
+    let log = s.dir.join("log");
+    let web = log_value(&log, "web page: http://");
+    let metrics = log_value(&log, "metrics at http://");
+    (run, web, metrics)
+}
+
+/// `softplc run` of `s`'s project with its control socket `s.sock`.
 fn start(s: &Scratch) -> Running {
     let log = std::fs::File::create(s.dir.join("log")).expect("a log file");
     Running(
         Command::new(env!("CARGO_BIN_EXE_softplc"))
             .arg("run")
             .arg(s.dir.join("project.yaml"))
-            .args(["--for", "40s", "--quiet", "--no-socket"])
+            .args(["--for", "60s", "--quiet", "--socket"])
+            .arg(s.dir.join("s.sock"))
             .env("RUST_LOG", "info")
             .stdout(Stdio::null())
             .stderr(log)
             .spawn()
             .expect("softplc runs"),
     )
+}
+
+/// A broker for `s`'s project, whose `service:` gets an MQTT edge node `node` of group
+/// `plant1` on it; the broker (stopped when dropped), its port and the Sparkplug payload
+/// module's folder.
+fn with_broker(s: &Scratch, node: &str) -> (crate::common::broker::Broker, u16, String) {
+    let port = crate::common::host::free_port();
+    let broker = crate::common::broker::Broker::start(&s.dir, port);
+    let python = repo().join("target/py-venv/bin/python");
+    let pb2 = crate::common::broker::sparkplug_pb2(&python, &s.dir);
+    s.write(
+        "project.yaml",
+        &format!(
+            "{}  mqtt: {{ host: 127.0.0.1, port: {port}, group: plant1, node: {node} }}\n",
+            std::fs::read_to_string(s.dir.join("project.yaml")).expect("the project")
+        ),
+    );
+    (broker, port, pb2.to_str().expect("UTF-8").to_owned())
 }
 
 /// One HTTP request: (status, body).
@@ -83,16 +125,8 @@ fn wait_until(within: Duration, mut what: impl FnMut() -> (bool, String)) -> Str
 
 #[test]
 fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owner() {
-    let s = example_with_services(
-        "web-metrics",
-        &format!(
-            "  metrics: 127.0.0.1:0\n  web: {{ bind: 127.0.0.1:0, writes: true, token: {TOKEN} }}\n"
-        ),
-    );
-    let _run = start(&s);
-    let log = s.dir.join("log");
-    let web = log_value(&log, "web page: http://");
-    let metrics = log_value(&log, "metrics at http://");
+    let s = example_with_services("web-metrics", &web_and_metrics());
+    let (_run, web, metrics) = start_serving(&s);
     // Tags of both tasks, as the first task's image holds them (it copies the others').
     let text = wait_until(Duration::from_secs(20), || {
         let text = get(&metrics, "/metrics");
@@ -252,17 +286,7 @@ fn an_opcua_client_reads_each_tasks_figures_and_sees_them_grow() {
 #[test]
 fn a_sparkplug_host_sees_each_tasks_metrics_in_nbirth_and_ndata() {
     let s = example_with_services("mqtt", "");
-    let port = crate::common::host::free_port();
-    let _broker = crate::common::broker::Broker::start(&s.dir, port);
-    let python = repo().join("target/py-venv/bin/python");
-    let pb2 = crate::common::broker::sparkplug_pb2(&python, &s.dir);
-    s.write(
-        "project.yaml",
-        &format!(
-            "{}  mqtt: {{ host: 127.0.0.1, port: {port}, group: plant1, node: press1 }}\n",
-            std::fs::read_to_string(s.dir.join("project.yaml")).expect("the copy")
-        ),
-    );
+    let (_broker, port, pb2) = with_broker(&s, "press1");
     let _run = start(&s);
     let passed = run_python(
         "mqtt/tasks_consumer.py",
@@ -270,11 +294,201 @@ fn a_sparkplug_host_sees_each_tasks_metrics_in_nbirth_and_ndata() {
             &port.to_string(),
             "plant1",
             "press1",
-            pb2.to_str().expect("UTF-8"),
+            &pb2,
             "press",
             "panel",
         ],
     );
     assert_eq!(passed.len(), 2, "{passed:?}");
     assert!(passed[1].starts_with("data press="), "{passed:?}");
+}
+
+/// Two tasks on two lines, real clock: the first task `slow` (300 ms) toggles `slow_toggle`
+/// every cycle and drives sm.Y1; the task `fast` (20 ms) counts `count` up every cycle and
+/// drives fm.Y1. The fast task's module comes first in the project. `held` is the fast
+/// task's (it writes it) and writable, for a force.
+fn counting_tasks(case: &str, service: &str) -> Scratch {
+    let s = Scratch::new("task_services", case);
+    s.write(
+        "fast.rhai",
+        "count += 1;\ntoggle = !toggle;\nfast_lamp = toggle;\nheld = toggle;\n",
+    );
+    s.write(
+        "slow.rhai",
+        "slow_toggle = !slow_toggle;\nslow_lamp = slow_toggle;\n",
+    );
+    s.write(
+        "project.yaml",
+        &format!(
+            "project: counting
+tasks:
+  - {{ name: slow, period: 300ms, program: {{ file: slow.rhai, kind: rhai }}, buses: [slow_line] }}
+  - {{ name: fast, period: 20ms, program: {{ file: fast.rhai, kind: rhai }}, buses: [fast_line] }}
+buses:
+  - {{ name: slow_line, port: sim, baud: 57600, response_timeout: 20ms, tune: reply_delay }}
+  - {{ name: fast_line, port: sim, baud: 57600, response_timeout: 20ms, tune: reply_delay }}
+modules:
+  - {{ name: fm, bus: fast_line, model: minimod, address: 1 }}
+  - {{ name: sm, bus: slow_line, model: minimod, address: 1 }}
+tags:
+  - {{ name: count, type: u16 }}
+  - {{ name: toggle, type: bool }}
+  - {{ name: slow_toggle, type: bool }}
+  - {{ name: fast_lamp, point: fm.Y1, safe: false }}
+  - {{ name: slow_lamp, point: sm.Y1, safe: false }}
+  - {{ name: held, type: bool, scada: write }}
+service:
+{service}"
+        ),
+    );
+    s
+}
+
+/// Forces `held` through the control socket once the fast task answers (its line starts
+/// first); the status text then.
+fn force_held(s: &Scratch) -> String {
+    let socket = s.dir.join("s.sock");
+    let socket = socket.to_str().expect("UTF-8");
+    wait_until(Duration::from_secs(30), || {
+        let (ok, out) = crate::common::host::softplc(&["force", "held", "1", "--socket", socket]);
+        (ok, out)
+    });
+    wait_until(Duration::from_secs(10), || {
+        let (_, out) = crate::common::host::softplc(&["status", "--socket", socket]);
+        (out.contains("FORCED"), out)
+    })
+}
+
+/// The count in a client's `PASS changes count N slow_toggle M` line.
+fn changes_counted(passed: &[String]) -> (u64, u64) {
+    let line = passed
+        .iter()
+        .find_map(|p| p.strip_prefix("changes "))
+        .unwrap_or_else(|| panic!("no changes counted: {passed:?}"));
+    let n: Vec<u64> = line.split(' ').filter_map(|w| w.parse().ok()).collect();
+    (n[0], n[1])
+}
+
+#[test]
+fn an_opcua_client_sees_every_change_of_every_task_each_tasks_modules_and_forces() {
+    let s = counting_tasks("opcua-changes", "  opcua: { port: 0, writes: true }\n");
+    let _run = start(&s);
+    let addr = log_value(&s.dir.join("log"), "OPC UA server at opc.tcp://");
+    let status = force_held(&s);
+    // The status marks the fast task's force and lists both tasks' modules.
+    let held = status
+        .lines()
+        .find(|l| l.trim_start().starts_with("held "))
+        .unwrap_or_else(|| panic!("{status}"));
+    assert!(held.contains("FORCED 1"), "{status}");
+    // In project order: the fast task's fm first, though the slow task is the first task;
+    // each good once its own task has read it.
+    let socket = s.dir.join("s.sock");
+    let status = wait_until(Duration::from_secs(20), || {
+        let (_, out) =
+            crate::common::host::softplc(&["status", "--socket", socket.to_str().expect("UTF-8")]);
+        (
+            out.contains("module fm (fast_line): good")
+                && out.contains("module sm (slow_line): good"),
+            out,
+        )
+    });
+    assert!(
+        status.find("module fm") < status.find("module sm"),
+        "{status}"
+    );
+    let passed = run_python(
+        "opcua/task_changes_client.py",
+        &[&format!("opc.tcp://{addr}/"), "urn:softplc:counting", "3"],
+    );
+    assert_eq!(passed.len(), 3, "{passed:?}");
+    assert!(passed[0].starts_with("modules fm="), "{passed:?}");
+    // Every step of the fast task's count, not one per slow cycle: 3 s at 20 ms is 150 steps,
+    // a loaded machine scans fewer; the slow task's toggles came too (about 10).
+    let (count, toggles) = changes_counted(&passed);
+    assert!(count >= 40, "{passed:?}");
+    assert!(toggles >= 3, "{passed:?}");
+    assert_eq!(passed[2], "forced", "{passed:?}");
+}
+
+#[test]
+fn a_sparkplug_host_sees_every_change_of_every_task_and_each_tasks_modules_as_devices() {
+    let s = counting_tasks("mqtt-changes", "");
+    let (_broker, port, pb2) = with_broker(&s, "counting1");
+    let _run = start(&s);
+    force_held(&s);
+    let passed = run_python(
+        "mqtt/task_changes_consumer.py",
+        &[&port.to_string(), "plant1", "counting1", &pb2, "3"],
+    );
+    assert_eq!(passed.len(), 3, "{passed:?}");
+    assert_eq!(passed[0], "births fm sm", "{passed:?}");
+    assert_eq!(passed[2], "forced", "{passed:?}");
+    let (count, toggles) = changes_counted(&passed);
+    assert!(count >= 40, "{passed:?}");
+    assert!(toggles >= 3, "{passed:?}");
+}
+
+#[test]
+fn the_metrics_and_the_page_show_every_tasks_modules_and_forces() {
+    let s = counting_tasks("web-modules", &web_and_metrics());
+    let (_run, web, metrics) = start_serving(&s);
+    force_held(&s);
+    // Each task's module with its live figures, from its own task; the fast task's force.
+    let requests = |text: &str, module: &str, bus: &str| -> Option<u64> {
+        let key = format!("softplc_module_requests_total{{module=\"{module}\",bus=\"{bus}\"}} ");
+        text.lines()
+            .find_map(|l| l.strip_prefix(key.as_str()))
+            .and_then(|v| v.parse().ok())
+    };
+    let first = wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            text.contains("softplc_module_quality{module=\"fm\",bus=\"fast_line\"} 0")
+                && text.contains("softplc_module_quality{module=\"sm\",bus=\"slow_line\"} 0")
+                && text.contains("softplc_tag_forced{tag=\"held\"} 1"),
+            text,
+        )
+    });
+    let before = (
+        requests(&first, "fm", "fast_line"),
+        requests(&first, "sm", "slow_line"),
+    );
+    assert!(before.0.is_some() && before.1.is_some(), "{first}");
+    wait_until(Duration::from_secs(20), || {
+        let text = get(&metrics, "/metrics");
+        (
+            requests(&text, "fm", "fast_line") > before.0
+                && requests(&text, "sm", "slow_line") > before.1,
+            text,
+        )
+    });
+    // The page: both modules listed and good, the force marked.
+    let info: serde_json::Value = serde_json::from_str(&get(&web, "/api/info")).expect("JSON");
+    let modules: Vec<&str> = info["modules"]
+        .as_array()
+        .expect("modules")
+        .iter()
+        .filter_map(|m| m["name"].as_str())
+        .collect();
+    assert_eq!(modules, ["fm", "sm"], "{info}");
+    let lamp = info["tags"]
+        .as_array()
+        .expect("tags")
+        .iter()
+        .find(|t| t["name"] == "fast_lamp")
+        .expect("fast_lamp");
+    assert_eq!(lamp["module"], 0, "bound to fm on the page: {lamp}");
+    assert_eq!(lamp["kind"], "output", "{lamp}");
+    let state = wait_until(Duration::from_secs(10), || {
+        let text = get(&web, "/api/state");
+        let state: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        let good = state["stats"]["modules"]
+            .as_array()
+            .is_some_and(|m| m.len() == 2 && m.iter().all(|m| m["q"] == 0));
+        (good, text)
+    });
+    let state: serde_json::Value = serde_json::from_str(&state).expect("JSON");
+    assert_eq!(state["state"]["forced"], serde_json::json!([5]), "{state}");
+    assert_eq!(state["state"]["v"][5], true, "{state}");
 }

@@ -20,6 +20,7 @@ use crate::service::changes::ChangeFeed;
 use crate::service::control::Envelope;
 #[cfg(feature = "opcua")]
 use crate::service::opcua::OpcUaServer;
+use crate::service::task_share::TaskShare;
 use crate::service::{network, snapshot, Health, TaskStatus};
 #[cfg(feature = "opcua")]
 use crate::service::{Service, ServiceState};
@@ -133,6 +134,7 @@ impl PlantServices {
                 audit,
                 alarms: self.alarms.as_ref().map(|a| a.alarms().clone()),
             },
+            listed: None,
         }
     }
 
@@ -142,16 +144,57 @@ impl PlantServices {
     }
 
     /// `boundary` publishing to the services and feeding them every cycle's changes;
-    /// `web_later`: the page starts later (on a task's thread) and wants the details too;
-    /// `tasks`: with several tasks, each task's figures, which the services publish too.
-    pub(super) fn attach(
+    /// `web_later`: the page starts later (on a task's thread) and wants the details too.
+    pub(super) fn attach(&mut self, boundary: ServiceBoundary, web_later: bool) -> ServiceBoundary {
+        let boundary = self.attach_share(boundary, web_later, None, &[]);
+        let feed = std::mem::take(&mut self.feed);
+        match feed.is_empty() {
+            true => boundary,
+            false => boundary.with_feed(feed),
+        }
+    }
+
+    /// Every task's boundary of a PLC of several tasks (`boundaries[i]` is task `i`'s),
+    /// each publishing its share (the tags it owns, its modules, its forces) to the services
+    /// and feeding them its share's changes at its own cycle end; the first task's also
+    /// answers for the whole PLC (`tasks`: every task's figures, which it publishes).
+    pub(super) fn attach_tasks(
         &mut self,
+        boundaries: Vec<ServiceBoundary>,
+        shares: Vec<TaskShare>,
+        web_later: bool,
+        tasks: &[TaskStatus],
+    ) -> Vec<ServiceBoundary> {
+        let boundaries = boundaries
+            .into_iter()
+            .zip(shares)
+            .map(|(b, share)| {
+                let feed = self.feed.share(share.clone());
+                let b = self.attach_share(b, web_later, Some(share), tasks);
+                match feed.is_empty() {
+                    true => b,
+                    false => b.with_feed(feed),
+                }
+            })
+            .collect();
+        // Each boundary holds its own end of every consumer's queue now: once the tasks have
+        // ended, the consumers see the feed close.
+        drop(std::mem::take(&mut self.feed));
+        boundaries
+    }
+
+    /// `boundary` with the alarms' requests and the publisher (of `share` only, with several
+    /// tasks; the first task's also of `tasks`' figures).
+    fn attach_share(
+        &self,
         mut boundary: ServiceBoundary,
         web_later: bool,
+        share: Option<TaskShare>,
         tasks: &[TaskStatus],
     ) -> ServiceBoundary {
         let web = web_later || self.network.web.is_some();
-        if let Some(a) = &self.alarms {
+        let host = share.as_ref().is_none_or(|s| s.task() == 0);
+        if let (Some(a), true) = (&self.alarms, host) {
             boundary = boundary.with_alarms(a);
         }
         if web || self.network.any() || self.networked() {
@@ -159,14 +202,15 @@ impl PlantServices {
             if web {
                 publisher = publisher.with_details();
             }
-            let publisher = publisher
-                .with_feeds(self.feed.counts())
-                .with_tasks(tasks.to_vec());
+            if host {
+                publisher = publisher
+                    .with_feeds(self.feed.counts())
+                    .with_tasks(tasks.to_vec());
+            }
+            if let Some(share) = share {
+                publisher = publisher.with_share(share, host);
+            }
             boundary = boundary.with_publisher(publisher);
-        }
-        let feed = std::mem::take(&mut self.feed);
-        if !feed.is_empty() {
-            boundary = boundary.with_feed(feed);
         }
         boundary
     }
@@ -213,14 +257,24 @@ pub(super) struct WebStarter {
     requests: Sender<Envelope>,
     health: Health,
     records: crate::service::web::WebRecords,
+    /// The project whose lines, modules and tags the page lists, when not the PLC's own (a
+    /// PLC of several tasks: the whole project, not the first task's view).
+    listed: Option<Project>,
 }
 
 impl WebStarter {
+    /// The page lists `project`'s lines, modules and tags (every task's).
+    pub(super) fn listing(mut self, project: &Project) -> Self {
+        self.listed = Some(project.clone());
+        self
+    }
+
     /// Starts the page `plc`'s project configures; `None` when none is or it cannot listen
     /// (said in the log and the status).
     pub(super) fn start(self, plc: &Plc) -> Option<crate::service::web::WebServer> {
         network::start_web(
             plc,
+            self.listed.as_ref().unwrap_or_else(|| plc.project()),
             &self.published,
             &self.requests,
             &self.health,

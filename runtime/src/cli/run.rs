@@ -160,7 +160,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         let web = services.web_starter(&requests, &health, audit.clone());
         services.keep_web(web.start(engine.plc()));
     }
-    boundary = services.attach(boundary, false, &[]);
+    boundary = services.attach(boundary, false);
     let notifier = Notifier::from_env();
     if notifier.enabled() {
         boundary = boundary.with_notifier(notifier);

@@ -18,6 +18,7 @@ use crate::scan::{fmt_duration, StopReason, TaskControl, TaskOutcome, TaskSet};
 use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
 use crate::service::task_router::{trace_home, TagOwner, TraceRoutes};
+use crate::service::task_share::TaskShare;
 use crate::service::web::WebServer;
 use crate::service::{Health, PerTask, Service, TaskStatus};
 use crate::trace::{TraceLedger, TraceSet};
@@ -48,24 +49,20 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let retains = PerTask::new();
     health.watch_tasks(Service::Retain, retains.clone());
     let builder = TaskBuilder::new(&project, clock.clone(), tap).context("cannot start the PLC")?;
-    // The services live on the first task's boundary: its image holds every tag (it copies
-    // every tag another task owns at its cycle's start), and their writes reach the owning
-    // task through the router. They see the first task's view of the project: every tag at
-    // its index, the first task's modules (the ones its snapshot reports).
-    let view = {
-        let ownership = builder.ownership();
-        let mut view = project.task_view(0, |t| ownership.owner(TagId(t as u32)) == Some(0));
-        // Every task, for the services' per-task figures (OPC UA's PLC/Tasks, Sparkplug's).
-        view.tasks = project.tasks.clone();
-        view
-    };
+    // The services see the whole project (every tag, every module at its place); each task's
+    // boundary publishes and feeds them its share (the tags it owns, its modules, its
+    // forces) at its own cycle end, and the first task's answers for the whole PLC. Their
+    // writes reach the owning task through the router.
+    let shares: Vec<TaskShare> = (0..project.tasks.len())
+        .map(|i| TaskShare::of(&project, builder.ownership(), i))
+        .collect();
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let services_clock: Arc<dyn Clock> = match &clock {
         Some(c) => c.clone(),
         None => Arc::new(VirtualClock::new()),
     };
     let mut services = PlantServices::start_early(
-        &view,
+        &project,
         &services_clock,
         &args.project,
         audit.clone(),
@@ -76,22 +73,26 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let statuses: Vec<TaskStatus> = project
         .tasks
         .iter()
-        .map(|t| TaskStatus {
+        .zip(&shares)
+        .map(|(t, share)| TaskStatus {
             name: t.name.clone(),
             period: t.scan.period,
             live: Arc::default(),
+            modules: share.modules().to_vec(),
         })
         .collect();
-    services.start_network(&view, &requests, &health)?;
-    let web_later = view.service.web.is_some() && !args.virtual_clock;
-    if view.service.web.is_some() && args.virtual_clock {
+    services.start_network(&project, &requests, &health)?;
+    let web_later = project.service.web.is_some() && !args.virtual_clock;
+    if project.service.web.is_some() && args.virtual_clock {
         tracing::info!("web page: off on the virtual clock (nobody could watch it)");
     }
     // The page starts on the first task's thread once its PLC is built, as a single task's
     // does once its PLC is.
-    let web_starter = std::sync::Mutex::new(
-        web_later.then(|| services.web_starter(&requests, &health, audit.clone())),
-    );
+    let web_starter = std::sync::Mutex::new(web_later.then(|| {
+        services
+            .web_starter(&requests, &health, audit.clone())
+            .listing(&project)
+    }));
     let web_server: Arc<std::sync::Mutex<Option<WebServer>>> = Arc::default();
     // Every task answers the control requests about its own tags at its own boundary, and
     // keeps the traces of its own cycles, all against the PLC's one trace budget.
@@ -125,10 +126,10 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             if notifier.enabled() {
                 b = b.with_notifier(notifier);
             }
-            b = services.attach(b, web_later, &statuses);
         }
         boundaries.push(b);
     }
+    let boundaries = services.attach_tasks(boundaries, shares, web_later, &statuses);
     let control = TaskControl::new();
     let stop = control.stop_flag();
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {

@@ -125,6 +125,21 @@ impl Shared {
     }
 }
 
+impl super::Plc {
+    /// The tags other tasks own, as their owners last published them by now (nothing for a
+    /// PLC of one task): fresher than this task's copies, taken at its cycle's start.
+    pub(crate) fn published_by_others(&self) -> Vec<(TagId, Slot)> {
+        let Some(link) = &self.task else {
+            return Vec::new();
+        };
+        let now = self.clock.now();
+        link.foreign
+            .iter()
+            .filter_map(|&t| Some((t, link.exchange.slot(t, now)?)))
+            .collect()
+    }
+}
+
 /// A publication held until its cycle's end: (that end, order of publication, the slots).
 type Held = (ScanInstant, u64, Vec<(TagId, Slot)>);
 
@@ -183,5 +198,40 @@ mod tests {
         ex.copy_in(&[TagId(0), TagId(1)], &mut reader, at(0));
         assert_eq!(reader.get(TagId(0)), Value::U16(3));
         assert_eq!(reader.get(TagId(1)), Value::U16(0));
+    }
+
+    #[test]
+    fn the_status_shows_another_tasks_tag_as_its_owner_last_published_it() {
+        let project = crate::project::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../examples/two-tasks/project.yaml"),
+        )
+        .expect("the example loads");
+        let builder = crate::plc::TaskBuilder::new(&project, None, None).expect("it compiles");
+        let (press, mut panel) = (
+            builder.build(0).expect("the press"),
+            builder.build(1).expect("the panel"),
+        );
+        // The panel task (which owns `enabled`) publishes it; the press has not copied it in.
+        let enabled = panel.plc.image.id("enabled").expect("a tag");
+        panel
+            .plc
+            .image
+            .set(enabled, Value::Bool(true), ScanInstant::ZERO);
+        let link = panel.plc.task.as_ref().expect("a task's link");
+        link.exchange
+            .publish(&link.owned, &panel.plc.image, ScanInstant::ZERO);
+        assert_eq!(press.plc.image.get(enabled), Value::Bool(false));
+        let status =
+            crate::service::StatusReport::of(&press.plc, &crate::scan::ScanStats::default());
+        let tag = &status.tags[enabled.index()];
+        assert_eq!((tag.value.as_str(), tag.quality.as_str()), ("1", "good"));
+        // A tag the press owns is its own.
+        let strokes = press.plc.image.id("strokes").expect("a tag");
+        assert!(press
+            .plc
+            .published_by_others()
+            .iter()
+            .all(|(t, _)| *t != strokes));
     }
 }

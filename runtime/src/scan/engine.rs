@@ -60,6 +60,9 @@ pub struct StatusSnapshot {
     /// The task's modules as last seen (the status of a PLC of several tasks shows every
     /// task's).
     pub modules: Vec<ModuleStatus>,
+    /// The tags forced in the task's image and their forced values (the status of a PLC of
+    /// several tasks marks every task's forces).
+    pub forces: Vec<(crate::image::TagId, softplc_io::point::Value)>,
 }
 
 /// The scan engine: owns the PLC for the duration of a run.
@@ -446,6 +449,7 @@ impl ScanEngine {
                 bus_errors: stats.bus_errors,
                 now,
                 modules: self.plc.module_status().to_vec(),
+                forces: self.plc.image().forces().collect(),
             };
         }
     }

@@ -13,12 +13,19 @@
 //! the next cycle it takes carries, for every tag whose change it lost, that tag's value now
 //! (so it is in step again) and the tag's name in [`Delivery::overflowed`] (OPC UA sets the
 //! Overflow InfoBit on it).
+//!
+//! In a PLC of several tasks every task's boundary feeds the same consumers (`ChangeFeed::
+//! share`): the changes of the tags it owns and of its modules, at its own cycle end, with
+//! its own cycle number and timestamps. A consumer so sees every change a fast task makes,
+//! whatever the first task's period; each tag's changes come in order (one task feeds them),
+//! and a delivery says which task's cycle it is.
 
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 use softplc_io::point::{Quality, Value};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
+use super::task_share::TaskShare;
 use crate::image::ProcessImage;
 use softplc_io::time::ScanInstant;
 
@@ -39,13 +46,16 @@ pub(crate) struct TagChange {
 /// What one cycle changed.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct CycleChanges {
-    /// The cycle (the scan's count of completed cycles at its boundary).
+    /// The task whose cycle it is (0 for a PLC of one task).
+    pub(crate) task: usize,
+    /// The cycle (the task's count of completed cycles at its boundary).
     pub(crate) cycle: u64,
     /// The scan time of its boundary: the changes' source time.
     pub(crate) at: ScanInstant,
-    /// The tags it changed, in tag order.
+    /// The tags it changed, in tag order (with several tasks: of the tags its task owns).
     pub(crate) changes: Vec<TagChange>,
-    /// The modules whose quality it changed (index in the project, quality after it).
+    /// The modules whose quality it changed (index in the project, quality after it; with
+    /// several tasks: of its task's modules).
     pub(crate) modules: Vec<(usize, Quality)>,
 }
 
@@ -133,6 +143,8 @@ pub(crate) struct ChangeFeed {
     last: Vec<(Value, Quality)>,
     last_modules: Vec<Quality>,
     producers: Vec<Producer>,
+    /// With several tasks: the tags and modules this task's boundary feeds.
+    share: Option<TaskShare>,
 }
 
 impl ChangeFeed {
@@ -169,6 +181,42 @@ impl ChangeFeed {
         self.producers.is_empty()
     }
 
+    /// A feed of the same consumers for one task's boundary of a PLC of several tasks: it
+    /// offers the changes of `share`'s tags and modules only. Its consumers' figures are
+    /// shared (a change lost by any task's feed is counted once, in the same figure).
+    pub(crate) fn share(&self, share: TaskShare) -> ChangeFeed {
+        ChangeFeed {
+            last: Vec::new(),
+            last_modules: Vec::new(),
+            producers: self
+                .producers
+                .iter()
+                .map(|p| Producer {
+                    name: p.name,
+                    tx: p.tx.clone(),
+                    counts: p.counts.clone(),
+                    lost: Vec::new(),
+                    any_lost: false,
+                    modules_lost: false,
+                })
+                .collect(),
+            share: Some(share),
+        }
+    }
+
+    /// The project's index of this feed's module `local`.
+    fn module_id(&self, local: usize) -> usize {
+        match &self.share {
+            Some(share) => share.module(local).unwrap_or(local),
+            None => local,
+        }
+    }
+
+    /// Whether this feed offers the changes of tag `tag`.
+    fn feeds(&self, tag: usize) -> bool {
+        self.share.as_ref().is_none_or(|s| s.owns(tag))
+    }
+
     /// At a cycle boundary: what `image` and the modules' qualities (`modules`, in project
     /// order) changed since the last call (everything at the first), offered to every
     /// consumer without waiting.
@@ -190,7 +238,7 @@ impl ChangeFeed {
         for (m, q) in modules.enumerate() {
             if first_modules || self.last_modules[m] != q {
                 self.last_modules[m] = q;
-                module_changes.push((m, q));
+                module_changes.push((self.module_id(m), q));
             }
         }
         let slots = image.slots();
@@ -198,7 +246,7 @@ impl ChangeFeed {
         let mut changes = Vec::new();
         for (tag, s) in slots.iter().enumerate() {
             let now = (s.value, s.quality);
-            if first || !same(self.last[tag], now) {
+            if (first || !same(self.last[tag], now)) && self.feeds(tag) {
                 changes.push(TagChange {
                     tag,
                     value: s.value,
@@ -215,13 +263,21 @@ impl ChangeFeed {
             }
         }
         let cycle = Arc::new(CycleChanges {
+            task: self.share.as_ref().map_or(0, TaskShare::task),
             cycle,
             at,
             changes,
             modules: module_changes,
         });
+        let modules: Vec<(usize, Quality)> = if self.producers.iter().any(|p| p.modules_lost) {
+            (0..self.last_modules.len())
+                .map(|m| (self.module_id(m), self.last_modules[m]))
+                .collect()
+        } else {
+            Vec::new()
+        };
         for p in &mut self.producers {
-            p.offer(&cycle, image, &self.last_modules);
+            p.offer(&cycle, image, &modules);
         }
     }
 }
@@ -233,7 +289,13 @@ fn same(a: (Value, Quality), b: (Value, Quality)) -> bool {
 }
 
 impl Producer {
-    fn offer(&mut self, cycle: &Arc<CycleChanges>, image: &ProcessImage, modules: &[Quality]) {
+    /// `modules`: every module's quality now, when a producer lost a cycle of them.
+    fn offer(
+        &mut self,
+        cycle: &Arc<CycleChanges>,
+        image: &ProcessImage,
+        modules: &[(usize, Quality)],
+    ) {
         if cycle.changes.is_empty() && cycle.modules.is_empty() && !self.any_lost {
             return;
         }
@@ -244,7 +306,7 @@ impl Producer {
             modules_catch_up: Vec::new(),
         };
         if self.modules_lost {
-            delivery.modules_catch_up = modules.iter().copied().enumerate().collect();
+            delivery.modules_catch_up = modules.to_vec();
         }
         if self.any_lost {
             let slots = image.slots();

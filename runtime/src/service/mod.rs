@@ -47,6 +47,7 @@ pub(crate) mod snapshot;
 pub(crate) mod socket;
 pub(crate) mod status;
 pub(crate) mod task_router;
+pub(crate) mod task_share;
 pub(crate) mod trace;
 pub mod web;
 

@@ -54,6 +54,7 @@ impl NetworkServices {
 /// the plant's interface and stop the start-up instead).
 pub(crate) fn start_web(
     plc: &Plc,
+    listed: &Project,
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
     health: &Health,
@@ -61,7 +62,7 @@ pub(crate) fn start_web(
 ) -> Option<WebServer> {
     let project = plc.project();
     let config = project.service.web.as_ref()?;
-    let info = WebInfo::new(plc, config);
+    let info = WebInfo::new(plc, listed, config);
     match WebServer::start(
         config,
         &info,

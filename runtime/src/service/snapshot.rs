@@ -7,6 +7,13 @@
 //! instances' outputs) are copied every cycle (a copy into buffers that keep their capacity:
 //! no allocation once warm); the statistics, whose
 //! percentiles cost a walk over each histogram, every [`STATS_EVERY`] of scan time.
+//!
+//! In a PLC of several tasks every task's boundary publishes its share into the one
+//! snapshot (`Publisher::with_share`): the values, qualities, timestamps and forced marks of
+//! the tags it owns and its modules' states, at its own cycle end. The first task also
+//! publishes what concerns the whole PLC (its cycles and phases, every task's figures, the
+//! lost changes, the program's blocks). So a service shows each tag as its owning task last
+//! published it, a force of any task, and every task's modules.
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
@@ -15,6 +22,7 @@ use softplc_io::line::Counters;
 use softplc_io::point::{Quality, Value};
 
 use super::changes::FeedCounts;
+use super::task_share::TaskShare;
 use crate::plc::Plc;
 use crate::scan::{DurationHistogram, ScanStats};
 use softplc_io::time::ScanInstant;
@@ -220,6 +228,18 @@ pub struct ServiceSnapshot {
     pub plant: Option<super::status::PlantReport>,
     /// With several tasks, each task's figures (refreshed with the statistics).
     pub tasks: Vec<super::status::TaskReport>,
+    /// With several tasks, each task's completed cycles at its last publication, in task
+    /// order (empty for one task: [`Self::cycles`] is its count).
+    pub task_cycles: Vec<u64>,
+    /// With several tasks, whether each task has published its last state.
+    pub task_stopped: Vec<bool>,
+}
+
+impl ServiceSnapshot {
+    /// Task `task`'s completed cycles at its last publication (the one task's: `cycles`).
+    pub fn cycles_of(&self, task: usize) -> u64 {
+        self.task_cycles.get(task).copied().unwrap_or(self.cycles)
+    }
 }
 
 /// The shared snapshot.
@@ -264,6 +284,9 @@ pub struct Publisher {
     stop_reason: Option<String>,
     feeds: Vec<(&'static str, Arc<FeedCounts>)>,
     tasks: Vec<super::status::TaskStatus>,
+    /// With several tasks: what this task publishes, and whether it is the first task (which
+    /// also publishes what concerns the whole PLC).
+    share: Option<(TaskShare, bool)>,
 }
 
 impl Publisher {
@@ -276,7 +299,15 @@ impl Publisher {
             stop_reason: None,
             feeds: Vec::new(),
             tasks: Vec::new(),
+            share: None,
         }
+    }
+
+    /// Publishes only `share` (a task of a PLC of several tasks); `host`: the first task,
+    /// which also publishes what concerns the whole PLC.
+    pub(crate) fn with_share(mut self, share: TaskShare, host: bool) -> Self {
+        self.share = Some((share, host));
+        self
     }
 
     /// Also publishes every task's figures (a PLC of several tasks, published by its first
@@ -311,59 +342,65 @@ impl Publisher {
         let Ok(mut s) = self.cell.0.try_lock() else {
             return;
         };
-        let image = plc.image();
-        s.published = true;
-        s.cycles = stats.cycles;
-        s.overruns = stats.overruns;
-        s.now = now;
-        s.values.clear();
-        s.values.extend(image.slots().iter().map(|x| x.value));
-        s.qualities.clear();
-        s.qualities.extend(image.slots().iter().map(|x| x.quality));
-        s.timestamps.clear();
-        s.timestamps
-            .extend(image.slots().iter().map(|x| x.timestamp));
-        s.stopped = final_;
-        if final_ {
-            s.stop_reason = self.stop_reason.clone();
+        let s = &mut *s;
+        let host = self.share.as_ref().is_none_or(|(_, host)| *host);
+        match &self.share {
+            None => publish_image(s, plc),
+            Some((share, _)) => {
+                if s.values.len() != plc.image().len() {
+                    // The first publication: every tag as this task holds it, until its
+                    // owner publishes it.
+                    publish_image(s, plc);
+                }
+                publish_tags(s, plc, share.tags());
+                s.task_cycles.resize(share.tasks(), 0);
+                s.task_stopped.resize(share.tasks(), false);
+                if let Some(c) = s.task_cycles.get_mut(share.task()) {
+                    *c = stats.cycles;
+                }
+                if let Some(f) = s.task_stopped.get_mut(share.task()) {
+                    *f = final_;
+                }
+            }
         }
-        s.forced.clear();
-        s.forced.extend(
-            (0..image.len()).map(|i| image.forced(crate::image::TagId(i as u32)).is_some()),
-        );
-        if self.details {
-            // Published with the tag values, so a block's ET and the coil it drives agree.
-            plc.instance_outputs(&mut s.blocks);
-            s.plant = super::status::PlantReport::of(plc);
+        if host {
+            s.published = true;
+            s.cycles = stats.cycles;
+            s.overruns = stats.overruns;
+            s.now = now;
+            if final_ {
+                s.stop_reason = self.stop_reason.clone();
+            }
+            if self.details {
+                // Published with the tag values, so a block's ET and the coil it drives agree.
+                plc.instance_outputs(&mut s.blocks);
+                s.plant = super::status::PlantReport::of(plc);
+            }
         }
+        // With several tasks the services see the end once every task has published its
+        // safe state.
+        s.stopped = match &self.share {
+            None => final_,
+            Some(_) => !s.task_stopped.is_empty() && s.task_stopped.iter().all(|&f| f),
+        };
         let due = self
             .stats_at
             .is_none_or(|at| now.saturating_duration_since(at) >= STATS_EVERY);
-        if due || final_ {
-            self.stats_at = Some(now);
+        if !(due || final_) {
+            return;
+        }
+        self.stats_at = Some(now);
+        if host {
             for (slot, phase) in s.phases.iter_mut().zip(Phase::ALL) {
                 *slot = PhaseSummary::of(phase.histogram(stats));
             }
             s.tasks.clear();
             s.tasks
                 .extend(self.tasks.iter().filter_map(super::status::TaskReport::of));
-            s.modules.clear();
-            s.modules
-                .extend(plc.module_status().iter().map(|m| ModuleSnapshot {
-                    quality: m.quality,
-                    counters: m.counters,
-                }));
             s.lost_changes.clear();
             s.lost_changes
                 .extend(self.feeds.iter().map(|(name, c)| (*name, c.lost())));
-            s.stats_seq += 1;
             if self.details {
-                s.module_errors.clear();
-                s.module_errors.extend(
-                    plc.module_status()
-                        .iter()
-                        .map(|m| m.last_error.as_ref().map(ToString::to_string)),
-                );
                 s.histograms
                     .resize_with(Phase::ALL.len(), HistogramView::default);
                 for (view, phase) in s.histograms.iter_mut().zip(Phase::ALL) {
@@ -371,6 +408,76 @@ impl Publisher {
                 }
             }
         }
+        self.publish_modules(s, plc);
+        s.stats_seq += 1;
+    }
+
+    /// This task's modules (every module for one task), at their places in the project.
+    fn publish_modules(&self, s: &mut ServiceSnapshot, plc: &Plc) {
+        let status = plc.module_status();
+        let place = |local: usize| match &self.share {
+            Some((share, _)) => share.module(local),
+            None => Some(local),
+        };
+        let count = match &self.share {
+            Some((share, _)) => share.all_modules(),
+            None => status.len(),
+        };
+        if self.share.is_none() {
+            s.modules.clear();
+            s.module_errors.clear();
+        }
+        s.modules.resize(count, ModuleSnapshot::default());
+        if self.details {
+            s.module_errors.resize(count, None);
+        }
+        for (local, m) in status.iter().enumerate() {
+            let Some(at) = place(local) else { continue };
+            if let Some(slot) = s.modules.get_mut(at) {
+                *slot = ModuleSnapshot {
+                    quality: m.quality,
+                    counters: m.counters,
+                };
+            }
+            if self.details {
+                if let Some(slot) = s.module_errors.get_mut(at) {
+                    *slot = m.last_error.as_ref().map(ToString::to_string);
+                }
+            }
+        }
+    }
+}
+
+/// Every tag of the image, filled anew.
+fn publish_image(s: &mut ServiceSnapshot, plc: &Plc) {
+    let image = plc.image();
+    let slots = image.slots();
+    s.values.clear();
+    s.values.extend(slots.iter().map(|x| x.value));
+    s.qualities.clear();
+    s.qualities.extend(slots.iter().map(|x| x.quality));
+    s.timestamps.clear();
+    s.timestamps.extend(slots.iter().map(|x| x.timestamp));
+    s.forced.clear();
+    s.forced
+        .extend((0..image.len()).map(|i| image.forced(crate::image::TagId(i as u32)).is_some()));
+}
+
+/// The tags `tags` of the image, at their places (the snapshot holds every tag already).
+fn publish_tags(s: &mut ServiceSnapshot, plc: &Plc, tags: impl Iterator<Item = usize>) {
+    let image = plc.image();
+    for t in tags {
+        let (Some(slot), Some(v), Some(q), Some(at), Some(f)) = (
+            image.slots().get(t),
+            s.values.get_mut(t),
+            s.qualities.get_mut(t),
+            s.timestamps.get_mut(t),
+            s.forced.get_mut(t),
+        ) else {
+            continue;
+        };
+        (*v, *q, *at) = (slot.value, slot.quality, slot.timestamp);
+        *f = image.forced(crate::image::TagId(t as u32)).is_some();
     }
 }
 

@@ -232,23 +232,49 @@ pub struct TaskStatus {
     pub period: std::time::Duration,
     /// What its scan publishes (every 200 ms).
     pub live: std::sync::Arc<std::sync::Mutex<crate::scan::StatusSnapshot>>,
+    /// Its modules' indices in the project, in its own order (the status lists every task's
+    /// modules in project order).
+    pub modules: Vec<usize>,
 }
 
 impl StatusReport {
-    /// Adds every task's figures (from their live snapshots) and the other tasks' modules.
+    /// Adds every task's figures (from their live snapshots), the other tasks' modules (every
+    /// task's in project order) and their forces (a tag is forced in the image of the task
+    /// owning it).
     pub fn with_tasks(mut self, tasks: &[TaskStatus]) -> Self {
+        // (project index, report); a module whose index is unknown keeps its place at the end.
+        let place = |t: &TaskStatus, k: usize| t.modules.get(k).copied().unwrap_or(usize::MAX);
+        let mut modules: Vec<(usize, ModuleReport)> = match tasks.first() {
+            // The first task's modules are in the report already, as its scan sees them.
+            Some(first) => std::mem::take(&mut self.modules)
+                .into_iter()
+                .enumerate()
+                .map(|(k, m)| (place(first, k), m))
+                .collect(),
+            None => return self,
+        };
         for (i, t) in tasks.iter().enumerate() {
             let Some(report) = TaskReport::of(t) else {
                 continue;
             };
             self.tasks.push(report);
             let Ok(live) = t.live.lock() else { continue };
-            // The first task's modules are in the report already, as its scan sees them.
             if i > 0 {
-                self.modules
-                    .extend(live.modules.iter().map(ModuleReport::of));
+                modules.extend(
+                    live.modules
+                        .iter()
+                        .enumerate()
+                        .map(|(k, m)| (place(t, k), ModuleReport::of(m))),
+                );
+                for (tag, value) in &live.forces {
+                    if let Some(t) = self.tags.get_mut(tag.index()) {
+                        t.forced = Some(value.to_string());
+                    }
+                }
             }
         }
+        modules.sort_by_key(|(at, _)| *at);
+        self.modules = modules.into_iter().map(|(_, m)| m).collect();
         self
     }
 }
@@ -263,11 +289,12 @@ pub struct LostChanges {
 }
 
 impl StatusReport {
-    /// The report of `plc` after the cycles `stats` counted.
+    /// The report of `plc` after the cycles `stats` counted (with several tasks: the tags
+    /// other tasks own as they last published them).
     pub fn of(plc: &Plc, stats: &ScanStats) -> Self {
         let project = plc.project();
         let image = plc.image();
-        Self {
+        let mut report = Self {
             project: project.name.clone(),
             scans: stats.cycles,
             overruns: stats.overruns,
@@ -292,7 +319,14 @@ impl StatusReport {
             plant: PlantReport::of(plc),
             alarms: None,
             tasks: Vec::new(),
+        };
+        for (tag, slot) in plc.published_by_others() {
+            if let Some(t) = report.tags.get_mut(tag.index()) {
+                t.value = slot.value.to_string();
+                t.quality = slot.quality.to_string();
+            }
         }
+        report
     }
 }
 

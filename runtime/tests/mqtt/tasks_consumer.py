@@ -7,45 +7,17 @@ waits for NDATA raising every TASK's Scans by alias. Speaks on stdout: "PASS ste
 "FAIL why", "DONE". Every wait has a deadline.
 """
 
-import queue
 import sys
 import time
 
 sys.path.insert(0, sys.argv[4])
 
-import paho.mqtt.client as mqtt  # noqa: E402
 import sparkplug_b_pb2 as spb  # noqa: E402
+from task_host import Host, fail, say  # noqa: E402
 
 PORT, GROUP, NODE, TASKS = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[5:]
-NS = f"spBv1.0/{GROUP}"
 FIELDS = ["Scans", "Overruns", "Cycle p50 us", "Cycle p99 us", "Cycle max us", "Lateness p99 us"]
-messages = queue.Queue()
-
-
-def say(line):
-    print(line, flush=True)
-
-
-def fail(why):
-    say(f"FAIL {why}")
-    sys.exit(1)
-
-
-client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id="tasks-host")
-client.on_message = lambda c, u, m: messages.put((m.topic, m.payload))
-client.connect("127.0.0.1", PORT)
-client.subscribe(f"{NS}/#", qos=1)
-client.loop_start()
-
-
-def rebirth():
-    p = spb.Payload()
-    m = p.metrics.add()
-    m.name = "Node Control/Rebirth"
-    m.datatype = 11
-    m.boolean_value = True
-    client.publish(f"{NS}/NCMD/{NODE}", p.SerializeToString(), qos=0)
-
+host = Host(PORT, GROUP, NODE, "tasks-host", spb)
 
 deadline = time.monotonic() + 40
 birth = None
@@ -54,15 +26,11 @@ while birth is None:
     if time.monotonic() > deadline:
         fail("no NBIRTH")
     if time.monotonic() - asked > 3:
-        rebirth()
+        host.rebirth()
         asked = time.monotonic()
-    try:
-        topic, payload = messages.get(timeout=0.5)
-    except queue.Empty:
-        continue
-    if topic == f"{NS}/NBIRTH/{NODE}":
-        birth = spb.Payload()
-        birth.ParseFromString(payload)
+    got = host.next(0.5)
+    if got is not None and got[0] == host.topic("NBIRTH"):
+        birth = got[1]
 
 declared = {m.name: m for m in birth.metrics}
 for t in TASKS:
@@ -79,18 +47,13 @@ grown = {}
 while len(grown) < len(TASKS):
     if time.monotonic() > deadline:
         fail(f"NDATA did not raise every task's Scans: {first}, then {grown}")
-    try:
-        topic, payload = messages.get(timeout=0.5)
-    except queue.Empty:
+    got = host.next(0.5)
+    if got is None or got[0] != host.topic("NDATA"):
         continue
-    if topic != f"{NS}/NDATA/{NODE}":
-        continue
-    data = spb.Payload()
-    data.ParseFromString(payload)
-    for m in data.metrics:
+    for m in got[1].metrics:
         t = alias.get(m.alias)
         if t is not None and m.long_value > first[t]:
             grown[t] = m.long_value
 say("PASS data " + " ".join(f"{t}={first[t]}->{grown[t]}" for t in TASKS))
-client.loop_stop()
+host.stop()
 say("DONE")

@@ -54,6 +54,7 @@ fn cycle(n: u64, tags: &[(usize, Value)], modules: &[(usize, Quality)]) -> Deliv
 fn cycle_q(n: u64, tags: &[(usize, Value, Quality)], modules: &[(usize, Quality)]) -> Delivery {
     Delivery {
         cycle: Arc::new(CycleChanges {
+            task: 0,
             cycle: n,
             at: ScanInstant::after_origin(Duration::from_millis(10 * n)),
             changes: tags

@@ -70,6 +70,7 @@ fn changed_from(before: &ServiceSnapshot, after: &ServiceSnapshot) -> Vec<Delive
         .collect();
     vec![Delivery {
         cycle: std::sync::Arc::new(CycleChanges {
+            task: 0,
             cycle: after.cycles,
             at: ScanInstant::after_origin(Duration::from_millis(450)),
             changes,
@@ -247,6 +248,7 @@ fn every_value_of_a_metric_goes_out_in_order_each_with_its_cycles_time_and_losse
     let cycles: Vec<Delivery> = (0..3u16)
         .map(|k| Delivery {
             cycle: std::sync::Arc::new(CycleChanges {
+                task: 0,
                 cycle: 11 + u64::from(k),
                 at: ScanInstant::after_origin(Duration::from_millis(510 + 10 * u64::from(k))),
                 changes: vec![TagChange {

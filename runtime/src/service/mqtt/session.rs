@@ -273,7 +273,7 @@ impl Session {
                 // out: kept, and sent after them; what came after it is current.
                 let (before, after): (Vec<Delivery>, Vec<Delivery>) = changes
                     .into_iter()
-                    .partition(|d| d.cycle.cycle <= snap.cycles);
+                    .partition(|d| d.cycle.cycle <= snap.cycles_of(d.cycle.task));
                 self.node.keep(&snap, &before, wall_ms());
                 tracing::info!(
                     "MQTT: NBIRTH (bdSeq {bd_seq}) and DBIRTHs, {} buffered change(s) after them",

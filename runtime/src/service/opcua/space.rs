@@ -605,6 +605,7 @@ mod tests {
     fn delivery(cycle: u64, changes: &[(usize, Value, Quality)], lost: &[usize]) -> Delivery {
         Delivery {
             cycle: std::sync::Arc::new(CycleChanges {
+                task: 0,
                 cycle,
                 at: ScanInstant::after_origin(Duration::from_millis(10 * cycle)),
                 changes: changes

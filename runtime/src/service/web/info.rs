@@ -94,9 +94,10 @@ pub struct WebInfo {
 }
 
 impl WebInfo {
-    /// The information of `plc` under the page settings `web`.
-    pub fn new(plc: &Plc, web: &WebConfig) -> Self {
-        let project = plc.project();
+    /// The information of `plc` under the page settings `web`, listing `project`'s lines,
+    /// modules and tags (`plc.project()`, or with several tasks the whole project: `plc` is
+    /// the first task's, whose program the page draws).
+    pub fn new(plc: &Plc, project: &crate::project::Project, web: &WebConfig) -> Self {
         let buses = project
             .buses
             .iter()
@@ -165,7 +166,7 @@ impl WebInfo {
             tags,
             trend: web.trend.clone(),
             operator: project.alarms.operator.clone(),
-            program: program::view(project, plc.plan()),
+            program: program::view(plc.project(), plc.plan()),
         }
     }
 }

@@ -1,15 +1,16 @@
 //! Server-sent events: `GET /api/events` streams the live state to the page without reloads.
 //!
-//! Each stream sends `state` after every new cycle (checked every [`TICK`]) and `stats` after
-//! every refresh of the statistics, a comment every [`KEEPALIVE`] while the scan is quiet, and
-//! ends after [`LIFETIME`] (the browser's `EventSource` reconnects by itself after the
-//! announced `retry`), so a thread is never held by a tab that went away without closing.
+//! Each stream sends `state` after every new cycle of any task (checked every [`TICK`]) and
+//! `stats` after every refresh of the statistics, a comment every [`KEEPALIVE`] while the
+//! scan is quiet, and ends after [`LIFETIME`] (the browser's `EventSource` reconnects by
+//! itself after the announced `retry`), so a thread is never held by a tab that went away
+//! without closing.
 
 use std::io::Write;
 use std::time::{Duration, Instant};
 
 use super::view;
-use crate::service::snapshot::SnapshotCell;
+use crate::service::snapshot::{ServiceSnapshot, SnapshotCell};
 
 /// How often a stream looks for a new cycle.
 pub(crate) const TICK: Duration = Duration::from_millis(100);
@@ -58,6 +59,13 @@ pub(crate) fn comment(text: &str) -> String {
     format!(": {}\n\n", text.replace(['\r', '\n'], " "))
 }
 
+/// What makes a new `state` event: a cycle of any task (with several tasks, one that is not
+/// the first's publishes its tags between the first task's cycles), or the end of the run
+/// (the final publication adds no cycle, only `stopped`).
+fn news(s: &ServiceSnapshot) -> (u64, u64, bool) {
+    (s.cycles, s.task_cycles.iter().sum(), s.stopped)
+}
+
 /// Streams `snapshot` to `out` until the client goes away or [`LIFETIME`] passes.
 pub(crate) fn stream(
     out: &mut impl Write,
@@ -73,9 +81,8 @@ pub(crate) fn stream(
     while begin.elapsed() < LIFETIME {
         let s = snapshot.get();
         let mut chunk = String::new();
-        // The final publication adds no cycle, only `stopped`: it is news too.
-        if s.published && cycles != Some((s.cycles, s.stopped)) {
-            cycles = Some((s.cycles, s.stopped));
+        if s.published && cycles != Some(news(&s)) {
+            cycles = Some(news(&s));
             chunk.push_str(&event("state", &view::state(&s).to_string()));
         }
         if s.published && stats_seq != Some(s.stats_seq) {
@@ -102,7 +109,6 @@ pub(crate) fn stream(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::service::snapshot::ServiceSnapshot;
 
     #[test]
     fn events_are_framed_line_by_line() {
@@ -116,6 +122,22 @@ mod tests {
         let h = head();
         assert!(h.starts_with("HTTP/1.1 200 OK\r\nContent-Type: text/event-stream"));
         assert!(h.ends_with("\r\n\r\nretry: 1000\n\n"));
+    }
+
+    #[test]
+    fn a_cycle_of_any_task_is_news() {
+        let mut s = ServiceSnapshot {
+            cycles: 3,
+            task_cycles: vec![3, 10],
+            task_stopped: vec![false, false],
+            ..ServiceSnapshot::default()
+        };
+        let before = news(&s);
+        s.task_cycles[1] = 11;
+        assert_ne!(news(&s), before, "the second task's cycle");
+        let before = news(&s);
+        s.stopped = true;
+        assert_ne!(news(&s), before, "the end");
     }
 
     #[test]
