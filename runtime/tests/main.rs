@@ -53,6 +53,7 @@ mod rs485;
 mod scada;
 mod schema;
 mod service;
+mod task_programs;
 mod task_runtime;
 mod task_services;
 mod tasks;

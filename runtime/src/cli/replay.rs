@@ -94,7 +94,7 @@ pub(super) fn replay_cmd(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         &args.record,
         &record,
         &report,
-        &project.program.path,
+        &project.program_files(),
     ))?;
     Ok(if report.identical() {
         ExitCode::SUCCESS
@@ -182,7 +182,7 @@ impl Exports {
 }
 
 /// The replay's summary, as printed.
-pub(crate) fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &Path) -> String {
+pub(crate) fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &str) -> String {
     let mut out = String::new();
     let runs = {
         let mut ids: Vec<u64> = record.segments.iter().map(|s| s.header.run_id).collect();
@@ -211,7 +211,7 @@ pub(crate) fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &
         out,
         "replayed program sha256 {} ({}){}",
         short_hex(&r.replayed_program),
-        program.display(),
+        program,
         if same {
             ": the same program"
         } else {

@@ -36,13 +36,9 @@ pub(crate) fn find(path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let project = std::fs::canonicalize(path)?;
     let mut dirs = vec![project.parent().map(Path::to_path_buf).unwrap_or_default()];
     if let Ok(p) = crate::project::load(path) {
-        // The program's folder, unless it is the project's own (then walked once).
-        if let Some(d) = p
-            .program
-            .path
-            .parent()
-            .and_then(|d| std::fs::canonicalize(d).ok())
-        {
+        // Every program's folder, unless it is the project's own (then walked once).
+        let folders = p.tasks.iter().flat_map(|t| &t.programs);
+        for d in folders.filter_map(|p| std::fs::canonicalize(p.path.parent()?).ok()) {
             if !dirs.contains(&d) {
                 dirs.push(d);
             }
@@ -122,7 +118,7 @@ pub(crate) fn run_path(path: &Path, verbose: bool) -> (String, bool) {
         };
         let mut traces = Vec::new();
         for p in programs {
-            let label = p.map_or_else(|| sc.project.program.path.clone(), |p| p.path.clone());
+            let label = p.map_or_else(|| sc.project.program_files().into(), |p| p.path.clone());
             let label = label
                 .file_name()
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned());

@@ -80,7 +80,12 @@ pub fn engine_name(kind: ProgramKind) -> &'static str {
     }
 }
 
-/// The plan of `project` with its compiled program `engine`.
+/// The plan of `project` with its compiled program `engine` (its first task's programs).
 pub fn plan_program(project: &Project, engine: &dyn LogicEngine) -> Plan {
-    plan(project, engine.rungs(), engine_name(project.program.kind))
+    // Named only when no program describes its rungs: the first one's language says which.
+    let kind = project
+        .programs
+        .first()
+        .map_or(ProgramKind::Expr, |p| p.kind);
+    plan(project, engine.rungs(), engine_name(kind))
 }

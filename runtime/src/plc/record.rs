@@ -42,7 +42,7 @@ impl Plc {
             folder: folder.clone(),
             source,
         };
-        let program = std::fs::read(&self.project.program.path).map_err(fail)?;
+        let program = self.project.program_source().map_err(fail)?;
         let project_file = std::fs::read(&self.project.source).map_err(fail)?;
         let now = self.clock.now();
         let wall = SystemTime::now()
@@ -53,7 +53,7 @@ impl Plc {
             project: self.project.name.clone(),
             project_hash: format::digest(&project_file),
             program_hash: format::digest(&program),
-            program_file: self.project.program.path.display().to_string(),
+            program_file: self.project.program_files(),
             period: self.project.scan.period,
             virtual_clock: self.clock.is_virtual(),
             run_id,

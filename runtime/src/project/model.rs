@@ -27,8 +27,9 @@ pub struct Project {
     pub modules: Vec<ModuleConfig>,
     /// Tags, in file order.
     pub tags: Vec<TagConfig>,
-    /// The first task's program (the one task's, for a project with `program:`).
-    pub program: ProgramConfig,
+    /// The first task's programs (the one task's, for a project with `program:` or
+    /// `programs:`), in the order they run within its cycle; never empty.
+    pub programs: Vec<ProgramConfig>,
     /// The blocks of one's own the `blocks:` files define, in file order.
     pub blocks: Vec<super::UserBlock>,
     /// The instances of those blocks (`instances:`); their variables are memory tags at the
@@ -62,8 +63,9 @@ pub struct TaskConfig {
     pub name: String,
     /// Its period, watchdog and real-time options.
     pub scan: ScanConfig,
-    /// Its program.
-    pub program: ProgramConfig,
+    /// Its programs, in the order they run within its cycle (each on the task's image, in
+    /// its own language); never empty.
+    pub programs: Vec<ProgramConfig>,
     /// Indexes into [`Project::buses`] of the buses it owns, in its `buses:` order.
     pub buses: Vec<usize>,
 }

@@ -66,7 +66,7 @@ impl Project {
             buses: buses.iter().map(|&b| self.buses[b].clone()).collect(),
             modules,
             tags,
-            program: config.program.clone(),
+            programs: config.programs.clone(),
             blocks: self.blocks.clone(),
             instances: self.instances.clone(),
             alarms: self.alarms.clone(),

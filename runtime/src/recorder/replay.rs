@@ -256,7 +256,7 @@ pub fn replay(
     for seg in &record.segments {
         check_compatible(&seg.header, project)?;
     }
-    let program = std::fs::read(&project.program.path).unwrap_or_default();
+    let program = project.program_source().unwrap_or_default();
     let project_file = std::fs::read(&project.source).unwrap_or_default();
     let mut report = ReplayReport {
         project: first.header.project.clone(),

@@ -286,7 +286,7 @@ impl ServiceBoundary {
                 plc.apply_reload(prepared);
                 Ok(format!(
                     "program {} reloaded",
-                    plc.project().program.path.display()
+                    plc.project().program_files()
                 ))
             }
             Ok(Err(e)) => Err(e.to_string()),

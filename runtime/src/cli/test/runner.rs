@@ -403,10 +403,11 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
     }
     let mut project = sc.project.clone();
     if let Some(p) = program {
-        project.program = ProgramConfig {
+        let program = ProgramConfig {
             path: p.path.clone(),
             kind: p.kind,
         };
+        project.set_programs(0, vec![program]);
     }
     if !sc.plant {
         project.plant = None;
