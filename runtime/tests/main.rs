@@ -55,6 +55,7 @@ mod schema;
 mod service;
 mod task_programs;
 mod task_runtime;
+mod task_scenarios;
 mod task_services;
 mod tasks;
 mod tcp_bus;

@@ -15,7 +15,7 @@ use softplc::project::{parse_str, ErrorKind, ProgramKind, Project};
 use softplc::scan::ScanInstant;
 use softplc_io::point::Value;
 
-use crate::common::scratch::Scratch;
+use crate::common::scratch::{Scratch, TWO_LINES};
 
 /// A project of one task without lines: `go` is on from the start; `{programs}` is filled in.
 const ONE_TASK: &str = "\
@@ -111,6 +111,7 @@ fn program_beside_programs_and_an_empty_list_are_refused_where_written() {
 
     // In a task, each missing file is said at its entry.
     let text = TWO_TASKS
+        .replace("{lines}", TWO_LINES)
         .replace("{fast}", "programs:\n      - { file: a.ladder.yaml, kind: ladder }\n      - { file: gone.rhai, kind: rhai }")
         .replace("{slow}", "program: { file: slow.expr, kind: expr }");
     s.write("slow.expr", "lamp = key\n");
@@ -136,13 +137,7 @@ tasks:
     period: 500ms
     buses: [slow_line]
     {slow}
-buses:
-  - { name: fast_line, port: sim, baud: 57600 }
-  - { name: slow_line, port: sim, baud: 9600 }
-modules:
-  - { name: f1, bus: fast_line, model: minimod, address: 1 }
-  - { name: s1, bus: slow_line, model: minimod, address: 1 }
-tags:
+{lines}tags:
   - { name: go,    point: f1.X1 }
   - { name: valve, point: f1.Y1, safe: false }
   - { name: key,   point: s1.X1 }
@@ -171,6 +166,7 @@ fn two_task_project(s: &Scratch, fast_rhai: &str) -> std::path::PathBuf {
     s.write(
         "project.yaml",
         &TWO_TASKS
+            .replace("{lines}", TWO_LINES)
             .replace(
                 "{fast}",
                 "programs:\n      - { file: fast.ladder.yaml, kind: ladder }\n      - { file: fast.rhai, kind: rhai }",

@@ -80,7 +80,10 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("softplc-programs-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let a = program(&dir, "a.expr", "x = y\n");
-        assert_eq!(program_source(std::slice::from_ref(&a)).unwrap(), b"x = y\n");
+        assert_eq!(
+            program_source(std::slice::from_ref(&a)).unwrap(),
+            b"x = y\n"
+        );
         let b = program(&dir, "b.expr", "z = x\n");
         let both = program_source(&[a.clone(), b.clone()]).unwrap();
         // The same text cut elsewhere between the two files is another identity.
