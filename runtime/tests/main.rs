@@ -54,6 +54,7 @@ mod scada;
 mod schema;
 mod service;
 mod task_programs;
+mod task_push_down;
 mod task_runtime;
 mod task_scenarios;
 mod task_services;

@@ -62,8 +62,12 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     }
     super::out::out(&programs::shared_write_warnings(&project, &engines))?;
     let mut failed = false;
-    for (view, plan) in views.iter().zip(&plans) {
-        super::out::out(&crate::offload::report::report(view, plan))?;
+    for ((view, plan), task) in views.iter().zip(&plans).zip(&project.tasks) {
+        let report = match project.multitask() {
+            true => crate::offload::report::task_report(view, plan, &task.name),
+            false => crate::offload::report::report(view, plan),
+        };
+        super::out::out(&report)?;
         let failures = plan.require_failures();
         if !failures.is_empty() {
             super::out::errln(&crate::offload::runtime::lines(&failures).to_string());

@@ -65,7 +65,7 @@ pub use planner::{
     plan, Command, Conditioning, Feature, ModulePlacement, Placement, Plan, Pushed, Reason,
     RequireFailure, RungPlan, TableEntry,
 };
-pub use report::{central_bound, report};
+pub use report::{central_bound, report, task_report};
 pub use softplc_io::rung::{BoolExpr, RungShape};
 
 use crate::logic::LogicEngine;

@@ -212,8 +212,21 @@ impl softplc_io::push_down::Site for RungSite<'_> {
         let Some(t) = self.project.tags.get(tag.index()) else {
             return Err(Reason::Memory { tag: name });
         };
+        let copied = self
+            .project
+            .tasks
+            .first()
+            .and_then(|task| task.copied_io.iter().find(|c| c.tag == tag.index()));
         match t.binding {
-            Binding::Memory => Err(Reason::Memory { tag: name }),
+            Binding::Memory => Err(match copied {
+                // Another task's I/O, a memory tag in this task's view.
+                Some(c) => Reason::OtherTask {
+                    tag: name,
+                    task: c.task.clone(),
+                    bus: c.bus.clone(),
+                },
+                None => Reason::Memory { tag: name },
+            }),
             Binding::Point { module, point } => {
                 let cfg = &self.project.modules[module];
                 if module != self.module {

@@ -68,6 +68,22 @@ pub struct TaskConfig {
     pub programs: Vec<ProgramConfig>,
     /// Indexes into [`Project::buses`] of the buses it owns, in its `buses:` order.
     pub buses: Vec<usize>,
+    /// In a task's view ([`Project::task_view`]): the tags bound to another task's I/O,
+    /// which this task copies in (memory tags in the view). Empty in a project as read.
+    pub copied_io: Vec<CopiedIo>,
+}
+
+/// A tag bound to a point of another task's bus, as a task's view sees it: a value the task
+/// copies in at its cycle's start, never one of its own modules' points (what push-down says
+/// of a rung reading it).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CopiedIo {
+    /// The tag (an index into [`Project::tags`]).
+    pub tag: usize,
+    /// The task owning its bus.
+    pub task: String,
+    /// The bus.
+    pub bus: String,
 }
 
 impl Project {

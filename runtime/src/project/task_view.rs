@@ -8,7 +8,7 @@
 
 use std::path::PathBuf;
 
-use super::model::{Binding, Project, TaskConfig};
+use super::model::{Binding, CopiedIo, Project, TaskConfig};
 
 impl Project {
     /// The view of task `task` (an index into [`Project::tasks`]); `owned(tag)`: whether the
@@ -33,6 +33,7 @@ impl Project {
                 modules.push(module);
             }
         }
+        let mut copied_io = Vec::new();
         let tags = self
             .tags
             .iter()
@@ -46,6 +47,12 @@ impl Project {
                             // Another task's I/O: a value this task copies in, never writes.
                             tag.binding = Binding::Memory;
                             tag.safe = None;
+                            let bus = self.modules[module].bus;
+                            copied_io.push(CopiedIo {
+                                tag: i,
+                                task: self.tasks[self.task_of_bus(bus)].name.clone(),
+                                bus: self.buses[bus].name.clone(),
+                            });
                         }
                     },
                     Binding::Memory => tag.retain &= owned(i),
@@ -61,6 +68,7 @@ impl Project {
             scan: config.scan.clone(),
             tasks: vec![TaskConfig {
                 buses: (0..buses.len()).collect(),
+                copied_io,
                 ..config.clone()
             }],
             buses: buses.iter().map(|&b| self.buses[b].clone()).collect(),

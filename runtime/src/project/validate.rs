@@ -375,6 +375,7 @@ impl Validator<'_> {
                 scan: scan?,
                 programs: programs?,
                 buses: (0..raw.buses.len()).collect(),
+                copied_io: Vec::new(),
             }]);
         };
         for (key, given) in [
@@ -430,6 +431,7 @@ impl Validator<'_> {
                 scan,
                 programs,
                 buses,
+                copied_io: Vec::new(),
             }));
         }
         for (b, bus) in raw.buses.iter().enumerate() {
