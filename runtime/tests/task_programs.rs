@@ -283,3 +283,83 @@ fn the_page_draws_each_ladder_program_of_a_task_with_its_own_blocks_live_values(
         Some(OutputValue::Bool(false))
     );
 }
+
+/// The project of one task running `a.ladder.yaml` then `b.rhai`, in `s`.
+fn two_programs(s: &Scratch) -> std::path::PathBuf {
+    s.write(
+        "project.yaml",
+        &ONE_TASK.replace(
+            "{programs}",
+            "programs:\n  - { file: a.ladder.yaml, kind: ladder }\n  - { file: b.rhai, kind: rhai }",
+        ),
+    )
+}
+
+fn logic(plc: &mut Plc, cycle: u64) -> Value {
+    let ctx = ScanContext {
+        now: ScanInstant::after_origin(Duration::from_millis(10 * cycle)),
+        delta: Duration::from_millis(10),
+        cycle,
+    };
+    plc.run_logic(&ctx).expect("no fault");
+    let id = plc.image().id("valve").expect("a tag");
+    plc.image().get(id)
+}
+
+#[test]
+fn a_reload_compiles_every_program_of_the_task_again() {
+    let s = folder("reload");
+    let project = softplc::project::load(&two_programs(&s)).expect("valid");
+    let mut plc = Plc::build(project, Arc::new(VirtualClock::new())).expect("builds");
+    assert_eq!(logic(&mut plc, 1), Value::Bool(true));
+    // The second program changed: the reload takes it, the first program still runs first.
+    s.write("b.rhai", "valve = !busy;\n");
+    plc.reload_program().expect("reloads");
+    assert_eq!(logic(&mut plc, 2), Value::Bool(false));
+    // An error in the second program refuses the reload, naming its file and line.
+    s.write("b.rhai", "valve = nosuch;\n");
+    let e = plc.reload_program().expect_err("refused").to_string();
+    assert!(e.contains("b.rhai:1:"), "{e}");
+    assert_eq!(
+        logic(&mut plc, 3),
+        Value::Bool(false),
+        "the running one stays"
+    );
+}
+
+#[test]
+fn the_records_program_identity_covers_every_program_of_the_task() {
+    use softplc::recorder::{read_record, replay, ReplayOptions, Settings};
+    use softplc::scan::ScanEngine;
+
+    let s = folder("record");
+    let file = two_programs(&s);
+    let project = softplc::project::load(&file).expect("valid");
+    let mut plc = Plc::build(project.clone(), Arc::new(VirtualClock::new())).expect("builds");
+    let folder = s.dir.join("rec");
+    let settings = Settings::new(folder.clone(), Duration::from_secs(600), 16 << 20);
+    let handle = plc.record(settings).expect("records");
+    let mut engine = ScanEngine::new(plc).run_for(Duration::from_millis(500));
+    engine.run();
+    drop(engine);
+    assert_eq!(handle.finish().error, None);
+    let record = read_record(&folder).expect("a record");
+    let header = &record.segments[0].header;
+    assert!(
+        header.program_file.contains("a.ladder.yaml") && header.program_file.contains("b.rhai"),
+        "{}",
+        header.program_file
+    );
+    let options = ReplayOptions { differences: 10 };
+    let same = replay(&record, &project, options, |_| {}).expect("replays");
+    assert_eq!(same.recorded_program, same.replayed_program);
+    assert!(same.identical());
+    // Only the second program changed: another identity, and its output differs.
+    s.write("b.rhai", "valve = !busy;\n");
+    let changed = softplc::project::load(&file).expect("valid");
+    let options = ReplayOptions { differences: 10 };
+    let other = replay(&record, &changed, options, |_| {}).expect("replays");
+    assert_ne!(other.recorded_program, other.replayed_program);
+    assert!(!other.identical());
+    assert_eq!(other.differences[0].tags[0].tag, "valve");
+}
