@@ -363,3 +363,32 @@ fn the_records_program_identity_covers_every_program_of_the_task() {
     assert!(!other.identical());
     assert_eq!(other.differences[0].tags[0].tag, "valve");
 }
+
+#[test]
+fn the_status_lists_the_programs_in_running_order() {
+    use softplc::scan::ScanStats;
+    use softplc::service::{StatusReport, TaskStatus};
+
+    let s = folder("status");
+    let project = softplc::project::load(&two_programs(&s)).expect("valid");
+    let plc = Plc::build(project, Arc::new(VirtualClock::new())).expect("builds");
+    let report = StatusReport::of(&plc, &ScanStats::default());
+    assert_eq!(report.programs, ["a.ladder.yaml", "b.rhai"]);
+    let text = report.to_string();
+    assert!(
+        text.contains("\n  programs, in running order: a.ladder.yaml, b.rhai\n"),
+        "{text}"
+    );
+    // With several tasks, under each task's line.
+    let task = TaskStatus {
+        name: "press".into(),
+        period: Duration::from_millis(30),
+        programs: vec!["press.ladder.yaml".into(), "count.rhai".into()],
+        live: Arc::default(),
+    };
+    let text = report.with_tasks(&[task]).to_string();
+    assert!(
+        text.contains("\n    programs: press.ladder.yaml, count.rhai\n"),
+        "{text}"
+    );
+}

@@ -87,6 +87,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         .map(|t| TaskStatus {
             name: t.name.clone(),
             period: t.scan.period,
+            programs: crate::service::status::program_names(&t.programs),
             live: Arc::default(),
         })
         .collect();
