@@ -166,4 +166,21 @@ fn a_variant_naming_an_unknown_task_or_no_task_is_refused_at_its_line() {
         text.contains("e.scenario.yaml:5:13: error: no program file"),
         "{text}"
     );
+
+    // The alarm book is the first task's: its modules' `lost.MODULE`, not the others'.
+    s.write(
+        "a.scenario.yaml",
+        "project: project.yaml\nsteps:\n  - { at: 1s, expect: { alarm.lost.f1: inactive } }\n  - { at: 2s, ack: lost.s1 }\n",
+    );
+    let (ok, text) = softplc_in(&s.dir, &["test", "a.scenario.yaml"]);
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("a.scenario.yaml:4:"),
+        "the step naming the other task's module:\n{text}"
+    );
+    assert!(
+        text.contains("the project has no alarm `lost.s1` (its alarms: warn, lost.f1)"),
+        "{text}"
+    );
+    assert!(!text.contains("a.scenario.yaml:3:"), "{text}");
 }
