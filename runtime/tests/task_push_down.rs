@@ -199,3 +199,31 @@ fn each_tasks_module_runs_its_pushed_rung_on_virtual_clocks() {
         Value::Bool(true)
     );
 }
+
+#[test]
+fn an_output_two_programs_of_a_task_write_stays_central_naming_the_other_place() {
+    let s = folder("shared");
+    s.write("slow.rhai", "beacon = key && !start;\nlamp = !key;\n");
+    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(["check", "project.yaml"])
+        .current_dir(&s.dir)
+        .env("SOFTPLC_LOG", "warn")
+        .output()
+        .expect("softplc runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains(
+            "slow.ladder.yaml:2:5 lamp (combinational): central: an output also written \
+             elsewhere: another rung of the program at slow.rhai:2:1"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "slow.rhai:2:1: warning: tag `lamp` is also written by an earlier program of task \
+             `slow` at slow.ladder.yaml:2:5"
+        ),
+        "{text}"
+    );
+}

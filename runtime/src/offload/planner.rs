@@ -288,8 +288,15 @@ pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -
             .map_or_else(|| format!("#{}", rung.coil.0), |t| t.name.clone());
         let mode = project.offload.mode_of(rung.coil.index());
         let mapped = if twice.contains(&rung.coil) {
+            // The other rung by its place: with a task's several programs it may be in
+            // another file.
+            let other = rungs
+                .iter()
+                .enumerate()
+                .find(|(j, r)| *j != i && r.coil == rung.coil)
+                .map_or_else(String::new, |(_, r)| format!(" at {}", r.pos));
             Err(Reason::WrittenElsewhere {
-                by: "another rung of the program".into(),
+                by: format!("another rung of the program{other}"),
             })
         } else {
             place(project, rung, &later)
