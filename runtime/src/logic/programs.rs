@@ -24,12 +24,18 @@ pub struct SharedWrite {
 #[derive(Debug)]
 pub(crate) struct Programs {
     parts: Vec<Box<dyn LogicEngine>>,
+    /// One program's block outputs while they are renumbered: kept, so that publishing the
+    /// snapshot allocates nothing once warm, as with one program.
+    scratch: std::cell::RefCell<Vec<InstanceOutput>>,
 }
 
 impl Programs {
     /// The programs `parts`, in running order.
     pub(crate) fn new(parts: Vec<Box<dyn LogicEngine>>) -> Self {
-        Self { parts }
+        Self {
+            parts,
+            scratch: std::cell::RefCell::default(),
+        }
     }
 }
 
@@ -101,7 +107,7 @@ impl LogicEngine for Programs {
     /// [`LogicEngine::instance_counts`]).
     fn instance_outputs(&self, out: &mut Vec<InstanceOutput>) {
         out.clear();
-        let mut part_out = Vec::new();
+        let mut part_out = self.scratch.borrow_mut();
         let mut base = 0u32;
         for p in &self.parts {
             p.instance_outputs(&mut part_out);
