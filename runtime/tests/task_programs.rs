@@ -392,3 +392,17 @@ fn the_status_lists_the_programs_in_running_order() {
         "{text}"
     );
 }
+
+#[test]
+fn check_lists_the_top_level_programs_in_running_order() {
+    let s = folder("check-top");
+    let project = two_programs(&s);
+    let (ok, out, err) = check(&project);
+    assert!(ok, "{out}\n{err}");
+    let lines = format!(
+        "\nprogram {} (Ladder)\nprogram {} (Rhai)\n",
+        s.dir.join("a.ladder.yaml").display(),
+        s.dir.join("b.rhai").display()
+    );
+    assert!(out.contains(&lines), "{lines}\n{out}");
+}
