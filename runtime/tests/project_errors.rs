@@ -235,8 +235,8 @@ plant:
     let t = &p.tags[4];
     assert_eq!((t.ty, t.initial), (ValueType::F32, Value::F32(0.0)));
 
-    assert_eq!(p.program.path, fixtures().join("conveyor.expr"));
-    assert_eq!(p.program.kind, ProgramKind::Expr);
+    assert_eq!(p.programs[0].path, fixtures().join("conveyor.expr"));
+    assert_eq!(p.programs[0].kind, ProgramKind::Expr);
 
     let plant = p.plant.expect("a plant");
     assert_eq!(plant.model.name, "conveyor");
@@ -287,7 +287,7 @@ fn load_reads_a_file_and_resolves_the_program_beside_it() {
     assert_eq!(p.buses[0].settings.baud, 38400);
     assert_eq!(p.modules[0].device.address.get(), 7);
     assert_eq!(p.tags[2].safe, Some(Value::Bool(false)));
-    assert_eq!(p.program.path, fixtures().join("conveyor.expr"));
+    assert_eq!(p.programs[0].path, fixtures().join("conveyor.expr"));
 }
 
 #[test]
@@ -388,7 +388,7 @@ fn every_unknown_key_comes_with_the_other_errors() {
 fn unknown_key_at_the_top_level() {
     let e = one(&format!("{HEAD}modles: []\n"));
     assert_eq!(at(&e), (7, 1));
-    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `tasks`, `buses`, `modules`, `tags`, `program`, `blocks`, `instances`, `plant`, `service`, `retain`, `offload`, `recorder`, `traces`, `trace_budget`, `alarms`; did you mean `modules`?"), "{e}");
+    assert!(e.to_string().ends_with("error: unknown key `modles` at the top level; expected one of `project`, `scan`, `tasks`, `buses`, `modules`, `tags`, `program`, `programs`, `blocks`, `instances`, `plant`, `service`, `retain`, `offload`, `recorder`, `traces`, `trace_budget`, `alarms`; did you mean `modules`?"), "{e}");
 }
 
 #[test]

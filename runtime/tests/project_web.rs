@@ -351,14 +351,15 @@ fn info(writes: bool) -> WebInfo {
         tags: Vec::new(),
         trend: vec![0],
         operator: Vec::new(),
-        program: ProgramView {
+        programs: vec![ProgramView {
             file: "p.expr".into(),
+            inst_base: 0,
             kind: "expr",
             lines: Vec::new(),
             diagram: None,
             no_diagram: None,
             error: None,
-        },
+        }],
     }
 }
 

@@ -102,7 +102,7 @@ fn tasks_parse_with_their_timing_programs_and_buses() {
         std::time::Duration::from_millis(100)
     );
     assert_eq!(slow.buses, vec![1]);
-    assert!(slow.program.path.ends_with("slow.expr"));
+    assert!(slow.programs[0].path.ends_with("slow.expr"));
     assert!(p.multitask());
     assert_eq!(p.bus_period(1), std::time::Duration::from_millis(500));
 }

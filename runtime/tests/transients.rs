@@ -418,7 +418,7 @@ fn a_reload_compiles_off_the_scan_and_swaps_at_a_cycle_boundary() {
     use softplc::service::control::{Envelope, Request};
     use softplc::service::ServiceBoundary;
     let project = project();
-    let program = project.program.path.clone();
+    let program = project.programs[0].path.clone();
     let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
     let plc = Plc::build(project, clock).expect("builds");
     let world = plc.world().unwrap().clone();

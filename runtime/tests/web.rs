@@ -1194,3 +1194,74 @@ fn a_block_of_ones_own_is_drawn_with_its_instance_and_its_body_on_demand() {
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(&dir));
 }
+
+/// A task of two ladder programs: the page draws each under its file's name, and each
+/// program's block shows its own instance's live outputs (the second program's instances are
+/// numbered after the first's in the state).
+#[test]
+fn a_tasks_two_ladder_programs_are_each_drawn_with_their_own_blocks() {
+    chromium_available();
+    let dir = std::env::temp_dir().join(format!("softplc-web-two-programs-{}", std::process::id()));
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("a.ladder.yaml"),
+        "rungs:\n  - go -> TON t1(100ms) -> busy\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("b.ladder.yaml"),
+        "rungs:\n  - go -> TON t2(600s) -> valve\n",
+    )
+    .unwrap();
+    let port = free_port();
+    let project = format!(
+        "project: twoprograms\n\
+         scan: {{ period: 50ms }}\n\
+         buses: []\n\
+         modules: []\n\
+         tags:\n\
+         \x20 - {{ name: go,    type: bool, initial: true }}\n\
+         \x20 - {{ name: busy,  type: bool }}\n\
+         \x20 - {{ name: valve, type: bool }}\n\
+         programs:\n\
+         \x20 - {{ file: a.ladder.yaml, kind: ladder }}\n\
+         \x20 - {{ file: b.ladder.yaml, kind: ladder }}\n\
+         service:\n  web: {{ bind: \"127.0.0.1:{port}\" }}\n"
+    );
+    std::fs::write(dir.join("project.yaml"), project).unwrap();
+    let plc = run_plc(&dir.join("project.yaml"), &dir.join("ctl.sock"), port);
+    let mut b = Browser::start(&dir.join("chromium"));
+    b.open(&format!("http://127.0.0.1:{port}/#program"));
+    b.wait_for(
+        "document.querySelector('#p2-ladder .lad-block') !== null",
+        Duration::from_secs(30),
+    )
+    .expect("the second program drawn as a ladder");
+    assert_eq!(
+        b.eval("[...document.querySelectorAll('#program .program-file')].map(e => e.textContent)"),
+        serde_json::json!(["1. a.ladder.yaml · ladder", "2. b.ladder.yaml · ladder"])
+    );
+    assert_eq!(
+        b.eval("document.getElementById('program-title').textContent"),
+        "a.ladder.yaml + b.ladder.yaml"
+    );
+    // The first program's timer is done; the second's (600 s) runs: each box shows its own.
+    let first = "document.querySelector('#ladder .lad-block').textContent";
+    let second = "document.querySelector('#p2-ladder .lad-block').textContent";
+    let drawn = b.wait_for(
+        &format!("{first} === 't1TONINPT 100msQ 1ET 100ms' && {second}.startsWith('t2TONIN') && {second}.includes('Q 0ET ') && !{second}.endsWith('ET 0ms')"),
+        Duration::from_secs(10),
+    );
+    assert!(
+        drawn.is_some(),
+        "the boxes: {} | {}",
+        b.eval(first),
+        b.eval(second)
+    );
+    drop(b);
+    drop(plc);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}

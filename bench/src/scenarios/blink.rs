@@ -110,10 +110,11 @@ fn measure(ctx: &Ctx, offload: &str) -> anyhow::Result<Measured> {
     // LAMP is a ladder and Rhai block.
     let ladder = ctx.scratch.join(format!("{name}.ladder.yaml"));
     std::fs::write(&ladder, "rungs:\n  - en -> LAMP warn(3855) -> lamp\n")?;
-    project.program = ProgramConfig {
+    let program = ProgramConfig {
         path: ladder,
         kind: ProgramKind::Ladder,
     };
+    project.set_programs(0, vec![program]);
     for m in &mut project.modules {
         let spec = m.model;
         m.model = Box::leak(Box::new(ModelSpec {

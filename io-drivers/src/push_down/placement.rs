@@ -155,6 +155,16 @@ pub enum Reason {
         /// The tag.
         tag: String,
     },
+    /// A condition reads a point of a bus another task owns: the task running the rung only
+    /// copies its value in at its cycle's start.
+    OtherTask {
+        /// The tag.
+        tag: String,
+        /// The task owning its bus.
+        task: String,
+        /// The bus.
+        bus: String,
+    },
     /// A condition reads a point of another module.
     OtherModule {
         /// The tag.
@@ -251,6 +261,12 @@ impl fmt::Display for Reason {
                 f,
                 "memory or a timer in the condition: {tag} is a memory tag, which the module \
                  cannot see"
+            ),
+            Reason::OtherTask { tag, task, bus } => write!(
+                f,
+                "an input of another task: {tag} is on bus {bus}, which task {task} owns; this \
+                 task copies its value at its cycle's start, and no module of this task's \
+                 buses sees it"
             ),
             Reason::OtherModule { tag, module } => {
                 write!(f, "an input from another module: {tag} is on {module}")

@@ -60,9 +60,14 @@ pub(super) fn check(args: CheckArgs) -> anyhow::Result<ExitCode> {
     if project.multitask() {
         super::out::out(&tasks::report(&project, &engines, &ownership))?;
     }
+    super::out::out(&programs::shared_write_warnings(&project, &engines))?;
     let mut failed = false;
-    for (view, plan) in views.iter().zip(&plans) {
-        super::out::out(&crate::offload::report::report(view, plan))?;
+    for ((view, plan), task) in views.iter().zip(&plans).zip(&project.tasks) {
+        let report = match project.multitask() {
+            true => crate::offload::report::task_report(view, plan, &task.name),
+            false => crate::offload::report::report(view, plan),
+        };
+        super::out::out(&report)?;
         let failures = plan.require_failures();
         if !failures.is_empty() {
             super::out::errln(&crate::offload::runtime::lines(&failures).to_string());
@@ -101,12 +106,7 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
         );
     } else {
         let _ = writeln!(out, "project {}: scan {}", project.name, timing(scan));
-        let _ = writeln!(
-            out,
-            "program {} ({:?})",
-            project.program.path.display(),
-            project.program.kind
-        );
+        out.push_str(&programs::lines(&project.programs, ""));
         if let Some(line) = execution {
             let _ = writeln!(out, "  {line}");
         }
@@ -479,6 +479,7 @@ fn latency_clause(adapter: AdapterTiming, each: &str) -> String {
 mod cycle_mix;
 mod plan;
 mod plant;
+mod programs;
 mod tasks;
 mod tcp;
 #[cfg(test)]

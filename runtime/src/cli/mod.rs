@@ -35,6 +35,7 @@ pub use test::scenario::{
     parse as parse_scenario, CmpOp, Comparison, Expect, FaultStep, ModuleStep, PlantExpect,
     ProgramSpec, Scenario, ScenarioErrors, SetInput,
 };
+pub use test::variants::ProgramVariant;
 
 /// softplc: a deterministic soft-PLC for RS-485 I/O modules.
 #[derive(Debug, Parser)]

@@ -269,8 +269,12 @@ fn replay_one(
         return Err(e).context("cannot write the export");
     }
     exports.finish()?;
-    let program = &subject.project().program.path;
-    let text = summary(&target.path, &record, &report, program);
+    let text = summary(
+        &target.path,
+        &record,
+        &report,
+        &subject.project().program_files(),
+    );
     let verdict = format!(
         "{}{} cycles, {}",
         subject
@@ -395,7 +399,7 @@ impl Exports {
 }
 
 /// The replay's summary, as printed.
-pub(crate) fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &Path) -> String {
+pub(crate) fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &str) -> String {
     let mut out = String::new();
     let runs = {
         let mut ids: Vec<u64> = record.segments.iter().map(|s| s.header.run_id).collect();
@@ -424,7 +428,7 @@ pub(crate) fn summary(path: &Path, record: &Record, r: &ReplayReport, program: &
         out,
         "replayed program sha256 {} ({}){}",
         short_hex(&r.replayed_program),
-        program.display(),
+        program,
         if same {
             ": the same program"
         } else {

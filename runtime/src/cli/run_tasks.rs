@@ -77,6 +77,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         .map(|(t, share)| TaskStatus {
             name: t.name.clone(),
             period: t.scan.period,
+            programs: crate::service::status::program_names(&t.programs),
             live: Arc::default(),
             modules: share.modules().to_vec(),
         })

@@ -4,7 +4,7 @@
 //! its keys: type, whether it is required, and the key's documentation (defaults included).
 //! `docs/project-file.md` is this output for the project file; a test fails when they differ.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 
 use serde_json::{Map, Value};
@@ -44,10 +44,12 @@ pub(crate) fn markdown(schema: &Value, title: &str, command: &str) -> String {
         schema: root,
     }];
     let mut seen = BTreeSet::new();
+    // Each mapping type's first path: where it is documented, which every link to it names.
+    let mut first = BTreeMap::new();
     while !queue.is_empty() {
         let section = queue.remove(0);
         let mut children = Vec::new();
-        write_section(&mut out, &section, &defs, &mut children);
+        write_section(&mut out, &section, &defs, &mut children, &mut first);
         for child in children {
             // A type used at several places (a recursive or shared one) is documented once,
             // at its first path.
@@ -64,6 +66,7 @@ fn write_section<'a>(
     section: &Section<'a>,
     defs: &'a Map<String, Value>,
     children: &mut Vec<Section<'a>>,
+    first: &mut BTreeMap<*const Map<String, Value>, String>,
 ) {
     let Some(props) = section.schema.get("properties").and_then(Value::as_object) else {
         return;
@@ -90,8 +93,16 @@ fn write_section<'a>(
         } else {
             format!("{}.{key}", section.path)
         };
-        let (ty, mapping) = type_of(prop, defs, &path);
+        let (mut ty, mapping) = type_of(prop, defs, &path);
         if let Some(m) = mapping {
+            // A type used at several places is documented at its first: link there.
+            let at = first
+                .entry(m.schema as *const Map<String, Value>)
+                .or_insert_with(|| m.path.clone());
+            if *at != m.path {
+                let here = format!("[`{}`](#{})", m.path, anchor(&m.path));
+                ty = ty.replace(&here, &format!("[`{at}`](#{})", anchor(at)));
+            }
             children.push(m);
         }
         let what = prop
@@ -290,6 +301,28 @@ mod tests {
         );
         assert!(
             text.contains("| `on` | true/false |  | Whether. |"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn a_type_used_at_two_places_is_linked_where_it_is_documented() {
+        let schema = serde_json::json!({
+            "type": "object",
+            "properties": {
+                "one": { "allOf": [{ "$ref": "#/definitions/Item" }] },
+                "many": { "type": "array", "items": { "$ref": "#/definitions/Item" } }
+            },
+            "definitions": {
+                "Item": { "type": "object", "properties": { "on": { "type": "boolean" } } }
+            }
+        });
+        let text = markdown(&schema, "A file", "softplc schema x --markdown");
+        // `many` comes first (keys in order): the section is `many[]`, and `one` links to it.
+        assert!(text.contains("\n## `many[]`\n"), "{text}");
+        assert!(!text.contains("## `one`"), "{text}");
+        assert!(
+            text.contains("| `one` | mapping ([`many[]`](#many)) |  |  |"),
             "{text}"
         );
     }

@@ -6,6 +6,7 @@ pub(crate) mod alarms;
 pub(crate) mod runner;
 pub(crate) mod scenario;
 pub(crate) mod trace;
+pub(crate) mod variants;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -36,13 +37,9 @@ pub(crate) fn find(path: &Path) -> std::io::Result<Vec<PathBuf>> {
     let project = std::fs::canonicalize(path)?;
     let mut dirs = vec![project.parent().map(Path::to_path_buf).unwrap_or_default()];
     if let Ok(p) = crate::project::load(path) {
-        // The program's folder, unless it is the project's own (then walked once).
-        if let Some(d) = p
-            .program
-            .path
-            .parent()
-            .and_then(|d| std::fs::canonicalize(d).ok())
-        {
+        // Every program's folder, unless it is the project's own (then walked once).
+        let folders = p.tasks.iter().flat_map(|t| &t.programs);
+        for d in folders.filter_map(|p| std::fs::canonicalize(p.path.parent()?).ok()) {
             if !dirs.contains(&d) {
                 dirs.push(d);
             }
@@ -115,17 +112,14 @@ pub(crate) fn run_path(path: &Path, verbose: bool) -> (String, bool) {
                 continue;
             }
         };
-        let programs: Vec<Option<&scenario::ProgramSpec>> = if sc.programs.is_empty() {
+        let programs: Vec<Option<&variants::ProgramVariant>> = if sc.programs.is_empty() {
             vec![None]
         } else {
             sc.programs.iter().map(Some).collect()
         };
         let mut traces = Vec::new();
         for p in programs {
-            let label = p.map_or_else(|| sc.project.program.path.clone(), |p| p.path.clone());
-            let label = label
-                .file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            let label = p.map_or_else(|| variants::own_label(&sc.project), |p| p.label.clone());
             let r = runner::run(&sc, p);
             if r.failures.is_empty() {
                 passed += 1;

@@ -8,8 +8,8 @@ use softplc_io::point::Access;
 
 use crate::image::{ProcessImage, TagId};
 use crate::logic::ownership::{Ownership, OwnershipError};
-use crate::logic::LogicEngine;
 use crate::logic::{expr, ladder, rhai, user_blocks};
+use crate::logic::{LogicEngine, Programs};
 use crate::project::{Binding, ProgramConfig, ProgramKind, Project, ScanConfig};
 
 /// Why a program could not be loaded.
@@ -39,7 +39,7 @@ pub enum ProgramError {
     /// every one is listed.
     #[error("{}", Lines(.0))]
     Ownership(Vec<OwnershipError>),
-    /// Several tasks' programs have errors.
+    /// Several programs (of one task or of several) have errors.
     #[error("{}", Lines(.0))]
     Several(Vec<ProgramError>),
 }
@@ -93,12 +93,14 @@ pub(crate) fn script_budget(scan: &ScanConfig) -> Duration {
     scan.watchdog.time.max(scan.period / 2)
 }
 
-/// Compiles the project's program against its tags (ids as in `image`).
+/// Compiles the project's (first task's) programs against its tags (ids as in `image`):
+/// one engine running them in order. The one loader of a task's programs: the build, a
+/// reload and replay all come through here.
 pub fn load_program(
     project: &Project,
     image: &ProcessImage,
 ) -> Result<Box<dyn LogicEngine>, ProgramError> {
-    load_task_program(project, &project.program, &project.scan, image)
+    load_task_programs(project, &project.programs, &project.scan, image)
 }
 
 /// Compiles every task's program against the project's tags (ids as in `image`), in task
@@ -111,7 +113,7 @@ pub fn load_tasks(
     let mut engines = Vec::with_capacity(project.tasks.len());
     let mut failed: Option<ProgramError> = None;
     for task in &project.tasks {
-        match load_task_program(project, &task.program, &task.scan, image) {
+        match load_task_programs(project, &task.programs, &task.scan, image) {
             Ok(engine) => engines.push(engine),
             Err(e) => {
                 failed = Some(match failed {
@@ -128,8 +130,34 @@ pub fn load_tasks(
     Ok((engines, ownership))
 }
 
-/// Compiles one task's program (`program`, timed by `scan`) against the project's tags.
-pub(crate) fn load_task_program(
+/// Compiles one task's programs (timed by `scan`) against the project's tags: every
+/// program's errors, each naming its file; one engine running them in order.
+fn load_task_programs(
+    project: &Project,
+    programs: &[ProgramConfig],
+    scan: &ScanConfig,
+    image: &ProcessImage,
+) -> Result<Box<dyn LogicEngine>, ProgramError> {
+    if let [one] = programs {
+        return load_one(project, one, scan, image);
+    }
+    let mut parts = Vec::with_capacity(programs.len());
+    let mut errors = Vec::new();
+    for program in programs {
+        match load_one(project, program, scan, image) {
+            Ok(engine) => parts.push(engine),
+            Err(e) => errors.push(e),
+        }
+    }
+    match errors.len() {
+        0 => Ok(Box::new(Programs::new(parts))),
+        1 => Err(errors.remove(0)),
+        _ => Err(ProgramError::Several(errors)),
+    }
+}
+
+/// Compiles one program (`program`, timed by `scan`) against the project's tags.
+fn load_one(
     project: &Project,
     program: &ProgramConfig,
     scan: &ScanConfig,

@@ -8,6 +8,7 @@ pub mod expr;
 pub mod ladder;
 pub(crate) mod load;
 pub(crate) mod ownership;
+mod programs;
 #[cfg(test)]
 mod registry_tests;
 pub mod rhai;
@@ -18,6 +19,8 @@ mod vm;
 pub use blocks::{BlockDef, Form, Kind, Member, OutputValue, Pattern, PatternError, Pin, PinType};
 pub use load::{load_program, load_tasks, tag_table, ProgramError};
 pub use ownership::{Ownership, OwnershipError};
+pub(crate) use programs::Programs;
+pub use programs::SharedWrite;
 pub use user_blocks::{OwnBlockError, OwnBlocks};
 
 use std::fmt::Debug;
@@ -117,6 +120,19 @@ pub trait LogicEngine: Send + Debug {
     /// (a Rhai script on the logic VM or in the interpreter); `None` otherwise.
     fn execution(&self) -> Option<String> {
         None
+    }
+
+    /// Tags this task's several programs both write (see [`SharedWrite`]); empty for one
+    /// program.
+    fn shared_writes(&self) -> Vec<SharedWrite> {
+        Vec::new()
+    }
+
+    /// Per program this engine runs (one, or a task's several in running order), how many
+    /// block instances [`Self::instance_outputs`] numbers: a later program's instances are
+    /// numbered after an earlier one's. Engines without numbered instances say `[0]`.
+    fn instance_counts(&self) -> Vec<u32> {
+        vec![0]
     }
 
     /// Replaces `out` with every output of every block instance, by instance index then in

@@ -65,7 +65,7 @@ pub use planner::{
     plan, Command, Conditioning, Feature, ModulePlacement, Placement, Plan, Pushed, Reason,
     RequireFailure, RungPlan, TableEntry,
 };
-pub use report::{central_bound, report};
+pub use report::{central_bound, report, task_report};
 pub use softplc_io::rung::{BoolExpr, RungShape};
 
 use crate::logic::LogicEngine;
@@ -80,7 +80,12 @@ pub fn engine_name(kind: ProgramKind) -> &'static str {
     }
 }
 
-/// The plan of `project` with its compiled program `engine`.
+/// The plan of `project` with its compiled program `engine` (its first task's programs).
 pub fn plan_program(project: &Project, engine: &dyn LogicEngine) -> Plan {
-    plan(project, engine.rungs(), engine_name(project.program.kind))
+    // Named only when no program describes its rungs: the first one's language says which.
+    let kind = project
+        .programs
+        .first()
+        .map_or(ProgramKind::Expr, |p| p.kind);
+    plan(project, engine.rungs(), engine_name(kind))
 }

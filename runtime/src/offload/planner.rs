@@ -212,8 +212,21 @@ impl softplc_io::push_down::Site for RungSite<'_> {
         let Some(t) = self.project.tags.get(tag.index()) else {
             return Err(Reason::Memory { tag: name });
         };
+        let copied = self
+            .project
+            .tasks
+            .first()
+            .and_then(|task| task.copied_io.iter().find(|c| c.tag == tag.index()));
         match t.binding {
-            Binding::Memory => Err(Reason::Memory { tag: name }),
+            Binding::Memory => Err(match copied {
+                // Another task's I/O, a memory tag in this task's view.
+                Some(c) => Reason::OtherTask {
+                    tag: name,
+                    task: c.task.clone(),
+                    bus: c.bus.clone(),
+                },
+                None => Reason::Memory { tag: name },
+            }),
             Binding::Point { module, point } => {
                 let cfg = &self.project.modules[module];
                 if module != self.module {
@@ -275,8 +288,15 @@ pub fn plan(project: &Project, rungs: Option<Vec<Rung>>, engine: &'static str) -
             .map_or_else(|| format!("#{}", rung.coil.0), |t| t.name.clone());
         let mode = project.offload.mode_of(rung.coil.index());
         let mapped = if twice.contains(&rung.coil) {
+            // The other rung by its place: with a task's several programs it may be in
+            // another file.
+            let other = rungs
+                .iter()
+                .enumerate()
+                .find(|(j, r)| *j != i && r.coil == rung.coil)
+                .map_or_else(String::new, |(_, r)| format!(" at {}", r.pos));
             Err(Reason::WrittenElsewhere {
-                by: "another rung of the program".into(),
+                by: format!("another rung of the program{other}"),
             })
         } else {
             place(project, rung, &later)

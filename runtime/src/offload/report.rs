@@ -75,14 +75,25 @@ fn budgets(project: &Project, plan: &Plan) -> Vec<LineBudget> {
 
 /// The report.
 pub fn report(project: &Project, plan: &Plan) -> String {
+    report_of(project, plan, None)
+}
+
+/// [`report`] of one task of a project of several tasks: `project` is the task's view, `task`
+/// its name, which the heading says (the rungs are the task's, the modules on its buses).
+pub fn task_report(project: &Project, plan: &Plan, task: &str) -> String {
+    report_of(project, plan, Some(task))
+}
+
+fn report_of(project: &Project, plan: &Plan, task: Option<&str>) -> String {
     let mut out = String::new();
     let on_stop = match project.offload.on_stop {
         OnStop::Clear => "cleared at stop",
         OnStop::Keep => "kept running at stop",
     };
+    let of_task = task.map_or_else(String::new, |t| format!(" of task {t}"));
     let _ = writeln!(
         out,
-        "\npush-down (offload: {}; module tables {on_stop}):",
+        "\npush-down{of_task} (offload: {}; module tables {on_stop}):",
         project.offload.mode
     );
     if let Some(engine) = plan.silent_engine {

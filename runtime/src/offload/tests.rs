@@ -237,7 +237,7 @@ fn why_rungs_stay_central() {
     assert_eq!(
         reason(&out[8]),
         &Reason::WrittenElsewhere {
-            by: "another rung of the program".into()
+            by: "another rung of the program at p.expr:7:1".into()
         }
     );
     // The report says every reason, one rung per line.

@@ -68,6 +68,16 @@ impl Plc {
         }
         let image = ProcessImage::new(project.tags.iter().map(|t| (t.name.clone(), t.initial)));
         let mut logic = load::load_program(&project, &image)?;
+        for w in logic.shared_writes() {
+            // Legal (the later program's value stands) but rarely meant: said at every start.
+            tracing::warn!(
+                "{}: tag `{}` is also written by an earlier program of the task at {}; the \
+                 later program's value stands at the cycle's end",
+                w.then,
+                image.name(w.tag),
+                w.first
+            );
+        }
         // Push-down: the modules run the rungs the plan places there; their drivers get the
         // tables as start-up settings (written and verified before the first scan).
         let plan = offload::plan_program(&project, logic.as_ref());

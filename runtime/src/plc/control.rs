@@ -137,17 +137,17 @@ impl Plc {
 
     /// Swaps in a program [`ReloadJob::prepare`] compiled. The running program is untouched
     /// until here; memory tags keep their values (the image is not rebuilt). The new program's
-    /// file is [`Project::program`]'s path.
+    /// files are [`Project::programs`].
     pub fn apply_reload(&mut self, prepared: PreparedReload) {
         self.logic = prepared.logic;
-        self.project.program = prepared.program;
+        self.project.programs = prepared.programs;
         if let (Some(link), Some(sources)) = (self.task.as_mut(), prepared.sources) {
             link.reload.swapped(sources);
         }
         self.note(|| Event::Reload {
             program_hash: prepared.program_hash,
         });
-        tracing::info!("program {} reloaded", self.project.program.path.display());
+        tracing::info!("program {} reloaded", self.project.program_files());
     }
 }
 
@@ -187,7 +187,7 @@ pub struct ReloadJob {
 #[derive(Debug)]
 pub struct PreparedReload {
     logic: Box<dyn crate::logic::LogicEngine>,
-    program: crate::project::ProgramConfig,
+    programs: Vec<crate::project::ProgramConfig>,
     /// The new program's identity, for the flight recorder (hashed here, off the scan).
     program_hash: crate::recorder::format::Digest,
     /// One task's of several: its program's sources, to tell the next reload whether they
@@ -241,14 +241,14 @@ impl ReloadJob {
         }
         // The source as compiled was read just now; a read failing here (the file went away
         // since) leaves an identity of nothing rather than refusing a program that compiled.
-        let source = std::fs::read(&fresh.program.path).unwrap_or_default();
+        let source = fresh.program_source().unwrap_or_default();
         let sources = self
             .task
             .is_some()
             .then(|| super::task_reload::sources(&fresh));
         Ok(Prepared::Program(PreparedReload {
             logic,
-            program: fresh.program,
+            programs: fresh.programs,
             program_hash: crate::recorder::format::digest(&source),
             sources,
         }))

@@ -232,6 +232,12 @@ impl Plc {
         self.logic.instance_outputs(out);
     }
 
+    /// Per program of the task, how many block instances [`Plc::instance_outputs`] numbers
+    /// (a later program's after an earlier one's).
+    pub fn instance_counts(&self) -> Vec<u32> {
+        self.logic.instance_counts()
+    }
+
     /// The simulated world, when the project has `port: sim` lines.
     pub fn world(&self) -> Option<&SharedWorld> {
         self.world.as_ref()

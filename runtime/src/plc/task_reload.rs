@@ -150,7 +150,7 @@ impl TaskReload {
 /// One identity of the files a task's program is compiled from: the program file and every
 /// block body it may call (a file that cannot be read counts as empty: compiling it says why).
 pub(crate) fn sources(project: &Project) -> Digest {
-    let mut bytes = std::fs::read(&project.program.path).unwrap_or_default();
+    let mut bytes = project.program_source().unwrap_or_default();
     for block in &project.blocks {
         bytes.extend_from_slice(block.body.to_string_lossy().as_bytes());
         bytes.push(0);

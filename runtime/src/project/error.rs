@@ -628,6 +628,21 @@ pub enum ErrorKind {
     /// `tasks:` with no entry.
     #[error("`tasks:` is empty: give at least one task (name, period, program, buses)")]
     NoTasks,
+    /// `program:` and `programs:` in one place: which one runs?
+    #[error(
+        "`program:` and `programs:` cannot be used together: give one program as `program:` \
+         or several, in running order, as `programs:` (the first program is `program:` line \
+         {program_line})"
+    )]
+    ProgramBesidePrograms {
+        /// The line of the `program:` given too.
+        program_line: usize,
+    },
+    /// `programs:` with no entry.
+    #[error(
+        "`programs:` is empty: give at least one program ({{ file, kind }}), or use `program:`"
+    )]
+    NoPrograms,
     /// A bus named by a second task.
     #[error(
         "bus `{bus}` is already owned by task `{first}` (line {first_line}); a bus belongs to \

@@ -29,6 +29,7 @@ pub(crate) mod nesting;
 pub(crate) mod offload;
 pub(crate) mod opcua;
 pub mod profile;
+mod programs;
 pub(crate) mod raw;
 mod raw_schema;
 pub(crate) mod recorder;

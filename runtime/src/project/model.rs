@@ -27,8 +27,9 @@ pub struct Project {
     pub modules: Vec<ModuleConfig>,
     /// Tags, in file order.
     pub tags: Vec<TagConfig>,
-    /// The first task's program (the one task's, for a project with `program:`).
-    pub program: ProgramConfig,
+    /// The first task's programs (the one task's, for a project with `program:` or
+    /// `programs:`), in the order they run within its cycle; never empty.
+    pub programs: Vec<ProgramConfig>,
     /// The blocks of one's own the `blocks:` files define, in file order.
     pub blocks: Vec<super::UserBlock>,
     /// The instances of those blocks (`instances:`); their variables are memory tags at the
@@ -62,10 +63,27 @@ pub struct TaskConfig {
     pub name: String,
     /// Its period, watchdog and real-time options.
     pub scan: ScanConfig,
-    /// Its program.
-    pub program: ProgramConfig,
+    /// Its programs, in the order they run within its cycle (each on the task's image, in
+    /// its own language); never empty.
+    pub programs: Vec<ProgramConfig>,
     /// Indexes into [`Project::buses`] of the buses it owns, in its `buses:` order.
     pub buses: Vec<usize>,
+    /// In a task's view ([`Project::task_view`]): the tags bound to another task's I/O,
+    /// which this task copies in (memory tags in the view). Empty in a project as read.
+    pub copied_io: Vec<CopiedIo>,
+}
+
+/// A tag bound to a point of another task's bus, as a task's view sees it: a value the task
+/// copies in at its cycle's start, never one of its own modules' points (what push-down says
+/// of a rung reading it).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CopiedIo {
+    /// The tag (an index into [`Project::tags`]).
+    pub tag: usize,
+    /// The task owning its bus.
+    pub task: String,
+    /// The bus.
+    pub bus: String,
 }
 
 impl Project {

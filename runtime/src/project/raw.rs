@@ -73,6 +73,11 @@
 //! program:
 //!   file: conveyor.expr        # relative to the project file's folder; must exist
 //!   kind: expr                 # the program language: expr | ladder | rhai
+//! # Or several programs, run in this order within each cycle on one image (not beside
+//! # `program:`):
+//! # programs:
+//! #   - { file: conveyor.ladder.yaml, kind: ladder }
+//! #   - { file: counters.rhai, kind: rhai }
 //! # Or, instead of `scan:` and `program:` (one task, named `main`), several cyclic tasks,
 //! # each on a thread of its own (docs/programming.md, "Tasks"):
 //! tasks:
@@ -80,7 +85,8 @@
 //!     period: 30ms             # as scan.period; watchdog and realtime as in `scan:`
 //!     watchdog: { time: 60ms, sensitivity: 3 }
 //!     realtime: { priority: 60 }   # the task thread's SCHED_FIFO priority, best effort
-//!     program: { file: press.ladder.yaml, kind: ladder }   # as `program:`
+//!     program: { file: press.ladder.yaml, kind: ladder }   # as `program:`, or
+//!     # programs: [ { file: ..., kind: ... }, ... ]        # as `programs:`
 //!     buses: [press_line]      # the buses whose I/O this task does; each bus in one task
 //! retain: { file: p.retain.json, period: 10s }   # optional; see `retain.rs`
 //! plant:                       # optional; only on `port: sim` buses
@@ -120,7 +126,10 @@
 //!   a module entry turns it off (MiniMod: WDTTIME = 0 written at start-up), and `check` warns;
 //!   an explicit `WDTTIME` / `WDTYMASK` in the settings wins; `watchdog: off` together with a
 //!   `WDTTIME` other than 0 is refused.
-//! - Program kinds: `expr`, `ladder`, `rhai`. The program file must exist.
+//! - Program kinds: `expr`, `ladder`, `rhai`. The program file must exist. A task (and the
+//!   top level) has `program:` or `programs:` (a list of at least one), not both; two
+//!   programs of one task writing one tag are allowed (the later one's value stands at the
+//!   cycle's end) and `check` warns, naming both places.
 //! - A project has `scan:` and `program:` (one task, `main`, owning every bus) or `tasks:`
 //!   (not both, not an empty list). Task names are identifiers, unique; with `tasks:` every
 //!   bus is named by exactly one task's `buses:` (a second naming and a bus named by none
@@ -149,7 +158,7 @@ use serde::Deserialize;
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a project: a mapping with project, scan, tasks, buses, modules, tags, program and plant"
+    expecting = "a project: a mapping with project, scan, tasks, buses, modules, tags, program (or programs) and plant"
 )]
 pub(crate) struct RawProject {
     /// The project's name.
@@ -172,10 +181,16 @@ pub(crate) struct RawProject {
     /// Tags.
     #[serde(default)]
     pub tags: Vec<RawTag>,
-    /// The control program of the one task `scan:` describes; refused beside `tasks:`.
+    /// The control program of the one task `scan:` describes; refused beside `tasks:` and
+    /// beside `programs:`.
     #[serde(default)]
     #[schemars(with = "RawProgram")]
     pub program: Option<RawProgram>,
+    /// The control programs of the one task `scan:` describes, run in this order within
+    /// each cycle on one process image; refused beside `tasks:` and beside `program:`.
+    #[serde(default)]
+    #[schemars(with = "Vec<RawProgram>")]
+    pub programs: Option<Vec<RawProgram>>,
     /// Files of blocks of one's own the program may call (see `user_blocks`), relative to
     /// the project file's folder; several projects may include one file.
     #[serde(default)]
@@ -234,7 +249,7 @@ pub(crate) struct RawScan {
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a task: a mapping with name, period, watchdog, realtime, program and buses"
+    expecting = "a task: a mapping with name, period, watchdog, realtime, program (or programs) and buses"
 )]
 pub(crate) struct RawTask {
     /// The task's name (an identifier, unique among the tasks).
@@ -248,8 +263,15 @@ pub(crate) struct RawTask {
     /// its CPU); best effort.
     #[serde(default)]
     pub realtime: Option<RawRealtime>,
-    /// The task's program, as the top-level `program:`.
-    pub program: RawProgram,
+    /// The task's program, as the top-level `program:`; refused beside `programs:`.
+    #[serde(default)]
+    #[schemars(with = "RawProgram")]
+    pub program: Option<RawProgram>,
+    /// The task's programs, run in this order within each of its cycles on its image (a
+    /// ladder program and a Rhai one may share a task); refused beside `program:`.
+    #[serde(default)]
+    #[schemars(with = "Vec<RawProgram>")]
+    pub programs: Option<Vec<RawProgram>>,
     /// The buses whose modules this task reads and writes; each bus belongs to one task.
     #[serde(default)]
     pub buses: Vec<String>,

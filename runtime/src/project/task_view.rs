@@ -10,7 +10,7 @@
 
 use std::path::PathBuf;
 
-use super::model::{Binding, Project, TaskConfig};
+use super::model::{Binding, CopiedIo, Project, TaskConfig};
 use super::trace::{Probe, TraceConfig};
 
 impl Project {
@@ -36,6 +36,7 @@ impl Project {
                 modules.push(module);
             }
         }
+        let mut copied_io = Vec::new();
         let tags = self
             .tags
             .iter()
@@ -49,6 +50,12 @@ impl Project {
                             // Another task's I/O: a value this task copies in, never writes.
                             tag.binding = Binding::Memory;
                             tag.safe = None;
+                            let bus = self.modules[module].bus;
+                            copied_io.push(CopiedIo {
+                                tag: i,
+                                task: self.tasks[self.task_of_bus(bus)].name.clone(),
+                                bus: self.buses[bus].name.clone(),
+                            });
                         }
                     },
                     Binding::Memory => tag.retain &= owned(i),
@@ -64,12 +71,13 @@ impl Project {
             scan: config.scan.clone(),
             tasks: vec![TaskConfig {
                 buses: (0..buses.len()).collect(),
+                copied_io,
                 ..config.clone()
             }],
             buses: buses.iter().map(|&b| self.buses[b].clone()).collect(),
             modules,
             tags,
-            program: config.program.clone(),
+            programs: config.programs.clone(),
             blocks: self.blocks.clone(),
             instances: self.instances.clone(),
             alarms: self.alarms.clone(),

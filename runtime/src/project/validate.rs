@@ -170,7 +170,7 @@ pub(crate) fn validate(
                 .map(|(_, c)| c)
                 .collect::<Option<Vec<_>>>()?,
             tags: tags.into_iter().collect::<Option<Vec<_>>>()?,
-            program: tasks.as_ref()?.first()?.program.clone(),
+            programs: tasks.as_ref()?.first()?.programs.clone(),
             tasks: tasks?,
             blocks: blocks?,
             instances: instances?,
@@ -351,44 +351,37 @@ impl Validator<'_> {
             let scan = match &raw.scan {
                 Some(scan) => self.scan(scan, &root.key("scan"), "scan.period"),
                 None => {
-                    match raw.program {
-                        Some(_) => self.error(
+                    match raw.program.is_some() || raw.programs.is_some() {
+                        true => self.error(
                             root.clone(),
                             ErrorKind::MissingKey {
                                 section: String::new(),
                                 key: "scan".into(),
                             },
                         ),
-                        None => self.error(root.clone(), ErrorKind::NoTask),
+                        false => self.error(root.clone(), ErrorKind::NoTask),
                     }
                     None
                 }
             };
-            let program = match &raw.program {
-                Some(p) => self.program(p, &root.key("program")),
-                None => {
-                    if raw.scan.is_some() {
-                        self.error(
-                            root.clone(),
-                            ErrorKind::MissingKey {
-                                section: String::new(),
-                                key: "program".into(),
-                            },
-                        );
-                    }
-                    None
-                }
-            };
+            let programs = self.programs(
+                raw.program.as_ref(),
+                raw.programs.as_deref(),
+                &root,
+                raw.scan.is_some(),
+            );
             return Some(vec![TaskConfig {
                 name: MAIN_TASK.to_owned(),
                 scan: scan?,
-                program: program?,
+                programs: programs?,
                 buses: (0..raw.buses.len()).collect(),
+                copied_io: Vec::new(),
             }]);
         };
         for (key, given) in [
             ("scan", raw.scan.is_some()),
             ("program", raw.program.is_some()),
+            ("programs", raw.programs.is_some()),
         ] {
             if given {
                 self.error(root.key(key), ErrorKind::TasksBesideScan { key });
@@ -405,7 +398,7 @@ impl Validator<'_> {
         for (i, t) in list.iter().enumerate() {
             let path = root.key("tasks").index(i);
             let scan = self.scan(&t.scan(), &path, "period");
-            let program = self.program(&t.program, &path.key("program"));
+            let programs = self.programs(t.program.as_ref(), t.programs.as_deref(), &path, true);
             let mut buses = Vec::with_capacity(t.buses.len());
             for (j, name) in t.buses.iter().enumerate() {
                 let at = path.key("buses").index(j);
@@ -433,11 +426,12 @@ impl Validator<'_> {
                     }
                 }
             }
-            tasks.push(scan.zip(program).map(|(scan, program)| TaskConfig {
+            tasks.push(scan.zip(programs).map(|(scan, programs)| TaskConfig {
                 name: t.name.clone(),
                 scan,
-                program,
+                programs,
                 buses,
+                copied_io: Vec::new(),
             }));
         }
         for (b, bus) in raw.buses.iter().enumerate() {
@@ -1411,6 +1405,49 @@ impl Validator<'_> {
             self.error(path, kind);
         }
         v
+    }
+
+    /// A task's programs at `at`: its `program:` (`one`) or its `programs:` (`list`), not
+    /// both and not an empty list; `required`: a missing program is an error (not when the
+    /// project's task is missing altogether, which is said once).
+    fn programs(
+        &mut self,
+        one: Option<&RawProgram>,
+        list: Option<&[RawProgram]>,
+        at: &YPath,
+        required: bool,
+    ) -> Option<Vec<ProgramConfig>> {
+        match (one, list) {
+            (Some(_), Some(_)) => {
+                let program_line = self.loc.line(&at.key("program"));
+                let kind = ErrorKind::ProgramBesidePrograms { program_line };
+                self.error(at.key("programs"), kind);
+                None
+            }
+            (Some(p), None) => self.program(p, &at.key("program")).map(|p| vec![p]),
+            (None, Some([])) => {
+                self.error(at.key("programs"), ErrorKind::NoPrograms);
+                None
+            }
+            (None, Some(list)) => {
+                let path = at.key("programs");
+                // Every program is checked, so every missing file is said at once.
+                let programs: Vec<Option<ProgramConfig>> = (0..list.len())
+                    .map(|i| self.program(&list[i], &path.index(i)))
+                    .collect();
+                programs.into_iter().collect()
+            }
+            (None, None) => {
+                if required {
+                    let kind = ErrorKind::MissingKey {
+                        section: String::new(),
+                        key: "program".into(),
+                    };
+                    self.error(at.clone(), kind);
+                }
+                None
+            }
+        }
     }
 
     fn program(&mut self, raw: &RawProgram, path: &YPath) -> Option<ProgramConfig> {

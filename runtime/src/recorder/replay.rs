@@ -240,9 +240,8 @@ pub(crate) fn tag_table(
 /// the project names it. The one place that asks a project (or a task's view) for its
 /// program, for the recorder's header and for replay alike.
 pub(crate) fn program_identity(project: &Project) -> std::io::Result<(Digest, String)> {
-    let path = &project.program.path;
-    let source = std::fs::read(path)?;
-    Ok((format::digest(&source), path.display().to_string()))
+    let source = project.program_source()?;
+    Ok((format::digest(&source), project.program_files()))
 }
 
 /// The tags replay compares (outputs and memory tags: what the program computes), in tag

@@ -300,7 +300,7 @@ impl ScanEngine {
                     Err(LogicFault {
                         message: format!("the program engine panicked: {what}"),
                         pos: crate::logic::SourcePos {
-                            file: self.plc.project().program.path.clone(),
+                            file: self.plc.project().program_files().into(),
                             line: 0,
                             column: 0,
                         },

@@ -304,11 +304,11 @@ impl ServiceBoundary {
                 plc.apply_reload(prepared);
                 Ok(format!(
                     "program {} reloaded",
-                    plc.project().program.path.display()
+                    plc.project().program_files()
                 ))
             }
             Ok(Ok(Prepared::Unchanged)) => {
-                let text = format!("program {} unchanged", plc.project().program.path.display());
+                let text = format!("program {} unchanged", plc.project().program_files());
                 tracing::info!("{text}");
                 Ok(text)
             }

@@ -115,6 +115,9 @@ pub struct StatusReport {
     /// absent for a project with `scan:`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub tasks: Vec<TaskReport>,
+    /// The program files of the (first) task, in the order they run each cycle.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub programs: Vec<String>,
 }
 
 /// The plant model's state: running or stopped (and why), and its states.
@@ -205,6 +208,9 @@ pub struct TaskReport {
     pub cycle: MicrosPercentiles,
     /// Its wake-up lateness.
     pub lateness: MicrosPercentiles,
+    /// Its program files, in the order they run each cycle.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub programs: Vec<String>,
 }
 
 impl TaskReport {
@@ -219,6 +225,7 @@ impl TaskReport {
             period_us: t.period.as_micros() as u64,
             cycle: live.cycle.into(),
             lateness: live.lateness.into(),
+            programs: t.programs.clone(),
         })
     }
 }
@@ -230,6 +237,8 @@ pub struct TaskStatus {
     pub name: String,
     /// Its period.
     pub period: std::time::Duration,
+    /// Its program files, in running order (as the status lists them).
+    pub programs: Vec<String>,
     /// What its scan publishes (every 200 ms).
     pub live: std::sync::Arc<std::sync::Mutex<crate::scan::StatusSnapshot>>,
     /// Its modules' indices in the project, in its own order (the status lists every task's
@@ -319,6 +328,7 @@ impl StatusReport {
             plant: PlantReport::of(plc),
             alarms: None,
             tasks: Vec::new(),
+            programs: program_names(&project.programs),
         };
         for (tag, slot) in plc.published_by_others() {
             if let Some(t) = report.tags.get_mut(tag.index()) {
@@ -328,6 +338,19 @@ impl StatusReport {
         }
         report
     }
+}
+
+/// The file names of `programs`, in running order.
+pub(crate) fn program_names(programs: &[crate::project::ProgramConfig]) -> Vec<String> {
+    programs
+        .iter()
+        .map(|p| {
+            p.path.file_name().map_or_else(
+                || p.path.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            )
+        })
+        .collect()
 }
 
 impl ModuleReport {
@@ -377,6 +400,14 @@ impl std::fmt::Display for StatusReport {
                 micros(self.period_us),
                 cycle_text(&self.cycle)
             )?;
+            // One program says nothing the project file does not; several, their order.
+            if self.programs.len() > 1 {
+                writeln!(
+                    f,
+                    "  programs, in running order: {}",
+                    self.programs.join(", ")
+                )?;
+            }
         } else {
             writeln!(f, "{}: {} tasks", self.project, self.tasks.len())?;
         }
@@ -391,6 +422,9 @@ impl std::fmt::Display for StatusReport {
                 cycle_text(&t.cycle),
                 micros(t.lateness.p99_us)
             )?;
+            if !t.programs.is_empty() {
+                writeln!(f, "    programs: {}", t.programs.join(", "))?;
+            }
         }
         let services: Vec<String> = self
             .services

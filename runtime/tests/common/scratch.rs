@@ -2,6 +2,17 @@
 
 use std::path::PathBuf;
 
+/// Two simulated lines with a MiniMod each, for a project of two tasks: `fast_line` (57600
+/// Bd, module `f1`) and `slow_line` (9600 Bd, module `s1`); a project text's `{lines}`.
+pub(crate) const TWO_LINES: &str = "\
+buses:
+  - { name: fast_line, port: sim, baud: 57600 }
+  - { name: slow_line, port: sim, baud: 9600 }
+modules:
+  - { name: f1, bus: fast_line, model: minimod, address: 1 }
+  - { name: s1, bus: slow_line, model: minimod, address: 1 }
+";
+
 /// A folder of its own for one case, removed on drop.
 pub(crate) struct Scratch {
     pub(crate) dir: PathBuf,

@@ -360,15 +360,16 @@ fn the_warning_lamp_example_blinks_in_its_module_from_ladder_and_rhai() {
     let path = root.join("examples/warning_lamp/project.yaml");
     let ladder = project::load(&path).unwrap_or_else(|e| panic!("{e}"));
     let mut rhai = ladder.clone();
-    rhai.program = softplc::project::ProgramConfig {
+    let program = softplc::project::ProgramConfig {
         path: root.join("programs/warning_lamp/warning_lamp.rhai"),
         kind: softplc::project::ProgramKind::Rhai,
     };
+    rhai.set_programs(0, vec![program]);
     let case = loaded_case("warning-lamp", &["mm1.X1", "mm1.X2"], &["mm1.Y1"]);
     // The level high from 1 s to 7 s.
     let inputs = [press(1000, 6000), vec![]];
     for auto in [ladder, rhai] {
-        let language = auto.program.kind;
+        let language = auto.programs[0].kind;
         assert_eq!(
             pushed(&auto),
             vec![("warning".to_string(), true), ("horn".to_string(), true)],

@@ -28,12 +28,7 @@ pub(super) fn report(
             task.name,
             super::timing(scan)
         );
-        let _ = writeln!(
-            out,
-            "    program {} ({:?})",
-            task.program.path.display(),
-            task.program.kind
-        );
+        out.push_str(&super::programs::lines(&task.programs, "    "));
         if let Some(line) = engines.get(i).and_then(|e| e.execution()) {
             let _ = writeln!(out, "      {line}");
         }

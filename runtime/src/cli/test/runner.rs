@@ -10,14 +10,12 @@ use softplc_io::sim::plant::{PlantHealth, StateValue};
 use softplc_io::sim::{Fault, FaultRule, Frequency, SharedWorld};
 
 use super::alarms::ScenarioAlarms;
-use super::scenario::{
-    Expect, FaultStep, ModuleStep, PlantExpect, ProgramSpec, Scenario, SetInput,
-};
+use super::scenario::{Expect, FaultStep, ModuleStep, PlantExpect, Scenario, SetInput};
 use super::trace::Change;
+use super::variants::ProgramVariant;
 use crate::clock::VirtualClock;
 use crate::logic::ScanContext;
 use crate::plc::Plc;
-use crate::project::ProgramConfig;
 use crate::scan::{ScanEngine, StopReason};
 
 /// What one run found.
@@ -63,7 +61,7 @@ struct HookState {
     /// Modules silenced or answering again, with the world and the device.
     module_steps: Vec<(ModuleStep, Option<(SharedWorld, usize)>)>,
     next_module_step: usize,
-    /// The alarm book and the scenario's alarm steps (a project of one task).
+    /// The alarm book and the scenario's alarm steps (with several tasks: the first task's).
     alarms: Option<ScenarioAlarms>,
 }
 
@@ -253,7 +251,7 @@ impl HookState {
 
     fn cycle(&mut self, plc: &Plc, ctx: &ScanContext, now: Duration) {
         if self.owners.is_some() {
-            return self.task_cycle(plc, now);
+            return self.task_cycle(plc, ctx, now);
         }
         self.result.scans += 1;
         let image = plc.image();
@@ -306,7 +304,7 @@ impl HookState {
 
     /// A cycle of task `plc` (several tasks) starting at `now`: the tags it owns are traced
     /// and checked from its image; the inputs due before the fastest task's next cycle are set.
-    fn task_cycle(&mut self, plc: &Plc, now: Duration) {
+    fn task_cycle(&mut self, plc: &Plc, ctx: &ScanContext, now: Duration) {
         let name = plc.project().tasks.first().map_or("", |t| t.name.as_str());
         let task = self.task_names.iter().position(|n| n == name).unwrap_or(0);
         let owners = self.owners.take().unwrap_or_default();
@@ -346,6 +344,9 @@ impl HookState {
             }
         }
         self.owners = Some(owners);
+        if let (0, Some(alarms)) = (task, &mut self.alarms) {
+            alarms.cycle(plc, ctx, now, next, &mut self.result);
+        }
         self.plant_cycle(now, now + self.period);
         self.apply_sets(now + self.period);
         self.apply_faults(now + self.period);
@@ -385,28 +386,14 @@ fn device_of(worlds: &[SharedWorld], module: &str) -> Option<(SharedWorld, usize
     })
 }
 
-/// Runs `sc` with `program` (or the project's own).
-pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
-    if sc.project.multitask() {
-        if program.is_some() {
-            return RunResult {
-                failures: vec![
-                    "`programs:` replaces the program of a project with one task; a project of \
-                     several tasks runs its tasks' own programs (give each variant a project \
-                     file of its own)"
-                        .into(),
-                ],
-                ..RunResult::default()
-            };
-        }
-        return run_tasks(sc);
-    }
+/// Runs `sc` with the programs of `variant` (or the project's own).
+pub(crate) fn run(sc: &Scenario, variant: Option<&ProgramVariant>) -> RunResult {
     let mut project = sc.project.clone();
-    if let Some(p) = program {
-        project.program = ProgramConfig {
-            path: p.path.clone(),
-            kind: p.kind,
-        };
+    if let Some(v) = variant {
+        v.apply(&mut project);
+    }
+    if project.multitask() {
+        return run_tasks(sc, project);
     }
     if !sc.plant {
         project.plant = None;
@@ -472,7 +459,7 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
         .chain(alarms_left);
     not_reached(left, sc, &mut result);
     if !sc.retained.is_empty() {
-        check_retained(sc, &retain_file, &mut result);
+        check_retained(sc, |_| retain_file.clone(), &mut result);
     }
     // Best effort: a scratch retain file, absent unless the scenario retained values.
     drop(std::fs::remove_file(&retain_file));
@@ -481,20 +468,9 @@ pub(crate) fn run(sc: &Scenario, program: Option<&ProgramSpec>) -> RunResult {
 
 /// Runs `sc` on a project of several tasks, each on its own virtual clock; scenario time
 /// starts with the first task's first scan.
-fn run_tasks(sc: &Scenario) -> RunResult {
-    let mut project = sc.project.clone();
+fn run_tasks(sc: &Scenario, mut project: crate::project::Project) -> RunResult {
     if !sc.plant {
         project.plant = None;
-    }
-    if let Some(step) = sc.alarm_steps.first() {
-        return RunResult {
-            failures: vec![format!(
-                "line {}: a scenario expects and acknowledges alarms in a project of one task; \
-                 this project has several",
-                step.line
-            )],
-            ..RunResult::default()
-        };
     }
     let retain_file = temp_retain();
     project.retain.file = retain_file.clone();
@@ -536,6 +512,14 @@ fn run_tasks(sc: &Scenario) -> RunResult {
     state.owners = Some(owners);
     state.checked = vec![false; sc.expects.len()];
     state.task_names = project.tasks.iter().map(|t| t.name.clone()).collect();
+    // The alarms as `softplc run` hosts them: on the first task's cycles, from its image
+    // (which holds every tag: it copies the others' at its cycle's start) and its modules.
+    if let Some(first) = plcs.first() {
+        state.alarms = Some(ScenarioAlarms::new(
+            first.plc.project(),
+            sc.alarm_steps.clone(),
+        ));
+    }
     state.apply_sets(Duration::ZERO);
     state.apply_faults(Duration::ZERO);
     state.apply_module_steps(Duration::ZERO);
@@ -570,14 +554,26 @@ fn run_tasks(sc: &Scenario) -> RunResult {
         .skip(st.next_plant_expect)
         .map(|e| (e.at, e.line));
     let unchecked = st.expects.iter().zip(&st.checked).filter(|(_, c)| !**c);
-    let left = unchecked.map(|(e, _)| (e.at, e.line)).chain(plant_left);
+    let alarms_left = st.alarms.iter().flat_map(ScenarioAlarms::left);
+    let left = unchecked
+        .map(|(e, _)| (e.at, e.line))
+        .chain(plant_left)
+        .chain(alarms_left);
     not_reached(left, sc, &mut result);
     if !sc.retained.is_empty() {
-        result.failures.push(
-            "expect_retained: each task of a project of several tasks keeps its retained tags \
-             in a file of its own; a scenario does not check them yet"
-                .into(),
-        );
+        // Each retained tag is in the file of the task owning it.
+        let owners = st.owners.clone().unwrap_or_default();
+        let file_of = |tag: &str| {
+            let owner = project
+                .tags
+                .iter()
+                .position(|t| t.name == tag)
+                .and_then(|t| owners.get(t).copied())
+                .unwrap_or(0);
+            let task = project.tasks.get(owner).map_or("", |t| t.name.as_str());
+            crate::project::task_view::task_file(&retain_file, task)
+        };
+        check_retained(sc, file_of, &mut result);
     }
     // Best effort: each task's scratch retain file, absent unless it retained values.
     for t in &project.tasks {
@@ -604,11 +600,12 @@ fn not_reached(
     }
 }
 
-/// Compares the retain file written at stop with the expected values.
-fn check_retained(sc: &Scenario, file: &std::path::Path, result: &mut RunResult) {
-    let text = std::fs::read_to_string(file).unwrap_or_default();
-    let doc: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+/// Compares the retain files written at stop with the expected values; `file_of(tag)`: the
+/// file that keeps the tag.
+fn check_retained(sc: &Scenario, file_of: impl Fn(&str) -> PathBuf, result: &mut RunResult) {
     for (name, want) in &sc.retained {
+        let text = std::fs::read_to_string(file_of(name)).unwrap_or_default();
+        let doc: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
         let got = doc.get("values").and_then(|v| v.get(name));
         let got_text = got.map_or_else(|| "nothing".to_string(), ToString::to_string);
         let want_text = match want {

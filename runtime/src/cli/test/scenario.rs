@@ -3,8 +3,8 @@
 //! ```yaml
 //! name: a press lights the stairs; a second press extends the light
 //! project: ../../examples/stairway/project.yaml   # relative to this file
-//! programs: [stairway.ladder.yaml, stairway.rhai]   # optional: run once per program (same
-//!                                                    # trace required); default: the project's
+//! programs: [stairway.ladder.yaml, stairway.rhai]   # optional: run once per variant (same
+//!                                   # trace required; see `variants.rs`); default: the project's
 //! watch: [light]          # optional: tags in the trace (default: expected tags and outputs)
 //! plant: false            # optional: keep the project's plant model (default: removed)
 //! until: 70s              # optional: run length (default: last step + 1 s)
@@ -46,6 +46,7 @@ use serde::Deserialize;
 use softplc_io::point::{Access, Value};
 
 use super::alarms::{alarm_names, check_name, AlarmState, AlarmStep, AlarmStepKind, ALARM_PREFIX};
+use super::variants::ProgramVariant;
 use crate::project::raw::{DurationText, Settings};
 use crate::project::span::{Locator, YPath};
 use crate::project::{self, Binding, PortConfig, ProgramKind, Project};
@@ -63,11 +64,13 @@ struct RawScenario {
     name: Option<String>,
     /// The project file, relative to this file.
     project: String,
-    /// Programs to run the scenario with, once each, all to the same trace; relative to this
-    /// file, the language told by the name (`.ladder.yaml`, `.rhai`, `.expr`). Default: the
-    /// project's program.
+    /// Program variants to run the scenario with, once each, all to the same trace; files
+    /// relative to this file, the language told by the name (`.ladder.yaml`, `.rhai`,
+    /// `.expr`). Each variant is a file or a list of files (the one task's programs, in
+    /// running order) or, for a project of several tasks, a mapping of task names to those
+    /// (`{ press: press.rhai, panel: panel.rhai }`). Default: the project's programs.
     #[serde(default)]
-    programs: Vec<String>,
+    programs: Vec<super::variants::RawVariant>,
     /// Tags in the trace (default: the expected tags and the outputs).
     #[serde(default)]
     watch: Vec<String>,
@@ -316,8 +319,8 @@ pub struct Scenario {
     pub name: String,
     /// The project, as loaded.
     pub project: Project,
-    /// The programs to run (empty: the project's).
-    pub programs: Vec<ProgramSpec>,
+    /// The program variants to run (empty: the project's programs).
+    pub programs: Vec<ProgramVariant>,
     /// Tags recorded in the trace.
     pub watch: Vec<usize>,
     /// Keep the project's plant.
@@ -410,22 +413,10 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
         )
     };
 
-    let mut programs = Vec::new();
-    for (i, p) in raw.programs.iter().enumerate() {
-        let path = folder.join(p);
-        match (kind_of(&path), path.is_file()) {
-            (Some(kind), true) => programs.push(ProgramSpec { path, kind }),
-            (None, _) => error(
-                root.key("programs").index(i),
-                format!(
-                    "{p}: the language is told by the file name: .yaml (ladder), .rhai or .expr"
-                ),
-            ),
-            (_, false) => error(
-                root.key("programs").index(i),
-                format!("no program file {}", path.display()),
-            ),
-        }
+    let (programs, variant_errors) =
+        super::variants::read(&raw.programs, folder, &project, &root.key("programs"));
+    for (at, msg) in variant_errors {
+        error(at, msg);
     }
 
     let mut sets = Vec::new();
@@ -434,7 +425,9 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
     let mut faults = Vec::new();
     let mut alarm_steps = Vec::new();
     let mut module_steps = Vec::new();
-    let alarms = alarm_names(&project);
+    // The alarms the book has: with several tasks, the first task's view's, as `softplc run`
+    // and the runner build it (its tags' alarms, its modules' `lost.MODULE`).
+    let alarms = alarm_names(&project.task_view(0, |_| false));
     let plant_on = raw.plant.unwrap_or(false);
     for (i, step) in raw.steps.iter().enumerate() {
         let at = step.at.0;

@@ -105,6 +105,10 @@ impl LogicEngine for LadderProgram {
         self.vm.release(coil);
     }
 
+    fn instance_counts(&self) -> Vec<u32> {
+        vec![self.vm.instances().len() as u32]
+    }
+
     fn instance_outputs(&self, out: &mut Vec<InstanceOutput>) {
         out.clear();
         for (inst, b) in (0u32..).zip(self.vm.instances()) {

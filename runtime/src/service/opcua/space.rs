@@ -693,6 +693,7 @@ mod tests {
                 ..MicrosPercentiles::default()
             },
             lateness: MicrosPercentiles::default(),
+            programs: Vec::new(),
         };
         let at = |out: &[(String, DataValue)], id: &str| {
             out.iter()

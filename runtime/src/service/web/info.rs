@@ -89,8 +89,8 @@ pub struct WebInfo {
     pub trend: Vec<usize>,
     /// Tags on the operator's page (`operator: true`), in project order.
     pub operator: Vec<usize>,
-    /// The program.
-    pub program: ProgramView,
+    /// The programs of the task, in running order (one for most projects).
+    pub programs: Vec<ProgramView>,
 }
 
 impl WebInfo {
@@ -166,7 +166,7 @@ impl WebInfo {
             tags,
             trend: web.trend.clone(),
             operator: project.alarms.operator.clone(),
-            program: program::view(plc.project(), plc.plan()),
+            programs: program::views(plc.project(), plc.plan(), &plc.instance_counts()),
         }
     }
 }

@@ -17,7 +17,7 @@ use crate::logic::expr::TagTable;
 use crate::logic::ladder::{self, RungDiagram};
 use crate::logic::load;
 use crate::offload::{Placement, Plan};
-use crate::project::{ProgramKind, Project};
+use crate::project::{ProgramConfig, ProgramKind, Project};
 
 /// One piece of a line.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -61,11 +61,15 @@ pub struct Line {
     pub rungs: Vec<RungMark>,
 }
 
-/// The program page's content.
+/// One program as the program page shows it (a task of several programs has one each, in
+/// running order).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct ProgramView {
     /// The program file, as the project names it.
     pub file: String,
+    /// The index of the program's first block instance in the state's block outputs (`b`):
+    /// a later program's instances are numbered after an earlier one's.
+    pub inst_base: u32,
     /// `expr`, `ladder` or `rhai`.
     pub kind: &'static str,
     /// Its lines.
@@ -81,10 +85,28 @@ pub struct ProgramView {
     pub error: Option<String>,
 }
 
-/// The program of `project`, read now, with `plan`'s placements.
-pub(crate) fn view(project: &Project, plan: &Plan) -> ProgramView {
-    let path = &project.program.path;
-    let kind = crate::offload::engine_name(project.program.kind);
+/// Every program of `project`'s (first) task, read now, with `plan`'s placements;
+/// `instance_counts`: per program, its block instances as the running engine numbers them
+/// ([`crate::logic::LogicEngine::instance_counts`]).
+pub(crate) fn views(project: &Project, plan: &Plan, instance_counts: &[u32]) -> Vec<ProgramView> {
+    let mut base = 0u32;
+    project
+        .programs
+        .iter()
+        .enumerate()
+        .map(|(i, program)| {
+            let v = view(project, program, plan, base);
+            base += instance_counts.get(i).copied().unwrap_or(0);
+            v
+        })
+        .collect()
+}
+
+/// The program `program` of `project`, read now, with the placements of `plan`'s rungs that
+/// are in its file; its instances numbered from `inst_base`.
+fn view(project: &Project, program: &ProgramConfig, plan: &Plan, inst_base: u32) -> ProgramView {
+    let path = &program.path;
+    let kind = crate::offload::engine_name(program.kind);
     let file = path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -97,8 +119,8 @@ pub(crate) fn view(project: &Project, plan: &Plan) -> ProgramView {
             Some(format!("cannot read {}: {e}", path.display())),
         ),
     };
-    let mut lines = annotate(&text, project.program.kind, &tags);
-    for r in &plan.rungs {
+    let mut lines = annotate(&text, program.kind, &tags);
+    for r in plan.rungs.iter().filter(|r| r.rung.pos.file == *path) {
         let at = (r.rung.pos.line as usize).saturating_sub(1);
         let Some(line) = lines.get_mut(at) else {
             continue;
@@ -121,8 +143,8 @@ pub(crate) fn view(project: &Project, plan: &Plan) -> ProgramView {
         };
         line.rungs.push(mark);
     }
-    let (diagram, no_diagram) = match project.program.kind {
-        ProgramKind::Ladder if error.is_none() => match ladder_diagram(project, &text) {
+    let (diagram, no_diagram) = match program.kind {
+        ProgramKind::Ladder if error.is_none() => match ladder_diagram(project, path, &text) {
             Ok(d) => (Some(d), None),
             Err(why) => (None, Some(why)),
         },
@@ -130,6 +152,7 @@ pub(crate) fn view(project: &Project, plan: &Plan) -> ProgramView {
     };
     ProgramView {
         file,
+        inst_base,
         kind,
         lines,
         diagram,
@@ -138,9 +161,14 @@ pub(crate) fn view(project: &Project, plan: &Plan) -> ProgramView {
     }
 }
 
-/// The diagram of the project's ladder program `text`, or why there is none (the file changed
-/// since the scan compiled it and no longer compiles: the page then shows the text).
-fn ladder_diagram(project: &Project, text: &str) -> Result<Vec<RungDiagram>, String> {
+/// The diagram of the ladder program `text` (the file `path`), or why there is none (the
+/// file changed since the scan compiled it and no longer compiles: the page then shows the
+/// text).
+fn ladder_diagram(
+    project: &Project,
+    path: &std::path::Path,
+    text: &str,
+) -> Result<Vec<RungDiagram>, String> {
     let tags = TagTable::new(project.tags.iter().enumerate().map(|(i, t)| {
         (
             t.name.clone(),
@@ -150,7 +178,7 @@ fn ladder_diagram(project: &Project, text: &str) -> Result<Vec<RungDiagram>, Str
         )
     }));
     let own = crate::logic::OwnBlocks::declared(project);
-    ladder::diagram(text, &project.program.path, &tags, &own).map_err(|errors| {
+    ladder::diagram(text, path, &tags, &own).map_err(|errors| {
         let first = errors.first().map(ToString::to_string).unwrap_or_default();
         format!("no diagram: the file no longer compiles ({first})")
     })

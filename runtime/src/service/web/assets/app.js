@@ -36,6 +36,7 @@
     role: sessionStorage.getItem("softplc-role") || "",
     cells: [], // per tag: the I/O table's cells
     codeTags: [], // per program tag occurrence: { tag, span, val }
+    ladders: [], // the ladder view of each ladder program: { update(state) }
     lastEvent: 0,
     connected: false,
   };
@@ -340,15 +341,31 @@
 
   // ---- Program ----
 
+  // A task of several programs shows each, in running order, under its file's name; the
+  // first keeps the ids a single program has (`ladder`, `rung-N`, `line-N`).
   function buildProgram() {
-    const p = app.info.program;
-    $("program-title").textContent = p.file;
+    const programs = app.info.programs;
     const root = $("program");
     root.replaceChildren();
     app.codeTags = [];
+    app.ladders = [];
+    $("program-title").textContent = programs.map((p) => p.file).join(" + ");
+    const hints = programs.map((p, i) => {
+      const part = el("div", { class: "program-part", "data-program": p.file });
+      if (programs.length > 1) {
+        root.append(el("h3", { class: "program-file", text: (i + 1) + ". " + p.file + " · " + p.kind }));
+      }
+      root.append(part);
+      return buildOne(p, part, i === 0 ? "" : "p" + (i + 1) + "-");
+    });
+    $("program-hint").textContent = hints.join(" | ");
+  }
+
+  // One program into `root`; `prefix` keeps its element ids apart from the other programs'.
+  function buildOne(p, root, prefix) {
     if (p.error) {
       root.append(el("div", { class: "empty", text: p.error }));
-      return;
+      return p.file + ": " + p.error;
     }
     const marks = p.lines.some((l) => l.rungs);
     let pushed = 0, central = 0;
@@ -367,7 +384,7 @@
           src.append(part.s);
         }
       }
-      const ln = el("div", { class: "ln", id: "line-" + (n + 1) }, el("span", { class: "no", text: n + 1 }));
+      const ln = el("div", { class: "ln", id: prefix + "line-" + (n + 1) }, el("span", { class: "no", text: n + 1 }));
       if (marks) {
         const mark = el("span", { class: "mark" });
         for (const r of line.rungs || []) {
@@ -390,15 +407,16 @@
       root.append(ln);
     });
     root.classList.toggle("narrow", pushed === 0);
-    $("program-hint").textContent = p.kind + " · " + (marks
+    // A ladder program is drawn as ladder diagrams (ladder.js); its text stays one click away.
+    const ladder = p.diagram && window.softplcLadder ? window.softplcLadder.build(root, p, app.info, prefix) : null;
+    if (ladder) app.ladders.push(ladder);
+    return p.kind + " · " + (marks
       ? pushed + " rung" + (pushed === 1 ? "" : "s") + " pushed down into modules, " + central + " in the scan"
       : "live values beside each tag") + (p.no_diagram ? " · " + p.no_diagram : "");
-    // A ladder program is drawn as ladder diagrams (ladder.js); its text stays one click away.
-    app.ladder = p.diagram && window.softplcLadder ? window.softplcLadder.build(root, p, app.info) : null;
   }
 
   function updateProgram(s) {
-    if (app.ladder) app.ladder.update(s);
+    for (const ladder of app.ladders || []) ladder.update(s);
     const forced = new Set(s.forced);
     for (const c of app.codeTags) {
       const t = app.info.tags[c.tag];

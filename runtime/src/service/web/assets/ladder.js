@@ -2,7 +2,7 @@
 //
 // The diagrams come from /api/info's `program.diagram` (the compiler's own parse of each rung:
 // series and parallel elements, coils, math boxes, function blocks); the page never parses a
-// rung. `softplcLadder.build(root, program, info)` draws them into the Program view (the text
+// rung. `softplcLadder.build(root, program, info, prefix)` draws them into the Program view (the text
 // view stays one click away) and returns `{ update(state) }`, called with every `state` event.
 //
 // Lighting: a contact is lit while it passes power (NO with its tag true, NC with it false), a
@@ -58,7 +58,8 @@ window.softplcLadder = (() => {
 
   function memberValue(ctx, s, inst, member) {
     if (!s) return null;
-    const live = s.b && s.b[inst];
+    // A task's later programs number their instances after the earlier ones' (`inst_base`).
+    const live = s.b && s.b[(ctx.base || 0) + inst];
     if (live && live[member] !== undefined) return live[member];
     const inferred = ctx.inferred[inst + "." + member];
     if (inferred) {
@@ -611,16 +612,17 @@ window.softplcLadder = (() => {
     };
   }
 
-  function build(root, program, info) {
-    const ctx = { info, s: null, prev: null, inferred: inferOutputs(program.diagram) };
+  function build(root, program, info, prefix) {
+    const pre = prefix || "";
+    const ctx = { info, s: null, prev: null, inferred: inferOutputs(program.diagram), base: program.inst_base || 0 };
     const textView = html("div", { class: "lad-text", hidden: "" });
     textView.append(...root.childNodes);
-    const view = html("div", { class: "ladder", id: "ladder" });
+    const view = html("div", { class: "ladder", id: pre + "ladder" });
     const rungs = [];
     const bodies = [];
     program.diagram.forEach((r, n) => {
       const node = rungNode(r);
-      const box = html("div", { class: "lad-rung", id: "rung-" + (n + 1), "data-line": r.line });
+      const box = html("div", { class: "lad-rung", id: pre + "rung-" + (n + 1), "data-line": r.line });
       const head = html("div", { class: "lad-head" });
       head.append(html("span", { class: "no" }, "rung " + (n + 1) + " · line " + r.line));
       if (r.title) head.append(html("span", { class: "lad-title" }, r.title));
@@ -663,7 +665,7 @@ window.softplcLadder = (() => {
       view.append(box);
       rungs.push(node);
     });
-    const switcher = html("button", { class: "lad-switch", type: "button", id: "ladder-switch" }, "show as text");
+    const switcher = html("button", { class: "lad-switch", type: "button", id: pre + "ladder-switch" }, "show as text");
     switcher.addEventListener("click", () => {
       textView.hidden = !textView.hidden;
       view.hidden = !textView.hidden;
