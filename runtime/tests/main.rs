@@ -58,6 +58,7 @@ mod task_programs;
 mod task_push_down;
 mod task_record;
 mod task_runtime;
+mod task_scenario_alarms;
 mod task_scenarios;
 mod task_services;
 mod tasks;

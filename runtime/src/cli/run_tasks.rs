@@ -53,9 +53,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     // boundary publishes and feeds them its share (the tags it owns, its modules, its
     // forces) at its own cycle end, and the first task's answers for the whole PLC. Their
     // writes reach the owning task through the router.
-    let shares: Vec<TaskShare> = (0..project.tasks.len())
-        .map(|i| TaskShare::of(&project, builder.ownership(), i))
-        .collect();
+    let shares = TaskShare::all(&project, builder.ownership());
     let (requests, requests_rx) = crossbeam_channel::bounded(16);
     let services_clock: Arc<dyn Clock> = match &clock {
         Some(c) => c.clone(),

@@ -377,6 +377,18 @@ pub(crate) fn feed_quality(m: &crate::plc::ModuleStatus) -> softplc_io::point::Q
     }
 }
 
+/// Offers what cycle `cycle` of `plc` (ended at `at`) changed to the consumers of `feed`: its
+/// image and its modules' qualities. The one way a boundary feeds the services, and a
+/// scenario feeds its alarm book, so both see the same changes.
+pub(crate) fn offer_cycle(feed: &mut ChangeFeed, plc: &Plc, cycle: u64, at: ScanInstant) {
+    feed.offer(
+        plc.image(),
+        plc.module_status().iter().map(feed_quality),
+        cycle,
+        at,
+    );
+}
+
 /// What a write's client is told: the value itself when it was one tag (an operator's), the
 /// count otherwise, and the cycle boundary it was applied at.
 fn written(values: &[crate::service::control::TagValue], n: usize, cycle: u64) -> String {
@@ -403,12 +415,7 @@ impl CycleBoundary for ServiceBoundary {
         self.answer(plc, stats, now);
         // After the requests: a write applied at this boundary is part of what the services
         // see of it, even when the next scan overwrites it.
-        self.feed.offer(
-            plc.image(),
-            plc.module_status().iter().map(feed_quality),
-            stats.cycles,
-            now,
-        );
+        offer_cycle(&mut self.feed, plc, stats.cycles, now);
         if self.reload.swap(false, Ordering::Relaxed) {
             self.start_reload(plc, None, Origin::Signal, stats.cycles);
         }
@@ -430,12 +437,7 @@ impl CycleBoundary for ServiceBoundary {
     fn stopped(&mut self, plc: &Plc, stats: &ScanStats, reason: &StopReason, now: ScanInstant) {
         // The safe state the outputs were left in, before the publication that tells the
         // services the run is over.
-        self.feed.offer(
-            plc.image(),
-            plc.module_status().iter().map(feed_quality),
-            stats.cycles,
-            now,
-        );
+        offer_cycle(&mut self.feed, plc, stats.cycles, now);
         if let Some(p) = &mut self.publisher {
             p.set_stop_reason(match reason {
                 StopReason::Requested => "stopped on request".to_string(),

@@ -49,6 +49,14 @@ impl TaskShare {
         }
     }
 
+    /// Every task's share of `project`, in task order: what each task's boundary feeds the
+    /// services in `softplc run`, and the alarm book of a scenario.
+    pub(crate) fn all(project: &Project, ownership: &Ownership) -> Vec<Self> {
+        (0..project.tasks.len())
+            .map(|i| Self::of(project, ownership, i))
+            .collect()
+    }
+
     /// The task's index.
     pub(crate) fn task(&self) -> usize {
         self.task

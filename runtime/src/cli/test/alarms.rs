@@ -10,10 +10,12 @@ use super::trace::{Change, Shown};
 use crate::logic::ScanContext;
 use crate::plc::Plc;
 use crate::project::Project;
+use crate::scan::ScanInstant;
 use crate::service::alarms::book::AlarmBook;
 use crate::service::alarms::{AlarmView, EventKind};
-use crate::service::boundary::feed_quality;
+use crate::service::boundary::offer_cycle;
 use crate::service::changes::{ChangeFeed, ChangeStream};
+use crate::service::task_share::TaskShare;
 
 /// How a scenario names an alarm: `alarm.door_fault`, `alarm.lost.door`.
 pub(crate) const ALARM_PREFIX: &str = "alarm.";
@@ -189,7 +191,10 @@ pub(crate) fn check_name(names: &[String], name: &str, all: bool) -> Result<(), 
 
 /// The alarm book of one run, fed at every cycle (see the module docs).
 pub(crate) struct ScenarioAlarms {
-    feed: ChangeFeed,
+    /// The book's feeds: one of every tag and module for a PLC of one task; with several
+    /// tasks one per task, offering its share (the tags it owns, its modules) at its own
+    /// cycles, as each task's boundary feeds the alarm service of `softplc run`.
+    feeds: Vec<ChangeFeed>,
     stream: ChangeStream,
     book: AlarmBook,
     /// By time; at one time the expectations before the acknowledgements.
@@ -199,11 +204,43 @@ pub(crate) struct ScenarioAlarms {
     traced: u64,
     /// Per alarm (the book's order): when its last events happened.
     times: Vec<(String, Times)>,
+    /// The last cycle fed into the book: an acknowledgement is taken at its boundary.
+    last: Option<LastCycle>,
+}
+
+/// A cycle fed into the book: its number and scan time (the book's stamp), its scenario time
+/// (the trace's).
+#[derive(Debug, Clone, Copy)]
+struct LastCycle {
+    cycle: u64,
+    at: ScanInstant,
+    now: Duration,
 }
 
 impl ScenarioAlarms {
-    /// The book of `project` and the scenario's alarm `steps`.
-    pub(crate) fn new(project: &Project, mut steps: Vec<AlarmStep>) -> Self {
+    /// The book of `project` (of one task) and the scenario's alarm `steps`.
+    pub(crate) fn new(project: &Project, steps: Vec<AlarmStep>) -> Self {
+        Self::fed(project, steps, |feed| vec![feed])
+    }
+
+    /// The book of `project` of several tasks, fed each task's share (`shares`, in task
+    /// order) at that task's cycles, and the scenario's alarm `steps`.
+    pub(crate) fn of_tasks(
+        project: &Project,
+        shares: Vec<TaskShare>,
+        steps: Vec<AlarmStep>,
+    ) -> Self {
+        Self::fed(project, steps, |feed| {
+            shares.into_iter().map(|s| feed.share(s)).collect()
+        })
+    }
+
+    /// The book of `project`, fed by the feeds `feeds` makes of one feed of the book's own.
+    fn fed(
+        project: &Project,
+        mut steps: Vec<AlarmStep>,
+        feeds: impl FnOnce(ChangeFeed) -> Vec<ChangeFeed>,
+    ) -> Self {
         steps.sort_by_key(|s| (s.at, matches!(s.kind, AlarmStepKind::Ack)));
         let mut feed = ChangeFeed::new();
         // Taken at once after each offer: one cycle is all the queue ever holds.
@@ -216,37 +253,56 @@ impl ScenarioAlarms {
             .map(|a| (a.name, Times::default()))
             .collect();
         Self {
-            feed,
+            feeds: feeds(feed),
             stream,
             book,
             steps,
             next: 0,
             traced: 0,
             times,
+            last: None,
         }
     }
 
-    /// After the cycle `ctx` (scenario time `now`): its changes into the book, then the
-    /// steps due before `next`; the book's events into the trace, the failures and the count
-    /// of expectations checked into `result`.
+    /// Before a cycle that starts at scenario time `now` is fed (several tasks): the steps
+    /// due before it, on the state the cycles before it left.
+    pub(crate) fn before(&mut self, now: Duration, result: &mut RunResult) {
+        self.steps_before(now, result);
+    }
+
+    /// After the cycle `ctx` of task `task` (0 with one task; scenario time `now`): its
+    /// changes into the book, then the steps due before `next` (when the next cycle of any
+    /// task starts, at the earliest); the book's events into the trace, the failures and the
+    /// count of expectations checked into `result`.
     pub(crate) fn cycle(
         &mut self,
+        task: usize,
         plc: &Plc,
         ctx: &ScanContext,
         now: Duration,
         next: Duration,
         result: &mut RunResult,
     ) {
-        self.feed.offer(
-            plc.image(),
-            plc.module_status().iter().map(feed_quality),
-            ctx.cycle,
-            ctx.now,
-        );
+        if let Some(feed) = self.feeds.get_mut(task) {
+            offer_cycle(feed, plc, ctx.cycle, ctx.now);
+        }
+        self.last = Some(LastCycle {
+            cycle: ctx.cycle,
+            at: ctx.now,
+            now,
+        });
         for d in self.stream.receiver().try_iter() {
             self.book.apply(&d);
         }
         self.take_events(now, &mut result.trace);
+        self.steps_before(next, result);
+    }
+
+    /// The steps due before `next`, each at the boundary of the last cycle fed.
+    fn steps_before(&mut self, next: Duration, result: &mut RunResult) {
+        let Some(last) = self.last else {
+            return;
+        };
         while let Some(step) = self.steps.get(self.next) {
             if step.at >= next {
                 break;
@@ -259,9 +315,9 @@ impl ScenarioAlarms {
                 AlarmStepKind::Ack => {
                     match self
                         .book
-                        .acknowledge(&step.alarm, ACK_BY, ctx.cycle, ctx.now)
+                        .acknowledge(&step.alarm, ACK_BY, last.cycle, last.at)
                     {
-                        Ok(_) => self.take_events(now, &mut result.trace),
+                        Ok(_) => self.take_events(last.now, &mut result.trace),
                         Err(e) => result.failures.push(format!(
                             "at {} (line {}): cannot acknowledge {}: {e}",
                             secs(step.at),

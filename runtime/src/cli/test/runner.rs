@@ -17,6 +17,7 @@ use crate::clock::VirtualClock;
 use crate::logic::ScanContext;
 use crate::plc::Plc;
 use crate::scan::{ScanEngine, StopReason};
+use crate::service::task_share::TaskShare;
 
 /// What one run found.
 #[derive(Debug, Clone, Default)]
@@ -61,8 +62,11 @@ struct HookState {
     /// Modules silenced or answering again, with the world and the device.
     module_steps: Vec<(ModuleStep, Option<(SharedWorld, usize)>)>,
     next_module_step: usize,
-    /// The alarm book and the scenario's alarm steps (with several tasks: the first task's).
+    /// The alarm book and the scenario's alarm steps.
     alarms: Option<ScenarioAlarms>,
+    /// With several tasks: per task, when its next cycle starts at the earliest (scenario
+    /// time; `None` before its first cycle).
+    next_starts: Vec<Option<Duration>>,
 }
 
 impl HookState {
@@ -115,6 +119,7 @@ impl HookState {
             checked: Vec::new(),
             task_names: Vec::new(),
             alarms: None,
+            next_starts: Vec::new(),
         }
     }
 
@@ -295,7 +300,7 @@ impl HookState {
         }
         self.plant_cycle(now, next);
         if let Some(alarms) = &mut self.alarms {
-            alarms.cycle(plc, ctx, now, next, &mut self.result);
+            alarms.cycle(0, plc, ctx, now, next, &mut self.result);
         }
         self.apply_sets(next);
         self.apply_faults(next);
@@ -324,7 +329,8 @@ impl HookState {
                 });
             }
         }
-        let next = now + plc.project().scan.period;
+        let period = plc.project().scan.period;
+        let next = now + period;
         for (i, e) in self.expects.iter().enumerate() {
             if self.checked[i] || !mine(e.tag) || e.at >= next {
                 continue;
@@ -344,8 +350,23 @@ impl HookState {
             }
         }
         self.owners = Some(owners);
-        if let (0, Some(alarms)) = (task, &mut self.alarms) {
-            alarms.cycle(plc, ctx, now, next, &mut self.result);
+        if let Some(alarms) = &mut self.alarms {
+            // The book takes this cycle's share as the task's boundary feeds it in `softplc
+            // run`; a step is taken once no cycle of any task that starts at or before its
+            // time is left: before the first cycle that starts after it, or after this one
+            // when every task's next cycle starts after it (a task's next cycle starts a
+            // period after this one at the earliest; one not started yet may start now).
+            alarms.before(now, &mut self.result);
+            if let Some(start) = self.next_starts.get_mut(task) {
+                *start = Some(next);
+            }
+            let next_any = self
+                .next_starts
+                .iter()
+                .map(|s| s.unwrap_or(now))
+                .min()
+                .unwrap_or(next);
+            alarms.cycle(task, plc, ctx, now, next_any, &mut self.result);
         }
         self.plant_cycle(now, now + self.period);
         self.apply_sets(now + self.period);
@@ -482,10 +503,11 @@ fn run_tasks(sc: &Scenario, mut project: crate::project::Project) -> RunResult {
                     .unwrap_or(0)
             })
             .collect::<Vec<_>>();
+        let shares = TaskShare::all(&project, b.ownership());
         let plcs = (0..project.tasks.len())
             .map(|i| b.build(i))
             .collect::<Result<Vec<_>, _>>()?;
-        Ok((plcs, owners))
+        Ok((plcs, owners, shares))
     }) {
         Ok(p) => p,
         Err(e) => {
@@ -495,7 +517,7 @@ fn run_tasks(sc: &Scenario, mut project: crate::project::Project) -> RunResult {
             }
         }
     };
-    let (plcs, owners) = plcs;
+    let (plcs, owners, shares) = plcs;
     let origin = plcs
         .iter()
         .map(|t| t.plc.clock().now())
@@ -512,14 +534,14 @@ fn run_tasks(sc: &Scenario, mut project: crate::project::Project) -> RunResult {
     state.owners = Some(owners);
     state.checked = vec![false; sc.expects.len()];
     state.task_names = project.tasks.iter().map(|t| t.name.clone()).collect();
-    // The alarms as `softplc run` hosts them: on the first task's cycles, from its image
-    // (which holds every tag: it copies the others' at its cycle's start) and its modules.
-    if let Some(first) = plcs.first() {
-        state.alarms = Some(ScenarioAlarms::new(
-            first.plc.project(),
-            sc.alarm_steps.clone(),
-        ));
-    }
+    // The alarms as `softplc run` evaluates them: one book of the whole project, fed by
+    // every task's share (the tags it owns, its modules) at that task's own cycles.
+    state.alarms = Some(ScenarioAlarms::of_tasks(
+        &project,
+        shares,
+        sc.alarm_steps.clone(),
+    ));
+    state.next_starts = vec![None; project.tasks.len()];
     state.apply_sets(Duration::ZERO);
     state.apply_faults(Duration::ZERO);
     state.apply_module_steps(Duration::ZERO);

@@ -425,9 +425,9 @@ pub fn parse(text: &str, file: &Path) -> Result<Scenario, ScenarioErrors> {
     let mut faults = Vec::new();
     let mut alarm_steps = Vec::new();
     let mut module_steps = Vec::new();
-    // The alarms the book has: with several tasks, the first task's view's, as `softplc run`
-    // and the runner build it (its tags' alarms, its modules' `lost.MODULE`).
-    let alarms = alarm_names(&project.task_view(0, |_| false));
+    // The alarms the book has, as `softplc run` and the runner build it: the tags' alarms and
+    // every module's `lost.MODULE`, whichever task owns them.
+    let alarms = alarm_names(&project);
     let plant_on = raw.plant.unwrap_or(false);
     for (i, step) in raw.steps.iter().enumerate() {
         let at = step.at.0;
