@@ -360,5 +360,14 @@ fn the_examples_scenarios_pass_in_ladder_and_rhai_with_one_trace() {
     }
     assert_eq!(traces.len(), 2, "{text}");
     assert!(traces[0].contains(&"6.420s  press_down = 1"), "{text}");
+    // The panel's key switch module lost: its alarm raised and cleared at the panel task's
+    // cycles (500 ms apart from 4.376 s), acknowledged at the press's last cycle before 15.5 s.
+    for line in [
+        "13.876s  alarm.lost.keys = raised",
+        "15.480s  alarm.lost.keys = acknowledged",
+        "18.376s  alarm.lost.keys = cleared",
+    ] {
+        assert!(traces[0].contains(&line), "{line}:\n{text}");
+    }
     assert_eq!(traces[0], traces[1], "ladder and Rhai differ:\n{text}");
 }

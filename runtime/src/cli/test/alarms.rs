@@ -2,6 +2,9 @@
 //! acknowledgements by time (`ack: door_fault`), evaluated by the service's own alarm book
 //! (`service::alarms::book`), fed each cycle's changes by the same change feed the running
 //! service reads, on the scenario's virtual clock: the same scenario gives the same events.
+//! With several tasks the book is fed as `softplc run` feeds it: each task's share (the tags
+//! it owns, its modules) at that task's own cycles, so a fast task's alarm is raised and
+//! cleared at its times and every module's `lost.` alarm is there.
 
 use std::time::{Duration, SystemTime};
 
