@@ -27,14 +27,17 @@ tasks:
   - { name: pulse,   type: bool, alarm: { text: Start pulse, priority: high } }
 ";
 
-/// The pulse's alarm between two of the slow task's cycles, then the fast line's module
-/// silenced, acknowledged, and answering again.
+/// The pulse's alarm between two of the slow task's cycles (expected as the fast task's cycles
+/// at 1.06s and 1.08s leave it), then the fast line's module silenced, acknowledged, and
+/// answering again.
 const SCENARIO: &str = "\
 project: project.yaml
 watch: [valve, pulse]
 until: 9s
 steps:
   - { at: 1.05s, set: { start: 1 } }
+  - { at: 1.07s, expect: { alarm.pulse: raised } }
+  - { at: 1.08s, expect: { alarm.pulse: \"cleared, unacknowledged\" } }
   - { at: 1.5s,  expect: { alarm.pulse: \"cleared, unacknowledged\", alarm.lost.f1: inactive } }
   - { at: 1.6s,  ack: pulse }
   - { at: 1.7s,  expect: { alarm.pulse: \"cleared, acknowledged\" } }
@@ -132,6 +135,27 @@ fn a_fast_tasks_pulse_and_a_second_tasks_lost_module_are_alarms_at_its_own_cycle
     let (ok, again) = softplc_in(&s.dir, &["test", "--verbose", "s.scenario.yaml"]);
     assert!(ok, "{again}");
     assert_eq!(trace, self::trace(&again));
+}
+
+#[test]
+fn a_step_before_the_slow_tasks_first_cycle_sees_the_fast_tasks_cycles_up_to_its_time() {
+    let s = folder("early");
+    // The slow line starts later than the fast one: its task's first cycle comes after the
+    // fast task's pulse (0.06s to 0.08s), and every step below is taken at its own time.
+    s.write(
+        "e.scenario.yaml",
+        "project: project.yaml\nwatch: [pulse]\nuntil: 1s\nsteps:\n  - { at: 0.05s, set: { start: 1 } }\n  - { at: 0.07s, expect: { alarm.pulse: raised } }\n  - { at: 0.1s, expect: { alarm.pulse: \"cleared, unacknowledged\" } }\n  - { at: 0.12s, ack: pulse }\n  - { at: 0.5s, expect: { alarm.pulse: \"cleared, acknowledged\" } }\n",
+    );
+    let (ok, text) = softplc_in(&s.dir, &["test", "--verbose", "e.scenario.yaml"]);
+    assert!(ok, "{text}");
+    let trace = trace(&text);
+    for line in [
+        "0.060s  alarm.pulse = raised",
+        "0.080s  alarm.pulse = cleared",
+        "0.120s  alarm.pulse = acknowledged",
+    ] {
+        assert!(trace.contains(&line), "{line}:\n{text}");
+    }
 }
 
 #[test]
