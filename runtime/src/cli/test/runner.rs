@@ -329,8 +329,7 @@ impl HookState {
                 });
             }
         }
-        let period = plc.project().scan.period;
-        let next = now + period;
+        let next = now + plc.project().scan.period;
         for (i, e) in self.expects.iter().enumerate() {
             if self.checked[i] || !mine(e.tag) || e.at >= next {
                 continue;
@@ -488,7 +487,7 @@ pub(crate) fn run(sc: &Scenario, variant: Option<&ProgramVariant>) -> RunResult 
 }
 
 /// Runs `sc` on a project of several tasks, each on its own virtual clock; scenario time
-/// starts with the first task's first scan.
+/// starts with the earliest first scan of any task.
 fn run_tasks(sc: &Scenario, mut project: crate::project::Project) -> RunResult {
     if !sc.plant {
         project.plant = None;
