@@ -1,7 +1,8 @@
 //! Alarms in a scenario of several tasks, fed as `softplc run` feeds them: each task's share
 //! at its own cycles. A pulse of a fast task that a slow first task never sees is raised and
 //! cleared at the fast task's times; a module of the second task silenced raises its `lost.`
-//! alarm, which is acknowledged and clears once it answers; two runs give one trace.
+//! alarm, which is acknowledged and clears once it answers; two runs give one trace; and a
+//! scenario's alarm events are those `softplc run --virtual` writes in its history.
 
 use crate::common::host::softplc_in;
 use crate::common::scratch::{Scratch, TWO_LINES};
@@ -193,4 +194,62 @@ fn an_alarm_the_project_does_not_have_is_refused_with_every_tasks_alarms() {
         "{text}"
     );
     assert!(!text.contains("a.scenario.yaml:3:"), "{text}");
+}
+
+/// The same two tasks with a program of their own: the fast task's `pulse` holds one cycle in
+/// seven, an alarm the slow first task never sees.
+const SELF_PULSING: &str = "\
+project: tsa
+tasks:
+  - { name: slow, period: 100ms, buses: [slow_line], program: { file: slow.rhai, kind: rhai } }
+  - { name: fast, period: 20ms, buses: [fast_line], program: { file: fast.rhai, kind: rhai } }
+{lines}tags:
+  - { name: n,     type: u16 }
+  - { name: pulse, type: bool, alarm: { text: Every seventh cycle } }
+  - { name: lamp,  point: s1.Y1, safe: false }
+";
+
+#[test]
+fn a_scenario_shows_the_alarm_events_softplc_run_records() {
+    let s = Scratch::new("task-scenario-alarms", "as-run");
+    s.write("project.yaml", &SELF_PULSING.replace("{lines}", TWO_LINES));
+    s.write("fast.rhai", "n += 1;\npulse = n % 7 == 0;\n");
+    s.write("slow.rhai", "lamp = !lamp;\n");
+    s.write(
+        "s.scenario.yaml",
+        "project: project.yaml\nuntil: 1s\nsteps:\n  - { at: 0.5s, expect: { n: 26 } }\n",
+    );
+    // The run's history: each event with the fast task's cycle.
+    let (ok, text) = softplc_in(
+        &s.dir,
+        &["run", "--virtual", "--quiet", "--for", "1s", "project.yaml"],
+    );
+    assert!(ok, "{text}");
+    let history = std::fs::read_to_string(s.dir.join("project.yaml.alarms.jsonl"))
+        .expect("the run's alarm history");
+    let run: Vec<(String, String, u64)> = history
+        .lines()
+        .map(|l| {
+            let e: serde_json::Value = serde_json::from_str(l).expect("a history line");
+            (
+                e["alarm"].as_str().unwrap_or_default().to_owned(),
+                e["event"].as_str().unwrap_or_default().to_owned(),
+                e["cycle"].as_u64().unwrap_or_default(),
+            )
+        })
+        .collect();
+    assert_eq!(run.len(), 14, "{history}");
+    // The scenario's trace: each event at the fast task's cycle time (cycle N at (N-1)×20ms,
+    // the fast task's first scan being time 0).
+    let (ok, text) = softplc_in(&s.dir, &["test", "--verbose", "s.scenario.yaml"]);
+    assert!(ok, "{text}");
+    let scenario: Vec<(String, String, u64)> = trace(&text)
+        .into_iter()
+        .filter_map(|l| {
+            let (alarm, event) = l.split_once("  alarm.")?.1.split_once(" = ")?;
+            let cycle = (time_of(l) / 0.02).round() as u64 + 1;
+            Some((alarm.to_owned(), event.to_owned(), cycle))
+        })
+        .collect();
+    assert_eq!(scenario, run, "{text}");
 }
