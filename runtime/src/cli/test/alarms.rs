@@ -267,12 +267,6 @@ impl ScenarioAlarms {
         }
     }
 
-    /// Before a cycle that starts at scenario time `now` is fed (several tasks): the steps
-    /// due before it, on the state the cycles before it left.
-    pub(crate) fn before(&mut self, now: Duration, result: &mut RunResult) {
-        self.steps_before(now, result);
-    }
-
     /// After the cycle `ctx` of task `task` (0 with one task; scenario time `now`): its
     /// changes into the book, then the steps due before `next` (when the next cycle of any
     /// task starts, at the earliest); the book's events into the trace, the failures and the
@@ -301,8 +295,10 @@ impl ScenarioAlarms {
         self.steps_before(next, result);
     }
 
-    /// The steps due before `next`, each at the boundary of the last cycle fed.
-    fn steps_before(&mut self, next: Duration, result: &mut RunResult) {
+    /// The steps due before `next`, each at the boundary of the last cycle fed (with several
+    /// tasks also before a cycle that starts at `next` is fed: the steps due before it, on
+    /// the state the cycles before it left).
+    pub(crate) fn steps_before(&mut self, next: Duration, result: &mut RunResult) {
         let Some(last) = self.last else {
             return;
         };

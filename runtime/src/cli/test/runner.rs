@@ -355,7 +355,7 @@ impl HookState {
             // time is left: before the first cycle that starts after it, or after this one
             // when every task's next cycle starts after it (a task's next cycle starts a
             // period after this one at the earliest; one not started yet may start now).
-            alarms.before(now, &mut self.result);
+            alarms.steps_before(now, &mut self.result);
             if let Some(start) = self.next_starts.get_mut(task) {
                 *start = Some(next);
             }
