@@ -174,14 +174,15 @@ fn run_plc(project: &Path, socket: &Path, port: u16) -> Plc {
         .spawn()
         .unwrap());
     let up = Instant::now();
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+    // The page and the control socket open one after the other: a test talks to both.
+    while TcpStream::connect(("127.0.0.1", port)).is_err() || !socket.exists() {
         if up.elapsed() > Duration::from_secs(30) || plc.0.try_wait().unwrap().is_some() {
             // The child may have exited already; then there is nothing to stop.
             drop(plc.0.kill());
             let mut err = String::new();
             // Best effort: the log only adds to the panic message.
             drop(plc.0.stderr.take().unwrap().read_to_string(&mut err));
-            panic!("the web page never listened on port {port}:\n{err}");
+            panic!("the web page never listened on port {port} or the control socket never opened:\n{err}");
         }
         std::thread::sleep(Duration::from_millis(100));
     }
