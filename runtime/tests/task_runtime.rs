@@ -347,6 +347,12 @@ fn the_examples_scenarios_pass_in_ladder_and_rhai_with_one_trace() {
     let (ok, text) = crate::common::host::softplc(&["test", "examples/two-tasks", "--verbose"]);
     assert!(ok, "{text}");
     assert!(text.contains("2 passed, 0 failed"), "{text}");
+    // Each task's scans, counted on its own: 20 s of the press's 30 ms cycles (from its first
+    // scan) and of the panel's 500 ms ones, fewer where its slow line overran.
+    assert!(
+        text.contains("(14 expectations, press 667 scans, panel 32 scans)"),
+        "{text}"
+    );
     // Each run's trace: the lines after its `ok` line, up to the next.
     let mut traces: Vec<Vec<&str>> = Vec::new();
     for line in text.lines() {

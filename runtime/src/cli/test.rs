@@ -125,11 +125,11 @@ pub(crate) fn run_path(path: &Path, verbose: bool) -> (String, bool) {
                 passed += 1;
                 let _ = writeln!(
                     out,
-                    "ok   {} [{label}]: {} ({} expectations, {} scans)",
+                    "ok   {} [{label}]: {} ({} expectations, {})",
                     file.display(),
                     sc.name,
                     r.checked,
-                    r.scans
+                    scans_text(&r)
                 );
                 if verbose {
                     out.push_str(&trace::render(&r.trace));
@@ -202,4 +202,16 @@ pub(super) fn test(args: TestArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// The scans a run made: `500 scans`, or each task's (`press 667 scans, panel 40 scans`).
+fn scans_text(r: &runner::RunResult) -> String {
+    if r.task_scans.is_empty() {
+        return format!("{} scans", r.scans);
+    }
+    r.task_scans
+        .iter()
+        .map(|(task, scans)| format!("{task} {scans} scans"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -28,8 +28,10 @@ pub(crate) struct RunResult {
     pub failures: Vec<String>,
     /// Expectations checked.
     pub checked: usize,
-    /// Scans run.
+    /// Scans run (the first task's, with several tasks).
     pub scans: u64,
+    /// With several tasks: each task's name and the scans it ran, in task order.
+    pub task_scans: Vec<(String, u64)>,
 }
 
 /// Scenario state shared with the cycle hook.
@@ -561,6 +563,10 @@ fn run_tasks(sc: &Scenario, mut project: crate::project::Project) -> RunResult {
     let outcomes = tasks.run_virtual();
     let mut st = state.lock().unwrap_or_else(|p| p.into_inner());
     let mut result = std::mem::take(&mut st.result);
+    result.task_scans = outcomes
+        .iter()
+        .map(|o| (o.name.clone(), o.outcome.stats.cycles))
+        .collect();
     for o in &outcomes {
         match &o.outcome.reason {
             StopReason::Requested | StopReason::TimeUp => {}
