@@ -66,10 +66,14 @@ fn blocks(outputs: &[InstanceOutput]) -> Json {
 /// outputs (`b`) when the program has blocks (ladder; expr and Rhai programs publish none,
 /// and their state stays as small as it was).
 pub(crate) fn state(s: &ServiceSnapshot) -> Json {
+    // Several tasks: a fast task's tags are stamped after the first task's last publication,
+    // so ages count from the latest task's.
+    let latest = s.task_now.iter().copied().max();
+    let now = latest.map_or(s.now, |l| l.max(s.now));
     let age: Vec<f64> = s
         .timestamps
         .iter()
-        .map(|t| ms(s.now.saturating_duration_since(*t)))
+        .map(|t| ms(now.saturating_duration_since(*t)))
         .collect();
     let forced: Vec<usize> = s
         .forced
@@ -96,7 +100,7 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
         // Several tasks: each task's ladders read the blocks of their own task.
         state["tb"] = Json::Array(s.task_blocks.iter().map(|b| blocks(b)).collect());
     }
-    if let Some(latest) = s.task_now.iter().max() {
+    if let Some(latest) = latest {
         // Several tasks: the latest publication of any task, the trend's time of the values.
         state["tnow"] = json!(ms(latest.since_origin()));
     }
@@ -267,6 +271,11 @@ mod tests {
         let j = state(&tasks);
         assert_eq!(j["tb"], json!([[], [{"Q": true, "ET": 120.5}, {"CV": -3}]]));
         assert_eq!(j["tnow"], json!(730.0));
+        assert_eq!(
+            j["age"][0],
+            json!(80.0),
+            "from the latest task's publication"
+        );
     }
 
     #[test]
