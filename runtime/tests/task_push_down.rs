@@ -236,8 +236,13 @@ fn the_pages_program_view_marks_each_tasks_pushed_rungs_from_its_own_plan() {
     let builder = softplc::plc::TaskBuilder::new(&project, None, None).expect("compiles");
     let parts: Vec<TaskPart> = (0..project.tasks.len())
         .map(|i| {
-            let task = builder.build(i).expect("builds");
-            TaskPart::of(&task.plc, &task.name, project.tasks[i].scan.period)
+            // Planned before any line starts, as the task's PLC then runs it.
+            let planned = builder.planned(i).expect("compiles");
+            let built = builder.build(i).expect("builds");
+            assert_eq!(&planned.plan, built.plc.plan());
+            assert_eq!(planned.instance_counts, built.plc.instance_counts());
+            let task = &project.tasks[i];
+            TaskPart::of(&planned, &task.name, task.scan.period)
         })
         .collect();
     let web = softplc::project::WebConfig {

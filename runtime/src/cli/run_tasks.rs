@@ -87,11 +87,11 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     if project.service.web.is_some() && args.virtual_clock {
         tracing::info!("web page: off on the virtual clock (nobody could watch it)");
     }
-    // The page draws every task's programs: it starts once every task's PLC is built, as a
-    // single task's does once its PLC is.
+    // The page draws every task's programs; it starts once the first task's PLC is built, as
+    // a single task's does once its PLC is.
     let web = Arc::new(TaskWeb::new(
         &project,
-        builder.ownership(),
+        &builder,
         web_later.then(|| services.web_starter(&requests, &health, audit.clone())),
     ));
     // Every task answers the control requests about its own tags at its own boundary, and
@@ -193,7 +193,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             if let Some(r) = plc.plc.retainer() {
                 retains.add_retain(&plc.name, r.save_failure());
             }
-            web.built(i, &plc);
+            web.built();
             // Last before its first cycle: the record's first keyframe is the state it sees.
             if let Some(r) = &recording {
                 r.start(i, &mut plc);

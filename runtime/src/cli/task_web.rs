@@ -1,71 +1,56 @@
 //! The web page of a PLC of several tasks: it draws every task's programs, each with its own
-//! task's push-down plan and block numbering, so it starts once every task's PLC is built
-//! (each on its own thread), on the thread of the task built last.
+//! task's push-down plan and block numbering, planned before any line starts, and it starts
+//! once the first task's PLC is built (on that task's thread), as a single task's page starts
+//! once its PLC is: a slow line's start-up does not keep the page away.
 
 use std::sync::{Mutex, MutexGuard};
 
 use crate::image::TagId;
 use crate::logic::Ownership;
-use crate::plc::TaskPlc;
+use crate::plc::TaskBuilder;
 use crate::project::Project;
 use crate::service::web::{TaskPart, WebServer};
 
 use super::plant_services::WebStarter;
 
-/// Gathers each task's part of the page and starts it with the last one.
+/// The page's start, once, from the first task built.
 pub(super) struct TaskWeb {
     project: Project,
     ownership: Ownership,
-    gathered: Mutex<Gathered>,
+    /// Taken by the start; `None` also when there is no page.
+    pending: Mutex<Option<(WebStarter, Vec<TaskPart>)>>,
     server: Mutex<Option<WebServer>>,
 }
 
-/// What the tasks built so far gave.
-struct Gathered {
-    /// Taken by the start; `None` also when there is no page.
-    starter: Option<WebStarter>,
-    /// Each task's part, in task order, once its PLC is built.
-    parts: Vec<Option<TaskPart>>,
-}
-
 impl TaskWeb {
-    /// The page of `project`'s tasks (`ownership`: each tag's owner), started by `starter`;
-    /// no page when `starter` is `None`.
+    /// The page of `builder`'s tasks (of `project`), started by `starter`; no page when
+    /// `starter` is `None`, or when a task's program does not compile (its build then says
+    /// why and stops the PLC).
     pub(super) fn new(
         project: &Project,
-        ownership: &Ownership,
+        builder: &TaskBuilder,
         starter: Option<WebStarter>,
     ) -> Self {
+        let pending = starter.and_then(|starter| {
+            let parts = (project.tasks.iter().enumerate())
+                .map(|(i, t)| {
+                    let planned = builder.planned(i).ok()?;
+                    Some(TaskPart::of(&planned, &t.name, t.scan.period))
+                })
+                .collect::<Option<Vec<_>>>()?;
+            Some((starter, parts))
+        });
         Self {
             project: project.clone(),
-            ownership: ownership.clone(),
-            gathered: Mutex::new(Gathered {
-                starter,
-                parts: vec![None; project.tasks.len()],
-            }),
+            ownership: builder.ownership().clone(),
+            pending: Mutex::new(pending),
             server: Mutex::new(None),
         }
     }
 
-    /// Task `i`'s PLC `plc` is built: its part of the page; the last part starts the page.
-    pub(super) fn built(&self, i: usize, plc: &TaskPlc) {
-        let mut gathered = lock(&self.gathered);
-        if gathered.starter.is_none() {
-            return;
-        }
-        let period = self
-            .project
-            .tasks
-            .get(i)
-            .map_or(self.project.scan.period, |t| t.scan.period);
-        if let Some(slot) = gathered.parts.get_mut(i) {
-            *slot = Some(TaskPart::of(&plc.plc, &plc.name, period));
-        }
-        if gathered.parts.iter().any(Option::is_none) {
-            return;
-        }
-        let parts = gathered.parts.iter_mut().filter_map(Option::take).collect();
-        let Some(starter) = gathered.starter.take() else {
+    /// A task's PLC is built: the first call starts the page.
+    pub(super) fn built(&self) {
+        let Some((starter, parts)) = lock(&self.pending).take() else {
             return;
         };
         let owner = |t: usize| self.ownership.owner(TagId(t as u32));
@@ -78,7 +63,7 @@ impl TaskWeb {
     }
 }
 
-/// A lock whose holder panicked still guards valid data here (parts, a server handle).
+/// A lock whose holder panicked still guards valid data here (the parts, a server handle).
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }

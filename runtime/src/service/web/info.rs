@@ -8,7 +8,7 @@ use softplc_io::point::Access;
 
 use super::program::{self, ProgramView};
 use crate::image::TagId;
-use crate::plc::Plc;
+use crate::plc::{Plc, TaskPlan};
 use crate::project::{Binding, PortConfig, WebConfig};
 
 /// One RS-485 line.
@@ -85,9 +85,8 @@ pub struct TaskInfo {
     pub period_us: u64,
 }
 
-/// What one task's PLC gives the page in a PLC of several tasks: its programs with its own
-/// plan's push-down marks and its own block numbering. Made from the task's PLC once it is
-/// built (on the task's thread); the page starts once every task has given its part.
+/// What one task gives the page in a PLC of several tasks: its programs with its own plan's
+/// push-down marks and its own block numbering.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct TaskPart {
     info: TaskInfo,
@@ -97,17 +96,19 @@ pub struct TaskPart {
 }
 
 impl TaskPart {
-    /// Task `task`'s part (the PLC `plc` built for it, which runs every `period`).
-    pub fn of(plc: &Plc, task: &str, period: std::time::Duration) -> Self {
-        let pushed = (0..plc.project().tags.len())
-            .filter(|&t| plc.plan().is_pushed(TagId(t as u32)))
+    /// Task `task`'s part, from its programs as its PLC runs them (`planned`), every
+    /// `period`.
+    pub fn of(planned: &TaskPlan, task: &str, period: std::time::Duration) -> Self {
+        let plan = &planned.plan;
+        let pushed = (0..planned.view.tags.len())
+            .filter(|&t| plan.is_pushed(TagId(t as u32)))
             .collect();
         Self {
             info: TaskInfo {
                 name: task.to_owned(),
                 period_us: period.as_micros() as u64,
             },
-            programs: program::views(plc.project(), plc.plan(), &plc.instance_counts()),
+            programs: program::views(&planned.view, plan, &planned.instance_counts),
             pushed,
         }
     }
