@@ -100,9 +100,15 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
         // Several tasks: each task's ladders read the blocks of their own task.
         state["tb"] = Json::Array(s.task_blocks.iter().map(|b| blocks(b)).collect());
     }
-    if let Some(latest) = latest {
-        // Several tasks: the latest publication of any task, the trend's time of the values.
-        state["tnow"] = json!(ms(latest.since_origin()));
+    if !s.task_now.is_empty() {
+        // Several tasks: each task's cycles and time at its last publication, so the trend
+        // samples a tag at its own task's cycles.
+        state["task_cycles"] = json!(s.task_cycles);
+        state["task_now"] = json!(s
+            .task_now
+            .iter()
+            .map(|t| ms(t.since_origin()))
+            .collect::<Vec<_>>());
     }
     if let Some(p) = &s.plant {
         // The plant panel: the model, whether it runs, its states by name as text.
@@ -270,7 +276,8 @@ mod tests {
         };
         let j = state(&tasks);
         assert_eq!(j["tb"], json!([[], [{"Q": true, "ET": 120.5}, {"CV": -3}]]));
-        assert_eq!(j["tnow"], json!(730.0));
+        assert_eq!(j["task_now"], json!([700.0, 730.0]));
+        assert_eq!(j["task_cycles"], json!([]));
         assert_eq!(
             j["age"][0],
             json!(80.0),

@@ -572,8 +572,16 @@
   function trendAppend(s) {
     const tr = app.trend;
     if (!tr.tags.length) return;
-    // Several tasks: the values are each task's latest, of the latest publication's time.
-    const now = s.tnow != null ? s.tnow : s.now;
+    // Several tasks: a sample when a task owning a trend tag completed a cycle, at the
+    // latest of those tasks' times (as /api/trend samples).
+    let now = s.now;
+    if (s.task_now) {
+      const owners = [...new Set(tr.tags.map((t) => (app.info.tags[t] && app.info.tags[t].task) || 0))];
+      const key = owners.map((o) => s.task_cycles[o]).join(",");
+      if (key === tr.cycles) return;
+      tr.cycles = key;
+      now = Math.max(...owners.map((o) => s.task_now[o] || 0));
+    }
     if (tr.t.length && now <= tr.t[tr.t.length - 1]) return;
     tr.t.push(now);
     tr.tags.forEach((tag, k) => tr.series[k].push(asNumber(s.v[tag])));
