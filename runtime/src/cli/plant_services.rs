@@ -250,7 +250,7 @@ impl PlantServices {
 }
 
 /// What starting the web page needs besides the PLC: it may start on a task's own thread,
-/// once that task's PLC (with several tasks: every task's) is built.
+/// once that task's PLC (with several tasks: the first one built) is built.
 pub(super) struct WebStarter {
     published: snapshot::SnapshotCell,
     requests: Sender<Envelope>,
@@ -262,10 +262,7 @@ impl WebStarter {
     /// Starts the page `plc`'s project configures; `None` when none is or it cannot listen
     /// (said in the log and the status).
     pub(super) fn start(self, plc: &Plc) -> Option<crate::service::web::WebServer> {
-        self.start_from(network::WebSource::One {
-            plc,
-            listed: plc.project(),
-        })
+        self.start_from(network::WebSource::One(plc))
     }
 
     /// Starts the page of a PLC of several tasks (`project`, the whole project; `owner`:

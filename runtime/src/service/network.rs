@@ -51,13 +51,8 @@ impl NetworkServices {
 /// What the web page shows of the PLC: one task's PLC, or every task's part of a PLC of
 /// several tasks.
 pub(crate) enum WebSource<'a> {
-    /// A PLC of one task, listing the project `listed`.
-    One {
-        /// The PLC.
-        plc: &'a Plc,
-        /// The project it lists.
-        listed: &'a Project,
-    },
+    /// A PLC of one task.
+    One(&'a Plc),
     /// A PLC of several tasks: the whole project, each tag's owning task, each task's part.
     Tasks {
         /// The whole project.
@@ -81,12 +76,12 @@ pub(crate) fn start_web(
     records: super::web::WebRecords,
 ) -> Option<WebServer> {
     let (config, info, period) = match source {
-        WebSource::One { plc, listed } => {
+        WebSource::One(plc) => {
             let project = plc.project();
             let config = project.service.web.as_ref()?;
             (
                 config,
-                WebInfo::new(plc, listed, config),
+                WebInfo::new(plc, project, config),
                 project.scan.period,
             )
         }
