@@ -353,6 +353,7 @@ fn info(writes: bool) -> WebInfo {
         operator: Vec::new(),
         programs: vec![ProgramView {
             file: "p.expr".into(),
+            task: None,
             inst_base: 0,
             kind: "expr",
             lines: Vec::new(),
@@ -360,6 +361,7 @@ fn info(writes: bool) -> WebInfo {
             no_diagram: None,
             error: None,
         }],
+        tasks: Vec::new(),
     }
 }
 

@@ -11,6 +11,7 @@ use softplc::offload::Placement;
 use softplc::plc::Plc;
 use softplc::project::load;
 use softplc::scan::TaskSet;
+use softplc::service::web::{TaskPart, WebInfo};
 use softplc_io::point::Value;
 use softplc_io::sim::SharedWorld;
 use softplc_io::time::LineInstant;
@@ -226,4 +227,95 @@ fn an_output_two_programs_of_a_task_write_stays_central_naming_the_other_place()
         ),
         "{text}"
     );
+}
+
+#[test]
+fn the_pages_program_view_marks_each_tasks_pushed_rungs_from_its_own_plan() {
+    let s = folder("page");
+    let project = load(&s.dir.join("project.yaml")).expect("loads");
+    let builder = softplc::plc::TaskBuilder::new(&project, None, None).expect("compiles");
+    let parts: Vec<TaskPart> = (0..project.tasks.len())
+        .map(|i| {
+            // Planned before any line starts, as the task's PLC then runs it.
+            let planned = builder.planned(i).expect("compiles");
+            let built = builder.build(i).expect("builds");
+            assert_eq!(&planned.plan, built.plc.plan());
+            assert_eq!(planned.instance_counts, built.plc.instance_counts());
+            let task = &project.tasks[i];
+            TaskPart::of(&planned, &task.name, task.scan.period)
+        })
+        .collect();
+    let web = softplc::project::WebConfig {
+        bind: "127.0.0.1:0".parse().expect("an address"),
+        writes: false,
+        token: None,
+        operator_token: None,
+        trend: Vec::new(),
+    };
+    let owner = |t: usize| builder.ownership().owner(softplc::image::TagId(t as u32));
+    let info = serde_json::to_value(WebInfo::of_tasks(&project, &web, owner, parts)).expect("JSON");
+    assert_eq!(
+        info["tasks"],
+        serde_json::json!([
+            {"name": "fast", "period_us": 20_000},
+            {"name": "slow", "period_us": 200_000}
+        ])
+    );
+    // Each program under its task, each rung's mark: the module of the task's own bus it is
+    // pushed into, or why it stays in that task's scan.
+    let marks: Vec<(u64, String, u64, String)> = (info["programs"].as_array().expect("programs"))
+        .iter()
+        .flat_map(|p| {
+            let (task, file) = (
+                p["task"].as_u64().unwrap_or(9),
+                p["file"].as_str().unwrap_or("?"),
+            );
+            let lines = p["lines"].as_array().cloned().unwrap_or_default();
+            lines.into_iter().enumerate().flat_map(move |(n, l)| {
+                (l["rungs"].as_array().cloned().unwrap_or_default())
+                    .into_iter()
+                    .map(move |r| {
+                        let at = match r["module"].as_str() {
+                            Some(m) => format!("in {m}"),
+                            None => r["central"]
+                                .as_str()
+                                .unwrap_or("?")
+                                .chars()
+                                .take(24)
+                                .collect(),
+                        };
+                        (task, file.to_owned(), n as u64 + 1, at)
+                    })
+            })
+        })
+        .collect();
+    let marks: Vec<(u64, &str, u64, &str)> = marks
+        .iter()
+        .map(|(t, f, n, at)| (*t, f.as_str(), *n, at.as_str()))
+        .collect();
+    assert_eq!(
+        marks,
+        [
+            (0, "fast.ladder.yaml", 2, "in f1"),
+            (0, "fast.ladder.yaml", 3, "an input of another task"),
+            (1, "slow.ladder.yaml", 2, "in s1"),
+            (1, "slow.rhai", 1, "an input of another task"),
+        ],
+        "{info}"
+    );
+    // The pushed outputs are marked on the I/O table whichever task pushed them.
+    let pushed: Vec<&str> = (info["tags"].as_array().expect("tags").iter())
+        .filter(|t| t["pushed"] == true)
+        .filter_map(|t| t["name"].as_str())
+        .collect();
+    assert_eq!(pushed, ["valve", "lamp"]);
+    assert_eq!(
+        info["tags"][0]["task"], 0,
+        "start: read by the fast task's line"
+    );
+    assert_eq!(
+        info["tags"][4]["task"], 1,
+        "key: read by the slow task's line"
+    );
+    assert_eq!(info["tags"][5]["task"], 1, "lamp: the slow task's");
 }

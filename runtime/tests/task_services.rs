@@ -18,7 +18,7 @@ use crate::common::scratch::Scratch;
 const TOKEN: &str = "two-tasks-engineer";
 
 /// The example (ladder) copied with a `service:` section, in a scratch folder.
-fn example_with_services(case: &str, service: &str) -> Scratch {
+pub(crate) fn example_with_services(case: &str, service: &str) -> Scratch {
     let s = Scratch::new("task_services", case);
     for f in ["press.ladder.yaml", "panel.ladder.yaml"] {
         std::fs::copy(repo().join("examples/two-tasks").join(f), s.dir.join(f))
@@ -48,7 +48,7 @@ fn start_serving(s: &Scratch) -> (Running, String, String) {
 }
 
 /// `softplc run` of `s`'s project with its control socket `s.sock`.
-fn start(s: &Scratch) -> Running {
+pub(crate) fn start(s: &Scratch) -> Running {
     let log = std::fs::File::create(s.dir.join("log")).expect("a log file");
     Running(
         Command::new(env!("CARGO_BIN_EXE_softplc"))
@@ -224,6 +224,61 @@ fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owne
     assert_eq!(named, ["press", "panel"], "{state}");
     assert_eq!(tasks[1]["period_us"], 500_000, "{state}");
     assert!(tasks[1]["scans"].as_u64() > Some(0), "{state}");
+    // The Program view is served every task's program, each with its own task's push-down
+    // marks and diagram, and each task's block outputs.
+    assert_eq!(
+        info["tasks"],
+        serde_json::json!([
+            {"name": "press", "period_us": 30_000},
+            {"name": "panel", "period_us": 500_000}
+        ]),
+        "{info}"
+    );
+    let programs = info["programs"].as_array().expect("programs");
+    let served: Vec<(&str, u64)> = programs
+        .iter()
+        .map(|p| {
+            (
+                p["file"].as_str().unwrap_or("?"),
+                p["task"].as_u64().unwrap_or(9),
+            )
+        })
+        .collect();
+    assert_eq!(
+        served,
+        [("press.ladder.yaml", 0), ("panel.ladder.yaml", 1)],
+        "{info}"
+    );
+    let coils = |p: &serde_json::Value| -> Vec<String> {
+        p["lines"]
+            .as_array()
+            .expect("lines")
+            .iter()
+            .flat_map(|l| l["rungs"].as_array().cloned().unwrap_or_default())
+            .map(|r| names[r["coil"].as_u64().expect("coil") as usize].to_owned())
+            .collect()
+    };
+    assert_eq!(coils(&programs[0]), ["press_down"], "{info}");
+    assert_eq!(
+        coils(&programs[1]),
+        ["enabled", "running_lamp", "guard_lamp"],
+        "the panel's rungs marked from the panel's own plan: {info}"
+    );
+    // The panel's plan says why its lamp rung stays in its scan: press_down is the press's.
+    let lamp_rung = &programs[1]["lines"][7]["rungs"][0]["central"];
+    assert!(
+        lamp_rung
+            .as_str()
+            .is_some_and(|r| r.starts_with("an input of another task")),
+        "{lamp_rung}"
+    );
+    assert_eq!(programs[1]["diagram"].as_array().map(Vec::len), Some(3));
+    assert_eq!(info["tags"][at("key_on")]["task"], 1, "{info}");
+    assert_eq!(info["tags"][at("strokes")]["task"], 0, "{info}");
+    assert_eq!(info["buses"][1]["task"], 1, "{info}");
+    // The panel's BLINK (its only block) in the panel's own block outputs: the guard is open.
+    let blink = &state["state"]["tb"][1][0];
+    assert!(blink["Q"].is_boolean(), "{state}");
 }
 
 /// Runs a third-party client (`runtime/tests/<script>` on the test venv's Python) with `args`
@@ -431,7 +486,13 @@ fn a_sparkplug_host_sees_every_change_of_every_task_and_each_tasks_modules_as_de
 
 #[test]
 fn the_metrics_and_the_page_show_every_tasks_modules_and_forces() {
-    let s = counting_tasks("web-modules", &web_and_metrics());
+    let s = counting_tasks(
+        "web-modules",
+        &web_and_metrics().replace(
+            &format!("token: {TOKEN} }}"),
+            &format!("token: {TOKEN}, trend: [count] }}"),
+        ),
+    );
     let (_run, web, metrics) = start_serving(&s);
     force_held(&s);
     // Each task's module with its live figures, from its own task; the fast task's force.
@@ -491,4 +552,49 @@ fn the_metrics_and_the_page_show_every_tasks_modules_and_forces() {
     let state: serde_json::Value = serde_json::from_str(&state).expect("JSON");
     assert_eq!(state["state"]["forced"], serde_json::json!([5]), "{state}");
     assert_eq!(state["state"]["v"][5], true, "{state}");
+    // Each task's Rhai program listed under its task, its tags decorated.
+    let served: Vec<(&str, &str, u64)> = info["programs"]
+        .as_array()
+        .expect("programs")
+        .iter()
+        .map(|p| {
+            let file = p["file"].as_str().unwrap_or("?");
+            (
+                file,
+                p["kind"].as_str().unwrap_or("?"),
+                p["task"].as_u64().unwrap_or(9),
+            )
+        })
+        .collect();
+    assert_eq!(served, [("slow.rhai", "rhai", 0), ("fast.rhai", "rhai", 1)]);
+    // The trend samples the fast task's count at the fast task's cycles, not at the slow
+    // first task's (300 ms): several samples per slow cycle, each a higher count.
+    let trend = wait_until(Duration::from_secs(20), || {
+        let text = get(&web, "/api/trend");
+        let trend: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        let t = trend["t"].as_array().cloned().unwrap_or_default();
+        let span = match (t.first(), t.last()) {
+            (Some(a), Some(b)) => b.as_f64().unwrap_or(0.0) - a.as_f64().unwrap_or(0.0),
+            _ => 0.0,
+        };
+        (span >= 3000.0, text)
+    });
+    let trend: serde_json::Value = serde_json::from_str(&trend).expect("JSON");
+    let t: Vec<f64> = (trend["t"].as_array().expect("t").iter())
+        .filter_map(serde_json::Value::as_f64)
+        .collect();
+    let count: Vec<f64> = (trend["series"][0].as_array().expect("count").iter())
+        .filter_map(serde_json::Value::as_f64)
+        .collect();
+    let span = t[t.len() - 1] - t[0];
+    let slow_cycles = span / 300.0;
+    assert!(
+        t.len() as f64 >= 1.5 * slow_cycles,
+        "{} samples in {span} ms: {trend}",
+        t.len()
+    );
+    assert!(
+        count.windows(2).all(|w| w[1] > w[0]),
+        "each sample a later cycle of the fast task: {trend}"
+    );
 }

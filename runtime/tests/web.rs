@@ -20,6 +20,7 @@
 
 mod cdp;
 mod operator;
+mod tasks;
 use crate::common::sim;
 
 use std::io::{Read, Write};

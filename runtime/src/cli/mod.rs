@@ -21,6 +21,7 @@ mod schema;
 mod schema_doc;
 mod sim;
 mod task_record;
+mod task_web;
 pub(crate) mod test;
 mod trace;
 mod trace_bus;

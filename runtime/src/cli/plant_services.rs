@@ -134,7 +134,6 @@ impl PlantServices {
                 audit,
                 alarms: self.alarms.as_ref().map(|a| a.alarms().clone()),
             },
-            listed: None,
         }
     }
 
@@ -251,30 +250,39 @@ impl PlantServices {
 }
 
 /// What starting the web page needs besides the PLC: it may start on a task's own thread,
-/// once that task's PLC is built.
+/// once that task's PLC (with several tasks: the first one built) is built.
 pub(super) struct WebStarter {
     published: snapshot::SnapshotCell,
     requests: Sender<Envelope>,
     health: Health,
     records: crate::service::web::WebRecords,
-    /// The project whose lines, modules and tags the page lists, when not the PLC's own (a
-    /// PLC of several tasks: the whole project, not the first task's view).
-    listed: Option<Project>,
 }
 
 impl WebStarter {
-    /// The page lists `project`'s lines, modules and tags (every task's).
-    pub(super) fn listing(mut self, project: &Project) -> Self {
-        self.listed = Some(project.clone());
-        self
-    }
-
     /// Starts the page `plc`'s project configures; `None` when none is or it cannot listen
     /// (said in the log and the status).
     pub(super) fn start(self, plc: &Plc) -> Option<crate::service::web::WebServer> {
+        self.start_from(network::WebSource::One(plc))
+    }
+
+    /// Starts the page of a PLC of several tasks (`project`, the whole project; `owner`:
+    /// each tag's owning task; `parts`: each task's, in task order).
+    pub(super) fn start_tasks(
+        self,
+        project: &Project,
+        owner: &dyn Fn(usize) -> Option<usize>,
+        parts: Vec<crate::service::web::TaskPart>,
+    ) -> Option<crate::service::web::WebServer> {
+        self.start_from(network::WebSource::Tasks {
+            project,
+            owner,
+            parts,
+        })
+    }
+
+    fn start_from(self, source: network::WebSource<'_>) -> Option<crate::service::web::WebServer> {
         network::start_web(
-            plc,
-            self.listed.as_ref().unwrap_or_else(|| plc.project()),
+            source,
             &self.published,
             &self.requests,
             &self.health,

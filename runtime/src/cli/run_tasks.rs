@@ -19,11 +19,11 @@ use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
 use crate::service::task_router::{trace_home, TagOwner, TraceRoutes};
 use crate::service::task_share::TaskShare;
-use crate::service::web::WebServer;
 use crate::service::{Health, PerTask, Service, TaskStatus};
 use crate::trace::{TraceLedger, TraceSet};
 
 use super::task_record::TaskRecording;
+use super::task_web::TaskWeb;
 
 use super::plant_services::PlantServices;
 use super::run::RunArgs;
@@ -85,14 +85,13 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     if project.service.web.is_some() && args.virtual_clock {
         tracing::info!("web page: off on the virtual clock (nobody could watch it)");
     }
-    // The page starts on the first task's thread once its PLC is built, as a single task's
-    // does once its PLC is.
-    let web_starter = std::sync::Mutex::new(web_later.then(|| {
-        services
-            .web_starter(&requests, &health, audit.clone())
-            .listing(&project)
-    }));
-    let web_server: Arc<std::sync::Mutex<Option<WebServer>>> = Arc::default();
+    // The page draws every task's programs; it starts once the first task's PLC is built, as
+    // a single task's does once its PLC is.
+    let web = Arc::new(TaskWeb::new(
+        &project,
+        &builder,
+        web_later.then(|| services.web_starter(&requests, &health, audit.clone())),
+    ));
     // Every task answers the control requests about its own tags at its own boundary, and
     // keeps the traces of its own cycles, all against the PLC's one trace budget.
     let ledger = TraceLedger::new();
@@ -178,7 +177,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     let engine = {
         let control = control.clone();
         let (run_for, statuses) = (args.run_for, statuses.clone());
-        let web_server = web_server.clone();
+        let web = web.clone();
         let recording = recording.clone();
         // Each task keeps the forces of its own image, in a file of its own (as it keeps its
         // retained tags), so two task threads never write one file.
@@ -192,16 +191,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
             if let Some(r) = plc.plc.retainer() {
                 retains.add_retain(&plc.name, r.save_failure());
             }
-            let starter = match i {
-                0 => web_starter.lock().ok().and_then(|mut s| s.take()),
-                _ => None,
-            };
-            if let Some(starter) = starter {
-                let web = starter.start(&plc.plc);
-                if let Ok(mut slot) = web_server.lock() {
-                    *slot = web;
-                }
-            }
+            web.built();
             // Last before its first cycle: the record's first keyframe is the state it sees.
             if let Some(r) = &recording {
                 r.start(i, &mut plc);
@@ -229,7 +219,7 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
         .map_err(|_| anyhow::anyhow!("a task's thread panicked"))??;
     router_stop.store(true, std::sync::atomic::Ordering::Relaxed);
     drop(router.join());
-    services.keep_web(web_server.lock().ok().and_then(|mut w| w.take()));
+    services.keep_web(web.take_server());
     services.finish_services();
     if let Some(log) = &audit {
         log.finish(Duration::from_secs(2));

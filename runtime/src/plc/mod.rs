@@ -31,7 +31,7 @@ pub use exchange::{Exchange, TaskLink};
 pub use forces::forces_path;
 pub use record::RecordError;
 pub use task_reload::ForeignWrite;
-pub use tasks::{TaskBuilder, TaskPlc};
+pub use tasks::{TaskBuilder, TaskPlan, TaskPlc};
 
 use std::sync::Arc;
 use std::time::Duration;

@@ -36,6 +36,17 @@ pub struct TaskPlc {
     pub plc: Plc,
 }
 
+/// A task's programs as its PLC runs them ([`TaskBuilder::planned`]).
+#[derive(Debug)]
+pub struct TaskPlan {
+    /// The task's view of the project.
+    pub view: Project,
+    /// Its push-down plan.
+    pub plan: crate::offload::Plan,
+    /// Per program, its block instances as the running engine numbers them.
+    pub instance_counts: Vec<u32>,
+}
+
 /// What the tasks of one project share while each is built: the ownership of the tags,
 /// the exchange, the world of the simulated lines.
 pub struct TaskBuilder {
@@ -126,12 +137,32 @@ impl TaskBuilder {
         &self.ownership
     }
 
+    /// Task `i`'s view of the project (its period, programs, buses and modules).
+    fn view(&self, i: usize) -> Project {
+        (self.project).task_view(i, |t| self.ownership.owner(TagId(t as u32)) == Some(i))
+    }
+
+    /// Task `i`'s programs as its PLC will run them, without starting a line: its view of
+    /// the project, its push-down plan and its programs' block instance counts (what the
+    /// web page draws, before the slowest line has started).
+    pub fn planned(&self, i: usize) -> Result<TaskPlan, BuildError> {
+        let view = self.view(i);
+        let image = ProcessImage::new(view.tags.iter().map(|t| (t.name.clone(), t.initial)));
+        let logic = load::load_program(&view, &image).map_err(BuildError::Program)?;
+        let plan = crate::offload::plan_program(&view, logic.as_ref());
+        Ok(TaskPlan {
+            instance_counts: logic.instance_counts(),
+            plan,
+            view,
+        })
+    }
+
     /// Builds task `i`'s PLC: its lines and modules started, its owned tags published for
     /// the others' first cycles. Each task may be built on a thread of its own.
     pub fn build(&self, i: usize) -> Result<TaskPlc, BuildError> {
         let project = &self.project;
         let task = &project.tasks[i];
-        let view = project.task_view(i, |t| self.ownership.owner(TagId(t as u32)) == Some(i));
+        let view = self.view(i);
         let mut lines = task.buses.clone();
         lines.sort_unstable();
         let clock: Arc<dyn Clock> = match &self.clock {

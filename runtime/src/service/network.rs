@@ -48,27 +48,65 @@ impl NetworkServices {
     }
 }
 
-/// Starts the web page `plc`'s project configures, reading `snapshot` and sending forces to
-/// `scan`; logs its address. A page that cannot listen is logged and left out: it is for
+/// What the web page shows of the PLC: one task's PLC, or every task's part of a PLC of
+/// several tasks.
+pub(crate) enum WebSource<'a> {
+    /// A PLC of one task.
+    One(&'a Plc),
+    /// A PLC of several tasks: the whole project, each tag's owning task, each task's part.
+    Tasks {
+        /// The whole project.
+        project: &'a Project,
+        /// Each tag's owning task (its writer, or an input's line's task).
+        owner: &'a dyn Fn(usize) -> Option<usize>,
+        /// Each task's part, in task order.
+        parts: Vec<super::web::TaskPart>,
+    },
+}
+
+/// Starts the web page `source`'s project configures, reading `snapshot` and sending forces
+/// to `scan`; logs its address. A page that cannot listen is logged and left out: it is for
 /// people to look at, and the machine must not wait for it (the other services are part of
 /// the plant's interface and stop the start-up instead).
 pub(crate) fn start_web(
-    plc: &Plc,
-    listed: &Project,
+    source: WebSource<'_>,
     snapshot: &SnapshotCell,
     scan: &Sender<Envelope>,
     health: &Health,
     records: super::web::WebRecords,
 ) -> Option<WebServer> {
-    let project = plc.project();
-    let config = project.service.web.as_ref()?;
-    let info = WebInfo::new(plc, listed, config);
+    let (config, info, period) = match source {
+        WebSource::One(plc) => {
+            let project = plc.project();
+            let config = project.service.web.as_ref()?;
+            (
+                config,
+                WebInfo::new(plc, project, config),
+                project.scan.period,
+            )
+        }
+        WebSource::Tasks {
+            project,
+            owner,
+            parts,
+        } => {
+            let config = project.service.web.as_ref()?;
+            // The trend samples as often as the fastest task may change a value.
+            let fastest = project.tasks.iter().map(|t| t.scan.period).min();
+            let period = fastest.unwrap_or(project.scan.period);
+            (
+                config,
+                WebInfo::of_tasks(project, config, owner, parts),
+                period,
+            )
+        }
+    };
     match WebServer::start(
         config,
         &info,
         snapshot.clone(),
         scan.clone(),
-        project.scan.period,
+        period,
         health,
         records,
     ) {

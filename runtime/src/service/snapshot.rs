@@ -233,12 +233,22 @@ pub struct ServiceSnapshot {
     pub task_cycles: Vec<u64>,
     /// With several tasks, whether each task has published its last state.
     pub task_stopped: Vec<bool>,
+    /// With several tasks, the scan time of each task's last publication, in task order.
+    pub task_now: Vec<ScanInstant>,
+    /// With several tasks, each task's block instances' outputs by its own instance index,
+    /// in task order (only with `Publisher::with_details`: the web page's ladders).
+    pub task_blocks: Vec<Vec<crate::logic::InstanceOutput>>,
 }
 
 impl ServiceSnapshot {
     /// Task `task`'s completed cycles at its last publication (the one task's: `cycles`).
     pub fn cycles_of(&self, task: usize) -> u64 {
         self.task_cycles.get(task).copied().unwrap_or(self.cycles)
+    }
+
+    /// The scan time of task `task`'s last publication (the one task's: `now`).
+    pub fn now_of(&self, task: usize) -> ScanInstant {
+        self.task_now.get(task).copied().unwrap_or(self.now)
     }
 }
 
@@ -361,6 +371,17 @@ impl Publisher {
                 if let Some(f) = s.task_stopped.get_mut(share.task()) {
                     *f = final_;
                 }
+                s.task_now.resize(share.tasks(), ScanInstant::ZERO);
+                if let Some(at) = s.task_now.get_mut(share.task()) {
+                    *at = now;
+                }
+                if self.details {
+                    // Each task's ladders are lit by its own blocks, published with its tags.
+                    s.task_blocks.resize_with(share.tasks(), Vec::new);
+                    if let Some(blocks) = s.task_blocks.get_mut(share.task()) {
+                        plc.instance_outputs(blocks);
+                    }
+                }
             }
         }
         if host {
@@ -372,8 +393,11 @@ impl Publisher {
                 s.stop_reason = self.stop_reason.clone();
             }
             if self.details {
-                // Published with the tag values, so a block's ET and the coil it drives agree.
-                plc.instance_outputs(&mut s.blocks);
+                // Published with the tag values, so a block's ET and the coil it drives agree
+                // (with several tasks in `task_blocks`, each task's own).
+                if self.share.is_none() {
+                    plc.instance_outputs(&mut s.blocks);
+                }
                 s.plant = super::status::PlantReport::of(plc);
             }
         }

@@ -37,7 +37,7 @@ pub(crate) mod trend;
 pub(crate) mod view;
 
 pub use http::{parse as parse_http, HttpError, Method, Request};
-pub use info::{BusInfo, ModuleInfo, TagInfo, WebInfo};
+pub use info::{BusInfo, ModuleInfo, TagInfo, TaskInfo, TaskPart, WebInfo};
 pub use program::{Line, Part, ProgramView, RungMark};
 
 use crate::service::health::Health;
@@ -107,7 +107,7 @@ pub struct WebServer {
 impl WebServer {
     /// Binds `config.bind` and serves `info`, the live `snapshot` and the services' states
     /// `health` on threads; writes go to `scan`. `period` is the scan period (the trend
-    /// samples at most once per cycle). `records` feed the Audit and Alarms panels.
+    /// samples at most once per cycle; with several tasks, the fastest task's period). `records` feed the Audit and Alarms panels.
     pub fn start(
         config: &WebConfig,
         info: &WebInfo,
@@ -119,7 +119,16 @@ impl WebServer {
     ) -> std::io::Result<Self> {
         let listener = TcpListener::bind(config.bind)?;
         let addr = listener.local_addr()?;
-        let trend = Arc::new(Mutex::new(Trend::new(config.trend.clone())));
+        // With several tasks each trend tag is sampled at the cycles of the task publishing it.
+        let owners = match info.tasks.is_empty() {
+            true => Vec::new(),
+            false => (config.trend.iter())
+                .map(|&t| info.tags.get(t).and_then(|t| t.task).unwrap_or(0))
+                .collect(),
+        };
+        let trend = Arc::new(Mutex::new(
+            Trend::new(config.trend.clone()).sampled_by(owners),
+        ));
         trend::spawn_sampler(snapshot.clone(), trend.clone(), period)?;
         let auth = WriteAuth::new(
             config.writes,

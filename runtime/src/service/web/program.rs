@@ -67,6 +67,9 @@ pub struct Line {
 pub struct ProgramView {
     /// The program file, as the project names it.
     pub file: String,
+    /// With several tasks, the task that runs it (its index in the page's `tasks`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub task: Option<usize>,
     /// The index of the program's first block instance in the state's block outputs (`b`):
     /// a later program's instances are numbered after an earlier one's.
     pub inst_base: u32,
@@ -152,6 +155,7 @@ fn view(project: &Project, program: &ProgramConfig, plan: &Plan, inst_base: u32)
     };
     ProgramView {
         file,
+        task: None,
         inst_base,
         kind,
         lines,

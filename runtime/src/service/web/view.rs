@@ -66,10 +66,14 @@ fn blocks(outputs: &[InstanceOutput]) -> Json {
 /// outputs (`b`) when the program has blocks (ladder; expr and Rhai programs publish none,
 /// and their state stays as small as it was).
 pub(crate) fn state(s: &ServiceSnapshot) -> Json {
+    // Several tasks: a fast task's tags are stamped after the first task's last publication,
+    // so ages count from the latest task's.
+    let latest = s.task_now.iter().copied().max();
+    let now = latest.map_or(s.now, |l| l.max(s.now));
     let age: Vec<f64> = s
         .timestamps
         .iter()
-        .map(|t| ms(s.now.saturating_duration_since(*t)))
+        .map(|t| ms(now.saturating_duration_since(*t)))
         .collect();
     let forced: Vec<usize> = s
         .forced
@@ -91,6 +95,20 @@ pub(crate) fn state(s: &ServiceSnapshot) -> Json {
     });
     if !s.blocks.is_empty() {
         state["b"] = blocks(&s.blocks);
+    }
+    if !s.task_blocks.is_empty() {
+        // Several tasks: each task's ladders read the blocks of their own task.
+        state["tb"] = Json::Array(s.task_blocks.iter().map(|b| blocks(b)).collect());
+    }
+    if !s.task_now.is_empty() {
+        // Several tasks: each task's cycles and time at its last publication, so the trend
+        // samples a tag at its own task's cycles.
+        state["task_cycles"] = json!(s.task_cycles);
+        state["task_now"] = json!(s
+            .task_now
+            .iter()
+            .map(|t| ms(t.since_origin()))
+            .collect::<Vec<_>>());
     }
     if let Some(p) = &s.plant {
         // The plant panel: the model, whether it runs, its states by name as text.
@@ -242,10 +260,54 @@ mod tests {
             json!([{"Q": true, "ET": 120.5}, {"CV": -3}])
         );
         let mut t = Trend::new(vec![0]);
-        t.sample(1, Duration::from_millis(100), &s.values);
+        let at = |ms| ScanInstant::after_origin(Duration::from_millis(ms));
+        t.sample_snapshot(&ServiceSnapshot {
+            now: at(100),
+            ..s.clone()
+        });
         assert_eq!(
             trend(&t),
             json!({"tags": [0], "t": [100.0], "series": [[1.0]]})
+        );
+        let tasks = ServiceSnapshot {
+            task_blocks: vec![vec![], with_blocks.blocks.clone()],
+            task_now: vec![at(700), at(730)],
+            ..s
+        };
+        let j = state(&tasks);
+        assert_eq!(j["tb"], json!([[], [{"Q": true, "ET": 120.5}, {"CV": -3}]]));
+        assert_eq!(j["task_now"], json!([700.0, 730.0]));
+        assert_eq!(j["task_cycles"], json!([]));
+        assert_eq!(
+            j["age"][0],
+            json!(80.0),
+            "from the latest task's publication"
+        );
+    }
+
+    #[test]
+    fn with_several_tasks_the_trend_samples_each_tag_at_its_owners_cycles() {
+        let at = |ms| ScanInstant::after_origin(Duration::from_millis(ms));
+        // Tag 0 is the slow first task's, tag 1 the fast second task's.
+        let mut t = Trend::new(vec![1]).sampled_by(vec![1]);
+        let mut s = ServiceSnapshot {
+            published: true,
+            values: vec![Value::Bool(false), Value::I32(1)],
+            task_cycles: vec![1, 10],
+            task_now: vec![at(500), at(100)],
+            ..ServiceSnapshot::default()
+        };
+        t.sample_snapshot(&s);
+        // The slow task's next cycle adds nothing to the fast task's tag...
+        s.task_cycles[0] = 2;
+        s.task_now[0] = at(1000);
+        t.sample_snapshot(&s);
+        // ...each of the fast task's cycles adds a sample at its time.
+        (s.task_cycles[1], s.task_now[1], s.values[1]) = (11, at(110), Value::I32(2));
+        t.sample_snapshot(&s);
+        assert_eq!(
+            trend(&t),
+            json!({"tags": [1], "t": [100.0, 110.0], "series": [[1.0, 2.0]]})
         );
     }
 }

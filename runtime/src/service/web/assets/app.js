@@ -342,23 +342,42 @@
   // ---- Program ----
 
   // A task of several programs shows each, in running order, under its file's name; the
-  // first keeps the ids a single program has (`ladder`, `rung-N`, `line-N`).
+  // first keeps the ids a single program has (`ladder`, `rung-N`, `line-N`). A PLC of several
+  // tasks shows each task's programs under the task's name and period, each ladder lit by its
+  // own task's blocks.
   function buildProgram() {
     const programs = app.info.programs;
+    const tasks = app.info.tasks || [];
     const root = $("program");
     root.replaceChildren();
     app.codeTags = [];
     app.ladders = [];
-    $("program-title").textContent = programs.map((p) => p.file).join(" + ");
+    const named = (p) => (p.task != null && tasks[p.task] ? tasks[p.task].name + ": " : "") + p.file;
+    $("program-title").textContent = programs.map(named).join(" + ");
+    let shownTask = null;
     const hints = programs.map((p, i) => {
+      if (p.task != null && p.task !== shownTask && tasks[p.task]) {
+        shownTask = p.task;
+        const t = tasks[p.task];
+        root.append(el("h3", { class: "program-task", "data-task": t.name, text: "Task " + t.name + " · every " + fmtMs(t.period_us / 1000) }));
+      }
       const part = el("div", { class: "program-part", "data-program": p.file });
-      if (programs.length > 1) {
-        root.append(el("h3", { class: "program-file", text: (i + 1) + ". " + p.file + " · " + p.kind }));
+      if (p.task != null) part.dataset.task = tasks[p.task] ? tasks[p.task].name : "";
+      // Numbered in running order: the task's, with several tasks.
+      const mates = programs.filter((q) => q.task === p.task);
+      if (mates.length > 1) {
+        root.append(el("h3", { class: "program-file", text: (mates.indexOf(p) + 1) + ". " + p.file + " · " + p.kind }));
       }
       root.append(part);
-      return buildOne(p, part, i === 0 ? "" : "p" + (i + 1) + "-");
+      return (p.task != null ? named(p) + ": " : "") + buildOne(p, part, i === 0 ? "" : "p" + (i + 1) + "-");
     });
     $("program-hint").textContent = hints.join(" | ");
+  }
+
+  // The state as program `p` sees it: with several tasks, its own task's block outputs.
+  function stateOf(p, s) {
+    if (p.task == null) return s;
+    return Object.assign({}, s, { b: (s.tb && s.tb[p.task]) || [] });
   }
 
   // One program into `root`; `prefix` keeps its element ids apart from the other programs'.
@@ -409,7 +428,7 @@
     root.classList.toggle("narrow", pushed === 0);
     // A ladder program is drawn as ladder diagrams (ladder.js); its text stays one click away.
     const ladder = p.diagram && window.softplcLadder ? window.softplcLadder.build(root, p, app.info, prefix) : null;
-    if (ladder) app.ladders.push(ladder);
+    if (ladder) app.ladders.push({ update: (s) => ladder.update(stateOf(p, s)) });
     return p.kind + " · " + (marks
       ? pushed + " rung" + (pushed === 1 ? "" : "s") + " pushed down into modules, " + central + " in the scan"
       : "live values beside each tag") + (p.no_diagram ? " · " + p.no_diagram : "");
@@ -553,10 +572,20 @@
   function trendAppend(s) {
     const tr = app.trend;
     if (!tr.tags.length) return;
-    if (tr.t.length && s.now <= tr.t[tr.t.length - 1]) return;
-    tr.t.push(s.now);
+    // Several tasks: a sample when a task owning a trend tag completed a cycle, at the
+    // latest of those tasks' times (as /api/trend samples).
+    let now = s.now;
+    if (s.task_now) {
+      const owners = [...new Set(tr.tags.map((t) => (app.info.tags[t] && app.info.tags[t].task) || 0))];
+      const key = owners.map((o) => s.task_cycles[o]).join(",");
+      if (key === tr.cycles) return;
+      tr.cycles = key;
+      now = Math.max(...owners.map((o) => s.task_now[o] || 0));
+    }
+    if (tr.t.length && now <= tr.t[tr.t.length - 1]) return;
+    tr.t.push(now);
     tr.tags.forEach((tag, k) => tr.series[k].push(asNumber(s.v[tag])));
-    const from = s.now - TREND_WINDOW_MS - 1000;
+    const from = now - TREND_WINDOW_MS - 1000;
     while (tr.t.length > 2 && (tr.t[1] < from || tr.t.length > 3000)) {
       tr.t.shift();
       for (const ser of tr.series) ser.shift();
@@ -699,7 +728,7 @@
       return;
     }
     const box = $("trace-plot");
-    $("trace-plot-title").textContent = "Trace " + d.name + " · " + d.state + " · " + d.time_ns.length + " samples";
+    $("trace-plot-title").textContent = "Trace " + d.name + (d.task ? " · task " + d.task : "") + " · " + d.state + " · " + d.time_ns.length + " samples";
     if (!d.time_ns.length) {
       $("trace-plot-hint").textContent = "";
       box.replaceChildren(el("div", { class: "empty", text: "No samples yet." }));
@@ -729,7 +758,43 @@
     renderTraceView();
   }
 
+  // The task a trace of `signals` and `trigger` samples when none is named, as the server's
+  // router picks it: the owner of the trigger's signal, else of the first signal with one (a
+  // tag's writing task, a module's line's task), else the first task.
+  function traceHome(signals, trigger) {
+    const info = app.info;
+    const owner = (name) => {
+      const tag = info.tags.find((t) => t.name === name);
+      if (tag) return tag.task;
+      const module = info.modules.find((m) => name.startsWith(m.name + "."));
+      return module && info.buses[module.bus] ? info.buses[module.bus].task : undefined;
+    };
+    const first = trigger.split(/[\s<>=!]/)[0];
+    const names = (first ? [first] : []).concat(signals);
+    for (const n of names) {
+      const t = owner(n);
+      if (t != null) return t;
+    }
+    return 0;
+  }
+
   function bindTraceForm() {
+    const tasks = app.info.tasks || [];
+    const pick = $("trace-task");
+    // Several tasks: whose cycles the trace samples; it follows the signals typed until the
+    // engineer picks one.
+    $("trace-task-label").hidden = tasks.length === 0;
+    pick.replaceChildren(...tasks.map((t, i) => el("option", { value: t.name, text: t.name + " (" + fmtMs(t.period_us / 1000) + ")", "data-index": i })));
+    const follow = () => {
+      if (!tasks.length || pick.dataset.chosen) return;
+      const signals = $("trace-tags").value.split(",").map((s) => s.trim()).filter(Boolean);
+      const home = tasks[traceHome(signals, $("trace-trigger").value.trim())];
+      if (home) pick.value = home.name;
+    };
+    pick.addEventListener("change", () => { pick.dataset.chosen = "1"; });
+    $("trace-tags").addEventListener("input", follow);
+    $("trace-trigger").addEventListener("input", follow);
+    follow();
     $("trace-form").addEventListener("submit", (e) => {
       e.preventDefault();
       const num = (id) => ($(id).value === "" ? undefined : Number($(id).value));
@@ -742,7 +807,7 @@
       };
       const trigger = $("trace-trigger").value.trim();
       if (trigger) spec.trigger = trigger;
-      armTrace({ spec });
+      armTrace(tasks.length ? { spec, task: pick.value } : { spec });
     });
   }
 
