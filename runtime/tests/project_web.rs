@@ -639,8 +639,9 @@ fn connections_are_bounded_and_shared_fairly() {
     std::thread::sleep(Duration::from_millis(500));
     let mut refused = 0;
     for c in &mut streams {
-        c.set_read_timeout(Some(Duration::from_millis(300)))
-            .unwrap();
+        // Each stream's answer starts at once (a stream's head, or the 503); the bound is for
+        // a loaded machine, not a timing this test measures.
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
         let mut head = [0u8; 12];
         if c.read_exact(&mut head).is_ok() && &head == b"HTTP/1.1 503" {
             refused += 1;
