@@ -44,9 +44,10 @@ struct Args {
     /// Short runs: every scenario in under a minute (fewer samples, wider percentiles).
     #[arg(long)]
     quick: bool,
-    /// Run only this scenario (repeatable): scheduler, logic-cost, bus-cycle, collect,
-    /// reaction, pulse, serial-path, scale, trace-cost, peer, plant-services, full-cycle,
-    /// virtual-truth, plant-load, blink, footprint.
+    /// Run only this scenario (repeatable; an unknown name is refused with the list):
+    /// scheduler, logic-cost, bus-cycle, collect, reaction, pulse, serial-path, scale,
+    /// trace-cost, peer, plant-services, full-cycle, virtual-truth, plant-load, blink,
+    /// footprint, tasks.
     #[arg(long, value_name = "NAME")]
     only: Vec<String>,
     /// Results folder [default: bench/results for a full run, bench/results/partial for
