@@ -363,7 +363,7 @@ fn declaration_errors_are_placed_at_the_name() {
 /// `cargo test --release --manifest-path runtime/Cargo.toml --lib plant::tests::cost_of_a_step --
 /// --ignored --nocapture`.
 #[test]
-#[ignore = "a measurement: run it in release for the figure docs/plant.md quotes"]
+#[ignore = "a measurement: its figure is the release build's (docs/plant.md); .ci/run runs it in debug"]
 fn cost_of_a_step() {
     let source = include_str!("../../../examples/garage_door/door.plant.rhai");
     let model = compile(Path::new("door.plant.rhai"), source).expect("the door compiles");
