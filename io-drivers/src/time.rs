@@ -177,15 +177,36 @@ impl Clock for MonotonicClock {
                     std::ptr::null_mut(),
                 )
             };
-            // EINTR: a signal woke us early; the deadline is absolute, so just wait again.
-            if rc != libc::EINTR {
-                break;
+            match rc {
+                0 => break,
+                // A signal woke us early; the deadline is absolute, so just wait again.
+                libc::EINTR => continue,
+                // Refused (a wrapper library in the process, a kernel without the call):
+                // returning now would let the scan run flat out, cycles back to back with
+                // no error shown anywhere. Relative sleeps on the same clock keep the grid.
+                _ => {
+                    sleep_relative_until(deadline, || self.now());
+                    break;
+                }
             }
         }
     }
 
     fn is_virtual(&self) -> bool {
         false
+    }
+}
+
+/// Sleeps in relative steps until `now()` reaches `deadline`: where the absolute
+/// `clock_nanosleep` is refused. `std::thread::sleep` sleeps at least as long as asked, so
+/// the loop ends at the deadline or just after it, like the absolute wait.
+fn sleep_relative_until(deadline: ScanInstant, now: impl Fn() -> ScanInstant) {
+    loop {
+        let left = deadline.saturating_duration_since(now());
+        if left.is_zero() {
+            return;
+        }
+        std::thread::sleep(left);
     }
 }
 
@@ -243,5 +264,17 @@ mod tests {
         let d = c.now() + Duration::from_millis(2);
         c.sleep_until(d);
         assert!(c.now() >= d);
+    }
+
+    #[test]
+    fn the_relative_fallback_reaches_the_deadline_and_not_before() {
+        let c = MonotonicClock::new();
+        let d = c.now() + Duration::from_millis(30);
+        sleep_relative_until(d, || c.now());
+        assert!(c.now() >= d);
+        // A deadline already past returns at once.
+        let begin = c.now();
+        sleep_relative_until(ScanInstant::ZERO, || c.now());
+        assert!(c.now().saturating_duration_since(begin) < Duration::from_secs(1));
     }
 }

@@ -239,30 +239,34 @@ fn changes_while_offline_are_buffered_oldest_dropped_and_sent_as_history_after_t
     assert_eq!(n.buffered(), 0);
 }
 
+/// Tick `k` after the snapshot's cycle 10: cycle 11 + k at scan 510 + 10 k ms, where the
+/// setpoint (tag 2) became 6 + k.
+fn setpoint_tick(k: u16) -> Delivery {
+    Delivery {
+        cycle: std::sync::Arc::new(CycleChanges {
+            task: 0,
+            cycle: 11 + u64::from(k),
+            at: ScanInstant::after_origin(Duration::from_millis(510 + 10 * u64::from(k))),
+            changes: vec![TagChange {
+                tag: 2,
+                value: Value::U16(6 + k),
+                quality: Quality::Good,
+            }],
+            modules: Vec::new(),
+        }),
+        catch_up: Vec::new(),
+        overflowed: Vec::new(),
+        modules_catch_up: Vec::new(),
+    }
+}
+
 #[test]
 fn every_value_of_a_metric_goes_out_in_order_each_with_its_cycles_time_and_losses_are_counted() {
     let mut n = node(10);
     let s0 = snap(1.0, false, 5, Quality::Good);
     n.birth(&s0, 1_000_000, 0);
     // Three cycles of one tick: the setpoint 6, 7, 8, at 10 ms apart.
-    let cycles: Vec<Delivery> = (0..3u16)
-        .map(|k| Delivery {
-            cycle: std::sync::Arc::new(CycleChanges {
-                task: 0,
-                cycle: 11 + u64::from(k),
-                at: ScanInstant::after_origin(Duration::from_millis(510 + 10 * u64::from(k))),
-                changes: vec![TagChange {
-                    tag: 2,
-                    value: Value::U16(6 + k),
-                    quality: Quality::Good,
-                }],
-                modules: Vec::new(),
-            }),
-            catch_up: Vec::new(),
-            overflowed: Vec::new(),
-            modules_catch_up: Vec::new(),
-        })
-        .collect();
+    let cycles: Vec<Delivery> = (0..3u16).map(setpoint_tick).collect();
     let out = n.update(&s0, &cycles, 1_000_050, true);
     let s = summary(&out);
     assert_eq!(s.len(), 1, "one NDATA: {s:?}");
@@ -334,4 +338,24 @@ fn command_topics_name_the_node_or_a_device() {
     assert_eq!(t.command_target("spBv1.0/g/DCMD/n/mm1"), Some(Some("mm1")));
     assert_eq!(t.command_target("spBv1.0/g/DCMD/other/mm1"), None);
     assert_eq!(t.command_target("spBv1.0/g/NDATA/n"), None);
+}
+
+#[test]
+fn a_wall_clock_step_moves_no_value_off_its_cycles_time() {
+    let mut n = node(10);
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    // Scan 500 ms is wall `wall` at the birth; then the wall clock steps back an hour (NTP
+    // at boot) and a day forward: each value keeps its cycle's scan time on that one origin.
+    let wall = 1_800_000_000_000;
+    n.birth(&s0, wall, 0);
+    for (k, stepped) in [(0u16, wall - 3_600_000), (1, wall + 86_400_000)] {
+        let at = 510 + 10 * u64::from(k);
+        let out = n.update(&s0, &[setpoint_tick(k)], stepped, true);
+        let stamps: Vec<_> = decoded(&out[0])
+            .metrics
+            .iter()
+            .map(|m| m.timestamp)
+            .collect();
+        assert_eq!(stamps, [Some(wall + at - 500)], "wall stepped to {stepped}");
+    }
 }

@@ -665,6 +665,36 @@ mod tests {
     }
 
     #[test]
+    fn a_wall_clock_step_moves_no_source_timestamp_off_its_cycles_scan_time() {
+        let l = layout();
+        let mut u = Updates::new(&l);
+        let t0 = DateTime::from(1_000_000_000_000_000i64);
+        let hour = 36_000_000_000i64;
+        let first = u.tag_changes(
+            &l,
+            &delivery(1, &[(0, Value::Bool(true), Quality::Good)], &[]),
+            t0,
+        );
+        assert_eq!(first[0].2.source_timestamp, Some(t0));
+        // The server's clock steps back an hour (NTP at boot), then a day forward: the
+        // server timestamp says so, the source timestamp stays the cycle's scan time.
+        for (cycle, now) in [(2, t0.ticks() - hour), (3, t0.ticks() + 24 * hour)] {
+            let now = DateTime::from(now);
+            let next = u.tag_changes(
+                &l,
+                &delivery(cycle, &[(0, Value::Bool(cycle == 3), Quality::Good)], &[]),
+                now,
+            );
+            assert_eq!(next[0].2.server_timestamp, Some(now));
+            assert_eq!(
+                next[0].2.source_timestamp.map(|t| t.ticks() - t0.ticks()),
+                Some((cycle as i64 - 1) * 100_000),
+                "10 ms a cycle in 100 ns ticks, whatever the wall clock did"
+            );
+        }
+    }
+
+    #[test]
     fn only_changed_diagnostics_go_out() {
         let l = layout();
         let mut u = Updates::new(&l);
