@@ -27,7 +27,7 @@ use crate::common::scratch::Scratch;
 /// Two tasks on two lines: the slow one counts its cycles into `ticks`, the fast one copies
 /// `ticks` in at its cycles' starts and computes `scaled` from it, which the slow one copies
 /// in to drive its lamp. Each task's outputs depend on what it copied in from the other.
-const PROJECT: &str = "\
+pub(crate) const PROJECT: &str = "\
 project: counted
 tasks:
   - name: fast
@@ -51,8 +51,8 @@ tags:
   - { name: lamp, point: b.Y1, safe: false }
 ";
 
-const FAST: &str = "scaled = ticks * 10;\nbeat = ticks % 2 == 0;\n";
-const SLOW: &str = "ticks += 1;\nlamp = scaled % 20 == 10;\n";
+pub(crate) const FAST: &str = "scaled = ticks * 10;\nbeat = ticks % 2 == 0;\n";
+pub(crate) const SLOW: &str = "ticks += 1;\nlamp = scaled % 20 == 10;\n";
 
 fn project(case: &str) -> (Scratch, PathBuf) {
     let scratch = Scratch::new("task-record", case);
@@ -94,7 +94,7 @@ fn replay_cli(dir: &Path, more: &[&str]) -> (bool, String) {
 }
 
 /// The cycles the run's summary gives task `task`.
-fn scans(out: &str, task: &str) -> u64 {
+pub(crate) fn scans(out: &str, task: &str) -> u64 {
     let section = out
         .split_once(&format!("task {task}:\n"))
         .unwrap_or_else(|| panic!("task {task} in the summary: {out}"))
@@ -382,7 +382,7 @@ fn a_task_whose_disk_fails_is_named_while_the_other_task_records_on() {
 }
 
 #[test]
-fn a_gap_in_a_tasks_record_is_named_with_its_task_by_replay() {
+pub(crate) fn a_gap_in_a_tasks_record_is_named_with_its_task_by_replay() {
     let (scratch, path) = project("gap");
     let whole = load(&path).expect("the project");
     // Small blocks and a small hold: a full disk loses cycles quickly.
