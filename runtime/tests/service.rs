@@ -480,3 +480,100 @@ fn an_operator_write_sets_a_tag_once_and_the_program_takes_it_back() {
     // Best effort: the test's scratch folder.
     drop(std::fs::remove_dir_all(dir));
 }
+
+/// The value of `key=` in the unit's text, with a size's `M` suffix read as MiB.
+fn unit_number(unit: &str, key: &str) -> u64 {
+    let value = unit
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("{key}=")))
+        .unwrap_or_else(|| panic!("{key}= missing"));
+    match value.strip_suffix('M') {
+        Some(mib) => mib.parse::<u64>().unwrap() << 20,
+        None => value.parse().unwrap(),
+    }
+}
+
+/// A figure of `/proc/PID/status` (`VmHWM`: kB; `Threads`: a count).
+fn proc_status(pid: u32, key: &str) -> u64 {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let line = text
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("{key}:")))
+        .unwrap();
+    line.split_whitespace().next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn the_units_limits_leave_room_for_a_plc_of_two_tasks_at_its_own_bounds() {
+    let unit = std::fs::read_to_string(repo().join("deploy/softplc@.service")).unwrap();
+    let memory_high = unit_number(&unit, "MemoryHigh");
+    let tasks_max = unit_number(&unit, "TasksMax");
+    let nofile = unit_number(&unit, "LimitNOFILE");
+    // What the PLC holds at most by its own bounds fits under MemoryHigh with room for the
+    // program, the image and the services: the default trace budget and the recorder's
+    // largest hold on a full disk.
+    let trace = softplc::project::TraceBudget::default().memory;
+    let hold = softplc::recorder::Settings::new(PathBuf::new(), Duration::ZERO, u64::MAX).hold_bytes
+        as u64;
+    assert!(
+        trace + hold + (64 << 20) <= memory_high,
+        "MemoryHigh {memory_high} B leaves too little beside {trace} B of traces and a \
+         {hold} B hold"
+    );
+
+    // The two-tasks example with its web page, metrics and a record, every byte of the trace
+    // budget armed: what it takes stays well inside the unit's limits.
+    let dir = scratch("limits");
+    for f in ["project.yaml", "press.ladder.yaml", "panel.ladder.yaml"] {
+        std::fs::copy(repo().join("examples/two-tasks").join(f), dir.join(f)).unwrap();
+    }
+    let mut yaml = std::fs::read_to_string(dir.join("project.yaml")).unwrap();
+    yaml.push_str("service:\n  web: { bind: 127.0.0.1:0 }\n  metrics: 127.0.0.1:0\n");
+    std::fs::write(dir.join("project.yaml"), yaml).unwrap();
+    let socket = dir.join("ctl.sock");
+    let run = crate::common::host::run_virtual_with(
+        &dir.join("project.yaml"),
+        &socket,
+        &["--record", "10m"],
+    );
+    let pid = run.0.id();
+    let s = socket.to_str().unwrap();
+    let mut armed = 0;
+    for i in 0..20 {
+        let (task, tags) = match i % 2 {
+            0 => (
+                "press",
+                "hand_left,hand_right,guard_closed,ram_top,press_down",
+            ),
+            _ => ("panel", "key_on,running_lamp,guard_lamp,strokes,enabled"),
+        };
+        let name = format!("t{i}");
+        let out = Command::new(BIN)
+            .args(["trace", "arm", &name, "--task", task, "--tags", tags])
+            .args(["--pre", "49999", "--post", "50000", "--socket", s])
+            .output()
+            .unwrap();
+        if out.status.success() {
+            armed += 1;
+        } else {
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(err.contains("of the 64 MiB trace budget is left"), "{err}");
+        }
+    }
+    assert_eq!(armed, 10, "6.4 MB a trace: ten fit the default budget");
+    let peak = proc_status(pid, "VmHWM") << 10;
+    let threads = proc_status(pid, "Threads");
+    let files = std::fs::read_dir(format!("/proc/{pid}/fd"))
+        .unwrap()
+        .count() as u64;
+    eprintln!("at the trace budget: peak {peak} B resident, {threads} threads, {files} files");
+    assert!(
+        peak < memory_high,
+        "peak {peak} B against MemoryHigh {memory_high} B"
+    );
+    // Clients take a thread and a file each, capped (web 16, metrics 16, control 32), at most
+    // doubled while evicted ones finish: the limits leave room for all of them.
+    assert!(threads + 2 * 64 < tasks_max, "{threads} threads");
+    assert!(files + 2 * 64 < nofile, "{files} files");
+    drop(run);
+}
