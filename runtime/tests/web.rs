@@ -838,6 +838,45 @@ fn latch_project(dir: &Path, tokens: &str, port: u16) {
     .unwrap();
 }
 
+/// Arming from the page draws on the PLC's one trace budget, as the control socket does:
+/// past it the page's arm is refused with what is left, and a disarm gives the room back.
+#[test]
+fn arming_from_the_page_past_the_trace_budget_is_refused_with_what_is_left() {
+    let dir = crate::common::host::scratch_dir("web", "trace-budget");
+    let port = free_port();
+    latch_project(&dir, &format!("token: {TOKEN}"), port);
+    let project = dir.join("project.yaml");
+    let mut yaml = std::fs::read_to_string(&project).unwrap();
+    yaml.push_str("trace_budget: { armed: 2, memory: 1MiB }\n");
+    std::fs::write(&project, yaml).unwrap();
+    let plc = run_plc(&project, &dir.join("ctl.sock"), port);
+    let auth = format!("Content-Type: application/json\r\nAuthorization: Bearer {TOKEN}\r\n");
+    // One signal: 8 bytes a value, 16 the time, 8 the cycle; 20,001 samples: 625 KiB.
+    let arm = |name: &str| {
+        let body =
+            format!(r#"{{"spec":{{"name":"{name}","tags":["seen"],"pre":10000,"post":10000}}}}"#);
+        post(port, "/api/trace/arm", &auth, &body)
+    };
+    let (code, text) = arm("big");
+    assert_eq!(code, 200, "{text}");
+    let (code, text) = arm("big2");
+    assert_eq!(code, 409, "{text}");
+    let answer: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(
+        answer["error"],
+        "trace big2 needs 625 KiB for its samples; 399 KiB of the 1 MiB trace budget is left: \
+         disarm a trace, record fewer signals or samples, or raise trace_budget.memory",
+        "{text}"
+    );
+    let (code, text) = post(port, "/api/trace/disarm", &auth, r#"{"name":"big"}"#);
+    assert_eq!(code, 200, "{text}");
+    let (code, text) = arm("big2");
+    assert_eq!(code, 200, "the disarm gave the room back: {text}");
+    drop(plc);
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
+}
+
 /// The page's write: with the token, `POST /api/write` sets a tag once at a cycle boundary and
 /// the program takes it back in its next scan; refusals say why (an input, a value of another
 /// type, a forced tag), and without the token nothing is written.
