@@ -802,9 +802,9 @@ fn check_answers_a_deeply_nested_project_at_once() {
     drop(std::fs::remove_dir_all(dir));
 }
 
-#[test]
-fn a_control_socket_named_without_a_folder_opens_in_the_working_folder() {
-    let dir = big_quickstart("relsocket", 0);
+/// `softplc run project.yaml --socket ctl.sock` in `dir` (a bare name): the socket opens in
+/// `dir`, and `status` through the same bare name answers for project `name`.
+fn a_bare_socket_name_answers_in(dir: &Path, name: &str) -> serde_json::Value {
     let mut plc = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .args([
             "run",
@@ -815,7 +815,7 @@ fn a_control_socket_named_without_a_folder_opens_in_the_working_folder() {
             "--quiet",
         ])
         .args(["--socket", "ctl.sock"])
-        .current_dir(&dir)
+        .current_dir(dir)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -833,15 +833,38 @@ fn a_control_socket_named_without_a_folder_opens_in_the_working_folder() {
     }
     let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
         .args(["status", "--json", "--socket", "ctl.sock"])
-        .current_dir(&dir)
+        .current_dir(dir)
         .output()
         .unwrap();
     assert!(out.status.success(), "{out:?}");
     let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(status["project"], "relsocket", "{status}");
+    assert_eq!(status["project"], name, "{status}");
     // The child may have exited already; then there is nothing to stop.
     drop(plc.kill());
     drop(plc.wait());
+    status
+}
+
+#[test]
+fn a_control_socket_named_without_a_folder_opens_in_the_working_folder() {
+    let dir = big_quickstart("relsocket", 0);
+    a_bare_socket_name_answers_in(&dir, "relsocket");
     // Best effort: the test's scratch folder (it may not exist).
     drop(std::fs::remove_dir_all(dir));
+}
+
+#[test]
+fn a_project_of_two_tasks_opens_a_bare_socket_name_in_the_working_folder() {
+    let s = Scratch::new("cli", "relsocket-tasks");
+    for f in ["project.yaml", "press.ladder.yaml", "panel.ladder.yaml"] {
+        std::fs::copy(root().join("examples/two-tasks").join(f), s.dir.join(f)).unwrap();
+    }
+    let status = a_bare_socket_name_answers_in(&s.dir, "two-tasks");
+    let tasks: Vec<&str> = status["tasks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(tasks, ["press", "panel"], "{status}");
 }
