@@ -184,7 +184,15 @@ impl Clock for MonotonicClock {
                 // Refused (a wrapper library in the process, a kernel without the call):
                 // returning now would let the scan run flat out, cycles back to back with
                 // no error shown anywhere. Relative sleeps on the same clock keep the grid.
-                _ => {
+                refused => {
+                    static SAID: std::sync::Once = std::sync::Once::new();
+                    SAID.call_once(|| {
+                        tracing::warn!(
+                            "the absolute wait on CLOCK_MONOTONIC is refused ({}): deadlines \
+                             are waited for in relative sleeps on the same clock",
+                            std::io::Error::from_raw_os_error(refused)
+                        );
+                    });
                     sleep_relative_until(deadline, || self.now());
                     break;
                 }
