@@ -27,15 +27,19 @@ use crate::common::scratch::Scratch;
 /// Two tasks on two lines: the slow one counts its cycles into `ticks`, the fast one copies
 /// `ticks` in at its cycles' starts and computes `scaled` from it, which the slow one copies
 /// in to drive its lamp. Each task's outputs depend on what it copied in from the other.
+/// The task watchdogs are generous: the real-clock test runs beside the whole suite on shared
+/// cores, and it is about the record, not the watchdog.
 pub(crate) const PROJECT: &str = "\
 project: counted
 tasks:
   - name: fast
     period: 20ms
+    watchdog: { time: 2s, sensitivity: 3 }
     program: { file: fast.rhai, kind: rhai }
     buses: [fast_line]
   - name: slow
     period: 100ms
+    watchdog: { time: 2s, sensitivity: 3 }
     program: { file: slow.rhai, kind: rhai }
     buses: [slow_line]
 buses:
@@ -494,7 +498,8 @@ fn on_the_real_clock_each_task_thread_records_and_the_status_shows_the_recorder(
     assert_eq!(recorder["state"], "running", "{recorder}");
     let out = child.wait_with_output().expect("the run ends");
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(out.status.success(), "{stdout}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
     // The threads copied in what the other task published whenever it did: the record holds
     // it, so each task replays as it ran.
     let (ok, text) = replay_cli(&scratch.dir, &[]);
