@@ -720,22 +720,11 @@ fn a_full_disk_leaves_a_gap_that_replay_names_and_the_record_resumes() {
     );
 }
 
-/// Whether this machine lets an unprivileged test mount a tmpfs in a mount namespace of its
-/// own.
-fn tmpfs_allowed() -> bool {
-    Command::new("unshare")
-        .args(["-rm", "sh", "-c", "mount -t tmpfs -o size=64k tmpfs /mnt"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
 #[test]
 fn a_real_tmpfs_filled_for_three_seconds_is_reported_loses_nothing_and_recording_resumes() {
     let dir = tempdir("tmpfs");
     let project = quickstart_copy(&dir, None);
-    if !tmpfs_allowed() {
+    if !crate::common::host::tmpfs_allowed() {
         // The seam's full disk instead, so the case never goes untested.
         eprintln!("no tmpfs in a mount namespace on this machine: the fault-injecting disk runs");
         let folder = record_through_a_full_disk(&dir, &project);
