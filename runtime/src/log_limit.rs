@@ -213,6 +213,68 @@ macro_rules! limited {
 }
 pub(crate) use limited;
 
+/// The lines of the libraries the services run on (async-opcua, rumqttc, tokio-modbus),
+/// limited as our own sites are: a library logs what a peer makes it log (async-opcua writes
+/// three lines for each connection a peer opens and drops), so a flood of connections would
+/// drown the log through it. Each of its log sites is a site here (its callsite), and the
+/// cause is the peer's address when the line names one (`from 10.0.0.7`), so one flooding peer
+/// is summarized without hiding another's first lines; the summary names the library's module
+/// and the site: `opcua_server::server: … 2,804 more in the last 10 s (at src/server.rs:376,
+/// from 127.0.0.1)`. softplc's own lines (`softplc`, `softplc_io`) pass: their sites that can
+/// repeat are limited where they are written.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct LibraryLines;
+
+impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for LibraryLines {
+    fn event_enabled(
+        &self,
+        event: &tracing::Event<'_>,
+        _ctx: tracing_subscriber::layer::Context<'_, S>,
+    ) -> bool {
+        let meta = event.metadata();
+        if meta.target().starts_with("softplc") {
+            return true;
+        }
+        let site = Site::new(meta.name(), meta.target());
+        allow(site, &library_cause(event), *meta.level())
+    }
+}
+
+/// Where a library's line was written and, when its message names a peer's address, which
+/// peer (its IP without the port, so each connection of one peer is one cause).
+fn library_cause(event: &tracing::Event<'_>) -> String {
+    struct Message(String);
+    impl tracing::field::Visit for Message {
+        fn record_debug(&mut self, field: &tracing::field::Field, value: &dyn std::fmt::Debug) {
+            if field.name() == "message" {
+                self.0 = format!("{value:?}");
+            }
+        }
+    }
+    let mut message = Message(String::new());
+    event.record(&mut message);
+    let meta = event.metadata();
+    let at = match (meta.file(), meta.line()) {
+        (Some(file), Some(line)) => format!("at {file}:{line}"),
+        _ => format!("at {}", meta.name()),
+    };
+    match peer_in(&message.0) {
+        Some(ip) => format!("{at}, from {ip}"),
+        None => at,
+    }
+}
+
+/// The first IP address (with or without a port) among `text`'s words.
+fn peer_in(text: &str) -> Option<std::net::IpAddr> {
+    text.split(|c: char| c.is_whitespace() || "()[],;\"'".contains(c))
+        .find_map(|word| {
+            word.parse::<std::net::SocketAddr>()
+                .map(|a| a.ip())
+                .or_else(|_| word.trim_end_matches(['.', ':']).parse())
+                .ok()
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -283,6 +345,68 @@ mod tests {
         }
         assert_eq!(l.windows.len(), MAX_CAUSES + 1);
         assert!(l.windows.contains_key(&(REFUSED.key, "others".to_owned())));
+    }
+
+    #[test]
+    fn a_librarys_flood_passes_its_burst_per_site_and_peer_and_ours_passes_whole() {
+        use std::sync::atomic::{AtomicU32, Ordering};
+        use std::sync::Arc;
+        use tracing_subscriber::layer::SubscriberExt;
+
+        /// Counts the lines written, the library's and ours.
+        #[derive(Default)]
+        struct Written(Arc<[AtomicU32; 3]>);
+        impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for Written {
+            fn on_event(
+                &self,
+                event: &tracing::Event<'_>,
+                _: tracing_subscriber::layer::Context<'_, S>,
+            ) {
+                let i = match event.metadata().target() {
+                    "opcua_server::server" => 0,
+                    "opcua_server::other" => 1,
+                    _ => 2,
+                };
+                self.0[i].fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        let written = Arc::new([AtomicU32::new(0), AtomicU32::new(0), AtomicU32::new(0)]);
+        let subscriber = tracing_subscriber::registry()
+            .with(LibraryLines)
+            .with(Written(written.clone()));
+        tracing::subscriber::with_default(subscriber, || {
+            for port in 0..100 {
+                tracing::info!(
+                    target: "opcua_server::server",
+                    "Accept new connection from 10.0.0.7:{} ({port})",
+                    40000 + port
+                );
+            }
+            // Another peer's first lines, at the same site, are not held back by the flood.
+            for _ in 0..2 {
+                tracing::info!(target: "opcua_server::server", "Accept new connection from 10.0.0.8:1");
+            }
+            for _ in 0..100 {
+                tracing::error!(target: "opcua_server::other", "Connection failed");
+            }
+            for _ in 0..100 {
+                tracing::warn!(target: "softplc::test", "ours");
+            }
+        });
+        let written = written.each_ref().map(|n| n.load(Ordering::Relaxed));
+        assert_eq!(written, [BURST + 2, BURST, 100]);
+    }
+
+    #[test]
+    fn a_peer_is_the_first_address_a_line_names_without_its_port() {
+        let ip = |s: &str| s.parse::<std::net::IpAddr>().ok();
+        assert_eq!(
+            peer_in("Accept new connection from 127.0.0.1:51234 (17)"),
+            ip("127.0.0.1")
+        );
+        assert_eq!(peer_in("client [::1]:4840 closed"), ip("::1"));
+        assert_eq!(peer_in("refused 10.0.0.7."), ip("10.0.0.7"));
+        assert_eq!(peer_in("Connection 12 terminated after 1.5 s"), None);
     }
 
     #[test]

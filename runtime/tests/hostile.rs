@@ -1,8 +1,9 @@
 //! Hostile clients on every port a running PLC opens, on the real binary and the real clock
 //! (the quick start): event streams that never read, slow clients on the metrics port, and
 //! thousands of idle control-socket connections. While they hold on, the page, a scrape and
-//! `softplc status` still answer, and the process's threads stay bounded. The figures are in
-//! docs/robustness.md.
+//! `softplc status` still answer, and the process's threads stay bounded. Out of file
+//! descriptors, a server says it cannot accept and takes its clients once it can. The figures
+//! are in docs/robustness.md.
 
 use crate::common::host::repo as root;
 use crate::common::host::{http_get, log_value};
@@ -73,6 +74,20 @@ fn start(name: &str) -> Plc {
         web,
         metrics,
         socket,
+    }
+}
+
+impl Plc {
+    /// Waits (30 s at most) for the control socket to be there.
+    fn wait_for_the_control_socket(&self) {
+        let begin = Instant::now();
+        while !self.socket.exists() {
+            assert!(
+                begin.elapsed() < Duration::from_secs(30),
+                "no control socket"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
     }
 }
 
@@ -160,14 +175,7 @@ fn slow_clients_on_the_metrics_port_never_keep_a_scrape_out() {
 #[test]
 fn two_thousand_idle_control_connections_hold_few_threads_and_status_answers() {
     let plc = start("control");
-    let begin = Instant::now();
-    while !plc.socket.exists() {
-        assert!(
-            begin.elapsed() < Duration::from_secs(30),
-            "no control socket"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    plc.wait_for_the_control_socket();
     let before = threads(&plc.child);
     let idle: Vec<UnixStream> = (0..2000)
         .filter_map(|_| UnixStream::connect(&plc.socket).ok())
@@ -190,4 +198,97 @@ fn two_thousand_idle_control_connections_hold_few_threads_and_status_answers() {
     assert!(took < ANSWER_WITHIN, "status took {took:?}");
     eprintln!("status with 2,000 idle control connections: {took:?}, threads {before} → {during}");
     drop(idle);
+}
+
+/// Sets the soft limit of open files of process `pid` to `soft` (the hard limit unchanged);
+/// the soft limit it had.
+fn set_open_files(pid: u32, soft: u64) -> u64 {
+    let mut old = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    #[allow(unsafe_code)]
+    // SAFETY: prlimit only reads the null new limit (none) and writes `old`, valid for the call.
+    let rc = unsafe {
+        libc::prlimit(
+            pid as libc::pid_t,
+            libc::RLIMIT_NOFILE,
+            std::ptr::null(),
+            &mut old,
+        )
+    };
+    assert_eq!(rc, 0, "{}", std::io::Error::last_os_error());
+    let new = libc::rlimit {
+        rlim_cur: soft,
+        rlim_max: old.rlim_max,
+    };
+    #[allow(unsafe_code)]
+    // SAFETY: prlimit reads `new`, valid for the call, and writes nothing (null old).
+    let rc = unsafe {
+        libc::prlimit(
+            pid as libc::pid_t,
+            libc::RLIMIT_NOFILE,
+            &new,
+            std::ptr::null_mut(),
+        )
+    };
+    assert_eq!(rc, 0, "{}", std::io::Error::last_os_error());
+    old.rlim_cur
+}
+
+/// The process out of file descriptors (its limit lowered to what it holds, then clients
+/// connecting to the metrics port): the server cannot take them; the log says so once, with
+/// the error, and the scan goes on; once there are descriptors again the waiting clients are
+/// taken, the log says the server accepts again and `status` says `metrics: running`.
+#[test]
+fn out_of_file_descriptors_a_server_says_it_cannot_accept_and_takes_clients_again() {
+    let plc = start("fds");
+    plc.wait_for_the_control_socket();
+    let log = plc.dir.join("log");
+    let scans = || -> u64 {
+        let out = Command::new(BIN)
+            .args(["status", "--json", "--socket"])
+            .arg(&plc.socket)
+            .output()
+            .unwrap();
+        let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        status["scans"].as_u64().unwrap()
+    };
+    let before = scans();
+    let pid = plc.child.id();
+    let open = std::fs::read_dir(format!("/proc/{pid}/fd"))
+        .unwrap()
+        .count() as u64;
+    let limit = set_open_files(pid, open + 2);
+    let waiting: Vec<TcpStream> = (0..8)
+        .filter_map(|_| TcpStream::connect(&plc.metrics).ok())
+        .collect();
+    let refused = crate::common::host::wait_in_log(
+        &log,
+        "metrics: cannot accept connections (Too many open files (os error 24)); retrying",
+        Duration::from_secs(10),
+    );
+    // Descriptors again: the clients that waited in the backlog are taken, a scrape answers.
+    set_open_files(pid, limit);
+    drop(waiting);
+    let (status, took) = http_get(&plc.metrics, "/metrics");
+    assert_eq!(status, 200, "a scrape once descriptors are free");
+    assert!(took < ANSWER_WITHIN, "a scrape took {took:?}");
+    crate::common::host::wait_in_log(
+        &log,
+        "metrics: accepting connections again",
+        Duration::from_secs(10),
+    );
+    let metrics = crate::common::host::service_state(&plc.socket, "metrics");
+    assert_eq!(metrics["state"], "running", "{metrics}");
+    assert!(scans() > before, "the scan went on");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let lines = text
+        .lines()
+        .filter(|l| l.contains("metrics: cannot accept"))
+        .count();
+    // Once for the series, while the server retried every 10 ms (twice at most: a client
+    // thread that ends frees a descriptor, and one accept goes through in between).
+    assert!((1..=2).contains(&lines), "{text}");
+    eprintln!("out of file descriptors: {refused}");
 }

@@ -581,12 +581,7 @@ fn a_flood_of_bad_commands_is_summarized_and_a_module_loss_still_logged() {
         summary.ends_with(" more in the last 10 s (on spBv1.0/plant1/NCMD/line1)"),
         "{summary}"
     );
-    let held_back: usize = summary
-        .split("… ")
-        .nth(1)
-        .and_then(|r| r.split(' ').next())
-        .map(|n| n.replace(',', "").parse().unwrap())
-        .unwrap();
+    let held_back = crate::common::host::held_back(&summary);
     assert!(held_back >= 10_000, "{held_back} held back: {summary}");
     assert!(!lost.is_empty());
     // Best effort: the test's scratch folder (it may not exist).

@@ -437,3 +437,106 @@ fn check_refuses_a_server_beyond_loopback_without_security() {
         "{text}"
     );
 }
+
+/// The server's certificate folder cannot be made (a file stands where it goes, as a
+/// read-only or damaged state folder leaves it), in a project of two tasks: the PLC starts and
+/// scans on both tasks; the OPC UA server is stopped and says why in the log, in `status
+/// --json`, in the metrics and on the web page's overview, while the other services run.
+#[test]
+fn a_server_without_a_usable_certificate_folder_is_stopped_with_the_reason_and_the_plc_runs() {
+    let dir = scratch("no-pki");
+    let example = workspace().join("examples/two-tasks");
+    for file in ["project.yaml", "press.ladder.yaml", "panel.ladder.yaml"] {
+        std::fs::copy(example.join(file), dir.join(file)).unwrap();
+    }
+    let port = free_port();
+    let mut yaml = std::fs::read_to_string(dir.join("project.yaml")).unwrap();
+    yaml.push_str(&format!(
+        "service:\n  opcua: {{ port: {port} }}\n  metrics: 127.0.0.1:0\n  web: {{ bind: 127.0.0.1:0 }}\n"
+    ));
+    let project = dir.join("project.yaml");
+    std::fs::write(&project, yaml).unwrap();
+    std::fs::write(dir.join("opcua-pki"), "in the way").unwrap();
+    let socket = dir.join("control.sock");
+    let log = dir.join("softplc.log");
+    let mut plc = softplc(&project, &socket, &log);
+    let metrics = host::log_value(&log, "metrics at http://");
+    let web = host::log_value(&log, "web page: http://");
+    let status = host::status_once_scanned(&socket, &[5, 2]);
+    let reason = format!(
+        "OPC UA server: cannot make its certificate folder {}: ",
+        dir.join("opcua-pki").display()
+    );
+    let services = status["services"].as_array().unwrap();
+    let state = |name: &str| {
+        services
+            .iter()
+            .find(|s| s["service"] == name)
+            .cloned()
+            .unwrap_or_default()
+    };
+    assert_eq!(state("opcua")["state"], "stopped", "{status}");
+    assert!(
+        state("opcua")["reason"]
+            .as_str()
+            .is_some_and(|r| r.starts_with(&reason)),
+        "{status}"
+    );
+    for running in ["web", "metrics", "trace", "audit", "alarms"] {
+        assert_eq!(state(running)["state"], "running", "{status}");
+    }
+    let body = |addr: &str, path: &str| {
+        use std::io::Read;
+        let mut s = std::net::TcpStream::connect(addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        write!(
+            s,
+            "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
+        let mut text = String::new();
+        s.read_to_string(&mut text).unwrap();
+        text
+    };
+    let scraped = body(&metrics, "/metrics");
+    assert!(
+        scraped.contains("softplc_service_state{service=\"opcua\",state=\"stopped\"} 1")
+            && scraped.contains("softplc_service_state{service=\"opcua\",state=\"running\"} 0"),
+        "{scraped}"
+    );
+    let page = body(&web, "/api/state");
+    let json = page.split("\r\n\r\n").nth(1).unwrap_or_default();
+    let page: serde_json::Value = serde_json::from_str(json).unwrap();
+    let opcua = page["stats"]["services"]
+        .as_array()
+        .and_then(|s| s.iter().find(|s| s["service"] == "opcua"))
+        .cloned()
+        .unwrap_or_default();
+    assert_eq!(opcua["state"], "stopped", "{page}");
+    assert!(
+        opcua["reason"]
+            .as_str()
+            .is_some_and(|r| r.starts_with(&reason)),
+        "{page}"
+    );
+    // Still scanning, both tasks.
+    let later = host::status_once_scanned(
+        &socket,
+        &[
+            status["tasks"][0]["scans"].as_u64().unwrap() + 5,
+            status["tasks"][1]["scans"].as_u64().unwrap() + 1,
+        ],
+    );
+    assert!(later["tasks"][0]["scans"].as_u64() > status["tasks"][0]["scans"].as_u64());
+    // The child may have exited already; then there is nothing to stop.
+    drop(plc.kill());
+    drop(plc.wait());
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.lines()
+            .any(|l| l.contains(&reason) && l.ends_with("; the PLC runs without it")),
+        "{text}"
+    );
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(dir));
+}

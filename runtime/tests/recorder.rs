@@ -720,17 +720,6 @@ fn a_full_disk_leaves_a_gap_that_replay_names_and_the_record_resumes() {
     );
 }
 
-/// Whether this machine lets an unprivileged test mount a tmpfs in a mount namespace of its
-/// own.
-fn tmpfs_allowed() -> bool {
-    Command::new("unshare")
-        .args(["-rm", "sh", "-c", "mount -t tmpfs -o size=64k tmpfs /mnt"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
 /// The recorder's entry of a `status --json` saved in `file`.
 fn recorder_status(file: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(file).unwrap();
@@ -810,7 +799,7 @@ fn assert_whole_and_identical(
 fn a_real_tmpfs_filled_for_three_seconds_is_reported_loses_nothing_and_recording_resumes() {
     let dir = tempdir("tmpfs");
     let project = quickstart_copy(&dir, None);
-    if !tmpfs_allowed() {
+    if !crate::common::host::tmpfs_allowed() {
         // The seam's full disk instead, so the case never goes untested.
         eprintln!("no tmpfs in a mount namespace on this machine: the fault-injecting disk runs");
         let folder = record_through_a_full_disk(&dir, &project);
@@ -850,7 +839,7 @@ fn a_real_tmpfs_filled_for_three_seconds_is_reported_loses_nothing_and_recording
 
 #[test]
 fn a_real_tmpfs_filled_under_two_tasks_holds_each_tasks_records_and_both_resume() {
-    if !tmpfs_allowed() {
+    if !crate::common::host::tmpfs_allowed() {
         // The seam's full disk under two tasks instead, so the case never goes untested.
         eprintln!("no tmpfs in a mount namespace on this machine: the fault-injecting disk runs");
         crate::task_record::a_gap_in_a_tasks_record_is_named_with_its_task_by_replay();

@@ -252,16 +252,7 @@ fn saves_that_fail_every_100_ms_log_a_few_lines_and_a_count_and_status_says_so()
         .stderr(std::fs::File::create(&log).unwrap())
         .spawn()
         .unwrap();
-    let status = |socket: &Path| -> serde_json::Value {
-        let out = softplc(&["status", "--json", "--socket", socket.to_str().unwrap()])
-            .output()
-            .unwrap();
-        let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
-        status["services"]
-            .as_array()
-            .and_then(|s| s.iter().find(|s| s["service"] == "retain").cloned())
-            .unwrap_or_default()
-    };
+    let status = |socket: &Path| crate::common::host::service_state(socket, "retain");
     std::thread::sleep(Duration::from_secs(3));
     let failing = status(&socket);
     assert_eq!(failing["state"], "degraded", "{failing}");
@@ -295,12 +286,7 @@ fn saves_that_fail_every_100_ms_log_a_few_lines_and_a_count_and_status_says_so()
         .lines()
         .find(|l| l.contains("retain: failed saves: … "))
         .unwrap_or_else(|| panic!("no summary:\n{text}"));
-    let held_back: u64 = summary
-        .split("… ")
-        .nth(1)
-        .and_then(|r| r.split(' ').next())
-        .map(|n| n.replace(',', "").parse().unwrap())
-        .unwrap();
+    let held_back = crate::common::host::held_back(summary);
     assert!((10..40).contains(&held_back), "{summary}");
     assert!(text.contains("retain: saving to "), "{text}");
     assert!(saved(&dir.join("state/count.json")).is_some_and(|n| n > 0));

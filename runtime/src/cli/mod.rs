@@ -152,6 +152,7 @@ fn init_logging() {
                 drop(
                     tracing_subscriber::registry()
                         .with(filter())
+                        .with(crate::log_limit::LibraryLines)
                         .with(layer)
                         .try_init(),
                 );
@@ -171,6 +172,7 @@ fn init_logging() {
             .with_target(false)
             .finish()
             .with(filter())
+            .with(crate::log_limit::LibraryLines)
             .try_init(),
     );
     if let Some(e) = unreachable {

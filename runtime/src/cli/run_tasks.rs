@@ -19,7 +19,7 @@ use crate::service::boundary::ServiceBoundary;
 use crate::service::notify::Notifier;
 use crate::service::task_router::{trace_home, TagOwner, TraceRoutes};
 use crate::service::task_share::TaskShare;
-use crate::service::{Health, PerTask, Service, TaskStatus};
+use crate::service::{Health, PerTask, Service, ServiceState, TaskStatus};
 use crate::trace::{TraceLedger, TraceSet};
 
 use super::task_record::TaskRecording;
@@ -95,6 +95,8 @@ pub(super) fn run(args: RunArgs, project: Project) -> anyhow::Result<ExitCode> {
     // Every task answers the control requests about its own tags at its own boundary, and
     // keeps the traces of its own cycles, all against the PLC's one trace budget.
     let ledger = TraceLedger::new();
+    // Traces are armed on every task's boundary, as on a single task's.
+    health.set(Service::Trace, ServiceState::Running);
     let mut queues = Vec::with_capacity(project.tasks.len());
     let mut boundaries = Vec::with_capacity(project.tasks.len());
     for (i, task) in project.tasks.iter().enumerate() {

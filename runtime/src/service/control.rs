@@ -247,6 +247,7 @@ const CONTROL_IDLE: Duration = Duration::from_secs(60);
 
 /// A log site a flood of connections repeats (see [`crate::log_limit`]).
 const CANNOT_SERVE: Site = Site::new("control.cannot_serve", "control socket: clients not served");
+const CANNOT_ACCEPT: Site = Site::new("control.cannot_accept", "control socket: failed accepts");
 
 /// The listening side; dropping it removes the socket file.
 #[derive(Debug)]
@@ -285,7 +286,21 @@ impl ControlServer {
             .spawn(move || {
                 let slots = Slots::new(CONTROL_CAPS);
                 for stream in listener.incoming() {
-                    let Ok(stream) = stream else { continue };
+                    let stream = match stream {
+                        Ok(stream) => stream,
+                        Err(e) => {
+                            // Out of file descriptors and the like: said, and retried
+                            // without spinning on a core.
+                            limited!(
+                                ERROR,
+                                CANNOT_ACCEPT,
+                                e.to_string(),
+                                "control socket: cannot accept a client: {e}; retrying"
+                            );
+                            std::thread::sleep(Duration::from_millis(10));
+                            continue;
+                        }
+                    };
                     let evict = || -> Evict {
                         let handle = stream.try_clone();
                         Box::new(move || {

@@ -28,7 +28,8 @@
 //!
 //! Statistics are refreshed every 250 ms of scan time, tag values every cycle.
 
-use crate::service::health::Health;
+use crate::service::accepting::Accepting;
+use crate::service::health::{Health, Service};
 use std::fmt::Write as _;
 use std::io::Write;
 use std::net::{SocketAddr, TcpListener};
@@ -439,7 +440,8 @@ impl MetricsServer {
             limits: LIMITS,
             allow: "GET, HEAD",
         };
-        http::spawn(listener, config, move |req, stream, _| {
+        let accepting = Accepting::new(&info.health, Service::Metrics);
+        http::spawn(listener, config, accepting, move |req, stream, _| {
             let response = respond(&info, &snapshot, req);
             stream.write_all(&response.to_bytes(req.method != Method::Head))
         })?;

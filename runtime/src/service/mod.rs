@@ -25,6 +25,7 @@
 //!   every cycle's tag changes, in order, from `changes` (a bounded queue each, fed at the
 //!   cycle boundary; a consumer that falls behind loses changes visibly).
 
+pub(crate) mod accepting;
 pub mod alarms;
 pub mod audit;
 pub(crate) mod boundary;

@@ -29,6 +29,7 @@ use softplc_io::point::Value;
 use tokio_modbus::server::tcp::Server;
 use tokio_modbus::{ExceptionCode, Request as MbRequest, Response as MbResponse, SlaveRequest};
 
+use super::accepting::Accepting;
 use super::control::{Envelope, Request, TagValue};
 use super::modbus_guard::{ClientSlot, FrameGuard, Patience};
 use super::modbus_map::{Exception, ModbusMap};
@@ -250,6 +251,7 @@ impl ModbusTcpServer {
         names: Vec<String>,
         snapshot: SnapshotCell,
         scan: Sender<Envelope>,
+        accepting: Accepting,
     ) -> Result<Self, StartError> {
         let bind = |source| StartError::Bind {
             addr: cfg.bind,
@@ -272,7 +274,7 @@ impl ModbusTcpServer {
         });
         std::thread::Builder::new()
             .name("modbus-tcp".into())
-            .spawn(move || runtime.block_on(serve(listener, shared)))
+            .spawn(move || runtime.block_on(serve(listener, shared, accepting)))
             .map_err(StartError::Thread)?;
         Ok(Self { addr })
     }
@@ -292,14 +294,13 @@ const SOCKET_BUFFER: usize = 16 * 1024;
 
 /// Log sites a peer or the system can repeat (see [`crate::log_limit`]).
 const REFUSED: Site = Site::new("modbus_tcp.refused", "Modbus TCP: refused connections");
-const ACCEPT_FAILED: Site = Site::new("modbus_tcp.accept", "Modbus TCP: failed accepts");
 const WRITE_REFUSED: Site = Site::new("modbus_tcp.write_refused", "Modbus TCP: refused writes");
 
-async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
+async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>, accepting: Accepting) {
     let listener = match tokio::net::TcpListener::from_std(listener) {
         Ok(l) => l,
         Err(e) => {
-            tracing::error!("Modbus TCP server stopped: {e}");
+            accepting.stopped(format!("cannot listen: {e}"));
             return;
         }
     };
@@ -311,6 +312,7 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
     };
     let service = Scada(shared, None);
     let on_connected = |stream: tokio::net::TcpStream, peer: SocketAddr| {
+        accepting.taken();
         let service = Scada(service.0.clone(), Some(peer));
         let clients = clients.clone();
         async move {
@@ -335,12 +337,7 @@ async fn serve(listener: std::net::TcpListener, shared: Arc<Shared>) {
         // serve() returns only when accept() fails (e.g. out of file descriptors): wait a
         // little and listen again rather than leave SCADA without a server.
         if let Err(e) = server.serve(&on_connected, on_process_error).await {
-            limited!(
-                WARN,
-                ACCEPT_FAILED,
-                e.to_string(),
-                "Modbus TCP accept failed: {e}; retrying"
-            );
+            accepting.failed(&e);
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
     }
@@ -461,7 +458,9 @@ mod tests {
             }
         });
         let names = vec!["run".to_string(), "speed".to_string()];
-        let server = ModbusTcpServer::start(cfg, map, names, cell, tx).unwrap();
+        let health = crate::service::Health::new();
+        let accepting = Accepting::new(&health, crate::service::Service::ModbusTcp);
+        let server = ModbusTcpServer::start(cfg, map, names, cell, tx, accepting).unwrap();
         let connect = || {
             let c = std::net::TcpStream::connect(server.local_addr()).unwrap();
             c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();

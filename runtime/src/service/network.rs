@@ -3,6 +3,7 @@
 
 use crossbeam_channel::Sender;
 
+use super::accepting::Accepting;
 use super::control::Envelope;
 use super::health::{Health, Service, ServiceState};
 use super::metrics::{MetricsInfo, MetricsServer};
@@ -175,7 +176,9 @@ pub(crate) fn start(
         let map = ModbusMap::new(&service.scada).with_read_gaps(cfg.read_gaps);
         let entries = &service.scada.entries;
         let writable = entries.iter().filter(|e| e.writable).count();
-        let server = ModbusTcpServer::start(cfg, map, names, snapshot.clone(), scan.clone())?;
+        let accepting = Accepting::new(health, Service::ModbusTcp);
+        let server =
+            ModbusTcpServer::start(cfg, map, names, snapshot.clone(), scan.clone(), accepting)?;
         tracing::info!(
             "Modbus TCP server on {}, unit {}: {} tags mapped, writes {}",
             server.local_addr(),

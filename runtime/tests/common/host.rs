@@ -252,3 +252,39 @@ pub(crate) fn status_once_scanned(socket: &Path, scans: &[u64]) -> serde_json::V
         std::thread::sleep(std::time::Duration::from_millis(100));
     }
 }
+
+/// The count a log summary (`… 12,345 more in the last 10 s …`) says was held back.
+pub(crate) fn held_back(summary: &str) -> u64 {
+    summary
+        .split("… ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.replace(',', "").parse().ok())
+        .unwrap_or_else(|| panic!("not a summary: {summary}"))
+}
+
+/// Whether this machine lets an unprivileged test mount a tmpfs in a mount namespace of its
+/// own (`unshare -rm`).
+pub(crate) fn tmpfs_allowed() -> bool {
+    std::process::Command::new("unshare")
+        .args(["-rm", "sh", "-c", "mount -t tmpfs -o size=64k tmpfs /mnt"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// What `softplc status --json` on `socket` says of `service` (`{"service", "state",
+/// "reason"}`); null when there is no answer yet.
+pub(crate) fn service_state(socket: &Path, service: &str) -> serde_json::Value {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .args(["status", "--json", "--socket"])
+        .arg(socket)
+        .output()
+        .expect("softplc runs");
+    let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    status["services"]
+        .as_array()
+        .and_then(|s| s.iter().find(|s| s["service"] == service).cloned())
+        .unwrap_or_default()
+}

@@ -88,6 +88,11 @@ fn options(cfg: &MqttConfig) -> MqttOptions {
 const COMMAND_IGNORED: Site = Site::new("mqtt.command_ignored", "MQTT: ignored commands");
 const WRITE_REFUSED: Site = Site::new("mqtt.write_refused", "MQTT: refused writes");
 const WRITE_APPLIED: Site = Site::new("mqtt.write_applied", "MQTT: applied writes");
+/// What any client of the broker can repeat too: a primary host's STATE it cannot read, a
+/// rebirth asked for; and a queue that stays full while the broker is slow.
+const HOST_STATE_UNREAD: Site = Site::new("mqtt.host_state", "MQTT: unreadable host states");
+const REBIRTH_ASKED: Site = Site::new("mqtt.rebirth", "MQTT: rebirths requested");
+const NOT_QUEUED: Site = Site::new("mqtt.not_queued", "MQTT: messages not queued");
 
 /// The running session (see the module docs).
 pub(super) struct Session {
@@ -307,7 +312,13 @@ impl Session {
                 QoS::AtMostOnce
             };
             if let Err(e) = client.try_publish(m.topic.clone(), qos, false, m.payload) {
-                tracing::warn!("MQTT: {} not queued ({e}); a rebirth follows", m.topic);
+                limited!(
+                    WARN,
+                    NOT_QUEUED,
+                    "",
+                    "MQTT: {} not queued ({e}); a rebirth follows",
+                    m.topic
+                );
                 return false;
             }
         }
@@ -360,7 +371,13 @@ impl Session {
                             self.host_left = true;
                         }
                         Ok(HostEvent::Nothing) => {}
-                        Err(e) => tracing::warn!("MQTT: {}: {e}", p.topic),
+                        Err(e) => limited!(
+                            WARN,
+                            HOST_STATE_UNREAD,
+                            format!("on {}", p.topic),
+                            "MQTT: {}: {e}",
+                            p.topic
+                        ),
                     }
                     return Some(false);
                 }
@@ -391,7 +408,13 @@ impl Session {
                             self.write(&p.topic, &cmd.writes, pending);
                         }
                         if cmd.rebirth {
-                            tracing::info!("MQTT: rebirth requested on {}", p.topic);
+                            limited!(
+                                INFO,
+                                REBIRTH_ASKED,
+                                format!("on {}", p.topic),
+                                "MQTT: rebirth requested on {}",
+                                p.topic
+                            );
                             return Some(true);
                         }
                     }

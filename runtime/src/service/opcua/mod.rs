@@ -49,9 +49,13 @@ use super::changes::{ChangeFeed, ChangeStream, Delivery, QUEUE_CYCLES};
 use super::control::Envelope;
 use super::health::{Health, Service, ServiceState};
 use super::snapshot::SnapshotCell;
+use crate::log_limit::{limited, Site};
 use crate::project::opcua::{OpcUaConfig, OpcUaSecurity};
 use crate::project::Project;
 use space::{Layout, Updates};
+
+/// A log site the updater can repeat every cycle (see [`crate::log_limit`]).
+const NOT_UPDATED: Site = Site::new("opcua.not_updated", "OPC UA: values not updated");
 
 /// The user token id of the project's user.
 const USER_TOKEN: &str = "project-user";
@@ -419,7 +423,12 @@ impl Updater {
                 .into_iter()
                 .filter_map(|(id, dv)| Some((ids.get(&id)?, None, dv)));
             if let Err(e) = self.nm.set_values(&self.subscriptions, values) {
-                tracing::warn!("OPC UA: values not updated: {e}");
+                limited!(
+                    WARN,
+                    NOT_UPDATED,
+                    e.to_string(),
+                    "OPC UA: values not updated: {e}"
+                );
             }
         };
         // A cycle's tag changes, but none older than a client's write of its tag: checked as
@@ -432,7 +441,12 @@ impl Updater {
                 .filter(|(tag, _, _)| !self.written.hides(*tag, cycle))
                 .filter_map(|(_, id, dv)| Some((ids.get(&id)?, None, dv)));
             if let Err(e) = self.nm.set_values(&self.subscriptions, values) {
-                tracing::warn!("OPC UA: values not updated: {e}");
+                limited!(
+                    WARN,
+                    NOT_UPDATED,
+                    e.to_string(),
+                    "OPC UA: values not updated: {e}"
+                );
             }
         };
         let mut last_stats = None;

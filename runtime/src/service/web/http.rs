@@ -18,6 +18,7 @@ use std::net::{TcpListener, TcpStream};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use crate::service::accepting::Accepting;
 pub(crate) use crate::service::slots::Held;
 use crate::service::slots::{Caps, Evict, Slots};
 
@@ -359,6 +360,7 @@ pub(crate) struct ServerConfig {
 pub(crate) fn spawn<H>(
     listener: TcpListener,
     config: ServerConfig,
+    accepting: Accepting,
     handler: H,
 ) -> std::io::Result<()>
 where
@@ -374,7 +376,7 @@ where
     });
     std::thread::Builder::new()
         .name(config.name.into())
-        .spawn(move || accept(&listener, &shared))?;
+        .spawn(move || accept(&listener, &shared, &accepting))?;
     Ok(())
 }
 
@@ -396,17 +398,22 @@ fn evict_of(stream: &TcpStream) -> Evict {
     })
 }
 
-fn accept<H>(listener: &TcpListener, shared: &Arc<Served<H>>)
+fn accept<H>(listener: &TcpListener, shared: &Arc<Served<H>>, accepting: &Accepting)
 where
     H: Fn(&Request, &mut TcpStream, &Held) -> std::io::Result<()> + Send + Sync + 'static,
 {
     let name = shared.config.name;
     for stream in listener.incoming() {
-        let Ok(stream) = stream else {
-            // Out of file descriptors and the like: do not spin.
-            std::thread::sleep(Duration::from_millis(10));
-            continue;
+        let stream = match stream {
+            Ok(stream) => stream,
+            Err(e) => {
+                // Out of file descriptors and the like: said, and retried without spinning.
+                accepting.failed(&e);
+                std::thread::sleep(Duration::from_millis(10));
+                continue;
+            }
         };
+        accepting.taken();
         let Some(held) = shared.slots.admit_patiently(|| evict_of(&stream)) else {
             busy(stream);
             continue;

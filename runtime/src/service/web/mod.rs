@@ -40,7 +40,8 @@ pub use http::{parse as parse_http, HttpError, Method, Request};
 pub use info::{BusInfo, ModuleInfo, TagInfo, TaskInfo, TaskPart, WebInfo};
 pub use program::{Line, Part, ProgramView, RungMark};
 
-use crate::service::health::Health;
+use crate::service::accepting::Accepting;
+use crate::service::health::{Health, Service};
 use std::io::Write;
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::{Arc, Mutex};
@@ -157,7 +158,8 @@ impl WebServer {
             },
             allow: "GET, HEAD, POST",
         };
-        http::spawn(listener, server, move |req, stream, held| {
+        let accepting = Accepting::new(health, Service::Web);
+        http::spawn(listener, server, accepting, move |req, stream, held| {
             answer(req, stream, &shared, held)
         })?;
         Ok(Self { addr, writes })
