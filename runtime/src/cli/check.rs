@@ -214,6 +214,13 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
             out.push_str(&tcp::budget(bus, &budget, period));
             continue;
         }
+        warnings.extend(turnaround::warnings(
+            bus,
+            adapter,
+            drivers
+                .iter()
+                .map(|(name, d, _)| (name.as_str(), d.as_ref())),
+        ));
         let mix = project.cycle_mix(b, adapter);
         let held = latency_clause(adapter, "each with ");
         // A line in event mode: its longest input phase is a refresh after the round.
@@ -493,4 +500,5 @@ mod tasks;
 mod tcp;
 #[cfg(test)]
 mod tests;
+mod turnaround;
 mod unit_network;
