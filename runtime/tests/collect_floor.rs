@@ -145,7 +145,9 @@ fn a_members_rdelaym_lengthens_the_collect_floor_the_budget_and_the_watchdog() {
         !line_of(&plain, "collect floor").contains("RDELAYM"),
         "{plain}"
     );
-    // mm2's read and write each take 5 ms more; mm1's do not.
+    // mm2's read and write each take 5 ms more to turn round, and 4.45 ms more of silence
+    // before them (28 bit times + 5 ms, less the t3.5 every request has: 1.458 + 5 − 2.005);
+    // mm1's do not.
     let read = |report: &str, m: &str| line_of(report, &format!("{m}: read")).to_string();
     assert_eq!(
         read(&late, "mm1").split(" (").next(),
@@ -156,7 +158,7 @@ fn a_members_rdelaym_lengthens_the_collect_floor_the_budget_and_the_watchdog() {
         "{plain}"
     );
     assert!(
-        read(&late, "mm2").starts_with("mm2: read 25.60ms in 1 tx, write 26.17ms"),
+        read(&late, "mm2").starts_with("mm2: read 30.05ms in 1 tx, write 30.62ms"),
         "{late}"
     );
     // The module watchdog is derived from the longer line floor and start-up.
@@ -169,4 +171,37 @@ fn a_members_rdelaym_lengthens_the_collect_floor_the_budget_and_the_watchdog() {
             .unwrap_or_else(|| panic!("{line}"))
     };
     assert!(wdt(&late) > wdt(&plain), "{plain}\n{late}");
+}
+
+#[test]
+fn a_module_with_rdelaym_polled_after_a_collect_round_answers_every_request() {
+    // mm2 waits 28 bit times + 10 ms of silence for a request's end; polled right after the
+    // others' Collect round, its request would be heard as the end of that round and go
+    // unanswered (before the owner left it that silence: 21 timeouts in 71 requests).
+    let dir = folder_with(
+        "rdelaym-polled",
+        19200,
+        "watchdog: off, settings: { events: false, RDELAYM: 100 }",
+    );
+    let out = Command::new(BIN)
+        .arg("run")
+        .arg(dir.join("project.yaml"))
+        .args(["--virtual", "--for", "5s", "--no-socket"])
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &*String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{text}");
+    let mm2 = line_of(&text, "module mm2 (events):");
+    let requests: u32 = mm2
+        .split("requests ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{mm2}"));
+    assert!(requests >= 50, "read every cycle: {mm2}");
+    assert!(mm2.contains(" timeouts 0 "), "{mm2}");
+    assert!(mm2.starts_with("module mm2 (events): good"), "{mm2}");
+    // Best effort: the test's scratch folder (it may not exist).
+    drop(std::fs::remove_dir_all(&dir));
 }
