@@ -7,6 +7,7 @@
 use std::fmt::Debug;
 use std::time::Duration;
 
+use crate::line::LineSettings;
 use crate::time::LineInstant;
 
 use crate::modbus::{ExceptionCode, Request, Response, UnitId};
@@ -193,8 +194,11 @@ pub trait Driver: Send + Debug {
     }
 
     /// The silence the device needs before a request to it, from the end of the last frame
-    /// on the line, when it needs more than the line's t3.5 (a device profile's `frame_gap`).
-    fn frame_gap(&self) -> Option<Duration> {
+    /// on a line at `settings`, when it needs more than the line's t3.5 (a device profile's
+    /// `frame_gap`; a MiniMod's 28 bit times + RDELAYM, or it hears the request as the end of
+    /// the traffic before it).
+    fn frame_gap(&self, settings: LineSettings) -> Option<Duration> {
+        let _ = settings;
         None
     }
 }

@@ -360,3 +360,29 @@ fn a_reload_with_a_type_error_is_refused_and_the_running_program_kept() {
     scratch.write("pump.rhai", "pump1 = !x1;\n");
     plc.reload_program().expect("a mended program reloads");
 }
+
+#[test]
+fn a_module_whose_reply_delay_outlasts_the_response_timeout_is_a_warning() {
+    // RDELAYM=200 on mm1: it waits 20 ms more for a request's end, so it turns round 10 ms
+    // (RDELAYT, factory) + 20 ms after each request; the line waits 25 ms for a first byte.
+    let scratch = Scratch::new("check-catches", "turnaround");
+    scratch.write("p.expr", "pump1 = x1\n");
+    let text = PROJECT
+        .replace("{program}", "p.expr")
+        .replace("{kind}", "expr")
+        .replace("port: sim }", "port: sim, response_timeout: 25ms }");
+    let late = text.replace("address: 1 }", "address: 1, settings: { RDELAYM: 200 } }");
+    let (code, out, err) = softplc(&["check", path_str(&scratch.write("late.yaml", &late))]);
+    assert_eq!(code, Some(0), "a warning, not an error: {out}{err}");
+    assert!(
+        out.contains(
+            "warning: module mm1: its reply delay 30.00ms puts its reply's first byte at \
+             30.57ms or later, not within the response timeout 25.00ms of bus line1: none of \
+             its replies would be heard"
+        ),
+        "{out}"
+    );
+    // Without RDELAYM its reply comes at 10.57 ms: nothing to say.
+    let (_, out, _) = softplc(&["check", path_str(&scratch.write("ok.yaml", &text))]);
+    assert!(!out.contains("none of its replies"), "{out}");
+}

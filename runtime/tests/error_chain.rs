@@ -133,3 +133,59 @@ fn test_says_a_scenarios_program_error_once() {
     let test = printed(&["test", scenario.to_str().expect("a UTF-8 path")]);
     once(&test, UNKNOWN_FUNCTION);
 }
+
+const GOOD: &str = "motor = start;\n";
+const BAD: &str = "let t = timestamp();\nmotor = start;\n";
+
+#[test]
+fn replay_says_a_program_error_once() {
+    let file = project("replay", GOOD, "sim");
+    let project_file = file.to_str().expect("a UTF-8 path");
+    let (recorded, text) = crate::common::host::softplc(&[
+        "run",
+        project_file,
+        "--virtual",
+        "--for",
+        "1s",
+        "--record",
+        "1m",
+    ]);
+    assert!(recorded, "{text}");
+    let record = file.with_extension("yaml.record");
+    assert!(record.exists(), "{text}");
+    // The program changed since the record was made, and no longer compiles.
+    std::fs::write(file.with_file_name("clock.rhai"), BAD).expect("the program");
+    let replay = printed(&[
+        "replay",
+        record.to_str().expect("a UTF-8 path"),
+        project_file,
+    ]);
+    once(&replay, UNKNOWN_FUNCTION);
+    once(&replay, "clock.rhai:1:9");
+    assert!(replay.contains("cannot be replayed with"), "{replay}");
+}
+
+#[test]
+fn a_running_instances_reload_and_a_second_run_on_its_socket_say_their_cause_once() {
+    let file = project("reload", GOOD, "sim");
+    let socket = file.with_file_name("ctl.sock");
+    let _running = crate::common::host::run_virtual(&file, &socket);
+    let socket = socket.to_str().expect("a UTF-8 path");
+    std::fs::write(file.with_file_name("clock.rhai"), BAD).expect("the program");
+    let reload = printed(&["reload", "--socket", socket]);
+    once(&reload, UNKNOWN_FUNCTION);
+    once(&reload, "refused");
+    // A second instance on the same socket: the socket named once, its cause once.
+    std::fs::write(file.with_file_name("clock.rhai"), GOOD).expect("the program");
+    let second = printed(&[
+        "run",
+        file.to_str().expect("a UTF-8 path"),
+        "--virtual",
+        "--for",
+        "1s",
+        "--socket",
+        socket,
+    ]);
+    once(&second, socket);
+    once(&second, "another instance is running");
+}

@@ -362,3 +362,32 @@ traces:
         assert!(err.contains(&line), "missing\n{line}\nin\n{err}");
     }
 }
+
+#[test]
+fn a_trace_armed_with_tags_and_no_name_is_adhoc_as_from_the_page() {
+    let dir = folder("unnamed");
+    let (_run, socket) = start(&dir);
+    let s = socket.to_str().unwrap();
+    let o = softplc(&[
+        "trace",
+        "arm",
+        "--tags",
+        "n",
+        "--trigger",
+        "pulse rising",
+        "--socket",
+        s,
+    ]);
+    assert!(o.status.success(), "{o:?}");
+    assert!(text(&o).0.contains("adhoc"), "{o:?}");
+    // The page's unnamed trace has the same name (service/web/trace.rs): one default.
+    let o = softplc(&[
+        "trace", "save", "adhoc", "--wait", "30s", "--csv", "-", "--socket", s,
+    ]);
+    assert!(o.status.success(), "{o:?}");
+    assert!(
+        text(&o).0.starts_with("time_s,cycle,n [i32]\n"),
+        "{:?}",
+        text(&o).1
+    );
+}

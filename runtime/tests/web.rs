@@ -422,13 +422,15 @@ fn the_page_shows_the_running_plc_and_forces_its_outputs() {
     // The Trace view: arm a trace from the page (signed in), watch it fill and complete, see
     // its plot in the trend's look, download its CSV.
     b.eval("location.hash = '#trace'; true");
-    b.eval(
-        "document.getElementById('trace-name').value = 'webtrace'; \
-         document.getElementById('trace-tags').value = 'start, motor, phase.cycle'; \
-         document.getElementById('trace-trigger').value = 'phase.cycle >= 0'; \
-         document.getElementById('trace-pre').value = '0'; \
-         document.getElementById('trace-post').value = '5'; \
-         document.getElementById('trace-form').requestSubmit(); true",
+    arm_from_page(
+        &mut b,
+        [
+            "webtrace",
+            "start, motor, phase.cycle",
+            "phase.cycle >= 0",
+            "0",
+            "5",
+        ],
     );
     let state = "(document.querySelector('#trace-table tr[data-trace=webtrace] .trace-state') || {}).textContent";
     let done = b.wait_for(&format!("{state} === 'complete'"), Duration::from_secs(30));
@@ -710,12 +712,35 @@ fn a_ladder_program_is_drawn_as_a_ladder_lit_by_its_inputs() {
     drop(std::fs::remove_dir_all(&dir));
 }
 
+/// Fills the Trace view's form (name, signals, trigger, pre, post) and submits it.
+fn arm_from_page(b: &mut Browser, [name, tags, trigger, pre, post]: [&str; 5]) {
+    b.eval(&format!(
+        "document.getElementById('trace-name').value = '{name}'; \
+         document.getElementById('trace-tags').value = '{tags}'; \
+         document.getElementById('trace-trigger').value = '{trigger}'; \
+         document.getElementById('trace-pre').value = '{pre}'; \
+         document.getElementById('trace-post').value = '{post}'; \
+         document.getElementById('trace-form').requestSubmit(); true"
+    ));
+}
+
+/// `softplc force TAG VALUE` on the instance at `socket`, which must succeed.
+fn force_by_cli(socket: &Path, tag: &str, value: &str) {
+    let forced = Command::new(BIN)
+        .args(["force", "--socket"])
+        .arg(socket)
+        .args([tag, value])
+        .output()
+        .unwrap();
+    assert!(forced.status.success(), "{forced:?}");
+}
+
 /// Whether an element is cut: its content wider than its box, or its box past `right`.
 const CUT: &str = "(e, right) => e.scrollWidth > e.clientWidth + 1 || e.getBoundingClientRect().right > right + 0.5";
 
 /// At 800 px the I/O view shows its headers and a FORCED badge whole; the Bus view's line rate
 /// counts the Collect broadcasts of event mode; a trace armed from the page with no name is
-/// `adhoc`, and before any trigger its plot does not speak of one.
+/// `adhoc`, and before its trigger a trace's plot does not speak of one.
 #[test]
 fn the_page_at_800_px_and_its_bus_rate_and_trace_words() {
     chromium_available();
@@ -733,13 +758,7 @@ fn the_page_at_800_px_and_its_bus_rate_and_trace_words() {
     std::fs::write(dir.join("project.yaml"), project).unwrap();
     let socket = dir.join("ctl.sock");
     let plc = run_plc(&dir.join("project.yaml"), &socket, port);
-    let forced = Command::new(BIN)
-        .args(["force", "--socket"])
-        .arg(&socket)
-        .args(["motor", "1"])
-        .output()
-        .unwrap();
-    assert!(forced.status.success(), "{forced:?}");
+    force_by_cli(&socket, "motor", "1");
 
     let mut b = Browser::start(&dir.join("chromium"));
     b.page(
@@ -812,6 +831,29 @@ fn the_page_at_800_px_and_its_bus_rate_and_trace_words() {
     assert_eq!(
         hint.map(|h| h.0),
         Some(serde_json::json!("times from the first sample"))
+    );
+    // A trace whose trigger has not fired yet: its samples before the trigger are plotted
+    // from the first one; once `stop` rises (forced), from the trigger.
+    arm_from_page(&mut b, ["on_stop", "stop, motor", "stop rising", "20", "5"]);
+    let waiting = "document.getElementById('trace-plot-title').textContent.startsWith('Trace on_stop') \
+                   && !document.getElementById('trace-plot-title').textContent.includes(' 0 samples')";
+    b.wait_for(waiting, Duration::from_secs(15))
+        .expect("the armed trace plotted with its first samples");
+    assert_eq!(
+        b.eval("document.getElementById('trace-plot-hint').textContent"),
+        "times from the first sample",
+        "before its trigger"
+    );
+    force_by_cli(&socket, "stop", "1");
+    let hint = b.wait_for(
+        "document.getElementById('trace-plot-title').textContent.startsWith('Trace on_stop') \
+         && document.getElementById('trace-plot-hint').textContent === 'times from the trigger'",
+        Duration::from_secs(15),
+    );
+    assert!(
+        hint.is_some(),
+        "after its trigger: {}",
+        b.eval("document.getElementById('trace-plot-hint').textContent")
     );
     drop(b);
     drop(plc);

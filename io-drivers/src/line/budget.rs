@@ -208,7 +208,7 @@ pub fn line_budget_on(
 /// transactions.
 fn frame_gap_excess(settings: LineSettings, driver: &dyn Driver) -> Duration {
     driver
-        .frame_gap()
+        .frame_gap(settings)
         .map_or(Duration::ZERO, |g| g.saturating_sub(settings.t3_5()))
 }
 

@@ -934,7 +934,7 @@ impl BusOwner {
         let timeout = driver
             .response_timeout()
             .unwrap_or(self.discipline.response_timeout);
-        if let Some(gap) = driver.frame_gap() {
+        if let Some(gap) = driver.frame_gap(self.settings) {
             self.line_free_at += gap.saturating_sub(self.settings.t3_5());
         }
         let done = self.exchange(frame, timeout, Silence::Timeout);

@@ -7,9 +7,10 @@
 //! line has been silent that long (the longest of the line's modules), and nothing else ends
 //! it: a pause inside a request shorter than the silence is part of it, a longer one makes two
 //! requests, as the module would hear them. A pty gives no byte timing, so the gap is measured
-//! between reads (1 ms read timeout) on the host's clock: a gap shorter than half the silence
-//! is one request, one longer than twice the silence (and than 2 ms) is two; in between it
-//! depends on scheduling. Otherwise (no such module) the silence is t3.5, at least 5 ms for a
+//! on the host's clock when bytes arrive (a read waits no longer than the silence still to
+//! run): a gap shorter than half the silence is one request, one longer than twice the silence
+//! (and than 2 ms) is two; in between, and on a host so loaded that the server's thread waits
+//! for a CPU longer than the silence, it depends on scheduling. Otherwise (no such module) the silence is t3.5, at least 5 ms for a
 //! pty's jitter, with a fast path: bytes that already form a complete RTU request with a good
 //! CRC, or a text line ended by CR or LF, are handled at once. A pty does not enforce baud,
 //! so replies are written as a whole after the device's reply delay and the server then keeps
@@ -120,8 +121,7 @@ pub fn serve_following(
     master: Option<MasterSettings<'_>>,
 ) -> Result<ServeStats, LineError> {
     let mut follower = MasterFollower::default();
-    let mut follow =
-        |settings: LineSettings| follower.frame(&world, master.and_then(|m| m()), settings);
+    let mut follow = || follower.frame(&world, master.and_then(|m| m()), settings);
     let mut stats = ServeStats::default();
     let mut buf: Vec<u8> = Vec::with_capacity(512);
     let mut chunk = [0u8; 256];
@@ -129,13 +129,32 @@ pub fn serve_following(
     // Silence that ends a frame without a module's own: t3.5, but a pty's scheduling jitter
     // is larger than that.
     let t3_5_silence = settings.t3_5().max(Duration::from_millis(5));
-    port.set_timeout(Duration::from_millis(1))
-        .map_err(|e| std::io::Error::other(e.description))?;
+    let mut silence = t3_5_silence;
     while !stop.load(Ordering::Relaxed) {
+        // While a request is being heard, wait no longer than the silence still to run, so
+        // its end is seen when it comes rather than up to a read timeout later.
+        let wait = if buf.is_empty() {
+            READ_WAIT
+        } else {
+            let heard_for = clock.line_now().saturating_duration_since(last_byte);
+            silence
+                .saturating_sub(heard_for)
+                .clamp(SHORTEST_WAIT, READ_WAIT)
+        };
+        port.set_timeout(wait)
+            .map_err(|e| std::io::Error::other(e.description))?;
         match port.read(&mut chunk) {
             Ok(n) if n > 0 => {
+                let at = clock.line_now();
+                // Bytes after a silence start a new request: the one before them ended when
+                // its last byte came (the gap is measured when the bytes arrive, before they
+                // join the buffer, so a late look at the buffer cannot join the two).
+                if !buf.is_empty() && at.saturating_duration_since(last_byte) >= silence {
+                    let ended = (std::mem::take(&mut buf), last_byte);
+                    hand_over_ended(&mut port, &world, ended, &mut follow, &mut stats, &*clock)?;
+                }
                 buf.extend_from_slice(&chunk[..n]);
-                last_byte = clock.line_now();
+                last_byte = at;
             }
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
@@ -152,27 +171,48 @@ pub fn serve_following(
         while let Some(n) = complete_frame(&buf).filter(|_| modules_silence.is_none()) {
             let frame: Vec<u8> = buf.drain(..n).collect();
             stats.frames += 1;
-            let settings = follow(settings);
+            let settings = follow();
             if answer(&mut port, &world, &frame, settings, clock.as_ref())? {
                 stats.replies += 1;
             }
         }
-        let silence = modules_silence.unwrap_or(t3_5_silence);
-        if !buf.is_empty() && now - last_byte >= silence {
+        silence = modules_silence.unwrap_or(t3_5_silence);
+        if !buf.is_empty() && now.saturating_duration_since(last_byte) >= silence {
             // A silence ended an incomplete frame: give it to the devices as the real ones
             // would get it (they drop it on a bad CRC), and start afresh.
-            let frame: Vec<u8> = std::mem::take(&mut buf);
-            stats.frames += 1;
-            let settings = follow(settings);
-            let heard = (frame.as_slice(), last_byte);
-            if answer_frame_ended(&mut port, &world, heard, settings, clock.as_ref())? {
-                stats.replies += 1;
-            } else {
-                stats.noise_bytes += frame.len() as u64;
-            }
+            let ended = (std::mem::take(&mut buf), last_byte);
+            hand_over_ended(&mut port, &world, ended, &mut follow, &mut stats, &*clock)?;
         }
     }
     Ok(stats)
+}
+
+/// The longest a read waits for bytes: the stop flag and the world's time are looked at
+/// this often.
+const READ_WAIT: Duration = Duration::from_millis(1);
+
+/// The shortest read wait while a request is being heard, so a silence about to end does not
+/// spin the loop.
+const SHORTEST_WAIT: Duration = Duration::from_micros(50);
+
+/// Hands a request a silence ended (`(bytes, when its last byte came)`) to the devices as
+/// the real ones would get it (they drop it on a bad CRC) and counts it.
+fn hand_over_ended(
+    port: &mut serialport::TTYPort,
+    world: &SharedWorld,
+    (frame, ended): (Vec<u8>, LineInstant),
+    master_now: &mut impl FnMut() -> LineSettings,
+    stats: &mut ServeStats,
+    clock: &dyn Clock,
+) -> Result<(), LineError> {
+    stats.frames += 1;
+    let settings = master_now();
+    if answer_frame_ended(port, world, (&frame, ended), settings, clock)? {
+        stats.replies += 1;
+    } else {
+        stats.noise_bytes += frame.len() as u64;
+    }
+    Ok(())
 }
 
 /// What the served line's master talks at, frame by frame. The port's own settings (a pty's
@@ -309,6 +349,69 @@ mod tests {
             follower.frame(&world, None, LineSettings::DEFAULT),
             at(4800, "8O1")
         );
+    }
+
+    /// A MiniMod at 5 served on an in-process pty on the host's clock, its RDELAYM set by
+    /// its text command, sends the FC 2 request in two halves `gap` apart and
+    /// says whether a reply came, for each of `gaps`.
+    fn served_minimod(rdelaym: u8, gaps: &[Duration]) -> Vec<bool> {
+        use crate::line::transport::pty_pair;
+        use crate::modbus::crc::append_crc;
+        use crate::time::MonotonicClock;
+        let model = crate::devices::model("minimod").unwrap();
+        let mut world = SimWorld::new(vec![LineSettings::DEFAULT]);
+        world.add_device(SERVED_LINE, "minimod@5", (model.simulator)(5));
+        let world = world.shared();
+        let (master, mut slave, _) = pty_pair().unwrap();
+        let stop = AtomicBool::new(false);
+        let clock: Arc<dyn Clock> = Arc::new(MonotonicClock::new());
+        std::thread::scope(|s| {
+            s.spawn(|| serve(master, world, LineSettings::DEFAULT, clock, &stop));
+            slave
+                .write_all(format!("@5>RDELAYM={rdelaym}\r").as_bytes())
+                .unwrap();
+            assert_eq!(read_for(&mut slave, Duration::from_millis(300)), b"OK\r");
+            let mut request = vec![5, 0x02, 0x00, 0x00, 0x00, 0x0A];
+            append_crc(&mut request);
+            let replies = gaps
+                .iter()
+                .map(|gap| {
+                    slave.write_all(&request[..4]).unwrap();
+                    std::thread::sleep(*gap);
+                    slave.write_all(&request[4..]).unwrap();
+                    let reply = read_for(&mut slave, Duration::from_millis(150));
+                    reply.starts_with(&[5, 0x02, 0x02])
+                })
+                .collect();
+            stop.store(true, Ordering::Relaxed);
+            replies
+        })
+    }
+
+    /// Everything the master's end hears within `wait`.
+    fn read_for(port: &mut serialport::TTYPort, wait: Duration) -> Vec<u8> {
+        port.set_timeout(Duration::from_millis(20)).unwrap();
+        let end = std::time::Instant::now() + wait;
+        let mut got = Vec::new();
+        let mut chunk = [0u8; 64];
+        while std::time::Instant::now() < end {
+            if let Ok(n) = port.read(&mut chunk) {
+                got.extend_from_slice(&chunk[..n]);
+            }
+        }
+        got
+    }
+
+    #[test]
+    fn on_a_pty_a_pause_well_inside_the_silence_joins_and_one_well_past_it_splits() {
+        // RDELAYM=200 at 19200: 1.46 ms + 20 ms of silence end a request. A 2 ms pause is far
+        // under half of it (one request, answered); 60 ms is over twice it (two halves, each
+        // failing its CRC: no reply). Wide margins: a pty gives no byte timing, the gap is
+        // measured on the host's clock (the module's doc: within half to twice the silence).
+        let ms = Duration::from_millis;
+        assert_eq!(served_minimod(200, &[ms(2), ms(60)]), [true, false]);
+        // RDELAYM=0: 1.46 ms of silence; 30 ms apart is two requests, sent whole is one.
+        assert_eq!(served_minimod(0, &[ms(30), Duration::ZERO]), [false, true]);
     }
 
     #[test]

@@ -214,6 +214,13 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
             out.push_str(&tcp::budget(bus, &budget, period));
             continue;
         }
+        warnings.extend(turnaround::warnings(
+            bus,
+            adapter,
+            drivers
+                .iter()
+                .map(|(name, d, _)| (name.as_str(), d.as_ref())),
+        ));
         let mix = project.cycle_mix(b, adapter);
         let held = latency_clause(adapter, "each with ");
         // A line in event mode: its longest input phase is a refresh after the round.
@@ -449,9 +456,18 @@ fn collect_floor_line(
     let floor = members_floor(settings, adapter, &members)?;
     let (first, last) = floor.window();
     let held = latency_clause(adapter, "per Collect ");
+    // RDELAYM: a member that waits longer for a request's end starts its slot that much later.
+    let late = if floor.frame_timeout().is_zero() {
+        String::new()
+    } else {
+        format!(
+            ", the members' longest RDELAYM {} per Collect",
+            fmt_duration(floor.frame_timeout())
+        )
+    };
     Some(format!(
         "collect floor (event mode, window {first}–{last}, {} member(s)): idle round {} (a \
-         Collect request of {} characters, {} slot{} × 3 ms + 1 ms, t3.5{held}); each event \
+         Collect request of {} characters, {} slot{} × 3 ms + 1 ms, t3.5{held}{late}); each event \
          {} more (its {}-character reply from the start of its slot, t3.5, the next Collect; \
          less from address {last}, which ends the round); no reply delay applies",
         members.len(),
@@ -484,4 +500,5 @@ mod tasks;
 mod tcp;
 #[cfg(test)]
 mod tests;
+mod turnaround;
 mod unit_network;

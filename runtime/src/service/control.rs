@@ -273,7 +273,8 @@ impl ControlServer {
             if UnixStream::connect(path).is_ok() {
                 return Err(std::io::Error::new(
                     std::io::ErrorKind::AddrInUse,
-                    format!("{} is in use: another instance is running", path.display()),
+                    // The caller names the socket; the cause is said once.
+                    "in use: another instance is running",
                 ));
             }
             // A socket left by an instance that died: nobody answers it.

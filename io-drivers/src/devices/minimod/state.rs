@@ -56,6 +56,14 @@ use super::watchdog::{Cause, Watchdog, WFLAGS_FIRED};
 /// Bit times of silence that end a Modbus request ("Setting the Modbus communication
 /// timeout"), before RDELAYM.
 pub(crate) const FRAME_SILENCE_BITS: u64 = 28;
+/// The silence that ends a request at `baud` for a module that waits `frame_timeout`
+/// (RDELAYM) longer than 28 bit times: the simulator frames by it, and the driver leaves it
+/// before a request, so the request is not heard as the end of the traffic before it.
+pub(crate) fn end_of_request_silence(baud: u32, frame_timeout: Duration) -> Duration {
+    Duration::from_nanos(FRAME_SILENCE_BITS * 1_000_000_000 / u64::from(baud.max(1)))
+        + frame_timeout
+}
+
 /// Length of one tick of the module's sampling clock, in ms.
 pub(crate) const TICK_MS: u64 = 1;
 /// Length of one blinker step, in ticks ("about a tenth of a second").
@@ -227,8 +235,7 @@ impl MiniModState {
     /// communication timeout": "a silence on the line, lasting 28 bits or more", enlarged "by
     /// a number of tenths of milliseconds comprised between 0 and 200", RDELAYM).
     pub fn frame_silence(&self, baud: u32) -> Duration {
-        Duration::from_nanos(FRAME_SILENCE_BITS * 1_000_000_000 / u64::from(baud.max(1)))
-            + self.frame_timeout()
+        end_of_request_silence(baud, self.frame_timeout())
     }
 
     /// RDELAYM: how much longer than 28 bit times the module waits for the end of a request.

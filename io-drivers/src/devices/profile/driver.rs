@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 use std::time::Duration;
 
+use crate::line::LineSettings;
 use crate::time::LineInstant;
 
 use super::plan::{self, Read};
@@ -279,7 +280,8 @@ impl Driver for ProfileDriver {
         self.profile.timing.reply_timeout
     }
 
-    fn frame_gap(&self) -> Option<Duration> {
+    fn frame_gap(&self, settings: LineSettings) -> Option<Duration> {
+        let _ = settings;
         self.profile.timing.frame_gap
     }
 }

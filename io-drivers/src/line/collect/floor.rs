@@ -76,6 +76,12 @@ impl CollectFloor {
         (self.first, self.last)
     }
 
+    /// How much later than the request's end each Collect's slots start: the members'
+    /// largest RDELAYM ([`Self::with_frame_timeout`]).
+    pub fn frame_timeout(&self) -> Duration {
+        self.frame_timeout
+    }
+
     /// Slots in the window.
     pub fn slots(&self) -> u32 {
         u32::from(self.last - self.first) + 1

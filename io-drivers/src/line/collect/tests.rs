@@ -1043,3 +1043,24 @@ fn a_lines_modules_count_every_request_on_its_wire_collect_broadcasts_included()
         "a round a cycle, and the events' Collects"
     );
 }
+
+#[test]
+fn a_late_member_hears_the_collect_that_follows_another_members_event() {
+    // Unit 5 waits 28 bit times + 10 ms (RDELAYM = 100) for a request's end; unit 4 answers
+    // the first Collect of the round with its event, so the next Collect follows traffic on
+    // the line. Unit 5 must hear that Collect as a request of its own and answer its event in
+    // the same round, with no full read.
+    const LATE: &[(&str, &str)] = &[("events", "true"), ("XLATUP1", "0"), ("RDELAYM", "100")];
+    const PROMPT: &[(&str, &str)] = &[("events", "true"), ("XLATUP1", "0")];
+    let mut r = rig(&[(4, Protocol::Modbus, PROMPT), (5, Protocol::Modbus, LATE)]);
+    r.startup();
+    r.read_at(1000);
+    r.at(1050);
+    r.set(0, "X1", true);
+    r.set(1, "X1", true);
+    let (f, sent) = r.read_at(1100);
+    assert_eq!(value(&f, 0, "X1"), Some(Value::Bool(true)));
+    assert_eq!(value(&f, 1, "X1"), Some(Value::Bool(true)), "{sent:02X?}");
+    assert!(full_reads(&sent).is_empty(), "from the events: {sent:02X?}");
+    assert_eq!(r.owner.collect_stats().events, 2, "{sent:02X?}");
+}

@@ -112,6 +112,10 @@ pub(super) fn joined(parts: &[TaskPart]) -> String {
     parts
         .iter()
         .map(|p| match (&p.answer.message, &p.answer.error) {
+            // A refusal that says so in its head ("reload refused: ...") is not said again.
+            (_, Some(e)) if e.split(':').next().is_some_and(|h| h.contains("refused")) => {
+                format!("task {}: {e}", p.task)
+            }
             (_, Some(e)) => format!("task {}: refused: {e}", p.task),
             (Some(m), None) => format!("task {}: {m}", p.task),
             (None, None) => format!("task {}: done", p.task),
@@ -134,4 +138,34 @@ pub(super) fn all_or_report(parts: Vec<TaskPart>) -> Response {
     r.locked = locked;
     r.parts = Some(parts);
     r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(task: &str, answer: Response) -> TaskPart {
+        TaskPart {
+            task: task.into(),
+            answer,
+        }
+    }
+
+    #[test]
+    fn each_tasks_refusal_is_said_once() {
+        let text = joined(&[
+            part("press", Response::done("program press.rhai unchanged")),
+            part(
+                "panel",
+                Response::refused("reload refused:\npanel.rhai:1:9: error: unknown function"),
+            ),
+            part("oven", Response::refused("no tag `heater` in task oven")),
+        ]);
+        assert_eq!(
+            text,
+            "task press: program press.rhai unchanged; task panel: reload refused:\n\
+             panel.rhai:1:9: error: unknown function; task oven: refused: no tag `heater` in \
+             task oven"
+        );
+    }
 }

@@ -111,6 +111,7 @@ use super::map::{self, POINTS};
 use super::settings::{Readback, Setting, Settings, DEFAULT_EVENT_REFRESH, DEFAULT_EVENT_RESYNC};
 use crate::devices::{DeviceConfig, ModuleSettings, Protocol};
 use crate::driver::{DecodeError, Driver, Membership, Outgoing, Reply, Transaction};
+use crate::line::LineSettings;
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
@@ -466,6 +467,16 @@ impl Driver for MiniModDriver {
     /// the end of a request, so it turns round that much later.
     fn reply_delay(&self) -> Duration {
         Duration::from_millis(10 * u64::from(self.rdelayt)) + self.frame_timeout()
+    }
+
+    /// A request that follows other traffic (another module's reply, a Collect) by less than
+    /// the module's 28 bit times + RDELAYM is heard as the end of that traffic ("Setting the
+    /// Modbus communication timeout"): the owner leaves that silence before it.
+    fn frame_gap(&self, settings: LineSettings) -> Option<Duration> {
+        Some(super::state::end_of_request_silence(
+            settings.baud,
+            self.frame_timeout(),
+        ))
     }
 }
 
