@@ -11,7 +11,8 @@
 //! and a third-party OPC UA client reading `PLC.Scans`, `PLC/Tasks/NAME/Scans` and the tags
 //! (`runtime/tests/opcua/scans_client.py`): after the first task's cycle N, its count is N
 //! and its tag says N in all of them; the fast task's count is the cycle its tag comes from
-//! (one apart at most where status or OPC UA is asked while a cycle of it ends).
+//! (one apart at most where status or OPC UA is asked while a cycle of it ends); a trace in
+//! each task samples its cycles, each numbered as its count.
 
 use crate::common::host;
 
@@ -298,6 +299,54 @@ fn each_tasks_cycle_is_its_scan_count_in_status_the_web_page_and_opcua() {
         assert_eq!(count(&status["tags"][0]["value"]), n, "{status}");
         for id in ["PLC.Scans", "PLC.Tasks.main.Scans", "Tags.n"] {
             assert_eq!(count(&opc[id]), n, "{id} in {opc} against status {status}");
+        }
+    }
+    // A trace in each task samples that task's cycles: each row's cycle is its counter.
+    let s = socket.to_str().unwrap();
+    for (task, tag) in [("main", "n"), ("other", "m")] {
+        let trigger = format!("{tag} >= 1");
+        let (ok, text) = softplc(&[
+            "trace",
+            "arm",
+            task,
+            "--tags",
+            tag,
+            "--task",
+            task,
+            "--trigger",
+            &trigger,
+            "--pre",
+            "0",
+            "--post",
+            "3",
+            "--socket",
+            s,
+        ]);
+        assert!(ok, "{text}");
+        let csv = dir.join(format!("{task}.csv"));
+        let (ok, text) = softplc(&[
+            "trace",
+            "save",
+            task,
+            "--wait",
+            "30s",
+            "--csv",
+            csv.to_str().unwrap(),
+            "--socket",
+            s,
+        ]);
+        assert!(ok, "{text}");
+        let csv = std::fs::read_to_string(&csv).unwrap();
+        let mut rows = csv.lines();
+        assert_eq!(
+            rows.next(),
+            Some(format!("time_s,cycle [task {task}],{tag} [i32]").as_str()),
+            "{csv}"
+        );
+        let rows: Vec<Vec<&str>> = rows.map(|r| r.split(',').collect()).collect();
+        assert_eq!(rows.len(), 4, "{csv}");
+        for row in rows {
+            assert_eq!(row[1], row[2], "task {task}'s cycle is its count: {csv}");
         }
     }
     assert!(
