@@ -56,6 +56,25 @@ traces:
     path
 }
 
+/// Trace `name` of the instance on `socket` once complete (within 30 s), saved as CSV into
+/// `dir`: the file's text.
+fn saved_csv(dir: &Path, name: &str, socket: &str) -> String {
+    let csv = dir.join(format!("{name}.csv"));
+    let (ok, text) = softplc(&[
+        "trace",
+        "save",
+        name,
+        "--wait",
+        "30s",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--socket",
+        socket,
+    ]);
+    assert!(ok, "{text}");
+    std::fs::read_to_string(&csv).unwrap()
+}
+
 fn json(text: &str) -> serde_json::Value {
     serde_json::from_str(text).unwrap_or_else(|e| panic!("{e}: {text}"))
 }
@@ -81,21 +100,8 @@ fn one_event_has_one_cycle_number_in_status_trace_record_and_replay() {
     );
 
     // The trace: the rise is sampled in cycle 40, at 390 ms (the first cycle starts at 0).
-    let csv = dir.join("marked.csv");
-    let (ok, text) = softplc(&[
-        "trace",
-        "save",
-        "marked",
-        "--wait",
-        "30s",
-        "--csv",
-        csv.to_str().unwrap(),
-        "--socket",
-        s,
-    ]);
-    assert!(ok, "{text}");
     assert_eq!(
-        std::fs::read_to_string(&csv).unwrap(),
+        saved_csv(&dir, "marked", s),
         "time_s,cycle,n [i32],mark [bool]\n\
          0.380000000,39,39,0\n\
          0.390000000,40,40,1\n\
@@ -323,20 +329,7 @@ fn each_tasks_cycle_is_its_scan_count_in_status_the_web_page_and_opcua() {
             s,
         ]);
         assert!(ok, "{text}");
-        let csv = dir.join(format!("{task}.csv"));
-        let (ok, text) = softplc(&[
-            "trace",
-            "save",
-            task,
-            "--wait",
-            "30s",
-            "--csv",
-            csv.to_str().unwrap(),
-            "--socket",
-            s,
-        ]);
-        assert!(ok, "{text}");
-        let csv = std::fs::read_to_string(&csv).unwrap();
+        let csv = saved_csv(&dir, task, s);
         let mut rows = csv.lines();
         assert_eq!(
             rows.next(),
