@@ -101,7 +101,7 @@ fn http(addr: &str, request: &str) -> (u16, String) {
     (status, body)
 }
 
-fn get(addr: &str, path: &str) -> String {
+pub(crate) fn get(addr: &str, path: &str) -> String {
     let (code, body) = http(
         addr,
         &format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"),

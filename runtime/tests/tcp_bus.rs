@@ -3,34 +3,16 @@
 //! drives the seed modules behind it (an input set on the simulator reaches an output through
 //! the program). Loopback, a free port, bounded in time.
 
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{channel, Receiver};
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
 
 /// `softplc sim --tcp 127.0.0.1:0 …`: the child, its stdin, its stdout lines.
 fn sim(args: &[&str]) -> (Child, ChildStdin, Receiver<String>) {
-    let mut child = Command::new(BIN)
-        .arg("sim")
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let stdin = child.stdin.take().unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let (tx, rx) = channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
-                break;
-            }
-        }
-    });
-    (child, stdin, rx)
+    crate::common::host::spawn_piped(Command::new(BIN).arg("sim").args(args))
 }
 
 fn line_with(rx: &Receiver<String>, needle: &str, within: Duration) -> Option<String> {

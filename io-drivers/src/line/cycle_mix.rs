@@ -67,6 +67,10 @@ pub struct CycleMix {
     pub per_event: Option<Duration>,
     /// The period of each module's rewrite of every output (`output_refresh`).
     pub output_refresh: Duration,
+    /// The silence the line keeps between two exchanges (t3.5). Each cost above counts it
+    /// after the reply; the bus owner keeps it before its next request, so an answer is in
+    /// that much before its cost ends.
+    pub gap: Duration,
     /// Per module.
     pub modules: Vec<ModuleMix>,
 }
@@ -146,6 +150,7 @@ impl CycleMix {
             ordinary,
             per_event,
             output_refresh,
+            gap: settings.t3_5(),
             modules: mixes,
         }
     }
@@ -153,16 +158,31 @@ impl CycleMix {
     /// The overruns of a run at `period` with idle inputs and unchanged outputs, from playing
     /// the line's rules forward for a minute on the scan's grid.
     pub fn predict(&self, period: Duration) -> Prediction {
-        let mut line = Model::new(self);
+        Self::predict_together([self], period)
+    }
+
+    /// The overruns of a scan driving all of `lines` at `period` (a task's lines, or a
+    /// project's without tasks): each line plays its own rules as in [`CycleMix::predict`],
+    /// and they meet where the scan joins them. Every line's read starts at the cycle's
+    /// start, the program runs once the slowest has delivered (or at the one deadline, nine
+    /// tenths of the period), each line's write follows it behind that line's own work, and
+    /// the cycle overruns when any line's work ends after the period. So two lines whose
+    /// refreshes fall on different cycles overrun on both sets, and a slow line's read delays
+    /// a fast line's write.
+    pub fn predict_together<'a>(
+        lines: impl IntoIterator<Item = &'a CycleMix>,
+        period: Duration,
+    ) -> Prediction {
+        let mut models: Vec<Model<'a>> = lines.into_iter().map(Model::new).collect();
         let period = period.max(Duration::from_micros(100));
         let cycles = (HORIZON.as_nanos() / period.as_nanos()).max(2) as u64;
         let mut overruns = 0u64;
         let mut longest = Duration::ZERO;
         let mut first = Duration::ZERO;
         for k in 0..cycles {
-            // The model's line keeps the scan's grid: it is the line a virtual clock runs.
+            // The model's lines keep the scan's grid: they are the lines a virtual clock runs.
             let start = LineInstant::after_origin(period * u32::try_from(k).unwrap_or(u32::MAX));
-            let end = line.cycle(start, period);
+            let end = cycle(&mut models, start, period);
             let took = end - start;
             if k == 0 {
                 first = took;
@@ -176,7 +196,7 @@ impl CycleMix {
         let counted = cycles - 1;
         Prediction {
             period,
-            inputs_in_time: self.ordinary <= period * 9 / 10,
+            inputs_in_time: models.iter().all(|l| l.mix.ordinary <= period * 9 / 10),
             per_minute: overruns as f64 * 60.0 / (counted as f64 * period.as_secs_f64()),
             share: overruns as f64 / counted as f64,
             longest,
@@ -185,12 +205,39 @@ impl CycleMix {
     }
 }
 
-/// The line as [`CycleMix::predict`] plays it: when its work ends, and each module's
+/// One cycle of the scan starting at `start` over `lines`: each line's read (unless its last
+/// one still runs), the program once every line delivered or at the deadline, then each
+/// line's write behind whatever that line is doing; returns when the last line's work for it
+/// ends (`start` with no line).
+fn cycle(lines: &mut [Model<'_>], start: LineInstant, period: Duration) -> LineInstant {
+    let deadline = start + period * 9 / 10;
+    let delivered = lines
+        .iter_mut()
+        .map(|line| line.deliver(start))
+        .max()
+        .unwrap_or(start);
+    let scan = delivered.min(deadline).max(start);
+    lines
+        .iter_mut()
+        .map(|line| line.write(scan))
+        .max()
+        .unwrap_or(start)
+}
+
+/// A line as [`CycleMix::predict_together`] plays it: when its work ends, and each module's
 /// refresh times, as the bus owner keeps them.
+///
+/// Each exchange's cost counts the line's silence (t3.5) after its reply, but the bus owner
+/// keeps that silence before its next request: an answer is in (a read delivered, a write
+/// acknowledged) a gap before its cost ends, and the next exchange starts no sooner than a
+/// gap after it. At 9600 Bd that is 4 ms, the difference between a read that makes the
+/// scan's deadline and one that does not.
 struct Model<'a> {
     mix: &'a CycleMix,
-    /// The line is busy until then.
-    busy: LineInstant,
+    /// The end of the line's last exchange (its answer in).
+    last_byte: LineInstant,
+    /// The earliest the next exchange starts: the last one's end and the line's silence.
+    ready: LineInstant,
     /// The end of the last read started.
     read_end: LineInstant,
     last_full_read: Vec<Option<LineInstant>>,
@@ -203,7 +250,8 @@ impl<'a> Model<'a> {
         let n = mix.modules.len();
         Self {
             mix,
-            busy: LineInstant::ZERO,
+            last_byte: LineInstant::ZERO,
+            ready: LineInstant::ZERO,
             read_end: LineInstant::ZERO,
             last_full_read: vec![None; n],
             last_rewrite: vec![None; n],
@@ -211,25 +259,34 @@ impl<'a> Model<'a> {
         }
     }
 
-    /// One cycle starting at `start`: its read (unless the last one still runs), then its
-    /// write behind whatever the line is doing; returns when the line's work for it ends.
-    fn cycle(&mut self, start: LineInstant, period: Duration) -> LineInstant {
-        let deadline = start + period * 9 / 10;
-        let delivered = if self.read_end > start {
-            // The last read still runs: no new one; its answer is this cycle's if in time.
-            self.read_end
-        } else {
-            self.read(start.max(self.busy))
-        };
-        let scan = delivered.min(deadline).max(start);
-        self.write(scan.max(self.busy));
-        self.busy
+    /// Exchanges costing `cost` in all, asked for at `at`: they start once the line is free
+    /// and its silence kept; returns when the last one's answer is in (with none: `at`, or
+    /// the end of the line's last exchange if later, as the owner answers at once).
+    fn exchange(&mut self, at: LineInstant, cost: Duration) -> LineInstant {
+        if cost.is_zero() {
+            return self.last_byte.max(at);
+        }
+        let begin = at.max(self.ready);
+        self.ready = begin + cost;
+        self.last_byte = (self.ready - self.mix.gap).max(begin);
+        self.last_byte
     }
 
-    /// A read starting at `at`: the ordinary reads and round, then the members' full reads
+    /// The cycle starting at `start`'s input from this line: a read (unless the last one
+    /// still runs, whose answer is then this cycle's if in time); returns when it delivers.
+    fn deliver(&mut self, start: LineInstant) -> LineInstant {
+        if self.read_end > start {
+            self.read_end
+        } else {
+            self.read(start)
+        }
+    }
+
+    /// A read asked for at `at`: the ordinary reads and round, then the members' full reads
     /// the owner picks after the round (line/collect.rs).
     fn read(&mut self, at: LineInstant) -> LineInstant {
-        let after = at + self.mix.ordinary;
+        let begin = at.max(self.ready);
+        let after = begin + self.mix.ordinary;
         let mut pick = Pick::default();
         for (m, module) in self.mix.modules.iter().enumerate() {
             let Some(full) = module.full_read else {
@@ -251,22 +308,28 @@ impl<'a> Model<'a> {
             ));
             pick.offer(m, urgency);
         }
-        let mut end = after;
+        let mut cost = self.mix.ordinary;
+        let mut chosen = Vec::new();
         for m in pick.chosen().collect::<Vec<_>>() {
             if let Some(full) = self.mix.modules[m].full_read {
-                end += full.cost;
+                cost += full.cost;
                 self.last_full_read[m] = Some(after);
-                self.last_answered[m] = Some(end);
+                chosen.push(m);
             }
         }
+        let end = self.exchange(begin, cost);
+        for m in chosen {
+            self.last_answered[m] = Some(end);
+        }
         self.read_end = end;
-        self.busy = end;
         end
     }
 
-    /// A write starting at `at`: nothing changed, so only the rewrites the owner picks
-    /// (bus.rs `output_refreshes`).
-    fn write(&mut self, at: LineInstant) {
+    /// A write asked for at `at` (the program's end): nothing changed, so only the rewrites
+    /// the owner picks once the line has answered its read (bus.rs `output_refreshes`);
+    /// returns when the write is acknowledged, the cycle's work done on this line.
+    fn write(&mut self, at: LineInstant) -> LineInstant {
+        let at = at.max(self.last_byte);
         let mut pick = Pick::default();
         for (m, module) in self.mix.modules.iter().enumerate() {
             if module.rewrite.is_some() {
@@ -276,15 +339,20 @@ impl<'a> Model<'a> {
                 );
             }
         }
-        let mut end = at;
+        let mut cost = Duration::ZERO;
+        let mut chosen = Vec::new();
         for m in pick.chosen().collect::<Vec<_>>() {
-            if let Some(cost) = self.mix.modules[m].rewrite {
-                end += cost;
+            if let Some(rewrite) = self.mix.modules[m].rewrite {
+                cost += rewrite;
                 self.last_rewrite[m] = Some(at);
-                self.last_answered[m] = Some(end);
+                chosen.push(m);
             }
         }
-        self.busy = end;
+        let end = self.exchange(at, cost);
+        for m in chosen {
+            self.last_answered[m] = Some(end);
+        }
+        end.max(at)
     }
 }
 
@@ -313,6 +381,7 @@ mod tests {
             ordinary: Duration::from_micros(13_590),
             per_event: Some(Duration::from_micros(8_740)),
             output_refresh: ms(1000),
+            gap: Duration::from_micros(2_005),
             modules: vec![module("mm1"), module("mm2")],
         }
     }
@@ -322,10 +391,11 @@ mod tests {
         let p = quick_start().predict(ms(100));
         assert_eq!(p.per_minute, 0.0, "{p:?}");
         assert!(p.inputs_in_time);
-        // The first cycle reads and writes every module in full.
+        // The first cycle reads and writes every module in full; its last write is
+        // acknowledged before the line's silence after it.
         assert_eq!(
             p.first,
-            Duration::from_micros(13_590 + 2 * 20_600 + 2 * 21_170)
+            Duration::from_micros(13_590 + 2 * 20_600 + 2 * 21_170 - 2_005)
         );
     }
 
@@ -351,5 +421,31 @@ mod tests {
         let p = quick_start().predict(ms(10));
         assert!(!p.inputs_in_time);
         assert!(p.share > 0.5 && p.share < 0.6, "{p:?}");
+    }
+
+    #[test]
+    fn a_slow_line_beside_holds_back_the_other_lines_writes() {
+        // A line of plain reads taking 20 ms never overruns at 34 ms alone. Beside the quick
+        // start's line the program runs once the slow read is in (18 ms, not 11.59 ms), so
+        // every rewrite on the quick start's line is acknowledged 6.4 ms later: rewrites that
+        // fitted their cycle alone (from 13.59 ms, acknowledged at 32.76 ms) now run past it
+        // (37.16 ms). The scan overruns more often than either line alone says.
+        let slow = CycleMix {
+            ordinary: ms(20),
+            per_event: None,
+            output_refresh: ms(1000),
+            gap: Duration::from_micros(2_005),
+            modules: Vec::new(),
+        };
+        let quick = quick_start();
+        let alone = quick.predict(ms(34));
+        assert_eq!(slow.predict(ms(34)).per_minute, 0.0);
+        let both = CycleMix::predict_together([&quick, &slow], ms(34));
+        assert!(
+            both.per_minute > alone.per_minute + 50.0,
+            "{both:?} against {alone:?}"
+        );
+        // The line played alone is the line played with nothing beside it.
+        assert_eq!(CycleMix::predict_together([&quick], ms(34)), alone);
     }
 }

@@ -113,6 +113,9 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
     }
     let mut worst = std::time::Duration::ZERO;
     let mut warnings = Vec::new();
+    // Each serial line's cycle mix by the task driving it, played together below.
+    let mut scans: Vec<Vec<(String, softplc_io::line::CycleMix)>> =
+        vec![Vec::new(); project.tasks.len().max(1)];
     for (b, bus) in project.buses.iter().enumerate() {
         let port = match &bus.port {
             PortConfig::Sim => "sim (simulated modules)".to_string(),
@@ -315,6 +318,25 @@ fn report_on(project: &Project, sysfs: &SysfsRoot, execution: Option<&str>) -> S
             let _ = writeln!(out, "  {line}");
         }
         warnings.extend(cycle_mix::warning(&bus.name, &prediction));
+        if let Some(lines) = scans.get_mut(project.task_of_bus(b)) {
+            lines.push((bus.name.clone(), mix));
+        }
+    }
+    // A scan of several lines overruns when any of them does, and a slow line's read holds
+    // the others' writes back: its own prediction, not the lines' apart.
+    for (t, lines) in scans.iter().enumerate() {
+        let task = project.multitask().then(|| project.tasks[t].name.as_str());
+        // One line's own prediction above is its scan's.
+        if lines.is_empty() || (task.is_none() && lines.len() == 1) {
+            continue;
+        }
+        let period = project.tasks.get(t).map_or(scan.period, |t| t.scan.period);
+        let p = softplc_io::line::CycleMix::predict_together(lines.iter().map(|(_, m)| m), period);
+        let names: Vec<&str> = lines.iter().map(|(name, _)| name.as_str()).collect();
+        let _ = writeln!(out, "\n{}", cycle_mix::scan_line(task, &names, &p));
+        if lines.len() > 1 {
+            warnings.extend(cycle_mix::scan_warning(task, &p));
+        }
     }
     let memory: Vec<_> = project
         .tags

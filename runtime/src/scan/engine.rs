@@ -335,6 +335,8 @@ impl ScanEngine {
         if outputs_end - last_published >= Duration::from_millis(200) {
             last_published = outputs_end;
             self.publish(stats, outputs_end);
+        } else {
+            self.publish_counts(stats);
         }
         let end = clock.now();
 
@@ -435,6 +437,17 @@ impl ScanEngine {
             reason,
             stats,
             modules: self.plc.module_status().to_vec(),
+        }
+    }
+
+    /// The counts alone, every cycle between two refreshes: another task's status reads
+    /// them beside the tags this task published at this cycle's end, so its `scans` is the
+    /// cycle its values come from (a fast task's were up to 200 ms behind).
+    fn publish_counts(&self, stats: &ScanStats) {
+        // Never block the scan on a reader: a busy lock keeps the last counts a cycle more.
+        if let Ok(mut s) = self.status.try_lock() {
+            s.cycles = stats.cycles;
+            s.overruns = stats.overruns;
         }
     }
 

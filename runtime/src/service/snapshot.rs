@@ -368,6 +368,13 @@ impl Publisher {
                 if let Some(c) = s.task_cycles.get_mut(share.task()) {
                     *c = stats.cycles;
                 }
+                // Its figures' counts with its tags, at every publication: `PLC.Tasks.NAME.Scans`
+                // is the task's cycle its values come from, not the count its scan last
+                // published for the status line (every 200 ms, after the boundary).
+                if let Some(t) = s.tasks.get_mut(share.task()) {
+                    t.scans = stats.cycles;
+                    t.overruns = stats.overruns;
+                }
                 if let Some(f) = s.task_stopped.get_mut(share.task()) {
                     *f = final_;
                 }
@@ -418,9 +425,23 @@ impl Publisher {
             for (slot, phase) in s.phases.iter_mut().zip(Phase::ALL) {
                 *slot = PhaseSummary::of(phase.histogram(stats));
             }
+            // The live figures' percentiles, with each task's scans at its latest publication
+            // here (the cycle its tags come from; its live figures may be a cycle either
+            // side) and overruns that never go back.
+            let overruns: Vec<u64> = s.tasks.iter().map(|t| t.overruns).collect();
             s.tasks.clear();
             s.tasks
                 .extend(self.tasks.iter().filter_map(super::status::TaskReport::of));
+            for (i, t) in s.tasks.iter_mut().enumerate() {
+                t.scans = s.task_cycles.get(i).copied().unwrap_or(t.scans);
+                t.overruns = t.overruns.max(overruns.get(i).copied().unwrap_or_default());
+            }
+            if let Some((share, _)) = &self.share {
+                if let Some(t) = s.tasks.get_mut(share.task()) {
+                    t.scans = stats.cycles;
+                    t.overruns = stats.overruns;
+                }
+            }
             s.lost_changes.clear();
             s.lost_changes
                 .extend(self.feeds.iter().map(|(name, c)| (*name, c.lost())));

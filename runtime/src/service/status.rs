@@ -263,9 +263,16 @@ impl StatusReport {
             None => return self,
         };
         for (i, t) in tasks.iter().enumerate() {
-            let Some(report) = TaskReport::of(t) else {
+            let Some(mut report) = TaskReport::of(t) else {
                 continue;
             };
+            if i == 0 {
+                // The first task answers at its own boundary: its counts are the report's,
+                // after this cycle, not as its scan last published them (a cycle or more
+                // before, so `scans` said N and the task's own entry N - 1).
+                report.scans = self.scans;
+                report.overruns = self.overruns;
+            }
             self.tasks.push(report);
             let Ok(live) = t.live.lock() else { continue };
             if i > 0 {

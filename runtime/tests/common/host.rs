@@ -121,6 +121,27 @@ pub(crate) fn lines_of(r: impl std::io::Read + Send + 'static) -> Receiver<Strin
     rx
 }
 
+/// `command` spawned with its stdin and stdout piped (stderr dropped): the child, its stdin,
+/// and its stdout's lines as they come ([`lines_of`]).
+pub(crate) fn spawn_piped(
+    command: &mut std::process::Command,
+) -> (
+    std::process::Child,
+    std::process::ChildStdin,
+    Receiver<String>,
+) {
+    use std::process::Stdio;
+    let mut child = command
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{command:?} does not start: {e}"));
+    let stdin = child.stdin.take().expect("its stdin, piped");
+    let lines = lines_of(child.stdout.take().expect("its stdout, piped"));
+    (child, stdin, lines)
+}
+
 /// A running `softplc run`, stopped (SIGTERM) when dropped.
 pub(crate) struct Running(pub(crate) std::process::Child);
 

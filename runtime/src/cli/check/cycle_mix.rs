@@ -55,17 +55,64 @@ pub(super) fn lines(mix: &CycleMix, p: &Prediction) -> Vec<String> {
     vec![
         format!("cycle mix: {}", kinds.join("; ")),
         format!(
-            "predicted at {} with idle inputs and unchanged outputs: {:.0} overrun(s) a minute \
-             ({:.1}% of cycles), the longest cycle {}; the first cycle {} (every module read \
-             and written in full); each input change and each output the program changes adds \
-             its cost to its cycle",
-            fmt_duration(p.period),
-            p.per_minute,
-            p.share * 100.0,
-            fmt_duration(p.longest),
-            fmt_duration(p.first)
+            "{}; each input change and each output the program changes adds its cost to its \
+             cycle",
+            predicted(p)
         ),
     ]
+}
+
+/// The prediction at the period: `predicted at 20.00ms with idle inputs and unchanged
+/// outputs: 321 overrun(s) a minute (10.7% of cycles), the longest cycle …; the first cycle …`.
+fn predicted(p: &Prediction) -> String {
+    format!(
+        "predicted at {} with idle inputs and unchanged outputs: {:.0} overrun(s) a minute \
+         ({:.1}% of cycles), the longest cycle {}; the first cycle {} (every module read and \
+         written in full)",
+        fmt_duration(p.period),
+        p.per_minute,
+        p.share * 100.0,
+        fmt_duration(p.longest),
+        fmt_duration(p.first)
+    )
+}
+
+/// What `check` says of a scan's lines played together (`CycleMix::predict_together`):
+/// `task` names the task (`None`: the project's one scan), `lines` its serial lines.
+pub(super) fn scan_line(task: Option<&str>, lines: &[&str], p: &Prediction) -> String {
+    let whose = whose(task);
+    let on = match lines {
+        [one] => format!("on line {one}"),
+        _ => format!(
+            "on lines {} together (a cycle waits for the slowest read and overruns when any \
+             line's work runs past its period)",
+            lines.join(", ")
+        ),
+    };
+    format!("{whose} {on}: {}", predicted(p))
+}
+
+/// `task NAME`, or `the scan` of a project without tasks.
+fn whose(task: Option<&str>) -> String {
+    match task {
+        Some(name) => format!("task {name}"),
+        None => "the scan".to_owned(),
+    }
+}
+
+/// The warning for a scan of several lines that will overrun as a whole (each line's own
+/// warning says what it does alone).
+pub(super) fn scan_warning(task: Option<&str>, p: &Prediction) -> Option<String> {
+    let whose = whose(task);
+    (p.per_minute > 0.0).then(|| {
+        format!(
+            "warning: {whose}: {:.1}% of its cycles will overrun at the period {} ({:.0} a \
+             minute with idle inputs, its lines together)",
+            p.share * 100.0,
+            fmt_duration(p.period),
+            p.per_minute
+        )
+    })
 }
 
 /// The warning for a line whose cycles will overrun at the scan period, if they will.

@@ -87,7 +87,7 @@ fn a_16_ms_latency_timer_is_counted_in_every_transaction_of_the_budget() {
     assert!(
         report.contains(
             "warning: bus line1: 13.3% of cycles will overrun at the period 50.00ms (159 a \
-             minute with idle inputs: the cycles that carry a refresh, up to 73.77ms)"
+             minute with idle inputs: the cycles that carry a refresh, up to 71.77ms)"
         ),
         "{report}"
     );

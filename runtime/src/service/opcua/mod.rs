@@ -451,6 +451,8 @@ impl Updater {
         };
         let mut last_stats = None;
         let mut last_alarms = None;
+        // Each task's latest cycle whose changes are in the address space.
+        let mut task_scans = vec![0u64; self.layout.tasks.len()];
         // Cycles taken from the feed and not applied yet: until the first snapshot is in the
         // address space, so a client that sees a tag's first value sees the PLC's figures too.
         let mut held: Vec<Delivery> = Vec::new();
@@ -466,18 +468,38 @@ impl Updater {
             }
             // The snapshot before the rest of the queue: every cycle it shows is in the queue
             // already (the scan offers a cycle's changes before it publishes).
-            let snap = self.snapshot.get();
+            let mut snap = self.snapshot.get();
             held.extend(self.changes.receiver().try_iter());
-            if snap.published && last_stats != Some((snap.cycles, snap.stats_seq, snap.stopped)) {
-                last_stats = Some((snap.cycles, snap.stats_seq, snap.stopped));
+            at_least_delivered(&mut snap, &task_scans);
+            // Every task's cycle counts in the key: a task faster than the first one moves its
+            // `PLC.Tasks.NAME.Scans` with its tags, not at the first task's cycles.
+            let key = (
+                snap.cycles,
+                snap.task_cycles.iter().sum::<u64>(),
+                snap.stats_seq,
+                snap.stopped,
+            );
+            if snap.published && last_stats != Some(key) {
+                last_stats = Some(key);
                 set(updates.diagnostics(&self.layout, &snap, DateTime::now()));
             }
             if last_stats.is_none() && !ended {
                 continue;
             }
             let now = DateTime::now();
+            let mut moved = false;
             for d in held.drain(..) {
                 set_cycle(&d, updates.tag_changes(&self.layout, &d, now));
+                if let Some(scans) = task_scans.get_mut(d.cycle.task) {
+                    moved |= d.cycle.cycle > *scans;
+                    *scans = (*scans).max(d.cycle.cycle);
+                }
+            }
+            if moved && snap.published {
+                // A task's Scans with the tags of its cycle: the snapshot may lag a delivery
+                // (a task's publication skipped while a reader held it).
+                at_least_delivered(&mut snap, &task_scans);
+                set(updates.diagnostics(&self.layout, &snap, now));
             }
             if let Some(a) = &self.alarms {
                 if last_alarms != Some(a.generation()) {
@@ -492,5 +514,14 @@ impl Updater {
                 return;
             }
         }
+    }
+}
+
+/// `snap`'s task figures with each task's Scans at least the latest cycle of it delivered
+/// (`delivered`, in task order): a task's `PLC.Tasks.NAME.Scans` never says a cycle before
+/// the one its tags in the address space come from.
+fn at_least_delivered(snap: &mut crate::service::ServiceSnapshot, delivered: &[u64]) {
+    for (t, &cycle) in snap.tasks.iter_mut().zip(delivered) {
+        t.scans = t.scans.max(cycle);
     }
 }
