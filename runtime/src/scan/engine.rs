@@ -358,6 +358,7 @@ impl ScanEngine {
             return Some(StopReason::Watchdog(trip));
         }
 
+        let cycle_deadline = deadline;
         previous = Some(deadline);
         deadline += period;
         // A cycle whose writes were still running at its period's end overran, even when
@@ -391,6 +392,7 @@ impl ScanEngine {
             overruns.note(
                 end,
                 skipped,
+                start - cycle_deadline,
                 [
                     ("inputs", read_end - start),
                     ("logic", logic_end - read_end),

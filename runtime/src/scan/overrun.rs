@@ -9,6 +9,9 @@ use crate::scan::stats::{fmt_duration, ScanInstant};
 /// The least time between two overrun lines.
 const EVERY: Duration = Duration::from_secs(10);
 
+/// A wake-up later than this after the cycle's deadline is named in the line.
+const NOTABLE_LATENESS: Duration = Duration::from_millis(1);
+
 /// Rate-limited overrun logging.
 #[derive(Debug)]
 pub(crate) struct OverrunLog {
@@ -27,12 +30,13 @@ impl OverrunLog {
         }
     }
 
-    /// Records an overrun at `now` that skipped `skipped` deadlines, with the cycle's phases;
-    /// returns the line it logged, if any.
+    /// Records an overrun at `now` that skipped `skipped` deadlines, with the cycle's phases
+    /// and how late it started after its deadline; returns the line it logged, if any.
     pub(crate) fn note<const N: usize>(
         &mut self,
         now: ScanInstant,
         skipped: u128,
+        late: Duration,
         phases: [(&str, Duration); N],
     ) -> Option<String> {
         self.quiet += 1;
@@ -60,9 +64,16 @@ impl OverrunLog {
         } else {
             format!("{skipped} deadline(s) skipped")
         };
+        // A cycle that woke late (a busy machine, another thread at a higher priority) can
+        // overrun in less than its period: say so, or "took 76ms against 100ms" reads wrong.
+        let started = if late >= NOTABLE_LATENESS {
+            format!("started {} late and ", fmt_duration(late))
+        } else {
+            String::new()
+        };
         let line = format!(
-            "overrun: the cycle took {} against a period of {}, {skipped}; longest phase \
-             {worst} {} ({detail}){since}",
+            "overrun: the cycle {started}took {} against a period of {}, {skipped}; longest \
+             phase {worst} {} ({detail}){since}",
             fmt_duration(cycle),
             fmt_duration(self.period),
             fmt_duration(took),
@@ -93,6 +104,7 @@ mod tests {
             .note(
                 at(1_000),
                 1,
+                Duration::ZERO,
                 [("inputs", ms(20)), ("logic", ms(130)), ("outputs", ms(5))],
             )
             .expect("logged");
@@ -111,6 +123,7 @@ mod tests {
             .note(
                 at(1_000),
                 0,
+                Duration::ZERO,
                 [("inputs", ms(13)), ("logic", ms(0)), ("outputs", ms(21))],
             )
             .expect("logged");
@@ -125,14 +138,40 @@ mod tests {
     }
 
     #[test]
+    fn a_cycle_that_woke_late_says_so_beside_a_time_under_its_period() {
+        let mut log = OverrunLog::new(ms(100));
+        let line = log
+            .note(
+                at(1_000),
+                0,
+                ms(24),
+                [("inputs", ms(70)), ("logic", ms(0)), ("outputs", ms(6))],
+            )
+            .expect("logged");
+        assert!(
+            line.starts_with(
+                "overrun: the cycle started 24.00ms late and took 76.00ms against a period of \
+                 100.00ms, no deadline skipped"
+            ),
+            "{line}"
+        );
+    }
+
+    #[test]
     fn later_ones_are_counted_into_one_line_every_ten_seconds() {
         let mut log = OverrunLog::new(ms(100));
         let phases = [("inputs", ms(90)), ("logic", ms(1)), ("outputs", ms(20))];
-        assert!(log.note(at(0), 1, phases).is_some());
+        assert!(log.note(at(0), 1, Duration::ZERO, phases).is_some());
         for t in 1..100 {
-            assert_eq!(log.note(at(t * 100), 1, phases), None, "at {t}");
+            assert_eq!(
+                log.note(at(t * 100), 1, Duration::ZERO, phases),
+                None,
+                "at {t}"
+            );
         }
-        let line = log.note(at(10_000), 2, phases).expect("ten seconds on");
+        let line = log
+            .note(at(10_000), 2, Duration::ZERO, phases)
+            .expect("ten seconds on");
         assert!(line.contains("longest phase inputs 90.00ms"), "{line}");
         assert!(
             line.ends_with("(100 overruns since the last line)"),
