@@ -507,7 +507,8 @@ fn start_up_verifies_the_configuration() {
         settings: &edge,
     };
     let mut r = rig(DCON_LINE, &[spec("ex9053d", Protocol::Text)], None);
-    let e = r.startup().unwrap_err();
+    let logs = Logs::default();
+    let e = tracing::subscriber::with_default(logs.clone(), || r.startup().unwrap_err());
     assert!(matches!(
         e.error,
         TxError::Decode(DecodeError::Mismatch {
@@ -516,6 +517,17 @@ fn start_up_verifies_the_configuration() {
             ..
         })
     ));
+    // DCON without checksum: the differing `$012` answer is asked again before it is
+    // believed, and explained once.
+    let config_reads = r
+        .sent
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|f| f.as_slice() == b"$012\r")
+        .count();
+    assert_eq!(config_reads, 2);
+    assert_eq!(logs.matching("counter edge differs").len(), 1);
     // Modbus: written and read back.
     let mut r = rig(
         LineSettings::DEFAULT,

@@ -108,15 +108,15 @@ impl Logs {
     }
 }
 
-struct Rig {
-    clock: Arc<VirtualClock>,
-    world: SharedWorld,
-    owner: BusOwner,
+pub(crate) struct Rig {
+    pub(crate) clock: Arc<VirtualClock>,
+    pub(crate) world: SharedWorld,
+    pub(crate) owner: BusOwner,
     sent: Arc<Mutex<Vec<Vec<u8>>>>,
     y1: usize,
 }
 
-fn rig(protocol: Protocol, settings: &[(&str, &str)]) -> Rig {
+pub(crate) fn rig(protocol: Protocol, settings: &[(&str, &str)]) -> Rig {
     rig_on(WatchdogRegisters::Table, protocol, settings)
 }
 
@@ -159,7 +159,7 @@ fn rig_on(registers: WatchdogRegisters, protocol: Protocol, settings: &[(&str, &
 }
 
 impl Rig {
-    fn startup(&mut self) {
+    pub(crate) fn startup(&mut self) {
         self.owner.sync(self.clock.line_now());
         self.owner.startup().unwrap();
         let now = self.owner.now();
@@ -167,7 +167,7 @@ impl Rig {
     }
 
     /// One scan: read, then write Y1 = `y1`; the next starts a period later.
-    fn cycle(&mut self, y1: bool) -> InputFrame {
+    pub(crate) fn cycle(&mut self, y1: bool) -> InputFrame {
         let start = self.clock.now();
         self.owner.sync(start.on_line_clock());
         let frame = self.owner.read_inputs();
@@ -181,22 +181,22 @@ impl Rig {
         frame
     }
 
-    fn sim(&self, point: &str) -> Value {
+    pub(crate) fn sim(&self, point: &str) -> Value {
         let mut w = self.world.lock().unwrap();
         w.advance_to(self.clock.line_now());
         w.get(0, point).unwrap()
     }
 
-    fn set_dead(&self, dead: bool) {
+    pub(crate) fn set_dead(&self, dead: bool) {
         self.world.lock().unwrap().faults_mut().set_dead(0, dead);
     }
 
-    fn take_sent(&self) -> Vec<Vec<u8>> {
+    pub(crate) fn take_sent(&self) -> Vec<Vec<u8>> {
         std::mem::take(&mut *self.sent.lock().unwrap())
     }
 }
 
-fn rtu(bytes: &[u8]) -> Vec<u8> {
+pub(crate) fn rtu(bytes: &[u8]) -> Vec<u8> {
     let mut f = bytes.to_vec();
     append_crc(&mut f);
     f
