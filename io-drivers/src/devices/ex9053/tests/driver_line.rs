@@ -14,7 +14,7 @@ use crate::line::budget::{line_budget, transaction_time};
 use crate::line::bus::{BusOwner, Discipline, InputFrame, Module, StartupError, TxError};
 use crate::line::{LineSettings, Parity, SerialFormat};
 use crate::point::{Quality, Value};
-use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use crate::sim::line::{SharedWorld, SimWorld};
 use crate::sim::plant::{Plant, PlantIo};
 use crate::time::{Clock, LineInstant, ScanInstant, VirtualClock};
 
@@ -69,11 +69,7 @@ fn rig(line: LineSettings, specs: &[Spec<'_>], plant: Option<Wired>) -> Rig {
     }
     let world = world.shared();
     let clock = Arc::new(VirtualClock::new());
-    let sent = Arc::new(Mutex::new(Vec::new()));
-    let port = Tap {
-        port: VirtualPort::new(world.clone(), 0, line, clock.clone()),
-        sent: sent.clone(),
-    };
+    let (port, sent) = Tap::on(&world, line, &clock);
     let discipline = Discipline {
         response_timeout: Duration::from_millis(50),
         retries: 0,

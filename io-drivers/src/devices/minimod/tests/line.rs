@@ -30,6 +30,22 @@ pub(crate) struct Tap {
     pub(crate) sent: Arc<Mutex<Vec<Vec<u8>>>>,
 }
 
+impl Tap {
+    /// The master's end of line 0 of `world`, and the frames it will have sent.
+    pub(crate) fn on(
+        world: &SharedWorld,
+        line: LineSettings,
+        clock: &Arc<VirtualClock>,
+    ) -> (Self, Arc<Mutex<Vec<Vec<u8>>>>) {
+        let sent = Arc::new(Mutex::new(Vec::new()));
+        let tap = Tap {
+            port: VirtualPort::new(world.clone(), 0, line, clock.clone()),
+            sent: sent.clone(),
+        };
+        (tap, sent)
+    }
+}
+
 impl Transport for Tap {
     fn settings(&self) -> LineSettings {
         self.port.settings()
@@ -131,11 +147,7 @@ fn rig_on(registers: WatchdogRegisters, protocol: Protocol, settings: &[(&str, &
     let driver = (model.driver)(&config);
     let world = world.shared();
     let clock = Arc::new(VirtualClock::new());
-    let sent = Arc::new(Mutex::new(Vec::new()));
-    let port = Tap {
-        port: VirtualPort::new(world.clone(), 0, line, clock.clone()),
-        sent: sent.clone(),
-    };
+    let (port, sent) = Tap::on(&world, line, &clock);
     let discipline = Discipline {
         response_timeout: Duration::from_millis(50),
         retries: 0,
