@@ -69,8 +69,9 @@ impl Outgoing {
 /// reply that passed is what the device holds, and it is believed at once. A text reply
 /// without a check (MiniMod text protocol, RESI ASCII, DCON without checksum) can carry a
 /// character with a flipped bit that reads as another plausible digit (`WDTTIME=00131` for
-/// `00133`: `'3'` 0x33 with bit 1 flipped is `'1'` 0x31), and the manuals allow lines without
-/// parity (MiniMod `8N1`, `8N2`), so the bus owner asks again before it believes it.
+/// `00133`: `'3'` 0x33 with bit 1 flipped is `'1'` 0x31): the MiniMod manual allows lines
+/// without parity (`SERLINE=19200N` or `X`), and parity, where the line has it, misses two
+/// flipped bits in one character; so the bus owner asks again before it believes it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Integrity {
     /// The frame carries a check that the codec or the driver verifies.
