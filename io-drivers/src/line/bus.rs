@@ -886,9 +886,9 @@ impl BusOwner {
 
     /// Runs one transaction: `retries` more attempts after a timeout or noise. A read-back
     /// that differs from what was written ([`DecodeError::Mismatch`]) is the module's word at
-    /// once behind a check (Modbus's CRC-16, a DCON checksum); over a frame without one (text,
-    /// DCON without checksum, see [`Integrity`](crate::driver::Integrity)) a garbled digit reads as another value, so it
-    /// is asked again before it is believed ([`ReadBackVote`]).
+    /// once behind a check (Modbus's CRC-16, a DCON checksum); over a frame without one
+    /// (text, DCON without checksum: [`Integrity`](crate::driver::Integrity)) a garbled digit
+    /// reads as another value, so it is asked again before it is believed ([`ReadBackVote`]).
     fn execute_once(&mut self, m: usize, tx: &Transaction, retries: u8) -> Result<(), TxError> {
         let mut last = TxError::Timeout(self.discipline.response_timeout);
         let mut vote = ReadBackVote::new(tx.frame.integrity(), retries);
@@ -914,6 +914,8 @@ impl BusOwner {
                         // and length, heard after the flush) is noise like a CRC error: the
                         // guard time and a flush, then the retry.
                         Err(e @ DecodeError::Unexpected { .. }) => e,
+                        // A read-back that differs, over a reply with no check, not yet said
+                        // twice: maybe a garbled digit, asked again the same way.
                         Err(e @ DecodeError::Mismatch { .. }) if !vote.believes(e) => e,
                         Err(e) => {
                             module.counters.decode_errors += 1;
