@@ -38,6 +38,9 @@ pub enum Outgoing {
         line: Vec<u8>,
         /// The byte that ends the reply (CR for MiniMod and RESI ASCII).
         terminator: u8,
+        /// Whether the reply carries a check of its own (a DCON checksum) or none (MiniMod
+        /// and RESI text, DCON without checksum).
+        integrity: Integrity,
     },
     /// Bytes sent as given that nothing answers: a DCON broadcast (`#**`, `~**`) or the
     /// EX-9053D-M's Modbus "host OK". The bus owner keeps t3.5 of silence after them and
@@ -46,6 +49,36 @@ pub enum Outgoing {
         /// The whole frame (terminator or CRC included).
         bytes: Vec<u8>,
     },
+}
+
+impl Outgoing {
+    /// Whether the reply to this request carries an integrity check: Modbus RTU's CRC-16
+    /// (Modbus TCP: the TCP checksum), or what a text request says.
+    pub fn integrity(&self) -> Integrity {
+        match self {
+            Outgoing::Text { integrity, .. } => *integrity,
+            Outgoing::Modbus { .. } | Outgoing::NoReply { .. } => Integrity::Checked,
+        }
+    }
+}
+
+/// Whether a reply frame carries a check that catches a character garbled on the wire.
+///
+/// It decides what a read-back that differs from what was written means
+/// ([`DecodeError::Mismatch`]). Behind a check that catches every single flipped bit (Modbus
+/// RTU's CRC-16, a DCON checksum: a sum of bytes modulo 256 changes with any one bit), a
+/// reply that passed is what the device holds, and it is believed at once. A text reply
+/// without a check (MiniMod text protocol, RESI ASCII, DCON without checksum) can carry a
+/// character with a flipped bit that reads as another plausible digit (`WDTTIME=00131` for
+/// `00133`: `'3'` 0x33 with bit 1 flipped is `'1'` 0x31): the MiniMod manual allows lines
+/// without parity (`SERLINE=19200N` or `X`), and parity, where the line has it, misses two
+/// flipped bits in one character; so the bus owner asks again before it believes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Integrity {
+    /// The frame carries a check that the codec or the driver verifies.
+    Checked,
+    /// The frame carries none: a garbled character can read as a valid answer.
+    Unchecked,
 }
 
 /// A module's place in its line's FC 70 Collect round ([`Driver::collect_membership`]) and
@@ -94,7 +127,8 @@ pub enum DecodeError {
         /// The transaction's tag.
         tag: u32,
     },
-    /// A start-up setting read back differs from what was written.
+    /// A start-up setting read back differs from what was written. Over a reply without an
+    /// integrity check the bus owner asks again before it believes it ([`Integrity`]).
     #[error("register {register} reads back {found}, expected {expected}")]
     Mismatch {
         /// The manual's register name.
@@ -136,6 +170,15 @@ pub trait Driver: Send + Debug {
 
     /// Applies a reply to one of this driver's transactions.
     fn on_reply(&mut self, tag: u32, reply: &Reply) -> Result<(), DecodeError>;
+
+    /// The bus owner believes a read-back that differs ([`DecodeError::Mismatch`]) from
+    /// transaction `tag`: its reply carried an integrity check, or a check-less reply said the
+    /// same twice in a row (see [`Integrity`]). The driver says here, not in
+    /// [`Driver::on_reply`], whatever explains the mismatch to a user, so that a garbled reply
+    /// that a second ask corrects is never reported as the module's word.
+    fn on_confirmed_mismatch(&mut self, tag: u32, mismatch: DecodeError) {
+        let _ = (tag, mismatch);
+    }
 
     /// Tells the driver a transaction got no usable reply (timeout, CRC, ...): a write must be
     /// planned again next cycle.

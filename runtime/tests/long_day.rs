@@ -1,12 +1,13 @@
-//! A long day, on the real binary and the real clock: two MiniMods served by `softplc sim` on
-//! a pty (2 % of replies with a flipped bit, the line dead for 3 s every minute from 20 s on, so
-//! the one minute CI runs has a death too), the program
-//! copying mm1.X1 to mm2.Y1, while its services are under attack the whole time: 16 clients
+//! A long day, on the real binary and the real clock, for a project of two tasks: two MiniMods
+//! served by `softplc sim` on a pty (2 % of replies with a flipped bit, the line dead for 3 s
+//! every minute from 20 s on, so the one minute CI runs has a death too), the fast task's
+//! program copying mm1.X1 to mm2.Y1 every 50 ms, a slow task of 200 ms on a simulated line of
+//! its own beside it, while the services are under attack the whole time: 16 clients
 //! hold every Modbus TCP slot and another reconnects without pause, 24 slow clients sit on
 //! the metrics port, 16 event streams on the page are never read. Every second X1 is flipped;
 //! once the line has been alive for 5 s, Y1 must follow within 1.5 s (a wrong value is one
 //! that does not). Every 5 s a scrape and the page must answer within 3 s. At the end the
-//! scan's cycles are counted against the time.
+//! cycles of each task are counted against the time.
 //!
 //! Ten minutes by default: `cargo test -p softplc --test integration long_day:: -- --ignored` (it is left
 //! out of the ordinary run for its length; `SOFTPLC_LONG_DAY_SECS` shortens or lengthens it).
@@ -24,7 +25,9 @@ use crate::common::host::http_get;
 use crate::common::sim;
 
 const BIN: &str = env!("CARGO_BIN_EXE_softplc");
+/// The fast task's period (it owns the line under test) and the slow task's.
 const PERIOD_MS: u64 = 50;
+const PANEL_PERIOD_MS: u64 = 200;
 
 fn log_value(log: &Path, prefix: &str) -> String {
     let begin = Instant::now();
@@ -80,16 +83,20 @@ fn a_long_day_under_attack_and_line_faults_keeps_the_scan_and_the_outputs_right(
     drop(std::fs::remove_dir_all(&dir));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("follow.expr"), "lamp = button\n").unwrap();
+    std::fs::write(dir.join("panel.expr"), "key_lamp = key\n").unwrap();
     let project = dir.join("project.yaml");
     std::fs::write(
         &project,
         format!(
             "project: longday\n\
-             scan: {{ period: {PERIOD_MS}ms }}\n\
-             buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 50ms, retries: 1 }}\n\
-             modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1, settings: {{ events: false }} }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2, settings: {{ events: false }} }}\n\
-             tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: lamp, point: mm2.Y1, safe: false }}\n\
-             program: {{ file: follow.expr, kind: expr }}\n\
+             tasks:\n  - {{ name: line, period: {PERIOD_MS}ms, program: {{ file: follow.expr, kind: expr }}, buses: [line1] }}\n  \
+             - {{ name: panel, period: {PANEL_PERIOD_MS}ms, program: {{ file: panel.expr, kind: expr }}, buses: [panel_line] }}\n\
+             buses:\n  - {{ name: line1, port: {pty}, baud: 19200, format: 8E1, response_timeout: 50ms, retries: 1 }}\n  \
+             - {{ name: panel_line, port: sim, baud: 19200, response_timeout: 50ms }}\n\
+             modules:\n  - {{ name: mm1, bus: line1, model: minimod, address: 1, settings: {{ events: false }} }}\n  - {{ name: mm2, bus: line1, model: minimod, address: 2, settings: {{ events: false }} }}\n  \
+             - {{ name: keys, bus: panel_line, model: minimod, address: 1 }}\n\
+             tags:\n  - {{ name: button, point: mm1.X1 }}\n  - {{ name: lamp, point: mm2.Y1, safe: false }}\n  \
+             - {{ name: key, point: keys.X1 }}\n  - {{ name: key_lamp, point: keys.Y1, safe: false }}\n\
              service:\n  metrics: 127.0.0.1:0\n  modbus_tcp: {{ bind: 127.0.0.1:0 }}\n  web: {{ bind: 127.0.0.1:0 }}\n"
         ),
     )
@@ -228,16 +235,20 @@ fn a_long_day_under_attack_and_line_faults_keeps_the_scan_and_the_outputs_right(
     // The child may have exited already; then there is nothing to stop.
     drop(plc.kill());
     drop(plc.wait());
-    let scans = status["scans"].as_u64().unwrap();
-    let overruns = status["overruns"].as_u64().unwrap();
+    let task = |i: usize, key: &str| status["tasks"][i][key].as_u64().unwrap();
+    let (scans, overruns) = (task(0, "scans"), task(0, "overruns"));
+    let (panel_scans, panel_overruns) = (task(1, "scans"), task(1, "overruns"));
     let expected = ran.as_millis() as u64 / PERIOD_MS;
+    let panel_expected = ran.as_millis() as u64 / PANEL_PERIOD_MS;
     let text = std::fs::read_to_string(&log).unwrap();
     let refusal_lines = text
         .lines()
         .filter(|l| l.contains("clients connected"))
         .count();
     eprintln!(
-        "long day: {ran:?}, {scans} scans (about {expected} due), {overruns} overruns; \
+        "long day: {ran:?}, task line {scans} scans (about {expected} due), {overruns} \
+         overruns; task panel {panel_scans} scans (about {panel_expected} due), \
+         {panel_overruns} overruns; \
          {deaths} line deaths; {checked} output checks, {wrong} wrong; {answers} page and scrape answers, slowest \
          {slowest:?}; {} refused Modbus TCP connections, {refusal_lines} log lines of them; \
          {} log lines in all",
@@ -255,6 +266,10 @@ fn a_long_day_under_attack_and_line_faults_keeps_the_scan_and_the_outputs_right(
     assert!(
         scans * 2 >= expected,
         "{scans} scans where {expected} were due"
+    );
+    assert!(
+        panel_scans * 2 >= panel_expected,
+        "{panel_scans} panel scans where {panel_expected} were due"
     );
     assert!(
         (refusal_lines as u64) <= 5 * (secs / 10 + 2),

@@ -25,6 +25,7 @@ use crate::line::collect::CollectState;
 use crate::line::echo::{self, EchoFault};
 use crate::line::health::{Health, HealthEvent, HealthLimits};
 use crate::line::housekeeping::{Pick, Urgency};
+use crate::line::read_back::ReadBackVote;
 use crate::line::settings::LineSettings;
 use crate::line::transport::{LineError, LineFault, Transport};
 use crate::modbus::master::{encode_request, Progress, ReplyAssembler, ReplyError};
@@ -150,6 +151,22 @@ pub enum TxError {
     /// the line is suspect for this exchange, not down (no reopen).
     #[error("line error: {0}")]
     Echo(EchoFault),
+}
+
+impl TxError {
+    /// Whether the module answered and said no: an exception, or a read-back that differs
+    /// and is believed (`line/read_back.rs`). A reply that does not fit
+    /// ([`DecodeError::Unexpected`]) is not one even when the retries are spent: it was
+    /// garbled or not meant for this request, so a module back after it was lost that meets
+    /// it fails like one that did not answer and is retried, and is not said to refuse.
+    /// (The first start still stops on it: a module that never answers its start-up
+    /// intelligibly is most likely set up otherwise, e.g. a DCON checksum it does not have.)
+    pub fn is_refusal(&self) -> bool {
+        matches!(
+            self,
+            TxError::Decode(DecodeError::Exception(_) | DecodeError::Mismatch { .. })
+        )
+    }
 }
 
 /// A request as [`BusOwner::exchange`] sends it.
@@ -525,7 +542,7 @@ impl BusOwner {
     fn restart(&mut self, m: usize) -> Result<(), TxError> {
         self.modules[m].driver.on_restart();
         let result = self.run_startup(m, self.retries_for(m));
-        if let Err(e @ TxError::Decode(_)) = &result {
+        if let Some(e) = result.as_ref().err().filter(|e| e.is_refusal()) {
             // It answered and refused: worth a line each time (it stays bad and is retried).
             tracing::error!(
                 "line {}: module {} refused its start-up configuration: {e}",
@@ -867,9 +884,15 @@ impl BusOwner {
         result
     }
 
+    /// Runs one transaction: `retries` more attempts after a timeout or noise. A read-back
+    /// that differs from what was written ([`DecodeError::Mismatch`]) is the module's word at
+    /// once behind a check (Modbus's CRC-16, a DCON checksum); over a frame without one
+    /// (text, DCON without checksum: [`Integrity`](crate::driver::Integrity)) a garbled digit
+    /// reads as another value, so it is asked again before it is believed ([`ReadBackVote`]).
     fn execute_once(&mut self, m: usize, tx: &Transaction, retries: u8) -> Result<(), TxError> {
         let mut last = TxError::Timeout(self.discipline.response_timeout);
-        for _attempt in 0..=retries {
+        let mut vote = ReadBackVote::new(tx.frame.integrity(), retries);
+        while vote.next_attempt() {
             match self.attempt(m, tx) {
                 Ok(None) => return Ok(()),
                 Ok(Some(reply)) => {
@@ -883,37 +906,51 @@ impl BusOwner {
                         let _ = module.driver.on_reply(tx.tag, &reply);
                         return Err(e);
                     }
-                    match module.driver.on_reply(tx.tag, &reply) {
+                    let result = module.driver.on_reply(tx.tag, &reply);
+                    let noise = match result {
                         Ok(()) => return Ok(()),
                         // A reply that passed every frame check but does not fit the
                         // transaction (a duplicate of an earlier reply of the same function
                         // and length, heard after the flush) is noise like a CRC error: the
-                        // guard time and a flush, then the retry. What the device really
-                        // holds (a read-back mismatch) is an answer: no retry changes it.
-                        Err(e @ DecodeError::Unexpected { .. }) => {
-                            module.counters.decode_errors += 1;
-                            last = TxError::Decode(e);
-                            let now = self.transport.now();
-                            let timeout = self.discipline.response_timeout;
-                            match self.recover(now, timeout) {
-                                Ok(n) => self.modules[m].counters.dropped_bytes += n as u64,
-                                Err(e) => {
-                                    self.modules[m].counters.flush_failures += 1;
-                                    return Err(line_err(&e));
-                                }
-                            }
-                        }
+                        // guard time and a flush, then the retry.
+                        Err(e @ DecodeError::Unexpected { .. }) => e,
+                        // A read-back that differs, over a reply with no check, not yet said
+                        // twice: maybe a garbled digit, asked again the same way.
+                        Err(e @ DecodeError::Mismatch { .. }) if !vote.believes(e) => e,
                         Err(e) => {
                             module.counters.decode_errors += 1;
+                            if let DecodeError::Mismatch { .. } = e {
+                                module.driver.on_confirmed_mismatch(tx.tag, e);
+                            }
                             return Err(TxError::Decode(e));
                         }
-                    }
+                    };
+                    module.counters.decode_errors += 1;
+                    last = TxError::Decode(noise);
+                    self.recover_from_noise(m)?;
                 }
                 Err(e @ TxError::Line(_)) => return Err(e),
                 Err(e) => last = e,
             }
         }
         Err(last)
+    }
+
+    /// After a reply that passed the frame checks but is taken for noise: the guard time and
+    /// a flush, as after a CRC error, so a late copy is never read as the next answer.
+    fn recover_from_noise(&mut self, m: usize) -> Result<(), TxError> {
+        let now = self.transport.now();
+        let timeout = self.discipline.response_timeout;
+        match self.recover(now, timeout) {
+            Ok(n) => {
+                self.modules[m].counters.dropped_bytes += n as u64;
+                Ok(())
+            }
+            Err(e) => {
+                self.modules[m].counters.flush_failures += 1;
+                Err(line_err(&e))
+            }
+        }
     }
 
     /// One attempt: `Ok(None)` for a broadcast (no reply expected).
@@ -923,7 +960,9 @@ impl BusOwner {
                 address: unit.get(),
                 request,
             },
-            Outgoing::Text { line, terminator } => Frame::Text {
+            Outgoing::Text {
+                line, terminator, ..
+            } => Frame::Text {
                 line,
                 terminator: *terminator,
             },

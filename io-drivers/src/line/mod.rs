@@ -22,6 +22,7 @@ pub(crate) mod health;
 pub(crate) mod housekeeping;
 pub(crate) mod latency;
 pub(crate) mod link;
+pub(crate) mod read_back;
 pub(crate) mod settings;
 pub(crate) mod tcp;
 pub(crate) mod transport;

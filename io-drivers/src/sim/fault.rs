@@ -20,6 +20,15 @@ pub enum Fault {
     },
     /// One bit of the reply flipped (a CRC error at the master).
     FlipBit,
+    /// Bit `bit` (0: the least significant) of byte `byte` of the reply flipped, where the
+    /// reply has that byte: a chosen character garbled, as on a line without parity (a text
+    /// reply has no check, so the master reads another character).
+    FlipBitAt {
+        /// The byte's offset in the reply.
+        byte: u8,
+        /// The bit, 0..=7.
+        bit: u8,
+    },
     /// The reply cut after `keep` bytes.
     Truncate {
         /// Bytes that make it.
@@ -48,7 +57,7 @@ pub enum Fault {
 
 impl Fault {
     /// Parses the `softplc sim` form: `garbage 5`, `crc`, `truncate 3`, `late 80ms`,
-    /// `duplicate`, `wrong-address 9`, `babble 20`, `silent`.
+    /// `duplicate`, `wrong-address 9`, `babble 20`, `silent`, `flip-bit 12 1` (byte 12, bit 1).
     pub fn parse(words: &[&str]) -> Result<Fault, String> {
         let num = |w: Option<&&str>, what: &str| -> Result<u8, String> {
             w.and_then(|s| s.parse::<u8>().ok())
@@ -59,6 +68,14 @@ impl Fault {
                 bytes: num(rest.first(), "garbage")?,
             },
             ["crc"] | ["flip-bit"] => Fault::FlipBit,
+            ["flip-bit", byte, bit] => Fault::FlipBitAt {
+                byte: num(Some(byte), "flip-bit's byte")?,
+                bit: bit
+                    .parse::<u8>()
+                    .ok()
+                    .filter(|b| *b < 8)
+                    .ok_or_else(|| "flip-bit's bit must be 0..=7".to_string())?,
+            },
             ["truncate", rest @ ..] => Fault::Truncate {
                 keep: num(rest.first(), "truncate")?,
             },
@@ -84,7 +101,8 @@ impl Fault {
 
 /// The fault kinds as `softplc sim` takes them.
 pub(crate) const FAULT_HELP: &str =
-    "garbage N | crc | truncate N | late 80ms | duplicate | wrong-address N | babble N | silent";
+    "garbage N | crc | flip-bit BYTE BIT | truncate N | late 80ms | duplicate | wrong-address N \
+     | babble N | silent";
 
 fn parse_ms(text: &str) -> Result<Duration, String> {
     let ms = text.strip_suffix("ms").unwrap_or(text);
@@ -98,6 +116,7 @@ impl fmt::Display for Fault {
         match self {
             Fault::Garbage { bytes } => write!(f, "garbage {bytes}"),
             Fault::FlipBit => write!(f, "crc"),
+            Fault::FlipBitAt { byte, bit } => write!(f, "flip-bit {byte} {bit}"),
             Fault::Truncate { keep } => write!(f, "truncate {keep}"),
             Fault::Late { by } => write!(f, "late {}ms", by.as_millis()),
             Fault::Duplicate => write!(f, "duplicate"),
@@ -113,6 +132,9 @@ impl fmt::Display for Fault {
 pub enum Frequency {
     /// To the next `n` replies, then the rule is spent.
     Next(u32),
+    /// To the `n`-th next reply only (1: the next one), then the rule is spent: a fault on
+    /// one chosen exchange of a sequence (a start-up's read-back).
+    Nth(u32),
     /// To each reply with this probability (0..=1).
     Rate(f64),
     /// To every reply until cleared.
@@ -220,13 +242,17 @@ impl LineFaults {
             let fires = match rule.frequency {
                 Frequency::Always => true,
                 Frequency::Next(_) => true,
+                Frequency::Nth(n) => n <= 1,
                 Frequency::Rate(p) => (self.next_random() % 1_000_000) as f64 / 1e6 < p,
             };
-            if let Frequency::Next(n) = rule.frequency {
+            if let Frequency::Next(n) | Frequency::Nth(n) = rule.frequency {
                 if n <= 1 {
                     self.rules.remove(i);
                 } else {
-                    self.rules[i].frequency = Frequency::Next(n - 1);
+                    self.rules[i].frequency = match rule.frequency {
+                        Frequency::Nth(_) => Frequency::Nth(n - 1),
+                        _ => Frequency::Next(n - 1),
+                    };
                     i += 1;
                 }
             } else {
@@ -252,6 +278,11 @@ impl LineFaults {
                     let byte = (r as usize) % reply.len();
                     let bit = (r >> 32) % 8;
                     wire.bursts[0].1[byte] ^= 1 << bit;
+                }
+            }
+            Fault::FlipBitAt { byte, bit } => {
+                if let Some(b) = wire.bursts[0].1.get_mut(usize::from(byte)) {
+                    *b ^= 1u8.checked_shl(u32::from(bit)).unwrap_or(0);
                 }
             }
             Fault::Truncate { keep } => wire.bursts[0].1.truncate(usize::from(keep)),
@@ -363,6 +394,23 @@ mod tests {
             1
         );
 
+        // The third reply only, one chosen bit: '3' (0x33) reads as '1' (0x31).
+        let mut f = LineFaults::new(1);
+        f.add(FaultRule {
+            device: None,
+            fault: Fault::FlipBitAt { byte: 1, bit: 1 },
+            frequency: Frequency::Nth(3),
+        });
+        let replies: Vec<Vec<u8>> = (0..4)
+            .map(|_| {
+                f.apply(0, b"=3".to_vec(), Duration::ZERO, CT).bursts[0]
+                    .1
+                    .clone()
+            })
+            .collect();
+        assert_eq!(replies, [b"=3", b"=3", b"=1", b"=3"]);
+        assert!(f.rules().is_empty(), "spent");
+
         let run = |seed| {
             let mut f = LineFaults::new(seed);
             f.add(FaultRule {
@@ -392,6 +440,14 @@ mod tests {
             })
         );
         assert_eq!(Fault::parse(&["crc"]), Ok(Fault::FlipBit));
+        assert_eq!(
+            Fault::parse(&["flip-bit", "12", "1"]),
+            Ok(Fault::FlipBitAt { byte: 12, bit: 1 })
+        );
+        assert_eq!(
+            Fault::parse(&["flip-bit", "12", "8"]),
+            Err("flip-bit's bit must be 0..=7".to_string())
+        );
         assert_eq!(
             Fault::parse(&["wrong-address", "9"]),
             Ok(Fault::WrongAddress { unit: 9 })

@@ -42,11 +42,12 @@ Commands on standard input (one per line):
                            e.g.  set minimod@5.X1 1
   get DEVICE.POINT         print a point's value, e.g.  get minimod@5.Y1
   list                     every device and the value of each of its points
-  fault DEVICE|all FAULT [xN | rate P | always]
+  fault DEVICE|all FAULT [xN | nth N | rate P | always]
                            inject a line fault into the device's replies: FAULT is one of
-                           garbage N | crc | truncate N | late 80ms | duplicate |
-                           wrong-address N | babble N | silent; applies to the next reply
-                           unless xN (next N), rate P (probability 0..1) or always is given
+                           garbage N | crc | flip-bit BYTE BIT | truncate N | late 80ms |
+                           duplicate | wrong-address N | babble N | silent; applies to the
+                           next reply unless xN (next N), nth N (the N-th next reply only),
+                           rate P (probability 0..1) or always is given
   fault DEVICE|all clear   remove the injected faults
   faults                   list the injected faults
   line dead | line alive   cut the line (nothing in, nothing out) or restore it
@@ -632,6 +633,12 @@ pub(crate) fn execute(world: &SharedWorld, clock: &dyn Clock, line: &str) -> any
 fn split_frequency<'a, 'b>(spec: &'a [&'b str]) -> anyhow::Result<(&'a [&'b str], Frequency)> {
     match spec {
         [head @ .., "always"] => Ok((head, Frequency::Always)),
+        [head @ .., "nth", n] => {
+            let n: u32 = n
+                .parse()
+                .map_err(|_| anyhow::anyhow!("nth {n:?}: expected a number, e.g. nth 7"))?;
+            Ok((head, Frequency::Nth(n.max(1))))
+        }
         [head @ .., "rate", p] => {
             let p: f64 = p
                 .parse()

@@ -69,6 +69,10 @@
 use std::time::Duration;
 
 use super::dcon::{check_line, Answer, Command};
+
+/// The counter edge as `$AA2` reports it: a mismatch names it, and the driver then says how
+/// to set it.
+const COUNT_EDGE_DCON: &str = "$AA2 FF bit 7 (counter edge, 1 = rising)";
 use super::map::{
     host_ok_frame, COIL_CLEAR_LATCHES, COIL_COUNT_EDGE, COIL_LATCH_HIGH, COIL_LATCH_LOW,
     COIL_WDT_ENABLE, COIL_WDT_STATUS, DI_INPUTS, HR_NAME, HR_WDT_VALUE, NAME_WORDS, REG_COUNTERS,
@@ -80,7 +84,7 @@ use super::tables::{
     CHANNELS, FF_CHECKSUM, FF_RISING_EDGE, REPLY_DELAY, STATUS_WDT_TIMEOUT, TYPE_DIO,
 };
 use crate::devices::{DeviceConfig, ModuleSettings, Protocol};
-use crate::driver::{DecodeError, Driver, Outgoing, Reply, Transaction};
+use crate::driver::{DecodeError, Driver, Integrity, Outgoing, Reply, Transaction};
 use crate::modbus::{Request, Response, UnitId};
 use crate::point::Value;
 
@@ -372,6 +376,11 @@ impl Ex9053Driver {
                 Outgoing::Text {
                     line,
                     terminator: super::dcon::CR,
+                    integrity: if self.settings.checksum {
+                        Integrity::Checked
+                    } else {
+                        Integrity::Unchecked
+                    },
                 }
             }
         } else {
@@ -520,12 +529,9 @@ impl Ex9053Driver {
         if let Some(rising) = self.settings.count_edge {
             let found = format & FF_RISING_EDGE != 0;
             if found != rising {
-                tracing::error!(
-                    module = %self.name,
-                    "counter edge differs: set FF bit 7 with %AANNTTCCFF (7 = rising)"
-                );
+                // Explained once it is believed (`on_confirmed_mismatch`).
                 return Err(DecodeError::Mismatch {
-                    register: "$AA2 FF bit 7 (counter edge, 1 = rising)",
+                    register: COUNT_EDGE_DCON,
                     expected: u32::from(rising),
                     found: u32::from(found),
                 });
@@ -768,6 +774,19 @@ impl Driver for Ex9053Driver {
         self.restarted = true;
         if let Some(slot) = self.values.get_mut(Point::WdtTimeout.index()) {
             *slot = None;
+        }
+    }
+
+    fn on_confirmed_mismatch(&mut self, _tag: u32, mismatch: DecodeError) {
+        if let DecodeError::Mismatch {
+            register: COUNT_EDGE_DCON,
+            ..
+        } = mismatch
+        {
+            tracing::error!(
+                module = %self.name,
+                "counter edge differs: set FF bit 7 with %AANNTTCCFF (7 = rising)"
+            );
         }
     }
 

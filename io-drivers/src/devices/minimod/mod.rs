@@ -42,6 +42,9 @@ mod framing_tests;
 #[cfg(test)]
 #[path = "tests/line.rs"]
 pub(crate) mod line_tests;
+#[cfg(test)]
+#[path = "tests/noisy_read_back.rs"]
+mod noisy_read_back_tests;
 
 use std::time::Duration;
 

@@ -95,6 +95,9 @@ pub use value::{Enc, Num, WordOrder};
 #[path = "tests/line.rs"]
 mod line_tests;
 #[cfg(test)]
+#[path = "tests/noisy_read_back.rs"]
+mod noisy_read_back_tests;
+#[cfg(test)]
 mod tests;
 
 /// The catalog entries of every RESI model.

@@ -14,7 +14,7 @@ use crate::line::budget::{line_budget, transaction_time};
 use crate::line::bus::{BusOwner, Discipline, InputFrame, Module, StartupError, TxError};
 use crate::line::{LineSettings, Parity, SerialFormat};
 use crate::point::{Quality, Value};
-use crate::sim::line::{SharedWorld, SimWorld, VirtualPort};
+use crate::sim::line::{SharedWorld, SimWorld};
 use crate::sim::plant::{Plant, PlantIo};
 use crate::time::{Clock, LineInstant, ScanInstant, VirtualClock};
 
@@ -69,11 +69,7 @@ fn rig(line: LineSettings, specs: &[Spec<'_>], plant: Option<Wired>) -> Rig {
     }
     let world = world.shared();
     let clock = Arc::new(VirtualClock::new());
-    let sent = Arc::new(Mutex::new(Vec::new()));
-    let port = Tap {
-        port: VirtualPort::new(world.clone(), 0, line, clock.clone()),
-        sent: sent.clone(),
-    };
+    let (port, sent) = Tap::on(&world, line, &clock);
     let discipline = Discipline {
         response_timeout: Duration::from_millis(50),
         retries: 0,
@@ -507,7 +503,8 @@ fn start_up_verifies_the_configuration() {
         settings: &edge,
     };
     let mut r = rig(DCON_LINE, &[spec("ex9053d", Protocol::Text)], None);
-    let e = r.startup().unwrap_err();
+    let logs = Logs::default();
+    let e = tracing::subscriber::with_default(logs.clone(), || r.startup().unwrap_err());
     assert!(matches!(
         e.error,
         TxError::Decode(DecodeError::Mismatch {
@@ -516,6 +513,17 @@ fn start_up_verifies_the_configuration() {
             ..
         })
     ));
+    // DCON without checksum: the differing `$012` answer is asked again before it is
+    // believed, and explained once.
+    let config_reads = r
+        .sent
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|f| f.as_slice() == b"$012\r")
+        .count();
+    assert_eq!(config_reads, 2);
+    assert_eq!(logs.matching("counter edge differs").len(), 1);
     // Modbus: written and read back.
     let mut r = rig(
         LineSettings::DEFAULT,

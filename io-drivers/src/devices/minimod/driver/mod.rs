@@ -445,6 +445,17 @@ impl Driver for MiniModDriver {
         result
     }
 
+    fn on_confirmed_mismatch(&mut self, _tag: u32, mismatch: DecodeError) {
+        if let DecodeError::Mismatch {
+            register,
+            expected,
+            found,
+        } = mismatch
+        {
+            watchdog::explain_mismatch(self.address(), register, expected, found);
+        }
+    }
+
     fn on_restart(&mut self) {
         self.restart_now();
     }

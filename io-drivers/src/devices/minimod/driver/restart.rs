@@ -34,7 +34,7 @@
 
 use super::{MiniModDriver, SetupStep, Tag, IDX_Y, IDX_YWORD};
 use crate::devices::Protocol;
-use crate::driver::{DecodeError, Outgoing, Reply, Transaction};
+use crate::driver::{DecodeError, Integrity, Outgoing, Reply, Transaction};
 use crate::modbus::{ExceptionCode, Request, Response, UnitId};
 use crate::point::Value;
 
@@ -167,6 +167,7 @@ impl MiniModDriver {
                 frame: Outgoing::Text {
                     line: text::read_command(unit.get(), TextId::Wflags),
                     terminator: text::TERMINATOR,
+                    integrity: Integrity::Unchecked,
                 },
                 tag: 0,
             }

@@ -3,7 +3,7 @@
 
 use super::super::text::{self, TextId};
 use super::{MiniModDriver, Tag};
-use crate::driver::{DecodeError, Outgoing, Transaction};
+use crate::driver::{DecodeError, Integrity, Outgoing, Transaction};
 use crate::modbus::UnitId;
 
 impl MiniModDriver {
@@ -12,6 +12,8 @@ impl MiniModDriver {
             frame: Outgoing::Text {
                 line,
                 terminator: text::TERMINATOR,
+                // The text protocol has no checksum ("Text commands protocol").
+                integrity: Integrity::Unchecked,
             },
             tag: tag.encode(),
         }

@@ -41,7 +41,10 @@
 //! other addresses; a text-protocol MiniMod has the same constraint on every command.
 //!
 //! A read-back that differs stops the start ([`DecodeError::Mismatch`] with the register's
-//! name), after an error log that names the module, the register and both readings; a module
+//! name), after an error log that names the module, the register and both readings. The text
+//! protocol has no checksum, so a reply with a garbled digit reads as another value: the bus
+//! owner asks again, and only the same answer twice is the module's (the log follows it, never
+//! a single garbled reply; see `crate::driver::Integrity`); a module
 //! that does not answer is lost, retried, and armed when it answers. The watchdog is never
 //! left silently unarmed. The sequence is part of the start-up, so it runs again on every
 //! restart (a module back after it was lost, a power cycle, a fired watchdog), in polled,
@@ -104,7 +107,7 @@ pub(super) fn command_by_name(unit: UnitId, item: Item, value: u16) -> Option<(V
 
 /// Says why a read-back by name differs, when `name` is one of the registers armed here: the
 /// module, the register, what it holds, and where each reading of the manual puts it.
-pub(super) fn explain_mismatch(address: u8, name: &str, expected: u16, found: u16) {
+pub(super) fn explain_mismatch(address: u8, name: &str, expected: u32, found: u32) {
     let Some(&(_, id)) = BY_NAME.iter().find(|(n, _)| *n == name) else {
         return;
     };

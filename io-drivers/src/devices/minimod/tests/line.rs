@@ -30,6 +30,22 @@ pub(crate) struct Tap {
     pub(crate) sent: Arc<Mutex<Vec<Vec<u8>>>>,
 }
 
+impl Tap {
+    /// The master's end of line 0 of `world`, and the frames it will have sent.
+    pub(crate) fn on(
+        world: &SharedWorld,
+        line: LineSettings,
+        clock: &Arc<VirtualClock>,
+    ) -> (Self, Arc<Mutex<Vec<Vec<u8>>>>) {
+        let sent = Arc::new(Mutex::new(Vec::new()));
+        let tap = Tap {
+            port: VirtualPort::new(world.clone(), 0, line, clock.clone()),
+            sent: sent.clone(),
+        };
+        (tap, sent)
+    }
+}
+
 impl Transport for Tap {
     fn settings(&self) -> LineSettings {
         self.port.settings()
@@ -108,15 +124,15 @@ impl Logs {
     }
 }
 
-struct Rig {
-    clock: Arc<VirtualClock>,
-    world: SharedWorld,
-    owner: BusOwner,
+pub(crate) struct Rig {
+    pub(crate) clock: Arc<VirtualClock>,
+    pub(crate) world: SharedWorld,
+    pub(crate) owner: BusOwner,
     sent: Arc<Mutex<Vec<Vec<u8>>>>,
     y1: usize,
 }
 
-fn rig(protocol: Protocol, settings: &[(&str, &str)]) -> Rig {
+pub(crate) fn rig(protocol: Protocol, settings: &[(&str, &str)]) -> Rig {
     rig_on(WatchdogRegisters::Table, protocol, settings)
 }
 
@@ -131,11 +147,7 @@ fn rig_on(registers: WatchdogRegisters, protocol: Protocol, settings: &[(&str, &
     let driver = (model.driver)(&config);
     let world = world.shared();
     let clock = Arc::new(VirtualClock::new());
-    let sent = Arc::new(Mutex::new(Vec::new()));
-    let port = Tap {
-        port: VirtualPort::new(world.clone(), 0, line, clock.clone()),
-        sent: sent.clone(),
-    };
+    let (port, sent) = Tap::on(&world, line, &clock);
     let discipline = Discipline {
         response_timeout: Duration::from_millis(50),
         retries: 0,
@@ -159,7 +171,7 @@ fn rig_on(registers: WatchdogRegisters, protocol: Protocol, settings: &[(&str, &
 }
 
 impl Rig {
-    fn startup(&mut self) {
+    pub(crate) fn startup(&mut self) {
         self.owner.sync(self.clock.line_now());
         self.owner.startup().unwrap();
         let now = self.owner.now();
@@ -167,7 +179,7 @@ impl Rig {
     }
 
     /// One scan: read, then write Y1 = `y1`; the next starts a period later.
-    fn cycle(&mut self, y1: bool) -> InputFrame {
+    pub(crate) fn cycle(&mut self, y1: bool) -> InputFrame {
         let start = self.clock.now();
         self.owner.sync(start.on_line_clock());
         let frame = self.owner.read_inputs();
@@ -181,22 +193,22 @@ impl Rig {
         frame
     }
 
-    fn sim(&self, point: &str) -> Value {
+    pub(crate) fn sim(&self, point: &str) -> Value {
         let mut w = self.world.lock().unwrap();
         w.advance_to(self.clock.line_now());
         w.get(0, point).unwrap()
     }
 
-    fn set_dead(&self, dead: bool) {
+    pub(crate) fn set_dead(&self, dead: bool) {
         self.world.lock().unwrap().faults_mut().set_dead(0, dead);
     }
 
-    fn take_sent(&self) -> Vec<Vec<u8>> {
+    pub(crate) fn take_sent(&self) -> Vec<Vec<u8>> {
         std::mem::take(&mut *self.sent.lock().unwrap())
     }
 }
 
-fn rtu(bytes: &[u8]) -> Vec<u8> {
+pub(crate) fn rtu(bytes: &[u8]) -> Vec<u8> {
     let mut f = bytes.to_vec();
     append_crc(&mut f);
     f

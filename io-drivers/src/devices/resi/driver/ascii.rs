@@ -8,7 +8,7 @@ use super::super::ascii::frame::{self, parse_number, Frame};
 use super::super::item::Item;
 use super::super::model::Model;
 use super::super::value::Num;
-use crate::driver::Outgoing;
+use crate::driver::{Integrity, Outgoing};
 
 /// The request line `#<addr>,<CMD><x>[:<params>]` + CR.
 pub fn request(address: u8, command: &Command, x: u8, params: &[Num]) -> Outgoing {
@@ -30,6 +30,8 @@ pub fn request(address: u8, command: &Command, x: u8, params: &[Num]) -> Outgoin
     Outgoing::Text {
         line: frame::frame(Some(&address.to_string()), &body),
         terminator: b'\r',
+        // "No LF, no checksum, no escapes" (resi-spec §2.1).
+        integrity: Integrity::Unchecked,
     }
 }
 
@@ -111,7 +113,10 @@ mod tests {
     #[test]
     fn lines_and_answers() {
         let (c, x) = ascii_set(&MODEL, Item::new(Kind::Mask(Func::SwitchOn), 0)).unwrap();
-        let Outgoing::Text { line, terminator } = request(5, c, x, &[Num::Int(15)]) else {
+        let Outgoing::Text {
+            line, terminator, ..
+        } = request(5, c, x, &[Num::Int(15)])
+        else {
             panic!()
         };
         assert_eq!(
