@@ -12,7 +12,10 @@
 //! (`runtime/tests/opcua/scans_client.py`): after the first task's cycle N, its count is N
 //! and its tag says N in all of them; the fast task's count is the cycle its tag comes from
 //! (one apart at most where status or OPC UA is asked while a cycle of it ends); a trace in
-//! each task samples its cycles, each numbered as its count.
+//! each task samples its cycles, each numbered as its count. A Sparkplug host
+//! (`runtime/tests/mqtt/scans_host.py`) sees the same in the NBIRTH and in every NDATA:
+//! `PLC/Scans`, `Tasks/main/Scans` and `Tasks/other/Scans` equal `n` and `m`, at their
+//! timestamps.
 
 use crate::common::host;
 
@@ -136,25 +139,25 @@ fn one_event_has_one_cycle_number_in_status_trace_record_and_replay() {
 }
 
 /// Two tasks counting their own scans on the real clock: `main` (the first task, every
-/// 400 ms) counts `n`, `other` (every 50 ms) counts `m`; the web page and OPC UA on loopback
-/// port 0.
-fn counting_tasks(dir: &Path) -> PathBuf {
+/// 400 ms) counts `n`, `other` (every 50 ms) counts `m`; `project.yaml` in `dir`, ending in
+/// its `service:` section with the lines `service`.
+fn counting_tasks(dir: &Path, service: &str) -> PathBuf {
     std::fs::write(dir.join("main.rhai"), "n = n + 1;\n").unwrap();
     std::fs::write(dir.join("other.rhai"), "m = m + 1;\n").unwrap();
-    let path = dir.join("tasks.yaml");
+    let path = dir.join("project.yaml");
     std::fs::write(
         &path,
-        "project: numbers
+        format!(
+            "project: numbers
 tasks:
-  - { name: main, period: 400ms, program: { file: main.rhai, kind: rhai } }
-  - { name: other, period: 50ms, program: { file: other.rhai, kind: rhai } }
+  - {{ name: main, period: 400ms, program: {{ file: main.rhai, kind: rhai }} }}
+  - {{ name: other, period: 50ms, program: {{ file: other.rhai, kind: rhai }} }}
 tags:
-  - { name: n, type: i32 }
-  - { name: m, type: i32 }
+  - {{ name: n, type: i32 }}
+  - {{ name: m, type: i32 }}
 service:
-  web: { bind: 127.0.0.1:0 }
-  opcua: { port: 0 }
-",
+{service}"
+        ),
     )
     .unwrap();
     path
@@ -230,7 +233,8 @@ fn count(v: &serde_json::Value) -> u64 {
 #[test]
 fn each_tasks_cycle_is_its_scan_count_in_status_the_web_page_and_opcua() {
     let dir = host::scratch_dir("cycle_numbers", "tasks");
-    let project = counting_tasks(&dir);
+    // The web page and OPC UA on loopback port 0.
+    let project = counting_tasks(&dir, "  web: { bind: 127.0.0.1:0 }\n  opcua: { port: 0 }\n");
     let socket = dir.join("ctl.sock");
     let log = dir.join("log");
     let _running = host::Running(
@@ -346,4 +350,43 @@ fn each_tasks_cycle_is_its_scan_count_in_status_the_web_page_and_opcua() {
         other_equal > 0,
         "OPC UA never showed other's Scans equal to m"
     );
+}
+
+/// A Sparkplug host (`runtime/tests/mqtt/scans_host.py`, through a mosquitto of this test)
+/// watching the same two tasks for 4 s: in the NBIRTH and in every NDATA that carries a scan
+/// count, `PLC/Scans` and `Tasks/main/Scans` are `n` as the host holds it after that message,
+/// and `Tasks/other/Scans` is `m`, each with its counter's timestamp (the cycle's end). The
+/// edge node takes the counts and the tags from one thread's view of the scan, so no cycle
+/// ends between them: they are one number, not one apart. The counts go out once a second,
+/// so 4 s checks each of them at least twice.
+#[test]
+fn a_sparkplug_hosts_scan_counts_are_the_cycles_its_counters_come_from() {
+    let s = crate::common::scratch::Scratch::new("cycle_numbers", "mqtt");
+    counting_tasks(&s.dir, "");
+    let (_broker, port, pb2) = crate::task_services::with_broker(&s, "numbers1");
+    let _running = crate::task_services::start(&s);
+    let passed = crate::task_services::run_python(
+        "mqtt/scans_host.py",
+        &[
+            &port.to_string(),
+            "plant1",
+            "numbers1",
+            &pb2,
+            "4",
+            "main:n,other:m",
+        ],
+    );
+    assert_eq!(passed.len(), 2, "{passed:?}");
+    assert_eq!(passed[0], "births", "{passed:?}");
+    let checked: Vec<(&str, u64)> = passed[1]
+        .strip_prefix("ndata ")
+        .unwrap_or_else(|| panic!("{passed:?}"))
+        .split(' ')
+        .filter_map(|w| w.split_once('='))
+        .map(|(name, k)| (name, k.parse().unwrap()))
+        .collect();
+    assert_eq!(checked.len(), 3, "{passed:?}");
+    for (name, k) in checked {
+        assert!(k >= 2, "{name} checked {k} times in 4 s: {passed:?}");
+    }
 }

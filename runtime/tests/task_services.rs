@@ -67,7 +67,7 @@ pub(crate) fn start(s: &Scratch) -> Running {
 /// A broker for `s`'s project, whose `service:` gets an MQTT edge node `node` of group
 /// `plant1` on it; the broker (stopped when dropped), its port and the Sparkplug payload
 /// module's folder.
-fn with_broker(s: &Scratch, node: &str) -> (crate::common::broker::Broker, u16, String) {
+pub(crate) fn with_broker(s: &Scratch, node: &str) -> (crate::common::broker::Broker, u16, String) {
     let port = crate::common::host::free_port();
     let broker = crate::common::broker::Broker::start(&s.dir, port);
     let python = repo().join("target/py-venv/bin/python");
@@ -283,7 +283,7 @@ fn the_services_show_every_tasks_tags_and_a_force_from_the_page_reaches_its_owne
 
 /// Runs a third-party client (`runtime/tests/<script>` on the test venv's Python) with `args`
 /// until it prints DONE or FAIL (at most 60 s); its PASS lines.
-fn run_python(script: &str, args: &[&str]) -> Vec<String> {
+pub(crate) fn run_python(script: &str, args: &[&str]) -> Vec<String> {
     let python = repo().join("target/py-venv/bin/python");
     assert!(
         python.exists(),

@@ -5,6 +5,7 @@ rebirth command (NCMD Node Control/Rebirth) that makes a running node send its b
 
 import queue
 import sys
+import time
 
 import paho.mqtt.client as mqtt
 
@@ -44,6 +45,20 @@ class Host:
         m.datatype = 11
         m.boolean_value = True
         self.client.publish(self.topic("NCMD"), p.SerializeToString(), qos=0)
+
+    def birth(self, within=40):
+        """The next NBIRTH (parsed), asking for a rebirth every 3 s; fails after `within` s."""
+        deadline = time.monotonic() + within
+        asked = 0.0
+        while True:
+            if time.monotonic() > deadline:
+                fail("no NBIRTH")
+            if time.monotonic() - asked > 3:
+                self.rebirth()
+                asked = time.monotonic()
+            got = self.next(0.5)
+            if got is not None and got[0] == self.topic("NBIRTH"):
+                return got[1]
 
     def next(self, timeout):
         """The next message (topic, parsed payload), or None after `timeout` seconds."""

@@ -20,17 +20,7 @@ FIELDS = ["Scans", "Overruns", "Cycle p50 us", "Cycle p99 us", "Cycle max us", "
 host = Host(PORT, GROUP, NODE, "tasks-host", spb)
 
 deadline = time.monotonic() + 40
-birth = None
-asked = 0.0
-while birth is None:
-    if time.monotonic() > deadline:
-        fail("no NBIRTH")
-    if time.monotonic() - asked > 3:
-        host.rebirth()
-        asked = time.monotonic()
-    got = host.next(0.5)
-    if got is not None and got[0] == host.topic("NBIRTH"):
-        birth = got[1]
+birth = host.birth()
 
 declared = {m.name: m for m in birth.metrics}
 for t in TASKS:

@@ -107,6 +107,9 @@ pub(crate) struct EdgeNode {
     plc_last: Vec<Option<MetricValue>>,
     /// Each task metric as the host was last told (a PLC of several tasks).
     task_last: Vec<Option<MetricValue>>,
+    /// Per task (the one task of a PLC of one), the latest cycle whose changes the host was
+    /// given or kept for it: its number and its end (see [`Self::scans_of`]).
+    delivered: Vec<(u64, ScanInstant)>,
     plc_sent_at: u64,
     buffer: VecDeque<Kept>,
     capacity: usize,
@@ -157,6 +160,7 @@ impl EdgeNode {
             born: vec![false; layout.devices.len()],
             plc_last: vec![None; PlcMetric::ALL.len()],
             task_last: vec![None; layout.tasks.len()],
+            delivered: Vec::new(),
             plc_sent_at: 0,
             deadband: db,
             layout,
@@ -188,19 +192,51 @@ impl EdgeNode {
         self.layout.task_alias(self.layout.tasks.len()) + k as u64
     }
 
-    /// Every task metric's value now, in [`Layout::tasks`] order (0 until a task's figures
-    /// are published).
-    fn task_values(&self, snap: &ServiceSnapshot) -> Vec<MetricValue> {
+    /// Every task metric's value now and the scan time it is of, in [`Layout::tasks`] order
+    /// (0 until a task's figures are published): a task's Scans is [`Self::scans_of`] it,
+    /// its other figures are of its last publication.
+    fn task_values(&self, snap: &ServiceSnapshot) -> Vec<(MetricValue, ScanInstant)> {
         let fields = super::layout::TASK_FIELDS.len();
         (0..self.layout.tasks.len())
             .map(|j| {
-                let v = snap
-                    .tasks
-                    .get(j / fields)
-                    .map_or(0, |t| super::layout::task_field(t, j % fields));
-                MetricValue::LongValue(v)
+                let (task, field) = (j / fields, j % fields);
+                let (v, at) = match field {
+                    0 => self.scans_of(snap, task),
+                    _ => (
+                        snap.tasks
+                            .get(task)
+                            .map_or(0, |t| super::layout::task_field(t, field)),
+                        snap.now_of(task),
+                    ),
+                };
+                (MetricValue::LongValue(v), at)
             })
             .collect()
+    }
+
+    /// Task `task`'s scan count as the host sees its tags: the cycle the latest of them come
+    /// from, and that cycle's end (the timestamp of the tags it changed). That is the later of
+    /// the task's last publication in `snap` and the latest cycle of it delivered: the node
+    /// reads the snapshot before it takes the feed, and a publication is skipped while a
+    /// reader holds the snapshot, so a count from the snapshot alone may say a cycle before
+    /// the tags sent with it, stamped at another task's time.
+    fn scans_of(&self, snap: &ServiceSnapshot, task: usize) -> (u64, ScanInstant) {
+        let published = (snap.cycles_of(task), snap.now_of(task));
+        self.delivered
+            .get(task)
+            .map_or(published, |&d| d.max(published))
+    }
+
+    /// Notes the latest cycle of each task in `changes` (see [`Self::scans_of`]).
+    fn note_delivered(&mut self, changes: &[Delivery]) {
+        for d in changes {
+            let task = d.cycle.task;
+            if self.delivered.len() <= task {
+                self.delivered.resize(task + 1, (0, ScanInstant::ZERO));
+            }
+            let latest = &mut self.delivered[task];
+            *latest = (*latest).max((d.cycle.cycle, d.cycle.at));
+        }
     }
 
     /// The alarm metrics that changed since the host was told (all of them for a birth), with
@@ -301,11 +337,17 @@ impl EdgeNode {
         })
     }
 
-    fn plc_values(&self, snap: &ServiceSnapshot) -> Vec<(PlcMetric, DataType, MetricValue)> {
+    /// The PLC's metrics now, each with the scan time it is of: `PLC/Scans` is the first
+    /// task's count as [`Self::scans_of`] says it, the others are of the last publication.
+    fn plc_values(
+        &self,
+        snap: &ServiceSnapshot,
+    ) -> Vec<(PlcMetric, DataType, MetricValue, ScanInstant)> {
+        let (scans, scans_at) = self.scans_of(snap, 0);
         PlcMetric::ALL
             .iter()
             .map(|&m| match m {
-                PlcMetric::Scans => (m, DataType::UInt64, MetricValue::LongValue(snap.cycles)),
+                PlcMetric::Scans => (m, DataType::UInt64, MetricValue::LongValue(scans)),
                 PlcMetric::Overruns => (m, DataType::UInt64, MetricValue::LongValue(snap.overruns)),
                 PlcMetric::CycleP99 => (
                     m,
@@ -321,6 +363,14 @@ impl EdgeNode {
                 ),
                 PlcMetric::Dropped => (m, DataType::UInt64, MetricValue::LongValue(self.dropped)),
                 PlcMetric::Lost => (m, DataType::UInt64, MetricValue::LongValue(self.lost)),
+            })
+            .map(|(m, dt, v)| {
+                let at = if m == PlcMetric::Scans {
+                    scans_at
+                } else {
+                    snap.now
+                };
+                (m, dt, v, at)
             })
             .collect()
     }
@@ -349,36 +399,30 @@ impl EdgeNode {
                 birth: None,
             },
         ];
+        // The PLC's and the tasks' figures, each stamped with the scan time it is of: a
+        // task's Scans with its cycle's end, as the tags that cycle changed.
         let plc = self.plc_values(snap);
-        for (m, dt, v) in &plc {
+        for (m, dt, v, at) in &plc {
+            let timestamp = self.utc(snap, wall_ms, *at);
             metrics.push(MetricSpec {
                 name: Some(m.name()),
-                alias: Some(self.layout.plc_alias(*m)),
                 datatype: Some(*dt),
-                timestamp: now,
-                value: v.clone(),
-                quality: None,
-                historical: false,
-                birth: None,
+                ..node_data(self.layout.plc_alias(*m), v.clone(), timestamp)
             });
         }
-        self.plc_last = plc.into_iter().map(|(_, _, v)| Some(v)).collect();
+        self.plc_last = plc.into_iter().map(|(_, _, v, _)| Some(v)).collect();
         self.plc_sent_at = wall_ms;
         let tasks = self.task_values(snap);
         let task_names = self.layout.tasks.clone();
-        for (j, v) in tasks.iter().enumerate() {
+        for (j, (v, at)) in tasks.iter().enumerate() {
+            let timestamp = self.utc(snap, wall_ms, *at);
             metrics.push(MetricSpec {
                 name: task_names.get(j).map(String::as_str),
-                alias: Some(self.layout.task_alias(j)),
                 datatype: Some(DataType::UInt64),
-                timestamp: now,
-                value: v.clone(),
-                quality: None,
-                historical: false,
-                birth: None,
+                ..node_data(self.layout.task_alias(j), v.clone(), timestamp)
             });
         }
-        self.task_last = tasks.into_iter().map(Some).collect();
+        self.task_last = tasks.into_iter().map(|(v, _)| Some(v)).collect();
         let alarm_values: Vec<(usize, u64, MetricValue)> = self
             .alarm_changes(true)
             .into_iter()
@@ -513,6 +557,7 @@ impl EdgeNode {
         wall_ms: u64,
         online: bool,
     ) -> Vec<Vec<MetricSpec<'static>>> {
+        self.note_delivered(changes);
         let mut out: Vec<Vec<MetricSpec<'static>>> =
             vec![Vec::new(); self.layout.devices.len() + 1];
         for d in changes {
@@ -596,20 +641,23 @@ impl EdgeNode {
         let plc_due =
             snap.stopped || wall_ms.saturating_sub(self.plc_sent_at) >= PLC_METRICS_EVERY_MS;
         if plc_due {
-            let now = self.utc(snap, wall_ms, snap.now);
-            for (i, (m, _, v)) in self.plc_values(snap).into_iter().enumerate() {
+            // After the tags: each count is the cycle the latest tags sent come from, with
+            // that cycle's end as its timestamp.
+            for (i, (m, _, v, at)) in self.plc_values(snap).into_iter().enumerate() {
                 if self.plc_last[i].as_ref() != Some(&v) {
-                    changes[0].push(node_data(self.layout.plc_alias(m), v.clone(), now));
+                    let at = self.utc(snap, wall_ms, at);
+                    changes[0].push(node_data(self.layout.plc_alias(m), v.clone(), at));
                     self.plc_last[i] = Some(v);
                 }
             }
-            for (j, v) in self.task_values(snap).into_iter().enumerate() {
+            for (j, (v, at)) in self.task_values(snap).into_iter().enumerate() {
                 if self
                     .task_last
                     .get(j)
                     .is_some_and(|last| last.as_ref() != Some(&v))
                 {
-                    changes[0].push(node_data(self.layout.task_alias(j), v.clone(), now));
+                    let at = self.utc(snap, wall_ms, at);
+                    changes[0].push(node_data(self.layout.task_alias(j), v.clone(), at));
                     self.task_last[j] = Some(v);
                 }
             }

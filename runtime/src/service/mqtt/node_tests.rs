@@ -356,6 +356,42 @@ fn a_wall_clock_step_moves_no_value_off_its_cycles_time() {
             .iter()
             .map(|m| m.timestamp)
             .collect();
-        assert_eq!(stamps, [Some(wall + at - 500)], "wall stepped to {stepped}");
+        // A day forward makes the PLC's figures due: `PLC/Scans` goes with the setpoint, the
+        // count of the same cycle, at the same time.
+        let expected = vec![Some(wall + at - 500); 1 + usize::from(k)];
+        assert_eq!(stamps, expected, "wall stepped to {stepped}");
     }
+}
+
+#[test]
+fn plc_scans_is_the_cycle_the_tags_sent_come_from_stamped_at_its_end() {
+    let mut n = node(10);
+    // The snapshot says cycle 10 (at 500 ms) for the birth, and still does a second later:
+    // the cycles 11 to 13 came through the feed after it was read.
+    let s0 = snap(1.0, false, 5, Quality::Good);
+    n.birth(&s0, 1_000_000, 0);
+    let cycles: Vec<Delivery> = (0..3u16).map(setpoint_tick).collect();
+    let out = n.update(&s0, &cycles, 1_001_000, true);
+    let metrics = decoded(&out[0]).metrics;
+    let setpoint = metrics.iter().rfind(|m| m.alias == Some(3)).unwrap();
+    let scans = metrics
+        .iter()
+        .find(|m| m.alias == Some(n.layout().plc_alias(PlcMetric::Scans)))
+        .unwrap();
+    assert_eq!(scans.value, Some(MetricValue::LongValue(13)), "{metrics:?}");
+    assert_eq!(
+        setpoint.value,
+        Some(MetricValue::IntValue(8)),
+        "{metrics:?}"
+    );
+    // Cycle 13 ended at scan 530 ms: wall 1_000_030, for the count and the setpoint alike.
+    assert_eq!(scans.timestamp, Some(1_000_030));
+    assert_eq!(setpoint.timestamp, scans.timestamp);
+    // A snapshot that caught up says the same: nothing new to send.
+    let s1 = ServiceSnapshot {
+        cycles: 13,
+        now: ScanInstant::after_origin(Duration::from_millis(530)),
+        ..s0
+    };
+    assert!(n.update(&s1, &[], 1_002_000, true).is_empty());
 }

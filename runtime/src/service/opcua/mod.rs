@@ -451,8 +451,9 @@ impl Updater {
         };
         let mut last_stats = None;
         let mut last_alarms = None;
-        // Each task's latest cycle whose changes are in the address space.
-        let mut task_scans = vec![0u64; self.layout.tasks.len()];
+        // Each task's latest cycle whose changes are in the address space (the one task's
+        // for a PLC of one).
+        let mut task_scans = vec![0u64; self.layout.tasks.len().max(1)];
         // Cycles taken from the feed and not applied yet: until the first snapshot is in the
         // address space, so a client that sees a tag's first value sees the PLC's figures too.
         let mut held: Vec<Delivery> = Vec::new();
@@ -496,8 +497,9 @@ impl Updater {
                 }
             }
             if moved && snap.published {
-                // A task's Scans with the tags of its cycle: the snapshot may lag a delivery
-                // (a task's publication skipped while a reader held it).
+                // A task's Scans (and the first task's `PLC.Scans`) with the tags of its
+                // cycle: the snapshot may lag a delivery (a task's publication skipped while a
+                // reader held it).
                 at_least_delivered(&mut snap, &task_scans);
                 set(updates.diagnostics(&self.layout, &snap, now));
             }
@@ -518,10 +520,35 @@ impl Updater {
 }
 
 /// `snap`'s task figures with each task's Scans at least the latest cycle of it delivered
-/// (`delivered`, in task order): a task's `PLC.Tasks.NAME.Scans` never says a cycle before
-/// the one its tags in the address space come from.
+/// (`delivered`, in task order), and `PLC.Scans` at least the first task's: a task's
+/// `PLC.Tasks.NAME.Scans` never says a cycle before the one its tags in the address space
+/// come from, and `PLC.Scans` never one before the first task's (it said 8 beside
+/// `PLC.Tasks.main.Scans` 9 in one Read).
 fn at_least_delivered(snap: &mut crate::service::ServiceSnapshot, delivered: &[u64]) {
+    if let Some(&first) = delivered.first() {
+        snap.cycles = snap.cycles.max(first);
+    }
     for (t, &cycle) in snap.tasks.iter_mut().zip(delivered) {
         t.scans = t.scans.max(cycle);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::at_least_delivered;
+    use crate::service::ServiceSnapshot;
+
+    #[test]
+    fn plc_scans_is_never_a_cycle_before_the_first_tasks_tags() {
+        // The first task's cycle 9 is delivered; its publication of it was skipped.
+        let mut snap = ServiceSnapshot {
+            cycles: 8,
+            ..ServiceSnapshot::default()
+        };
+        at_least_delivered(&mut snap, &[9, 65]);
+        assert_eq!(snap.cycles, 9);
+        // A snapshot ahead of the deliveries (a cycle that changed nothing) stays.
+        at_least_delivered(&mut snap, &[7, 70]);
+        assert_eq!(snap.cycles, 9);
     }
 }
