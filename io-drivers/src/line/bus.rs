@@ -158,9 +158,10 @@ impl TxError {
     /// and is believed (`line/read_back.rs`). A reply that does not fit
     /// ([`DecodeError::Unexpected`]) is not one even when the retries are spent: it was
     /// garbled or not meant for this request, so a module back after it was lost that meets
-    /// it fails like one that did not answer and is retried, and is not said to refuse.
-    /// (The first start still stops on it: a module that never answers its start-up
-    /// intelligibly is most likely set up otherwise, e.g. a DCON checksum it does not have.)
+    /// it fails like one that did not answer and is retried, and is not said to refuse. The
+    /// first start does the same: one burst of noise at power-up must not keep the machine
+    /// from starting; a module that never answers intelligibly (set up otherwise, e.g. a DCON
+    /// checksum it does not have) stays lost, and its reason is in the log and in `status`.
     pub fn is_refusal(&self) -> bool {
         matches!(
             self,
@@ -463,8 +464,9 @@ impl BusOwner {
     ///
     /// A module that answers and refuses its configuration (an exception, a setting that reads
     /// back wrong: most likely another model at that address) fails the start. A module that
-    /// does not answer (absent, powered off, a dead line) does not: it starts lost, its points
-    /// bad, and its start-up runs when it first answers, like a module that comes back.
+    /// does not answer (absent, powered off, a dead line), or whose replies it cannot use
+    /// even after the retries (noise), does not: it starts lost, its points bad, and its
+    /// start-up runs when it first answers, like a module that comes back.
     pub fn startup(&mut self) -> Result<(), StartupError> {
         let limits = self.discipline.health_limits();
         if self.port_health.is_lost() {
@@ -475,7 +477,13 @@ impl BusOwner {
         for m in 0..self.modules.len() {
             match self.run_startup(m, self.discipline.retries) {
                 Ok(()) => {}
-                Err(error @ TxError::Decode(_)) | Err(error @ TxError::Encode) => {
+                Err(error @ TxError::Encode) => {
+                    return Err(StartupError {
+                        module: self.modules[m].name.clone(),
+                        error,
+                    });
+                }
+                Err(error) if error.is_refusal() => {
                     return Err(StartupError {
                         module: self.modules[m].name.clone(),
                         error,
@@ -486,9 +494,15 @@ impl BusOwner {
                     let module = &mut self.modules[m];
                     module.health.mark_lost(now, &limits);
                     module.startup_pending = true;
+                    let what = if matches!(error, TxError::Decode(_)) {
+                        "answered its start-up with a reply it could not use (noise on the line, \
+                         or a module set up otherwise than the project says)"
+                    } else {
+                        "did not answer at start-up"
+                    };
                     tracing::warn!(
-                        "line {}: module {} did not answer at start-up ({error}); its points are \
-                         bad until it does, retried every {:?} at first",
+                        "line {}: module {} {what} ({error}); its points are bad until it \
+                         answers, retried every {:?} at first",
                         self.name,
                         module.name,
                         limits.reconnect_min

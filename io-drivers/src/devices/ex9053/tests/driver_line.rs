@@ -532,7 +532,8 @@ fn start_up_verifies_the_configuration() {
     );
     r.startup().unwrap();
     assert!(r.command(0, &["status"]).contains("format=80h"));
-    // A checksum the module does not have: refused.
+    // A checksum the module does not have: no reply it can use, so the module starts lost
+    // (its points bad, retried), said in the log, and the PLC starts.
     let checksum = [("checksum", "on")];
     let mut r = rig(
         DCON_LINE,
@@ -544,7 +545,20 @@ fn start_up_verifies_the_configuration() {
         }],
         None,
     );
-    assert!(r.startup().is_err());
+    let logs = Logs::default();
+    tracing::subscriber::with_default(logs.clone(), || r.startup()).unwrap();
+    let said = [
+        logs.matching("did not answer at start-up"),
+        logs.matching("a reply it could not use"),
+    ]
+    .concat();
+    assert_eq!(said.len(), 1, "one line says why: {said:?}");
+    let frame = r.owner.read_inputs();
+    assert_eq!(
+        frame.modules[0].quality,
+        Quality::Bad,
+        "the module starts lost"
+    );
 }
 
 #[test]

@@ -189,3 +189,35 @@ fn a_module_back_after_line_deaths_on_a_noisy_line_is_never_refused() {
     assert!(good_at_end >= 20, "{good_at_end} good cycles at the end");
     assert_eq!(r.sim("WDTTIME"), Value::U16(133), "armed at the end");
 }
+
+#[test]
+fn a_first_start_on_a_noisy_line_is_never_stopped_by_noise() {
+    // The first start of the PLC beside a line garbling a reply in ten: a reply the module
+    // cannot be understood in (even after the retries) leaves it lost and retried, said in
+    // the log, never the PLC refusing to start; it is good once a start-up goes through.
+    for seed in 0..40 {
+        let logs = Logs::default();
+        let mut r = rig(Protocol::Text, &WATCHDOG);
+        *r.world.lock().unwrap().faults_mut() = LineFaults::new(seed);
+        r.world.lock().unwrap().faults_mut().add(FaultRule {
+            device: Some(0),
+            fault: Fault::FlipBit,
+            frequency: Frequency::Rate(0.1),
+        });
+        let good = tracing::subscriber::with_default(logs.clone(), || {
+            r.startup();
+            r.world.lock().unwrap().faults_mut().clear(Some(0));
+            // The line is sound again: the lost module's probe (1 s at first) brings it back.
+            (0..40).any(|_| r.cycle(true).modules[0].quality == Quality::Good)
+        });
+        assert!(
+            good,
+            "seed {seed}: the module is good once the line is sound"
+        );
+        assert_eq!(
+            logs.matching("refused"),
+            Vec::<String>::new(),
+            "seed {seed}"
+        );
+    }
+}
