@@ -4,7 +4,6 @@
 //! any of them, and warns (naming both places) when two programs of one task write one tag,
 //! while two tasks writing one tag stay refused.
 
-use std::process::Command;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -147,16 +146,7 @@ tasks:
 
 /// `softplc check PROJECT`: whether it passed, stdout, stderr.
 fn check(project: &std::path::Path) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .args(["check", project.to_str().expect("UTF-8")])
-        .env("SOFTPLC_LOG", "warn")
-        .output()
-        .expect("softplc runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    crate::common::host::check_in(&crate::common::host::repo(), project)
 }
 
 fn two_task_project(s: &Scratch, fast_rhai: &str) -> std::path::PathBuf {

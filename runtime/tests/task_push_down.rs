@@ -4,7 +4,7 @@
 //! the scan with that reason. On virtual clocks, each task's module runs its pushed rung by
 //! itself: once the tasks have stopped (tables kept), the output still follows the input.
 
-use std::process::Command;
+use std::path::Path;
 use std::time::Duration;
 
 use softplc::offload::Placement;
@@ -60,14 +60,8 @@ fn folder(case: &str) -> Scratch {
 #[test]
 fn check_reports_each_tasks_push_down_and_why_a_rung_reading_another_task_stays() {
     let s = folder("check");
-    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .args(["check", "project.yaml"])
-        .current_dir(&s.dir)
-        .env("SOFTPLC_LOG", "warn")
-        .output()
-        .expect("softplc runs");
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{text}");
+    let (ok, text, _) = crate::common::host::check_in(&s.dir, Path::new("project.yaml"));
+    assert!(ok, "{text}");
     let at = |needle: &str| {
         text.find(needle)
             .unwrap_or_else(|| panic!("no `{needle}` in:\n{text}"))
@@ -205,14 +199,8 @@ fn each_tasks_module_runs_its_pushed_rung_on_virtual_clocks() {
 fn an_output_two_programs_of_a_task_write_stays_central_naming_the_other_place() {
     let s = folder("shared");
     s.write("slow.rhai", "beacon = key && !start;\nlamp = !key;\n");
-    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .args(["check", "project.yaml"])
-        .current_dir(&s.dir)
-        .env("SOFTPLC_LOG", "warn")
-        .output()
-        .expect("softplc runs");
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{text}");
+    let (ok, text, _) = crate::common::host::check_in(&s.dir, Path::new("project.yaml"));
+    assert!(ok, "{text}");
     assert!(
         text.contains(
             "slow.ladder.yaml:2:5 lamp (combinational): central: an output also written \

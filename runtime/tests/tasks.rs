@@ -2,26 +2,19 @@
 //! and buses; a bus belongs to exactly one task; every tag has one writing task; `scan:` and
 //! `program:` alone stay one task, `main`. Each refusal is asserted at its file:line:col.
 
-use std::process::Command;
-
 use softplc::image::{ProcessImage, TagId};
 use softplc::logic::{load_tasks, ProgramError};
 use softplc::project::{parse_str, ErrorKind, Project, MAIN_TASK};
 
 use crate::common::host::repo;
-use crate::common::scratch::Scratch;
+use crate::common::scratch::{Scratch, TWO_LINES};
 
-/// Two buses, a module on each, tags on both and a memory tag; `{tasks}` is filled in.
+/// Two buses, a module on each (`TWO_LINES`), tags on both and a memory tag; `{tasks}` is
+/// filled in by [`with_tasks`].
 const PROJECT: &str = "\
 project: t
 {tasks}
-buses:
-  - { name: fast_line, port: sim, baud: 57600 }
-  - { name: slow_line, port: sim, baud: 9600 }
-modules:
-  - { name: f1, bus: fast_line, model: minimod, address: 1 }
-  - { name: s1, bus: slow_line, model: minimod, address: 1 }
-tags:
+{lines}tags:
   - { name: go,      point: f1.X1 }
   - { name: valve,   point: f1.Y1, safe: false }
   - { name: key,     point: s1.X1 }
@@ -46,23 +39,18 @@ tasks:
 
 /// `softplc check PROJECT`: whether it passed, stdout, stderr.
 fn check(project: &std::path::Path) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_softplc"))
-        .args(["check", project.to_str().expect("UTF-8")])
-        .env("SOFTPLC_LOG", "warn")
-        .output()
-        .expect("softplc runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    crate::common::host::check_in(&crate::common::host::repo(), project)
+}
+
+/// The project with `tasks` in its `{tasks}` place.
+fn with_tasks(tasks: &str) -> String {
+    PROJECT
+        .replace("{lines}", TWO_LINES)
+        .replace("{tasks}", tasks)
 }
 
 fn project_text(fast: &str, slow: &str) -> String {
-    PROJECT.replace(
-        "{tasks}",
-        &TASKS.replace("{fast}", fast).replace("{slow}", slow),
-    )
+    with_tasks(&TASKS.replace("{fast}", fast).replace("{slow}", slow))
 }
 
 /// A scratch folder with `fast.expr` and `slow.expr` holding the given programs.
@@ -110,10 +98,7 @@ fn tasks_parse_with_their_timing_programs_and_buses() {
 #[test]
 fn scan_and_program_alone_are_one_task_named_main_owning_every_bus() {
     let s = folder("main", FAST, SLOW);
-    let text = PROJECT.replace(
-        "{tasks}",
-        "scan: { period: 20ms }\nprogram: { file: fast.expr, kind: expr }",
-    );
+    let text = with_tasks("scan: { period: 20ms }\nprogram: { file: fast.expr, kind: expr }");
     let p = parse(&s, &text).expect("valid");
     assert_eq!(p.tasks.len(), 1);
     assert_eq!(p.tasks[0].name, MAIN_TASK);
@@ -186,10 +171,10 @@ fn tasks_beside_scan_or_no_task_at_all_are_refused() {
     assert_eq!(errors[0].kind, ErrorKind::TasksBesideScan { key: "scan" });
     assert_eq!(errors[0].line, 26);
 
-    let errors = parse(&s, &PROJECT.replace("{tasks}", "")).unwrap_err();
+    let errors = parse(&s, &with_tasks("")).unwrap_err();
     assert_eq!(errors[0].kind, ErrorKind::NoTask);
 
-    let errors = parse(&s, &PROJECT.replace("{tasks}", "tasks: []")).unwrap_err();
+    let errors = parse(&s, &with_tasks("tasks: []")).unwrap_err();
     assert_eq!(errors[0].kind, ErrorKind::NoTasks);
     assert_eq!((errors[0].line, errors[0].column), (2, 8));
 }

@@ -36,6 +36,23 @@ pub(crate) fn softplc_in(dir: &Path, args: &[&str]) -> (bool, String) {
     (out.status.success(), text)
 }
 
+/// `softplc check PROJECT` run in `dir` (warnings only in the log): whether it passed, its
+/// standard output and its standard error, apart.
+pub(crate) fn check_in(dir: &Path, project: &Path) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_softplc"))
+        .arg("check")
+        .arg(project)
+        .current_dir(dir)
+        .env("SOFTPLC_LOG", "warn")
+        .output()
+        .expect("softplc runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 /// A folder of its own for test `name` of `subject`, empty (removed first if an earlier run
 /// left it), named after the process so that runs side by side never share one.
 pub(crate) fn scratch_dir(subject: &str, name: &str) -> PathBuf {
